@@ -1,0 +1,22 @@
+"""porthamiltonian: port-based physical modeling with an energy ledger.
+
+Build a :class:`Model` from components joined by power bonds, compile it with
+:func:`compile_model` into port-Hamiltonian state equations (with H, dissipated and supplied
+power), and :func:`simulate` it with stiff integrators, events and resets.
+"""
+from .compiled import CompiledModel
+from .compiler import compile_model, power_balance, symbolic
+from .component import Arg, Builder, Component, register
+from .elements import GY, TF, C, I, OneJunction, R, Se, Sf, Storage, ZeroJunction
+from .model import Model, Parameter
+from .ports import DOMAINS, Port
+from .simulate import Event, Reset, simulate
+from .trajectory import Trajectory
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Arg", "Builder", "C", "CompiledModel", "Component", "DOMAINS", "Event", "GY", "I", "Model",
+    "OneJunction", "Parameter", "Port", "R", "Reset", "Se", "Sf", "Storage", "TF", "Trajectory",
+    "ZeroJunction", "compile_model", "power_balance", "register", "simulate", "symbolic",
+]

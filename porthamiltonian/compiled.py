@@ -1,0 +1,135 @@
+"""CompiledModel: the numeric model (functions + layouts). No sympy, no graph.
+
+Values live apart from the description (as in Drake's System/Context): a compiled model is
+simulated with any parameter values without recompiling; ``params()`` builds the parameter vector
+from defaults and overrides by name.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .backends import Functions
+from .errors import ParameterValueError, StateError, UnknownParameterError
+
+
+@dataclass(frozen=True)
+class EventInfo:
+    name: str
+    direction: int
+    terminal: bool
+
+
+class CompiledModel:
+    """A compiled model: state, parameter and output layouts and the numeric functions.
+
+    Attributes
+    ----------
+    state_names : model states in order (``component.state``); the simulator appends the ledger
+        states ``ledger.E_diss`` and ``ledger.E_in``.
+    param_names, param_defaults, param_units : the run-time parameters.
+    output_names : named outputs (every ``component.port.e`` / ``.f``, component and model outputs).
+    events : the model's event guards.
+    functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
+    """
+
+    def __init__(self, meta: Mapping[str, Any], functions: Functions, source: str, key: str):
+        self.name: str = meta["name"]
+        self.state_names: list[str] = meta["state_names"]
+        self.param_names: list[str] = meta["param_names"]
+        self.param_defaults = np.array(meta["param_defaults"], dtype=float)
+        self.param_units: list[str] = meta["param_units"]
+        self.output_names: list[str] = meta["output_names"]
+        self.events = [EventInfo(**e) for e in meta["events"]]
+        self.equations: list[str] = meta["equations"]
+        self.hamiltonian: str = meta["hamiltonian"]
+        self.functions = functions
+        self.source = source
+        self.key = key
+        self._state_index = {n: i for i, n in enumerate(self.state_names)}
+        self._param_index = {n: i for i, n in enumerate(self.param_names)}
+        self._output_index = {n: i for i, n in enumerate(self.output_names)}
+
+    @property
+    def n_states(self) -> int:
+        return len(self.state_names)
+
+    @property
+    def backend(self) -> str:
+        return self.functions.backend
+
+    def params(self, values: Mapping[str, float] | None = None, **more: float) -> np.ndarray:
+        """Parameter vector: defaults overridden by name; unknown or non-finite values raise."""
+        p = self.param_defaults.copy()
+        for name, value in {**(values or {}), **more}.items():
+            if name not in self._param_index:
+                raise UnknownParameterError(
+                    f"model {self.name!r} has no parameter {name!r}; parameters: "
+                    f"{', '.join(self.param_names) or 'none'}"
+                )
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
+                                          f"number, got {value!r}") from None
+            if not math.isfinite(value):
+                raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be "
+                                          f"finite, got {value!r}")
+            p[self._param_index[name]] = value
+        return p
+
+    def native_params(self, p: np.ndarray):
+        """The parameter vector in the form the back end's functions take."""
+        return p.tolist() if self.backend == "python" else np.ascontiguousarray(p, dtype=float)
+
+    def initial_state(self, p: np.ndarray | None = None,
+                      values: Mapping[str, float] | None = None) -> np.ndarray:
+        """Initial model state from the components' initial values, overridden by name."""
+        p = self.param_defaults if p is None else p
+        x = np.array(self.functions.initial(self.native_params(p)), dtype=float)[: self.n_states]
+        for name, value in (values or {}).items():
+            x[self.state_index(name)] = value
+        if not np.all(np.isfinite(x)):
+            raise StateError(f"model {self.name!r}: initial state is not finite: {x}")
+        return x
+
+    def state_index(self, name: str) -> int:
+        try:
+            return self._state_index[name]
+        except KeyError:
+            raise StateError(f"model {self.name!r} has no state {name!r}; states: "
+                             f"{', '.join(self.state_names)}") from None
+
+    def output_index(self, name: str) -> int:
+        try:
+            return self._output_index[name]
+        except KeyError:
+            raise StateError(f"model {self.name!r} has no state or output {name!r}; outputs: "
+                             f"{', '.join(self.output_names)}") from None
+
+    def augment(self, x: np.ndarray) -> np.ndarray:
+        """Model state -> integration state (ledger states E_diss = E_in = 0 appended)."""
+        x = np.asarray(x, dtype=float)
+        if x.shape != (self.n_states,):
+            raise StateError(f"model {self.name!r}: state must have length {self.n_states} "
+                             f"({', '.join(self.state_names)}), got shape {x.shape}")
+        return np.concatenate([x, [0.0, 0.0]])
+
+    def energy(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """[H, P_diss, P_in] at one point (x may be the model or the integration state)."""
+        y = x if len(x) == self.n_states + 2 else self.augment(x)
+        return np.asarray(self.functions.energy(t, y, self.native_params(p)))
+
+    def simulate(self, t_end: float, x0=None, params: Mapping[str, float] | None = None, **options):
+        """Simulate; see :func:`porthamiltonian.simulate.simulate`."""
+        from .simulate import simulate
+
+        return simulate(self, t_end, x0, params, **options)
+
+    def __repr__(self) -> str:
+        return (f"CompiledModel({self.name!r}, {self.n_states} states, {len(self.param_names)} "
+                f"parameters, backend={self.backend!r})")

@@ -1,0 +1,52 @@
+"""Symbolic compiler: model graph -> port-Hamiltonian state equations + energy ledger -> code.
+
+Pipeline: :meth:`Model.flatten` -> :func:`structure.build_system` -> :func:`structure.solve`
+(causality, loops, dependent storages) -> :func:`assemble.assemble` (state equations, H, P_diss,
+P_in) -> :func:`codegen.generate` (cse, RHS and Jacobian together) -> cache -> back end.
+"""
+from __future__ import annotations
+
+from ..backends import load, resolve, source_with_header
+from ..compiled import CompiledModel
+from ..model import Model
+from . import cache
+from .assemble import SymbolicModel, assemble, power_balance
+from .codegen import generate
+from .structure import build_system, solve
+
+
+def symbolic(model: Model) -> SymbolicModel:
+    """Run the symbolic part of the compiler (no code generation, no cache)."""
+    return assemble(solve(build_system(model.flatten())))
+
+
+def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -> CompiledModel:
+    """Compile ``model`` for numeric simulation.
+
+    Parameters
+    ----------
+    backend : ``"auto"`` (numba when installed, else python), ``"python"`` or ``"numba"``.
+    use_cache : reuse and store the generated code in the on-disk cache (keyed by a model hash).
+    """
+    backend = resolve(backend)
+    key = cache.model_key(model)
+    hit = cache.read(key) if use_cache else None
+    if hit is None:
+        sym = symbolic(model)
+        body = generate(sym)
+        meta = {
+            "name": sym.name, "state_names": sym.state_names, "param_names": sym.param_names,
+            "param_defaults": sym.param_defaults, "param_units": sym.param_units,
+            "output_names": list(sym.outputs),
+            "events": [{"name": ev.name, "direction": ev.direction, "terminal": ev.terminal}
+                       for ev, _ in sym.events],
+            "equations": sym.equations, "hamiltonian": str(sym.hamiltonian),
+        }
+        cache.write(key, meta, body)
+    else:
+        meta, body = hit
+    path = cache.backend_module(key, backend, source_with_header(body, backend))
+    return CompiledModel(meta, load(path, backend), body, key)
+
+
+__all__ = ["SymbolicModel", "compile_model", "power_balance", "symbolic"]

@@ -1,0 +1,141 @@
+"""Assembly of the port-Hamiltonian state equations and the energy ledger.
+
+From the explicit solution of the structure analysis this builds, all as sympy expressions in the
+states x, the parameters p and the time t:
+
+* ẋ = F(t, x, p), with the ledger states E_diss and E_in appended (Ė_diss = P_diss, Ė_in = P_in);
+* the Hamiltonian H = Σ component energies;
+* P_diss = Σ dissipator powers (each e·f >= 0 for a passive law);
+* P_in = Σ source powers + Σ modulation powers, where a storage c whose energy H_c depends
+  explicitly on t or on states it does not own receives ∂H_c/∂t + Σ_{x ∉ c} ∂H_c/∂x · ẋ from the
+  modulation (e.g. ½ K̇ q² for a stiffness K(t));
+* every port effort/flow as a named output, component outputs, model outputs, event guards,
+  initial states.
+
+The residual r(t) = H(t) − H(0) + E_diss(t) − E_in(t) is then zero up to integration error;
+:func:`power_balance` gives dH/dt − P_in + P_diss, which is identically zero for a consistent model.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from ..errors import ModelError, StateError
+from ..expressions import TIME, parse
+from ..model import EventSpec
+from .structure import Solution, _flat, _scope_names
+
+
+@dataclass
+class SymbolicModel:
+    """Everything the code generator needs; no graph, no components."""
+
+    name: str
+    states: list[sp.Symbol]
+    state_names: list[str]
+    params: list[sp.Symbol]
+    param_names: list[str]
+    param_defaults: list[float]
+    param_units: list[str]
+    rhs: list[sp.Expr]                 # length n + 2 (ledger rates last)
+    hamiltonian: sp.Expr
+    p_diss: sp.Expr
+    p_in: sp.Expr
+    outputs: dict[str, sp.Expr]
+    events: list[tuple[EventSpec, sp.Expr]]
+    initial: list[sp.Expr]
+    equations: list[str] = field(default_factory=list)
+
+    @property
+    def ledger_states(self) -> list[sp.Symbol]:
+        return [sp.Symbol("ledger.E_diss", real=True), sp.Symbol("ledger.E_in", real=True)]
+
+
+def assemble(solution: Solution) -> SymbolicModel:
+    system = solution.system
+    flat = system.flat
+    values = {u: expr for u, expr, _ in solution.order}
+    xdot = {system.derivatives[d]: values[d] for d in system.derivatives}
+    states = system.states
+    owned: dict[str, set[sp.Symbol]] = {c: {s.symbol for s in b.states} for c, b in system.built.items()}
+    unknowns = set(system.unknowns)
+
+    H = sp.Integer(0)
+    p_diss = sp.Integer(0)
+    p_in = sp.Integer(0)
+    for cname, b in system.built.items():
+        energy = b.energy.xreplace(system.aliases)
+        if energy.free_symbols & unknowns:
+            raise ModelError(f"component {cname!r}: its stored energy depends on port variables; "
+                             "energy must be a function of states, parameters and time")
+        H += energy
+        modulation = sp.diff(energy, TIME) + sum(
+            (sp.diff(energy, x) * xdot[x] for x in energy.free_symbols & set(states)
+             if x not in owned[cname]), sp.Integer(0))
+        p_in += modulation
+        p_diss += b.dissipation.xreplace(system.aliases).xreplace(values)
+        p_in += b.supply.xreplace(system.aliases).xreplace(values)
+
+    outputs: dict[str, sp.Expr] = {}
+    for cname, b in system.built.items():
+        for pname, pv in b.ports.items():
+            names = _port_names(cname, pname, pv.port.dim)
+            for name, sym in zip(names, _flat(pv.e) + _flat(pv.f)):
+                outputs[name] = values[system.aliases.get(sym, sym)]
+        for oname, expr in b.outputs.items():
+            outputs[oname] = expr.xreplace(system.aliases).xreplace(values)
+    symbol_table = _symbol_table(system, outputs)
+    for oname, text in flat.outputs.items():
+        outputs[oname] = _model_expr(text, flat.scopes[f"output:{oname}"], symbol_table, system,
+                                     f"output {oname!r}").xreplace(values)
+    events = [(ev, _model_expr(ev.guard, flat.scopes[f"event:{ev.name}"], symbol_table, system,
+                               f"event {ev.name!r} guard").xreplace(values)) for ev in flat.events]
+
+    initial = []
+    param_set = set(system.params.values())
+    for b in system.built.values():
+        for s in b.states:
+            if not s.initial.free_symbols <= param_set | {TIME}:
+                raise StateError(f"initial value of {s.symbol} must depend on parameters only")
+            initial.append(s.initial.subs(TIME, 0))
+
+    rhs = [xdot[x] for x in states] + [p_diss, p_in]
+    return SymbolicModel(
+        name=flat.name, states=states, state_names=[str(s) for s in states],
+        params=list(system.params.values()), param_names=list(system.params),
+        param_defaults=[p.value for p in flat.parameters.values()],
+        param_units=[p.unit for p in flat.parameters.values()],
+        rhs=rhs, hamiltonian=H, p_diss=p_diss, p_in=p_in, outputs=outputs, events=events,
+        initial=initial,
+        equations=[f"{u} = {expr}" for u, expr, _ in solution.order if u in system.derivatives],
+    )
+
+
+def _port_names(comp: str, port: str, dim: int) -> list[str]:
+    if dim == 1:
+        return [f"{comp}.{port}.e", f"{comp}.{port}.f"]
+    return [f"{comp}.{port}.e{i}" for i in range(dim)] + [f"{comp}.{port}.f{i}" for i in range(dim)]
+
+
+def _symbol_table(system, outputs) -> dict[str, sp.Symbol]:
+    table = {str(s): s for s in system.states}
+    for cname, b in system.built.items():
+        for pname, pv in b.ports.items():
+            for name, sym in zip(_port_names(cname, pname, pv.port.dim), _flat(pv.e) + _flat(pv.f)):
+                table[name] = system.aliases.get(sym, sym)
+    return table
+
+
+def _model_expr(text: str, prefix: str, table: dict[str, sp.Symbol], system, where: str) -> sp.Expr:
+    names = _scope_names(system.flat, prefix, system.params)
+    return parse(text, names, f"model {system.flat.name!r} {where}",
+                 lambda ref: table.get(prefix + ref))
+
+
+def power_balance(model: SymbolicModel) -> sp.Expr:
+    """dH/dt − P_in + P_diss along the state equations (zero for a consistent model)."""
+    n = len(model.states)
+    dH = sp.diff(model.hamiltonian, TIME) + sum(
+        (sp.diff(model.hamiltonian, x) * f for x, f in zip(model.states, model.rhs[:n])), sp.Integer(0))
+    return dH - model.p_in + model.p_diss

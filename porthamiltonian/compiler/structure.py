@@ -1,0 +1,238 @@
+"""Structure analysis: from a flattened model to an ordered sequence of explicit assignments.
+
+Every component's laws, the bonds (which identify the port variables of their two ends) and the
+junction laws give a set of equations ``r_i = 0``. The unknowns are the port efforts and flows and
+the state derivatives; states, parameters and time are known. Causality assignment is done as a
+bipartite matching between equations and unknowns, where equation *i* may compute unknown *u* only
+if ``r_i`` is affine in *u* with a coefficient free of unknowns (this is the bond-graph causality
+of the law: a linear R has both causalities, a nonlinear R only the one its law is written in, a
+storage only integral causality because its state is known). This is equivalent to sequential
+causality assignment, but also covers multiports and modulated elements without special cases.
+
+Then
+
+* no complete matching -> over-/under-determined parts (Dulmage-Mendelsohn by alternating paths):
+  dependent storages are reported as :class:`DerivativeCausalityError` with the storages named;
+* strongly connected blocks of size > 1 in the dependency graph -> :class:`AlgebraicLoopError`
+  naming the components and port variables of the loop;
+* otherwise a topological order of single-equation blocks, each solved explicitly.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import networkx as nx
+import sympy as sp
+
+from ..component import Builder, Built, Component
+from ..elements import _Junction
+from ..errors import (AlgebraicLoopError, DerivativeCausalityError, StructureError,
+                      UnknownParameterError)
+from ..expressions import TIME
+from ..model import FlatModel
+
+
+@dataclass
+class Equation:
+    residual: sp.Expr
+    component: str
+    doc: str
+
+
+@dataclass
+class System:
+    """The equation system of a flattened model, before solving."""
+
+    flat: FlatModel
+    built: dict[str, Built]
+    params: dict[str, sp.Symbol]
+    equations: list[Equation]
+    unknowns: list[sp.Symbol]
+    states: list[sp.Symbol]
+    derivatives: dict[sp.Symbol, sp.Symbol]        # derivative symbol -> state symbol
+    aliases: dict[sp.Symbol, sp.Symbol]             # head port symbol -> tail port symbol
+    owner: dict[sp.Symbol, str] = field(default_factory=dict)   # unknown -> component
+
+
+@dataclass
+class Solution:
+    """Explicit assignments ``unknown = expression`` in an order where each uses only earlier ones."""
+
+    system: System
+    order: list[tuple[sp.Symbol, sp.Expr, Equation]]
+
+
+def _scope_names(flat: FlatModel, prefix: str, params: dict[str, sp.Symbol]) -> dict[str, sp.Symbol]:
+    names = {}
+    for full, symbol in params.items():
+        if full.startswith(prefix) and "." not in full[len(prefix):]:
+            names[full[len(prefix):]] = symbol
+    return names
+
+
+def build_system(flat: FlatModel) -> System:
+    """Run every component's ``build`` and collect the equations, unknowns and states."""
+    params = {name: sp.Symbol(name, real=True) for name in flat.parameters}
+    built: dict[str, Built] = {}
+    equations: list[Equation] = []
+    for name, comp in flat.components.items():
+        prefix = flat.scopes[name]
+        in_scope = {n[len(prefix):].split(".")[0] for n in flat.components if n.startswith(prefix)}
+
+        def dotted(ref: str, prefix: str = prefix, in_scope: set[str] = in_scope) -> sp.Symbol | None:
+            return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
+
+        b = Builder(name, comp.all_ports(), _scope_names(flat, prefix, params), dotted)
+        if not isinstance(comp, _Junction):
+            comp.build(b, **comp.parsed_args(b))
+        built[name] = b.built
+        equations += [Equation(r, name, doc) for r, doc in b.built.equations]
+
+    aliases: dict[sp.Symbol, sp.Symbol] = {}
+    orientation: dict[tuple[str, str], str] = {}
+    for (tc, tp), (hc, hp) in flat.bonds:
+        tail, head = built[tc].ports[tp], built[hc].ports[hp]
+        for h, t in _pairs(head, tail):
+            aliases[h] = t
+        orientation[(tc, tp)] = "out"
+        orientation[(hc, hp)] = "in"
+    for name, comp in flat.components.items():
+        if isinstance(comp, _Junction):
+            equations += _junction_equations(name, comp, built[name], orientation)
+
+    equations = [Equation(eq.residual.xreplace(aliases), eq.component, eq.doc) for eq in equations]
+    states = [s.symbol for b in built.values() for s in b.states]
+    derivatives = {s.derivative: s.symbol for b in built.values() for s in b.states}
+    owner: dict[sp.Symbol, str] = {}
+    for cname, b in built.items():
+        for pv in b.ports.values():
+            for sym in _flat(pv.e) + _flat(pv.f):
+                owner.setdefault(aliases.get(sym, sym), cname)
+        for s in b.states:
+            owner[s.derivative] = cname
+    unknowns = list(dict.fromkeys([*(u for u in owner if u not in derivatives), *derivatives]))
+    known = {*params.values(), *states, TIME}
+    for eq in equations:
+        stray = eq.residual.free_symbols - known - set(unknowns)
+        if stray:
+            raise UnknownParameterError(
+                f"component {eq.component!r} refers to {', '.join(sorted(map(str, stray)))}, which "
+                "is not a parameter, state or port variable of the model"
+            )
+    return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner)
+
+
+def _flat(x) -> list[sp.Symbol]:
+    return list(x) if isinstance(x, sp.MatrixBase) else [x]
+
+
+def _pairs(a, b):
+    return list(zip(_flat(a.e) + _flat(a.f), _flat(b.e) + _flat(b.f)))
+
+
+def _junction_equations(name: str, comp: Component, built: Built,
+                        orientation: dict[tuple[str, str], str]) -> list[Equation]:
+    ports = list(built.ports.values())
+    if not ports:
+        return []
+    common, summed = ("e", "f") if comp.common == "e" else ("f", "e")
+    sign = {p.port.name: (1 if orientation[(name, p.port.name)] == "in" else -1) for p in ports}
+    out = []
+    first = ports[0]
+    for p in ports[1:]:
+        for a, b in zip(_flat(getattr(p, common)), _flat(getattr(first, common))):
+            out.append(Equation(a - b, name, f"common {'effort' if common == 'e' else 'flow'}"))
+    dim = first.port.dim
+    for k in range(dim):
+        total = sum(sign[p.port.name] * _flat(getattr(p, summed))[k] for p in ports)
+        out.append(Equation(total, name, f"sum of {'flows' if summed == 'f' else 'efforts'}"))
+    return out
+
+
+def _solvable(residual: sp.Expr, unknown: sp.Symbol, unknowns: set[sp.Symbol]) -> bool:
+    coefficient = sp.diff(residual, unknown)
+    return coefficient != 0 and not (coefficient.free_symbols & unknowns)
+
+
+def solve(system: System) -> Solution:
+    """Assign causality (matching), check structure, order and solve the equations explicitly."""
+    eqs, unknowns = system.equations, system.unknowns
+    uset = set(unknowns)
+    graph = nx.Graph()
+    eq_nodes = [("eq", i) for i in range(len(eqs))]
+    graph.add_nodes_from(eq_nodes)
+    graph.add_nodes_from(("u", u) for u in unknowns)
+    appears: list[set[sp.Symbol]] = []
+    for i, eq in enumerate(eqs):
+        present = eq.residual.free_symbols & uset
+        appears.append(present)
+        for u in sorted(present, key=str):
+            if _solvable(eq.residual, u, uset):
+                graph.add_edge(("eq", i), ("u", u))
+    matching = nx.bipartite.hopcroft_karp_matching(graph, top_nodes=eq_nodes)
+    matched = {i: matching[("eq", i)][1] for i in range(len(eqs)) if ("eq", i) in matching}
+    if len(matched) < max(len(eqs), len(unknowns)):
+        _report_singular(system, appears, matched)
+
+    by_unknown = {u: i for i, u in matched.items()}
+    deps = nx.DiGraph()
+    deps.add_nodes_from(range(len(eqs)))
+    for i, present in enumerate(appears):
+        for u in present:
+            j = by_unknown[u]
+            if j != i:
+                deps.add_edge(j, i)
+    loops = [c for c in nx.strongly_connected_components(deps) if len(c) > 1]
+    if loops:
+        loop = sorted(loops[0])
+        comps = sorted({eqs[i].component for i in loop})
+        variables = sorted(str(matched[i]) for i in loop)
+        raise AlgebraicLoopError(
+            f"algebraic loop through components {', '.join(comps)} (variables "
+            f"{', '.join(variables)}): they determine each other instantaneously. Put a storage "
+            "(C or I) between them, or merge the dissipators into one"
+        )
+    order = []
+    values: dict[sp.Symbol, sp.Expr] = {}
+    for i in nx.lexicographical_topological_sort(deps):
+        u = matched[i]
+        residual = eqs[i].residual
+        coefficient = sp.diff(residual, u)
+        rest = residual.xreplace({u: 0})
+        expr = (-rest / coefficient).xreplace(values)
+        values[u] = expr
+        order.append((u, expr, eqs[i]))
+    return Solution(system, order)
+
+
+def _report_singular(system: System, appears: list[set[sp.Symbol]], matched: dict[int, sp.Symbol]):
+    eqs = system.equations
+    by_unknown = {u: i for i, u in matched.items()}
+    unmatched_eqs = [i for i in range(len(eqs)) if i not in matched]
+    over: set[int] = set()
+    frontier = list(unmatched_eqs)
+    while frontier:
+        i = frontier.pop()
+        if i in over:
+            continue
+        over.add(i)
+        frontier += [by_unknown[u] for u in appears[i] if u in by_unknown]
+    storages = sorted({eqs[i].component for i in over if system.built[eqs[i].component].storage_ports})
+    comps = sorted({eqs[i].component for i in over})
+    free = [u for u in system.unknowns if u not in by_unknown]
+    if len(storages) >= 2:
+        ports = sorted({f"{c}.{p}" for c in storages for p in system.built[c].storage_ports})
+        raise DerivativeCausalityError(
+            f"dependent storages {', '.join(storages)} (ports {', '.join(ports)}): their states are "
+            "not independent, one would need derivative causality. Merge them into one storage, or "
+            "put a compliance (C) or a dissipator (R) between them"
+        )
+    detail = []
+    if comps:
+        detail.append(f"over-determined laws in {', '.join(comps)}")
+    if free:
+        owners = sorted({system.owner.get(u, "?") for u in free})
+        detail.append(f"nothing determines {', '.join(sorted(map(str, free)))} (components "
+                      f"{', '.join(owners)}); a nonlinear law can only be used in the causality it is "
+                      "written in (e.g. give an R its law as flow = f(e) instead of effort = f(f))")
+    raise StructureError("the model's equations are structurally singular: " + "; ".join(detail))

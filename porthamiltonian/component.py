@@ -1,0 +1,291 @@
+"""Components: declared ports, states, parameters and symbolic constitutive laws.
+
+A component is a small class: its docstring gives the physics, ``arguments`` its parameters (with
+units), ``ports()`` its power ports, and ``build()`` its laws, written with a :class:`Builder`.
+Example, a cubic spring in a few lines::
+
+    @register
+    class CubicSpring(Component):
+        '''Hardening spring F = k q + c q^3 on a translational port (power in).'''
+        kind = "CubicSpring"
+        arguments = {"k": Arg("linear stiffness", "N/m"), "c": Arg("cubic stiffness", "N/m^3")}
+
+        def ports(self):
+            return [Port("p", "translation")]
+
+        def build(self, b, k, c):
+            q, p = b.state("q", unit="m"), b.port("p")
+            b.storage(q, energy=k * q**2 / 2 + c * q**4 / 4, port=p, causality="C")
+
+The energy roles are explicit: :meth:`Builder.storage` adds to the Hamiltonian, :meth:`Builder.dissipate`
+to the dissipated power, :meth:`Builder.supply` to the supplied power. The compiler books the power
+that a *modulated* storage receives (its energy depending on time or on other components' states)
+as supplied power by itself.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import sympy as sp
+
+from .errors import ModelError, UnknownComponentError, UnknownPortError
+from .expressions import TIME, parse
+from .ports import Port
+
+REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class Arg:
+    """A component argument.
+
+    ``symbolic`` arguments are expressions (numbers, parameter names, ``t``, other states) parsed
+    with :func:`porthamiltonian.expressions.parse`; the others are plain values (names, options).
+    ``local`` lists the names a law may use beside the model's (e.g. ``("q",)`` for an energy in q).
+    """
+
+    doc: str
+    unit: str = ""
+    default: Any = REQUIRED
+    symbolic: bool = True
+    local: tuple[str, ...] = ()
+
+
+@dataclass
+class PortVars:
+    """The effort and flow symbols of a port: scalars for dimension 1, else sympy column matrices."""
+
+    port: Port
+    e: Any
+    f: Any
+
+    @property
+    def power(self) -> sp.Expr:
+        """``e · f``, positive in the port's orientation."""
+        if self.port.dim == 1:
+            return self.e * self.f
+        return (self.e.T * self.f)[0, 0]
+
+
+@dataclass
+class StateDecl:
+    symbol: sp.Symbol
+    derivative: sp.Symbol
+    unit: str
+    initial: sp.Expr
+
+
+@dataclass
+class Built:
+    """What a component's ``build`` declared; consumed by the compiler."""
+
+    name: str
+    ports: dict[str, PortVars] = field(default_factory=dict)
+    states: list[StateDecl] = field(default_factory=list)
+    equations: list[tuple[sp.Expr, str]] = field(default_factory=list)
+    energy: sp.Expr = sp.Integer(0)
+    dissipation: sp.Expr = sp.Integer(0)
+    supply: sp.Expr = sp.Integer(0)
+    outputs: dict[str, sp.Expr] = field(default_factory=dict)
+    storage_ports: list[str] = field(default_factory=list)
+
+
+class Builder:
+    """Collects the declarations of one component during compilation.
+
+    Symbols are named ``component.state`` and ``component.port.e`` / ``.f`` (``.e0``, ``.e1``... for
+    vector ports), so compiled equations read by name.
+    """
+
+    def __init__(self, name: str, ports: list[Port], names: Mapping[str, sp.Expr],
+                 dotted: Callable[[str], sp.Expr | None] | None = None):
+        self.name = name
+        self._names = names
+        self._dotted = dotted
+        self.built = Built(name)
+        for port in ports:
+            self.built.ports[port.name] = self._port_vars(port)
+
+    def _port_vars(self, port: Port) -> PortVars:
+        base = f"{self.name}.{port.name}"
+        if port.dim == 1:
+            return PortVars(port, sp.Symbol(f"{base}.e", real=True), sp.Symbol(f"{base}.f", real=True))
+        e = sp.Matrix([sp.Symbol(f"{base}.e{i}", real=True) for i in range(port.dim)])
+        f = sp.Matrix([sp.Symbol(f"{base}.f{i}", real=True) for i in range(port.dim)])
+        return PortVars(port, e, f)
+
+    # --- declarations -------------------------------------------------------------------------
+    def port(self, name: str) -> PortVars:
+        """The effort/flow symbols of the declared port ``name``."""
+        try:
+            return self.built.ports[name]
+        except KeyError:
+            raise UnknownPortError(
+                f"component {self.name!r} has no port {name!r}; ports: {', '.join(self.built.ports)}"
+            ) from None
+
+    def state(self, name: str, unit: str = "", initial: Any = 0) -> sp.Symbol:
+        """Declare a state ``component.name`` with an initial value (expression in parameters)."""
+        symbol = sp.Symbol(f"{self.name}.{name}", real=True)
+        if any(s.symbol == symbol for s in self.built.states):
+            raise ModelError(f"component {self.name!r} declares state {name!r} twice")
+        init = self.parse(initial, f"initial value of state {name!r}")
+        self.built.states.append(StateDecl(symbol, sp.Symbol(f"d({self.name}.{name})/dt", real=True),
+                                           unit, init))
+        return symbol
+
+    def der(self, state: sp.Symbol) -> sp.Symbol:
+        """The time-derivative symbol of one of this component's states."""
+        for s in self.built.states:
+            if s.symbol == state:
+                return s.derivative
+        raise ModelError(f"component {self.name!r}: {state} is not one of its states")
+
+    def equation(self, lhs: Any, rhs: Any = 0, doc: str = "") -> None:
+        """Add the law ``lhs = rhs`` (element-wise for matrices)."""
+        lhs, rhs = sp.sympify(lhs), sp.sympify(rhs)
+        if isinstance(lhs, sp.MatrixBase):
+            for a, b in zip(lhs, rhs if isinstance(rhs, sp.MatrixBase) else [rhs] * len(lhs)):
+                self.built.equations.append((sp.sympify(a - b), doc))
+        else:
+            self.built.equations.append((lhs - rhs, doc))
+
+    def storage(self, state: sp.Symbol, energy: sp.Expr, port: PortVars, causality: str) -> None:
+        """Make ``state`` an energy storage on ``port``, adding ``energy`` to the Hamiltonian.
+
+        ``causality="C"`` (q-type): dq/dt = f, e = ∂H/∂q. ``causality="I"`` (p-type):
+        dp/dt = e, f = ∂H/∂p. ``energy`` is this component's whole stored energy; call
+        :meth:`storage` once per state with the same total, or use :meth:`energy` and
+        :meth:`storage_law` for multiport storages.
+        """
+        self.energy(energy)
+        self.storage_law(state, energy, port, causality)
+
+    def energy(self, energy: sp.Expr) -> None:
+        """Add ``energy`` (J) to this component's stored energy (its part of the Hamiltonian)."""
+        self.built.energy = self.built.energy + energy
+
+    def storage_law(self, state: sp.Symbol, energy: sp.Expr, port: PortVars, causality: str) -> None:
+        """The integral-causality law of one storage state (see :meth:`storage`)."""
+        if causality not in ("C", "I"):
+            raise ModelError(f"component {self.name!r}: storage causality must be 'C' or 'I'")
+        gradient = sp.diff(energy, state)
+        if causality == "C":
+            self.equation(self.der(state), port.f, "dq/dt = f")
+            self.equation(port.e, gradient, "e = dH/dq")
+        else:
+            self.equation(self.der(state), port.e, "dp/dt = e")
+            self.equation(port.f, gradient, "f = dH/dp")
+        self.built.storage_ports.append(port.port.name)
+
+    def dissipate(self, power: sp.Expr) -> None:
+        """Add ``power`` (W, >= 0) to the dissipated power."""
+        self.built.dissipation = self.built.dissipation + power
+
+    def supply(self, power: sp.Expr) -> None:
+        """Add ``power`` (W) to the power supplied to the model from outside."""
+        self.built.supply = self.built.supply + power
+
+    def output(self, name: str, expr: sp.Expr) -> None:
+        """A named output ``component.name`` (any expression in the model's variables)."""
+        self.built.outputs[f"{self.name}.{name}"] = sp.sympify(expr)
+
+    def parse(self, text: Any, what: str, local: Mapping[str, sp.Expr] | None = None) -> sp.Expr:
+        """Parse an expression of this component (model names plus ``local`` names)."""
+        names = {**self._names, **(local or {})}
+        return parse(text, names, f"component {self.name!r} {what}", self._dotted)
+
+
+class Component:
+    """Base class of all components. Subclasses set ``kind``, ``arguments`` and implement
+    :meth:`ports` and :meth:`build`. Instances hold their arguments as given (text or numbers),
+    so that a model saves back to the same file."""
+
+    kind: ClassVar[str] = ""
+    arguments: ClassVar[dict[str, Arg]] = {}
+    #: Junction-like components accept new ports at connection time.
+    free_ports: ClassVar[bool] = False
+
+    def __init__(self, **args: Any):
+        unknown = sorted(set(args) - set(self.arguments))
+        if unknown:
+            raise ModelError(
+                f"{self.kind} has no argument(s) {', '.join(unknown)}; its arguments are: "
+                f"{', '.join(self.arguments) or 'none'}"
+            )
+        missing = [n for n, a in self.arguments.items() if a.default is REQUIRED and n not in args]
+        if missing:
+            raise ModelError(f"{self.kind} needs argument(s) {', '.join(missing)}")
+        for value in args.values():
+            if isinstance(value, float) and not math.isfinite(value):
+                raise ModelError(f"{self.kind}: argument value {value!r} is not finite")
+        self.args: dict[str, Any] = dict(args)
+        self.extra_ports: list[Port] = []
+
+    def value(self, name: str) -> Any:
+        """An argument as given, or its default."""
+        return self.args.get(name, self.arguments[name].default)
+
+    def ports(self) -> list[Port]:
+        """The power ports this component declares."""
+        return []
+
+    def all_ports(self) -> list[Port]:
+        return [*self.ports(), *self.extra_ports]
+
+    def new_port(self, like: Port, name: str | None = None) -> Port:
+        """Add a port to a junction-like component (``free_ports``) matching ``like``."""
+        if not self.free_ports:
+            raise ModelError(f"{self.kind} components have fixed ports")
+        name = name or f"p{len(self.extra_ports) + 1}"
+        port = Port(name, like.domain, like.dim, None, like.frame)
+        self.extra_ports.append(port)
+        return port
+
+    def build(self, b: Builder, **args: sp.Expr) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def parsed_args(self, b: Builder) -> dict[str, Any]:
+        """Arguments for :meth:`build`: symbolic ones parsed (with their local names), others raw."""
+        out: dict[str, Any] = {}
+        for name, arg in self.arguments.items():
+            value = self.value(name)
+            if arg.symbolic and value is not None:
+                local = {n: sp.Symbol(n, real=True) for n in arg.local}
+                out[name] = b.parse(value, f"argument {name!r}", local)
+            else:
+                out[name] = value
+        return out
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.args.items())
+        return f"{type(self).__name__}({args})"
+
+
+REGISTRY: dict[str, type[Component]] = {}
+
+
+def register(cls: type[Component]) -> type[Component]:
+    """Class decorator: make a component type loadable by its ``kind`` from model files."""
+    if not cls.kind:
+        raise ModelError(f"{cls.__name__} needs a 'kind' to be registered")
+    if cls.kind in REGISTRY and REGISTRY[cls.kind] is not cls:
+        raise ModelError(f"component kind {cls.kind!r} is registered twice")
+    REGISTRY[cls.kind] = cls
+    return cls
+
+
+def component_class(kind: str) -> type[Component]:
+    """The registered component class of ``kind``, or an error listing the known kinds."""
+    try:
+        return REGISTRY[kind]
+    except KeyError:
+        raise UnknownComponentError(
+            f"unknown component type {kind!r}; known types: {', '.join(sorted(REGISTRY))}"
+        ) from None
+
+
+__all__ = ["Arg", "Builder", "Component", "PortVars", "REGISTRY", "TIME", "component_class", "register"]

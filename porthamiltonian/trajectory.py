@@ -1,0 +1,201 @@
+"""Trajectory: the result of a simulation, with named access and the energy ledger.
+
+Shaped like scipy's ``OdeResult`` (``t``, ``status``, ``message``, ``success``, ``nfev``) plus:
+
+* ``traj["mass.p"]`` — a state, or any named output (``"spring.p.e"``: the spring force), over ``t``;
+* ``traj.H``, ``traj.E_diss``, ``traj.E_in``, ``traj.residual`` — the energy ledger
+  (r = H − H(0) + E_diss − E_in), ``traj.energy_scale`` and ``traj.relative_residual``;
+* ``traj.sol(t)`` — dense output (model states) at any time of the run;
+* ``traj.events`` — (time, name) of every event, ``traj.jumps`` — H jumps booked at resets;
+* ``to_csv`` / ``to_npz`` — export with named columns.
+"""
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .compiled import CompiledModel
+
+
+@dataclass
+class Segment:
+    """One continuous piece of the run between events."""
+
+    t: np.ndarray
+    y: np.ndarray            # (n + 2, len(t)): model states and ledger states
+    p: np.ndarray
+    sol: Any                 # scipy OdeSolution or None
+
+
+class Trajectory:
+    """Result of :func:`porthamiltonian.simulate.simulate`. See the module docstring."""
+
+    def __init__(self, model: CompiledModel):
+        self.model = model
+        self.segments: list[Segment] = []
+        self.events: list[tuple[float, str]] = []
+        self.jumps: list[tuple[float, str, float]] = []
+        self.status = "running"
+        self.message = ""
+        self.nfev = self.njev = self.nlu = 0
+        self.h0 = float("nan")
+        self._cache: dict[str, np.ndarray] = {}
+
+    # --- building -------------------------------------------------------------------------------
+    def add(self, segment: Segment, nfev: int, njev: int, nlu: int) -> None:
+        self.segments.append(segment)
+        self.nfev += nfev
+        self.njev += njev
+        self.nlu += nlu
+        self._cache.clear()
+
+    def record_event(self, t: float, name: str) -> None:
+        self.events.append((t, name))
+
+    def record_jump(self, t: float, name: str, jump: float) -> None:
+        self.jumps.append((t, name, jump))
+
+    def finish(self, status: str, message: str) -> None:
+        self.status, self.message = status, message
+
+    # --- access ---------------------------------------------------------------------------------
+    @property
+    def success(self) -> bool:
+        """True when the run reached t_end or stopped at a terminal event (not failed/diverged)."""
+        return self.status in ("finished", "event")
+
+    @property
+    def t(self) -> np.ndarray:
+        return self._concat("t", lambda s: s.t)
+
+    @property
+    def y(self) -> np.ndarray:
+        """Integration states (n + 2, len(t)): model states then E_diss, E_in."""
+        return self._concat("y", lambda s: s.y, axis=1)
+
+    @property
+    def x(self) -> np.ndarray:
+        """Model states, shape (len(t), n)."""
+        return self.y[: self.model.n_states].T
+
+    @property
+    def x_final(self) -> np.ndarray:
+        return self.segments[-1].y[: self.model.n_states, -1].copy()
+
+    @property
+    def t_final(self) -> float:
+        return float(self.segments[-1].t[-1])
+
+    def _concat(self, key: str, get, axis: int = 0) -> np.ndarray:
+        if key not in self._cache:
+            parts = [get(s) for s in self.segments]
+            self._cache[key] = np.concatenate(parts, axis=axis) if parts else np.empty(0)
+        return self._cache[key]
+
+    def _per_point(self, key: str, fn) -> np.ndarray:
+        if key not in self._cache:
+            rows = []
+            for s in self.segments:
+                pn = self.model.native_params(s.p)
+                rows += [np.asarray(fn(s.t[k], np.ascontiguousarray(s.y[:, k]), pn))
+                         for k in range(len(s.t))]
+            self._cache[key] = np.array(rows)
+        return self._cache[key]
+
+    @property
+    def outputs(self) -> np.ndarray:
+        """All named outputs, shape (len(t), n_outputs); names in ``model.output_names``."""
+        return self._per_point("outputs", self.model.functions.outputs)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """A state or a named output over ``t``."""
+        if name in self.model.state_names:
+            return self.x[:, self.model.state_index(name)]
+        ledger = {"H": self.H, "E_diss": self.E_diss, "E_in": self.E_in, "residual": self.residual}
+        if name in ledger:
+            return ledger[name]
+        return self.outputs[:, self.model.output_index(name)]
+
+    def sol(self, t: float | np.ndarray) -> np.ndarray:
+        """Dense output: model states at time(s) ``t`` (shape (n,) or (n, len(t)))."""
+        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.empty((self.model.n_states, len(t_arr)))
+        for k, tk in enumerate(t_arr):
+            for s in self.segments:
+                if s.t[0] <= tk <= s.t[-1] and s.sol is not None:
+                    out[:, k] = s.sol(tk)[: self.model.n_states]
+                    break
+            else:
+                raise ValueError(f"t = {tk} is outside the simulated interval")
+        return out[:, 0] if np.ndim(t) == 0 else out
+
+    # --- energy ledger --------------------------------------------------------------------------
+    @property
+    def power(self) -> np.ndarray:
+        """[H, P_diss, P_in] at each time, shape (len(t), 3)."""
+        return self._per_point("energy", self.model.functions.energy)
+
+    @property
+    def H(self) -> np.ndarray:
+        return self.power[:, 0]
+
+    @property
+    def E_diss(self) -> np.ndarray:
+        return self.y[self.model.n_states]
+
+    @property
+    def E_in(self) -> np.ndarray:
+        return self.y[self.model.n_states + 1]
+
+    @property
+    def residual(self) -> np.ndarray:
+        """r(t) = H(t) − H(0) + E_diss(t) − E_in(t) (J); zero up to integration error."""
+        return self.H - self.h0 + self.E_diss - self.E_in
+
+    @property
+    def energy_scale(self) -> float:
+        """max(|H|, |H − H(0)|, |E_diss|, |E_in|) over the run (J), the scale of the residual."""
+        return float(max(np.max(np.abs(self.H)), np.max(np.abs(self.H - self.h0)),
+                         np.max(np.abs(self.E_diss)), np.max(np.abs(self.E_in)), 1e-300))
+
+    @property
+    def relative_residual(self) -> float:
+        return float(np.max(np.abs(self.residual)) / self.energy_scale)
+
+    def ledger(self) -> dict[str, float]:
+        """The final ledger: H(0), H(T), dissipated, supplied, residual, relative residual."""
+        return {"H0": self.h0, "HT": float(self.H[-1]), "dissipated": float(self.E_diss[-1]),
+                "supplied": float(self.E_in[-1]), "residual": float(self.residual[-1]),
+                "max_abs_residual": float(np.max(np.abs(self.residual))),
+                "relative_residual": self.relative_residual}
+
+    # --- export ---------------------------------------------------------------------------------
+    def columns(self, outputs: bool = False) -> dict[str, np.ndarray]:
+        cols = {"t": self.t}
+        cols.update({name: self.x[:, i] for i, name in enumerate(self.model.state_names)})
+        cols.update({"H": self.H, "E_diss": self.E_diss, "E_in": self.E_in,
+                     "residual": self.residual})
+        if outputs:
+            cols.update({n: self.outputs[:, i] for i, n in enumerate(self.model.output_names)})
+        return cols
+
+    def to_csv(self, path: str | Path, outputs: bool = False) -> None:
+        """Write named columns (t, states, ledger[, outputs]) as CSV with a header row."""
+        cols = self.columns(outputs)
+        with open(path, "w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(cols)
+            writer.writerows(zip(*(np.asarray(c).tolist() for c in cols.values())))
+
+    def to_npz(self, path: str | Path, outputs: bool = False) -> None:
+        """Write named arrays (t, states, ledger[, outputs]) plus status and message to ``.npz``."""
+        np.savez(path, status=self.status, message=self.message, **self.columns(outputs))
+
+    def __repr__(self) -> str:
+        return (f"Trajectory({self.model.name!r}, status={self.status!r}, t=[{self.t[0]:g}, "
+                f"{self.t[-1]:g}], {len(self.t)} points, {len(self.events)} events)")
