@@ -408,14 +408,18 @@ def _rodrigues_coefficients(ns: _Backend, phi: Scalar) -> tuple[Scalar, Scalar, 
 
 
 def _rodrigues(ns: _Backend, w: ArrayLike, theta: Scalar) -> tuple[Array, Array]:
-    """``R = exp(θ ω̃)`` and left Jacobian ``V``: ``exp_se3((ω, v), θ) = [[R, V θ v], [0, 1]]``."""
+    """``R = exp(θ ω̃)`` and ``Θ = ∫₀^θ exp(s ω̃) ds``, so ``exp_se3((ω, v), θ) = [[R, Θ v], [0, 1]]``.
+
+    Each power of θ is multiplied into its coefficient so that sympy cancels θ exactly.
+    """
     w = ns.vector(w, 3)
     phi = theta * ns.sqrt(ns.dot(w, w))
     A, B, C = _rodrigues_coefficients(ns, phi)
-    W = hat3(theta * w)
+    W = hat3(w)
     W2 = W @ W
     identity = ns.eye(3)
-    return identity + A * W + B * W2, identity + B * W + C * W2
+    R = identity + (theta * A) * W + (theta**2 * B) * W2
+    return R, theta * identity + (theta**2 * B) * W + (theta**3 * C) * W2
 
 
 def exp_so3(w: ArrayLike, theta: Scalar = 1) -> Array:
@@ -453,8 +457,8 @@ def exp_se3(T: ArrayLike, theta: Scalar = 1) -> Array:
     Returns
     -------
     ndarray or sympy.Matrix, shape (4, 4)
-        ``[[R, V θ v], [0, 1]]`` with ``R = exp_so3(ω, θ)`` and ``V = 1 + B Ω + C Ω²``
-        (``Ω = θ ω̃``, coefficients of :func:`exp_so3`'s angle ``φ = θ |ω|``). ``ω = 0`` gives the
+        ``[[R, Θ v], [0, 1]]`` with ``R = exp_so3(ω, θ)`` and
+        ``Θ = θ 1 + (1 - cos φ)/|ω|² ω̃ + (φ - sin φ)/|ω|³ ω̃²`` (``φ = θ |ω|``). ``ω = 0`` gives the
         pure translation ``[[1, θ v], [0, 1]]`` exactly; in the numeric path small ``φ`` use Taylor
         series. In the symbolic path a symbolic ``ω`` is assumed non-zero. If ``T_B`` is the
         constant body twist of B relative to A, ``H_A_B(t) = H_A_B(0) @ exp_se3(T_B, t)``.
@@ -462,8 +466,8 @@ def exp_se3(T: ArrayLike, theta: Scalar = 1) -> Array:
     ns = _backend(T, theta)
     theta = ns.scalar(theta)
     w, v = _split6(ns, T)
-    R, V = _rodrigues(ns, w, theta)
-    return pose_matrix(R, V @ (theta * v))
+    R, Theta = _rodrigues(ns, w, theta)
+    return pose_matrix(R, Theta @ v)
 
 
 def log_so3(R: ArrayLike) -> np.ndarray:
@@ -516,7 +520,7 @@ def log_se3(H: ArrayLike) -> np.ndarray:
     -------
     ndarray, shape (6,)
         ``(ω, v)`` with ``ω = log_so3(R)`` (rotation angle in ``[0, π]``, see :func:`log_so3` for
-        the choice at exactly π) and ``v = V⁻¹ p``.
+        the choice at exactly π) and ``v = Θ⁻¹ p``, ``Θ`` as in :func:`exp_se3` with ``θ = 1``.
 
     Raises
     ------
@@ -529,8 +533,8 @@ def log_se3(H: ArrayLike) -> np.ndarray:
     H = _NUMPY.matrix(H, 4, 4)
     _check_pose(H)
     w = log_so3(H[:3, :3])
-    _, V = _rodrigues(_NUMPY, w, 1.0)
-    return np.concatenate([w, np.linalg.solve(V, H[:3, 3])])
+    _, Theta = _rodrigues(_NUMPY, w, 1.0)
+    return np.concatenate([w, np.linalg.solve(Theta, H[:3, 3])])
 
 
 def planar_pose(x: Scalar, y: Scalar, angle: Scalar) -> Array:
@@ -556,21 +560,27 @@ def planar_pose(x: Scalar, y: Scalar, angle: Scalar) -> Array:
 # --------------------------------------------------------------------------------------------
 
 
-def _check_inertia(ns: _Backend, mass: Scalar, I_com: Array) -> None:
+def _as_float_array(x: Any) -> np.ndarray | None:
+    """``x`` as a float array, or None if it has symbolic entries."""
+    try:
+        return np.array(x, dtype=float)
+    except TypeError:
+        return None
+
+
+def _check_inertia(mass: Scalar, I_com: Array) -> None:  # noqa: N803
+    """Validate the numeric ones of mass and rotational inertia (symbolic values are not checked)."""
+    m, I_c = _as_float_array(mass), _as_float_array(I_com)
+    if m is not None and not m > 0:
+        raise ValueError(f"mass must be positive, got {mass}")
+    if I_c is None:
+        return
     message = "rotational inertia must be symmetric positive definite, got"
-    if ns is _NUMPY:
-        if not mass > 0:
-            raise ValueError(f"mass must be positive, got {mass}")
-        if np.abs(I_com - I_com.T).max() > _SYMMETRY_RTOL * np.abs(I_com).max():
-            raise ValueError(f"{message} the non-symmetric matrix {I_com.tolist()}")
-        eigenvalues = np.linalg.eigvalsh(I_com)
-        if not eigenvalues.min() > 0:
-            raise ValueError(f"{message} eigenvalues {eigenvalues.tolist()}")
-    else:
-        if mass.is_positive is False:
-            raise ValueError(f"mass must be positive, got {mass}")
-        if (I_com - I_com.T).is_zero_matrix is False:
-            raise ValueError(f"{message} the non-symmetric matrix {I_com.tolist()}")
+    if np.abs(I_c - I_c.T).max() > _SYMMETRY_RTOL * np.abs(I_c).max():
+        raise ValueError(f"{message} the non-symmetric matrix {I_c.tolist()}")
+    eigenvalues = np.linalg.eigvalsh(I_c)
+    if not eigenvalues.min() > 0:
+        raise ValueError(f"{message} eigenvalues {eigenvalues.tolist()}")
 
 
 def spatial_inertia(mass: Scalar, com: ArrayLike, I_com: ArrayLike) -> Array:  # noqa: N803
@@ -601,12 +611,13 @@ def spatial_inertia(mass: Scalar, com: ArrayLike, I_com: ArrayLike) -> Array:  #
     Raises
     ------
     ValueError
-        If, for numeric input, ``mass <= 0`` or ``I_com`` is not symmetric positive definite.
+        If ``mass <= 0`` or ``I_com`` is not symmetric positive definite (checked for numeric
+        values, also inside sympy objects; symbolic values are not checked).
     """
     ns = _backend(mass, com, I_com)
     m = ns.scalar(mass)
     I_c = ns.matrix(I_com, 3, 3)
-    _check_inertia(ns, m, I_c)
+    _check_inertia(m, I_c)
     C = hat3(ns.vector(com, 3))
     return ns.block([[I_c + m * C @ C.T, m * C], [m * C.T, m * ns.eye(3)]])
 
