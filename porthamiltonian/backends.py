@@ -41,6 +41,7 @@ class Functions:
     outputs: Callable
     guards: Callable
     initial: Callable
+    matrices: tuple[Callable, ...] = ()
 
 
 def numba_available() -> bool:
@@ -65,7 +66,7 @@ def source_with_header(body: str, backend: str) -> str:
     return header + "\n\n" + decorated
 
 
-def load(path: Path, backend: str) -> Functions:
+def load(path: Path, backend: str, n_matrices: int = 0) -> Functions:
     """Import the generated module at ``path`` and wrap its functions for ``backend``."""
     module_name = f"_porthamiltonian_generated_{path.stem}"
     module = sys.modules.get(module_name)
@@ -75,10 +76,12 @@ def load(path: Path, backend: str) -> Functions:
         spec.loader.exec_module(module)
         sys.modules[module_name] = module
     f = {name: getattr(module, name) for name in _NAMES}
+    matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]
     if backend == "python":
         # plain CPython is fastest on Python floats: hand the generated code lists (the caller
         # passes p as a list too, see CompiledModel.native_params)
         def wrap(fn):
             return lambda t, x, p: fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
-        return Functions("python", *(wrap(f[n]) for n in _NAMES[:5]), f["initial"])
-    return Functions("numba", *(f[n] for n in _NAMES))
+        return Functions("python", *(wrap(f[n]) for n in _NAMES[:5]), f["initial"],
+                         tuple(wrap(m) for m in matrices))
+    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices))

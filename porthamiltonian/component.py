@@ -91,6 +91,8 @@ class Built:
     supply: sp.Expr = sp.Integer(0)
     outputs: dict[str, sp.Expr] = field(default_factory=dict)
     storage_ports: list[str] = field(default_factory=list)
+    blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
+    matrices: dict[str, sp.Matrix] = field(default_factory=dict)
 
 
 class Builder:
@@ -101,10 +103,12 @@ class Builder:
     """
 
     def __init__(self, name: str, ports: list[Port], names: Mapping[str, sp.Expr],
-                 dotted: Callable[[str], sp.Expr | None] | None = None):
+                 dotted: Callable[[str], sp.Expr | None] | None = None,
+                 orientation: Mapping[str, str] | None = None):
         self.name = name
         self._names = names
         self._dotted = dotted
+        self._orientation = dict(orientation or {})
         self.built = Built(name)
         for port in ports:
             self.built.ports[port.name] = self._port_vars(port)
@@ -126,6 +130,35 @@ class Builder:
             raise UnknownPortError(
                 f"component {self.name!r} has no port {name!r}; ports: {', '.join(self.built.ports)}"
             ) from None
+
+    def sign(self, name: str) -> int:
+        """+1 if power on port ``name`` is positive into this component, -1 if out of it.
+
+        For ports with a fixed orientation this is the declared one; for free ports it is set by
+        the bond (head: in, tail: out); an unconnected optional port counts as in.
+        """
+        port = self.port(name).port
+        orientation = port.orientation or self._orientation.get(name, "in")
+        return 1 if orientation == "in" else -1
+
+    def implicit(self, name: str, A: sp.Matrix, rhs: sp.Matrix) -> list[sp.Symbol]:
+        """Declare intermediates ``v`` defined by the linear system ``A v = rhs``.
+
+        ``A`` and ``rhs`` may depend on states, parameters and time only. The system is solved
+        numerically in the generated code (never inverted symbolically) and its derivative enters
+        the Jacobian by implicit differentiation. Returns the symbols ``component.name0..``.
+        """
+        A, rhs = sp.Matrix(A), sp.Matrix(rhs)
+        if A.shape != (rhs.shape[0], rhs.shape[0]) or rhs.shape[1] != 1:
+            raise ModelError(f"component {self.name!r}: implicit block {name!r} needs a square A "
+                             f"and a column rhs, got {A.shape} and {rhs.shape}")
+        symbols = [sp.Symbol(f"{self.name}.{name}{i}", real=True) for i in range(rhs.shape[0])]
+        self.built.blocks.append((symbols, A, rhs))
+        return symbols
+
+    def matrix(self, name: str, value: sp.Matrix) -> None:
+        """A named matrix ``component.name`` available numerically (e.g. a mass matrix)."""
+        self.built.matrices[f"{self.name}.{name}"] = sp.Matrix(value)
 
     def state(self, name: str, unit: str = "", initial: Any = 0) -> sp.Symbol:
         """Declare a state ``component.name`` with an initial value (expression in parameters)."""

@@ -222,7 +222,7 @@ class Model:
         bonded = {end for bond in flat.bonds for end in bond}
         for name, comp in flat.components.items():
             for port in comp.all_ports():
-                if (name, port.name) not in bonded:
+                if (name, port.name) not in bonded and not port.optional:
                     raise DanglingPortError(
                         f"port {name}.{port.name} ({port.domain}) is not connected; connect it, "
                         "or remove the component"

@@ -79,6 +79,7 @@ class Port:
     orientation : ``"in"``, ``"out"`` or ``None`` (free); see the module docstring.
     frame : name of the frame in which vector efforts/flows are expressed, if any.
     description : one line for ``show`` and error messages.
+    optional : the port may stay unconnected; it then carries zero effort (no force, no power).
     """
 
     name: str
@@ -87,6 +88,7 @@ class Port:
     orientation: Orientation = "in"
     frame: str | None = None
     description: str = ""
+    optional: bool = False
 
     def __post_init__(self) -> None:
         domain(self.domain)

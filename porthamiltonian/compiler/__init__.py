@@ -41,12 +41,13 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
             "events": [{"name": ev.name, "direction": ev.direction, "terminal": ev.terminal}
                        for ev, _ in sym.events],
             "equations": sym.equations, "hamiltonian": str(sym.hamiltonian),
+            "matrices": list(sym.matrices),
         }
         cache.write(key, meta, body)
     else:
         meta, body = hit
     path = cache.backend_module(key, backend, source_with_header(body, backend))
-    return CompiledModel(meta, load(path, backend), body, key)
+    return CompiledModel(meta, load(path, backend, len(meta["matrices"])), body, key)
 
 
 __all__ = ["SymbolicModel", "compile_model", "power_balance", "symbolic"]

@@ -46,6 +46,8 @@ class SymbolicModel:
     events: list[tuple[EventSpec, sp.Expr]]
     initial: list[sp.Expr]
     equations: list[str] = field(default_factory=list)
+    blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
+    matrices: dict[str, sp.Matrix] = field(default_factory=dict)
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
@@ -100,6 +102,8 @@ def assemble(solution: Solution) -> SymbolicModel:
                 raise StateError(f"initial value of {s.symbol} must depend on parameters only")
             initial.append(s.initial.subs(TIME, 0))
 
+    matrices = {name: m.xreplace(system.aliases).xreplace(values)
+                for b in system.built.values() for name, m in b.matrices.items()}
     rhs = [xdot[x] for x in states] + [p_diss, p_in]
     return SymbolicModel(
         name=flat.name, states=states, state_names=[str(s) for s in states],
@@ -109,6 +113,7 @@ def assemble(solution: Solution) -> SymbolicModel:
         rhs=rhs, hamiltonian=H, p_diss=p_diss, p_in=p_in, outputs=outputs, events=events,
         initial=initial,
         equations=[f"{u} = {expr}" for u, expr, _ in solution.order if u in system.derivatives],
+        blocks=system.blocks, matrices=matrices,
     )
 
 
@@ -134,7 +139,14 @@ def _model_expr(text: str, prefix: str, table: dict[str, sp.Symbol], system, whe
 
 
 def power_balance(model: SymbolicModel) -> sp.Expr:
-    """dH/dt − P_in + P_diss along the state equations (zero for a consistent model)."""
+    """dH/dt − P_in + P_diss along the state equations (zero for a consistent model).
+
+    Symbolic, so only for models without implicit blocks; for those use
+    :meth:`porthamiltonian.compiled.CompiledModel.power_balance` (numeric).
+    """
+    if model.blocks:
+        raise ModelError(f"model {model.name!r} has implicit blocks (e.g. a mass matrix solved "
+                         "numerically): check its power balance with CompiledModel.power_balance")
     n = len(model.states)
     dH = sp.diff(model.hamiltonian, TIME) + sum(
         (sp.diff(model.hamiltonian, x) * f for x, f in zip(model.states, model.rhs[:n])), sp.Integer(0))

@@ -52,6 +52,7 @@ class System:
     derivatives: dict[sp.Symbol, sp.Symbol]        # derivative symbol -> state symbol
     aliases: dict[sp.Symbol, sp.Symbol]             # head port symbol -> tail port symbol
     owner: dict[sp.Symbol, str] = field(default_factory=dict)   # unknown -> component
+    blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
 
 
 @dataclass
@@ -75,6 +76,10 @@ def build_system(flat: FlatModel) -> System:
     params = {name: sp.Symbol(name, real=True) for name in flat.parameters}
     built: dict[str, Built] = {}
     equations: list[Equation] = []
+    orientation: dict[tuple[str, str], str] = {}
+    for (tc, tp), (hc, hp) in flat.bonds:
+        orientation[(tc, tp)] = "out"
+        orientation[(hc, hp)] = "in"
     for name, comp in flat.components.items():
         prefix = flat.scopes[name]
         in_scope = {n[len(prefix):].split(".")[0] for n in flat.components if n.startswith(prefix)}
@@ -82,20 +87,22 @@ def build_system(flat: FlatModel) -> System:
         def dotted(ref: str, prefix: str = prefix, in_scope: set[str] = in_scope) -> sp.Symbol | None:
             return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
 
-        b = Builder(name, comp.all_ports(), _scope_names(flat, prefix, params), dotted)
+        own = {port: o for (c, port), o in orientation.items() if c == name}
+        b = Builder(name, comp.all_ports(), _scope_names(flat, prefix, params), dotted, own)
         if not isinstance(comp, _Junction):
             comp.build(b, **comp.parsed_args(b))
         built[name] = b.built
         equations += [Equation(r, name, doc) for r, doc in b.built.equations]
+        for pname, pv in b.built.ports.items():
+            if (name, pname) not in orientation:  # an unconnected optional port: no effort
+                equations += [Equation(e, name, f"unconnected port {pname}: zero effort")
+                              for e in _flat(pv.e)]
 
     aliases: dict[sp.Symbol, sp.Symbol] = {}
-    orientation: dict[tuple[str, str], str] = {}
     for (tc, tp), (hc, hp) in flat.bonds:
         tail, head = built[tc].ports[tp], built[hc].ports[hp]
         for h, t in _pairs(head, tail):
             aliases[h] = t
-        orientation[(tc, tp)] = "out"
-        orientation[(hc, hp)] = "in"
     for name, comp in flat.components.items():
         if isinstance(comp, _Junction):
             equations += _junction_equations(name, comp, built[name], orientation)
@@ -112,6 +119,16 @@ def build_system(flat: FlatModel) -> System:
             owner[s.derivative] = cname
     unknowns = list(dict.fromkeys([*(u for u in owner if u not in derivatives), *derivatives]))
     known = {*params.values(), *states, TIME}
+    blocks = []
+    for cname, b in built.items():
+        for symbols, A, rhs in b.blocks:
+            stray = (A.free_symbols | rhs.free_symbols) - known
+            if stray:
+                raise UnknownParameterError(
+                    f"component {cname!r}: implicit block {symbols[0]}.. may depend on states, "
+                    f"parameters and time only, not on {', '.join(sorted(map(str, stray)))}")
+            blocks.append((symbols, A, rhs))
+            known |= set(symbols)
     for eq in equations:
         stray = eq.residual.free_symbols - known - set(unknowns)
         if stray:
@@ -119,7 +136,8 @@ def build_system(flat: FlatModel) -> System:
                 f"component {eq.component!r} refers to {', '.join(sorted(map(str, stray)))}, which "
                 "is not a parameter, state or port variable of the model"
             )
-    return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner)
+    return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner,
+                  blocks)
 
 
 def _flat(x) -> list[sp.Symbol]:

@@ -408,7 +408,7 @@ def _rodrigues_coefficients(ns: _Backend, phi: Scalar) -> tuple[Scalar, Scalar, 
 
 
 def _rodrigues(ns: _Backend, w: ArrayLike, theta: Scalar) -> tuple[Array, Array]:
-    """``R = exp(θ ω̃)`` and ``Θ = ∫₀^θ exp(s ω̃) ds``, so ``exp_se3((ω, v), θ) = [[R, Θ v], [0, 1]]``.
+    """``R = exp(θ ω̃)`` and ``Θ = ∫₀^θ exp(s ω̃) ds``: ``exp_se3((ω, v), θ) = [[R, Θ v], [0, 1]]``.
 
     Each power of θ is multiplied into its coefficient so that sympy cancels θ exactly.
     """
@@ -457,8 +457,8 @@ def exp_se3(T: ArrayLike, theta: Scalar = 1) -> Array:
     Returns
     -------
     ndarray or sympy.Matrix, shape (4, 4)
-        ``[[R, Θ v], [0, 1]]`` with ``R = exp_so3(ω, θ)`` and
-        ``Θ = θ 1 + (1 - cos φ)/|ω|² ω̃ + (φ - sin φ)/|ω|³ ω̃²`` (``φ = θ |ω|``). ``ω = 0`` gives the
+        ``[[R, Θ v], [0, 1]]`` with ``R = exp_so3(ω, θ)``, ``φ = θ |ω|`` and
+        ``Θ = θ 1 + (1 - cos φ)/|ω|² ω̃ + (φ - sin φ)/|ω|³ ω̃²``. ``ω = 0`` gives the
         pure translation ``[[1, θ v], [0, 1]]`` exactly; in the numeric path small ``φ`` use Taylor
         series. In the symbolic path a symbolic ``ω`` is assumed non-zero. If ``T_B`` is the
         constant body twist of B relative to A, ``H_A_B(t) = H_A_B(0) @ exp_se3(T_B, t)``.
@@ -569,7 +569,7 @@ def _as_float_array(x: Any) -> np.ndarray | None:
 
 
 def _check_inertia(mass: Scalar, I_com: Array) -> None:  # noqa: N803
-    """Validate the numeric ones of mass and rotational inertia (symbolic values are not checked)."""
+    """Validate mass and rotational inertia where they are numeric (symbolic ones pass)."""
     m, I_c = _as_float_array(mass), _as_float_array(I_com)
     if m is not None and not m > 0:
         raise ValueError(f"mass must be positive, got {mass}")

@@ -66,7 +66,8 @@ frame_pairs = st.lists(
 def poses(draw: st.DrawFn) -> np.ndarray:
     """Random pose built with scipy (independent of the module under test)."""
     H = np.eye(4)
-    H[:3, :3] = Rotation.from_rotvec(draw(arrays(np.float64, 3, elements=st.floats(-3, 3)))).as_matrix()
+    rotation_vector = draw(arrays(np.float64, 3, elements=st.floats(-3.0, 3.0)))
+    H[:3, :3] = Rotation.from_rotvec(rotation_vector).as_matrix()
     H[:3, 3] = draw(vec3)
     return H
 
@@ -399,13 +400,15 @@ def test_symbolic_exp_se3_and_Ad_match_numeric(w, v, theta):
     assert_close(Ad_fn(*w, *v, theta), Ad(H))
 
 
-INERTIA = sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"J{min(i, j) + 1}{max(i, j) + 1}", real=True))
+INERTIA_ENTRIES = J11, J12, J13, J22, J23, J33 = sp.symbols("J11 J12 J13 J22 J23 J33", real=True)
+INERTIA = sp.Matrix([[J11, J12, J13], [J12, J22, J23], [J13, J23, J33]])
+UPPER = np.triu_indices(3)  # row-major upper triangle: the order of INERTIA_ENTRIES
 
 
 @functools.cache
 def symbolic_ad_and_inertia():
     """Numeric functions lambdified from the symbolic ad and spatial_inertia."""
-    inertia_symbols = (MASS, *COM, *INERTIA)
+    inertia_symbols = (MASS, *COM, *INERTIA_ENTRIES)
     return (
         sp.lambdify((*OMEGA, *VEL), ad([*OMEGA, *VEL]), "numpy"),
         sp.lambdify(inertia_symbols, spatial_inertia(MASS, COM, INERTIA), "numpy"),
@@ -417,7 +420,7 @@ def symbolic_ad_and_inertia():
 def test_symbolic_ad_and_spatial_inertia_match_numeric(T, m, c, I_c):
     ad_fn, inertia_fn = symbolic_ad_and_inertia()
     assert_close(ad_fn(*T), ad(T))
-    assert_close(inertia_fn(m, *c, *I_c.ravel()), spatial_inertia(m, c, I_c))
+    assert_close(inertia_fn(m, *c, *I_c[UPPER]), spatial_inertia(m, c, I_c))
 
 
 def test_symbolic_pure_translation_and_planar_pose_are_exact():
