@@ -46,8 +46,23 @@ def model_key(model: Model) -> str:
         except (OSError, TypeError):
             sources.append(cls_name)
     blob = json.dumps({"model": description, "classes": sources, "sympy": sympy.__version__,
-                       "codegen": CODEGEN_VERSION}, sort_keys=True, default=str)
+                       "codegen": CODEGEN_VERSION, "compiler": _compiler_hash()},
+                      sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+def _compiler_hash() -> str:
+    """Hash of the compiler's own source, so that a changed compiler never reuses stale code."""
+    global _COMPILER_HASH
+    if _COMPILER_HASH is None:
+        root = Path(__file__).resolve().parent.parent
+        files = sorted([*root.glob("compiler/*.py"), root / "component.py", root / "expressions.py",
+                        root / "elements.py"])
+        _COMPILER_HASH = hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
+    return _COMPILER_HASH
+
+
+_COMPILER_HASH: str | None = None
 
 
 def _all_components(model: Model):
