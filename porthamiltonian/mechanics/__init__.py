@@ -45,3 +45,7 @@ __all__ = [
     "vee3",
     "vee6",
 ]
+
+from .multibody import Multibody  # noqa: E402  (registers the component type)
+
+__all__ += ["Multibody"]

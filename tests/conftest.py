@@ -1,0 +1,69 @@
+"""Shared fixtures of the porthamiltonian test suite.
+
+* Every test runs with ``PORTHAMILTONIAN_CACHE`` pointing at a session-scoped temporary folder,
+  set before anything is compiled, so the suite never reads or writes ``~/.cache`` (subprocesses
+  started by the tests inherit it).
+* ``compile_named(name)`` compiles a model of ``models/`` with the fast-to-build ``python`` back
+  end (memoized for the session), for tests where the back end does not matter.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pytest
+
+
+@pytest.fixture(scope="session", autouse=True)
+def isolated_cache(tmp_path_factory: pytest.TempPathFactory):
+    """Point the compiled-model cache at a fresh session folder (never ~/.cache)."""
+    path = tmp_path_factory.mktemp("porthamiltonian_cache")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("PORTHAMILTONIAN_CACHE", str(path))
+    yield path
+    mp.undo()
+
+
+@pytest.fixture(scope="session")
+def compile_named(isolated_cache) -> Callable:
+    """``compile_named(name)`` -> CompiledModel of ``models/<name>.toml`` (python back end)."""
+    from porthamiltonian import compile_model, io
+
+    compiled: dict[str, object] = {}
+
+    def _compile(name: str):
+        if name not in compiled:
+            compiled[name] = compile_model(io.load(name), backend="python")
+        return compiled[name]
+
+    return _compile
+
+
+@pytest.fixture(scope="session")
+def model_settings() -> Callable:
+    """``model_settings(name)`` -> the model file's [simulation] table with the CLI defaults."""
+    from porthamiltonian import io
+
+    def _settings(name: str) -> dict:
+        sim = {"method": "Radau", "rtol": 1e-9, "atol": 1e-12, "energy_tolerance": 1e-6}
+        sim.update(io.load(name).simulation)
+        return sim
+
+    return _settings
+
+
+
+@pytest.fixture(scope="session")
+def model_run(compile_named, model_settings) -> Callable:
+    """``model_run(name)`` -> (CompiledModel, Trajectory) simulated with the model file's own
+    [simulation] settings (t_end, method, rtol, atol, max_step), memoized for the session."""
+    runs: dict[str, tuple] = {}
+
+    def _run(name: str):
+        if name not in runs:
+            sim = model_settings(name)
+            model = compile_named(name)
+            options = {k: sim[k] for k in ("method", "rtol", "atol", "max_step") if k in sim}
+            runs[name] = (model, model.simulate(float(sim["t_end"]), **options))
+        return runs[name]
+
+    return _run
