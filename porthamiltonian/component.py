@@ -165,7 +165,8 @@ class Builder:
         symbol = sp.Symbol(f"{self.name}.{name}", real=True)
         if any(s.symbol == symbol for s in self.built.states):
             raise ModelError(f"component {self.name!r} declares state {name!r} twice")
-        init = self.parse(initial, f"initial value of state {name!r}")
+        init = initial if isinstance(initial, sp.Basic) else self.parse(
+            initial, f"initial value of state {name!r}")
         self.built.states.append(StateDecl(symbol, sp.Symbol(f"d({self.name}.{name})/dt", real=True),
                                            unit, init))
         return symbol

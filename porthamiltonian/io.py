@@ -39,8 +39,11 @@ from typing import Any
 
 import tomli_w
 
+import sympy as sp
+
 from .component import Component, component_class
 from .errors import ModelError, ModelFileError
+from .expressions import parse
 from .model import Model
 
 _SECTIONS = {"bonds", "model", "parameters", "components", "events", "outputs", "simulation"}
@@ -127,7 +130,32 @@ def model_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = ""
         raise
     except ModelError as err:
         raise fail(str(err)) from None
+    _check_expressions(model, fail)
+    model.source = source
     return model
+
+
+def _check_expressions(model: Model, fail) -> None:
+    """Parse every expression argument now, so that a misspelt name is reported with its file
+    and line (nested arguments, e.g. of a Multibody, are checked when the model compiles)."""
+    params = {name: sp.Symbol(name, real=True) for name in model.parameters}
+    comps = {name for name, _ in model.components()}
+
+    def dotted(ref: str) -> sp.Symbol | None:
+        return sp.Symbol(ref, real=True) if ref.split(".")[0] in comps else None
+
+    for name, comp in model.components():
+        if isinstance(comp, Model):
+            continue
+        for arg_name, arg in comp.arguments.items():
+            value = comp.args.get(arg_name)
+            if not arg.symbolic or value is None:
+                continue
+            local = {n: sp.Symbol(n, real=True) for n in arg.local}
+            try:
+                parse(value, {**params, **local}, f"component {name!r} argument {arg_name!r}", dotted)
+            except ModelError as err:
+                raise fail(str(err), f"{arg_name} =") from None
 
 
 def _fill(model: Model, data: dict[str, Any], fail) -> None:

@@ -89,6 +89,8 @@ class Model:
         self.events: list[EventSpec] = []
         self.outputs: dict[str, str] = {}
         self.simulation: dict[str, Any] = {}
+        #: the file this model was loaded from, if any (compile errors then name it)
+        self.source: str | None = None
 
     # --- construction ---------------------------------------------------------------------------
     def parameter(self, name: str, value: float, unit: str = "", doc: str = "") -> None:
@@ -162,8 +164,13 @@ class Model:
         t_comp, t_port, t_spec = self._resolve(tail)
         h_comp, h_port, h_spec = self._resolve(head)
         if t_spec is None and h_spec is None:
-            raise ModelError(f"cannot connect two new junction ports ({tail} -> {head}): the bond's "
-                             "domain is unknown; give one junction a 'domain'")
+            declared = [self.component(c).value("domain") for c in (t_comp, h_comp)]
+            domain = next((d for d in declared if d is not None), None)
+            if domain is None:
+                raise ModelError(f"cannot connect two new junction ports ({tail} -> {head}): the "
+                                 "bond's domain is unknown; give one junction a 'domain'")
+            t_spec = self._new_junction_port(t_comp, t_port, Port("bond", domain))
+            t_port = t_spec.name
         if t_spec is None:
             t_spec = self._new_junction_port(t_comp, t_port, h_spec)
             t_port = t_spec.name

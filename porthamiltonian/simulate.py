@@ -7,8 +7,13 @@ Hamiltonian at a reset is booked in the ledger (as dissipated energy by default,
 impact; as supplied energy when the action says so, e.g. a controller switching a stiffness), so
 the residual r = H(t) − H(0) + E_diss − E_in stays closed across events.
 
-A failing or diverging integration ends with a status in the :class:`Trajectory`, never with an
-exception from inside scipy.
+The step loop is our own, over scipy's public step-wise solvers (``scipy.integrate.Radau``, ``BDF``,
+``LSODA``, ``RK45``, ``DOP853``), rather than ``solve_ivp``: all guards are evaluated by one compiled
+call per step, the step's interpolant is built only when a guard changes sign (or when dense output
+is asked for), divergence is a cheap per-step check, a guard that has just fired is kept on its new
+side at the restart (no re-firing at the same crossing), non-terminal events are recorded, and a
+failing step keeps everything integrated before it. A failing or diverging integration ends with a
+status in the :class:`Trajectory`, never with an exception from inside scipy.
 """
 from __future__ import annotations
 
@@ -18,13 +23,17 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.integrate import solve_ivp
+import scipy.integrate as si
+from scipy.integrate import OdeSolution
+from scipy.optimize import brentq
 
 from .compiled import CompiledModel
 from .errors import ModelError, StateError
 from .trajectory import Segment, Trajectory
 
 METHODS = ("Radau", "BDF", "LSODA", "RK45", "DOP853")
+_STIFF = ("Radau", "BDF", "LSODA")
+_EPS = np.finfo(float).eps
 
 
 @dataclass
@@ -62,7 +71,8 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
              *, t_start: float = 0.0, method: str = "Radau", rtol: float = 1e-8, atol: float = 1e-10,
              max_step: float = math.inf, first_step: float | None = None, jacobian: bool = True,
              actions: Mapping[str, Action] | None = None, events: list[Event] | None = None,
-             t_eval: np.ndarray | None = None, max_events: int = 100_000,
+             t_eval: np.ndarray | None = None, dense_output: bool = False,
+             max_events: int = 100_000, max_steps: int = 10_000_000,
              divergence_bound: float = 1e12) -> Trajectory:
     """Simulate ``model`` from ``t_start`` to ``t_end``.
 
@@ -71,13 +81,14 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     x0 : initial model state: an array (length n), a mapping ``{state name: value}`` overriding
         the components' initial values, or None for those values.
     params : parameter values by name (defaults for the others).
-    method : a ``scipy.integrate.solve_ivp`` method; the stiff ones (Radau, BDF, LSODA) get the
-        analytic Jacobian unless ``jacobian=False``.
-    actions : event name -> action, for the model's events. A model event without action is
+    method : Radau, BDF, LSODA (stiff, given the analytic Jacobian unless ``jacobian=False``),
+        RK45 or DOP853.
+    actions : event name -> action (model events or ``events``). An event without action is
         recorded; if it is terminal, the simulation stops there.
     events : extra Python-level events.
-    t_eval : times at which to store the solution (default: the integrator's steps).
-    max_events : bound on events (protects against chattering).
+    t_eval : times at which to store the solution (default: every accepted step).
+    dense_output : keep the interpolants, for :meth:`Trajectory.sol` (costs time).
+    max_events, max_steps : bounds (a chattering guard ends the run with status "failed").
     divergence_bound : the run ends with status "diverged" when max|x| exceeds it.
     """
     if method not in METHODS:
@@ -92,69 +103,29 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     y = model.augment(x)
     if not np.all(np.isfinite(y)):
         raise StateError(f"model {model.name!r}: initial state is not finite: {x}")
+    py_events = list(events or [])
+    names = [e.name for e in model.events] + [e.name for e in py_events]
     actions = dict(actions or {})
-    unknown = set(actions) - {e.name for e in model.events}
+    unknown = set(actions) - set(names)
     if unknown:
-        raise ModelError(f"actions for unknown event(s) {', '.join(sorted(unknown))}; model events: "
-                         f"{', '.join(e.name for e in model.events) or 'none'}")
-    all_events = list(events or [])
-    n = model.n_states
-    f = model.functions
-    traj = Trajectory(model)
-    t = t_start
-    h0 = float(model.energy(t, y, p)[0])
-    traj.h0 = h0
-    n_events = 0
+        raise ModelError(f"actions for unknown event(s) {', '.join(sorted(unknown))}; events: "
+                         f"{', '.join(names) or 'none'}")
+    direction = np.array([e.direction for e in model.events] + [e.direction for e in py_events])
+    terminal = np.array([e.terminal or e.name in actions for e in [*model.events, *py_events]],
+                        dtype=bool)
     t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
+    run = _Run(model, method, rtol, atol, max_step, first_step, jacobian and method in _STIFF,
+               py_events, direction, terminal, t_eval, dense_output, divergence_bound, max_steps)
+    traj = Trajectory(model)
+    traj.h0 = float(model.energy(t_start, y, p)[0])
+    t, fired, n_events = t_start, None, 0
+    n = model.n_states
     while True:
-        pn = model.native_params(p)
-        fun = _rhs(f.rhs, pn)
-        jac = _jac(f.jac, pn) if (jacobian and method in ("Radau", "BDF", "LSODA")) else None
-        ev_funcs = []
-        for i, ev in enumerate(model.events):
-            g = _guard(f.guards, pn, i)
-            g.terminal = ev.terminal or ev.name in actions
-            g.direction = ev.direction
-            ev_funcs.append(g)
-        for ev in all_events:
-            g = _py_guard(ev.guard, n, p)
-            g.terminal, g.direction = ev.terminal, ev.direction
-            ev_funcs.append(g)
-        bound = _divergence(n, divergence_bound)
-        ev_funcs.append(bound)
-        seg_eval = None if t_eval is None else t_eval[(t_eval >= t) & (t_eval <= t_end)]
-        options = {"rtol": rtol, "atol": atol, "max_step": max_step}
-        if first_step is not None:
-            options["first_step"] = first_step
-        if jac is not None:
-            options["jac"] = jac
-        try:
-            with np.errstate(all="ignore"):
-                sol = solve_ivp(fun, (t, t_end), y, method=method, events=ev_funcs or None,
-                                dense_output=True, t_eval=seg_eval, **options)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
-            traj.finish("failed", f"integration failed at t = {t:.6g}: {err}")
+        t_restart = t
+        status, t, y, k = run.segment(traj, t, y, p, t_end, fired)
+        if status != "event":
             return traj
-        traj.add(Segment(sol.t, sol.y, p.copy(), sol.sol), sol.nfev, sol.njev, sol.nlu)
-        if not np.all(np.isfinite(sol.y)):
-            traj.finish("diverged", f"the state became non-finite near t = {sol.t[-1]:.6g}")
-            return traj
-        if sol.status == -1:
-            traj.finish("failed", f"integrator {method} failed at t = {sol.t[-1]:.6g}: {sol.message}")
-            return traj
-        if sol.status == 0:
-            traj.finish("finished", "reached t_end")
-            return traj
-        # a terminal event fired: find which (the earliest one at the final time)
-        t = float(sol.t[-1])
-        y = sol.y[:, -1].copy()
-        fired = [k for k, te in enumerate(sol.t_events)
-                 if len(te) and ev_funcs[k].terminal and te[-1] == sol.t[-1]]
-        k = fired[0]
-        if ev_funcs[k] is bound:
-            traj.finish("diverged", f"max|x| exceeded {divergence_bound:g} at t = {t:.6g}")
-            return traj
-        name = (model.events[k].name if k < len(model.events) else all_events[k - len(model.events)].name)
+        name = names[k]
         traj.record_event(t, name)
         n_events += 1
         if n_events > max_events:
@@ -167,55 +138,173 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
             return traj
         reset = action(t, y[:n].copy(), p.copy())
         h_before = float(model.energy(t, y, p)[0])
+        moved = reset.x is not None and not np.array_equal(np.asarray(reset.x, dtype=float), y[:n])
         if reset.params:
             p = model.params(dict(zip(model.param_names, p)) | dict(reset.params))
         if reset.x is not None:
             new_x = np.asarray(reset.x, dtype=float)
             if new_x.shape != (n,) or not np.all(np.isfinite(new_x)):
                 raise StateError(f"action for event {name!r} returned an invalid state {new_x}")
+            y = y.copy()
             y[:n] = new_x
         jump = float(model.energy(t, y, p)[0]) - h_before
+        y = y.copy()
         if reset.energy == "dissipated":
             y[n] -= jump
         else:
             y[n + 1] += jump
         traj.record_jump(t, name, jump)
+        traj.add(Segment(np.array([t]), y[:, None].copy(), p.copy(), None), 0, 0, 0)
         if reset.stop:
-            traj.add(Segment(np.array([t]), y[:, None], p.copy(), None), 0, 0, 0)
             traj.finish("event", f"stopped by the action of event {name!r} at t = {t:.6g}")
             return traj
         if t >= t_end:
             traj.finish("finished", "reached t_end")
             return traj
+        # a guard that fired after some integration and whose state was not moved sits on its
+        # root: keep it on its new side at the restart so that it does not fire again at the same
+        # crossing. After a reset that moved the state, or an event at the very start of a segment,
+        # guards are taken as they are (a state put back onto a guard and pushed across it again
+        # fires again: a chattering contact, caught by max_events)
+        fired = None if (moved or t == t_restart) else k
 
 
-def _rhs(rhs, pn):
-    def fun(t, y):
-        return rhs(t, y, pn)
-    return fun
+class _Run:
+    """The step loop of one simulation (one continuous segment per call to :meth:`segment`)."""
+
+    def __init__(self, model, method, rtol, atol, max_step, first_step, use_jac, py_events,
+                 direction, terminal, t_eval, dense, bound, max_steps):
+        self.model, self.method = model, method
+        self.options = {"rtol": rtol, "atol": atol, "max_step": max_step}
+        if first_step is not None:
+            self.options["first_step"] = first_step
+        self.use_jac = use_jac
+        self.py_events = py_events
+        self.direction, self.terminal = direction, terminal
+        self.t_eval, self.dense, self.bound = t_eval, dense, bound
+        self.max_steps = max_steps
+        self.n_model_events = len(model.events)
+        self.steps = 0
+
+    def guards(self, t, y, pn, p):
+        n = self.model.n_states
+        g = np.asarray(self.model.functions.guards(t, y, pn))[: self.n_model_events]
+        if self.py_events:
+            g = np.concatenate([g, [e.guard(t, y[:n], p) for e in self.py_events]])
+        return g
+
+    def segment(self, traj, t0, y0, p, t_end, fired):
+        """Integrate from (t0, y0) until t_end or a terminal event; returns (status, t, y, k)."""
+        model, n = self.model, self.model.n_states
+        f = model.functions
+        pn = model.native_params(p)
+        rhs, jacf = f.rhs, f.jac
+
+        def fun(t, y):
+            return rhs(t, y, pn)
+
+        options = dict(self.options)
+        if self.use_jac:
+            options["jac"] = lambda t, y: jacf(t, y, pn)
+        solver = getattr(si, self.method)(fun, t0, y0, t_end, **options)
+        ts, ys, interpolants = [t0], [y0], []
+        if self.t_eval is not None:
+            ts, ys = [], []
+            self._eval_at(ts, ys, None, t0, t0, y0, include_start=True)
+        has_events = len(self.direction) > 0
+        g_old = self.guards(t0, y0, pn, p) if has_events else None
+        if fired is not None:  # keep a guard that just fired on its new side at the restart
+            side = self.direction[fired] or -np.sign(traj.pre_event_sign or 1.0)
+            g_old[fired] = side * max(abs(g_old[fired]), 1e-300)
+
+        def close(status, message, t_last, y_last, k=-1):
+            traj.add(Segment(np.array(ts), np.array(ys).T if ys else np.empty((n + 2, 0)), p.copy(),
+                             OdeSolution([s.t_old for s in interpolants] + [interpolants[-1].t],
+                                         interpolants) if (self.dense and interpolants) else None),
+                     solver.nfev, solver.njev, solver.nlu)
+            if status != "event":
+                traj.finish(status, message)
+            return status, t_last, y_last, k
+
+        while True:
+            t_old = solver.t
+            try:
+                with np.errstate(all="ignore"):
+                    message = solver.step()
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+                return close("failed", f"integration failed at t = {t_old:.6g}: {err}", t_old, None)
+            self.steps += 1
+            if solver.status == "failed":
+                return close("failed", f"{self.method} failed at t = {t_old:.6g}: {message}",
+                             t_old, None)
+            t_new, y_new = solver.t, solver.y
+            if not np.all(np.isfinite(y_new)) or np.max(np.abs(y_new[:n])) > self.bound:
+                return close("diverged", f"max|x| exceeded {self.bound:g} (or became non-finite) "
+                             f"near t = {t_new:.6g}", t_old, None)
+            step_sol = None
+            if self.dense or self.t_eval is not None:
+                step_sol = solver.dense_output()
+                if self.dense:
+                    interpolants.append(step_sol)
+            if has_events:
+                g_new = self.guards(t_new, y_new, pn, p)
+                active = _active(g_old, g_new, self.direction)
+                if len(active):
+                    step_sol = step_sol or solver.dense_output()
+                    roots = []
+                    for k in active:
+                        def gk(t, k=k):
+                            return self.guards(t, step_sol(t), pn, p)[k]
+                        roots.append((brentq(gk, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS), k))
+                    roots.sort()
+                    for t_root, k in roots:
+                        y_root = step_sol(t_root)
+                        if self.terminal[k]:
+                            traj.pre_event_sign = float(np.sign(g_old[k]))
+                            self._eval_at(ts, ys, step_sol, t_old, t_root, y_root)
+                            if self.t_eval is None:
+                                ts.append(t_root)
+                                ys.append(y_root)
+                            if self.dense and interpolants:
+                                interpolants[-1] = _Clipped(interpolants[-1], t_root)
+                            return close("event", "", t_root, y_root, k)
+                        traj.record_event(t_root, (
+                            self.model.events[k].name if k < self.n_model_events
+                            else self.py_events[k - self.n_model_events].name))
+                g_old = g_new
+            self._eval_at(ts, ys, step_sol, t_old, t_new, y_new)
+            if self.t_eval is None:
+                ts.append(t_new)
+                ys.append(y_new.copy())
+            if solver.status == "finished":
+                return close("finished", "reached t_end", t_new, y_new)
+            if self.steps >= self.max_steps:
+                return close("failed", f"more than {self.max_steps} steps (t = {t_new:.6g})",
+                             t_new, y_new)
+
+    def _eval_at(self, ts, ys, step_sol, t_old, t_new, y_new, include_start=False):
+        if self.t_eval is None:
+            return
+        te = self.t_eval
+        mask = ((te >= t_old) if include_start else (te > t_old)) & (te <= t_new)
+        for t in te[mask]:
+            ts.append(float(t))
+            ys.append(y_new.copy() if (step_sol is None or t == t_new) else step_sol(t))
 
 
-def _jac(jac, pn):
-    def fun(t, y):
-        return jac(t, y, pn)
-    return fun
+class _Clipped:
+    """A step interpolant whose step ended early at a terminal event."""
+
+    def __init__(self, inner, t_end):
+        self.inner, self.t_old, self.t = inner, inner.t_old, t_end
+
+    def __call__(self, t):
+        return self.inner(t)
 
 
-def _guard(guards, pn, i):
-    def g(t, y):
-        return guards(t, y, pn)[i]
-    return g
-
-
-def _py_guard(guard, n, p):
-    def g(t, y):
-        return guard(t, y[:n], p)
-    return g
-
-
-def _divergence(n, bound):
-    def g(t, y):
-        return bound - np.max(np.abs(y[:n]))
-    g.terminal = True
-    g.direction = -1
-    return g
+def _active(g, g_new, direction):
+    up = (g <= 0) & (g_new >= 0)
+    down = (g >= 0) & (g_new <= 0)
+    either = up | down
+    mask = (up & (direction > 0)) | (down & (direction < 0)) | (either & (direction == 0))
+    return np.nonzero(mask)[0]

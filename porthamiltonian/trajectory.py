@@ -44,6 +44,7 @@ class Trajectory:
         self.message = ""
         self.nfev = self.njev = self.nlu = 0
         self.h0 = float("nan")
+        self.pre_event_sign = 0.0
         self._cache: dict[str, np.ndarray] = {}
 
     # --- building -------------------------------------------------------------------------------
@@ -127,11 +128,12 @@ class Trajectory:
         out = np.empty((self.model.n_states, len(t_arr)))
         for k, tk in enumerate(t_arr):
             for s in self.segments:
-                if s.t[0] <= tk <= s.t[-1] and s.sol is not None:
+                if s.sol is not None and s.t[0] <= tk <= s.t[-1]:
                     out[:, k] = s.sol(tk)[: self.model.n_states]
                     break
             else:
-                raise ValueError(f"t = {tk} is outside the simulated interval")
+                raise ValueError(f"t = {tk} is outside the simulated interval, or the run was made "
+                                 "without dense_output=True")
         return out[:, 0] if np.ndim(t) == 0 else out
 
     # --- energy ledger --------------------------------------------------------------------------

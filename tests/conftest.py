@@ -63,7 +63,7 @@ def model_run(compile_named, model_settings) -> Callable:
             sim = model_settings(name)
             model = compile_named(name)
             options = {k: sim[k] for k in ("method", "rtol", "atol", "max_step") if k in sim}
-            runs[name] = (model, model.simulate(float(sim["t_end"]), **options))
+            runs[name] = (model, model.simulate(float(sim["t_end"]), dense_output=True, **options))
         return runs[name]
 
     return _run

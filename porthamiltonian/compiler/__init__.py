@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from ..backends import load, resolve, source_with_header
 from ..compiled import CompiledModel
+from ..errors import ModelError, ModelFileError
 from ..model import Model
 from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
@@ -32,7 +33,14 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
     key = cache.model_key(model)
     hit = cache.read(key) if use_cache else None
     if hit is None:
-        sym = symbolic(model)
+        try:
+            sym = symbolic(model)
+        except ModelFileError:
+            raise
+        except ModelError as err:
+            if model.source is None:
+                raise
+            raise ModelFileError(f"{model.source}: {err}") from None
         body = generate(sym)
         meta = {
             "name": sym.name, "state_names": sym.state_names, "param_names": sym.param_names,

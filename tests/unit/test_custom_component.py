@@ -79,7 +79,7 @@ def test_custom_component_equations():
 def test_cubic_spring_oscillator_conserves_energy():
     """Lossless: max |H(t) − H(0)| (= the ledger residual) < 1e-9 of H(0) over ~10 periods."""
     compiled = compile_model(duffing_model(), backend="python")
-    traj = compiled.simulate(20.0, method="DOP853", rtol=1e-12, atol=1e-14)
+    traj = compiled.simulate(20.0, method="DOP853", dense_output=True, rtol=1e-12, atol=1e-14)
     assert traj.status == "finished", traj.message
     H0 = 0.5 * K * X0**2 + 0.25 * C3 * X0**4
     assert traj.h0 == pytest.approx(H0, rel=1e-14)
@@ -96,7 +96,7 @@ def test_cubic_spring_period_matches_independent_solve_ivp():
     to 1e-6 relative, and both agree with the quadrature
     T = 4 ∫₀^A dx / √(2 (V(A) − V(x))/m), V = ½ k x² + ¼ c x⁴ (Nayfeh & Mook ch. 4)."""
     compiled = compile_model(duffing_model(), backend="python")
-    traj = compiled.simulate(12.0, method="DOP853", rtol=1e-12, atol=1e-14)
+    traj = compiled.simulate(12.0, method="DOP853", dense_output=True, rtol=1e-12, atol=1e-14)
     iq = compiled.state_index("spring.q")
     t = traj.t
     crossings = _downward_zero_crossings(t, traj["spring.q"], lambda s: traj.sol(s)[iq])

@@ -265,20 +265,25 @@ def test_exploding_source_ends_with_status_and_message():
     traj = compile_model(_exploding_source(), backend="python").simulate(100.0)
     assert traj.status in ("diverged", "failed")
     assert traj.message
-    # p = (e^{100 t} − 1)/100 reaches 1e12 at t = ln(1e14 + 1)/100 ≈ 0.3224 s
-    assert traj.t_final == pytest.approx(math.log(1e14 + 1) / 100, abs=1e-4)
+    # p = (e^{100 t} − 1)/100 reaches 1e12 at t = ln(1e14 + 1)/100 ≈ 0.3224 s; divergence is
+    # checked once per accepted step, and the run keeps the last step below the bound
+    t_cross = math.log(1e14 + 1) / 100
+    assert t_cross - 2e-3 < traj.t_final <= t_cross
+    assert abs(traj["mass.p"][-1]) <= 1e12
 
 
 def test_overflowing_source_keeps_the_integrated_part_of_the_run():
-    """With a divergence bound too large to trigger, exp(100 t) overflows near t = 7.09 s inside
-    the integrator. The run must still end with a status, and the trajectory must hold what was
-    integrated before the failure (not be empty, and not report the failure at t = 0)."""
+    """With a divergence bound too large to trigger, exp(100 t) overflows inside the integrator
+    (the supplied power F·v overflows first, near t = 3.5 s). The run must still end with a status,
+    and the trajectory must hold what was integrated before the failure (not be empty, and not
+    report the failure at t = 0)."""
     traj = compile_model(_exploding_source(), backend="python").simulate(
         100.0, divergence_bound=1e300, rtol=1e-3, atol=1e-6)
     assert traj.status in ("diverged", "failed")
     assert traj.message
-    assert len(traj.t) > 0
-    assert traj.t_final > 6.5
+    assert len(traj.t) > 100
+    assert traj.t_final > 3.0
+    assert f"t = {traj.t_final:.6g}" in traj.message
 
 
 def test_unknown_integration_method():

@@ -87,7 +87,7 @@ def _check_bounces(traj, n_expected):
 def test_bouncing_ball_model_event_matches_closed_form(ball):
     """Bounce times to 1e-8 s, kinetic energy lost per bounce booked as dissipated (1e-9 relative),
     residual < 1e-9 of the energy scale — with the model's 'ground' event and an action."""
-    traj = ball.simulate(2.5, actions={"ground": bounce_action(ball)}, rtol=1e-12, atol=1e-14)
+    traj = ball.simulate(2.5, actions={"ground": bounce_action(ball)}, dense_output=True, rtol=1e-12, atol=1e-14)
     n = int(np.sum(bounce_times(10) <= 2.5))
     assert n == 4
     _check_bounces(traj, n)
@@ -165,7 +165,7 @@ def test_parameter_switch_booked_as_supplied_energy():
     def stiffen(t, x, p):
         return ph.Reset(params={"k": 8.0}, energy="supplied")
 
-    traj = compiled.simulate(2.0, actions={"switch": stiffen}, method="DOP853", rtol=1e-12,
+    traj = compiled.simulate(2.0, actions={"switch": stiffen}, method="DOP853", dense_output=True, rtol=1e-12,
                              atol=1e-14, max_events=50)  # one crossing: one event
     assert traj.status == "finished"
     assert [name for _, name in traj.events] == ["switch"]

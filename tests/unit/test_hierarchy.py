@@ -109,6 +109,7 @@ def test_two_instances_of_a_sub_model_keep_separate_parameters():
     compiled = compile_model(top, backend="python")
     assert {"left.k", "left.c", "right.k", "right.c"} <= set(compiled.param_names)
     traj = compiled.simulate(3.0, params={"right.k": 16.0, "right.c": 0.0}, method="DOP853",
+                             dense_output=True,
                              rtol=1e-10, atol=1e-13)
     # undamped right oscillator: q = 0.1 cos(4 t); damped left one follows the flat model
     t = np.linspace(0.0, 3.0, 31)

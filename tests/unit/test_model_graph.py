@@ -77,7 +77,7 @@ def test_mass_on_maxwell_element_matches_closed_form(direct):
     ``maxwell_momentum`` to 1e-8 of k q0/ω_d and the ledger closes."""
     compiled = compile_model(mass_on_maxwell_element(direct), backend="python")
     assert set(compiled.state_names) == {"mass.p", "spring.q"}
-    traj = compiled.simulate(5.0, method="DOP853", rtol=1e-11, atol=1e-14)
+    traj = compiled.simulate(5.0, method="DOP853", dense_output=True, rtol=1e-11, atol=1e-14)
     t = np.linspace(0.0, 5.0, 101)
     p = traj.sol(t)[compiled.state_index("mass.p")]
     assert np.max(np.abs(p - maxwell_momentum(t))) < 1e-8 * 4.0 * 0.1 / 2.0

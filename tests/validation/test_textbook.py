@@ -69,7 +69,7 @@ def test_mass_spring_damper_matches_closed_form(compile_named, regime, c, F):
     model = compile_named("mass_spring_damper")
     m, k, x0 = 1.0, 4.0, 0.1
     params = {"m": m, "k": k, "c": c, "F": F, "x0": x0}
-    traj = model.simulate(10.0, params=params, method="DOP853", rtol=1e-10, atol=1e-13)
+    traj = model.simulate(10.0, params=params, method="DOP853", dense_output=True, rtol=1e-10, atol=1e-13)
     assert traj.status == "finished", traj.message
     t = np.linspace(0.0, 10.0, 401)
     q = traj.sol(t)[model.state_index("spring.q")]
@@ -86,7 +86,7 @@ def test_mass_spring_damper_radau_matches_closed_form(compile_named):
     underdamped step response, error < 1e-6·x0 at rtol 1e-10."""
     model = compile_named("mass_spring_damper")
     params = {"m": 1.0, "k": 4.0, "c": 0.4, "F": 0.6, "x0": 0.1}
-    traj = model.simulate(5.0, params=params, rtol=1e-10, atol=1e-13)
+    traj = model.simulate(5.0, params=params, dense_output=True, rtol=1e-10, atol=1e-13)
     t = np.linspace(0.0, 5.0, 201)
     q = traj.sol(t)[model.state_index("spring.q")]
     assert np.max(np.abs(q - msd_closed_form(t, **params))) / 0.1 < 1e-6
@@ -122,7 +122,7 @@ def rlc_charge_step(t, V, L, Cap, Res):
 def rlc_run(compile_named):
     """models/rlc_circuit.toml over 0.3 s (≈ 5 periods), DOP853 at rtol 1e-11."""
     model = compile_named("rlc_circuit")
-    return model, model.simulate(0.3, method="DOP853", rtol=1e-11, atol=1e-16)
+    return model, model.simulate(0.3, method="DOP853", dense_output=True, rtol=1e-11, atol=1e-16)
 
 
 def test_rlc_capacitor_charge_matches_closed_form_step_response(rlc_run):
@@ -178,7 +178,7 @@ def test_dc_motor_slow_time_constant_matches_characteristic_root(compile_named):
     roots = np.roots([L * J, L * b + R * J, R * b + k**2])
     assert np.all(np.isreal(roots))
     s_slow = float(np.max(roots.real))
-    traj = model.simulate(0.4, method="DOP853", rtol=1e-11, atol=1e-16)
+    traj = model.simulate(0.4, method="DOP853", dense_output=True, rtol=1e-11, atol=1e-16)
     omega_ss = k * V / (R * b + k**2)
     t1, t2 = 0.15, 0.35
     omega = traj.sol(np.array([t1, t2]))[model.state_index("rotor.p")] / J
