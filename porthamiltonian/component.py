@@ -93,6 +93,7 @@ class Built:
     storage_ports: list[str] = field(default_factory=list)
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
     matrices: dict[str, sp.Matrix] = field(default_factory=dict)
+    intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
 
 
 class Builder:
@@ -140,6 +141,18 @@ class Builder:
         port = self.port(name).port
         orientation = port.orientation or self._orientation.get(name, "in")
         return 1 if orientation == "in" else -1
+
+    def intermediate(self, name: str, expr: sp.Expr) -> sp.Expr:
+        """A named intermediate ``component.name = expr`` (expr in states, parameters, time and
+        earlier intermediates). The generated code computes it once and differentiates through it
+        by the chain rule, so expressions stay local (e.g. mass-matrix entries and their
+        derivatives). Constants are returned as they are."""
+        expr = sp.sympify(expr)
+        if expr.is_number:
+            return expr
+        symbol = sp.Symbol(f"{self.name}.{name}", real=True)
+        self.built.intermediates.append((symbol, expr))
+        return symbol
 
     def implicit(self, name: str, A: sp.Matrix, rhs: sp.Matrix) -> list[sp.Symbol]:
         """Declare intermediates ``v`` defined by the linear system ``A v = rhs``.

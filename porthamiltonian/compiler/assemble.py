@@ -48,6 +48,7 @@ class SymbolicModel:
     equations: list[str] = field(default_factory=list)
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
     matrices: dict[str, sp.Matrix] = field(default_factory=dict)
+    intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
@@ -113,7 +114,7 @@ def assemble(solution: Solution) -> SymbolicModel:
         rhs=rhs, hamiltonian=H, p_diss=p_diss, p_in=p_in, outputs=outputs, events=events,
         initial=initial,
         equations=[f"{u} = {expr}" for u, expr, _ in solution.order if u in system.derivatives],
-        blocks=system.blocks, matrices=matrices,
+        blocks=system.blocks, matrices=matrices, intermediates=system.intermediates,
     )
 
 
@@ -148,6 +149,21 @@ def power_balance(model: SymbolicModel) -> sp.Expr:
         raise ModelError(f"model {model.name!r} has implicit blocks (e.g. a mass matrix solved "
                          "numerically): check its power balance with CompiledModel.power_balance")
     n = len(model.states)
+    if model.intermediates:
+        return power_balance(_inlined(model))
     dH = sp.diff(model.hamiltonian, TIME) + sum(
         (sp.diff(model.hamiltonian, x) * f for x, f in zip(model.states, model.rhs[:n])), sp.Integer(0))
     return dH - model.p_in + model.p_diss
+
+
+def _inlined(model: SymbolicModel) -> SymbolicModel:
+    """The model with its intermediates substituted (for symbolic checks only)."""
+    from dataclasses import replace
+
+    values: dict[sp.Symbol, sp.Expr] = {}
+    for symbol, expr in model.intermediates:
+        values[symbol] = expr.xreplace(values)
+    return replace(model, rhs=[e.xreplace(values) for e in model.rhs],
+                   hamiltonian=model.hamiltonian.xreplace(values),
+                   p_diss=model.p_diss.xreplace(values), p_in=model.p_in.xreplace(values),
+                   intermediates=[])

@@ -11,6 +11,7 @@ Location: ``$PORTHAMILTONIAN_CACHE`` or ``~/.cache/porthamiltonian``.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import inspect
 import json
@@ -36,19 +37,20 @@ def model_key(model: Model) -> str:
     from ..io import model_to_dict  # io imports the compiler's users; import late
 
     description = model_to_dict(model)
-    classes = sorted({type(c).__module__ + "." + type(c).__qualname__ for c in _all_components(model)})
-    sources = []
-    for cls_name in classes:
-        cls = next(type(c) for c in _all_components(model)
-                   if type(c).__module__ + "." + type(c).__qualname__ == cls_name)
-        try:
-            sources.append(inspect.getsource(cls))
-        except (OSError, TypeError):
-            sources.append(cls_name)
+    classes = {type(c) for c in _all_components(model)}
+    sources = sorted(_class_source(cls) for cls in classes)
     blob = json.dumps({"model": description, "classes": sources, "sympy": sympy.__version__,
                        "codegen": CODEGEN_VERSION, "compiler": _compiler_hash()},
                       sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+@functools.lru_cache(maxsize=None)
+def _class_source(cls: type) -> str:
+    try:
+        return inspect.getsource(cls)
+    except (OSError, TypeError):
+        return f"{cls.__module__}.{cls.__qualname__}"
 
 
 def _compiler_hash() -> str:

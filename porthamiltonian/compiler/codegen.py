@@ -21,6 +21,8 @@ end). The layout of ``x`` and ``p`` is written in the module docstring.
 """
 from __future__ import annotations
 
+import graphlib
+
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
@@ -28,7 +30,7 @@ from ..expressions import TIME
 from .assemble import SymbolicModel
 
 #: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "2"
+CODEGEN_VERSION = "3"
 
 
 class _Printer(PythonCodePrinter):
@@ -40,66 +42,108 @@ class _Printer(PythonCodePrinter):
 
 
 class _Writer:
-    """Writes one generated function: cse'd assignments, block solves, array stores."""
+    """Writes one generated function: cse'd assignments, intermediates and block solves in
+    dependency order (only those the outputs need), then the output arrays."""
 
-    def __init__(self, mapping: dict[sp.Symbol, sp.Expr], blocks, printer: _Printer):
+    def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel, printer: _Printer):
         self.mapping = mapping
-        self.blocks = blocks
+        self.intermediates = model.intermediates
+        self.blocks = model.blocks
         self.printer = printer
-        self.block_symbols = {s for syms, _, _ in blocks for s in syms}
 
-    def function(self, name: str, args: str, groups: list[tuple[str, list[sp.Expr], tuple]],
-                 tail: list[str] | None = None, with_blocks: bool = True) -> str:
-        """``groups``: (array name, flat expressions, shape); ``tail``: extra lines before return."""
-        blocks = self.blocks if with_blocks else []
-        prologue: list[sp.Expr] = []
-        for _, A, b in blocks:
-            prologue += list(A) + list(b)
-        flat = prologue + [e for _, exprs, _ in groups for e in exprs]
+    def function(self, name: str, args: str, groups: list[tuple], tail: list[str] | None = None,
+                 prologue: bool = True, result: str | None = None) -> str:
+        """``groups``: ("array", name, flat expressions, shape) or ("scalars", names, exprs).
+        ``tail``: extra lines before ``return result`` (default: the first array group)."""
+        pr = self.printer.doprint
+        pre: list[sp.Expr] = []
+        if prologue:
+            pre += [expr for _, expr in self.intermediates]
+            for _, A, b in self.blocks:
+                pre += list(A) + list(b)
+        flat = pre + [e for g in groups for e in g[2]]
         flat = [sp.sympify(e).xreplace(self.mapping) for e in flat]
         replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("_c"), order="none")
-        lines = [f"def {name}({args}):"]
-        # replacements that do not depend on block unknowns go before the solves
-        late = {self.mapping[s] for s in self.block_symbols if s in self.mapping}
-        before, after = [], []
+        # assignment nodes: target names -> (dependencies, lines)
+        nodes: list[tuple[list[str], set[str], list[str]]] = []
         for sym, expr in replacements:
-            (after if expr.free_symbols & late else before).append((sym, expr))
-            if expr.free_symbols & late:
-                late.add(sym)
-        lines += [f"    {s} = {self.printer.doprint(e)}" for s, e in before]
+            nodes.append(([str(sym)], {str(s) for s in expr.free_symbols}, [f"    {sym} = {pr(expr)}"]))
         k = 0
-        for index, (syms, A, b) in enumerate(blocks):
-            n = len(syms)
-            lines.append(f"    _A{index} = np.empty(({n}, {n}))")
-            lines.append(f"    _b{index} = np.empty({n})")
-            for i in range(n):
-                for j in range(n):
-                    lines.append(f"    _A{index}[{i}, {j}] = {self.printer.doprint(reduced[k])}")
-                    k += 1
-            for i in range(n):
-                lines.append(f"    _b{index}[{i}] = {self.printer.doprint(reduced[k])}")
+        if prologue:
+            for symbol, _ in self.intermediates:
+                target = str(self.mapping[symbol])
+                expr = reduced[k]
                 k += 1
-            lines.append(f"    _v{index} = np.linalg.solve(_A{index}, _b{index})")
-            for i, s in enumerate(syms):
-                lines.append(f"    {self.printer.doprint(self.mapping[s])} = _v{index}[{i}]")
-        lines += [f"    {s} = {self.printer.doprint(e)}" for s, e in after]
-        for array, exprs, shape in groups:
-            if len(shape) == 2:
-                lines.append(f"    {array} = np.zeros(({shape[0]}, {shape[1]}))")
-            else:
-                lines.append(f"    {array} = np.empty({shape[0]})")
+                nodes.append(([target], {str(s) for s in expr.free_symbols},
+                              [f"    {target} = {pr(expr)}"]))
+            for index, (syms, A, b) in enumerate(self.blocks):
+                n = len(syms)
+                lines = [f"    _A{index} = np.empty(({n}, {n}))", f"    _b{index} = np.empty({n})"]
+                deps: set[str] = set()
+                for i in range(n):
+                    for j in range(n):
+                        lines.append(f"    _A{index}[{i}, {j}] = {pr(reduced[k])}")
+                        deps |= {str(s) for s in reduced[k].free_symbols}
+                        k += 1
+                for i in range(n):
+                    lines.append(f"    _b{index}[{i}] = {pr(reduced[k])}")
+                    deps |= {str(s) for s in reduced[k].free_symbols}
+                    k += 1
+                lines.append(f"    _s{index} = np.linalg.solve(_A{index}, _b{index})")
+                targets = [str(self.mapping[s]) for s in syms]
+                lines += [f"    {t} = _s{index}[{i}]" for i, t in enumerate(targets)]
+                nodes.append((targets, deps, lines))
+        owner = {t: i for i, (targets, _, _) in enumerate(nodes) for t in targets}
+        out_lines: list[str] = []
+        needed: set[str] = set()
+        body: list[str] = []
+        for group in groups:
+            kind, gname, exprs = group[0], group[1], group[2]
+            if kind == "array":
+                shape = group[3]
+                if len(shape) == 2:
+                    body.append(f"    {gname} = np.zeros(({shape[0]}, {shape[1]}))")
+                else:
+                    body.append(f"    {gname} = np.empty({shape[0]})")
             for index in range(len(exprs)):
                 expr = reduced[k]
                 k += 1
-                if len(shape) == 2:
-                    i, j = divmod(index, shape[1])
+                needed |= {str(s) for s in expr.free_symbols}
+                if kind == "scalars":
+                    body.append(f"    {gname[index]} = {pr(expr)}")
+                elif len(group[3]) == 2:
+                    i, j = divmod(index, group[3][1])
                     if expr != 0:
-                        lines.append(f"    {array}[{i}, {j}] = {self.printer.doprint(expr)}")
+                        body.append(f"    {gname}[{i}, {j}] = {pr(expr)}")
                 else:
-                    lines.append(f"    {array}[{index}] = {self.printer.doprint(expr)}")
-        lines += tail or []
-        lines.append(f"    return {groups[0][0] if not tail else 'out'}")
+                    body.append(f"    {gname}[{index}] = {pr(expr)}")
+        # emit the nodes the outputs need, in dependency order
+        order = graphlib.TopologicalSorter()
+        wanted, stack = set(), [owner[n] for n in needed if n in owner]
+        while stack:
+            i = stack.pop()
+            if i in wanted:
+                continue
+            wanted.add(i)
+            stack += [owner[d] for d in nodes[i][1] if d in owner]
+        for i in wanted:
+            order.add(i, *{owner[d] for d in nodes[i][1] if d in owner})
+        for i in order.static_order():
+            out_lines += nodes[i][2]
+        lines = [f"def {name}({args}):", *out_lines, *body, *(tail or [])]
+        lines.append(f"    return {result or groups[0][1]}")
         return "\n".join(lines)
+
+
+def jacobian(exprs: sp.Matrix, variables: list[sp.Symbol]) -> sp.Matrix:
+    """∂exprs/∂variables, differentiating each entry only by the variables it contains."""
+    index = {v: j for j, v in enumerate(variables)}
+    out = sp.zeros(exprs.shape[0], len(variables))
+    for i, expr in enumerate(exprs):
+        for v in expr.free_symbols:
+            if v in index:
+                out[i, index[v]] = sp.diff(expr, v)
+    return out
 
 
 def _padded(exprs: list[sp.Expr]) -> list[sp.Expr]:
@@ -115,9 +159,11 @@ def generate(model: SymbolicModel) -> str:
     mapping: dict[sp.Symbol, sp.Expr] = {s: x[i] for i, s in enumerate(all_states)}
     mapping.update({s: p[j] for j, s in enumerate(model.params)})
     mapping[TIME] = sp.Symbol("t")
-    block_syms = [s for syms, _, _ in model.blocks for s in syms]
-    mapping.update({s: sp.Symbol(f"_w{i}") for i, s in enumerate(block_syms)})
-    writer = _Writer(mapping, model.blocks, printer)
+    ws = [w for w, _ in model.intermediates]
+    vs = [s for syms, _, _ in model.blocks for s in syms]
+    mapping.update({w: sp.Symbol(f"_w{i}") for i, w in enumerate(ws)})
+    mapping.update({v: sp.Symbol(f"_v{i}") for i, v in enumerate(vs)})
+    writer = _Writer(mapping, model, printer)
     n = len(all_states)
     rhs = sp.Matrix(model.rhs)
     header = ['"""Generated by porthamiltonian for model %r. Do not edit.' % model.name, "",
@@ -125,33 +171,56 @@ def generate(model: SymbolicModel) -> str:
     header += [f"  x[{i}] = {s}" for i, s in enumerate(all_states)]
     header += ["Parameter layout p:"] + [f"  p[{j}] = {s}" for j, s in enumerate(model.params)]
     header += ['"""']
-    parts = ["\n".join(header), writer.function("rhs", "t, x, p", [("out", model.rhs, (n,))])]
-    if block_syms:
-        nv = len(block_syms)
-        A = sp.diag(*[blk[1] for blk in model.blocks])
-        b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
-        v = sp.Matrix(block_syms)
-        dres = b.jacobian(all_states) - (A * v).jacobian(all_states)   # v held fixed
-        parts.append(writer.function("jac", "t, x, p", [
-            ("_Fx", list(rhs.jacobian(all_states)), (n, n)),
-            ("_Fv", list(rhs.jacobian(v)), (n, nv)),
-            ("_Rb", list(dres), (nv, n)),
-            ("_Ab", list(A), (nv, nv)),
-        ], tail=["    out = _Fx + _Fv @ np.linalg.solve(_Ab, _Rb)"]))
-    else:
-        parts.append(writer.function("jac", "t, x, p", [("out", list(rhs.jacobian(all_states)),
-                                                         (n, n))]))
+    parts = ["\n".join(header), writer.function("rhs", "t, x, p", [("array", "out", model.rhs, (n,))])]
+    parts.append(_jacobian_function(writer, model, rhs, all_states, ws, vs))
     parts += [
-        writer.function("energy", "t, x, p", [("out", [model.hamiltonian, model.p_diss,
-                                                       model.p_in], (3,))]),
-        writer.function("outputs", "t, x, p", [("out", _padded(list(model.outputs.values())),
-                                                    (max(len(model.outputs), 1),))]),
-        writer.function("guards", "t, x, p", [("out", _padded([g for _, g in model.events]),
-                                                   (max(len(model.events), 1),))]),
-        writer.function("initial", "p", [("out", _padded(model.initial),
-                                              (max(len(model.initial), 1),))], with_blocks=False),
+        writer.function("energy", "t, x, p", [("array", "out", [model.hamiltonian, model.p_diss,
+                                                                  model.p_in], (3,))]),
+        writer.function("outputs", "t, x, p", [("array", "out", _padded(list(model.outputs.values())),
+                                                  (max(len(model.outputs), 1),))]),
+        writer.function("guards", "t, x, p", [("array", "out", _padded([g for _, g in model.events]),
+                                                 (max(len(model.events), 1),))]),
+        writer.function("initial", "p", [("array", "out", _padded(model.initial),
+                                            (max(len(model.initial), 1),))], prologue=False),
     ]
     for k, (name, matrix) in enumerate(model.matrices.items()):
         parts.append(writer.function(f"matrix_{k}", "t, x, p",
-                                     [("out", list(matrix), matrix.shape)]))
+                                     [("array", "out", list(matrix), matrix.shape)]))
     return "\n\n\n".join(parts) + "\n"
+
+
+def _jacobian_function(writer: _Writer, model: SymbolicModel, rhs: sp.Matrix, xs, ws, vs) -> str:
+    """∂ẋ/∂x through intermediates w (forward chain rule, row by row with only the nonzero
+    partials) and implicit blocks A v = b (v' = A⁻¹ ∂(b − A v)/∂x, v held fixed)."""
+    n, nw, nv = len(xs), len(ws), len(vs)
+    if not ws and not vs:
+        return writer.function("jac", "t, x, p", [("array", "out", list(jacobian(rhs, xs)), (n, n))])
+    groups: list[tuple] = [("array", "_Fx", list(jacobian(rhs, xs)), (n, n))]
+    tail: list[str] = []
+    if nw:
+        defs = sp.Matrix([expr for _, expr in model.intermediates])
+        Gw = jacobian(defs, ws)
+        chain = [(m, j) for m in range(nw) for j in range(nw) if Gw[m, j] != 0]
+        groups += [("array", "_Fw", list(jacobian(rhs, ws)), (n, nw)),
+                   ("array", "_Gx", list(jacobian(defs, xs)), (nw, n)),
+                   ("scalars", [f"_g{m}_{j}" for m, j in chain], [Gw[m, j] for m, j in chain])]
+        tail.append(f"    _Dw = _Gx")
+        for m, j in chain:  # rows in order: _Dw[j] is final before it is used (j < m)
+            tail.append(f"    _Dw[{m}, :] += _g{m}_{j} * _Dw[{j}, :]")
+        tail.append("    out = _Fx + _Fw @ _Dw")
+    else:
+        tail.append("    out = _Fx")
+    if nv:
+        A = sp.diag(*[blk[1] for blk in model.blocks])
+        b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
+        res = b - A * sp.Matrix(vs)
+        groups += [("array", "_Fv", list(jacobian(rhs, vs)), (n, nv)),
+                   ("array", "_Bx", list(jacobian(res, xs)), (nv, n)),
+                   ("array", "_Ab", list(A), (nv, nv))]
+        if nw:
+            groups.append(("array", "_Bw", list(jacobian(res, ws)), (nv, nw)))
+            tail.append("    _R = _Bx + _Bw @ _Dw")
+        else:
+            tail.append("    _R = _Bx")
+        tail.append("    out = out + _Fv @ np.linalg.solve(_Ab, _R)")
+    return writer.function("jac", "t, x, p", groups, tail=tail, result="out")

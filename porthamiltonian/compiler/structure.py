@@ -53,6 +53,7 @@ class System:
     aliases: dict[sp.Symbol, sp.Symbol]             # head port symbol -> tail port symbol
     owner: dict[sp.Symbol, str] = field(default_factory=dict)   # unknown -> component
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
+    intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
 
 
 @dataclass
@@ -119,6 +120,16 @@ def build_system(flat: FlatModel) -> System:
             owner[s.derivative] = cname
     unknowns = list(dict.fromkeys([*(u for u in owner if u not in derivatives), *derivatives]))
     known = {*params.values(), *states, TIME}
+    intermediates = []
+    for cname, b in built.items():
+        for symbol, expr in b.intermediates:
+            stray = expr.free_symbols - known
+            if stray:
+                raise UnknownParameterError(
+                    f"component {cname!r}: intermediate {symbol} may depend on states, parameters, "
+                    f"time and earlier intermediates only, not on {', '.join(sorted(map(str, stray)))}")
+            intermediates.append((symbol, expr))
+            known.add(symbol)
     blocks = []
     for cname, b in built.items():
         for symbols, A, rhs in b.blocks:
@@ -137,7 +148,7 @@ def build_system(flat: FlatModel) -> System:
                 "is not a parameter, state or port variable of the model"
             )
     return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner,
-                  blocks)
+                  blocks, intermediates)
 
 
 def _flat(x) -> list[sp.Symbol]:

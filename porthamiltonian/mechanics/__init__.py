@@ -49,3 +49,7 @@ __all__ = [
 from .multibody import Multibody  # noqa: E402  (registers the component type)
 
 __all__ += ["Multibody"]
+
+from .free_body import FreeBody  # noqa: E402  (registers the component type)
+
+__all__ += ["FreeBody"]
