@@ -42,61 +42,59 @@ class _Printer(PythonCodePrinter):
 
 
 class _Writer:
-    """Writes one generated function: cse'd assignments, intermediates and block solves in
-    dependency order (only those the outputs need), then the output arrays."""
+    """Writes the generated functions. The intermediates and block solves (the prologue) are
+    cse'd once and shared; each function cse's its own outputs, then emits in dependency order
+    only the prologue nodes it needs, then its output arrays."""
 
     def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel, printer: _Printer):
         self.mapping = mapping
-        self.intermediates = model.intermediates
-        self.blocks = model.blocks
         self.printer = printer
+        pr = printer.doprint
+        pre: list[sp.Expr] = [expr for _, expr in model.intermediates]
+        for _, A, b in model.blocks:
+            pre += list(A) + list(b)
+        pre = [sp.sympify(e).xreplace(mapping) for e in pre]
+        replacements, reduced = sp.cse(pre, symbols=sp.numbered_symbols("_p"), order="none")
+        # assignment nodes: (target names, dependencies, lines)
+        self.nodes: list[tuple[list[str], set[str], list[str]]] = [
+            ([str(sym)], {str(s) for s in expr.free_symbols}, [f"    {sym} = {pr(expr)}"])
+            for sym, expr in replacements]
+        k = 0
+        for symbol, _ in model.intermediates:
+            target = str(mapping[symbol])
+            self.nodes.append(([target], {str(s) for s in reduced[k].free_symbols},
+                               [f"    {target} = {pr(reduced[k])}"]))
+            k += 1
+        for index, (syms, A, b) in enumerate(model.blocks):
+            n = len(syms)
+            lines = [f"    _A{index} = np.empty(({n}, {n}))", f"    _b{index} = np.empty({n})"]
+            deps: set[str] = set()
+            for i in range(n):
+                for j in range(n):
+                    lines.append(f"    _A{index}[{i}, {j}] = {pr(reduced[k])}")
+                    deps |= {str(s) for s in reduced[k].free_symbols}
+                    k += 1
+            for i in range(n):
+                lines.append(f"    _b{index}[{i}] = {pr(reduced[k])}")
+                deps |= {str(s) for s in reduced[k].free_symbols}
+                k += 1
+            lines.append(f"    _s{index} = np.linalg.solve(_A{index}, _b{index})")
+            targets = [str(mapping[s]) for s in syms]
+            lines += [f"    {t} = _s{index}[{i}]" for i, t in enumerate(targets)]
+            self.nodes.append((targets, deps, lines))
+        self.owner = {t: i for i, (targets, _, _) in enumerate(self.nodes) for t in targets}
 
     def function(self, name: str, args: str, groups: list[tuple], tail: list[str] | None = None,
                  prologue: bool = True, result: str | None = None) -> str:
         """``groups``: ("array", name, flat expressions, shape) or ("scalars", names, exprs).
         ``tail``: extra lines before ``return result`` (default: the first array group)."""
         pr = self.printer.doprint
-        pre: list[sp.Expr] = []
-        if prologue:
-            pre += [expr for _, expr in self.intermediates]
-            for _, A, b in self.blocks:
-                pre += list(A) + list(b)
-        flat = pre + [e for g in groups for e in g[2]]
-        flat = [sp.sympify(e).xreplace(self.mapping) for e in flat]
+        flat = [sp.sympify(e).xreplace(self.mapping) for g in groups for e in g[2]]
         replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("_c"), order="none")
-        # assignment nodes: target names -> (dependencies, lines)
-        nodes: list[tuple[list[str], set[str], list[str]]] = []
-        for sym, expr in replacements:
-            nodes.append(([str(sym)], {str(s) for s in expr.free_symbols}, [f"    {sym} = {pr(expr)}"]))
-        k = 0
-        if prologue:
-            for symbol, _ in self.intermediates:
-                target = str(self.mapping[symbol])
-                expr = reduced[k]
-                k += 1
-                nodes.append(([target], {str(s) for s in expr.free_symbols},
-                              [f"    {target} = {pr(expr)}"]))
-            for index, (syms, A, b) in enumerate(self.blocks):
-                n = len(syms)
-                lines = [f"    _A{index} = np.empty(({n}, {n}))", f"    _b{index} = np.empty({n})"]
-                deps: set[str] = set()
-                for i in range(n):
-                    for j in range(n):
-                        lines.append(f"    _A{index}[{i}, {j}] = {pr(reduced[k])}")
-                        deps |= {str(s) for s in reduced[k].free_symbols}
-                        k += 1
-                for i in range(n):
-                    lines.append(f"    _b{index}[{i}] = {pr(reduced[k])}")
-                    deps |= {str(s) for s in reduced[k].free_symbols}
-                    k += 1
-                lines.append(f"    _s{index} = np.linalg.solve(_A{index}, _b{index})")
-                targets = [str(self.mapping[s]) for s in syms]
-                lines += [f"    {t} = _s{index}[{i}]" for i, t in enumerate(targets)]
-                nodes.append((targets, deps, lines))
-        owner = {t: i for i, (targets, _, _) in enumerate(nodes) for t in targets}
-        out_lines: list[str] = []
-        needed: set[str] = set()
+        local = [f"    {sym} = {pr(expr)}" for sym, expr in replacements]
+        needed = {str(s) for _, expr in replacements for s in expr.free_symbols}
         body: list[str] = []
+        k = 0
         for group in groups:
             kind, gname, exprs = group[0], group[1], group[2]
             if kind == "array":
@@ -117,20 +115,21 @@ class _Writer:
                         body.append(f"    {gname}[{i}, {j}] = {pr(expr)}")
                 else:
                     body.append(f"    {gname}[{index}] = {pr(expr)}")
-        # emit the nodes the outputs need, in dependency order
-        order = graphlib.TopologicalSorter()
-        wanted, stack = set(), [owner[n] for n in needed if n in owner]
-        while stack:
-            i = stack.pop()
-            if i in wanted:
-                continue
-            wanted.add(i)
-            stack += [owner[d] for d in nodes[i][1] if d in owner]
-        for i in wanted:
-            order.add(i, *{owner[d] for d in nodes[i][1] if d in owner})
-        for i in order.static_order():
-            out_lines += nodes[i][2]
-        lines = [f"def {name}({args}):", *out_lines, *body, *(tail or [])]
+        pre_lines: list[str] = []
+        if prologue:
+            wanted, stack = set(), [self.owner[n] for n in needed if n in self.owner]
+            while stack:
+                i = stack.pop()
+                if i in wanted:
+                    continue
+                wanted.add(i)
+                stack += [self.owner[d] for d in self.nodes[i][1] if d in self.owner]
+            order = graphlib.TopologicalSorter()
+            for i in sorted(wanted):
+                order.add(i, *sorted({self.owner[d] for d in self.nodes[i][1] if d in self.owner}))
+            for i in order.static_order():
+                pre_lines += self.nodes[i][2]
+        lines = [f"def {name}({args}):", *pre_lines, *local, *body, *(tail or [])]
         lines.append(f"    return {result or groups[0][1]}")
         return "\n".join(lines)
 

@@ -66,7 +66,7 @@ def _inertia_rows(value: Any) -> list[list]:
     try:
         numeric = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        return [list(r) for r in value]          # symbolic entries: checked at run time by nobody
+        return [list(r) for r in value]          # symbolic entries: bound at run time, unchecked
     if not np.allclose(numeric, numeric.T, rtol=1e-12, atol=0.0):
         raise ModelError(f"FreeBody inertia must be symmetric, got {numeric.tolist()}")
     eig = np.linalg.eigvalsh(numeric)
@@ -74,28 +74,6 @@ def _inertia_rows(value: Any) -> list[list]:
         raise ModelError(f"FreeBody inertia must be positive definite, got eigenvalues "
                          f"{eig.tolist()}")
     return [list(r) for r in value]
-
-
-def quaternion_rotation(q: sp.Matrix) -> sp.Matrix:
-    """Rotation matrix ``R(q)`` (body to world) of the quaternion ``q = (w, x, y, z)``.
-
-    Hamilton convention: ``R(q) u = q ⊗ (0, u) ⊗ q*`` for a unit quaternion. Here ``q`` need not be
-    unit: the result is the rotation of ``q / |q|`` (the quadratic form divided by ``|q|²``).
-    """
-    w, x, y, z = q
-    R = sp.Matrix([
-        [w**2 + x**2 - y**2 - z**2, 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), w**2 - x**2 + y**2 - z**2, 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), w**2 - x**2 - y**2 + z**2],
-    ])
-    return R / (w**2 + x**2 + y**2 + z**2)
-
-
-def quaternion_rate(q: sp.Matrix, omega: sp.Matrix) -> sp.Matrix:
-    """``q̇ = ½ q ⊗ (0, ω)`` for the body angular velocity ω (Hamilton product, (w, x, y, z))."""
-    w = q[0]
-    u = sp.Matrix(q[1:])
-    return sp.Matrix([-(u.T * omega)[0, 0] / 2, *((w * omega + u.cross(omega)) / 2)])
 
 
 @register
@@ -183,6 +161,8 @@ class FreeBody(Component):
     * ``T`` — kinetic energy ½ Pᵀ T [J]; ``V`` — potential energy [J] (names as in Multibody);
     * ``q_norm`` — |q| [1], 1 for the exact flow (a measure of integration drift).
 
+    **Matrix** ``<body>.inertia``: the 6x6 spatial inertia 𝕀 about B's origin, in B.
+
     References
     ----------
     S. Stramigioli, H. Bruyninckx, *Geometry and Screw Theory for Robotics*, tutorial, IEEE ICRA
@@ -224,6 +204,30 @@ class FreeBody(Component):
         if quat is not None and all(isinstance(v, (int, float)) for v in quat) and not any(quat):
             raise ModelError("FreeBody quaternion0 must not be zero (identity: [1, 0, 0, 0])")
 
+    # The kinematic helpers live in the class so that their source is part of the compiled-model
+    # cache key (the cache hashes the source of component classes, not of module functions).
+    @staticmethod
+    def rotation(q: sp.Matrix) -> sp.Matrix:
+        """Rotation matrix ``R(q)`` (body to world) of the quaternion ``q = (w, x, y, z)``.
+
+        Hamilton convention: ``R(q) u = q ⊗ (0, u) ⊗ q*`` for a unit quaternion. Here ``q`` need
+        not be unit: the result is the rotation of ``q / |q|`` (quadratic form divided by |q|²).
+        """
+        w, x, y, z = q
+        R = sp.Matrix([
+            [w**2 + x**2 - y**2 - z**2, 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), w**2 - x**2 + y**2 - z**2, 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), w**2 - x**2 - y**2 + z**2],
+        ])
+        return R / (w**2 + x**2 + y**2 + z**2)
+
+    @staticmethod
+    def quaternion_rate(q: sp.Matrix, omega: sp.Matrix) -> sp.Matrix:
+        """``q̇ = ½ q ⊗ (0, ω)``, ω the body angular velocity (Hamilton, q = (w, x, y, z))."""
+        w = q[0]
+        u = sp.Matrix(q[1:])
+        return sp.Matrix([-(u.T * omega)[0, 0] / 2, *((w * omega + u.cross(omega)) / 2)])
+
     def ports(self) -> list[Port]:
         return [Port("body", "screw", 6, None, "body",
                      "wrench (torque, force) on the body / body twist (omega, v), body frame",
@@ -254,7 +258,7 @@ class FreeBody(Component):
         P = sp.Matrix(L + p)
         T = sp.Matrix(b.implicit("T", inertia6, P))                # 𝕀 T = P, solved numerically
         omega, v = T[:3, :], T[3:, :]
-        R = quaternion_rotation(q)                                  # R_W_B
+        R = self.rotation(q)                                        # R_W_B
 
         f_g = R.T * (mass * g)                                      # weight, B's axes
         W_g = sp.Matrix.vstack(c.cross(f_g), f_g)                   # at the CoM, about B's origin
@@ -266,7 +270,7 @@ class FreeBody(Component):
             b.equation(b.der(state), rate, "dP/dt = ad_T' P + W_g + s W (Lie-Poisson)")
         for state, rate in zip(r, R * v):
             b.equation(b.der(state), rate, "dr/dt = R(q) v")
-        for state, rate in zip(q, quaternion_rate(q, omega)):
+        for state, rate in zip(q, self.quaternion_rate(q, omega)):
             b.equation(b.der(state), rate, "dq/dt = 1/2 q (x) (0, omega)")
 
         com_world = r + R * c
@@ -286,4 +290,4 @@ class FreeBody(Component):
         b.matrix("inertia", inertia6)
 
 
-__all__ = ["FreeBody", "quaternion_rate", "quaternion_rotation"]
+__all__ = ["FreeBody"]

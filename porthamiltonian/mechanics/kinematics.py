@@ -13,6 +13,7 @@ General 3D chains fall back to matrix products where axes differ; results are ex
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -47,7 +48,7 @@ class Rotation:
             return sp.Matrix(self.general)
         if self.is_identity:
             return sp.eye(3)
-        return sp.Matrix(exp_so3(sp.Matrix(self.axis), self.angle))
+        return sp.Matrix(_axis_angle_matrix(self.axis, self.angle))
 
     def __matmul__(self, other: Rotation) -> Rotation:
         if self.is_identity:
@@ -69,6 +70,19 @@ class Rotation:
         if self.is_identity:
             return ("I",)
         return ("aa", self.axis, self.angle) if self.general is None else ("M", self.general)
+
+
+@functools.lru_cache(maxsize=65536)
+def _axis_angle_matrix(axis: tuple, angle: sp.Expr) -> sp.ImmutableMatrix:
+    """Rotation matrix of (axis, angle), cached: the same relative rotations recur many times."""
+    c, s = sp.cos(angle), sp.sin(angle)
+    if axis == (0, 1, 0):
+        return sp.ImmutableMatrix([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    if axis == (1, 0, 0):
+        return sp.ImmutableMatrix([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == (0, 0, 1):
+        return sp.ImmutableMatrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    return sp.ImmutableMatrix(exp_so3(sp.Matrix(axis), angle))
 
 
 @dataclass(frozen=True)

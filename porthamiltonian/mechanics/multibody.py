@@ -136,6 +136,11 @@ class Multibody(Component):
         parent_of: dict[str, str] = {}
         for name, joint in joints.items():
             where = f"Multibody joint {name!r}"
+            extra = set(joint) - {"type", "parent", "child", "axis", "axes", "origin", "q0", "v0"}
+            if extra:
+                raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: type, "
+                                 "parent, child, axis (revolute, prismatic), axes (translational), "
+                                 "origin, q0, v0")
             jtype = joint.get("type")
             if jtype not in _JOINT_TYPES:
                 raise ModelError(f"{where}: type must be one of {', '.join(_JOINT_TYPES)}, got {jtype!r}")
@@ -315,17 +320,34 @@ class Multibody(Component):
                         for c in coords])
         p0 = M.xreplace(q0) * v0
         p = [b.state(f"p.{c[1]}", initial=p0[k]) for k, c in enumerate(coords)]
-        v = b.implicit("v", M, sp.Matrix(p))
+
+        # intermediates keep the generated code local: mass-matrix entries, their derivatives
+        # (for the Coriolis terms ½ vᵀ ∂M/∂q_k v) and the point Jacobians are computed once, and
+        # the Jacobian of the state equations goes through them by the chain rule
+        Mw = sp.zeros(n, n)
+        dM: dict[int, list[tuple[int, int, sp.Expr]]] = {k: [] for k in range(n)}
+        for i in range(n):
+            for j in range(i, n):
+                Mw[i, j] = Mw[j, i] = b.intermediate(f"M.{i}.{j}", M[i, j])
+                for k in range(n):
+                    d = sp.diff(M[i, j], q[k])
+                    if d != 0:
+                        dM[k].append((i, j, b.intermediate(f"dM.{i}.{j}.{k}", d)))
+        v = b.implicit("v", Mw, sp.Matrix(p))
+        vvec = sp.Matrix(v)
 
         Q = [sp.Integer(0)] * n
-        vvec = sp.Matrix(v)
         dims = [("x", 0), ("y", 1), ("z", 2)]
         keep = [i for name, i in dims if name in self._point_dims()]
+        point_jacobians: dict[str, sp.Matrix] = {}
+        for point, pos in points.items():
+            Jp = sp.Matrix([pos[i] for i in keep]).jacobian(q)
+            point_jacobians[point] = sp.Matrix(Jp.rows, Jp.cols, lambda r, c, point=point, Jp=Jp:
+                                               b.intermediate(f"J.{point}.{r}.{c}", Jp[r, c]))
         for port_name, pv in b.built.ports.items():
             s = b.sign(port_name)
             if port_name in points:
-                pos = sp.Matrix([points[port_name][i] for i in keep])
-                Jp = pos.jacobian(q)
+                Jp = point_jacobians[port_name]
                 efforts = sp.Matrix(pv.e) if pv.port.dim > 1 else sp.Matrix([pv.e])
                 flows = sp.Matrix(pv.f) if pv.port.dim > 1 else sp.Matrix([pv.f])
                 b.equation(flows, Jp * vvec, "point velocity = J(q) v")
@@ -340,8 +362,10 @@ class Multibody(Component):
                     Q[k] = Q[k] + s * e
         for k in range(n):
             b.equation(b.der(q[k]), v[k], "dq/dt = v, M(q) v = p")
-            coriolis = (vvec.T * M.diff(q[k]) * vvec)[0, 0] / 2
-            b.equation(b.der(p[k]), coriolis - sp.diff(V, q[k]) + Q[k],
+            coriolis = sum(((v[i] * v[j] if i != j else v[i] ** 2 / 2) * d for i, j, d in dM[k]),
+                           sp.Integer(0))
+            gravity_force = b.intermediate(f"dV.{k}", -sp.diff(V, q[k]))
+            b.equation(b.der(p[k]), coriolis + gravity_force + Q[k],
                        "dp/dt = 1/2 v' dM/dq v - dV/dq + Q")
         kinetic = (sp.Matrix(p).T * vvec)[0, 0] / 2
         b.energy(kinetic + V)
@@ -350,8 +374,8 @@ class Multibody(Component):
         for point, pos in points.items():
             for name, i in dims:
                 b.output(f"{point}.{name}", pos[i])
-            b.matrix(f"J.{point}", sp.Matrix([pos[i] for i in keep]).jacobian(q))
-        b.matrix("M", M)
+            b.matrix(f"J.{point}", point_jacobians[point])
+        b.matrix("M", Mw)
 
     def _tree_order(self) -> list[str]:
         joints = self.value("joints")

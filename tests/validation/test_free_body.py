@@ -1,4 +1,4 @@
-"""Validation of the free rigid body in Lie–Poisson form (:class:`porthamiltonian.mechanics.FreeBody`).
+"""Validation of the free rigid body in Lie–Poisson form (``FreeBody``).
 
 Checked against independent references, each named in its test:
 
@@ -225,7 +225,8 @@ def test_centre_of_mass_follows_free_fall_parabola(offset):
     R0 = Rotation.from_quat(np.roll(QUAT0, -1)).as_matrix()
     w0, v0, r0 = np.array([0.7, -1.1, 0.5]), np.array([1.2, 0.4, 3.0]), np.array([0.3, -0.2, 1.0])
     g = np.array([0.0, 0.0, -9.81])
-    expected = (r0 + R0 @ COM) + np.outer(t, R0 @ (v0 + np.cross(w0, COM))) + 0.5 * np.outer(t**2, g)
+    V = R0 @ (v0 + np.cross(w0, COM))
+    expected = (r0 + R0 @ COM) + np.outer(t, V) + 0.5 * np.outer(t**2, g)
     com = np.column_stack([traj[f"body.com.{a}"] for a in XYZ])
     assert np.max(np.abs(com - expected)) < 1e-9
     assert np.max(np.abs(traj["body.q_norm"] - 1.0)) < 1e-8
