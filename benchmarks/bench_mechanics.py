@@ -37,6 +37,7 @@ Measured (wall clock, medians):
 * compile, cold: ``compile_model(model, backend, use_cache=False)`` in a fresh subprocess with an
   empty cache folder ($PORTHAMILTONIAN_CACHE), then the first rhs + jac + energy call (numba: the
   JIT compilation); cached: a second fresh subprocess on the warm cache with use_cache=True;
+  medians of 3 (python) or a single run (numba, and chain10);
 * one RHS + Jacobian evaluation (``timeit``) at a fixed generic state, library back end(s) vs
   the hand-written pair; ratio = hand / library (> 1: the library is faster).
 """
@@ -146,17 +147,19 @@ def _hamiltonian_pair(n, mechanics):
         q, mom = y[:n], y[n:2 * n]
         M, dM, _, dV, _ = mechanics(q, second=False)
         v = np.linalg.solve(M, mom)
-        pdot = 0.5 * np.einsum("i,kij,j->k", v, dM, v) - dV
-        return np.concatenate((v, pdot, (0.0, 0.0)))
+        out = np.zeros(2 * n + 2)
+        out[:n] = v
+        out[n:2 * n] = 0.5 * ((dM @ v) @ v) - dV
+        return out
 
     def jac(t, y, p=None):
         q, mom = y[:n], y[n:2 * n]
         M, dM, d2M, dV, d2V = mechanics(q, second=True)
         Minv = np.linalg.inv(M)
         v = Minv @ mom
-        D = np.einsum("kij,j->ik", dM, v)                  # D[:, k] = ∂_k M v
+        D = (dM @ v).T                                     # D[:, k] = ∂_k M v
         dv_dq = -Minv @ D
-        H2 = np.einsum("i,kjil,l->kj", v, d2M, v)          # vᵀ ∂_kj M v
+        H2 = (d2M @ v) @ v                                 # vᵀ ∂_kj M v
         J = np.zeros((2 * n + 2, 2 * n + 2))
         J[:n, :n] = dv_dq
         J[:n, n:2 * n] = Minv
@@ -268,7 +271,8 @@ def hand_chain(n: int, g: float = 9.81):
 
     def parts(y):
         phi = np.cumsum(y[:n])
-        p_phi = y[n:2 * n] - np.append(y[n + 1:2 * n], 0.0)
+        p_phi = y[n:2 * n].copy()
+        p_phi[:-1] -= y[n + 1:2 * n]
         delta = phi[:, None] - phi[None, :]
         cos_d, sin_d = np.cos(delta), np.sin(delta)
         M = C * cos_d + np.diag(inertia)
@@ -278,9 +282,11 @@ def hand_chain(n: int, g: float = 9.81):
         phi, p_phi, _, Cs, M = parts(y)
         w = np.linalg.solve(M, p_phi)
         pdot_phi = -w * (Cs @ w) - g * mu * np.sin(phi)
-        qdot = np.diff(w, prepend=0.0)
-        pdot_q = np.cumsum(pdot_phi[::-1])[::-1]
-        return np.concatenate((qdot, pdot_q, (0.0, 0.0)))
+        out = np.zeros(2 * n + 2)
+        out[:n] = w
+        out[1:n] -= w[:-1]                                  # q̇ = S⁻¹ φ̇
+        out[n:2 * n] = np.cumsum(pdot_phi[::-1])[::-1]      # ṗ_q = Sᵀ ṗ_φ
+        return out
 
     def jac(t, y, p=None):
         phi, p_phi, Cc, Cs, M = parts(y)
@@ -441,7 +447,8 @@ def main() -> None:
         backends = ["python"] + (["numba"] if spec in numba_specs else [])
         with tempfile.TemporaryDirectory(prefix="ph_bench_mech_warm_") as warm_dir:
             for backend in backends:
-                reps = 1 if spec == "chain10" else compile_repeats
+                # one repeat for chain10 (~90 s cold) and for numba (JIT of tens of seconds)
+                reps = 1 if (spec == "chain10" or backend == "numba") else compile_repeats
                 ct = compile_times(spec, backend, reps, warm_dir)
                 compile_rows.append((spec, backend, reps, ct))
                 print(f"  compiled {spec} ({backend}): cold {ct['cold']:.2f} s, cached "

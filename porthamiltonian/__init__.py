@@ -13,6 +13,7 @@ from .model import Model, Parameter
 from .ports import DOMAINS, Port
 from .simulate import Event, Reset, simulate
 from .trajectory import Trajectory
+from . import errors
 
 __version__ = "0.1.0"
 

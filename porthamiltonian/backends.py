@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ModelError
+from .integrators import RODAS_SOURCE
 
 _NUMBA_HEADER = "import math\nimport numpy as np\nfrom numba import njit as _njit\n_jit = _njit(cache=True)\n"
 _PYTHON_HEADER = "import math\nimport numpy as np\n\n\ndef _jit(f):\n    return f\n"
@@ -42,6 +43,8 @@ class Functions:
     guards: Callable
     initial: Callable
     matrices: tuple[Callable, ...] = ()
+    #: the compiled Rodas4 step loop (see porthamiltonian/integrators/rodas_loop.py)
+    rodas: Callable | None = None
 
 
 def numba_available() -> bool:
@@ -60,10 +63,11 @@ def resolve(backend: str) -> str:
 
 
 def source_with_header(body: str, backend: str) -> str:
-    """Full module text: back-end header + generated body with each function decorated."""
+    """Full module text: back-end header + generated body with each function decorated + the
+    compiled integration loop (which calls the body's functions directly)."""
     header = _NUMBA_HEADER if backend == "numba" else _PYTHON_HEADER
     decorated = body.replace("\ndef ", "\n@_jit\ndef ")
-    return header + "\n\n" + decorated
+    return header + "\n\n" + decorated + "\n\n" + RODAS_SOURCE
 
 
 def load(path: Path, backend: str, n_matrices: int = 0) -> Functions:
@@ -83,5 +87,5 @@ def load(path: Path, backend: str, n_matrices: int = 0) -> Functions:
         def wrap(fn):
             return lambda t, x, p: fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
         return Functions("python", *(wrap(f[n]) for n in _NAMES[:5]), f["initial"],
-                         tuple(wrap(m) for m in matrices))
-    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices))
+                         tuple(wrap(m) for m in matrices), module.rodas_integrate)
+    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices), module.rodas_integrate)

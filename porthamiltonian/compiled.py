@@ -48,6 +48,7 @@ class CompiledModel:
         self.equations: list[str] = meta["equations"]
         self.hamiltonian: str = meta["hamiltonian"]
         self.matrix_names: list[str] = meta["matrices"]
+        self.autonomous: bool = meta["autonomous"]
         self.functions = functions
         self.source = source
         self.key = key

@@ -31,7 +31,7 @@ from .compiled import CompiledModel
 from .errors import ModelError, StateError
 from .trajectory import Segment, Trajectory
 
-METHODS = ("Radau", "BDF", "LSODA", "RK45", "DOP853")
+METHODS = ("Rodas4", "Radau", "BDF", "LSODA", "RK45", "DOP853")
 _STIFF = ("Radau", "BDF", "LSODA")
 _EPS = np.finfo(float).eps
 
@@ -81,8 +81,10 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     x0 : initial model state: an array (length n), a mapping ``{state name: value}`` overriding
         the components' initial values, or None for those values.
     params : parameter values by name (defaults for the others).
-    method : Radau, BDF, LSODA (stiff, given the analytic Jacobian unless ``jacobian=False``),
-        RK45 or DOP853.
+    method : ``"Rodas4"`` (stiff, L-stable Rosenbrock; its whole step loop is compiled with the
+        model: the fast path with the numba back end; model events only, no ``t_eval`` or dense
+        output), or a scipy method: Radau, BDF, LSODA (stiff, given the analytic Jacobian unless
+        ``jacobian=False``), RK45, DOP853.
     actions : event name -> action (model events or ``events``). An event without action is
         recorded; if it is terminal, the simulation stops there.
     events : extra Python-level events.
@@ -114,6 +116,9 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     terminal = np.array([e.terminal or e.name in actions for e in [*model.events, *py_events]],
                         dtype=bool)
     t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
+    if method == "Rodas4" and (py_events or t_eval is not None or dense_output):
+        raise ModelError("method 'Rodas4' (the compiled loop) takes model events only and no "
+                         "t_eval or dense_output; use a scipy method (e.g. Radau) for those")
     run = _Run(model, method, rtol, atol, max_step, first_step, jacobian and method in _STIFF,
                py_events, direction, terminal, t_eval, dense_output, divergence_bound, max_steps)
     traj = Trajectory(model)
@@ -185,6 +190,7 @@ class _Run:
         self.max_steps = max_steps
         self.n_model_events = len(model.events)
         self.steps = 0
+        self.h_next: dict[int, float] = {}
 
     def guards(self, t, y, pn, p):
         n = self.model.n_states
@@ -195,6 +201,8 @@ class _Run:
 
     def segment(self, traj, t0, y0, p, t_end, fired):
         """Integrate from (t0, y0) until t_end or a terminal event; returns (status, t, y, k)."""
+        if self.method == "Rodas4":
+            return self.segment_compiled(traj, t0, y0, p, t_end, fired)
         model, n = self.model, self.model.n_states
         f = model.functions
         pn = model.native_params(p)
@@ -281,6 +289,50 @@ class _Run:
             if self.steps >= self.max_steps:
                 return close("failed", f"more than {self.max_steps} steps (t = {t_new:.6g})",
                              t_new, y_new)
+
+    def segment_compiled(self, traj, t0, y0, p, t_end, fired):
+        """The same as :meth:`segment` through the model's compiled Rodas4 loop."""
+        model, n = self.model, self.model.n_states
+        pn = np.ascontiguousarray(p, dtype=float) if model.backend == "numba" else p.copy()
+        mask_index, mask_sign = -1, 0.0
+        if fired is not None:
+            mask_index = fired
+            mask_sign = float(self.direction[fired] or -np.sign(traj.pre_event_sign or 1.0))
+        tgrad = 0.0 if model.autonomous else 1e-7 * max(1.0, abs(t0))
+        t, y, h = t0, np.ascontiguousarray(y0, dtype=float), self.h_next.get(id(traj), 0.0)
+        ts, ys = [np.array([t0])], [y[None, :].copy()]
+        rtol, atol = self.options["rtol"], self.options["atol"]
+        hmax = self.options["max_step"] if math.isfinite(self.options["max_step"]) else 1e300
+        while True:
+            (status, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
+             h) = model.functions.rodas(t, y, t_end, pn, rtol, atol, h, hmax, self.direction,
+                                        self.terminal, mask_index, mask_sign, n, self.bound,
+                                        self.max_steps - self.steps, 4096, tgrad)
+            self.steps += nsteps
+            traj.nfev += nfev
+            traj.njev += njev
+            ts.append(t_store[:n_store].copy())
+            ys.append(y_store[:n_store].copy())
+            for j in range(n_ev):
+                traj.record_event(float(ev_t[j]), self.model.events[int(ev_k[j])].name)
+            mask_index = -1
+            if status != 5:
+                break
+        self.h_next[id(traj)] = h
+        traj.add(Segment(np.concatenate(ts), np.concatenate(ys).T, p.copy(), None), 0, 0, 0)
+        if status == 0:
+            traj.finish("finished", "reached t_end")
+        elif status == 1:
+            traj.pre_event_sign = -float(np.sign(self.direction[k])) if self.direction[k] else 0.0
+            return "event", float(t), y.copy(), int(k)
+        elif status == 2:
+            traj.finish("failed", f"Rodas4: step size too small (or W singular) at t = {t:.6g}")
+        elif status == 3:
+            traj.finish("diverged", f"max|x| exceeded {self.bound:g} (or became non-finite) near "
+                                    f"t = {t:.6g}")
+        else:
+            traj.finish("failed", f"more than {self.max_steps} steps (t = {t:.6g})")
+        return traj.status, float(t), y, -1
 
     def _eval_at(self, ts, ys, step_sol, t_old, t_new, y_new, include_start=False):
         if self.t_eval is None:

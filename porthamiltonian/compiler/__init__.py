@@ -6,6 +6,8 @@ P_in) -> :func:`codegen.generate` (cse, RHS and Jacobian together) -> cache -> b
 """
 from __future__ import annotations
 
+import sympy
+
 from ..backends import load, resolve, source_with_header
 from ..compiled import CompiledModel
 from ..errors import ModelError, ModelFileError
@@ -50,12 +52,22 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
                        for ev, _ in sym.events],
             "equations": sym.equations, "hamiltonian": str(sym.hamiltonian),
             "matrices": list(sym.matrices),
+            "autonomous": _autonomous(sym),
         }
         cache.write(key, meta, body)
     else:
         meta, body = hit
     path = cache.backend_module(key, backend, source_with_header(body, backend))
     return CompiledModel(meta, load(path, backend, len(meta["matrices"])), body, key)
+
+
+def _autonomous(sym: SymbolicModel) -> bool:
+    """True when the state equations do not depend on time explicitly."""
+    from ..expressions import TIME
+
+    exprs = [*sym.rhs, *(e for _, e in sym.intermediates)]
+    exprs += [e for _, A, b in sym.blocks for e in (*A, *b)]
+    return not any(TIME in sympy.sympify(e).free_symbols for e in exprs)
 
 
 __all__ = ["SymbolicModel", "compile_model", "power_balance", "symbolic"]

@@ -47,19 +47,23 @@ def model_key(model: Model) -> str:
 
 @functools.lru_cache(maxsize=None)
 def _class_source(cls: type) -> str:
+    """Source of the module defining a component class (the class and the helpers it calls)."""
     try:
-        return inspect.getsource(cls)
+        return inspect.getsource(inspect.getmodule(cls))
     except (OSError, TypeError):
-        return f"{cls.__module__}.{cls.__qualname__}"
+        try:
+            return inspect.getsource(cls)
+        except (OSError, TypeError):
+            return f"{cls.__module__}.{cls.__qualname__}"
 
 
 def _compiler_hash() -> str:
-    """Hash of the compiler's own source, so that a changed compiler never reuses stale code."""
+    """Hash of the package's own source (compiler, components, mechanics, integration loop), so
+    that a changed library never reuses stale generated code."""
     global _COMPILER_HASH
     if _COMPILER_HASH is None:
         root = Path(__file__).resolve().parent.parent
-        files = sorted([*root.glob("compiler/*.py"), root / "component.py", root / "expressions.py",
-                        root / "elements.py"])
+        files = sorted(root.rglob("*.py"))
         _COMPILER_HASH = hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
     return _COMPILER_HASH
 

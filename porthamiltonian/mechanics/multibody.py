@@ -182,6 +182,8 @@ class Multibody(Component):
         dup = {n for n in names + coord_joints if (names + coord_joints).count(n) > 1}
         if dup:
             raise ModelError(f"Multibody port names must be unique; repeated: {', '.join(sorted(dup))}")
+        if self.value("gravity") is not None:
+            _vector3(self.value("gravity"), "Multibody gravity")
         if self.value("plane") not in (None, "xz"):
             raise ModelError("Multibody plane must be 'xz' or absent")
         self._parent_of = parent_of
