@@ -419,6 +419,12 @@ def machine() -> str:
             f"{numba.__version__}, BLAS threads {os.environ.get('OPENBLAS_NUM_THREADS')}")
 
 
+def library_sources_mtime() -> float:
+    """Latest modification time of the library's sources: the cache key hashes the compiler, so
+    an edit during the run turns a "cached" measurement into a cold one (reported at the end)."""
+    return max(p.stat().st_mtime for p in (ROOT / "porthamiltonian").rglob("*.py"))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="chains N = 2, 4; python; 1 repeat")
@@ -435,6 +441,7 @@ def main() -> None:
     compile_repeats = 1 if args.quick else 3
     number, repeats = (200, 5) if args.quick else (500, 9)
     started = time.time()
+    sources_mtime = library_sources_mtime()
     print(f"bench_mechanics.py {'--quick' if args.quick else '(full)'}, "
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     print(machine())
@@ -504,6 +511,9 @@ def main() -> None:
                 cells.append("– | –")
         print(" | ".join(cells) + " |")
     print(f"\ntotal run time {time.time() - started:.0f} s")
+    if library_sources_mtime() != sources_mtime:
+        print("WARNING: porthamiltonian/ sources changed during the run; cached compile times "
+              "measured after the change may be cold ones (re-run)")
 
 
 if __name__ == "__main__":

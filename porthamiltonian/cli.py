@@ -18,7 +18,7 @@ from . import io
 from .compiler import compile_model
 from .errors import ModelError
 
-_DEFAULTS = {"method": "Radau", "rtol": 1e-9, "atol": 1e-12, "energy_tolerance": 1e-6}
+_DEFAULTS = {"method": "auto", "rtol": 1e-9, "atol": 1e-12, "energy_tolerance": 1e-6}
 
 
 def _assignments(pairs: Sequence[str]) -> dict[str, float]:

@@ -68,7 +68,7 @@ class Event:
 
 
 def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, float] | None = None,
-             *, t_start: float = 0.0, method: str = "Radau", rtol: float = 1e-8, atol: float = 1e-10,
+             *, t_start: float = 0.0, method: str = "auto", rtol: float = 1e-8, atol: float = 1e-10,
              max_step: float = math.inf, first_step: float | None = None, jacobian: bool = True,
              actions: Mapping[str, Action] | None = None, events: list[Event] | None = None,
              t_eval: np.ndarray | None = None, dense_output: bool = False,
@@ -81,7 +81,8 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     x0 : initial model state: an array (length n), a mapping ``{state name: value}`` overriding
         the components' initial values, or None for those values.
     params : parameter values by name (defaults for the others).
-    method : ``"Rodas4"`` (stiff, L-stable Rosenbrock; its whole step loop is compiled with the
+    method : ``"auto"`` (default: Rodas4, or Radau when Python events, ``t_eval`` or dense
+        output are asked for), ``"Rodas4"`` (stiff, L-stable Rosenbrock; its whole step loop is compiled with the
         model: the fast path with the numba back end; model events only, no ``t_eval`` or dense
         output), or a scipy method: Radau, BDF, LSODA (stiff, given the analytic Jacobian unless
         ``jacobian=False``), RK45, DOP853.
@@ -93,8 +94,10 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     max_events, max_steps : bounds (a chattering guard ends the run with status "failed").
     divergence_bound : the run ends with status "diverged" when max|x| exceeds it.
     """
+    if method == "auto":
+        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas4"
     if method not in METHODS:
-        raise ModelError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+        raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
     if not (math.isfinite(t_end) and t_end > t_start):
         raise ModelError(f"t_end must be finite and > t_start ({t_start}), got {t_end}")
     p = model.params(params)
@@ -304,10 +307,11 @@ class _Run:
         rtol, atol = self.options["rtol"], self.options["atol"]
         hmax = self.options["max_step"] if math.isfinite(self.options["max_step"]) else 1e300
         while True:
-            (status, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
-             h) = model.functions.rodas(t, y, t_end, pn, rtol, atol, h, hmax, self.direction,
-                                        self.terminal, mask_index, mask_sign, n, self.bound,
-                                        self.max_steps - self.steps, 4096, tgrad)
+            with np.errstate(all="ignore"):
+                (status, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
+                 h) = model.functions.rodas(t, y, t_end, pn, rtol, atol, h, hmax, self.direction,
+                                            self.terminal, mask_index, mask_sign, n, self.bound,
+                                            self.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
             traj.nfev += nfev
             traj.njev += njev
