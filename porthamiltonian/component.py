@@ -91,6 +91,9 @@ class Built:
     supply: sp.Expr = sp.Integer(0)
     outputs: dict[str, sp.Expr] = field(default_factory=dict)
     storage_ports: list[str] = field(default_factory=list)
+    #: the energy's dependence on other components' states is paid through this component's own
+    #: power ports (e.g. a contact whose penetration is a body point's height): no modulation
+    energy_via_ports: bool = False
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
     matrices: dict[str, sp.Matrix] = field(default_factory=dict)
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
@@ -211,9 +214,18 @@ class Builder:
         self.energy(energy)
         self.storage_law(state, energy, port, causality)
 
-    def energy(self, energy: sp.Expr) -> None:
-        """Add ``energy`` (J) to this component's stored energy (its part of the Hamiltonian)."""
+    def energy(self, energy: sp.Expr, via_ports: bool = False) -> None:
+        """Add ``energy`` (J) to this component's stored energy (its part of the Hamiltonian).
+
+        By default a dependence of the energy on time or on other components' states is a
+        *modulation* and the compiler books its power as supplied (a stiffness K(t), K(φ)).
+        ``via_ports=True`` says that the dependence on other states is physical and paid through
+        this component's power ports (e.g. a contact spring whose penetration is read from a
+        body point's position while its force acts back on that point): then only an explicit
+        time dependence is booked as modulation.
+        """
         self.built.energy = self.built.energy + energy
+        self.built.energy_via_ports = self.built.energy_via_ports or via_ports
 
     def storage_law(self, state: sp.Symbol, energy: sp.Expr, port: PortVars, causality: str) -> None:
         """The integral-causality law of one storage state (see :meth:`storage`)."""
@@ -237,7 +249,8 @@ class Builder:
         self.built.supply = self.built.supply + power
 
     def output(self, name: str, expr: sp.Expr) -> None:
-        """A named output ``component.name`` (any expression in the model's variables)."""
+        """A named output ``component.name`` (any expression in the model's variables). Other
+        components may read it as a signal by its dotted name (e.g. ``walker.foot1.z``)."""
         self.built.outputs[f"{self.name}.{name}"] = sp.sympify(expr)
 
     def parse(self, text: Any, what: str, local: Mapping[str, sp.Expr] | None = None) -> sp.Expr:

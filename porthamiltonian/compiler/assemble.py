@@ -73,9 +73,10 @@ def assemble(solution: Solution) -> SymbolicModel:
             raise ModelError(f"component {cname!r}: its stored energy depends on port variables; "
                              "energy must be a function of states, parameters and time")
         H += energy
-        modulation = sp.diff(energy, TIME) + sum(
-            (sp.diff(energy, x) * xdot[x] for x in energy.free_symbols & set(states)
-             if x not in owned[cname]), sp.Integer(0))
+        modulation = sp.diff(energy, TIME)
+        if not b.energy_via_ports:
+            modulation += sum((sp.diff(energy, x) * xdot[x] for x in energy.free_symbols & set(states)
+                               if x not in owned[cname]), sp.Integer(0))
         p_in += modulation
         p_diss += b.dissipation.xreplace(system.aliases).xreplace(values)
         p_in += b.supply.xreplace(system.aliases).xreplace(values)

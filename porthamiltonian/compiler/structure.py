@@ -99,6 +99,8 @@ def build_system(flat: FlatModel) -> System:
                 equations += [Equation(e, name, f"unconnected port {pname}: zero effort")
                               for e in _flat(pv.e)]
 
+    _resolve_signals(built, equations)
+
     aliases: dict[sp.Symbol, sp.Symbol] = {}
     for (tc, tp), (hc, hp) in flat.bonds:
         tail, head = built[tc].ports[tp], built[hc].ports[hp]
@@ -149,6 +151,35 @@ def build_system(flat: FlatModel) -> System:
             )
     return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner,
                   blocks, intermediates)
+
+
+def _resolve_signals(built: dict[str, Built], equations: list[Equation]) -> None:
+    """Replace dotted references to other components' outputs (signals, e.g. ``walker.foot1.z``)
+    by the outputs' expressions, everywhere a component may have used them."""
+    outputs = {sp.Symbol(name, real=True): expr for b in built.values()
+               for name, expr in b.outputs.items()}
+    if not outputs:
+        return
+    for _ in range(8):  # outputs may read outputs; resolve a few levels
+        changed = False
+        for sym, expr in list(outputs.items()):
+            new = expr.xreplace(outputs)
+            if new != expr:
+                outputs[sym], changed = new, True
+        if not changed:
+            break
+
+    def sub(e):
+        return e.xreplace(outputs)
+
+    for eq in equations:
+        eq.residual = sub(eq.residual)
+    for b in built.values():
+        b.energy, b.dissipation, b.supply = sub(b.energy), sub(b.dissipation), sub(b.supply)
+        b.outputs = {n: sub(e) for n, e in b.outputs.items()}
+        b.intermediates = [(s, sub(e)) for s, e in b.intermediates]
+        b.blocks = [(syms, A.applyfunc(sub), r.applyfunc(sub)) for syms, A, r in b.blocks]
+        b.matrices = {n: m.applyfunc(sub) for n, m in b.matrices.items()}
 
 
 def _flat(x) -> list[sp.Symbol]:
