@@ -9,6 +9,7 @@ from .compiler import compile_model, power_balance, symbolic
 from .component import Arg, Builder, Component, register
 from .elements import GY, TF, C, I, OneJunction, R, Se, Sf, Storage, ZeroJunction
 from .mechanics import Multibody
+from .mechanics.bodies import Prismatic, Revolute, RigidBody, Translational, Weld
 from .model import Model, Parameter
 from .ports import DOMAINS, Port
 from .simulate import Event, Reset, simulate
@@ -19,7 +20,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Arg", "Builder", "C", "CompiledModel", "Component", "DOMAINS", "Event", "GY", "I", "Model",
-    "Multibody",
+    "Multibody", "Prismatic", "Revolute", "RigidBody", "Translational", "Weld",
     "OneJunction", "Parameter", "Port", "R", "Reset", "Se", "Sf", "Storage", "TF", "Trajectory",
     "ZeroJunction", "compile_model", "power_balance", "register", "simulate", "symbolic",
 ]

@@ -32,7 +32,10 @@ Ports (all optional, orientation set by the bond):
 * one per joint with coordinates, named as the joint: effort = generalized force (N m or N),
   flow = joint velocity; dimension = its number of coordinates;
 * one per body point, named as the point: effort = force (N), flow = velocity of the point (m/s),
-  both in world coordinates (x, y, z), or (x, z) when ``plane = "xz"``.
+  both in world coordinates (x, y, z), or (x, z) when ``plane = "xz"``;
+* one per body frame (``frames``: origin in the body frame, axes parallel to the body's), named as
+  the frame: screw domain, effort = wrench (τ, f), flow = twist (ω, v) of that frame, both in the
+  frame's own coordinates.
 When the bond points into the multibody, the effort is the force applied to it; when it points
 out, the effort is the force the multibody exerts on the element (so an element can be connected
 directly: ``connect("walker.foot", "contact.p")``).
@@ -56,6 +59,7 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import ModelError, UnknownComponentError, UnknownPortError
 from ..ports import Port
+from .bodies import as_tables
 from .kinematics import Frame, Rotation, Vector
 
 _AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
@@ -108,6 +112,8 @@ class Multibody(Component):
     }
 
     def __init__(self, **args: Any):
+        if "bodies" in args and "joints" in args:
+            args["bodies"], args["joints"] = as_tables(args["bodies"], args["joints"])
         super().__init__(**args)
         self._validate()
 
@@ -120,10 +126,10 @@ class Multibody(Component):
             raise ModelError("Multibody needs 'joints': a table name -> {type, parent, child, ...}")
         for name, body in bodies.items():
             where = f"Multibody body {name!r}"
-            extra = set(body) - {"mass", "com", "inertia", "points"}
+            extra = set(body) - {"mass", "com", "inertia", "points", "frames"}
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: "
-                                 "mass, com, inertia, points")
+                                 "mass, com, inertia, points, frames")
             if "mass" not in body:
                 raise ModelError(f"{where} needs a mass (kg)")
             mass = body["mass"]
@@ -131,8 +137,8 @@ class Multibody(Component):
                 raise ModelError(f"{where}: mass must be positive, got {mass}")
             self._inertia(body.get("inertia", 0), where)
             _vector3(body.get("com"), f"{where} com")
-            for point, pos in (body.get("points") or {}).items():
-                _vector3(pos, f"{where} point {point!r}")
+            for point, pos in {**(body.get("points") or {}), **(body.get("frames") or {})}.items():
+                _vector3(pos, f"{where} point/frame {point!r}")
         parent_of: dict[str, str] = {}
         for name, joint in joints.items():
             where = f"Multibody joint {name!r}"
@@ -177,7 +183,8 @@ class Multibody(Component):
                                      "rooted at 'world' is required")
                 seen.add(node)
                 node = joints[parent_of[node]]["parent"]
-        names = [p for b in bodies.values() for p in (b.get("points") or {})]
+        names = [p for b in bodies.values()
+                 for p in [*(b.get("points") or {}), *(b.get("frames") or {})]]
         coord_joints = [j for j, d in joints.items() if d["type"] != "weld"]
         dup = {n for n in names + coord_joints if (names + coord_joints).count(n) > 1}
         if dup:
@@ -235,6 +242,10 @@ class Multibody(Component):
             for point in body.get("points") or {}:
                 ports.append(Port(point, "translation", len(self._point_dims()), None, "world",
                                   f"point {point} of body {body_name}", optional=True))
+            for frame in body.get("frames") or {}:
+                ports.append(Port(frame, "screw", 6, None, frame,
+                                  f"frame {frame} of body {body_name}: wrench (τ, f) / twist (ω, v) "
+                                  "in the frame's own coordinates", optional=True))
         return ports
 
     # --- equations --------------------------------------------------------------------------------
@@ -283,6 +294,7 @@ class Multibody(Component):
         V = sp.Integer(0)
         g = sp.Matrix([b.parse(v, "gravity") for v in (gravity or [0, 0, "-9.81"])])
         points: dict[str, sp.Matrix] = {}
+        frames_twist: dict[str, sp.Matrix] = {}   # frame port -> 6 x n twist Jacobian (frame axes)
         for body_name, body in bodies.items():
             frame = frames[body_name]
             mass = b.parse(body["mass"], f"body {body_name!r} mass")
@@ -313,6 +325,13 @@ class Multibody(Component):
             for point, pos in (body.get("points") or {}).items():
                 points[point] = frame.point([b.parse(v, f"point {point!r}")
                                              for v in _vector3(pos, point)]).matrix()
+            for name, pos in (body.get("frames") or {}).items():
+                J_w = sp.zeros(3, n)
+                for k, w in angular.items():
+                    J_w[:, k] = w.in_frame(frame.R).matrix()        # body-axes angular velocity
+                origin = frame.point([b.parse(v, f"frame {name!r}") for v in _vector3(pos, name)])
+                J_o = origin.matrix().jacobian(q)
+                frames_twist[name] = sp.Matrix.vstack(J_w, frame.R.matrix.T * J_o)
         M = M.applyfunc(sp.expand)
 
         # initial momenta p0 = M(q0) v0 (a product, no inversion)
@@ -348,7 +367,14 @@ class Multibody(Component):
                                                b.intermediate(f"J.{point}.{r}.{c}", Jp[r, c]))
         for port_name, pv in b.built.ports.items():
             s = b.sign(port_name)
-            if port_name in points:
+            if port_name in frames_twist:
+                J_T = frames_twist[port_name].applyfunc(sp.expand)
+                J_T = sp.Matrix(6, n, lambda r, c, J_T=J_T, port_name=port_name:
+                                b.intermediate(f"JT.{port_name}.{r}.{c}", J_T[r, c]))
+                b.equation(sp.Matrix(pv.f), J_T * vvec, "frame twist = J_T(q) v")
+                gen = J_T.T * sp.Matrix(pv.e)
+                Q = [Q[k] + s * gen[k] for k in range(n)]
+            elif port_name in points:
                 Jp = point_jacobians[port_name]
                 efforts = sp.Matrix(pv.e) if pv.port.dim > 1 else sp.Matrix([pv.e])
                 flows = sp.Matrix(pv.f) if pv.port.dim > 1 else sp.Matrix([pv.f])

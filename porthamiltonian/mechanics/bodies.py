@@ -1,0 +1,107 @@
+"""Python-side descriptions of rigid bodies and joints for :class:`~.multibody.Multibody`.
+
+They are thin, validated records that turn into the plain tables a model file uses (``to_dict``),
+so a mechanism reads the same in Python and in TOML::
+
+    Multibody(bodies={"leg": RigidBody(mass="m_leg", com=[0, 0, "-l/2"], inertia=[0, "I", 0],
+                                       points={"foot": [0, 0, "-l"]})},
+              joints={"hip": Revolute(parent="world", child="leg", axis="y")})
+
+Values are numbers or expressions in the model's parameters (SI units: kg, m, kg m², rad).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import ModelError
+
+Value = float | str
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A rigid body: ``mass`` (kg, > 0), centre of mass ``com`` (m, body frame), rotational
+    ``inertia`` about the centre of mass (kg m²: 0 for a point mass, three principal moments, or
+    a symmetric positive definite 3x3 matrix), named ``points`` (m, body frame; each a force port)
+    and named ``frames`` (origins in the body frame, axes parallel to it; each a wrench/twist
+    port)."""
+
+    mass: Value
+    com: list[Value] = field(default_factory=lambda: [0, 0, 0])
+    inertia: Any = 0
+    points: dict[str, list[Value]] = field(default_factory=dict)
+    frames: dict[str, list[Value]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.mass, (int, float)) and not self.mass > 0:
+            raise ModelError(f"RigidBody: mass must be positive, got {self.mass}")
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"mass": self.mass, "com": list(self.com), "inertia": self.inertia}
+        if self.points:
+            out["points"] = {k: list(v) for k, v in self.points.items()}
+        if self.frames:
+            out["frames"] = {k: list(v) for k, v in self.frames.items()}
+        return out
+
+
+@dataclass(frozen=True)
+class _Joint:
+    parent: str
+    child: str
+    origin: list[Value] = field(default_factory=lambda: [0, 0, 0])
+
+    kind = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {"type": self.kind, "parent": self.parent, "child": self.child,
+               "origin": list(self.origin)}
+        for name in ("axis", "axes", "q0", "v0"):
+            if hasattr(self, name) and getattr(self, name) is not None:
+                value = getattr(self, name)
+                out[name] = list(value) if isinstance(value, tuple) else value
+        return out
+
+
+@dataclass(frozen=True)
+class Revolute(_Joint):
+    """Rotation by q (rad) about ``axis`` ('x', 'y', 'z' or a 3-vector, parent frame)."""
+
+    axis: Any = "y"
+    q0: Any = 0
+    v0: Any = 0
+    kind = "revolute"
+
+
+@dataclass(frozen=True)
+class Prismatic(_Joint):
+    """Translation by q (m) along ``axis``."""
+
+    axis: Any = "x"
+    q0: Any = 0
+    v0: Any = 0
+    kind = "prismatic"
+
+
+@dataclass(frozen=True)
+class Translational(_Joint):
+    """Translations along several world-aligned ``axes`` (e.g. ("x", "z")), one coordinate each."""
+
+    axes: tuple[str, ...] = ("x", "z")
+    q0: Any = 0
+    v0: Any = 0
+    kind = "translational"
+
+
+@dataclass(frozen=True)
+class Weld(_Joint):
+    """A fixed joint: the child is rigidly attached at ``origin``."""
+
+    kind = "weld"
+
+
+def as_tables(bodies: dict[str, Any], joints: dict[str, Any]) -> tuple[dict, dict]:
+    """Bodies and joints as plain tables (accepting records or tables)."""
+    return ({k: v.to_dict() if isinstance(v, RigidBody) else v for k, v in bodies.items()},
+            {k: v.to_dict() if isinstance(v, _Joint) else v for k, v in joints.items()})
