@@ -6,6 +6,7 @@ Run::
     python benchmarks/bench_mechanics.py            # full run: chains N = 2, 4, 6, 10, numba too
     python benchmarks/bench_mechanics.py --quick    # chains N = 2, 4, python back end, 1 repeat
     python benchmarks/bench_mechanics.py --no-numba # full run without the numba back end
+    python benchmarks/bench_mechanics.py --models chain6,chain10 --numba-all   # numba, big chains
 
 Models (all planar, x-z plane, gravity (0, 0, −g)):
 
@@ -429,6 +430,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="chains N = 2, 4; python; 1 repeat")
     parser.add_argument("--no-numba", action="store_true", help="skip the numba back end")
+    parser.add_argument("--numba-all", action="store_true",
+                        help="numba for the chains N = 6, 10 too (JIT of minutes)")
+    parser.add_argument("--models", help="comma-separated subset, e.g. walker4,chain10")
     parser.add_argument("--child", nargs=3, metavar=("SPEC", "BACKEND", "MODE"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
@@ -438,6 +442,10 @@ def main() -> None:
 
     specs = ["walker4", "walker6", "chain2", "chain4"] + ([] if args.quick else ["chain6", "chain10"])
     numba_specs = set() if (args.quick or args.no_numba) else {"walker4", "walker6", "chain2", "chain4"}
+    if args.numba_all:
+        numba_specs |= {"chain6", "chain10"}
+    if args.models:
+        specs = args.models.split(",")
     compile_repeats = 1 if args.quick else 3
     number, repeats = (200, 5) if args.quick else (500, 9)
     started = time.time()
