@@ -15,6 +15,7 @@ from .ports import DOMAINS, Port
 from .simulate import Event, Reset, simulate
 from .trajectory import Trajectory
 from . import errors
+from . import library  # registers the contact, friction and spring components
 
 __version__ = "0.1.0"
 

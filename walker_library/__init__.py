@@ -1,0 +1,28 @@
+"""walker_library: passive walkers built from porthamiltonian components, and their gait analyses.
+
+* :mod:`.walkers` — builders of the classic rigid-impact walkers (simplest walker, compass gait,
+  rimless wheel) and the loader of walker model files (``models/*.toml`` with ``[model.walker]``);
+* :mod:`.rigid` — swing phase pinned at the stance foot + the generic plastic impact map;
+* :mod:`.protocol` — the :class:`Walker` interface the analyses use (compliant-contact walkers
+  implement it too), :class:`Stride`, :class:`ParameterSpec`;
+* :mod:`.poincare` — stride map, fixed points (Newton), Floquet multipliers, period detection;
+* :mod:`.gait`, :mod:`.metrics` — the gait analysis behind ``walker gait`` and its metrics;
+* :mod:`.results` — JSON serialization; :mod:`.cli` — the ``walker`` command.
+"""
+from .gait import GaitResult, WalkResult, analyze_gait, walk
+from .metrics import GaitMetrics, gait_metrics
+from .poincare import (FixedPointResult, FloquetResult, PeriodResult, detect_period,
+                       find_fixed_point, floquet, iterate, jacobian, stride_map)
+from .protocol import ParameterSpec, Stride, Walker
+from .rigid import IntegrationOptions, LeggedRigidWalker, RigidImpactWalker, RimlessWheelWalker
+from .walkers import (BUILDERS, available_walkers, compass_gait, export_model_file, load_walker,
+                      rimless_wheel, simplest_walker)
+
+__all__ = [
+    "BUILDERS", "FixedPointResult", "FloquetResult", "GaitMetrics", "GaitResult",
+    "IntegrationOptions", "LeggedRigidWalker", "ParameterSpec", "PeriodResult",
+    "RigidImpactWalker", "RimlessWheelWalker", "Stride", "WalkResult", "Walker", "analyze_gait",
+    "available_walkers", "compass_gait", "detect_period", "export_model_file", "find_fixed_point",
+    "floquet", "gait_metrics", "iterate", "jacobian", "load_walker", "rimless_wheel",
+    "simplest_walker", "stride_map", "walk",
+]

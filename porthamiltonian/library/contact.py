@@ -1,0 +1,241 @@
+"""Compliant normal contact: Hunt–Crossley and Kelvin–Voigt, between a body point and a surface.
+
+Connection
+----------
+A contact has one power port ``p`` (translation, dimension 2: world (x, z) components, orientation
+``"in"``), bonded to a body point of a :class:`~porthamiltonian.mechanics.Multibody` with
+``plane = "xz"``, directly (``"walker.foot1 -> floor.p"``) or through a 1-junction shared with a
+friction element (``"walker.foot1 -> j"``, ``"j -> floor.p"``, ``"j -> friction.p"``). The body's
+point port is then the bond's tail, so the port effort e is the force the body exerts on the
+contact and the port flow f is the point's velocity (m/s). The contact reads the point's position
+as signals, ``x = "walker.foot1.x"`` and ``z = "walker.foot1.z"`` (the multibody's outputs), and
+its velocity from the port flow: position and port must name the same point.
+
+Arc feet (MODEL-SPEC.md §1): bond the foot's centre point and give the contact point as an
+expression, e.g. ``z = "walker.foot1.z - R"`` (the thesis: R below the centre along the world
+vertical) or ``x = "walker.foot1.x - R*sin(gamma)"``, ``z = "walker.foot1.z - R*cos(gamma)"``
+(along the surface normal). With the normal offset the penetration of the circle is exactly
+R − (distance of the centre from the surface), whose rate is −n·(centre velocity): the port flow,
+so the ledger closes. (A friction element on that port sees the centre's tangential velocity,
+not the rolling foot's material point's, t·ċ + ω R; a port at the material point is the walker
+model's business.)
+
+Law (units: z m, ż m/s, F N)
+----------------------------
+With the surface's unit outward normal n and the penetration z = n·(P_s − P) (positive inside the
+ground, see :mod:`porthamiltonian.library.surfaces`), ż = −n·f:
+
+* Hunt–Crossley (``HuntCrossley``): F = K zⁿ + λ zⁿ ż for z > 0, clipped at F ≥ 0 (no pulling:
+  F = 0 while K + λ ż < 0, a fast separation), F = 0 for z ≤ 0. K in N/mⁿ, λ in N·s/m^{n+1}, n > 0
+  (n = 1 in the thesis's App. A; 3/2 for Hertzian spheres). The force is continuous at touchdown.
+  For n < 1 the force's derivative (the Jacobian) is unbounded at z = 0⁺.
+* Kelvin–Voigt (``KelvinVoigt``): F = K z + B ż for z > 0 (K N/m, B N·s/m), F = 0 for z ≤ 0;
+  clipped at F ≥ 0 unless ``clip = false``. The force jumps to B ż at touchdown, and without
+  clipping it is tensile (F < 0) just before separation: the classic objection to this law.
+  The jump is a discontinuity of the right-hand side: the compiled Rodas4 loop, which controls
+  the error of the ledger states too, may fail to step across it at very small ``atol``
+  (1e-12 J with E_diss = 0 at a first impact; 1e-11 passes); Radau steps across it.
+
+The force on the body is F·n (along the outward normal); the port effort is its reaction,
+e = −F·n, so the power into the contact is e·f = F ż.
+
+Energy role
+-----------
+Stored: H_c = K z₊^{n+1}/(n+1) (Kelvin–Voigt: ½ K z₊²), z₊ = max(z, 0), booked with
+``b.energy(..., via_ports=True)``: H_c depends on the body's coordinates through z, and the power
+that changes it is paid through the contact's own port (not a modulation).
+Dissipated: the port power minus dH_c/dt, i.e. (F − K z₊ⁿ) ż:
+λ z₊ⁿ ż² while the law holds (B ż² for Kelvin–Voigt), and −K z₊ⁿ ż while clipped (F = 0 then
+means K + λ ż < 0, so ż < 0 and this is > 0: the spring energy released in a separation faster
+than the damper allows is dissipated). So P_diss ≥ 0 at all times and the ledger closes
+(DESIGN.md §5).
+
+Contact modes
+-------------
+``active`` (default 1) multiplies force, stored energy and dissipation. Give it a model
+parameter (a mode flag ``c1`` with values 0/1) that event actions set, to let a user rule decide
+when a contact may start (item 6 of issue 4, the thesis's scuffing rule, MODEL-SPEC.md §1: a
+contact starts only when the foot crosses the surface *and* is in front of the other foot; it ends
+when the foot rises above the surface). While inactive, a point passes through the surface with
+no force. Switch the flag at z = 0 (guards on the penetration, rising for touchdown, falling for
+lift-off), where the stored energy is zero, so that the switch does not change H; otherwise the
+jump of H is booked by the simulator at the event (as dissipated, or as supplied with
+``Reset(energy="supplied")``). A resting contact chatters around z = 0: give lift-off guards a
+small margin (e.g. ``-z - 1e-6``) (DESIGN.md §5).
+
+Outputs (``<name>.<output>``; other components and analyses read them by name)
+------------------------------------------------------------------------------
+``Fn`` normal force on the body (N, ≥ 0 when clipped), ``z`` signed penetration (m, < 0 above
+the surface: a smooth event guard), ``zdot`` its rate (m/s), ``px``/``pz`` the contact point's
+world position (m), ``s`` and ``vt`` its tangential coordinate (m) and velocity (m/s, downhill
+positive), ``nx``/``nz`` and ``tx``/``tz`` the surface's unit normal and tangent (a friction
+element reads the tangent of the contact whose ``Fn`` it uses). Model events cannot read
+component outputs yet (a core limitation): write guards in states (``r - ball.q.drop.z``) or use
+:func:`output_guard` for a Python-level event.
+
+Errors (:class:`~porthamiltonian.errors.ParameterValueError`, naming the component and argument):
+a numeric stiffness, damping or ``active`` < 0, an exponent n ≤ 0, an unknown surface.
+Values bound to parameters are checked only where the argument is a number.
+
+References
+----------
+K. H. Hunt, F. R. E. Crossley, "Coefficient of restitution interpreted as damping in
+vibroimpact", J. Appl. Mech. 42 (1975) 440–445. D. W. Marhefka, D. E. Orin, "A compliant contact
+model with nonlinear damping for simulation of robotic systems", IEEE Trans. SMC-A 29 (1999)
+566–572 (the clipping, and the exact restitution relation used by the tests).
+20-sim contact model of the thesis, App. A (MODEL-SPEC.md §1: ``Fn = Kp*z + Kd*z*zdot``, 0 when
+negative).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import sympy as sp
+
+from ..component import Arg, Builder, Component, register
+from ..errors import ParameterValueError
+from ..ports import Port
+from .surfaces import Surface, _check_nonnegative, make_surface, surface_arguments
+
+_POINT = {
+    "x": Arg("world x of the contact point (a signal, e.g. 'walker.foot1.x')", "m"),
+    "z": Arg("world z of the contact point (a signal, e.g. 'walker.foot1.z')", "m"),
+}
+_MODE = {"active": Arg("contact mode flag (0 or 1; a parameter switched by events)", "1", default=1)}
+
+
+class _Contact(Component):
+    """Shared part of the normal contact laws (port, surface, kinematics, outputs)."""
+
+    def ports(self) -> list[Port]:
+        return [Port("p", "translation", 2, "in", "world",
+                     "contact point: effort = force of the body on the contact, flow = velocity")]
+
+    def _kinematics(self, b: Builder, x, z, surface, slope, height, step_height, step_x,
+                    stiffness, damping, active) -> tuple[Surface, sp.Expr, sp.Expr]:
+        where = f"{self.kind} {b.name!r}"
+        _check_nonnegative(stiffness, f"{where} argument 'stiffness'")
+        _check_nonnegative(damping, f"{where} argument 'damping'")
+        _check_nonnegative(active, f"{where} argument 'active'")
+        surf = make_surface(surface, where, slope=slope, height=height, step_height=step_height,
+                            step_x=step_x)
+        port = b.port("p")
+        vx, vz = port.f[0], port.f[1]
+        pen = surf.penetration(x, z)
+        rate = surf.penetration_rate(vx, vz)
+        nx, nz = surf.normal
+        tx, tz = surf.tangent
+        for name, expr in (("z", pen), ("zdot", rate), ("px", x), ("pz", z),
+                           ("s", surf.arc(x, z)), ("vt", surf.tangential_velocity(vx, vz)),
+                           ("nx", nx), ("nz", nz), ("tx", tx), ("tz", tz)):
+            b.output(name, expr)
+        return surf, pen, rate
+
+    def _finish(self, b: Builder, surf: Surface, force: sp.Expr, energy: sp.Expr,
+                dissipation: sp.Expr) -> None:
+        nx, nz = surf.normal
+        b.equation(b.port("p").e, sp.Matrix([-force * nx, -force * nz]),
+                   "e = -Fn n (reaction of the normal force on the body)")
+        b.energy(energy, via_ports=True)
+        b.dissipate(dissipation)
+        b.output("Fn", force)
+
+
+@register
+class HuntCrossley(_Contact):
+    """Hunt–Crossley normal contact F = K zⁿ + λ zⁿ ż (z > 0), clipped at F ≥ 0.
+
+    Ports: ``p`` (translation, (x, z), in): bond a body point to it (see the module docstring).
+    Parameters: ``stiffness`` K (N/mⁿ), ``damping`` λ (N·s/m^{n+1}), ``exponent`` n (> 0,
+    default 1), ``x``/``z`` the point's position signals, the surface (``surface``, ``slope``,
+    ``height``, ``step_height``, ``step_x``), ``active`` the mode flag.
+    Energy: K z₊^{n+1}/(n+1). Dissipation: λ zⁿ ż², or −K zⁿ ż while clipped (≥ 0).
+    References: Hunt & Crossley 1975; Marhefka & Orin 1999.
+    """
+
+    kind = "HuntCrossley"
+    arguments = {
+        **_POINT,
+        "stiffness": Arg("contact stiffness K", "N/m^n"),
+        "damping": Arg("Hunt-Crossley damping λ", "N*s/m^(n+1)", default=0),
+        "exponent": Arg("exponent n of the penetration (1: App. A; 3/2: Hertz)", "1", default=1),
+        **surface_arguments(),
+        **_MODE,
+    }
+
+    def build(self, b: Builder, x, z, stiffness, damping, exponent, surface, slope, height,
+              step_height, step_x, active) -> None:
+        exponent = sp.sympify(exponent)
+        if exponent.is_number and not float(exponent) > 0:
+            raise ParameterValueError(f"HuntCrossley {b.name!r} argument 'exponent' must be > 0, "
+                                      f"got {float(exponent):g}")
+        surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
+                                           stiffness, damping, active)
+        K, lam, n = stiffness, damping, exponent
+        z_pos = sp.Piecewise((pen, pen > 0), (0, True))        # z₊ = max(z, 0), no Heaviside
+        law = K + lam * rate                                    # F / zⁿ
+        pushing = law > 0
+        force = active * z_pos**n * sp.Piecewise((law, pushing), (0, True))
+        energy = active * K * z_pos ** (n + 1) / (n + 1)
+        dissipation = active * z_pos**n * sp.Piecewise((lam * rate**2, pushing), (-K * rate, True))
+        self._finish(b, surf, force, energy, dissipation)
+
+
+@register
+class KelvinVoigt(_Contact):
+    """Kelvin–Voigt normal contact F = K z + B ż (z > 0), clipped at F ≥ 0 unless ``clip = false``.
+
+    A drop-in alternative to :class:`HuntCrossley` (same port and arguments, ``damping`` is B here
+    and there is no ``exponent``): swapping the law is one line of a model file.
+    Parameters: ``stiffness`` K (N/m), ``damping`` B (N·s/m), ``clip`` (default true).
+    Energy: ½ K z₊². Dissipation: B ż² (law), −K z ż (clipped), both ≥ 0.
+    """
+
+    kind = "KelvinVoigt"
+    arguments = {
+        **_POINT,
+        "stiffness": Arg("contact stiffness K", "N/m"),
+        "damping": Arg("contact damping B", "N*s/m", default=0),
+        "clip": Arg("clip the force at F >= 0 (false: tensile force possible at separation)",
+                    symbolic=False, default=True),
+        **surface_arguments(),
+        **_MODE,
+    }
+
+    def build(self, b: Builder, x, z, stiffness, damping, clip, surface, slope, height,
+              step_height, step_x, active) -> None:
+        if not isinstance(clip, bool):
+            raise ParameterValueError(f"KelvinVoigt {b.name!r} argument 'clip' must be true or "
+                                      f"false, got {clip!r}")
+        surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
+                                           stiffness, damping, active)
+        K, B = stiffness, damping
+        law = K * pen + B * rate
+        inside = pen > 0
+        z_pos = sp.Piecewise((pen, inside), (0, True))
+        if clip:
+            force = active * sp.Piecewise((law, inside & (law > 0)), (0, True))
+            dissipation = active * sp.Piecewise((B * rate**2, inside & (law > 0)),
+                                                (-K * pen * rate, inside), (0, True))
+        else:
+            force = active * sp.Piecewise((law, inside), (0, True))
+            dissipation = active * sp.Piecewise((B * rate**2, inside), (0, True))
+        energy = active * K * z_pos**2 / 2
+        self._finish(b, surf, force, energy, dissipation)
+
+
+def output_guard(model, name: str) -> Callable[[float, np.ndarray, np.ndarray], float]:
+    """A guard g(t, x, p) returning the compiled ``model``'s output ``name`` (e.g. ``"floor.z"``),
+    for a Python-level :class:`~porthamiltonian.simulate.Event` (scipy methods): model events
+    cannot read component outputs (see the module docstring)."""
+    k = model.output_index(name)
+    outputs = model.functions.outputs
+
+    def guard(t: float, x: np.ndarray, p: np.ndarray) -> float:
+        return float(outputs(t, model.augment(x), model.native_params(p))[k])
+
+    return guard
+
+
+__all__ = ["HuntCrossley", "KelvinVoigt", "output_guard"]

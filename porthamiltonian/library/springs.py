@@ -1,0 +1,136 @@
+"""Spring–dampers on a one-dimensional port: linear, and with a variable (modulated) stiffness.
+
+Both components have one power port ``p`` (default domain translation, dimension 1, orientation
+``"in"``) and one state ``q``, the spring's length (m; rad in the rotation domain), which
+integrates the port flow: dq/dt = f (the rate of elongation, m/s). The elongation is
+z = q − L0 with the ``rest_length`` L0 (m; default 0, then q is the elongation itself). The port
+effort is the spring–damper force (N), positive in tension (it pulls the port's two ends
+together when z > 0); power e·f is positive into the component.
+
+Laws
+----
+* ``SpringDamper`` (linear): e = K z + D ż, H = ½ K z², P_diss = D ż² ≥ 0. K (N/m) and D (N·s/m)
+  may depend on parameters only.
+* ``VariableSpringDamper``: H = ½ K z² with K any expression in time, states of other components
+  and parameters (a modulation input, e.g. MODEL-SPEC.md §4's K = K1 + (K2 − K1)|φ|/φ_max after
+  mid-stance, with a mode parameter switched by events); e = ∂H/∂q + D ż (= K z + D ż unless K
+  depends on q itself, then the force includes ½ (∂K/∂q) z², so that the storage stays
+  conservative); P_diss = D ż². Abs/sign/Heaviside/Max/Min in K are rewritten as Piecewise so that
+  the generated Jacobian has no Dirac deltas.
+
+Damper rule (both): give ``damping`` D, or ``alpha`` α and ``mass`` m for D = 2 α √(m K)
+(thesis §3.1, DESIGN.md §5: α ≈ 0.15, m = m + M the mass the leg carries; for a variable K the
+damper follows the stiffness), or neither (no damper).
+
+Energy role
+-----------
+Stored: ½ K z². Dissipated: D ż². Supplied: when K depends on time or on other components' states,
+the compiler books the power the modulation injects, ∂H/∂K·K̇ = ½ K̇ z² (plus ∂H/∂x ẋ for each
+foreign state x), as supplied energy E_in (``b.energy`` without ``via_ports``:
+:mod:`porthamiltonian.compiler.assemble`). When K depends on a mode parameter switched by an
+event action, H jumps by ½ ΔK z² at the event: return ``Reset(params=..., energy="supplied")``
+from the action so the jump is booked as supplied energy (the default books it as dissipated).
+
+Errors (:class:`~porthamiltonian.errors.ParameterValueError`, naming the component and argument):
+numeric stiffness, damping, alpha or mass < 0; damping together with alpha; alpha without mass
+(or mass without alpha); a ``SpringDamper`` stiffness or damping that depends on time or states
+(use ``VariableSpringDamper``).
+
+References: D. Karnopp, D. Margolis, R. Rosenberg, *System Dynamics*, 5th ed. (2012), ch. 4
+(C- and R-elements, modulated storages); the thesis ch. 3 (MODEL-SPEC.md §3–4).
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from ..component import Arg, Builder, Component, register
+from ..errors import ParameterValueError
+from ..ports import Port
+from .surfaces import _check_nonnegative
+
+_COMMON = {
+    "damping": Arg("damping coefficient D (or give alpha and mass)", "N*s/m", default=None),
+    "alpha": Arg("damping ratio α of the rule D = 2 α sqrt(m K)", "1", default=None),
+    "mass": Arg("mass m of the rule D = 2 α sqrt(m K)", "kg", default=None),
+    "rest_length": Arg("rest length L0 (elongation z = q - L0)", "m", default=0),
+    "q0": Arg("initial length q(0) (default: the rest length)", "m", default=None),
+    "domain": Arg("energy domain of the port", symbolic=False, default="translation"),
+}
+
+
+class _SpringDamper(Component):
+    variable = False
+
+    def ports(self) -> list[Port]:
+        return [Port("p", self.value("domain"), orientation="in")]
+
+    def build(self, b: Builder, stiffness, damping, alpha, mass, rest_length, q0, domain) -> None:
+        where = f"{self.kind} {b.name!r}"
+        for name, value in (("stiffness", stiffness), ("damping", damping), ("alpha", alpha),
+                            ("mass", mass)):
+            if value is not None:
+                _check_nonnegative(value, f"{where} argument {name!r}")
+        if damping is not None and (alpha is not None or mass is not None):
+            raise ParameterValueError(f"{where}: give either 'damping' or 'alpha' and 'mass' (the "
+                                      "rule D = 2 alpha sqrt(mass K)), not both")
+        if (alpha is None) != (mass is None):
+            raise ParameterValueError(f"{where}: the damper rule D = 2 alpha sqrt(mass K) needs "
+                                      f"both 'alpha' and 'mass'; got only "
+                                      f"{'alpha' if mass is None else 'mass'}")
+        if self.variable:
+            stiffness = stiffness.rewrite(sp.Piecewise) if stiffness.has(
+                sp.Abs, sp.sign, sp.Heaviside, sp.Max, sp.Min) else stiffness
+        else:
+            params = set(b._names.values())
+            for name, value in (("stiffness", stiffness), ("damping", damping)):
+                if value is not None and not sp.sympify(value).free_symbols <= params:
+                    raise ParameterValueError(
+                        f"{where} argument {name!r} = {self.value(name)!r} depends on time or "
+                        "states; a SpringDamper is linear (parameters only): use "
+                        "VariableSpringDamper for a modulated stiffness")
+        q = b.state("q", unit="m", initial=rest_length if q0 is None else q0)
+        port = b.port("p")
+        z = q - rest_length
+        energy = stiffness * z**2 / 2
+        if damping is None:
+            damping = 2 * alpha * sp.sqrt(mass * stiffness) if alpha is not None else sp.Integer(0)
+        b.energy(energy)
+        b.equation(b.der(q), port.f, "dq/dt = f")
+        b.equation(port.e, sp.diff(energy, q) + damping * port.f, "e = dH/dq + D f")
+        b.built.storage_ports.append("p")
+        b.dissipate(damping * port.f**2)
+        b.output("z", z)
+        b.output("K", stiffness)
+        b.output("D", damping)
+
+
+@register
+class SpringDamper(_SpringDamper):
+    """Linear spring–damper e = K (q − L0) + D q̇ on a 1-D port.
+
+    Ports: ``p`` (in). State: ``q`` length (m), dq/dt = f. Parameters: ``stiffness`` K (N/m),
+    ``damping`` D (N·s/m) or ``alpha``/``mass`` for D = 2 α √(m K), ``rest_length`` L0 (m),
+    ``q0`` (m). Energy ½ K z²; dissipation D ż². Outputs ``z``, ``K``, ``D``.
+    """
+
+    kind = "SpringDamper"
+    arguments = {"stiffness": Arg("stiffness K (parameters only)", "N/m"), **_COMMON}
+
+
+@register
+class VariableSpringDamper(_SpringDamper):
+    """Spring–damper with a modulated stiffness K(t, x, p): H = ½ K z², e = ∂H/∂q + D q̇.
+
+    Ports: ``p`` (in). State: ``q`` length (m). Parameters: ``stiffness`` K (N/m, any expression:
+    the modulation input), ``damping`` D or ``alpha``/``mass`` (D = 2 α √(m K), following K),
+    ``rest_length``, ``q0``. Energy ½ K z²; dissipation D ż²; supplied ½ K̇ z² (booked by the
+    compiler). See the module docstring.
+    """
+
+    kind = "VariableSpringDamper"
+    variable = True
+    arguments = {"stiffness": Arg("stiffness K: expression in t, states and parameters", "N/m"),
+                 **_COMMON}
+
+
+__all__ = ["SpringDamper", "VariableSpringDamper"]

@@ -1,0 +1,124 @@
+"""The ``walker`` command and the walker model files (models/simplest_walker.toml, ...).
+
+The fields checked are those the walker-library issue names (and ../shared/tools/check-walker-json
+checks): status, period_steps, fixed_point (with theta, theta_dot, phi, phi_dot for legged
+walkers), floquet_multipliers as {re, im}, step_period, step_length, speed,
+energy_dissipated_per_step, max_theta, max_phi. Values are checked in test_rigid_walkers.py.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from porthamiltonian import io
+from porthamiltonian.errors import ModelFileError
+from walker_library import available_walkers, load_walker
+from walker_library.cli import main
+
+MODELS = Path(io.__file__).resolve().parent.parent / "models"
+WALKERS = ["simplest_walker", "compass_gait", "rimless_wheel"]
+LEGGED = {"simplest_walker", "compass_gait"}
+
+
+def _check_gait_json(name: str, d: dict) -> None:
+    assert d["status"] in ("periodic", "fell", "no_fixed_point")
+    assert isinstance(d["period_steps"], int)
+    assert isinstance(d["fixed_point"], dict)
+    if name in LEGGED:
+        assert {"theta", "theta_dot", "phi", "phi_dot"} <= set(d["fixed_point"])
+        assert "max_theta" in d and "max_phi" in d
+    assert all(isinstance(m, dict) and set(m) == {"re", "im"} for m in d["floquet_multipliers"])
+    for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step"):
+        assert isinstance(d[key], (int, float)), key
+
+
+@pytest.mark.parametrize("name", WALKERS)
+def test_walker_gait_json_fields(name, capsys):
+    """``walker gait MODEL --json`` prints one JSON document with the named fields; the shipped
+    models all walk periodically (status "periodic", period 1, stable)."""
+    assert main(["gait", name, "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    _check_gait_json(name, d)
+    assert d["status"] == "periodic" and d["period_steps"] == 1 and d["stable"]
+
+
+def test_walker_gait_set_changes_parameters(capsys):
+    """--set slope=... is applied (the compass gait at 2°: a shorter step than at 3°)."""
+    assert main(["gait", "compass_gait", "--set", "slope=0.0349066", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["parameters"]["slope"] == pytest.approx(0.0349066)
+    assert d["status"] == "periodic" and d["fixed_point"]["theta"] < 0.271
+
+
+@pytest.mark.parametrize("args,message", [
+    (["gait", "simplest_walker", "--set", "slope=2"], "slope"),
+    (["gait", "simplest_walker", "--set", "wobble=1"], "wobble"),
+    (["gait", "simplest_walker", "--set", "slope"], "NAME=VALUE"),
+    (["gait", "no_such_walker"], "no_such_walker"),
+    (["gait", "pendulum"], "not a walker file"),
+])
+def test_walker_bad_input_exits_2_with_a_message(args, message, capsys):
+    assert main(args) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_walker_gait_text_output_and_fall(capsys):
+    """Human-readable output; a walker that falls is a result (exit 0), with the step."""
+    assert main(["gait", "simplest_walker", "--set", "slope=0"]) == 0
+    out = capsys.readouterr().out
+    assert "fell" in out and "step 2" in out
+
+
+def test_walker_walk_reports_the_ledger(capsys):
+    assert main(["walk", "rimless_wheel", "--steps", "5", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["steps_taken"] == 5 and not d["fell"]
+    assert d["relative_energy_residual"] < 1e-10
+
+
+def test_console_script_runs():
+    """The installed ``walker`` script (pyproject [project.scripts]) answers like ``main``."""
+    exe = shutil.which("walker") or pytest.skip("walker script not installed (pip install -e .)")
+    proc = subprocess.run([exe, "gait", "rimless_wheel", "--json"], capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    _check_gait_json("rimless_wheel", json.loads(proc.stdout))
+
+
+# --- model files -------------------------------------------------------------------------------
+def test_shipped_walker_files_are_found_and_up_to_date(tmp_path):
+    """models/ holds the three walker files; each is exactly what ``walker export`` writes now
+    (so the files cannot drift from the builders)."""
+    assert set(WALKERS) <= set(available_walkers())
+    for name in WALKERS:
+        out = tmp_path / f"{name}.toml"
+        assert main(["export", name, str(out)]) == 0
+        assert out.read_text() == (MODELS / f"{name}.toml").read_text(), name
+
+
+@pytest.mark.parametrize("name", WALKERS)
+def test_walker_files_load_as_walkers_and_as_porthamiltonian_models(name):
+    """A walker file is both: load_walker rebuilds the walker; porthamiltonian.io loads the
+    swing-phase model (same components as the walker's)."""
+    walker = load_walker(name)
+    model = io.load(name)
+    assert io.model_to_dict(model)["components"] == io.model_to_dict(walker.swing_model)["components"]
+    assert walker.name == name
+
+
+def test_walker_file_parameters_and_overrides(tmp_path):
+    """Parameter values in the file are used; overrides win; a file whose components were edited
+    is refused (the builder is the source of the mechanism)."""
+    text = (MODELS / "simplest_walker.toml").read_text()
+    path = tmp_path / "steeper.toml"
+    path.write_text(text.replace("value = 0.009\n", "value = 0.012\n", 1))
+    assert load_walker(path).parameters["slope"] == pytest.approx(0.012)
+    assert load_walker(path, {"slope": 0.01}).parameters["slope"] == pytest.approx(0.01)
+    edited = tmp_path / "edited.toml"
+    edited.write_text(text.replace('mass = "beta*M"', 'mass = "2*beta*M"', 1))
+    with pytest.raises(ModelFileError, match="differ from what the builder"):
+        load_walker(edited)

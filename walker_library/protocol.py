@@ -1,0 +1,153 @@
+"""The small interface between walker models and the gait analyses.
+
+The analyses (:mod:`walker_library.poincare`, :mod:`walker_library.gait`) see a walker only through
+:class:`Walker`: a stride function on a Poincaré section just after heel strike, the names of the
+section's independent coordinates, a rough initial guess, and the conversions of a section state
+into named quantities (SI, and the thesis's θ, θ̇, φ, φ̇ where the walker has legs). Rigid-impact
+walkers (:mod:`walker_library.rigid`) and compliant-contact walkers implement the same interface,
+so every analysis applies to both.
+
+A new walker (e.g. a compliant-contact walker) plugs in by providing the members of
+:class:`Walker`. Its :meth:`Walker.walk` simulates consecutive steps in one run (one energy ledger)
+and returns one :class:`Stride` per step, each ending on the section (for a compliant walker: the
+heel-strike event of MODEL-SPEC.md §1, φ − 2θ = 0 with the new foot in front), with the energy
+fields taken from the ledger (E_diss increments, H and the potential energy at the section
+crossings) and ``status="fell"`` for a fall; :meth:`Walker.stride` is ``walk(z, 1)[0]``.
+``details=True`` asks for max |θ| and max |φ|; ``record=True`` for the trajectory in
+``info["trajectory"]`` of the last stride.
+
+Conventions (MODEL-SPEC.md §1, Garcia et al. 1998): θ is the stance-leg angle to the slope normal,
+φ the angle between the legs, positive as in Garcia's paper: just after heel strike θ > 0 (the new
+stance foot ahead of the hip), θ̇ < 0 while walking downhill, and φ = 2θ at heel strike.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from porthamiltonian.errors import ParameterValueError
+
+__all__ = ["ParameterSpec", "Stride", "Walker", "check_parameters"]
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """A walker parameter: default value (SI), unit, meaning and source, and its valid range
+    ``low < value < high`` (``low <= value`` when ``low_inclusive``)."""
+
+    name: str
+    value: float
+    unit: str
+    doc: str
+    source: str = ""
+    low: float = -math.inf
+    high: float = math.inf
+    low_inclusive: bool = False
+
+    def check(self, value: float) -> float:
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            raise ParameterValueError(f"parameter {self.name!r} must be a number, got {value!r}") from None
+        ok_low = value >= self.low if self.low_inclusive else value > self.low
+        if not (math.isfinite(value) and ok_low and value < self.high):
+            lo = "[" if self.low_inclusive else "("
+            raise ParameterValueError(
+                f"parameter {self.name!r} = {value:g} is out of range: it must lie in "
+                f"{lo}{self.low:g}, {self.high:g}) {self.unit} ({self.doc})")
+        return value
+
+
+def check_parameters(specs: dict[str, ParameterSpec], values: dict[str, float]) -> dict[str, float]:
+    """Validated values by name (defaults for the others); unknown names raise."""
+    unknown = set(values) - set(specs)
+    if unknown:
+        raise ParameterValueError(f"unknown parameter(s) {', '.join(sorted(unknown))}; parameters: "
+                                  f"{', '.join(specs)}")
+    out = {name: spec.value for name, spec in specs.items()}
+    for name, value in values.items():
+        out[name] = specs[name].check(value)
+    return out
+
+
+@dataclass
+class Stride:
+    """One step of a walker from a section state to the next (SI units).
+
+    status : ``"step"`` (a heel strike ended the step) or ``"fell"``.
+    z_next : section coordinates just after the heel strike that ended the step (None if fell).
+    duration : step period (s). step_length : distance along the slope between the successive
+        stance feet (m). energy_dissipated : energy booked as dissipated in the ledger during the
+        step, the impact loss included (J). potential_released : decrease of the potential energy
+        over the step (J). energy_residual : ledger residual H(end) − H(0) + E_diss − E_in (J).
+    max_theta, max_phi : max |θ| and max |φ| over the step (rad), NaN when not computed.
+    reason : why the walker fell (``"fall"``, ``"time_limit"``, ...), or ``""``.
+    info : walker-specific extras (e.g. the impact impulse, the trailing foot's velocity).
+    """
+
+    status: str
+    z_next: np.ndarray | None
+    duration: float
+    step_length: float = math.nan
+    energy_dissipated: float = math.nan
+    potential_released: float = math.nan
+    energy_residual: float = math.nan
+    max_theta: float = math.nan
+    max_phi: float = math.nan
+    reason: str = ""
+    info: dict = field(default_factory=dict)
+
+    @property
+    def fell(self) -> bool:
+        return self.status != "step"
+
+
+@runtime_checkable
+class Walker(Protocol):
+    """What the gait analyses need from a walker model.
+
+    Attributes
+    ----------
+    name : model name. legged : True when θ, φ (and rates) are defined.
+    section : names of the independent coordinates of the Poincaré section just after heel
+        strike, in the model's own terms (joint angles and rates, SI).
+    parameters : current parameter values by name (SI).
+    """
+
+    name: str
+    legged: bool
+    section: tuple[str, ...]
+    parameters: dict[str, float]
+
+    def with_parameters(self, **values: float) -> "Walker":
+        """A copy with some parameters changed (validated: out of range raises)."""
+
+    def initial_guess(self) -> np.ndarray:
+        """A rough section state to start the limit-cycle search from."""
+
+    def stride(self, z: np.ndarray, *, details: bool = False) -> Stride:
+        """Simulate one step from section coordinates ``z`` (``details``: also max θ, max φ)."""
+
+    def walk(self, z: np.ndarray, n_steps: int, *, details: bool = False,
+             record: bool = False) -> list[Stride]:
+        """``n_steps`` consecutive strides from ``z`` (stops at the first fall)."""
+
+    def section_state(self, z: np.ndarray) -> dict[str, float]:
+        """The section state by name (SI), with theta, theta_dot, phi, phi_dot if legged."""
+
+    def to_thesis(self, z: np.ndarray) -> np.ndarray:
+        """Section coordinates in the thesis's terms (see :attr:`thesis_section`)."""
+
+    def from_thesis(self, w: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`to_thesis`."""
+
+    @property
+    def thesis_section(self) -> tuple[str, ...]:
+        """Names of the thesis's section coordinates, e.g. ("theta_dot", "phi", "phi_dot")."""
+
+    @property
+    def weight(self) -> float:
+        """Total weight m_total g (N), for the cost of transport."""
