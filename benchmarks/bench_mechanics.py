@@ -3,7 +3,8 @@ library vs hand-written numpy, for three mechanisms.
 
 Run::
 
-    python benchmarks/bench_mechanics.py            # full run: chains N = 2, 4, 6, 10, numba too
+    python benchmarks/bench_mechanics.py            # full run: chains N = 2, 4, 6, 10; numba for
+                                                    # the walkers and N = 2, 4 (~6 min)
     python benchmarks/bench_mechanics.py --quick    # chains N = 2, 4, python back end, 1 repeat
     python benchmarks/bench_mechanics.py --no-numba # full run without the numba back end
     python benchmarks/bench_mechanics.py --models chain6,chain10 --numba-all   # numba, big chains

@@ -68,7 +68,8 @@ class Event:
 
 
 def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, float] | None = None,
-             *, t_start: float = 0.0, method: str = "auto", rtol: float = 1e-8, atol: float = 1e-10,
+             *, t_start: float = 0.0, method: str = "auto", rtol: float = 1e-8,
+             atol: float | np.ndarray = 1e-10,
              max_step: float = math.inf, first_step: float | None = None, jacobian: bool = True,
              actions: Mapping[str, Action] | None = None, events: list[Event] | None = None,
              t_eval: np.ndarray | None = None, dense_output: bool = False,
@@ -81,6 +82,8 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     x0 : initial model state: an array (length n), a mapping ``{state name: value}`` overriding
         the components' initial values, or None for those values.
     params : parameter values by name (defaults for the others).
+    rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
+        tiny momenta); the ledger states E_diss, E_in get the largest of them.
     method : ``"auto"`` (default: Rodas4, or Radau when Python events, ``t_eval`` or dense
         output are asked for), ``"Rodas4"`` (stiff, L-stable Rosenbrock; its whole step loop is compiled with the
         model: the fast path with the numba back end; model events only, no ``t_eval`` or dense
@@ -183,7 +186,15 @@ class _Run:
     def __init__(self, model, method, rtol, atol, max_step, first_step, use_jac, py_events,
                  direction, terminal, t_eval, dense, bound, max_steps):
         self.model, self.method = model, method
-        self.options = {"rtol": rtol, "atol": atol, "max_step": max_step}
+        atol = np.asarray(atol, dtype=float)
+        if atol.ndim == 1:
+            if atol.shape != (model.n_states,):
+                raise ModelError(f"atol must be a scalar or have one value per state "
+                                 f"({model.n_states}), got shape {atol.shape}")
+            # the ledger states: scaled like the largest state tolerance (scipy methods)
+            atol = np.concatenate([atol, [atol.max(), atol.max()]])
+        self.options = {"rtol": rtol, "atol": atol if atol.ndim else float(atol),
+                        "max_step": max_step}
         if first_step is not None:
             self.options["first_step"] = first_step
         self.use_jac = use_jac
@@ -304,7 +315,8 @@ class _Run:
         tgrad = 0.0 if model.autonomous else 1e-7 * max(1.0, abs(t0))
         t, y, h = t0, np.ascontiguousarray(y0, dtype=float), self.h_next.get(id(traj), 0.0)
         ts, ys = [np.array([t0])], [y[None, :].copy()]
-        rtol, atol = self.options["rtol"], self.options["atol"]
+        rtol = self.options["rtol"]
+        atol = np.ascontiguousarray(np.broadcast_to(self.options["atol"], (n + 2,)), dtype=float)
         hmax = self.options["max_step"] if math.isfinite(self.options["max_step"]) else 1e300
         while True:
             with np.errstate(all="ignore"):

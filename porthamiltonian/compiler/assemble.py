@@ -125,12 +125,16 @@ def _port_names(comp: str, port: str, dim: int) -> list[str]:
     return [f"{comp}.{port}.e{i}" for i in range(dim)] + [f"{comp}.{port}.f{i}" for i in range(dim)]
 
 
-def _symbol_table(system, outputs) -> dict[str, sp.Symbol]:
-    table = {str(s): s for s in system.states}
+def _symbol_table(system, outputs) -> dict[str, sp.Expr]:
+    """Names a model-level expression (event guard, output) may use: states, port variables and
+    every component output (e.g. a body point's height ``walker.foot1.z``)."""
+    table: dict[str, sp.Expr] = {str(s): s for s in system.states}
     for cname, b in system.built.items():
         for pname, pv in b.ports.items():
             for name, sym in zip(_port_names(cname, pname, pv.port.dim), _flat(pv.e) + _flat(pv.f)):
                 table[name] = system.aliases.get(sym, sym)
+    for name, expr in outputs.items():
+        table.setdefault(name, expr)
     return table
 
 

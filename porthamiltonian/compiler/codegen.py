@@ -40,6 +40,15 @@ class _Printer(PythonCodePrinter):
     def _print_Float(self, expr):
         return repr(float(expr))
 
+    def _print_Heaviside(self, expr):
+        # H(x) with H(0) = 1/2 (sympy's default), as a conditional expression
+        x = self._print(expr.args[0])
+        return f"(1.0 if {x} > 0 else (0.5 if {x} == 0 else 0.0))"
+
+    def _print_DiracDelta(self, expr):
+        # derivatives of Abs/sign/Heaviside: zero almost everywhere (the jump itself is an event)
+        return "0.0"
+
 
 class _Writer:
     """Writes the generated functions. The intermediates and block solves (the prologue) are

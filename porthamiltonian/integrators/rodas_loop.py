@@ -133,12 +133,12 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
         # initial step from the scaled derivative (Hairer-Wanner II, p. 169, simplified)
         d0n = 0.0
         d1n = 0.0
-        for i in range(n):
-            sc = atol + rtol * abs(y[i])
+        for i in range(n_model):
+            sc = atol[i] + rtol * abs(y[i])
             d0n += (y[i] / sc) ** 2
             d1n += (f0[i] / sc) ** 2
-        d0n = math.sqrt(d0n / n)
-        d1n = math.sqrt(d1n / n)
+        d0n = math.sqrt(d0n / n_model)
+        d1n = math.sqrt(d1n / n_model)
         h = 1e-6 if (d0n < 1e-5 or d1n < 1e-5) else 0.01 * d0n / d1n
         h = min(h, hmax, t_end - t)
     while True:
@@ -205,13 +205,15 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
                                 + C[14] * k5[i]) / h
             _lu_solve(W, piv, k6)
             nfev += 5
+            # error norm over all states, the ledger quadratures included (their accuracy is the
+            # accuracy of the energy balance); atol per state
             err = 0.0
             finite = True
             for i in range(n):
                 y1[i] = ut[i] + k6[i]
                 if not math.isfinite(y1[i]):
                     finite = False
-                sc = atol + rtol * max(abs(y[i]), abs(y1[i]))
+                sc = atol[i] + rtol * max(abs(y[i]), abs(y1[i]))
                 err += (k6[i] / sc) ** 2
             err = math.sqrt(err / n) if finite else 1e300
             if err <= 1.0:

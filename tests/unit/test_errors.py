@@ -248,7 +248,9 @@ def test_negative_stiffness_diverges_with_status_not_exception():
     assert not traj.success
     assert "1e+06" in traj.message
     t_expected = math.log(2e6 / (1.0 * 10.0 * 1e-3)) / 10.0
-    assert abs(traj.t_final - t_expected) < 1e-3
+    # divergence is checked once per accepted step: the run keeps the last step below the bound
+    assert t_expected - 0.02 < traj.t_final <= t_expected
+    assert abs(traj["mass.p"][-1]) <= 1e6
 
 
 def _exploding_source() -> ph.Model:

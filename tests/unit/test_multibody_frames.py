@@ -91,3 +91,20 @@ def test_records_equal_the_tables_they_stand_for():
 def test_rigid_body_record_refuses_non_positive_mass():
     with pytest.raises(ph.errors.ModelError, match="mass must be positive"):
         RigidBody(mass=0.0)
+
+
+def test_event_guard_reads_a_body_point_output():
+    """A guard written with a component output (the tip's x position) fires where the pendulum
+    passes the vertical: at a quarter of the small-amplitude period 2π√(l/g) (θ0 = 0.01 rad, the
+    amplitude correction θ0²/16 is below 1e-5)."""
+    m = ph.Model("pendulum_guard")
+    m.add("arm", ph.Multibody(
+        bodies={"bob": RigidBody(mass=1.0, com=[0, 0, -1], points={"tip": [0, 0, -1]})},
+        joints={"pin": Revolute(parent="world", child="bob", axis="y", q0=0.01)},
+        gravity=[0, 0, -9.81], plane="xz"))
+    m.event("vertical", "arm.tip.x", direction=0, terminal=True)
+    traj = ph.compile_model(m, backend="python").simulate(5.0, rtol=1e-11, atol=1e-13)
+    assert traj.status == "event"
+    quarter = 2 * np.pi * np.sqrt(1.0 / 9.81) / 4
+    assert traj.events[0][1] == "vertical"
+    assert traj.events[0][0] == pytest.approx(quarter, rel=2e-5)
