@@ -6,7 +6,8 @@ Format (every section but ``[model]`` optional)::
                                                  # a junction's name alone makes a new port
     [model]
     name = "mass_spring_damper"
-    description = "..."
+    description = "..."            # other keys and tables under [model] (e.g. [model.walker],
+                                   # read by walker_library) are kept as Model.meta and saved back
 
     [parameters]
     m = { value = 1.0, unit = "kg", doc = "mass" }   # or simply  m = 1.0
@@ -124,6 +125,7 @@ def model_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = ""
     if not isinstance(head, dict):
         raise fail("[model] must be a table")
     model = Model(str(head.get("name", Path(source).stem)), str(head.get("description", "")))
+    model.meta = {k: v for k, v in head.items() if k not in ("name", "description")}
     try:
         _fill(model, data, fail)
     except ModelFileError:
@@ -216,6 +218,7 @@ def model_to_dict(model: Model) -> dict[str, Any]:
     data: dict[str, Any] = {"model": {"name": model.name}}
     if model.doc:
         data["model"]["description"] = model.doc
+    data["model"].update(model.meta)
     data["parameters"] = {n: ({"value": p.value, "unit": p.unit, "doc": p.doc} if (p.unit or p.doc)
                               else p.value) for n, p in model.parameters.items()}
     comps: dict[str, Any] = {}

@@ -91,6 +91,8 @@ class Model:
         self.simulation: dict[str, Any] = {}
         #: the file this model was loaded from, if any (compile errors then name it)
         self.source: str | None = None
+        #: further [model] keys of a model file (e.g. a walker builder's table), kept on save
+        self.meta: dict[str, Any] = {}
 
     # --- construction ---------------------------------------------------------------------------
     def parameter(self, name: str, value: float, unit: str = "", doc: str = "") -> None:

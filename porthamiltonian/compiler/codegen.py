@@ -87,9 +87,17 @@ class _Writer:
                 lines.append(f"    _b{index}[{i}] = {pr(reduced[k])}")
                 deps |= {str(s) for s in reduced[k].free_symbols}
                 k += 1
-            lines.append(f"    _s{index} = np.linalg.solve(_A{index}, _b{index})")
             targets = [str(mapping[s]) for s in syms]
-            lines += [f"    {t} = _s{index}[{i}]" for i, t in enumerate(targets)]
+            if n == 1:   # small systems in closed form: no LAPACK call per evaluation
+                lines.append(f"    {targets[0]} = _b{index}[0] / _A{index}[0, 0]")
+            elif n == 2:
+                a, b = f"_A{index}", f"_b{index}"
+                lines.append(f"    _det{index} = {a}[0, 0] * {a}[1, 1] - {a}[0, 1] * {a}[1, 0]")
+                lines.append(f"    {targets[0]} = ({b}[0] * {a}[1, 1] - {a}[0, 1] * {b}[1]) / _det{index}")
+                lines.append(f"    {targets[1]} = ({a}[0, 0] * {b}[1] - {b}[0] * {a}[1, 0]) / _det{index}")
+            else:
+                lines.append(f"    _s{index} = np.linalg.solve(_A{index}, _b{index})")
+                lines += [f"    {t} = _s{index}[{i}]" for i, t in enumerate(targets)]
             self.nodes.append((targets, deps, lines))
         self.owner = {t: i for i, (targets, _, _) in enumerate(self.nodes) for t in targets}
 
