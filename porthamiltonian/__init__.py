@@ -23,5 +23,5 @@ __all__ = [
     "Arg", "Builder", "C", "CompiledModel", "Component", "DOMAINS", "Event", "GY", "I", "Model",
     "Multibody", "Prismatic", "Revolute", "RigidBody", "Translational", "Weld",
     "OneJunction", "Parameter", "Port", "R", "Reset", "Se", "Sf", "Storage", "TF", "Trajectory",
-    "ZeroJunction", "compile_model", "power_balance", "register", "simulate", "symbolic",
+    "ZeroJunction", "compile_model", "errors", "library", "power_balance", "register", "simulate", "symbolic",
 ]

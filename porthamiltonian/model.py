@@ -19,7 +19,7 @@ import networkx as nx
 
 from .component import Component
 from .errors import (DanglingPortError, DuplicateNameError, ModelError, ParameterValueError,
-                     UnknownComponentError, UnknownParameterError, UnknownPortError)
+                     UnknownComponentError, UnknownPortError)
 from .ports import Port, check_bond
 
 _RESERVED = {"t"}

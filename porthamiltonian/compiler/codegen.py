@@ -220,7 +220,7 @@ def _jacobian_function(writer: _Writer, model: SymbolicModel, rhs: sp.Matrix, xs
         groups += [("array", "_Fw", list(jacobian(rhs, ws)), (n, nw)),
                    ("array", "_Gx", list(jacobian(defs, xs)), (nw, n)),
                    ("scalars", [f"_g{m}_{j}" for m, j in chain], [Gw[m, j] for m, j in chain])]
-        tail.append(f"    _Dw = _Gx")
+        tail.append("    _Dw = _Gx")
         for m, j in chain:  # rows in order: _Dw[j] is final before it is used (j < m)
             tail.append(f"    _Dw[{m}, :] += _g{m}_{j} * _Dw[{j}, :]")
         tail.append("    out = _Fx + _Fw @ _Dw")

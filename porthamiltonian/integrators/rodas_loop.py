@@ -117,7 +117,6 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
     k5 = np.empty(n)
     k6 = np.empty(n)
     ut = np.empty(n)
-    rhs_v = np.empty(n)
     dT = np.zeros(n)
     y1 = np.empty(n)
     d1 = np.empty(n)

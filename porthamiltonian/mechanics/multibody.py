@@ -50,14 +50,13 @@ given by their inertial data, not by shapes.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import sympy as sp
 
 from ..component import Arg, Builder, Component, register
-from ..errors import ModelError, UnknownComponentError, UnknownPortError
+from ..errors import ModelError, UnknownComponentError
 from ..ports import Port
 from .bodies import as_tables
 from .kinematics import Frame, Rotation, Vector
