@@ -3,12 +3,17 @@
 * :mod:`.walkers` — builders of the classic rigid-impact walkers (simplest walker, compass gait,
   rimless wheel) and the loader of walker model files (``models/*.toml`` with ``[model.walker]``);
 * :mod:`.rigid` — swing phase pinned at the stance foot + the generic plastic impact map;
+* :mod:`.compliant` — the thesis's nominal walker (``compass_walker``): one floating-base model
+  with Hunt–Crossley contacts, SCVS friction, arc feet and the scuffing rule; the calibration of
+  the lost contact damping λ (:func:`~.compliant.calibrate_damping`);
 * :mod:`.protocol` — the :class:`Walker` interface the analyses use (compliant-contact walkers
   implement it too), :class:`Stride`, :class:`ParameterSpec`;
 * :mod:`.poincare` — stride map, fixed points (Newton), Floquet multipliers, period detection;
 * :mod:`.gait`, :mod:`.metrics` — the gait analysis behind ``walker gait`` and its metrics;
 * :mod:`.results` — JSON serialization; :mod:`.cli` — the ``walker`` command.
 """
+from .compliant import (CompliantOptions, CompliantWalker, DampingCalibration, calibrate_damping,
+                        compass_walker)
 from .gait import GaitResult, WalkResult, analyze_gait, walk
 from .metrics import GaitMetrics, gait_metrics
 from .poincare import (FixedPointResult, FloquetResult, PeriodResult, detect_period,
@@ -19,10 +24,10 @@ from .walkers import (BUILDERS, available_walkers, compass_gait, export_model_fi
                       rimless_wheel, simplest_walker)
 
 __all__ = [
-    "BUILDERS", "FixedPointResult", "FloquetResult", "GaitMetrics", "GaitResult",
+    "BUILDERS", "CompliantOptions", "CompliantWalker", "DampingCalibration", "FixedPointResult", "FloquetResult", "GaitMetrics", "GaitResult",
     "IntegrationOptions", "LeggedRigidWalker", "ParameterSpec", "PeriodResult",
     "RigidImpactWalker", "RimlessWheelWalker", "Stride", "WalkResult", "Walker", "analyze_gait",
-    "available_walkers", "compass_gait", "detect_period", "export_model_file", "find_fixed_point",
+    "available_walkers", "calibrate_damping", "compass_gait", "compass_walker", "detect_period", "export_model_file", "find_fixed_point",
     "floquet", "gait_metrics", "iterate", "jacobian", "load_walker", "rimless_wheel",
     "simplest_walker", "stride_map", "walk",
 ]

@@ -42,8 +42,28 @@ penetration is 0, so the state is fixed by six coordinates: z = (α_lead, α_tra
 (θ, φ, ẋ_hip, ż_hip, θ̇, φ̇) with θ = −α_lead (stance = the leading leg, θ > 0), φ = α_trail −
 α_lead, θ̇ = −ω_lead, φ̇ = ω_trail − ω_lead, as :mod:`walker_library.rigid` does.
 
+The section state is the state at touchdown, *before* the compliant impact (the impact takes
+the first ≈ 10 ms of the stride); ``fixed_point`` of ``walker gait`` is that state. The leading
+foot starts a stride 1e-9 m inside the surface (off its guard's zero); the trailing foot's contact
+starts on unless the state puts it above the lift-off level. A bounce of the leading foot (its
+contact ends and restarts) is not a new step: a step is the touchdown of the *other* foot.
+
 Fall: the hip lower than ``fall_fraction`` l above the surface, or no heel strike within
 ``max_step_time``.
+
+Contact damping λ (lost in the thesis): :func:`calibrate_damping` does it the thesis's way (the
+smallest λ that maximises the energy dissipated per impact): from the gait's heel-strike state,
+the dissipation over the impact window rises from 0.0036 J at λ = 1e5 (the foot bounces) to a
+plateau of 0.0927 J from λ ≈ 3e7 on (max 0.09269 J at 1.8e9; within 0.1 % from 3.16e7), so
+λ = 3.16e7 N·s/m² (App. A's garbled "Kd = e7" is of that order).
+
+Measured at γ = 0.009 (λ = 3.16e7; tests/walkers/test_compass_walker.py): stable period-1 gait,
+step period 1.008 s, step length 0.307 m, speed 0.305 m/s (thesis 0.274), 0.0874 J dissipated
+per step (thesis 0.08) = the potential released (cost of transport = sin γ), Floquet multipliers
+−0.093 ± 0.262i (|λ| = 0.278) and four below 2e-4 (perturbation 1e-4; error estimate 4e-4).
+
+Integration: numba back end and the compiled Rodas4 loop (≈ 0.1 s per step once compiled; the
+compilation, ≈ 25 s, is cached on disk); the python back end is ≈ 100× slower on this stiff model.
 """
 from __future__ import annotations
 
@@ -58,12 +78,16 @@ from porthamiltonian.library import HuntCrossley, SCVSFriction
 from .protocol import ParameterSpec, Stride, check_parameters
 from .rigid import _compiled
 
-__all__ = ["CompliantWalker", "CompliantOptions", "compass_walker"]
+__all__ = ["CompliantWalker", "CompliantOptions", "DampingCalibration", "calibrate_damping",
+           "compass_walker"]
 
 THESIS = "MODEL-SPEC.md §1 (thesis Table 2.3, App. A)"
 _GRAVITY = ["g*sin(slope)", 0, "-g*cos(slope)"]
 #: mode parameters set by the walker itself
 CONTACT_MODES = ("c1", "c2")
+#: the leading foot starts a stride this far inside the surface (m), off its touchdown guard's
+#: zero (a run that starts on a guard's zero sees it fire at t = 0); force K·1e-9 = 1e-3 N
+START_PENETRATION = 1e-9
 
 
 @dataclass(frozen=True)
@@ -93,7 +117,7 @@ def compass_walker_specs() -> list[ParameterSpec]:
         _spec("R", 0.05, "m", "arc-foot radius", THESIS, 0.0),
         _spec("g", 9.81, "m/s^2", "acceleration of gravity", "", 0.0),
         _spec("K", 1.0e6, "N/m", "contact stiffness (App. A Kp = 1.0e6)", THESIS, 0.0),
-        _spec("lam", 3.0e4, "N*s/m^2", "Hunt-Crossley damping λ (lost in the thesis; calibrated "
+        _spec("lam", 3.16e7, "N*s/m^2", "Hunt-Crossley damping λ (lost in the thesis; calibrated "
               "the thesis's way, see walker_library.calibration)", "calibrated", 0.0, inf, True),
         _spec("mu_st", 0.5, "1", "SCVS static friction", THESIS, 0.0, inf, True),
         _spec("mu_c", 0.25, "1", "SCVS Coulomb friction", THESIS, 0.0, inf, True),
@@ -102,14 +126,17 @@ def compass_walker_specs() -> list[ParameterSpec]:
         _spec("v_st", 0.02, "m/s", "SCVS Stribeck velocity", THESIS, 0.0),
         _spec("liftoff_margin", 1e-6, "m", "a contact ends when the foot rises this far above the "
               "surface (hysteresis against chatter)", "numerical", 0.0, 1e-3, True),
+        _spec("front_margin", 0.01, "m", "scuffing rule: a touchdown starts a contact only when the "
+              "foot is at least this far in front of the other foot (the swing foot enters the "
+              "surface exactly beside the stance foot at mid-stance)", "numerical", 0.0, 1.0, True),
         _spec("fall_fraction", 0.5, "1", "fallen when the hip is lower than this fraction of l "
               "above the surface", "numerical", 0.0, 1.0),
-        _spec("theta0", 0.16, "rad", "initial guess: θ just after heel strike", "App. B (rough)",
-              0.0, math.pi / 2),
-        _spec("theta_dot0", -0.55, "rad/s", "initial guess: θ̇ just after heel strike",
-              "App. B (rough)"),
-        _spec("phi_dot0", -0.3, "rad/s", "initial guess: φ̇ just after heel strike",
-              "App. B (rough)"),
+        _spec("theta0", 0.2064, "rad", "initial guess: θ at heel strike (φ = 2θ)",
+              "rough: the period-1 gait of this model, rounded", 0.0, math.pi / 2),
+        _spec("theta_dot0", -0.8254, "rad/s", "initial guess: θ̇ at heel strike (before the "
+              "compliant impact: the leading leg's rate, negated)", "rough, as theta0"),
+        _spec("phi_dot0", 0.0023, "rad/s", "initial guess: φ̇ at heel strike (before the impact)",
+              "rough, as theta0"),
     ]
 
 
@@ -152,7 +179,8 @@ class CompliantWalker:
     """A two-legged walker with compliant contacts (the :class:`~.protocol.Walker` interface).
 
     One floating-base model (see the module docstring); a stride runs from one leading-foot
-    touchdown to the next, both contacts active at the start (the trailing foot still in stance).
+    touchdown to the next, both contacts active at the start (the trailing foot still in stance;
+    its contact starts off when a perturbed state puts it above the lift-off level).
     Leg 1 leads at the start of every :meth:`walk`; the legs alternate.
     """
 
@@ -217,7 +245,7 @@ class CompliantWalker:
         a_lead, a_trail, vx, vz, w_lead, w_trail = (float(a) for a in z)
         P = self.parameters
         x = np.zeros(self.swing.n_states)
-        x[self._iq] = [0.0, P["l"] * math.cos(a_lead) + P["R"], a_lead, a_trail]
+        x[self._iq] = [0.0, P["l"] * math.cos(a_lead) + P["R"] - START_PENETRATION, a_lead, a_trail]
         x[self._ip] = self._mass_matrix(x, p) @ np.array([vx, vz, w_lead, w_trail])
         return x
 
@@ -245,11 +273,33 @@ class CompliantWalker:
         return d
 
     def initial_guess(self):
-        """θ0, θ̇0, φ̇0 with φ = 2θ and the hip velocity of a leg pinned at its foot."""
+        """The section state (just before the compliant impact) with θ = theta0, φ = 2θ,
+        θ̇ = theta_dot0, φ̇ = phi_dot0 and the hip velocity of the trailing leg rolling on its arc
+        foot (instantaneous centre at the contact point, l + R below the hip along the leg)."""
         P = self.parameters
         th, thd, phd = P["theta0"], P["theta_dot0"], P["phi_dot0"]
-        vx, vz = -P["l"] * thd * math.cos(th), -P["l"] * thd * math.sin(th)
+        w_trail = phd - thd
+        a_trail = th
+        r = P["l"] + P["R"]
+        vx, vz = r * w_trail * math.cos(a_trail), -r * w_trail * math.sin(a_trail)
         return self.from_thesis(np.array([th, 2 * th, vx, vz, thd, phd]))
+
+    #: the explanation written at the top of the walker's model file (``walker export``)
+    file_header = (
+        "The components and events below are the whole walker: one floating-base multibody (hip on a",
+        "translational x/z joint, legs on revolute hip joints, foot masses at the leg ends), one",
+        "Hunt-Crossley contact (floor1, floor2: arc foot, contact point R below the foot centre along",
+        "the slope normal) and one SCVS friction (fric1, fric2) per foot, in the slope frame (gravity",
+        "rotated by the slope). c1, c2 are the contact mode flags that the walker's event actions",
+        "switch (the scuffing rule); `porthamiltonian check-energy` simulates the model as written",
+        "(flags fixed). [model.walker] names the builder; `walker gait compass_walker` rebuilds the",
+        "walker from it and the [parameters] below. Edit parameter values here; change the mechanism",
+        "in the builder and re-export (a file whose components differ is refused). lam = 3.16e7 N*s/m^2",
+        "is calibrated the thesis's way (walker_library.compliant.calibrate_damping).")
+
+    #: Newton tolerance of the gait search (the stride map is computed to ≈ 1e-9 by the
+    #: integrator at rtol 1e-8; a tolerance of 1e-10 is out of reach)
+    gait_tolerance = 1e-8
 
     # --- strides ----------------------------------------------------------------------------------
     def stride(self, z, *, details=False, record=False):
@@ -267,6 +317,11 @@ class CompliantWalker:
         if not np.all(np.isfinite(x0)):
             return [Stride("fell", None, 0.0, reason="invalid_state")]
         out = self._out
+        # the trailing foot is in contact at the start only if it is not above the lift-off level
+        # (a perturbed section state may start it in the air: then its contact is off, as if it
+        # had lifted off, and the scuffing rule applies to it)
+        if not self.outputs(0.0, x0, p0)[out["floor2.z"]] + self.parameters["liftoff_margin"] > 0:
+            p0[self._ic[2]] = 0.0
         log: list[dict] = []
         state = {"steps": 0, "lead": 1,
                  "foot_x": float(self.outputs(0.0, x0, p0)[out["walker.foot1.x"]])}
@@ -277,13 +332,17 @@ class CompliantWalker:
             def action(t, x, p):
                 if p[self._ic[k]] != 0.0:
                     return Reset()
+                if k == state["lead"]:                # the leading foot bounced: it restarts its
+                    return Reset(params={f"c{k}": 1.0})   # contact, no new step
                 y = self.outputs(t, x, p)
-                if not y[out[f"walker.foot{k}.x"]] > y[out[f"walker.foot{other}.x"]]:
+                if not (y[out[f"walker.foot{k}.x"]] - y[out[f"walker.foot{other}.x"]]
+                        > self.parameters["front_margin"]):
                     return Reset()            # scuffing: the foot behind passes through
                 fx = float(y[out[f"walker.foot{k}.x"]])
                 log.append({"t": t, "lead": k, "x": x.copy(), "p": p.copy(),
                             "step_length": fx - state["foot_x"]})
                 state["foot_x"] = fx
+                state["lead"] = k
                 state["steps"] += 1
                 return Reset(params={f"c{k}": 1.0}, stop=state["steps"] >= n_steps)
             return action
@@ -364,3 +423,57 @@ def compass_walker(*, backend: str = "numba", options: CompliantOptions | None =
                                        max_step_time=3.0)
     return CompliantWalker("compass_walker", {s.name: s for s in specs}, model, values=values,
                            backend=backend, options=opts, doc=model.doc, builder="compass_walker")
+
+
+@dataclass
+class DampingCalibration:
+    """Result of :func:`calibrate_damping` (SI units): the λ grid (N·s/m²), the energy dissipated
+    per impact at each λ (J), its maximum, and the calibrated λ: the smallest grid value whose
+    dissipation is within ``rel_tol`` of the maximum."""
+
+    lam: list[float]
+    dissipated: list[float]
+    max_dissipated: float
+    lam_at_max: float
+    calibrated_lam: float
+    rel_tol: float
+    window: float
+
+    def to_dict(self) -> dict:
+        from .results import to_jsonable
+        return to_jsonable(self.__dict__)
+
+
+def calibrate_damping(walker: CompliantWalker, z=None, lams=None, *, window: float = 0.05,
+                      rel_tol: float = 1e-3) -> DampingCalibration:
+    """Calibrate the lost Hunt–Crossley damping λ the thesis's way (§2.3.2, MODEL-SPEC.md §1):
+    the smallest λ that maximises the energy dissipated per impact (a near-plastic impact).
+
+    For each λ of ``lams`` (default: 10^5 … 10^10, four per decade) the walker is started at the
+    heel-strike section state ``z`` (default: its initial guess, the pre-impact state of the gait)
+    and simulated for ``window`` seconds (the impact transient: ≈ 1 ms to 40 ms depending on λ)
+    with both contacts active and no mode switches; the ledger's E_diss at the end is the energy
+    dissipated by the impact (contact damping, plus the little friction work in the window).
+    The dissipation rises with λ to a plateau (at low λ the foot bounces) and then barely
+    changes; "the smallest λ that maximises" is read as the smallest grid λ within ``rel_tol``
+    (relative) of the maximum over the grid.
+    """
+    z = walker.initial_guess() if z is None else np.asarray(z, dtype=float)
+    lams = np.logspace(5, 10, 21) if lams is None else np.asarray(lams, dtype=float)
+    out = []
+    n = walker.swing.n_states
+    for lam in lams:
+        w = walker.with_parameters(lam=float(lam))
+        p0 = w._p.copy()
+        p0[w._ic[1]] = 1.0
+        p0[w._ic[2]] = 1.0
+        x0 = w.lift(z, p0)
+        o = w.options
+        tr = w.swing.simulate(window, x0=x0, params=dict(zip(w.swing.param_names, p0)),
+                              method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step)
+        out.append(float(tr.y[n, -1]) if tr.status == "finished" else math.nan)
+    d = np.array(out)
+    k_max = int(np.nanargmax(d))
+    good = np.nonzero(d >= d[k_max] * (1 - rel_tol))[0]
+    return DampingCalibration([float(v) for v in lams], out, float(d[k_max]), float(lams[k_max]),
+                              float(lams[good[0]]), rel_tol, window)

@@ -116,7 +116,7 @@ def _newton_dict(walker: Walker, fp: FixedPointResult) -> dict:
 
 
 def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8, fd_step: float = 1e-4,
-                 tol: float = 1e-10, n_iterate: int = 200, period_tol: float = 1e-7,
+                 tol: float | None = None, n_iterate: int = 200, period_tol: float = 1e-7,
                  max_iter: int = 30) -> GaitResult:
     """Find and describe the gait of ``walker`` starting from ``guess`` (default: the walker's own
     initial guess). See the module docstring for the steps and :class:`GaitResult` for the fields.
@@ -125,8 +125,11 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8, fd_step: fl
         units; central differences at h and h/2, Richardson-extrapolated). The thesis (App. C)
         used 0.001 with one-sided differences; 1e-4 is the default here (measured: at h = 1e-3
         the simplest walker's multipliers are off by 1e-3 before extrapolation).
-    tol : Newton tolerance on |S^k(z) − z|_∞. n_iterate, period_tol, max_period : period detection.
+    tol : Newton tolerance on |S^k(z) − z|_∞ (default: the walker's ``gait_tolerance`` if it has
+        one, else 1e-10). n_iterate, period_tol, max_period : period detection.
     """
+    if tol is None:
+        tol = float(getattr(walker, "gait_tolerance", 1e-10))
     z0 = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
     base = dict(model=walker.name, section=list(walker.section),
                 thesis_section=list(walker.thesis_section), parameters=dict(walker.parameters))

@@ -10,7 +10,7 @@ so every analysis applies to both.
 A new walker (e.g. a compliant-contact walker) plugs in by providing the members of
 :class:`Walker`. Its :meth:`Walker.walk` simulates consecutive steps in one run (one energy ledger)
 and returns one :class:`Stride` per step, each ending on the section (for a compliant walker: the
-heel-strike event of MODEL-SPEC.md §1, φ − 2θ = 0 with the new foot in front), with the energy
+touchdown of the new foot in front, see :mod:`walker_library.compliant`), with the energy
 fields taken from the ledger (E_diss increments, H and the potential energy at the section
 crossings) and ``status="fell"`` for a fall; :meth:`Walker.stride` is ``walk(z, 1)[0]``.
 ``details=True`` asks for max |θ| and max |φ|; ``record=True`` for the trajectory in

@@ -272,8 +272,10 @@ def rimless_wheel(*, backend: str = "python", options: IntegrationOptions | None
                               total_mass=lambda P: P["m"])
 
 
+from .compliant import CONTACT_MODES, compass_walker  # noqa: E402  (after the rigid builders)
+
 BUILDERS = {"simplest_walker": simplest_walker, "compass_gait": compass_gait,
-            "rimless_wheel": rimless_wheel}
+            "rimless_wheel": rimless_wheel, "compass_walker": compass_walker}
 
 
 # --- model files ------------------------------------------------------------------------------------
@@ -308,11 +310,13 @@ def available_walkers() -> list[str]:
 
 
 def load_walker(name_or_path: str | Path, overrides: dict[str, float] | None = None, *,
-                backend: str = "python", check_components: bool = True) -> RigidImpactWalker:
+                backend: str | None = "python", check_components: bool = True):
     """Load a walker by model name (``models/<name>.toml``), by path, or by builder name.
 
     The file's ``[model.walker]`` table names the builder; its ``[parameters]`` give the values
-    (the mode parameters stance_x, stance_z, ground_z excepted), ``overrides`` change them.
+    (the mode parameters stance_x, stance_z, ground_z, c1, c2 excepted), ``overrides`` change
+    them. ``backend`` None: the builder's own default (python for the rigid walkers, numba for
+    the compliant-contact walker).
     Raises :class:`~porthamiltonian.errors.ModelFileError` for a file that is not a walker file or
     whose components differ from what its builder generates, and
     :class:`~porthamiltonian.errors.ParameterValueError` for unknown or out-of-range parameters.
@@ -321,7 +325,8 @@ def load_walker(name_or_path: str | Path, overrides: dict[str, float] | None = N
         path = ph_io.model_path(name_or_path)
     except ModelFileError:
         if str(name_or_path) in BUILDERS:
-            return BUILDERS[str(name_or_path)](backend=backend, **(overrides or {}))
+            kw = {} if backend is None else {"backend": backend}
+            return BUILDERS[str(name_or_path)](**kw, **(overrides or {}))
         raise
     text = path.read_text()
     try:
@@ -339,11 +344,11 @@ def load_walker(name_or_path: str | Path, overrides: dict[str, float] | None = N
                              f"{', '.join(BUILDERS)}")
     values: dict[str, float] = {}
     for name, spec in (data.get("parameters") or {}).items():
-        if name in MODE_PARAMETERS:
+        if name in MODE_PARAMETERS or name in CONTACT_MODES:
             continue
         values[name] = spec["value"] if isinstance(spec, dict) else spec
     try:
-        walker = builder(backend=backend, **values)
+        walker = builder(**({} if backend is None else {"backend": backend}), **values)
     except ParameterValueError as err:
         raise ParameterValueError(f"{path}: {err}") from None
     if check_components:

@@ -1,0 +1,105 @@
+"""The thesis's nominal walker (MODEL-SPEC.md §1; walker_library.compliant.compass_walker):
+rigid legs, arc feet, Hunt–Crossley contact + SCVS friction, the scuffing rule, γ = 0.009.
+
+Thesis numbers (Table 2.3, §3.1): speed 0.274 m/s, energy dissipated per step 0.08 J. Measured
+here (λ = 3.16e7 N·s/m² from calibrate_damping): speed 0.305 m/s, 0.0874 J per step, step period
+1.008 s, step length 0.307 m, Floquet multipliers |λ| ≤ 0.28. They are compared with the thesis
+loosely (within 15 %); the energy balance (dissipated = potential released, cost of transport =
+sin γ) is checked tightly.
+
+The model compiles with numba (≈ 25 s once, cached on disk); each stride then takes ≈ 0.1 s.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from porthamiltonian import io
+from walker_library import analyze_gait, load_walker, walk
+from walker_library.cli import main
+from walker_library.compliant import calibrate_damping, compass_walker
+
+
+@pytest.fixture(scope="module")
+def walker():
+    return compass_walker()
+
+
+@pytest.fixture(scope="module")
+def gait(walker):
+    return analyze_gait(walker)
+
+
+def test_stable_period_one_gait_at_nominal_slope(walker, gait):
+    assert gait.status == "periodic" and gait.period_steps == 1 and gait.stable
+    mults = np.abs(np.array(gait.floquet_multipliers))
+    assert mults.max() < 0.5 and gait.multiplier_error < 1e-2
+    fp = gait.fixed_point
+    # heel strike: the new foot in front (θ > 0), walking downhill (θ̇ < 0), φ ≈ 2θ (the stance
+    # foot penetrates a little, so φ − 2θ is small but not 0)
+    assert fp["theta"] > 0.15 and fp["theta_dot"] < 0
+    assert fp["phi"] == pytest.approx(2 * fp["theta"], abs=2e-3)
+    m = gait.metrics
+    # thesis: 0.274 m/s and 0.08 J per step (Table 2.3): loosely
+    assert m.speed == pytest.approx(0.274, rel=0.15)
+    assert m.energy_dissipated_per_step == pytest.approx(0.08, rel=0.15)
+    # energy balance of a periodic gait: dissipated = potential released; CoT = sin γ
+    assert m.energy_dissipated_per_step == pytest.approx(m.potential_released_per_step, rel=1e-5)
+    assert m.cost_of_transport == pytest.approx(math.sin(walker.parameters["slope"]), rel=1e-4)
+    assert m.step_length == pytest.approx(m.speed * m.step_period, rel=1e-12)
+
+
+def test_energy_residual_over_several_steps(walker, gait):
+    z = np.array([gait.fixed_point[k] for k in walker.section])
+    res = walk(walker, z, 5)
+    assert res.steps_taken == 5 and not res.fell
+    assert res.max_energy_residual < 1e-7                 # J, over the whole run
+    assert res.energy_dissipated == pytest.approx(res.potential_released, rel=1e-4)
+    for s in res.steps:                                  # every step repeats the gait
+        assert s["state_after"]["theta"] == pytest.approx(gait.fixed_point["theta"], abs=1e-6)
+
+
+def test_scuffing_rule_ignores_the_mid_stance_pass(walker, gait):
+    """The swing foot passes through the surface near mid-stance (straight legs): its touchdown
+    guard fires there but the contact does not start (the foot is not in front); the step ends at
+    the later touchdown in front of the stance foot."""
+    z = np.array([gait.fixed_point[k] for k in walker.section])
+    s = walker.stride(z, record=True)
+    traj = s.info["trajectory"]
+    swing = "touchdown2"                                  # leg 1 leads at the start of a walk
+    times = [t for t, name in traj.events if name == swing]
+    assert len(times) >= 2 and times[0] < 0.8 * s.duration and times[-1] == pytest.approx(s.duration)
+    mid = [seg for seg in traj.segments if seg.t[0] < times[0] < seg.t[-1] or seg.t[0] == times[0]]
+    c2 = walker.swing.param_names.index("c2")
+    assert all(seg.p[c2] == 0.0 for seg in mid)
+
+
+def test_falls_are_results(walker):
+    """A walker started far too slowly falls back: a result with the step, not an exception."""
+    z = walker.initial_guess().copy()
+    z[2:] *= 0.3
+    strides = walker.walk(z, 3)
+    assert strides[-1].fell and strides[-1].reason in ("fall", "time_limit")
+
+
+def test_damping_calibration_the_thesis_way(walker):
+    """Energy dissipated per impact vs λ rises to a plateau; the smallest λ at the maximum (within
+    0.1 %) is the walker's default."""
+    cal = calibrate_damping(walker, lams=np.logspace(6, 9, 7))
+    d = np.array(cal.dissipated)
+    assert d[0] < 0.5 * cal.max_dissipated               # 1e6: bouncy, little dissipation
+    assert cal.calibrated_lam == pytest.approx(walker.parameters["lam"], rel=0.01)
+    assert 0.05 < cal.max_dissipated < 0.12
+
+
+def test_model_file_is_up_to_date_and_loads(tmp_path):
+    out = tmp_path / "compass_walker.toml"
+    assert main(["export", "compass_walker", str(out)]) == 0
+    shipped = io.model_path("compass_walker")
+    assert out.read_text() == shipped.read_text()
+    w = load_walker("compass_walker")
+    assert w.name == "compass_walker" and w.parameters["K"] == 1e6
+    assert io.model_to_dict(io.load("compass_walker"))["components"] == \
+        io.model_to_dict(w.swing_model)["components"]
