@@ -21,11 +21,12 @@ from .errors import ModelError
 _DEFAULTS = {"method": "auto", "rtol": 1e-9, "atol": 1e-12, "energy_tolerance": 1e-6}
 
 
-def _assignments(pairs: Sequence[str]) -> dict[str, float]:
+def parse_assignments(pairs: Sequence[str]) -> dict[str, float]:
+    """``["k=9", "slope=0.01"]`` (the ``--set`` options) -> ``{"k": 9.0, "slope": 0.01}``."""
     out = {}
     for pair in pairs:
         name, sep, value = pair.partition("=")
-        if not sep:
+        if not sep or not name.strip():
             raise ModelError(f"--set takes NAME=VALUE, got {pair!r}")
         try:
             out[name.strip()] = float(value)
@@ -47,7 +48,7 @@ def _run(model_ref: str, params: dict[str, float], t_end: float | None = None, b
 
 
 def cmd_simulate(args) -> int:
-    model, compiled, traj, _ = _run(args.model, _assignments(args.set), args.t_end, args.backend)
+    model, compiled, traj, _ = _run(args.model, parse_assignments(args.set), args.t_end, args.backend)
     result = {"model": model.name, "status": traj.status, "message": traj.message,
               "t_end": traj.t_final,
               "final_state": dict(zip(compiled.state_names, traj.x_final.tolist())),

@@ -18,23 +18,11 @@ import json
 import sys
 from collections.abc import Sequence
 
+from porthamiltonian.cli import parse_assignments
 from porthamiltonian.errors import ModelError
 
 from .gait import analyze_gait, walk
 from .walkers import BUILDERS, available_walkers, export_model_file, load_walker
-
-
-def _assignments(pairs: Sequence[str]) -> dict[str, float]:
-    out = {}
-    for pair in pairs:
-        name, sep, value = pair.partition("=")
-        if not sep or not name.strip():
-            raise ModelError(f"--set takes NAME=VALUE, got {pair!r}")
-        try:
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise ModelError(f"--set {name}: {value!r} is not a number") from None
-    return out
 
 
 def _fmt(value) -> str:
@@ -46,7 +34,7 @@ def _fmt(value) -> str:
 
 
 def cmd_gait(args) -> int:
-    walker = load_walker(args.model, _assignments(args.set), backend=args.backend)
+    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
     result = analyze_gait(walker, max_period=args.max_period, fd_step=args.fd_step,
                           n_iterate=args.iterate)
     if args.json:
@@ -75,7 +63,7 @@ def cmd_gait(args) -> int:
 
 
 def cmd_walk(args) -> int:
-    walker = load_walker(args.model, _assignments(args.set), backend=args.backend)
+    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
     result = walk(walker, None, args.steps)
     if args.json:
         print(result.to_json())
@@ -104,7 +92,7 @@ def cmd_list(args) -> int:
 def cmd_export(args) -> int:
     if args.builder not in BUILDERS:
         raise ModelError(f"unknown builder {args.builder!r}; builders: {', '.join(BUILDERS)}")
-    walker = BUILDERS[args.builder](**_assignments(args.set))
+    walker = BUILDERS[args.builder](**parse_assignments(args.set))
     lines = getattr(walker, "file_header", None) or (
         "The components and events below are the swing-phase model (pinned at the stance foot), an",
         "ordinary porthamiltonian model: `porthamiltonian check-energy` simulates one swing phase.",
