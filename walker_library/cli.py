@@ -2,6 +2,9 @@
 
     walker gait MODEL [--set NAME=VALUE ...] [--max-period K] [--fd-step H] [--json]
     walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--json]
+    walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--json]
+    walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
+    walker gsn MODEL [--set NAME=VALUE ...] [--json]
     walker list
     walker export BUILDER PATH [--set NAME=VALUE ...]
 
@@ -22,6 +25,8 @@ from porthamiltonian.cli import parse_assignments
 from porthamiltonian.errors import ModelError
 
 from .gait import analyze_gait, walk
+from .results import to_json
+from .robustness import basin, gait_sensitivity_norm, step_down
 from .walkers import BUILDERS, available_walkers, export_model_file, load_walker
 
 
@@ -79,6 +84,62 @@ def cmd_walk(args) -> int:
     return 0
 
 
+def _progress(args, label: str):
+    """A per-case progress line on stderr (stdout keeps the JSON document clean)."""
+    if args.quiet:
+        return None
+    count = [0]
+
+    def report(rec: dict) -> None:
+        count[0] += 1
+        detail = ", ".join(f"{k} = {_fmt(v)}" for k, v in rec.items() if k in ("h", "theta", "theta_dot"))
+        print(f"{label} case {count[0]}: {detail}: {rec['status']}", file=sys.stderr, flush=True)
+    return report
+
+
+def cmd_step_down(args) -> int:
+    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
+    result = step_down(walker, resolution=args.resolution, h_max=args.h_max,
+                       progress=_progress(args, "step-down"))
+    if args.json:
+        print(result.to_json())
+        return 0
+    print(f"{walker.name}: {result.message}")
+    for c in result.cases:
+        print(f"  h = {c['h'] * 1e3:8.3f} mm  {c['status']:9s} after {c['steps']} steps"
+              + (f" ({c['reason']})" if c["reason"] else ""))
+    return 0
+
+
+def cmd_basin(args) -> int:
+    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
+    result = basin(walker, n=args.n, span=args.span, progress=_progress(args, "basin"))
+    if args.json:
+        print(result.to_json())
+        return 0
+    print(f"{walker.name}: {result.message}; radius {result.radius:.4g} (scaled units: theta/"
+          f"{result.theta_scale:g}, theta_dot/{result.theta_dot_scale:g})")
+    if result.status == "ok":
+        mark = {"converged": "*", "fell": ".", "wandered": "~", "invalid": "x"}
+        print("  rows: theta_dot (top = largest); columns: theta (left = smallest)")
+        for j in reversed(range(len(result.theta_dot))):
+            print(f"  {result.theta_dot[j]: .4f} " + "".join(mark[result.outcome[i][j]]
+                                                          for i in range(len(result.theta))))
+    return 0
+
+
+def cmd_gsn(args) -> int:
+    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
+    result = gait_sensitivity_norm(walker)
+    if args.json:
+        print(to_json(result))
+        return 0
+    print(f"{walker.name}: {result.message}; error estimate {result.error:.2g}")
+    for k, v in result.by_indicator.items():
+        print(f"  {k:15s} {v:.6g}")
+    return 0
+
+
 def cmd_list(args) -> int:
     names = available_walkers()
     if args.json:
@@ -130,6 +191,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=20)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_walk)
+    p = sub.add_parser("step-down", help="largest single drop of the surface survived, scanning "
+                                         "upward (MODEL-SPEC.md §5)")
+    p.add_argument("model")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.add_argument("--resolution", type=float, default=None,
+                   help="height grid (m; default 2e-4 of the leg length)")
+    p.add_argument("--h-max", type=float, default=None, help="largest height tried (m)")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no per-case lines on stderr")
+    p.set_defaults(func=cmd_step_down)
+    p = sub.add_parser("basin", help="basin of attraction on a scaled (theta, theta_dot) grid")
+    p.add_argument("model")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.add_argument("--n", type=int, default=11, help="grid points per axis")
+    p.add_argument("--span", type=float, default=0.1,
+                   help="half-width of the grid in scaled units (theta/0.4, theta_dot/0.8)")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no per-case lines on stderr")
+    p.set_defaults(func=cmd_basin)
+    p = sub.add_parser("gsn", help="Gait Sensitivity Norm for a step-down disturbance")
+    p.add_argument("model")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_gsn)
     p = sub.add_parser("list", help="walker model files and builders")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_list)

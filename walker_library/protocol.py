@@ -14,7 +14,8 @@ touchdown of the new foot in front, see :mod:`walker_library.compliant`), with t
 fields taken from the ledger (E_diss increments, H and the potential energy at the section
 crossings) and ``status="fell"`` for a fall; :meth:`Walker.stride` is ``walk(z, 1)[0]``.
 ``details=True`` asks for max |θ| and max |φ|; ``record=True`` for the trajectory in
-``info["trajectory"]`` of the last stride.
+``info["trajectory"]`` of the last stride; ``ground_drop=h`` lowers the surface by h before the
+first heel strike (the step-down test).
 
 Conventions (MODEL-SPEC.md §1, Garcia et al. 1998): θ is the stance-leg angle to the slope normal,
 φ the angle between the legs, positive as in Garcia's paper: just after heel strike θ > 0 (the new
@@ -132,8 +133,14 @@ class Walker(Protocol):
         """Simulate one step from section coordinates ``z`` (``details``: also max θ, max φ)."""
 
     def walk(self, z: np.ndarray, n_steps: int, *, details: bool = False,
-             record: bool = False) -> list[Stride]:
-        """``n_steps`` consecutive strides from ``z`` (stops at the first fall)."""
+             record: bool = False, ground_drop: float = 0.0) -> list[Stride]:
+        """``n_steps`` consecutive strides from ``z`` (stops at the first fall).
+
+        ``ground_drop`` h (m, >= 0): the surface drops by h once, ahead of the stance foot, before
+        the first heel strike, and stays down (MODEL-SPEC.md §5 step-down): the first step's new
+        foot lands h lower (along the slope normal) than the stance foot, later steps on the
+        lowered surface. The section coordinates are translation-invariant, so the strides after
+        the drop are comparable with the gait's fixed point."""
 
     def section_state(self, z: np.ndarray) -> dict[str, float]:
         """The section state by name (SI), with theta, theta_dot, phi, phi_dot if legged."""

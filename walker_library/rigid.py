@@ -208,11 +208,17 @@ class RigidImpactWalker:
         return self.walk(z, 1, details=details, record=record)[0]
 
     def walk(self, z: np.ndarray, n_steps: int, *, details: bool = False,
-             record: bool = False) -> list[Stride]:
+             record: bool = False, ground_drop: float = 0.0) -> list[Stride]:
         """``n_steps`` consecutive strides from ``z`` in one simulation (one energy ledger); stops at
-        the first fall. Returns one :class:`Stride` per step taken (the last may be a fall)."""
+        the first fall. Returns one :class:`Stride` per step taken (the last may be a fall).
+
+        ``ground_drop`` h (m): the surface ahead of the stance foot is h lower (``ground_z = −h``
+        from the start); every later stance foot stands on it (the impact sets ``stance_z`` to
+        the striking foot's height), so the drop happens once."""
         z = np.asarray(z, dtype=float)
-        p0 = self._params_with(self._p, stance_x=0.0, stance_z=0.0, ground_z=0.0)
+        if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
+            raise ParameterValueError(f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
+        p0 = self._params_with(self._p, stance_x=0.0, stance_z=0.0, ground_z=-float(ground_drop))
         try:
             x0 = self.lift(z)
         except (np.linalg.LinAlgError, ModelError, ValueError) as err:

@@ -1,0 +1,130 @@
+"""Robustness analyses (walker_library.robustness): the step-down test, the basin of attraction
+and the Gait Sensitivity Norm, on the rigid-impact walkers (fast; the compliant-contact walkers
+use the same code through the Walker protocol).
+
+Independent checks: the drop itself (the new stance foot lands h lower, the ledger stays closed),
+the step-down scan against explicit re-walks, and the GSN's direct finite-difference impulse
+response against the linearized stride map x_{k+1} = A x_k + B h_k, T_k = C x_k + D h_k built
+from separately computed derivatives (Hobbelen & Wisse 2007, eq. for the H2 norm)."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from walker_library import analyze_gait, compass_gait, simplest_walker
+from walker_library.cli import main
+from walker_library.poincare import jacobian
+from walker_library.robustness import basin, gait_sensitivity_norm, recovers, step_down
+
+
+@pytest.fixture(scope="module")
+def simplest():
+    w = simplest_walker()
+    return w, analyze_gait(w)
+
+
+def _z(walker, gait):
+    return np.array([gait.fixed_point[k] for k in walker.section])
+
+
+def test_ground_drop_lowers_the_new_stance_foot_once_and_keeps_the_ledger(simplest):
+    w, g = simplest
+    h = 1e-3
+    strides = w.walk(_z(w, g), 4, ground_drop=h, record=True)
+    assert [s.status for s in strides] == ["step"] * 4
+    traj = strides[-1].info["trajectory"]
+    iz = w.swing.param_names.index("stance_z")
+    heights = sorted({float(seg.p[iz]) for seg in traj.segments})
+    # after the first heel strike every stance foot stands on the lowered surface: the stance
+    # foot's height is -h (to the heel-strike guard's 1e-12 m hysteresis)
+    assert heights[0] == pytest.approx(-h, abs=1e-11) and heights[-1] == 0.0
+    assert all(abs(v + h) < 1e-11 for v in heights[:-1])
+    assert np.max(np.abs(traj.residual)) < 1e-10
+    with pytest.raises(Exception, match="ground_drop"):
+        w.walk(_z(w, g), 1, ground_drop=-1e-3)
+
+
+def test_step_down_scan_of_the_simplest_walker(simplest):
+    w, g = simplest
+    r = step_down(w, g, resolution=2e-4)
+    assert r.status == "ok" and r.n_steps >= 20
+    hs = [c["h"] for c in r.cases]
+    assert hs == pytest.approx([2e-4 * k for k in range(1, len(hs) + 1)], abs=1e-15)
+    survived = [c["h"] for c in r.cases if c["survived"]]
+    assert r.max_step_down == max(survived)
+    # the scan ends after n_beyond (8) consecutive failures
+    assert all(not c["survived"] for c in r.cases[-8:])
+    # measured: survives up to 1.4e-3, falls at 1.6e-3..2.0e-3, survives 2.2e-3 again (the
+    # thesis's "chaotic" robustness): holes below the maximum make the set non-contiguous
+    assert r.contiguous is (not r.holes)
+    assert r.first_failure == pytest.approx(1.6e-3, abs=1e-12)
+    assert r.max_step_down == pytest.approx(2.2e-3, abs=1e-12) and not r.contiguous
+    # re-walk two cases independently of the scan
+    fps = np.array([_z(w, g)])
+    assert recovers(w, _z(w, g), fps, n_steps=40, tol=1e-6, ground_drop=1.4e-3).survived
+    assert recovers(w, _z(w, g), fps, n_steps=40, tol=1e-6, ground_drop=1.8e-3).status == "fell"
+    # an explicit list of heights is evaluated as given
+    r2 = step_down(w, g, heights=[2.2e-3, 1e-3, 1.8e-3])
+    assert [c["status"] for c in r2.cases] == ["converged", "fell", "converged"]
+    assert r2.max_step_down == 2.2e-3 and r2.contiguous is False and r2.holes == [1.8e-3]
+    r3 = step_down(w, g, heights=[1e-3, 1.8e-3])
+    assert r3.max_step_down == 1e-3 and r3.contiguous is True
+
+
+def test_step_down_without_a_gait_is_a_result():
+    w = simplest_walker(slope=0.0001, theta0=0.05)       # too shallow: it falls from the guess
+    r = step_down(w)
+    assert r.status == "no_gait" and r.max_step_down is None and r.contiguous is False
+    assert "no periodic gait" in r.message
+    json.loads(r.to_json())
+
+
+def test_gsn_matches_the_linearized_stride_map(simplest):
+    """After the drop step the trailing foot stands h higher than the new stance foot (off the
+    two-feet-on-the-ground section), so the linear model starts from the section state after the
+    second step, both feet on the lowered surface: g_k = C A^(k-2) dz_2 for k >= 2 (A from the
+    Floquet Jacobian, C = dT/dz by separate central differences)."""
+    w, g = simplest
+    res = gait_sensitivity_norm(w, g, h=1e-6, n_steps=60)
+    assert res.status == "ok" and res.error < 1e-3 * res.gsn
+    z = _z(w, g)
+    h = 1e-6
+    A = jacobian(w, z, step=1e-6)
+    dz2 = (w.walk(z, 2, ground_drop=h)[1].z_next - z) / h
+    C = np.empty(len(z))
+    for j in range(len(z)):
+        e = np.zeros(len(z))
+        e[j] = 1e-6
+        C[j] = (w.stride(z + e).duration - w.stride(z - e).duration) / 2e-6
+    g_lin, x = [], dz2.copy()
+    for _ in range(58):
+        g_lin.append(float(C @ x))
+        x = A @ x
+    direct = np.array(res.response["step_period"][2:])
+    assert np.linalg.norm(g_lin) == pytest.approx(np.linalg.norm(direct), rel=2e-3)
+    assert direct[:5] == pytest.approx(g_lin[:5], rel=1e-2, abs=1e-2)
+
+
+def test_basin_of_the_compass_gait():
+    w = compass_gait()
+    g = analyze_gait(w)
+    r = basin(w, g, n=5, span=0.1)
+    assert r.status == "ok" and len(r.outcome) == 5 and all(len(row) == 5 for row in r.outcome)
+    assert r.outcome[2][2] == "converged"                  # the fixed point itself
+    assert r.theta[2] == pytest.approx(g.fixed_point["theta"], abs=1e-12)
+    assert r.theta[4] - r.theta[0] == pytest.approx(2 * 0.1 * 0.4, rel=1e-12)   # scaled by 0.4
+    assert r.theta_dot[4] - r.theta_dot[0] == pytest.approx(2 * 0.1 * 0.8, rel=1e-12)
+    assert 0 < r.fraction < 1 and set(sum(r.outcome, [])) <= {"converged", "fell", "wandered"}
+    assert 0 < r.radius <= 0.1 * math.sqrt(2)
+    json.loads(r.to_json())
+
+
+def test_cli_step_down_json(capsys):
+    assert main(["step-down", "simplest_walker", "--resolution", "5e-4", "--quiet", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert isinstance(d["max_step_down"], float) and isinstance(d["contiguous"], bool)
+    assert d["max_step_down"] == max(c["h"] for c in d["cases"] if c["survived"])
+    assert d["max_step_down"] >= 1.5e-3 and d["resolution"] == 5e-4
