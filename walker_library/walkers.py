@@ -214,6 +214,39 @@ def compass_gait(*, backend: str = "python", options: IntegrationOptions | None 
                              total_mass=lambda P: P["m_H"] + 2 * P["m"])
 
 
+def rigid_compass_walker(*, backend: str = "python", options: IntegrationOptions | None = None,
+                         **values: float) -> LeggedRigidWalker:
+    """The thesis's nominal walker's mass distribution (MODEL-SPEC.md §1, Table 2.3) with point
+    feet and a rigid plastic heel strike instead of the compliant contact: hip M = 3 kg, legs
+    m_leg = 0.01 kg at mid-leg, feet m_foot = 0.1 kg at the leg ends, l = 0.7 m. It is the limit of
+    ``compass_walker`` with R -> 0 and an ever stiffer, plastic contact (tested)."""
+    thesis = "MODEL-SPEC.md §1 (thesis Table 2.3)"
+    specs = [
+        _spec("slope", 0.009, "rad", "slope angle γ", thesis, -math.pi / 4, math.pi / 4),
+        _spec("M", 3.0, "kg", "hip mass (point mass)", thesis, 0.0),
+        _spec("m_leg", 0.01, "kg", "mass of each leg, at mid-leg", thesis, 0.0),
+        _spec("m_foot", 0.1, "kg", "mass of each (point) foot, at the leg's end", thesis, 0.0),
+        _spec("l", 0.7, "m", "leg length, hip to foot", thesis, 0.0),
+        _spec("g", 9.81, "m/s^2", "acceleration of gravity", "", 0.0),
+        _spec("theta0", 0.2, "rad", "initial guess: θ just after heel strike", "rough", 0.0,
+              math.pi / 2),
+        _spec("theta_dot0", -0.75, "rad/s", "initial guess: θ̇ just after heel strike", "rough"),
+        _spec("phi_dot0", -0.05, "rad/s", "initial guess: φ̇ just after heel strike", "rough"),
+        *_common_specs("l"),
+    ]
+    doc = ("Thesis nominal walker's masses (hip 3 kg, legs 0.01 kg at mid-leg, feet 0.1 kg) with "
+           "point feet and a plastic heel strike: the rigid-impact limit of compass_walker.")
+    swing, floating = _legged_models("rigid_compass_walker", doc, specs, hip_mass="M",
+                                     leg_mass="m_leg", leg_com_from_hip="l/2", leg_inertia=None,
+                                     foot_mass="m_foot", length="l", t_end=1.0, atol=1e-13)
+    opts = options or IntegrationOptions(method="DOP853", rtol=1e-12, atol=1e-14, max_step=0.03,
+                                         max_step_time=5.0)
+    return LeggedRigidWalker("rigid_compass_walker", {s.name: s for s in specs}, swing, floating,
+                             values=values, backend=backend, options=opts, doc=doc,
+                             builder="rigid_compass_walker", leg_length=lambda P: P["l"],
+                             total_mass=lambda P: P["M"] + 2 * (P["m_leg"] + P["m_foot"]))
+
+
 def rimless_wheel(*, backend: str = "python", options: IntegrationOptions | None = None,
                   **values: float) -> RimlessWheelWalker:
     """A rimless wheel: hub mass m (radius of gyration r_gyr about the hub, 0: a point mass),
@@ -275,7 +308,8 @@ def rimless_wheel(*, backend: str = "python", options: IntegrationOptions | None
 from .compliant import CONTACT_MODES, compass_walker  # noqa: E402  (after the rigid builders)
 
 BUILDERS = {"simplest_walker": simplest_walker, "compass_gait": compass_gait,
-            "rimless_wheel": rimless_wheel, "compass_walker": compass_walker}
+            "rimless_wheel": rimless_wheel, "compass_walker": compass_walker,
+            "rigid_compass_walker": rigid_compass_walker}
 
 
 # --- model files ------------------------------------------------------------------------------------
