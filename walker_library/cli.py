@@ -5,6 +5,7 @@
     walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--json]
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
     walker gsn MODEL [--set NAME=VALUE ...] [--json]
+    walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin]
     walker list
     walker export BUILDER PATH [--set NAME=VALUE ...]
 
@@ -140,6 +141,16 @@ def cmd_gsn(args) -> int:
     return 0
 
 
+def cmd_report(args) -> int:
+    from .report import write_report
+    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
+    log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
+                          with_step_down=not args.no_step_down, log=log)
+    print(f"wrote {result.out / 'report.html'} ({len(result.files)} files, {result.seconds:.0f} s)")
+    return 0
+
+
 def cmd_list(args) -> int:
     names = available_walkers()
     if args.json:
@@ -215,6 +226,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_gsn)
+    p = sub.add_parser("report", help="the main job: HTML report (figures, GIF, JSON) of a walker")
+    p.add_argument("model", nargs="?", default="compass_walker",
+                   help="walker model (default: compass_walker, the thesis's nominal walker)")
+    p.add_argument("--out", default="report", help="output directory (default: ./report)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.add_argument("--steps", type=int, default=6, help="steps of the recorded walk")
+    p.add_argument("--basin", action="store_true", help="also the basin of attraction (slow)")
+    p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func=cmd_report)
     p = sub.add_parser("list", help="walker model files and builders")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_list)
