@@ -6,6 +6,7 @@
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
     walker gsn MODEL [--set NAME=VALUE ...] [--json]
     walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin]
+    walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
     walker export BUILDER PATH [--set NAME=VALUE ...]
 
@@ -151,6 +152,37 @@ def cmd_report(args) -> int:
     return 0
 
 
+def cmd_reproduce(args) -> int:
+    from .studies import STUDIES, run_studies
+    if args.list:
+        for study in STUDIES.values():
+            print(f"{study.name:22s} {study.thesis:28s} {study.title}")
+        return 0
+    log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    options = dict(quick=args.quick, workers=args.workers, serial=args.serial, log=log,
+                   progress="none" if args.quiet else "auto")
+    client = None
+    if args.scheduler:
+        from distributed import Client
+        client = Client(args.scheduler)
+        options["executor"] = client.get_executor()
+    try:
+        summaries = run_studies(args.studies, args.out, **options)
+    finally:
+        if client is not None:
+            client.close()
+    for name, summary in summaries.items():
+        if args.studies and name not in args.studies:
+            continue
+        print(f"{name} ({summary['thesis']}): {summary['seconds']:.0f} s")
+        for row in summary.get("rows", []):
+            dev = "" if row["deviation"] is None else f"  ({100 * row['deviation']:+.1f} %)"
+            print(f"  {row['quantity']:45s} ours {_fmt(row['ours']):>14s}  thesis "
+                  f"{_fmt(row['thesis']):>10s} {row['unit']}{dev}")
+    print(f"results in {args.out}")
+    return 0
+
+
 def cmd_list(args) -> int:
     names = available_walkers()
     if args.json:
@@ -236,6 +268,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=cmd_report)
+    p = sub.add_parser("reproduce", help="rebuild the thesis's tables and figures (named studies)")
+    p.add_argument("studies", nargs="*", help="studies to run (default: all; see --list)")
+    p.add_argument("--out", default="reproduction", help="output directory")
+    p.add_argument("--quick", action="store_true", help="coarse grids (minutes, not hours)")
+    p.add_argument("--workers", type=int, default=None, help="process-pool size (default: cores)")
+    p.add_argument("--serial", action="store_true", help="run the sweeps in this process")
+    p.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
+    p.add_argument("--list", action="store_true", help="list the studies and exit")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(func=cmd_reproduce)
     p = sub.add_parser("list", help="walker model files and builders")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_list)

@@ -70,24 +70,24 @@ class ReportResult:
     seconds: float
 
 
-def _plt():
+def pyplot():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
 
 
-def _save(fig, path: Path) -> bytes:
+def save_figure(fig, path: Path) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", **_FIG)
-    _plt().close(fig)
+    pyplot().close(fig)
     data = buf.getvalue()
     path.write_bytes(data)
     return data
 
 
-def _fig_angles(s: GaitSeries, path: Path) -> bytes:
-    plt = _plt()
+def fig_angles(s: GaitSeries, path: Path) -> bytes:
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.2))
     ax.plot(s.t, s.theta, label="θ (stance leg)")
     if np.any(np.isfinite(s.phi)):
@@ -99,11 +99,11 @@ def _fig_angles(s: GaitSeries, path: Path) -> bytes:
     ax.legend(loc="best", fontsize=8)
     ax.set_title("Leg angles over the steps (heel strikes: grey lines)")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _fig_limit_cycle(s: GaitSeries, path: Path) -> bytes:
-    plt = _plt()
+def fig_limit_cycle(s: GaitSeries, path: Path) -> bytes:
+    plt = pyplot()
     legged = bool(np.any(np.isfinite(s.phi)))
     fig, axes = plt.subplots(1, 2 if legged else 1, figsize=(7.5 if legged else 4, 3.4))
     axes = np.atleast_1d(axes)
@@ -118,11 +118,11 @@ def _fig_limit_cycle(s: GaitSeries, path: Path) -> bytes:
         axes[1].set_title("between the legs")
     fig.suptitle("Limit cycle (phase portraits over the recorded steps)", fontsize=10)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _fig_energy(s: GaitSeries, path: Path) -> bytes:
-    plt = _plt()
+def fig_energy(s: GaitSeries, path: Path) -> bytes:
+    plt = pyplot()
     fig, (a, b) = plt.subplots(2, 1, figsize=(7, 5), sharex=True,
                                gridspec_kw={"height_ratios": [3, 1]})
     a.plot(s.t, s.V - s.V[0], label="potential V − V(0)")
@@ -138,11 +138,11 @@ def _fig_energy(s: GaitSeries, path: Path) -> bytes:
     b.set_ylabel("residual (J)")
     b.set_xlabel("t (s)")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _fig_energy_per_step(s: GaitSeries, path: Path) -> bytes:
-    plt = _plt()
+def fig_energy_per_step(s: GaitSeries, path: Path) -> bytes:
+    plt = pyplot()
     steps = [x for x in s.strides if not x.fell]
     k = np.arange(1, len(steps) + 1)
     fig, ax = plt.subplots(figsize=(6, 3))
@@ -152,11 +152,11 @@ def _fig_energy_per_step(s: GaitSeries, path: Path) -> bytes:
     ax.set_ylabel("energy per step (J)")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _fig_floquet(gait: GaitResult, path: Path) -> bytes:
-    plt = _plt()
+def fig_floquet(gait: GaitResult, path: Path) -> bytes:
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(3.6, 3.6))
     u = np.linspace(0, 2 * math.pi, 200)
     ax.plot(np.cos(u), np.sin(u), color="0.6", lw=0.8)
@@ -167,11 +167,11 @@ def _fig_floquet(gait: GaitResult, path: Path) -> bytes:
     ax.set_ylabel("Im λ")
     ax.set_title("Floquet multipliers", fontsize=10)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _fig_step_down(r: StepDownResult, path: Path) -> bytes:
-    plt = _plt()
+def fig_step_down(r: StepDownResult, path: Path) -> bytes:
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 2.6))
     colors = {"converged": "C2", "fell": "C3", "wandered": "C1"}
     for c in r.cases:
@@ -185,11 +185,11 @@ def _fig_step_down(r: StepDownResult, path: Path) -> bytes:
     ax.legend(fontsize=8, ncol=3, loc="upper right")
     ax.set_title(r.message, fontsize=9)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _fig_basin(r: BasinResult, path: Path) -> bytes:
-    plt = _plt()
+def fig_basin(r: BasinResult, path: Path) -> bytes:
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(4.5, 4))
     th = np.array(r.theta) / r.theta_scale
     thd = np.array(r.theta_dot) / r.theta_dot_scale
@@ -203,12 +203,12 @@ def _fig_basin(r: BasinResult, path: Path) -> bytes:
     ax.set_ylabel(f"θ̇ / {r.theta_dot_scale:g} rad/s")
     ax.set_title("Basin of attraction (stars converge)", fontsize=10)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _animation(s: GaitSeries, path: Path, *, frames: int = 60, fps: int = 15) -> bytes:
     """A GIF of the stick figure in the slope frame (x down the slope, z along its normal)."""
-    plt = _plt()
+    plt = pyplot()
     from matplotlib.animation import FuncAnimation, PillowWriter
     idx = np.unique(np.searchsorted(s.t, np.linspace(s.t[0], s.t[-1], frames)).clip(0, len(s.t) - 1))
     pts = np.concatenate([s.hip[:, None, :], s.feet], axis=1)
@@ -310,20 +310,20 @@ def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step
     say(f"{walker.name}: recorded walk of {n_steps} steps")
     period = gait.metrics.step_period if periodic and math.isfinite(gait.metrics.step_period) else 1.0
     series = walk_series(walker, z0, n_steps, max_step=period / 150)
-    put("angles.png", _fig_angles(series, out / "angles.png"))
-    put("limit_cycle.png", _fig_limit_cycle(series, out / "limit_cycle.png"))
-    put("energy.png", _fig_energy(series, out / "energy.png"))
-    put("energy_per_step.png", _fig_energy_per_step(series, out / "energy_per_step.png"))
+    put("angles.png", fig_angles(series, out / "angles.png"))
+    put("limit_cycle.png", fig_limit_cycle(series, out / "limit_cycle.png"))
+    put("energy.png", fig_energy(series, out / "energy.png"))
+    put("energy_per_step.png", fig_energy_per_step(series, out / "energy_per_step.png"))
     say(f"{walker.name}: animation")
     put("walk.gif", _animation(_first_steps(series, 3), out / "walk.gif"), "image/gif")
     sd = bas = gsn = None
     if periodic:
-        put("floquet.png", _fig_floquet(gait, out / "floquet.png"))
+        put("floquet.png", fig_floquet(gait, out / "floquet.png"))
         if with_step_down:
             say(f"{walker.name}: step-down test")
             sd = step_down(walker, gait, resolution=step_down_resolution)
             dump("step_down.json", sd)
-            put("step_down.png", _fig_step_down(sd, out / "step_down.png"))
+            put("step_down.png", fig_step_down(sd, out / "step_down.png"))
         say(f"{walker.name}: gait sensitivity norm")
         gsn = gait_sensitivity_norm(walker, gait)
         dump("gsn.json", gsn)
@@ -331,7 +331,7 @@ def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step
             say(f"{walker.name}: basin of attraction ({basin_n}×{basin_n})")
             bas = basin(walker, gait, n=basin_n)
             dump("basin.json", bas)
-            put("basin.png", _fig_basin(bas, out / "basin.png"))
+            put("basin.png", fig_basin(bas, out / "basin.png"))
     comparison = _comparison(walker, gait_d, sd)
     ledger = {"max_abs_residual": float(np.max(np.abs(series.residual))),
               "energy_dissipated": float(series.E_diss[-1]), "energy_supplied": float(series.E_in[-1]),

@@ -366,3 +366,58 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
                      response={k: g2[k].tolist() for k in indicators}, error=abs(total - total1),
                      h=h, n_steps=n_steps,
                      message=f"GSN {total:.6g} (indicators {', '.join(indicators)})", **base)
+
+
+# --- case functions for sweeps (walker_library.sweeps: ``--analysis step-down`` / ``basin``) ------
+_GAITS: dict[tuple, GaitResult] = {}
+
+
+def _walker_and_gait(model: str, backend: str | None, params: dict) -> tuple[Walker, GaitResult]:
+    """The walker ``model`` with ``params`` and its gait, cached per process."""
+    from .sweeps import cached_walker
+    walker = cached_walker(model, backend)
+    if params:
+        walker = walker.with_parameters(**params)
+    key = (model, backend, tuple(sorted(walker.parameters.items())))
+    if key not in _GAITS:
+        _GAITS[key] = analyze_gait(walker)
+    return walker, _GAITS[key]
+
+
+def step_down_case(case: dict, *, model: str, backend: str | None = None,
+                   resolution: float | None = None, h_max: float | None = None) -> dict:
+    """Sweep case: the gait and the step-down test of ``model`` with the case's parameters.
+    Returns status ("ok", "no_gait"), max_step_down (m), contiguous, first_failure (m), holes,
+    and the gait's speed (m/s), energy per step (J), step period (s), largest |multiplier|."""
+    walker, gait = _walker_and_gait(model, backend, dict(case))
+    r = step_down(walker, gait, resolution=resolution, h_max=h_max)
+    mults = [abs(complex(m)) for m in gait.floquet_multipliers]
+    m = gait.metrics
+    return to_jsonable({"status": r.status, "max_step_down": r.max_step_down,
+                        "contiguous": r.contiguous, "first_failure": r.first_failure,
+                        "holes": r.holes, "gait_status": gait.status,
+                        "period_steps": gait.period_steps,
+                        "max_multiplier": max(mults) if mults else None,
+                        "speed": m.speed, "step_period": m.step_period,
+                        "step_length": m.step_length,
+                        "energy_dissipated_per_step": m.energy_dissipated_per_step,
+                        "message": r.message})
+
+
+def basin_case(case: dict, *, model: str, backend: str | None = None, params: dict | None = None,
+               n_steps: int | None = None, tol: float = 1e-4) -> dict:
+    """Sweep case: one point of a basin of attraction. ``case`` holds the thesis ``theta`` (rad)
+    and ``theta_dot`` (rad/s) of the initial section state; ``params`` the walker's parameters
+    (e.g. the slope). Returns status "converged", "fell", "wandered" or "no_gait", and steps."""
+    walker, gait = _walker_and_gait(model, backend, dict(params or {}))
+    if gait.status != "periodic":
+        return {"status": "no_gait", "steps": 0, "message": gait.message}
+    fps = _fixed_points(walker, gait)
+    n = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
+    try:
+        z0 = basin_state(walker, fps[0], float(case["theta"]), float(case["theta_dot"]))
+    except (ValueError, np.linalg.LinAlgError) as err:
+        return {"status": "invalid", "steps": 0, "message": str(err)}
+    r = recovers(walker, z0, fps, n_steps=n, tol=tol)
+    return to_jsonable({"status": r.status, "steps": r.steps, "distance": r.distance,
+                        "reason": r.reason})

@@ -1,0 +1,437 @@
+"""The thesis's results, reproduced on our models: named studies run by ``walker reproduce``.
+
+Each :class:`Study` rebuilds one table or figure group of the thesis (MODEL-SPEC.md; the thesis
+text is in ``shared/reference``) and writes into ``OUT/<study>/``: its sweeps' results files
+(JSON Lines, resumable: see :mod:`walker_library.sweeps`), its figures (PNG) and ``summary.json``
+— the thesis's numbers beside ours where the thesis states them (``rows``: quantity, ours,
+thesis, unit, deviation). ``OUT/reproduction.json`` collects the summaries.
+
+Studies (``walker reproduce --list``):
+
+=====================  ==========================================================================
+table_2_3              nominal walker at γ = 0.009: step period, step length, speed, max θ, max φ,
+                       energy per step, max step-down (Table 2.3)
+damping_calibration    energy dissipated per impact over the contact damping λ; the calibrated λ
+                       (§2.3.2, Fig. 2.12)
+time_plots             θ/φ over time, limit cycles, energies over steps (Figs. 2.13–2.15, 2.17–2.18)
+slope_multipliers      Floquet multipliers over the slope; period-1/period-2 boundary (Table 2.2)
+step_down_slope        maximum step-down over the slope (Fig. 2.22)
+basin                  basin of attraction at γ = 0.007 and 0.012 (Figs. 2.21, 2.23)
+damper_factor          compliant leg: stable stiffness range and step-down over α (Fig. 3.3)
+leg_stiffness          compliant leg at α = 0.15: step-down, speed, energy per step over K, and
+                       robustness over speed, rigid (over slope) vs compliant (over K) (Figs. 3.4–3.6)
+variable_stiffness     K1 → K2 against constant K: speed, step-down, F–Δz loop, injected energy
+                       (Figs. 3.7–3.8, Table 3.1)
+=====================  ==========================================================================
+
+``quick=True`` runs every study on coarse grids (the tests use it); the full grids are the
+defaults. Sweeps run through a process pool by default (``workers``), serially with
+``serial=True``, or through any executor (e.g. a dask client's).
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from porthamiltonian.errors import ModelError
+
+from .gait import analyze_gait
+from .report import (fig_angles, fig_energy, fig_energy_per_step, fig_limit_cycle, pyplot,
+                     save_figure)
+from .results import to_json, to_jsonable
+from .robustness import step_down
+from .series import walk_series
+from .sweeps import Sweep
+
+__all__ = ["STUDIES", "Study", "StudyContext", "run_studies"]
+
+NOMINAL = "compass_walker"
+RIGID_SLOPES = (0.002, 0.004, 0.006, 0.007, 0.008, 0.009, 0.010, 0.011, 0.012, 0.013, 0.014,
+                0.015, 0.016, 0.017)
+
+
+@dataclass
+class StudyContext:
+    """Where a study writes and how it runs its sweeps."""
+
+    out: Path
+    quick: bool = False
+    workers: int | None = None
+    serial: bool = False
+    executor: Executor | None = None
+    progress: str = "auto"
+    log: Callable[[str], None] = print
+
+    def sweep(self, name: str, function: Callable, cases: list[dict], *, study: str | None = None,
+              **fixed) -> list[dict]:
+        """Run (or resume) a sweep into ``<study dir>/<name>.jsonl`` (``study``: another
+        study's directory, to share its sweep); rows in case order."""
+        where = self.out if study is None else self.out.parent / study
+        where.mkdir(parents=True, exist_ok=True)
+        sw = Sweep(function, cases, where / f"{name}.jsonl", fixed=fixed)
+        sw.run(self.executor, workers=self.workers, serial=self.serial, progress=self.progress)
+        return sw.table()
+
+    def path(self, name: str) -> Path:
+        return self.out / name
+
+
+@dataclass
+class Study:
+    """A named reproduction: ``run(ctx) -> summary dict`` (JSON-able, with ``rows`` comparing
+    with the thesis where it states numbers)."""
+
+    name: str
+    title: str
+    thesis: str
+    run: Callable[[StudyContext], dict]
+    models: tuple[str, ...] = field(default_factory=tuple)
+
+
+def _row(quantity: str, ours, thesis, unit: str, note: str = "") -> dict:
+    dev = None
+    if isinstance(ours, (int, float)) and isinstance(thesis, (int, float)) and thesis:
+        dev = (float(ours) - thesis) / abs(thesis)
+    return {"quantity": quantity, "ours": ours, "thesis": thesis, "unit": unit, "deviation": dev,
+            "note": note}
+
+
+def _walker(name: str, **params):
+    from .walkers import load_walker
+    return load_walker(name, params or None, backend=None)
+
+
+def _plot_xy(path: Path, xs, series: dict[str, list], xlabel: str, ylabel: str, title: str,
+             hlines: dict[str, float] | None = None) -> None:
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 3.6))
+    for label, ys in series.items():
+        ax.plot(xs, [np.nan if y is None else y for y in ys], "o-", label=label, ms=4)
+    for label, y in (hlines or {}).items():
+        ax.axhline(y, ls="--", lw=0.8, color="0.4")
+        ax.text(xs[0], y, f" {label}", fontsize=7, va="bottom")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    if len(series) > 1:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+# --- Table 2.3 -----------------------------------------------------------------------------------
+def run_table_2_3(ctx: StudyContext) -> dict:
+    w = _walker(NOMINAL)
+    gait = analyze_gait(w)
+    sd = step_down(w, gait, resolution=2e-4 if ctx.quick else 1e-4)
+    m = gait.metrics
+    rows = [
+        _row("step period", m.step_period, None, "s", "lost from the thesis text"),
+        _row("step length", m.step_length, None, "m", "lost from the thesis text"),
+        _row("speed", m.speed, 0.274, "m/s"),
+        _row("max θ", m.max_theta, None, "rad", "lost from the thesis text"),
+        _row("max φ", m.max_phi, None, "rad", "lost from the thesis text"),
+        _row("energy dissipated per step", m.energy_dissipated_per_step, 0.08, "J"),
+        _row("max step-down", sd.max_step_down, 0.0024, "m",
+             f"grid {sd.resolution * 1e3:g} mm; contiguous: {sd.contiguous}"),
+        _row("largest |Floquet multiplier|",
+             max(abs(complex(x)) for x in gait.floquet_multipliers), None, "1"),
+        _row("contact stiffness K", w.parameters["K"], 1.0e6, "N/m", "App. A"),
+        _row("contact damping λ", w.parameters["lam"], None, "N·s/m²",
+             "lost in the thesis; calibrated its way (damping_calibration)"),
+    ]
+    (ctx.out / "gait.json").write_text(gait.to_json())
+    (ctx.out / "step_down.json").write_text(sd.to_json())
+    return {"rows": rows, "gait_status": gait.status, "step_down_contiguous": sd.contiguous}
+
+
+# --- Fig. 2.12 ----------------------------------------------------------------------------------
+def run_damping_calibration(ctx: StudyContext) -> dict:
+    from .compliant import calibrate_damping
+    w = _walker(NOMINAL)
+    lams = np.logspace(5, 10, 6 if ctx.quick else 21)
+    cal = calibrate_damping(w, lams=lams)
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6, 3.4))
+    ax.semilogx(cal.lam, cal.dissipated, "o-")
+    ax.axvline(cal.calibrated_lam, ls="--", color="C3", lw=0.8)
+    ax.set_xlabel("Hunt–Crossley damping λ (N·s/m²)")
+    ax.set_ylabel("energy dissipated per impact (J)")
+    ax.set_title(f"calibrated λ = {cal.calibrated_lam:.3g} (smallest λ within "
+                 f"{cal.rel_tol:g} of the maximum)", fontsize=9)
+    fig.tight_layout()
+    save_figure(fig, ctx.path("fig_2_12_dissipation_over_lambda.png"))
+    (ctx.out / "calibration.json").write_text(to_json(cal.to_dict()))
+    return {"rows": [_row("calibrated λ", cal.calibrated_lam, None, "N·s/m²",
+                          "the thesis's value is lost ('e7' in App. A)"),
+                     _row("max dissipation per impact", cal.max_dissipated, 0.08, "J",
+                          "thesis: energy per step")]}
+
+
+# --- Figs. 2.13–2.18 -----------------------------------------------------------------------------
+def run_time_plots(ctx: StudyContext) -> dict:
+    w = _walker(NOMINAL)
+    gait = analyze_gait(w)
+    z = np.array([gait.fixed_point[k] for k in w.section])
+    s = walk_series(w, z, 3 if ctx.quick else 8, max_step=gait.metrics.step_period / 150)
+    fig_angles(s, ctx.path("fig_2_13_angles.png"))
+    fig_limit_cycle(s, ctx.path("fig_2_14_2_15_limit_cycle.png"))
+    fig_energy(s, ctx.path("fig_2_17_2_18_energy.png"))
+    fig_energy_per_step(s, ctx.path("energy_per_step.png"))
+    return {"rows": [_row("max |ledger residual| over the walk", float(np.max(np.abs(s.residual))),
+                          None, "J"),
+                     _row("steps", len(s.strides), None, "1")]}
+
+
+# --- Table 2.2 -----------------------------------------------------------------------------------
+def _slopes(ctx: StudyContext) -> list[float]:
+    return [0.004, 0.009, 0.014, 0.017] if ctx.quick else list(RIGID_SLOPES) + [0.018, 0.019, 0.020]
+
+
+def run_slope_multipliers(ctx: StudyContext) -> dict:
+    from .sweeps import gait_case
+    slopes = _slopes(ctx)
+    rows = ctx.sweep("gait_over_slope", gait_case, [{"slope": s} for s in slopes], model=NOMINAL)
+    table, boundary = [], None
+    for r in rows:
+        table.append({"slope": r["slope"], "status": r["status"],
+                      "period_steps": r.get("period_steps"),
+                      "max_multiplier": r.get("max_multiplier"), "speed": r.get("speed")})
+        if boundary is None and (r.get("period_steps") or 0) >= 2:
+            boundary = r["slope"]
+    _plot_xy(ctx.path("table_2_2_multipliers_over_slope.png"), slopes,
+             {"largest |multiplier|": [r.get("max_multiplier") for r in rows]}, "slope γ (rad)",
+             "|λ|max", "Floquet multipliers over the slope (period-1 gait)", {"|λ| = 1": 1.0})
+    note = ("first slope of the grid with a period-2 (or higher) gait" if boundary is not None
+            else "no period doubling on the grid")
+    return {"rows": [_row("period-1/period-2 boundary", boundary, 0.0157, "rad", note)],
+            "table": table}
+
+
+# --- Fig. 2.22 -----------------------------------------------------------------------------------
+def _rigid_step_down(ctx: StudyContext) -> tuple[list[float], list[dict]]:
+    """The nominal (rigid-leg) walker's step-down over the slope: the sweep of step_down_slope,
+    shared with leg_stiffness (one results file, computed once)."""
+    from .robustness import step_down_case
+    slopes = [0.005, 0.009, 0.013] if ctx.quick else list(RIGID_SLOPES)
+    rows = ctx.sweep("step_down_over_slope", step_down_case, [{"slope": s} for s in slopes],
+                     study="step_down_slope", model=NOMINAL,
+                     resolution=2e-4 if ctx.quick else 1e-4)
+    return slopes, rows
+
+
+def run_step_down_slope(ctx: StudyContext) -> dict:
+    slopes, rows = _rigid_step_down(ctx)
+    _plot_xy(ctx.path("fig_2_22_step_down_over_slope.png"), slopes,
+             {"max step-down (mm)": [None if r.get("max_step_down") is None
+                                     else 1e3 * r["max_step_down"] for r in rows]},
+             "slope γ (rad)", "max step-down (mm)", "Step-down over the slope (open: not contiguous)")
+    nominal = next((r for r in rows if abs(r["slope"] - 0.009) < 1e-12), None)
+    return {"rows": [_row("max step-down at γ = 0.009", nominal and nominal.get("max_step_down"),
+                          0.0024, "m")],
+            "table": [{k: r.get(k) for k in ("slope", "status", "max_step_down", "contiguous",
+                                             "speed", "energy_dissipated_per_step")}
+                      for r in rows]}
+
+
+# --- Figs. 2.21, 2.23 ----------------------------------------------------------------------------
+def run_basin(ctx: StudyContext) -> dict:
+    from .robustness import basin_case
+    n, span = (5, 0.1) if ctx.quick else (11, 0.1)
+    out = {"rows": [], "basins": {}}
+    for slope in (0.007, 0.012):
+        w = _walker(NOMINAL, slope=slope)
+        gait = analyze_gait(w)
+        if gait.status != "periodic":
+            out["rows"].append(_row(f"basin at γ = {slope}", None, None, "", gait.message))
+            continue
+        fp = gait.fixed_point
+        s = np.linspace(-span, span, n)
+        cases = [{"theta": float(fp["theta"] + 0.4 * a), "theta_dot": float(fp["theta_dot"] + 0.8 * b)}
+                 for a in s for b in s]
+        rows = ctx.sweep(f"basin_{slope:g}", basin_case, cases, model=NOMINAL,
+                         params={"slope": slope})
+        ok = np.array([r["status"] == "converged" for r in rows]).reshape(n, n)
+        plt = pyplot()
+        fig, ax = plt.subplots(figsize=(4.5, 4))
+        A, B = np.meshgrid(s + fp["theta"] / 0.4, s + fp["theta_dot"] / 0.8, indexing="ij")
+        ax.plot(A[ok], B[ok], "*", color="C2", ms=8, label="converges")
+        ax.plot(A[~ok], B[~ok], ".", color="0.5", ms=4, label="does not")
+        ax.plot(fp["theta"] / 0.4, fp["theta_dot"] / 0.8, "*", color="C3", ms=12)
+        ax.set_xlabel("θ / 0.4 rad")
+        ax.set_ylabel("θ̇ / 0.8 rad/s")
+        ax.set_title(f"Basin of attraction, γ = {slope}", fontsize=10)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        save_figure(fig, ctx.path(f"fig_2_21_basin_{slope:g}.png"))
+        out["basins"][str(slope)] = {"fraction": float(ok.mean()), "n": n, "span": span}
+        out["rows"].append(_row(f"basin fraction converged at γ = {slope}", float(ok.mean()), None,
+                                "1", f"{n}×{n} grid, ±{span} scaled"))
+    return out
+
+
+# --- Chapter 3 ----------------------------------------------------------------------------------
+COMPLIANT = "compliant_leg_walker"
+VARIABLE = "variable_stiffness_walker"
+
+
+def run_damper_factor(ctx: StudyContext) -> dict:
+    from .robustness import step_down_case
+    alphas = [0.1, 0.2] if ctx.quick else [0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.4]
+    Ks = [6000.0] if ctx.quick else [1500.0, 3000.0, 6000.0, 10000.0]
+    cases = [{"alpha": a, "K": k} for a in alphas for k in Ks]
+    rows = ctx.sweep("step_down_over_alpha_K", step_down_case, cases, model=COMPLIANT,
+                     resolution=2e-4)
+    table = [{k: r.get(k) for k in ("alpha", "K", "status", "gait_status", "max_step_down",
+                                    "contiguous", "speed")} for r in rows]
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 3.6))
+    for k in Ks:
+        sel = [r for r in rows if r["K"] == k]
+        ax.plot([r["alpha"] for r in sel],
+                [np.nan if r.get("max_step_down") is None else 1e3 * r["max_step_down"] for r in sel],
+                "o-", label=f"K = {k:g} N/m")
+        for r in sel:
+            if r.get("contiguous") is False and r.get("max_step_down"):
+                ax.plot(r["alpha"], 1e3 * r["max_step_down"], "x", color="k")
+    ax.set_xlabel("damper factor α")
+    ax.set_ylabel("max step-down (mm)")
+    ax.set_title("Compliant leg over α (x: not contiguous = 'chaotic')", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, ctx.path("fig_3_3_over_alpha.png"))
+    good = sorted({r["alpha"] for r in rows if r.get("contiguous")})
+    return {"rows": [_row("α with contiguous step-down at every K tried",
+                          ", ".join(f"{a:g}" for a in good) or None, "0.13–0.25", "1")],
+            "table": table}
+
+
+def run_leg_stiffness(ctx: StudyContext) -> dict:
+    from .robustness import step_down_case
+    Ks = [3000.0, 9000.0] if ctx.quick else [1500.0, 2000.0, 3000.0, 4500.0, 6000.0, 7500.0,
+                                             9000.0, 10000.0]
+    rows = ctx.sweep("step_down_over_K", step_down_case, [{"K": k} for k in Ks], model=COMPLIANT,
+                     resolution=2e-4 if ctx.quick else 1e-4)
+    _, rigid_rows = _rigid_step_down(ctx)
+    rigid9 = next((r for r in rigid_rows if abs(r["slope"] - 0.009) < 1e-12), {})
+    sd = [None if r.get("max_step_down") is None else 1e3 * r["max_step_down"] for r in rows]
+    _plot_xy(ctx.path("fig_3_4_step_down_over_K.png"), Ks, {"compliant leg": sd}, "K (N/m)",
+             "max step-down (mm)", "Step-down over leg stiffness (α = 0.15, γ = 0.009)",
+             {"rigid legs, γ = 0.009": 1e3 * (rigid9.get("max_step_down") or 0.0)})
+    _plot_xy(ctx.path("fig_3_5_speed_energy_over_K.png"), Ks,
+             {"speed (m/s)": [r.get("speed") for r in rows],
+              "energy per step (J)": [r.get("energy_dissipated_per_step") for r in rows]},
+             "K (N/m)", "value (SI)", "Speed and energy per step over K",
+             {"rigid speed": rigid9.get("speed") or 0.0})
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6, 3.6))
+    ax.plot([r.get("speed") for r in rigid_rows],
+            [1e3 * (r.get("max_step_down") or np.nan) for r in rigid_rows], "o-",
+            label="rigid legs (over slope)")
+    ax.plot([r.get("speed") for r in rows], sd, "s-", label="compliant legs (over K)")
+    ax.set_xlabel("speed (m/s)")
+    ax.set_ylabel("max step-down (mm)")
+    ax.set_title("Robustness over speed (Fig. 3.6)", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, ctx.path("fig_3_6_robustness_over_speed.png"))
+    stable = [r["K"] for r in rows if r.get("gait_status") == "periodic"]
+    faster = [r["K"] for r in rows if (r.get("speed") or 0) > (rigid9.get("speed") or math.inf)]
+    better = [r["K"] for r in rows
+              if (r.get("max_step_down") or 0) > (rigid9.get("max_step_down") or math.inf)]
+    return {"rows": [
+        _row("lowest stable K", min(stable) if stable else None, 1500.0, "N/m"),
+        _row("lowest K faster than the rigid leg", min(faster) if faster else None, 3000.0, "N/m"),
+        _row("lowest K more robust than the rigid leg", min(better) if better else None, 4500.0,
+             "N/m"),
+    ], "table": [{k: r.get(k) for k in ("K", "gait_status", "max_step_down", "contiguous",
+                                        "speed", "energy_dissipated_per_step")} for r in rows]}
+
+
+def run_variable_stiffness(ctx: StudyContext) -> dict:
+    from .robustness import step_down_case
+    constant = [{"K": 6000.0, "alpha": 0.15}, {"K": 8000.0, "alpha": 0.15},
+                {"K": 12000.0, "alpha": 0.15}]
+    variable = [{"K1": 6000.0, "K2": 8000.0, "alpha": 0.2},
+                {"K1": 6000.0, "K2": 12000.0, "alpha": 0.3},
+                {"K1": 8000.0, "K2": 12000.0, "alpha": 0.2}]
+    if ctx.quick:
+        constant, variable = constant[:1], variable[:1]
+    res = 2e-4 if ctx.quick else 1e-4
+    crow = ctx.sweep("constant_K", step_down_case, constant, model=COMPLIANT, resolution=res)
+    vrow = ctx.sweep("variable_K", step_down_case, variable, model=VARIABLE, resolution=res)
+    w = _walker(VARIABLE, **variable[0])
+    gait = analyze_gait(w)
+    extra = {}
+    if gait.status == "periodic":
+        z = np.array([gait.fixed_point[k] for k in w.section])
+        s = walk_series(w, z, 2)
+        extra["energy_injected_per_step"] = float(s.E_in[-1] / 2)
+        fig_energy(s, ctx.path("fig_3_8_energy_variable.png"))
+    table = ([{"kind": "constant", **{k: r.get(k) for k in ("K", "alpha", "speed", "max_step_down",
+                                                           "contiguous")}} for r in crow]
+             + [{"kind": "variable", **{k: r.get(k) for k in ("K1", "K2", "alpha", "speed",
+                                                              "max_step_down", "contiguous")}}
+                for r in vrow])
+    rows = [_row("energy injected per step (K1 → K2)", extra.get("energy_injected_per_step"),
+                 None, "J", "½ K̇ z² booked as supplied in the ledger")]
+    return {"rows": rows, "table": table}
+
+
+STUDIES: dict[str, Study] = {s.name: s for s in [
+    Study("table_2_3", "Nominal gait at γ = 0.009", "Table 2.3", run_table_2_3, (NOMINAL,)),
+    Study("damping_calibration", "Energy per impact over λ; calibration", "§2.3.2, Fig. 2.12",
+          run_damping_calibration, (NOMINAL,)),
+    Study("time_plots", "θ/φ time plots, limit cycles, energies", "Figs. 2.13–2.15, 2.17–2.18",
+          run_time_plots, (NOMINAL,)),
+    Study("slope_multipliers", "Floquet multipliers over slope; period doubling", "Table 2.2",
+          run_slope_multipliers, (NOMINAL,)),
+    Study("step_down_slope", "Maximum step-down over slope", "Fig. 2.22", run_step_down_slope,
+          (NOMINAL,)),
+    Study("basin", "Basin of attraction at γ = 0.007 and 0.012", "Figs. 2.21, 2.23", run_basin,
+          (NOMINAL,)),
+    Study("damper_factor", "Compliant leg over the damper factor α", "Fig. 3.3",
+          run_damper_factor, (COMPLIANT,)),
+    Study("leg_stiffness", "Compliant leg over K; robustness over speed", "Figs. 3.4–3.6",
+          run_leg_stiffness, (COMPLIANT, NOMINAL)),
+    Study("variable_stiffness", "Variable against constant stiffness", "Figs. 3.7–3.8, Table 3.1",
+          run_variable_stiffness, (COMPLIANT, VARIABLE)),
+]}
+
+
+def run_studies(names: list[str] | None, out: str | Path, **options) -> dict:
+    """Run the named studies (default: all) into ``out``; return {name: summary}. Options are
+    :class:`StudyContext` fields (quick, workers, serial, executor, progress, log)."""
+    names = list(names or STUDIES)
+    unknown = [n for n in names if n not in STUDIES]
+    if unknown:
+        raise ModelError(f"unknown stud{'y' if len(unknown) == 1 else 'ies'} "
+                         f"{', '.join(unknown)}; studies: {', '.join(STUDIES)}")
+    out = Path(out)
+    summaries = {}
+    index_path = out / "reproduction.json"
+    if index_path.exists():
+        summaries = json.loads(index_path.read_text())
+    for name in names:
+        study = STUDIES[name]
+        ctx = StudyContext(out / name, **options)
+        ctx.out.mkdir(parents=True, exist_ok=True)
+        ctx.log(f"study {name}: {study.title} ({study.thesis})")
+        t0 = time.perf_counter()
+        summary = study.run(ctx)
+        summary.update({"title": study.title, "thesis": study.thesis,
+                        "seconds": time.perf_counter() - t0})
+        (ctx.out / "summary.json").write_text(to_json(summary))
+        summaries[name] = to_jsonable(summary)
+        out.mkdir(parents=True, exist_ok=True)
+        index_path.write_text(to_json(summaries))
+        ctx.log(f"study {name}: done in {summary['seconds']:.0f} s")
+    return summaries
+
