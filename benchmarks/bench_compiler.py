@@ -44,7 +44,6 @@ import cProfile
 import io
 import json
 import os
-import platform
 import pstats
 import shutil
 import statistics
@@ -74,6 +73,7 @@ def _pin_blas_threads() -> str:
 
 BLAS_THREADS = _pin_blas_threads()
 
+from machine import machine_info  # noqa: E402  (benchmarks/machine.py)
 import numpy as np  # noqa: E402  (after the BLAS thread pinning)
 
 METHODS = ("Radau", "BDF", "LSODA")
@@ -436,28 +436,6 @@ def attribution(cm, x0: np.ndarray, method: str, repeats: int) -> dict:
 # ------------------------------------------------------------------------------------------------
 # reporting
 # ------------------------------------------------------------------------------------------------
-def machine_info() -> dict:
-    import numba
-    import scipy
-    import sympy
-
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next(ln.split(":", 1)[1].strip() for ln in fh if ln.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    try:
-        nproc = len(os.sched_getaffinity(0))
-    except AttributeError:
-        nproc = os.cpu_count()
-    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
-    return {"date": time.strftime("%Y-%m-%d %H:%M %Z"), "nproc": nproc, "cpu": cpu,
-            "platform": platform.platform(), "python": platform.python_version(),
-            "numpy": np.__version__, "scipy": scipy.__version__, "sympy": sympy.__version__,
-            "numba": numba.__version__, "load": " ".join(f"{x:.2f}" for x in load)}
-
-
 def fmt_s(x: float) -> str:
     return f"{x:.3f}" if x < 10 else f"{x:.1f}"
 

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import statistics
 import sys
 import tempfile
@@ -49,6 +48,7 @@ import time
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # same LAPACK threading for library and hand-written code
 
+from machine import machine_info  # noqa: E402  (benchmarks/machine.py)
 import numpy as np  # noqa: E402  (after the BLAS thread pinning)
 from scipy.integrate import solve_ivp  # noqa: E402
 
@@ -144,24 +144,6 @@ def check_against_library(model) -> dict:
 # ------------------------------------------------------------------------------------------------
 # timing
 # ------------------------------------------------------------------------------------------------
-def machine_info() -> dict:
-    import numba
-    import scipy
-    import sympy
-
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next(ln.split(":", 1)[1].strip() for ln in fh if ln.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
-    return {"date": time.strftime("%Y-%m-%d %H:%M %Z"), "nproc": len(os.sched_getaffinity(0)),
-            "cpu": cpu, "platform": platform.platform(), "python": platform.python_version(),
-            "numpy": np.__version__, "scipy": scipy.__version__, "sympy": sympy.__version__,
-            "numba": numba.__version__, "load": " ".join(f"{x:.2f}" for x in load)}
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="1 s horizon, 1 round")
