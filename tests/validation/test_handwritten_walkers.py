@@ -1,0 +1,50 @@
+"""Independent validation of the framework's simplest walker against a hand-written one.
+
+``benchmarks/handwritten_walkers.py`` types in Garcia et al.'s (1998, J. Biomech. Eng.
+120:281) equations of motion and heel-strike map (β = m/M -> 0) and integrates them with
+scipy's DOP853; ``walker_library.simplest_walker`` builds the same walker from multibody
+components with a generic plastic impact map (β = 1e-9). Their fixed points, found by the same
+Newton iteration, must agree to well below 1e-8 (the β effect is O(1e-9)), and one stride from
+the framework's fixed point must land on the same next state. (The compliant-contact walkers are
+compared in ``benchmarks/bench_walkers.py``: their numba compilation does not fit a fast test.)
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+
+import handwritten_walkers as hw
+
+from walker_library import find_fixed_point, simplest_walker
+
+GARCIA_LONG = (0.20031090049483, -0.19983247291764)     # θ*, θ̇* at γ = 0.009 (Table 1)
+
+
+@pytest.fixture(scope="module")
+def framework():
+    w = simplest_walker()
+    fp = find_fixed_point(w)
+    assert fp.converged
+    th_dot, phi, phi_dot = w.to_thesis(fp.z)
+    return w, fp, np.array([phi / 2, th_dot, phi_dot])
+
+
+def test_hand_written_fixed_point_matches_garcia_and_the_framework(framework):
+    _, _, z_fw = framework
+    h = hw.SimplestWalkerHand()
+    res = hw.newton_fixed_point(h.stride, [0.2, -0.2, -0.015], tol=1e-10)
+    assert res.converged
+    assert res.z[:2] == pytest.approx(GARCIA_LONG, abs=2e-10)
+    assert np.max(np.abs(res.z - z_fw)) < 1e-9
+
+
+def test_one_stride_agrees_with_the_framework(framework):
+    w, fp, z_fw = framework
+    th_dot, phi, phi_dot = w.to_thesis(w.stride(fp.z).z_next)
+    z_hand = hw.SimplestWalkerHand().stride(z_fw)
+    assert np.max(np.abs(z_hand - np.array([phi / 2, th_dot, phi_dot]))) < 1e-8
