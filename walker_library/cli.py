@@ -26,6 +26,7 @@ from collections.abc import Sequence
 from porthamiltonian.cli import parse_assignments
 from porthamiltonian.errors import ModelError
 
+from . import sweeps
 from .gait import analyze_gait, walk
 from .results import to_json
 from .robustness import basin, gait_sensitivity_norm, step_down
@@ -278,6 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--list", action="store_true", help="list the studies and exit")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=cmd_reproduce)
+    sweeps.add_parser(sub)
     p = sub.add_parser("list", help="walker model files and builders")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_list)

@@ -1,0 +1,91 @@
+"""`walker sweep` in this process (walker_library.sweeps.main / add_parser): the printed table,
+CSV export, exit statuses and messages for bad input (nothing written), and the subcommand
+mounted on a parser like the walker command's (its global --backend)."""
+from __future__ import annotations
+
+import argparse
+import csv
+
+from walker_library import sweeps
+from walker_library.sweeps import load_results, main
+
+CHEAP = ["unused", "--analysis", "sweep_cases:square_case", "--grid", "x=1,2", "--grid",
+         "y=0,1", "--serial", "--progress", "none"]
+
+
+def test_table_and_csv(tmp_path, capsys):
+    out, table_csv = tmp_path / "s.jsonl", tmp_path / "s.csv"
+    assert main([*CHEAP, "--out", str(out), "--csv", str(table_csv)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"{out}: 4/4 cases (ok 4); this run 4 case(s) in ")
+    assert lines[0].endswith(", 0 already done")
+    assert lines[1].split() == ["case_id", "x", "y", "status"]
+    assert [ln.split() for ln in lines[2:6]] == [["0", "1", "0", "ok"], ["1", "1", "1", "ok"],
+                                                  ["2", "2", "0", "ok"], ["3", "2", "1", "ok"]]
+    assert lines[6] == f"wrote {table_csv}"
+    with open(table_csv, newline="") as fh:
+        got = list(csv.DictReader(fh))
+    assert [(r["x"], r["y"], r["square"]) for r in got] == [
+        ("1.0", "0.0", "1.0"), ("1.0", "1.0", "1.0"), ("2.0", "0.0", "4.0"), ("2.0", "1.0", "4.0")]
+    assert main([*CHEAP, "--out", str(out)]) == 0            # resumed: nothing to run
+    assert "this run 0 case(s)" in capsys.readouterr().out
+
+
+def test_unknown_walker_parameter_fails_before_anything_is_written(tmp_path, capsys):
+    out = tmp_path / "s.jsonl"
+    code = main(["simplest_walker", "--grid", "slope=0.01", "--grid", "stiffness=1,2",
+                 "--backend", "python", "--out", str(out), "--serial"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.startswith('error: case 0 {"slope":0.01,"stiffness":1.0}: unknown parameter(s) '
+                          "stiffness of simplest_walker; parameters: slope, M, beta")
+    assert not out.exists()
+
+
+def test_out_of_range_walker_parameter_fails_naming_the_case(tmp_path, capsys):
+    out = tmp_path / "s.jsonl"
+    code = main(["simplest_walker", "--grid", "slope=0.01,2", "--backend", "python",
+                 "--out", str(out), "--serial"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert 'case 1 {"slope":2.0}' in err and "'slope' = 2 is out of range" in err
+    assert not out.exists()
+
+
+def test_bad_input_exit_status_2_with_the_reason(tmp_path, capsys):
+    out = tmp_path / "s.jsonl"
+    assert main(["unused", "--analysis", "limit-cycle", "--grid", "x=1", "--out", str(out)]) == 2
+    assert ("unknown analysis 'limit-cycle'; analyses: gait, step-down, basin"
+            in capsys.readouterr().err)
+    assert main([*CHEAP, "--grid", "z=1:2", "--out", str(out)]) == 2
+    assert "a range is start:stop:n" in capsys.readouterr().err
+    assert main([*CHEAP, "--option", "delay", "--out", str(out)]) == 2
+    assert "--option takes NAME=VALUE" in capsys.readouterr().err
+    assert main([*CHEAP[:-3], "--workers", "0", "--out", str(out)]) == 2
+    assert "--workers must be at least 1" in capsys.readouterr().err
+    assert not out.exists()
+    foreign = tmp_path / "notes.txt"
+    foreign.write_text("my notes\n")
+    assert main([*CHEAP, "--out", str(foreign)]) == 2
+    assert f"error: {foreign}: not a walker sweep results file" in capsys.readouterr().err
+    assert foreign.read_text() == "my notes\n"
+
+
+def test_options_are_fixed_arguments_of_the_identity(tmp_path, capsys):
+    out = tmp_path / "s.jsonl"
+    assert main([*CHEAP, "--option", "scale=3", "--out", str(out)]) == 0
+    assert [r["result"]["square"] for r in load_results(out)] == [3.0, 3.0, 12.0, 12.0]
+    capsys.readouterr()
+    assert main([*CHEAP, "--option", "scale=2", "--out", str(out)]) == 2
+    assert 'fixed arguments {"backend":null,"model":"unused","scale":3} (file) vs' in \
+        capsys.readouterr().err
+
+
+def test_mounted_on_the_walker_parser_takes_its_global_backend(tmp_path, capsys):
+    parser = argparse.ArgumentParser(prog="walker")
+    parser.add_argument("--backend", default=None)
+    sweeps.add_parser(parser.add_subparsers(dest="command", required=True))
+    out = tmp_path / "s.jsonl"
+    args = parser.parse_args(["--backend", "python", "sweep", *CHEAP, "--out", str(out)])
+    assert args.func is sweeps.cmd_sweep and args.func(args) == 0
+    assert sweeps.read_header(out)["sweep"]["fixed"] == {"backend": "python", "model": "unused"}
