@@ -196,21 +196,47 @@ def _slopes(ctx: StudyContext) -> list[float]:
 
 
 def run_slope_multipliers(ctx: StudyContext) -> dict:
-    from .sweeps import gait_case
+    """Natural-parameter continuation over the slope (serial: each gait search starts from the
+    previous slope's fixed point), so the period-1 branch is followed up to its period doubling
+    and the period-2 gait beyond it is found by iterating the stride map from there."""
     slopes = _slopes(ctx)
-    rows = ctx.sweep("gait_over_slope", gait_case, [{"slope": s} for s in slopes], model=NOMINAL)
-    table, boundary = [], None
-    for r in rows:
-        table.append({"slope": r["slope"], "status": r["status"],
-                      "period_steps": r.get("period_steps"),
-                      "max_multiplier": r.get("max_multiplier"), "speed": r.get("speed")})
-        if boundary is None and (r.get("period_steps") or 0) >= 2:
-            boundary = r["slope"]
-    _plot_xy(ctx.path("table_2_2_multipliers_over_slope.png"), slopes,
-             {"largest |multiplier|": [r.get("max_multiplier") for r in rows]}, "slope γ (rad)",
-             "|λ|max", "Floquet multipliers over the slope (period-1 gait)", {"|λ| = 1": 1.0})
-    note = ("first slope of the grid with a period-2 (or higher) gait" if boundary is not None
-            else "no period doubling on the grid")
+    if not ctx.quick:
+        slopes = sorted(set(slopes) | {round(0.0170 + 0.0002 * k, 4) for k in range(1, 10)})
+    w0 = _walker(NOMINAL)
+    guess, table, boundary, last_p1 = None, [], None, None
+    for slope in slopes:
+        w = w0.with_parameters(slope=slope)
+        g = analyze_gait(w, guess=guess)
+        mults = [complex(m) for m in g.floquet_multipliers]
+        row = {"slope": slope, "status": g.status, "period_steps": g.period_steps,
+               "stable": g.stable, "multipliers": mults,
+               "max_multiplier": max((abs(m) for m in mults), default=None),
+               "speed": g.metrics.speed, "step_period": g.metrics.step_period}
+        table.append(row)
+        ctx.log(f"  slope {slope:.4f}: {g.status} period {g.period_steps} "
+                f"|λ|max {row['max_multiplier'] if mults else float('nan'):.4f}")
+        if g.status == "periodic":
+            guess = np.array([g.fixed_point[k] for k in w.section])
+            if g.period_steps == 1:
+                last_p1 = slope
+            elif boundary is None:
+                boundary = 0.5 * (last_p1 + slope) if last_p1 is not None else slope
+    (ctx.out / "multipliers_over_slope.json").write_text(to_json(table))
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 3.6))
+    for r in table:
+        for m in r["multipliers"]:
+            ax.plot(r["slope"], abs(m), ".", color="C0" if r["period_steps"] == 1 else "C3")
+    ax.axhline(1.0, ls="--", lw=0.8, color="0.4")
+    if boundary is not None:
+        ax.axvline(boundary, ls=":", color="C3", lw=0.8)
+    ax.set_xlabel("slope γ (rad)")
+    ax.set_ylabel("|Floquet multiplier|")
+    ax.set_title("Multipliers over the slope (blue: period 1, red: period 2)", fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, ctx.path("table_2_2_multipliers_over_slope.png"))
+    note = ("midpoint between the last period-1 and the first period-2 slope of the grid"
+            if boundary is not None else "no period doubling on the grid")
     return {"rows": [_row("period-1/period-2 boundary", boundary, 0.0157, "rad", note)],
             "table": table}
 
