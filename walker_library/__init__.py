@@ -6,6 +6,9 @@
 * :mod:`.compliant` — the thesis's nominal walker (``compass_walker``): one floating-base model
   with Hunt–Crossley contacts, SCVS friction, arc feet and the scuffing rule; the calibration of
   the lost contact damping λ (:func:`~.compliant.calibrate_damping`);
+* :mod:`.compliant_legs` — the thesis's compliant-leg walkers: a spring–damper on a prismatic
+  leg–foot joint (``compliant_leg_walker``, MODEL-SPEC.md §3) and its variable-stiffness version
+  (``variable_stiffness_walker``, §4); :func:`~.compliant_legs.dissipation_breakdown`;
 * :mod:`.protocol` — the :class:`Walker` interface the analyses use (compliant-contact walkers
   implement it too), :class:`Stride`, :class:`ParameterSpec`;
 * :mod:`.poincare` — stride map, fixed points (Newton), Floquet multipliers, period detection;
@@ -14,6 +17,8 @@
 """
 from .compliant import (CompliantOptions, CompliantWalker, DampingCalibration, calibrate_damping,
                         compass_walker)
+from .compliant_legs import (CompliantLegWalker, VariableStiffnessWalker, compliant_leg_walker,
+                             dissipation_breakdown, variable_stiffness_walker)
 from .gait import GaitResult, WalkResult, analyze_gait, walk
 from .metrics import GaitMetrics, gait_metrics
 from .poincare import (FixedPointResult, FloquetResult, PeriodResult, detect_period,
@@ -24,10 +29,13 @@ from .walkers import (BUILDERS, available_walkers, compass_gait, export_model_fi
                       rimless_wheel, simplest_walker)
 
 __all__ = [
-    "BUILDERS", "CompliantOptions", "CompliantWalker", "DampingCalibration", "FixedPointResult", "FloquetResult", "GaitMetrics", "GaitResult",
+    "BUILDERS", "CompliantLegWalker", "CompliantOptions", "CompliantWalker", "DampingCalibration",
+    "FixedPointResult", "FloquetResult", "GaitMetrics", "GaitResult",
     "IntegrationOptions", "LeggedRigidWalker", "ParameterSpec", "PeriodResult",
     "RigidImpactWalker", "RimlessWheelWalker", "Stride", "WalkResult", "Walker", "analyze_gait",
-    "available_walkers", "calibrate_damping", "compass_gait", "compass_walker", "detect_period", "export_model_file", "find_fixed_point",
+    "available_walkers", "calibrate_damping", "compass_gait", "compass_walker",
+    "compliant_leg_walker", "detect_period", "export_model_file", "find_fixed_point",
     "floquet", "gait_metrics", "iterate", "jacobian", "load_walker", "rimless_wheel",
-    "simplest_walker", "stride_map", "walk",
+    "simplest_walker", "stride_map", "variable_stiffness_walker", "VariableStiffnessWalker",
+    "dissipation_breakdown", "walk",
 ]

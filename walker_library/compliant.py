@@ -5,20 +5,24 @@ compliant contact, and the whole stride is one simulation of one floating-base m
 Model (built from framework components only; :func:`compass_walker` is the builder)
 ------------------------------------------------------------------------------------
 * Slope frame: x down the slope, z along the slope normal; gravity g (sin γ, 0, −cos γ); the
-  surface is the plane z = 0 of that frame (``surface = "plane"``), so its normal is the slope
-  normal exactly.
+  surface under foot k is the plane z = ground<k> of that frame (``surface = "plane"``,
+  ``height = "ground<k>"``; 0, or −h after a step-down of h), so its normal is the slope normal
+  exactly. The contact gap of foot k is (foot centre z) − R − ground<k>.
 * ``walker`` (:class:`~porthamiltonian.Multibody`, plane xz): the hip (point mass M) on a
   translational x/z joint ``hip_joint`` from the world; legs ``leg1``, ``leg2`` (mass m_leg at
   mid-leg, no inertia) on revolute joints about y at the hip, absolute angles α (α = 0: leg along
-  −z; a foot in front of the hip has α < 0); a foot mass m_foot welded at each leg's end, the
-  foot centre (leg length l is hip to foot centre).
+  −z; a foot in front of the hip has α < 0); a foot body (point mass m_foot) welded at each
+  leg's end (joint ``ankle<k>``), the foot centre (leg length l is hip to foot centre). The
+  points ``foot<k>`` (centre) and ``sole<k>`` belong to the foot body, so a walker that carries
+  the foot on another joint (:mod:`walker_library.compliant_legs`: a prismatic joint with a
+  spring) moves them with it (:func:`contact_walker_model` takes the foot joint).
 * Arc foot, contact point convention: **offset along the surface normal** (MODEL-SPEC.md §1 "Arc
   foot", the geometrically consistent choice): the contact ``floor<k>`` (HuntCrossley, n, K, λ)
   is bonded to the foot centre ``foot<k>`` and reads the contact point x = c_x, z = c_z − R, so
   its penetration is R − (height of the centre), exact for a circle, with rate −ċ_z: the port
   flow (the ledger closes). The normal force passes through the foot centre (a circle's normal
   force has no moment about its centre).
-* Friction ``fric<k>`` (SCVSFriction, normal force ``floor<k>.Fn``) acts at the leg's material
+* Friction ``fric<k>`` (SCVSFriction, normal force ``floor<k>.Fn``) acts at the foot's material
   point ``sole<k>``, R beyond the foot centre along the leg axis: the foot's material point that
   is the contact point when the leg is normal to the slope. Its tangential velocity is
   ċ_x + ω R cos α: the rolling foot's material-point velocity ċ_x + ω R (the thesis's choice:
@@ -30,6 +34,12 @@ Model (built from framework components only; :func:`compass_walker` is the build
   upward (guard ``floor<k>.z``) *and* the foot is in front of the other foot; it ends when the foot
   rises ``liftoff_margin`` above the surface (guard ``floor<k>.z + liftoff_margin``). Both
   switches happen where the stored contact energy is zero, so H is continuous.
+* Step-down (``walk(..., ground_drop=h)``, MODEL-SPEC.md §5): the surface heights ``ground1``,
+  ``ground2`` are mode parameters too. A walk starts with the leading foot 1 on ground1 = 0; the
+  trailing foot's surface becomes −h when its contact goes off (at the start if it starts in the
+  air, else at its lift-off), and so does every later lift-off's: the surface drops once, ahead
+  of the stance foot, before the first heel strike, and stays down. A surface moved under a foot
+  whose contact is off does not change H, so the ledger stays closed.
 
 Poincaré section (heel strike)
 ------------------------------
@@ -38,7 +48,9 @@ compliant model (the stance foot penetrates at heel strike). Here the section is
 of the leading foot: the instant its contact starts by the scuffing rule (penetration 0, rising,
 foot in front). On the section the along-slope position is cyclic and the leading foot's
 penetration is 0, so the state is fixed by six coordinates: z = (α_lead, α_trail, ẋ_hip, ż_hip,
-ω_lead, ω_trail) (the hip height is l cos α_lead + R). Thesis coordinates (same six, linear):
+ω_lead, ω_trail) (the hip height is l cos α_lead + R; :meth:`CompliantWalker.lift` computes it
+from the model's kinematics, so walkers with more joints per leg reuse it). Thesis coordinates
+(same six, linear):
 (θ, φ, ẋ_hip, ż_hip, θ̇, φ̇) with θ = −α_lead (stance = the leading leg, θ > 0), φ = α_trail −
 α_lead, θ̇ = −ω_lead, φ̇ = ω_trail − ω_lead, as :mod:`walker_library.rigid` does.
 
@@ -62,29 +74,39 @@ step period 1.008 s, step length 0.307 m, speed 0.305 m/s (thesis 0.274), 0.0874
 per step (thesis 0.08) = the potential released (cost of transport = sin γ), Floquet multipliers
 −0.093 ± 0.262i (|λ| = 0.278) and four below 2e-4 (perturbation 1e-4; error estimate 4e-4).
 
-Integration: numba back end and the compiled Rodas4 loop (≈ 0.1 s per step once compiled; the
-compilation, ≈ 25 s, is cached on disk); the python back end is ≈ 100× slower on this stiff model.
+Step-down: from the fixed point, a drop of 1 mm is survived (back on the fixed point within
+1e-7 after 20 steps, ledger residual 5e-8 J), a drop of 5 cm is a fall in the second step.
+
+Integration: numba back end and the compiled Rodas4 loop (≈ 0.04–0.1 s per step once compiled,
+depending on the machine's load; the compilation, ≈ 30 s, is cached on disk); the python back
+end is ≈ 100× slower on this stiff model.
 """
 from __future__ import annotations
 
 import math
+import textwrap
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from porthamiltonian import Model, Multibody, Reset, Revolute, RigidBody, Translational, Weld
+from porthamiltonian.errors import ParameterValueError
 from porthamiltonian.library import HuntCrossley, SCVSFriction
 
 from .protocol import ParameterSpec, Stride, check_parameters
 from .rigid import _compiled
 
-__all__ = ["CompliantWalker", "CompliantOptions", "DampingCalibration", "calibrate_damping",
-           "compass_walker"]
+__all__ = ["CONTACT_MODES", "CompliantWalker", "CompliantOptions", "DampingCalibration",
+           "calibrate_damping", "compass_walker", "compass_walker_specs", "contact_walker_model"]
 
 THESIS = "MODEL-SPEC.md §1 (thesis Table 2.3, App. A)"
 _GRAVITY = ["g*sin(slope)", 0, "-g*cos(slope)"]
-#: mode parameters set by the walker itself
-CONTACT_MODES = ("c1", "c2")
+#: mode parameters set by the walker's event actions, not by the user (``load_walker`` skips
+#: them in a model file): contact flags, surface height under each foot (step-down), mid-stance
+#: flags (the variable-stiffness walker of :mod:`walker_library.compliant_legs`)
+CONTACT_MODES = ("c1", "c2", "ground1", "ground2", "mid1", "mid2")
 #: the leading foot starts a stride this far inside the surface (m), off its touchdown guard's
 #: zero (a run that starts on a guard's zero sees it fire at t = 0); force K·1e-9 = 1e-3 N
 START_PENETRATION = 1e-9
@@ -140,29 +162,41 @@ def compass_walker_specs() -> list[ParameterSpec]:
     ]
 
 
-def compass_walker_model(specs: list[ParameterSpec]) -> Model:
-    doc = ("Thesis nominal walker (MODEL-SPEC.md §1): rigid legs, arc feet (normal offset), "
-           "Hunt-Crossley contact + SCVS friction per foot, scuffing rule, on a slope.")
-    m = Model("compass_walker", doc)
+def contact_walker_model(name: str, doc: str, specs: list[ParameterSpec], *,
+                         foot_joint: Callable[[int], Any] | None = None) -> Model:
+    """The floating-base walker with arc feet, Hunt–Crossley contacts and SCVS friction (see the
+    module docstring), shared by every compliant-contact walker.
+
+    ``foot_joint(k)`` gives the joint record that carries foot body ``foot<k>_body`` on leg k
+    (default: a weld at the leg's end, the rigid leg; :mod:`walker_library.compliant_legs`
+    passes a prismatic joint along the leg). The contact point ``foot<k>`` and the friction
+    point ``sole<k>`` sit on the foot body, so they move with it. Mode parameters (set by the
+    walker's event actions, :data:`CONTACT_MODES`): ``c1``, ``c2`` and the surface heights
+    ``ground1``, ``ground2``."""
+    m = Model(name, doc)
     for s in specs:
         m.parameter(s.name, s.value, s.unit, f"{s.doc} [{s.source}]" if s.source else s.doc)
-    m.parameter("c1", 1.0, "1", "mode: contact of foot 1 active (set by the scuffing rule)")
-    m.parameter("c2", 0.0, "1", "mode: contact of foot 2 active (set by the scuffing rule)")
+    for k, on in ((1, 1.0), (2, 0.0)):
+        m.parameter(f"c{k}", on, "1",
+                    f"mode: contact of foot {k} active (set by the scuffing rule)")
+    for k in (1, 2):
+        m.parameter(f"ground{k}", 0.0, "m", f"mode: height of the surface under foot {k} along the "
+                    "slope normal (0; -h after a step-down of h, set at the foot's lift-off)")
     bodies = {"hip_body": RigidBody(mass="M", points={"hip_centre": [0, 0, 0]})}
     joints = {"hip_joint": Translational(parent="world", child="hip_body", axes=("x", "z"),
                                          q0=[0, "l*cos(theta0) + R"], v0=[0, 0])}
     for k, q0 in ((1, "-theta0"), (2, "theta0")):
-        bodies[f"leg{k}"] = RigidBody(mass="m_leg", com=[0, 0, "-l/2"],
-                                      points={f"foot{k}": [0, 0, "-l"],
-                                              f"sole{k}": [0, 0, "-(l + R)"]})
+        bodies[f"leg{k}"] = RigidBody(mass="m_leg", com=[0, 0, "-l/2"])
         joints[f"leg{k}"] = Revolute(parent="hip_body", child=f"leg{k}", axis="y", q0=q0)
-        bodies[f"foot{k}_body"] = RigidBody(mass="m_foot")
-        joints[f"ankle{k}"] = Weld(parent=f"leg{k}", child=f"foot{k}_body", origin=[0, 0, "-l"])
+        bodies[f"foot{k}_body"] = RigidBody(mass="m_foot", points={f"foot{k}": [0, 0, 0],
+                                                                   f"sole{k}": [0, 0, "-R"]})
+        joints[f"ankle{k}"] = (foot_joint(k) if foot_joint is not None else
+                               Weld(parent=f"leg{k}", child=f"foot{k}_body", origin=[0, 0, "-l"]))
     m.add("walker", Multibody(bodies=bodies, joints=joints, gravity=_GRAVITY, plane="xz"))
     for k in (1, 2):
         m.add(f"floor{k}", HuntCrossley(x=f"walker.foot{k}.x", z=f"walker.foot{k}.z - R",
                                         stiffness="K", damping="lam", exponent=1,
-                                        surface="plane", active=f"c{k}"))
+                                        surface="plane", height=f"ground{k}", active=f"c{k}"))
         m.add(f"fric{k}", SCVSFriction(normal_force=f"floor{k}.Fn", mu_st="mu_st", mu_c="mu_c",
                                        mu_v="mu_v", slope="s_fric", v_st="v_st"))
         m.connect(f"walker.foot{k}", f"floor{k}.p")
@@ -175,6 +209,12 @@ def compass_walker_model(specs: list[ParameterSpec]) -> Model:
     return m
 
 
+def compass_walker_model(specs: list[ParameterSpec]) -> Model:
+    doc = ("Thesis nominal walker (MODEL-SPEC.md §1): rigid legs, arc feet (normal offset), "
+           "Hunt-Crossley contact + SCVS friction per foot, scuffing rule, on a slope.")
+    return contact_walker_model("compass_walker", doc, specs)
+
+
 class CompliantWalker:
     """A two-legged walker with compliant contacts (the :class:`~.protocol.Walker` interface).
 
@@ -182,20 +222,43 @@ class CompliantWalker:
     touchdown to the next, both contacts active at the start (the trailing foot still in stance;
     its contact starts off when a perturbed state puts it above the lift-off level).
     Leg 1 leads at the start of every :meth:`walk`; the legs alternate.
+
+    Extensions (for :mod:`walker_library.compliant_legs`): ``extra_joints`` names per-leg joint
+    families beyond the hip's revolute joints (``("ankle",)``: joints ``ankle1``, ``ankle2`` with
+    a coordinate each); their coordinates and rates become extra section coordinates,
+    ``walker.q.<family>_lead``, ``walker.q.<family>_trail`` then ``walker.v.<family>_lead``,
+    ``walker.v.<family>_trail``, after the six of the rigid-leg walker (the thesis's names:
+    ``<family>_lead``, ``<family>_trail``, ``<family>_lead_dot``, ``<family>_trail_dot``,
+    unchanged). ``mirrors`` maps a state that integrates a joint's velocity (a spring's length
+    on a joint port) to that joint coordinate (``{"spring1.q": "walker.q.ankle1"}``): a lifted
+    section state sets it equal to the joint coordinate. A model with the events
+    ``midstance1``/``midstance2`` and mode parameters ``mid1``/``mid2`` gets the mid-stance
+    actions of the variable-stiffness walker (see :meth:`walk`).
     """
 
     legged = True
-    section = ("walker.q.lead", "walker.q.trail", "walker.v.hip_joint.x", "walker.v.hip_joint.z",
-               "walker.v.lead", "walker.v.trail")
-    thesis_section = ("theta", "phi", "hip_vx", "hip_vz", "theta_dot", "phi_dot")
+    _base_section = ("walker.q.lead", "walker.q.trail", "walker.v.hip_joint.x",
+                     "walker.v.hip_joint.z", "walker.v.lead", "walker.v.trail")
+    _base_thesis = ("theta", "phi", "hip_vx", "hip_vz", "theta_dot", "phi_dot")
 
     def __init__(self, name, specs, model, *, values=None, backend="numba", options=None, doc="",
-                 builder=""):
+                 builder="", extra_joints: tuple[str, ...] = (), mirrors: dict | None = None,
+                 file_header: tuple[str, ...] | None = None):
         self.name, self.doc, self.builder = name, doc, builder
         self.specs = specs
         self.swing_model = model
         self.backend = backend
         self.options = options or CompliantOptions()
+        self.extra_joints = tuple(extra_joints)
+        self.mirrors = dict(mirrors or {})
+        if file_header is not None:
+            self.file_header = tuple(file_header)
+        ends = ("lead", "trail")
+        fams = self.extra_joints
+        self.section = self._base_section + tuple(
+            f"walker.{qv}.{fam}_{end}" for qv in ("q", "v") for fam in fams for end in ends)
+        self.thesis_section = self._base_thesis + tuple(
+            f"{fam}_{end}{dot}" for dot in ("", "_dot") for fam in fams for end in ends)
         self.parameters = check_parameters(specs, dict(values or {}))
         self.swing = _compiled(model, backend)
         self._setup()
@@ -204,11 +267,20 @@ class CompliantWalker:
         c = self.swing
         self._p = c.params({k: v for k, v in self.parameters.items() if k in c.param_names})
         self._out = {name: i for i, name in enumerate(c.output_names)}
-        self._iq = [c.state_names.index(f"walker.q.{j}") for j in ("hip_joint.x", "hip_joint.z",
-                                                                     "leg1", "leg2")]
-        self._ip = [c.state_names.index(f"walker.p.{j}") for j in ("hip_joint.x", "hip_joint.z",
-                                                                     "leg1", "leg2")]
-        self._ic = {k: c.param_names.index(f"c{k}") for k in (1, 2)}
+        # joint coordinates in the multibody's order (the order of the mass matrix's rows)
+        self._coords = [s[len("walker.q."):] for s in c.state_names if s.startswith("walker.q.")]
+        self._iq = [c.state_names.index(f"walker.q.{j}") for j in self._coords]
+        self._ip = [c.state_names.index(f"walker.p.{j}") for j in self._coords]
+        self._col = {j: i for i, j in enumerate(self._coords)}
+        self._ihz = c.state_names.index("walker.q.hip_joint.z")
+        self._mirror_idx = [(c.state_names.index(dst), c.state_names.index(src))
+                            for dst, src in self.mirrors.items()]
+        self._imode = {name: c.param_names.index(name) for name in CONTACT_MODES
+                       if name in c.param_names}
+        self._ic = {k: self._imode[f"c{k}"] for k in (1, 2)}
+        events = {e.name for e in c.events}
+        self._midstance = all(f"midstance{k}" in events and f"mid{k}" in self._imode
+                              for k in (1, 2))
 
     def with_parameters(self, **values):
         new = object.__new__(type(self))
@@ -239,63 +311,114 @@ class CompliantWalker:
         y = self.swing.augment(x) if len(x) == self.swing.n_states else x
         return np.asarray(self.swing.functions.outputs(t, y, self.swing.native_params(p)))
 
+    def _joint_values(self, z) -> tuple[dict, dict]:
+        """Section coordinates (leg 1 leading) -> joint coordinates and velocities by joint name
+        (the hip height left at 0)."""
+        z = [float(a) for a in z]
+        a_lead, a_trail, vx, vz, w_lead, w_trail = z[:6]
+        q = {"hip_joint.x": 0.0, "hip_joint.z": 0.0, "leg1": a_lead, "leg2": a_trail}
+        v = {"hip_joint.x": vx, "hip_joint.z": vz, "leg1": w_lead, "leg2": w_trail}
+        n = 2 * len(self.extra_joints)
+        for i, fam in enumerate(self.extra_joints):
+            q[f"{fam}1"], q[f"{fam}2"] = z[6 + 2 * i], z[7 + 2 * i]
+            v[f"{fam}1"], v[f"{fam}2"] = z[6 + n + 2 * i], z[7 + n + 2 * i]
+        return q, v
+
     def lift(self, z, p=None):
-        """Section coordinates (leg 1 leading) -> model state."""
+        """Section coordinates (leg 1 leading) -> model state: the hip at the height that puts
+        foot 1's contact point ``START_PENETRATION`` into the surface z = 0 (ground1 = 0)."""
         p = self._p if p is None else p
-        a_lead, a_trail, vx, vz, w_lead, w_trail = (float(a) for a in z)
-        P = self.parameters
+        if len(z) != len(self.section):
+            raise ValueError(f"{self.name}: a section state has {len(self.section)} coordinates "
+                             f"({', '.join(self.section)}), got {len(z)}")
+        q, v = self._joint_values(z)
         x = np.zeros(self.swing.n_states)
-        x[self._iq] = [0.0, P["l"] * math.cos(a_lead) + P["R"] - START_PENETRATION, a_lead, a_trail]
-        x[self._ip] = self._mass_matrix(x, p) @ np.array([vx, vz, w_lead, w_trail])
+        x[self._iq] = [q[j] for j in self._coords]
+        for dst, src in self._mirror_idx:
+            x[dst] = x[src]
+        foot_z = float(self.outputs(0.0, x, p)[self._out["walker.foot1.z"]])   # hip at 0
+        x[self._ihz] = self.parameters["R"] - START_PENETRATION - foot_z
+        x[self._ip] = self._mass_matrix(x, p) @ np.array([v[j] for j in self._coords])
         return x
 
     def project(self, x, p, lead: int) -> np.ndarray:
+        """Model state -> section coordinates, leg ``lead`` leading."""
         q = x[self._iq]
         v = np.linalg.solve(self._mass_matrix(x, p), x[self._ip])
-        i, j = (2, 3) if lead == 1 else (3, 2)
-        return np.array([q[i], q[j], v[0], v[1], v[i], v[j]])
+        c = self._col
+        L, T = (1, 2) if lead == 1 else (2, 1)
+        z = [q[c[f"leg{L}"]], q[c[f"leg{T}"]], v[c["hip_joint.x"]], v[c["hip_joint.z"]],
+             v[c[f"leg{L}"]], v[c[f"leg{T}"]]]
+        for vec in (q, v):
+            for fam in self.extra_joints:
+                z += [vec[c[f"{fam}{L}"]], vec[c[f"{fam}{T}"]]]
+        return np.array(z, dtype=float)
 
     def to_thesis(self, z):
-        a_lead, a_trail, vx, vz, w_lead, w_trail = z
-        return np.array([-a_lead, a_trail - a_lead, vx, vz, -w_lead, w_trail - w_lead])
+        z = np.asarray(z, dtype=float)
+        a_lead, a_trail, vx, vz, w_lead, w_trail = z[:6]
+        return np.concatenate([[-a_lead, a_trail - a_lead, vx, vz, -w_lead, w_trail - w_lead],
+                               z[6:]])
 
     def from_thesis(self, w):
-        theta, phi, vx, vz, theta_dot, phi_dot = w
-        return np.array([-theta, phi - theta, vx, vz, -theta_dot, phi_dot - theta_dot])
+        w = np.asarray(w, dtype=float)
+        theta, phi, vx, vz, theta_dot, phi_dot = w[:6]
+        return np.concatenate([[-theta, phi - theta, vx, vz, -theta_dot, phi_dot - theta_dot],
+                               w[6:]])
 
     def section_state(self, z):
         z = np.asarray(z, dtype=float)
         th = self.to_thesis(z)
         d = dict(zip(self.section, (float(v) for v in z)))
-        d.update({"walker.q.hip_joint.z": self.parameters["l"] * math.cos(z[0]) + self.parameters["R"],
+        d.update({"walker.q.hip_joint.z": float(self.lift(z)[self._ihz]) + START_PENETRATION,
                   "theta": float(th[0]), "phi": float(th[1]), "theta_dot": float(th[4]),
                   "phi_dot": float(th[5]), "hip_speed": float(math.hypot(z[2], z[3]))})
         return d
 
+    def _guess_extras(self, theta: float) -> np.ndarray:
+        """Section coordinates of the extra joints for the initial guess (none here)."""
+        return np.zeros(4 * len(self.extra_joints))
+
+    def _rolling_radius(self) -> float:
+        """Distance from the hip to the trailing foot's contact point at heel strike (m)."""
+        return self.parameters["l"] + self.parameters["R"]
+
     def initial_guess(self):
-        """The section state (just before the compliant impact) with θ = theta0, φ = 2θ,
-        θ̇ = theta_dot0, φ̇ = phi_dot0 and the hip velocity of the trailing leg rolling on its arc
-        foot (instantaneous centre at the contact point, l + R below the hip along the leg)."""
+        """The section state (just before the compliant impact) with θ = theta0, φ = θ + the
+        trailing angle of :meth:`_trail_angle` (2θ for rigid legs), θ̇ = theta_dot0,
+        φ̇ = phi_dot0 and the hip velocity of the trailing leg rolling on its arc foot
+        (instantaneous centre at the contact point, :meth:`_rolling_radius` below the hip along
+        the leg); extra joints from :meth:`_guess_extras`."""
         P = self.parameters
         th, thd, phd = P["theta0"], P["theta_dot0"], P["phi_dot0"]
+        extras = self._guess_extras(th)
         w_trail = phd - thd
-        a_trail = th
-        r = P["l"] + P["R"]
+        a_trail = self._trail_angle(th, extras)
+        r = self._rolling_radius()
         vx, vz = r * w_trail * math.cos(a_trail), -r * w_trail * math.sin(a_trail)
-        return self.from_thesis(np.array([th, 2 * th, vx, vz, thd, phd]))
+        return self.from_thesis(np.concatenate([[th, th + a_trail, vx, vz, thd, phd], extras]))
+
+    def _trail_angle(self, theta: float, extras: np.ndarray) -> float:
+        """Trailing leg's angle at heel strike for the initial guess (rad): θ (equal legs, both
+        feet on the surface: φ = 2θ)."""
+        return theta
 
     #: the explanation written at the top of the walker's model file (``walker export``)
-    file_header = (
-        "The components and events below are the whole walker: one floating-base multibody (hip on a",
-        "translational x/z joint, legs on revolute hip joints, foot masses at the leg ends), one",
-        "Hunt-Crossley contact (floor1, floor2: arc foot, contact point R below the foot centre along",
-        "the slope normal) and one SCVS friction (fric1, fric2) per foot, in the slope frame (gravity",
-        "rotated by the slope). c1, c2 are the contact mode flags that the walker's event actions",
-        "switch (the scuffing rule); `porthamiltonian check-energy` simulates the model as written",
-        "(flags fixed). [model.walker] names the builder; `walker gait compass_walker` rebuilds the",
-        "walker from it and the [parameters] below. Edit parameter values here; change the mechanism",
-        "in the builder and re-export (a file whose components differ is refused). lam = 3.16e7 N*s/m^2",
-        "is calibrated the thesis's way (walker_library.compliant.calibrate_damping).")
+    file_header = tuple(textwrap.wrap(
+        "The components and events below are the whole walker: one floating-base multibody (hip "
+        "on a translational x/z joint, legs on revolute hip joints, foot masses welded at the leg "
+        "ends), one Hunt-Crossley contact (floor1, floor2: arc foot, contact point R below the "
+        "foot centre along the slope normal, on the plane z = ground1 / ground2) and one SCVS "
+        "friction (fric1, fric2) per foot, in the slope frame (gravity rotated by the slope). "
+        "c1, c2 (contact flags) and ground1, ground2 (surface height under each foot, m: 0, or "
+        "-h after a step-down of h) are mode parameters that the walker's event actions switch "
+        "(the scuffing rule; the step-down lowers a foot's surface at its lift-off); "
+        "`porthamiltonian check-energy` simulates the model as written (modes fixed). "
+        "[model.walker] names the builder; `walker gait compass_walker` rebuilds the walker from "
+        "it and the [parameters] below. Edit parameter values here; change the mechanism in the "
+        "builder and re-export (a file whose components differ is refused). lam = 3.16e7 "
+        "N*s/m^2 is calibrated the thesis's way (walker_library.compliant.calibrate_damping).",
+        95, break_on_hyphens=False))
 
     #: Newton tolerance of the gait search (the stride map is computed to ≈ 1e-9 by the
     #: integrator at rtol 1e-8; a tolerance of 1e-10 is out of reach)
@@ -305,11 +428,32 @@ class CompliantWalker:
     def stride(self, z, *, details=False, record=False):
         return self.walk(z, 1, details=details, record=record)[0]
 
-    def walk(self, z, n_steps, *, details=False, record=False):
+    def walk(self, z, n_steps, *, details=False, record=False, ground_drop=0.0):
+        """``n_steps`` strides from section state ``z`` in one simulation (one energy ledger).
+
+        Modes: at the start both contacts are on (the trailing foot's off if it starts above
+        the lift-off level), foot 1 (leading) on ground1 = 0. ``ground_drop`` h (m, >= 0): the
+        surface under a foot is set to −h whenever that foot's contact is off: the trailing
+        foot's at the start if it starts in the air, else at its lift-off, and every later
+        lift-off (a lift-off of the leading foot is a bounce and keeps its surface). A switch
+        of surface height with the contact off does not change H, so the ledger stays closed.
+        Mid-stance flags (models with events ``midstance<k>``, thesis App. D): ``mid<k>`` is set
+        when the hip angle crosses zero with leg k in stance (its contact on) and cleared at
+        leg k's lift-off; at the start, mid1 = 0 and mid2 = c2. The action returns
+        ``energy="supplied"``: a stiffness that depends on ``mid<k>`` jumps at the lift-off
+        while the spring is (slightly) loaded, and the jump of H is work of the stiffness
+        actuator (MODEL-SPEC.md §4)."""
+        if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
+            raise ParameterValueError(
+                f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
+        low = -float(ground_drop)
         z = np.asarray(z, dtype=float)
+        im = self._imode
         p0 = self._p.copy()
-        p0[self._ic[1]] = 1.0
-        p0[self._ic[2]] = 1.0
+        p0[im["c1"]] = p0[im["c2"]] = 1.0
+        p0[im["ground1"]] = p0[im["ground2"]] = 0.0
+        if self._midstance:
+            p0[im["mid1"]], p0[im["mid2"]] = 0.0, 1.0
         try:
             x0 = self.lift(z, p0)
         except (np.linalg.LinAlgError, ValueError) as err:
@@ -321,7 +465,10 @@ class CompliantWalker:
         # (a perturbed section state may start it in the air: then its contact is off, as if it
         # had lifted off, and the scuffing rule applies to it)
         if not self.outputs(0.0, x0, p0)[out["floor2.z"]] + self.parameters["liftoff_margin"] > 0:
-            p0[self._ic[2]] = 0.0
+            p0[im["c2"]] = 0.0
+            p0[im["ground2"]] = low
+            if self._midstance:
+                p0[im["mid2"]] = 0.0
         log: list[dict] = []
         state = {"steps": 0, "lead": 1,
                  "foot_x": float(self.outputs(0.0, x0, p0)[out["walker.foot1.x"]])}
@@ -349,17 +496,31 @@ class CompliantWalker:
 
         def liftoff(k):
             def action(t, x, p):
-                return Reset(params={f"c{k}": 0.0}) if p[self._ic[k]] != 0.0 else Reset()
+                if p[self._ic[k]] == 0.0:
+                    return Reset()
+                modes = {f"c{k}": 0.0}
+                if k != state["lead"]:                # not a bounce of the stance foot
+                    modes[f"ground{k}"] = low
+                if self._midstance:
+                    modes[f"mid{k}"] = 0.0
+                return Reset(params=modes, energy="supplied")
             return action
 
+        def midstance(k):
+            def action(t, x, p):
+                return Reset(params={f"mid{k}": 1.0}) if p[self._ic[k]] != 0.0 else Reset()
+            return action
+
+        actions = {"touchdown1": touchdown(1), "touchdown2": touchdown(2),
+                   "liftoff1": liftoff(1), "liftoff2": liftoff(2),
+                   "fall": lambda t, x, p: Reset(stop=True)}
+        if self._midstance:
+            actions.update({"midstance1": midstance(1), "midstance2": midstance(2)})
         opts = self.options
         names = dict(zip(self.swing.param_names, p0))
         traj = self.swing.simulate(
             opts.max_step_time * n_steps, x0=x0, params=names, method=opts.method,
-            rtol=opts.rtol, atol=opts.atol, max_step=opts.max_step,
-            actions={"touchdown1": touchdown(1), "touchdown2": touchdown(2),
-                     "liftoff1": liftoff(1), "liftoff2": liftoff(2),
-                     "fall": lambda t, x, p: Reset(stop=True)},
+            rtol=opts.rtol, atol=opts.atol, max_step=opts.max_step, actions=actions,
             max_events=100 * n_steps + 100)
         return self._strides(traj, log, details, record, n_steps)
 
@@ -369,6 +530,7 @@ class CompliantWalker:
                                  for seg in traj.segments])
         n = self.swing.n_states
         iV = self._out["walker.V"]
+        i1, i2 = (self._iq[self._col[f"leg{k}"]] for k in (1, 2))
 
         def at(i):
             pn = self.swing.native_params(params[i])
@@ -377,9 +539,9 @@ class CompliantWalker:
             V = float(self.swing.functions.outputs(t[i], y, pn)[iV])
             return H, V, float(Y[n, i]), float(Y[n + 1, i])
 
-        def maxima(i0, i1, lead):
-            q = Y[:, i0:i1 + 1][self._iq]
-            a_lead, a_trail = (q[2], q[3]) if lead == 1 else (q[3], q[2])
+        def maxima(i0, i1_, lead):
+            a1, a2 = Y[i1, i0:i1_ + 1], Y[i2, i0:i1_ + 1]
+            a_lead, a_trail = (a1, a2) if lead == 1 else (a2, a1)
             return float(np.max(np.abs(a_lead))), float(np.max(np.abs(a_trail - a_lead)))
 
         strides: list[Stride] = []
@@ -391,7 +553,8 @@ class CompliantWalker:
             s = Stride("step", z_next, info["t"] - t_prev, step_length=float(info["step_length"]),
                        energy_dissipated=now[2] - prev[2], potential_released=prev[1] - now[1],
                        energy_residual=(now[0] - prev[0]) + (now[2] - prev[2]) - (now[3] - prev[3]),
-                       info={"lead": info["lead"]})
+                       info={"lead": info["lead"], "t_end": info["t"],
+                             "energy_supplied": now[3] - prev[3]})
             if details:
                 s.max_theta, s.max_phi = maxima(i_prev, idx, lead)
             strides.append(s)

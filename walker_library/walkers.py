@@ -306,10 +306,13 @@ def rimless_wheel(*, backend: str = "python", options: IntegrationOptions | None
 
 
 from .compliant import CONTACT_MODES, compass_walker  # noqa: E402  (after the rigid builders)
+from .compliant_legs import compliant_leg_walker, variable_stiffness_walker  # noqa: E402
 
 BUILDERS = {"simplest_walker": simplest_walker, "compass_gait": compass_gait,
             "rimless_wheel": rimless_wheel, "compass_walker": compass_walker,
-            "rigid_compass_walker": rigid_compass_walker}
+            "rigid_compass_walker": rigid_compass_walker,
+            "compliant_leg_walker": compliant_leg_walker,
+            "variable_stiffness_walker": variable_stiffness_walker}
 
 
 # --- model files ------------------------------------------------------------------------------------

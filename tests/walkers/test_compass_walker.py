@@ -61,6 +61,32 @@ def test_energy_residual_over_several_steps(walker, gait):
         assert s["state_after"]["theta"] == pytest.approx(gait.fixed_point["theta"], abs=1e-6)
 
 
+def test_step_down_of_1_mm_is_survived_and_5_cm_falls(walker, gait):
+    """walk(..., ground_drop=h) (MODEL-SPEC.md §5): the surface ahead of the stance foot drops by
+    h before the first heel strike. From the fixed point, h = 1 mm: 20 steps, back on the fixed
+    point (measured 8e-8; asserted 1e-5), the ledger closed across the surface switches
+    (measured 5e-8 J; asserted 1e-7 J), and the potential released is the weight times the
+    descent, Σ step lengths · sin γ + h cos γ (the end state is the start state moved; measured
+    to 1e-7 J, asserted 1e-5 J). h = 5 cm: a fall, as a Stride with status "fell"."""
+    z = np.array([gait.fixed_point[k] for k in walker.section])
+    h = 0.001
+    strides = walker.walk(z, 20, ground_drop=h, record=True)
+    assert len(strides) == 20 and not any(s.fell for s in strides)
+    assert np.max(np.abs(strides[-1].z_next - z)) < 1e-5
+    traj = strides[-1].info["trajectory"]
+    assert np.max(np.abs(traj.residual)) < 1e-7
+    assert max(abs(s.energy_residual) for s in strides) < 1e-7
+    g1, g2 = (walker.swing.param_names.index(f"ground{k}") for k in (1, 2))
+    assert traj.segments[-1].p[g1] == -h and traj.segments[-1].p[g2] == -h
+    # back on the gait h lower: the potential released is the weight times the descent
+    released = sum(s.potential_released for s in strides)
+    gamma = walker.parameters["slope"]
+    descent = sum(s.step_length for s in strides) * math.sin(gamma) + h * math.cos(gamma)
+    assert released == pytest.approx(walker.weight * descent, abs=1e-5)
+    fell = walker.walk(z, 5, ground_drop=0.05)
+    assert fell[-1].status == "fell" and fell[-1].reason == "fall" and len(fell) <= 3
+
+
 def test_scuffing_rule_ignores_the_mid_stance_pass(walker, gait):
     """The swing foot passes through the surface near mid-stance (straight legs): its touchdown
     guard fires there but the contact does not start (the foot is not in front); the step ends at

@@ -1,0 +1,132 @@
+"""The thesis's variable-stiffness walker (MODEL-SPEC.md §4, thesis §3.2 and App. D;
+walker_library.compliant_legs.variable_stiffness_walker): the compliant-leg walker whose stance
+leg stiffens from K1 = 6000 N/m at mid-stance to K2 = 8000 N/m at |φ| = φ_max,
+K = K1 + (K2 − K1)|φ|/φ_max, with D = 2·0.2·√(3.1 K) (Table 3.1's first variable row), γ = 0.009.
+
+Measured here (numba + Rodas4, rtol 1e-8, atol 1e-10): stable period-1 gait, θ = 0.24468,
+φ = 0.46753, θ̇ = −0.88576, φ̇ = 0.00867 at touchdown; Floquet multipliers |λ| = 0.282 (a pair),
+the rest < 5e-3; step period 1.0281 s, step length 0.3468 m, speed 0.3373 m/s; per step the
+stiffness change supplies E_in = 0.0195 J (net: +0.0205 J while the stance leg stiffens, −0.0010 J
+when K drops back to K1 at its lift-off) and 0.1180 J is dissipated = the potential released
+0.0986 J + E_in (cost of transport 0.0108 > sin γ). The constant-K1 gait (K2 = K1, same α)
+walks at 0.3146 m/s with peak |φ| = 0.4370 rad: the default φ_max. The thesis (Table 3.1, most
+cells lost) found 6000 → 8000 N/m at α = 0.2 "almost equivalent" to a constant 8000 N/m at
+α = 0.15; here the constant 8000 N/m walker (compliant_leg_walker) walks at 0.3358 m/s, the
+variable one at 0.3373 m/s (0.4 % apart).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from porthamiltonian import io
+from walker_library import analyze_gait, load_walker, variable_stiffness_walker, walk
+from walker_library.cli import main
+from walker_library.compliant_legs import PHI_MAX_K1
+
+#: the gait of variable_stiffness_walker(K2=6000) (constant K1), section coordinates, from
+#: analyze_gait (rounded to 1e-10)
+CONSTANT_K1_GAIT = [-0.2340149248, 0.2020649345, 0.5969177229, -0.1120660901, 0.8028039676,
+                    0.8180945881, 0.0001456117, 28.9632076664, 3.54358e-05, 0.0021073555]
+
+
+@pytest.fixture(scope="module")
+def walker():
+    return variable_stiffness_walker()
+
+
+@pytest.fixture(scope="module")
+def gait(walker):
+    return analyze_gait(walker)
+
+
+@pytest.fixture(scope="module")
+def fixed(walker, gait):
+    return np.array([gait.fixed_point[k] for k in walker.section])
+
+
+def test_stable_period_one_gait_at_defaults(walker, gait):
+    P = walker.parameters
+    assert (P["K1"], P["K2"], P["alpha"], P["phi_max"]) == (6000.0, 8000.0, 0.2, PHI_MAX_K1)
+    assert gait.status == "periodic" and gait.period_steps == 1 and gait.stable
+    mults = np.abs(np.array(gait.floquet_multipliers))
+    assert mults.max() == pytest.approx(0.282, abs=0.01) and gait.multiplier_error < 1e-3
+    assert gait.fixed_point["theta"] == pytest.approx(0.2447, abs=1e-3)
+    assert gait.metrics.speed == pytest.approx(0.3373, abs=1e-3)
+
+
+def test_energy_balance_books_the_stiffness_change_as_supplied(walker, fixed):
+    """Per step: dissipated = potential released + supplied (the stiffness change injects
+    ½ K̇ z² while the stance spring is compressed; the lift-off's drop of K to K1 with the spring
+    slightly loaded is a small negative jump, booked as supplied too). Over 20 steps the ledger
+    H − H(0) + E_diss − E_in stays below 1e-7 J (measured 1.6e-8 J, of an energy scale ≈ 30 J)."""
+    res = walk(walker, fixed, 20)
+    assert res.steps_taken == 20 and not res.fell
+    assert res.max_energy_residual < 1e-7
+    s = walker.walk(fixed, 1, record=True)[0]
+    e_in = s.info["energy_supplied"]
+    assert e_in == pytest.approx(0.0195, abs=1e-3)
+    assert s.energy_dissipated == pytest.approx(s.potential_released + e_in, abs=1e-7)
+    traj = s.info["trajectory"]
+    # the trailing leg lifts off with its spring still ≈ 1 mm compressed (its force balanced by
+    # the damper and the light foot), so K's drop from ≈ 8100 to 6000 N/m releases ≈ 1 mJ
+    # (measured −1.03e-3 J, 5 % of E_in), booked as (negative) supplied energy
+    jumps = [j for _, name, j in traj.jumps if name == "liftoff2" and j != 0.0]
+    assert len(jumps) == 1 and -0.1 * e_in < jumps[0] < 0.0
+
+
+def test_stiffness_follows_the_rule(walker, fixed):
+    """Leg 1 leads at the start (touchdown): K1 until mid-stance (the hip angle crosses zero),
+    then K1 + (K2 − K1)|φ|/φ_max up to its lift-off; leg 2 (trailing) is stiff until its
+    lift-off, then K1 in swing. The damper follows: D = 2 α √(3.1 K)."""
+    P = walker.parameters
+    traj = walker.walk(fixed, 1, record=True)[0].info["trajectory"]
+    t = traj.t
+    phi = traj["walker.q.leg1"] - traj["walker.q.leg2"]
+    K1, K2 = traj["spring1.K"], traj["spring2.K"]
+    t_mid = [tt for tt, name in traj.events if name == "midstance1"]
+    t_off2 = next(tt for tt, name in traj.events if name == "liftoff2")
+    assert len(t_mid) == 1
+    before, after = t < t_mid[0], t > t_mid[0]
+    assert np.all(K1[before] == P["K1"])
+    expected = P["K1"] + (P["K2"] - P["K1"]) * np.abs(phi) / P["phi_max"]
+    assert np.allclose(K1[after], expected[after], rtol=1e-12)
+    # the stance leg reaches K2 where |φ| = φ_max, a little more at touchdown (this gait's
+    # φ there, 0.4675, exceeds the constant-K1 gait's peak 0.4370)
+    assert P["K2"] < np.max(K1) < 1.03 * P["K2"]
+    assert np.all(K2[t > t_off2] == P["K1"]) and np.all(K2[t < t_off2] > P["K1"])
+    assert np.allclose(traj["spring1.D"], 2 * P["alpha"] * np.sqrt((P["M"] + P["m_foot"]) * K1),
+                       rtol=1e-12)
+
+
+def test_phi_max_is_the_peak_phi_of_the_constant_k1_gait(walker):
+    """φ_max (thesis Eq. 3.3): the peak φ of the gait with the fixed stiffness K1; measured as
+    the largest |φ| over a step of this walker's gait with K2 = K1 (same α = 0.2): 0.43700 rad.
+    The stored fixed point is a fixed point to 1e-8 and its step's max |φ| rounds to the
+    default."""
+    constant = walker.with_parameters(K2=walker.parameters["K1"])
+    z = np.array(CONSTANT_K1_GAIT)
+    s = constant.walk(z, 1, details=True)[0]
+    assert np.max(np.abs(s.z_next - z)) < 1e-8
+    assert s.max_phi == pytest.approx(PHI_MAX_K1, abs=5e-5)
+    assert s.info["energy_supplied"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_static_leg_compression_with_k1(walker):
+    """Standing (mid-stance flags off): the stance leg shortens by (M + 2 m_leg + m_foot) g / K1."""
+    P = walker.parameters
+    traj = walker.stand(3.0)
+    load = (P["M"] + 2 * P["m_leg"] + P["m_foot"]) * P["g"]
+    assert traj["walker.q.ankle1"][-1] == pytest.approx(-load / P["K1"], rel=1e-6)
+    assert traj["spring1.K"][-1] == P["K1"]
+
+
+def test_model_file_is_up_to_date_and_loads(tmp_path):
+    out = tmp_path / "variable_stiffness_walker.toml"
+    assert main(["export", "variable_stiffness_walker", str(out)]) == 0
+    assert out.read_text() == io.model_path("variable_stiffness_walker").read_text()
+    w = load_walker("variable_stiffness_walker", backend=None)
+    assert w.name == "variable_stiffness_walker" and w.parameters["K2"] == 8000.0
+    assert math.isclose(w.parameters["phi_max"], PHI_MAX_K1)
