@@ -306,21 +306,46 @@ def run_basin(ctx: StudyContext) -> dict:
 # --- Chapter 3 ----------------------------------------------------------------------------------
 COMPLIANT = "compliant_leg_walker"
 VARIABLE = "variable_stiffness_walker"
+GUESS = ("theta0", "theta_dot0", "phi_dot0")
+
+
+def _guesses(ctx: StudyContext, model: str, cases: list[dict], order_key: str) -> list[dict]:
+    """Initial-guess parameters (theta0, theta_dot0, phi_dot0) for each case by continuation
+    (serial, cheap next to the step-down tests): cases sorted by their distance in
+    ``order_key`` from the walker's defaults, each gait search started from the nearest case
+    already solved. A case with no gait keeps the walker's default guess."""
+    base = _walker(model)
+    solved: list[tuple[dict, np.ndarray]] = []
+    out: list[dict] = [{} for _ in cases]
+    order = sorted(range(len(cases)),
+                   key=lambda i: abs(math.log(cases[i][order_key] / base.parameters[order_key])))
+    for i in order:
+        w = base.with_parameters(**cases[i])
+        near = min(solved, key=lambda cz: sum(abs(math.log(cases[i][k] / cz[0][k]))
+                                              for k in cases[i]), default=None)
+        g = analyze_gait(w, guess=None if near is None else near[1])
+        if g.status == "periodic" and g.period_steps == 1:
+            solved.append((cases[i], np.array([g.fixed_point[k] for k in w.section])))
+            out[i] = {"theta0": g.fixed_point["theta"], "theta_dot0": g.fixed_point["theta_dot"],
+                      "phi_dot0": g.fixed_point["phi_dot"]}
+        ctx.log(f"  guess {cases[i]}: {g.status}")
+    return [{**c, **o} for c, o in zip(cases, out)]
 
 
 def run_damper_factor(ctx: StudyContext) -> dict:
     from .robustness import step_down_case
-    alphas = [0.1, 0.2] if ctx.quick else [0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.4]
-    Ks = [6000.0] if ctx.quick else [1500.0, 3000.0, 6000.0, 10000.0]
-    cases = [{"alpha": a, "K": k} for a in alphas for k in Ks]
+    alphas = [0.1, 0.2] if ctx.quick else [0.1, 0.15, 0.2, 0.3]
+    Ks = [6000.0] if ctx.quick else [2000.0, 6000.0, 10000.0]
+    cases = _guesses(ctx, COMPLIANT, [{"alpha": a, "K_leg": k} for a in alphas for k in Ks],
+                     "K_leg")
     rows = ctx.sweep("step_down_over_alpha_K", step_down_case, cases, model=COMPLIANT,
                      resolution=2e-4)
-    table = [{k: r.get(k) for k in ("alpha", "K", "status", "gait_status", "max_step_down",
+    table = [{k: r.get(k) for k in ("alpha", "K_leg", "status", "gait_status", "max_step_down",
                                     "contiguous", "speed")} for r in rows]
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 3.6))
     for k in Ks:
-        sel = [r for r in rows if r["K"] == k]
+        sel = [r for r in rows if r["K_leg"] == k]
         ax.plot([r["alpha"] for r in sel],
                 [np.nan if r.get("max_step_down") is None else 1e3 * r["max_step_down"] for r in sel],
                 "o-", label=f"K = {k:g} N/m")
@@ -343,7 +368,8 @@ def run_leg_stiffness(ctx: StudyContext) -> dict:
     from .robustness import step_down_case
     Ks = [3000.0, 9000.0] if ctx.quick else [1500.0, 2000.0, 3000.0, 4500.0, 6000.0, 7500.0,
                                              9000.0, 10000.0]
-    rows = ctx.sweep("step_down_over_K", step_down_case, [{"K": k} for k in Ks], model=COMPLIANT,
+    cases = _guesses(ctx, COMPLIANT, [{"K_leg": k} for k in Ks], "K_leg")
+    rows = ctx.sweep("step_down_over_K", step_down_case, cases, model=COMPLIANT,
                      resolution=2e-4 if ctx.quick else 1e-4)
     _, rigid_rows = _rigid_step_down(ctx)
     rigid9 = next((r for r in rigid_rows if abs(r["slope"] - 0.009) < 1e-12), {})
@@ -368,40 +394,58 @@ def run_leg_stiffness(ctx: StudyContext) -> dict:
     ax.legend(fontsize=8)
     fig.tight_layout()
     save_figure(fig, ctx.path("fig_3_6_robustness_over_speed.png"))
-    stable = [r["K"] for r in rows if r.get("gait_status") == "periodic"]
-    faster = [r["K"] for r in rows if (r.get("speed") or 0) > (rigid9.get("speed") or math.inf)]
-    better = [r["K"] for r in rows
+    stable = [r["K_leg"] for r in rows if r.get("gait_status") == "periodic"]
+    faster = [r["K_leg"] for r in rows
+              if (r.get("speed") or 0) > (rigid9.get("speed") or math.inf)]
+    better = [r["K_leg"] for r in rows
               if (r.get("max_step_down") or 0) > (rigid9.get("max_step_down") or math.inf)]
     return {"rows": [
         _row("lowest stable K", min(stable) if stable else None, 1500.0, "N/m"),
         _row("lowest K faster than the rigid leg", min(faster) if faster else None, 3000.0, "N/m"),
         _row("lowest K more robust than the rigid leg", min(better) if better else None, 4500.0,
              "N/m"),
-    ], "table": [{k: r.get(k) for k in ("K", "gait_status", "max_step_down", "contiguous",
+    ], "table": [{k: r.get(k) for k in ("K_leg", "gait_status", "max_step_down", "contiguous",
                                         "speed", "energy_dissipated_per_step")} for r in rows]}
 
 
 def run_variable_stiffness(ctx: StudyContext) -> dict:
     from .robustness import step_down_case
-    constant = [{"K": 6000.0, "alpha": 0.15}, {"K": 8000.0, "alpha": 0.15},
-                {"K": 12000.0, "alpha": 0.15}]
+    constant = [{"K_leg": 6000.0, "alpha": 0.15}, {"K_leg": 8000.0, "alpha": 0.15},
+                {"K_leg": 12000.0, "alpha": 0.15}]
     variable = [{"K1": 6000.0, "K2": 8000.0, "alpha": 0.2},
                 {"K1": 6000.0, "K2": 12000.0, "alpha": 0.3},
                 {"K1": 8000.0, "K2": 12000.0, "alpha": 0.2}]
     if ctx.quick:
         constant, variable = constant[:1], variable[:1]
     res = 2e-4 if ctx.quick else 1e-4
+    constant = _guesses(ctx, COMPLIANT, constant, "K_leg")
+    variable = _guesses(ctx, VARIABLE, variable, "K2")
     crow = ctx.sweep("constant_K", step_down_case, constant, model=COMPLIANT, resolution=res)
     vrow = ctx.sweep("variable_K", step_down_case, variable, model=VARIABLE, resolution=res)
-    w = _walker(VARIABLE, **variable[0])
-    gait = analyze_gait(w)
     extra = {}
-    if gait.status == "periodic":
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    for label, model, case in (("variable", VARIABLE, variable[0]),
+                               ("constant K1", COMPLIANT,
+                                {"K_leg": variable[0]["K1"], "alpha": variable[0]["alpha"]})):
+        w = _walker(model, **case)
+        gait = analyze_gait(w)
+        if gait.status != "periodic":
+            continue
         z = np.array([gait.fixed_point[k] for k in w.section])
-        s = walk_series(w, z, 2)
-        extra["energy_injected_per_step"] = float(s.E_in[-1] / 2)
-        fig_energy(s, ctx.path("fig_3_8_energy_variable.png"))
-    table = ([{"kind": "constant", **{k: r.get(k) for k in ("K", "alpha", "speed", "max_step_down",
+        strides = w.walk(z, 2, record=True)
+        traj = strides[-1].info["trajectory"]
+        ax.plot(1e3 * np.asarray(traj["spring1.z"]), traj["spring1.p.e"], lw=1, label=label)
+        if model == VARIABLE:
+            extra["energy_injected_per_step"] = float(traj.E_in[-1] / len(strides))
+            fig_energy(walk_series(w, z, 2), ctx.path("fig_3_8_energy_variable.png"))
+    ax.set_xlabel("leg spring extension Δz (mm; < 0: compressed)")
+    ax.set_ylabel("leg spring force F (N)")
+    ax.set_title("F–Δz loop of leg 1 over two steps (Fig. 3.7)", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, ctx.path("fig_3_7_force_compression.png"))
+    table = ([{"kind": "constant", **{k: r.get(k) for k in ("K_leg", "alpha", "speed", "max_step_down",
                                                            "contiguous")}} for r in crow]
              + [{"kind": "variable", **{k: r.get(k) for k in ("K1", "K2", "alpha", "speed",
                                                               "max_step_down", "contiguous")}}
