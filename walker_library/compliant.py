@@ -93,13 +93,14 @@ import numpy as np
 
 from porthamiltonian import Model, Multibody, Reset, Revolute, RigidBody, Translational, Weld
 from porthamiltonian.errors import ParameterValueError
-from porthamiltonian.library import HuntCrossley, SCVSFriction
+from porthamiltonian.library import HuntCrossley, KelvinVoigt, SCVSFriction
 
 from .protocol import ParameterSpec, Stride, check_parameters
 from .rigid import _compiled
 
-__all__ = ["CONTACT_MODES", "CompliantWalker", "CompliantOptions", "DampingCalibration",
-           "calibrate_damping", "compass_walker", "compass_walker_specs", "contact_walker_model"]
+__all__ = ["CONTACT_KINDS", "CONTACT_MODES", "CompliantWalker", "CompliantOptions", "DampingCalibration",
+           "calibrate_damping", "compass_walker", "compass_walker_specs", "contact_specs",
+           "contact_walker_model"]
 
 THESIS = "MODEL-SPEC.md §1 (thesis Table 2.3, App. A)"
 _GRAVITY = ["g*sin(slope)", 0, "-g*cos(slope)"]
@@ -110,6 +111,13 @@ CONTACT_MODES = ("c1", "c2", "ground1", "ground2", "mid1", "mid2")
 #: the leading foot starts a stride this far inside the surface (m), off its touchdown guard's
 #: zero (a run that starts on a guard's zero sees it fire at t = 0); force K·1e-9 = 1e-3 N
 START_PENETRATION = 1e-9
+#: the contact laws a compliant walker can use (``contact = ...`` in its ``[model.walker]``
+#: table, the builders' ``contact`` argument); the first is the default (the thesis's)
+CONTACT_KINDS = ("HuntCrossley", "KelvinVoigt")
+#: Kelvin–Voigt damping B (N·s/m) of the walkers with ``contact = "KelvinVoigt"``: calibrated the
+#: thesis's way, as λ is (:func:`calibrate_damping` with ``parameter="B_contact"``; see
+#: :func:`contact_specs`)
+B_CONTACT = 1.0e3
 
 
 @dataclass(frozen=True)
@@ -162,8 +170,46 @@ def compass_walker_specs() -> list[ParameterSpec]:
     ]
 
 
+def check_contact(contact: str) -> str:
+    """``contact`` if it is one of :data:`CONTACT_KINDS`, else ParameterValueError."""
+    if not (isinstance(contact, str) and contact in CONTACT_KINDS):
+        raise ParameterValueError(f"unknown contact kind {contact!r}; contact kinds: "
+                                  f"{', '.join(CONTACT_KINDS)} (default {CONTACT_KINDS[0]})")
+    return contact
+
+
+def contact_specs(specs: list[ParameterSpec], contact: str) -> list[ParameterSpec]:
+    """``specs`` (a compliant walker's parameters, with the Hunt–Crossley damping ``lam``) for
+    the contact law ``contact``: unchanged for HuntCrossley; for KelvinVoigt, the linear damping
+    ``B_contact`` (N·s/m) is added after ``lam`` (which that walker keeps but does not use, so
+    a walker file's parameters stay valid when its contact is swapped).
+
+    B_contact = 1e3 N·s/m is calibrated the thesis's way (the smallest damping that maximises the
+    energy dissipated per impact: :func:`calibrate_damping` with ``parameter="B_contact"`` from
+    compass_walker's initial guess, K = 1e6 N/m, window 0.05 s, grid 1e2 … 1e6 four per decade):
+    the dissipation rises from 0.0165 J at B = 100 (the foot bounces) through 0.0830 J at 562 to
+    a plateau of 0.0939 J from B = 1e3 on (0.093919 J; the grid's maximum is 0.093941 J at
+    3.16e4, then it falls slowly to 0.093578 J at 1e6). The Hunt–Crossley walker's λ = 3.16e7
+    dissipates 0.093973 J from the same state."""
+    check_contact(contact)
+    if contact == "HuntCrossley":
+        return list(specs)
+    out = []
+    for s in specs:
+        out.append(s)
+        if s.name == "lam":
+            out.append(_spec("B_contact", B_CONTACT, "N*s/m", "Kelvin-Voigt contact damping B "
+                             "(contact = \"KelvinVoigt\" only; calibrated the thesis's way, see "
+                             "walker_library.compliant.contact_specs)", "calibrated", 0.0,
+                             math.inf, True))
+    if len(out) == len(specs):
+        raise ParameterValueError("a compliant walker's parameters need 'lam' to add 'B_contact'")
+    return out
+
+
 def contact_walker_model(name: str, doc: str, specs: list[ParameterSpec], *,
-                         foot_joint: Callable[[int], Any] | None = None) -> Model:
+                         foot_joint: Callable[[int], Any] | None = None,
+                         contact: str = "HuntCrossley") -> Model:
     """The floating-base walker with arc feet, Hunt–Crossley contacts and SCVS friction (see the
     module docstring), shared by every compliant-contact walker.
 
@@ -172,7 +218,16 @@ def contact_walker_model(name: str, doc: str, specs: list[ParameterSpec], *,
     passes a prismatic joint along the leg). The contact point ``foot<k>`` and the friction
     point ``sole<k>`` sit on the foot body, so they move with it. Mode parameters (set by the
     walker's event actions, :data:`CONTACT_MODES`): ``c1``, ``c2`` and the surface heights
-    ``ground1``, ``ground2``."""
+    ``ground1``, ``ground2``.
+
+    ``contact`` (one of :data:`CONTACT_KINDS`) is the law of both feet's contacts ``floor1``,
+    ``floor2``: HuntCrossley (stiffness K, damping ``lam``, n = 1) or KelvinVoigt (stiffness K,
+    damping ``B_contact``, clipped at F >= 0; ``specs`` from :func:`contact_specs`); same ports,
+    point and surface, so the rest of the model does not change."""
+    check_contact(contact)
+    if contact == "KelvinVoigt" and not any(s.name == "B_contact" for s in specs):
+        raise ParameterValueError(f"{name}: contact = 'KelvinVoigt' needs the parameter "
+                                  "'B_contact' (build the specs with contact_specs)")
     m = Model(name, doc)
     for s in specs:
         m.parameter(s.name, s.value, s.unit, f"{s.doc} [{s.source}]" if s.source else s.doc)
@@ -194,9 +249,11 @@ def contact_walker_model(name: str, doc: str, specs: list[ParameterSpec], *,
                                Weld(parent=f"leg{k}", child=f"foot{k}_body", origin=[0, 0, "-l"]))
     m.add("walker", Multibody(bodies=bodies, joints=joints, gravity=_GRAVITY, plane="xz"))
     for k in (1, 2):
-        m.add(f"floor{k}", HuntCrossley(x=f"walker.foot{k}.x", z=f"walker.foot{k}.z - R",
-                                        stiffness="K", damping="lam", exponent=1,
-                                        surface="plane", height=f"ground{k}", active=f"c{k}"))
+        point = {"x": f"walker.foot{k}.x", "z": f"walker.foot{k}.z - R", "stiffness": "K"}
+        where = {"surface": "plane", "height": f"ground{k}", "active": f"c{k}"}
+        m.add(f"floor{k}", HuntCrossley(**point, damping="lam", exponent=1, **where)
+              if contact == "HuntCrossley" else
+              KelvinVoigt(**point, damping="B_contact", **where))
         m.add(f"fric{k}", SCVSFriction(normal_force=f"floor{k}.Fn", mu_st="mu_st", mu_c="mu_c",
                                        mu_v="mu_v", slope="s_fric", v_st="v_st"))
         m.connect(f"walker.foot{k}", f"floor{k}.p")
@@ -209,10 +266,11 @@ def contact_walker_model(name: str, doc: str, specs: list[ParameterSpec], *,
     return m
 
 
-def compass_walker_model(specs: list[ParameterSpec]) -> Model:
+def compass_walker_model(specs: list[ParameterSpec], contact: str = "HuntCrossley") -> Model:
+    law = "Hunt-Crossley" if contact == "HuntCrossley" else "Kelvin-Voigt"
     doc = ("Thesis nominal walker (MODEL-SPEC.md §1): rigid legs, arc feet (normal offset), "
-           "Hunt-Crossley contact + SCVS friction per foot, scuffing rule, on a slope.")
-    return contact_walker_model("compass_walker", doc, specs)
+           f"{law} contact + SCVS friction per foot, scuffing rule, on a slope.")
+    return contact_walker_model("compass_walker", doc, specs, contact=contact)
 
 
 class CompliantWalker:
@@ -262,6 +320,17 @@ class CompliantWalker:
         self.parameters = check_parameters(specs, dict(values or {}))
         self.swing = _compiled(model, backend)
         self._setup()
+
+    @property
+    def contact(self) -> str:
+        """The contact law of the feet (one of :data:`CONTACT_KINDS`): the kind of ``floor1``."""
+        return self.swing_model.component("floor1").kind
+
+    @property
+    def builder_options(self) -> dict[str, Any]:
+        """The builder's options that made this walker (``[model.walker]`` of its model file,
+        beside ``builder``): ``{"contact": kind}``."""
+        return {"contact": self.contact}
 
     def _setup(self):
         c = self.swing
@@ -390,7 +459,17 @@ class CompliantWalker:
         (instantaneous centre at the contact point, :meth:`_rolling_radius` below the hip along
         the leg); extra joints from :meth:`_guess_extras`."""
         P = self.parameters
-        th, thd, phd = P["theta0"], P["theta_dot0"], P["phi_dot0"]
+        return self.section_from(P["theta0"], P["theta_dot0"], P["phi_dot0"])
+
+    def basin_state(self, z_star, theta: float, theta_dot: float) -> np.ndarray:
+        """Section state for a basin-of-attraction grid point (:mod:`~.robustness`): thesis θ and
+        θ̇ given, φ̇ from the fixed point ``z_star``, the rest completed as :meth:`initial_guess`
+        does (trailing foot rolling, both feet at the surface)."""
+        phi_dot = float(self.to_thesis(np.asarray(z_star, dtype=float))[5])
+        return self.section_from(theta, theta_dot, phi_dot)
+
+    def section_from(self, th: float, thd: float, phd: float) -> np.ndarray:
+        """Section state from thesis θ, θ̇, φ̇ at touchdown (see :meth:`initial_guess`)."""
         extras = self._guess_extras(th)
         w_trail = phd - thd
         a_trail = self._trail_angle(th, extras)
@@ -575,13 +654,15 @@ class CompliantWalker:
 
 
 def compass_walker(*, backend: str = "numba", options: CompliantOptions | None = None,
-                   **values: float) -> CompliantWalker:
+                   contact: str = "HuntCrossley", **values: float) -> CompliantWalker:
     """The thesis's nominal walker (MODEL-SPEC.md §1), see the module docstring.
 
+    ``contact``: the feet's contact law, "HuntCrossley" (default, the thesis's) or "KelvinVoigt"
+    (linear damping ``B_contact``, see :func:`contact_specs`).
     The default back end is numba with the compiled Rodas4 loop (≈ 0.1 s per step once the model
     is compiled and cached; the python back end takes ≈ 10 s per step on this stiff model)."""
-    specs = compass_walker_specs()
-    model = compass_walker_model(specs)
+    specs = contact_specs(compass_walker_specs(), check_contact(contact))
+    model = compass_walker_model(specs, contact)
     opts = options or CompliantOptions(method="Rodas4", rtol=1e-8, atol=1e-10, max_step=0.01,
                                        max_step_time=3.0)
     return CompliantWalker("compass_walker", {s.name: s for s in specs}, model, values=values,
@@ -601,6 +682,8 @@ class DampingCalibration:
     calibrated_lam: float
     rel_tol: float
     window: float
+    #: the damping parameter varied (``lam``; ``B_contact`` for a Kelvin–Voigt walker, N·s/m)
+    parameter: str = "lam"
 
     def to_dict(self) -> dict:
         from .results import to_jsonable
@@ -608,7 +691,7 @@ class DampingCalibration:
 
 
 def calibrate_damping(walker: CompliantWalker, z=None, lams=None, *, window: float = 0.05,
-                      rel_tol: float = 1e-3) -> DampingCalibration:
+                      rel_tol: float = 1e-3, parameter: str | None = None) -> DampingCalibration:
     """Calibrate the lost Hunt–Crossley damping λ the thesis's way (§2.3.2, MODEL-SPEC.md §1):
     the smallest λ that maximises the energy dissipated per impact (a near-plastic impact).
 
@@ -620,13 +703,18 @@ def calibrate_damping(walker: CompliantWalker, z=None, lams=None, *, window: flo
     The dissipation rises with λ to a plateau (at low λ the foot bounces) and then barely
     changes; "the smallest λ that maximises" is read as the smallest grid λ within ``rel_tol``
     (relative) of the maximum over the grid.
+
+    ``parameter``: the damping varied, default the walker's contact damping (``lam`` for
+    Hunt–Crossley, ``B_contact`` for Kelvin–Voigt: then ``lams`` are values of B, N·s/m).
     """
+    if parameter is None:
+        parameter = "B_contact" if getattr(walker, "contact", "") == "KelvinVoigt" else "lam"
     z = walker.initial_guess() if z is None else np.asarray(z, dtype=float)
     lams = np.logspace(5, 10, 21) if lams is None else np.asarray(lams, dtype=float)
     out = []
     n = walker.swing.n_states
     for lam in lams:
-        w = walker.with_parameters(lam=float(lam))
+        w = walker.with_parameters(**{parameter: float(lam)})
         p0 = w._p.copy()
         p0[w._ic[1]] = 1.0
         p0[w._ic[2]] = 1.0
@@ -639,4 +727,4 @@ def calibrate_damping(walker: CompliantWalker, z=None, lams=None, *, window: flo
     k_max = int(np.nanargmax(d))
     good = np.nonzero(d >= d[k_max] * (1 - rel_tol))[0]
     return DampingCalibration([float(v) for v in lams], out, float(d[k_max]), float(lams[k_max]),
-                              float(lams[good[0]]), rel_tol, window)
+                              float(lams[good[0]]), rel_tol, window, parameter)

@@ -97,8 +97,15 @@ import numpy as np
 from porthamiltonian import Model, Prismatic
 from porthamiltonian.library import SpringDamper, VariableSpringDamper
 
-from .compliant import (CompliantOptions, CompliantWalker, _spec, compass_walker_specs,
-                        contact_walker_model)
+from .compliant import (
+    CompliantOptions,
+    CompliantWalker,
+    _spec,
+    check_contact,
+    compass_walker_specs,
+    contact_specs,
+    contact_walker_model,
+)
 from .protocol import ParameterSpec
 
 __all__ = ["CompliantLegWalker", "PHI_MAX_K1", "VariableStiffnessWalker", "compliant_leg_walker",
@@ -300,11 +307,12 @@ def _header(what: str, spring: str, modes: str) -> tuple[str, ...]:
     return tuple(textwrap.wrap(text, 95, break_on_hyphens=False))
 
 
-def compliant_leg_model(specs: list[ParameterSpec]) -> Model:
+def compliant_leg_model(specs: list[ParameterSpec], contact: str = "HuntCrossley") -> Model:
     doc = ("Thesis compliant-leg walker (MODEL-SPEC.md §3): the nominal walker with each foot on a "
            "prismatic joint along the leg, a linear spring K_leg and a parallel damper "
            "D = 2 alpha sqrt((m_foot + M) K_leg) per leg.")
-    m = contact_walker_model("compliant_leg_walker", doc, specs, foot_joint=_prismatic_foot)
+    m = contact_walker_model("compliant_leg_walker", doc, specs, foot_joint=_prismatic_foot,
+                             contact=contact)
     for k in (1, 2):
         m.add(f"spring{k}", SpringDamper(stiffness="K_leg", alpha="alpha", mass="M + m_foot",
                                          rest_length="preload/K_leg", q0=0))
@@ -312,11 +320,12 @@ def compliant_leg_model(specs: list[ParameterSpec]) -> Model:
     return m
 
 
-def variable_stiffness_model(specs: list[ParameterSpec]) -> Model:
+def variable_stiffness_model(specs: list[ParameterSpec], contact: str = "HuntCrossley") -> Model:
     doc = ("Thesis variable-stiffness walker (MODEL-SPEC.md §4, App. D): the compliant-leg walker "
            "with K = K1 + (K2 - K1)|phi|/phi_max on a stance leg after mid-stance (else K1) and "
            "D = 2 alpha sqrt((m_foot + M) K).")
-    m = contact_walker_model("variable_stiffness_walker", doc, specs, foot_joint=_prismatic_foot)
+    m = contact_walker_model("variable_stiffness_walker", doc, specs, foot_joint=_prismatic_foot,
+                             contact=contact)
     for k in (1, 2):
         m.parameter(f"mid{k}", 0.0, "1", f"mode: leg {k} in stance after mid-stance (its "
                     "stiffness rises; set at mid-stance, cleared at its lift-off)")
@@ -336,11 +345,12 @@ def _options() -> CompliantOptions:
 
 
 def compliant_leg_walker(*, backend: str = "numba", options: CompliantOptions | None = None,
-                         **values: float) -> CompliantLegWalker:
+                         contact: str = "HuntCrossley", **values: float) -> CompliantLegWalker:
     """The thesis's walker with a prismatic compliant leg–foot joint (MODEL-SPEC.md §3), see the
-    module docstring. Numba back end and the compiled Rodas4 loop by default."""
-    specs = _leg_specs(variable=False)
-    model = compliant_leg_model(specs)
+    module docstring. Numba back end and the compiled Rodas4 loop by default. ``contact``: the
+    feet's contact law (see :func:`~walker_library.compliant.compass_walker`)."""
+    specs = contact_specs(_leg_specs(variable=False), check_contact(contact))
+    model = compliant_leg_model(specs, contact)
     return CompliantLegWalker(
         "compliant_leg_walker", {s.name: s for s in specs}, model, values=values, backend=backend,
         options=options or _options(), doc=model.doc, builder="compliant_leg_walker",
@@ -357,11 +367,13 @@ class VariableStiffnessWalker(CompliantLegWalker):
 
 
 def variable_stiffness_walker(*, backend: str = "numba", options: CompliantOptions | None = None,
+                              contact: str = "HuntCrossley",
                               **values: float) -> VariableStiffnessWalker:
     """The thesis's variable-stiffness walker (MODEL-SPEC.md §4, App. D), see the module
-    docstring. Numba back end and the compiled Rodas4 loop by default."""
-    specs = _leg_specs(variable=True)
-    model = variable_stiffness_model(specs)
+    docstring. Numba back end and the compiled Rodas4 loop by default. ``contact``: the feet's
+    contact law (see :func:`~walker_library.compliant.compass_walker`)."""
+    specs = contact_specs(_leg_specs(variable=True), check_contact(contact))
+    model = variable_stiffness_model(specs, contact)
     return VariableStiffnessWalker(
         "variable_stiffness_walker", {s.name: s for s in specs}, model, values=values,
         backend=backend, options=options or _options(), doc=model.doc,

@@ -254,11 +254,13 @@ class BasinResult:
         return to_json(self.to_dict(), indent)
 
 
-def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11, span: float = 0.1,
+def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
+          span: float | tuple[float, float] = 0.1,
           theta_scale: float = 0.4, theta_dot_scale: float = 0.8, n_steps: int | None = None,
           tol: float = 1e-4, progress: Callable[[dict], None] | None = None) -> BasinResult:
     """Basin of attraction on an n × n grid of scaled section states within ±``span`` (scaled
-    units) of the fixed point (module docstring), evaluated serially; a parallel basin is a sweep
+    units; a pair gives the θ and θ̇ half-widths apart) of the fixed point (module docstring),
+    evaluated serially; a parallel basin is a sweep
     over section states (:mod:`walker_library.sweeps`). ``progress`` is called per grid point."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
@@ -269,15 +271,16 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11, span: 
                            outcome=[], steps=[], fraction=math.nan, radius=math.nan, n_steps=0,
                            seconds=time.perf_counter() - t0,
                            message=f"no periodic gait: {gait.message}", **base)
-    if n < 2 or not span > 0:
+    span_th, span_thd = (span, span) if np.isscalar(span) else (float(span[0]), float(span[1]))
+    if n < 2 or not (span_th > 0 and span_thd > 0):
         raise ParameterValueError(f"basin: n ({n}) must be >= 2 and span ({span}) > 0")
     n_steps = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
     fps = _fixed_points(walker, gait)
     z_star = fps[0]
     fp = gait.fixed_points[0]
-    s = np.linspace(-span, span, n)
-    thetas = fp["theta"] + theta_scale * s
-    rates = fp["theta_dot"] + theta_dot_scale * s
+    s = np.linspace(-1.0, 1.0, n)
+    thetas = fp["theta"] + theta_scale * span_th * s
+    rates = fp["theta_dot"] + theta_dot_scale * span_thd * s
     outcome = [["" for _ in range(n)] for _ in range(n)]
     steps = [[0 for _ in range(n)] for _ in range(n)]
     for i, th in enumerate(thetas):
@@ -292,7 +295,7 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11, span: 
             if progress is not None:
                 progress({"theta": float(th), "theta_dot": float(thd), "status": r.status})
     ok = np.array([[o == "converged" for o in row] for row in outcome])
-    S1, S2 = np.meshgrid(s, s, indexing="ij")
+    S1, S2 = np.meshgrid(span_th * s, span_thd * s, indexing="ij")
     dist = np.hypot(S1, S2)
     bad = dist[~ok]
     radius = float(bad.min()) if bad.size else float(dist.max())

@@ -270,7 +270,7 @@ def run_step_down_slope(ctx: StudyContext) -> dict:
 # --- Figs. 2.21, 2.23 ----------------------------------------------------------------------------
 def run_basin(ctx: StudyContext) -> dict:
     from .robustness import basin_case
-    n, span = (5, 0.1) if ctx.quick else (11, 0.1)
+    n, span = (5, (0.025, 0.1)) if ctx.quick else (11, (0.025, 0.1))   # scaled θ, θ̇ half-widths
     out = {"rows": [], "basins": {}}
     for slope in (0.007, 0.012):
         w = _walker(NOMINAL, slope=slope)
@@ -279,15 +279,16 @@ def run_basin(ctx: StudyContext) -> dict:
             out["rows"].append(_row(f"basin at γ = {slope}", None, None, "", gait.message))
             continue
         fp = gait.fixed_point
-        s = np.linspace(-span, span, n)
-        cases = [{"theta": float(fp["theta"] + 0.4 * a), "theta_dot": float(fp["theta_dot"] + 0.8 * b)}
-                 for a in s for b in s]
+        s = np.linspace(-1.0, 1.0, n)
+        cases = [{"theta": float(fp["theta"] + 0.4 * span[0] * a),
+                  "theta_dot": float(fp["theta_dot"] + 0.8 * span[1] * b)} for a in s for b in s]
         rows = ctx.sweep(f"basin_{slope:g}", basin_case, cases, model=NOMINAL,
                          params={"slope": slope})
         ok = np.array([r["status"] == "converged" for r in rows]).reshape(n, n)
         plt = pyplot()
         fig, ax = plt.subplots(figsize=(4.5, 4))
-        A, B = np.meshgrid(s + fp["theta"] / 0.4, s + fp["theta_dot"] / 0.8, indexing="ij")
+        A, B = np.meshgrid(span[0] * s + fp["theta"] / 0.4, span[1] * s + fp["theta_dot"] / 0.8,
+                           indexing="ij")
         ax.plot(A[ok], B[ok], "*", color="C2", ms=8, label="converges")
         ax.plot(A[~ok], B[~ok], ".", color="0.5", ms=4, label="does not")
         ax.plot(fp["theta"] / 0.4, fp["theta_dot"] / 0.8, "*", color="C3", ms=12)
@@ -299,7 +300,7 @@ def run_basin(ctx: StudyContext) -> dict:
         save_figure(fig, ctx.path(f"fig_2_21_basin_{slope:g}.png"))
         out["basins"][str(slope)] = {"fraction": float(ok.mean()), "n": n, "span": span}
         out["rows"].append(_row(f"basin fraction converged at γ = {slope}", float(ok.mean()), None,
-                                "1", f"{n}×{n} grid, ±{span} scaled"))
+                                "1", f"{n}×{n} grid, ±{span[0]} (θ/0.4) × ±{span[1]} (θ̇/0.8)"))
     return out
 
 

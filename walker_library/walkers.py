@@ -28,6 +28,7 @@ parameter values and refuses a file whose components differ from what the builde
 """
 from __future__ import annotations
 
+import inspect
 import math
 import tomllib
 from pathlib import Path
@@ -44,7 +45,7 @@ from .rigid import (MODE_PARAMETERS, IntegrationOptions, LeggedRigidWalker, Rigi
                     RimlessWheelWalker)
 
 __all__ = ["BUILDERS", "simplest_walker", "compass_gait", "rimless_wheel", "load_walker",
-           "export_model_file", "available_walkers"]
+           "export_model_file", "available_walkers", "builder_options"]
 
 _GRAVITY = ["g*sin(slope)", 0, "-g*cos(slope)"]
 _INF = math.inf
@@ -305,7 +306,7 @@ def rimless_wheel(*, backend: str = "python", options: IntegrationOptions | None
                               total_mass=lambda P: P["m"])
 
 
-from .compliant import CONTACT_MODES, compass_walker  # noqa: E402  (after the rigid builders)
+from .compliant import CONTACT_KINDS, CONTACT_MODES, compass_walker  # noqa: E402  (after the rigid builders)
 from .compliant_legs import compliant_leg_walker, variable_stiffness_walker  # noqa: E402
 
 BUILDERS = {"simplest_walker": simplest_walker, "compass_gait": compass_gait,
@@ -316,9 +317,40 @@ BUILDERS = {"simplest_walker": simplest_walker, "compass_gait": compass_gait,
 
 
 # --- model files ------------------------------------------------------------------------------------
+#: keyword arguments of a builder that are not options of its model file
+_NOT_OPTIONS = ("backend", "options")
+
+
+def builder_options(builder) -> dict[str, Any]:
+    """The options a builder takes from its model file's ``[model.walker]`` table, with their
+    defaults: its keyword-only arguments other than ``backend`` and ``options`` (the compliant
+    walkers: ``contact``; the rigid walkers: none)."""
+    return {name: par.default for name, par in inspect.signature(builder).parameters.items()
+            if par.kind is inspect.Parameter.KEYWORD_ONLY and name not in _NOT_OPTIONS
+            and par.default is not inspect.Parameter.empty}
+
+
+def _contact_neutral(components: Any) -> Any:
+    """``components`` (a model dict's) with the contact law left out of every contact component
+    (``type``, ``damping``, ``exponent``, ``clip`` of a HuntCrossley or KelvinVoigt): the law
+    is the walker file's ``contact`` option, the rest (point, stiffness, surface, mode flag) is
+    the mechanism."""
+    if not isinstance(components, dict):
+        return components
+    out = {}
+    for name, comp in components.items():
+        if isinstance(comp, dict) and comp.get("type") in CONTACT_KINDS:
+            comp = {k: v for k, v in comp.items()
+                    if k not in ("type", "damping", "exponent", "clip")}
+        out[name] = comp
+    return out
+
+
 def export_model_file(walker: RigidImpactWalker, path: str | Path, header: str = "") -> Path:
     """Write ``walker``'s swing-phase model as a porthamiltonian model file with a
-    ``[model.walker]`` table naming its builder (parameters at the walker's current values)."""
+    ``[model.walker]`` table naming its builder (parameters at the walker's current values) and
+    the builder's options that differ from their defaults (``contact = "KelvinVoigt"``; none for
+    a default walker, whose file is unchanged)."""
     data = ph_io.model_to_dict(walker.swing_model)
     for name, value in walker.parameters.items():
         entry = data["parameters"][name]
@@ -326,11 +358,20 @@ def export_model_file(walker: RigidImpactWalker, path: str | Path, header: str =
             entry["value"] = value
         else:
             data["parameters"][name] = value
-    data["model"]["walker"] = {"builder": walker.builder}
+    table: dict[str, Any] = {"builder": walker.builder}
+    defaults = builder_options(BUILDERS[walker.builder]) if walker.builder in BUILDERS else {}
+    for name, value in (getattr(walker, "builder_options", None) or {}).items():
+        if name in defaults and value != defaults[name]:
+            table[name] = value
+    data["model"]["walker"] = table
     text = tomli_w.dumps(data)
     path = Path(path)
     path.write_text((header.rstrip() + "\n\n" if header else "") + text)
     return path
+
+
+def _with(options: dict[str, Any]) -> str:
+    return (" with " + ", ".join(f"{k} = {v!r}" for k, v in options.items())) if options else ""
 
 
 def available_walkers() -> list[str]:
@@ -350,12 +391,15 @@ def load_walker(name_or_path: str | Path, overrides: dict[str, float] | None = N
                 backend: str | None = "python", check_components: bool = True):
     """Load a walker by model name (``models/<name>.toml``), by path, or by builder name.
 
-    The file's ``[model.walker]`` table names the builder; its ``[parameters]`` give the values
-    (the mode parameters stance_x, stance_z, ground_z, c1, c2 excepted), ``overrides`` change
-    them. ``backend`` None: the builder's own default (python for the rigid walkers, numba for
+    The file's ``[model.walker]`` table names the builder; its other entries are the builder's
+    options, passed as keyword arguments (:func:`builder_options`: ``contact = "HuntCrossley"``
+    or ``"KelvinVoigt"`` for the compliant walkers); its ``[parameters]`` give the values (the
+    mode parameters stance_x, stance_z, ground_z, c1, c2 excepted), ``overrides`` change them. ``backend`` None: the builder's own default (python for the rigid walkers, numba for
     the compliant-contact walker).
     Raises :class:`~porthamiltonian.errors.ModelFileError` for a file that is not a walker file or
-    whose components differ from what its builder generates, and
+    whose components differ from what its builder generates with the file's options (the contact
+    law of the contact components excepted: the ``contact`` option chooses it, so a file swaps its
+    contact by that one line), or with an unknown option, and
     :class:`~porthamiltonian.errors.ParameterValueError` for unknown or out-of-range parameters.
     """
     try:
@@ -379,22 +423,32 @@ def load_walker(name_or_path: str | Path, overrides: dict[str, float] | None = N
     if builder is None:
         raise ModelFileError(f"{path}: unknown walker builder {table['builder']!r}; builders: "
                              f"{', '.join(BUILDERS)}")
+    allowed = builder_options(builder)
+    options = {k: v for k, v in table.items() if k != "builder"}
+    for key in options:
+        if key not in allowed:
+            raise ModelFileError(
+                f"{path}: [model.walker] option {key!r} is not an option of the builder "
+                f"{table['builder']!r}; its options: "
+                + (", ".join(f"{k} (default {v!r})" for k, v in allowed.items()) or "none"))
     values: dict[str, float] = {}
     for name, spec in (data.get("parameters") or {}).items():
         if name in MODE_PARAMETERS or name in CONTACT_MODES:
             continue
         values[name] = spec["value"] if isinstance(spec, dict) else spec
     try:
-        walker = builder(**({} if backend is None else {"backend": backend}), **values)
+        walker = builder(**({} if backend is None else {"backend": backend}), **options,
+                         **values)
     except ParameterValueError as err:
         raise ParameterValueError(f"{path}: {err}") from None
     if check_components:
         mine = ph_io.model_to_dict(walker.swing_model)
-        if (mine.get("components") != data.get("components") or mine.get("bonds", []) != data.get("bonds", [])
+        if (_contact_neutral(mine.get("components")) != _contact_neutral(data.get("components"))
+                or mine.get("bonds", []) != data.get("bonds", [])
                 or mine.get("events") != data.get("events")):
             raise ModelFileError(
                 f"{path}: its components or events differ from what the builder "
-                f"{table['builder']!r} generates; walker files are generated (walker export "
+                f"{table['builder']!r} generates{_with(options)}; walker files are generated (walker export "
                 f"{table['builder']} {path}): change the builder, not the file")
     if overrides:
         walker = walker.with_parameters(**overrides)

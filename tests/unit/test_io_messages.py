@@ -16,7 +16,9 @@ MODELS_DIR = Path(io.__file__).resolve().parent.parent / "models"
 MSD = (MODELS_DIR / "mass_spring_damper.toml").read_text()
 BALL = (MODELS_DIR / "bouncing_ball.toml").read_text()
 # the registered kinds, as messages list them (test modules may register kinds of their own)
-KINDS = ", ".join(sorted(REGISTRY))
+def kinds() -> str:
+    """The registered kinds now (other tests register components of their own)."""
+    return ", ".join(sorted(REGISTRY))
 
 
 def line_of(text: str, needle: str, start: int = 1) -> int:
@@ -115,7 +117,7 @@ def test_unknown_component_kind_suggests_the_closest(tmp_path):
     n = line_of(text, 'type = "HuntCrossly", x =')
     assert msg == (f"{path}, line {n}: component 'floor': unknown "
                    f"component type 'HuntCrossly' (did you mean 'HuntCrossley'?); known types: "
-                   f"{KINDS} (see docs/model-files.md)")
+                   f"{kinds()} (see docs/model-files.md)")
 
 
 def test_component_type_must_be_a_string(tmp_path):
@@ -123,14 +125,14 @@ def test_component_type_must_be_a_string(tmp_path):
     msg, path = message(text, tmp_path)
     assert msg == (f"{path}, line {line_of(text, 'type = 3')}: component 'damper': type must be a "
                    f"string naming a component kind (e.g. type = \"C\"), got an integer 3; known "
-                   f"types: {KINDS}")
+                   f"types: {kinds()}")
 
 
 def test_component_without_type_or_not_a_table(tmp_path):
     text = edit(MSD, 'type = "R"\n', "")
     msg, path = message(text, tmp_path)
     assert msg == (f"{path}, line {line_of(text, '[components.damper]')}: component 'damper' needs "
-                   f"a 'type' (e.g. type = \"C\"); types: {KINDS}")
+                   f"a 'type' (e.g. type = \"C\"); types: {kinds()}")
     msg, path = message("[components]\nwheel = 3\n", tmp_path)
     assert msg == (f"{path}, line 2: component 'wheel' must be a table ([components.wheel] with "
                    "type = \"KIND\" and its arguments), got an integer")
