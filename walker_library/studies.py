@@ -359,8 +359,10 @@ def run_damper_factor(ctx: StudyContext) -> dict:
     ax.legend(fontsize=8)
     fig.tight_layout()
     save_figure(fig, ctx.path("fig_3_3_over_alpha.png"))
-    good = sorted({r["alpha"] for r in rows if r.get("contiguous")})
-    return {"rows": [_row("α with contiguous step-down at every K tried",
+    good = [a for a in alphas
+            if all(r.get("gait_status") == "periodic" and r.get("contiguous")
+                   for r in rows if r["alpha"] == a)]
+    return {"rows": [_row("α with a gait and a contiguous step-down at every K tried",
                           ", ".join(f"{a:g}" for a in good) or None, "0.13–0.25", "1")],
             "table": table}
 
