@@ -4,12 +4,13 @@ over the slope) and of the Fig. 2.21 basin (grid points at γ = 0.007) on the no
 
 Run::
 
-    python benchmarks/bench_sweeps.py              # 4 slopes, 16 basin points (~8 min here)
-    python benchmarks/bench_sweeps.py --quick      # 2 slopes, 4 basin points
+    python benchmarks/bench_sweeps.py              # 4 slopes, 25 basin points (~8 min here)
+    python benchmarks/bench_sweeps.py --quick      # 2 slopes, 9 basin points
 
 Each variant runs the same cases into a fresh results file (nothing resumed); the pool is a
 ``ProcessPoolExecutor`` with one worker per core (forked workers inherit the walker, compiled
-once in the parent by the sweep's prepare step: the time excludes compilation). Step-down cases
+once in the parent: the time excludes compilation; each variant finds its gaits itself — the
+gait cache is cleared before every run so forked workers do not inherit it). Step-down cases
 differ a lot in cost (a slope with a large step-down walks more heights), so the pool's speed-up
 on few cases is bounded by the slowest case.
 """
@@ -22,12 +23,14 @@ from pathlib import Path
 
 from machine import machine_info
 
+from walker_library import robustness
 from walker_library.robustness import basin_case, step_down_case
 from walker_library.sweeps import Sweep, cached_walker
 
 
 def run(function, cases, fixed, **how) -> tuple[float, list[dict]]:
-    with tempfile.TemporaryDirectory() as tmp:
+    robustness._GAITS.clear()        # every variant finds its gaits itself (forked workers
+    with tempfile.TemporaryDirectory() as tmp:    # would inherit the parent's cache)
         sw = Sweep(function, cases, Path(tmp) / "r.jsonl", fixed=fixed)
         t0 = time.perf_counter()
         sw.run(progress="none", **how)
@@ -52,10 +55,11 @@ def main(argv=None) -> int:
     sd_fixed = {"model": "compass_walker", "resolution": 2e-4}
     from walker_library.gait import analyze_gait
     fp = analyze_gait(walker.with_parameters(slope=0.007)).fixed_point
-    k = 2 if args.quick else 4
-    basin_cases = [{"theta": fp["theta"] + 0.4 * a, "theta_dot": fp["theta_dot"] + 0.8 * b}
-                   for a in [-0.05 + 0.1 * i / (k - 1) for i in range(k)]
-                   for b in [-0.05 + 0.1 * i / (k - 1) for i in range(k)]]
+    k = 3 if args.quick else 5
+    # the basin study's grid (θ/0.4 within ±0.025, θ̇/0.8 within ±0.1), k × k points
+    basin_cases = [{"theta": fp["theta"] + 0.4 * 0.025 * a, "theta_dot": fp["theta_dot"] + 0.8 * 0.1 * b}
+                   for a in [-1 + 2 * i / (k - 1) for i in range(k)]
+                   for b in [-1 + 2 * i / (k - 1) for i in range(k)]]
     basin_fixed = {"model": "compass_walker", "params": {"slope": 0.007}}
     print(f"\n{'sweep':28s} {'cases':>5s} {'serial s':>9s} {'pool s':>8s} {'serial/min':>10s} "
           f"{'pool/min':>9s} {'speed-up':>8s}")
