@@ -376,20 +376,25 @@ _GAITS: dict[tuple, GaitResult] = {}
 
 
 def _walker_and_gait(model: str, backend: str | None, params: dict) -> tuple[Walker, GaitResult]:
-    """The walker ``model`` with ``params`` and its gait, cached per process."""
+    """The walker ``model`` with ``params`` and its gait, cached per process. A ``guess`` entry
+    of ``params`` (a section state, the model's coordinates) starts the gait search there."""
     from .sweeps import cached_walker
+    params = dict(params)
+    guess = params.pop("guess", None)
     walker = cached_walker(model, backend)
     if params:
         walker = walker.with_parameters(**params)
-    key = (model, backend, tuple(sorted(walker.parameters.items())))
+    key = (model, backend, tuple(sorted(walker.parameters.items())),
+           None if guess is None else tuple(guess))
     if key not in _GAITS:
-        _GAITS[key] = analyze_gait(walker)
+        _GAITS[key] = analyze_gait(walker, guess=guess)
     return walker, _GAITS[key]
 
 
 def step_down_case(case: dict, *, model: str, backend: str | None = None,
                    resolution: float | None = None, h_max: float | None = None) -> dict:
-    """Sweep case: the gait and the step-down test of ``model`` with the case's parameters.
+    """Sweep case: the gait and the step-down test of ``model`` with the case's parameters (and
+    an optional ``guess``: the section state to start the gait search from).
     Returns status ("ok", "no_gait"), max_step_down (m), contiguous, first_failure (m), holes,
     and the gait's speed (m/s), energy per step (J), step period (s), largest |multiplier|."""
     walker, gait = _walker_and_gait(model, backend, dict(case))

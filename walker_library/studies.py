@@ -307,14 +307,13 @@ def run_basin(ctx: StudyContext) -> dict:
 # --- Chapter 3 ----------------------------------------------------------------------------------
 COMPLIANT = "compliant_leg_walker"
 VARIABLE = "variable_stiffness_walker"
-GUESS = ("theta0", "theta_dot0", "phi_dot0")
 
 
 def _guesses(ctx: StudyContext, model: str, cases: list[dict], order_key: str) -> list[dict]:
-    """Initial-guess parameters (theta0, theta_dot0, phi_dot0) for each case by continuation
+    """A ``guess`` (the gait's section state) for each case by continuation
     (serial, cheap next to the step-down tests): cases sorted by their distance in
     ``order_key`` from the walker's defaults, each gait search started from the nearest case
-    already solved. A case with no gait keeps the walker's default guess."""
+    already solved. A case with no gait keeps the walker's own initial guess."""
     base = _walker(model)
     solved: list[tuple[dict, np.ndarray]] = []
     out: list[dict] = [{} for _ in cases]
@@ -327,8 +326,7 @@ def _guesses(ctx: StudyContext, model: str, cases: list[dict], order_key: str) -
         g = analyze_gait(w, guess=None if near is None else near[1])
         if g.status == "periodic" and g.period_steps == 1:
             solved.append((cases[i], np.array([g.fixed_point[k] for k in w.section])))
-            out[i] = {"theta0": g.fixed_point["theta"], "theta_dot0": g.fixed_point["theta_dot"],
-                      "phi_dot0": g.fixed_point["phi_dot"]}
+            out[i] = {"guess": [float(g.fixed_point[k]) for k in w.section]}
         ctx.log(f"  guess {cases[i]}: {g.status}")
     return [{**c, **o} for c, o in zip(cases, out)]
 
@@ -431,8 +429,9 @@ def run_variable_stiffness(ctx: StudyContext) -> dict:
     for label, model, case in (("variable", VARIABLE, variable[0]),
                                ("constant K1", COMPLIANT,
                                 {"K_leg": variable[0]["K1"], "alpha": variable[0]["alpha"]})):
-        w = _walker(model, **case)
-        gait = analyze_gait(w)
+        guess = case.get("guess")
+        w = _walker(model, **{k: v for k, v in case.items() if k != "guess"})
+        gait = analyze_gait(w, guess=guess)
         if gait.status != "periodic":
             continue
         z = np.array([gait.fixed_point[k] for k in w.section])
