@@ -485,7 +485,7 @@ def run_studies(names: list[str] | None, out: str | Path, **options) -> dict:
     unknown = [n for n in names if n not in STUDIES]
     if unknown:
         raise ModelError(f"unknown stud{'y' if len(unknown) == 1 else 'ies'} "
-                         f"{', '.join(unknown)}; studies: {', '.join(STUDIES)}")
+                         f"{', '.join(repr(n) for n in unknown)}; studies: {', '.join(STUDIES)}")
     out = Path(out)
     summaries = {}
     index_path = out / "reproduction.json"
