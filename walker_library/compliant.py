@@ -96,6 +96,7 @@ from porthamiltonian.errors import ParameterValueError
 from porthamiltonian.library import HuntCrossley, KelvinVoigt, SCVSFriction
 
 from .protocol import ParameterSpec, Stride, check_parameters
+from .results import JSONResult
 from .rigid import _compiled
 
 __all__ = ["CONTACT_KINDS", "CONTACT_MODES", "CompliantWalker", "CompliantOptions", "DampingCalibration",
@@ -670,7 +671,7 @@ def compass_walker(*, backend: str = "numba", options: CompliantOptions | None =
 
 
 @dataclass
-class DampingCalibration:
+class DampingCalibration(JSONResult):
     """Result of :func:`calibrate_damping` (SI units): the λ grid (N·s/m²), the energy dissipated
     per impact at each λ (J), its maximum, and the calibrated λ: the smallest grid value whose
     dissipation is within ``rel_tol`` of the maximum."""
@@ -684,10 +685,6 @@ class DampingCalibration:
     window: float
     #: the damping parameter varied (``lam``; ``B_contact`` for a Kelvin–Voigt walker, N·s/m)
     parameter: str = "lam"
-
-    def to_dict(self) -> dict:
-        from .results import to_jsonable
-        return to_jsonable(self.__dict__)
 
 
 def calibrate_damping(walker: CompliantWalker, z=None, lams=None, *, window: float = 0.05,

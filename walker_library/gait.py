@@ -27,7 +27,7 @@ from .metrics import GaitMetrics, gait_metrics
 from .poincare import (FixedPointResult, FloquetResult, WalkerFell, detect_period,
                        find_fixed_point, floquet)
 from .protocol import Stride, Walker
-from .results import to_json, to_jsonable
+from .results import JSONResult, to_jsonable
 
 __all__ = ["GaitResult", "WalkResult", "analyze_gait", "walk"]
 
@@ -35,7 +35,7 @@ _LEGGED_KEYS = ("theta", "theta_dot", "phi", "phi_dot")
 
 
 @dataclass
-class GaitResult:
+class GaitResult(JSONResult):
     """A walker's gait (see :func:`analyze_gait`). SI units; angles in rad.
 
     status : "periodic", "fell" or "no_fixed_point". period_steps : k of a period-k gait (0 if none).
@@ -87,8 +87,6 @@ class GaitResult:
                   "parameters": self.parameters, "message": self.message})
         return to_jsonable(d)
 
-    def to_json(self, indent: int | None = 1) -> str:
-        return to_json(self.to_dict(), indent)
 
 
 def _named(walker: Walker, z) -> dict:
@@ -197,7 +195,7 @@ def _periodic(walker: Walker, fp: FixedPointResult, fl: FloquetResult, newton: d
 
 
 @dataclass
-class WalkResult:
+class WalkResult(JSONResult):
     """n steps walked in one simulation: per-step records, and the ledger over the whole run."""
 
     model: str
@@ -210,12 +208,6 @@ class WalkResult:
     max_energy_residual: float
     relative_energy_residual: float
     parameters: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return to_jsonable(self.__dict__)
-
-    def to_json(self, indent: int | None = 1) -> str:
-        return to_json(self.to_dict(), indent)
 
 
 def walk(walker: Walker, z0=None, n_steps: int = 20) -> WalkResult:

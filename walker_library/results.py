@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["to_jsonable", "to_json"]
+__all__ = ["JSONResult", "to_jsonable", "to_json"]
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -42,3 +42,14 @@ def to_jsonable(obj: Any) -> Any:
 
 def to_json(obj: Any, indent: int | None = 1) -> str:
     return json.dumps(to_jsonable(obj), indent=indent, allow_nan=False)
+
+
+class JSONResult:
+    """Mixin of the analyses' result dataclasses: ``to_dict()`` (every field, JSON-able) and
+    ``to_json()``. A result with a custom layout overrides ``to_dict``."""
+
+    def to_dict(self) -> dict:
+        return to_jsonable(self.__dict__)
+
+    def to_json(self, indent: int | None = 1) -> str:
+        return to_json(self.to_dict(), indent)

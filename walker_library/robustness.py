@@ -42,7 +42,7 @@ from porthamiltonian.errors import ParameterValueError
 
 from .gait import GaitResult, analyze_gait
 from .protocol import Walker
-from .results import to_json, to_jsonable
+from .results import JSONResult, to_jsonable
 
 __all__ = ["StepDownResult", "BasinResult", "GSNResult", "recovery_steps", "recovers",
            "step_down", "basin", "gait_sensitivity_norm", "basin_state"]
@@ -106,7 +106,7 @@ def _gait_or_raise(walker: Walker, gait: GaitResult | None) -> GaitResult:
 
 # --- step-down ------------------------------------------------------------------------------------
 @dataclass
-class StepDownResult:
+class StepDownResult(JSONResult):
     """Result of :func:`step_down` (heights in m).
 
     status : "ok", or "no_gait" when the walker has no periodic gait to disturb.
@@ -130,12 +130,6 @@ class StepDownResult:
     parameters: dict
     seconds: float
     message: str
-
-    def to_dict(self) -> dict:
-        return to_jsonable(self.__dict__)
-
-    def to_json(self, indent: int | None = 1) -> str:
-        return to_json(self.to_dict(), indent)
 
 
 def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: float | None = None,
@@ -223,7 +217,7 @@ def basin_state(walker: Walker, z_star, theta: float, theta_dot: float) -> np.nd
 
 
 @dataclass
-class BasinResult:
+class BasinResult(JSONResult):
     """Result of :func:`basin`: a grid over thesis θ (rad) and θ̇ (rad/s) around the fixed point,
     also given scaled (θ/theta_scale, θ̇/theta_dot_scale). ``status[i][j]`` for theta[i],
     theta_dot[j]: "converged", "fell", "wandered" (or "invalid" for a state the walker refuses).
@@ -246,12 +240,6 @@ class BasinResult:
     parameters: dict
     seconds: float
     message: str
-
-    def to_dict(self) -> dict:
-        return to_jsonable(self.__dict__)
-
-    def to_json(self, indent: int | None = 1) -> str:
-        return to_json(self.to_dict(), indent)
 
 
 def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
@@ -309,7 +297,7 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
 
 # --- Gait Sensitivity Norm -----------------------------------------------------------------------
 @dataclass
-class GSNResult:
+class GSNResult(JSONResult):
     """Gait Sensitivity Norm (Hobbelen & Wisse 2007) for a step-down disturbance (per m of drop).
 
     gsn : sqrt of the summed squares of the responses of all indicators (1/m · their units);
@@ -327,9 +315,6 @@ class GSNResult:
     n_steps: int
     parameters: dict
     message: str
-
-    def to_dict(self) -> dict:
-        return to_jsonable(self.__dict__)
 
 
 def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: float | None = None,
