@@ -141,13 +141,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> int:
+    """Parse ``argv`` and run the chosen command; a :class:`ModelError` (bad input) prints
+    ``error: ...`` on stderr and exits with status 2. Shared by the ``walker`` command."""
+    args = parser.parse_args(argv)
     try:
         return args.func(args)
     except ModelError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return run(build_parser(), argv)
 
 
 if __name__ == "__main__":

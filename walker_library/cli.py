@@ -23,7 +23,7 @@ import json
 import sys
 from collections.abc import Sequence
 
-from porthamiltonian.cli import parse_assignments
+from porthamiltonian.cli import parse_assignments, run
 from porthamiltonian.errors import ModelError
 
 from . import sweeps
@@ -292,12 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except ModelError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+    return run(build_parser(), argv)
 
 
 if __name__ == "__main__":

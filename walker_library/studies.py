@@ -103,6 +103,16 @@ def _row(quantity: str, ours, thesis, unit: str, note: str = "") -> dict:
             "note": note}
 
 
+def _mm(rows: list[dict]) -> list[float]:
+    """Each row's max_step_down in mm (NaN where there is none)."""
+    return [np.nan if r.get("max_step_down") is None else 1e3 * r["max_step_down"] for r in rows]
+
+
+def _at_nominal_slope(rows: list[dict]) -> dict:
+    """The row of a sweep over the slope at the nominal γ = 0.009 ({} if absent)."""
+    return next((r for r in rows if abs(r["slope"] - 0.009) < 1e-12), {})
+
+
 def _walker(name: str, **params):
     from .walkers import load_walker
     return load_walker(name, params or None, backend=None)
@@ -256,11 +266,9 @@ def _rigid_step_down(ctx: StudyContext) -> tuple[list[float], list[dict]]:
 def run_step_down_slope(ctx: StudyContext) -> dict:
     slopes, rows = _rigid_step_down(ctx)
     _plot_xy(ctx.path("fig_2_22_step_down_over_slope.png"), slopes,
-             {"max step-down (mm)": [None if r.get("max_step_down") is None
-                                     else 1e3 * r["max_step_down"] for r in rows]},
+             {"max step-down (mm)": _mm(rows)},
              "slope γ (rad)", "max step-down (mm)", "Step-down over the slope (open: not contiguous)")
-    nominal = next((r for r in rows if abs(r["slope"] - 0.009) < 1e-12), None)
-    return {"rows": [_row("max step-down at γ = 0.009", nominal and nominal.get("max_step_down"),
+    return {"rows": [_row("max step-down at γ = 0.009", _at_nominal_slope(rows).get("max_step_down"),
                           0.0024, "m")],
             "table": [{k: r.get(k) for k in ("slope", "status", "max_step_down", "contiguous",
                                              "speed", "energy_dissipated_per_step")}
@@ -345,9 +353,7 @@ def run_damper_factor(ctx: StudyContext) -> dict:
     fig, ax = plt.subplots(figsize=(6.5, 3.6))
     for k in Ks:
         sel = [r for r in rows if r["K_leg"] == k]
-        ax.plot([r["alpha"] for r in sel],
-                [np.nan if r.get("max_step_down") is None else 1e3 * r["max_step_down"] for r in sel],
-                "o-", label=f"K = {k:g} N/m")
+        ax.plot([r["alpha"] for r in sel], _mm(sel), "o-", label=f"K = {k:g} N/m")
         for r in sel:
             if r.get("contiguous") is False and r.get("max_step_down"):
                 ax.plot(r["alpha"], 1e3 * r["max_step_down"], "x", color="k")
@@ -373,8 +379,8 @@ def run_leg_stiffness(ctx: StudyContext) -> dict:
     rows = ctx.sweep("step_down_over_K", step_down_case, cases, model=COMPLIANT,
                      resolution=2e-4 if ctx.quick else 1e-4)
     _, rigid_rows = _rigid_step_down(ctx)
-    rigid9 = next((r for r in rigid_rows if abs(r["slope"] - 0.009) < 1e-12), {})
-    sd = [None if r.get("max_step_down") is None else 1e3 * r["max_step_down"] for r in rows]
+    rigid9 = _at_nominal_slope(rigid_rows)
+    sd = _mm(rows)
     _plot_xy(ctx.path("fig_3_4_step_down_over_K.png"), Ks, {"compliant leg": sd}, "K (N/m)",
              "max step-down (mm)", "Step-down over leg stiffness (α = 0.15, γ = 0.009)",
              {"rigid legs, γ = 0.009": 1e3 * (rigid9.get("max_step_down") or 0.0)})
@@ -385,8 +391,7 @@ def run_leg_stiffness(ctx: StudyContext) -> dict:
              {"rigid speed": rigid9.get("speed") or 0.0})
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.6))
-    ax.plot([r.get("speed") for r in rigid_rows],
-            [1e3 * (r.get("max_step_down") or np.nan) for r in rigid_rows], "o-",
+    ax.plot([r.get("speed") for r in rigid_rows], _mm(rigid_rows), "o-",
             label="rigid legs (over slope)")
     ax.plot([r.get("speed") for r in rows], sd, "s-", label="compliant legs (over K)")
     ax.set_xlabel("speed (m/s)")
