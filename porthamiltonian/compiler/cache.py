@@ -1,8 +1,10 @@
 """On-disk cache of compiled models, keyed by a hash of the model description.
 
 The key hashes the model's canonical description (components with their arguments, bonds,
-parameters, events, outputs), the source of every component class used, the versions of sympy and
-of the code generator. An entry is two files: ``<key>.json`` (state/parameter/output layout,
+parameters, events, outputs), the sources of the package modules that determine the generated code
+(the component classes' modules and what they import, the compiler, the back ends, the integration
+loops), the versions of sympy and of the code generator: editing the command line, the analyses or
+a docstring of an unrelated module keeps every cached model. An entry is two files: ``<key>.json`` (state/parameter/output layout,
 equations for display) and ``<key>.py`` (the generated code body); the back-end modules
 ``<key>_<backend>.py`` are derived from the body. Writes are atomic (write, then rename), so
 concurrent sweep workers can share one cache.
@@ -16,6 +18,7 @@ import hashlib
 import inspect
 import json
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -33,42 +36,71 @@ def cache_dir() -> Path:
 
 
 def model_key(model: Model) -> str:
-    """A hash of everything that determines the generated code."""
+    """A hash of everything that determines the generated code: the model's canonical
+    description, the source of every package module the model's component classes depend on
+    (their modules and, transitively, the package modules those import), the compiler and
+    back-end sources, and the versions of sympy and of the code generator."""
     from ..io import model_to_dict  # io imports the compiler's users; import late
 
     description = model_to_dict(model)
-    classes = {type(c) for c in _all_components(model)}
-    sources = sorted(_class_source(cls) for cls in classes)
-    blob = json.dumps({"model": description, "classes": sources, "sympy": sympy.__version__,
-                       "codegen": CODEGEN_VERSION, "compiler": _compiler_hash()},
+    modules = {type(c).__module__ for c in _all_components(model)}
+    blob = json.dumps({"model": description, "classes": _sources_hash(frozenset(modules)),
+                       "sympy": sympy.__version__, "codegen": CODEGEN_VERSION},
                       sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
-@functools.lru_cache(maxsize=None)
-def _class_source(cls: type) -> str:
-    """Source of the module defining a component class (the class and the helpers it calls)."""
+_PACKAGE = Path(__file__).resolve().parent.parent
+#: package modules that shape the generated code whatever the model holds
+_CORE = ("compiler", "backends", "integrators", "component", "ports", "expressions", "model",
+         "elements")
+_IMPORT = re.compile(r"^\s*from\s+(\.+)([\w.]*)\s+import\s+([\w, ()]+)", re.MULTILINE)
+
+
+@functools.cache
+def _sources_hash(modules: frozenset[str]) -> str:
+    """sha256 over the sources of ``modules`` (dotted names; those outside the package by name
+    and, where found, source), the core modules, and every package module they import."""
+    files: set[Path] = set()
+    outside: list[str] = []
+    todo = [_PACKAGE / name for name in _CORE]
+    for module in modules:
+        if module.split(".")[0] == _PACKAGE.name:
+            todo.append(_PACKAGE.joinpath(*module.split(".")[1:]))
+        else:
+            outside.append(_outside_source(module))
+    while todo:
+        base = todo.pop()
+        candidates = sorted(base.rglob("*.py")) if base.is_dir() else [base.with_suffix(".py")]
+        for path in candidates:
+            if path in files or not path.is_file():
+                continue
+            files.add(path)
+            for dots, name, names in _IMPORT.findall(path.read_text()):
+                root = path.parent
+                for _ in range(len(dots) - 1):
+                    root = root.parent
+                target = root.joinpath(*name.split(".")) if name else root
+                todo.append(target)
+                if target.is_dir():  # ``from . import cache``: the named submodules
+                    todo += [target / n.strip() for n in names.strip("()").split(",") if n.strip()]
+    digest = hashlib.sha256()
+    for path in sorted(files):
+        digest.update(str(path.relative_to(_PACKAGE)).encode() + b"\0" + path.read_bytes())
+    for text in sorted(outside):
+        digest.update(text.encode())
+    return digest.hexdigest()
+
+
+def _outside_source(module: str) -> str:
+    """Source text of a component module defined outside the package (e.g. a user's own
+    component), or its name when the source is not available."""
+    import sys
+
     try:
-        return inspect.getsource(inspect.getmodule(cls))
-    except (OSError, TypeError):
-        try:
-            return inspect.getsource(cls)
-        except (OSError, TypeError):
-            return f"{cls.__module__}.{cls.__qualname__}"
-
-
-def _compiler_hash() -> str:
-    """Hash of the package's own source (compiler, components, mechanics, integration loop), so
-    that a changed library never reuses stale generated code."""
-    global _COMPILER_HASH
-    if _COMPILER_HASH is None:
-        root = Path(__file__).resolve().parent.parent
-        files = sorted(root.rglob("*.py"))
-        _COMPILER_HASH = hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
-    return _COMPILER_HASH
-
-
-_COMPILER_HASH: str | None = None
+        return inspect.getsource(sys.modules[module])
+    except (KeyError, OSError, TypeError):
+        return module
 
 
 def _all_components(model: Model):
