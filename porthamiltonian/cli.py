@@ -5,13 +5,18 @@
     porthamiltonian check-energy [MODEL ...]
 
 MODEL is a name from ``models/`` or a path to a ``.toml`` model file. Exit status: 0 on success,
-1 when a check fails, 2 on bad input (with a message naming what is wrong).
+1 when a check fails, 2 on bad input (``error: <message>`` on stderr, naming what is wrong; never
+a traceback), 3 on a bug in porthamiltonian (a traceback and a request to report it), 130 when
+interrupted (Ctrl-C), 141 when the reader of the output went away (``| head``).
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import traceback
+import warnings
 from collections.abc import Sequence
 
 from . import io
@@ -141,15 +146,66 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: exit statuses of :func:`run`
+EXIT_USER_ERROR, EXIT_BUG, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 2, 3, 130, 141
+
+
 def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> int:
-    """Parse ``argv`` and run the chosen command; a :class:`ModelError` (bad input) prints
-    ``error: ...`` on stderr and exits with status 2. Shared by the ``walker`` command."""
+    """Parse ``argv`` and run the chosen command, shared by the ``walker`` command.
+
+    * bad input — a :class:`ModelError` (unknown model, bad file, out-of-range option or
+      parameter) or a file that cannot be read or written: ``error: <message>`` on stderr, exit
+      status 2, no traceback (argparse's own usage errors exit 2 too);
+    * Ctrl-C: ``interrupted`` on stderr, status 130, no traceback;
+    * the reader of stdout went away (``walker list | head``): no message, status 141;
+    * anything else is a bug in the project: the traceback, then a line asking to report it,
+      status 3.
+
+    Warnings (e.g. a damaged cache entry being rebuilt) are printed as ``warning: <message>``.
+    """
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            status = args.func(args)
+            sys.stdout.flush()                 # a closed pipe shows here, not at exit
+        return status
     except ModelError as err:
         print(f"error: {err}", file=sys.stderr)
-        return 2
+        return EXIT_USER_ERROR
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        _detach_stdout()
+        return EXIT_BROKEN_PIPE
+    except OSError as err:
+        if err.filename is None:
+            return _report_bug()
+        print(f"error: {err.filename}: {err.strerror or err}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except Exception:  # noqa: BLE001 - a bug: report it, with the traceback
+        return _report_bug()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"warning: {message}", file=sys.stderr)
+
+
+def _detach_stdout() -> None:
+    """Point stdout at /dev/null, so that flushing it at exit raises nothing more."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
+def _report_bug() -> int:
+    traceback.print_exc()
+    print("error: this is a bug in porthamiltonian, not a problem with your input; please report "
+          "it with the command line and the traceback above", file=sys.stderr)
+    return EXIT_BUG
 
 
 def main(argv: Sequence[str] | None = None) -> int:

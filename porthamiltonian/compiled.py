@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 
 from .backends import Functions
-from .errors import ParameterValueError, StateError, UnknownParameterError
+from .constraints import ConstraintChecker
+from .errors import OptionError, ParameterValueError, StateError, UnknownParameterError
 
 
 @dataclass(frozen=True)
@@ -33,6 +34,10 @@ class CompiledModel:
         states ``ledger.E_diss`` and ``ledger.E_in``.
     param_names, param_defaults, param_units : the run-time parameters.
     output_names : named outputs (every ``component.port.e`` / ``.f``, component and model outputs).
+    energy_parts : ``(output, kind)`` of the outputs that split H into per-storage parts
+        (``<component>.H``, or ``.T`` and ``.V`` of a multibody; kind ``"stored"`` or
+        ``"potential"``), for the ledger's scale (Trajectory.energy_scale).
+    constraints : the components' constraints on parameter values, checked by :meth:`params`.
     events : the model's event guards.
     functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
     """
@@ -49,6 +54,8 @@ class CompiledModel:
         self.hamiltonian: str = meta["hamiltonian"]
         self.matrix_names: list[str] = meta["matrices"]
         self.autonomous: bool = meta["autonomous"]
+        self.energy_parts: list[tuple[str, str]] = [tuple(e) for e in meta.get("energy_parts", [])]
+        self.constraints = ConstraintChecker(self.name, meta.get("constraints", []))
         self.functions = functions
         self.source = source
         self.key = key
@@ -65,7 +72,12 @@ class CompiledModel:
         return self.functions.backend
 
     def params(self, values: Mapping[str, float] | None = None, **more: float) -> np.ndarray:
-        """Parameter vector: defaults overridden by name; unknown or non-finite values raise."""
+        """Parameter vector: defaults overridden by name. Unknown names, values that are not
+        finite numbers, and values that violate a component's constraint (a mass <= 0, a
+        damping < 0: :attr:`constraints`) raise, naming the parameter and the component."""
+        if values is not None and not isinstance(values, Mapping):
+            raise OptionError(f"params must be a mapping {{name: value}} (e.g. {{'k': 9.0}}), got "
+                              f"{type(values).__name__}")
         p = self.param_defaults.copy()
         for name, value in {**(values or {}), **more}.items():
             if name not in self._param_index:
@@ -73,6 +85,9 @@ class CompiledModel:
                     f"model {self.name!r} has no parameter {name!r}; parameters: "
                     f"{', '.join(self.param_names) or 'none'}"
                 )
+            if isinstance(value, (bool, str, bytes)) or np.ndim(value) != 0:
+                raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
+                                          f"number, got {value!r}")
             try:
                 value = float(value)
             except (TypeError, ValueError):
@@ -82,6 +97,7 @@ class CompiledModel:
                 raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be "
                                           f"finite, got {value!r}")
             p[self._param_index[name]] = value
+        self.constraints.check(dict(zip(self.param_names, p.tolist())))
         return p
 
     def native_params(self, p: np.ndarray):

@@ -25,14 +25,15 @@ as supplied power by itself.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import sympy as sp
 
-from .errors import ModelError, UnknownComponentError, UnknownPortError
-from .expressions import TIME, parse
+from .constraints import RULES, Constraint, violation
+from .errors import ModelError, ParameterValueError, UnknownComponentError, UnknownPortError
+from .expressions import TIME, as_expr, check_name, parse, to_text
 from .ports import Port
 
 REQUIRED = object()
@@ -45,6 +46,9 @@ class Arg:
     ``symbolic`` arguments are expressions (numbers, parameter names, ``t``, other states) parsed
     with :func:`porthamiltonian.expressions.parse`; the others are plain values (names, options).
     ``local`` lists the names a law may use beside the model's (e.g. ``("q",)`` for an energy in q).
+    ``rule`` is a physical constraint ``value rule 0`` (``">"``, ``">="``, ``"!="``; see
+    :mod:`porthamiltonian.constraints`), checked for numbers when the model compiles and for
+    parameter values whenever they are bound.
     """
 
     doc: str
@@ -52,6 +56,11 @@ class Arg:
     default: Any = REQUIRED
     symbolic: bool = True
     local: tuple[str, ...] = ()
+    rule: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.rule is not None and self.rule not in RULES:
+            raise ModelError(f"Arg rule must be one of {', '.join(RULES)}, got {self.rule!r}")
 
 
 @dataclass
@@ -97,6 +106,8 @@ class Built:
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
     matrices: dict[str, sp.Matrix] = field(default_factory=dict)
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
+    #: constraints on parameter values, checked when they are bound (see :meth:`Builder.require`)
+    constraints: list[Constraint] = field(default_factory=list)
 
 
 class Builder:
@@ -150,10 +161,10 @@ class Builder:
         earlier intermediates). The generated code computes it once and differentiates through it
         by the chain rule, so expressions stay local (e.g. mass-matrix entries and their
         derivatives). Constants are returned as they are."""
-        expr = sp.sympify(expr)
+        expr = as_expr(expr)
         if expr.is_number:
             return expr
-        symbol = sp.Symbol(f"{self.name}.{name}", real=True)
+        symbol = sp.Symbol(self._qualified(name), real=True)
         self.built.intermediates.append((symbol, expr))
         return symbol
 
@@ -168,17 +179,17 @@ class Builder:
         if A.shape != (rhs.shape[0], rhs.shape[0]) or rhs.shape[1] != 1:
             raise ModelError(f"component {self.name!r}: implicit block {name!r} needs a square A "
                              f"and a column rhs, got {A.shape} and {rhs.shape}")
-        symbols = [sp.Symbol(f"{self.name}.{name}{i}", real=True) for i in range(rhs.shape[0])]
+        symbols = [sp.Symbol(self._qualified(f"{name}{i}"), real=True) for i in range(rhs.shape[0])]
         self.built.blocks.append((symbols, A, rhs))
         return symbols
 
     def matrix(self, name: str, value: sp.Matrix) -> None:
         """A named matrix ``component.name`` available numerically (e.g. a mass matrix)."""
-        self.built.matrices[f"{self.name}.{name}"] = sp.Matrix(value)
+        self.built.matrices[self._qualified(name)] = sp.Matrix(value)
 
     def state(self, name: str, unit: str = "", initial: Any = 0) -> sp.Symbol:
         """Declare a state ``component.name`` with an initial value (expression in parameters)."""
-        symbol = sp.Symbol(f"{self.name}.{name}", real=True)
+        symbol = sp.Symbol(self._qualified(name), real=True)
         if any(s.symbol == symbol for s in self.built.states):
             raise ModelError(f"component {self.name!r} declares state {name!r} twice")
         init = initial if isinstance(initial, sp.Basic) else self.parse(
@@ -196,10 +207,10 @@ class Builder:
 
     def equation(self, lhs: Any, rhs: Any = 0, doc: str = "") -> None:
         """Add the law ``lhs = rhs`` (element-wise for matrices)."""
-        lhs, rhs = sp.sympify(lhs), sp.sympify(rhs)
+        lhs, rhs = as_expr(lhs), as_expr(rhs)
         if isinstance(lhs, sp.MatrixBase):
             for a, b in zip(lhs, rhs if isinstance(rhs, sp.MatrixBase) else [rhs] * len(lhs)):
-                self.built.equations.append((sp.sympify(a - b), doc))
+                self.built.equations.append((as_expr(a - b), doc))
         else:
             self.built.equations.append((lhs - rhs, doc))
 
@@ -251,12 +262,37 @@ class Builder:
     def output(self, name: str, expr: sp.Expr) -> None:
         """A named output ``component.name`` (any expression in the model's variables). Other
         components may read it as a signal by its dotted name (e.g. ``walker.foot1.z``)."""
-        self.built.outputs[f"{self.name}.{name}"] = sp.sympify(expr)
+        self.built.outputs[self._qualified(name)] = as_expr(expr)
 
     def parse(self, text: Any, what: str, local: Mapping[str, sp.Expr] | None = None) -> sp.Expr:
         """Parse an expression of this component (model names plus ``local`` names)."""
         names = {**self._names, **(local or {})}
         return parse(text, names, f"component {self.name!r} {what}", self._dotted)
+
+    def require(self, value: sp.Expr, rule: str, what: str, bound: Any = 0,
+                bound_name: str = "") -> None:
+        """Declare the physical constraint ``value rule bound`` on a parsed argument ``what``
+        (e.g. ``b.require(mass, ">", "body 'leg' mass")``; ``rule`` one of
+        :data:`porthamiltonian.constraints.RULES`). Checked now when both sides are numbers
+        (ParameterValueError), recorded for the run-time parameter check when they depend on
+        parameters only, skipped when they depend on states or time."""
+        value, bound = as_expr(value), as_expr(bound)
+        params = set(self._names.values())
+        if not (value.free_symbols | bound.free_symbols) <= params:
+            return
+        constraint = Constraint(self.name, what, to_text(value), rule, to_text(bound), bound_name)
+        if value.is_number and bound.is_number:
+            message = violation(constraint, float(value), float(bound), symbolic=False)
+            if message:
+                raise ParameterValueError(message)
+        else:
+            self.built.constraints.append(constraint)
+
+    def _qualified(self, name: str) -> str:
+        """``component.name`` for a state, output, intermediate or matrix, each part of ``name``
+        checked to be a name (these reach generated code and its layout)."""
+        check_name(name, f"component {self.name!r}: state, output or matrix name", dotted=True)
+        return f"{self.name}.{name}"
 
 
 class Component:
@@ -266,6 +302,9 @@ class Component:
 
     kind: ClassVar[str] = ""
     arguments: ClassVar[dict[str, Arg]] = {}
+    #: constraints between two arguments, ``(argument, rule, other argument)``, e.g.
+    #: ``("mu_c", "<=", "mu_st")``; checked like :attr:`Arg.rule`
+    relations: ClassVar[tuple[tuple[str, str, str], ...]] = ()
     #: Junction-like components accept new ports at connection time.
     free_ports: ClassVar[bool] = False
 
@@ -308,16 +347,42 @@ class Component:
     def build(self, b: Builder, **args: sp.Expr) -> None:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
+        """Every expression among the arguments as ``(key path, value, what, local names)``, for
+        the model-file loader to parse and locate: the symbolic arguments, and the entries of
+        list-valued plain arguments (vectors and matrices, e.g. a FreeBody's ``inertia``).
+        ``what`` is how the compiler names the field in messages (``"argument 'mass'"``)."""
+        for name, arg in self.arguments.items():
+            value = self.args.get(name)
+            if value is None:
+                continue
+            if arg.symbolic:
+                yield (name,), value, f"argument {name!r}", arg.local
+            elif isinstance(value, list):
+                stack = [((name, i), item) for i, item in enumerate(value)]
+                while stack:
+                    path, item = stack.pop(0)
+                    if isinstance(item, list):
+                        stack[:0] = [((*path, i), x) for i, x in enumerate(item)]
+                    else:
+                        yield path, item, f"argument {name!r}", ()
+
     def parsed_args(self, b: Builder) -> dict[str, Any]:
-        """Arguments for :meth:`build`: symbolic ones parsed (with their local names), others raw."""
+        """Arguments for :meth:`build`: symbolic ones parsed (with their local names), others raw;
+        the arguments' rules and the :attr:`relations` declared with :meth:`Builder.require`."""
         out: dict[str, Any] = {}
         for name, arg in self.arguments.items():
             value = self.value(name)
             if arg.symbolic and value is not None:
                 local = {n: sp.Symbol(n, real=True) for n in arg.local}
                 out[name] = b.parse(value, f"argument {name!r}", local)
+                if arg.rule is not None:
+                    b.require(out[name], arg.rule, f"argument {name!r}")
             else:
                 out[name] = value
+        for name, rule, other in self.relations:
+            if out.get(name) is not None and out.get(other) is not None:
+                b.require(out[name], rule, f"argument {name!r}", out[other], f"argument {other!r}")
         return out
 
     def __repr__(self) -> str:

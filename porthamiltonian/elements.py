@@ -43,7 +43,7 @@ class C(_OnePortIn):
     arguments = {
         "domain": _DOMAIN,
         "stiffness": Arg("stiffness k (N/m, 1/F, ...)", default=None),
-        "compliance": Arg("compliance c = 1/k (m/N, F, ...)", default=None),
+        "compliance": Arg("compliance c = 1/k (m/N, F, ...)", default=None, rule="!="),
         "energy": Arg("stored energy H(q) (J)", default=None, local=("q",)),
         "q0": Arg("initial value of q", default=0),
     }
@@ -68,7 +68,8 @@ class I(_OnePortIn):
     kind = "I"
     arguments = {
         "domain": _DOMAIN,
-        "inertance": Arg("mass, moment of inertia or inductance (kg, kg m^2, H)", default=None),
+        "inertance": Arg("mass, moment of inertia or inductance (kg, kg m^2, H)", default=None,
+                         rule=">"),
         "energy": Arg("stored energy H(p) (J)", default=None, local=("p",)),
         "p0": Arg("initial momentum", default=0),
     }
@@ -92,7 +93,7 @@ class R(_OnePortIn):
     kind = "R"
     arguments = {
         "domain": _DOMAIN,
-        "resistance": Arg("linear resistance e/f (N s/m, Ohm, ...)", default=None),
+        "resistance": Arg("linear resistance e/f (N s/m, Ohm, ...)", default=None, rule=">="),
         "effort": Arg("effort as a function of the flow f", default=None, local=("f",)),
         "flow": Arg("flow as a function of the effort e", default=None, local=("e",)),
     }
@@ -240,6 +241,16 @@ class Storage(Component):
         dom = self.value("domain")
         return [Port(s, dom[s] if isinstance(dom, dict) else dom, orientation="in")
                 for s in self.value("states")]
+
+    def expression_fields(self):
+        """The energy (in the state names) and the initial values (see
+        :meth:`Component.expression_fields`)."""
+        states = self.value("states")
+        names = tuple(states) if isinstance(states, dict) else ()
+        yield ("energy",), self.value("energy"), "argument 'energy'", names
+        initial = self.value("initial")
+        for name, value in (initial.items() if isinstance(initial, dict) else ()):
+            yield ("initial", name), value, f"initial value of state {name!r}", ()
 
     def build(self, b: Builder, energy, states, domain, initial) -> None:
         initial = initial or {}

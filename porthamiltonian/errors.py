@@ -51,6 +51,12 @@ class ParameterValueError(ModelError):
     """A parameter value is non-finite or outside its documented range."""
 
 
+class OptionError(ModelError):
+    """A numerical option or argument of a public entry point (``simulate``'s tolerances, step
+    sizes, ``t_eval``, ...) has the wrong type or is outside its range; the message names the
+    option and the rule."""
+
+
 class ExpressionError(ModelError):
     """A constitutive-law expression cannot be parsed."""
 

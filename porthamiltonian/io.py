@@ -49,9 +49,11 @@ import sympy as sp
 import tomli_w
 
 from .component import REGISTRY, Component, component_class
-from .errors import ModelError, ModelFileError
+from .errors import ModelError, ModelFileError, OptionError
 from .expressions import parse
+from .mechanics.bodies import expression_fields
 from .model import Model
+from .options import check_rtol
 
 _SECTIONS = {"bonds", "model", "parameters", "components", "events", "outputs", "simulation"}
 _SIM_KEYS = {"t_end", "method", "rtol", "atol", "max_step", "energy_tolerance", "initial"}
@@ -88,10 +90,20 @@ def model_path(name_or_path: str | Path) -> Path:
                          f"{', '.join(available_models()) or 'none'} (or give a path to a .toml file)")
 
 
+#: Largest model file read (bytes); the largest in models/ is ~20 kB.
+MAX_FILE_SIZE = 4 * 1024 * 1024
+#: Deepest nesting of tables and arrays in a model file (a multibody's inertia is 7 levels deep).
+MAX_NESTING = 32
+
+
 def load(name_or_path: str | Path) -> Model:
     """Load a model by name or path."""
     path = model_path(name_or_path)
     try:
+        size = path.stat().st_size
+        if size > MAX_FILE_SIZE:
+            raise ModelFileError(f"{path}: the file is {size} bytes long; a model file is at most "
+                                 f"{MAX_FILE_SIZE} bytes (is it a model file?)")
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as err:
         raise ModelFileError(f"{path}: not a UTF-8 text file (byte {err.start}: {err.reason}); "
@@ -103,10 +115,18 @@ def load(name_or_path: str | Path) -> Model:
 
 def loads(text: str, source: str = "<string>") -> Model:
     """Load a model from TOML text; ``source`` names it in error messages."""
+    if not isinstance(text, str):
+        raise ModelFileError(f"{source}: a model file is TOML text, got {_type_name(text)}")
+    if len(text) > MAX_FILE_SIZE:
+        raise ModelFileError(f"{source}: the text is {len(text)} characters long; a model file "
+                             f"is at most {MAX_FILE_SIZE}")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise ModelFileError(_syntax_message(source, text, err)) from None
+    except RecursionError:
+        raise ModelFileError(f"{source}: arrays or tables are nested too deeply (at most "
+                             f"{MAX_NESTING} levels)") from None
     return model_from_dict(data, source=source, text=text)
 
 
@@ -265,6 +285,10 @@ def model_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = ""
     fail = _Fail(source, text)
     if not isinstance(data, dict):
         raise fail("a model file must be a TOML table")
+    deep = _too_deep(data)
+    if deep is not None:
+        raise fail(f"tables and arrays are nested more than {MAX_NESTING} levels deep (under "
+                   f"{'.'.join(map(str, deep[:4]))}...); a model file needs a few levels", *deep)
     unknown = sorted(set(data) - _SECTIONS)
     if unknown:
         name = unknown[0]
@@ -277,6 +301,10 @@ def model_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = ""
     for key in ("name", "description"):
         if key in head and not isinstance(head[key], str):
             raise fail(f"[model] {key} must be a string, got {_type_name(head[key])}", "model", key)
+        if key in head:
+            problem = _text_problem(head[key], name=key == "name")
+            if problem:
+                raise fail(f"[model] {key} {problem}", "model", key)
     name = head.get("name", Path(source).stem)
     model = Model(str(name), str(head.get("description", "")))
     model.meta = {k: v for k, v in head.items() if k not in ("name", "description")}
@@ -291,11 +319,48 @@ def model_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = ""
     return model
 
 
+_MAX_NAME, _MAX_DESCRIPTION = 200, 2000
+
+
+def _text_problem(text: str, name: bool) -> str | None:
+    """What is wrong with a model's name (``name``) or description, or None: one line of
+    printable text, not too long; a name also without quotes and backslashes (it names the model
+    in messages, file names and generated code)."""
+    limit = _MAX_NAME if name else _MAX_DESCRIPTION
+    if len(text) > limit:
+        return f"is {len(text)} characters long; at most {limit}"
+    bad = next((ch for ch in text if not ch.isprintable()), None)
+    if bad is not None:
+        return (f"must be one line of printable text; it holds {bad!r} at character "
+                f"{text.index(bad) + 1}")
+    if name:
+        bad = next((ch for ch in text if ch in "\"'\\`"), None)
+        if bad is not None or not text.strip():
+            return (f"must be a plain name (letters, digits, spaces, '_', '-', ...), without "
+                    f"quotes or backslashes; got {text!r}")
+    return None
+
+
+def _too_deep(data: Any) -> tuple | None:
+    """The key path of a value nested more than MAX_NESTING levels deep, or None (iterative:
+    no recursion on hostile input)."""
+    stack = [((), data)]
+    while stack:
+        path, value = stack.pop()
+        if len(path) > MAX_NESTING:
+            return path
+        if isinstance(value, dict):
+            stack += [((*path, k), v) for k, v in value.items()]
+        elif isinstance(value, list):
+            stack += [((*path, i), v) for i, v in enumerate(value)]
+    return None
+
+
 def _check_expressions(model: Model, fail: _Fail) -> None:
-    """Parse every expression now (component arguments, event guards, outputs), so that a
-    misspelt name or a syntax error is reported with its file and line (a dotted name such as
-    ``spring.q`` is checked when the model compiles; so are nested arguments, e.g. of a
-    Multibody)."""
+    """Parse every expression now (component arguments and the fields nested in them, e.g. a
+    Multibody's masses, event guards, outputs), so that a misspelt name or a syntax error is
+    reported with its file and line (whether a dotted name such as ``spring.q`` exists is checked
+    when the model compiles)."""
     params = {name: sp.Symbol(name, real=True) for name in model.parameters}
     comps = {name for name, _ in model.components()}
 
@@ -314,13 +379,14 @@ def _check_expressions(model: Model, fail: _Fail) -> None:
     for name, comp in model.components():
         if isinstance(comp, Model):
             continue
-        for arg_name, arg in comp.arguments.items():
-            value = comp.args.get(arg_name)
-            if not arg.symbolic or value is None:
-                continue
-            local = {n: sp.Symbol(n, real=True) for n in arg.local}
-            check(value, {**params, **local}, f"component {name!r} argument {arg_name!r}",
-                  "components", name, arg_name)
+        if comp.kind == "Multibody":
+            fields = ((path, value, what, ()) for path, value, what in expression_fields(
+                comp.args.get("bodies"), comp.args.get("joints"), comp.args.get("gravity")))
+        else:
+            fields = comp.expression_fields()
+        for path, value, what, local in fields:
+            names = {**params, **{n: sp.Symbol(n, real=True) for n in local}}
+            check(value, names, f"component {name!r} {what}", "components", name, *path)
     for index, event in enumerate(model.events):
         check(event.guard, params, f"event {event.name!r} guard", "events", index, "guard")
     for name, expr in model.outputs.items():
@@ -481,6 +547,11 @@ def _fill(model: Model, data: dict[str, Any], fail: _Fail) -> None:
                     "table": "a table of state = number"}[kind]
             raise fail(f"[simulation] {key} must be {want}, got {_type_name(value)} {value!r}",
                        "simulation", key)
+        if key == "rtol":
+            try:
+                check_rtol(value)
+            except OptionError as err:
+                raise fail(f"[simulation] {err}", "simulation", key) from None
     model.simulation = dict(sim)
 
 

@@ -20,9 +20,11 @@ import networkx as nx
 from .component import Component
 from .errors import (DanglingPortError, DuplicateNameError, ModelError, ParameterValueError,
                      UnknownComponentError, UnknownPortError)
+from .expressions import CONSTANTS, check_name
 from .ports import Port, check_bond
 
-_RESERVED = {"t"}
+#: names a parameter cannot take (the time, the constants of the expression language)
+_RESERVED = {"t", *CONSTANTS}
 
 
 @dataclass
@@ -97,8 +99,10 @@ class Model:
     # --- construction ---------------------------------------------------------------------------
     def parameter(self, name: str, value: float, unit: str = "", doc: str = "") -> None:
         """Declare a parameter with its default value (SI units)."""
-        if not name.isidentifier() or name in _RESERVED:
-            raise ModelError(f"model {self.name!r}: {name!r} is not a valid parameter name")
+        if name in _RESERVED:
+            raise ModelError(f"model {self.name!r}: {name!r} is not a valid parameter name (it "
+                             "means the time or a constant in expressions)")
+        check_name(name, f"model {self.name!r}: parameter name")
         if name in self.parameters:
             raise DuplicateNameError(f"model {self.name!r}: parameter {name!r} declared twice")
         try:
@@ -108,8 +112,7 @@ class Model:
 
     def add(self, name: str, component: Component | Model) -> Component | Model:
         """Add a component (or a sub-model) under ``name``; return it."""
-        if not name.isidentifier():
-            raise ModelError(f"model {self.name!r}: component name {name!r} must be an identifier")
+        check_name(name, f"model {self.name!r}: component name")
         if name in self.graph:
             raise DuplicateNameError(f"model {self.name!r}: a component is already called {name!r}")
         if not isinstance(component, (Component, Model)):
@@ -211,6 +214,7 @@ class Model:
 
     def event(self, name: str, guard: str, direction: int = 0, terminal: bool = False) -> None:
         """Declare a named event guard (an expression in t, parameters, states and port variables)."""
+        check_name(name, f"model {self.name!r}: event name")
         if direction not in (-1, 0, 1):
             raise ModelError(f"event {name!r}: direction must be -1, 0 or 1")
         if any(e.name == name for e in self.events):
@@ -219,6 +223,7 @@ class Model:
 
     def output(self, name: str, expression: str) -> None:
         """Declare a named output (an expression in t, parameters, states and port variables)."""
+        check_name(name, f"model {self.name!r}: output name")
         if name in self.outputs:
             raise DuplicateNameError(f"model {self.name!r}: output {name!r} declared twice")
         self.outputs[name] = expression

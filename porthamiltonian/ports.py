@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from .errors import DimensionMismatchError, DomainMismatchError, ModelError, OrientationError
+from .expressions import check_name
 
 Orientation = Literal["in", "out"] | None
 
@@ -91,6 +92,7 @@ class Port:
     optional: bool = False
 
     def __post_init__(self) -> None:
+        check_name(self.name, "port name")
         domain(self.domain)
         if self.dim < 1:
             raise ModelError(f"port {self.name!r}: dimension must be >= 1, got {self.dim}")

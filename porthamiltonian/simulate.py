@@ -29,6 +29,7 @@ from scipy.optimize import brentq
 
 from .compiled import CompiledModel
 from .errors import ModelError, StateError
+from .options import check_simulation
 from .trajectory import Segment, Trajectory
 
 METHODS = ("Rodas4", "Radau", "BDF", "LSODA", "RK45", "DOP853")
@@ -96,13 +97,22 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     dense_output : keep the interpolants, for :meth:`Trajectory.sol` (costs time).
     max_events, max_steps : bounds (a chattering guard ends the run with status "failed").
     divergence_bound : the run ends with status "diverged" when max|x| exceeds it.
+
+    Every argument is checked first (:mod:`porthamiltonian.options`): a wrong type or a value
+    outside its rule (a NaN, zero or negative tolerance, ``rtol >= 1``, ``t_eval`` outside the
+    span) raises :class:`~porthamiltonian.errors.OptionError` naming it, before any work.
     """
+    checked = check_simulation(
+        model.n_states, t_end, x0, params, t_start=t_start, method=method, rtol=rtol, atol=atol,
+        max_step=max_step, first_step=first_step, jacobian=jacobian, actions=actions,
+        events=events, t_eval=t_eval, dense_output=dense_output, max_events=max_events,
+        max_steps=max_steps, divergence_bound=divergence_bound)
+    t_start, t_end, rtol, atol, max_step, first_step, t_eval = (checked[k] for k in (
+        "t_start", "t_end", "rtol", "atol", "max_step", "first_step", "t_eval"))
     if method == "auto":
         method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas4"
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
-    if not (math.isfinite(t_end) and t_end > t_start):
-        raise ModelError(f"t_end must be finite and > t_start ({t_start}), got {t_end}")
     p = model.params(params)
     if x0 is None or isinstance(x0, Mapping):
         x = model.initial_state(p, x0)

@@ -4,7 +4,8 @@ Shaped like scipy's ``OdeResult`` (``t``, ``status``, ``message``, ``success``, 
 
 * ``traj["mass.p"]`` — a state, or any named output (``"spring.p.e"``: the spring force), over ``t``;
 * ``traj.H``, ``traj.E_diss``, ``traj.E_in``, ``traj.residual`` — the energy ledger
-  (r = H − H(0) + E_diss − E_in), ``traj.energy_scale`` and ``traj.relative_residual``;
+  (r = H − H(0) + E_diss − E_in), ``traj.energy_scale`` (the energy that moved during the run,
+  blind to a constant offset of H) and ``traj.relative_residual``;
 * ``traj.sol(t)`` — dense output (model states) at any time of the run;
 * ``traj.events`` — (time, name) of every event, ``traj.jumps`` — H jumps booked at resets;
 * ``to_csv`` / ``to_npz`` — export with named columns.
@@ -161,12 +162,35 @@ class Trajectory:
 
     @property
     def energy_scale(self) -> float:
-        """max(|H|, |H − H(0)|, |E_diss|, |E_in|) over the run (J), the scale of the residual."""
-        return float(max(np.max(np.abs(self.H)), np.max(np.abs(self.H - self.h0)),
-                         np.max(np.abs(self.E_diss)), np.max(np.abs(self.E_in)), 1e-300))
+        """The scale of the residual (J): the energy in play during the run,
+
+            Σ_stored max_t |H_k| + Σ_potential (max_t H_k − min_t H_k) + max_t |E_diss| + max_t |E_in|
+
+        over the energy parts H_k of the model (``model.energy_parts``: each storage component's
+        stored energy, a multibody's kinetic energy T, all zero at rest, and its potential energy
+        V, measured from an arbitrary datum), but at least 64 ε max_t |H| (ε the float64 epsilon:
+        below that the residual is the round-off of H itself).
+
+        Why: a constant offset of H (a potential measured from a datum far away, a pendulum whose
+        pivot is raised by 1e6 m) changes no range, no kinetic or elastic energy and no ledger
+        total, so it cannot make a failing run pass; the old scale, max |H|, grew with the offset.
+        Potentials enter by their range, the energy they exchange; the other storages by their
+        size, so that a run whose energy stays in one storage (a spinning free body) is still
+        measured against that energy."""
+        moved = float(np.max(np.abs(self.E_diss)) + np.max(np.abs(self.E_in)))
+        if self.model.energy_parts and len(self.t):
+            columns = [self.model.output_index(name) for name, _ in self.model.energy_parts]
+            parts = self.outputs[:, columns]
+            for k, (_, kind) in enumerate(self.model.energy_parts):
+                part = parts[:, k]
+                moved += float(np.ptp(part) if kind == "potential" else np.max(np.abs(part)))
+        floor = 64 * np.finfo(float).eps * float(np.max(np.abs(self.H)))
+        return max(moved, floor, 1e-300)
 
     @property
     def relative_residual(self) -> float:
+        """max_t |r(t)| / :attr:`energy_scale`: what ``check-energy`` compares with the model's
+        ``energy_tolerance``."""
         return float(np.max(np.abs(self.residual)) / self.energy_scale)
 
     def ledger(self) -> dict[str, float]:

@@ -20,7 +20,11 @@ from .structure import build_system, solve
 
 def symbolic(model: Model) -> SymbolicModel:
     """Run the symbolic part of the compiler (no code generation, no cache)."""
-    return assemble(solve(build_system(model.flatten())))
+    flat = model.flatten()
+    if not flat.components:
+        raise ModelError(f"model {model.name!r} is empty: it has no components; add some (in a "
+                         "model file: [components.NAME] tables with a type) before compiling")
+    return assemble(solve(build_system(flat)))
 
 
 def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -> CompiledModel:
@@ -29,7 +33,9 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
     Parameters
     ----------
     backend : ``"auto"`` (numba when installed, else python), ``"python"`` or ``"numba"``.
-    use_cache : reuse and store the generated code in the on-disk cache (keyed by a model hash).
+    use_cache : reuse and store the generated code in the on-disk cache (keyed by a model hash;
+        see :mod:`porthamiltonian.compiler.cache`); ``False`` writes nothing there (the module is
+        built in a private temporary folder removed at exit).
     """
     backend = resolve(backend)
     key = cache.model_key(model)
@@ -53,11 +59,14 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
             "equations": sym.equations, "hamiltonian": str(sym.hamiltonian),
             "matrices": list(sym.matrices),
             "autonomous": _autonomous(sym),
+            "energy_parts": sym.energy_parts,
+            "constraints": [c.to_dict() for c in sym.constraints],
         }
-        cache.write(key, meta, body)
+        if use_cache:
+            cache.write(key, meta, body)
     else:
         meta, body = hit
-    path = cache.backend_module(key, backend, source_with_header(body, backend))
+    path = cache.backend_module(key, backend, source_with_header(body, backend), use_cache)
     return CompiledModel(meta, load(path, backend, len(meta["matrices"])), body, key)
 
 

@@ -10,7 +10,12 @@ states x, the parameters p and the time t:
   explicitly on t or on states it does not own receives ∂H_c/∂t + Σ_{x ∉ c} ∂H_c/∂x · ẋ from the
   modulation (e.g. ½ K̇ q² for a stiffness K(t));
 * every port effort/flow as a named output, component outputs, model outputs, event guards,
-  initial states.
+  initial states;
+* the energy *parts* (:func:`energy_parts`): each storage component's stored energy as an output
+  ``<component>.H``, or its outputs ``T`` and ``V`` when it splits its energy into kinetic and
+  potential (a multibody), for the ledger's offset-free scale
+  (:attr:`porthamiltonian.trajectory.Trajectory.energy_scale`);
+* the constraints on parameter values the components declared (:mod:`porthamiltonian.constraints`).
 
 The residual r(t) = H(t) − H(0) + E_diss(t) − E_in(t) is then zero up to integration error;
 :func:`power_balance` gives dH/dt − P_in + P_diss, which is identically zero for a consistent model.
@@ -21,6 +26,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from ..constraints import Constraint
 from ..errors import ModelError, StateError
 from ..expressions import TIME, parse
 from ..model import EventSpec
@@ -49,6 +55,9 @@ class SymbolicModel:
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
     matrices: dict[str, sp.Matrix] = field(default_factory=dict)
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
+    #: (output name, "stored" or "potential") of the energy parts (see :func:`energy_parts`)
+    energy_parts: list[tuple[str, str]] = field(default_factory=list)
+    constraints: list[Constraint] = field(default_factory=list)
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
@@ -67,8 +76,10 @@ def assemble(solution: Solution) -> SymbolicModel:
     H = sp.Integer(0)
     p_diss = sp.Integer(0)
     p_in = sp.Integer(0)
+    energies: dict[str, sp.Expr] = {}
     for cname, b in system.built.items():
         energy = b.energy.xreplace(system.aliases)
+        energies[cname] = energy
         if energy.free_symbols & unknowns:
             raise ModelError(f"component {cname!r}: its stored energy depends on port variables; "
                              "energy must be a function of states, parameters and time")
@@ -89,6 +100,7 @@ def assemble(solution: Solution) -> SymbolicModel:
                 outputs[name] = values[system.aliases.get(sym, sym)]
         for oname, expr in b.outputs.items():
             outputs[oname] = expr.xreplace(system.aliases).xreplace(values)
+    parts = energy_parts(energies, outputs)
     symbol_table = _symbol_table(system, outputs)
     for oname, text in flat.outputs.items():
         outputs[oname] = _model_expr(text, flat.scopes[f"output:{oname}"], symbol_table, system,
@@ -116,7 +128,33 @@ def assemble(solution: Solution) -> SymbolicModel:
         initial=initial,
         equations=[f"{u} = {expr}" for u, expr, _ in solution.order if u in system.derivatives],
         blocks=system.blocks, matrices=matrices, intermediates=system.intermediates,
+        energy_parts=parts,
+        constraints=[c for b in system.built.values() for c in b.constraints],
     )
+
+
+def energy_parts(energies: dict[str, sp.Expr],
+                 outputs: dict[str, sp.Expr]) -> list[tuple[str, str]]:
+    """The outputs that split H into parts, as ``(name, kind)``, for Trajectory.energy_scale: per
+    component with stored energy, its outputs ``<c>.T`` (kind ``"stored"``: a kinetic energy,
+    zero at rest) and ``<c>.V`` (kind ``"potential"``: measured from an arbitrary datum) when they
+    add up to its energy, as a Multibody or FreeBody declares them; else its energy as a new
+    output ``<c>.H`` (added to ``outputs``), kind ``"stored"`` (the library's storages have zero
+    energy at their zero state)."""
+    parts = []
+    for cname, energy in energies.items():
+        if energy == 0:
+            continue
+        kinetic, potential = outputs.get(f"{cname}.T"), outputs.get(f"{cname}.V")
+        if kinetic is not None and potential is not None and kinetic + potential == energy:
+            parts += [(f"{cname}.T", "stored"), (f"{cname}.V", "potential")]
+            continue
+        name = f"{cname}.H"
+        while name in outputs:
+            name += "_stored"
+        outputs[name] = energy
+        parts.append((name, "stored"))
+    return parts
 
 
 def _port_names(comp: str, port: str, dim: int) -> list[str]:

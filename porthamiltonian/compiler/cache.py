@@ -1,25 +1,79 @@
-"""On-disk cache of compiled models, keyed by a hash of the model description.
+"""On-disk cache of compiled models: keyed by a hash of the model, trusted only when intact.
 
+Key
+---
 The key hashes the model's canonical description (components with their arguments, bonds,
 parameters, events, outputs), the sources of the package modules that determine the generated code
 (the component classes' modules and what they import, the compiler, the back ends, the integration
 loops), the versions of sympy and of the code generator: editing the command line, the analyses or
-a docstring of an unrelated module keeps every cached model. An entry is two files: ``<key>.json`` (state/parameter/output layout,
-equations for display) and ``<key>.py`` (the generated code body); the back-end modules
-``<key>_<backend>.py`` are derived from the body. Writes are atomic (write, then rename), so
-concurrent sweep workers can share one cache.
+a docstring of an unrelated module keeps every cached model.
 
-Location: ``$PORTHAMILTONIAN_CACHE`` or ``~/.cache/porthamiltonian``.
+Layout
+------
+Location: ``$PORTHAMILTONIAN_CACHE`` or ``~/.cache/porthamiltonian``, created with mode 0700. One
+folder per entry, ``<cache>/<key>/``:
+
+``meta.json``            the layout (states, parameters, outputs, events, energy parts, parameter
+                         constraints) and the equations for display
+``body.py``              the generated code body
+``m<key>_<backend>.py``  a back end's module, derived from the body, added when first needed
+other files              artifacts a back end stores with :func:`store` (e.g. a shared library)
+``manifest.json``        ``{"key": ..., "files": {name: sha256}}``: every file above
+``__pycache__/``         written by Python (bytecode) and numba (compiled functions) when a module
+                         is imported and first called; they validate these files against the
+                         module's size and time stamp themselves, and numba may rewrite them (two
+                         processes compiling one function), so they are protected by the folder's
+                         permissions rather than by hashes, and removed whenever the module is
+                         written again or the entry is found damaged
+
+An entry is created complete in a temporary folder and renamed into place, so concurrent sweep
+workers can share one cache; files added later are written atomically (write, then rename) and
+the manifest is updated under a lock.
+
+Integrity and trust (the rules a native back end follows too, through :func:`store`,
+:func:`load_verified` and :func:`verified_path`)
+----------------------------------------------------------------------------------------------
+* Every file is verified against its sha256 in the manifest before it is used. A missing,
+  truncated or edited file, a damaged manifest, or an entry whose files disagree with it gives one
+  :class:`CacheWarning` naming the file; the entry is removed and rebuilt (a damaged file under
+  ``__pycache__`` is just removed: Python or numba writes it again).
+* The cache folder is used only when it is owned by the user, is not writable by group or
+  others, and no folder above it is writable by others unless sticky (``/tmp``) and owned by the
+  user or root. Otherwise, or when it cannot be written (read-only), this process warns once,
+  saying how to fix it (``chmod 700 DIR``, or another ``PORTHAMILTONIAN_CACHE``), reads nothing
+  from it, and builds in a private temporary folder removed at exit. Nothing is imported or
+  unpickled from a folder that others can write.
+* ``compile_model(..., use_cache=False)`` writes nothing to the cache (``persistent=False`` here):
+  the module is built in the private temporary folder.
+
+API for back ends
+-----------------
+``store(key, name, data, persistent=True) -> Path``
+    write ``data`` (bytes or text) as file ``name`` of entry ``key`` and record its hash; the path
+    (in the entry, or in the private temporary folder when not persistent or the cache is not
+    usable).
+``load_verified(key, name) -> bytes | None``
+    the file's contents if it is recorded and intact; None if absent, or if damaged (then one
+    warning, and the file is removed so that the caller stores it again).
+``verified_path(key, name) -> Path | None``
+    the same check, returning the path (for what must be loaded from a path, e.g. ``ctypes``).
 """
 from __future__ import annotations
 
+import atexit
+import contextlib
 import functools
 import hashlib
 import inspect
 import json
 import os
 import re
+import shutil
+import stat
+import sys
 import tempfile
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +82,96 @@ import sympy
 from ..model import Model
 from .codegen import CODEGEN_VERSION
 
+try:  # POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record,
+    import fcntl  # which only costs a rebuild of that file)
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None
 
-def cache_dir() -> Path:
-    path = Path(os.environ.get("PORTHAMILTONIAN_CACHE", Path.home() / ".cache" / "porthamiltonian"))
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+_MANIFEST = "manifest.json"
+_LOCK = ".lock"
+_PYCACHE = "__pycache__"
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 
 
+class CacheWarning(UserWarning):
+    """The compiled-model cache is damaged, untrusted or not writable (the message says which
+    file or folder and what happens instead)."""
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, CacheWarning, stacklevel=3)
+
+
+# --- where -----------------------------------------------------------------------------------------
+def configured_dir() -> Path:
+    """The cache folder asked for: ``$PORTHAMILTONIAN_CACHE`` or ``~/.cache/porthamiltonian``."""
+    return Path(os.environ.get("PORTHAMILTONIAN_CACHE", Path.home() / ".cache" / "porthamiltonian"))
+
+
+_private: dict[str, Path] = {}
+_refused: set[str] = set()
+
+
+def private_dir() -> Path:
+    """This process's private build folder (mode 0700, removed at exit)."""
+    if "dir" not in _private:
+        path = Path(tempfile.mkdtemp(prefix="porthamiltonian-"))
+        atexit.register(shutil.rmtree, path, True)
+        _private["dir"] = path
+    return _private["dir"]
+
+
+def cache_dir() -> Path | None:
+    """The cache folder, created private (0700) if missing, or None when it cannot be trusted or
+    written (one :class:`CacheWarning` per folder and process, with the fix)."""
+    path = configured_dir().expanduser()
+    key = str(path)
+    if key in _refused:
+        return None
+    try:
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+        problem = _untrusted(path)
+        if problem is None and not os.access(path, os.W_OK | os.X_OK):
+            problem = "it is not writable"
+    except OSError as err:
+        problem = f"it cannot be created ({err.strerror})"
+    if problem is None:
+        return path
+    _refused.add(key)
+    _warn(f"compiled-model cache {path}: {problem}; nothing is read from it, and this process "
+          f"builds in a private temporary folder instead (slower: nothing is kept). Fix: "
+          f"'chmod 700 {path}' if the folder is yours, or set PORTHAMILTONIAN_CACHE to a folder "
+          "of your own")
+    return None
+
+
+def _untrusted(path: Path) -> str | None:
+    """Why ``path`` cannot be trusted, or None: it must be the user's and private; each folder
+    above it must belong to the user or root and not be writable by others unless sticky."""
+    uid = os.getuid() if hasattr(os, "getuid") else None
+    info = path.stat()
+    if uid is not None and info.st_uid != uid:
+        return f"it belongs to another user (uid {info.st_uid})"
+    if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return "it is writable by other users"
+    if info.st_mode & 0o077:  # readable by others: tighten (our own folder)
+        with contextlib.suppress(OSError):
+            path.chmod(0o700)
+    for parent in path.resolve().parents:
+        pinfo = parent.stat()
+        if uid is not None and pinfo.st_uid not in (uid, 0):
+            return f"the folder above it, {parent}, belongs to another user"
+        if pinfo.st_mode & (stat.S_IWGRP | stat.S_IWOTH) and not pinfo.st_mode & stat.S_ISVTX:
+            return f"the folder above it, {parent}, is writable by other users"
+    return None
+
+
+def _base(persistent: bool) -> Path:
+    base = cache_dir() if persistent else None
+    return base if base is not None else private_dir()
+
+
+# --- the key ---------------------------------------------------------------------------------------
 def model_key(model: Model) -> str:
     """A hash of everything that determines the generated code: the model's canonical
     description, the source of every package module the model's component classes depend on
@@ -53,7 +190,7 @@ def model_key(model: Model) -> str:
 _PACKAGE = Path(__file__).resolve().parent.parent
 #: package modules that shape the generated code whatever the model holds
 _CORE = ("compiler", "backends", "integrators", "component", "ports", "expressions", "model",
-         "elements")
+         "elements", "constraints")
 _IMPORT = re.compile(r"^\s*from\s+(\.+)([\w.]*)\s+import\s+([\w, ()]+)", re.MULTILINE)
 
 
@@ -95,8 +232,6 @@ def _sources_hash(modules: frozenset[str]) -> str:
 def _outside_source(module: str) -> str:
     """Source text of a component module defined outside the package (e.g. a user's own
     component), or its name when the source is not available."""
-    import sys
-
     try:
         return inspect.getsource(sys.modules[module])
     except (KeyError, OSError, TypeError):
@@ -111,32 +246,221 @@ def _all_components(model: Model):
             yield comp
 
 
-def write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
+# --- files and the manifest ------------------------------------------------------------------------
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
 
 
-def read(key: str) -> tuple[dict[str, Any], str] | None:
-    base = cache_dir() / key
+def write_atomic(path: Path, data: str | bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename."""
+    raw = data.encode() if isinstance(data, str) else data
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        meta = json.loads(base.with_suffix(".json").read_text())
-        body = base.with_suffix(".py").read_text()
-    except (OSError, ValueError):
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(raw)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _check_file_name(name: str) -> None:
+    if not (isinstance(name, str) and _NAME.fullmatch(name)) or name in (_MANIFEST, _LOCK):
+        raise ValueError(f"cache file name {name!r}: letters, digits, '_', '.', '-' only, not "
+                         f"{_MANIFEST}")
+
+
+@contextlib.contextmanager
+def _locked(entry: Path) -> Iterator[None]:
+    """Hold the entry's lock (manifest read-modify-write)."""
+    if fcntl is None:  # pragma: no cover
+        yield
+        return
+    fd = os.open(entry / _LOCK, os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
+
+
+def _manifest(entry: Path) -> dict[str, str] | None:
+    """The entry's file hashes, or None when the manifest is missing or damaged (warned)."""
+    path = entry / _MANIFEST
+    try:
+        data = json.loads(path.read_bytes())
+        files = data["files"]
+        if data.get("key") != entry.name or not isinstance(files, dict) or not all(
+                isinstance(k, str) and isinstance(v, str) for k, v in files.items()):
+            raise ValueError("unexpected contents")
+    except FileNotFoundError:
+        if entry.exists():
+            _warn(f"compiled-model cache: {path} is missing; the entry is rebuilt")
         return None
-    return meta, body
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        _warn(f"compiled-model cache: {path} is damaged ({err}); the entry is rebuilt")
+        return None
+    return files
+
+
+def _record(entry: Path, updates: dict[str, str | None]) -> None:
+    """Set (hash) or drop (None) files in the entry's manifest, under its lock."""
+    with _locked(entry):
+        try:
+            files = json.loads((entry / _MANIFEST).read_bytes())["files"]
+        except (OSError, ValueError, KeyError):
+            files = {}
+        for name, digest in updates.items():
+            if digest is None:
+                files.pop(name, None)
+            else:
+                files[name] = digest
+        write_atomic(entry / _MANIFEST, json.dumps({"key": entry.name, "files": files},
+                                                   indent=1, sort_keys=True))
+
+
+def _remove(entry: Path) -> None:
+    """Remove a damaged entry (renamed away first, so a concurrent reader sees it gone)."""
+    trash = entry.with_name(f".trash-{entry.name}-{os.getpid()}")
+    with contextlib.suppress(OSError):
+        os.replace(entry, trash)
+        shutil.rmtree(trash, ignore_errors=True)
+
+
+def _verified(entry: Path, name: str, files: dict[str, str]) -> bytes | None:
+    """The bytes of ``name`` when they match the manifest; None (warned) otherwise."""
+    try:
+        data = (entry / name).read_bytes()
+    except OSError:
+        _warn(f"compiled-model cache: {entry / name} is missing; it is rebuilt")
+        return None
+    if _sha256(data) != files.get(name):
+        _warn(f"compiled-model cache: {entry / name} does not match its recorded sha256 (damaged or "
+              "edited); it is rebuilt")
+        return None
+    return data
+
+
+# --- entries: layout and code ------------------------------------------------------------------------
+def read(key: str) -> tuple[dict[str, Any], str] | None:
+    """The entry's ``(meta, body)`` when present and intact; None on a miss. A damaged entry is
+    reported in one warning naming the file and removed (the caller rebuilds it). When the cache
+    folder is not usable, this process's private folder serves instead."""
+    entry = _base(True) / key
+    if not entry.is_dir():
+        return None
+    files = _manifest(entry)
+    raw = None
+    if files is not None:
+        raw = {name: _verified(entry, name, files) for name in ("meta.json", "body.py")}
+        if any(v is None for v in raw.values()):
+            raw = None
+    if raw is not None:
+        try:
+            meta = json.loads(raw["meta.json"])
+            return meta, raw["body.py"].decode()
+        except (ValueError, UnicodeDecodeError) as err:
+            _warn(f"compiled-model cache: {entry / 'meta.json'} cannot be read ({err}); the "
+                  "entry is rebuilt")
+    _remove(entry)
+    return None
 
 
 def write(key: str, meta: dict[str, Any], body: str) -> None:
-    base = cache_dir() / key
-    write_atomic(base.with_suffix(".py"), body)
-    write_atomic(base.with_suffix(".json"), json.dumps(meta, indent=1))
+    """Store a new entry (layout and code body), complete or not at all (in this process's
+    private folder when the cache folder is not usable)."""
+    base = _base(True)
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".new-{key}-", dir=base))
+    except OSError as err:
+        _warn(f"compiled-model cache {base}: cannot write ({err.strerror}); not cached")
+        return
+    try:
+        contents = {"meta.json": json.dumps(meta, indent=1).encode(), "body.py": body.encode()}
+        for name, data in contents.items():
+            (staging / name).write_bytes(data)
+        (staging / _MANIFEST).write_text(json.dumps(
+            {"key": key, "files": {n: _sha256(d) for n, d in contents.items()}}, indent=1,
+            sort_keys=True))
+        os.chmod(staging, 0o700)
+        try:
+            os.rename(staging, base / key)
+        except OSError:                 # another process stored it first (or a stale entry)
+            if read(key) is None:       # damaged: removed; put ours in its place
+                os.rename(staging, base / key)
+    except OSError as err:
+        _warn(f"compiled-model cache {base}: cannot write ({err.strerror}); not cached")
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
-def backend_module(key: str, backend: str, text: str) -> Path:
-    """Path of the back-end module for ``key``, written if missing or different."""
-    path = cache_dir() / f"m{key}_{backend}.py"
-    if not path.exists() or path.read_text() != text:
-        write_atomic(path, text)
+def _entry(key: str, persistent: bool) -> Path:
+    """The entry folder of ``key`` (created in the private folder, or in the cache if missing)."""
+    entry = _base(persistent) / key
+    if not entry.is_dir():
+        entry.mkdir(mode=0o700, exist_ok=True)
+        _record(entry, {})
+    return entry
+
+
+def store(key: str, name: str, data: bytes | str, persistent: bool = True) -> Path:
+    """Write file ``name`` of entry ``key`` atomically, record its sha256, return its path
+    (in the private temporary folder when not ``persistent`` or the cache is not usable)."""
+    _check_file_name(name)
+    raw = data.encode() if isinstance(data, str) else data
+    try:
+        entry = _entry(key, persistent)
+        write_atomic(entry / name, raw)
+        _record(entry, {name: _sha256(raw)})
+    except OSError as err:
+        if not persistent:
+            raise
+        _warn(f"compiled-model cache {configured_dir()}: cannot write {name} ({err.strerror}); "
+              "built in a private temporary folder instead")
+        return store(key, name, raw, persistent=False)
+    return entry / name
+
+
+def load_verified(key: str, name: str) -> bytes | None:
+    """The contents of file ``name`` of entry ``key`` if recorded and intact; None if absent or
+    damaged (one warning; the file is dropped from the entry, to be stored again)."""
+    path = verified_path(key, name)
+    return None if path is None else path.read_bytes()
+
+
+def verified_path(key: str, name: str) -> Path | None:
+    """The path of file ``name`` of entry ``key`` after checking it against the manifest (in the
+    cache, or in this process's private folder when the cache is not usable); None if absent or
+    damaged (warned; the file is removed and dropped from the manifest)."""
+    _check_file_name(name)
+    entry = _base(True) / key
+    if not (entry / name).is_file():
+        return None
+    files = _manifest(entry)
+    if files is None:
+        _remove(entry)
+        return None
+    if name not in files:
+        return None
+    if _verified(entry, name, files) is None:
+        with contextlib.suppress(OSError):
+            (entry / name).unlink()
+        _record(entry, {name: None})
+        return None
+    return entry / name
+
+
+def backend_module(key: str, backend: str, text: str, persistent: bool = True) -> Path:
+    """Path of the back-end module for ``key`` with the text ``text``: the stored one when it is
+    intact and the same, else written now (and the bytecode compiled from an older one removed)."""
+    name = f"m{key}_{backend}.py"
+    path = verified_path(key, name) if persistent else None
+    if path is None or path.read_bytes() != text.encode():
+        path = store(key, name, text, persistent)
+        shutil.rmtree(path.parent / _PYCACHE, ignore_errors=True)
     return path
+
+
+__all__ = ["CacheWarning", "backend_module", "cache_dir", "configured_dir", "load_verified",
+           "model_key", "private_dir", "read", "store", "verified_path", "write", "write_atomic"]

@@ -74,8 +74,8 @@ component outputs yet (a core limitation): write guards in states (``r - ball.q.
 :func:`output_guard` for a Python-level event.
 
 Errors (:class:`~porthamiltonian.errors.ParameterValueError`, naming the component and argument):
-a numeric stiffness, damping or ``active`` < 0, an exponent n ≤ 0, an unknown surface.
-Values bound to parameters are checked only where the argument is a number.
+a stiffness, damping or ``active`` < 0, an exponent n ≤ 0 (numbers when the model compiles,
+parameter values whenever they are bound: :mod:`porthamiltonian.constraints`), an unknown surface.
 
 References
 ----------
@@ -96,13 +96,14 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import ParameterValueError
 from ..ports import Port
-from .surfaces import Surface, _check_nonnegative, make_surface, surface_arguments
+from .surfaces import Surface, make_surface, surface_arguments
 
 _POINT = {
     "x": Arg("world x of the contact point (a signal, e.g. 'walker.foot1.x')", "m"),
     "z": Arg("world z of the contact point (a signal, e.g. 'walker.foot1.z')", "m"),
 }
-_MODE = {"active": Arg("contact mode flag (0 or 1; a parameter switched by events)", "1", default=1)}
+_MODE = {"active": Arg("contact mode flag (0 or 1; a parameter switched by events)", "1", default=1,
+                       rule=">=")}
 
 
 class _Contact(Component):
@@ -115,9 +116,6 @@ class _Contact(Component):
     def _kinematics(self, b: Builder, x, z, surface, slope, height, step_height, step_x,
                     stiffness, damping, active) -> tuple[Surface, sp.Expr, sp.Expr]:
         where = f"{self.kind} {b.name!r}"
-        _check_nonnegative(stiffness, f"{where} argument 'stiffness'")
-        _check_nonnegative(damping, f"{where} argument 'damping'")
-        _check_nonnegative(active, f"{where} argument 'active'")
         surf = make_surface(surface, where, slope=slope, height=height, step_height=step_height,
                             step_x=step_x)
         port = b.port("p")
@@ -157,19 +155,16 @@ class HuntCrossley(_Contact):
     kind = "HuntCrossley"
     arguments = {
         **_POINT,
-        "stiffness": Arg("contact stiffness K", "N/m^n"),
-        "damping": Arg("Hunt-Crossley damping λ", "N*s/m^(n+1)", default=0),
-        "exponent": Arg("exponent n of the penetration (1: App. A; 3/2: Hertz)", "1", default=1),
+        "stiffness": Arg("contact stiffness K", "N/m^n", rule=">="),
+        "damping": Arg("Hunt-Crossley damping λ", "N*s/m^(n+1)", default=0, rule=">="),
+        "exponent": Arg("exponent n of the penetration (1: App. A; 3/2: Hertz)", "1", default=1,
+                        rule=">"),
         **surface_arguments(),
         **_MODE,
     }
 
     def build(self, b: Builder, x, z, stiffness, damping, exponent, surface, slope, height,
               step_height, step_x, active) -> None:
-        exponent = sp.sympify(exponent)
-        if exponent.is_number and not float(exponent) > 0:
-            raise ParameterValueError(f"HuntCrossley {b.name!r} argument 'exponent' must be > 0, "
-                                      f"got {float(exponent):g}")
         surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
                                            stiffness, damping, active)
         K, lam, n = stiffness, damping, exponent
@@ -195,8 +190,8 @@ class KelvinVoigt(_Contact):
     kind = "KelvinVoigt"
     arguments = {
         **_POINT,
-        "stiffness": Arg("contact stiffness K", "N/m"),
-        "damping": Arg("contact damping B", "N*s/m", default=0),
+        "stiffness": Arg("contact stiffness K", "N/m", rule=">="),
+        "damping": Arg("contact damping B", "N*s/m", default=0, rule=">="),
         "clip": Arg("clip the force at F >= 0 (false: tensile force possible at separation)",
                     symbolic=False, default=True),
         **surface_arguments(),

@@ -56,7 +56,6 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import DanglingPortError, ParameterValueError, UnknownParameterError
 from ..ports import Port
-from .surfaces import _check_nonnegative
 
 
 def scvs_coefficient(v, mu_st, mu_c, mu_v, slope, v_st):
@@ -81,12 +80,13 @@ class SCVSFriction(Component):
     arguments = {
         "normal_force": Arg("normal force signal: a contact's Fn output, e.g. 'floor.Fn'", "N",
                             default=None),
-        "mu_st": Arg("static friction coefficient μ_st", "1"),
-        "mu_c": Arg("Coulomb friction coefficient μ_c (<= μ_st)", "1"),
-        "mu_v": Arg("viscous friction coefficient μ_v (times Fn)", "s/m", default=0),
-        "slope": Arg("steepness s of tanh(s v) at v = 0 (20-sim 'slope')", "s/m"),
-        "v_st": Arg("Stribeck velocity v_st", "m/s"),
+        "mu_st": Arg("static friction coefficient μ_st", "1", rule=">="),
+        "mu_c": Arg("Coulomb friction coefficient μ_c (<= μ_st)", "1", rule=">="),
+        "mu_v": Arg("viscous friction coefficient μ_v (times Fn)", "s/m", default=0, rule=">="),
+        "slope": Arg("steepness s of tanh(s v) at v = 0 (20-sim 'slope')", "s/m", rule=">="),
+        "v_st": Arg("Stribeck velocity v_st", "m/s", rule=">"),
     }
+    relations = (("mu_c", "<=", "mu_st"),)
 
     def ports(self) -> list[Port]:
         return [Port("p", "translation", 2, "in", "world",
@@ -109,13 +109,6 @@ class SCVSFriction(Component):
             raise ParameterValueError(
                 f"{where} argument 'normal_force' reads the normal forces of several contacts "
                 f"({', '.join(sources)}); use one friction element per contact")
-        for name, value in (("mu_st", mu_st), ("mu_c", mu_c), ("mu_v", mu_v), ("slope", slope)):
-            _check_nonnegative(value, f"{where} argument {name!r}")
-        _check_nonnegative(v_st, f"{where} argument 'v_st'", strict=True)
-        if sp.sympify(mu_c).is_number and sp.sympify(mu_st).is_number and float(mu_c) > float(mu_st):
-            raise ParameterValueError(
-                f"{where}: argument 'mu_c' (Coulomb, {float(mu_c):g}) must not exceed 'mu_st' "
-                f"(static, {float(mu_st):g})")
         contact = sources[0]
         tx = sp.Symbol(f"{contact}.tx", real=True)     # the contact's tangent (signals)
         tz = sp.Symbol(f"{contact}.tz", real=True)

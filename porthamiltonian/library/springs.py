@@ -32,7 +32,8 @@ event action, H jumps by ½ ΔK z² at the event: return ``Reset(params=..., ene
 from the action so the jump is booked as supplied energy (the default books it as dissipated).
 
 Errors (:class:`~porthamiltonian.errors.ParameterValueError`, naming the component and argument):
-numeric stiffness, damping, alpha or mass < 0; damping together with alpha; alpha without mass
+stiffness, damping, alpha or mass < 0 (a number when the model compiles, a parameter value
+whenever parameters are bound; a stiffness that depends on states or time is not checked); damping together with alpha; alpha without mass
 (or mass without alpha); a ``SpringDamper`` stiffness or damping that depends on time or states
 (use ``VariableSpringDamper``).
 
@@ -46,12 +47,12 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import ParameterValueError
 from ..ports import Port
-from .surfaces import _check_nonnegative
 
 _COMMON = {
-    "damping": Arg("damping coefficient D (or give alpha and mass)", "N*s/m", default=None),
-    "alpha": Arg("damping ratio α of the rule D = 2 α sqrt(m K)", "1", default=None),
-    "mass": Arg("mass m of the rule D = 2 α sqrt(m K)", "kg", default=None),
+    "damping": Arg("damping coefficient D (or give alpha and mass)", "N*s/m", default=None,
+                   rule=">="),
+    "alpha": Arg("damping ratio α of the rule D = 2 α sqrt(m K)", "1", default=None, rule=">="),
+    "mass": Arg("mass m of the rule D = 2 α sqrt(m K)", "kg", default=None, rule=">="),
     "rest_length": Arg("rest length L0 (elongation z = q - L0)", "m", default=0),
     "q0": Arg("initial length q(0) (default: the rest length)", "m", default=None),
     "domain": Arg("energy domain of the port", symbolic=False, default="translation"),
@@ -66,10 +67,6 @@ class _SpringDamper(Component):
 
     def build(self, b: Builder, stiffness, damping, alpha, mass, rest_length, q0, domain) -> None:
         where = f"{self.kind} {b.name!r}"
-        for name, value in (("stiffness", stiffness), ("damping", damping), ("alpha", alpha),
-                            ("mass", mass)):
-            if value is not None:
-                _check_nonnegative(value, f"{where} argument {name!r}")
         if damping is not None and (alpha is not None or mass is not None):
             raise ParameterValueError(f"{where}: give either 'damping' or 'alpha' and 'mass' (the "
                                       "rule D = 2 alpha sqrt(mass K)), not both")
@@ -83,7 +80,7 @@ class _SpringDamper(Component):
         else:
             params = set(b._names.values())
             for name, value in (("stiffness", stiffness), ("damping", damping)):
-                if value is not None and not sp.sympify(value).free_symbols <= params:
+                if value is not None and not value.free_symbols <= params:
                     raise ParameterValueError(
                         f"{where} argument {name!r} = {self.value(name)!r} depends on time or "
                         "states; a SpringDamper is linear (parameters only): use "
@@ -114,7 +111,7 @@ class SpringDamper(_SpringDamper):
     """
 
     kind = "SpringDamper"
-    arguments = {"stiffness": Arg("stiffness K (parameters only)", "N/m"), **_COMMON}
+    arguments = {"stiffness": Arg("stiffness K (parameters only)", "N/m", rule=">="), **_COMMON}
 
 
 @register
@@ -129,8 +126,8 @@ class VariableSpringDamper(_SpringDamper):
 
     kind = "VariableSpringDamper"
     variable = True
-    arguments = {"stiffness": Arg("stiffness K: expression in t, states and parameters", "N/m"),
-                 **_COMMON}
+    arguments = {"stiffness": Arg("stiffness K: expression in t, states and parameters", "N/m",
+                                  rule=">="), **_COMMON}
 
 
 __all__ = ["SpringDamper", "VariableSpringDamper"]

@@ -48,6 +48,7 @@ from typing import Any
 import sympy as sp
 
 from ..errors import ParameterValueError
+from ..expressions import as_expr
 
 #: The surfaces a contact may use, with one line each (for messages and docs).
 SURFACES: dict[str, str] = {
@@ -123,7 +124,8 @@ def make_surface(kind: Any, where: str, *, slope: sp.Expr = sp.Integer(0),
     Raises
     ------
     ParameterValueError : unknown ``kind``; a slope given to a ``"plane"``; a step given to a
-        ``"plane"`` or ``"slope"``; a numeric step height < 0.
+        ``"plane"`` or ``"slope"``. (A step height < 0 is refused by the contact's argument rule,
+        see :func:`surface_arguments`.)
     """
     if kind not in SURFACES:
         raise ParameterValueError(
@@ -136,9 +138,7 @@ def make_surface(kind: Any, where: str, *, slope: sp.Expr = sp.Integer(0),
         raise ParameterValueError(
             f"{where}: surface {kind!r} takes no {', '.join(extra)}; use surface = "
             f"{'step' if 'step_height' in extra or 'step_x' in extra else 'slope'!r}")
-    _check_nonnegative(step_height, f"{where} argument 'step_height'")
-    return Surface(kind, sp.sympify(slope), sp.sympify(height), sp.sympify(step_height),
-                   sp.sympify(step_x))
+    return Surface(kind, as_expr(slope), as_expr(height), as_expr(step_height), as_expr(step_x))
 
 
 def surface_arguments() -> Mapping[str, Any]:
@@ -149,19 +149,11 @@ def surface_arguments() -> Mapping[str, Any]:
         "surface": Arg("surface kind: " + ", ".join(SURFACES), symbolic=False, default="plane"),
         "slope": Arg("slope angle γ, surface descending towards +x", "rad", default=0),
         "height": Arg("surface elevation at x = 0", "m", default=0),
-        "step_height": Arg("vertical drop h of the step (surface 'step')", "m", default=0),
+        "step_height": Arg("vertical drop h of the step (surface 'step')", "m", default=0,
+                           rule=">="),
         "step_x": Arg("x position of the step's edge (surface 'step')", "m", default=0),
     }
 
-
-def _check_nonnegative(value: sp.Expr, what: str, strict: bool = False) -> None:
-    """Raise ParameterValueError if ``value`` is a number < 0 (<= 0 when ``strict``)."""
-    value = sp.sympify(value)
-    if value.is_number:
-        number = float(value)
-        if number < 0 or (strict and number == 0):
-            raise ParameterValueError(
-                f"{what} must be {'> 0' if strict else '>= 0'}, got {number:g}")
 
 
 __all__ = ["SURFACES", "Surface", "make_surface", "surface_arguments"]

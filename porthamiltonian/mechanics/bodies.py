@@ -11,10 +11,12 @@ Values are numbers or expressions in the model's parameters (SI units: kg, m, kg
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import ModelError
+from ..expressions import check_name
 
 Value = float | str
 
@@ -102,6 +104,50 @@ class Weld(_Joint):
 
 
 def as_tables(bodies: dict[str, Any], joints: dict[str, Any]) -> tuple[dict, dict]:
-    """Bodies and joints as plain tables (accepting records or tables)."""
-    return ({k: v.to_dict() if isinstance(v, RigidBody) else v for k, v in bodies.items()},
-            {k: v.to_dict() if isinstance(v, _Joint) else v for k, v in joints.items()})
+    """Bodies and joints as plain tables (accepting records or tables). Body, joint, point and
+    frame names must be names (:func:`~porthamiltonian.expressions.check_name`): they name states,
+    ports and outputs."""
+    if not isinstance(bodies, dict) or not isinstance(joints, dict):
+        return bodies, joints              # Multibody's checks say what is wrong
+    bodies = {k: v.to_dict() if isinstance(v, RigidBody) else v for k, v in bodies.items()}
+    joints = {k: v.to_dict() if isinstance(v, _Joint) else v for k, v in joints.items()}
+    for name, body in bodies.items():
+        check_name(name, "Multibody body name")
+        for key in ("points", "frames"):
+            table = body.get(key) if isinstance(body, dict) else None
+            for point in table if isinstance(table, dict) else ():
+                check_name(point, f"Multibody body {name!r} {key[:-1]} name")
+    for name in joints:
+        check_name(name, "Multibody joint name")
+    return bodies, joints
+
+
+def expression_fields(bodies: Any, joints: Any, gravity: Any) -> Iterator[tuple[tuple, Any, str]]:
+    """Every expression of a Multibody's tables as ``(key path, value, what)``: the path within
+    the component's table (for the line of a model file), ``what`` as the compiler names the field
+    in messages (``"body 'b' mass"``). Tables of the wrong shape are skipped (Multibody's checks
+    report them)."""
+    def leaves(path: tuple, value: Any, what: str):
+        if isinstance(value, list):
+            for i, item in enumerate(value):
+                yield from leaves((*path, i), item, what)
+        else:
+            yield path, value, what
+
+    for name, body in (bodies.items() if isinstance(bodies, dict) else ()):
+        if not isinstance(body, dict):
+            continue
+        for key in ("mass", "com", "inertia"):
+            if key in body:
+                yield from leaves(("bodies", name, key), body[key], f"body {name!r} {key}")
+        for key in ("points", "frames"):
+            table = body.get(key)
+            for point, pos in (table.items() if isinstance(table, dict) else ()):
+                what = f"point {point!r}" if key == "points" else f"frame {point!r}"
+                yield from leaves(("bodies", name, key, point), pos, what)
+    for name, joint in (joints.items() if isinstance(joints, dict) else ()):
+        for key in ("origin", "q0", "v0"):
+            if isinstance(joint, dict) and key in joint:
+                yield from leaves(("joints", name, key), joint[key], f"joint {name!r} {key}")
+    if gravity is not None:
+        yield from leaves(("gravity",), gravity, "gravity")

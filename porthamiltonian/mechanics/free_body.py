@@ -175,7 +175,7 @@ class FreeBody(Component):
 
     kind = "FreeBody"
     arguments = {
-        "mass": Arg("mass m", "kg"),
+        "mass": Arg("mass m", "kg", rule=">"),
         "inertia": Arg("inertia about the centre of mass, body axes: [I1, I2, I3] or 3x3",
                        "kg*m^2", symbolic=False),
         "com": Arg("centre of mass in the body frame", "m", symbolic=False, default=None),

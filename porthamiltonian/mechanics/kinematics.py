@@ -19,6 +19,7 @@ from typing import Any
 
 import sympy as sp
 
+from ..expressions import as_expr
 from .screw import exp_so3
 
 
@@ -32,7 +33,7 @@ class Rotation:
 
     @staticmethod
     def about(axis: tuple, angle: Any) -> Rotation:
-        return Rotation(tuple(axis), sp.sympify(angle))
+        return Rotation(tuple(axis), as_expr(angle))
 
     @staticmethod
     def identity() -> Rotation:

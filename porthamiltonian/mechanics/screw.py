@@ -45,6 +45,8 @@ from typing import Any, ClassVar, Union
 import numpy as np
 import sympy as sp
 
+from ..expressions import as_expr
+
 __all__ = [
     "Ad",
     "Pose",
@@ -140,6 +142,19 @@ class _NumpyBackend:
         return float(a @ b)
 
 
+def _no_text(x: Any) -> Any:
+    """``x`` unchanged, after checking that no entry is text (``sp.Matrix`` would sympify it,
+    i.e. run it as Python); expressions from text go through porthamiltonian.expressions."""
+    stack = [x]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, str):
+            raise TypeError(f"expected numbers or sympy expressions, got the text {item!r}")
+        if isinstance(item, (list, tuple)):
+            stack += item
+    return x
+
+
 class _SympyBackend:
     """Exact arithmetic with sympy; vectors are column matrices."""
 
@@ -149,25 +164,25 @@ class _SympyBackend:
 
     @staticmethod
     def scalar(x: Any) -> sp.Expr:
-        return sp.sympify(x)
+        return as_expr(x)
 
     @staticmethod
     def vector(x: Any, n: int) -> sp.Matrix:
-        m = sp.Matrix(x)
+        m = sp.Matrix(_no_text(x))
         if m.shape not in ((n, 1), (1, n)):
             raise ValueError(f"expected a {n}-vector, got a matrix of shape {m.shape}")
         return m.reshape(n, 1)
 
     @staticmethod
     def matrix(x: Any, n: int, m: int) -> sp.Matrix:
-        a = sp.Matrix(x)
+        a = sp.Matrix(_no_text(x))
         if a.shape != (n, m):
             raise ValueError(f"expected a {n}x{m} matrix, got a matrix of shape {a.shape}")
         return a
 
     @staticmethod
     def from_rows(rows: list[list[Any]]) -> sp.Matrix:
-        return sp.Matrix(rows)
+        return sp.Matrix(_no_text(rows))
 
     @staticmethod
     def column(v: sp.Matrix) -> sp.Matrix:

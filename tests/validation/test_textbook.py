@@ -334,7 +334,8 @@ def test_cold_and_warm_compile_give_bit_identical_trajectories(tmp_path, monkeyp
     model = io.load("rlc_circuit")
     cold = compile_model(model, backend="python", use_cache=False)
     cold_again = compile_model(model, backend="python")            # fresh folder: cache miss
-    assert (tmp_path / f"{cold.key}.json").is_file() and (tmp_path / f"{cold.key}.py").is_file()
+    entry = tmp_path / cold.key                                    # the cache entry's folder
+    assert (entry / "meta.json").is_file() and (entry / "body.py").is_file()
 
     def no_symbolic(*args, **kwargs):
         raise AssertionError("a warm compile must not run the symbolic compiler")

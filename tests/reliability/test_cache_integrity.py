@@ -1,0 +1,225 @@
+"""The compiled-model cache is trusted only when intact (issue 10, item 3;
+porthamiltonian/compiler/cache.py).
+
+Each case compiles models/mass_spring_damper.toml (python back end) into a fresh cache, damages
+or plants something, compiles again (the generated modules dropped from sys.modules, so that they
+are imported from disk again) and checks: exactly one CacheWarning naming the damaged file or
+the untrusted folder, the entry rebuilt intact (or the folder left alone), no planted code run,
+and a simulation bit-identical to the untampered one.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import stat
+import sys
+
+import numpy as np
+import pytest
+
+from porthamiltonian import compile_model, io
+from porthamiltonian.compiler import cache
+from porthamiltonian.compiler.cache import CacheWarning
+
+MODEL = "mass_spring_damper"
+
+
+def _forget_modules() -> None:
+    for name in [n for n in sys.modules if n.startswith("_porthamiltonian_generated_")]:
+        del sys.modules[name]
+
+
+@pytest.fixture
+def fresh(tmp_path, monkeypatch):
+    """A fresh cache folder (tmp/cache) for this test, nothing of it imported yet."""
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(folder))
+    monkeypatch.setattr(cache, "_refused", set())
+    _forget_modules()
+    yield folder
+    _forget_modules()
+
+
+def _run(compiled):
+    traj = compiled.simulate(5.0, params={"c": 0.7}, method="Radau", rtol=1e-8, atol=1e-10)
+    return traj.t, traj.y
+
+
+def _compile():
+    _forget_modules()
+    return compile_model(io.load(MODEL), backend="python")
+
+
+def _same(a, b) -> None:
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+
+
+def _cache_warnings(record) -> list[str]:
+    return [str(w.message) for w in record if issubclass(w.category, CacheWarning)]
+
+
+def _intact(entry) -> None:
+    files = json.loads((entry / "manifest.json").read_text())["files"]
+    assert {"meta.json", "body.py"} <= set(files)
+    for name, digest in files.items():
+        assert cache._sha256((entry / name).read_bytes()) == digest, name
+
+
+@pytest.fixture
+def reference(fresh):
+    """(entry folder, simulation) of an untampered compile."""
+    compiled = _compile()
+    entry = fresh / compiled.key
+    _intact(entry)
+    assert stat.S_IMODE(os.stat(fresh).st_mode) == 0o700
+    return entry, _run(compiled), compiled.key
+
+
+def _truncate(path):
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+def _empty(path):
+    path.write_bytes(b"")
+
+
+def _change_coefficient(path):
+    text = path.read_text()
+    new, n = re.subn(r"\bp\[(\d+)\]", lambda m: f"p[{(int(m.group(1)) + 1) % 5}]", text, count=1)
+    assert n == 1
+    path.write_text(new)
+
+
+def _reorder_states(path):
+    meta = json.loads(path.read_text())
+    meta["state_names"] = meta["state_names"][::-1]
+    path.write_text(json.dumps(meta, indent=1))
+
+
+@pytest.mark.parametrize("damage", [_truncate, _empty, _change_coefficient])
+@pytest.mark.parametrize("name", ["body.py", "module"])
+def test_damaged_code_is_detected_and_rebuilt(reference, damage, name, recwarn):
+    entry, expected, key = reference
+    path = entry / ("body.py" if name == "body.py" else f"m{key}_python.py")
+    damage(path)
+    _same(_run(_compile()), expected)
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and str(path) in warned[0], warned
+    _intact(entry)
+
+
+@pytest.mark.parametrize("damage", [_truncate, _empty, _reorder_states])
+def test_damaged_layout_is_detected_and_rebuilt(reference, damage, recwarn):
+    entry, expected, _ = reference
+    damage(entry / "meta.json")
+    compiled = _compile()
+    _same(_run(compiled), expected)
+    assert compiled.state_names == ["mass.p", "spring.q"]
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and str(entry / "meta.json") in warned[0], warned
+    _intact(entry)
+
+
+@pytest.mark.parametrize("damage", [_truncate, _empty, os.unlink])
+def test_damaged_manifest_is_detected_and_rebuilt(reference, damage, recwarn):
+    entry, expected, _ = reference
+    damage(entry / "manifest.json")
+    _same(_run(_compile()), expected)
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and str(entry / "manifest.json") in warned[0], warned
+    _intact(entry)
+
+
+def _plant(entry, key, marker) -> None:
+    """A module that would create ``marker`` when imported, as every file of the entry."""
+    evil = f"open({str(marker)!r}, 'w').close()\n"
+    (entry / f"m{key}_python.py").write_text(evil + (entry / f"m{key}_python.py").read_text())
+    (entry / "planted.py").write_text(evil)
+
+
+def test_planted_file_in_a_world_writable_cache_is_never_read(reference, tmp_path, recwarn):
+    entry, expected, key = reference
+    marker = tmp_path / "PWNED"
+    _plant(entry, key, marker)
+    folder = entry.parent
+    os.chmod(folder, 0o777)
+    before = sorted(p.name for p in folder.iterdir())
+    _same(_run(_compile()), expected)
+    assert not marker.exists()
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and str(folder) in warned[0] and "writable by other users" in warned[0]
+    assert "chmod 700" in warned[0]
+    assert sorted(p.name for p in folder.iterdir()) == before      # nothing written there either
+    _same(_run(_compile()), expected)                               # warned once per process
+    assert len(_cache_warnings(recwarn)) == 1
+
+
+def test_planted_module_in_a_private_cache_is_detected(reference, tmp_path, recwarn):
+    entry, expected, key = reference
+    marker = tmp_path / "PWNED"
+    _plant(entry, key, marker)
+    _same(_run(_compile()), expected)
+    assert not marker.exists()
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and f"m{key}_python.py" in warned[0]
+
+
+def test_cache_of_another_user_is_refused(reference, monkeypatch, recwarn):
+    entry, expected, _ = reference
+    owner = os.stat(entry.parent).st_uid
+    monkeypatch.setattr(os, "getuid", lambda: owner + 1)
+    _same(_run(_compile()), expected)
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and "belongs to another user" in warned[0]
+
+
+def test_cache_under_a_folder_others_can_write_is_refused(tmp_path, monkeypatch, recwarn):
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    os.chmod(shared, 0o777)                                        # not sticky, unlike /tmp
+    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(shared / "cache"))
+    monkeypatch.setattr(cache, "_refused", set())
+    compiled = _compile()
+    _run(compiled)
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and str(shared) in warned[0] and "writable by other users" in warned[0]
+    assert not any((shared / "cache").iterdir())
+
+
+def test_read_only_cache_builds_elsewhere_with_a_warning(reference, monkeypatch, recwarn):
+    entry, expected, _ = reference
+    folder = entry.parent
+    real_access = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False if str(p) == str(folder)
+                        else real_access(p, mode, **kw))
+    _same(_run(_compile()), expected)
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and "not writable" in warned[0]
+
+
+def test_use_cache_false_writes_nothing(fresh):
+    _forget_modules()
+    compiled = compile_model(io.load(MODEL), backend="python", use_cache=False)
+    _run(compiled)
+    assert not fresh.exists()
+    private = cache.private_dir()
+    assert stat.S_IMODE(os.stat(private).st_mode) == 0o700
+
+
+def test_store_and_load_verified_for_a_native_back_end(fresh, recwarn):
+    """The API a native back end uses for its binaries: stored, verified, damage detected."""
+    key = "0" * 32
+    path = cache.store(key, "model.so", b"\x7fELF binary")
+    assert path == fresh / key / "model.so"
+    assert cache.load_verified(key, "model.so") == b"\x7fELF binary"
+    assert cache.verified_path(key, "model.so") == path
+    path.write_bytes(b"\x7fELF other")
+    assert cache.load_verified(key, "model.so") is None
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and str(path) in warned[0]
+    assert not path.exists()
+    assert cache.load_verified(key, "absent.so") is None
+    with pytest.raises(ValueError):
+        cache.store(key, "../escape.so", b"")
