@@ -20,8 +20,8 @@ differences) before anything is timed.
 
 What is measured (all times are medians over repeats, wall clock):
 
-* compile, cold: ``compile_model(model, backend, use_cache=False)`` in a fresh subprocess with a
-  fresh, empty cache directory (``$PORTHAMILTONIAN_CACHE``); then the first call of rhs, jac and
+* compile, cold: ``compile_model(model, backend)`` in a fresh subprocess with a fresh, empty
+  cache directory (``$PORTHAMILTONIAN_CACHE``), which it fills; then the first call of rhs, jac and
   energy (for numba: the JIT compilation, reported separately);
 * compile, cached: the same in a second fresh subprocess on the now warm cache directory with
   ``use_cache=True`` (no in-process module caching can help); first call = numba cache load;
@@ -290,7 +290,9 @@ def measure_compile(n: int, backend: str, repeats: int) -> dict:
     for _ in range(repeats):
         d = tempfile.mkdtemp(prefix="phbench_cache_")
         try:
-            cold.append(run_child(["compile", str(n), backend, "0"], d))
+            # cold: use_cache=True on the fresh, empty folder (use_cache=False writes nothing,
+            # which would leave the folder cold for the warm run)
+            cold.append(run_child(["compile", str(n), backend, "1"], d))
             warm.append(run_child(["compile", str(n), backend, "1"], d))
         finally:
             shutil.rmtree(d, ignore_errors=True)

@@ -36,8 +36,8 @@ differences, before anything is timed):
 
 Measured (wall clock, medians):
 
-* compile, cold: ``compile_model(model, backend, use_cache=False)`` in a fresh subprocess with an
-  empty cache folder ($PORTHAMILTONIAN_CACHE), then the first rhs + jac + energy call (numba: the
+* compile, cold: ``compile_model(model, backend)`` in a fresh subprocess with an empty cache
+  folder ($PORTHAMILTONIAN_CACHE), which it fills, then the first rhs + jac + energy call (numba: the
   JIT compilation); cached: a second fresh subprocess on the warm cache with use_cache=True;
   medians of 3 (python) or a single run (numba, and chain10);
 * one RHS + Jacobian evaluation (``timeit``) at a fixed generic state, library back end(s) vs
@@ -362,7 +362,7 @@ def compile_times(spec: str, backend: str, repeats: int, warm_dir: str) -> dict:
     for k in range(repeats):
         with tempfile.TemporaryDirectory(prefix="ph_bench_mech_") as scratch:
             cache_dir = warm_dir if k == repeats - 1 else scratch
-            a = run_child(spec, backend, False, cache_dir)
+            a = run_child(spec, backend, True, cache_dir)     # cold: the folder is empty
             b = run_child(spec, backend, True, cache_dir)
         cold.append(a["compile"])
         cold_first.append(a["first_call"])

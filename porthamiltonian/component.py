@@ -305,6 +305,8 @@ class Component:
     #: constraints between two arguments, ``(argument, rule, other argument)``, e.g.
     #: ``("mu_c", "<=", "mu_st")``; checked like :attr:`Arg.rule`
     relations: ClassVar[tuple[tuple[str, str, str], ...]] = ()
+    #: plain (non-symbolic) arguments that are vectors or matrices of expressions
+    vector_arguments: ClassVar[tuple[str, ...]] = ()
     #: Junction-like components accept new ports at connection time.
     free_ports: ClassVar[bool] = False
 
@@ -349,16 +351,16 @@ class Component:
 
     def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
         """Every expression among the arguments as ``(key path, value, what, local names)``, for
-        the model-file loader to parse and locate: the symbolic arguments, and the entries of
-        list-valued plain arguments (vectors and matrices, e.g. a FreeBody's ``inertia``).
-        ``what`` is how the compiler names the field in messages (``"argument 'mass'"``)."""
+        the model-file loader to parse and locate: the symbolic arguments, and the entries of the
+        :attr:`vector_arguments`. ``what`` is how the compiler names the field in messages
+        (``"argument 'mass'"``)."""
         for name, arg in self.arguments.items():
             value = self.args.get(name)
             if value is None:
                 continue
             if arg.symbolic:
                 yield (name,), value, f"argument {name!r}", arg.local
-            elif isinstance(value, list):
+            elif name in self.vector_arguments and isinstance(value, list):
                 stack = [((name, i), item) for i, item in enumerate(value)]
                 while stack:
                     path, item = stack.pop(0)

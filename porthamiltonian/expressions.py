@@ -586,7 +586,7 @@ def _shown(value: Any) -> str:
     return text if len(text) <= 120 else text[:100] + "..." + text[-12:]
 
 
-def parse(text: str | float | int | sp.Expr, names: Mapping[str, sp.Expr], where: str,
+def parse(text: str | float | sp.Expr, names: Mapping[str, sp.Expr], where: str,
           dotted: Callable[[str], sp.Expr | None] | None = None) -> sp.Expr:
     """Parse ``text`` into a sympy expression over ``names`` (plus ``t``, ``pi`` and
     :data:`FUNCTIONS`).
@@ -751,6 +751,19 @@ def as_expr(value: Any) -> sp.Basic:
     return sp.sympify(value, strict=True)
 
 
-__all__ = ["CONSTANTS", "FUNCTIONS", "MAX_DEPTH", "MAX_LENGTH", "MAX_NODES", "MAX_TERMS",
-           "Expression", "TIME", "as_expr", "check_name", "is_name", "parse", "parse_text",
-           "to_text"]
+__all__ = [
+    "CONSTANTS",
+    "FUNCTIONS",
+    "MAX_DEPTH",
+    "MAX_LENGTH",
+    "MAX_NODES",
+    "MAX_TERMS",
+    "TIME",
+    "Expression",
+    "as_expr",
+    "check_name",
+    "is_name",
+    "parse",
+    "parse_text",
+    "to_text",
+]

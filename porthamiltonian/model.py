@@ -18,8 +18,14 @@ from typing import Any
 import networkx as nx
 
 from .component import Component
-from .errors import (DanglingPortError, DuplicateNameError, ModelError, ParameterValueError,
-                     UnknownComponentError, UnknownPortError)
+from .errors import (
+    DanglingPortError,
+    DuplicateNameError,
+    ModelError,
+    ParameterValueError,
+    UnknownComponentError,
+    UnknownPortError,
+)
 from .expressions import CONSTANTS, check_name
 from .ports import Port, check_bond
 

@@ -167,8 +167,13 @@ def _untrusted(path: Path) -> str | None:
 
 
 def _base(persistent: bool) -> Path:
+    """Where entries go: the cache folder; else (not usable) the private folder's ``cache``;
+    ``scratch`` in the private folder for builds that are not to be kept (use_cache=False)."""
     base = cache_dir() if persistent else None
-    return base if base is not None else private_dir()
+    if base is None:
+        base = private_dir() / ("cache" if persistent else "scratch")
+        base.mkdir(mode=0o700, exist_ok=True)
+    return base
 
 
 # --- the key ---------------------------------------------------------------------------------------
@@ -352,6 +357,8 @@ def read(key: str) -> tuple[dict[str, Any], str] | None:
         return None
     files = _manifest(entry)
     raw = None
+    if files is not None and not {"meta.json", "body.py"} & set(files):
+        return None                     # only back-end files stored so far: a miss
     if files is not None:
         raw = {name: _verified(entry, name, files) for name in ("meta.json", "body.py")}
         if any(v is None for v in raw.values()):
@@ -386,9 +393,13 @@ def write(key: str, meta: dict[str, Any], body: str) -> None:
         os.chmod(staging, 0o700)
         try:
             os.rename(staging, base / key)
-        except OSError:                 # another process stored it first (or a stale entry)
-            if read(key) is None:       # damaged: removed; put ours in its place
-                os.rename(staging, base / key)
+        except OSError:                 # another process stored it first, or a stale entry
+            if read(key) is None:       # damaged (now removed), or holding back-end files only
+                if (base / key).is_dir():
+                    for name, data in contents.items():
+                        store(key, name, data)
+                else:
+                    os.rename(staging, base / key)
     except OSError as err:
         _warn(f"compiled-model cache {base}: cannot write ({err.strerror}); not cached")
     finally:

@@ -191,6 +191,8 @@ class FreeBody(Component):
                   default=None),
     }
 
+    vector_arguments = ("inertia", "com", "gravity", "position0", "quaternion0", "omega0", "v0")
+
     def __init__(self, **args: Any):
         super().__init__(**args)
         mass = self.value("mass")

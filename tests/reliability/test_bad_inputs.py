@@ -16,8 +16,14 @@ import numpy as np
 import pytest
 
 from porthamiltonian import Model, compile_model, io
-from porthamiltonian.errors import (ModelError, ModelFileError, OptionError, ParameterValueError,
-                                    StateError, UnknownParameterError)
+from porthamiltonian.errors import (
+    ModelError,
+    ModelFileError,
+    OptionError,
+    ParameterValueError,
+    StateError,
+    UnknownParameterError,
+)
 
 
 @pytest.fixture(autouse=True)

@@ -102,8 +102,9 @@ def test_closed_pipe_exits_quietly(isolated_cache):
     """``porthamiltonian show MODEL | head -0``: the reader is gone before the first line (closed
     before the child has even imported the package, so the write always fails)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    proc = subprocess.Popen([sys.executable, "-c", "import sys; from porthamiltonian.cli import "
-                             "main; sys.exit(main(['show', 'mass_spring_damper']))"],
+    code = ("import sys; from porthamiltonian.cli import main; "
+            "sys.exit(main(['show', 'mass_spring_damper']))")
+    proc = subprocess.Popen([sys.executable, "-c", code],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
     proc.stdout.close()
     err = proc.stderr.read().decode()

@@ -154,9 +154,8 @@ CASES = ([pytest.param("expression", "component argument", p, id=f"argument-{i}"
 
 def _load_refused(path, cache_dir, marker, audit) -> str:
     before = sorted(os.listdir(cache_dir))
-    with audit() as events:
-        with pytest.raises(ModelFileError) as info:
-            io.load(path)
+    with audit() as events, pytest.raises(ModelFileError) as info:
+        io.load(path)
     assert not events, events
     assert not marker.exists()
     assert sorted(os.listdir(cache_dir)) == before

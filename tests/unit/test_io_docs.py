@@ -79,9 +79,13 @@ def kinds_reference() -> str:
         for name, arg in cls.arguments.items():
             what = arg.doc.replace("|", "\\|")
             if arg.symbolic:
-                what += " (expression" + (f" in {', '.join(arg.local)}" if arg.local else "") + ")"
+                what += " (expression" + (f" in {', '.join(arg.local)}" if arg.local else "") + (
+                    f"; {arg.rule} 0" if arg.rule else "") + ")"
             out.append(f"| `{name}` | {arg.unit or ''} | {_default(arg)} | {what} |")
         out.append("")
+        if cls.relations:
+            out += ["Constraints: " + ", ".join(f"`{a} {rule} {b}`" for a, rule, b in cls.relations)
+                    + ".", ""]
     out.append(END)
     return "\n".join(out)
 
