@@ -93,8 +93,10 @@ FUNCTIONS: dict[str, Function] = {
     "log": Function(sp.log, _log, (1, 2)), "sqrt": Function(sp.sqrt, math.sqrt, (1, 1)),
     "abs": Function(sp.Abs, abs, (1, 1)), "Abs": Function(sp.Abs, abs, (1, 1)),
     "sign": Function(sp.sign, _sign, (1, 1)),
-    "min": Function(sp.Min, min, (1, None)), "max": Function(sp.Max, max, (1, None)),
-    "Min": Function(sp.Min, min, (1, None)), "Max": Function(sp.Max, max, (1, None)),
+    "min": Function(sp.Min, lambda *a: min(a), (1, None)),
+    "max": Function(sp.Max, lambda *a: max(a), (1, None)),
+    "Min": Function(sp.Min, lambda *a: min(a), (1, None)),
+    "Max": Function(sp.Max, lambda *a: max(a), (1, None)),
     "Heaviside": Function(sp.Heaviside, _heaviside, (1, 1)),
 }
 #: Named constants.

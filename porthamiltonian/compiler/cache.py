@@ -35,14 +35,15 @@ Integrity and trust (the rules a native back end follows too, through :func:`sto
 ----------------------------------------------------------------------------------------------
 * Every file is verified against its sha256 in the manifest before it is used. A missing,
   truncated or edited file, a damaged manifest, or an entry whose files disagree with it gives one
-  :class:`CacheWarning` naming the file; the entry is removed and rebuilt (a damaged file under
-  ``__pycache__`` is just removed: Python or numba writes it again).
-* The cache folder is used only when it is owned by the user, is not writable by group or
-  others, and no folder above it is writable by others unless sticky (``/tmp``) and owned by the
-  user or root. Otherwise, or when it cannot be written (read-only), this process warns once,
-  saying how to fix it (``chmod 700 DIR``, or another ``PORTHAMILTONIAN_CACHE``), reads nothing
-  from it, and builds in a private temporary folder removed at exit. Nothing is imported or
-  unpickled from a folder that others can write.
+  :class:`CacheWarning` naming the file; the entry (its ``__pycache__`` with it) is removed and
+  rebuilt, or, for a back end's file, that file is stored again.
+* The cache folder is used only when it is owned by the user and not writable by group or
+  others, and every folder above it is owned by the user or root and not writable by everyone
+  unless sticky (``/tmp``). Otherwise, or when it cannot be written (read-only), this process
+  warns once, saying how to fix it (``chmod 700 DIR``, or another ``PORTHAMILTONIAN_CACHE``),
+  reads nothing from it, and builds in a private temporary folder removed at exit (chosen over
+  refusing to compile: the work goes on, only nothing is kept). Nothing is imported or unpickled
+  from a folder that others can write.
 * ``compile_model(..., use_cache=False)`` writes nothing to the cache (``persistent=False`` here):
   the module is built in the private temporary folder.
 
@@ -146,8 +147,9 @@ def cache_dir() -> Path | None:
 
 
 def _untrusted(path: Path) -> str | None:
-    """Why ``path`` cannot be trusted, or None: it must be the user's and private; each folder
-    above it must belong to the user or root and not be writable by others unless sticky."""
+    """Why ``path`` cannot be trusted, or None: it must be the user's and not writable by group
+    or others; each folder above it must belong to the user or root and not be writable by
+    everyone unless sticky (as /tmp is; a group-writable home of a user-private group is fine)."""
     uid = os.getuid() if hasattr(os, "getuid") else None
     info = path.stat()
     if uid is not None and info.st_uid != uid:
@@ -161,7 +163,7 @@ def _untrusted(path: Path) -> str | None:
         pinfo = parent.stat()
         if uid is not None and pinfo.st_uid not in (uid, 0):
             return f"the folder above it, {parent}, belongs to another user"
-        if pinfo.st_mode & (stat.S_IWGRP | stat.S_IWOTH) and not pinfo.st_mode & stat.S_ISVTX:
+        if pinfo.st_mode & stat.S_IWOTH and not pinfo.st_mode & stat.S_ISVTX:
             return f"the folder above it, {parent}, is writable by other users"
     return None
 

@@ -297,7 +297,8 @@ class Multibody(Component):
         for body_name, body in bodies.items():
             frame = frames[body_name]
             mass = b.parse(body["mass"], f"body {body_name!r} mass")
-            b.require(mass, ">", f"body {body_name!r} mass")
+            if mass != 0:               # > 0, or written as 0 (a massless body, e.g. "0*m")
+                b.require(mass, ">", f"body {body_name!r} mass")
             com = [b.parse(v, f"body {body_name!r} com") for v in _vector3(body.get("com"), "com")]
             c_world = frame.point(com)
             linear, angular = {}, {}
