@@ -13,6 +13,10 @@
   implement it too), :class:`Stride`, :class:`ParameterSpec`;
 * :mod:`.poincare` — stride map, fixed points (Newton), Floquet multipliers, period detection;
 * :mod:`.gait`, :mod:`.metrics` — the gait analysis behind ``walker gait`` and its metrics;
+* :mod:`.robustness` — step-down, basin of attraction, Gait Sensitivity Norm;
+* :mod:`.analyses` — those analyses as sweep case functions (``walker sweep``), with a cache of
+  compiled walkers and gaits; :mod:`.studies` — the thesis's tables and figures
+  (``walker reproduce``);
 * :mod:`.results` — JSON serialization; :mod:`.cli` — the ``walker`` command.
 """
 from .compliant import (CompliantOptions, CompliantWalker, DampingCalibration, calibrate_damping,
