@@ -115,11 +115,14 @@ def model_cache() -> ModelCache:
 def settling_time(t: np.ndarray, y: np.ndarray, band: float = 0.02,
                   y_of_t: Callable[[float], float] | None = None) -> float | None:
     """The time (s) after which ``y`` stays within ``band`` × its largest deviation from its
-    final value ``y[-1]`` (the 2 % settling time for ``band=0.02``; for a release from rest or a
-    step this deviation is the step size, the textbook definition). The last crossing of the
-    band is found between the samples by a root of ``y_of_t`` (e.g. dense output) when given,
-    else by linear interpolation. None when ``y`` is outside the band at its second-to-last
-    sample (it has not settled: run longer); ``t[0]`` when it never leaves the band."""
+    final value (the 2 % settling time for ``band=0.02``; for a release from rest or a step this
+    deviation is the step size, the textbook definition).
+
+    The final value is the last sample ``y[-1]``: the run must be long enough for ``y`` to get
+    there (a ramp "settles" into the band around its last sample). The last crossing of the band
+    is found between the samples by a root of ``y_of_t`` (e.g. dense output) when given, else by
+    linear interpolation. None when ``y`` is still outside the band at its second-to-last sample;
+    ``t[0]`` when it never leaves the band."""
     t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
     final = y[-1]
     deviation = np.abs(y - final)
