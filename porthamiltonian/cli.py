@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -327,13 +328,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> int:
     """Parse ``argv`` and run the chosen command; a :class:`ModelError` (bad input) prints
-    ``error: ...`` on stderr and exits with status 2. Shared by the ``walker`` command."""
+    ``error: ...`` on stderr and exits with status 2; a reader of stdout that went away
+    (``walker gait ... --json | head``) ends the command quietly with status 141 (SIGPIPE's).
+    Shared by the ``walker`` command."""
     args = parser.parse_args(argv)
     try:
         return args.func(args)
     except ModelError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # point stdout at /dev/null so that the interpreter's last flush cannot fail again
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -253,15 +253,15 @@ class _Activity:
 def activity(desc: str, *, enabled: bool = True, stream: IO[str] | None = None
              ) -> Iterator[_Activity]:
     """Show the :func:`tick` counts of the block as a tqdm counter on ``stream`` (stderr) when
-    ``enabled``, tqdm is installed and the stream is a terminal, e.g. ``gait compass_walker: 57
-    strides [00:12, 4.6 strides/s]``; otherwise show nothing."""
+    ``enabled``, tqdm is installed and the stream is a terminal, e.g. ``gait compass_walker, 57
+    strides [00:12]``; otherwise show nothing (:meth:`_Activity.write` lines excepted)."""
     stream = stream or sys.stderr
     tqdm = _tqdm() if enabled else None
     if tqdm is None or not getattr(stream, "isatty", lambda: False)():
         yield _Activity(None, stream)
         return
     bar = tqdm(desc=desc, unit="", file=stream, dynamic_ncols=True,
-               bar_format="{desc}: {postfix} [{elapsed}]")
+               bar_format="{desc}{postfix} [{elapsed}]")
     work: Counter = Counter()
 
     def sink(what: str, n: int) -> None:

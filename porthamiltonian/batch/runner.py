@@ -598,6 +598,9 @@ class Sweep:
                     executor = new_pool(n_workers)
                 prog.refresh()
                 submit()
+            if channel is not None:                 # ticks sent after the last row arrived
+                for what, n in channel.drain().items():
+                    prog.add_work(what, n)
         except BaseException:
             for fut in pending:
                 fut.cancel()

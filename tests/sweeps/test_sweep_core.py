@@ -359,6 +359,34 @@ def test_progress_bar_and_none(tmp_path, capsys):
         Sweep(sweep_cases.square_case, CASES, tmp_path / "c.jsonl").run(serial=True, progress="x")
 
 
+@pytest.mark.parametrize("serial", [True, False], ids=["serial", "pool"])
+def test_progress_counts_the_work_ticks_of_the_cases(tmp_path, capsys, serial):
+    """Work ticks of the case functions reach the display, also from pool workers."""
+    Sweep(sweep_cases.ticking_case, grid(x=[1, 2, 3, 4]), tmp_path / "s.jsonl").run(
+        serial=serial, workers=2, progress="text", progress_interval=0.0)
+    last = capsys.readouterr().err.splitlines()[-1]
+    assert last.startswith("sweep s.jsonl: 4/4 cases, 0 failed, 10 iterations, "), last
+
+
+def test_activity_counts_ticks_on_a_terminal_only():
+    import io
+
+    from porthamiltonian.batch import activity, tick
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    shown, hidden = Terminal(), io.StringIO()
+    for stream in (shown, hidden):
+        with activity("gait test", stream=stream) as display:
+            for _ in range(3):
+                tick("stride")
+            display.write("a line")
+    assert "gait test, 3 strides [00:00]" in shown.getvalue() and "a line" in shown.getvalue()
+    assert hidden.getvalue() == "a line\n"
+
+
 # --- analyses ---------------------------------------------------------------------------------------
 def test_walker_analyses_by_name_and_module_function_names():
     assert analyses.get_analysis("gait").resolve() is analyses.gait_case
