@@ -93,6 +93,17 @@ SWEEP_OPTIONS.add_argument("--progress-interval", type=float, default=10.0, meta
                            help="seconds between text progress lines (default: 10)")
 
 
+def add_sweep_parser(subparsers, help: str, description: str) -> argparse.ArgumentParser:
+    """Add a ``sweep`` command to ``subparsers``: ``--backend``, :data:`SWEEP_OPTIONS` and
+    ``--json``, and the resume and exit-status rules after ``description``."""
+    return subparsers.add_parser(
+        "sweep", parents=[BACKEND_OPTION, SWEEP_OPTIONS, JSON_OPTION], help=help,
+        description=f"{description} Rerunning the same command resumes the sweep where it "
+                    "stopped (also after the command was killed). Exit status: 0 all cases "
+                    "done, 1 some lost (rerun), 2 bad input or a refused file, 130/143 "
+                    "interrupted (rerun to resume).")
+
+
 def parse_assignments(pairs: Sequence[str]) -> dict[str, float]:
     """``["k=9", "slope=0.01"]`` (the ``--set`` options) -> ``{"k": 9.0, "slope": 0.01}``."""
     out = {}
@@ -302,15 +313,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("models", nargs="*", metavar="MODEL",
                    help="models to check (default: every model in models/)")
     p.set_defaults(func=cmd_check_energy)
-    p = sub.add_parser(
-        "sweep", parents=[BACKEND_OPTION, SWEEP_OPTIONS, JSON_OPTION],
-        help="simulate a model for every case of a parameter grid, resumably",
-        description="Simulate MODEL once per case of a parameter grid (the case's values bound as "
-                    "parameters), appending one row per case to a JSON Lines file: the run's "
-                    "status and energy ledger, final value, minimum and maximum of chosen "
-                    "outputs, and a settling time. Rerunning the same command resumes the sweep. "
-                    "Exit status: 0 all cases done, 1 some lost (rerun), 2 bad input or a "
-                    "refused file, 130/143 interrupted (rerun to resume).")
+    p = add_sweep_parser(
+        sub, "simulate a model for every case of a parameter grid, resumably",
+        "Simulate MODEL once per case of a parameter grid (the case's values bound as "
+        "parameters), appending one row per case to a JSON Lines file: the run's status and "
+        "energy ledger, final value, minimum and maximum of chosen outputs, and a settling time.")
     p.add_argument("model", help=model_help)
     p.add_argument("--t-end", type=float, default=None, metavar="T",
                    help="end time of every run (s; default: the model file's [simulation] t_end)")

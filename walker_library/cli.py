@@ -36,7 +36,7 @@ from porthamiltonian.cli import (
     JSON_OPTION,
     QUIET_OPTION,
     SET_OPTION,
-    SWEEP_OPTIONS,
+    add_sweep_parser,
     backend_option,
     parse_assignments,
     run,
@@ -353,14 +353,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
     p.set_defaults(func=cmd_report)
 
-    p = sub.add_parser(
-        "sweep", parents=[BACKEND_OPTION, SWEEP_OPTIONS, JSON_OPTION],
-        help="run an analysis over a grid of parameters, resumably (JSON Lines file)",
-        description="Run an analysis for every case of a parameter grid, appending one row per "
-                    "case to a JSON Lines file as it finishes; rerunning the same command resumes "
-                    "where it stopped (also after the command was killed). Exit status: 0 all "
-                    "cases done, 1 some lost (rerun), 2 bad input or a refused file, 130/143 "
-                    "interrupted (rerun to resume).")
+    p = add_sweep_parser(
+        sub, "run an analysis over a grid of parameters, resumably (JSON Lines file)",
+        "Run an analysis for every case of a parameter grid, appending one row per case to a "
+        "JSON Lines file as it finishes.")
     p.add_argument("model", help=model_help + " (passed to the case function as model=MODEL)")
     p.add_argument("--analysis", default="gait",
                    help=f"one of {', '.join(ANALYSES)} (default: gait), or module:function for a "
