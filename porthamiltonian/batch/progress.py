@@ -27,7 +27,7 @@ from typing import IO, Any
 
 from .errors import SweepError
 
-__all__ = ["SweepProgress", "TickChannel", "activity", "counting", "tick"]
+__all__ = ["SweepProgress", "TickChannel", "activity", "counting", "install_worker_sink", "tick"]
 
 Sink = Callable[[str, int], None]
 _SINK: ContextVar[Sink | None] = ContextVar("porthamiltonian_batch_progress_sink", default=None)
@@ -65,17 +65,12 @@ class TickChannel:
     workers receive (pool initializer). Each message is one short ``write`` (well below the
     pipe's atomic size), so workers share the pipe without a lock — a worker killed while
     writing cannot leave the pipe locked or a message half-written. Workers batch their ticks
-    and send at most every ``interval`` seconds (:meth:`worker_sink`)."""
+    and send at most every ``interval`` seconds (:func:`install_worker_sink`)."""
 
     interval = 0.2
 
     def __init__(self, mp_context):
         self.reader, self.writer = mp_context.Pipe(duplex=False)
-
-    @classmethod
-    def worker_sink(cls, writer) -> _WorkerSink:
-        """The sink a worker process installs (see :func:`counting`)."""
-        return _WorkerSink(writer, cls.interval)
 
     def drain(self) -> Counter:
         """The ticks received since the last call."""
@@ -114,6 +109,15 @@ class _WorkerSink:
             except OSError:  # pragma: no cover - the sweep is gone
                 pass
         self.last = time.monotonic()
+
+
+def install_worker_sink(writer) -> _WorkerSink:
+    """In a worker process: send this process's ticks through ``writer`` (the writing end of a
+    :class:`TickChannel`) for the rest of its life. The sink's ``flush()`` sends what is
+    pending (the runner calls it after each case)."""
+    sink = _WorkerSink(writer, TickChannel.interval)
+    _SINK.set(sink)
+    return sink
 
 
 def _duration(seconds: float) -> str:

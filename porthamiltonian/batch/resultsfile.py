@@ -27,9 +27,10 @@ import json
 import os
 import threading
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 try:  # advisory locking (POSIX)
     import fcntl
@@ -253,16 +254,18 @@ class ResultsFile:
     """The open, locked results file of a running sweep; rows are appended durably.
 
     :meth:`open` creates the file (header only) if it is missing, locks it, checks it with
-    ``check(scan)`` (the caller's identity check), truncates a torn last line with a warning and
-    positions at the end; :meth:`append` writes one row; :meth:`close` releases the lock.
+    ``check(scan)`` (the caller's identity check), then truncates a torn last line with a
+    warning and positions at the end; :meth:`append` writes one row; :meth:`close` releases the lock.
     """
 
     def __init__(self, path: Path, fh: IO[bytes]):
         self.path, self._fh = path, fh
 
     @classmethod
-    def open(cls, path: Path, header_line: bytes, check) -> tuple[ResultsFile, list[tuple[int, dict]]]:
-        """The open file and its rows (line number, row), after ``check(scan)`` accepted it."""
+    def open(cls, path: Path, header_line: bytes,
+             check: Callable[[Scan], Any]) -> tuple[ResultsFile, Any]:
+        """The open file and what ``check(scan)`` returned for it (``check`` raises to refuse
+        the file; None is passed for a file that was empty), before anything is written."""
         if path.is_dir():
             raise SweepFileError(f"{path} is a directory; name a results file (e.g. "
                                  f"{path / 'sweep.jsonl'})")
@@ -279,9 +282,9 @@ class ResultsFile:
             if not data:             # an empty file (e.g. made by `touch`): nothing to lose
                 fh.write(header_line)
                 results._sync()
-                return results, []
+                return results, check(None)
             found = scan(path, data)
-            check(found)
+            checked = check(found)
             if found.torn is not None:
                 number, raw = found.torn
                 warnings.warn(f"{path}, line {number}: torn last line ({len(raw)} bytes, an "
@@ -291,7 +294,7 @@ class ResultsFile:
             if found.missing_newline:
                 fh.write(b"\n")
             results._sync()
-            return results, found.rows
+            return results, checked
         except BaseException:
             results.close()
             raise

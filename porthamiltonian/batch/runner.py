@@ -209,8 +209,7 @@ def _worker_init(parent_pid: int, tick_writer, shared: Mapping[str, Any]) -> Non
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _exit_with_parent(parent_pid)
     _WorkerState.shared = shared
-    _WorkerState.sink = _progress.TickChannel.worker_sink(tick_writer)
-    _progress._SINK.set(_WorkerState.sink)
+    _WorkerState.sink = _progress.install_worker_sink(tick_writer)
 
 
 # --- interrupts ---------------------------------------------------------------------------------
@@ -414,15 +413,19 @@ class Sweep:
             done[cid] = row
         return done
 
-    def _check_scan(self, found: Scan) -> None:
+    def _check_scan(self, found: Scan | None) -> dict[int, dict]:
+        """Accept a results file for this sweep (or refuse it); its rows by case id."""
+        if found is None:
+            return {}
         self._check_identity(found.header)
-        self._check_rows(found.rows)
+        done = self._check_rows(found.rows)
         theirs = found.header.get("meta", {})
         if theirs != self.meta:
             keys = sorted(set(theirs) | set(self.meta))
             changed = [k for k in keys if theirs.get(k) != self.meta.get(k)]
             warnings.warn(f"{self.path}: resuming a sweep whose header metadata differ in "
                           f"{', '.join(changed)} (the file's are kept)", stacklevel=5)
+        return done
 
     def rows(self) -> list[dict]:
         """The rows in the file (file order), after checking it belongs to this sweep; [] when
@@ -477,8 +480,7 @@ class Sweep:
         if workers is not None and workers < 1:
             raise SweepError(f"workers must be at least 1, got {workers}")
         t0 = time.monotonic()
-        results, rows = ResultsFile.open(self.path, self._header_line(), self._check_scan)
-        done = self._check_rows(rows)
+        results, done = ResultsFile.open(self.path, self._header_line(), self._check_scan)
         counts = Counter(row["status"] for row in done.values())
         n_before = len(done)
         todo = [i for i in range(len(self.cases)) if i not in done]
