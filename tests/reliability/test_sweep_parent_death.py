@@ -105,7 +105,8 @@ def test_sigkill_of_the_sweep_then_an_immediate_resume(tmp_path):
         _uninterrupted(tmp_path)
 
 
-def _hold(seconds: float) -> None:
+def _hold(started, seconds: float) -> None:
+    started.set()
     time.sleep(seconds)
 
 
@@ -117,9 +118,12 @@ def test_a_forked_child_does_not_keep_the_results_file_locked(tmp_path):
     header = b'{"format": "porthamiltonian-sweep", "version": 1, "sweep": {"function": "f", ' \
              b'"fixed": {}, "n_cases": 1, "cases_sha256": ""}}\n'
     held, _ = ResultsFile.open(path, header, lambda scan: None)
-    child = multiprocessing.get_context("fork").Process(target=_hold, args=(30.0,))
+    fork = multiprocessing.get_context("fork")
+    started = fork.Event()
+    child = fork.Process(target=_hold, args=(started, 30.0))
     child.start()
     try:
+        assert started.wait(30)                       # the child runs (its at-fork hooks ran)
         with pytest.raises(SweepFileError, match="being written by another running sweep"):
             ResultsFile.open(path, header, lambda scan: None)
         held.close()                                  # as the holder's death would
