@@ -25,8 +25,8 @@ from .integrators import RODAS_SOURCE
 _NUMBA_HEADER = "import math\nimport numpy as np\nfrom numba import njit as _njit\n_jit = _njit(cache=True)\n"
 _PYTHON_HEADER = "import math\nimport numpy as np\n\n\ndef _jit(f):\n    return f\n"
 _NAMES = ("rhs", "jac", "energy", "outputs", "guards", "initial")
-#: the back-end names :func:`resolve` accepts ("auto" picks the fastest one installed)
-NAMES = ("auto", "python", "numba")
+#: The back ends, in the order ``"auto"`` tries them.
+BACKENDS = ("numba", "python")
 
 
 @dataclass(frozen=True)
@@ -57,9 +57,8 @@ def resolve(backend: str) -> str:
     """``"auto"`` -> ``"numba"`` when installed, else ``"python"``; validate explicit names."""
     if backend == "auto":
         return "numba" if numba_available() else "python"
-    if backend not in NAMES:
-        *first, last = (repr(n) for n in NAMES)
-        raise ModelError(f"unknown back end {backend!r}; choose {', '.join(first)} or {last}")
+    if backend not in ("python", "numba"):
+        raise ModelError(f"unknown back end {backend!r}; choose 'auto', 'python' or 'numba'")
     if backend == "numba" and not numba_available():
         raise ModelError("back end 'numba' needs numba: pip install 'porthamiltonian[fast]'")
     return backend

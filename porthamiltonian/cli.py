@@ -52,7 +52,7 @@ def backend_option(default: str | None = argparse.SUPPRESS) -> argparse.Argument
     A command's top-level parser takes it with the command's default; its subcommands take
     :data:`BACKEND_OPTION` (no default), so the option works before and after the subcommand."""
     parent = _parent()
-    parent.add_argument("--backend", choices=backends.NAMES, default=default,
+    parent.add_argument("--backend", choices=("auto", *backends.BACKENDS), default=default,
                         help="numeric back end; 'auto' picks the fastest one installed "
                              "(default: auto; walkers: the walker's own)")
     return parent

@@ -44,7 +44,7 @@ def test_backend_before_and_after_the_command(build):
     default = parser.parse_args(["list"] if build is walker_parser else ["show", "x"]).backend
     assert default == (None if build is walker_parser else "auto")
     command = ["gait", "rimless_wheel"] if build is walker_parser else ["simulate", "msd"]
-    for name in backends.NAMES:
+    for name in ("auto", *backends.BACKENDS):
         assert parser.parse_args(["--backend", name, *command]).backend == name
         assert parser.parse_args([*command, "--backend", name]).backend == name
     assert parser.parse_args(["--backend", "python", *command, "--backend", "auto"]).backend == "auto"
