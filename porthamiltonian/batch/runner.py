@@ -71,6 +71,14 @@ __all__ = ["Sweep", "SweepInterrupted", "SweepReport", "function_name", "resolve
 
 
 # --- the case function -------------------------------------------------------------------------
+def _import(module: str, qualname: str) -> Any:
+    """The object ``module:qualname`` (ImportError or AttributeError when there is none)."""
+    obj: Any = importlib.import_module(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
 def function_name(fn: Callable) -> str:
     """``"module:qualname"`` of a top-level function that worker processes can import;
     :class:`SweepError` for lambdas, nested functions and names that do not import back."""
@@ -81,9 +89,7 @@ def function_name(fn: Callable) -> str:
             "(worker processes import it by name); lambdas and nested functions cannot be used")
     if module != "__main__":
         try:
-            obj: Any = importlib.import_module(module)
-            for part in qualname.split("."):
-                obj = getattr(obj, part)
+            obj = _import(module, qualname)
         except (ImportError, AttributeError):
             raise SweepError(f"the case function {module}:{qualname} cannot be imported by that "
                              "name; define it at the top level of an importable module") from None
@@ -101,9 +107,7 @@ def resolve_function(ref: str | Callable) -> Callable:
     if not sep or not module or not qualname:
         raise SweepError(f"{ref!r}: a case function is named 'module:function'")
     try:
-        obj: Any = importlib.import_module(module)
-        for part in qualname.split("."):
-            obj = getattr(obj, part)
+        obj = _import(module, qualname)
     except (ImportError, AttributeError) as err:
         raise SweepError(f"cannot import the case function {ref!r}: {err}") from None
     if not callable(obj):
