@@ -57,7 +57,7 @@ def basin_cases(fp: dict, k: int) -> list[dict]:
 
 
 def _row(name: str, n: int, seconds: float, note: str = "") -> None:
-    print(f"{name:44s} {n:6d} {seconds:9.1f} {60 * n / seconds:10.1f}  {note}")
+    print(f"{name:52s} {n:6d} {seconds:9.1f} {60 * n / seconds:10.1f}  {note}".rstrip())
 
 
 def main(argv=None) -> int:
@@ -85,7 +85,7 @@ def main(argv=None) -> int:
     print(f"gait at slope {SLOPE}: {gait.status}, found in {t_gait:.1f} s")
     pool = {"workers": args.workers}
 
-    print(f"\n{'sweep':44s} {'cases':>6s} {'wall s':>9s} {'cases/min':>10s}")
+    print(f"\n{'sweep':52s} {'cases':>6s} {'wall s':>9s} {'cases/min':>10s}")
     slopes = [0.005, 0.011] if args.quick else [0.005, 0.007, 0.011, 0.013]
     sd_cases = [{"slope": s} for s in slopes]
     sd_fixed = {"model": MODEL, "resolution": 2e-4}
@@ -112,7 +112,7 @@ def main(argv=None) -> int:
          f"{t_worker / t_shipped:.2f}x the per-worker variant" + ("" if same else "  (rows differ!)"))
     per_min = 60 * len(cases) / t_shipped
     print(f"\n50 x 50 basin at {per_min:.0f} points/min (gait shipped): "
-          f"{2500 / per_min / 60:.1f} min + {t_gait:.0f} s for the gait (target: <= 5 min)")
+          f"{2500 / per_min:.1f} min + {t_gait:.0f} s for the gait (target: <= 5 min)")
     if args.full_basin:
         cases = basin_cases(gait.fixed_point, 50)
         t_full, rows = run(basin_case, cases, fixed, shipped, **pool)
