@@ -66,6 +66,7 @@ def main(argv=None) -> int:
     parser.add_argument("--workers", type=int, default=None, help="pool size (default: cores)")
     parser.add_argument("--basin-n", type=int, default=None, metavar="K",
                         help="basin grid points per axis (default: 10, --quick: 3)")
+    parser.add_argument("--basin-only", action="store_true", help="skip the step-down sweep")
     parser.add_argument("--full-basin", action="store_true",
                         help="also the 50 × 50 basin with the gait shipped (about 10 minutes)")
     args = parser.parse_args(argv)
@@ -86,15 +87,16 @@ def main(argv=None) -> int:
     pool = {"workers": args.workers}
 
     print(f"\n{'sweep':52s} {'cases':>6s} {'wall s':>9s} {'cases/min':>10s}")
-    slopes = [0.005, 0.011] if args.quick else [0.005, 0.007, 0.011, 0.013]
-    sd_cases = [{"slope": s} for s in slopes]
-    sd_fixed = {"model": MODEL, "resolution": 2e-4}
-    ts, rows_s = run(step_down_case, sd_cases, sd_fixed, serial=True)
-    tp, rows_p = run(step_down_case, sd_cases, sd_fixed, **pool)
-    same = [r.get("max_step_down") for r in rows_s] == [r.get("max_step_down") for r in rows_p]
-    _row("Fig. 2.22 step-down/slope, serial", len(sd_cases), ts)
-    _row("Fig. 2.22 step-down/slope, pool", len(sd_cases), tp,
-         f"speed-up {ts / tp:.2f}" + ("" if same else "  (rows differ!)"))
+    if not args.basin_only:
+        slopes = [0.005, 0.011] if args.quick else [0.005, 0.007, 0.011, 0.013]
+        sd_cases = [{"slope": s} for s in slopes]
+        sd_fixed = {"model": MODEL, "resolution": 2e-4}
+        ts, rows_s = run(step_down_case, sd_cases, sd_fixed, serial=True)
+        tp, rows_p = run(step_down_case, sd_cases, sd_fixed, **pool)
+        same = [r.get("max_step_down") for r in rows_s] == [r.get("max_step_down") for r in rows_p]
+        _row("Fig. 2.22 step-down/slope, serial", len(sd_cases), ts)
+        _row("Fig. 2.22 step-down/slope, pool", len(sd_cases), tp,
+             f"speed-up {ts / tp:.2f}" + ("" if same else "  (rows differ!)"))
 
     k = args.basin_n or (3 if args.quick else 10)
     cases = basin_cases(gait.fixed_point, k)
