@@ -402,6 +402,27 @@ def test_walker_analyses_by_name_and_module_function_names():
         analyses.get_analysis("no_module:f").resolve()
 
 
+def test_a_basin_sweep_ships_the_gait_found_once_to_its_workers(tmp_path):
+    """prepare_basin finds the gait in this process; the pool's workers use that one (a gait
+    that says "fell" makes every point "no_gait") and give the rows of cases that find it."""
+    import dataclasses
+    fixed = {"model": "simplest_walker", "backend": "python", "params": {"slope": 0.009}}
+    cases = grid(theta=[0.2], theta_dot=[-0.2, -0.19])
+    shared = analyses.prepare_basin(cases, **fixed)
+    assert shared["gait"].status == "periodic"
+    analyses.walker_cache().clear_gaits()
+    sweep = Sweep(analyses.basin_case, cases, tmp_path / "a.jsonl", fixed=fixed, shared=shared)
+    sweep.run(workers=2, progress="none")
+    own = [analyses.basin_case(case, **fixed) for case in cases]       # each finds the gait
+    assert [r["result"] for r in sorted(load_results(sweep.path), key=lambda r: r["case_id"])] == own
+    assert [r["status"] for r in own] == ["converged", "fell"]
+    fell = {"gait": dataclasses.replace(shared["gait"], status="fell", message="shipped")}
+    other = Sweep(analyses.basin_case, cases, tmp_path / "b.jsonl", fixed=fixed, shared=fell)
+    other.run(workers=2, progress="none")
+    assert [(r["status"], r["message"]) for r in other.table()] == [("no_gait", "shipped")] * 2
+    assert other.identity == {**sweep.identity}                      # shared: not the identity
+
+
 # --- executors that lose or fail cases ---------------------------------------------------------------
 class _FlakyExecutor(Executor):
     """Runs cases in this thread; cancels case x == 2 (as a cluster losing it would) and fails
