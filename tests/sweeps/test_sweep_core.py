@@ -420,7 +420,7 @@ def test_a_basin_sweep_ships_the_gait_found_once_to_its_workers(tmp_path):
     other = Sweep(analyses.basin_case, cases, tmp_path / "b.jsonl", fixed=fixed, shared=fell)
     other.run(workers=2, progress="none")
     assert [(r["status"], r["message"]) for r in other.table()] == [("no_gait", "shipped")] * 2
-    assert other.identity == {**sweep.identity}                      # shared: not the identity
+    assert other.identity == sweep.identity                         # shared: not the identity
 
 
 # --- executors that lose or fail cases ---------------------------------------------------------------
