@@ -1,18 +1,27 @@
-"""Sweep throughput (issue 6): cases per minute of the Fig. 2.22 step-down sweep (max step-down
-over the slope) and of the Fig. 2.21 basin (grid points at γ = 0.007) on the nominal walker
+"""Sweep throughput: cases per minute of the Fig. 2.22 step-down sweep (max step-down over the
+slope) and of the Fig. 2.21 basin (grid points at γ = 0.007) on the nominal walker
 (compass_walker), serial versus a local process pool, in the same run.
 
 Run::
 
-    python benchmarks/bench_sweeps.py              # 4 slopes, 25 basin points (~8 min here)
-    python benchmarks/bench_sweeps.py --quick      # 2 slopes, 9 basin points
+    python benchmarks/bench_sweeps.py                 # 4 slopes, 10 × 10 basin points
+    python benchmarks/bench_sweeps.py --quick         # 2 slopes, 3 × 3 basin points
+    python benchmarks/bench_sweeps.py --full-basin    # also the 50 × 50 basin (issue 11's target)
 
-Each variant runs the same cases into a fresh results file (nothing resumed); the pool is a
-``ProcessPoolExecutor`` with one worker per core (forked workers inherit the walker, compiled
-once in the parent: the time excludes compilation; each variant finds its gaits itself — the
-gait cache is cleared before every run so forked workers do not inherit it). Step-down cases
-differ a lot in cost (a slope with a large step-down walks more heights), so the pool's speed-up
-on few cases is bounded by the slowest case.
+Each variant runs the same cases into a fresh results file (nothing resumed); the pool is the
+sweep's own ``ProcessPoolExecutor``, one worker per core (forked workers inherit the walker,
+compiled once in the parent: the times exclude compilation). The basin runs in three ways:
+
+* serial — in this process, the gait found once before the sweep;
+* pool, gait per worker — each worker finds the gait itself before its first point (how basin
+  sweeps ran before porthamiltonian.batch: the case function found and cached it per process);
+* pool, gait shipped — the gait found once in the parent and handed to every worker with the
+  pool (the sweep's shared argument), which is what ``walker sweep --analysis basin`` and
+  ``walker reproduce basin`` do now.
+
+The gait cache is cleared before every variant, so forked workers never inherit a gait. The
+back end is the walker's default (numba with the compiled Rodas4 loop, or whatever
+``backend=None`` resolves to): printed at the top.
 """
 from __future__ import annotations
 
@@ -23,54 +32,95 @@ from pathlib import Path
 
 from machine import machine_info
 
-from walker_library import robustness
-from walker_library.robustness import basin_case, step_down_case
-from walker_library.sweeps import Sweep, cached_walker
+from porthamiltonian.batch import Sweep
+from walker_library.analyses import basin_case, step_down_case, walker_cache
+
+MODEL = "compass_walker"
+SLOPE = 0.007
 
 
-def run(function, cases, fixed, **how) -> tuple[float, list[dict]]:
-    robustness._GAITS.clear()        # every variant finds its gaits itself (forked workers
-    with tempfile.TemporaryDirectory() as tmp:    # would inherit the parent's cache)
-        sw = Sweep(function, cases, Path(tmp) / "r.jsonl", fixed=fixed)
+def run(function, cases, fixed, shared=None, **how) -> tuple[float, list[dict]]:
+    """Wall time (s) and table of a fresh sweep; the gait cache cleared first."""
+    walker_cache().clear_gaits()
+    with tempfile.TemporaryDirectory() as tmp:
+        sw = Sweep(function, cases, Path(tmp) / "r.jsonl", fixed=fixed, shared=shared)
         t0 = time.perf_counter()
         sw.run(progress="none", **how)
         return time.perf_counter() - t0, sw.table()
 
 
+def basin_cases(fp: dict, k: int) -> list[dict]:
+    """The basin study's grid (θ/0.4 within ±0.025, θ̇/0.8 within ±0.1), k × k points."""
+    s = [-1 + 2 * i / (k - 1) for i in range(k)]
+    return [{"theta": fp["theta"] + 0.4 * 0.025 * a, "theta_dot": fp["theta_dot"] + 0.8 * 0.1 * b}
+            for a in s for b in s]
+
+
+def _row(name: str, n: int, seconds: float, note: str = "") -> None:
+    print(f"{name:52s} {n:6d} {seconds:9.1f} {60 * n / seconds:10.1f}  {note}".rstrip())
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--workers", type=int, default=None)
+    parser.add_argument("--quick", action="store_true", help="2 slopes, 3 × 3 basin points")
+    parser.add_argument("--workers", type=int, default=None, help="pool size (default: cores)")
+    parser.add_argument("--basin-n", type=int, default=None, metavar="K",
+                        help="basin grid points per axis (default: 10, --quick: 3)")
+    parser.add_argument("--basin-only", action="store_true", help="skip the step-down sweep")
+    parser.add_argument("--full-basin", action="store_true",
+                        help="also the 50 × 50 basin with the gait shipped (about 10 minutes)")
     args = parser.parse_args(argv)
     info = machine_info()
     print(f"date {info['date']}; {info['nproc']} cores, {info['cpu']}; load {info['load']}")
     print(f"python {info['python']}, numpy {info['numpy']}, scipy {info['scipy']}, "
           f"numba {info['numba']}")
     t0 = time.perf_counter()
-    walker = cached_walker("compass_walker")
+    walker = walker_cache().walker(MODEL)
     walker.walk(walker.initial_guess(), 1)
-    print(f"compass_walker compiled and warmed in {time.perf_counter() - t0:.1f} s")
-    slopes = [0.005, 0.011] if args.quick else [0.005, 0.007, 0.011, 0.013]
-    sd_cases = [{"slope": s} for s in slopes]
-    sd_fixed = {"model": "compass_walker", "resolution": 2e-4}
-    from walker_library.gait import analyze_gait
-    fp = analyze_gait(walker.with_parameters(slope=0.007)).fixed_point
-    k = 3 if args.quick else 5
-    # the basin study's grid (θ/0.4 within ±0.025, θ̇/0.8 within ±0.1), k × k points
-    basin_cases = [{"theta": fp["theta"] + 0.4 * 0.025 * a, "theta_dot": fp["theta_dot"] + 0.8 * 0.1 * b}
-                   for a in [-1 + 2 * i / (k - 1) for i in range(k)]
-                   for b in [-1 + 2 * i / (k - 1) for i in range(k)]]
-    basin_fixed = {"model": "compass_walker", "params": {"slope": 0.007}}
-    print(f"\n{'sweep':28s} {'cases':>5s} {'serial s':>9s} {'pool s':>8s} {'serial/min':>10s} "
-          f"{'pool/min':>9s} {'speed-up':>8s}")
-    for name, fn, cases, fixed in (("Fig. 2.22 step-down/slope", step_down_case, sd_cases, sd_fixed),
-                                   ("Fig. 2.21 basin, γ = 0.007", basin_case, basin_cases,
-                                    basin_fixed)):
-        ts, rows_s = run(fn, cases, fixed, serial=True)
-        tp, rows_p = run(fn, cases, fixed, workers=args.workers)
-        same = [r.get("status") for r in rows_s] == [r.get("status") for r in rows_p]
-        print(f"{name:28s} {len(cases):5d} {ts:9.1f} {tp:8.1f} {60 * len(cases) / ts:10.2f} "
-              f"{60 * len(cases) / tp:9.2f} {ts / tp:8.2f}" + ("" if same else "  (rows differ!)"))
+    backend = getattr(getattr(walker, "swing", None), "backend", "?")
+    print(f"{MODEL} ({backend} back end) compiled and warmed in "
+          f"{time.perf_counter() - t0:.1f} s")
+    t0 = time.perf_counter()
+    _, gait = walker_cache().gait(MODEL, None, {"slope": SLOPE})
+    t_gait = time.perf_counter() - t0
+    print(f"gait at slope {SLOPE}: {gait.status}, found in {t_gait:.1f} s")
+    pool = {"workers": args.workers}
+
+    print(f"\n{'sweep':52s} {'cases':>6s} {'wall s':>9s} {'cases/min':>10s}")
+    if not args.basin_only:
+        slopes = [0.005, 0.011] if args.quick else [0.005, 0.007, 0.011, 0.013]
+        sd_cases = [{"slope": s} for s in slopes]
+        sd_fixed = {"model": MODEL, "resolution": 2e-4}
+        ts, rows_s = run(step_down_case, sd_cases, sd_fixed, serial=True)
+        tp, rows_p = run(step_down_case, sd_cases, sd_fixed, **pool)
+        same = [r.get("max_step_down") for r in rows_s] == [r.get("max_step_down") for r in rows_p]
+        _row("Fig. 2.22 step-down/slope, serial", len(sd_cases), ts)
+        _row("Fig. 2.22 step-down/slope, pool", len(sd_cases), tp,
+             f"speed-up {ts / tp:.2f}" + ("" if same else "  (rows differ!)"))
+
+    k = args.basin_n or (3 if args.quick else 10)
+    cases = basin_cases(gait.fixed_point, k)
+    fixed = {"model": MODEL, "params": {"slope": SLOPE}}
+    shipped = {"gait": gait}
+    t_serial, rows_serial = run(basin_case, cases, fixed, shipped, serial=True)
+    t_worker, rows_worker = run(basin_case, cases, fixed, None, **pool)
+    t_shipped, rows_shipped = run(basin_case, cases, fixed, shipped, **pool)
+    statuses = [[r["status"] for r in rows] for rows in (rows_serial, rows_worker, rows_shipped)]
+    same = statuses[0] == statuses[1] == statuses[2]
+    name = f"Fig. 2.21 basin {k}x{k}, γ = {SLOPE}"
+    _row(f"{name}, serial", len(cases), t_serial)
+    _row(f"{name}, pool, gait per worker", len(cases), t_worker)
+    _row(f"{name}, pool, gait shipped", len(cases), t_shipped,
+         f"{t_worker / t_shipped:.2f}x the per-worker variant" + ("" if same else "  (rows differ!)"))
+    per_min = 60 * len(cases) / t_shipped
+    print(f"\n50 x 50 basin at {per_min:.0f} points/min (gait shipped): "
+          f"{2500 / per_min:.1f} min + {t_gait:.0f} s for the gait (target: <= 5 min)")
+    if args.full_basin:
+        cases = basin_cases(gait.fixed_point, 50)
+        t_full, rows = run(basin_case, cases, fixed, shipped, **pool)
+        converged = sum(r["status"] == "converged" for r in rows)
+        _row(f"Fig. 2.21 basin 50x50, γ = {SLOPE}, pool, gait shipped", len(cases), t_full,
+             f"{t_full / 60:.1f} min; {converged} converged")
     return 0
 
 

@@ -25,6 +25,8 @@ from .integrators import RODAS_SOURCE
 _NUMBA_HEADER = "import math\nimport numpy as np\nfrom numba import njit as _njit\n_jit = _njit(cache=True)\n"
 _PYTHON_HEADER = "import math\nimport numpy as np\n\n\ndef _jit(f):\n    return f\n"
 _NAMES = ("rhs", "jac", "energy", "outputs", "guards", "initial")
+#: The back ends, in the order ``"auto"`` tries them.
+BACKENDS = ("numba", "python")
 
 
 @dataclass(frozen=True)

@@ -80,13 +80,3 @@ class ModelFileError(ModelError):
 class StateError(ModelError):
     """An initial state or a state name is wrong (unknown name, wrong length, non-finite)."""
 
-
-class SweepError(ModelError):
-    """A parameter sweep is ill-defined: a bad grid specification, a case function that worker
-    processes cannot import, an unknown analysis (walker_library.sweeps)."""
-
-
-class SweepFileError(SweepError):
-    """A sweep results file cannot be resumed: its header is missing or foreign, it belongs to a
-    different sweep, or a row in its middle is corrupt. The file is left unchanged; the message
-    names the file, the line and what to do."""

@@ -86,8 +86,10 @@ def model_path(name_or_path: str | Path) -> Path:
         candidate = d / f"{name_or_path}.toml"
         if candidate.is_file():
             return candidate
-    raise ModelFileError(f"no model called {name_or_path!r}; available: "
-                         f"{', '.join(available_models()) or 'none'} (or give a path to a .toml file)")
+    known = available_models()
+    raise ModelFileError(f"no model called {name_or_path!r}{_suggest(name_or_path, known)}; "
+                         f"available: {', '.join(known) or 'none'} (or give a path to a .toml "
+                         "file)")
 
 
 #: Largest model file read (bytes); the largest in models/ is ~20 kB.

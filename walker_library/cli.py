@@ -6,31 +6,56 @@
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
     walker gsn MODEL [--set NAME=VALUE ...] [--json]
     walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin]
+    walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
     walker export BUILDER PATH [--set NAME=VALUE ...]
 
-MODEL is a name from ``models/`` (a walker file: one with a ``[model.walker]`` table), a path to
-such a file, or a builder name (simplest_walker, compass_gait, rimless_wheel). ``--json`` prints
-one JSON document (SI units, named fields) on stdout. Exit status: 0 on success (including a
-walker that falls or has no gait: those are results), 2 on bad input (unknown model, unknown or
+MODEL is a walker model name from ``models/`` (a file with a ``[model.walker]`` table; ``walker
+list`` names them), a path to such a file, or a builder name. Every option may be given anywhere
+after its command (``--backend`` also before it). ``--json`` prints one JSON document (SI units,
+named fields) on stdout; progress goes to stderr. Exit status: 0 on success (including a walker
+that falls or has no gait: those are results), 2 on bad input (unknown model, unknown or
 out-of-range parameter), with a message on stderr.
 """
 from __future__ import annotations
 
 import argparse
+import difflib
 import json
 import sys
 from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
 
-from porthamiltonian.cli import parse_assignments, run
-from porthamiltonian.errors import ModelError
+from porthamiltonian import io as ph_io
+from porthamiltonian.batch import SweepError, open_executor
+from porthamiltonian.batch.progress import activity
+from porthamiltonian.cli import (
+    BACKEND_OPTION,
+    JSON_OPTION,
+    QUIET_OPTION,
+    SET_OPTION,
+    add_sweep_parser,
+    backend_option,
+    parse_assignments,
+    run,
+    run_sweep,
+)
+from porthamiltonian.errors import ModelError, ModelFileError
 
-from . import sweeps
+from .analyses import ANALYSES, get_analysis
 from .gait import analyze_gait, walk
 from .results import to_json
 from .robustness import basin, gait_sensitivity_norm, step_down
 from .walkers import BUILDERS, available_walkers, export_model_file, load_walker
+
+#: units of the gait metrics and of the thesis's section coordinates (SI; angles in rad)
+UNITS = {"step_period": "s", "step_length": "m", "speed": "m/s",
+         "energy_dissipated_per_step": "J", "potential_released_per_step": "J",
+         "max_theta": "rad", "max_phi": "rad", "cost_of_transport": "(dimensionless)",
+         "theta": "rad", "phi": "rad", "theta_dot": "rad/s", "phi_dot": "rad/s",
+         "hip_speed": "m/s", "hub_speed": "m/s"}
 
 
 def _fmt(value) -> str:
@@ -41,10 +66,40 @@ def _fmt(value) -> str:
     return str(value)
 
 
+def check_walker_name(model: str) -> str:
+    """``model`` if it can name a walker: a path, a walker file of models/, a builder, or a model
+    of models/ (whose loading then says it is not a walker file); else a ModelFileError listing
+    the walker models, with the closest one suggested."""
+    if Path(model).suffix == ".toml" or Path(model).exists() or model in BUILDERS:
+        return model
+    walkers = available_walkers()
+    if model in walkers or model in ph_io.available_models():
+        return model
+    builders = [b for b in BUILDERS if b not in walkers]
+    close = difflib.get_close_matches(model, [*walkers, *builders], n=1, cutoff=0.6)
+    hint = f" (did you mean {close[0]}?)" if close else ""
+    more = f"; builders: {', '.join(builders)}" if builders else ""
+    raise ModelFileError(f"no walker model called {model!r}{hint}; walker models: "
+                         f"{', '.join(walkers) or 'none'}{more}; or give the path to a walker "
+                         "file")
+
+
+def _walker(args):
+    """The walker named by ``args.model`` with the ``--set`` values and ``--backend``."""
+    return load_walker(check_walker_name(args.model), parse_assignments(args.set),
+                       backend=args.backend)
+
+
+def _with_unit(key: str, value: Any) -> str:
+    unit = UNITS.get(key, "")
+    return f"{_fmt(value)} {unit}".rstrip()
+
+
 def cmd_gait(args) -> int:
-    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
-    result = analyze_gait(walker, max_period=args.max_period, fd_step=args.fd_step,
-                          n_iterate=args.iterate)
+    walker = _walker(args)
+    with activity(f"gait {walker.name}", enabled=not args.quiet):
+        result = analyze_gait(walker, max_period=args.max_period, fd_step=args.fd_step,
+                              n_iterate=args.iterate)
     if args.json:
         print(result.to_json())
         return 0
@@ -55,7 +110,7 @@ def cmd_gait(args) -> int:
         print("  fixed point on the Poincaré section (heel strike; rigid walkers: just after the "
               "impact, compliant walkers: at touchdown, before it):")
         for name, value in d["fixed_point"].items():
-            print(f"    {name:20s} {_fmt(value)}")
+            print(f"    {name:20s} {_with_unit(name, value)}")
         print("  Floquet multipliers (error estimate "
               f"{_fmt(d['multiplier_error'])}):")
         for m in d["floquet_multipliers"]:
@@ -63,15 +118,16 @@ def cmd_gait(args) -> int:
     elif d["status"] == "fell":
         print(f"  fell during step {d['fell_at_step']} ({d['fall_reason']})")
     if d["last_iterate"]:
-        print("  last iterate:", ", ".join(f"{k} = {_fmt(v)}" for k, v in d["last_iterate"].items()))
+        print("  last iterate:", ", ".join(f"{k} = {_with_unit(k, v)}"
+                                           for k, v in d["last_iterate"].items()))
     for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step",
                 "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
-        print(f"  {key:30s} {_fmt(d[key])}")
+        print(f"  {key:30s} {_with_unit(key, d[key])}")
     return 0
 
 
 def cmd_walk(args) -> int:
-    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
+    walker = _walker(args)
     result = walk(walker, None, args.steps)
     if args.json:
         print(result.to_json())
@@ -79,31 +135,34 @@ def cmd_walk(args) -> int:
     print(f"{walker.name}: {result.steps_taken} steps" + (f", fell ({result.fall_reason})"
                                                           if result.fell else ""))
     for k, s in enumerate(result.steps, 1):
-        print(f"  step {k:3d}: {s['status']:5s} T = {_fmt(s['duration'])}  length = "
-              f"{_fmt(s['step_length'])}  dissipated = {_fmt(s['energy_dissipated'])}")
-    print(f"  dissipated {result.energy_dissipated:.10g} J, potential released "
-          f"{result.potential_released:.10g} J, max |energy residual| "
+        print(f"  step {k:3d}: {s['status']:5s} T = {_fmt(s['duration'])} s  length = "
+              f"{_fmt(s['step_length'])} m  dissipated = {_fmt(s['energy_dissipated'])} J")
+    print(f"  dissipated = {result.energy_dissipated:.10g} J, potential released = "
+          f"{result.potential_released:.10g} J, max |energy residual| = "
           f"{result.max_energy_residual:.3e} J (relative {result.relative_energy_residual:.3e})")
     return 0
 
 
-def _progress(args, label: str):
-    """A per-case progress line on stderr (stdout keeps the JSON document clean)."""
+def _case_lines(args, label: str, shown):
+    """A per-case line on stderr (stdout keeps the JSON document clean), through ``shown``
+    (the activity display); None with --quiet."""
     if args.quiet:
         return None
     count = [0]
 
     def report(rec: dict) -> None:
         count[0] += 1
-        detail = ", ".join(f"{k} = {_fmt(v)}" for k, v in rec.items() if k in ("h", "theta", "theta_dot"))
-        print(f"{label} case {count[0]}: {detail}: {rec['status']}", file=sys.stderr, flush=True)
+        detail = ", ".join(f"{k} = {_fmt(rec[k])} {unit}" for k, unit in
+                           (("h", "m"), ("theta", "rad"), ("theta_dot", "rad/s")) if k in rec)
+        shown.write(f"{label} case {count[0]}: {detail}: {rec['status']}")
     return report
 
 
 def cmd_step_down(args) -> int:
-    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
-    result = step_down(walker, resolution=args.resolution, h_max=args.h_max,
-                       progress=_progress(args, "step-down"))
+    walker = _walker(args)
+    with activity(f"step-down {walker.name}", enabled=not args.quiet) as shown:
+        result = step_down(walker, resolution=args.resolution, h_max=args.h_max,
+                           progress=_case_lines(args, "step-down", shown))
     if args.json:
         print(result.to_json())
         return 0
@@ -115,16 +174,18 @@ def cmd_step_down(args) -> int:
 
 
 def cmd_basin(args) -> int:
-    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
-    result = basin(walker, n=args.n, span=args.span, progress=_progress(args, "basin"))
+    walker = _walker(args)
+    with activity(f"basin {walker.name}", enabled=not args.quiet) as shown:
+        result = basin(walker, n=args.n, span=args.span,
+                       progress=_case_lines(args, "basin", shown))
     if args.json:
         print(result.to_json())
         return 0
     print(f"{walker.name}: {result.message}; radius {result.radius:.4g} (scaled units: theta/"
-          f"{result.theta_scale:g}, theta_dot/{result.theta_dot_scale:g})")
+          f"{result.theta_scale:g} rad, theta_dot/{result.theta_dot_scale:g} rad/s)")
     if result.status == "ok":
         mark = {"converged": "*", "fell": ".", "wandered": "~", "invalid": "x"}
-        print("  rows: theta_dot (top = largest); columns: theta (left = smallest)")
+        print("  rows: theta_dot in rad/s (top = largest); columns: theta (left = smallest)")
         for j in reversed(range(len(result.theta_dot))):
             print(f"  {result.theta_dot[j]: .4f} " + "".join(mark[result.outcome[i][j]]
                                                           for i in range(len(result.theta))))
@@ -132,25 +193,45 @@ def cmd_basin(args) -> int:
 
 
 def cmd_gsn(args) -> int:
-    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
-    result = gait_sensitivity_norm(walker)
+    walker = _walker(args)
+    with activity(f"gsn {walker.name}", enabled=not args.quiet):
+        result = gait_sensitivity_norm(walker)
     if args.json:
         print(to_json(result))
         return 0
-    print(f"{walker.name}: {result.message}; error estimate {result.error:.2g}")
+    unit = {"step_period": "s/m", "step_length": "m/m"}
+    print(f"{walker.name}: {result.message} (per m of step-down); error estimate "
+          f"{result.error:.2g}")
     for k, v in result.by_indicator.items():
-        print(f"  {k:15s} {v:.6g}")
+        print(f"  {k:15s} {v:.6g} {unit.get(k, '')}".rstrip())
     return 0
 
 
 def cmd_report(args) -> int:
     from .report import write_report
-    walker = load_walker(args.model, parse_assignments(args.set), backend=args.backend)
+    walker = _walker(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
                           with_step_down=not args.no_step_down, log=log)
     print(f"wrote {result.out / 'report.html'} ({len(result.files)} files, {result.seconds:.0f} s)")
     return 0
+
+
+def _option(pair: str) -> tuple[str, Any]:
+    name, sep, value = pair.partition("=")
+    if not sep or not name.strip().isidentifier():
+        raise SweepError(f"--option takes NAME=VALUE, got {pair!r}")
+    try:
+        parsed = json.loads(value)
+    except json.JSONDecodeError:
+        parsed = value
+    return name.strip(), parsed
+
+
+def cmd_sweep(args) -> int:
+    analysis = get_analysis(args.analysis)
+    options = dict(_option(p) for p in args.option)
+    return run_sweep(args, analysis, {"model": args.model, "backend": args.backend, **options})
 
 
 def cmd_reproduce(args) -> int:
@@ -160,18 +241,10 @@ def cmd_reproduce(args) -> int:
             print(f"{study.name:22s} {study.thesis:28s} {study.title}")
         return 0
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    options = dict(quick=args.quick, workers=args.workers, serial=args.serial, log=log,
-                   progress="none" if args.quiet else "auto")
-    client = None
-    if args.scheduler:
-        from distributed import Client
-        client = Client(args.scheduler)
-        options["executor"] = client.get_executor()
-    try:
-        summaries = run_studies(args.studies, args.out, **options)
-    finally:
-        if client is not None:
-            client.close()
+    with open_executor(args.scheduler, args.workers) as executor:
+        summaries = run_studies(args.studies, args.out, quick=args.quick, workers=args.workers,
+                                serial=args.serial, executor=executor, log=log,
+                                progress="none" if args.quiet else "auto")
     for name, summary in summaries.items():
         if args.studies and name not in args.studies:
             continue
@@ -196,7 +269,10 @@ def cmd_list(args) -> int:
 
 def cmd_export(args) -> int:
     if args.builder not in BUILDERS:
-        raise ModelError(f"unknown builder {args.builder!r}; builders: {', '.join(BUILDERS)}")
+        close = difflib.get_close_matches(args.builder, list(BUILDERS), n=1)
+        raise ModelError(f"unknown builder {args.builder!r}"
+                         + (f" (did you mean {close[0]}?)" if close else "")
+                         + f"; builders: {', '.join(BUILDERS)}")
     walker = BUILDERS[args.builder](**parse_assignments(args.set))
     lines = getattr(walker, "file_header", None) or (
         "The components and events below are the swing-phase model (pinned at the stance foot), an",
@@ -213,80 +289,106 @@ def cmd_export(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="walker", description=__doc__.splitlines()[0])
-    parser.add_argument("--backend", default=None,
-                        help="python or numba (default: the walker's own: python for the rigid "
-                             "walkers, numba for the compliant-contact compass_walker)")
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("gait", help="find the gait: fixed point, Floquet multipliers, metrics")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.add_argument("--max-period", type=int, default=8)
-    p.add_argument("--fd-step", type=float, default=1e-4,
-                   help="perturbation size of the Floquet Jacobian (the thesis used 0.001)")
-    p.add_argument("--iterate", type=int, default=200,
-                   help="steps iterated for period detection when period 1 fails")
-    p.add_argument("--json", action="store_true")
+    """The ``walker`` command's parser."""
+    model_help = ("walker model: a name from models/ (walker list), a path to a walker file, or "
+                  "a builder name")
+    parser = argparse.ArgumentParser(prog="walker", description=__doc__.splitlines()[0],
+                                     parents=[backend_option(None)])
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    analysis = [BACKEND_OPTION, SET_OPTION, JSON_OPTION, QUIET_OPTION]
+
+    p = sub.add_parser("gait", parents=analysis,
+                       help="find the gait: fixed point, Floquet multipliers, metrics")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--max-period", type=int, default=8, metavar="K",
+                   help="longest period (steps) looked for when period 1 fails (default: 8)")
+    p.add_argument("--fd-step", type=float, default=1e-4, metavar="H",
+                   help="perturbation size of the Floquet Jacobian, in the section coordinates' "
+                        "units (default: 1e-4; the thesis used 0.001)")
+    p.add_argument("--iterate", type=int, default=200, metavar="N",
+                   help="steps iterated for period detection when period 1 fails (default: 200)")
     p.set_defaults(func=cmd_gait)
-    p = sub.add_parser("walk", help="walk N steps from the initial guess; per-step records and "
-                                    "the energy ledger")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.add_argument("--steps", type=int, default=20)
-    p.add_argument("--json", action="store_true")
+
+    p = sub.add_parser("walk", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION],
+                       help="walk N steps from the initial guess; per-step records and the "
+                            "energy ledger")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--steps", type=int, default=20, metavar="N",
+                   help="steps to walk (default: 20)")
     p.set_defaults(func=cmd_walk)
-    p = sub.add_parser("step-down", help="largest single drop of the surface survived, scanning "
-                                         "upward (MODEL-SPEC.md §5)")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.add_argument("--resolution", type=float, default=None,
-                   help="height grid (m; default 2e-4 of the leg length)")
-    p.add_argument("--h-max", type=float, default=None, help="largest height tried (m)")
-    p.add_argument("--json", action="store_true")
-    p.add_argument("--quiet", action="store_true", help="no per-case lines on stderr")
+
+    p = sub.add_parser("step-down", parents=analysis,
+                       help="largest single drop of the surface survived, scanning upward "
+                            "(MODEL-SPEC.md §5)")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--resolution", type=float, default=None, metavar="H",
+                   help="height grid (m; default: 2e-4 of the leg length)")
+    p.add_argument("--h-max", type=float, default=None, metavar="H",
+                   help="largest height tried (m; default: 0.1 of the leg length)")
     p.set_defaults(func=cmd_step_down)
-    p = sub.add_parser("basin", help="basin of attraction on a scaled (theta, theta_dot) grid")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.add_argument("--n", type=int, default=11, help="grid points per axis")
+
+    p = sub.add_parser("basin", parents=analysis,
+                       help="basin of attraction on a scaled (theta, theta_dot) grid")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--n", type=int, default=11, help="grid points per axis (default: 11)")
     p.add_argument("--span", type=float, default=0.1,
-                   help="half-width of the grid in scaled units (theta/0.4, theta_dot/0.8)")
-    p.add_argument("--json", action="store_true")
-    p.add_argument("--quiet", action="store_true", help="no per-case lines on stderr")
+                   help="half-width of the grid in scaled units (theta/0.4 rad, "
+                        "theta_dot/0.8 rad/s; default: 0.1)")
     p.set_defaults(func=cmd_basin)
-    p = sub.add_parser("gsn", help="Gait Sensitivity Norm for a step-down disturbance")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.add_argument("--json", action="store_true")
+
+    p = sub.add_parser("gsn", parents=analysis,
+                       help="Gait Sensitivity Norm for a step-down disturbance")
+    p.add_argument("model", help=model_help)
     p.set_defaults(func=cmd_gsn)
-    p = sub.add_parser("report", help="the main job: HTML report (figures, GIF, JSON) of a walker")
+
+    p = sub.add_parser("report", parents=[BACKEND_OPTION, SET_OPTION, QUIET_OPTION],
+                       help="the main job: HTML report (figures, GIF, JSON) of a walker")
     p.add_argument("model", nargs="?", default="compass_walker",
                    help="walker model (default: compass_walker, the thesis's nominal walker)")
-    p.add_argument("--out", default="report", help="output directory (default: ./report)")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.add_argument("--steps", type=int, default=6, help="steps of the recorded walk")
+    p.add_argument("--out", default="report", metavar="DIR",
+                   help="output directory (default: ./report)")
+    p.add_argument("--steps", type=int, default=6, metavar="N",
+                   help="steps of the recorded walk (default: 6)")
     p.add_argument("--basin", action="store_true", help="also the basin of attraction (slow)")
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
-    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=cmd_report)
-    p = sub.add_parser("reproduce", help="rebuild the thesis's tables and figures (named studies)")
-    p.add_argument("studies", nargs="*", help="studies to run (default: all; see --list)")
-    p.add_argument("--out", default="reproduction", help="output directory")
+
+    p = add_sweep_parser(
+        sub, "run an analysis over a grid of parameters, resumably (JSON Lines file)",
+        "Run an analysis for every case of a parameter grid, appending one row per case to a "
+        "JSON Lines file as it finishes.")
+    p.add_argument("model", help=model_help + " (passed to the case function as model=MODEL)")
+    p.add_argument("--analysis", default="gait",
+                   help=f"one of {', '.join(ANALYSES)} (default: gait), or module:function for a "
+                        "case function of your own, called as fn(case, model=MODEL, "
+                        "backend=BACKEND, **options) and returning a dict")
+    p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                   help="extra keyword argument of the case function (a JSON value), e.g. "
+                        "max_period=4; part of the sweep's identity; an option the function does "
+                        "not take is refused")
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("reproduce", parents=[QUIET_OPTION],
+                       help="rebuild the thesis's tables and figures (named studies)")
+    p.add_argument("studies", nargs="*", metavar="STUDY",
+                   help="studies to run (default: all; see --list)")
+    p.add_argument("--out", default="reproduction", metavar="DIR",
+                   help="output directory (default: ./reproduction)")
     p.add_argument("--quick", action="store_true", help="coarse grids (minutes, not hours)")
-    p.add_argument("--workers", type=int, default=None, help="process-pool size (default: cores)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="process-pool size (default: one per core)")
     p.add_argument("--serial", action="store_true", help="run the sweeps in this process")
-    p.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="a dask.distributed scheduler address, or 'local' for a local cluster")
     p.add_argument("--list", action="store_true", help="list the studies and exit")
-    p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=cmd_reproduce)
-    sweeps.add_parser(sub)
-    p = sub.add_parser("list", help="walker model files and builders")
-    p.add_argument("--json", action="store_true")
+
+    p = sub.add_parser("list", parents=[JSON_OPTION], help="walker model files and builders")
     p.set_defaults(func=cmd_list)
-    p = sub.add_parser("export", help="write a walker model file from a builder")
-    p.add_argument("builder")
-    p.add_argument("path")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+
+    p = sub.add_parser("export", parents=[SET_OPTION], help="write a walker model file from a builder")
+    p.add_argument("builder", help=f"builder name: {', '.join(BUILDERS)}")
+    p.add_argument("path", help="the model file to write (.toml)")
     p.set_defaults(func=cmd_export)
     return parser
 

@@ -24,10 +24,23 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from porthamiltonian.batch.progress import tick
+
 from .protocol import Stride, Walker
 
-__all__ = ["stride_map", "iterate", "jacobian", "floquet", "find_fixed_point", "detect_period",
-           "FixedPointResult", "FloquetResult", "IterationResult", "PeriodResult", "WalkerFell"]
+__all__ = [
+    "FixedPointResult",
+    "FloquetResult",
+    "IterationResult",
+    "PeriodResult",
+    "WalkerFell",
+    "detect_period",
+    "find_fixed_point",
+    "floquet",
+    "iterate",
+    "jacobian",
+    "stride_map",
+]
 
 
 class WalkerFell(RuntimeError):
@@ -36,6 +49,13 @@ class WalkerFell(RuntimeError):
     def __init__(self, z, stride: Stride):
         super().__init__(f"the walker fell ({stride.reason}) from section state {np.asarray(z).tolist()}")
         self.z, self.stride = z, stride
+
+
+def _walk(walker: Walker, z, n_steps: int) -> list[Stride]:
+    """``walker.walk``, counting the strides as progress (``porthamiltonian.batch.progress``)."""
+    strides = walker.walk(z, n_steps)
+    tick("stride", len(strides))
+    return strides
 
 
 def _to_model(walker: Walker, z, coordinates: str) -> np.ndarray:
@@ -53,14 +73,14 @@ def _from_model(walker: Walker, z, coordinates: str) -> np.ndarray:
 
 def stride_map(walker: Walker, z, period: int = 1, coordinates: str = "model") -> np.ndarray | None:
     """S^period(z) on the section (``coordinates``: "model" or "thesis"); None if the walker falls."""
-    strides = walker.walk(_to_model(walker, z, coordinates), period)
+    strides = _walk(walker, _to_model(walker, z, coordinates), period)
     if len(strides) < period or strides[-1].fell:
         return None
     return _from_model(walker, strides[-1].z_next, coordinates)
 
 
 def _S(walker: Walker, z: np.ndarray, period: int) -> np.ndarray:
-    strides = walker.walk(z, period)
+    strides = _walk(walker, z, period)
     if len(strides) < period or strides[-1].fell:
         raise WalkerFell(z, strides[-1])
     return strides[-1].z_next
@@ -82,7 +102,7 @@ def iterate(walker: Walker, z0, n_steps: int, chunk: int = 50) -> IterationResul
     states = [np.asarray(z0, dtype=float)]
     strides: list[Stride] = []
     while len(strides) < n_steps:
-        batch = walker.walk(states[-1], min(chunk, n_steps - len(strides)))
+        batch = _walk(walker, states[-1], min(chunk, n_steps - len(strides)))
         for s in batch:
             strides.append(s)
             if s.fell:

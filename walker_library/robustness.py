@@ -38,17 +38,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from porthamiltonian.batch.progress import tick
 from porthamiltonian.errors import ParameterValueError
 
 from .gait import GaitResult, analyze_gait
 from .protocol import Walker
-from .results import JSONResult, to_jsonable
+from .results import JSONResult
 
-__all__ = ["StepDownResult", "BasinResult", "GSNResult", "recovery_steps", "recovers",
-           "step_down", "basin", "gait_sensitivity_norm", "basin_state"]
+__all__ = [
+    "BasinResult",
+    "GSNResult",
+    "StepDownResult",
+    "basin",
+    "basin_state",
+    "fixed_points",
+    "gait_sensitivity_norm",
+    "recovers",
+    "recovery_steps",
+    "step_down",
+]
 
 
-def _fixed_points(walker: Walker, gait: GaitResult) -> np.ndarray:
+def fixed_points(walker: Walker, gait: GaitResult) -> np.ndarray:
+    """The gait's k fixed points (a period-k gait) as rows of section states (model coordinates)."""
     return np.array([[p[k] for k in walker.section] for p in gait.fixed_points], dtype=float)
 
 
@@ -89,6 +101,7 @@ def recovers(walker: Walker, z0, fixed_points: np.ndarray, *, n_steps: int, tol:
     z, total, d = np.asarray(z0, dtype=float), 0, math.nan
     for chunk in range(max_chunks):
         strides = walker.walk(z, n_steps, ground_drop=ground_drop if chunk == 0 else 0.0)
+        tick("stride", len(strides))
         total += len(strides)
         last = strides[-1]
         if last.fell:
@@ -140,7 +153,7 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
     list (all evaluated). ``progress`` is called with each case record as it finishes."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
-    base = dict(model=walker.name, parameters=dict(walker.parameters), tol=tol)
+    base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol}
     if gait.status != "periodic":
         return StepDownResult(status="no_gait", max_step_down=None, contiguous=False,
                               resolution=math.nan, first_failure=None, holes=[], n_steps=0,
@@ -154,7 +167,7 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
         raise ParameterValueError(f"step_down: resolution ({resolution!r} m) and h_max "
                                   f"({h_max!r} m) must be positive")
     n_steps = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
-    fps = _fixed_points(walker, gait)
+    fps = fixed_points(walker, gait)
     z0 = fps[0]
     cases: list[dict] = []
 
@@ -249,11 +262,11 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
     """Basin of attraction on an n × n grid of scaled section states within ±``span`` (scaled
     units; a pair gives the θ and θ̇ half-widths apart) of the fixed point (module docstring),
     evaluated serially; a parallel basin is a sweep
-    over section states (:mod:`walker_library.sweeps`). ``progress`` is called per grid point."""
+    over section states (:func:`walker_library.analyses.basin_case`). ``progress`` is called per grid point."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
-    base = dict(model=walker.name, parameters=dict(walker.parameters), tol=tol,
-                theta_scale=theta_scale, theta_dot_scale=theta_dot_scale)
+    base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol,
+                "theta_scale": theta_scale, "theta_dot_scale": theta_dot_scale}
     if gait.status != "periodic":
         return BasinResult(status="no_gait", theta=[], theta_dot=[], fixed_point=gait.fixed_point,
                            outcome=[], steps=[], fraction=math.nan, radius=math.nan, n_steps=0,
@@ -263,7 +276,7 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
     if n < 2 or not (span_th > 0 and span_thd > 0):
         raise ParameterValueError(f"basin: n ({n}) must be >= 2 and span ({span}) > 0")
     n_steps = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
-    fps = _fixed_points(walker, gait)
+    fps = fixed_points(walker, gait)
     z_star = fps[0]
     fp = gait.fixed_points[0]
     s = np.linspace(-1.0, 1.0, n)
@@ -323,7 +336,7 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
     """GSN of the gait for a single step-down of size h (default 1e-5 of the leg length), by
     finite differences at h and h/2 (module docstring)."""
     gait = _gait_or_raise(walker, gait)
-    base = dict(model=walker.name, parameters=dict(walker.parameters))
+    base = {"model": walker.name, "parameters": dict(walker.parameters)}
     if gait.status != "periodic":
         return GSNResult(status="no_gait", gsn=math.nan, by_indicator={}, response={},
                          error=math.nan, h=math.nan, n_steps=0,
@@ -331,11 +344,12 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
     leg = float(getattr(walker, "leg_length", 1.0))
     h = 1e-5 * leg if h is None else float(h)
     n_steps = recovery_steps(gait, 1e-8) if n_steps is None else int(n_steps)
-    z0 = _fixed_points(walker, gait)[0]
+    z0 = fixed_points(walker, gait)[0]
     attr = {"step_period": "duration", "step_length": "step_length"}
 
     def series(drop: float) -> dict:
         strides = walker.walk(z0, n_steps, ground_drop=drop)
+        tick("stride", len(strides))
         if strides[-1].fell:
             raise RuntimeError(f"the walker fell after a drop of {drop:g} m")
         return {k: np.array([getattr(s, attr[k]) for s in strides]) for k in indicators}
@@ -354,63 +368,3 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
                      response={k: g2[k].tolist() for k in indicators}, error=abs(total - total1),
                      h=h, n_steps=n_steps,
                      message=f"GSN {total:.6g} (indicators {', '.join(indicators)})", **base)
-
-
-# --- case functions for sweeps (walker_library.sweeps: ``--analysis step-down`` / ``basin``) ------
-_GAITS: dict[tuple, GaitResult] = {}
-
-
-def _walker_and_gait(model: str, backend: str | None, params: dict) -> tuple[Walker, GaitResult]:
-    """The walker ``model`` with ``params`` and its gait, cached per process. A ``guess`` entry
-    of ``params`` (a section state, the model's coordinates) starts the gait search there."""
-    from .sweeps import cached_walker
-    params = dict(params)
-    guess = params.pop("guess", None)
-    walker = cached_walker(model, backend)
-    if params:
-        walker = walker.with_parameters(**params)
-    key = (model, backend, tuple(sorted(walker.parameters.items())),
-           None if guess is None else tuple(guess))
-    if key not in _GAITS:
-        _GAITS[key] = analyze_gait(walker, guess=guess)
-    return walker, _GAITS[key]
-
-
-def step_down_case(case: dict, *, model: str, backend: str | None = None,
-                   resolution: float | None = None, h_max: float | None = None) -> dict:
-    """Sweep case: the gait and the step-down test of ``model`` with the case's parameters (and
-    an optional ``guess``: the section state to start the gait search from).
-    Returns status ("ok", "no_gait"), max_step_down (m), contiguous, first_failure (m), holes,
-    and the gait's speed (m/s), energy per step (J), step period (s), largest |multiplier|."""
-    walker, gait = _walker_and_gait(model, backend, dict(case))
-    r = step_down(walker, gait, resolution=resolution, h_max=h_max)
-    mults = [abs(complex(m)) for m in gait.floquet_multipliers]
-    m = gait.metrics
-    return to_jsonable({"status": r.status, "max_step_down": r.max_step_down,
-                        "contiguous": r.contiguous, "first_failure": r.first_failure,
-                        "holes": r.holes, "gait_status": gait.status,
-                        "period_steps": gait.period_steps,
-                        "max_multiplier": max(mults) if mults else None,
-                        "speed": m.speed, "step_period": m.step_period,
-                        "step_length": m.step_length,
-                        "energy_dissipated_per_step": m.energy_dissipated_per_step,
-                        "message": r.message})
-
-
-def basin_case(case: dict, *, model: str, backend: str | None = None, params: dict | None = None,
-               n_steps: int | None = None, tol: float = 1e-4) -> dict:
-    """Sweep case: one point of a basin of attraction. ``case`` holds the thesis ``theta`` (rad)
-    and ``theta_dot`` (rad/s) of the initial section state; ``params`` the walker's parameters
-    (e.g. the slope). Returns status "converged", "fell", "wandered" or "no_gait", and steps."""
-    walker, gait = _walker_and_gait(model, backend, dict(params or {}))
-    if gait.status != "periodic":
-        return {"status": "no_gait", "steps": 0, "message": gait.message}
-    fps = _fixed_points(walker, gait)
-    n = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
-    try:
-        z0 = basin_state(walker, fps[0], float(case["theta"]), float(case["theta_dot"]))
-    except (ValueError, np.linalg.LinAlgError) as err:
-        return {"status": "invalid", "steps": 0, "message": str(err)}
-    r = recovers(walker, z0, fps, n_steps=n, tol=tol)
-    return to_jsonable({"status": r.status, "steps": r.steps, "distance": r.distance,
-                        "reason": r.reason})

@@ -2,7 +2,7 @@
 
 Each :class:`Study` rebuilds one table or figure group of the thesis (MODEL-SPEC.md; the thesis
 text is in ``shared/reference``) and writes into ``OUT/<study>/``: its sweeps' results files
-(JSON Lines, resumable: see :mod:`walker_library.sweeps`), its figures (PNG) and ``summary.json``
+(JSON Lines, resumable: see :mod:`porthamiltonian.batch`), its figures (PNG) and ``summary.json``
 — the thesis's numbers beside ours where the thesis states them (``rows``: quantity, ours,
 thesis, unit, deviation). ``OUT/reproduction.json`` collects the summaries.
 
@@ -40,15 +40,22 @@ from pathlib import Path
 
 import numpy as np
 
+from porthamiltonian.batch import Sweep
 from porthamiltonian.errors import ModelError
 
+from .analyses import basin_case, step_down_case
 from .gait import analyze_gait
-from .report import (fig_angles, fig_energy, fig_energy_per_step, fig_limit_cycle, pyplot,
-                     save_figure)
+from .report import (
+    fig_angles,
+    fig_energy,
+    fig_energy_per_step,
+    fig_limit_cycle,
+    pyplot,
+    save_figure,
+)
 from .results import to_json, to_jsonable
 from .robustness import step_down
 from .series import walk_series
-from .sweeps import Sweep
 
 __all__ = ["STUDIES", "Study", "StudyContext", "run_studies"]
 
@@ -70,12 +77,13 @@ class StudyContext:
     log: Callable[[str], None] = print
 
     def sweep(self, name: str, function: Callable, cases: list[dict], *, study: str | None = None,
-              **fixed) -> list[dict]:
+              shared: dict | None = None, **fixed) -> list[dict]:
         """Run (or resume) a sweep into ``<study dir>/<name>.jsonl`` (``study``: another
-        study's directory, to share its sweep); rows in case order."""
+        study's directory, to share its sweep; ``shared``: the sweep's shared arguments, see
+        :class:`porthamiltonian.batch.Sweep`); rows in case order."""
         where = self.out if study is None else self.out.parent / study
         where.mkdir(parents=True, exist_ok=True)
-        sw = Sweep(function, cases, where / f"{name}.jsonl", fixed=fixed)
+        sw = Sweep(function, cases, where / f"{name}.jsonl", fixed=fixed, shared=shared)
         sw.run(self.executor, workers=self.workers, serial=self.serial, progress=self.progress)
         return sw.table()
 
@@ -255,7 +263,6 @@ def run_slope_multipliers(ctx: StudyContext) -> dict:
 def _rigid_step_down(ctx: StudyContext) -> tuple[list[float], list[dict]]:
     """The nominal (rigid-leg) walker's step-down over the slope: the sweep of step_down_slope,
     shared with leg_stiffness (one results file, computed once)."""
-    from .robustness import step_down_case
     slopes = [0.005, 0.009, 0.013] if ctx.quick else list(RIGID_SLOPES)
     rows = ctx.sweep("step_down_over_slope", step_down_case, [{"slope": s} for s in slopes],
                      study="step_down_slope", model=NOMINAL,
@@ -277,7 +284,6 @@ def run_step_down_slope(ctx: StudyContext) -> dict:
 
 # --- Figs. 2.21, 2.23 ----------------------------------------------------------------------------
 def run_basin(ctx: StudyContext) -> dict:
-    from .robustness import basin_case
     n, span = (5, (0.025, 0.1)) if ctx.quick else (11, (0.025, 0.1))   # scaled θ, θ̇ half-widths
     out = {"rows": [], "basins": {}}
     for slope in (0.007, 0.012):
@@ -291,7 +297,7 @@ def run_basin(ctx: StudyContext) -> dict:
         cases = [{"theta": float(fp["theta"] + 0.4 * span[0] * a),
                   "theta_dot": float(fp["theta_dot"] + 0.8 * span[1] * b)} for a in s for b in s]
         rows = ctx.sweep(f"basin_{slope:g}", basin_case, cases, model=NOMINAL,
-                         params={"slope": slope})
+                         params={"slope": slope}, shared={"gait": gait})
         ok = np.array([r["status"] == "converged" for r in rows]).reshape(n, n)
         plt = pyplot()
         fig, ax = plt.subplots(figsize=(4.5, 4))
@@ -340,7 +346,6 @@ def _guesses(ctx: StudyContext, model: str, cases: list[dict], order_key: str) -
 
 
 def run_damper_factor(ctx: StudyContext) -> dict:
-    from .robustness import step_down_case
     alphas = [0.1, 0.2] if ctx.quick else [0.1, 0.15, 0.2, 0.3]
     Ks = [6000.0] if ctx.quick else [2000.0, 6000.0, 10000.0]
     cases = _guesses(ctx, COMPLIANT, [{"alpha": a, "K_leg": k} for a in alphas for k in Ks],
@@ -372,7 +377,6 @@ def run_damper_factor(ctx: StudyContext) -> dict:
 
 
 def run_leg_stiffness(ctx: StudyContext) -> dict:
-    from .robustness import step_down_case
     Ks = [3000.0, 9000.0] if ctx.quick else [1500.0, 2000.0, 3000.0, 4500.0, 6000.0, 7500.0,
                                              9000.0, 10000.0]
     cases = _guesses(ctx, COMPLIANT, [{"K_leg": k} for k in Ks], "K_leg")
@@ -415,7 +419,6 @@ def run_leg_stiffness(ctx: StudyContext) -> dict:
 
 
 def run_variable_stiffness(ctx: StudyContext) -> dict:
-    from .robustness import step_down_case
     constant = [{"K_leg": 6000.0, "alpha": 0.15}, {"K_leg": 8000.0, "alpha": 0.15},
                 {"K_leg": 12000.0, "alpha": 0.15}]
     variable = [{"K1": 6000.0, "K2": 8000.0, "alpha": 0.2},

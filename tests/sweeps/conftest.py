@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 from sweep_cases import GAIT_CASES, GAIT_FIXED
 
-from walker_library.sweeps import Sweep, gait_case, load_results
+from porthamiltonian.batch import Sweep, load_results
+from walker_library.analyses import gait_case
 
 
 @pytest.fixture(scope="session")

@@ -58,3 +58,12 @@ def counting_case(case):
         raise KeyboardInterrupt
     CALLS.append(case["x"])
     return {"status": "ok", "double": 2 * case["x"]}
+
+
+def ticking_case(case):
+    """Reports case["x"] units of work named "iteration" (porthamiltonian.batch.tick)."""
+    from porthamiltonian.batch import tick
+    for _ in range(int(case["x"])):
+        tick("iteration")
+        time.sleep(0.01)
+    return {"status": "ok"}

@@ -1,15 +1,14 @@
-"""`walker sweep` in this process (walker_library.sweeps.main / add_parser): the printed table,
-CSV export, exit statuses and messages for bad input (nothing written), and the subcommand
-mounted on a parser like the walker command's (its global --backend)."""
+"""`walker sweep` in this process (walker_library.cli.main): the printed table, CSV export, exit
+statuses and messages for bad input (nothing written), and --backend before or after the
+subcommand."""
 from __future__ import annotations
 
-import argparse
 import csv
 
-from walker_library import sweeps
-from walker_library.sweeps import load_results, main
+from porthamiltonian.batch import load_results, read_header
+from walker_library.cli import main
 
-CHEAP = ["unused", "--analysis", "sweep_cases:square_case", "--grid", "x=1,2", "--grid",
+CHEAP = ["sweep", "unused", "--analysis", "sweep_cases:square_case", "--grid", "x=1,2", "--grid",
          "y=0,1", "--serial", "--progress", "none"]
 
 
@@ -33,7 +32,7 @@ def test_table_and_csv(tmp_path, capsys):
 
 def test_unknown_walker_parameter_fails_before_anything_is_written(tmp_path, capsys):
     out = tmp_path / "s.jsonl"
-    code = main(["simplest_walker", "--grid", "slope=0.01", "--grid", "stiffness=1,2",
+    code = main(["sweep", "simplest_walker", "--grid", "slope=0.01", "--grid", "stiffness=1,2",
                  "--backend", "python", "--out", str(out), "--serial"])
     assert code == 2
     err = capsys.readouterr().err
@@ -44,7 +43,7 @@ def test_unknown_walker_parameter_fails_before_anything_is_written(tmp_path, cap
 
 def test_out_of_range_walker_parameter_fails_naming_the_case(tmp_path, capsys):
     out = tmp_path / "s.jsonl"
-    code = main(["simplest_walker", "--grid", "slope=0.01,2", "--backend", "python",
+    code = main(["sweep", "simplest_walker", "--grid", "slope=0.01,2", "--backend", "python",
                  "--out", str(out), "--serial"])
     assert code == 2
     err = capsys.readouterr().err
@@ -54,7 +53,7 @@ def test_out_of_range_walker_parameter_fails_naming_the_case(tmp_path, capsys):
 
 def test_bad_input_exit_status_2_with_the_reason(tmp_path, capsys):
     out = tmp_path / "s.jsonl"
-    assert main(["unused", "--analysis", "limit-cycle", "--grid", "x=1", "--out", str(out)]) == 2
+    assert main(["sweep", "unused", "--analysis", "limit-cycle", "--grid", "x=1", "--out", str(out)]) == 2
     assert ("unknown analysis 'limit-cycle'; analyses: gait, step-down, basin"
             in capsys.readouterr().err)
     assert main([*CHEAP, "--grid", "z=1:2", "--out", str(out)]) == 2
@@ -67,7 +66,7 @@ def test_bad_input_exit_status_2_with_the_reason(tmp_path, capsys):
     foreign = tmp_path / "notes.txt"
     foreign.write_text("my notes\n")
     assert main([*CHEAP, "--out", str(foreign)]) == 2
-    assert f"error: {foreign}: not a walker sweep results file" in capsys.readouterr().err
+    assert f"error: {foreign}: not a sweep results file" in capsys.readouterr().err
     assert foreign.read_text() == "my notes\n"
 
 
@@ -81,11 +80,9 @@ def test_options_are_fixed_arguments_of_the_identity(tmp_path, capsys):
         capsys.readouterr().err
 
 
-def test_mounted_on_the_walker_parser_takes_its_global_backend(tmp_path, capsys):
-    parser = argparse.ArgumentParser(prog="walker")
-    parser.add_argument("--backend", default=None)
-    sweeps.add_parser(parser.add_subparsers(dest="command", required=True))
-    out = tmp_path / "s.jsonl"
-    args = parser.parse_args(["--backend", "python", "sweep", *CHEAP, "--out", str(out)])
-    assert args.func is sweeps.cmd_sweep and args.func(args) == 0
-    assert sweeps.read_header(out)["sweep"]["fixed"] == {"backend": "python", "model": "unused"}
+def test_backend_before_or_after_the_subcommand(tmp_path):
+    for where, args in (("before", ["--backend", "python", *CHEAP]),
+                        ("after", [*CHEAP, "--backend", "python"])):
+        out = tmp_path / f"{where}.jsonl"
+        assert main([*args, "--out", str(out)]) == 0
+        assert read_header(out)["sweep"]["fixed"] == {"backend": "python", "model": "unused"}

@@ -1,7 +1,7 @@
 """Sweeps in one process: grids and command-line specs, the results file (header, rows, resume
 without recomputing), refusal of foreign, mismatched and corrupt files (left byte-identical),
 failing cases as rows, a crashing worker, the tidy table and CSV, progress display, and the
-registry of analyses (walker_library.sweeps)."""
+walker analyses (porthamiltonian.batch, walker_library.analyses)."""
 from __future__ import annotations
 
 import csv
@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 import sweep_cases
 
-from porthamiltonian.errors import ModelError, SweepError, SweepFileError
-from walker_library import sweeps
-from walker_library.sweeps import (
+from porthamiltonian import batch
+from porthamiltonian.batch import (
     Sweep,
+    SweepError,
+    SweepFileError,
     SweepInterrupted,
     grid,
     load_results,
@@ -28,6 +29,8 @@ from walker_library.sweeps import (
     table,
     write_csv,
 )
+from porthamiltonian.errors import ModelError
+from walker_library import analyses
 
 CASES = grid(x=[1.0, 2.0, 3.0], y=[0.0, 0.5])
 
@@ -92,9 +95,9 @@ def test_header_rows_and_identity(tmp_path):
     assert (report.n_cases, report.n_done, report.n_run, report.n_previously_done) == (6, 6, 6, 0)
     assert report.complete and report.status_counts == {"ok": 6} and report.interrupted is None
     header, *rows = _lines(path)
-    assert header["format"] == "walker-sweep" and header["version"] == 1
+    assert header["format"] == batch.FORMAT and header["version"] == 1
     assert header["sweep"] == {"function": "sweep_cases:square_case", "fixed": {"scale": 2.0},
-                               "n_cases": 6, "cases_sha256": sweeps.cases_sha256(CASES)}
+                               "n_cases": 6, "cases_sha256": batch.cases_sha256(CASES)}
     assert header["meta"] == {"who": "t"} and read_header(path) == header
     assert [r["case_id"] for r in rows] == list(range(6))     # serial: completion = case order
     for row in rows:
@@ -183,10 +186,10 @@ def test_foreign_file_is_refused_and_left_unchanged(tmp_path):
     path = tmp_path / "results.csv"
     path.write_text("slope,speed\n0.009,0.1\n")
     _refused(path, Sweep(sweep_cases.square_case, CASES, path),
-             "not a walker sweep results file", "line 1 is not a JSON header line",
+             "not a sweep results file", "line 1 is not a JSON header line",
              "write the sweep to another file")
     path.write_text('{"format": "something-else"}\n{"case_id": 0}\n')
-    _refused(path, Sweep(sweep_cases.square_case, CASES, path), '"format": "walker-sweep"')
+    _refused(path, Sweep(sweep_cases.square_case, CASES, path), '"format": "porthamiltonian-sweep"')
     path.write_text('{"format": "walker-sweep", "version": 1}\n')
     _refused(path, Sweep(sweep_cases.square_case, CASES, path), "line 1", "no complete \"sweep\"")
     path.write_text('{"format": "walker-sweep", "version": 99, "sweep": {}}\n')
@@ -309,7 +312,7 @@ def test_a_case_that_kills_its_worker_becomes_an_error_row(tmp_path):
 def test_table_is_in_case_order_with_flat_columns_and_pending_cases(tmp_path):
     path = tmp_path / "s.jsonl"
     sweep = Sweep(sweep_cases.square_case, CASES, path)
-    rows = [sweeps._run_case(sweep_cases.square_case, {}, i, CASES[i]) for i in (4, 1)]
+    rows = [batch.run_case(sweep_cases.square_case, {}, i, CASES[i]) for i in (4, 1)]
     full = table(rows, CASES, pending=True)
     assert [r["case_id"] for r in full] == list(range(6))
     assert [r["status"] for r in full] == ["pending", "ok", "pending", "pending", "ok", "pending"]
@@ -356,26 +359,68 @@ def test_progress_bar_and_none(tmp_path, capsys):
         Sweep(sweep_cases.square_case, CASES, tmp_path / "c.jsonl").run(serial=True, progress="x")
 
 
-# --- analyses registry ------------------------------------------------------------------------------
-def test_registry_has_gait_and_takes_lazy_module_function_names():
-    from walker_library import robustness
-    assert sweeps.get_analysis("gait").resolve() is sweeps.gait_case
-    assert sweeps.get_analysis("gait").ok_statuses == ("periodic",)
-    assert sweeps.get_analysis("step-down").resolve() is robustness.step_down_case
-    assert sweeps.get_analysis("basin").resolve() is robustness.basin_case
+@pytest.mark.parametrize("serial", [True, False], ids=["serial", "pool"])
+def test_progress_counts_the_work_ticks_of_the_cases(tmp_path, capsys, serial):
+    """Work ticks of the case functions reach the display, also from pool workers."""
+    Sweep(sweep_cases.ticking_case, grid(x=[1, 2, 3, 4]), tmp_path / "s.jsonl").run(
+        serial=serial, workers=2, progress="text", progress_interval=0.0)
+    last = capsys.readouterr().err.splitlines()[-1]
+    assert last.startswith("sweep s.jsonl: 4/4 cases, 0 failed, 10 iterations, "), last
+
+
+def test_activity_counts_ticks_on_a_terminal_only():
+    import io
+
+    from porthamiltonian.batch import activity, tick
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    shown, hidden = Terminal(), io.StringIO()
+    for stream in (shown, hidden):
+        with activity("gait test", stream=stream) as display:
+            for _ in range(3):
+                tick("stride")
+            display.write("a line")
+    assert "gait test, 3 strides [00:00]" in shown.getvalue() and "a line" in shown.getvalue()
+    assert hidden.getvalue() == "a line\n"
+
+
+# --- analyses ---------------------------------------------------------------------------------------
+def test_walker_analyses_by_name_and_module_function_names():
+    assert analyses.get_analysis("gait").resolve() is analyses.gait_case
+    assert analyses.get_analysis("gait").ok_statuses == ("periodic",)
+    assert analyses.get_analysis("step-down").resolve() is analyses.step_down_case
+    assert analyses.get_analysis("basin").resolve() is analyses.basin_case
     with pytest.raises(SweepError, match="unknown analysis 'orbit'; analyses: gait, step-down, basin"):
-        sweeps.get_analysis("orbit")
-    try:
-        entry = sweeps.register_analysis("squares", "sweep_cases:square_case", "test")
-        assert sweeps.get_analysis("squares").resolve() is sweep_cases.square_case
-        assert entry.resolve_prepare() is None
-        with pytest.raises(SweepError, match="registered already"):
-            sweeps.register_analysis("squares", "sweep_cases:square_case", "test")
-    finally:
-        sweeps.ANALYSES.pop("squares", None)
-    assert sweeps.get_analysis("sweep_cases:mixed_case").resolve() is sweep_cases.mixed_case
+        analyses.get_analysis("orbit")
+    entry = analyses.get_analysis("sweep_cases:square_case")
+    assert entry.resolve() is sweep_cases.square_case and entry.run_prepare([], {}) == {}
+    assert analyses.get_analysis("sweep_cases:mixed_case").resolve() is sweep_cases.mixed_case
     with pytest.raises(SweepError, match="cannot import the case function 'no_module:f'"):
-        sweeps.get_analysis("no_module:f").resolve()
+        analyses.get_analysis("no_module:f").resolve()
+
+
+def test_a_basin_sweep_ships_the_gait_found_once_to_its_workers(tmp_path):
+    """prepare_basin finds the gait in this process; the pool's workers use that one (a gait
+    that says "fell" makes every point "no_gait") and give the rows of cases that find it."""
+    import dataclasses
+    fixed = {"model": "simplest_walker", "backend": "python", "params": {"slope": 0.009}}
+    cases = grid(theta=[0.2], theta_dot=[-0.2, -0.19])
+    shared = analyses.prepare_basin(cases, **fixed)
+    assert shared["gait"].status == "periodic"
+    analyses.walker_cache().clear_gaits()
+    sweep = Sweep(analyses.basin_case, cases, tmp_path / "a.jsonl", fixed=fixed, shared=shared)
+    sweep.run(workers=2, progress="none")
+    own = [analyses.basin_case(case, **fixed) for case in cases]       # each finds the gait
+    assert [r["result"] for r in sorted(load_results(sweep.path), key=lambda r: r["case_id"])] == own
+    assert [r["status"] for r in own] == ["converged", "fell"]
+    fell = {"gait": dataclasses.replace(shared["gait"], status="fell", message="shipped")}
+    other = Sweep(analyses.basin_case, cases, tmp_path / "b.jsonl", fixed=fixed, shared=fell)
+    other.run(workers=2, progress="none")
+    assert [(r["status"], r["message"]) for r in other.table()] == [("no_gait", "shipped")] * 2
+    assert other.identity == sweep.identity                         # shared: not the identity
 
 
 # --- executors that lose or fail cases ---------------------------------------------------------------

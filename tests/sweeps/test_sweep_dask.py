@@ -11,7 +11,9 @@ import sweep_cases
 from distributed import Client, LocalCluster
 from sweep_cases import GAIT_CASES, GAIT_FIXED
 
-from walker_library.sweeps import Sweep, gait_case, grid, load_results, main
+from porthamiltonian.batch import Sweep, grid, load_results
+from walker_library.analyses import gait_case
+from walker_library.cli import main
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +55,7 @@ def test_failing_cases_through_dask_are_rows(tmp_path, client):
 
 def test_command_line_scheduler_address(tmp_path, client, capsys, gait_reference):
     out = tmp_path / "gait.jsonl"
-    code = main(["simplest_walker", "--grid", "slope=0.004:0.019:4", "--out", str(out),
+    code = main(["sweep", "simplest_walker", "--grid", "slope=0.004:0.019:4", "--out", str(out),
                  "--backend", "python", "--scheduler", client.scheduler.address, "--json"])
     assert code == 0
     doc = json.loads(capsys.readouterr().out)

@@ -1,4 +1,4 @@
-"""A sweep interrupted half-way and resumed: `walker sweep` (walker_library.sweeps.main) in a
+"""A sweep interrupted half-way and resumed: `walker sweep` (walker_library.cli.main) in a
 subprocess with a process pool, stopped by SIGINT, SIGTERM or SIGKILL after some rows are in its
 file, then run again. Checked against an uninterrupted run of the same sweep: every case appears
 exactly once, with the same numbers; the rows written before the stop are not recomputed; the
@@ -17,7 +17,8 @@ from pathlib import Path
 import pytest
 import sweep_cases
 
-from walker_library.sweeps import Sweep, grid, load_results, main, read_header
+from porthamiltonian.batch import Sweep, grid, load_results, read_header
+from walker_library.cli import main
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
@@ -39,7 +40,7 @@ def _env() -> dict:
 
 
 def _start(args: list[str], **kw) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "walker_library.sweeps", *args[1:]],
+    return subprocess.Popen([sys.executable, "-m", "walker_library.cli", *args],
                             env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, cwd=ROOT, **kw)
 
@@ -111,7 +112,7 @@ def test_sigint_pool_sweep_resumes_from_the_command_line_to_the_uninterrupted_ta
     out = tmp_path / "sweep.jsonl"
     first = _interrupt(out, signal.SIGINT, 4)
     n_partial = len(load_results(out))
-    assert main([*CHEAP[1:], "--out", str(out)]) == 0          # the same command, again
+    assert main([*CHEAP, "--out", str(out)]) == 0          # the same command, again
     stdout = capsys.readouterr().out
     assert f"{out}: {N}/{N} cases (ok {N}); this run {N - n_partial} case(s)" in stdout
     assert f"{n_partial} already done" in stdout
@@ -176,10 +177,10 @@ def test_interrupted_simplest_walker_gait_sweep_resumes_to_the_same_numbers(tmp_
     partial = load_results(out)
     assert 1 <= len(partial) < 4
 
-    assert main([*args[1:], "--json"]) == 0                    # the same command, again
+    assert main([*args, "--json"]) == 0                    # the same command, again
     doc = json.loads(capsys.readouterr().out)
     assert doc["report"]["n_run"] == 4 - len(partial) and doc["report"]["complete"]
-    assert doc["identity"]["function"] == "walker_library.sweeps:gait_case"
+    assert doc["identity"]["function"] == "walker_library.analyses:gait_case"
     assert doc["identity"]["fixed"] == {"backend": "python", "model": "simplest_walker"}
     rows = load_results(out)
     assert sorted(r["case_id"] for r in rows) == [0, 1, 2, 3]
