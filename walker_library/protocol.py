@@ -37,7 +37,8 @@ __all__ = ["ParameterSpec", "Stride", "Walker", "check_parameters"]
 @dataclass(frozen=True)
 class ParameterSpec:
     """A walker parameter: default value (SI), unit, meaning and source, and its valid range
-    ``low < value < high`` (``low <= value`` when ``low_inclusive``)."""
+    ``low < value < high`` (``<=`` at an end that is ``*_inclusive``; a whole number if
+    ``integer``)."""
 
     name: str
     value: float
@@ -47,18 +48,25 @@ class ParameterSpec:
     low: float = -math.inf
     high: float = math.inf
     low_inclusive: bool = False
+    high_inclusive: bool = False
+    integer: bool = False
 
     def check(self, value: float) -> float:
+        """``value`` as a float if it is in range, else ParameterValueError naming the range."""
         try:
             value = float(value)
         except (TypeError, ValueError):
             raise ParameterValueError(f"parameter {self.name!r} must be a number, got {value!r}") from None
         ok_low = value >= self.low if self.low_inclusive else value > self.low
-        if not (math.isfinite(value) and ok_low and value < self.high):
-            lo = "[" if self.low_inclusive else "("
+        ok_high = value <= self.high if self.high_inclusive else value < self.high
+        if not (math.isfinite(value) and ok_low and ok_high):
+            lo, hi = "[" if self.low_inclusive else "(", "]" if self.high_inclusive else ")"
             raise ParameterValueError(
                 f"parameter {self.name!r} = {value:g} is out of range: it must lie in "
-                f"{lo}{self.low:g}, {self.high:g}) {self.unit} ({self.doc})")
+                f"{lo}{self.low:g}, {self.high:g}{hi} {self.unit} ({self.doc})")
+        if self.integer and value != round(value):
+            raise ParameterValueError(f"parameter {self.name!r} = {value:g} must be a whole number "
+                                      f"({self.doc})")
         return value
 
 

@@ -3,9 +3,9 @@ researcher would write them without the framework: equations of motion typed in 
 ``scipy.integrate.solve_ivp`` with events, no numba, no analytic Jacobian (the stiff solver gets
 scipy's own finite differences, ``jac=None``, the usual hand-written choice), and a plain Newton
 iteration with a forward-difference Jacobian for the fixed point. Used by
-``benchmarks/bench_walkers.py`` (timing against the framework in the same run) and by
 ``tests/validation/test_handwritten_walkers.py`` (independent validation of the framework's
-simplest walker).
+simplest walker) and by ``benchmarks/bench_walkers.py`` (timing against the framework in the same
+run; it imports this module from here).
 
 Simplest walker (Garcia, Chatterjee, Ruina & Coleman 1998, "The simplest walking model:
 stability, complexity, and scaling", J. Biomech. Eng. 120:281–288), nondimensional, β = m/M -> 0
