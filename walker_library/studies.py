@@ -164,7 +164,7 @@ def run_table_2_3(ctx: StudyContext) -> dict:
 
 # --- Fig. 2.12 ----------------------------------------------------------------------------------
 def run_damping_calibration(ctx: StudyContext) -> dict:
-    from .compliant import calibrate_damping
+    from .calibration import calibrate_damping
     w = _walker(NOMINAL)
     lams = np.logspace(5, 10, 6 if ctx.quick else 21)
     cal = calibrate_damping(w, lams=lams)
