@@ -29,9 +29,11 @@ __all__ = ["SHIPPED", "available_walkers", "compass_gait", "compass_walker",
            "compliant_leg_walker", "load_walker", "read_walker", "rigid_compass_walker",
            "rimless_wheel", "save_walker", "simplest_walker", "variable_stiffness_walker"]
 
-#: the walkers shipped in models/ (their files are the reference; docs/walkers.md describes them)
+#: the walkers shipped in models/ (their files are the reference; docs/walkers.md describes them):
+#: the classic rigid-impact walkers, the thesis's, and the thesis's recommendations (its §4.2)
 SHIPPED = ("simplest_walker", "compass_gait", "rimless_wheel", "rigid_compass_walker",
-           "compass_walker", "compliant_leg_walker", "variable_stiffness_walker")
+           "compass_walker", "compliant_leg_walker", "variable_stiffness_walker",
+           "hip_and_leg_spring_walker", "ankle_stiffness_walker", "smooth_stiffness_walker")
 
 
 def read_walker(name_or_path: str | Path) -> tuple[WalkerSpec, str]:
