@@ -3,21 +3,22 @@
 The analyses (:mod:`walker_library.poincare`, :mod:`walker_library.gait`) see a walker only through
 :class:`Walker`: a stride function on a Poincaré section just after heel strike, the names of the
 section's independent coordinates, a rough initial guess, and the conversions of a section state
-into named quantities (SI, and the thesis's θ, θ̇, φ, φ̇ where the walker has legs). Rigid-impact
-walkers (:mod:`walker_library.rigid`) and compliant-contact walkers implement the same interface,
-so every analysis applies to both.
+into named quantities (SI, and the thesis's θ, θ̇, φ, φ̇ where the walker has legs). Every walker
+of walker_library is a :class:`~walker_library.core.HybridWalker` — rigid-impact and
+compliant-contact walkers alike, configured by their model files (docs/walkers.md) — so every
+analysis applies to all of them; another implementation plugs in by providing the members of
+:class:`Walker`.
 
-A new walker (e.g. a compliant-contact walker) plugs in by providing the members of
-:class:`Walker`. Its :meth:`Walker.walk` simulates consecutive steps in one run (one energy ledger)
-and returns one :class:`Stride` per step, each ending on the section (for a compliant walker: the
-touchdown of the new foot in front, see :mod:`walker_library.compliant`), with the energy
-fields taken from the ledger (E_diss increments, H and the potential energy at the section
-crossings) and ``status="fell"`` for a fall; :meth:`Walker.stride` is ``walk(z, 1)[0]``.
+:meth:`Walker.walk` simulates consecutive steps in one run (one energy ledger) and returns one
+:class:`Stride` per step, each ending on the section (for a compliant walker: the touchdown of
+the new foot in front), with the energy fields taken from the ledger (E_diss increments, H and
+the potential energy at the section crossings) and ``status="fell"`` for a fall;
+:meth:`Walker.stride` is ``walk(z, 1)[0]``.
 ``details=True`` asks for max |θ| and max |φ|; ``record=True`` for the trajectory in
 ``info["trajectory"]`` of the last stride; ``ground_drop=h`` lowers the surface by h before the
 first heel strike (the step-down test).
 
-Conventions (MODEL-SPEC.md §1, Garcia et al. 1998): θ is the stance-leg angle to the slope normal,
+Conventions (Garcia et al. 1998; docs/walkers.md): θ is the stance-leg angle to the slope normal,
 φ the angle between the legs, positive as in Garcia's paper: just after heel strike θ > 0 (the new
 stance foot ahead of the hip), θ̇ < 0 while walking downhill, and φ = 2θ at heel strike.
 """
@@ -131,7 +132,7 @@ class Walker(Protocol):
     section: tuple[str, ...]
     parameters: dict[str, float]
 
-    def with_parameters(self, **values: float) -> "Walker":
+    def with_parameters(self, **values: float) -> Walker:
         """A copy with some parameters changed (validated: out of range raises)."""
 
     def initial_guess(self) -> np.ndarray:
@@ -145,7 +146,7 @@ class Walker(Protocol):
         """``n_steps`` consecutive strides from ``z`` (stops at the first fall).
 
         ``ground_drop`` h (m, >= 0): the surface drops by h once, ahead of the stance foot, before
-        the first heel strike, and stays down (MODEL-SPEC.md §5 step-down): the first step's new
+        the first heel strike, and stays down (the thesis's step-down, §2.6): the first step's new
         foot lands h lower (along the slope normal) than the stance foot, later steps on the
         lowered surface. The section coordinates are translation-invariant, so the strides after
         the drop are comparable with the gait's fixed point."""

@@ -1161,7 +1161,7 @@ _WALKERS: dict[tuple[str, str | None], Any] = {}
 
 
 def cached_walker(model: str, backend: str | None = None):
-    """The walker of ``model`` (a name from models/, a path, or a builder name) at the file's
+    """The walker of ``model`` (a walker file: a name from models/ or a path) at the file's
     parameter values, built once per process and back end (None: the walker's own default)."""
     key = (str(model), backend)
     walker = _WALKERS.get(key)
@@ -1306,7 +1306,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         meta["model_file"] = str(model_file)
         meta["model_file_sha256"] = hashlib.sha256(model_file.read_bytes()).hexdigest()
     except (ModelError, OSError):
-        pass                        # a builder name: no file
+        pass                        # load_walker reports a missing file
     sweep = Sweep(analysis.resolve(), cases, args.out, fixed=fixed, meta=meta,
                   ok_statuses=analysis.ok_statuses)
     if args.workers is not None and args.workers < 1:
@@ -1372,7 +1372,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "case to a JSON Lines file as it finishes; rerunning the same command resumes "
                     "where it stopped. Exit status: 0 all cases done, 1 some lost (rerun), 2 bad "
                     "input or a refused file, 130/143 interrupted (rerun to resume).")
-    p.add_argument("model", help="walker model name (models/), path, or builder name")
+    p.add_argument("model", help="walker model name (models/) or path")
     p.add_argument("--analysis", default="gait",
                    help=f"one of {', '.join(ANALYSES)} (default: gait), or module:function for a "
                         "case function of your own, called as fn(case, model=MODEL, "
