@@ -22,12 +22,31 @@ from .core import HybridWalker
 from .gait import GaitResult, WalkResult, analyze_gait, walk
 from .hybrid import Completion, Foot, Integration, Rule, Section, Terrain, WalkerSpec, walker_spec
 from .metrics import GaitMetrics, gait_metrics
-from .poincare import (FixedPointResult, FloquetResult, PeriodResult, detect_period,
-                       find_fixed_point, floquet, iterate, jacobian, stride_map)
+from .poincare import (
+                       FixedPointResult,
+                       FloquetResult,
+                       PeriodResult,
+                       detect_period,
+                       find_fixed_point,
+                       floquet,
+                       iterate,
+                       jacobian,
+                       stride_map,
+)
 from .protocol import ParameterSpec, Stride, Walker
-from .walkers import (available_walkers, compass_gait, compass_walker, compliant_leg_walker,
-                      load_walker, read_walker, rigid_compass_walker, rimless_wheel, save_walker,
-                      simplest_walker, variable_stiffness_walker)
+from .walkers import (
+                       available_walkers,
+                       compass_gait,
+                       compass_walker,
+                       compliant_leg_walker,
+                       load_walker,
+                       read_walker,
+                       rigid_compass_walker,
+                       rimless_wheel,
+                       save_walker,
+                       simplest_walker,
+                       variable_stiffness_walker,
+)
 
 __all__ = [
     "Completion", "FixedPointResult", "FloquetResult", "Foot", "GaitMetrics", "GaitResult",

@@ -12,7 +12,7 @@ per expression of the description that is evaluated during a walk: the rules' co
 parameter values, the modes' start values, the section's completions, the initial guess, the
 total mass and the leg length. They go through the same compiler and back end as the model's
 equations, so a walk evaluates no Python expression from a file. Before that, every name of the
-description is checked against the model's names (:func:`~.hybrid.check_names`, on
+description is checked against the model's names (:func:`~.names.check_names`, on
 :func:`porthamiltonian.symbolic`); a rule with an ``impact`` also compiles the floating version
 of the multibody (:func:`~.resets.floating_model`, python back end: only its matrices are used).
 
@@ -40,17 +40,9 @@ from porthamiltonian.compiled import CompiledModel
 from porthamiltonian.compiler import cache
 from porthamiltonian.errors import ModelError, ModelFileError, ParameterValueError
 
-from .hybrid import (
-    Integration,
-    ModelNames,
-    WalkerSpec,
-    check_names,
-    expand,
-    parse_condition,
-    parse_equation,
-    parse_interval,
-)
+from .hybrid import Integration, WalkerSpec, expand, parse_condition, parse_equation, parse_interval
 from .machine import Change, Condition, ModeMachine, Transition, WalkLog, outputs
+from .names import ModelNames, check_names
 from .protocol import ParameterSpec, Stride, check_parameters
 from .resets import ImpactMap, Relabel, floating_model
 from .strides import cut_strides
@@ -73,7 +65,7 @@ def compiled(model: Model, backend: str) -> CompiledModel:
 
 def _checked(spec: WalkerSpec, text: str) -> tuple[ModelNames, dict]:
     """The model's names (its symbolic form without its events and model outputs, whose
-    expressions :func:`~.hybrid.check_names` checks with their lines) and the description's
+    expressions :func:`~.names.check_names` checks with their lines) and the description's
     linear maps (memoized by model and spec)."""
     key = cache.model_key(spec.model) + repr(spec)
     if key not in _CHECKED:

@@ -1,5 +1,5 @@
 """Stride map on the Poincaré section just after heel strike; fixed points, Floquet multipliers,
-period detection (DESIGN.md §7, MODEL-SPEC.md §1, §5). Generic over :class:`~.protocol.Walker`.
+period detection (Garcia et al. 1998; the thesis's §2.5-2.6). Generic over :class:`~.protocol.Walker`.
 
 * :func:`stride_map` — S^k(z): k steps from section coordinates z (model's own, or the thesis's
   with ``coordinates="thesis"``); ``None`` when the walker falls.
@@ -26,8 +26,19 @@ from scipy.optimize import linear_sum_assignment
 
 from .protocol import Stride, Walker
 
-__all__ = ["stride_map", "iterate", "jacobian", "floquet", "find_fixed_point", "detect_period",
-           "FixedPointResult", "FloquetResult", "IterationResult", "PeriodResult", "WalkerFell"]
+__all__ = [
+    "FixedPointResult",
+    "FloquetResult",
+    "IterationResult",
+    "PeriodResult",
+    "WalkerFell",
+    "detect_period",
+    "find_fixed_point",
+    "floquet",
+    "iterate",
+    "jacobian",
+    "stride_map",
+]
 
 
 class WalkerFell(RuntimeError):

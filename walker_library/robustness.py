@@ -1,4 +1,4 @@
-"""Robustness of a walker's gait (MODEL-SPEC.md §5, thesis §2.6): step-down, basin of attraction,
+"""Robustness of a walker's gait (thesis §2.6; docs/walkers.md): step-down, basin of attraction,
 Gait Sensitivity Norm. Generic over :class:`~.protocol.Walker`; every result serializes to JSON
 (SI units, named fields).
 
@@ -44,8 +44,17 @@ from .gait import GaitResult, analyze_gait
 from .protocol import Walker
 from .results import JSONResult, to_jsonable
 
-__all__ = ["StepDownResult", "BasinResult", "GSNResult", "recovery_steps", "recovers",
-           "step_down", "basin", "gait_sensitivity_norm", "basin_state"]
+__all__ = [
+    "BasinResult",
+    "GSNResult",
+    "StepDownResult",
+    "basin",
+    "basin_state",
+    "gait_sensitivity_norm",
+    "recovers",
+    "recovery_steps",
+    "step_down",
+]
 
 
 def _fixed_points(walker: Walker, gait: GaitResult) -> np.ndarray:
@@ -140,7 +149,7 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
     list (all evaluated). ``progress`` is called with each case record as it finishes."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
-    base = dict(model=walker.name, parameters=dict(walker.parameters), tol=tol)
+    base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol}
     if gait.status != "periodic":
         return StepDownResult(status="no_gait", max_step_down=None, contiguous=False,
                               resolution=math.nan, first_failure=None, holes=[], n_steps=0,
@@ -252,8 +261,8 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
     over section states (:mod:`walker_library.sweeps`). ``progress`` is called per grid point."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
-    base = dict(model=walker.name, parameters=dict(walker.parameters), tol=tol,
-                theta_scale=theta_scale, theta_dot_scale=theta_dot_scale)
+    base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol,
+                "theta_scale": theta_scale, "theta_dot_scale": theta_dot_scale}
     if gait.status != "periodic":
         return BasinResult(status="no_gait", theta=[], theta_dot=[], fixed_point=gait.fixed_point,
                            outcome=[], steps=[], fraction=math.nan, radius=math.nan, n_steps=0,
@@ -323,7 +332,7 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
     """GSN of the gait for a single step-down of size h (default 1e-5 of the leg length), by
     finite differences at h and h/2 (module docstring)."""
     gait = _gait_or_raise(walker, gait)
-    base = dict(model=walker.name, parameters=dict(walker.parameters))
+    base = {"model": walker.name, "parameters": dict(walker.parameters)}
     if gait.status != "periodic":
         return GSNResult(status="no_gait", gsn=math.nan, by_indicator={}, response={},
                          error=math.nan, h=math.nan, n_steps=0,
