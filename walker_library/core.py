@@ -135,7 +135,8 @@ class HybridWalker:
 
     Attributes
     ----------
-    name, doc, spec; model : the compiled model; parameters : the current values (SI);
+    name, doc, spec; model : the compiled model; multibody : its multibody's name;
+    parameters : the current values (SI);
     specs : :class:`~.protocol.ParameterSpec` per parameter; section, thesis_section : names of
     the section's coordinates (model's, thesis's); legged : θ and φ are defined; options.
     """
@@ -175,7 +176,7 @@ class HybridWalker:
         m = self.model
         out = {n: i for i, n in enumerate(m.output_names)}
         self._out = out
-        self._mb = mb
+        self.multibody = mb
         self._iq = [i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.q.")]
         self._ip = [i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.p.")]
         self._rate = {f"{mb}.v.{s[len(mb) + 3:]}": k
@@ -288,8 +289,8 @@ class HybridWalker:
     # --- properties -----------------------------------------------------------------------------
     @property
     def weight(self) -> float:
-        """Total weight m_total g (N); g is the parameter ``g``."""
-        return self.total_mass * self.parameters.get("g", 9.81)
+        """Total weight m_total g (N); g is the model's parameter ``g``."""
+        return self.total_mass * self.parameters["g"]
 
     @property
     def gait_tolerance(self) -> float:
@@ -317,7 +318,7 @@ class HybridWalker:
 
     def velocities(self, x: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """Joint rates v of the multibody: M(q) v = p (solved, not inverted)."""
-        M = self.model.matrix(f"{self._mb}.M", 0.0, x, self._p if p is None else p)
+        M = self.model.matrix(f"{self.multibody}.M", 0.0, x, self._p if p is None else p)
         return np.linalg.solve(M, np.asarray(x)[self._ip])
 
     def start_params(self, ground_drop: float = 0.0) -> np.ndarray:
@@ -356,7 +357,7 @@ class HybridWalker:
                 v[self._rate[target]] = value
             else:
                 x[m.state_index(target)] = value
-        x[self._ip] = self.model.matrix(f"{self._mb}.M", 0.0, x, p) @ v
+        x[self._ip] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
         return x
 
     def _solve(self, x: np.ndarray, p: np.ndarray, target: str, o: int, value: float) -> float:
@@ -390,20 +391,22 @@ class HybridWalker:
         (its ``labelling`` condition does not hold), so :meth:`project` relabels it."""
         return self._labelling is not None and not self._labelling.holds(self.outputs(0.0, x, p))
 
-    def _canonical(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(state, rates, parameters) in the section's labelling."""
+    def canonical(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(state, joint rates, parameters) of state ``x`` in the section's labelling: relabelled
+        when the section's ``labelling`` condition does not hold (a compliant walker with foot 2
+        leading), else as they are."""
         v = self.velocities(x, p)
         if self.relabelled(x, p):
             y = self.outputs(0.0, x, p)
             x = self._relabel.state(x, y)
             v = self._relabel.rates(v)
             p = self._relabel.params(p, y)
-            x[self._ip] = self.model.matrix(f"{self._mb}.M", 0.0, x, p) @ v
+            x[self._ip] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
         return x, v, p
 
     def project(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """Model state (on the section) -> section coordinates, in the section's labelling."""
-        x, v, p = self._canonical(np.asarray(x, dtype=float), p)
+        x, v, p = self.canonical(np.asarray(x, dtype=float), p)
         y = None
         z = []
         for kind, name, o in self._plan_project:
@@ -448,7 +451,7 @@ class HybridWalker:
         d.update(zip(self.thesis_section, (float(a) for a in self.to_thesis(z))))
         d.update(self.angles(x, v))
         if self.hip:
-            J = self.model.matrix(f"{self._mb}.J.{self.hip.split('.', 1)[1]}", 0.0, x, p)
+            J = self.model.matrix(f"{self.multibody}.J.{self.hip.split('.', 1)[1]}", 0.0, x, p)
             d["hip_speed"] = float(np.linalg.norm(J @ v))
         return d
 

@@ -137,6 +137,9 @@ def check_names(spec: WalkerSpec, names: ModelNames, text: str = "") -> dict[str
             if names.root_joint is None:
                 bad.add(f"{where}: an impact releases the pinned root joint: the multibody needs "
                         "one revolute joint from 'world'", "rules", i, "impact")
+    if "g" not in params:
+        bad.add("the walker's weight (the cost of transport) is [walker] mass times the "
+                "parameter g: declare g (m/s^2) under [parameters]", "mass")
     for expr, where, path in ((spec.mass, "[walker] mass", ("mass",)),
                               (spec.leg_length, "[walker] leg_length", ("leg_length",))):
         parsed = check(expr, where, *path, resolve=lambda ref: None)

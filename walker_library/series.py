@@ -75,14 +75,14 @@ def walk_series(walker, z, n_steps: int, *, ground_drop: float = 0.0,
     col = walker._out
     for i in range(N):
         x = traj.y[:n, i]
-        xc, v, _ = walker._canonical(x, P[i])
+        xc, v, _ = walker.canonical(x, P[i])
         for k, value in walker.angles(xc, v).items():
             angles[k][i] = value
     if walker.hip:
         hip[:] = Y[:, [col[f"{walker.hip}.x"], col[f"{walker.hip}.z"]]]
     for j, point in enumerate(walker.feet):
         feet[:, j] = Y[:, [col[f"{point}.x"], col[f"{point}.z"]]]
-    mb = walker._mb
+    mb = walker.multibody
     return GaitSeries(t=t, step=step, H=traj.H, V=np.asarray(traj[f"{mb}.V"]),
                       T=np.asarray(traj[f"{mb}.T"]), E_diss=traj.E_diss, E_in=traj.E_in,
                       residual=traj.residual, hip=hip, feet=feet, strides=strides, **angles)

@@ -94,7 +94,7 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
     t, Y = traj.t, traj.y
     P = params_per_point(traj)
     n = walker.model.n_states
-    iV = walker._out[f"{walker._mb}.V"]
+    iV = walker._out[f"{walker.multibody}.V"]
 
     def at(i: int) -> tuple[float, float, float, float]:
         """(H, V, E_diss, E_in) at stored point i."""
