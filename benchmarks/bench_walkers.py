@@ -22,7 +22,7 @@ Walkers (framework: ``walker_library`` builders with their defaults; hand-writte
   hand-written forward-difference Jacobian) at the same tolerances and max_step, mode switches
   by terminal events; LSODA for information (the fastest hand-written stiff solver in the contact
   benchmark).
-* ``legs``: ``compliant_leg_walker()`` (MODEL-SPEC §3; numba + Rodas4, same tolerances) vs the
+* ``legs``: ``compliant_leg_walker()`` (thesis §3.1; numba + Rodas4, same tolerances) vs the
   hand-written 6-DOF point-mass model, the same variants. Skipped with a note if
   ``walker_library.compliant_leg_walker`` is not there.
 

@@ -19,7 +19,7 @@ Laws
 * ``SpringDamper`` (linear): e = K z + D ż, H = ½ K z², P_diss = D ż² ≥ 0. K (N/m) and D (N·s/m)
   may depend on parameters only.
 * ``VariableSpringDamper``: H = ½ K z² with K any expression in time, states of other components
-  and parameters (a modulation input, e.g. MODEL-SPEC.md §4's K = K1 + (K2 − K1)|φ|/φ_max after
+  and parameters (a modulation input, e.g. the thesis's (§3.2) K = K1 + (K2 − K1)|φ|/φ_max after
   mid-stance, with a mode parameter switched by events); e = ∂H/∂q + D ż (= K z + D ż unless K
   depends on q itself, then the force includes ½ (∂K/∂q) z², so that the storage stays
   conservative); P_diss = D ż². Abs/sign/Heaviside/Max/Min in K are rewritten as Piecewise so that
@@ -44,7 +44,7 @@ numeric stiffness, damping, alpha or mass < 0; damping together with alpha; alph
 (use ``VariableSpringDamper``).
 
 References: D. Karnopp, D. Margolis, R. Rosenberg, *System Dynamics*, 5th ed. (2012), ch. 4
-(C- and R-elements, modulated storages); the thesis ch. 3 (MODEL-SPEC.md §3–4).
+(C- and R-elements, modulated storages); M. Jafarian (2010), MSc report 022CE2010, University of Twente, ch. 3.
 """
 from __future__ import annotations
 
