@@ -51,7 +51,8 @@ def _damping_parameter(walker: HybridWalker) -> str:
     return str(value) if isinstance(value, str) else "lam"
 
 
-def calibrate_damping(walker: HybridWalker, z=None, lams=None, *, window: float = 0.05,
+def calibrate_damping(walker: HybridWalker, z: np.ndarray | None = None,
+                      lams: np.ndarray | None = None, *, window: float = 0.05,
                       rel_tol: float = 1e-3, parameter: str | None = None) -> DampingCalibration:
     """Calibrate the contact damping the thesis's way (module docstring).
 

@@ -90,6 +90,7 @@ class _Outputs:
         self.exprs: dict[str, str] = {}
 
     def add(self, text: Any) -> str:
+        """The name of the output that evaluates ``text`` (added if new)."""
         text = str(text)
         for name, expr in self.exprs.items():
             if expr == text:
@@ -304,6 +305,7 @@ class HybridWalker:
 
     @property
     def hip(self) -> str:
+        """The multibody point reported as the hip (``[walker] hip``)."""
         return self.spec.hip
 
     # --- numeric helpers ----------------------------------------------------------------------------
@@ -332,7 +334,7 @@ class HybridWalker:
         return p
 
     # --- the section ----------------------------------------------------------------------------
-    def lift(self, z, p: np.ndarray | None = None) -> np.ndarray:
+    def lift(self, z: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """Section coordinates -> model state (see the module docstring)."""
         p = self.start_params() if p is None else p
         z = np.asarray(z, dtype=float)
@@ -419,11 +421,11 @@ class HybridWalker:
                 z.append(float(x[self.model.state_index(name)]))
         return np.array(z)
 
-    def to_thesis(self, z) -> np.ndarray:
+    def to_thesis(self, z: np.ndarray) -> np.ndarray:
         """Section coordinates in the thesis's terms (:attr:`thesis_section`)."""
         return self._T @ np.asarray(z, dtype=float)
 
-    def from_thesis(self, w) -> np.ndarray:
+    def from_thesis(self, w: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`to_thesis`."""
         return self._T_inv @ np.asarray(w, dtype=float)
 
@@ -436,7 +438,7 @@ class HybridWalker:
             out.update({f"{k}_dot": float(a @ v) for k, a in self._angles.items()})
         return out
 
-    def section_state(self, z) -> dict[str, float]:
+    def section_state(self, z: np.ndarray) -> dict[str, float]:
         """The section state by name: its coordinates, the completed state coordinates, the
         thesis's coordinates and angles (theta, theta_dot, phi, phi_dot where defined), and the
         hip's speed (m/s)."""
@@ -469,11 +471,11 @@ class HybridWalker:
                                     phi_dot0=phi_dot).initial_guess()
 
     # --- walking ----------------------------------------------------------------------------------
-    def stride(self, z, *, details: bool = False, record: bool = False) -> Stride:
+    def stride(self, z: np.ndarray, *, details: bool = False, record: bool = False) -> Stride:
         """One step from section coordinates ``z`` (see :meth:`walk`)."""
         return self.walk(z, 1, details=details, record=record)[0]
 
-    def walk(self, z, n_steps: int, *, details: bool = False, record: bool = False,
+    def walk(self, z: np.ndarray, n_steps: int, *, details: bool = False, record: bool = False,
              ground_drop: float = 0.0) -> list[Stride]:
         """``n_steps`` consecutive strides from section state ``z`` in one simulation (one
         energy ledger); stops at the first fall, which is the last Stride (status "fell").

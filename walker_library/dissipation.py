@@ -20,7 +20,7 @@ _FRICTION = ("SCVSFriction",)
 _DAMPERS = ("SpringDamper", "VariableSpringDamper")
 
 
-def dissipation_breakdown(walker: HybridWalker, z, n_steps: int = 1) -> list[dict]:
+def dissipation_breakdown(walker: HybridWalker, z: np.ndarray, n_steps: int = 1) -> list[dict]:
     """Energy dissipated in each step from section state ``z``, by element (J).
 
     Walks ``n_steps`` (one simulation, ``record=True``) and integrates each element's dissipated
@@ -51,7 +51,8 @@ def dissipation_breakdown(walker: HybridWalker, z, n_steps: int = 1) -> list[dic
         i1 = int(np.nonzero(t == s.info["t_end"])[0][-1])
         sl = slice(i0, i1 + 1)
 
-        def integral(power, sl=sl):
+        def integral(power: np.ndarray, sl: slice = sl) -> float:
+            """∫ power dt over the step (trapezoid on the stored points)."""
             return float(np.trapezoid(power[sl], t[sl]))
 
         row = {"total": float(e_diss[i1] - e_diss[i0]), "contact": integral(contact),

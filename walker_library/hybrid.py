@@ -218,6 +218,7 @@ class WalkerSpec:
 
     @property
     def name(self) -> str:
+        """The walker's name: its model's."""
         return self.model.name
 
     @property
@@ -226,6 +227,7 @@ class WalkerSpec:
         return (*(k for k, _ in self.modes), self.terrain.drop)
 
     def foot(self, name: str) -> Foot:
+        """The foot called ``name``."""
         return next(f for f in self.feet if f.name == name)
 
     def to_table(self) -> dict[str, Any]:
@@ -334,10 +336,12 @@ class Problems:
         self.items: list[tuple[int | None, str]] = []
 
     def add(self, message: str, *path: str | int, table: str = "walker") -> None:
+        """Record a problem about the key at ``path`` of ``[table]`` (its line when known)."""
         line = locate(self.text, table, *path) if self.text else None
         self.items.append((line, message))
 
     def raise_if_any(self) -> None:
+        """Raise the problems recorded so far as one ModelFileError (none: return)."""
         if not self.items:
             return
         if len(self.items) == 1:

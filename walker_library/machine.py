@@ -48,6 +48,7 @@ class Condition:
     op: str
 
     def holds(self, y: np.ndarray) -> bool:
+        """Whether the condition holds for the outputs ``y``."""
         return bool(_OPS[self.op](y[self.output], 0.0))
 
 
@@ -62,6 +63,7 @@ class Change:
     output: int | None = None
 
     def value(self, y: np.ndarray) -> float:
+        """The new value, for the outputs ``y`` just before the event."""
         return float(self.constant if self.output is None else y[self.output])
 
 
@@ -94,6 +96,7 @@ class Transition:
         return all(c.holds(y) for c in self.conditions)
 
     def params_after(self, p: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The parameter vector after the transition (its changes applied to ``p``)."""
         out = np.array(p, dtype=float)
         for c in self.changes:
             out[c.index] = c.value(y)
@@ -141,6 +144,7 @@ class WalkLog:
 
     @property
     def heel_strikes(self) -> list[Fired]:
+        """The fired transitions that ended a step."""
         return [f for f in self.fired if f.transition.heel_strike]
 
 
@@ -152,10 +156,12 @@ class ModeMachine:
     transitions: tuple[Transition, ...]
 
     def on(self, event: str) -> tuple[Transition, ...]:
+        """The transitions of ``event``, in the description's order."""
         return tuple(tr for tr in self.transitions if tr.event == event)
 
     @property
     def events(self) -> tuple[str, ...]:
+        """The model events that have transitions."""
         return tuple(dict.fromkeys(tr.event for tr in self.transitions if tr.event != "start"))
 
     def first(self, event: str, y: np.ndarray) -> Transition | None:

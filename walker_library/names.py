@@ -43,7 +43,9 @@ class ModelNames:
     root_joint: str | None
 
     @classmethod
-    def of(cls, model: Model, symbolic_model) -> ModelNames:
+    def of(cls, model: Model, symbolic_model: Any) -> ModelNames:
+        """The names of ``model`` from its symbolic form (a
+        :class:`porthamiltonian.compiler.SymbolicModel`)."""
         from porthamiltonian import Multibody
         mbs = [name for name, c in model.components() if isinstance(c, Multibody)]
         mb = mbs[0] if len(mbs) == 1 else ""

@@ -112,6 +112,7 @@ class Stride:
 
     @property
     def fell(self) -> bool:
+        """True when the stride ended in a fall (status other than "step")."""
         return self.status != "step"
 
 

@@ -61,7 +61,8 @@ class Relabel:
     c_outputs: tuple[tuple[int, int], ...] = ()
 
     @classmethod
-    def build(cls, space: list[str], A, b: list[float | int | str], state_names: list[str],
+    def build(cls, space: list[str], A: list[list[float]], b: list[float | int | str],
+              state_names: list[str],
               param_names: list[str], coordinates: list[str],
               output_of: dict[str, int] | None = None) -> Relabel:
         """From :func:`~.hybrid.check_names`'s ``relabel`` (names of the map's space, its matrix
@@ -73,7 +74,8 @@ class Relabel:
         mod = [i for i, n in enumerate(space) if n not in state_names]
         where = {space[i]: k for k, i in enumerate(pos)}
 
-        def split(rows):
+        def split(rows: list[int]) -> tuple[np.ndarray, tuple[tuple[int, int], ...]]:
+            """Numeric offsets of ``rows`` (0 where an expression) and the expressions' outputs."""
             const = [0.0 if isinstance(b[i], str) else float(b[i]) for i in rows]
             outs = tuple((k, output_of[b[i]]) for k, i in enumerate(rows) if isinstance(b[i], str))
             return _frozen(const), outs

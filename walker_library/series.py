@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .core import HybridWalker
 from .protocol import Stride
 from .strides import params_per_point
 
@@ -53,7 +54,7 @@ class GaitSeries:
         return np.cumsum([s.duration for s in self.strides if not s.fell])
 
 
-def walk_series(walker, z, n_steps: int, *, ground_drop: float = 0.0,
+def walk_series(walker: HybridWalker, z: np.ndarray, n_steps: int, *, ground_drop: float = 0.0,
                 max_step: float | None = None) -> GaitSeries:
     """Walk ``n_steps`` from section state ``z`` (recorded) and convert (module docstring).
     ``max_step`` (s) caps the integrator's step for smooth curves (the stored points are the

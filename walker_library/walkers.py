@@ -108,6 +108,7 @@ def available_walkers() -> list[str]:
 def _by_name(name: str) -> Callable[..., HybridWalker]:
     def make(*, backend: str | None = None, options: Integration | None = None,
              **values: float) -> HybridWalker:
+        """(replaced below)"""
         return load_walker(name, values, backend=backend, options=options)
     make.__name__ = make.__qualname__ = name
     make.__doc__ = (f"The walker of models/{name}.toml (docs/walkers.md), parameter values as "
