@@ -136,7 +136,8 @@ class HybridWalker:
 
     Attributes
     ----------
-    name, doc, spec; model : the compiled model; multibody : its multibody's name;
+    name, doc, spec; model : the compiled model; backend : its back end (resolved);
+    multibody : its multibody's name;
     parameters : the current values (SI);
     specs : :class:`~.protocol.ParameterSpec` per parameter; section, thesis_section : names of
     the section's coordinates (model's, thesis's); legged : θ and φ are defined; options.
@@ -174,6 +175,7 @@ class HybridWalker:
         for name, text_ in ex.exprs.items():
             model.output(name, text_)
         self.model = compiled(model, self.backend)
+        self.backend = self.model.backend          # "auto" resolved: the back end in use
         m = self.model
         out = {n: i for i, n in enumerate(m.output_names)}
         self._out = out
