@@ -11,7 +11,7 @@ Run::
 
 Models (all planar, x-z plane, gravity (0, 0, −g)):
 
-* walker4: models/walker_skeleton.toml, the compass-walker skeleton of MODEL-SPEC.md §1 (hip point
+* walker4: models/walker_skeleton.toml, the compass-walker skeleton of the thesis's walker (Table 2.3; hip point
   mass 3 kg on a translational x-z joint, two uniform legs 0.01 kg / 0.7 m on revolute hip joints,
   point feet 0.1 kg welded at the leg ends): 4 coordinates (x, z, θ1, θ2), 8 states.
 * walker6: the same with each foot on a prismatic joint along its leg axis (telescopic legs),

@@ -10,7 +10,7 @@ Run::
     python benchmarks/bench_walkers.py --no-compile    # skip the cold/cached compile subprocesses
 
 Walkers (framework: ``walker_library`` builders with their defaults; hand-written:
-``benchmarks/handwritten_walkers.py``, see its docstring for the equations):
+``tests/validation/handwritten_walkers.py``, see its docstring for the equations):
 
 * ``simplest``: ``simplest_walker()`` (Garcia et al. 1998; python back end + scipy DOP853, rtol
   1e-12, atol 1e-24, max_step 0.25 — the walker's defaults) vs Garcia's equations of motion and
@@ -22,9 +22,9 @@ Walkers (framework: ``walker_library`` builders with their defaults; hand-writte
   hand-written forward-difference Jacobian) at the same tolerances and max_step, mode switches
   by terminal events; LSODA for information (the fastest hand-written stiff solver in the contact
   benchmark).
-* ``legs``: ``compliant_leg_walker()`` (MODEL-SPEC §3; numba + Rodas4, same tolerances) vs the
+* ``legs``: ``compliant_leg_walker()`` (thesis §3.1; numba + Rodas4, same tolerances) vs the
   hand-written 6-DOF point-mass model, the same variants. Skipped with a note if
-  ``walker_library.compliant_legs`` is not there.
+  ``walker_library.compliant_leg_walker`` is not there.
 
 Measured:
 
@@ -63,10 +63,11 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "tests" / "validation"))
 
 import handwritten_walkers as hw
-from machine import machine_info
 import numpy as np
+from machine import machine_info
 
 WALKERS = ("simplest", "compass", "legs")
 
@@ -76,7 +77,7 @@ WALKERS = ("simplest", "compass", "legs")
 # ------------------------------------------------------------------------------------------------
 def legs_available() -> bool:
     try:
-        from walker_library.compliant_legs import compliant_leg_walker  # noqa: F401
+        from walker_library import compliant_leg_walker  # noqa: F401
     except ImportError:
         return False
     return True
@@ -89,7 +90,7 @@ def build_framework(name: str, backend: str | None = None):
     if name == "compass":
         from walker_library import compass_walker
         return compass_walker(**({"backend": backend} if backend else {}))
-    from walker_library.compliant_legs import compliant_leg_walker
+    from walker_library import compliant_leg_walker
     return compliant_leg_walker(**({"backend": backend} if backend else {}))
 
 
@@ -136,29 +137,32 @@ class FrameworkSection:
 
     def __init__(self, fw, joints):
         self.fw = fw
-        self.order = [fw._col[j] for j in joints]
+        coords = [fw.model.state_names[i][len("walker.q."):] for i in fw._iq]
+        self.order = [coords.index(j) for j in joints]
         self.iq = np.asarray(fw._iq)[self.order]
         self.ip = np.asarray(fw._ip)[self.order]
-        self.p = fw._p.copy()
-        self.p[fw._ic[1]] = self.p[fw._ic[2]] = 1.0
+        self.p = fw.start_params()                      # both feet's contacts on, foot 1 leading
+        self.i_lead = fw.model.param_names.index("lead")
 
     def to_y(self, z):
         fw = self.fw
         x = fw.lift(z, self.p)
-        v = np.linalg.solve(fw._mass_matrix(x, self.p), x[fw._ip])
+        v = fw.velocities(x, self.p)
         return np.concatenate([x[fw._iq][self.order], v[self.order]])
 
     def to_z(self, y, lead):
         fw = self.fw
         m = len(self.order)
-        x = np.zeros(fw.swing.n_states)
+        x = np.zeros(fw.model.n_states)
         x[self.iq] = y[:m]
-        for dst, src in fw._mirror_idx:
-            x[dst] = x[src]
+        for k in (1, 2):                                # the springs' lengths follow the joints
+            x[fw.model.state_index(f"spring{k}.q")] = x[fw.model.state_index(f"walker.q.ankle{k}")]
         v = np.empty(m)
         v[self.order] = y[m:]
-        x[fw._ip] = fw._mass_matrix(x, self.p) @ v
-        return fw.project(x, self.p, lead + 1)
+        x[fw._ip] = fw.model.matrix("walker.M", 0.0, x, self.p) @ v
+        p = self.p.copy()
+        p[self.i_lead] = lead + 1
+        return fw.project(x, p)
 
 
 _ADAPTERS: dict[int, FrameworkSection] = {}
@@ -250,7 +254,7 @@ def source_hash() -> str:
 def framework_breakdown(fw, z, n_steps: int) -> dict:
     """Accepted steps, RHS / Jacobian evaluations per step, and the share of the wall time in
     the compiled Rodas4 loop (numba) or in the generated RHS (python back end)."""
-    f = fw.swing.functions
+    f = fw.model.functions
     name = "rodas" if fw.backend == "numba" and getattr(fw.options, "method", "") == "Rodas4" else "rhs"
     orig = getattr(f, name)
     acc = [0.0, 0]
@@ -365,12 +369,7 @@ def bench_walker(name: str, args, report: dict) -> None:
         rec["numba_first_stride"] = time.perf_counter() - t0
         keys.insert(1, "framework numba")
     elif name != "simplest" and not args.quick:     # diagnostic: the same model under scipy Radau
-        from walker_library import CompliantOptions
-        extra_fw = type(fw).__new__(type(fw))
-        extra_fw.__dict__.update(fw.__dict__)
-        extra_fw.options = CompliantOptions(method="Radau", rtol=fw.options.rtol,
-                                            atol=fw.options.atol, max_step=fw.options.max_step,
-                                            max_step_time=fw.options.max_step_time)
+        extra_fw = fw.with_options(method="Radau")
         keys.insert(1, "framework Radau")
     times = {k: [] for k in keys}
     stats: dict[str, dict] = {}
@@ -531,7 +530,7 @@ def main(argv=None) -> int:
     report: dict = {}
     for name in names:
         if name == "legs" and not legs_available():
-            print("\n=== legs === walker_library.compliant_legs is not available: skipped")
+            print("\n=== legs === walker_library.compliant_leg_walker is not available: skipped")
             report["legs"] = {"skipped": True}
             continue
         if args.compile_only:

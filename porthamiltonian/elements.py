@@ -86,7 +86,8 @@ class I(_OnePortIn):
 class R(_OnePortIn):
     """Dissipator (damper, resistor, friction).
 
-    Ports: ``p`` (power in). Law: e = ``resistance``·f, or e = ``effort``(f), or f = ``flow``(e).
+    Ports: ``p`` (power in; ``dim`` components, e.g. 2 for a body point in a plane). Law:
+    e = ``resistance``·f (per component), or e = ``effort``(f), or f = ``flow``(e) (``dim`` 1).
     Dissipation: e·f (W), which must be >= 0 for a passive law.
     """
 
@@ -96,10 +97,20 @@ class R(_OnePortIn):
         "resistance": Arg("linear resistance e/f (N s/m, Ohm, ...)", default=None, rule=">="),
         "effort": Arg("effort as a function of the flow f", default=None, local=("f",)),
         "flow": Arg("flow as a function of the effort e", default=None, local=("e",)),
+        "dim": Arg("dimension of the port (a vector port: the linear law acts per component)",
+                   symbolic=False, default=1),
     }
 
-    def build(self, b: Builder, domain, resistance, effort, flow) -> None:
+    def ports(self) -> list[Port]:
+        dim = self.value("dim")
+        if isinstance(dim, bool) or not isinstance(dim, int) or dim < 1:
+            raise ModelError(f"R: dim must be a whole number >= 1, got {dim!r}")
+        return [Port("p", self.value("domain"), dim, "in")]
+
+    def build(self, b: Builder, domain, resistance, effort, flow, dim) -> None:
         chosen = _exactly_one("R", {"resistance": resistance, "effort": effort, "flow": flow})
+        if dim != 1 and chosen != "resistance":
+            raise ModelError("R: a vector port (dim > 1) takes a linear 'resistance' only")
         port = b.port("p")
         if chosen == "resistance":
             b.equation(port.e, resistance * port.f, "e = R f")

@@ -9,6 +9,8 @@ worked example, is docs/model-files.md)::
     name = "mass_spring_damper"    # default: the file's name
     description = "..."            # other keys and tables under [model] (e.g. [model.walker],
                                    # read by walker_library) are kept as Model.meta and saved back
+    [walker]                       # a walker's hybrid description: kept as Model.sections["walker"]
+                                   # and saved back (read by walker_library; see docs/walkers.md)
 
     [parameters]
     m = { value = 1.0, unit = "kg", doc = "mass" }   # or simply  m = 1.0
@@ -55,7 +57,11 @@ from .mechanics.bodies import expression_fields
 from .model import Model
 from .options import check_rtol
 
-_SECTIONS = {"bonds", "model", "parameters", "components", "events", "outputs", "simulation"}
+#: top-level tables that the loader keeps as they are, for the libraries that read them
+#: (``Model.sections``, written back on save): the walker library's ``[walker]`` table
+PASSED_THROUGH = ("walker",)
+_CORE_SECTIONS = {"bonds", "model", "parameters", "components", "events", "outputs", "simulation"}
+_SECTIONS = _CORE_SECTIONS | set(PASSED_THROUGH)
 _SIM_KEYS = {"t_end", "method", "rtol", "atol", "max_step", "energy_tolerance", "initial"}
 
 
@@ -253,6 +259,14 @@ class _Locator:
         return None
 
 
+def locate(text: str, *path: str | int) -> int | None:
+    """The line of the table or key at ``path`` in the TOML ``text`` (e.g. ``locate(text,
+    "walker", "rules", 2, "if")``: the ``if`` key of the third ``[[walker.rules]]``), or of its
+    longest known prefix; None if not even the first part is found. For libraries that check
+    the tables the loader passes through (:data:`PASSED_THROUGH`) and name lines in errors."""
+    return _Locator(text).line(*path)
+
+
 def _suggest(name: str, known) -> str:
     close = difflib.get_close_matches(str(name), [str(k) for k in known], n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else ""
@@ -295,7 +309,7 @@ def model_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = ""
     if unknown:
         name = unknown[0]
         raise fail(f"unknown section {name!r}{_suggest(name, _SECTIONS)}; a model file has only "
-                   f"{', '.join(sorted(_SECTIONS))} (see docs/model-files.md)", name)
+                   f"{', '.join(sorted(_CORE_SECTIONS))} (see docs/model-files.md)", name)
     head = data.get("model", {})
     if not isinstance(head, dict):
         raise fail(f"[model] must be a table (name = \"...\", description = \"...\"), got "
@@ -310,6 +324,7 @@ def model_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = ""
     name = head.get("name", Path(source).stem)
     model = Model(str(name), str(head.get("description", "")))
     model.meta = {k: v for k, v in head.items() if k not in ("name", "description")}
+    model.sections = {k: data[k] for k in PASSED_THROUGH if k in data}
     try:
         _fill(model, data, fail)
     except ModelFileError:
@@ -615,6 +630,7 @@ def model_to_dict(model: Model) -> dict[str, Any]:
         data["outputs"] = dict(model.outputs)
     if model.simulation:
         data["simulation"] = dict(model.simulation)
+    data.update(model.sections)
     return data
 
 

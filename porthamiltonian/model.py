@@ -99,8 +99,11 @@ class Model:
         self.simulation: dict[str, Any] = {}
         #: the file this model was loaded from, if any (compile errors then name it)
         self.source: str | None = None
-        #: further [model] keys of a model file (e.g. a walker builder's table), kept on save
+        #: further [model] keys of a model file, kept on save
         self.meta: dict[str, Any] = {}
+        #: further top-level tables of a model file that other libraries read (e.g. [walker]),
+        #: kept on save (porthamiltonian.io.PASSED_THROUGH)
+        self.sections: dict[str, Any] = {}
 
     # --- construction ---------------------------------------------------------------------------
     def parameter(self, name: str, value: float, unit: str = "", doc: str = "") -> None:

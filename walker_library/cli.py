@@ -9,13 +9,14 @@
     walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
-    walker export BUILDER PATH [--set NAME=VALUE ...]
+    walker export MODEL PATH [--set NAME=VALUE ...]
 
-MODEL is a walker model name from ``models/`` (a file with a ``[model.walker]`` table; ``walker
-list`` names them), a path to such a file, or a builder name. Every option may be given anywhere
-after its command (``--backend`` also before it). ``--json`` prints one JSON document (SI units,
-named fields) on stdout; progress goes to stderr. Exit status: 0 on success (including a walker
-that falls or has no gait: those are results), 2 on bad input (unknown model, unknown or
+MODEL is a walker name from ``models/`` (a walker file: a model file with a ``[walker]`` table, see
+docs/walkers.md; ``walker list`` names them) or a path to such a file; ``export`` writes the
+walker's file with the given parameter values. Every option may be given anywhere after its
+command (``--backend`` also before it). ``--json`` prints one JSON document (SI units, named
+fields) on stdout; progress goes to stderr. Exit status: 0 on success (including a walker that
+falls or has no gait: those are results), 2 on bad input (unknown model, unknown or
 out-of-range parameter), with a message on stderr.
 """
 from __future__ import annotations
@@ -42,13 +43,13 @@ from porthamiltonian.cli import (
     run,
     run_sweep,
 )
-from porthamiltonian.errors import ModelError, ModelFileError
+from porthamiltonian.errors import ModelFileError
 
 from .analyses import ANALYSES, get_analysis
 from .gait import analyze_gait, walk
 from .results import to_json
 from .robustness import basin, gait_sensitivity_norm, step_down
-from .walkers import BUILDERS, available_walkers, export_model_file, load_walker
+from .walkers import available_walkers, load_walker, save_walker
 
 #: units of the gait metrics and of the thesis's section coordinates (SI; angles in rad)
 UNITS = {"step_period": "s", "step_length": "m", "speed": "m/s",
@@ -67,21 +68,18 @@ def _fmt(value) -> str:
 
 
 def check_walker_name(model: str) -> str:
-    """``model`` if it can name a walker: a path, a walker file of models/, a builder, or a model
-    of models/ (whose loading then says it is not a walker file); else a ModelFileError listing
-    the walker models, with the closest one suggested."""
-    if Path(model).suffix == ".toml" or Path(model).exists() or model in BUILDERS:
+    """``model`` if it can name a walker: a path, a walker file of models/, or a model of models/
+    (whose loading then says it is not a walker file); else a ModelFileError listing the walker
+    models, with the closest one suggested."""
+    if Path(model).suffix == ".toml" or Path(model).exists():
         return model
     walkers = available_walkers()
     if model in walkers or model in ph_io.available_models():
         return model
-    builders = [b for b in BUILDERS if b not in walkers]
-    close = difflib.get_close_matches(model, [*walkers, *builders], n=1, cutoff=0.6)
+    close = difflib.get_close_matches(model, walkers, n=1, cutoff=0.6)
     hint = f" (did you mean {close[0]}?)" if close else ""
-    more = f"; builders: {', '.join(builders)}" if builders else ""
     raise ModelFileError(f"no walker model called {model!r}{hint}; walker models: "
-                         f"{', '.join(walkers) or 'none'}{more}; or give the path to a walker "
-                         "file")
+                         f"{', '.join(walkers) or 'none'}; or give the path to a walker file")
 
 
 def _walker(args):
@@ -260,38 +258,23 @@ def cmd_reproduce(args) -> int:
 def cmd_list(args) -> int:
     names = available_walkers()
     if args.json:
-        print(json.dumps({"models": names, "builders": list(BUILDERS)}))
+        print(json.dumps({"models": names}))
     else:
         print("walker models:", ", ".join(names) or "none")
-        print("builders:", ", ".join(BUILDERS))
     return 0
 
 
 def cmd_export(args) -> int:
-    if args.builder not in BUILDERS:
-        close = difflib.get_close_matches(args.builder, list(BUILDERS), n=1)
-        raise ModelError(f"unknown builder {args.builder!r}"
-                         + (f" (did you mean {close[0]}?)" if close else "")
-                         + f"; builders: {', '.join(BUILDERS)}")
-    walker = BUILDERS[args.builder](**parse_assignments(args.set))
-    lines = getattr(walker, "file_header", None) or (
-        "The components and events below are the swing-phase model (pinned at the stance foot), an",
-        "ordinary porthamiltonian model: `porthamiltonian check-energy` simulates one swing phase.",
-        "[model.walker] names the builder; `walker gait` rebuilds the walker (swing phase + rigid",
-        "impact map) from it and the [parameters] below. Edit parameter values here; change the",
-        "mechanism in the builder and re-export (a file whose components differ is refused).")
-    header = "\n".join(f"# {line}" if line else "#" for line in (
-        f"Walker model file generated by `walker export {args.builder}` (walker_library.walkers.{args.builder}).",
-        *lines, "", walker.doc))
-    path = export_model_file(walker, args.path, header)
+    walker = load_walker(args.model, parse_assignments(args.set))
+    path = save_walker(walker, args.path, f"Walker file written by `walker export {args.model}` "
+                       "(docs/walkers.md).")
     print(f"wrote {path}")
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``walker`` command's parser."""
-    model_help = ("walker model: a name from models/ (walker list), a path to a walker file, or "
-                  "a builder name")
+    model_help = "walker model: a name from models/ (walker list) or a path to a walker file"
     parser = argparse.ArgumentParser(prog="walker", description=__doc__.splitlines()[0],
                                      parents=[backend_option(None)])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -319,7 +302,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("step-down", parents=analysis,
                        help="largest single drop of the surface survived, scanning upward "
-                            "(MODEL-SPEC.md §5)")
+                            "(thesis §2.6)")
     p.add_argument("model", help=model_help)
     p.add_argument("--resolution", type=float, default=None, metavar="H",
                    help="height grid (m; default: 2e-4 of the leg length)")
@@ -383,11 +366,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--list", action="store_true", help="list the studies and exit")
     p.set_defaults(func=cmd_reproduce)
 
-    p = sub.add_parser("list", parents=[JSON_OPTION], help="walker model files and builders")
+    p = sub.add_parser("list", parents=[JSON_OPTION], help="the walker model files")
     p.set_defaults(func=cmd_list)
 
-    p = sub.add_parser("export", parents=[SET_OPTION], help="write a walker model file from a builder")
-    p.add_argument("builder", help=f"builder name: {', '.join(BUILDERS)}")
+    p = sub.add_parser("export", parents=[SET_OPTION],
+                       help="write a walker's model file (with the --set values)")
+    p.add_argument("model", help=model_help)
     p.add_argument("path", help="the model file to write (.toml)")
     p.set_defaults(func=cmd_export)
     return parser

@@ -1,5 +1,5 @@
 """Stride map on the Poincaré section just after heel strike; fixed points, Floquet multipliers,
-period detection (DESIGN.md §7, MODEL-SPEC.md §1, §5). Generic over :class:`~.protocol.Walker`.
+period detection (Garcia et al. 1998; the thesis's §2.5-2.6). Generic over :class:`~.protocol.Walker`.
 
 * :func:`stride_map` — S^k(z): k steps from section coordinates z (model's own, or the thesis's
   with ``coordinates="thesis"``); ``None`` when the walker falls.

@@ -3,21 +3,22 @@
 The analyses (:mod:`walker_library.poincare`, :mod:`walker_library.gait`) see a walker only through
 :class:`Walker`: a stride function on a Poincaré section just after heel strike, the names of the
 section's independent coordinates, a rough initial guess, and the conversions of a section state
-into named quantities (SI, and the thesis's θ, θ̇, φ, φ̇ where the walker has legs). Rigid-impact
-walkers (:mod:`walker_library.rigid`) and compliant-contact walkers implement the same interface,
-so every analysis applies to both.
+into named quantities (SI, and the thesis's θ, θ̇, φ, φ̇ where the walker has legs). Every walker
+of walker_library is a :class:`~walker_library.core.HybridWalker` — rigid-impact and
+compliant-contact walkers alike, configured by their model files (docs/walkers.md) — so every
+analysis applies to all of them; another implementation plugs in by providing the members of
+:class:`Walker`.
 
-A new walker (e.g. a compliant-contact walker) plugs in by providing the members of
-:class:`Walker`. Its :meth:`Walker.walk` simulates consecutive steps in one run (one energy ledger)
-and returns one :class:`Stride` per step, each ending on the section (for a compliant walker: the
-touchdown of the new foot in front, see :mod:`walker_library.compliant`), with the energy
-fields taken from the ledger (E_diss increments, H and the potential energy at the section
-crossings) and ``status="fell"`` for a fall; :meth:`Walker.stride` is ``walk(z, 1)[0]``.
+:meth:`Walker.walk` simulates consecutive steps in one run (one energy ledger) and returns one
+:class:`Stride` per step, each ending on the section (for a compliant walker: the touchdown of
+the new foot in front), with the energy fields taken from the ledger (E_diss increments, H and
+the potential energy at the section crossings) and ``status="fell"`` for a fall;
+:meth:`Walker.stride` is ``walk(z, 1)[0]``.
 ``details=True`` asks for max |θ| and max |φ|; ``record=True`` for the trajectory in
 ``info["trajectory"]`` of the last stride; ``ground_drop=h`` lowers the surface by h before the
 first heel strike (the step-down test).
 
-Conventions (MODEL-SPEC.md §1, Garcia et al. 1998): θ is the stance-leg angle to the slope normal,
+Conventions (Garcia et al. 1998; docs/walkers.md): θ is the stance-leg angle to the slope normal,
 φ the angle between the legs, positive as in Garcia's paper: just after heel strike θ > 0 (the new
 stance foot ahead of the hip), θ̇ < 0 while walking downhill, and φ = 2θ at heel strike.
 """
@@ -37,7 +38,8 @@ __all__ = ["ParameterSpec", "Stride", "Walker", "check_parameters"]
 @dataclass(frozen=True)
 class ParameterSpec:
     """A walker parameter: default value (SI), unit, meaning and source, and its valid range
-    ``low < value < high`` (``low <= value`` when ``low_inclusive``)."""
+    ``low < value < high`` (``<=`` at an end that is ``*_inclusive``; a whole number if
+    ``integer``)."""
 
     name: str
     value: float
@@ -47,18 +49,25 @@ class ParameterSpec:
     low: float = -math.inf
     high: float = math.inf
     low_inclusive: bool = False
+    high_inclusive: bool = False
+    integer: bool = False
 
     def check(self, value: float) -> float:
+        """``value`` as a float if it is in range, else ParameterValueError naming the range."""
         try:
             value = float(value)
         except (TypeError, ValueError):
             raise ParameterValueError(f"parameter {self.name!r} must be a number, got {value!r}") from None
         ok_low = value >= self.low if self.low_inclusive else value > self.low
-        if not (math.isfinite(value) and ok_low and value < self.high):
-            lo = "[" if self.low_inclusive else "("
+        ok_high = value <= self.high if self.high_inclusive else value < self.high
+        if not (math.isfinite(value) and ok_low and ok_high):
+            lo, hi = "[" if self.low_inclusive else "(", "]" if self.high_inclusive else ")"
             raise ParameterValueError(
                 f"parameter {self.name!r} = {value:g} is out of range: it must lie in "
-                f"{lo}{self.low:g}, {self.high:g}) {self.unit} ({self.doc})")
+                f"{lo}{self.low:g}, {self.high:g}{hi} {self.unit} ({self.doc})")
+        if self.integer and value != round(value):
+            raise ParameterValueError(f"parameter {self.name!r} = {value:g} must be a whole number "
+                                      f"({self.doc})")
         return value
 
 
@@ -103,6 +112,7 @@ class Stride:
 
     @property
     def fell(self) -> bool:
+        """True when the stride ended in a fall (status other than "step")."""
         return self.status != "step"
 
 
@@ -123,7 +133,7 @@ class Walker(Protocol):
     section: tuple[str, ...]
     parameters: dict[str, float]
 
-    def with_parameters(self, **values: float) -> "Walker":
+    def with_parameters(self, **values: float) -> Walker:
         """A copy with some parameters changed (validated: out of range raises)."""
 
     def initial_guess(self) -> np.ndarray:
@@ -137,7 +147,7 @@ class Walker(Protocol):
         """``n_steps`` consecutive strides from ``z`` (stops at the first fall).
 
         ``ground_drop`` h (m, >= 0): the surface drops by h once, ahead of the stance foot, before
-        the first heel strike, and stays down (MODEL-SPEC.md §5 step-down): the first step's new
+        the first heel strike, and stays down (the thesis's step-down, §2.6): the first step's new
         foot lands h lower (along the slope normal) than the stance foot, later steps on the
         lowered surface. The section coordinates are translation-invariant, so the strides after
         the drop are comparable with the gait's fixed point."""

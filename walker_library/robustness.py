@@ -1,4 +1,4 @@
-"""Robustness of a walker's gait (MODEL-SPEC.md §5, thesis §2.6): step-down, basin of attraction,
+"""Robustness of a walker's gait (thesis §2.6; docs/walkers.md): step-down, basin of attraction,
 Gait Sensitivity Norm. Generic over :class:`~.protocol.Walker`; every result serializes to JSON
 (SI units, named fields).
 

@@ -1,7 +1,9 @@
 """The thesis's results, reproduced on our models: named studies run by ``walker reproduce``.
 
-Each :class:`Study` rebuilds one table or figure group of the thesis (MODEL-SPEC.md; the thesis
-text is in ``shared/reference``) and writes into ``OUT/<study>/``: its sweeps' results files
+Each :class:`Study` rebuilds one table or figure group of the thesis (M. Jafarian 2010,
+"Variable stiffness for robust and energy efficient 2D bipedal locomotion", MSc report 022CE2010,
+University of Twente; the walkers are described in docs/walkers.md) and writes into
+``OUT/<study>/``: its sweeps' results files
 (JSON Lines, resumable: see :mod:`porthamiltonian.batch`), its figures (PNG) and ``summary.json``
 — the thesis's numbers beside ours where the thesis states them (``rows``: quantity, ours,
 thesis, unit, deviation). ``OUT/reproduction.json`` collects the summaries.
@@ -22,6 +24,8 @@ leg_stiffness          compliant leg at α = 0.15: step-down, speed, energy per 
                        robustness over speed, rigid (over slope) vs compliant (over K) (Figs. 3.4–3.6)
 variable_stiffness     K1 → K2 against constant K: speed, step-down, F–Δz loop, injected energy
                        (Figs. 3.7–3.8, Table 3.1)
+recommendations        the thesis's §4.2: step-down over foot radius, hip stiffness and ankle
+                       stiffness around the nominal walker, against the rigid-leg walker
 =====================  ==========================================================================
 
 ``quick=True`` runs every study on coarse grids (the tests use it); the full grids are the
@@ -172,7 +176,7 @@ def run_table_2_3(ctx: StudyContext) -> dict:
 
 # --- Fig. 2.12 ----------------------------------------------------------------------------------
 def run_damping_calibration(ctx: StudyContext) -> dict:
-    from .compliant import calibrate_damping
+    from .calibration import calibrate_damping
     w = _walker(NOMINAL)
     lams = np.logspace(5, 10, 6 if ctx.quick else 21)
     cal = calibrate_damping(w, lams=lams)
@@ -465,6 +469,68 @@ def run_variable_stiffness(ctx: StudyContext) -> dict:
     return {"rows": rows, "table": table}
 
 
+HIP = "hip_and_leg_spring_walker"
+ANKLE = "ankle_stiffness_walker"
+#: the recommendations study's families: (parameter, walker, full grid, quick grid, label, unit)
+RECOMMENDED = (
+    ("R", NOMINAL, [0.02, 0.05, 0.08, 0.1, 0.15, 0.2], [0.05, 0.1], "foot radius R", "m"),
+    ("K_hip", HIP, [0.02, 0.05, 0.1, 0.15, 0.2], [0.05, 0.1], "hip stiffness K_hip", "N·m/rad"),
+    ("K_ankle", ANKLE, [5.0, 10.0, 20.0, 50.0, 200.0], [10.0, 50.0], "ankle stiffness K_ankle",
+     "N·m/rad"),
+)
+
+
+def run_recommendations(ctx: StudyContext) -> dict:
+    """The thesis's §4.2 recommendations around the nominal walker at γ = 0.009: the maximum
+    step-down over the foot radius (compass_walker), the hip stiffness
+    (hip_and_leg_spring_walker: the compliant-leg walker with a hip spring) and the ankle
+    stiffness (ankle_stiffness_walker), against the rigid-leg walker's: compass_walker itself,
+    the foot radius sweep's R = 5 cm case."""
+    from .robustness import step_down_case
+    res = 2e-4 if ctx.quick else 1e-4
+    results = {}
+    for key, model, full, quick, _, _ in RECOMMENDED:
+        values = quick if ctx.quick else full
+        cases = _guesses(ctx, model, [{key: v} for v in values], key)
+        results[key] = ctx.sweep(f"step_down_over_{key}", step_down_case, cases, model=model,
+                                 resolution=res)
+    nominal = next((r for r in results["R"] if abs(r["R"] - 0.05) < 1e-12), {})
+    rigid_mm = 1e3 * (nominal.get("max_step_down") or math.nan)
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(RECOMMENDED), figsize=(11, 3.6), sharey=True)
+    rows, table = [], []
+    for ax, (key, model, full, quick, label, unit) in zip(axes, RECOMMENDED):
+        values = quick if ctx.quick else full
+        result = results[key]
+        mm = _mm(result)
+        ax.plot(values, mm, "o-", label=model)
+        for r in result:
+            if r.get("contiguous") is False and r.get("max_step_down"):
+                ax.plot(r[key], 1e3 * r["max_step_down"], "x", color="k")
+        ax.axhline(rigid_mm, ls="--", color="C3", lw=0.8, label="rigid legs, R = 5 cm")
+        ax.set_xscale("log" if key == "K_ankle" else "linear")
+        ax.set_xlabel(f"{label} ({unit})")
+        ax.legend(fontsize=7)
+        best = max((r for r in result if r.get("max_step_down") is not None),
+                   key=lambda r: r["max_step_down"], default=None)
+        rows.append(_row(f"best step-down over {label}",
+                         None if best is None else 1e3 * best["max_step_down"], None, "mm",
+                         "" if best is None else f"at {key} = {best[key]:g} (rigid legs: "
+                         f"{rigid_mm:.2f} mm)"))
+        table += [{"walker": model, "parameter": key, "value": r[key],
+                   **{k: r.get(k) for k in ("gait_status", "period_steps", "max_step_down",
+                                            "contiguous", "speed", "max_multiplier",
+                                            "energy_dissipated_per_step")}} for r in result]
+    axes[0].set_ylabel("max step-down (mm)")
+    fig.suptitle("The thesis's recommendations (§4.2) at γ = 0.009 (x: not contiguous)",
+                 fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, ctx.path("recommendations_step_down.png"))
+    beats = [t for t in table if (t.get("max_step_down") or 0) * 1e3 > rigid_mm]
+    return {"rows": rows, "table": table, "rigid_step_down_mm": rigid_mm,
+            "better_than_rigid": beats}
+
+
 STUDIES: dict[str, Study] = {s.name: s for s in [
     Study("table_2_3", "Nominal gait at γ = 0.009", "Table 2.3", run_table_2_3, (NOMINAL,)),
     Study("damping_calibration", "Energy per impact over λ; calibration", "§2.3.2, Fig. 2.12",
@@ -483,6 +549,8 @@ STUDIES: dict[str, Study] = {s.name: s for s in [
           run_leg_stiffness, (COMPLIANT, NOMINAL)),
     Study("variable_stiffness", "Variable against constant stiffness", "Figs. 3.7–3.8, Table 3.1",
           run_variable_stiffness, (COMPLIANT, VARIABLE)),
+    Study("recommendations", "Foot radius, hip and ankle stiffness against step-down", "§4.2",
+          run_recommendations, (NOMINAL, HIP, ANKLE)),
 ]}
 
 

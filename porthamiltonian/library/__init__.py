@@ -3,7 +3,7 @@
 Importing this package registers its component types for model files:
 
 * :mod:`.contact`  — ``HuntCrossley``, ``KelvinVoigt`` normal contact of a body point with a
-  surface (plus :func:`.contact.output_guard` for Python-level events on contact outputs);
+  surface;
 * :mod:`.friction` — ``SCVSFriction``, 20-sim's static/Coulomb/viscous/Stribeck friction;
 * :mod:`.springs`  — ``SpringDamper`` (linear) and ``VariableSpringDamper`` (modulated stiffness,
   damper rule D = 2 α √(m K));
@@ -11,10 +11,19 @@ Importing this package registers its component types for model files:
 
 Each module's docstring gives the law, units, frames, signs, energy role and references.
 """
-from .contact import HuntCrossley, KelvinVoigt, output_guard
+from .contact import HuntCrossley, KelvinVoigt
 from .friction import SCVSFriction, scvs_coefficient
 from .springs import SpringDamper, VariableSpringDamper
 from .surfaces import SURFACES, Surface, make_surface
 
-__all__ = ["HuntCrossley", "KelvinVoigt", "SCVSFriction", "SURFACES", "SpringDamper", "Surface",
-           "VariableSpringDamper", "make_surface", "output_guard", "scvs_coefficient"]
+__all__ = [
+           "SURFACES",
+           "HuntCrossley",
+           "KelvinVoigt",
+           "SCVSFriction",
+           "SpringDamper",
+           "Surface",
+           "VariableSpringDamper",
+           "make_surface",
+           "scvs_coefficient",
+]

@@ -11,8 +11,8 @@ contact and the port flow f is the point's velocity (m/s). The contact reads the
 as signals, ``x = "walker.foot1.x"`` and ``z = "walker.foot1.z"`` (the multibody's outputs), and
 its velocity from the port flow: position and port must name the same point.
 
-Arc feet (MODEL-SPEC.md §1): bond the foot's centre point and give the contact point as an
-expression, e.g. ``z = "walker.foot1.z - R"`` (the thesis: R below the centre along the world
+Arc feet (the thesis's nominal walker, docs/walkers.md): bond the foot's centre point and give
+the contact point as an expression, e.g. ``z = "walker.foot1.z - R"`` (the thesis: R below the centre along the world
 vertical) or ``x = "walker.foot1.x - R*sin(gamma)"``, ``z = "walker.foot1.z - R*cos(gamma)"``
 (along the surface normal). With the normal offset the penetration of the circle is exactly
 R − (distance of the centre from the surface), whose rate is −n·(centre velocity): the port flow,
@@ -54,7 +54,7 @@ Contact modes
 -------------
 ``active`` (default 1) multiplies force, stored energy and dissipation. Give it a model
 parameter (a mode flag ``c1`` with values 0/1) that event actions set, to let a user rule decide
-when a contact may start (item 6 of issue 4, the thesis's scuffing rule, MODEL-SPEC.md §1: a
+when a contact may start (item 6 of issue 4, the thesis's scuffing rule, its §2.3.1: a
 contact starts only when the foot crosses the surface *and* is in front of the other foot; it ends
 when the foot rises above the surface). While inactive, a point passes through the surface with
 no force. Switch the flag at z = 0 (guards on the penetration, rising for touchdown, falling for
@@ -69,9 +69,8 @@ Outputs (``<name>.<output>``; other components and analyses read them by name)
 the surface: a smooth event guard), ``zdot`` its rate (m/s), ``px``/``pz`` the contact point's
 world position (m), ``s`` and ``vt`` its tangential coordinate (m) and velocity (m/s, downhill
 positive), ``nx``/``nz`` and ``tx``/``tz`` the surface's unit normal and tangent (a friction
-element reads the tangent of the contact whose ``Fn`` it uses). Model events cannot read
-component outputs yet (a core limitation): write guards in states (``r - ball.q.drop.z``) or use
-:func:`output_guard` for a Python-level event.
+element reads the tangent of the contact whose ``Fn`` it uses). Model events and outputs read
+them too: a touchdown guard is simply ``floor.z``.
 
 Errors (:class:`~porthamiltonian.errors.ParameterValueError`, naming the component and argument):
 a stiffness, damping or ``active`` < 0, an exponent n ≤ 0 (numbers when the model compiles,
@@ -83,14 +82,11 @@ K. H. Hunt, F. R. E. Crossley, "Coefficient of restitution interpreted as dampin
 vibroimpact", J. Appl. Mech. 42 (1975) 440–445. D. W. Marhefka, D. E. Orin, "A compliant contact
 model with nonlinear damping for simulation of robotic systems", IEEE Trans. SMC-A 29 (1999)
 566–572 (the clipping, and the exact restitution relation used by the tests).
-20-sim contact model of the thesis, App. A (MODEL-SPEC.md §1: ``Fn = Kp*z + Kd*z*zdot``, 0 when
+20-sim contact model of the thesis, App. A (``Fn = Kp*z + Kd*z*zdot``, 0 when
 negative).
 """
 from __future__ import annotations
 
-from collections.abc import Callable
-
-import numpy as np
 import sympy as sp
 
 from ..component import Arg, Builder, Component, register
@@ -220,17 +216,4 @@ class KelvinVoigt(_Contact):
         self._finish(b, surf, force, energy, dissipation)
 
 
-def output_guard(model, name: str) -> Callable[[float, np.ndarray, np.ndarray], float]:
-    """A guard g(t, x, p) returning the compiled ``model``'s output ``name`` (e.g. ``"floor.z"``),
-    for a Python-level :class:`~porthamiltonian.simulate.Event` (scipy methods): model events
-    cannot read component outputs (see the module docstring)."""
-    k = model.output_index(name)
-    outputs = model.functions.outputs
-
-    def guard(t: float, x: np.ndarray, p: np.ndarray) -> float:
-        return float(outputs(t, model.augment(x), model.native_params(p))[k])
-
-    return guard
-
-
-__all__ = ["HuntCrossley", "KelvinVoigt", "output_guard"]
+__all__ = ["HuntCrossley", "KelvinVoigt"]

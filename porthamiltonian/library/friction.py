@@ -1,6 +1,6 @@
 """SCVS friction (static, Coulomb, viscous, Stribeck), exactly as 20-sim defines it.
 
-Law (MODEL-SPEC.md §1, thesis App. A, 20-sim's SCVS friction)
+Law (the thesis's App. A, 20-sim's SCVS friction)
 --------------------------------------------------------------
 For the tangential velocity v (m/s) of the contact point and the normal force Fn (N):
 

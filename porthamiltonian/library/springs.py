@@ -7,12 +7,19 @@ z = q − L0 with the ``rest_length`` L0 (m; default 0, then q is the elongation
 effort is the spring–damper force (N), positive in tension (it pulls the port's two ends
 together when z > 0); power e·f is positive into the component.
 
+A ``SpringDamper`` may instead read its length as a signal, ``length`` (an expression in other
+components' states, e.g. ``"walker.q.leg1 - walker.q.leg2"`` for a torsional spring between two
+legs): it then has no state, and its energy ½ K z² is paid through its port (like a contact's),
+which must therefore carry the length's rate as its flow (the bonds' business: e.g. a
+0-junction between the two joints' ports); the ledger's residual checks it. A spring whose length
+is a configuration coordinate this way cannot drift from it (no state to initialize).
+
 Laws
 ----
 * ``SpringDamper`` (linear): e = K z + D ż, H = ½ K z², P_diss = D ż² ≥ 0. K (N/m) and D (N·s/m)
   may depend on parameters only.
 * ``VariableSpringDamper``: H = ½ K z² with K any expression in time, states of other components
-  and parameters (a modulation input, e.g. MODEL-SPEC.md §4's K = K1 + (K2 − K1)|φ|/φ_max after
+  and parameters (a modulation input, e.g. the thesis's (§3.2) K = K1 + (K2 − K1)|φ|/φ_max after
   mid-stance, with a mode parameter switched by events); e = ∂H/∂q + D ż (= K z + D ż unless K
   depends on q itself, then the force includes ½ (∂K/∂q) z², so that the storage stays
   conservative); P_diss = D ż². Abs/sign/Heaviside/Max/Min in K are rewritten as Piecewise so that
@@ -38,7 +45,7 @@ whenever parameters are bound; a stiffness that depends on states or time is not
 (use ``VariableSpringDamper``).
 
 References: D. Karnopp, D. Margolis, R. Rosenberg, *System Dynamics*, 5th ed. (2012), ch. 4
-(C- and R-elements, modulated storages); the thesis ch. 3 (MODEL-SPEC.md §3–4).
+(C- and R-elements, modulated storages); M. Jafarian (2010), MSc report 022CE2010, University of Twente, ch. 3.
 """
 from __future__ import annotations
 
@@ -55,6 +62,7 @@ _COMMON = {
     "mass": Arg("mass m of the rule D = 2 α sqrt(m K)", "kg", default=None, rule=">="),
     "rest_length": Arg("rest length L0 (elongation z = q - L0)", "m", default=0),
     "q0": Arg("initial length q(0) (default: the rest length)", "m", default=None),
+    "length": Arg("the length as a signal (then no state; SpringDamper only)", "m", default=None),
     "domain": Arg("energy domain of the port", symbolic=False, default="translation"),
 }
 
@@ -65,7 +73,8 @@ class _SpringDamper(Component):
     def ports(self) -> list[Port]:
         return [Port("p", self.value("domain"), orientation="in")]
 
-    def build(self, b: Builder, stiffness, damping, alpha, mass, rest_length, q0, domain) -> None:
+    def build(self, b: Builder, stiffness, damping, alpha, mass, rest_length, q0, domain,
+              length) -> None:
         where = f"{self.kind} {b.name!r}"
         if damping is not None and (alpha is not None or mass is not None):
             raise ParameterValueError(f"{where}: give either 'damping' or 'alpha' and 'mass' (the "
@@ -85,15 +94,28 @@ class _SpringDamper(Component):
                         f"{where} argument {name!r} = {self.value(name)!r} depends on time or "
                         "states; a SpringDamper is linear (parameters only): use "
                         "VariableSpringDamper for a modulated stiffness")
-        q = b.state("q", unit="m", initial=rest_length if q0 is None else q0)
         port = b.port("p")
-        z = q - rest_length
-        energy = stiffness * z**2 / 2
+        if length is not None:
+            if self.variable:
+                raise ParameterValueError(f"{where}: 'length' (a signal) is for a SpringDamper; "
+                                          "a VariableSpringDamper integrates its own length")
+            if q0 is not None:
+                raise ParameterValueError(f"{where}: give 'length' (a signal) or 'q0' (the "
+                                          "initial value of the length state), not both")
+            z = length - rest_length
+            energy = stiffness * z**2 / 2
+            b.energy(energy, via_ports=True)
+            force = stiffness * z
+        else:
+            q = b.state("q", unit="m", initial=rest_length if q0 is None else q0)
+            z = q - rest_length
+            energy = stiffness * z**2 / 2
+            b.energy(energy)
+            b.equation(b.der(q), port.f, "dq/dt = f")
+            force = sp.diff(energy, q)
         if damping is None:
             damping = 2 * alpha * sp.sqrt(mass * stiffness) if alpha is not None else sp.Integer(0)
-        b.energy(energy)
-        b.equation(b.der(q), port.f, "dq/dt = f")
-        b.equation(port.e, sp.diff(energy, q) + damping * port.f, "e = dH/dq + D f")
+        b.equation(port.e, force + damping * port.f, "e = dH/dq + D f")
         b.built.storage_ports.append("p")
         b.dissipate(damping * port.f**2)
         b.output("z", z)
@@ -105,9 +127,10 @@ class _SpringDamper(Component):
 class SpringDamper(_SpringDamper):
     """Linear spring–damper e = K (q − L0) + D q̇ on a 1-D port.
 
-    Ports: ``p`` (in). State: ``q`` length (m), dq/dt = f. Parameters: ``stiffness`` K (N/m),
-    ``damping`` D (N·s/m) or ``alpha``/``mass`` for D = 2 α √(m K), ``rest_length`` L0 (m),
-    ``q0`` (m). Energy ½ K z²; dissipation D ż². Outputs ``z``, ``K``, ``D``.
+    Ports: ``p`` (in). State: ``q`` length (m), dq/dt = f; none when ``length`` reads it as a
+    signal (see the module docstring). Parameters: ``stiffness`` K (N/m), ``damping`` D (N·s/m)
+    or ``alpha``/``mass`` for D = 2 α √(m K), ``rest_length`` L0 (m), ``q0`` (m). Energy ½ K z²;
+    dissipation D ż². Outputs ``z``, ``K``, ``D``.
     """
 
     kind = "SpringDamper"

@@ -34,7 +34,7 @@ Surfaces
              does not book. Place the step where the contacting points do not cross it (for a
              step-down test: ahead of the stance foot, before the swing foot's landing point).
 
-Reference: the thesis's compliant contact (MODEL-SPEC.md §1) measured the penetration along the
+Reference: the thesis's compliant contact (App. A) measured the penetration along the
 world vertical from the arc foot's lowest point; along the surface normal (here) is the
 geometrically consistent choice, and the two agree to O(γ²) on the thesis's slopes
 (γ ≈ 0.009 rad).

@@ -143,7 +143,7 @@ def test_unknown_component_argument_points_at_its_line(tmp_path):
     msg, path = message(text, tmp_path)
     assert msg == (f"{path}, line {line_of(text, 'resistence')}: component 'damper': R has no "
                    "argument 'resistence' (did you mean 'resistance'?); its arguments are: "
-                   "domain, resistance, effort, flow")
+                   "domain, resistance, effort, flow, dim")
 
 
 def test_unknown_name_in_an_expression_points_at_the_components_own_line(tmp_path):

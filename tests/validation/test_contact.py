@@ -20,7 +20,7 @@ References
         lasts half a damped period π/ω_d and e = exp(−ζ π / √(1 − ζ²)), ω_n = √(K/m),
         ζ = B / (2 √(K m)), ω_d = ω_n √(1 − ζ²) (e.g. W. J. Stronge, *Impact Mechanics*, 2000,
         §5; any vibrations text for the free response).
-[SCVS]  20-sim reference manual, SCVS friction; MODEL-SPEC.md §1 (thesis App. A): the literal
+[SCVS]  20-sim reference manual, SCVS friction; the thesis's App. A (Jafarian 2010, docs/walkers.md): the literal
         formula F = −Fn ((μ_c + (μ_st |tanh(s v)| − μ_c) exp(−(v/v_st)²)) sign v + μ_v v) is coded
         below in numpy (``scvs_literal``) and is the reference for the library's form.
 [incline] Newton's law on an incline: m a = m g sin γ − μ(v) Fn, Fn = m g cos γ (any first-year
@@ -43,8 +43,13 @@ import porthamiltonian as ph
 from porthamiltonian import compile_model, io, symbolic
 from porthamiltonian.cli import main as cli_main
 from porthamiltonian.expressions import TIME
-from porthamiltonian.library import (HuntCrossley, SpringDamper, VariableSpringDamper,
-                                     make_surface, output_guard, scvs_coefficient)
+from porthamiltonian.library import (
+    HuntCrossley,
+    SpringDamper,
+    VariableSpringDamper,
+    make_surface,
+    scvs_coefficient,
+)
 
 CONTACT_MODELS = ["bouncing_ball", "bouncing_ball_kelvin_voigt", "block_on_incline",
                   "variable_stiffness_spring"]
@@ -64,7 +69,7 @@ def restitution_marhefka_orin(a: float) -> float:
 
 
 def scvs_literal(v, Fn, mu_st, mu_c, mu_v, s, v_st):
-    """The 20-sim SCVS friction force, verbatim from MODEL-SPEC.md §1 (numpy) [SCVS]."""
+    """The 20-sim SCVS friction force, verbatim from the thesis's App. A (numpy) [SCVS]."""
     v = np.asarray(v, dtype=float)
     return -Fn * ((mu_c + (mu_st * np.abs(np.tanh(s * v)) - mu_c) * np.exp(-(v / v_st) ** 2))
                   * np.sign(v) + mu_v * v)
@@ -199,9 +204,9 @@ def test_impact_energy_loss_equals_kinetic_energy_change_and_damping_integral(ba
 def test_events_located_to_integrator_tolerance(ball, dropped):
     """Touchdown and lift-off (model events, guards r − q_z on the penetration) are located where
     the penetration is zero to 1e-10 m (Radau dense output); the first touchdown is at
-    √(2 h0/g) [free fall] to 1e-9 s, with Radau, with the compiled Rodas4 loop, and with a
-    Python-level event on the contact's output ``floor.z`` (``output_guard``); the event times
-    of the three runs agree to 1e-8 s."""
+    √(2 h0/g) [free fall] to 1e-9 s, with Radau, with the compiled Rodas4 loop, and with the
+    guards written on the contact's output ``floor.z`` instead of the state; the event times of
+    the three runs agree to 1e-8 s."""
     iq = ball.state_index("ball.q.drop.z")
     for t, name in dropped.events:
         assert abs(0.05 - dropped.sol(t)[iq]) < 1e-10, (t, name)
@@ -212,10 +217,11 @@ def test_events_located_to_integrator_tolerance(ball, dropped):
     assert [n for _, n in dropped.events] == ["touchdown", "liftoff"]
     assert [n for _, n in rodas.events] == ["touchdown", "liftoff"]
     np.testing.assert_allclose([t for t, _ in rodas.events], radau, rtol=0, atol=1e-8)
-    python_event = ph.Event("pen", output_guard(ball, "floor.z"), direction=0, terminal=False)
-    py = ball.simulate(0.6, method="Radau", events=[python_event], rtol=1e-11, atol=1e-13)
-    pen_times = [t for t, n in py.events if n == "pen"]
-    np.testing.assert_allclose(pen_times, radau, rtol=0, atol=1e-8)
+    on_output = compile_model(ball_model({'guard = "r - ball.q.drop.z"': 'guard = "floor.z"'}),
+                              backend="python")
+    out = on_output.simulate(0.6, method="Radau", rtol=1e-11, atol=1e-13)
+    assert [n for _, n in out.events] == ["touchdown", "liftoff"]
+    np.testing.assert_allclose([t for t, _ in out.events], radau, rtol=0, atol=1e-8)
 
 
 def test_normal_force_never_pulls(ball, dropped):
@@ -356,15 +362,15 @@ def test_ball_on_a_slope_keeps_tangential_velocity_and_rebounds_along_the_normal
 def test_ball_dropped_past_a_step_down_lands_on_the_lower_level(isolated_cache):
     """Surface 'step' with h = 0.1 m, the edge at x = −1 m (the ball falls at x = 0, past it):
     first touchdown when the tip has fallen h0 + h, at √(2 (h0 + h)/g) [free fall] to 1e-9 s (a
-    Python event on the output floor.z); with the edge at x = +1 m the ball lands on the upper
-    level at √(2 h0/g)."""
+    terminal model event on the output floor.z); with the edge at x = +1 m the ball lands on the
+    upper level at √(2 h0/g)."""
     model = compile_model(ball_model({'exponent = "n" }': 'exponent = "n", surface = "step", step_height = "hs", step_x = "xs" }',
-                                      "[parameters]\n": "[parameters]\nhs = 0.1\nxs = -1.0\n"}),
+                                      "[parameters]\n": "[parameters]\nhs = 0.1\nxs = -1.0\n",
+                                      'name = "touchdown"\nguard = "r - ball.q.drop.z"\ndirection = 1':
+                                      'name = "touchdown"\nguard = "floor.z"\ndirection = 1\nterminal = true'}),
                           backend="python")
-    touch = ph.Event("touch", output_guard(model, "floor.z"), direction=1, terminal=True)
     for xs, drop in ((-1.0, 0.1), (1.0, 0.0)):
-        traj = model.simulate(1.0, params=dict(xs=xs), events=[touch], method="Radau",
-                              rtol=1e-11, atol=1e-13)
+        traj = model.simulate(1.0, params={"xs": xs}, method="Radau", rtol=1e-11, atol=1e-13)
         assert traj.status == "event"
         assert traj.t_final == pytest.approx(math.sqrt(2 * (0.5 + drop) / G), abs=1e-9)
 
@@ -396,7 +402,7 @@ def scuffing_pendulum() -> ph.Model:
 
 
 def test_touchdown_rule_lets_a_swinging_foot_pass_through_then_contact(isolated_cache):
-    """Item 6 of issue 4 (the thesis's scuffing rule, MODEL-SPEC.md §1): a contact may start
+    """Item 6 of issue 4 (the thesis's scuffing rule, §2.3.1): a contact may start
     only when the foot crosses the surface *in front* (here x > 0, ahead of the hinge); it ends
     when the foot rises above the surface. The first crossing (x < 0) is ignored: the foot
     passes 5 mm deep through the floor with no force (Fn = 0 while z > 0) and no energy loss;
@@ -666,7 +672,7 @@ def test_stiffness_switched_by_an_event_books_the_jump_as_supplied(isolated_cach
 
 
 def test_stiffness_modulated_by_another_state_with_abs_is_booked_and_closes(isolated_cache):
-    """MODEL-SPEC.md §4's form K = K1 + (K2 − K1)|φ|/φ_max with φ another component's state
+    """The thesis's §3.2 form K = K1 + (K2 − K1)|φ|/φ_max with φ another component's state
     (a second oscillator's elongation): the Abs is rewritten as a Piecewise (no Dirac delta in
     the Jacobian), the compiler books P_in = ½ z² ∂K/∂φ φ̇ (checked against ∫ by quadrature of
     the dense output, 1e-8 relative) and the ledger closes (1e-9)."""

@@ -1,6 +1,6 @@
 """Independent validation of the framework's simplest walker against a hand-written one.
 
-``benchmarks/handwritten_walkers.py`` types in Garcia et al.'s (1998, J. Biomech. Eng.
+``handwritten_walkers.py`` (beside this file) types in Garcia et al.'s (1998, J. Biomech. Eng.
 120:281) equations of motion and heel-strike map (β = m/M -> 0) and integrates them with
 scipy's DOP853; ``walker_library.simplest_walker`` builds the same walker from multibody
 components with a generic plastic impact map (β = 1e-9). Their fixed points, found by the same
@@ -10,15 +10,9 @@ compared in ``benchmarks/bench_walkers.py``: their numba compilation does not fi
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
+import handwritten_walkers as hw
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-
-import handwritten_walkers as hw
 
 from walker_library import find_fixed_point, simplest_walker
 

@@ -17,7 +17,7 @@ References
          of the double pendulum (reference frames, points, rigid bodies), not the library's code.
 [Garcia] M. Garcia, A. Chatterjee, A. Ruina, M. Coleman, "The simplest walking model", J. Biomech.
          Eng. 120 (1998): the compass-gait mass matrix (hip point mass, legs, point feet), written
-         out by hand below for the skeleton of MODEL-SPEC.md §1.
+         out by hand below for the skeleton of the thesis's walker (Table 2.3).
 
 The Multibody type is registered by ``import porthamiltonian.mechanics`` (done here); loading a model
 file should not need that import — see ``test_model_files_load_in_a_fresh_process`` and
@@ -255,7 +255,7 @@ WALKER = {"M": 3.0, "m_l": 0.01, "m_f": 0.1, "L": 0.7, "g": 9.81}
 
 
 def walker4_mass_matrix(q, M, m_l, m_f, L, **_):
-    """Compass-gait mass matrix [Garcia; MODEL-SPEC §1] in (hip x, hip z, θ1, θ2), θ_i the
+    """Compass-gait mass matrix [Garcia; the thesis's Table 2.3] in (hip x, hip z, θ1, θ2), θ_i the
     absolute leg angles from the downward vertical, positive about +y (a foot at
     (x − L sin θ, z − L cos θ)). Uniform legs (m_l, centre at L/2, inertia m_l L²/12), point
     feet m_f at the leg ends, point hip mass M. From T = ½ Σ m |ṙ|² + ½ Σ I θ̇²:

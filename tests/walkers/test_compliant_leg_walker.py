@@ -1,6 +1,7 @@
-"""The thesis's compliant-leg walker (MODEL-SPEC.md §3; walker_library.compliant_legs.
-compliant_leg_walker): compass_walker with each foot on a prismatic joint along the leg, a linear
-spring K_leg = 6000 N/m and a damper D = 2·0.15·√(3.1 K_leg) per leg, γ = 0.009.
+"""The thesis's compliant-leg walker (models/compliant_leg_walker.toml; M. Jafarian 2010, MSc
+report 022CE2010, University of Twente, §3.1): compass_walker with each foot on a prismatic joint
+along the leg, a linear spring K_leg = 6000 N/m and a damper D = 2·0.15·√(3.1 K_leg) per leg,
+γ = 0.009.
 
 Measured here (numba + Rodas4, rtol 1e-8, atol 1e-10): stable period-1 gait, θ = 0.24894,
 φ = 0.46861, θ̇ = −0.86416, φ̇ = 0.02029 at touchdown; Floquet multipliers |λ| = 0.319 (a
@@ -32,12 +33,11 @@ import math
 import numpy as np
 import pytest
 
-from porthamiltonian import io
-from walker_library import (analyze_gait, compass_walker, compliant_leg_walker,
-                            dissipation_breakdown, load_walker, walk)
-from walker_library.cli import main
+from walker_library import analyze_gait, compass_walker, compliant_leg_walker, walk
+from walker_library.dissipation import dissipation_breakdown
 from walker_library.metrics import gait_metrics
 from walker_library.poincare import find_fixed_point
+from walker_library.standing import load_above_spring, stand, static_compression
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +76,7 @@ def test_stable_period_one_gait_at_defaults(walker, gait):
     # on the surface with legs of different lengths, (l + s_lead) cos θ = (l + s_trail) cos(φ − θ)
     # up to the trailing foot's contact penetration (F/K ≈ 29 µm)
     P = walker.parameters
-    s_lead, s_trail = fp["walker.q.ankle_lead"], fp["walker.q.ankle_trail"]
+    s_lead, s_trail = fp["walker.q.ankle1"], fp["walker.q.ankle2"]
     assert -5e-3 < s_trail < -4e-3 and 0 < s_lead < 2e-4
     assert fp["trail_contact_force"] == pytest.approx(28.5, abs=0.5)
     lead_h = (P["l"] + s_lead) * math.cos(fp["theta"])
@@ -101,19 +101,19 @@ def test_static_leg_compression_is_the_load_over_the_stiffness(walker):
     so it shortens by 30.61/6000 = 5.101 mm; the hanging foot stretches its spring by
     m_foot g / K; the contact carries everything, (M + 2 m_leg + 2 m_foot) g / K_contact."""
     P = walker.parameters
-    traj = walker.stand(3.0)
+    traj = stand(walker, 3.0)
     assert traj.status == "finished"
     g, K = P["g"], P["K_leg"]
     load = (P["M"] + 2 * P["m_leg"] + P["m_foot"]) * g
-    assert walker.static_compression == pytest.approx(load * math.cos(P["slope"]) / K, rel=1e-15)
+    assert static_compression(walker) == pytest.approx(load * math.cos(P["slope"]) / K, rel=1e-15)
     assert traj["walker.q.ankle1"][-1] == pytest.approx(-load / K, rel=1e-6)   # level: cos 0
     assert traj["walker.q.ankle2"][-1] == pytest.approx(P["m_foot"] * g / K, rel=1e-6)
     assert traj["floor1.z"][-1] == pytest.approx(
         (P["M"] + 2 * P["m_leg"] + 2 * P["m_foot"]) * g / P["K"], rel=1e-6)
     assert traj.relative_residual < 1e-9
     # a preload F0 shifts the rest length to F0/K: F0 = the load keeps the stance leg at l
-    preloaded = walker.with_parameters(preload=walker.load_above_spring)
-    assert preloaded.static_compression == pytest.approx(0.0, abs=1e-15)
+    preloaded = walker.with_parameters(preload=load_above_spring(walker))
+    assert static_compression(preloaded) == pytest.approx(0.0, abs=1e-15)
 
 
 def test_the_ground_takes_a_small_share_of_the_dissipation(walker, fixed, rigid):
@@ -127,9 +127,9 @@ def test_the_ground_takes_a_small_share_of_the_dissipation(walker, fixed, rigid)
     for row in (mine, theirs):
         assert abs(row["quadrature_error"]) < 1e-5
         assert row["contact"] > 0 and row["friction"] > 0
-    assert theirs["leg_dampers"] == 0.0 and theirs["ground"] == pytest.approx(0.0874, abs=5e-4)
+    assert theirs["dampers"] == 0.0 and theirs["ground"] == pytest.approx(0.0874, abs=5e-4)
     assert mine["ground"] == pytest.approx(0.00523, abs=2e-4)
-    assert mine["leg_dampers"] == pytest.approx(mine["total"] - mine["ground"], abs=1e-5)
+    assert mine["dampers"] == pytest.approx(mine["total"] - mine["ground"], abs=1e-5)
     assert theirs["ground"] / mine["ground"] > 10
 
 
@@ -145,7 +145,7 @@ def test_stiff_legs_approach_the_rigid_leg_walker(walker, gait, rigid):
     ref = gait_metrics(rigid_strides, w_rigid.weight)
     stiff = walker.with_parameters(K_leg=1e7)
     P = stiff.parameters
-    trail_pen = w_rigid.outputs(0.0, w_rigid.lift(z_rigid), w_rigid._p)[w_rigid._out["floor2.z"]]
+    trail_pen = w_rigid.output("floor2.z", w_rigid.lift(z_rigid))
     guess = np.concatenate([z_rigid, [P["m_foot"] * P["g"] / P["K_leg"], P["K"] * trail_pen, 0, 0]])
     fp = find_fixed_point(stiff, guess, tol=stiff.gait_tolerance)
     assert fp.converged
@@ -157,10 +157,10 @@ def test_stiff_legs_approach_the_rigid_leg_walker(walker, gait, rigid):
     assert soft.speed > ref.speed
 
 
-def test_model_file_is_up_to_date_and_loads(tmp_path):
-    out = tmp_path / "compliant_leg_walker.toml"
-    assert main(["export", "compliant_leg_walker", str(out)]) == 0
-    assert out.read_text() == io.model_path("compliant_leg_walker").read_text()
-    w = load_walker("compliant_leg_walker", backend=None)
-    assert w.name == "compliant_leg_walker" and w.parameters["K_leg"] == 6000.0
-    assert w.section[7] == "trail_contact_force"
+def test_section_names_the_states(walker):
+    """The section's coordinates are named by state, in the labelling where foot 1 leads; the
+    trailing leg's extension is replaced by its foot's contact force (see the model file)."""
+    assert walker.section == ("walker.q.leg1", "walker.q.leg2", "walker.v.hip_joint.x",
+                              "walker.v.hip_joint.z", "walker.v.leg1", "walker.v.leg2",
+                              "walker.q.ankle1", "trail_contact_force", "walker.v.ankle1",
+                              "walker.v.ankle2")

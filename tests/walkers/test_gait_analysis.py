@@ -49,7 +49,7 @@ def test_slope_without_periodic_gait_reports_no_fixed_point_with_last_iterate(si
     steps repeat with no period ≤ 8 and do not fall: status "no_fixed_point", the last iterate
     reported by name, and the unstable period-1 fixed point with its multipliers."""
     w = simplest.with_parameters(slope=0.0186)
-    guess = w.from_thesis_state(0.25775171, -0.24837989, -0.03227829)
+    guess = w.from_thesis([-0.24837989, 2 * 0.25775171, -0.03227829])
     r = analyze_gait(w, guess)
     assert r.status == "no_fixed_point", r.message
     assert r.period_steps == 0 and r.fell_at_step is None
@@ -64,9 +64,9 @@ def test_slope_without_periodic_gait_reports_no_fixed_point_with_last_iterate(si
 def test_newton_from_a_hopeless_guess_returns_its_last_iterate(simplest):
     """A guess from which the walker falls at once: Newton reports non-convergence, the guess as
     its last iterate and fell = True, without raising."""
-    fp = find_fixed_point(simplest, simplest.from_thesis_state(0.5, -0.05, 0.0))
+    fp = find_fixed_point(simplest, simplest.from_thesis([-0.05, 1.0, 0.0]))
     assert not fp.converged and fp.fell
-    np.testing.assert_array_equal(fp.z, simplest.from_thesis_state(0.5, -0.05, 0.0))
+    np.testing.assert_array_equal(fp.z, simplest.from_thesis([-0.05, 1.0, 0.0]))
     assert "falls" in fp.message
 
 

@@ -82,21 +82,31 @@ def _pre_impact(walker):
     return stride.info["x_minus"].copy(), stride.info["p_minus"].copy()
 
 
+def _heel_strike(walker):
+    """The walker's heel-strike transition (the rule with an impact)."""
+    return next(tr for tr in walker.machine.transitions if tr.impact is not None)
+
+
 def _floating_before(walker, x, p):
-    out = walker.outputs(0.0, x, p)
-    q = x[walker._iq]
-    v = walker.velocities(x, p)
-    hip_v = walker.swing.matrix("walker.J.hip_centre", 0.0, x, p) @ v
-    qf = {"walker.q.hip_joint.x": out[walker._out["walker.hip_centre.x"]],
-          "walker.q.hip_joint.z": out[walker._out["walker.hip_centre.z"]],
-          "walker.q.leg1": q[0], "walker.q.leg2": q[0] + q[1]}
-    vf = np.array([hip_v[0], hip_v[1], v[0], v[0] + v[1]])
-    return walker._floating_state(qf, vf), vf
+    """The floating model's state (with momenta), joint rates and parameters at swing state x:
+    coordinates (hip x, hip z, stance-leg angle, swing-leg angle), the legs' angles absolute."""
+    imp = _heel_strike(walker).impact
+    xf, vf, pf = imp.floating_state(0.0, x, p)
+    return _with_momenta(imp.floating, xf, vf, pf), vf, pf
+
+
+def _with_momenta(floating, xf, vf, pf):
+    xf = xf.copy()
+    ip = [i for i, s in enumerate(floating.state_names) if s.startswith("walker.p.")]
+    xf[ip] = floating.matrix("walker.M", 0.0, xf, pf) @ vf
+    return xf
 
 
 def _angular_momenta(P, xf, vf):
     """Compass gait (point masses): angular momentum (y component, slope frame) of the whole
-    walker about foot 2 and of leg 1 about the hip, from the geometry alone."""
+    walker about the striking (swing) foot and of the trailing (stance) leg about the hip, from
+    the geometry alone; ``xf`` = (hip x, hip z, stance-leg angle, swing-leg angle), the legs'
+    angles absolute."""
     hip = np.array([xf[0], xf[1]])
     vh = vf[:2]
     b, l = P["b"], P["a"] + P["b"]
@@ -122,15 +132,16 @@ def test_compass_gait_heel_strike_conserves_angular_momentum(compass):
     (whole walker) and of the trailing leg about the hip are conserved to 1e-12 (relative), the
     new stance foot stops (|v| < 1e-13 m/s), and the kinetic energy decreases."""
     x, p = _pre_impact(compass)
-    xf, vf = _floating_before(compass, x, p)
-    imp = model_impact(compass.floating, xf, compass._pf, ["walker.J.foot2"], v_minus=vf)
-    from_momenta = model_impact(compass.floating, xf, compass._pf, ["walker.J.foot2"])
+    xf, vf, pf = _floating_before(compass, x, p)
+    floating = _heel_strike(compass).impact.floating
+    imp = model_impact(floating, xf, pf, ["walker.J.swing_foot"], v_minus=vf)
+    from_momenta = model_impact(floating, xf, pf, ["walker.J.swing_foot"])
     np.testing.assert_allclose(from_momenta.impact.v_plus, imp.impact.v_plus, rtol=1e-12, atol=1e-14)
     before = _angular_momenta(compass.parameters, xf, vf)
     after = _angular_momenta(compass.parameters, xf, imp.impact.v_plus)
     assert after[0] == pytest.approx(before[0], rel=1e-12)
     assert after[1] == pytest.approx(before[1], rel=1e-12)
-    foot2 = compass.floating.matrix("walker.J.foot2", 0.0, imp.x_plus, compass._pf) @ imp.impact.v_plus
+    foot2 = floating.matrix("walker.J.swing_foot", 0.0, imp.x_plus, pf) @ imp.impact.v_plus
     assert np.max(np.abs(foot2)) < 1e-13
     assert 0 < imp.impact.energy_lost < imp.impact.T_minus
 
@@ -142,11 +153,14 @@ def test_angular_momentum_conserved_for_random_compass_impacts(compass, psi1, sp
     """Any pre-impact state of the compass gait's floating model (random leg angles and rates,
     hip velocity): both angular momenta conserved to 1e-10 of their scale, G v⁺ = 0, ΔT ≥ 0."""
     P = compass.parameters
-    qf = {"walker.q.hip_joint.x": 0.3, "walker.q.hip_joint.z": 0.9,
-          "walker.q.leg1": psi1, "walker.q.leg2": psi1 - spread}
+    floating = _heel_strike(compass).impact.floating
+    pf = floating.params({k: v for k, v in P.items() if k in floating.param_names})
+    xf = np.zeros(floating.n_states)
+    for name, value in (("pin.x", 0.3), ("pin.z", 0.9), ("stance", psi1), ("hip", psi1 - spread)):
+        xf[floating.state_index(f"walker.q.{name}")] = value
     vf = np.array([vx, vz, w1, w2])
-    xf = compass._floating_state(qf, vf)
-    imp = model_impact(compass.floating, xf, compass._pf, ["walker.J.foot2"], v_minus=vf)
+    xf = _with_momenta(floating, xf, vf, pf)
+    imp = model_impact(floating, xf, pf, ["walker.J.swing_foot"], v_minus=vf)
     before = _angular_momenta(P, xf, vf)
     after = _angular_momenta(P, xf, imp.impact.v_plus)
     scale = (P["m_H"] + 2 * P["m"]) * (P["a"] + P["b"]) * (abs(vx) + abs(vz) + abs(w1) + abs(w2) + 1)
@@ -163,8 +177,7 @@ def test_simplest_walker_impact_matches_garcia_limit_law():
     w = simplest_walker()
     x, p = _pre_impact(w)
     theta, theta_dot = -x[w._iq][0], -w.velocities(x, p)[0]
-    x_new, modes, info = w._impact(0.0, x, p)
-    p_new = w._params_with(p, **modes)
+    x_new, p_new, info = _heel_strike(w).apply(0.0, x, p, w.outputs(0.0, x, p))
     z = w.project(x_new, p_new)
     s = w.section_state(z)
     c = math.cos(2 * theta)
@@ -182,8 +195,8 @@ def test_rimless_wheel_impact_matches_mcgeer(r_gyr):
     w = rimless_wheel(r_gyr=r_gyr)
     x, p = _pre_impact(w)
     omega = w.velocities(x, p)[0]
-    x_new, modes, info = w._impact(0.0, x, p)
-    omega_plus = w.velocities(x_new, w._params_with(p, **modes))[0]
+    x_new, p_new, info = _heel_strike(w).apply(0.0, x, p, w.outputs(0.0, x, p))
+    omega_plus = w.velocities(x_new, p_new)[0]
     alpha, l = math.pi / 8, 1.0
     ratio = (r_gyr**2 + l**2 * math.cos(2 * alpha)) / (r_gyr**2 + l**2)
     assert omega_plus == pytest.approx(ratio * omega, rel=1e-12)

@@ -11,7 +11,7 @@ Sources (each test names its numbers and tolerance):
   Their eigenvalues come from finite differences and are accurate to ~1e-3 only (Bhounsule 2014,
   "Numerical accuracy of two benchmark models of walking", DCDIS B 21:137); this file therefore
   also checks against an independent integration of Garcia's own equations of motion
-  (θ̈ = sin(θ − γ), φ̈ = sin φ (θ̇² − cos(θ − γ)) + sin(θ − γ); MODEL-SPEC.md §2) with scipy's
+  (θ̈ = sin(θ − γ), φ̈ = sin φ (θ̇² − cos(θ − γ)) + sin(θ − γ), their eq. 3) with scipy's
   DOP853 at rtol 1e-13 [REF], which reproduces GARCIA's fixed point to 1e-10.
 * Goswami, Thuilot & Espiau (1998), "A study of the passive gait of a compass-like biped robot:
   symmetry and chaos", Int. J. Robot. Res. 17(12):1282–1301, and INRIA RR-2996 (1996) [GOSWAMI]:
@@ -153,7 +153,7 @@ def test_simplest_walker_short_period_gait_is_unstable(simplest):
     """GARCIA Table 1, γ = 0.009, short-period gait: θ* = 0.19393736960624, θ̇* = −0.20386692731962
     (to 1e-9), eigenvalues 4.000 and 0.459 (relative 2e-3; measured 4.0039, 0.45959): unstable.
     Found by Newton from a rough guess; step period against REF (3.0961058681) to 1e-8."""
-    fp = find_fixed_point(simplest, simplest.from_thesis_state(0.193, -0.205, -0.015))
+    fp = find_fixed_point(simplest, simplest.from_thesis([-0.205, 2 * 0.193, -0.015]))
     assert fp.converged
     s = simplest.section_state(fp.z)
     assert s["theta"] == pytest.approx(SHORT[0], abs=1e-9)
@@ -302,23 +302,25 @@ def test_rimless_wheel_below_its_critical_slope_stops():
     assert r.fall_reason == "rolled_back"
 
 
-# --- the guards read the multibody's geometry -------------------------------------------------------
+# --- the guards are written on the multibody's outputs -------------------------------------------
 @pytest.mark.parametrize("builder,guard_points", [
     (simplest_walker, {"heel_strike": "walker.swing_foot.z"}),
     (compass_gait, {"heel_strike": "walker.swing_foot.z"}),
     (rimless_wheel, {"heel_strike": "walker.next_tip.z", "rolled_back": "walker.prev_tip.z"})])
 def test_guards_equal_the_multibody_point_heights(builder, guard_points):
-    """The event guards, written in joint coordinates, equal the multibody's own outputs: the
-    striking point's height above ground_z plus contact_margin (and the hip height above the stance
-    foot minus fall_fraction·l for the legged walkers), to 1e-14, at random states and modes."""
+    """The compiled event guards (written in the files on the multibody's point outputs) equal
+    those outputs: the striking point's height above ground_z plus contact_margin (and the hip
+    height above the stance foot minus fall_fraction·l for the legged walkers), to 1e-14, at
+    random states and modes."""
     w = builder()
-    m = w.swing
+    m = w.model
     rng = np.random.default_rng(7)
     names = [e.name for e in m.events]
     for _ in range(20):
         x = rng.uniform(-1.5, 1.5, m.n_states)
-        p = w._params_with(w._p, stance_x=rng.uniform(-3, 3), stance_z=rng.uniform(-0.1, 0.1),
-                           ground_z=rng.uniform(-0.1, 0.1), contact_margin=rng.uniform(0, 1e-3))
+        p = m.params({**w.parameters, "stance_x": rng.uniform(-3, 3),
+                      "stance_z": rng.uniform(-0.1, 0.1), "ground_z": rng.uniform(-0.1, 0.1),
+                      "contact_margin": rng.uniform(0, 1e-3)})
         g = np.asarray(m.functions.guards(0.0, m.augment(x), m.native_params(p)))
         out = w.outputs(0.0, x, p)
         P = dict(zip(m.param_names, p))

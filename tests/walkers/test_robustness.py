@@ -36,7 +36,7 @@ def test_ground_drop_lowers_the_new_stance_foot_once_and_keeps_the_ledger(simple
     strides = w.walk(_z(w, g), 4, ground_drop=h, record=True)
     assert [s.status for s in strides] == ["step"] * 4
     traj = strides[-1].info["trajectory"]
-    iz = w.swing.param_names.index("stance_z")
+    iz = w.model.param_names.index("stance_z")
     heights = sorted({float(seg.p[iz]) for seg in traj.segments})
     # after the first heel strike every stance foot stands on the lowered surface: the stance
     # foot's height is -h (to the heel-strike guard's 1e-12 m hysteresis)

@@ -1,5 +1,5 @@
-"""The thesis's variable-stiffness walker (MODEL-SPEC.md §4, thesis §3.2 and App. D;
-walker_library.compliant_legs.variable_stiffness_walker): the compliant-leg walker whose stance
+"""The thesis's variable-stiffness walker (models/variable_stiffness_walker.toml; M. Jafarian 2010,
+MSc report 022CE2010, University of Twente, §3.2, Eq. 3.3 and App. D): the compliant-leg walker whose stance
 leg stiffens from K1 = 6000 N/m at mid-stance to K2 = 8000 N/m at |φ| = φ_max,
 K = K1 + (K2 − K1)|φ|/φ_max, with D = 2·0.2·√(3.1 K) (Table 3.1's first variable row), γ = 0.009.
 
@@ -16,15 +16,14 @@ variable one at 0.3373 m/s (0.4 % apart).
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
-from porthamiltonian import io
-from walker_library import analyze_gait, load_walker, variable_stiffness_walker, walk
-from walker_library.cli import main
-from walker_library.compliant_legs import PHI_MAX_K1
+from walker_library import analyze_gait, variable_stiffness_walker, walk
+from walker_library.standing import stand
+
+#: φ_max of the file: the largest |φ| over a step of the constant-K1 gait (K2 = K1, α = 0.2)
+PHI_MAX_K1 = 0.4370
 
 #: the gait of variable_stiffness_walker(K2=6000) (constant K1), section coordinates, from
 #: analyze_gait (rounded to 1e-10)
@@ -117,16 +116,7 @@ def test_phi_max_is_the_peak_phi_of_the_constant_k1_gait(walker):
 def test_static_leg_compression_with_k1(walker):
     """Standing (mid-stance flags off): the stance leg shortens by (M + 2 m_leg + m_foot) g / K1."""
     P = walker.parameters
-    traj = walker.stand(3.0)
+    traj = stand(walker, 3.0)
     load = (P["M"] + 2 * P["m_leg"] + P["m_foot"]) * P["g"]
     assert traj["walker.q.ankle1"][-1] == pytest.approx(-load / P["K1"], rel=1e-6)
     assert traj["spring1.K"][-1] == P["K1"]
-
-
-def test_model_file_is_up_to_date_and_loads(tmp_path):
-    out = tmp_path / "variable_stiffness_walker.toml"
-    assert main(["export", "variable_stiffness_walker", str(out)]) == 0
-    assert out.read_text() == io.model_path("variable_stiffness_walker").read_text()
-    w = load_walker("variable_stiffness_walker", backend=None)
-    assert w.name == "variable_stiffness_walker" and w.parameters["K2"] == 8000.0
-    assert math.isclose(w.parameters["phi_max"], PHI_MAX_K1)

@@ -3,9 +3,9 @@ researcher would write them without the framework: equations of motion typed in 
 ``scipy.integrate.solve_ivp`` with events, no numba, no analytic Jacobian (the stiff solver gets
 scipy's own finite differences, ``jac=None``, the usual hand-written choice), and a plain Newton
 iteration with a forward-difference Jacobian for the fixed point. Used by
-``benchmarks/bench_walkers.py`` (timing against the framework in the same run) and by
 ``tests/validation/test_handwritten_walkers.py`` (independent validation of the framework's
-simplest walker).
+simplest walker) and by ``benchmarks/bench_walkers.py`` (timing against the framework in the same
+run; it imports this module from here).
 
 Simplest walker (Garcia, Chatterjee, Ruina & Coleman 1998, "The simplest walking model:
 stability, complexity, and scaling", J. Biomech. Eng. 120:281–288), nondimensional, β = m/M -> 0
@@ -20,7 +20,7 @@ is between two negative values, so it never makes a false root). Plastic impact,
 φ̇⁺ = cos 2θ⁻ (1 − cos 2θ⁻) θ̇⁻. Section just after heel strike: (θ, θ̇, φ̇) (φ = 2θ).
 Integrated by DOP853 at the framework walker's tolerances.
 
-Nominal compliant-contact walker (MODEL-SPEC.md §1; the model of walker_library.compass_walker)
+Nominal compliant-contact walker (the thesis's ch. 2; models/compass_walker.toml)
 ----------------------------------------------------------------------------------------------
 Slope frame (x down the slope, z along its normal), gravity g (sin γ, 0, −cos γ), surface z = 0.
 Coordinates q = (x, z, a1, a2): hip position and the absolute leg angles (a = 0: leg along −z; a
@@ -438,12 +438,12 @@ class CompassWalkerHand:
 
 
 # ------------------------------------------------------------------------------------------------
-# the compliant-leg walker (MODEL-SPEC.md §3; the model of walker_library.compliant_leg_walker)
+# the compliant-leg walker (the thesis's §3.1; models/compliant_leg_walker.toml)
 # ------------------------------------------------------------------------------------------------
 class CompliantLegWalkerHand(CompassWalkerHand):
     """The nominal walker with each foot mass on a prismatic joint along its leg (extension s_k:
     the foot centre l + s_k from the hip) and a spring–damper on it, force
-    −(K (s − preload/K) + D ṡ), D = 2 α √((M + m_foot) K) (MODEL-SPEC.md §3).
+    −(K (s − preload/K) + D ṡ), D = 2 α √((M + m_foot) K) (thesis §3.1).
 
     All masses are points (hip M; leg k: m_leg at l/2; foot k: m_foot at r_k = l + s_k), so the
     equations of motion are written the point-mass way: with p_i(q) each mass's position,
