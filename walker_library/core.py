@@ -52,7 +52,7 @@ __all__ = ["HybridWalker", "compiled"]
 _COMPILED: dict[tuple[str, str], CompiledModel] = {}
 _CHECKED: dict[str, tuple[ModelNames, dict]] = {}
 #: prefix of the outputs the walker adds to its model (one per evaluated expression)
-PREFIX = "_hybrid"
+PREFIX = "hybrid"
 
 
 def compiled(model: Model, backend: str) -> CompiledModel:
@@ -95,7 +95,7 @@ class _Outputs:
         for name, expr in self.exprs.items():
             if expr == text:
                 return name
-        name = f"{PREFIX}.e{len(self.exprs)}"
+        name = f"{PREFIX}_e{len(self.exprs)}"
         self.exprs[name] = text
         return name
 
