@@ -210,7 +210,7 @@ def cmd_report(args) -> int:
     walker = _walker(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
-                          with_step_down=not args.no_step_down, log=log)
+                          with_step_down=not args.no_step_down, forces=args.forces, log=log)
     print(f"wrote {result.out / 'report.html'} ({len(result.files)} files, {result.seconds:.0f} s)")
     return 0
 
@@ -334,6 +334,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="steps of the recorded walk (default: 6)")
     p.add_argument("--basin", action="store_true", help="also the basin of attraction (slow)")
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
+    p.add_argument("--forces", action="store_true",
+                   help="draw the contact-force arrows in walk.gif (the page's player has a "
+                        "switch for them either way)")
     p.set_defaults(func=cmd_report)
 
     p = add_sweep_parser(
