@@ -129,14 +129,15 @@ REFERENCES: dict[str, Comparison] = {
 
 @dataclass
 class ComparisonRow:
-    """One row of the comparison: published and our value (in the published unit), the
-    deviation (ours − published, relative), the tolerance (absolute, in ``unit``; None when none
-    can be stated) and whether they agree within it."""
+    """One row of the comparison: published (also as printed) and our value (in the published
+    unit), the deviation (ours − published, relative), the tolerance (absolute, in ``unit``;
+    None when none can be stated) and whether they agree within it."""
 
     quantity: str
     label: str
     unit: str
     published: float
+    printed: str
     where: str
     ours: float | None
     deviation: float | None
@@ -196,7 +197,8 @@ def compare(walker: Any, gait: Any, step_down: Any = None) -> list[ComparisonRow
         tol = _tolerance(ref, step_down)
         deviation = None if ours is None else (ours - ref.value) / abs(ref.value)
         agrees = None if ours is None or tol is None else abs(ours - ref.value) <= tol
-        rows.append(ComparisonRow(ref.quantity, ref.label, ref.unit, ref.value, ref.where, ours,
+        rows.append(ComparisonRow(ref.quantity, ref.label, ref.unit, ref.value, ref.printed,
+                                  ref.where, ours,
                                   deviation, tol, agrees, ref.explanation, ref.doc, ref.heading,
                                   f"{comparison.publication.short}, {ref.where}"))
     return rows

@@ -166,9 +166,12 @@ def fig_energy(s: GaitSeries, path: Path | None, nondimensional: bool = False) -
         a.plot(s.t, s.E_in, color="C4", lw=1.3, label="supplied E_in")
     _mark_events(a, s)
     a.set_ylabel(f"energy ({unit})")
-    b.plot(s.t, s.residual, color="k", lw=0.8)
+    top = float(np.max(np.abs(s.residual), initial=0.0))
+    e = math.floor(math.log10(top)) if top > 0 else 0
+    b.plot(s.t, s.residual / 10.0**e, color="k", lw=0.8)
     _mark_events(b, s, with_labels=False)
-    b.set_ylabel(f"residual ({unit})")
+    power = "" if e == 0 else "10" + str(e).translate(str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")) + " "
+    b.set_ylabel(f"residual ({power}{unit})")
     b.set_xlabel(f"t ({shown_unit('s', nondimensional)})")
     b.set_title("ledger residual H − H(0) + E_diss − E_in (zero up to integration error)",
                 fontsize=8, loc="left")

@@ -246,9 +246,9 @@ def _comparison_html(walker: Walker, rows: list, out: Path) -> str:
                 else f" ({html.escape(where)})")
         dev = "—" if r.deviation is None else f"{100 * r.deviation:+.2g} %"
         tol = "—" if r.tolerance is None else f"± {r.tolerance:.2g}"
-        cells.append([P.named(r.label, r.quantity), r.unit, P.number(r.published, 8),
+        cells.append([P.named(r.label, r.quantity), r.unit, r.printed,
                       P.Html(f'<span class="where">{html.escape(r.where)}</span>'),
-                      P.number(r.ours, 6), dev, tol, verdict])
+                      _to_tolerance(r.ours, r.tolerance), dev, tol, verdict])
         why = r.explanation[:1].upper() + r.explanation[1:]
         cells.append(P.Note(f"{html.escape(why)}.{more}"))
     table = P.table(["quantity", "unit", "published", "where", "ours", "deviation",
@@ -259,6 +259,16 @@ def _comparison_html(walker: Walker, rows: list, out: Path) -> str:
             "published finite-difference accuracy); the integration and Newton tolerances of "
             "ours are far below it.</p>")
     return head + table + note
+
+
+def _to_tolerance(value: float | None, tolerance: float | None) -> str:
+    """Our value with one decimal more than the tolerance's first digit (6 significant digits at
+    least), so that a difference within the tolerance shows."""
+    if value is None or tolerance is None or not tolerance > 0:
+        return P.number(value)
+    decimals = max(0, 1 - math.floor(math.log10(tolerance)))
+    shown = f"{value:.{decimals}f}"
+    return shown if len(shown.strip("-0.")) >= 6 else P.number(value)
 
 
 def _gait_tables(walker: Walker, gait: GaitResult, nondim: bool) -> str:

@@ -248,9 +248,9 @@ caption{text-align:left;font-weight:600;padding:4px 0}
 th,td{border-bottom:1px solid var(--line);padding:4px 10px;text-align:left;vertical-align:top}
 th{background:var(--soft);font-weight:600;white-space:nowrap}
 td.num,th.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
-tr.note td{color:var(--muted);font-size:13px;padding:0 10px 8px;white-space:normal}
+tr.note td{color:var(--muted);font-size:13px;padding:0 10px 8px;white-space:normal;font-weight:400}
 tr:has(+ tr.note) td{border-bottom:0}
-.where{display:block;min-width:6em}
+.where{white-space:nowrap}
 .ok{color:#1a7f37;font-weight:600}.bad{color:#b42318;font-weight:600}
 .name{text-decoration:underline dotted #999;cursor:help}
 figure{margin:1em 0 1.6em}figure img{display:block;max-width:100%;height:auto}
@@ -269,7 +269,7 @@ table.stack thead{display:none}table.stack tr{border-bottom:1px solid var(--line
 table.stack td{display:inline;border:0;padding:0 10px 0 0;white-space:normal}
 table.stack td.num{text-align:left}table.stack td:first-child{display:block;font-weight:600}
 table.stack td:not(:first-child)::before{content:attr(data-label) ": ";color:var(--muted)}
-table.stack tr.note td{display:block;padding:2px 0 0}table.stack tr.note td::before{content:none}
+table.stack tr.note td{display:block;padding:2px 0 0;font-weight:400}table.stack tr.note td::before{content:none}
 table.stack tr:has(+ tr.note){border-bottom:0}}
 details{margin:.5em 0 1em}summary{cursor:pointer;color:var(--accent)}
 footer{margin-top:3em;color:var(--muted);font-size:13px}"""

@@ -78,7 +78,7 @@ def test_links_point_at_existing_headings(tmp_path):
     for comparison in REFERENCES.values():
         for ref in comparison.references:
             doc = (ROOT / ref.doc).read_text()
-            headings = [slug(h) for h in re.findall(r"^#+ (.+)$", doc, re.M)]
+            headings = [slug(h) for h in re.findall(r"^#+ (.+)$", doc, re.MULTILINE)]
             assert slug(ref.heading) in headings, (ref.doc, ref.heading)
             link = doc_link(ref.doc, ref.heading, tmp_path / "report")
             assert link is not None and link.endswith("#" + slug(ref.heading))
