@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .figures import new_figure, styled
 from .labels import foot_radius
 from .series import GaitSeries
 
@@ -186,14 +187,15 @@ def _arrow_scale(sc: Scene) -> float:
     return 0.35 * sc.leg_length / max(sc.weight, 1e-12)
 
 
-def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 150,
+@styled
+def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
               forces: bool = False, nondimensional: bool = False) -> bytes:
     """Write the scene as an animated GIF (looping, every recorded step) and return its bytes.
     Real time when the walk fits in ``max_frames`` frames at ``fps``, else faster (said in the
     frame's label). ``forces``: draw the contact-force arrows."""
-    from .figures import pyplot
-    plt = pyplot()
     from matplotlib.animation import FuncAnimation, PillowWriter
+
+
     duration = float(sc.t[-1] - sc.t[0])
     n = int(min(max_frames, max(2, round(duration * fps) + 1)))
     frames = np.unique(np.round(np.linspace(0, len(sc.t) - 1, n)).astype(int))
@@ -204,7 +206,7 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 150,
     ax_w = width - left - right
     ax_h = ax_w * (z1 - z0) / (x1 - x0)
     height = ax_h + bottom + top
-    fig = plt.figure(figsize=(width, height))
+    fig = new_figure(figsize=(width, height), layout=None)
     ax = fig.add_axes((left / width, bottom / height, ax_w / width, ax_h / height))
     ax.set_xlim(x0, x1)
     ax.set_ylim(z0, z1)
@@ -225,7 +227,8 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 150,
     ax.text(0.99, 0.97, slope_text, transform=ax.transAxes, fontsize=8, va="top", ha="right")
     scale = _arrow_scale(sc)
     tunit = "nondim. time" if nondimensional else "s"
-    pace = "real time" if abs(speedup - 1) < 0.05 else f"{speedup:.2g}× real time"
+    pace = ("" if nondimensional else " · real time" if abs(speedup - 1) < 0.05
+            else f" · {speedup:.2g}× real time")
 
     def draw(k: int):
         f = frames[k]
@@ -249,12 +252,11 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 150,
                 arrows[j].set_data([p[0], p[0] + F[0]] if on else [], [p[1], p[1] + F[1]] if on else [])
                 heads[j].set_data([p[0] + F[0]] if on else [], [p[1] + F[1]] if on else [])
         hip.set_data([h[0]], [h[1]])
-        label.set_text(f"t = {sc.t[f]:.2f} {tunit} · step {sc.step[f] + 1} of {sc.n_steps} · {pace}")
+        label.set_text(f"t = {sc.t[f]:.2f} {tunit} · step {sc.step[f] + 1} of {sc.n_steps}{pace}")
         return [*legs, *soles, hip, *arrows, *heads, label]
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
     anim.save(str(path), writer=PillowWriter(fps=fps), dpi=80)
-    plt.close(fig)
     return Path(path).read_bytes()
 
 

@@ -8,7 +8,9 @@ after on phase portraits); other events (a foot lifting off, the mid-stance scuf
 ticks; legends sit outside the data. Units follow :mod:`walker_library.labels` (``nondim`` for
 a nondimensional model). Each ``fig_*`` function writes ``path`` and returns the PNG's bytes.
 
-matplotlib is imported when a figure is drawn, never at import time (the ``plots`` extra).
+matplotlib is imported when a figure is drawn, never at import time (the ``plots`` extra). The
+figures are :class:`matplotlib.figure.Figure` objects drawn without pyplot, so making a report
+neither needs a display nor changes the back end of an interactive session (a notebook).
 """
 from __future__ import annotations
 
@@ -24,30 +26,54 @@ import numpy as np
 from .labels import shown_unit
 from .series import GaitSeries
 
-__all__ = ["DPI", "event_split", "fig_angles", "fig_basin", "fig_energy", "fig_energy_per_step",
+__all__ = ["DPI", "STYLE", "event_split", "fig_angles", "fig_basin", "fig_energy", "fig_energy_per_step",
            "fig_floquet", "fig_limit_cycle", "fig_step_down", "heel_strike_points", "pyplot",
            "save_figure"]
 
 DPI = 110
+#: matplotlib settings of the report's figures
+STYLE = {"font.size": 9, "axes.titlesize": 10, "legend.fontsize": 8, "axes.spines.top": False,
+         "axes.spines.right": False}
 _JUMP = {"ls": (0, (3, 2)), "lw": 0.9, "alpha": 0.8}
 _HEEL = {"color": "0.35", "ls": ":", "lw": 0.9}
 
 
 def pyplot():
-    """matplotlib.pyplot on the Agg back end (no window), with the report's style."""
+    """matplotlib.pyplot on the Agg back end (no window), with the report's style (for scripts
+    that draw with pyplot, e.g. the reproduction studies)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    plt.rcParams.update({"font.size": 9, "axes.titlesize": 10, "legend.fontsize": 8,
-                         "axes.spines.top": False, "axes.spines.right": False})
+    plt.rcParams.update(STYLE)
     return plt
 
 
+def new_figure(**kw: Any):
+    """A :class:`matplotlib.figure.Figure` in the report's style, constrained layout, no pyplot
+    (``kw``: Figure's arguments, e.g. ``figsize``). Draw inside :func:`styled`."""
+    from matplotlib.figure import Figure
+    return Figure(layout=kw.pop("layout", "constrained"), **kw)
+
+
+def styled(fn):
+    """Run a figure function inside the report's matplotlib style (:data:`STYLE`)."""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        import matplotlib
+        with matplotlib.rc_context(STYLE):
+            return fn(*args, **kwargs)
+    return wrapper
+
+
 def save_figure(fig, path: Path | None) -> bytes:
-    """The figure as PNG bytes (written to ``path`` if given); the figure is closed."""
+    """The figure as PNG bytes (written to ``path`` if given); a pyplot figure is closed."""
+    import sys
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI)
-    pyplot().close(fig)
+    if "matplotlib.pyplot" in sys.modules:
+        sys.modules["matplotlib.pyplot"].close(fig)
     data = buf.getvalue()
     if path is not None:
         Path(path).write_bytes(data)
@@ -105,10 +131,11 @@ def _jump_legend_entry(ax) -> None:
     ax.plot([], [], color="0.3", **_JUMP, label="reset at heel strike (a jump, not flow)")
 
 
+@styled
 def fig_angles(s: GaitSeries, path: Path | None, nondimensional: bool = False) -> bytes:
     """θ and φ over time."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7.5, 3.4), layout="constrained")
+    fig = new_figure(figsize=(7.5, 3.4))
+    ax = fig.subplots()
     pieces = event_split(s.t)
     _flow(ax, s.t, s.theta, pieces, "C0", "θ stance-leg angle")
     if np.any(np.isfinite(s.phi)):
@@ -121,12 +148,12 @@ def fig_angles(s: GaitSeries, path: Path | None, nondimensional: bool = False) -
     return save_figure(fig, path)
 
 
+@styled
 def fig_limit_cycle(s: GaitSeries, path: Path | None, nondimensional: bool = False) -> bytes:
     """Phase portraits (θ̇ over θ, φ̇ over φ): the flow solid, the heel-strike resets dashed."""
-    plt = pyplot()
     legged = bool(np.any(np.isfinite(s.phi)))
-    fig, axes = plt.subplots(1, 2 if legged else 1, figsize=(7.5 if legged else 4.2, 3.6),
-                             layout="constrained", squeeze=False)
+    fig = new_figure(figsize=(7.5 if legged else 4.2, 3.6))
+    axes = fig.subplots(1, 2 if legged else 1, squeeze=False)
     axes = axes[0]
     pieces = event_split(s.t)
     strikes = heel_strike_points(s)
@@ -151,12 +178,12 @@ def fig_limit_cycle(s: GaitSeries, path: Path | None, nondimensional: bool = Fal
     return save_figure(fig, path)
 
 
+@styled
 def fig_energy(s: GaitSeries, path: Path | None, nondimensional: bool = False) -> bytes:
     """The energy ledger over time, and its residual."""
-    plt = pyplot()
     unit = shown_unit("J", nondimensional)
-    fig, (a, b) = plt.subplots(2, 1, figsize=(7.5, 5.2), sharex=True, layout="constrained",
-                               gridspec_kw={"height_ratios": [3, 1.2]})
+    fig = new_figure(figsize=(7.5, 5.2))
+    a, b = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 1.2]})
     pieces = event_split(s.t)
     _flow(a, s.t, s.V - s.V[0], pieces, "C0", "potential V − V(0)")
     _flow(a, s.t, s.T, pieces, "C1", "kinetic T")
@@ -179,12 +206,13 @@ def fig_energy(s: GaitSeries, path: Path | None, nondimensional: bool = False) -
     return save_figure(fig, path)
 
 
+@styled
 def fig_energy_per_step(s: GaitSeries, path: Path | None, nondimensional: bool = False) -> bytes:
     """Energy dissipated and potential energy released, step by step."""
-    plt = pyplot()
     steps = [x for x in s.strides if not x.fell]
     k = np.arange(1, len(steps) + 1)
-    fig, ax = plt.subplots(figsize=(6, 2.9), layout="constrained")
+    fig = new_figure(figsize=(6, 2.9))
+    ax = fig.subplots()
     ax.bar(k - 0.2, [x.energy_dissipated for x in steps], 0.4, label="dissipated")
     ax.bar(k + 0.2, [x.potential_released for x in steps], 0.4, label="potential released")
     ax.set_xlabel("step")
@@ -204,18 +232,20 @@ def _clusters(points: np.ndarray, radius: float) -> list[list[int]]:
     return groups
 
 
+@styled
 def fig_floquet(multipliers: Sequence[complex], error: float, path: Path | None) -> bytes:
     """The Floquet multipliers in the complex plane with the unit circle (the stability limit)
     and the disc |λ| < ε of the error estimate; overlapping multipliers are counted (×n)."""
-    plt = pyplot()
+    from matplotlib.patches import Circle
     m = np.asarray(multipliers, dtype=complex)
-    fig, ax = plt.subplots(figsize=(4.4, 4.2), layout="constrained")
+    fig = new_figure(figsize=(4.4, 4.2))
+    ax = fig.subplots()
     u = np.linspace(0, 2 * math.pi, 361)
     ax.plot(np.cos(u), np.sin(u), color="0.45", lw=1, label="unit circle |λ| = 1")
     eps = float(error) if error is not None and math.isfinite(error) else 0.0
     small = np.abs(m) < eps
     if eps > 0:
-        ax.add_patch(plt.Circle((0, 0), max(eps, 0.012), color="C0", alpha=0.25, lw=0,
+        ax.add_patch(Circle((0, 0), max(eps, 0.012), color="C0", alpha=0.25, lw=0,
                                 label=f"|λ| < ε = {eps:.1g} (error estimate)"))
     big = m[~small]
     ax.plot(big.real, big.imag, "o", mfc="none", mec="C3", mew=1.5, ms=8, label="multiplier λ")
@@ -239,11 +269,12 @@ def fig_floquet(multipliers: Sequence[complex], error: float, path: Path | None)
     return save_figure(fig, path)
 
 
+@styled
 def fig_step_down(r: Any, path: Path | None, nondimensional: bool = False) -> bytes:
     """The step-down cases (mm): survived or fell, and the largest drop survived."""
-    plt = pyplot()
     scale, unit = (1.0, "nondim.") if nondimensional else (1e3, "mm")
-    fig, ax = plt.subplots(figsize=(7, 2.3), layout="constrained")
+    fig = new_figure(figsize=(7, 2.3))
+    ax = fig.subplots()
     colors = {"converged": "C2", "fell": "C3", "wandered": "C1", "invalid": "0.5"}
     for status, color in colors.items():
         h = [c["h"] * scale for c in r.cases if c["status"] == status]
@@ -259,10 +290,11 @@ def fig_step_down(r: Any, path: Path | None, nondimensional: bool = False) -> by
     return save_figure(fig, path)
 
 
+@styled
 def fig_basin(r: Any, path: Path | None) -> bytes:
     """The basin grid in the thesis's scaled coordinates."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(4.8, 4.6), layout="constrained")
+    fig = new_figure(figsize=(4.8, 4.6))
+    ax = fig.subplots()
     th = np.array(r.theta) / r.theta_scale
     thd = np.array(r.theta_dot) / r.theta_dot_scale
     ok = np.array([[o == "converged" for o in row] for row in r.outcome])
