@@ -73,6 +73,7 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
             "autonomous": _autonomous(sym),
             "energy_parts": sym.energy_parts,
             "constraints": [c.to_dict() for c in sym.constraints],
+            "units": sym.units,
         }
         if use_cache:
             cache.write(key, meta, body)
