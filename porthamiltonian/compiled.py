@@ -174,6 +174,10 @@ class CompiledModel:
         _, p_diss, p_in = self.functions.energy(t, y, pn)
         return float(dH - p_in + p_diss)
 
+    def _repr_html_(self) -> str:
+        from .display import model_html
+        return model_html(self)
+
     def simulate(self, t_end: float, x0=None, params: Mapping[str, float] | None = None, **options):
         """Simulate; see :func:`porthamiltonian.simulate.simulate`."""
         from .simulate import simulate

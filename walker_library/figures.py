@@ -15,7 +15,6 @@ neither needs a display nor changes the back end of an interactive session (a no
 from __future__ import annotations
 
 import io
-import itertools
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -23,10 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from porthamiltonian.display import event_split
+
 from .labels import shown_unit
 from .series import GaitSeries
 
-__all__ = ["DPI", "STYLE", "event_split", "fig_angles", "fig_basin", "fig_energy", "fig_energy_per_step",
+__all__ = ["DPI", "STYLE", "draw_multipliers", "draw_phase", "event_split", "fig_angles", "fig_basin", "fig_energy", "fig_energy_per_step",
            "fig_floquet", "fig_limit_cycle", "fig_step_down", "heel_strike_points", "pyplot",
            "save_figure"]
 
@@ -78,14 +79,6 @@ def save_figure(fig, path: Path | None) -> bytes:
     if path is not None:
         Path(path).write_bytes(data)
     return data
-
-
-def event_split(t: np.ndarray) -> list[slice]:
-    """The continuous pieces of a recorded run: an event stores the state just before it and
-    after its reset at the same time, so the pieces split where the time repeats."""
-    cuts = np.flatnonzero(np.diff(t) == 0) + 1
-    bounds = [0, *cuts.tolist(), len(t)]
-    return [slice(a, b) for a, b in itertools.pairwise(bounds) if b > a]
 
 
 def heel_strike_points(s: GaitSeries) -> list[tuple[int, int]]:
@@ -153,29 +146,36 @@ def fig_limit_cycle(s: GaitSeries, path: Path | None, nondimensional: bool = Fal
     """Phase portraits (θ̇ over θ, φ̇ over φ): the flow solid, the heel-strike resets dashed."""
     legged = bool(np.any(np.isfinite(s.phi)))
     fig = new_figure(figsize=(7.5 if legged else 4.2, 3.6))
-    axes = fig.subplots(1, 2 if legged else 1, squeeze=False)
-    axes = axes[0]
-    pieces = event_split(s.t)
-    strikes = heel_strike_points(s)
-    rate = "nondim." if nondimensional else "rad/s"
-    panels = [(s.theta, s.theta_dot, "θ", "θ̇", "C0", "stance leg")]
+    axes = fig.subplots(1, 2 if legged else 1, squeeze=False)[0]
+    draw_phase(axes[0], s, "theta", nondimensional, labels=True)
     if legged:
-        panels.append((s.phi, s.phi_dot, "φ", "φ̇", "C1", "between the legs"))
-    for ax, (x, y, xs, ys, color, title) in zip(axes, panels):
-        _flow(ax, x, y, pieces, color, "flow (one curve per step)" if color == "C0" else None)
-        if strikes:
-            pre = [a for a, _ in strikes]
-            post = [b for _, b in strikes]
-            ax.plot(x[pre], y[pre], "o", mfc="white", mec="k", ms=5, zorder=3,
-                    label="just before heel strike" if color == "C0" else None)
-            ax.plot(x[post], y[post], "o", color="k", ms=4, zorder=3,
-                    label="just after heel strike" if color == "C0" else None)
-        ax.set_xlabel(f"{xs} (rad)")
-        ax.set_ylabel(f"{ys} ({rate})")
-        ax.set_title(title)
-    axes[0].plot([], [], color="0.3", **_JUMP, label="heel-strike reset (jump, not flow)")
+        draw_phase(axes[1], s, "phi", nondimensional)
     fig.legend(loc="outside lower center", ncols=4, frameon=False)
     return save_figure(fig, path)
+
+
+def draw_phase(ax, s: GaitSeries, angle: str, nondimensional: bool = False,
+               labels: bool = False) -> None:
+    """One phase portrait (``angle`` "theta" or "phi") on ``ax``: the flow solid, the
+    heel-strike resets dashed, the states just before (open) and after (filled) marked;
+    ``labels``: with legend labels."""
+    x, y = getattr(s, angle), getattr(s, f"{angle}_dot")
+    symbol, color, title = ((r"\theta", "C0", "stance leg") if angle == "theta"
+                            else (r"\varphi", "C1", "between the legs"))
+    _flow(ax, x, y, event_split(s.t), color, "flow (one curve per step)" if labels else None)
+    strikes = heel_strike_points(s)
+    if strikes:
+        pre = [a for a, _ in strikes]
+        post = [b for _, b in strikes]
+        ax.plot(x[pre], y[pre], "o", mfc="white", mec="k", ms=5, zorder=3,
+                label="just before heel strike" if labels else None)
+        ax.plot(x[post], y[post], "o", color="k", ms=4, zorder=3,
+                label="just after heel strike" if labels else None)
+    if labels:
+        ax.plot([], [], color="0.3", **_JUMP, label="heel-strike reset (jump, not flow)")
+    ax.set_xlabel(f"${symbol}$ (rad)")
+    ax.set_ylabel(f"$\\dot{{{symbol}}}$ ({'nondim.' if nondimensional else 'rad/s'})")
+    ax.set_title(title)
 
 
 @styled
@@ -236,17 +236,23 @@ def _clusters(points: np.ndarray, radius: float) -> list[list[int]]:
 def fig_floquet(multipliers: Sequence[complex], error: float, path: Path | None) -> bytes:
     """The Floquet multipliers in the complex plane with the unit circle (the stability limit)
     and the disc |λ| < ε of the error estimate; overlapping multipliers are counted (×n)."""
+    fig = new_figure(figsize=(4.4, 4.2))
+    draw_multipliers(fig.subplots(), multipliers, error)
+    fig.legend(loc="outside lower center", ncols=2, frameon=False)
+    return save_figure(fig, path)
+
+
+def draw_multipliers(ax, multipliers: Sequence[complex], error: float) -> None:
+    """The multipliers on ``ax`` (see :func:`fig_floquet`), with legend labels."""
     from matplotlib.patches import Circle
     m = np.asarray(multipliers, dtype=complex)
-    fig = new_figure(figsize=(4.4, 4.2))
-    ax = fig.subplots()
     u = np.linspace(0, 2 * math.pi, 361)
     ax.plot(np.cos(u), np.sin(u), color="0.45", lw=1, label="unit circle |λ| = 1")
     eps = float(error) if error is not None and math.isfinite(error) else 0.0
     small = np.abs(m) < eps
     if eps > 0:
         ax.add_patch(Circle((0, 0), max(eps, 0.012), color="C0", alpha=0.25, lw=0,
-                                label=f"|λ| < ε = {eps:.1g} (error estimate)"))
+                            label=f"|λ| < ε = {eps:.1g} (error estimate)"))
     big = m[~small]
     ax.plot(big.real, big.imag, "o", mfc="none", mec="C3", mew=1.5, ms=8, label="multiplier λ")
     for group in _clusters(big, 0.04):
@@ -265,8 +271,6 @@ def fig_floquet(multipliers: Sequence[complex], error: float, path: Path | None)
     ax.axvline(0, color="0.85", lw=0.6, zorder=0)
     ax.set_xlabel("Re λ")
     ax.set_ylabel("Im λ")
-    fig.legend(loc="outside lower center", ncols=2, frameon=False)
-    return save_figure(fig, path)
 
 
 @styled
@@ -303,7 +307,7 @@ def fig_basin(r: Any, path: Path | None) -> bytes:
     ax.plot(A[~ok], B[~ok], ".", color="0.5", ms=5, label="falls or wanders")
     ax.plot(r.fixed_point["theta"] / r.theta_scale, r.fixed_point["theta_dot"] / r.theta_dot_scale,
             "*", color="C3", ms=13, label="fixed point")
-    ax.set_xlabel(f"θ / {r.theta_scale:g} rad")
-    ax.set_ylabel(f"θ̇ / {r.theta_dot_scale:g} rad/s")
+    ax.set_xlabel(f"$\\theta$ / {r.theta_scale:g} rad")
+    ax.set_ylabel(f"$\\dot{{\\theta}}$ / {r.theta_dot_scale:g} rad/s")
     fig.legend(loc="outside lower center", ncols=3, frameon=False)
     return save_figure(fig, path)
