@@ -28,7 +28,7 @@ for element in ("mass", "spring", "damper"):
 
 # the python back end starts at once; leave it out ("auto") for compiled speed on long runs
 model = compile_model(m, backend="python")
-model                                          # in Jupyter: states, parameters, units
+model  # noqa: B018  (in Jupyter: states, parameters, units)
 
 # %% [markdown]
 # ## Simulate, and look
@@ -36,7 +36,7 @@ model                                          # in Jupyter: states, parameters,
 
 # %%
 traj = model.simulate(20.0, params={"k": 9.0}, max_step=0.05)
-traj                                           # in Jupyter: status, energy ledger, final states
+traj  # noqa: B018  (in Jupyter: status, energy ledger, final states)
 
 # %%
 ax = traj.plot("spring.q", "mass.p")           # states over t, units in the legend
@@ -65,7 +65,7 @@ sweep = Sweep(simulate_case, grid(c=[0.4, 0.8, 1.6]), out,
               fixed={"model": "mass_spring_damper", "t_end": 30.0, "settle": "spring.q",
                      "backend": "python"})
 sweep.run(serial=True, progress="none")
-sweep                                          # in Jupyter: cases by status, the first rows
+sweep  # noqa: B018  (in Jupyter: cases by status, the first rows)
 
 # %%
 results = read_dataframe(out)
