@@ -202,7 +202,7 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
     speedup = duration / max(len(frames) / fps, 1e-12)
     x0, x1, z0, z1 = sc.bounds
     width = 7.0
-    left, right, bottom, top = 0.62, 0.12, 0.48, 0.12
+    left, right, bottom, top = 0.62, 0.12, 0.48, 0.3
     ax_w = width - left - right
     ax_h = ax_w * (z1 - z0) / (x1 - x0)
     height = ax_h + bottom + top
@@ -222,9 +222,9 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
     hip = ax.plot([], [], "o", color="k", ms=9, zorder=4)[0]
     arrows = [ax.plot([], [], color="C3", lw=1.6, zorder=5)[0] for _ in range(K)] if forces else []
     heads = [ax.plot([], [], "^", color="C3", ms=5, zorder=5)[0] for _ in range(K)] if forces else []
-    label = ax.text(0.01, 0.97, "", transform=ax.transAxes, fontsize=8, va="top")
+    label = ax.text(0.0, 1.02, "", transform=ax.transAxes, fontsize=8, va="bottom")
     slope_text = f"slope γ = {sc.slope:.3g} rad ({math.degrees(sc.slope):.2g}°), to scale"
-    ax.text(0.99, 0.97, slope_text, transform=ax.transAxes, fontsize=8, va="top", ha="right")
+    ax.text(1.0, 1.02, slope_text, transform=ax.transAxes, fontsize=8, va="bottom", ha="right")
     scale = _arrow_scale(sc)
     tunit = "nondim. time" if nondimensional else "s"
     pace = ("" if nondimensional else " · real time" if abs(speedup - 1) < 0.05
@@ -256,7 +256,7 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
         return [*legs, *soles, hip, *arrows, *heads, label]
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
-    anim.save(str(path), writer=PillowWriter(fps=fps), dpi=80)
+    anim.save(str(path), writer=PillowWriter(fps=fps), dpi=90)
     return Path(path).read_bytes()
 
 

@@ -150,7 +150,7 @@ def fig_limit_cycle(s: GaitSeries, path: Path | None, nondimensional: bool = Fal
     draw_phase(axes[0], s, "theta", nondimensional, labels=True)
     if legged:
         draw_phase(axes[1], s, "phi", nondimensional)
-    fig.legend(loc="outside lower center", ncols=4, frameon=False)
+    fig.legend(loc="outside lower center", ncols=4 if legged else 2, frameon=False)
     return save_figure(fig, path)
 
 

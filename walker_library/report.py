@@ -340,6 +340,7 @@ def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
     gif = P.figure(images, "walk.gif", "animation of the walk (GIF)",
                    "The same walk as an animated GIF (walk.gif beside this page), for slides.")
     start = "the fixed point" if gait.status == "periodic" else "the initial guess"
+    legged = bool(getattr(walker, "legged", True))
     return (f'<h2 id="motion">The walk</h2><p>{ledger["steps"]} steps from {start} in one '
             f"simulation; energy dissipated {ledger['energy_dissipated']:.6g} {J}, supplied "
             f"{ledger['energy_supplied']:.6g} {J}; the ledger residual "
@@ -347,9 +348,12 @@ def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
             "throughout.</p>"
             + player + f"<details><summary>GIF</summary>{gif}</details>"
             + P.figure(images, "angles.png", "leg angles over time",
-                       "θ (stance leg to the slope normal) and φ (between the legs) over time. At "
-                       "each heel strike (dotted lines) the legs exchange roles, so θ and φ jump: "
-                       "the jump is a reset, drawn dashed.")
+                       ("θ (stance leg to the slope normal) and φ (between the legs) over time. "
+                        "At each heel strike (dotted lines) the legs exchange roles, so θ and φ "
+                        "jump: the jump is a reset, drawn dashed." if legged else
+                        "θ (the stance leg to the slope normal) over time. At each heel strike "
+                        "(dotted lines) the next leg takes over, so θ jumps: the jump is a "
+                        "reset, drawn dashed."))
             + P.figure(images, "limit_cycle.png", "limit cycle",
                        "The limit cycle as phase portraits: the flow of each step solid, the "
                        "heel-strike reset dashed, the states just before (open) and just after "
