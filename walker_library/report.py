@@ -208,8 +208,9 @@ def _header(walker: Walker, gait: GaitResult, sd: StepDownResult | None, nondim:
     doc = getattr(walker, "doc", "") or ""
     return (f"<header><h1>Walker report: {html.escape(walker.name)}</h1>"
             f'<p class="lead">{html.escape(doc)}</p><div class="badges">{b}</div>'
-            f'<p>{html.escape(gait.message[:1].upper() + gait.message[1:])}.</p>'
-            f'<div class="cards">{card_html}</div></header>')
+            + ("" if gait.status == "periodic" else
+               f"<p>{html.escape(gait.message[:1].upper() + gait.message[1:])}.</p>")
+            + f'<div class="cards">{card_html}</div></header>')
 
 
 def _with_unit(value: str, unit: str, nondim: bool) -> str:
@@ -234,7 +235,7 @@ def _comparison_html(walker: Walker, rows: list, out: Path) -> str:
         return head + (f"<p>Not compared: the published numbers hold for other parameter values "
                        f"than this run's: {html.escape(what)}.</p>")
     cells = []
-    for r in rows:
+    for k, r in enumerate(rows):
         if r.agrees is None:
             verdict = P.Html("—")
         else:
@@ -244,11 +245,13 @@ def _comparison_html(walker: Walker, rows: list, out: Path) -> str:
         where = f"{r.doc} § {r.heading.split(' (`')[0]}"
         more = (f' <a href="{html.escape(link)}">{html.escape(where)}</a>' if link
                 else f" ({html.escape(where)})")
-        dev = "—" if r.deviation is None else f"{100 * r.deviation:+.2g} %"
-        tol = "—" if r.tolerance is None else f"± {r.tolerance:.2g}"
+        dev = "—" if r.deviation is None else f"{100 * r.deviation:+.2g}\u00a0%"
+        tol = "—" if r.tolerance is None else f"±\u00a0{r.tolerance:.2g}"
         cells.append([P.named(r.label, r.quantity), r.unit, r.printed,
                       P.Html(f'<span class="where">{html.escape(r.where)}</span>'),
                       _to_tolerance(r.ours, r.tolerance), dev, tol, verdict])
+        if k + 1 < len(rows) and rows[k + 1].explanation == r.explanation:
+            continue                            # one note under rows that share it
         why = r.explanation[:1].upper() + r.explanation[1:]
         cells.append(P.Note(f"{html.escape(why)}.{more}"))
     table = P.table(["quantity", "unit", "published", "where", "ours", "deviation",
