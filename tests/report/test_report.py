@@ -24,7 +24,9 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
+from walker_library import report as report_module
 from walker_library.cli import main
+from walker_library.report import ExtraFigure
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -70,10 +72,24 @@ def layout_mark(image: Image.Image) -> str:
     return "ok" if (g > 200 and r < 60) else "overflow" if (r > 200 and g < 60) else "missing"
 
 
+def _extra_figure(walker, gait, path: Path) -> str:
+    """An extra section as another branch would add one (a continuation diagram, say)."""
+    from walker_library.figures import new_figure, save_figure
+    fig = new_figure(figsize=(3, 2))
+    fig.subplots().plot([0, 1], [gait.metrics.speed, gait.metrics.speed])
+    save_figure(fig, path)
+    return f"speed of {walker.name} (a test figure)"
+
+
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
-    assert main(["report", "simplest_walker", "--out", str(out), "--steps", "4", "--quiet"]) == 0
+    extras = [ExtraFigure("A test section", "extra.png", _extra_figure),
+              ExtraFigure("Left out", "none.png", lambda walker, gait, path: None)]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(report_module, "EXTRA_FIGURES", extras)
+        assert main(["report", "simplest_walker", "--out", str(out), "--steps", "4",
+                     "--quiet"]) == 0
     return out
 
 
@@ -98,7 +114,8 @@ def test_report_files_and_json(report):
 
 def test_every_figure_is_a_valid_png_and_the_gif_animates_every_step(report):
     pngs = sorted(report.glob("*.png"))
-    assert len(pngs) == 6
+    assert len(pngs) == 7                       # 6 figures and the extra section's
+    assert not (report / "none.png").exists()
     for p in pngs:
         assert p.read_bytes()[:8] == PNG_SIGNATURE, p.name
         with Image.open(p) as im:
@@ -131,7 +148,8 @@ def test_report_opens_in_a_headless_browser_without_errors(report):
     m = re.search(r'data-images-ok="(\d+)/(\d+)"', dom)
     assert m, "the page's load handler did not run"
     ok, total = int(m.group(1)), int(m.group(2))
-    assert total == 7 and ok == total                 # 6 figures + the GIF, all decoded
+    assert total == 8 and ok == total           # 6 figures, the extra one, the GIF: all decoded
+    assert "A test section" in dom and "Left out" not in dom
     player = re.search(r'data-player="ready:(\d+)"', dom)
     assert player and int(player.group(1)) > 100, "the player did not start"
     assert not [c for c in console if "Uncaught" in c or "rror" in c], console
