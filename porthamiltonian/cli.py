@@ -236,7 +236,7 @@ def cmd_simulate(args) -> int:
         print(f"{model.name}: {traj.status} at t = {traj.t_final:g} s ({traj.message}); "
               f"{traj.nfev} right-hand-side evaluations")
         for name, value in result["final_state"].items():
-            print(f"  {name:30s} {value: .10g}")
+            print(f"  {name:30s} {value: .10g} {compiled.units.get(name, '')}".rstrip())
         led = result["energy"]
         print(f"  energy: H(0) = {led['H0']:.10g} J, H(T) = {led['HT']:.10g} J, dissipated = "
               f"{led['dissipated']:.10g} J, supplied = {led['supplied']:.10g} J")
