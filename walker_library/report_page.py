@@ -174,10 +174,11 @@ function draw(){ctx.setTransform(dpr,0,0,dpr,0,0);ctx.clearRect(0,0,W,H);
   line(h,c,col,3);var r=d.radius[k];
   if(r>0){var a=Math.atan2(c[1]-h[1],c[0]-h[0]);ctx.beginPath();
    ctx.arc(X(c[0]),Y(c[1]),r*scale,-a-d.arcHalfAngle,-a+d.arcHalfAngle);ctx.stroke();}
-  else{ctx.fillStyle=col;ctx.beginPath();ctx.arc(X(c[0]),Y(c[1]),3,0,2*Math.PI);ctx.fill();}
+  else{ctx.fillStyle=col;ctx.beginPath();ctx.arc(X(c[0]),Y(c[1]),3,0,2*Math.PI);ctx.fill();}}
+ for(k=0;k<feet.length;k++){
   if(d.force&&forces&&forces.checked){var f=d.force[i][k],p=d.contact[i][k];
    var q=[p[0]+f[0]*d.arrowScale,p[1]+f[1]*d.arrowScale];
-   if(Math.hypot(q[0]-p[0],q[1]-p[1])>0.02*d.legLength){line(p,q,'#d62728',2);
+   if(Math.hypot(q[0]-p[0],q[1]-p[1])>0.02*d.legLength){line(p,q,'#d62728',2.5);
     var ang=Math.atan2(-(q[1]-p[1]),q[0]-p[0]);ctx.fillStyle='#d62728';ctx.beginPath();
     ctx.moveTo(X(q[0]),Y(q[1]));
     ctx.lineTo(X(q[0])-8*Math.cos(ang-0.4),Y(q[1])-8*Math.sin(ang-0.4));
