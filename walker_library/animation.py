@@ -162,7 +162,7 @@ def scene(walker: Any, s: GaitSeries, *, rate: float = 30.0, max_frames: int = 6
     ground = np.array([[x0, -x0 * math.tan(slope)], [x1, -x1 * math.tan(slope)]])
     z0 = float(min(pts[:, 1].min(), ground[:, 1].min()) - 0.08 * leg)
     z1 = float(pts[:, 1].max() + 0.08 * leg)
-    steps = len([x for x in s.strides if not x.fell])
+    steps = len(s.strides)                       # a fall's last stride included
     return Scene(t=times, step=step, hip=hip, feet=feet, colour=_identities(feet), radius=radius,
                  force=force, contact=contact, slope=slope, ground=ground,
                  bounds=(x0, x1, z0, z1), leg_length=leg,
