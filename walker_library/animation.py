@@ -46,7 +46,7 @@ class Scene:
     arc radius of each foot (0: point foot); force (F, K, 2) N on each foot or None; contact
     (F, K, 2): where the force is drawn (the arc's lowest point on the ground normal);
     slope (rad); ground: two world points of the surface line; bounds (x0, x1, z0, z1) of the
-    view; leg_length (m); weight (N); n_steps: steps recorded; speedup: played speed / real.
+    view; leg_length (m); weight (N); n_steps: strides recorded (a fall's last one included).
     """
 
     t: np.ndarray

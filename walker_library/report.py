@@ -334,7 +334,7 @@ def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
     step_period = gait.metrics.step_period
     scale = (1.0 / step_period if nondim and math.isfinite(step_period) and step_period > 0
              else 1.0)
-    cap = (f"All {sc.n_steps} recorded steps, looping; the slope (γ = {sc.slope:.3g} rad) drawn at "
+    cap = (f"All {sc.n_steps} recorded step{'' if sc.n_steps == 1 else 's'}, looping; the slope (γ = {sc.slope:.3g} rad) drawn at "
            f"its angle, {'arc feet at their radius' if np.any(sc.radius > 0) else 'point feet'}. "
            "Click the picture or the button to pause; drag the slider to scrub"
            + ("; the contact forces switch on arrows (the weight is drawn 0.35 leg lengths long)"
@@ -344,8 +344,10 @@ def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
                    "The same walk as an animated GIF (walk.gif beside this page), for slides.")
     start = "the fixed point" if gait.status == "periodic" else "the initial guess"
     legged = bool(getattr(walker, "legged", True))
-    return (f'<h2 id="motion">The walk</h2><p>{ledger["steps"]} steps from {start} in one '
-            f"simulation; energy dissipated {ledger['energy_dissipated']:.6g} {J}, supplied "
+    steps = ledger["steps"]
+    fell = " until it fell" if gait.status == "fell" else ""
+    return (f'<h2 id="motion">The walk</h2><p>{steps} step{"" if steps == 1 else "s"} from '
+            f"{start}{fell} in one simulation; energy dissipated {ledger['energy_dissipated']:.6g} {J}, supplied "
             f"{ledger['energy_supplied']:.6g} {J}; the ledger residual "
             f"|H − H(0) + E_diss − E_in| stays below {ledger['max_abs_residual']:.2g} {J} "
             "throughout.</p>"
