@@ -21,8 +21,10 @@ the runner :func:`run`.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import json
+import logging
 import os
 import sys
 import traceback
@@ -234,7 +236,7 @@ def cmd_simulate(args) -> int:
         print(f"{model.name}: {traj.status} at t = {traj.t_final:g} s ({traj.message}); "
               f"{traj.nfev} right-hand-side evaluations")
         for name, value in result["final_state"].items():
-            print(f"  {name:30s} {value: .10g}")
+            print(f"  {name:30s} {value: .10g} {compiled.units.get(name, '')}".rstrip())
         led = result["energy"]
         print(f"  energy: H(0) = {led['H0']:.10g} J, H(T) = {led['HT']:.10g} J, dissipated = "
               f"{led['dissipated']:.10g} J, supplied = {led['supplied']:.10g} J")
@@ -353,10 +355,14 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
       status 3.
 
     Warnings (e.g. a damaged cache entry being rebuilt) are printed as ``warning: <message>``.
+    On a terminal, the one-time build of a model that is not cached yet is announced on stderr
+    (not with ``--quiet``; as with the progress displays, nothing when stderr is a file or a
+    pipe, so that a user error stays one line there).
     """
     args = parser.parse_args(argv)
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _build_notices(not getattr(args, "quiet", False)
+                                                       and sys.stderr.isatty()):
             warnings.showwarning = _show_warning
             status = args.func(args)
             sys.stdout.flush()                 # a closed pipe shows here, not at exit
@@ -377,6 +383,25 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
         return EXIT_USER_ERROR
     except Exception:  # noqa: BLE001 - a bug: report it, with the traceback
         return _report_bug()
+
+
+@contextlib.contextmanager
+def _build_notices(enabled: bool):
+    """Print the compiler's build notices (logger ``porthamiltonian.build``) on stderr."""
+    if not enabled:
+        yield
+        return
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    log = logging.getLogger("porthamiltonian.build")
+    level = log.level
+    log.addHandler(handler)
+    log.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        log.removeHandler(handler)
+        log.setLevel(level)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

@@ -38,6 +38,8 @@ class CompiledModel:
         (``<component>.H``, or ``.T`` and ``.V`` of a multibody; kind ``"stored"`` or
         ``"potential"``), for the ledger's scale (Trajectory.energy_scale).
     constraints : the components' constraints on parameter values, checked by :meth:`params`.
+    units : SI unit by name of the states and port variables whose unit is known
+        (``"spring.q": "m"``, ``"mass.p.e": "N"``).
     events : the model's event guards.
     functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
     """
@@ -56,6 +58,7 @@ class CompiledModel:
         self.autonomous: bool = meta["autonomous"]
         self.energy_parts: list[tuple[str, str]] = [tuple(e) for e in meta.get("energy_parts", [])]
         self.constraints = ConstraintChecker(self.name, meta.get("constraints", []))
+        self.units: dict[str, str] = dict(meta.get("units", {}))
         self.functions = functions
         self.source = source
         self.key = key
@@ -170,6 +173,10 @@ class CompiledModel:
         dH = (8 * (H(1) - H(-1)) - (H(2) - H(-2))) / (12 * step)
         _, p_diss, p_in = self.functions.energy(t, y, pn)
         return float(dH - p_in + p_diss)
+
+    def _repr_html_(self) -> str:
+        from .display import model_html
+        return model_html(self)
 
     def simulate(self, t_end: float, x0=None, params: Mapping[str, float] | None = None, **options):
         """Simulate; see :func:`porthamiltonian.simulate.simulate`."""

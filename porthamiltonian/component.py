@@ -34,7 +34,7 @@ import sympy as sp
 from .constraints import RULES, Constraint, violation
 from .errors import ModelError, ParameterValueError, UnknownComponentError, UnknownPortError
 from .expressions import TIME, as_expr, check_name, parse, to_text
-from .ports import Port
+from .ports import Port, domain
 
 REQUIRED = object()
 
@@ -99,6 +99,7 @@ class Built:
     dissipation: sp.Expr = sp.Integer(0)
     supply: sp.Expr = sp.Integer(0)
     outputs: dict[str, sp.Expr] = field(default_factory=dict)
+    output_units: dict[str, str] = field(default_factory=dict)
     storage_ports: list[str] = field(default_factory=list)
     #: the energy's dependence on other components' states is paid through this component's own
     #: power ports (e.g. a contact whose penetration is a body point's height): no modulation
@@ -243,6 +244,10 @@ class Builder:
         if causality not in ("C", "I"):
             raise ModelError(f"component {self.name!r}: storage causality must be 'C' or 'I'")
         gradient = sp.diff(energy, state)
+        for decl in self.built.states:          # a state without a unit gets its port's
+            if decl.symbol == state and not decl.unit:
+                dom = domain(port.port.domain)
+                decl.unit = dom.displacement_unit if causality == "C" else dom.momentum_unit
         if causality == "C":
             self.equation(self.der(state), port.f, "dq/dt = f")
             self.equation(port.e, gradient, "e = dH/dq")
@@ -259,10 +264,13 @@ class Builder:
         """Add ``power`` (W) to the power supplied to the model from outside."""
         self.built.supply = self.built.supply + power
 
-    def output(self, name: str, expr: sp.Expr) -> None:
-        """A named output ``component.name`` (any expression in the model's variables). Other
-        components may read it as a signal by its dotted name (e.g. ``walker.foot1.z``)."""
+    def output(self, name: str, expr: sp.Expr, unit: str = "") -> None:
+        """A named output ``component.name`` (any expression in the model's variables), in SI
+        ``unit`` if given. Other components may read it as a signal by its dotted name (e.g.
+        ``walker.foot1.z``)."""
         self.built.outputs[self._qualified(name)] = as_expr(expr)
+        if unit:
+            self.built.output_units[self._qualified(name)] = unit
 
     def parse(self, text: Any, what: str, local: Mapping[str, sp.Expr] | None = None) -> sp.Expr:
         """Parse an expression of this component (model names plus ``local`` names)."""

@@ -8,7 +8,9 @@ Shaped like scipy's ``OdeResult`` (``t``, ``status``, ``message``, ``success``, 
   blind to a constant offset of H) and ``traj.relative_residual``;
 * ``traj.sol(t)`` — dense output (model states) at any time of the run;
 * ``traj.events`` — (time, name) of every event, ``traj.jumps`` — H jumps booked at resets;
-* ``to_csv`` / ``to_npz`` — export with named columns.
+* ``to_csv`` / ``to_npz`` — export with named columns; ``to_dataframe`` — a pandas data frame
+  with the units in ``df.attrs["units"]`` (:mod:`porthamiltonian.frames`);
+* ``plot(*names)`` — a quick look, and a compact table in Jupyter (:mod:`porthamiltonian.display`).
 """
 from __future__ import annotations
 
@@ -221,6 +223,22 @@ class Trajectory:
     def to_npz(self, path: str | Path, outputs: bool = False) -> None:
         """Write named arrays (t, states, ledger[, outputs]) plus status and message to ``.npz``."""
         np.savez(path, status=self.status, message=self.message, **self.columns(outputs))
+
+    def to_dataframe(self, outputs: bool | list[str] = True):
+        """A pandas DataFrame indexed by t (s): states, ledger, outputs (all, none or those
+        named), units in ``df.attrs["units"]`` (see :mod:`porthamiltonian.frames`)."""
+        from .frames import trajectory_frame
+        return trajectory_frame(self, outputs)
+
+    def plot(self, *names: str, ax=None, events: bool = True):
+        """Plot states, outputs or ledger terms over t (default: the states); returns the Axes
+        (see :func:`porthamiltonian.display.plot_trajectory`)."""
+        from .display import plot_trajectory
+        return plot_trajectory(self, *names, ax=ax, events=events)
+
+    def _repr_html_(self) -> str:
+        from .display import trajectory_html
+        return trajectory_html(self)
 
     def __repr__(self) -> str:
         return (f"Trajectory({self.model.name!r}, status={self.status!r}, t=[{self.t[0]:g}, "

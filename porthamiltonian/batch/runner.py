@@ -463,6 +463,10 @@ class Sweep:
         return to_dataframe(self.table(pending=pending))
 
     # --- running -----------------------------------------------------------------------------------
+    def _repr_html_(self) -> str:
+        from ..display import sweep_html
+        return sweep_html(self)
+
     def run(self, executor: Executor | None = None, *, workers: int | None = None,
             serial: bool = False, progress: str | bool | None = "auto",
             progress_interval: float = 10.0, max_in_flight: int | None = None,

@@ -3,8 +3,15 @@
 Pipeline: :meth:`Model.flatten` -> :func:`structure.build_system` -> :func:`structure.solve`
 (causality, loops, dependent storages) -> :func:`assemble.assemble` (state equations, H, P_diss,
 P_in) -> :func:`codegen.generate` (cse, RHS and Jacobian together) -> cache -> back end.
+
+A model that is not in the cache yet is built once (seconds to a minute for a walker); the
+logger ``porthamiltonian.build`` says so at INFO level when the build starts and, if it took a
+second or more, when it ends (the command lines print it on stderr).
 """
 from __future__ import annotations
+
+import logging
+import time
 
 import sympy
 
@@ -40,7 +47,12 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
     backend = resolve(backend)
     key = cache.model_key(model)
     hit = cache.read(key) if use_cache else None
+    started = None
     if hit is None:
+        started = time.perf_counter()
+        BUILD_LOG.info("building model %s (once: symbolic compilation, code generation%s; "
+                       "cached for later runs) ...", model.name,
+                       ", numba compilation" if backend == "numba" else "")
         try:
             sym = symbolic(model)
         except ModelFileError:
@@ -61,13 +73,21 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
             "autonomous": _autonomous(sym),
             "energy_parts": sym.energy_parts,
             "constraints": [c.to_dict() for c in sym.constraints],
+            "units": sym.units,
         }
         if use_cache:
             cache.write(key, meta, body)
     else:
         meta, body = hit
     path = cache.backend_module(key, backend, source_with_header(body, backend), use_cache)
-    return CompiledModel(meta, load(path, backend, len(meta["matrices"])), body, key)
+    compiled = CompiledModel(meta, load(path, backend, len(meta["matrices"])), body, key)
+    if started is not None and time.perf_counter() - started >= 1.0:
+        BUILD_LOG.info("built model %s in %.0f s", model.name, time.perf_counter() - started)
+    return compiled
+
+
+#: progress of model builds (INFO: a build starts, a build ended)
+BUILD_LOG = logging.getLogger("porthamiltonian.build")
 
 
 def _autonomous(sym: SymbolicModel) -> bool:

@@ -15,7 +15,9 @@ states x, the parameters p and the time t:
   ``<component>.H``, or its outputs ``T`` and ``V`` when it splits its energy into kinetic and
   potential (a multibody), for the ledger's offset-free scale
   (:attr:`porthamiltonian.trajectory.Trajectory.energy_scale`);
-* the constraints on parameter values the components declared (:mod:`porthamiltonian.constraints`).
+* the constraints on parameter values the components declared (:mod:`porthamiltonian.constraints`);
+* the SI units of the states (declared, or a storage port's time integral: m for a C storage on
+  a translation port, N·s for an I storage) and of the port variables (their domain's).
 
 The residual r(t) = H(t) − H(0) + E_diss(t) − E_in(t) is then zero up to integration error;
 :func:`power_balance` gives dH/dt − P_in + P_diss, which is identically zero for a consistent model.
@@ -30,6 +32,7 @@ from ..constraints import Constraint
 from ..errors import ModelError, StateError
 from ..expressions import TIME, parse
 from ..model import EventSpec
+from ..ports import domain
 from .structure import Solution, _flat, _scope_names
 
 
@@ -58,6 +61,8 @@ class SymbolicModel:
     #: (output name, "stored" or "potential") of the energy parts (see :func:`energy_parts`)
     energy_parts: list[tuple[str, str]] = field(default_factory=list)
     constraints: list[Constraint] = field(default_factory=list)
+    #: SI unit by name of the states and port variables whose unit is known
+    units: dict[str, str] = field(default_factory=dict)
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
@@ -93,14 +98,21 @@ def assemble(solution: Solution) -> SymbolicModel:
         p_in += b.supply.xreplace(system.aliases).xreplace(values)
 
     outputs: dict[str, sp.Expr] = {}
+    units = {str(s.symbol): s.unit for b in system.built.values() for s in b.states if s.unit}
     for cname, b in system.built.items():
         for pname, pv in b.ports.items():
             names = _port_names(cname, pname, pv.port.dim)
-            for name, sym in zip(names, _flat(pv.e) + _flat(pv.f)):
+            dom = domain(pv.port.domain)
+            kinds = [dom.effort_unit] * pv.port.dim + [dom.flow_unit] * pv.port.dim
+            for name, sym, unit in zip(names, _flat(pv.e) + _flat(pv.f), kinds):
                 outputs[name] = values[system.aliases.get(sym, sym)]
+                if unit and "|" not in unit:
+                    units[name] = unit
         for oname, expr in b.outputs.items():
             outputs[oname] = expr.xreplace(system.aliases).xreplace(values)
+        units.update(b.output_units)
     parts = energy_parts(energies, outputs)
+    units.update({name: "J" for name, _ in parts})
     symbol_table = _symbol_table(system, outputs)
     for oname, text in flat.outputs.items():
         outputs[oname] = _model_expr(text, flat.scopes[f"output:{oname}"], symbol_table, system,
@@ -130,6 +142,7 @@ def assemble(solution: Solution) -> SymbolicModel:
         blocks=system.blocks, matrices=matrices, intermediates=system.intermediates,
         energy_parts=parts,
         constraints=[c for b in system.built.values() for c in b.constraints],
+        units=units,
     )
 
 

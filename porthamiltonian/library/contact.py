@@ -120,10 +120,11 @@ class _Contact(Component):
         rate = surf.penetration_rate(vx, vz)
         nx, nz = surf.normal
         tx, tz = surf.tangent
-        for name, expr in (("z", pen), ("zdot", rate), ("px", x), ("pz", z),
-                           ("s", surf.arc(x, z)), ("vt", surf.tangential_velocity(vx, vz)),
-                           ("nx", nx), ("nz", nz), ("tx", tx), ("tz", tz)):
-            b.output(name, expr)
+        for name, expr, unit in (("z", pen, "m"), ("zdot", rate, "m/s"), ("px", x, "m"),
+                                 ("pz", z, "m"), ("s", surf.arc(x, z), "m"),
+                                 ("vt", surf.tangential_velocity(vx, vz), "m/s"),
+                                 ("nx", nx, "1"), ("nz", nz, "1"), ("tx", tx, "1"), ("tz", tz, "1")):
+            b.output(name, expr, unit)
         return surf, pen, rate
 
     def _finish(self, b: Builder, surf: Surface, force: sp.Expr, energy: sp.Expr,
@@ -133,7 +134,7 @@ class _Contact(Component):
                    "e = -Fn n (reaction of the normal force on the body)")
         b.energy(energy, via_ports=True)
         b.dissipate(dissipation)
-        b.output("Fn", force)
+        b.output("Fn", force, "N")
 
 
 @register

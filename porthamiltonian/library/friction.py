@@ -119,9 +119,9 @@ class SCVSFriction(Component):
         b.equation(port.e, sp.Matrix([fn * mu * tx, fn * mu * tz]),
                    "e = -Ft t (reaction of the SCVS friction force on the body)")
         b.dissipate(fn * mu * v)
-        b.output("Ft", -fn * mu)
-        b.output("v", v)
-        b.output("mu", mu)
+        b.output("Ft", -fn * mu, "N")
+        b.output("v", v, "m/s")
+        b.output("mu", mu, "1")
 
 
 __all__ = ["SCVSFriction", "scvs_coefficient"]

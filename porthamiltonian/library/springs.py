@@ -53,7 +53,7 @@ import sympy as sp
 
 from ..component import Arg, Builder, Component, register
 from ..errors import ParameterValueError
-from ..ports import Port
+from ..ports import DOMAINS, Port
 
 _COMMON = {
     "damping": Arg("damping coefficient D (or give alpha and mass)", "N*s/m", default=None,
@@ -95,6 +95,7 @@ class _SpringDamper(Component):
                         "states; a SpringDamper is linear (parameters only): use "
                         "VariableSpringDamper for a modulated stiffness")
         port = b.port("p")
+        dom = DOMAINS[domain]               # units: m and N/m, or rad and N*m/rad
         if length is not None:
             if self.variable:
                 raise ParameterValueError(f"{where}: 'length' (a signal) is for a SpringDamper; "
@@ -107,7 +108,8 @@ class _SpringDamper(Component):
             b.energy(energy, via_ports=True)
             force = stiffness * z
         else:
-            q = b.state("q", unit="m", initial=rest_length if q0 is None else q0)
+            q = b.state("q", unit=dom.displacement_unit,
+                        initial=rest_length if q0 is None else q0)
             z = q - rest_length
             energy = stiffness * z**2 / 2
             b.energy(energy)
@@ -118,9 +120,9 @@ class _SpringDamper(Component):
         b.equation(port.e, force + damping * port.f, "e = dH/dq + D f")
         b.built.storage_ports.append("p")
         b.dissipate(damping * port.f**2)
-        b.output("z", z)
-        b.output("K", stiffness)
-        b.output("D", damping)
+        b.output("z", z, dom.displacement_unit)
+        b.output("K", stiffness, f"{dom.effort_unit}/{dom.displacement_unit}")
+        b.output("D", damping, f"{dom.effort_unit}*s/{dom.displacement_unit}")
 
 
 @register

@@ -57,7 +57,7 @@ import sympy as sp
 
 from ..component import Arg, Builder, Component, register
 from ..errors import ModelError, UnknownComponentError
-from ..ports import Port
+from ..ports import DOMAINS, Port
 from .bodies import as_tables
 from .kinematics import Frame, Rotation, Vector
 
@@ -260,8 +260,9 @@ class Multibody(Component):
                     raise ModelError(f"Multibody joint {name!r}: {key} needs {n} value(s), got {value!r}")
                 joint_q0.setdefault(name, [])
                 joint_q0[name].append([b.parse(v, f"joint {name!r} {key}") for v in values])
-        q = [b.state(f"q.{label}", initial=joint_q0[j][0][[c for c in coords if c[0] == j].index(
-            (j, label, ax, kind))]) for j, label, ax, kind in coords]
+        q = [b.state(f"q.{label}", DOMAINS[kind].displacement_unit,
+                     joint_q0[j][0][[c for c in coords if c[0] == j].index((j, label, ax, kind))])
+             for j, label, ax, kind in coords]
         index = {(c[0], c[1]): k for k, c in enumerate(coords)}
 
         # kinematics (kept compact, see .kinematics): world frames of the bodies, and per body
@@ -341,7 +342,8 @@ class Multibody(Component):
         v0 = sp.Matrix([joint_q0[c[0]][1][[d for d in coords if d[0] == c[0]].index(c)]
                         for c in coords])
         p0 = M.xreplace(q0) * v0
-        p = [b.state(f"p.{c[1]}", initial=p0[k]) for k, c in enumerate(coords)]
+        p = [b.state(f"p.{c[1]}", DOMAINS[c[3]].momentum_unit, p0[k])
+             for k, c in enumerate(coords)]
 
         # intermediates keep the generated code local: mass-matrix entries, their derivatives
         # (for the Coriolis terms ½ vᵀ ∂M/∂q_k v) and the point Jacobians are computed once, and
@@ -398,11 +400,11 @@ class Multibody(Component):
                        "dp/dt = 1/2 v' dM/dq v - dV/dq + Q")
         kinetic = (sp.Matrix(p).T * vvec)[0, 0] / 2
         b.energy(kinetic + V)
-        b.output("T", kinetic)
-        b.output("V", V)
+        b.output("T", kinetic, "J")
+        b.output("V", V, "J")
         for point, pos in points.items():
             for name, i in dims:
-                b.output(f"{point}.{name}", pos[i])
+                b.output(f"{point}.{name}", pos[i], "m")
             b.matrix(f"J.{point}", point_jacobians[point])
         b.matrix("M", Mw)
 

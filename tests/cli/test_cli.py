@@ -208,3 +208,5 @@ def test_plain_text_summary(capsys):
     assert status == 0
     assert "rlc_circuit: finished" in out
     assert "capacitor.q" in out and "inductor.p" in out and "residual" in out
+    units = {ln.split()[0]: ln.split()[-1] for ln in out.splitlines() if ln.startswith("  ")}
+    assert units["capacitor.q"] == "A*s" and units["inductor.p"] == "V*s"   # charge, flux linkage

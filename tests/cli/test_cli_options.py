@@ -5,6 +5,7 @@ models only, output lines carry units, and a closed pipe ends a command quietly.
 from __future__ import annotations
 
 import argparse
+import io
 import subprocess
 import sys
 
@@ -97,3 +98,22 @@ def test_a_closed_pipe_ends_the_command_quietly():
     proc.stdout.close()
     _, err = proc.communicate(timeout=300)
     assert proc.returncode == 141 and err == b""
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_a_model_build_is_announced_on_a_terminal_once(tmp_path, monkeypatch):
+    """A model not in the cache is built once, and a terminal hears about it; the next run of
+    the same model (cached) is silent, and so is stderr that is a file or pipe (covered by the
+    one-line user errors of tests/reliability/test_cli_errors.py)."""
+    from porthamiltonian.cli import main
+    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
+    argv = ["--backend", "python", "simulate", "mass_spring_damper", "--t-end", "0.1"]
+    for expected in (True, False):
+        err = _Terminal()
+        monkeypatch.setattr(sys, "stderr", err)
+        assert main(argv) == 0
+        assert ("building model mass_spring_damper (once:" in err.getvalue()) is expected
