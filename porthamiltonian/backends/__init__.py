@@ -99,5 +99,5 @@ def report(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
 
-__all__ = ["BACKENDS", "BACKEND_VARIABLE", "BackendWarning", "Functions", "QUIET_VARIABLE",
+__all__ = ["BACKENDS", "BACKEND_VARIABLE", "QUIET_VARIABLE", "BackendWarning", "Functions",
            "candidates", "fell_back", "numba_available", "report"]

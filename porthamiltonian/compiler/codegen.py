@@ -284,6 +284,10 @@ def program(model: SymbolicModel) -> Program:
     def doc(summary: str, result: list[str]) -> list[str]:
         return [summary, *result, *args_doc]
 
+    n_init = max(len(model.initial), 1)
+    initial_doc = [f"The initial state of model {model.name!r} from its parameters.",
+                   *_listing(f"out ({n_init}):", state_names[:len(model.initial)]),
+                   *_listing(f"p: the parameters ({len(param_names)}):", param_names)]
     functions = [
         builder.function("rhs", doc(f"dx/dt of model {model.name!r}: out[i] = d(x[i])/dt.", []),
                          [("array", "out", model.rhs, (n,))], (n,)),
@@ -302,15 +306,9 @@ def program(model: SymbolicModel) -> Program:
                                        _listing(f"out ({n_guards}):", events)),
                          [("array", "out", _padded([g for _, g in model.events]), (n_guards,))],
                          (n_guards,)),
-        builder.function("initial", [f"The initial state of model {model.name!r} from the "
-                                     "parameters.",
-                                     *_listing(f"out ({max(len(model.initial), 1)}):",
-                                               state_names[:len(model.initial)]),
-                                     *_listing(f"p: the parameters ({len(param_names)}):",
-                                               param_names)],
-                         [("array", "out", _padded(model.initial),
-                           (max(len(model.initial), 1),))],
-                         (max(len(model.initial), 1),), args=("p",)),
+        builder.function("initial", initial_doc,
+                         [("array", "out", _padded(model.initial), (n_init,))], (n_init,),
+                         args=("p",)),
     ]
     for k, (name, matrix) in enumerate(model.matrices.items()):
         functions.append(builder.function(

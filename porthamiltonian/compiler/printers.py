@@ -22,8 +22,18 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
-from .codegen import (Array, Function, Let, Program, RowUpdate, Solve, SolveRows, SparseProduct,
-                      Statement, Store)
+from .codegen import (
+    Array,
+    Function,
+    Let,
+    Program,
+    RowUpdate,
+    Solve,
+    SolveRows,
+    SparseProduct,
+    Statement,
+    Store,
+)
 from .literals import c_comment, python_docstring
 
 _C_STACK_DOUBLES = 16384  # larger local arrays go to the heap (thread stacks are small)
