@@ -1,7 +1,7 @@
 """Command line ``porthamiltonian``: simulate, show, check-energy and sweep model files.
 
     porthamiltonian simulate MODEL [--set NAME=VALUE ...] [--t-end T] [--json] [--csv FILE]
-    porthamiltonian show MODEL
+    porthamiltonian show MODEL [--code [--backend c|numba|python]]
     porthamiltonian check-energy [MODEL ...]
     porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
                           [--settle NAME [--band B]] [--workers N | --serial | --scheduler ADDR]
@@ -31,6 +31,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from . import backends, io
+from .backends import module, native
 from .batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
 from .batch.progress import MODES
 from .batch.simulation import SimulationModel, prepare_simulation, simulate_case
@@ -244,9 +245,14 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_show(args) -> int:
-    from .compiler import symbolic
+    from .compiler import compile_model, symbolic
 
     model = io.load(args.model)
+    if args.code:
+        compiled = compile_model(model, backend=args.backend)
+        print(native.translation_unit(compiled.source) if compiled.backend == "c" else
+              module.module_text(compiled.source, compiled.backend), end="")
+        return 0
     flat = model.flatten()
     print(f"model {model.name}: {model.doc}")
     print("components:")
@@ -309,8 +315,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv", metavar="FILE",
                    help="also write the trajectory (time, states, ledger, outputs) as CSV")
     p.set_defaults(func=cmd_simulate)
-    p = sub.add_parser("show", help="components, ports, bonds, states, parameters and equations")
+    p = sub.add_parser("show", parents=[BACKEND_OPTION],
+                       help="components, ports, bonds, states, parameters and equations, or "
+                            "the generated code (--code)")
     p.add_argument("model", help=model_help)
+    p.add_argument("--code", action="store_true",
+                   help="print the generated source the back end compiles (--backend: c, "
+                        "numba or python; default auto, the back end in use)")
     p.set_defaults(func=cmd_show)
     p = sub.add_parser("check-energy", parents=[BACKEND_OPTION],
                        help="simulate models and check their energy residual")
