@@ -87,11 +87,13 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     params : parameter values by name (defaults for the others).
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
-    method : ``"auto"`` (default: Rodas4, or Radau when Python events, ``t_eval`` or dense
-        output are asked for), ``"Rodas4"`` (stiff, L-stable Rosenbrock; its whole step loop is compiled with the
-        model: the fast path with the numba back end; model events only, no ``t_eval`` or dense
-        output), or a scipy method: Radau, BDF, LSODA (stiff, given the analytic Jacobian unless
-        ``jacobian=False``), RK45, DOP853.
+    method : ``"auto"`` (default: Rodas5P, or Radau when Python events, ``t_eval`` or dense
+        output are asked for), ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable Rosenbrock methods
+        of order 5 and 4 whose whole step loop is compiled with the model: the fast path with
+        the C or numba back end; model events only, no ``t_eval`` or dense output; Rodas5P
+        takes fewer steps at the same accuracy, benchmarks/RESULTS.md), or a scipy method:
+        Radau, BDF, LSODA (stiff, given the analytic Jacobian unless ``jacobian=False``), RK45,
+        DOP853.
     actions : event name -> action (model events or ``events``). An event without action is
         recorded; if it is terminal, the simulation stops there.
     events : extra Python-level events.
@@ -112,7 +114,7 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     t_start, t_end, rtol, atol, max_step, first_step, t_eval = (checked[k] for k in (
         "t_start", "t_end", "rtol", "atol", "max_step", "first_step", "t_eval"))
     if method == "auto":
-        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas4"
+        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas5P"
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
     p = model.params(params)
