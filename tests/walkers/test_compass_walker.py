@@ -121,7 +121,8 @@ def test_damping_calibration_the_thesis_way(walker):
     assert 0.05 < cal.max_dissipated < 0.12
 
 
-#: the gait at the defaults, measured (numba + Rodas4 at rtol 1e-8, atol 1e-10; Newton to 1e-8)
+#: the gait at the defaults, measured (numba + Rodas4 at rtol 1e-8, atol 1e-10; Newton to 1e-8;
+#: the same to 1e-8 with the file's Rodas5P at rtol 1e-9)
 PINS = {"step_period": 1.0076010079, "step_length": 0.3072938955, "speed": 0.3049757723,
         "energy_dissipated_per_step": 0.0873605681}
 PIN_MULTIPLIER = complex(-0.0930544675, 0.2620491072)
@@ -134,11 +135,12 @@ def test_regression_pins(gait):
     end or a change of step sequence moves them by as much: asserted to 1e-6 (relative). The
     multipliers come from central differences of step h = 1e-4 of strides accurate to ≈ 1e-8,
     an error ≈ 1e-8 / 1e-4 = 1e-4 (the estimate reported is 4e-4): asserted to 1e-3; the other
-    four are below 5e-4 in modulus."""
+    four (zero within that error: 2e-4 to 8e-4 in modulus, depending on the integrator's step
+    sequence) are below 1e-3 in modulus."""
     m = gait.metrics
     for key, value in PINS.items():
         assert getattr(m, key) == pytest.approx(value, rel=1e-6), key
     mults = sorted(gait.floquet_multipliers, key=lambda c: (-abs(c), -c.imag))
     assert abs(mults[0] - PIN_MULTIPLIER) < 1e-3
     assert abs(mults[1] - PIN_MULTIPLIER.conjugate()) < 1e-3
-    assert all(abs(c) < 5e-4 for c in mults[2:])
+    assert all(abs(c) < 1e-3 for c in mults[2:])
