@@ -92,7 +92,7 @@ def _fixed_step(model, method: str, t_end: float, h: float) -> np.ndarray:
         0.0, y0, t_end, p, 0.5, np.full(n, 1e10), h, h, np.zeros(0, dtype=np.int64),
         np.zeros(0, dtype=bool), -1, 0.0, model.n_states, 1e12, 10**6, 10**5,
         0.0 if model.autonomous else 1e-7)
-    assert out[0] == 0 and out[8] == round(t_end / h)
+    assert out[0] == 0 and abs(out[8] - round(t_end / h)) <= 1   # (+1: a last sliver)
     return out[2][:model.n_states]
 
 
