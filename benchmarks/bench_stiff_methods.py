@@ -19,6 +19,7 @@ Run::
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import statistics
 import sys
@@ -121,7 +122,7 @@ def study(name: str, args) -> None:
 def interpolate(points, err):
     """(time, steps) at ``err`` on the log-log line through the two nearest points bracketing
     it; None outside their range."""
-    for (e0, t0, s0), (e1, t1, s1) in zip(points, points[1:]):
+    for (e0, t0, s0), (e1, t1, s1) in itertools.pairwise(points):
         if e0 <= err <= e1 and e0 > 0:
             w = (math.log(err) - math.log(e0)) / (math.log(e1) - math.log(e0)) if e1 > e0 else 0
             return (math.exp(math.log(t0) + w * (math.log(t1) - math.log(t0))),

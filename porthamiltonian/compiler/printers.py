@@ -148,6 +148,18 @@ class CPrinter(C99CodePrinter):
         return f"({self._print(expr.lhs)} {expr.rel_op} {self._print(expr.rhs)})"
 
 
+def _closed_form(st: Solve, entry) -> list[tuple[str, str]]:
+    """(name, value) assignments solving a 1 x 1 or 2 x 2 system ``st`` by Cramer's rule;
+    ``entry(i, j)`` prints A's entry in the language."""
+    b, v = st.b, st.targets
+    if len(v) == 1:
+        return [(v[0], f"{b}[0] / {entry(0, 0)}")]
+    det = f"det{st.A}"
+    return [(det, f"{entry(0, 0)} * {entry(1, 1)} - {entry(0, 1)} * {entry(1, 0)}"),
+            (v[0], f"({b}[0] * {entry(1, 1)} - {entry(0, 1)} * {b}[1]) / {det}"),
+            (v[1], f"({entry(0, 0)} * {b}[1] - {b}[0] * {entry(1, 0)}) / {det}")]
+
+
 # --- Python ---------------------------------------------------------------------------------------
 def _python_index(index: tuple[int, ...]) -> str:
     return ", ".join(str(i) for i in index)
@@ -162,16 +174,12 @@ def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> 
     elif isinstance(st, Store):
         lines.append(f"    {st.array}[{_python_index(st.index)}] = {pr(st.expr)}")
     elif isinstance(st, Solve):
-        a, b, v = st.A, st.b, st.targets
-        if len(v) == 1:   # small systems in closed form: no LAPACK call per evaluation
-            lines.append(f"    {v[0]} = {b}[0] / {a}[0, 0]")
-        elif len(v) == 2:
-            lines.append(f"    det{a} = {a}[0, 0] * {a}[1, 1] - {a}[0, 1] * {a}[1, 0]")
-            lines.append(f"    {v[0]} = ({b}[0] * {a}[1, 1] - {a}[0, 1] * {b}[1]) / det{a}")
-            lines.append(f"    {v[1]} = ({a}[0, 0] * {b}[1] - {b}[0] * {a}[1, 0]) / det{a}")
+        if len(st.targets) <= 2:   # small systems in closed form: no LAPACK call
+            lines += [f"    {name} = {value}" for name, value in
+                      _closed_form(st, lambda i, j: f"{st.A}[{i}, {j}]")]
         else:
-            lines.append(f"    {b} = np.linalg.solve({a}, {b})")
-            lines += [f"    {t} = {b}[{i}]" for i, t in enumerate(v)]
+            lines.append(f"    {st.b} = np.linalg.solve({st.A}, {st.b})")
+            lines += [f"    {t} = {st.b}[{i}]" for i, t in enumerate(st.targets)]
     elif isinstance(st, RowUpdate):
         lines.append(f"    {st.array}[{st.i}, :] += {st.coef} * {st.array}[{st.j}, :]")
     elif isinstance(st, SparseProduct):
@@ -325,17 +333,13 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
         elif isinstance(st, Store):
             lines.append(f"    {st.array}[{_c_flat(st.index, shapes[st.array])}] = {pr(st.expr)};")
         elif isinstance(st, Solve):
-            a, b, v = st.A, st.b, st.targets
-            n = len(v)
-            if n == 1:
-                lines.append(f"    const double {v[0]} = {b}[0] / {a}[0];")
-            elif n == 2:
-                lines.append(f"    const double det{a} = {a}[0] * {a}[3] - {a}[1] * {a}[2];")
-                lines.append(f"    const double {v[0]} = ({b}[0] * {a}[3] - {a}[1] * {b}[1]) / det{a};")
-                lines.append(f"    const double {v[1]} = ({a}[0] * {b}[1] - {b}[0] * {a}[2]) / det{a};")
+            n = len(st.targets)
+            if n <= 2:
+                lines += [f"    const double {name} = {value};" for name, value in
+                          _closed_form(st, lambda i, j, n=n, a=st.A: f"{a}[{i * n + j}]")]
             else:
-                lines.append(f"    ph_solve_rows({n}, 1, {a}, {b});")
-                lines += [f"    const double {t} = {b}[{i}];" for i, t in enumerate(v)]
+                lines.append(f"    ph_solve_rows({n}, 1, {st.A}, {st.b});")
+                lines += [f"    const double {t} = {st.b}[{i}];" for i, t in enumerate(st.targets)]
         elif isinstance(st, RowUpdate):
             m = st.ncols
             lines.append(f"    for (int k = 0; k < {m}; ++k) {st.array}[{st.i * m} + k] += "

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import porthamiltonian as ph
-import porthamiltonian.compiler as compiler
+from porthamiltonian import compiler
 from porthamiltonian import compile_model, io
 from porthamiltonian.backends import BackendWarning, native
 from porthamiltonian.compiler import cache
@@ -61,7 +61,8 @@ def test_failing_compiler_shows_the_command_and_its_output_file(fresh, monkeypat
     assert match and "false -O1" in message and "exit status 1" in message, message
     log = match.group(1)
     assert log.startswith(str(fresh)) and log.endswith("_c.log")
-    text = open(log).read()
+    with open(log) as fh:
+        text = fh.read()
     assert text.startswith("command: false -O1") and "exit status 1" in text
 
 
@@ -74,7 +75,8 @@ def test_failing_compiler_without_the_cache_keeps_its_log_elsewhere(fresh, monke
         compile_model(_model(4.2), backend="c", use_cache=False)
     assert not fresh.exists() or not any(fresh.iterdir())
     log = re.search(r"its output is in (\S+)\.", str(info.value)).group(1)
-    assert log.startswith(str(tmp_path)) and open(log).read().startswith("command: false")
+    with open(log) as fh:
+        assert log.startswith(str(tmp_path)) and fh.read().startswith("command: false")
 
 
 def test_compiler_that_cannot_start(fresh, monkeypatch):
@@ -110,8 +112,8 @@ def test_cli_prints_the_fallback_as_one_warning_line(fresh, monkeypatch, capsys)
     assert cli.main(["show", "mass_spring_damper", "--code"]) == 0
     out, err = capsys.readouterr()
     err = err.splitlines()
-    assert len(err) == 1 and err[0].startswith("warning: C back end not used: the C compiler "
-                                               "failed"), err
+    assert len(err) == 1, err
+    assert err[0].startswith("warning: C back end not used: the C compiler failed"), err
     assert "def integrate_rodas5p(" in out
 
 

@@ -8,6 +8,7 @@ References: Hairer & Wanner, *Solving Ordinary Differential Equations II* (2nd e
 """
 from __future__ import annotations
 
+import itertools
 import math
 import sys
 from pathlib import Path
@@ -19,7 +20,7 @@ import porthamiltonian as ph
 from porthamiltonian import compile_model, io
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "unit"))
-from test_events import ball_model, bounce_action, bounce_times  # noqa: E402
+from test_events import ball_model, bounce_action, bounce_times
 
 METHODS = ("Rodas4", "Rodas5P")
 
@@ -47,10 +48,10 @@ def test_error_falls_with_tolerance_and_steps_grow_as_root_of_order(msd, method,
         errors.append(abs(traj.x_final[msd.state_index("spring.q")] - _msd_exact(20.0)))
         steps.append(len(traj.t))
     assert errors[0] < 1e-6 * 0.1 * 10 and errors[2] < 1e-10 * 0.1 * 10
-    for a, b in zip(errors, errors[1:]):
+    for a, b in itertools.pairwise(errors):
         assert 20 < a / b < 500
     expected = 100 ** (1 / q)
-    for a, b in zip(steps, steps[1:]):
+    for a, b in itertools.pairwise(steps):
         assert 0.8 * expected < b / a < 1.27 * expected
 
 
@@ -109,7 +110,7 @@ def test_order_of_convergence_with_constant_steps(name, method, order, h):
     ref = model.simulate(1.0, method="Radau", rtol=1e-13, atol=1e-14).x_final
     errors = [np.max(np.abs(_fixed_step(model, method, 1.0, step) - ref))
               for step in (h, h / 2, h / 4)]
-    for a, b in zip(errors, errors[1:]):
+    for a, b in itertools.pairwise(errors):
         assert abs(math.log2(a / b) - order) < 0.35, errors
 
 
