@@ -22,8 +22,7 @@ import numpy as np
 import pytest
 
 import porthamiltonian as ph
-from porthamiltonian import compiler
-from porthamiltonian import compile_model, io
+from porthamiltonian import compile_model, compiler, io
 from porthamiltonian.backends import BackendWarning, native
 from porthamiltonian.compiler import cache
 from porthamiltonian.compiler.cache import CacheWarning
@@ -157,8 +156,9 @@ def test_damaged_library_is_never_loaded_and_is_rebuilt(fresh, damage, recwarn):
     would fail (garbage is no shared library). The library is built by another process, so
     that this one has never mapped it."""
     build = subprocess.run(
-        [sys.executable, "-c", "from porthamiltonian import compile_model, io; "
-         "print(compile_model(io.load('mass_spring_damper'), backend='c').key)"],
+        [sys.executable, "-c", ("from porthamiltonian import compile_model, io; "
+                                "print(compile_model(io.load('mass_spring_damper'), "
+                                "backend='c').key)")],
         capture_output=True, text=True, check=True)
     key = build.stdout.strip()
     lib = fresh / key / native.library_name(key)
