@@ -1,7 +1,7 @@
 """Command line ``porthamiltonian``: simulate, show, check-energy and sweep model files.
 
     porthamiltonian simulate MODEL [--set NAME=VALUE ...] [--t-end T] [--json] [--csv FILE]
-    porthamiltonian show MODEL
+    porthamiltonian show MODEL [--code [--backend c|numba|python]]
     porthamiltonian check-energy [MODEL ...]
     porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
                           [--settle NAME [--band B]] [--workers N | --serial | --scheduler ADDR]
@@ -21,10 +21,8 @@ the runner :func:`run`.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import hashlib
 import json
-import logging
 import os
 import sys
 import traceback
@@ -33,6 +31,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from . import backends, io
+from .backends import module, native
 from .batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
 from .batch.progress import MODES
 from .batch.simulation import SimulationModel, prepare_simulation, simulate_case
@@ -246,9 +245,14 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_show(args) -> int:
-    from .compiler import symbolic
+    from .compiler import compile_model, symbolic
 
     model = io.load(args.model)
+    if args.code:
+        compiled = compile_model(model, backend=args.backend)
+        print(native.translation_unit(compiled.source) if compiled.backend == "c" else
+              module.module_text(compiled.source, compiled.backend), end="")
+        return 0
     flat = model.flatten()
     print(f"model {model.name}: {model.doc}")
     print("components:")
@@ -311,8 +315,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv", metavar="FILE",
                    help="also write the trajectory (time, states, ledger, outputs) as CSV")
     p.set_defaults(func=cmd_simulate)
-    p = sub.add_parser("show", help="components, ports, bonds, states, parameters and equations")
+    p = sub.add_parser("show", parents=[BACKEND_OPTION],
+                       help="components, ports, bonds, states, parameters and equations, or "
+                            "the generated code (--code)")
     p.add_argument("model", help=model_help)
+    p.add_argument("--code", action="store_true",
+                   help="print the generated source the back end compiles (--backend: c, "
+                        "numba or python; default auto, the back end in use)")
     p.set_defaults(func=cmd_show)
     p = sub.add_parser("check-energy", parents=[BACKEND_OPTION],
                        help="simulate models and check their energy residual")
@@ -355,14 +364,12 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
       status 3.
 
     Warnings (e.g. a damaged cache entry being rebuilt) are printed as ``warning: <message>``.
-    On a terminal, the one-time build of a model that is not cached yet is announced on stderr
-    (not with ``--quiet``; as with the progress displays, nothing when stderr is a file or a
-    pipe, so that a user error stays one line there).
+    The one-time build of a model that is not cached yet is reported in one line on stderr
+    (:func:`porthamiltonian.backends.report`; not with ``--quiet``).
     """
     args = parser.parse_args(argv)
     try:
-        with warnings.catch_warnings(), _build_notices(not getattr(args, "quiet", False)
-                                                       and sys.stderr.isatty()):
+        with warnings.catch_warnings(), backends.quiet(getattr(args, "quiet", False)):
             warnings.showwarning = _show_warning
             status = args.func(args)
             sys.stdout.flush()                 # a closed pipe shows here, not at exit
@@ -383,25 +390,6 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
         return EXIT_USER_ERROR
     except Exception:  # noqa: BLE001 - a bug: report it, with the traceback
         return _report_bug()
-
-
-@contextlib.contextmanager
-def _build_notices(enabled: bool):
-    """Print the compiler's build notices (logger ``porthamiltonian.build``) on stderr."""
-    if not enabled:
-        yield
-        return
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("%(message)s"))
-    log = logging.getLogger("porthamiltonian.build")
-    level = log.level
-    log.addHandler(handler)
-    log.setLevel(logging.INFO)
-    try:
-        yield
-    finally:
-        log.removeHandler(handler)
-        log.setLevel(level)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

@@ -80,3 +80,8 @@ class ModelFileError(ModelError):
 class StateError(ModelError):
     """An initial state or a state name is wrong (unknown name, wrong length, non-finite)."""
 
+
+
+class CompilerError(ModelError):
+    """The C back end cannot build a model: no C compiler was found, or it failed. The message
+    shows the command and the path of a file holding the compiler's output, and what to do."""

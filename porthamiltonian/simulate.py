@@ -32,7 +32,9 @@ from .errors import ModelError, StateError
 from .options import check_simulation
 from .trajectory import Segment, Trajectory
 
-METHODS = ("Rodas4", "Radau", "BDF", "LSODA", "RK45", "DOP853")
+METHODS = ("Rodas4", "Rodas5P", "Radau", "BDF", "LSODA", "RK45", "DOP853")
+#: the methods whose whole step loop is compiled with the model (Functions.loops)
+_COMPILED = ("Rodas4", "Rodas5P")
 _STIFF = ("Radau", "BDF", "LSODA")
 _EPS = np.finfo(float).eps
 
@@ -85,11 +87,13 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     params : parameter values by name (defaults for the others).
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
-    method : ``"auto"`` (default: Rodas4, or Radau when Python events, ``t_eval`` or dense
-        output are asked for), ``"Rodas4"`` (stiff, L-stable Rosenbrock; its whole step loop is compiled with the
-        model: the fast path with the numba back end; model events only, no ``t_eval`` or dense
-        output), or a scipy method: Radau, BDF, LSODA (stiff, given the analytic Jacobian unless
-        ``jacobian=False``), RK45, DOP853.
+    method : ``"auto"`` (default: Rodas5P, or Radau when Python events, ``t_eval`` or dense
+        output are asked for), ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable Rosenbrock methods
+        of order 5 and 4 whose whole step loop is compiled with the model: the fast path with
+        the C or numba back end; model events only, no ``t_eval`` or dense output; Rodas5P
+        takes fewer steps at the same accuracy, benchmarks/RESULTS.md), or a scipy method:
+        Radau, BDF, LSODA (stiff, given the analytic Jacobian unless ``jacobian=False``), RK45,
+        DOP853.
     actions : event name -> action (model events or ``events``). An event without action is
         recorded; if it is terminal, the simulation stops there.
     events : extra Python-level events.
@@ -110,7 +114,7 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     t_start, t_end, rtol, atol, max_step, first_step, t_eval = (checked[k] for k in (
         "t_start", "t_end", "rtol", "atol", "max_step", "first_step", "t_eval"))
     if method == "auto":
-        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas4"
+        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas5P"
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
     p = model.params(params)
@@ -132,8 +136,8 @@ def simulate(model: CompiledModel, t_end: float, x0=None, params: Mapping[str, f
     terminal = np.array([e.terminal or e.name in actions for e in [*model.events, *py_events]],
                         dtype=bool)
     t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
-    if method == "Rodas4" and (py_events or t_eval is not None or dense_output):
-        raise ModelError("method 'Rodas4' (the compiled loop) takes model events only and no "
+    if method in _COMPILED and (py_events or t_eval is not None or dense_output):
+        raise ModelError(f"method {method!r} (a compiled loop) takes model events only and no "
                          "t_eval or dense_output; use a scipy method (e.g. Radau) for those")
     run = _Run(model, method, rtol, atol, max_step, first_step, jacobian and method in _STIFF,
                py_events, direction, terminal, t_eval, dense_output, divergence_bound, max_steps)
@@ -225,7 +229,7 @@ class _Run:
 
     def segment(self, traj, t0, y0, p, t_end, fired):
         """Integrate from (t0, y0) until t_end or a terminal event; returns (status, t, y, k)."""
-        if self.method == "Rodas4":
+        if self.method in _COMPILED:
             return self.segment_compiled(traj, t0, y0, p, t_end, fired)
         model, n = self.model, self.model.n_states
         f = model.functions
@@ -315,7 +319,7 @@ class _Run:
                              t_new, y_new)
 
     def segment_compiled(self, traj, t0, y0, p, t_end, fired):
-        """The same as :meth:`segment` through the model's compiled Rodas4 loop."""
+        """The same as :meth:`segment` through the model's compiled loop of the method."""
         model, n = self.model, self.model.n_states
         pn = np.ascontiguousarray(p, dtype=float) if model.backend == "numba" else p.copy()
         mask_index, mask_sign = -1, 0.0
@@ -331,7 +335,7 @@ class _Run:
         while True:
             with np.errstate(all="ignore"):
                 (status, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
-                 h) = model.functions.rodas(t, y, t_end, pn, rtol, atol, h, hmax, self.direction,
+                 h) = model.functions.loops[self.method](t, y, t_end, pn, rtol, atol, h, hmax, self.direction,
                                             self.terminal, mask_index, mask_sign, n, self.bound,
                                             self.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
@@ -352,7 +356,7 @@ class _Run:
             traj.pre_event_sign = -float(np.sign(self.direction[k])) if self.direction[k] else 0.0
             return "event", float(t), y.copy(), int(k)
         elif status == 2:
-            traj.finish("failed", f"Rodas4: step size too small (or W singular) at t = {t:.6g}")
+            traj.finish("failed", f"{self.method}: step size too small (or W singular) at t = {t:.6g}")
         elif status == 3:
             traj.finish("diverged", f"max|x| exceeded {self.bound:g} (or became non-finite) near "
                                     f"t = {t:.6g}")

@@ -39,6 +39,7 @@ from porthamiltonian import Model, compile_model, symbolic
 from porthamiltonian.compiled import CompiledModel
 from porthamiltonian.compiler import cache
 from porthamiltonian.errors import ModelError, ModelFileError, ParameterValueError
+from porthamiltonian.integrators import TABLEAUS as COMPILED_METHODS
 
 from .hybrid import Integration, WalkerSpec, expand, parse_condition, parse_equation, parse_interval
 from .machine import Change, Condition, ModeMachine, Transition, WalkLog, outputs
@@ -501,7 +502,7 @@ class HybridWalker:
             o.max_step_time * n_steps, x0=x0, params=dict(zip(self.model.param_names, p0)),
             method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step,
             actions=self.machine.actions(log), max_events=100 * n_steps + 100,
-            dense_output=(details or record) and o.method != "Rodas4")
+            dense_output=(details or record) and o.method not in COMPILED_METHODS)
         return cut_strides(self, traj, log, details=details, record=record, x0=x0, p0=p0)
 
     def with_options(self, **changes: Any) -> HybridWalker:

@@ -5,7 +5,7 @@ Key
 The key hashes the model's canonical description (components with their arguments, bonds,
 parameters, events, outputs), the sources of the package modules that determine the generated code
 (the component classes' modules and what they import, the compiler, the back ends, the integration
-loops), the versions of sympy and of the code generator: editing the command line, the analyses or
+loops and their C templates), the versions of sympy and of the code generator: editing the command line, the analyses or
 a docstring of an unrelated module keeps every cached model.
 
 Layout
@@ -15,9 +15,13 @@ folder per entry, ``<cache>/<key>/``:
 
 ``meta.json``            the layout (states, parameters, outputs, events, energy parts, parameter
                          constraints) and the equations for display
-``body.py``              the generated code body
-``m<key>_<backend>.py``  a back end's module, derived from the body, added when first needed
-other files              artifacts a back end stores with :func:`store` (e.g. a shared library)
+``body.py``, ``body.c``  the generated code (one program printed as Python and as C)
+``m<key>_<backend>.py``  a back end's module (python, numba), derived from body.py, added when
+                         first needed
+``m<key>_c.c``, ``m<key>_c_<platform>.so``  the C back end's translation unit and shared library
+                         (``.dll`` on Windows), added when first needed; ``m<key>_c.log``, the
+                         compiler's output when it failed (never read back, not recorded)
+other files              artifacts a back end stores with :func:`store`
 ``manifest.json``        ``{"key": ..., "files": {name: sha256}}``: every file above
 ``__pycache__/``         written by Python (bytecode) and numba (compiled functions) when a module
                          is imported and first called; they validate these files against the
@@ -215,12 +219,14 @@ def _sources_hash(modules: frozenset[str]) -> str:
             outside.append(_outside_source(module))
     while todo:
         base = todo.pop()
-        candidates = sorted(base.rglob("*.py")) if base.is_dir() else [base.with_suffix(".py")]
+        candidates = (sorted([*base.rglob("*.py"), *base.rglob("*.c")]) if base.is_dir()
+                      else [base.with_suffix(".py")])
         for path in candidates:
             if path in files or not path.is_file():
                 continue
             files.add(path)
-            for dots, name, names in _IMPORT.findall(path.read_text()):
+            for dots, name, names in (_IMPORT.findall(path.read_text())
+                                      if path.suffix == ".py" else ()):
                 root = path.parent
                 for _ in range(len(dots) - 1):
                     root = root.parent
@@ -350,8 +356,12 @@ def _verified(entry: Path, name: str, files: dict[str, str]) -> bytes | None:
 
 
 # --- entries: layout and code ------------------------------------------------------------------------
-def read(key: str) -> tuple[dict[str, Any], str] | None:
-    """The entry's ``(meta, body)`` when present and intact; None on a miss. A damaged entry is
+_BODIES = {"python": "body.py", "c": "body.c"}
+
+
+def read(key: str) -> tuple[dict[str, Any], dict[str, str]] | None:
+    """The entry's ``(meta, bodies)`` (bodies: ``{"python": ..., "c": ...}``) when present and
+    intact; None on a miss. A damaged entry is
     reported in one warning naming the file and removed (the caller rebuilds it). When the cache
     folder is not usable, this process's private folder serves instead."""
     entry = _base(True) / key
@@ -359,16 +369,17 @@ def read(key: str) -> tuple[dict[str, Any], str] | None:
         return None
     files = _manifest(entry)
     raw = None
-    if files is not None and not {"meta.json", "body.py"} & set(files):
+    names = ("meta.json", *_BODIES.values())
+    if files is not None and not set(names) & set(files):
         return None                     # only back-end files stored so far: a miss
     if files is not None:
-        raw = {name: _verified(entry, name, files) for name in ("meta.json", "body.py")}
+        raw = {name: _verified(entry, name, files) for name in names}
         if any(v is None for v in raw.values()):
             raw = None
     if raw is not None:
         try:
             meta = json.loads(raw["meta.json"])
-            return meta, raw["body.py"].decode()
+            return meta, {lang: raw[name].decode() for lang, name in _BODIES.items()}
         except (ValueError, UnicodeDecodeError) as err:
             _warn(f"compiled-model cache: {entry / 'meta.json'} cannot be read ({err}); the "
                   "entry is rebuilt")
@@ -376,9 +387,10 @@ def read(key: str) -> tuple[dict[str, Any], str] | None:
     return None
 
 
-def write(key: str, meta: dict[str, Any], body: str) -> None:
-    """Store a new entry (layout and code body), complete or not at all (in this process's
-    private folder when the cache folder is not usable)."""
+def write(key: str, meta: dict[str, Any], bodies: dict[str, str]) -> None:
+    """Store a new entry (layout and code bodies by language, ``"python"`` and ``"c"``),
+    complete or not at all (in this process's private folder when the cache folder is not
+    usable)."""
     base = _base(True)
     try:
         staging = Path(tempfile.mkdtemp(prefix=f".new-{key}-", dir=base))
@@ -386,7 +398,8 @@ def write(key: str, meta: dict[str, Any], body: str) -> None:
         _warn(f"compiled-model cache {base}: cannot write ({err.strerror}); not cached")
         return
     try:
-        contents = {"meta.json": json.dumps(meta, indent=1).encode(), "body.py": body.encode()}
+        contents = {"meta.json": json.dumps(meta, indent=1).encode(),
+                    **{name: bodies[lang].encode() for lang, name in _BODIES.items()}}
         for name, data in contents.items():
             (staging / name).write_bytes(data)
         (staging / _MANIFEST).write_text(json.dumps(
@@ -464,6 +477,12 @@ def verified_path(key: str, name: str) -> Path | None:
     return entry / name
 
 
+def kept(path: Path) -> bool:
+    """True when ``path`` lies in the cache folder (kept after this process ends)."""
+    base = cache_dir()
+    return base is not None and base.resolve() in Path(path).resolve().parents
+
+
 def backend_module(key: str, backend: str, text: str, persistent: bool = True) -> Path:
     """Path of the back-end module for ``key`` with the text ``text``: the stored one when it is
     intact and the same, else written now (and the bytecode compiled from an older one removed)."""
@@ -475,5 +494,5 @@ def backend_module(key: str, backend: str, text: str, persistent: bool = True) -
     return path
 
 
-__all__ = ["CacheWarning", "backend_module", "cache_dir", "configured_dir", "load_verified",
+__all__ = ["CacheWarning", "backend_module", "cache_dir", "configured_dir", "kept", "load_verified",
            "model_key", "private_dir", "read", "store", "verified_path", "write", "write_atomic"]

@@ -5,7 +5,6 @@ models only, output lines carry units, and a closed pipe ends a command quietly.
 from __future__ import annotations
 
 import argparse
-import io
 import subprocess
 import sys
 
@@ -100,20 +99,25 @@ def test_a_closed_pipe_ends_the_command_quietly():
     assert proc.returncode == 141 and err == b""
 
 
-class _Terminal(io.StringIO):
-    def isatty(self) -> bool:
-        return True
-
-
-def test_a_model_build_is_announced_on_a_terminal_once(tmp_path, monkeypatch):
-    """A model not in the cache is built once, and a terminal hears about it; the next run of
-    the same model (cached) is silent, and so is stderr that is a file or pipe (covered by the
-    one-line user errors of tests/reliability/test_cli_errors.py)."""
+def test_a_model_build_is_announced_once_and_quiet_silences_it(tmp_path, monkeypatch, capsys):
+    """A model not in the cache is built once, and stderr hears about it in one line; the next
+    run of the same model (cached) is silent, and so is a build with $PORTHAMILTONIAN_QUIET set
+    or inside ``backends.quiet()`` (the commands' --quiet)."""
+    from porthamiltonian import backends
     from porthamiltonian.cli import main
+    monkeypatch.delenv("PORTHAMILTONIAN_QUIET", raising=False)
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
     argv = ["--backend", "python", "simulate", "mass_spring_damper", "--t-end", "0.1"]
     for expected in (True, False):
-        err = _Terminal()
-        monkeypatch.setattr(sys, "stderr", err)
         assert main(argv) == 0
-        assert ("building model mass_spring_damper (once:" in err.getvalue()) is expected
+        assert ("building mass_spring_damper:" in capsys.readouterr().err) is expected
+    for folder in ("other", "third"):
+        monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / folder))
+        if folder == "other":
+            monkeypatch.setenv("PORTHAMILTONIAN_QUIET", "1")
+            assert main(argv) == 0
+        else:
+            monkeypatch.delenv("PORTHAMILTONIAN_QUIET")
+            with backends.quiet():
+                assert main(argv) == 0
+        assert "building" not in capsys.readouterr().err
