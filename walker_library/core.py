@@ -41,7 +41,7 @@ from porthamiltonian.compiler import cache
 from porthamiltonian.errors import ModelError, ModelFileError, ParameterValueError
 
 from .hybrid import Integration, WalkerSpec, expand, parse_condition, parse_equation, parse_interval
-from .machine import Change, Condition, ModeMachine, Transition, WalkLog, outputs
+from .machine import Change, Condition, ModeMachine, Transition, WalkLog
 from .names import ModelNames, check_names
 from .protocol import ParameterSpec, Stride, check_parameters
 from .resets import ImpactMap, Relabel, floating_model
@@ -275,7 +275,7 @@ class HybridWalker:
         m = self.model
         self._p = m.params({k: v for k, v in self.parameters.items() if k in m.param_names})
         self._x_init = m.initial_state(self._p)
-        y = outputs(m, 0.0, self._x_init, self._p)
+        y = m.outputs(0.0, self._x_init, self._p)
         self.total_mass = float(y[self._mass])
         self.leg_length = float(y[self._leg])
 
@@ -313,7 +313,7 @@ class HybridWalker:
     # --- numeric helpers ----------------------------------------------------------------------------
     def outputs(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """All outputs of the compiled model at state ``x`` and parameters ``p``."""
-        return outputs(self.model, t, x, p)
+        return self.model.outputs(t, x, p)
 
     def output(self, name: str, x: np.ndarray, p: np.ndarray | None = None,
                t: float = 0.0) -> float:
@@ -330,7 +330,7 @@ class HybridWalker:
         at their start values (before the ``start`` rules, which need the state)."""
         p = self._p.copy()
         p[self._drop] = float(ground_drop)
-        y = outputs(self.model, 0.0, self._x_init, p)
+        y = self.model.outputs(0.0, self._x_init, p)
         for index, value in self._start:
             p[index] = value if isinstance(value, float) else y[value]
         return p
@@ -461,7 +461,7 @@ class HybridWalker:
 
     def initial_guess(self) -> np.ndarray:
         """The description's rough section state (its ``guess``, from the parameters)."""
-        y = outputs(self.model, 0.0, self._x_init, self._p)
+        y = self.model.outputs(0.0, self._x_init, self._p)
         return np.array([g if isinstance(g, float) else float(y[g]) for g in self._guess])
 
     def _basin_from_guess(self, z_star, theta: float, theta_dot: float) -> np.ndarray:

@@ -149,13 +149,12 @@ def _signal_of_t(traj, name: str) -> Callable[[float], float]:
     if name in model.state_names:
         k = model.state_index(name)
         return lambda s: float(traj.sol(s)[k])
-    k = model.output_index(name)
+    model.output_index(name)             # an unknown name fails here, naming the outputs
 
     def value(s: float) -> float:
         for seg in traj.segments:
             if seg.t[0] <= s <= seg.t[-1]:
-                x = model.augment(traj.sol(s))
-                return float(np.asarray(model.functions.outputs(s, x, model.native_params(seg.p)))[k])
+                return model.output(name, s, traj.sol(s), seg.p)
         raise ValueError(f"t = {s} is outside the run")
     return value
 
