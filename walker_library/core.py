@@ -38,7 +38,8 @@ import numpy as np
 from porthamiltonian import Model, compile_model, symbolic
 from porthamiltonian.compiled import CompiledModel
 from porthamiltonian.compiler import cache
-from porthamiltonian.errors import ModelError, ModelFileError, ParameterValueError
+from porthamiltonian.errors import ModelError, ParameterValueError
+from porthamiltonian.io import ModelFile
 
 from .hybrid import Integration, WalkerSpec, expand, parse_condition, parse_equation, parse_interval
 from .machine import Change, Condition, ModeMachine, Transition, WalkLog
@@ -71,12 +72,8 @@ def _checked(spec: WalkerSpec, text: str) -> tuple[ModelNames, dict]:
     if key not in _CHECKED:
         bare = copy.deepcopy(spec.model)      # its events' guards are checked with their lines
         bare.events, bare.outputs = [], {}
-        try:
+        with ModelFile(bare, spec.source, text).located():
             sym = symbolic(bare)
-        except ModelFileError:
-            raise
-        except ModelError as err:
-            raise ModelFileError(f"{spec.source}: {err}") from None
         names = ModelNames.of(spec.model, sym)
         _CHECKED[key] = (names, check_names(spec, names, text))
     return _CHECKED[key]
@@ -149,7 +146,7 @@ class HybridWalker:
         names, maps = _checked(spec, text)
         self.spec = spec
         self.name = spec.name
-        self.doc = spec.model.doc
+        self.doc = spec.description
         self.options = options or spec.integration
         self.backend = backend or self.options.backend
         self.specs = _specs(spec)
@@ -171,10 +168,10 @@ class HybridWalker:
         if spec.relabel:
             offsets = {b: ex.add(b) for b in maps["relabel"][2] if isinstance(b, str)}
         model = copy.deepcopy(spec.model)
-        model.doc, model.meta, model.sections, model.source = "", {}, {}, spec.source
         for name, text_ in ex.exprs.items():
             model.output(name, text_)
-        self.model = compiled(model, self.backend)
+        with ModelFile(model, spec.source, text).located():
+            self.model = compiled(model, self.backend)
         self.backend = self.model.backend          # "auto" resolved: the back end in use
         m = self.model
         out = {n: i for i, n in enumerate(m.output_names)}

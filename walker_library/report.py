@@ -25,8 +25,11 @@ import io
 import json
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -70,14 +73,16 @@ class ReportResult:
     seconds: float
 
 
-def pyplot():
+def pyplot() -> ModuleType:
+    """matplotlib.pyplot on the file-only Agg back end (matplotlib: the ``plots`` extra)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
 
 
-def save_figure(fig, path: Path) -> bytes:
+def save_figure(fig: Any, path: Path) -> bytes:
+    """Write the figure ``fig`` as PNG to ``path``, close it; the PNG's bytes."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", **_FIG)
     pyplot().close(fig)
@@ -87,6 +92,7 @@ def save_figure(fig, path: Path) -> bytes:
 
 
 def fig_angles(s: GaitSeries, path: Path) -> bytes:
+    """The stance and swing angles θ, φ over time (PNG written to ``path``; its bytes)."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.2))
     ax.plot(s.t, s.theta, label="θ (stance leg)")
@@ -103,6 +109,7 @@ def fig_angles(s: GaitSeries, path: Path) -> bytes:
 
 
 def fig_limit_cycle(s: GaitSeries, path: Path) -> bytes:
+    """The limit cycle in the (θ, θ̇) and (φ, φ̇) planes (PNG; its bytes)."""
     plt = pyplot()
     legged = bool(np.any(np.isfinite(s.phi)))
     fig, axes = plt.subplots(1, 2 if legged else 1, figsize=(7.5 if legged else 4, 3.4))
@@ -122,6 +129,8 @@ def fig_limit_cycle(s: GaitSeries, path: Path) -> bytes:
 
 
 def fig_energy(s: GaitSeries, path: Path) -> bytes:
+    """The energy over time: V, T and H from their start, dissipated, supplied; the residual
+    below (PNG; its bytes)."""
     plt = pyplot()
     fig, (a, b) = plt.subplots(2, 1, figsize=(7, 5), sharex=True,
                                gridspec_kw={"height_ratios": [3, 1]})
@@ -142,6 +151,7 @@ def fig_energy(s: GaitSeries, path: Path) -> bytes:
 
 
 def fig_energy_per_step(s: GaitSeries, path: Path) -> bytes:
+    """The energy dissipated in each step against the potential energy released (PNG; its bytes)."""
     plt = pyplot()
     steps = [x for x in s.strides if not x.fell]
     k = np.arange(1, len(steps) + 1)
@@ -156,6 +166,7 @@ def fig_energy_per_step(s: GaitSeries, path: Path) -> bytes:
 
 
 def fig_floquet(gait: GaitResult, path: Path) -> bytes:
+    """The Floquet multipliers in the complex plane with the unit circle (PNG; its bytes)."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(3.6, 3.6))
     u = np.linspace(0, 2 * math.pi, 200)
@@ -171,6 +182,7 @@ def fig_floquet(gait: GaitResult, path: Path) -> bytes:
 
 
 def fig_step_down(r: StepDownResult, path: Path) -> bytes:
+    """The step-down test: the outcome of each drop height tried (PNG; its bytes)."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 2.6))
     colors = {"converged": "C2", "fell": "C3", "wandered": "C1"}
@@ -189,6 +201,7 @@ def fig_step_down(r: StepDownResult, path: Path) -> bytes:
 
 
 def fig_basin(r: BasinResult, path: Path) -> bytes:
+    """The basin of attraction on the section grid (PNG; its bytes)."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(4.5, 4))
     th = np.array(r.theta) / r.theta_scale
@@ -282,7 +295,7 @@ document.body.setAttribute('data-images-ok',ok+'/'+im.length);});"""
 
 def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step_down: bool = True,
                  with_basin: bool = False, basin_n: int = 9, step_down_resolution: float | None = None,
-                 log=None) -> ReportResult:
+                 log: Callable[[str], None] | None = None) -> ReportResult:
     """Analyse ``walker`` and write the report into directory ``out`` (module docstring).
     ``log`` (a callable taking a string) receives progress lines."""
     t0 = time.perf_counter()

@@ -25,12 +25,17 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.optimize import brentq
 
 from ..errors import ModelError
+
+if TYPE_CHECKING:
+    from ..compiled import CompiledModel
+    from ..model import Model
+    from ..trajectory import Trajectory
 
 __all__ = ["ModelCache", "SimulationModel", "model_cache", "prepare_simulation",
            "settling_time", "simulate_case", "simulation_settings"]
@@ -49,8 +54,8 @@ class SimulationModel:
     """A model loaded from its file and compiled: the description, the compiled model, and its
     file's simulation settings (completed by :func:`simulation_settings`)."""
 
-    model: Any
-    compiled: Any
+    model: Model
+    compiled: CompiledModel
     settings: dict[str, Any]
 
     @classmethod
@@ -58,13 +63,12 @@ class SimulationModel:
         """Load ``model`` (a name from ``models/`` or a path) and compile it with ``backend``
         (None: "auto")."""
         from .. import io
-        from ..compiler import compile_model
-        description = io.load(model)
-        return cls(description, compile_model(description, backend=backend or "auto"),
-                   simulation_settings(description.simulation))
+        record = io.read(model)
+        return cls(record.model, record.compile(backend=backend or "auto"),
+                   simulation_settings(record.simulation))
 
     def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
-                 dense_output: bool = False):
+                 dense_output: bool = False) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
         method, rtol, atol and max_step (with ``dense_output``, a file's Rodas4 becomes "auto":
         Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
@@ -101,6 +105,7 @@ class ModelCache:
         return self._models[key]
 
     def clear(self) -> None:
+        """Forget every model (the next ``get`` loads and compiles again)."""
         self._models.clear()
 
 

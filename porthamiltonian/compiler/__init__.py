@@ -1,8 +1,9 @@
 """Symbolic compiler: model graph -> port-Hamiltonian state equations + energy ledger -> code.
 
-Pipeline: :meth:`Model.flatten` -> :func:`structure.build_system` -> :func:`structure.solve`
-(causality, loops, dependent storages) -> :func:`assemble.assemble` (state equations, H, P_diss,
-P_in) -> :func:`codegen.generate` (cse, RHS and Jacobian together) -> cache -> back end.
+Pipeline: :meth:`Model.freeze` (then ``validate``) -> :func:`structure.build_system` ->
+:func:`structure.solve` (causality, loops, dependent storages) -> :func:`assemble.assemble` (state
+equations, H, P_diss, P_in) -> :func:`codegen.generate` (cse, RHS and Jacobian together) -> cache
+-> back end.
 """
 from __future__ import annotations
 
@@ -10,25 +11,25 @@ import sympy
 
 from ..backends import load, resolve, source_with_header
 from ..compiled import CompiledModel
-from ..errors import ModelError, ModelFileError
-from ..model import Model
+from ..model import Model, ModelDescription
 from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import generate
 from .structure import build_system, solve
 
 
-def symbolic(model: Model) -> SymbolicModel:
-    """Run the symbolic part of the compiler (no code generation, no cache)."""
-    flat = model.flatten()
-    if not flat.components:
-        raise ModelError(f"model {model.name!r} is empty: it has no components; add some (in a "
-                         "model file: [components.NAME] tables with a type) before compiling")
-    return assemble(solve(build_system(flat)))
+def symbolic(model: Model | ModelDescription) -> SymbolicModel:
+    """Run the symbolic part of the compiler (no code generation, no cache): validate the frozen
+    description (every problem at once, :meth:`~porthamiltonian.model.ModelDescription.validate`),
+    then structure, assembly. Errors carry the path of what they are about
+    (:attr:`~porthamiltonian.errors.ModelError.path`)."""
+    description = model.freeze() if isinstance(model, Model) else model
+    return assemble(solve(build_system(description.validate())))
 
 
-def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -> CompiledModel:
-    """Compile ``model`` for numeric simulation.
+def compile_model(model: Model | ModelDescription, backend: str = "auto",
+                  use_cache: bool = True) -> CompiledModel:
+    """Compile ``model`` (a model, or its frozen description) for numeric simulation.
 
     Parameters
     ----------
@@ -38,17 +39,11 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
         built in a private temporary folder removed at exit).
     """
     backend = resolve(backend)
-    key = cache.model_key(model)
+    description = model.freeze() if isinstance(model, Model) else model
+    key = cache.model_key(description)
     hit = cache.read(key) if use_cache else None
     if hit is None:
-        try:
-            sym = symbolic(model)
-        except ModelFileError:
-            raise
-        except ModelError as err:
-            if model.source is None:
-                raise
-            raise ModelFileError(f"{model.source}: {err}") from None
+        sym = symbolic(description)
         body = generate(sym)
         meta = {
             "name": sym.name, "state_names": sym.state_names, "param_names": sym.param_names,
