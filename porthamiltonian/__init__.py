@@ -14,10 +14,10 @@ from .component import Arg, Builder, Component, register
 from .elements import GY, TF, C, I, OneJunction, R, Se, Sf, Storage, ZeroJunction
 from .mechanics import Multibody
 from .mechanics.bodies import Prismatic, Revolute, RigidBody, Translational, Weld
-from .model import Model, Parameter
+from .model import Model, ModelDescription, Parameter
 from .ports import DOMAINS, Port
 from .simulate import Event, Reset, simulate
-from .trajectory import Trajectory
+from .trajectory import Status, Trajectory
 
 __version__ = "0.1.0"
 
@@ -33,6 +33,7 @@ __all__ = [
     "Event",
     "I",
     "Model",
+    "ModelDescription",
     "Multibody",
     "OneJunction",
     "Parameter",
@@ -44,6 +45,7 @@ __all__ = [
     "RigidBody",
     "Se",
     "Sf",
+    "Status",
     "Storage",
     "Trajectory",
     "Translational",

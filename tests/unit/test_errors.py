@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import porthamiltonian as ph
-from porthamiltonian import errors
+from porthamiltonian import errors, io
 from porthamiltonian.component import component_class
 from porthamiltonian.compiler import compile_model, symbolic
 
@@ -342,7 +342,7 @@ bonds = []
     text = 'bonds = ["j -> mass.p", "j -> spring.p", "j -> dampr.p"]\n' + text.replace(
         "bonds = []\n", "")
     with pytest.raises(errors.ModelFileError) as info:
-        ph.io.loads(text, source="three.toml")
+        io.loads(text, source="three.toml")
     lines = text.splitlines()
 
     def line(needle: str) -> int:
