@@ -267,7 +267,8 @@ class Multibody(Component):
         return ports
 
     # --- equations --------------------------------------------------------------------------------
-    def build(self, b: Builder, bodies, joints, gravity, plane) -> None:
+    def build(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
+              gravity: list | None, plane: str | None) -> None:
         coords = self._coordinates()
         joint_q0: dict[str, list] = {}
         for name, joint in joints.items():
