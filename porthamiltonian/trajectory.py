@@ -142,18 +142,22 @@ class Trajectory:
             self._cache[key] = _frozen(np.concatenate(parts, axis=axis) if parts else np.empty(0))
         return self._cache[key]
 
-    def _per_point(self, key: str, fn: Callable[[float, np.ndarray, np.ndarray], np.ndarray]
-                   ) -> np.ndarray:
+    def _per_point(self, key: str, fn: Callable[[float, np.ndarray, Any], Any]) -> np.ndarray:
+        """``fn(t, y, p)`` (a back-end function: the parameters converted once per segment) at
+        every point."""
         if key not in self._cache:
-            rows = [fn(float(s.t[k]), s.y[:, k], s.p)
-                    for s in self.segments for k in range(len(s.t))]
+            rows = []
+            for s in self.segments:
+                pn = self.model.native_params(s.p)
+                rows += [np.asarray(fn(s.t[k], np.ascontiguousarray(s.y[:, k]), pn))
+                         for k in range(len(s.t))]
             self._cache[key] = _frozen(np.array(rows))
         return self._cache[key]
 
     @property
     def outputs(self) -> np.ndarray:
         """All named outputs, shape (len(t), n_outputs); names in ``model.output_names``."""
-        return self._per_point("outputs", self.model.outputs)
+        return self._per_point("outputs", self.model.functions.outputs)
 
     def __getitem__(self, name: str) -> np.ndarray:
         """A state, a ledger column (``H``, ``E_diss``, ``E_in``, ``residual``), a named output or
@@ -185,7 +189,7 @@ class Trajectory:
     @property
     def power(self) -> np.ndarray:
         """[H, P_diss, P_in] at each time, shape (len(t), 3)."""
-        return self._per_point("energy", self.model.energy)
+        return self._per_point("energy", self.model.functions.energy)
 
     @property
     def H(self) -> np.ndarray:
