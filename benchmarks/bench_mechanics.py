@@ -81,7 +81,7 @@ def walker6_model():
     import porthamiltonian as ph
     from porthamiltonian.mechanics import Multibody
 
-    model = ph.Model("walker6_skeleton", "compass-walker skeleton with prismatic (telescopic) legs")
+    model = ph.Model("walker6_skeleton")  # compass-walker skeleton with prismatic (telescopic) legs
     units = {"M": "kg", "m_l": "kg", "m_f": "kg", "L": "m", "g": "m/s^2"}
     for name, value in WALKER.items():
         model.parameter(name, value, units[name])
@@ -114,7 +114,7 @@ def chain_model(n: int):
     from porthamiltonian.mechanics import Multibody
 
     m, l = chain_masses_lengths(n)
-    model = ph.Model(f"chain{n}", f"{n} uniform rods on revolute joints")
+    model = ph.Model(f"chain{n}")                  # n uniform rods on revolute joints
     bodies, joints = {}, {}
     for i in range(1, n + 1):
         model.parameter(f"m{i}", float(m[i - 1]), "kg")

@@ -98,7 +98,8 @@ SWEEP_OPTIONS.add_argument("--progress-interval", type=float, default=10.0, meta
                            help="seconds between text progress lines (default: 10)")
 
 
-def add_sweep_parser(subparsers, help: str, description: str) -> argparse.ArgumentParser:
+def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
+                     description: str) -> argparse.ArgumentParser:
     """Add a ``sweep`` command to ``subparsers``: ``--backend``, :data:`SWEEP_OPTIONS` and
     ``--json``, and the resume and exit-status rules after ``description``."""
     return subparsers.add_parser(
@@ -207,7 +208,8 @@ SIMULATE = Analysis("simulate", simulate_case,
                     ok_statuses=("finished", "event"))
 
 
-def cmd_sweep(args) -> int:
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """``porthamiltonian sweep``: simulate the model at every grid point (resumable)."""
     if not 0 < args.band < 1:
         raise SweepError(f"--band must be a fraction between 0 and 1 (0.02: the 2 % settling "
                          f"time), got {args.band!r}")
@@ -219,7 +221,8 @@ def cmd_sweep(args) -> int:
 
 
 # --- simulate, show, check-energy -------------------------------------------------------------------
-def cmd_simulate(args) -> int:
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """``porthamiltonian simulate``: one run, its final state and ledger (text or JSON)."""
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set))
@@ -244,29 +247,34 @@ def cmd_simulate(args) -> int:
     return 0 if traj.success else 1
 
 
-def cmd_show(args) -> int:
+def cmd_show(args: argparse.Namespace) -> int:
+    """``porthamiltonian show``: components, bonds, parameters and the state equations (with
+    ``--code``: the generated source of the chosen back end)."""
     from .compiler import compile_model, symbolic
 
-    model = io.load(args.model)
+    record = io.read(args.model)
+    model = record.model
     if args.code:
-        compiled = compile_model(model, backend=args.backend)
+        with record.located():
+            compiled = compile_model(model, backend=args.backend)
         print(native.translation_unit(compiled.source) if compiled.backend == "c" else
               module.module_text(compiled.source, compiled.backend), end="")
         return 0
-    flat = model.flatten()
-    print(f"model {model.name}: {model.doc}")
+    with record.located():
+        flat = model.validate()
+        sym = symbolic(flat)
+    print(f"model {model.name}: {record.description}")
     print("components:")
     for name, comp in flat.components.items():
         ports = ", ".join(f"{p.name}[{p.domain}{'' if p.dim == 1 else f' x{p.dim}'}, "
-                          f"{p.orientation or 'free'}]" for p in comp.all_ports())
-        print(f"  {name:22s} {comp.kind:8s} {comp.args}  ports: {ports}")
+                          f"{p.orientation or 'free'}]" for p in flat.ports[name])
+        print(f"  {name:22s} {comp.kind:8s} {dict(comp.args)}  ports: {ports}")
     print("bonds (power tail -> head):")
     for (tc, tp), (hc, hp) in flat.bonds:
         print(f"  {tc}.{tp} -> {hc}.{hp}")
     print("parameters:")
     for name, par in flat.parameters.items():
         print(f"  {name:22s} = {par.value:<12g} {par.unit:10s} {par.doc}")
-    sym = symbolic(model)
     print("states:", ", ".join(sym.state_names))
     print("state equations:")
     for line in sym.equations:
@@ -277,7 +285,8 @@ def cmd_show(args) -> int:
     return 0
 
 
-def cmd_check_energy(args) -> int:
+def cmd_check_energy(args: argparse.Namespace) -> int:
+    """``porthamiltonian check-energy``: each model's energy balance against its tolerance."""
     names = args.models or io.available_models()
     failed = []
     for name in names:
@@ -413,6 +422,7 @@ def _report_bug() -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``porthamiltonian`` command: the exit status (0 ok, 1 a failed check, 2 bad input)."""
     return run(build_parser(), argv)
 
 

@@ -57,7 +57,7 @@ def trajectory_columns(traj: Trajectory, outputs: bool | Sequence[str] = True
     return cols
 
 
-def trajectory_frame(traj: Trajectory, outputs: bool | Sequence[str] = True):
+def trajectory_frame(traj: Trajectory, outputs: bool | Sequence[str] = True) -> Any:
     """The trajectory as a :class:`pandas.DataFrame` (see the module docstring). ``outputs``:
     every named output (True), none (False), or the names listed."""
     pd = require_pandas()

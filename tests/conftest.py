@@ -50,7 +50,7 @@ def model_settings() -> Callable:
 
     def _settings(name: str) -> dict:
         sim = {"method": "Radau", "rtol": 1e-9, "atol": 1e-12, "energy_tolerance": 1e-6}
-        sim.update(io.load(name).simulation)
+        sim.update(io.read(name).simulation)
         return sim
 
     return _settings

@@ -103,7 +103,7 @@ def contact_forces(walker: Any, traj: Any) -> np.ndarray | None:
     Y = None
     forces = np.zeros((len(traj.t), len(walker.feet), 2))
     found = False
-    bonds = walker.spec.model.flatten().bonds
+    bonds = walker.spec.model.freeze().bonds
     for k, point in enumerate(walker.feet):
         body = next((pts for pts in bodies.values() if point in pts), [point])
         for (tc, tp), (hc, hp) in bonds:

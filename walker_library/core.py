@@ -38,11 +38,12 @@ import numpy as np
 from porthamiltonian import Model, compile_model, symbolic
 from porthamiltonian.compiled import CompiledModel
 from porthamiltonian.compiler import cache
-from porthamiltonian.errors import ModelError, ModelFileError, ParameterValueError
+from porthamiltonian.errors import ModelError, ParameterValueError
 from porthamiltonian.integrators import TABLEAUS as COMPILED_METHODS
+from porthamiltonian.io import ModelFile
 
 from .hybrid import Integration, WalkerSpec, expand, parse_condition, parse_equation, parse_interval
-from .machine import Change, Condition, ModeMachine, Transition, WalkLog, outputs
+from .machine import Change, Condition, ModeMachine, Transition, WalkLog
 from .names import ModelNames, check_names
 from .protocol import ParameterSpec, Stride, check_parameters
 from .resets import ImpactMap, Relabel, floating_model
@@ -72,12 +73,8 @@ def _checked(spec: WalkerSpec, text: str) -> tuple[ModelNames, dict]:
     if key not in _CHECKED:
         bare = copy.deepcopy(spec.model)      # its events' guards are checked with their lines
         bare.events, bare.outputs = [], {}
-        try:
+        with ModelFile(bare, spec.source, text).located():
             sym = symbolic(bare)
-        except ModelFileError:
-            raise
-        except ModelError as err:
-            raise ModelFileError(f"{spec.source}: {err}") from None
         names = ModelNames.of(spec.model, sym)
         _CHECKED[key] = (names, check_names(spec, names, text))
     return _CHECKED[key]
@@ -150,7 +147,7 @@ class HybridWalker:
         names, maps = _checked(spec, text)
         self.spec = spec
         self.name = spec.name
-        self.doc = spec.model.doc
+        self.doc = spec.description
         self.options = options or spec.integration
         self.backend = backend or self.options.backend
         self.specs = _specs(spec)
@@ -172,10 +169,10 @@ class HybridWalker:
         if spec.relabel:
             offsets = {b: ex.add(b) for b in maps["relabel"][2] if isinstance(b, str)}
         model = copy.deepcopy(spec.model)
-        model.doc, model.meta, model.sections, model.source = "", {}, {}, spec.source
         for name, text_ in ex.exprs.items():
             model.output(name, text_)
-        self.model = compiled(model, self.backend)
+        with ModelFile(model, spec.source, text).located():
+            self.model = compiled(model, self.backend)
         self.backend = self.model.backend          # "auto" resolved: the back end in use
         m = self.model
         out = {n: i for i, n in enumerate(m.output_names)}
@@ -276,7 +273,7 @@ class HybridWalker:
         m = self.model
         self._p = m.params({k: v for k, v in self.parameters.items() if k in m.param_names})
         self._x_init = m.initial_state(self._p)
-        y = outputs(m, 0.0, self._x_init, self._p)
+        y = m.outputs(0.0, self._x_init, self._p)
         self.total_mass = float(y[self._mass])
         self.leg_length = float(y[self._leg])
 
@@ -314,7 +311,7 @@ class HybridWalker:
     # --- numeric helpers ----------------------------------------------------------------------------
     def outputs(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """All outputs of the compiled model at state ``x`` and parameters ``p``."""
-        return outputs(self.model, t, x, p)
+        return self.model.outputs(t, x, p)
 
     def output(self, name: str, x: np.ndarray, p: np.ndarray | None = None,
                t: float = 0.0) -> float:
@@ -331,7 +328,7 @@ class HybridWalker:
         at their start values (before the ``start`` rules, which need the state)."""
         p = self._p.copy()
         p[self._drop] = float(ground_drop)
-        y = outputs(self.model, 0.0, self._x_init, p)
+        y = self.model.outputs(0.0, self._x_init, p)
         for index, value in self._start:
             p[index] = value if isinstance(value, float) else y[value]
         return p
@@ -462,7 +459,7 @@ class HybridWalker:
 
     def initial_guess(self) -> np.ndarray:
         """The description's rough section state (its ``guess``, from the parameters)."""
-        y = outputs(self.model, 0.0, self._x_init, self._p)
+        y = self.model.outputs(0.0, self._x_init, self._p)
         return np.array([g if isinstance(g, float) else float(y[g]) for g in self._guess])
 
     def _basin_from_guess(self, z_star, theta: float, theta_dot: float) -> np.ndarray:

@@ -24,8 +24,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .metrics import GaitMetrics, gait_metrics
-from .poincare import (FixedPointResult, FloquetResult, WalkerFell, detect_period,
-                       find_fixed_point, floquet)
+from .poincare import (
+    FixedPointResult,
+    FloquetResult,
+    WalkerFell,
+    detect_period,
+    find_fixed_point,
+    floquet,
+)
 from .protocol import Stride, Walker
 from .results import JSONResult, to_jsonable
 
@@ -139,8 +145,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8, fd_step: fl
     if tol is None:
         tol = float(getattr(walker, "gait_tolerance", 1e-10))
     z0 = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
-    base = dict(model=walker.name, section=list(walker.section),
-                thesis_section=list(walker.thesis_section), parameters=dict(walker.parameters))
+    base = {"model": walker.name, "section": list(walker.section),
+            "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     fp = find_fixed_point(walker, z0, period=1, tol=tol, max_iter=max_iter)
     newton = _newton_dict(walker, fp)
     unstable = None

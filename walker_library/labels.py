@@ -87,9 +87,7 @@ _SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 def is_nondimensional(walker: Any) -> bool:
     """True when the walker's model file declares ``units = "nondimensional"`` in ``[model]``."""
-    spec = getattr(walker, "spec", None)
-    meta = getattr(getattr(spec, "model", None), "meta", None) or {}
-    return meta.get("units") == "nondimensional"
+    return getattr(getattr(walker, "spec", None), "units", "") == "nondimensional"
 
 
 def pretty_unit(unit: str) -> str:

@@ -17,7 +17,6 @@ import numpy as np
 
 from .core import HybridWalker
 from .protocol import Stride
-from .strides import params_per_point
 
 __all__ = ["GaitSeries", "walk_series"]
 
@@ -69,7 +68,7 @@ def walk_series(walker: HybridWalker, z: np.ndarray, n_steps: int, *, ground_dro
     t = traj.t
     ends = np.cumsum([s.duration for s in strides if not s.fell])
     step = np.minimum(np.searchsorted(ends, t, side="left"), len(strides) - 1)
-    P = params_per_point(traj)
+    P = traj.p
     n = walker.model.n_states
     N = len(t)
     angles = {k: np.full(N, np.nan) for k in ("theta", "phi", "theta_dot", "phi_dot")}

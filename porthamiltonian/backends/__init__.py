@@ -66,6 +66,7 @@ class Functions:
 
 
 def numba_available() -> bool:
+    """True when numba can be imported (the ``fast`` extra)."""
     return importlib.util.find_spec("numba") is not None
 
 

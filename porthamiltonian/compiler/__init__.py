@@ -1,9 +1,9 @@
 """Symbolic compiler: model graph -> port-Hamiltonian state equations + energy ledger -> code.
 
-Pipeline: :meth:`Model.flatten` -> :func:`structure.build_system` -> :func:`structure.solve`
-(causality, loops, dependent storages) -> :func:`assemble.assemble` (state equations, H, P_diss,
-P_in) -> :func:`codegen.program` (cse, RHS and Jacobian together) -> :mod:`.printers` (Python and
-C) -> cache -> back end.
+Pipeline: :meth:`Model.freeze` (then ``validate``) -> :func:`structure.build_system` ->
+:func:`structure.solve` (causality, loops, dependent storages) -> :func:`assemble.assemble` (state
+equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and Jacobian together) ->
+:mod:`.printers` (Python and C) -> cache -> back end.
 """
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ import sympy
 from .. import backends
 from ..backends import module, native
 from ..compiled import CompiledModel
-from ..errors import CompilerError, ModelError, ModelFileError
-from ..model import Model
+from ..errors import CompilerError
+from ..model import Model, ModelDescription
 from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
@@ -27,17 +27,18 @@ from .structure import build_system, solve
 _C_FAILED: list[str] = []
 
 
-def symbolic(model: Model) -> SymbolicModel:
-    """Run the symbolic part of the compiler (no code generation, no cache)."""
-    flat = model.flatten()
-    if not flat.components:
-        raise ModelError(f"model {model.name!r} is empty: it has no components; add some (in a "
-                         "model file: [components.NAME] tables with a type) before compiling")
-    return assemble(solve(build_system(flat)))
+def symbolic(model: Model | ModelDescription) -> SymbolicModel:
+    """Run the symbolic part of the compiler (no code generation, no cache): validate the frozen
+    description (every problem at once, :meth:`~porthamiltonian.model.ModelDescription.validate`),
+    then structure, assembly. Errors carry the path of what they are about
+    (:attr:`~porthamiltonian.errors.ModelError.path`)."""
+    description = model.freeze() if isinstance(model, Model) else model
+    return assemble(solve(build_system(description.validate())))
 
 
-def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -> CompiledModel:
-    """Compile ``model`` for numeric simulation.
+def compile_model(model: Model | ModelDescription, backend: str = "auto",
+                  use_cache: bool = True) -> CompiledModel:
+    """Compile ``model`` (a model, or its frozen description) for numeric simulation.
 
     Parameters
     ----------
@@ -56,19 +57,13 @@ def compile_model(model: Model, backend: str = "auto", use_cache: bool = True) -
     its output).
     """
     order = backends.candidates(backend)
-    key = cache.model_key(model)
+    description = model.freeze() if isinstance(model, Model) else model
+    key = cache.model_key(description)
     hit = cache.read(key) if use_cache else None
     times: dict[str, float] = {}
     if hit is None:
         start = time.perf_counter()
-        try:
-            sym = symbolic(model)
-        except ModelFileError:
-            raise
-        except ModelError as err:
-            if model.source is None:
-                raise
-            raise ModelFileError(f"{model.source}: {err}") from None
+        sym = symbolic(description)
         times["symbolic"] = time.perf_counter() - start
         start = time.perf_counter()
         prog = program(sym)

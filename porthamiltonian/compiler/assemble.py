@@ -33,7 +33,7 @@ from ..errors import ModelError, StateError
 from ..expressions import TIME, parse
 from ..model import EventSpec
 from ..ports import domain
-from .structure import Solution, _flat, _scope_names
+from .structure import Solution, _flat
 
 
 @dataclass
@@ -66,10 +66,13 @@ class SymbolicModel:
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
+        """The symbols of the ledger states E_diss and E_in (appended to the model states)."""
         return [sp.Symbol("ledger.E_diss", real=True), sp.Symbol("ledger.E_in", real=True)]
 
 
 def assemble(solution: Solution) -> SymbolicModel:
+    """The state equations, energy ledger, outputs, guards and initial values of a solved
+    system (see the module docstring)."""
     system = solution.system
     flat = system.flat
     values = {u: expr for u, expr, _ in solution.order}
@@ -115,9 +118,9 @@ def assemble(solution: Solution) -> SymbolicModel:
     units.update({name: "J" for name, _ in parts})
     symbol_table = _symbol_table(system, outputs)
     for oname, text in flat.outputs.items():
-        outputs[oname] = _model_expr(text, flat.scopes[f"output:{oname}"], symbol_table, system,
+        outputs[oname] = _model_expr(text, f"output:{oname}", symbol_table, system,
                                      f"output {oname!r}").xreplace(values)
-    events = [(ev, _model_expr(ev.guard, flat.scopes[f"event:{ev.name}"], symbol_table, system,
+    events = [(ev, _model_expr(ev.guard, f"event:{ev.name}", symbol_table, system,
                                f"event {ev.name!r} guard").xreplace(values)) for ev in flat.events]
 
     initial = []
@@ -189,10 +192,17 @@ def _symbol_table(system, outputs) -> dict[str, sp.Expr]:
     return table
 
 
-def _model_expr(text: str, prefix: str, table: dict[str, sp.Symbol], system, where: str) -> sp.Expr:
-    names = _scope_names(system.flat, prefix, system.params)
-    return parse(text, names, f"model {system.flat.name!r} {where}",
-                 lambda ref: table.get(prefix + ref))
+def _model_expr(text: str, key: str, table: dict[str, sp.Symbol], system, where: str) -> sp.Expr:
+    """A model output's or event guard's expression (``key``: ``"output:<name>"`` or
+    ``"event:<name>"``) in its scope; an error carries its path."""
+    flat = system.flat
+    prefix = flat.scopes[key]
+    try:
+        return parse(text, flat.scope_names(prefix), f"model {flat.name!r} {where}",
+                     lambda ref: table.get(prefix + ref))
+    except ModelError as err:
+        suffix = ("guard",) if key.startswith("event:") else ()
+        raise err.within(*flat.paths[key], *suffix) from None
 
 
 def power_balance(model: SymbolicModel) -> sp.Expr:

@@ -84,7 +84,7 @@ from typing import Any
 
 import sympy
 
-from ..model import Model
+from ..model import Model, ModelDescription
 from .codegen import CODEGEN_VERSION
 
 try:  # POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record,
@@ -183,18 +183,17 @@ def _base(persistent: bool) -> Path:
 
 
 # --- the key ---------------------------------------------------------------------------------------
-def model_key(model: Model) -> str:
+def model_key(model: Model | ModelDescription) -> str:
     """A hash of everything that determines the generated code: the model's canonical
-    description, the source of every package module the model's component classes depend on
-    (their modules and, transitively, the package modules those import), the compiler and
-    back-end sources, and the versions of sympy and of the code generator."""
-    from ..io import model_to_dict  # io imports the compiler's users; import late
-
-    description = model_to_dict(model)
-    modules = {type(c).__module__ for c in _all_components(model)}
-    blob = json.dumps({"model": description, "classes": _sources_hash(frozenset(modules)),
-                       "sympy": sympy.__version__, "codegen": CODEGEN_VERSION},
-                      sort_keys=True, default=str)
+    description (:meth:`~porthamiltonian.model.ModelDescription.canonical`), the source of every
+    package module the model's component classes depend on (their modules and, transitively, the
+    package modules those import), the compiler and back-end sources, and the versions of sympy
+    and of the code generator."""
+    description = model.freeze() if isinstance(model, Model) else model
+    modules = {type(c).__module__ for c in description.components.values()}
+    blob = json.dumps({"model": description.canonical(),
+                       "classes": _sources_hash(frozenset(modules)),
+                       "sympy": sympy.__version__, "codegen": CODEGEN_VERSION}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
@@ -231,8 +230,10 @@ def _sources_hash(modules: frozenset[str]) -> str:
                 for _ in range(len(dots) - 1):
                     root = root.parent
                 target = root.joinpath(*name.split(".")) if name else root
-                todo.append(target)
-                if target.is_dir():  # ``from . import cache``: the named submodules
+                # ``from . import cache``: the package's __init__ and the named submodules (not
+                # the whole package); ``from .x import y``: module x (or all of package x)
+                todo.append(target / "__init__" if not name else target)
+                if target.is_dir():
                     todo += [target / n.strip() for n in names.strip("()").split(",") if n.strip()]
     digest = hashlib.sha256()
     for path in sorted(files):
@@ -249,14 +250,6 @@ def _outside_source(module: str) -> str:
         return inspect.getsource(sys.modules[module])
     except (KeyError, OSError, TypeError):
         return module
-
-
-def _all_components(model: Model):
-    for _, comp in model.components():
-        if isinstance(comp, Model):
-            yield from _all_components(comp)
-        else:
-            yield comp
 
 
 # --- files and the manifest ------------------------------------------------------------------------

@@ -44,6 +44,7 @@ class Tableau:
 
     @property
     def stages(self) -> int:
+        """The number of stages (right-hand-side evaluations per step)."""
         return len(self.nodes)
 
     def check(self) -> None:

@@ -26,7 +26,7 @@ Laws
   the generated Jacobian has no Dirac deltas.
 
 Damper rule (both): give ``damping`` D, or ``alpha`` α and ``mass`` m for D = 2 α √(m K)
-(thesis §3.1, DESIGN.md §5: α ≈ 0.15, m = m + M the mass the leg carries; for a variable K the
+(thesis §3.1: α ≈ 0.15, m = m + M the mass the leg carries; for a variable K the
 damper follows the stiffness), or neither (no damper).
 
 Energy role
@@ -73,8 +73,9 @@ class _SpringDamper(Component):
     def ports(self) -> list[Port]:
         return [Port("p", self.value("domain"), orientation="in")]
 
-    def build(self, b: Builder, stiffness, damping, alpha, mass, rest_length, q0, domain,
-              length) -> None:
+    def build(self, b: Builder, stiffness: sp.Expr, damping: sp.Expr | None, alpha: sp.Expr | None,
+              mass: sp.Expr | None, rest_length: sp.Expr, q0: sp.Expr | None, domain: str,
+              length: sp.Expr | None) -> None:
         where = f"{self.kind} {b.name!r}"
         if damping is not None and (alpha is not None or mass is not None):
             raise ParameterValueError(f"{where}: give either 'damping' or 'alpha' and 'mass' (the "

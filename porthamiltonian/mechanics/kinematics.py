@@ -33,18 +33,22 @@ class Rotation:
 
     @staticmethod
     def about(axis: tuple, angle: Any) -> Rotation:
+        """The rotation by ``angle`` (rad) about the unit ``axis``."""
         return Rotation(tuple(axis), as_expr(angle))
 
     @staticmethod
     def identity() -> Rotation:
+        """No rotation."""
         return Rotation(None, sp.Integer(0))
 
     @property
     def is_identity(self) -> bool:
+        """True for no rotation (no axis, or a zero angle, and no general matrix)."""
         return self.general is None and (self.axis is None or self.angle == 0)
 
     @property
     def matrix(self) -> sp.Matrix:
+        """The 3x3 rotation matrix."""
         if self.general is not None:
             return sp.Matrix(self.general)
         if self.is_identity:
@@ -61,6 +65,7 @@ class Rotation:
         return Rotation(None, None, sp.ImmutableMatrix(self.matrix * other.matrix))
 
     def inverse(self) -> Rotation:
+        """The inverse rotation (the negative angle, or the transpose)."""
         if self.is_identity:
             return self
         if self.general is None:
@@ -68,6 +73,7 @@ class Rotation:
         return Rotation(None, None, sp.ImmutableMatrix(self.general.T))
 
     def key(self) -> tuple:
+        """A hashable key: equal keys, equal rotations (merges the terms of a Vector)."""
         if self.is_identity:
             return ("I",)
         return ("aa", self.axis, self.angle) if self.general is None else ("M", self.general)
@@ -94,10 +100,12 @@ class Vector:
 
     @staticmethod
     def of(c: Any, R: Rotation | None = None) -> Vector:
+        """The vector ``R c`` (``c`` three components; R default: none)."""
         return Vector(((R or Rotation.identity(), sp.ImmutableMatrix(sp.Matrix(c))),))._merged()
 
     @staticmethod
     def zero() -> Vector:
+        """The zero vector."""
         return Vector(())
 
     def _merged(self) -> Vector:
@@ -119,6 +127,7 @@ class Vector:
         return self + (-other)
 
     def scaled(self, s: Any) -> Vector:
+        """The vector times the scalar ``s``."""
         return Vector(tuple((R, c * s) for R, c in self.terms))._merged()
 
     def rotated(self, R: Rotation) -> Vector:
@@ -148,6 +157,7 @@ class Vector:
         return self.rotated(R.inverse())
 
     def matrix(self) -> sp.Matrix:
+        """The vector as one 3x1 matrix (its terms rotated and summed)."""
         out = sp.zeros(3, 1)
         for R, c in self.terms:
             out += R.matrix * sp.Matrix(c)
@@ -163,6 +173,7 @@ class Frame:
 
     @staticmethod
     def world() -> Frame:
+        """The world frame."""
         return Frame(Rotation.identity(), Vector.zero())
 
     def compose(self, R: Rotation | None = None, shift: Any = None) -> Frame:

@@ -49,7 +49,7 @@ given by their inertial data, not by shapes.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -58,31 +58,32 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import ModelError, UnknownComponentError
 from ..ports import DOMAINS, Port
-from .bodies import as_tables
+from .bodies import as_tables, expression_fields
 from .kinematics import Frame, Rotation, Vector
 
 _AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
 _JOINT_TYPES = ("revolute", "prismatic", "translational", "weld")
 
 
-def _axis(value: Any, where: str) -> tuple:
+def _axis(value: Any, where: str, path: tuple = ()) -> tuple:
     if isinstance(value, str) and value in _AXES:
         return _AXES[value]
     try:
         vec = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise ModelError(f"{where}: axis must be 'x', 'y', 'z' or three numbers, got {value!r}") from None
+        raise ModelError(f"{where}: axis must be 'x', 'y', 'z' or three numbers, got {value!r}",
+                         path=path) from None
     if vec.shape != (3,) or not np.linalg.norm(vec) > 0:
-        raise ModelError(f"{where}: axis must be a non-zero 3-vector, got {value!r}")
+        raise ModelError(f"{where}: axis must be a non-zero 3-vector, got {value!r}", path=path)
     vec = vec / np.linalg.norm(vec)
     return tuple(sp.nsimplify(v) if float(v).is_integer() else float(v) for v in vec)
 
 
-def _vector3(value: Any, where: str) -> list:
+def _vector3(value: Any, where: str, path: tuple = ()) -> list:
     if value is None:
         return [0, 0, 0]
     if not isinstance(value, (list, tuple)) or len(value) != 3:
-        raise ModelError(f"{where}: expected three components [x, y, z], got {value!r}")
+        raise ModelError(f"{where}: expected three components [x, y, z], got {value!r}", path=path)
     return list(value)
 
 
@@ -120,24 +121,29 @@ class Multibody(Component):
     def _validate(self) -> None:
         bodies, joints = self.value("bodies"), self.value("joints")
         if not isinstance(bodies, Mapping) or not bodies:
-            raise ModelError("Multibody needs 'bodies': a table name -> {mass, com, inertia, points}")
+            raise ModelError("Multibody needs 'bodies': a table name -> {mass, com, inertia, points}",
+                             path=("bodies",))
         if not isinstance(joints, Mapping) or not joints:
-            raise ModelError("Multibody needs 'joints': a table name -> {type, parent, child, ...}")
+            raise ModelError("Multibody needs 'joints': a table name -> {type, parent, child, ...}",
+                             path=("joints",))
         for name, body in bodies.items():
             where = f"Multibody body {name!r}"
             extra = set(body) - {"mass", "com", "inertia", "points", "frames"}
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: "
-                                 "mass, com, inertia, points, frames")
+                                 "mass, com, inertia, points, frames",
+                                 path=("bodies", name, min(extra)))
             if "mass" not in body:
-                raise ModelError(f"{where} needs a mass (kg)")
+                raise ModelError(f"{where} needs a mass (kg)", path=("bodies", name))
             mass = body["mass"]
             if isinstance(mass, (int, float)) and not mass > 0:
-                raise ModelError(f"{where}: mass must be positive, got {mass}")
-            self._inertia(body.get("inertia", 0), where)
-            _vector3(body.get("com"), f"{where} com")
-            for point, pos in {**(body.get("points") or {}), **(body.get("frames") or {})}.items():
-                _vector3(pos, f"{where} point/frame {point!r}")
+                raise ModelError(f"{where}: mass must be positive, got {mass}",
+                                 path=("bodies", name, "mass"))
+            self._inertia(body.get("inertia", 0), where, ("bodies", name, "inertia"))
+            _vector3(body.get("com"), f"{where} com", ("bodies", name, "com"))
+            for key in ("points", "frames"):
+                for point, pos in (body.get(key) or {}).items():
+                    _vector3(pos, f"{where} point/frame {point!r}", ("bodies", name, key, point))
         parent_of: dict[str, str] = {}
         for name, joint in joints.items():
             where = f"Multibody joint {name!r}"
@@ -145,35 +151,40 @@ class Multibody(Component):
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: type, "
                                  "parent, child, axis (revolute, prismatic), axes (translational), "
-                                 "origin, q0, v0")
+                                 "origin, q0, v0", path=("joints", name, min(extra)))
             jtype = joint.get("type")
             if jtype not in _JOINT_TYPES:
-                raise ModelError(f"{where}: type must be one of {', '.join(_JOINT_TYPES)}, got {jtype!r}")
+                raise ModelError(f"{where}: type must be one of {', '.join(_JOINT_TYPES)}, got {jtype!r}",
+                                 path=("joints", name, "type"))
             parent, child = joint.get("parent"), joint.get("child")
             if parent != "world" and parent not in bodies:
                 raise UnknownComponentError(f"{where}: parent {parent!r} is neither 'world' nor a body "
-                                            f"({', '.join(bodies)})")
+                                            f"({', '.join(bodies)})", path=("joints", name, "parent"))
             if child not in bodies:
-                raise UnknownComponentError(f"{where}: child {child!r} is not a body ({', '.join(bodies)})")
+                raise UnknownComponentError(f"{where}: child {child!r} is not a body ({', '.join(bodies)})",
+                                            path=("joints", name, "child"))
             if child in parent_of:
                 raise ModelError(
                     f"{where}: body {child!r} already hangs on joint {parent_of[child]!r}; a second "
                     "joint would close a kinematic loop, which is not supported (model the loop "
-                    "with a stiff spring-damper between two points instead)")
+                    "with a stiff spring-damper between two points instead)",
+                    path=("joints", name, "child"))
             parent_of[child] = name
             if jtype in ("revolute", "prismatic"):
-                _axis(joint.get("axis"), where)
+                _axis(joint.get("axis"), where, ("joints", name, "axis"))
             if jtype == "translational":
                 axes = joint.get("axes")
                 if not isinstance(axes, list) or not axes:
-                    raise ModelError(f"{where}: a translational joint needs axes, e.g. ['x', 'z']")
+                    raise ModelError(f"{where}: a translational joint needs axes, e.g. ['x', 'z']",
+                                     path=("joints", name))
                 for ax in axes:
                     if ax not in _AXES:
-                        raise ModelError(f"{where}: translational axes are 'x', 'y' or 'z', got {ax!r}")
+                        raise ModelError(f"{where}: translational axes are 'x', 'y' or 'z', got {ax!r}",
+                                         path=("joints", name, "axes"))
         orphans = [b for b in bodies if b not in parent_of]
         if orphans:
             raise ModelError(f"Multibody bodies {', '.join(orphans)} hang on no joint; attach them "
-                             "(a weld joint fixes a body to its parent)")
+                             "(a weld joint fixes a body to its parent)", path=("bodies", orphans[0]))
         for body in bodies:  # every chain must reach the world
             seen, node = set(), body
             while node != "world":
@@ -189,13 +200,13 @@ class Multibody(Component):
         if dup:
             raise ModelError(f"Multibody port names must be unique; repeated: {', '.join(sorted(dup))}")
         if self.value("gravity") is not None:
-            _vector3(self.value("gravity"), "Multibody gravity")
+            _vector3(self.value("gravity"), "Multibody gravity", ("gravity",))
         if self.value("plane") not in (None, "xz"):
-            raise ModelError("Multibody plane must be 'xz' or absent")
+            raise ModelError("Multibody plane must be 'xz' or absent", path=("plane",))
         self._parent_of = parent_of
 
     @staticmethod
-    def _inertia(value: Any, where: str) -> Any:
+    def _inertia(value: Any, where: str, path: tuple = ()) -> Any:
         """Inertia as a 3x3 nested list (point mass: 0), validated where numeric."""
         if isinstance(value, (int, float)) and value == 0:
             return 0
@@ -204,15 +215,23 @@ class Multibody(Component):
         if not (isinstance(value, (list, tuple)) and len(value) == 3
                 and all(isinstance(r, (list, tuple)) and len(r) == 3 for r in value)):
             raise ModelError(f"{where}: inertia must be 0 (point mass), three principal moments or "
-                             f"a 3x3 matrix, got {value!r}")
+                             f"a 3x3 matrix, got {value!r}", path=path)
         try:
             numeric = np.array(value, dtype=float)
         except (TypeError, ValueError):
             return value
         if not np.allclose(numeric, numeric.T) or np.linalg.eigvalsh(numeric).min() <= 0:
             raise ModelError(f"{where}: rotational inertia must be symmetric positive definite (or 0 "
-                             f"for a point mass), got eigenvalues {np.linalg.eigvalsh(numeric).round(12).tolist()}")
+                             f"for a point mass), got eigenvalues {np.linalg.eigvalsh(numeric).round(12).tolist()}",
+                             path=path)
         return value
+
+    def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
+        """The expressions nested in the bodies, joints and gravity, with their key paths (see
+        :meth:`Component.expression_fields` and :func:`.bodies.expression_fields`)."""
+        for path, value, what in expression_fields(self.value("bodies"), self.value("joints"),
+                                                   self.value("gravity")):
+            yield path, value, what, ()
 
     def _coordinates(self) -> list[tuple[str, str, tuple, str]]:
         """(joint, coordinate label, axis, kind) for every joint coordinate, in joint order."""
@@ -231,7 +250,7 @@ class Multibody(Component):
     def ports(self) -> list[Port]:
         ports = []
         coords = self._coordinates()
-        for name, joint in self.value("joints").items():
+        for name in self.value("joints"):
             mine = [c for c in coords if c[0] == name]
             if mine:
                 domain = "rotation" if mine[0][3] == "rotation" else "translation"
@@ -248,7 +267,8 @@ class Multibody(Component):
         return ports
 
     # --- equations --------------------------------------------------------------------------------
-    def build(self, b: Builder, bodies, joints, gravity, plane) -> None:
+    def build(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
+              gravity: list | None, plane: str | None) -> None:
         coords = self._coordinates()
         joint_q0: dict[str, list] = {}
         for name, joint in joints.items():
@@ -257,7 +277,8 @@ class Multibody(Component):
                 value = joint.get(key, 0)
                 values = value if isinstance(value, list) else [value] * n
                 if len(values) != n:
-                    raise ModelError(f"Multibody joint {name!r}: {key} needs {n} value(s), got {value!r}")
+                    raise ModelError(f"Multibody joint {name!r}: {key} needs {n} value(s), got {value!r}",
+                                     path=("joints", name, key))
                 joint_q0.setdefault(name, [])
                 joint_q0[name].append([b.parse(v, f"joint {name!r} {key}") for v in values])
         q = [b.state(f"q.{label}", DOMAINS[kind].displacement_unit,
@@ -313,11 +334,11 @@ class Multibody(Component):
             I_c = None if inertia == 0 else sp.Matrix(
                 [[b.parse(v, f"body {body_name!r} inertia") for v in row] for row in inertia])
             body_axes = {k: w.in_frame(frame.R).matrix() for k, w in angular.items()}
-            for j in linear:
-                for k in linear:
+            for j, lin_j in linear.items():
+                for k, lin_k in linear.items():
                     if k < j:
                         continue
-                    entry = mass * linear[j].dot(linear[k])
+                    entry = mass * lin_j.dot(lin_k)
                     if I_c is not None and j in body_axes and k in body_axes:
                         entry += (body_axes[j].T * I_c * body_axes[k])[0, 0]
                     M[j, k] += entry

@@ -121,7 +121,7 @@ def test_agrees_with_radau(name, method):
     ∂f/∂t by a difference), implicit blocks (double pendulum, free body): each compiled method
     and Radau at rtol 1e-10 agree to 1e-6 relative to the state scale, and both ledgers close."""
     model = compile_model(io.load(name), backend="c")
-    t_end = min(3.0, float(io.load(name).simulation["t_end"]))
+    t_end = min(3.0, float(io.read(name).simulation["t_end"]))
     a = model.simulate(t_end, method=method, rtol=1e-10, atol=1e-12)
     b = model.simulate(t_end, method="Radau", rtol=1e-10, atol=1e-12)
     assert a.status == b.status == "finished"

@@ -69,7 +69,7 @@ def test_a_saved_walker_walks_the_same_gait(make, tmp_path):
 def python_simplest_walker() -> HybridWalker:
     """Garcia's simplest walker from components and the description's dataclasses (what
     models/simplest_walker.toml says, written in Python)."""
-    m = Model("simplest_walker_py", "the simplest walker, built in Python")
+    m = Model("simplest_walker_py")
     for name, value in (("slope", 0.009), ("M", 1.0), ("beta", 1e-9), ("l", 1.0), ("g", 1.0),
                         ("theta0", 0.2), ("theta_dot0", -0.2), ("phi_dot0", -0.015),
                         ("contact_margin", 1e-12), ("fall_fraction", 0.5), ("stance_x", 0.0),
