@@ -80,3 +80,8 @@ class ModelFileError(ModelError):
 class StateError(ModelError):
     """An initial state or a state name is wrong (unknown name, wrong length, non-finite)."""
 
+
+
+class SceneError(ModelError):
+    """A scene of the 3D viewer (:mod:`porthamiltonian.viewer`) is malformed: a shape, a pose, the
+    times, the ground; the message names the body, shape or frame and says what is expected."""
