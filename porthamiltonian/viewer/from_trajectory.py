@@ -14,9 +14,10 @@ Where the poses come from (:func:`pose_sources`), per body, its name in the scen
 
 Shapes, unless given per body (``shapes=``):
 
-* a Multibody body (when ``model`` is given): a capsule from the body's origin to each of its
-  named points, a ball at the origin; the points' body-fixed coordinates are read from their
-  outputs ``mb.<point>.x|y|z`` and the pose at the first frame;
+* a Multibody body (when ``model`` is given): a ball at its origin and a capsule from there to
+  each of its named points and to each joint that carries a child body (:func:`body_points`:
+  body-fixed coordinates from the points' outputs ``mb.<point>.x|y|z``, the children's poses
+  and the body's pose at the first point);
 * a FreeBody: the box of the same mass and principal moments of inertia about its centre of
   mass (edges ``a_i = sqrt(6 (I_j + I_k − I_i) / m)``, along the principal axes, at least 5 % of
   the longest), from its spatial-inertia matrix ``b.inertia`` at the first point;
@@ -39,7 +40,7 @@ from .sampling import frame_times, resample, resample_quaternions
 from .scene import AXES, Arrow, Body, Ground, Scene
 from .shapes import Box, Capsule, Shape, Sphere
 
-__all__ = ["PALETTE", "pose_names", "pose_sources", "scene_from_trajectory"]
+__all__ = ["PALETTE", "body_points", "pose_names", "pose_sources", "scene_from_trajectory"]
 
 #: body colours, in turn (the matplotlib default cycle)
 PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
@@ -80,26 +81,33 @@ def _first_point(traj: Any) -> tuple[float, np.ndarray, np.ndarray]:
     return float(seg.t[0]), np.asarray(seg.y[:, 0], dtype=float), np.asarray(seg.p, dtype=float)
 
 
-def _multibody_points(model: Any, traj: Any, body: str, pose0: np.ndarray) -> list[np.ndarray]:
-    """Body-fixed coordinates of the named points of Multibody body ``body`` (``mb.B``), from
-    their world positions and the body's pose at the first point; [] when unknown."""
+def body_points(traj: Any, model: Any, body: str) -> dict[str, np.ndarray]:
+    """Body-fixed coordinates (m) of the named points of Multibody body ``body`` (``mb.B``) and
+    of the joints that carry its child bodies (named by the joint), from their world positions
+    (the outputs ``mb.<point>.x|y|z``, the children's poses) and the body's pose at the first
+    point of ``traj``; {} when ``model`` does not say (module docstring)."""
     if model is None or "." not in body:
-        return []
+        return {}
     mb, _, name = body.rpartition(".")
     comp = model.flatten().components.get(mb)
-    bodies = getattr(comp, "value", lambda k: None)("bodies") if comp is not None else None
-    if not isinstance(bodies, Mapping) or name not in bodies:
-        return []
-    outputs = set(traj.model.output_names)
-    R0 = to_matrix(normalise(pose0[3:]))
-    points = []
-    for point in (bodies[name].get("points") or {}):
-        world = [float(traj[f"{mb}.{point}.{a}"][0]) if f"{mb}.{point}.{a}" in outputs else 0.0
-                 for a in "xyz"]
-        if not any(f"{mb}.{point}.{a}" in outputs for a in "xyz"):
-            continue
-        points.append(R0.T @ (np.array(world) - pose0[:3]))
-    return points
+    if comp is None or getattr(comp, "kind", "") != "Multibody":
+        return {}
+    bodies, joints = comp.value("bodies"), comp.value("joints")
+    if name not in bodies:
+        return {}
+    names = set(_names(traj))
+    pose = np.array([float(traj[n][0]) for n in pose_names(body)])
+    R0 = to_matrix(normalise(pose[3:]))
+    world: dict[str, np.ndarray] = {}
+    for point in bodies[name].get("points") or {}:
+        axes = [f"{mb}.{point}.{a}" for a in "xyz"]
+        if any(n in names for n in axes):
+            world[point] = np.array([float(traj[n][0]) if n in names else 0.0 for n in axes])
+    for joint, spec in joints.items():
+        child = pose_names(f"{mb}.{spec.get('child')}")
+        if spec.get("parent") == name and all(n in names for n in child):
+            world[joint] = np.array([float(traj[n][0]) for n in child[:3]])
+    return {k: R0.T @ (w - pose[:3]) for k, w in world.items()}
 
 
 def _inertia_box(traj: Any, body: str, colour: str) -> Shape | None:
@@ -125,6 +133,7 @@ def _inertia_box(traj: Any, body: str, colour: str) -> Shape | None:
 
 def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str] | None = None,
                           shapes: Mapping[str, Sequence[Shape]] | None = None,
+                          extra_shapes: Mapping[str, Sequence[Shape]] | None = None,
                           ground: Ground | None = None, arrows: Sequence[Arrow] = (),
                           strides: Sequence[float] = (), slope_frame: float | None = None,
                           rate: float = 30.0, max_frames: int = 900, up: str = "z",
@@ -136,6 +145,7 @@ def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str]
         :class:`~porthamiltonian.model.Model` it was compiled from (for the bodies' points;
         optional). bodies : the bodies to draw (default: every body with a pose).
     shapes : body name -> its shapes (body frame), replacing the default ones.
+    extra_shapes : body name -> shapes drawn besides the (default or given) ones.
     ground, strides (times of the run), up, title, time_unit, time_scale : as in :class:`Scene`.
     arrows : :class:`Arrow` s whose origin and vector are given at the trajectory's points
         (N, 3), in the model's frame; they are resampled (and rotated) with the bodies.
@@ -155,10 +165,10 @@ def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str]
     if unknown:
         raise SceneError(f"no pose for body {', '.join(map(repr, unknown))}; bodies with "
                          f"poses: {', '.join(sources)}")
-    shapes = dict(shapes or {})
-    extra = set(shapes) - set(chosen)
-    if extra:
-        raise SceneError(f"shapes given for {', '.join(sorted(extra))}, which are not drawn; "
+    shapes, more = dict(shapes or {}), dict(extra_shapes or {})
+    stray = (set(shapes) | set(more)) - set(chosen)
+    if stray:
+        raise SceneError(f"shapes given for {', '.join(sorted(stray))}, which are not drawn; "
                          f"bodies: {', '.join(chosen)}")
     t = np.asarray(traj.t, dtype=float)
     times = frame_times(t, rate, max_frames)
@@ -166,7 +176,7 @@ def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str]
             else about_axis(AXES[up][1], float(slope_frame)))
     raw = {b: np.stack([np.asarray(traj[n], dtype=float) for n in sources[b]], axis=1)
            for b in chosen}
-    points = {b: _multibody_points(model, traj, b, raw[b][0]) for b in chosen}
+    points = {b: list(body_points(traj, model, b).values()) for b in chosen}
     cloud = [raw[b][0, :3] for b in chosen]
     for b in chosen:
         if points[b]:
@@ -187,6 +197,7 @@ def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str]
             box = _inertia_box(traj, b, tint)
             drawn = [box] if box is not None else [Sphere((0, 0, 0), 2 * link_radius * size,
                                                           colour=tint)]
+        drawn += list(more.get(b, ()))
         position = rotate(turn, resample(t, raw[b][:, :3], times))
         q = resample_quaternions(t, normalise(raw[b][:, 3:]), times)
         out.append(Body(b, drawn, position, multiply(turn, q)))

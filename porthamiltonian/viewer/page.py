@@ -100,10 +100,11 @@ function start(box){
  const d=JSON.parse(box.querySelector('script.ph-data').textContent);
  const canvas=box.querySelector('canvas'),q=(c)=>box.querySelector(c);
  const F=d.t.length,S=d.size;
- let renderer;
- try{renderer=new THREE.WebGLRenderer({canvas:canvas,antialias:true});}
- catch(e){box.setAttribute('data-viewer','no-webgl');
-  console.warn('3D view: no WebGL in this browser, the still image is shown');return;}
+ const gl=window.WebGL2RenderingContext&&canvas.getContext('webgl2',{antialias:true,alpha:false,
+  stencil:false,depth:true,premultipliedAlpha:true,preserveDrawingBuffer:false});
+ if(!gl){box.setAttribute('data-viewer','no-webgl');
+  console.warn('3D view: no WebGL 2 in this browser, the still image is shown');return;}
+ const renderer=new THREE.WebGLRenderer({canvas:canvas,context:gl,antialias:true});
  box.classList.add('ph-live');
  renderer.setPixelRatio(Math.min(window.devicePixelRatio||1,2));
  renderer.shadowMap.enabled=true;renderer.shadowMap.type=THREE.PCFShadowMap;
@@ -167,7 +168,7 @@ function start(box){
   camera.updateProjectionMatrix();dirty=true;}
  function check(){const gl=renderer.getContext(),w=gl.drawingBufferWidth,h=gl.drawingBufferHeight;
   const px=new Uint8Array(w*h*4);gl.readPixels(0,0,w,h,gl.RGBA,gl.UNSIGNED_BYTE,px);
-  const bg=new THREE.Color(BACKGROUND),br=Math.round(bg.r*255),bgg=Math.round(bg.g*255),bb=Math.round(bg.b*255);
+  const hex=(k)=>parseInt(BACKGROUND.slice(k,k+2),16),br=hex(1),bgg=hex(3),bb=hex(5);
   let n=0;for(let k=0;k<px.length;k+=4){if(Math.abs(px[k]-br)+Math.abs(px[k+1]-bgg)+Math.abs(px[k+2]-bb)>30){n++;}}
   const probe=groups.map(g=>g.children.length?g.children[0].getWorldPosition(new THREE.Vector3()).toArray().map(x=>+x.toFixed(6)):null);
   box.setAttribute('data-drawn',n+'/'+(w*h));box.setAttribute('data-probe',JSON.stringify(probe));

@@ -104,7 +104,8 @@ class Shape:
         raise NotImplementedError
 
     def extent(self) -> np.ndarray:
-        """Body-frame points (k, 3) whose bounding box holds the shape."""
+        """Body-frame points (k, 3) of the shape's surface whose bounding box is the shape's,
+        up to the sampling of curved surfaces (within 4 % of the size)."""
         return np.concatenate([np.stack([g.ravel() for g in grid], axis=1)
                                for grid in self.surfaces(6)])
 
@@ -243,8 +244,9 @@ class TorusArc(Shape):
         axis, mid = np.array(self.axis), np.array(self.mid)
         start = rotate(about_axis(axis, -self.angle / 2), mid)
         side = np.cross(axis, start)
-        m = max(2, math.ceil(n * self.angle / math.pi))
-        u, v = np.meshgrid(np.linspace(0, self.angle, m + 1), np.linspace(0, 2 * np.pi, n + 1))
+        m = 2 * max(1, math.ceil(n * self.angle / (2 * math.pi)))     # even: the middle too
+        u, v = np.meshgrid(np.linspace(0, self.angle, m + 1),
+                           np.linspace(0, 2 * np.pi, 4 * math.ceil(n / 2) + 1))
         ring = self.radius + self.tube * np.cos(v)
         pts = (np.array(self.center)[:, None, None]
                + ring * (np.cos(u) * start[:, None, None] + np.sin(u) * side[:, None, None])

@@ -1,8 +1,9 @@
 """The main job's report (walker_library.report, ``walker report``): files, figures, JSON, the
 comparison with the publication, and the HTML page rendered by a real headless browser.
 
-The browser (Chromium) is found on PATH. Without one these tests skip with a one-line reason,
-unless ``CI`` is set: CI installs Chromium (.ci/run), so there a missing browser fails.
+The browser (Chromium, tests/browser.py) is found on PATH. Without one these tests skip with a
+one-line reason, unless ``CI`` is set: CI installs Chromium (.ci/run), so there a missing browser
+fails.
 
 The browser checks read the page's own load handler, which counts the images that decoded
 (``data-images-ok="k/n"``) and marks the player ready (``data-player="ready:N"``), and
@@ -14,14 +15,13 @@ from __future__ import annotations
 
 import html
 import json
-import os
 import re
 import shutil
-import subprocess
-import tempfile
 from pathlib import Path
 
+import browser
 import pytest
+from browser import console_errors, render
 from PIL import Image
 
 from walker_library import report as report_module
@@ -29,42 +29,12 @@ from walker_library.cli import main
 from walker_library.report import ExtraFigure
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                  "--enable-logging=stderr", "--v=0", "--virtual-time-budget=5000"]
-
-
-def _chromium() -> str:
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        message = ("needs a headless browser: install Chromium (Debian/Ubuntu: apt-get install -y "
-                   "chromium)")
-        if os.environ.get("CI"):
-            pytest.fail(f"{message}; CI installs it (.ci/run)")
-        pytest.skip(message)
-    return exe
-
-
-def _run_chromium(args: list[str]) -> subprocess.CompletedProcess:
-    with tempfile.TemporaryDirectory() as profile:
-        return subprocess.run([_chromium(), *CHROMIUM_FLAGS, f"--user-data-dir={profile}", *args],
-                              capture_output=True, text=True, timeout=120, check=False)
-
-
-def render(path: Path) -> tuple[str, list[str]]:
-    """(DOM after load, console lines) of a local page in headless Chromium."""
-    proc = _run_chromium(["--dump-dom", path.resolve().as_uri()])
-    console = [line for line in proc.stderr.splitlines() if ":CONSOLE" in line]
-    return proc.stdout, console
 
 
 def screenshot(path: Path, width: int, height: int, out: Path) -> Image.Image:
     """A screenshot of the page at a window of ``width`` × ``height`` CSS px, in layout-check
     mode (see the module docstring)."""
-    _run_chromium([f"--window-size={width},{height}", "--hide-scrollbars",
-                   f"--screenshot={out}", path.resolve().as_uri() + "?layout-check"])
-    assert out.is_file(), "Chromium wrote no screenshot"
-    return Image.open(out).convert("RGB")
+    return browser.screenshot(path.resolve().as_uri() + "?layout-check", width, height, out)
 
 
 def layout_mark(image: Image.Image) -> str:
@@ -152,7 +122,7 @@ def test_report_opens_in_a_headless_browser_without_errors(report):
     assert "A test section" in dom and "Left out" not in dom
     player = re.search(r'data-player="ready:(\d+)"', dom)
     assert player and int(player.group(1)) > 100, "the player did not start"
-    assert not [c for c in console if "Uncaught" in c or "rror" in c], console
+    assert not console_errors(console), console
     assert "Walker report: simplest_walker" in dom
     assert "http://" not in dom.replace("http://www.w3.org", "") and "https://" not in dom
 
@@ -188,7 +158,7 @@ def test_no_browser_skips_with_a_reason_but_fails_under_ci(monkeypatch):
     monkeypatch.setattr(shutil, "which", lambda name: None)
     monkeypatch.delenv("CI", raising=False)
     with pytest.raises(pytest.skip.Exception, match="needs a headless browser"):
-        _chromium()
+        browser.chromium()
     monkeypatch.setenv("CI", "1")
     with pytest.raises(pytest.fail.Exception, match="CI installs it"):
-        _chromium()
+        browser.chromium()
