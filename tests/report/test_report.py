@@ -59,14 +59,14 @@ def report(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(report_module, "EXTRA_FIGURES", extras)
         assert main(["report", "simplest_walker", "--out", str(out), "--steps", "4",
-                     "--quiet"]) == 0
+                     "--view3d", "--quiet"]) == 0
     return out
 
 
 def test_report_files_and_json(report):
     for name in ("report.html", "report.json", "gait.json", "step_down.json", "gsn.json",
                  "walk.gif", "angles.png", "limit_cycle.png", "energy.png",
-                 "energy_per_step.png", "floquet.png", "step_down.png"):
+                 "energy_per_step.png", "floquet.png", "step_down.png", "view3d.png"):
         assert (report / name).is_file(), name
     summary = json.loads((report / "report.json").read_text())
     assert summary["gait"]["status"] == "periodic"
@@ -84,7 +84,7 @@ def test_report_files_and_json(report):
 
 def test_every_figure_is_a_valid_png_and_the_gif_animates_every_step(report):
     pngs = sorted(report.glob("*.png"))
-    assert len(pngs) == 7                       # 6 figures and the extra section's
+    assert len(pngs) == 8                       # 6 figures, the 3D view's still, the extra one
     assert not (report / "none.png").exists()
     for p in pngs:
         assert p.read_bytes()[:8] == PNG_SIGNATURE, p.name
@@ -118,10 +118,17 @@ def test_report_opens_in_a_headless_browser_without_errors(report):
     m = re.search(r'data-images-ok="(\d+)/(\d+)"', dom)
     assert m, "the page's load handler did not run"
     ok, total = int(m.group(1)), int(m.group(2))
-    assert total == 8 and ok == total           # 6 figures, the extra one, the GIF: all decoded
+    assert total == 9 and ok == total           # 6 figures, the extra one, the GIF, the 3D
+    #                                             view's still (hidden while WebGL draws)
     assert "A test section" in dom and "Left out" not in dom
     player = re.search(r'data-player="ready:(\d+)"', dom)
     assert player and int(player.group(1)) > 100, "the player did not start"
+    # a planar walker keeps its 2D player; asked for, the 3D view comes beside it and draws
+    tag = re.search(r'<figure class="ph-viewer ph-live" id="view3d"[^>]*>', dom)
+    assert tag, "the 3D view did not start"
+    view = dict(re.findall(r'(data-[a-z]+)="([^"]*)"', tag.group(0)))
+    drawn, pixels = map(int, view["data-drawn"].split("/"))
+    assert view["data-viewer"] == player.group(0).split('"')[1] and drawn > 0.02 * pixels
     assert not console_errors(console), console
     assert "Walker report: simplest_walker" in dom
     assert "http://" not in dom.replace("http://www.w3.org", "") and "https://" not in dom

@@ -187,3 +187,24 @@ def test_a_3d_walker_is_drawn_from_its_poses():
     # a planar walker (the file as it is) is not 3D
     planar, _ = read_walker("compass_walker")
     assert not is_3d(SimpleNamespace(multibody="walker", spec=planar), series)
+
+
+# --- the command line ------------------------------------------------------------------------------
+def test_porthamiltonian_view(compile_named, tmp_path, capsys):
+    from PIL import Image
+
+    from porthamiltonian.cli import main
+
+    compile_named("free_rigid_body")                   # the python back end, compiled once
+    out = tmp_path / "view"
+    assert main(["view", "free_rigid_body", "--backend", "python", "--t-end", "2", "--rate", "10",
+                 "--out", str(out)]) == 0
+    assert "1 body, 21 frames over 2 s (finished)" in capsys.readouterr().out
+    page = (out / "view.html").read_text()
+    assert 'data-viewer="loading"' in page and '"name":"body"' in page
+    with Image.open(out / "view.png") as im:
+        assert im.format == "PNG"
+    assert main(["view", "pendulum", "--backend", "python", "--out", str(out)]) == 2
+    assert "error: model 'pendulum' gives no body poses" in capsys.readouterr().err
+    assert main(["view", "free_rigid_body", "--rate", "0", "--out", str(out)]) == 2
+    assert "error: --rate" in capsys.readouterr().err
