@@ -47,13 +47,14 @@ __all__ = ["is_3d", "planar_scene", "walker_scene"]
 LEG_SPREAD = 0.05
 
 
-def _time(walker: Any, step_period: float) -> dict[str, Any]:
-    """The scene's time unit and scale (real seconds per unit: one step per second for a
+def _units(walker: Any, step_period: float) -> dict[str, Any]:
+    """The scene's units and time scale (real seconds per unit: one step per second for a
     nondimensional model, as the 2D player does)."""
     if is_nondimensional(walker):
         scale = 1.0 / step_period if math.isfinite(step_period) and step_period > 0 else 1.0
-        return {"time_unit": "nondimensional time", "time_scale": scale}
-    return {"time_unit": "s", "time_scale": 1.0}
+        return {"time_unit": "nondimensional time", "time_scale": scale,
+                "length_unit": "nondim."}
+    return {"time_unit": "s", "time_scale": 1.0, "length_unit": "m"}
 
 
 def _planar(walker: Any) -> bool:
@@ -109,7 +110,7 @@ def walker_scene(walker: Any, series: GaitSeries, sc2d: Scene2D, *,
     return scene_from_trajectory(
         traj, model=model, bodies=bodies, extra_shapes=extra, ground=Ground(slope=slope),
         strides=_stride_starts(series), slope_frame=slope, title=walker.name,
-        **_time(walker, step_period))
+        **_units(walker, step_period))
 
 
 def _leg_quaternions(d: np.ndarray) -> np.ndarray:
@@ -158,4 +159,4 @@ def planar_scene(walker: Any, sc: Scene2D, *, step_period: float = math.nan) -> 
     change = np.flatnonzero(np.diff(sc.step) != 0) + 1
     strides = [float(sc.t[0]), *(float(sc.t[i]) for i in change)]
     return Scene(sc.t, bodies, ground=Ground(slope=sc.slope), arrows=arrows, strides=strides,
-                 title=walker.name, **_time(walker, step_period))
+                 title=walker.name, **_units(walker, step_period))

@@ -138,7 +138,7 @@ def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str]
                           strides: Sequence[float] = (), slope_frame: float | None = None,
                           rate: float = 30.0, max_frames: int = 900, up: str = "z",
                           title: str = "", time_unit: str = "s", time_scale: float = 1.0,
-                          link_radius: float = 0.02) -> Scene:
+                          length_unit: str = "m", link_radius: float = 0.02) -> Scene:
     """The :class:`Scene` of a simulation (module docstring: the names read, the default shapes).
 
     traj : a :class:`~porthamiltonian.trajectory.Trajectory`. model : the
@@ -146,7 +146,8 @@ def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str]
         optional). bodies : the bodies to draw (default: every body with a pose).
     shapes : body name -> its shapes (body frame), replacing the default ones.
     extra_shapes : body name -> shapes drawn besides the (default or given) ones.
-    ground, strides (times of the run), up, title, time_unit, time_scale : as in :class:`Scene`.
+    ground, strides (times of the run), up, title, time_unit, time_scale, length_unit : as in
+        :class:`Scene`.
     arrows : :class:`Arrow` s whose origin and vector are given at the trajectory's points
         (N, 3), in the model's frame; they are resampled (and rotated) with the bodies.
     slope_frame : γ when the model's frame is a slope frame (x down a slope of angle γ, z along
@@ -206,4 +207,4 @@ def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str]
              for a in arrows]
     inside = [float(s) for s in strides if times[0] - 1e-12 <= s <= times[-1] + 1e-12]
     return Scene(times, out, ground=ground, arrows=moved, strides=inside, up=up, title=title,
-                 time_unit=time_unit, time_scale=time_scale)
+                 time_unit=time_unit, time_scale=time_scale, length_unit=length_unit)

@@ -37,6 +37,7 @@ def write_png(scene: Scene, path: Path, *, times: Sequence[float] | None = None,
     """Draw the still image of ``scene`` into ``path`` (see :meth:`Scene.to_png`)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     E = np.stack(AXES[scene.up])                 # rows: downhill x, lateral, up
@@ -78,6 +79,8 @@ def write_png(scene: Scene, path: Path, *, times: Sequence[float] | None = None,
     ax.set_xlabel(f"x ({unit})")
     ax.set_ylabel(f"{'y' if scene.up == 'z' else '−z'} ({unit})")
     ax.set_zlabel(f"{scene.up} ({unit})")
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(4))
     ax.view_init(elev=elevation, azim=azimuth)
     shown = ", ".join(f"{scene.t[k]:.3g}" for k in frames)
     ax.set_title(f"{scene.title + ': ' if scene.title else ''}t = {shown} {scene.time_unit}",
