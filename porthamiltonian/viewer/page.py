@@ -26,9 +26,12 @@ import base64
 import functools
 import html
 import json
+import tempfile
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -220,7 +223,6 @@ def assets() -> str:
 
 
 def _still_png(scene: Scene) -> bytes:
-    import tempfile
     with tempfile.TemporaryDirectory() as tmp:
         path = scene.to_png(Path(tmp) / "still.png")
         return path.read_bytes()
@@ -264,7 +266,6 @@ def _travel(scene: Scene) -> bool:
     """Whether the bodies travel further than the scene's size (then the view follows them)."""
     if not scene.bodies:
         return False
-    import numpy as np
     c = np.mean([b.position for b in scene.bodies], axis=0)
     return bool(np.linalg.norm(c.max(axis=0) - c.min(axis=0)) > scene.size())
 
