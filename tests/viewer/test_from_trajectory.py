@@ -6,7 +6,7 @@ multibody yet: those cases use stand-in trajectories whose columns are closed-fo
 (tests/viewer/synthetic.py); a FreeBody's poses are its states, simulated here."""
 from __future__ import annotations
 
-import copy
+import dataclasses
 import math
 from types import SimpleNamespace
 
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from synthetic import BALL, FakeTrajectory, ball_slope_frame, pose_columns
 
-from porthamiltonian import io
+from porthamiltonian import Model, io
 from porthamiltonian.errors import SceneError
 from porthamiltonian.viewer import (
     Arrow,
@@ -140,9 +140,14 @@ def _walker_standin():
     """compass_walker's file with its multibody made 3D (no plane), as a 3D walker's would be,
     and a closed-form stride of it: the hip moving down the slope, the legs swinging."""
     spec, _ = read_walker("compass_walker")
-    spec = copy.deepcopy(spec)
-    flat = spec.model.component("walker")
-    spec.model.replace("walker", type(flat)(**{k: v for k, v in flat.args.items() if k != "plane"}))
+    model = Model(spec.model.name)      # its components, the multibody's point ports in 3D, no bonds
+    for name, par in spec.model.parameters.items():
+        model.parameter(name, par.value, par.unit, par.doc)
+    for name, part in spec.model.components():
+        if name == "walker":
+            part = type(part)(**{k: v for k, v in part.args.items() if k != "plane"})
+        model.add(name, part)
+    spec = dataclasses.replace(spec, model=model)
     values = {k: float(p.value) for k, p in spec.model.parameters.items()}
     walker = SimpleNamespace(name="compass_walker", multibody="walker", spec=spec,
                              parameters=values, leg_length=values["l"])
