@@ -14,6 +14,8 @@ then the ledger states E_diss, E_in) and the parameter vector ``p``:
 Implicit blocks ``A(t, x, p) v = b(t, x, p)`` (e.g. M(q) q̇ = p of a multibody) are solved
 numerically at the top of every function that needs ``v``; in the Jacobian, v's derivative is
 ``A⁻¹ (∂b/∂x − ∂(A v)/∂x|_v)`` (implicit differentiation), never a symbolic inverse.
+Intermediates may read the blocks' unknowns (velocity-level intermediates, e.g. the body twists
+of a multibody); the chain rule then adds ∂w/∂v · ∂v/∂x to their rows.
 
 The source uses only ``math``, ``numpy`` array creation, ``np.linalg.solve`` and indexing, so the
 same text runs as plain Python (the reference back end) and under ``numba.njit`` (the compiled back
@@ -104,8 +106,9 @@ class _Writer:
 
     def function(self, name: str, args: str, groups: list[tuple], tail: list[str] | None = None,
                  prologue: bool = True, result: str | None = None) -> str:
-        """``groups``: ("array", name, flat expressions, shape) or ("scalars", names, exprs).
-        ``tail``: extra lines before ``return result`` (default: the first array group)."""
+        """``groups``: ("array", name, flat expressions, shape), ("scalars", names, exprs) or
+        ("sparse", name, expressions, shape, their (i, j) indices) for a matrix that is zero
+        elsewhere. ``tail``: extra lines before ``return result`` (default: the first group)."""
         pr = self.printer.doprint
         flat = [sp.sympify(e).xreplace(self.mapping) for g in groups for e in g[2]]
         replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("_c"), order="none")
@@ -115,7 +118,7 @@ class _Writer:
         k = 0
         for group in groups:
             kind, gname, exprs = group[0], group[1], group[2]
-            if kind == "array":
+            if kind in ("array", "sparse"):
                 shape = group[3]
                 if len(shape) == 2:
                     body.append(f"    {gname} = np.zeros(({shape[0]}, {shape[1]}))")
@@ -127,6 +130,9 @@ class _Writer:
                 needed |= {str(s) for s in expr.free_symbols}
                 if kind == "scalars":
                     body.append(f"    {gname[index]} = {pr(expr)}")
+                elif kind == "sparse":
+                    i, j = group[4][index]
+                    body.append(f"    {gname}[{i}, {j}] = {pr(expr)}")
                 elif len(group[3]) == 2:
                     i, j = divmod(index, group[3][1])
                     if expr != 0:
@@ -152,6 +158,28 @@ class _Writer:
         return "\n".join(lines)
 
 
+def derivative(expr: sp.Expr, v: sp.Symbol) -> sp.Expr:
+    """∂expr/∂v: sums, products and numeric powers by hand (the bulk of generated expressions,
+    about ten times faster than sympy's general ``diff``), anything else by ``sympy.diff``."""
+    if expr == v:
+        return sp.S.One
+    if v not in expr.free_symbols:
+        return sp.S.Zero
+    if expr.is_Add:
+        return sp.Add(*[derivative(a, v) for a in expr.args if v in a.free_symbols])
+    if expr.is_Mul:
+        args, terms = expr.args, []
+        for i, a in enumerate(args):
+            if v in a.free_symbols:
+                d = derivative(a, v)
+                if d != 0:
+                    terms.append(sp.Mul(*args[:i], d, *args[i + 1:]))
+        return sp.Add(*terms)
+    if expr.is_Pow and expr.exp.is_Number:
+        return expr.exp * expr.base ** (expr.exp - 1) * derivative(expr.base, v)
+    return sp.diff(expr, v)
+
+
 def jacobian(exprs: sp.Matrix, variables: list[sp.Symbol]) -> sp.Matrix:
     """∂exprs/∂variables, differentiating each entry only by the variables it contains."""
     index = {v: j for j, v in enumerate(variables)}
@@ -159,7 +187,7 @@ def jacobian(exprs: sp.Matrix, variables: list[sp.Symbol]) -> sp.Matrix:
     for i, expr in enumerate(exprs):
         for v in expr.free_symbols:
             if v in index:
-                out[i, index[v]] = sp.diff(expr, v)
+                out[i, index[v]] = derivative(expr, v)
     return out
 
 
@@ -209,10 +237,17 @@ def generate(model: SymbolicModel) -> str:
 
 def _jacobian_function(writer: _Writer, model: SymbolicModel, rhs: sp.Matrix, xs, ws, vs) -> str:
     """∂ẋ/∂x through intermediates w (forward chain rule, row by row with only the nonzero
-    partials) and implicit blocks A v = b (v' = A⁻¹ ∂(b − A v)/∂x, v held fixed)."""
+    partials) and implicit blocks A v = b (v' = A⁻¹ ∂(b − A v)/∂x, v held fixed).
+
+    Intermediates come ordered, those of states only first (A and b use only these), then
+    those that also read the blocks' unknowns v (e.g. body twists); the latter's rows of ∂w/∂x
+    receive ∂w/∂v · v' once v' is known."""
     n, nw, nv = len(xs), len(ws), len(vs)
     if not ws and not vs:
         return writer.function("jac", "t, x, p", [("array", "out", list(jacobian(rhs, xs)), (n, n))])
+    npos = _position_level(model, vs)
+    if npos < nw:
+        return _jacobian_with_velocity_intermediates(writer, model, rhs, xs, ws, vs, npos)
     groups: list[tuple] = [("array", "_Fx", list(jacobian(rhs, xs)), (n, n))]
     tail: list[str] = []
     if nw:
@@ -241,4 +276,76 @@ def _jacobian_function(writer: _Writer, model: SymbolicModel, rhs: sp.Matrix, xs
         else:
             tail.append("    _R = _Bx")
         tail.append("    out = out + _Fv @ np.linalg.solve(_Ab, _R)")
+    return writer.function("jac", "t, x, p", groups, tail=tail, result="out")
+
+
+def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
+    """How many leading intermediates depend on no block unknown (directly or through others)."""
+    reads_v = set(vs)
+    for k, (symbol, expr) in enumerate(model.intermediates):
+        if expr.free_symbols & reads_v:
+            return k
+    return len(model.intermediates)
+
+
+def _sparse_jacobian(exprs: list, variables: list[sp.Symbol]) -> tuple[list, list]:
+    """The nonzero entries of ∂exprs/∂variables as (expressions, (i, j) indices), each entry
+    differentiated only by the variables it contains."""
+    index = {v: j for j, v in enumerate(variables)}
+    values, where = [], []
+    for i, expr in enumerate(exprs):
+        for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.get):
+            d = derivative(expr, v)
+            if d != 0:
+                values.append(d)
+                where.append((i, index[v]))
+    return values, where
+
+
+def _jacobian_with_velocity_intermediates(writer: _Writer, model: SymbolicModel, rhs: sp.Matrix,
+                                          xs, ws, vs, npos: int) -> str:
+    """The Jacobian when intermediates ``ws[npos:]`` read the block unknowns: the chain rule over
+    the position-level rows, then v' = A⁻¹ (∂b/∂x − ∂(A v)/∂x) from those, then the
+    velocity-level rows with ∂w/∂v · v' added before their own chain terms. The partials with
+    respect to intermediates are sparse (each intermediate reads a few others) and are formed
+    and written entry by entry."""
+    n, nw, nv = len(xs), len(ws), len(vs)
+    defs = [expr for _, expr in model.intermediates]
+    A = sp.diag(*[blk[1] for blk in model.blocks])
+    b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
+    res = list(b - A * sp.Matrix(vs))
+
+    def sparse(name: str, exprs: list, variables: list, shape: tuple) -> tuple:
+        values, where = _sparse_jacobian(exprs, variables)
+        return ("sparse", name, values, shape, where)
+
+    chain_values, chain = _sparse_jacobian(defs, ws)
+    update = {}                               # the chain rule's row updates, constants inline
+    for (m, j), g in zip(chain, chain_values):
+        if g == 1 or g == -1:
+            update[m, j] = f"    _Dw[{m}, :] {'+' if g == 1 else '-'}= _Dw[{j}, :]"
+        elif g.is_Number:
+            update[m, j] = f"    _Dw[{m}, :] += {writer.printer.doprint(g)} * _Dw[{j}, :]"
+        else:
+            update[m, j] = f"    _Dw[{m}, :] += _g{m}_{j} * _Dw[{j}, :]"
+    scalars = [(m, j, g) for (m, j), g in zip(chain, chain_values) if not g.is_Number]
+    groups: list[tuple] = [
+        ("array", "_Fx", list(jacobian(rhs, xs)), (n, n)),
+        sparse("_Fw", list(rhs), ws, (n, nw)),
+        ("array", "_Fv", list(jacobian(rhs, vs)), (n, nv)),
+        sparse("_Gx", defs, xs, (nw, n)),
+        sparse("_Gv", defs[npos:], vs, (nw - npos, nv)),
+        ("scalars", [f"_g{m}_{j}" for m, j, _ in scalars], [g for _, _, g in scalars]),
+        ("array", "_Bx", list(jacobian(sp.Matrix(res), xs)), (nv, n)),
+        ("array", "_Ab", list(A), (nv, nv)),
+    ]
+    if npos:
+        groups.append(sparse("_Bw", res, ws[:npos], (nv, npos)))
+    tail = ["    _Dw = _Gx"]
+    tail += [update[m, j] for m, j in chain if m < npos]
+    tail.append(f"    _Vx = np.linalg.solve(_Ab, _Bx + _Bw @ _Dw[:{npos}, :])"
+                if npos else "    _Vx = np.linalg.solve(_Ab, _Bx)")
+    tail.append(f"    _Dw[{npos}:, :] += _Gv @ _Vx")
+    tail += [update[m, j] for m, j in chain if m >= npos]
+    tail.append("    out = _Fx + _Fw @ _Dw + _Fv @ _Vx")
     return writer.function("jac", "t, x, p", groups, tail=tail, result="out")

@@ -59,7 +59,8 @@ from ..component import Arg, Builder, Component, register
 from ..errors import ModelError, UnknownComponentError
 from ..ports import Port
 from .bodies import as_tables
-from .kinematics import Frame, Rotation, Vector
+from .kinematics import ZERO3, add, cross, dot, named, scale
+from .tree import Link, Tree
 
 _AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
 _JOINT_TYPES = ("revolute", "prismatic", "translational", "weld")
@@ -76,6 +77,11 @@ def _axis(value: Any, where: str) -> tuple:
         raise ModelError(f"{where}: axis must be a non-zero 3-vector, got {value!r}")
     vec = vec / np.linalg.norm(vec)
     return tuple(sp.nsimplify(v) if float(v).is_integer() else float(v) for v in vec)
+
+
+def _written_out(name: str, expr: Any) -> Any:
+    """``make`` for :class:`Tree` that keeps every quantity as an expression (initial values)."""
+    return expr
 
 
 def _vector3(value: Any, where: str) -> list:
@@ -231,7 +237,7 @@ class Multibody(Component):
     def ports(self) -> list[Port]:
         ports = []
         coords = self._coordinates()
-        for name, joint in self.value("joints").items():
+        for name in self.value("joints"):
             mine = [c for c in coords if c[0] == name]
             if mine:
                 domain = "rotation" if mine[0][3] == "rotation" else "translation"
@@ -250,161 +256,170 @@ class Multibody(Component):
     # --- equations --------------------------------------------------------------------------------
     def build(self, b: Builder, bodies, joints, gravity, plane) -> None:
         coords = self._coordinates()
-        joint_q0: dict[str, list] = {}
-        for name, joint in joints.items():
-            n = sum(1 for c in coords if c[0] == name)
-            for key in ("q0", "v0"):
-                value = joint.get(key, 0)
-                values = value if isinstance(value, list) else [value] * n
-                if len(values) != n:
-                    raise ModelError(f"Multibody joint {name!r}: {key} needs {n} value(s), got {value!r}")
-                joint_q0.setdefault(name, [])
-                joint_q0[name].append([b.parse(v, f"joint {name!r} {key}") for v in values])
-        q = [b.state(f"q.{label}", initial=joint_q0[j][0][[c for c in coords if c[0] == j].index(
-            (j, label, ax, kind))]) for j, label, ax, kind in coords]
-        index = {(c[0], c[1]): k for k, c in enumerate(coords)}
-
-        # kinematics (kept compact, see .kinematics): world frames of the bodies, and per body
-        # the columns of its Jacobian: angular velocity (world) and velocity of a body-fixed point
-        # as functions of the joint axes, both as sums of rotated constant vectors
-        frames: dict[str, Frame] = {"world": Frame.world()}
-        axes: dict[str, dict[int, tuple[str, Vector, Vector]]] = {"world": {}}
-        for jname in self._tree_order():
-            joint = joints[jname]
-            frame = frames[joint["parent"]].compose(shift=[
-                b.parse(v, f"joint {jname!r} origin")
-                for v in _vector3(joint.get("origin"), f"joint {jname!r} origin")])
-            columns = dict(axes[joint["parent"]])
-            for (j, label, ax, kind) in (c for c in coords if c[0] == jname):
-                k = index[(j, label)]
-                axis = Vector.of(ax, frame.R)                  # joint axis, world coordinates
-                columns[k] = (kind, axis, frame.p)
-                if kind == "rotation":
-                    frame = frame.compose(R=Rotation.about(ax, q[k]))
-                else:
-                    frame = frame.compose(shift=[a * q[k] for a in ax])
-            frames[joint["child"]] = frame
-            axes[joint["child"]] = columns
-
-        # M(q) = Σ_i [m_i J_v,iᵀ J_v,i + J_ω,iᵀ R_i I_c,i R_iᵀ J_ω,i]: the spatial-inertia form
-        # about each centre of mass, with every entry formed by relative rotations
         n = len(coords)
-        M = sp.zeros(n, n)
-        V = sp.Integer(0)
-        g = sp.Matrix([b.parse(v, "gravity") for v in (gravity or [0, 0, "-9.81"])])
-        points: dict[str, sp.Matrix] = {}
-        frames_twist: dict[str, sp.Matrix] = {}   # frame port -> 6 x n twist Jacobian (frame axes)
-        for body_name, body in bodies.items():
-            frame = frames[body_name]
-            mass = b.parse(body["mass"], f"body {body_name!r} mass")
+        q0, v0 = self._initial(b, joints, coords)
+        links, placement = self._links(b, joints, coords)
+        g = [b.parse(v, "gravity") for v in (gravity or [0, 0, "-9.81"])]
+        static_first = list(ZERO3)          # first moment of the bodies welded to the world
+        for name, body in bodies.items():
+            where = f"body {name!r}"
+            mass = b.parse(body["mass"], f"{where} mass")
             if mass != 0:               # > 0, or written as 0 (a massless body, e.g. "0*m")
-                b.require(mass, ">", f"body {body_name!r} mass")
-            com = [b.parse(v, f"body {body_name!r} com") for v in _vector3(body.get("com"), "com")]
-            c_world = frame.point(com)
-            linear, angular = {}, {}
-            for k, (kind, axis, origin) in axes[body_name].items():
-                if kind == "rotation":
-                    angular[k] = axis
-                    linear[k] = axis.cross(c_world - origin)
-                else:
-                    linear[k] = axis
-            inertia = self._inertia(body.get("inertia", 0), f"body {body_name!r}")
-            I_c = None if inertia == 0 else sp.Matrix(
-                [[b.parse(v, f"body {body_name!r} inertia") for v in row] for row in inertia])
-            body_axes = {k: w.in_frame(frame.R).matrix() for k, w in angular.items()}
-            for j in linear:
-                for k in linear:
-                    if k < j:
-                        continue
-                    entry = mass * linear[j].dot(linear[k])
-                    if I_c is not None and j in body_axes and k in body_axes:
-                        entry += (body_axes[j].T * I_c * body_axes[k])[0, 0]
-                    M[j, k] += entry
-                    if k != j:
-                        M[k, j] += entry
-            V -= mass * (g.T * c_world.matrix())[0, 0]
-            for point, pos in (body.get("points") or {}).items():
-                points[point] = frame.point([b.parse(v, f"point {point!r}")
-                                             for v in _vector3(pos, point)]).matrix()
-            for name, pos in (body.get("frames") or {}).items():
-                J_w = sp.zeros(3, n)
-                for k, w in angular.items():
-                    J_w[:, k] = w.in_frame(frame.R).matrix()        # body-axes angular velocity
-                origin = frame.point([b.parse(v, f"frame {name!r}") for v in _vector3(pos, name)])
-                J_o = origin.matrix().jacobian(q)
-                frames_twist[name] = sp.Matrix.vstack(J_w, frame.R.matrix.T * J_o)
-        M = M.applyfunc(sp.expand)
-
-        # initial momenta p0 = M(q0) v0 (a product, no inversion)
-        q0 = {q[k]: joint_q0[c[0]][0][[d for d in coords if d[0] == c[0]].index(c)]
-              for k, c in enumerate(coords)}
-        v0 = sp.Matrix([joint_q0[c[0]][1][[d for d in coords if d[0] == c[0]].index(c)]
-                        for c in coords])
-        p0 = M.xreplace(q0) * v0
-        p = [b.state(f"p.{c[1]}", initial=p0[k]) for k, c in enumerate(coords)]
-
-        # intermediates keep the generated code local: mass-matrix entries, their derivatives
-        # (for the Coriolis terms ½ vᵀ ∂M/∂q_k v) and the point Jacobians are computed once, and
-        # the Jacobian of the state equations goes through them by the chain rule
-        Mw = sp.zeros(n, n)
-        dM: dict[int, list[tuple[int, int, sp.Expr]]] = {k: [] for k in range(n)}
-        for i in range(n):
-            for j in range(i, n):
-                Mw[i, j] = Mw[j, i] = b.intermediate(f"M.{i}.{j}", M[i, j])
-                for k in range(n):
-                    d = sp.diff(M[i, j], q[k])
-                    if d != 0:
-                        dM[k].append((i, j, b.intermediate(f"dM.{i}.{j}.{k}", d)))
-        v = b.implicit("v", Mw, sp.Matrix(p))
-        vvec = sp.Matrix(v)
-
-        Q = [sp.Integer(0)] * n
-        dims = [("x", 0), ("y", 1), ("z", 2)]
-        keep = [i for name, i in dims if name in self._point_dims()]
-        point_jacobians: dict[str, sp.Matrix] = {}
-        for point, pos in points.items():
-            Jp = sp.Matrix([pos[i] for i in keep]).jacobian(q)
-            point_jacobians[point] = sp.Matrix(Jp.rows, Jp.cols, lambda r, c, point=point, Jp=Jp:
-                                               b.intermediate(f"J.{point}.{r}.{c}", Jp[r, c]))
-        for port_name, pv in b.built.ports.items():
-            s = b.sign(port_name)
-            if port_name in frames_twist:
-                J_T = frames_twist[port_name].applyfunc(sp.expand)
-                J_T = sp.Matrix(6, n, lambda r, c, J_T=J_T, port_name=port_name:
-                                b.intermediate(f"JT.{port_name}.{r}.{c}", J_T[r, c]))
-                b.equation(sp.Matrix(pv.f), J_T * vvec, "frame twist = J_T(q) v")
-                gen = J_T.T * sp.Matrix(pv.e)
-                Q = [Q[k] + s * gen[k] for k in range(n)]
-            elif port_name in points:
-                Jp = point_jacobians[port_name]
-                efforts = sp.Matrix(pv.e) if pv.port.dim > 1 else sp.Matrix([pv.e])
-                flows = sp.Matrix(pv.f) if pv.port.dim > 1 else sp.Matrix([pv.f])
-                b.equation(flows, Jp * vvec, "point velocity = J(q) v")
-                gen = Jp.T * efforts
-                Q = [Q[k] + s * gen[k] for k in range(n)]
+                b.require(mass, ">", f"{where} mass")
+            com = [b.parse(v, f"{where} com") for v in _vector3(body.get("com"), "com")]
+            inertia = self._inertia(body.get("inertia", 0), where)
+            I_c = None if inertia == 0 else [[b.parse(v, f"{where} inertia") for v in row]
+                                             for row in inertia]
+            link, offset = placement[name]
+            if link is None:
+                static_first = add(static_first, scale(mass, add(offset, com)))
             else:
-                ks = [index[(c[0], c[1])] for c in coords if c[0] == port_name]
-                efforts = [pv.e] if pv.port.dim == 1 else list(pv.e)
-                flows = [pv.f] if pv.port.dim == 1 else list(pv.f)
-                for k, e, f in zip(ks, efforts, flows):
-                    b.equation(f, v[k], "joint velocity")
-                    Q[k] = Q[k] + s * e
+                link.add_body(mass, add(offset, com), I_c)
+
+        # initial momenta p0 = M(q0) v0, as S_kᵀ Π_k of the same recursion written out
+        p0 = [sp.Integer(0)] * n
+        if any(value != 0 for value in v0):
+            start = Tree(links, _written_out)
+            start.positions(q0)
+            start.velocities(v0)
+            p0 = start.generalized_momenta()
+        q = [b.state(f"q.{label}", initial=q0[k]) for k, (_, label, _, _) in enumerate(coords)]
+        p = [b.state(f"p.{label}", initial=value) for (_, label, _, _), value in zip(coords, p0)]
+
+        def make(name: str, expr: Any) -> Any:
+            expr = sp.sympify(expr)
+            if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
+                                and expr.args[1].is_Atom):
+                return expr
+            return b.intermediate(f"mb.{name}", expr)
+
+        tree = Tree(links, make)
+        tree.positions(q)
+        tree.composites()
+        M = tree.mass_matrix()
+        v = b.implicit("v", M, sp.Matrix(p))
+        tree.velocities(v)
+
+        origins = {link: add(link.offset, scale(q[link.index], link.axis))
+                   if link.kind == "translation" else list(link.offset)
+                   for link in links if link.parent is None}
+        potential = -dot(g, add(tree.first_moment_world(origins), static_first))
+        Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces(g))]
+
+        dims = [i for i, axis in enumerate("xyz") if axis in self._point_dims()]
+        for body_name, body in bodies.items():
+            link, offset = placement[body_name]
+            for point, pos in (body.get("points") or {}).items():
+                local = add(offset, [b.parse(c, f"point {point!r}") for c in _vector3(pos, point)])
+                if link is None:
+                    world, velocity, J = local, list(ZERO3), sp.zeros(3, n)
+                else:
+                    x = named(make, f"at.{point}", tree.point(link, local))
+                    world = named(make, f"at.{point}.world", add(origins[link.root], x))
+                    velocity = named(make, f"at.{point}.velocity", tree.point_velocity(link, x))
+                    J = sp.zeros(3, n)
+                    for joint in link.path():
+                        J[:, joint.index] = sp.Matrix(tree.column(joint, x))
+                for i, axis in enumerate("xyz"):
+                    b.output(f"{point}.{axis}", world[i])
+                b.matrix(f"J.{point}", J[dims, :])
+                if point in b.built.ports:
+                    pv, s = b.port(point), b.sign(point)
+                    efforts = list(pv.e) if pv.port.dim > 1 else [pv.e]
+                    force = [sp.Integer(0)] * 3
+                    for i, e in zip(dims, efforts):
+                        force[i] = e
+                    b.equation(sp.Matrix(pv.f if pv.port.dim > 1 else [pv.f]),
+                               sp.Matrix([velocity[i] for i in dims]), "point velocity")
+                    if link is not None:
+                        self._load(tree, Q, link, cross(x, force), force, s)
+            for frame, pos in (body.get("frames") or {}).items():
+                if frame not in b.built.ports:
+                    continue
+                pv, s = b.port(frame), b.sign(frame)
+                local = add(offset, [b.parse(c, f"frame {frame!r}") for c in _vector3(pos, frame)])
+                if link is None:
+                    b.equation(sp.Matrix(pv.f), sp.zeros(6, 1), "frame twist (fixed)")
+                    continue
+                x = named(make, f"at.{frame}", tree.point(link, local))
+                w, _ = tree.twist[link]
+                twist = tree.rotate_to_link(link, w) + tree.rotate_to_link(
+                    link, tree.point_velocity(link, x))
+                b.equation(sp.Matrix(pv.f), sp.Matrix(twist), "frame twist (ω, v), frame axes")
+                torque = tree.rotate_from_link(link, list(pv.e[:3]))
+                force = tree.rotate_from_link(link, list(pv.e[3:]))
+                self._load(tree, Q, link, add(torque, cross(x, force)), force, s)
+        for name, joint in joints.items():
+            if name not in b.built.ports:
+                continue
+            pv, s = b.port(name), b.sign(name)
+            ks = [k for k, c in enumerate(coords) if c[0] == name]
+            efforts = [pv.e] if pv.port.dim == 1 else list(pv.e)
+            flows = [pv.f] if pv.port.dim == 1 else list(pv.f)
+            for k, e, f in zip(ks, efforts, flows):
+                b.equation(f, v[k], "joint velocity")
+                Q[k] = Q[k] + s * e
         for k in range(n):
             b.equation(b.der(q[k]), v[k], "dq/dt = v, M(q) v = p")
-            coriolis = sum(((v[i] * v[j] if i != j else v[i] ** 2 / 2) * d for i, j, d in dM[k]),
-                           sp.Integer(0))
-            gravity_force = b.intermediate(f"dV.{k}", -sp.diff(V, q[k]))
-            b.equation(b.der(p[k]), coriolis + gravity_force + Q[k],
-                       "dp/dt = 1/2 v' dM/dq v - dV/dq + Q")
-        kinetic = (sp.Matrix(p).T * vvec)[0, 0] / 2
-        b.energy(kinetic + V)
+            b.equation(b.der(p[k]), Q[k], "dp/dt = Π'ad_T S - dV/dq + Q")
+        kinetic = (sp.Matrix(p).T * sp.Matrix(v))[0, 0] / 2
+        b.energy(kinetic + potential)
         b.output("T", kinetic)
-        b.output("V", V)
-        for point, pos in points.items():
-            for name, i in dims:
-                b.output(f"{point}.{name}", pos[i])
-            b.matrix(f"J.{point}", point_jacobians[point])
-        b.matrix("M", Mw)
+        b.output("V", potential)
+        b.matrix("M", M)
+
+    @staticmethod
+    def _load(tree: Tree, Q: list, link: Link, torque: list, force: list, sign: int) -> None:
+        """Add the generalized forces S_jᵀ (τ, f) of a wrench on ``link`` (reference frame,
+        torque about the reference origin) to the joints from ``link`` to its root."""
+        for joint in link.path():
+            P = tree.pos[joint]
+            Q[joint.index] = Q[joint.index] + sign * (dot(P.a, torque) + dot(P.u, force))
+
+    def _initial(self, b: Builder, joints, coords) -> tuple[list, list]:
+        """q0 and v0 per coordinate (expressions in the parameters)."""
+        values: dict[str, dict[str, list]] = {}
+        for name, joint in joints.items():
+            count = sum(1 for c in coords if c[0] == name)
+            for key in ("q0", "v0"):
+                value = joint.get(key, 0)
+                items = value if isinstance(value, list) else [value] * count
+                if len(items) != count:
+                    raise ModelError(f"Multibody joint {name!r}: {key} needs {count} value(s), got "
+                                     f"{value!r}")
+                values.setdefault(key, {})[name] = [b.parse(x, f"joint {name!r} {key}")
+                                                    for x in items]
+        out = []
+        for key in ("q0", "v0"):
+            seen: dict[str, int] = {}
+            column = []
+            for joint, _, _, _ in coords:
+                column.append(values[key][joint][seen.get(joint, 0)])
+                seen[joint] = seen.get(joint, 0) + 1
+            out.append(column)
+        return out[0], out[1]
+
+    def _links(self, b: Builder, joints, coords) -> tuple[list[Link], dict]:
+        """One link per coordinate (parents first) and the placement of every body: (its link,
+        or None for the world, and its origin in the link's frame)."""
+        placement: dict[str, tuple[Link | None, list]] = {}
+        links: list[Link] = []
+        for jname in self._tree_order():
+            joint = joints[jname]
+            parent = joint["parent"]
+            link, offset = (None, list(ZERO3)) if parent == "world" else placement[parent]
+            offset = add(offset, [b.parse(v, f"joint {jname!r} origin")
+                                  for v in _vector3(joint.get("origin"), f"joint {jname!r} origin")])
+            for k, (j, label, axis, kind) in enumerate(coords):
+                if j != jname:
+                    continue
+                new = Link(label, link, offset, kind, tuple(axis), k)
+                if link is not None:
+                    link.children.append(new)
+                links.append(new)
+                link, offset = new, list(ZERO3)
+            placement[joint["child"]] = (link, offset)
+        return links, placement
 
     def _tree_order(self) -> list[str]:
         joints = self.value("joints")

@@ -109,19 +109,26 @@ def python_cases() -> dict[str, ph.Model]:
 
 
 def random_states(compiled, seed: int, count: int) -> np.ndarray:
-    """``count`` model states around the initial state: multibody coordinates ``.q.`` shifted by
-    U(−0.4, 0.4), momenta ``.p.`` drawn from U(−2, 2), other states shifted by U(−0.05, 0.05)."""
+    """``count`` model states around the initial state: multibody coordinates ``<mb>.q.*``
+    shifted by U(−0.4, 0.4), their velocities drawn from U(−2, 2) (m/s or rad/s) and the momenta
+    set to p = M(q) v with the multibody's mass matrix ``<mb>.M``, other states shifted by
+    U(−0.05, 0.05)."""
     rng = np.random.default_rng(seed)
     x0 = compiled.initial_state()
+    names = compiled.state_names
     out = np.empty((count, len(x0)))
     for k in range(count):
         x = x0.copy()
-        for i, name in enumerate(compiled.state_names):
+        for i, name in enumerate(names):
             if ".q." in name:
                 x[i] += rng.uniform(-0.4, 0.4)
-            elif ".p." in name:
-                x[i] = rng.uniform(-2.0, 2.0)
-            else:
+            elif ".p." not in name:
                 x[i] += rng.uniform(-0.05, 0.05)
+        for matrix in compiled.matrix_names:
+            if matrix.endswith(".M"):
+                prefix = matrix[:-1] + "p."
+                ip = [i for i, n in enumerate(names) if n.startswith(prefix)]
+                v = rng.uniform(-2.0, 2.0, len(ip))
+                x[ip] = compiled.matrix(matrix, 0.0, x, compiled.param_defaults) @ v
         out[k] = x
     return out
