@@ -120,19 +120,25 @@ class Rotation:
         RJ = [[dot(self.rows[i], [J[k][j] for k in range(3)]) for j in range(3)] for i in range(3)]
         return [[dot(RJ[i], self.rows[j]) if j >= i else None for j in range(3)] for i in range(3)]
 
-    def about(self, axis: tuple, q: Any, make: Make, name: str) -> Rotation:
-        """This rotation followed by a rotation by ``q`` about ``axis`` (in the rotated frame):
-        R · Rot(axis, q). Intermediates are named ``name.th``, ``name.c``, ``name.s`` (angle
-        form) or ``name.R<i><j>`` (matrix form)."""
-        axis = tuple(axis)
-        if self.rows is None or self.axis == axis:
-            angle = q if self.rows is None else make(f"{name}.th", self.angle + q)
-            rows = _axis_angle_rows(axis, make(f"{name}.c", sp.cos(angle)),
-                                    make(f"{name}.s", sp.sin(angle)))
-            return Rotation(axis, angle, rows)
-        step = _axis_angle_rows(axis, make(f"{name}.cq", sp.cos(q)), make(f"{name}.sq", sp.sin(q)))
-        rows = tuple(tuple(make(f"{name}.R{i}{j}", dot(self.rows[i], [r[j] for r in step]))
+    def then(self, step: Rotation, make: Make, name: str) -> Rotation:
+        """This rotation followed by ``step`` (in the rotated frame): R · R_step, with angles
+        added when both turn about the same axis (intermediates ``name.th``, ``name.c``,
+        ``name.s``), else as a matrix (``name.R<i><j>``)."""
+        if self.rows is None:
+            return step
+        if step.rows is None:
+            return self
+        if self.axis is not None and self.axis == step.axis:
+            angle = make(f"{name}.th", self.angle + step.angle)
+            return Rotation(step.axis, angle, _axis_angle_rows(
+                step.axis, make(f"{name}.c", sp.cos(angle)), make(f"{name}.s", sp.sin(angle))))
+        rows = tuple(tuple(make(f"{name}.R{i}{j}", dot(self.rows[i], [r[j] for r in step.rows]))
                            for j in range(3)) for i in range(3))
         return Rotation(rows=rows)
 
-
+    @staticmethod
+    def turn(axis: Sequence, q: Any, make: Make, name: str) -> Rotation:
+        """Rot(axis, q) about a unit ``axis``, with cos q and sin q as ``name.c``, ``name.s``."""
+        axis = tuple(axis)
+        return Rotation(axis, q, _axis_angle_rows(axis, make(f"{name}.c", sp.cos(q)),
+                                                  make(f"{name}.s", sp.sin(q))))

@@ -295,16 +295,18 @@ class Multibody(Component):
 
         tree = Tree(links, make)
         tree.positions(q)
+        tree.world()
         tree.composites()
         M = tree.mass_matrix()
         v = b.implicit("v", M, sp.Matrix(p))
         tree.velocities(v)
-
-        origins = {link: add(link.offset, scale(q[link.index], link.axis))
-                   if link.kind == "translation" else list(link.offset)
-                   for link in links if link.parent is None}
-        potential = -dot(g, add(tree.first_moment_world(origins), static_first))
-        Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces(g))]
+        tree.gravity(g)
+        Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces())]
+        first = list(static_first)                  # Σ m c over all bodies, world frame
+        for root in (link for link in links if link.parent is None):
+            P = tree.pos[root]
+            first = add(first, scale(P.cmass, P.world_p), P.world_R.apply(P.cfirst))
+        potential = -dot(g, first)
 
         dims = [i for i, axis in enumerate("xyz") if axis in self._point_dims()]
         for body_name, body in bodies.items():
@@ -312,43 +314,37 @@ class Multibody(Component):
             for point, pos in (body.get("points") or {}).items():
                 local = add(offset, [b.parse(c, f"point {point!r}") for c in _vector3(pos, point)])
                 if link is None:
-                    world, velocity, J = local, list(ZERO3), sp.zeros(3, n)
+                    x, velocity, J = local, list(ZERO3), sp.zeros(3, n)
                 else:
                     x = named(make, f"at.{point}", tree.point(link, local))
-                    world = named(make, f"at.{point}.world", add(origins[link.root], x))
-                    velocity = named(make, f"at.{point}.velocity", tree.point_velocity(link, x))
+                    velocity = named(make, f"at.{point}.velocity", tree.point_velocity(link, local))
                     J = sp.zeros(3, n)
                     for joint in link.path():
                         J[:, joint.index] = sp.Matrix(tree.column(joint, x))
                 for i, axis in enumerate("xyz"):
-                    b.output(f"{point}.{axis}", world[i])
+                    b.output(f"{point}.{axis}", x[i])
                 b.matrix(f"J.{point}", J[dims, :])
-                if point in b.built.ports:
-                    pv, s = b.port(point), b.sign(point)
-                    efforts = list(pv.e) if pv.port.dim > 1 else [pv.e]
-                    force = [sp.Integer(0)] * 3
-                    for i, e in zip(dims, efforts):
-                        force[i] = e
-                    b.equation(sp.Matrix(pv.f if pv.port.dim > 1 else [pv.f]),
-                               sp.Matrix([velocity[i] for i in dims]), "point velocity")
-                    if link is not None:
-                        self._load(tree, Q, link, cross(x, force), force, s)
+                pv, s = b.port(point), b.sign(point)
+                efforts = list(pv.e) if pv.port.dim > 1 else [pv.e]
+                force = [sp.S.Zero] * 3
+                for i, e in zip(dims, efforts):
+                    force[i] = e
+                b.equation(sp.Matrix(pv.f if pv.port.dim > 1 else [pv.f]),
+                           sp.Matrix([velocity[i] for i in dims]), "point velocity (world)")
+                if link is not None:
+                    self._load(tree, Q, link, x, list(ZERO3), force, s)
             for frame, pos in (body.get("frames") or {}).items():
-                if frame not in b.built.ports:
-                    continue
                 pv, s = b.port(frame), b.sign(frame)
                 local = add(offset, [b.parse(c, f"frame {frame!r}") for c in _vector3(pos, frame)])
                 if link is None:
                     b.equation(sp.Matrix(pv.f), sp.zeros(6, 1), "frame twist (fixed)")
                     continue
+                w, lin = tree.twist[link]
+                b.equation(sp.Matrix(pv.f), sp.Matrix(w + add(lin, cross(w, local))),
+                           "frame twist (ω, v), frame axes")
+                R = tree.pos[link].world_R
                 x = named(make, f"at.{frame}", tree.point(link, local))
-                w, _ = tree.twist[link]
-                twist = tree.rotate_to_link(link, w) + tree.rotate_to_link(
-                    link, tree.point_velocity(link, x))
-                b.equation(sp.Matrix(pv.f), sp.Matrix(twist), "frame twist (ω, v), frame axes")
-                torque = tree.rotate_from_link(link, list(pv.e[:3]))
-                force = tree.rotate_from_link(link, list(pv.e[3:]))
-                self._load(tree, Q, link, add(torque, cross(x, force)), force, s)
+                self._load(tree, Q, link, x, R.apply(list(pv.e[:3])), R.apply(list(pv.e[3:])), s)
         for name, joint in joints.items():
             if name not in b.built.ports:
                 continue
@@ -369,12 +365,16 @@ class Multibody(Component):
         b.matrix("M", M)
 
     @staticmethod
-    def _load(tree: Tree, Q: list, link: Link, torque: list, force: list, sign: int) -> None:
-        """Add the generalized forces S_jᵀ (τ, f) of a wrench on ``link`` (reference frame,
-        torque about the reference origin) to the joints from ``link`` to its root."""
+    def _load(tree: Tree, Q: list, link: Link, x: list, torque: list, force: list,
+              sign: int) -> None:
+        """Add the generalized forces of a wrench on ``link`` applied at the world point ``x``
+        (torque and force in world axes) to the joints from ``link`` to its root:
+        Q_j += sign (a⁰_j · τ + ∂x/∂q_j · f)."""
         for joint in link.path():
-            P = tree.pos[joint]
-            Q[joint.index] = Q[joint.index] + sign * (dot(P.a, torque) + dot(P.u, force))
+            rotation = tree.pos[joint].world_R.apply(joint.axis) if joint.kind == "rotation" \
+                else ZERO3
+            Q[joint.index] = Q[joint.index] + sign * (dot(rotation, torque)
+                                                      + dot(tree.column(joint, x), force))
 
     def _initial(self, b: Builder, joints, coords) -> tuple[list, list]:
         """q0 and v0 per coordinate (expressions in the parameters)."""

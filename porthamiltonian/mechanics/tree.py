@@ -2,38 +2,37 @@
 
 A tree is a list of *links*, each a rigid frame moved by one joint coordinate relative to its
 parent link (or to the world): bodies welded together share a link, a translational joint with
-several axes is a chain of massless links. Every quantity is expressed in a *reference frame*
-per subtree hanging on the world: world axes, origin at the origin of the subtree's root link
-(so the numbers do not grow with the distance the mechanism travelled). With
+several axes is a chain of massless links. Link k's frame has its origin on joint k; relative to
+its parent λ it is rotated by ``Rᵏ = Rot(a_k, q_k)`` (revolute) or shifted along a_k
+(prismatic): ``H_λk = (Rᵏ, pᵏ)`` with ``pᵏ = o_k`` or ``o_k + a_k q_k`` (o_k the joint origin in
+λ's frame). Everything is computed in the links' own frames, so every quantity is formed from
+relative rotations and link-sized offsets (no cancellation between large absolute positions; a
+foot of 1e-9 of the hip's mass keeps its digits). Twists ``T = (ω, v)`` and wrenches
+``W = (τ, f)`` as in :mod:`.screw`; the unit twist of joint k in its own frame is the constant
+``S_k = (a_k, 0)`` (revolute) or ``(0, a_k)`` (prismatic); ``X_k W = (Rᵏ τ + pᵏ × Rᵏ f, Rᵏ f)``
+carries a wrench from frame k to its parent's frame.
 
-* ``R_k``, ``r_k``: axes and origin of link k (world axes, reference origin);
-* ``S_k = (a_k, u_k)``: the unit twist of joint k, ``(a, r_k × a)`` for a revolute joint about
-  the unit axis a through r_k, ``(0, a)`` for a prismatic one; twists ``(ω, v)`` and wrenches
-  ``(τ, f)`` as in :mod:`.screw` (v and τ at the reference origin);
-* ``𝕀_k = [[J_k, h̃_k], [−h̃_k, m_k 1]]``: the spatial inertia of link k's bodies (mass m, first
-  moment h = m c, rotational inertia J about the reference origin);
+Position level: the composite (subtree) inertia about each link origin, tip to root,
+``𝕀ᶜ_k = 𝕀_k + Σ_children X_c 𝕀ᶜ_c X_cᵀ`` (in mass m, first moment h = m c and rotational
+inertia J about the origin), and the mass matrix by the composite-rigid-body recursion
 
-the position level is, root to tip, ``R_k = R_λ Rot(a, q_k)``, ``r_k = r_λ + R_λ (o_k + a q_k)``;
-then tip to root the composite (subtree) inertias ``𝕀ᶜ_k = 𝕀_k + Σ_children 𝕀ᶜ_c`` (all in one
-frame: plain sums), and the mass matrix by the composite-rigid-body recursion
+    F_k = 𝕀ᶜ_k S_k,   M_kk = S_kᵀ F_k,   F ← X F and M_ik = S_iᵀ F for each ancestor i of k.
 
-    F_j = 𝕀ᶜ_j S_j,      M_ij = S_iᵀ F_j   (i = j or an ancestor of j; 0 otherwise).
-
-The velocity level, with the velocities v solved from M v = p, is root to tip
-``T_k = T_λ + S_k v_k`` (body twists) and tip to root ``Π_k = 𝕀_k T_k + Σ_children Π_c`` (subtree
-momenta); the generalized momentum is ``p_k = S_kᵀ Π_k`` and the velocity term of Hamilton's
-equations
+Velocity level, with the velocities v solved from M v = p: root to tip the body twists
+``T_k = X_kᵀ T_λ + S_k v_k`` (``ω_k = Rᵏᵀ ω_λ + …``, ``v_k = Rᵏᵀ (v_λ + ω_λ × pᵏ) + …``), tip to
+root the subtree momenta ``Π_k = 𝕀_k T_k + Σ_children X_c Π_c``; the generalized momentum is
+``p_k = S_kᵀ Π_k`` and the velocity term of Hamilton's equations
 
     ∂T/∂q_k |_v = Π_kᵀ ad_{T_k} S_k,    ad_T = [[ω̃, 0], [ṽ, ω̃]]
 
-(derivation: moving joint k at fixed velocities changes the twist of every body beyond it by
-``ad_{T_k} S_k``; the expression is the same in every frame, Ad being a Lie-algebra
-homomorphism). Gravity g (world) acts on the subtree beyond joint k as the wrench
-``(hᶜ_k × g, mᶜ_k g)``, so ``−∂V/∂q_k = S_kᵀ (hᶜ_k × g, mᶜ_k g)``.
+(moving joint k at fixed velocities changes the twist of every body beyond it by ad_{T_k} S_k,
+expressed in frame k). Gravity, ``g_k = Rᵏᵀ g_λ`` in each frame, acts on the subtree beyond
+joint k as the wrench ``(hᶜ_k × g_k, mᶜ_k g_k)``: ``−∂V/∂q_k = S_kᵀ (hᶜ_k × g_k, mᶜ_k g_k)``.
 
-Each step is O(1) in the number of links (O(N) intermediates, and the N(N+1)/2 entries of M),
-so the generated code grows as N² along an N-link chain where differentiating M's entries
-grows as N⁴–N⁵.
+Each step is O(1) (O(N) intermediates, plus one wrench carried per entry of M), so the generated
+code grows as N² along an N-link chain where differentiating M's entries grows as N⁴–N⁵. World
+poses ``(R⁰_k, p⁰_k)`` (world axes and origin of each link) serve the outputs: point positions,
+velocities and Jacobians.
 """
 from __future__ import annotations
 
@@ -52,11 +51,11 @@ Vec = list
 class Link:
     """A rigid frame moved by one joint coordinate (see the module docstring).
 
-    ``offset``: the link origin at q = 0 in the parent's frame (the world's for a root);
-    ``kind``: "rotation" (about ``axis`` through the origin) or "translation" (along ``axis``);
-    ``axis``: unit 3-tuple in the parent's axes; ``index``: the coordinate's index.
-    ``mass``, ``first`` (first moment m c, link frame) and ``inertia`` (3x3 about the link origin,
-    link axes) sum the link's bodies.
+    ``offset``: the joint origin o in the parent's frame (the world's for a root); ``kind``:
+    "rotation" (about ``axis`` through the origin) or "translation" (along ``axis``); ``axis``:
+    unit 3-tuple in the parent's axes (the same in this link's); ``index``: the coordinate's
+    index. ``mass``, ``first`` (first moment Σ m c) and ``inertia`` (3x3 about the link origin)
+    sum the link's bodies, in the link's frame.
     """
 
     name: str
@@ -67,7 +66,7 @@ class Link:
     index: int
     mass: Any = 0
     first: Vec = field(default_factory=lambda: list(ZERO3))
-    inertia: list = field(default_factory=lambda: [[sp.Integer(0)] * 3 for _ in range(3)])
+    inertia: list = field(default_factory=lambda: [[sp.S.Zero] * 3 for _ in range(3)])
     children: list[Link] = field(default_factory=list)
 
     def add_body(self, mass: Any, com: Sequence, inertia: Sequence[Sequence] | None) -> None:
@@ -97,28 +96,46 @@ class Link:
         return out
 
 
+def _shift_inertia(mass: Any, first: Sequence, inertia: Sequence[Sequence], R: Rotation,
+                   p: Sequence) -> tuple[Vec, list]:
+    """First moment and rotational inertia (upper triangle) of a body given in a frame rotated
+    by R and shifted by p relative to the frame of the result: h' = R h + m p,
+    J' = R J Rᵀ + m (|p|² 1 − p pᵀ) + 2 (p·R h) 1 − p (R h)ᵀ − (R h) pᵀ."""
+    h = R.apply(first)
+    J = R.congruence(inertia)
+    p2, ph = dot(p, p), 2 * dot(p, h)
+    J2 = [[sp.Add(J[i][j], mass * ((p2 if i == j else 0) - p[i] * p[j]), (ph if i == j else 0),
+                  -p[i] * h[j], -h[i] * p[j]) if j >= i else None for j in range(3)]
+          for i in range(3)]
+    return add(h, scale(mass, p)), J2
+
+
+def _symmetric(upper: list) -> list:
+    for i in range(3):
+        for j in range(i):
+            upper[i][j] = upper[j][i]
+    return upper
+
+
 @dataclass
 class _Pos:
-    """Position-level quantities of a link, in its subtree's reference frame."""
+    """Position-level quantities of a link (its own frame unless said otherwise)."""
 
-    R: Rotation
-    r: Vec
-    a: Vec
-    u: Vec
-    mass: Any
-    first: Vec
-    inertia: list
-    cmass: Any = None
+    R: Rotation                   # Rᵏ, relative to the parent
+    p: Vec                        # pᵏ, origin in the parent's frame
+    S: tuple[Vec, Vec]            # unit twist (a, 0) or (0, a)
+    g: Vec | None = None          # gravity
+    cmass: Any = None             # composite mass, first moment, inertia about the origin
     cfirst: Vec | None = None
     cinertia: list | None = None
-    F: Vec | None = None
+    world_R: Rotation | None = None
+    world_p: Vec | None = None
 
 
 class Tree:
     """The recursion over ``links`` (parents before children). See the module docstring.
 
-    ``make(name, expr)`` turns a quantity into a named intermediate (or returns it as is);
-    ``q``, ``v`` are the coordinates and velocities (symbols, or values for the initial state).
+    ``make(name, expr)`` turns a quantity into a named intermediate (or returns it as is).
     """
 
     def __init__(self, links: list[Link], make: Make):
@@ -130,107 +147,110 @@ class Tree:
 
     # --- position level -------------------------------------------------------------------------
     def positions(self, q: Sequence) -> None:
-        make = self.make
+        """Relative poses of the links at coordinates ``q``."""
         for link in self.links:
-            name, qk = link.name, q[link.index]
-            parent = self.pos.get(link.parent) if link.parent is not None else None
-            R_parent = parent.R if parent else Rotation()
-            shift = link.offset if link.kind == "rotation" else add(link.offset, scale(qk, link.axis))
-            if parent is None:
-                r = list(ZERO3)                                      # the reference origin
-            else:
-                r = named(make, f"{name}.r", add(parent.r, R_parent.apply(shift)))
-            a = [sp.sympify(x) for x in R_parent.apply(link.axis)]
-            a = named(make, f"{name}.a", a) if not R_parent.is_identity else a
+            qk = q[link.index]
             if link.kind == "rotation":
-                R = R_parent.about(link.axis, qk, make, name)
-                u = named(make, f"{name}.u", cross(r, a))
-                S = (a, u)
+                R = Rotation.turn(link.axis, qk, self.make, link.name)
+                self.pos[link] = _Pos(R, list(link.offset), (list(link.axis), list(ZERO3)))
             else:
-                R = R_parent
-                S = (list(ZERO3), a)
-            h_local = R.apply(link.first)
-            first = named(make, f"{name}.h", add(h_local, scale(link.mass, r)))
-            J = R.congruence(link.inertia)
-            r2, rh = dot(r, r), 2 * dot(r, h_local)
-            inertia = [[make(f"{name}.J{i}{j}", sp.Add(
-                J[i][j], link.mass * ((r2 if i == j else 0) - r[i] * r[j]),
-                (rh if i == j else 0), -r[i] * h_local[j], -h_local[i] * r[j]))
-                if j >= i else None for j in range(3)] for i in range(3)]
-            for i in range(3):
-                for j in range(i):
-                    inertia[i][j] = inertia[j][i]
-            self.pos[link] = _Pos(R, r, S[0], S[1], link.mass, first, inertia)
+                p = add(link.offset, scale(qk, link.axis))
+                self.pos[link] = _Pos(Rotation(), p, (list(ZERO3), list(link.axis)))
+
+    def carry(self, link: Link, torque: Sequence, force: Sequence) -> tuple[Vec, Vec]:
+        """X_k W: the wrench (torque about link k's origin, force; k's frame) in the parent's
+        frame, torque about the parent's origin."""
+        P = self.pos[link]
+        f = P.R.apply(force)
+        return add(P.R.apply(torque), cross(P.p, f)), f
 
     def composites(self) -> None:
-        """Subtree inertias 𝕀ᶜ_k (tip to root) and F_k = 𝕀ᶜ_k S_k (after :meth:`positions`)."""
+        """Composite (subtree) mass, first moment and inertia of every link, tip to root."""
         make = self.make
         for link in reversed(self.links):
             P = self.pos[link]
-            kids = [self.pos[c] for c in link.children]
-            if kids:
-                P.cmass = make(f"{link.name}.mc", sp.Add(P.mass, *(k.cmass for k in kids)))
-                P.cfirst = named(make, f"{link.name}.hc", add(P.first, *(k.cfirst for k in kids)))
-                P.cinertia = [[make(f"{link.name}.Jc{i}{j}", sp.Add(
-                    P.inertia[i][j], *(k.cinertia[i][j] for k in kids))) if j >= i else None
-                    for j in range(3)] for i in range(3)]
-                for i in range(3):
-                    for j in range(i):
-                        P.cinertia[i][j] = P.cinertia[j][i]
-            else:
-                P.cmass, P.cfirst, P.cinertia = P.mass, P.first, P.inertia
-            a, u = P.a, P.u
-            torque = add([dot(P.cinertia[i], a) for i in range(3)], cross(P.cfirst, u))
-            force = add(scale(P.cmass, u), cross(a, P.cfirst))
-            P.F = named(make, f"{link.name}.F", torque + force, labels="abcdef")
+            mass, first, inertia = link.mass, list(link.first), [list(r) for r in link.inertia]
+            for child in link.children:
+                C = self.pos[child]
+                h, J = _shift_inertia(C.cmass, C.cfirst, C.cinertia, C.R, C.p)
+                mass = mass + C.cmass
+                first = add(first, h)
+                inertia = [[inertia[i][j] + J[i][j] if j >= i else None for j in range(3)]
+                           for i in range(3)]
+            P.cmass = make(f"{link.name}.mc", mass)
+            P.cfirst = named(make, f"{link.name}.hc", first)
+            P.cinertia = _symmetric([[make(f"{link.name}.Jc{i}{j}", inertia[i][j]) if j >= i
+                                      else None for j in range(3)] for i in range(3)])
 
     def mass_matrix(self) -> sp.Matrix:
-        """M(q): entries ``M.<i>.<j>`` (intermediates) for i = j or i an ancestor of j."""
+        """M(q) by the composite-rigid-body recursion (after :meth:`composites` and
+        :meth:`world`); entries ``M.<i>.<j>`` (intermediates). The diagonal is formed in each
+        link's frame; the entry of an ancestor i is a⁰_i·(τ⁰_k + (p⁰_k − p⁰_i) × f⁰_k) (revolute
+        i) or a⁰_i·f⁰_k (prismatic i) with the wrench F_k in world axes: one product per entry."""
         n = len(self.links)
         M = sp.zeros(n, n)
         for link in self.links:
-            F = self.pos[link].F
-            for anc in link.path():
-                P = self.pos[anc]
-                i, j = sorted((anc.index, link.index))
-                M[i, j] = M[j, i] = self.make(f"M.{i}.{j}", dot(P.a, F[:3]) + dot(P.u, F[3:]))
+            P = self.pos[link]
+            a, u = P.S
+            J, h, m = P.cinertia, P.cfirst, P.cmass
+            torque = add([dot(J[i], a) for i in range(3)], cross(h, u))
+            force = add(scale(m, u), cross(a, h))
+            k = link.index
+            M[k, k] = self.make(f"M.{k}.{k}", dot(a, torque) + dot(u, force))
+            if link.parent is None:
+                continue
+            torque = named(self.make, f"{link.name}.F.t", P.world_R.apply(torque))
+            force = named(self.make, f"{link.name}.F.f", P.world_R.apply(force))
+            for holder in link.parent.path():
+                H = self.pos[holder]
+                axis = H.world_R.apply(holder.axis)
+                if holder.kind == "rotation":
+                    entry = dot(axis, add(torque, cross(sub(P.world_p, H.world_p), force)))
+                else:
+                    entry = dot(axis, force)
+                i, j = sorted((holder.index, k))
+                M[i, j] = M[j, i] = self.make(f"M.{i}.{j}", entry)
         return M
 
-    def gravity_forces(self, g: Sequence) -> list:
-        """−∂V/∂q_k = S_kᵀ (hᶜ_k × g, mᶜ_k g) for every coordinate (g in world axes)."""
-        out = [sp.Integer(0)] * len(self.links)
+    def gravity(self, g_world: Sequence) -> None:
+        """Gravity in each link's frame, root to tip: g_k = Rᵏᵀ g_λ."""
         for link in self.links:
             P = self.pos[link]
-            out[link.index] = dot(P.a, cross(P.cfirst, g)) + P.cmass * dot(P.u, g)
+            g = g_world if link.parent is None else self.pos[link.parent].g
+            P.g = named(self.make, f"{link.name}.g", P.R.apply_T(g))
+
+    def gravity_forces(self) -> list:
+        """−∂V/∂q_k = S_kᵀ (hᶜ_k × g_k, mᶜ_k g_k) for every coordinate (after :meth:`gravity`)."""
+        out = [sp.S.Zero] * len(self.links)
+        for link in self.links:
+            P = self.pos[link]
+            out[link.index] = dot(P.S[0], cross(P.cfirst, P.g)) + P.cmass * dot(P.S[1], P.g)
         return out
 
-    def first_moment_world(self, origins: dict[Link, Vec]) -> Vec:
-        """Σ m_b c_b over all links, about the world origin (world axes); ``origins`` maps each
-        root link to its origin in the world."""
-        out = list(ZERO3)
-        for root, origin in origins.items():
-            P = self.pos[root]
-            out = add(out, P.cfirst, scale(P.cmass, origin))
-        return out
+    # --- world poses and points -----------------------------------------------------------------
+    def world(self) -> None:
+        """World axes R⁰_k and origins p⁰_k of the links, root to tip."""
+        for link in self.links:
+            P = self.pos[link]
+            if link.parent is None:
+                P.world_R, P.world_p = P.R, list(P.p)
+                continue
+            W = self.pos[link.parent]
+            P.world_p = named(self.make, f"{link.name}.o", add(W.world_p, W.world_R.apply(P.p)))
+            P.world_R = W.world_R.then(P.R, self.make, f"{link.name}.world")
 
-    # --- points ---------------------------------------------------------------------------------
     def point(self, link: Link, local: Sequence) -> Vec:
-        """A link-fixed point given in the link frame, relative to the reference origin."""
+        """World position of a link-fixed point given in the link frame."""
         P = self.pos[link]
-        return add(P.r, P.R.apply(local))
+        return add(P.world_p, P.world_R.apply(local))
 
     def column(self, joint: Link, x: Sequence) -> Vec:
-        """∂x/∂q_joint of a point x (reference frame) beyond ``joint``: a × (x − r) or a."""
+        """∂x/∂q_joint (world) of a world point x beyond ``joint``: a⁰ × (x − p⁰) or a⁰."""
         P = self.pos[joint]
+        axis = P.world_R.apply(joint.axis)
         if joint.kind == "rotation":
-            return cross(P.a, sub(x, P.r))
-        return list(P.u)
-
-    def rotate_to_link(self, link: Link, vector: Sequence) -> Vec:
-        return self.pos[link].R.apply_T(vector)
-
-    def rotate_from_link(self, link: Link, vector: Sequence) -> Vec:
-        return self.pos[link].R.apply(vector)
+            return cross(axis, sub(x, P.world_p))
+        return axis
 
     # --- velocity level -------------------------------------------------------------------------
     def velocities(self, v: Sequence) -> None:
@@ -238,42 +258,44 @@ class Tree:
         make = self.make
         for link in self.links:
             P = self.pos[link]
-            w0, v0 = self.twist[link.parent] if link.parent is not None else (ZERO3, ZERO3)
+            a, u = P.S
             vk = v[link.index]
-            w = named(make, f"{link.name}.w", add(w0, scale(vk, P.a)))
-            lin = named(make, f"{link.name}.v", add(v0, scale(vk, P.u)))
-            self.twist[link] = (w, lin)
+            if link.parent is None:
+                w, lin = scale(vk, a), scale(vk, u)
+            else:
+                w0, v0 = self.twist[link.parent]
+                w = add(P.R.apply_T(w0), scale(vk, a))
+                lin = add(P.R.apply_T(add(v0, cross(w0, P.p))), scale(vk, u))
+            self.twist[link] = (named(make, f"{link.name}.w", w), named(make, f"{link.name}.v", lin))
         for link in reversed(self.links):
-            P = self.pos[link]
             w, lin = self.twist[link]
-            L = add([dot(P.inertia[i], w) for i in range(3)], cross(P.first, lin))
-            p = add(scale(P.mass, lin), cross(w, P.first))
+            L = add([dot(link.inertia[i], w) for i in range(3)], cross(link.first, lin))
+            p = add(scale(link.mass, lin), cross(w, link.first))
             for child in link.children:
-                L = add(L, self.momentum[child][0])
-                p = add(p, self.momentum[child][1])
-            self.momentum[link] = (named(make, f"{link.name}.L", L),
-                                   named(make, f"{link.name}.p", p))
+                Lc, pc = self.carry(child, *self.momentum[child])
+                L, p = add(L, Lc), add(p, pc)
+            self.momentum[link] = (named(make, f"{link.name}.L", L), named(make, f"{link.name}.p", p))
 
     def velocity_forces(self) -> list:
         """∂T/∂q_k at fixed velocities, Π_kᵀ ad_{T_k} S_k, for every coordinate."""
-        out = [sp.Integer(0)] * len(self.links)
+        out = [sp.S.Zero] * len(self.links)
         for link in self.links:
-            P = self.pos[link]
+            a, u = self.pos[link].S
             w, lin = self.twist[link]
             L, p = self.momentum[link]
-            out[link.index] = dot(L, cross(w, P.a)) + dot(p, add(cross(w, P.u), cross(lin, P.a)))
+            out[link.index] = dot(L, cross(w, a)) + dot(p, add(cross(w, u), cross(lin, a)))
         return out
 
     def generalized_momenta(self) -> list:
         """p_k = S_kᵀ Π_k for every coordinate (= M(q) v)."""
-        out = [sp.Integer(0)] * len(self.links)
+        out = [sp.S.Zero] * len(self.links)
         for link in self.links:
-            P = self.pos[link]
+            a, u = self.pos[link].S
             L, p = self.momentum[link]
-            out[link.index] = dot(P.a, L) + dot(P.u, p)
+            out[link.index] = dot(a, L) + dot(u, p)
         return out
 
-    def point_velocity(self, link: Link, x: Sequence) -> Vec:
-        """Velocity (world axes) of the link-fixed point at x (reference frame)."""
+    def point_velocity(self, link: Link, local: Sequence) -> Vec:
+        """World velocity of the link-fixed point at ``local`` (link frame)."""
         w, lin = self.twist[link]
-        return add(lin, cross(w, x))
+        return self.pos[link].world_R.apply(add(lin, cross(w, local)))

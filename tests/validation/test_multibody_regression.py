@@ -5,7 +5,7 @@ whose Multibody formed M(q) entry by entry and its velocity terms by differentia
 entries) holds, for every shipped model with a Multibody and for the spatial tree and 5-link
 chain of multibody_cases.py, at three random states: ẋ, ∂ẋ/∂x, [H, P_diss, P_in], every output
 and every named matrix. The recursive formulation must give the same numbers to round-off:
-|new − old| ≤ 1e-12 · max(|old|, 1e-2 · scale) entry by entry, where scale is the largest
+|new − old| ≤ 1e-12 · max(|old|, 0.1 · scale) entry by entry, where scale is the largest
 |entry| of the same vector (of the same row of a matrix), so that entries that cancel to nearly
 zero are compared on their vector's scale.
 """
@@ -29,7 +29,7 @@ def close(new, old, what: str) -> None:
     new, old = np.atleast_2d(np.asarray(new, float)), np.atleast_2d(np.asarray(old, float))
     assert new.shape == old.shape, f"{what}: shape {new.shape} != {old.shape}"
     scale = np.max(np.abs(old), axis=1, keepdims=True)
-    bound = RTOL * np.maximum(np.abs(old), 1e-2 * scale) + 1e-300
+    bound = RTOL * np.maximum(np.abs(old), 0.1 * scale) + 1e-300
     worst = np.max(np.abs(new - old) / bound)
     assert worst <= 1.0, f"{what}: deviation {worst:.3g} x tolerance"
 
