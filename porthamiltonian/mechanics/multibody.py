@@ -1,17 +1,19 @@
-"""Multibody trees in joint-space Hamiltonian form (DESIGN.md §4).
+"""Multibody trees in joint-space Hamiltonian form.
 
 A :class:`Multibody` component holds rigid bodies joined by revolute, prismatic, translational and
 weld joints in a tree rooted at the world frame. It compiles to
 
     q̇ = v,   M(q) v = p   (solved numerically, never inverted symbolically),
-    ṗ_k = ½ vᵀ (∂M/∂q_k) v − ∂V/∂q_k + Q_k,
+    ṗ_k = ∂T/∂q_k|_v − ∂V/∂q_k + Q_k   (= ½ vᵀ (∂M/∂q_k) v − ∂V/∂q_k + Q_k),
     H = ½ pᵀ v + V(q),
 
-where M(q) = Σ_i J_iᵀ 𝕀_i J_i from the body Jacobians J_i (adjoint chain: the column of joint
-DOF k in body i's Jacobian is Ad(H_i⁻¹ H_k) ξ_k, ξ_k the joint's unit twist in its own frame),
-𝕀_i the spatial inertia in body frame i, V the gravity potential, and Q the generalized forces from
-the ports.
-
+with V the gravity potential and Q the generalized forces from the ports. Everything is formed
+recursively over the tree as compiler intermediates (:mod:`.tree`): the links' relative poses, the
+composite (subtree) inertias and M(q) by the composite-rigid-body recursion; with v solved, the
+body twists (root to tip), the subtree momenta Π_k (tip to root) and ∂T/∂q_k|_v = Π_kᵀ ad_{T_k} S_k
+(S_k joint k's unit twist); gravity from the subtree masses and first moments. The generated code
+grows as about N² along an N-link chain (never by differentiating M's entries), and the Jacobian
+of the state equations follows by the chain rule through the intermediates.
 Frames and conventions
 ----------------------
 * Frame names follow :mod:`porthamiltonian.mechanics.screw`; twists (ω, v), wrenches (τ, f).
