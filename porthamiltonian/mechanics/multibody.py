@@ -61,24 +61,9 @@ from ..component import Arg, Builder, Component, register
 from ..errors import ModelError, UnknownComponentError
 from ..ports import Port
 from .bodies import as_tables
+from .joints import Joint, joint, quaternion_slice
 from .kinematics import ZERO3, add, cross, dot, named, scale
-from .tree import Link, Tree
-
-_AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
-_JOINT_TYPES = ("revolute", "prismatic", "translational", "weld")
-
-
-def _axis(value: Any, where: str) -> tuple:
-    if isinstance(value, str) and value in _AXES:
-        return _AXES[value]
-    try:
-        vec = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: axis must be 'x', 'y', 'z' or three numbers, got {value!r}") from None
-    if vec.shape != (3,) or not np.linalg.norm(vec) > 0:
-        raise ModelError(f"{where}: axis must be a non-zero 3-vector, got {value!r}")
-    vec = vec / np.linalg.norm(vec)
-    return tuple(sp.nsimplify(v) if float(v).is_integer() else float(v) for v in vec)
+from .tree import COORDINATES, DOFS, Link, Tree
 
 
 def _written_out(name: str, expr: Any) -> Any:
@@ -116,6 +101,8 @@ class Multibody(Component):
         "gravity": Arg("gravity acceleration in world coordinates (m/s^2)", symbolic=False,
                        default=None),
         "plane": Arg("'xz' for planar point ports (x, z)", symbolic=False, default=None),
+        "quaternion_gain": Arg("rate at which a spherical or free joint's quaternion is pulled "
+                               "back to unit norm", "1/s", default=1, rule=">="),
     }
 
     def __init__(self, **args: Any):
@@ -147,17 +134,15 @@ class Multibody(Component):
             for point, pos in {**(body.get("points") or {}), **(body.get("frames") or {})}.items():
                 _vector3(pos, f"{where} point/frame {point!r}")
         parent_of: dict[str, str] = {}
-        for name, joint in joints.items():
+        for name, table in joints.items():
             where = f"Multibody joint {name!r}"
-            extra = set(joint) - {"type", "parent", "child", "axis", "axes", "origin", "q0", "v0"}
+            extra = set(table) - {"type", "parent", "child", "axis", "axes", "origin", "q0", "v0"}
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: type, "
-                                 "parent, child, axis (revolute, prismatic), axes (translational), "
-                                 "origin, q0, v0")
-            jtype = joint.get("type")
-            if jtype not in _JOINT_TYPES:
-                raise ModelError(f"{where}: type must be one of {', '.join(_JOINT_TYPES)}, got {jtype!r}")
-            parent, child = joint.get("parent"), joint.get("child")
+                                 "parent, child, axis (revolute, prismatic), axes (translational, "
+                                 "universal), origin, q0, v0")
+            joint(name, table)                      # type, axis, axes
+            parent, child = table.get("parent"), table.get("child")
             if parent != "world" and parent not in bodies:
                 raise UnknownComponentError(f"{where}: parent {parent!r} is neither 'world' nor a body "
                                             f"({', '.join(bodies)})")
@@ -169,15 +154,6 @@ class Multibody(Component):
                     "joint would close a kinematic loop, which is not supported (model the loop "
                     "with a stiff spring-damper between two points instead)")
             parent_of[child] = name
-            if jtype in ("revolute", "prismatic"):
-                _axis(joint.get("axis"), where)
-            if jtype == "translational":
-                axes = joint.get("axes")
-                if not isinstance(axes, list) or not axes:
-                    raise ModelError(f"{where}: a translational joint needs axes, e.g. ['x', 'z']")
-                for ax in axes:
-                    if ax not in _AXES:
-                        raise ModelError(f"{where}: translational axes are 'x', 'y' or 'z', got {ax!r}")
         orphans = [b for b in bodies if b not in parent_of]
         if orphans:
             raise ModelError(f"Multibody bodies {', '.join(orphans)} hang on no joint; attach them "
@@ -222,29 +198,19 @@ class Multibody(Component):
                              f"for a point mass), got eigenvalues {np.linalg.eigvalsh(numeric).round(12).tolist()}")
         return value
 
-    def _coordinates(self) -> list[tuple[str, str, tuple, str]]:
-        """(joint, coordinate label, axis, kind) for every joint coordinate, in joint order."""
-        out = []
-        for name, joint in self.value("joints").items():
-            if joint["type"] in ("revolute", "prismatic"):
-                kind = "rotation" if joint["type"] == "revolute" else "translation"
-                out.append((name, name, _axis(joint["axis"], name), kind))
-            elif joint["type"] == "translational":
-                out += [(name, f"{name}.{ax}", _AXES[ax], "translation") for ax in joint["axes"]]
-        return out
+    def _joints(self) -> list[Joint]:
+        """The joints' structures, in the order of the table."""
+        return [joint(name, table) for name, table in self.value("joints").items()]
 
     def _point_dims(self) -> list[str]:
         return ["x", "z"] if self.value("plane") == "xz" else ["x", "y", "z"]
 
     def ports(self) -> list[Port]:
         ports = []
-        coords = self._coordinates()
-        for name in self.value("joints"):
-            mine = [c for c in coords if c[0] == name]
-            if mine:
-                domain = "rotation" if mine[0][3] == "rotation" else "translation"
-                ports.append(Port(name, domain, len(mine), None, "joint", f"joint {name}",
-                                  optional=True))
+        for spec in self._joints():
+            if spec.velocities:
+                ports.append(Port(spec.name, spec.domain, len(spec.velocities), None, "joint",
+                                  f"joint {spec.name}", optional=True))
         for body_name, body in self.value("bodies").items():
             for point in body.get("points") or {}:
                 ports.append(Port(point, "translation", len(self._point_dims()), None, "world",
@@ -256,11 +222,13 @@ class Multibody(Component):
         return ports
 
     # --- equations --------------------------------------------------------------------------------
-    def build(self, b: Builder, bodies, joints, gravity, plane) -> None:
-        coords = self._coordinates()
-        n = len(coords)
-        q0, v0 = self._initial(b, joints, coords)
-        links, placement = self._links(b, joints, coords)
+    def build(self, b: Builder, bodies, joints, gravity, plane, quaternion_gain) -> None:
+        specs = self._joints()
+        velocities = [label for spec in specs for label in spec.velocities]
+        coordinates = [label for spec in specs for label in spec.coordinates]
+        n = len(velocities)
+        q0, v0 = self._initial(b, joints, specs)
+        links, placement = self._links(b, joints, specs)
         g = [b.parse(v, "gravity") for v in (gravity or [0, 0, "-9.81"])]
         static_first = list(ZERO3)          # first moment of the bodies welded to the world
         for name, body in bodies.items():
@@ -285,8 +253,8 @@ class Multibody(Component):
             start.positions(q0)
             start.velocities(v0)
             p0 = start.generalized_momenta()
-        q = [b.state(f"q.{label}", initial=q0[k]) for k, (_, label, _, _) in enumerate(coords)]
-        p = [b.state(f"p.{label}", initial=value) for (_, label, _, _), value in zip(coords, p0)]
+        q = [b.state(f"q.{label}", initial=value) for label, value in zip(coordinates, q0)]
+        p = [b.state(f"p.{label}", initial=value) for label, value in zip(velocities, p0)]
 
         def make(name: str, expr: Any) -> Any:
             expr = sp.sympify(expr)
@@ -315,14 +283,14 @@ class Multibody(Component):
             link, offset = placement[body_name]
             for point, pos in (body.get("points") or {}).items():
                 local = add(offset, [b.parse(c, f"point {point!r}") for c in _vector3(pos, point)])
+                J = sp.zeros(3, n)
                 if link is None:
-                    x, velocity, J = local, list(ZERO3), sp.zeros(3, n)
+                    x, velocity = local, list(ZERO3)
                 else:
                     x = named(make, f"at.{point}", tree.point(link, local))
                     velocity = named(make, f"at.{point}.velocity", tree.point_velocity(link, local))
-                    J = sp.zeros(3, n)
-                    for joint in link.path():
-                        J[:, joint.index] = sp.Matrix(tree.column(joint, x))
+                    for k, column in tree.columns(link, x):
+                        J[:, k] = sp.Matrix(column)
                 for i, axis in enumerate("xyz"):
                     b.output(f"{point}.{axis}", x[i])
                 b.matrix(f"J.{point}", J[dims, :])
@@ -334,7 +302,8 @@ class Multibody(Component):
                 b.equation(sp.Matrix(pv.f if pv.port.dim > 1 else [pv.f]),
                            sp.Matrix([velocity[i] for i in dims]), "point velocity (world)")
                 if link is not None:
-                    self._load(tree, Q, link, x, list(ZERO3), force, s)
+                    for k, value in tree.load(link, x, ZERO3, force):
+                        Q[k] = Q[k] + s * value
             for frame, pos in (body.get("frames") or {}).items():
                 pv, s = b.port(frame), b.sign(frame)
                 local = add(offset, [b.parse(c, f"frame {frame!r}") for c in _vector3(pos, frame)])
@@ -346,89 +315,100 @@ class Multibody(Component):
                            "frame twist (ω, v), frame axes")
                 R = tree.pos[link].world_R
                 x = named(make, f"at.{frame}", tree.point(link, local))
-                self._load(tree, Q, link, x, R.apply(list(pv.e[:3])), R.apply(list(pv.e[3:])), s)
-        for name, joint in joints.items():
-            if name not in b.built.ports:
+                for k, value in tree.load(link, x, R.apply(list(pv.e[:3])), R.apply(list(pv.e[3:]))):
+                    Q[k] = Q[k] + s * value
+        start_index = 0
+        for spec in specs:
+            indices = range(start_index, start_index + len(spec.velocities))
+            start_index += len(spec.velocities)
+            if not spec.velocities:
                 continue
-            pv, s = b.port(name), b.sign(name)
-            ks = [k for k, c in enumerate(coords) if c[0] == name]
+            pv, s = b.port(spec.name), b.sign(spec.name)
             efforts = [pv.e] if pv.port.dim == 1 else list(pv.e)
             flows = [pv.f] if pv.port.dim == 1 else list(pv.f)
-            for k, e, f in zip(ks, efforts, flows):
+            for k, e, f in zip(indices, efforts, flows):
                 b.equation(f, v[k], "joint velocity")
                 Q[k] = Q[k] + s * e
+        rates = tree.coordinate_rates(q, v, quaternion_gain)
+        for k in range(len(q)):
+            b.equation(b.der(q[k]), rates[k], "dq/dt from the joint velocities, M(q) v = p")
         for k in range(n):
-            b.equation(b.der(q[k]), v[k], "dq/dt = v, M(q) v = p")
             b.equation(b.der(p[k]), Q[k], "dp/dt = Π'ad_T S - dV/dq + Q")
         kinetic = (sp.Matrix(p).T * sp.Matrix(v))[0, 0] / 2
         b.energy(kinetic + potential)
         b.output("T", kinetic)
         b.output("V", potential)
+        for spec in specs:
+            where = quaternion_slice(spec)
+            if where is not None:
+                c = coordinates.index(spec.coordinates[0])
+                quat = q[c + where.start:c + where.stop]
+                b.output(f"{spec.name}.q_norm", sp.sqrt(dot(quat[1:], quat[1:]) + quat[0] ** 2))
         b.matrix("M", M)
 
-    @staticmethod
-    def _load(tree: Tree, Q: list, link: Link, x: list, torque: list, force: list,
-              sign: int) -> None:
-        """Add the generalized forces of a wrench on ``link`` applied at the world point ``x``
-        (torque and force in world axes) to the joints from ``link`` to its root:
-        Q_j += sign (a⁰_j · τ + ∂x/∂q_j · f)."""
-        for joint in link.path():
-            rotation = tree.pos[joint].world_R.apply(joint.axis) if joint.kind == "rotation" \
-                else ZERO3
-            Q[joint.index] = Q[joint.index] + sign * (dot(rotation, torque)
-                                                      + dot(tree.column(joint, x), force))
+    def _initial(self, b: Builder, joints, specs: list[Joint]) -> tuple[list, list]:
+        """q0 and v0 per coordinate and velocity (expressions in the parameters); a quaternion
+        is normalised."""
+        out: tuple[list, list] = ([], [])
+        for spec in specs:
+            for key, labels, default, column in (("q0", spec.coordinates, spec.q0, out[0]),
+                                                 ("v0", spec.velocities, spec.v0, out[1])):
+                if not labels:
+                    continue
+                value = joints[spec.name].get(key)
+                items = list(default) if value is None else (
+                    value if isinstance(value, list) else [value] * len(labels))
+                if len(items) != len(labels):
+                    raise ModelError(f"Multibody joint {spec.name!r}: {key} needs {len(labels)} "
+                                     f"value(s) ({', '.join(labels)}), got {value!r}")
+                parsed = [b.parse(x, f"joint {spec.name!r} {key}") for x in items]
+                where = quaternion_slice(spec) if key == "q0" else None
+                if where is not None:
+                    quat = parsed[where]
+                    norm = sp.sqrt(sum(x**2 for x in quat))
+                    if norm == 0:
+                        raise ModelError(f"Multibody joint {spec.name!r}: the quaternion in q0 must "
+                                         "not be zero (identity: [1, 0, 0, 0])")
+                    parsed[where] = [x / norm for x in quat]
+                column += parsed
+        return out
 
-    def _initial(self, b: Builder, joints, coords) -> tuple[list, list]:
-        """q0 and v0 per coordinate (expressions in the parameters)."""
-        values: dict[str, dict[str, list]] = {}
-        for name, joint in joints.items():
-            count = sum(1 for c in coords if c[0] == name)
-            for key in ("q0", "v0"):
-                value = joint.get(key, 0)
-                items = value if isinstance(value, list) else [value] * count
-                if len(items) != count:
-                    raise ModelError(f"Multibody joint {name!r}: {key} needs {count} value(s), got "
-                                     f"{value!r}")
-                values.setdefault(key, {})[name] = [b.parse(x, f"joint {name!r} {key}")
-                                                    for x in items]
-        out = []
-        for key in ("q0", "v0"):
-            seen: dict[str, int] = {}
-            column = []
-            for joint, _, _, _ in coords:
-                column.append(values[key][joint][seen.get(joint, 0)])
-                seen[joint] = seen.get(joint, 0) + 1
-            out.append(column)
-        return out[0], out[1]
-
-    def _links(self, b: Builder, joints, coords) -> tuple[list[Link], dict]:
-        """One link per coordinate (parents first) and the placement of every body: (its link,
+    def _links(self, b: Builder, joints, specs: list[Joint]) -> tuple[list[Link], dict]:
+        """The elementary links (parents first) and the placement of every body: (its link,
         or None for the world, and its origin in the link's frame)."""
+        first: dict[str, tuple[int, int]] = {}
+        velocity = coordinate = 0
+        for spec in specs:
+            first[spec.name] = (velocity, coordinate)
+            velocity += len(spec.velocities)
+            coordinate += len(spec.coordinates)
+        by_name = {spec.name: spec for spec in specs}
         placement: dict[str, tuple[Link | None, list]] = {}
         links: list[Link] = []
         for jname in self._tree_order():
-            joint = joints[jname]
-            parent = joint["parent"]
-            link, offset = (None, list(ZERO3)) if parent == "world" else placement[parent]
+            table, spec = joints[jname], by_name[jname]
+            link, offset = (None, list(ZERO3)) if table["parent"] == "world" \
+                else placement[table["parent"]]
             offset = add(offset, [b.parse(v, f"joint {jname!r} origin")
-                                  for v in _vector3(joint.get("origin"), f"joint {jname!r} origin")])
-            for k, (j, label, axis, kind) in enumerate(coords):
-                if j != jname:
-                    continue
-                new = Link(label, link, offset, kind, tuple(axis), k)
+                                  for v in _vector3(table.get("origin"), f"joint {jname!r} origin")])
+            velocity, coordinate = first[jname]
+            for kind, axis, label in spec.links:
+                new = Link(label, link, offset, kind, axis, velocity, coordinate)
+                velocity += DOFS[kind]
+                coordinate += COORDINATES[kind]
                 if link is not None:
                     link.children.append(new)
                 links.append(new)
                 link, offset = new, list(ZERO3)
-            placement[joint["child"]] = (link, offset)
+            placement[table["child"]] = (link, offset)
         return links, placement
 
     def _tree_order(self) -> list[str]:
         joints = self.value("joints")
         order, placed = [], {"world"}
         while len(order) < len(joints):
-            for name, joint in joints.items():
-                if name not in order and joint["parent"] in placed:
+            for name, table in joints.items():
+                if name not in order and table["parent"] in placed:
                     order.append(name)
-                    placed.add(joint["child"])
+                    placed.add(table["child"])
         return order

@@ -47,27 +47,47 @@ from .kinematics import ZERO3, Make, Rotation, add, cross, dot, named, scale, su
 Vec = list
 
 
+#: the unit twists of each joint kind, in the link's frame: ("rotation" | "translation", axis)
+_UNIT = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+DOFS = {"rotation": 1, "translation": 1, "spherical": 3, "free": 6}
+COORDINATES = {"rotation": 1, "translation": 1, "spherical": 4, "free": 7}
+
+
 @dataclass(eq=False)
 class Link:
-    """A rigid frame moved by one joint coordinate (see the module docstring).
+    """A rigid frame moved by a joint relative to its parent (see the module docstring).
 
     ``offset``: the joint origin o in the parent's frame (the world's for a root); ``kind``:
-    "rotation" (about ``axis`` through the origin) or "translation" (along ``axis``); ``axis``:
-    unit 3-tuple in the parent's axes (the same in this link's); ``index``: the coordinate's
-    index. ``mass``, ``first`` (first moment Σ m c) and ``inertia`` (3x3 about the link origin)
-    sum the link's bodies, in the link's frame.
+    "rotation" (about ``axis`` through the origin, coordinate the angle), "translation" (along
+    ``axis``), "spherical" (any rotation about the origin: a quaternion (w, x, y, z), velocities
+    the angular velocity relative to the parent in this link's axes) or "free" (position r in
+    the parent's axes and a quaternion; velocities the relative twist (ω, v) in this link's
+    axes); ``axis``: unit 3-tuple in the parent's axes (the same in this link's);
+    ``index``/``coordinate``: the first velocity and coordinate index of the joint. ``mass``,
+    ``first`` (first moment Σ m c) and ``inertia`` (3x3 about the link origin) sum the link's
+    bodies, in the link's frame.
     """
 
     name: str
     parent: Link | None
     offset: Vec
     kind: str
-    axis: tuple
+    axis: tuple | None
     index: int
+    coordinate: int
     mass: Any = 0
     first: Vec = field(default_factory=lambda: list(ZERO3))
     inertia: list = field(default_factory=lambda: [[sp.S.Zero] * 3 for _ in range(3)])
     children: list[Link] = field(default_factory=list)
+
+    @property
+    def screws(self) -> list[tuple[str, tuple]]:
+        """The joint's unit twists S (link frame): rotations about / translations along axes
+        through the link origin, one per velocity."""
+        if self.kind in ("rotation", "translation"):
+            return [(self.kind, self.axis)]
+        turns = [("rotation", e) for e in _UNIT]
+        return turns if self.kind == "spherical" else turns + [("translation", e) for e in _UNIT]
 
     def add_body(self, mass: Any, com: Sequence, inertia: Sequence[Sequence] | None) -> None:
         """Add a body of ``mass`` with centre of mass ``com`` (link frame) and rotational inertia
@@ -94,6 +114,28 @@ class Link:
             out.append(link)
             link = link.parent
         return out
+
+
+def quaternion_rotation(quaternion: Sequence, make: Make, name: str) -> Rotation:
+    """The rotation of the unit quaternion q/|q| (Hamilton, (w, x, y, z)), for any q ≠ 0:
+    R = R_quad(q) / |q|², entries as intermediates ``name.R<i><j>``."""
+    w, x, y, z = quaternion
+    n2 = make(f"{name}.n2", w**2 + x**2 + y**2 + z**2)
+    quad = ((w**2 + x**2 - y**2 - z**2, 2 * (x * y - w * z), 2 * (x * z + w * y)),
+            (2 * (x * y + w * z), w**2 - x**2 + y**2 - z**2, 2 * (y * z - w * x)),
+            (2 * (x * z - w * y), 2 * (y * z + w * x), w**2 - x**2 - y**2 + z**2))
+    return Rotation(rows=tuple(tuple(make(f"{name}.R{i}{j}", quad[i][j] / n2) for j in range(3))
+                               for i in range(3)))
+
+
+def quaternion_rate(quaternion: Sequence, omega: Sequence, gain: Any = 0) -> Vec:
+    """q̇ = ½ q ⊗ (0, ω) (ω in the rotated frame) + gain/2 (1 − |q|²) q: the second term, along q,
+    pulls |q| back to 1 at the rate ``gain`` (1/s) and does no work (R depends on q/|q| only)."""
+    w, x, y, z = quaternion
+    u = [x, y, z]
+    radial = gain * (1 - (w**2 + x**2 + y**2 + z**2)) / 2
+    vector = add(scale(w, omega), cross(u, omega))
+    return [-dot(u, omega) / 2 + radial * w] + [vector[i] / 2 + radial * u[i] for i in range(3)]
 
 
 def _shift_inertia(mass: Any, first: Sequence, inertia: Sequence[Sequence], R: Rotation,
@@ -123,13 +165,18 @@ class _Pos:
 
     R: Rotation                   # Rᵏ, relative to the parent
     p: Vec                        # pᵏ, origin in the parent's frame
-    S: tuple[Vec, Vec]            # unit twist (a, 0) or (0, a)
     g: Vec | None = None          # gravity
     cmass: Any = None             # composite mass, first moment, inertia about the origin
     cfirst: Vec | None = None
     cinertia: list | None = None
     world_R: Rotation | None = None
     world_p: Vec | None = None
+
+
+def _twist(screw: tuple[str, tuple]) -> tuple[Vec, Vec]:
+    """A unit twist as (angular, linear) 3-vectors."""
+    kind, axis = screw
+    return (list(axis), list(ZERO3)) if kind == "rotation" else (list(ZERO3), list(axis))
 
 
 class Tree:
@@ -141,6 +188,7 @@ class Tree:
     def __init__(self, links: list[Link], make: Make):
         self.links = links
         self.make = make
+        self.n = sum(DOFS[link.kind] for link in links)
         self.pos: dict[Link, _Pos] = {}
         self.twist: dict[Link, tuple[Vec, Vec]] = {}
         self.momentum: dict[Link, tuple[Vec, Vec]] = {}
@@ -149,13 +197,32 @@ class Tree:
     def positions(self, q: Sequence) -> None:
         """Relative poses of the links at coordinates ``q``."""
         for link in self.links:
-            qk = q[link.index]
+            c = link.coordinate
             if link.kind == "rotation":
-                R = Rotation.turn(link.axis, qk, self.make, link.name)
-                self.pos[link] = _Pos(R, list(link.offset), (list(link.axis), list(ZERO3)))
+                R, p = Rotation.turn(link.axis, q[c], self.make, link.name), list(link.offset)
+            elif link.kind == "translation":
+                R, p = Rotation(), add(link.offset, scale(q[c], link.axis))
+            elif link.kind == "spherical":
+                R, p = quaternion_rotation(q[c:c + 4], self.make, link.name), list(link.offset)
             else:
-                p = add(link.offset, scale(qk, link.axis))
-                self.pos[link] = _Pos(Rotation(), p, (list(ZERO3), list(link.axis)))
+                R = quaternion_rotation(q[c + 3:c + 7], self.make, link.name)
+                p = add(link.offset, q[c:c + 3])
+            self.pos[link] = _Pos(R, p)
+
+    def coordinate_rates(self, q: Sequence, v: Sequence, gain: Any) -> list:
+        """q̇ of every coordinate from the velocities: v itself for a revolute or prismatic joint;
+        the quaternion rate (with the normalising ``gain``) and ṙ = Rᵏ v_lin for the others."""
+        out = []
+        for link in self.links:
+            c, k = link.coordinate, link.index
+            if link.kind in ("rotation", "translation"):
+                out.append(v[k])
+            elif link.kind == "spherical":
+                out += quaternion_rate(q[c:c + 4], v[k:k + 3], gain)
+            else:
+                out += self.pos[link].R.apply(v[k + 3:k + 6])
+                out += quaternion_rate(q[c + 3:c + 7], v[k:k + 3], gain)
+        return out
 
     def carry(self, link: Link, torque: Sequence, force: Sequence) -> tuple[Vec, Vec]:
         """X_k W: the wrench (torque about link k's origin, force; k's frame) in the parent's
@@ -182,34 +249,47 @@ class Tree:
             P.cinertia = _symmetric([[make(f"{link.name}.Jc{i}{j}", inertia[i][j]) if j >= i
                                       else None for j in range(3)] for i in range(3)])
 
+    def _world_column(self, joint: Link, screw: tuple[str, tuple], x: Sequence
+                      ) -> tuple[Vec, Vec]:
+        """The unit twist ``screw`` of ``joint`` acting on the world point x: (angular velocity,
+        velocity of x), world axes."""
+        P = self.pos[joint]
+        axis = P.world_R.apply(screw[1])
+        if screw[0] == "rotation":
+            return axis, cross(axis, sub(x, P.world_p))
+        return list(ZERO3), axis
+
     def mass_matrix(self) -> sp.Matrix:
         """M(q) by the composite-rigid-body recursion (after :meth:`composites` and
-        :meth:`world`); entries ``M.<i>.<j>`` (intermediates). The diagonal is formed in each
-        link's frame; the entry of an ancestor i is a⁰_i·(τ⁰_k + (p⁰_k − p⁰_i) × f⁰_k) (revolute
-        i) or a⁰_i·f⁰_k (prismatic i) with the wrench F_k in world axes: one product per entry."""
-        n = len(self.links)
-        M = sp.zeros(n, n)
+        :meth:`world`); entries ``M.<i>.<j>`` (intermediates). The block of a joint with itself
+        is formed in its link's frame, F = 𝕀ᶜ S, M = Sᵀ F; an ancestor's entries are
+        a⁰·(τ⁰ + (p⁰_k − p⁰_i) × f⁰) (rotation about a⁰ through p⁰_i) or a⁰·f⁰ (translation) with
+        the wrench F in world axes: one product per entry."""
+        M = sp.zeros(self.n, self.n)
         for link in self.links:
             P = self.pos[link]
-            a, u = P.S
             J, h, m = P.cinertia, P.cfirst, P.cmass
-            torque = add([dot(J[i], a) for i in range(3)], cross(h, u))
-            force = add(scale(m, u), cross(a, h))
-            k = link.index
-            M[k, k] = self.make(f"M.{k}.{k}", dot(a, torque) + dot(u, force))
+            screws = link.screws
+            wrenches = []
+            for a, u in map(_twist, screws):
+                wrenches.append((add([dot(J[i], a) for i in range(3)], cross(h, u)),
+                                 add(scale(m, u), cross(a, h))))
+            for s, (torque, force) in enumerate(wrenches):
+                k = link.index + s
+                for t, (a, u) in enumerate(map(_twist, screws[:s + 1])):
+                    i = link.index + t
+                    M[i, k] = M[k, i] = self.make(f"M.{i}.{k}", dot(a, torque) + dot(u, force))
             if link.parent is None:
                 continue
-            torque = named(self.make, f"{link.name}.F.t", P.world_R.apply(torque))
-            force = named(self.make, f"{link.name}.F.f", P.world_R.apply(force))
-            for holder in link.parent.path():
-                H = self.pos[holder]
-                axis = H.world_R.apply(holder.axis)
-                if holder.kind == "rotation":
-                    entry = dot(axis, add(torque, cross(sub(P.world_p, H.world_p), force)))
-                else:
-                    entry = dot(axis, force)
-                i, j = sorted((holder.index, k))
-                M[i, j] = M[j, i] = self.make(f"M.{i}.{j}", entry)
+            for s, (torque, force) in enumerate(wrenches):
+                k = link.index + s
+                torque = named(self.make, f"{link.name}.F{s}.t", P.world_R.apply(torque))
+                force = named(self.make, f"{link.name}.F{s}.f", P.world_R.apply(force))
+                for holder in link.parent.path():
+                    for t, screw in enumerate(holder.screws):
+                        w, lin = self._world_column(holder, screw, P.world_p)
+                        i = holder.index + t
+                        M[i, k] = M[k, i] = self.make(f"M.{i}.{k}", dot(w, torque) + dot(lin, force))
         return M
 
     def gravity(self, g_world: Sequence) -> None:
@@ -220,11 +300,12 @@ class Tree:
             P.g = named(self.make, f"{link.name}.g", P.R.apply_T(g))
 
     def gravity_forces(self) -> list:
-        """−∂V/∂q_k = S_kᵀ (hᶜ_k × g_k, mᶜ_k g_k) for every coordinate (after :meth:`gravity`)."""
-        out = [sp.S.Zero] * len(self.links)
+        """−∂V/∂q along every unit twist, S_kᵀ (hᶜ_k × g_k, mᶜ_k g_k) (after :meth:`gravity`)."""
+        out = [sp.S.Zero] * self.n
         for link in self.links:
             P = self.pos[link]
-            out[link.index] = dot(P.S[0], cross(P.cfirst, P.g)) + P.cmass * dot(P.S[1], P.g)
+            for s, (a, u) in enumerate(map(_twist, link.screws)):
+                out[link.index + s] = dot(a, cross(P.cfirst, P.g)) + P.cmass * dot(u, P.g)
         return out
 
     # --- world poses and points -----------------------------------------------------------------
@@ -244,13 +325,24 @@ class Tree:
         P = self.pos[link]
         return add(P.world_p, P.world_R.apply(local))
 
-    def column(self, joint: Link, x: Sequence) -> Vec:
-        """∂x/∂q_joint (world) of a world point x beyond ``joint``: a⁰ × (x − p⁰) or a⁰."""
-        P = self.pos[joint]
-        axis = P.world_R.apply(joint.axis)
-        if joint.kind == "rotation":
-            return cross(axis, sub(x, P.world_p))
-        return axis
+    def load(self, link: Link, x: Sequence, torque: Sequence, force: Sequence) -> list:
+        """The generalized forces of a wrench on ``link`` applied at the world point x (torque
+        and force in world axes) on every velocity: (velocity index, S⁰ᵀ W) for the unit twists
+        of the joints from ``link`` to its root."""
+        out = []
+        for joint in link.path():
+            for t, screw in enumerate(joint.screws):
+                w, lin = self._world_column(joint, screw, x)
+                out.append((joint.index + t, dot(w, torque) + dot(lin, force)))
+        return out
+
+    def columns(self, link: Link, x: Sequence) -> list:
+        """(velocity index, ∂ẋ/∂v in world axes) of a point x fixed to ``link``."""
+        out = []
+        for joint in link.path():
+            for t, screw in enumerate(joint.screws):
+                out.append((joint.index + t, self._world_column(joint, screw, x)[1]))
+        return out
 
     # --- velocity level -------------------------------------------------------------------------
     def velocities(self, v: Sequence) -> None:
@@ -258,14 +350,13 @@ class Tree:
         make = self.make
         for link in self.links:
             P = self.pos[link]
-            a, u = P.S
-            vk = v[link.index]
             if link.parent is None:
-                w, lin = scale(vk, a), scale(vk, u)
+                w, lin = list(ZERO3), list(ZERO3)
             else:
                 w0, v0 = self.twist[link.parent]
-                w = add(P.R.apply_T(w0), scale(vk, a))
-                lin = add(P.R.apply_T(add(v0, cross(w0, P.p))), scale(vk, u))
+                w, lin = P.R.apply_T(w0), P.R.apply_T(add(v0, cross(w0, P.p)))
+            for s, (a, u) in enumerate(map(_twist, link.screws)):
+                w, lin = add(w, scale(v[link.index + s], a)), add(lin, scale(v[link.index + s], u))
             self.twist[link] = (named(make, f"{link.name}.w", w), named(make, f"{link.name}.v", lin))
         for link in reversed(self.links):
             w, lin = self.twist[link]
@@ -277,22 +368,26 @@ class Tree:
             self.momentum[link] = (named(make, f"{link.name}.L", L), named(make, f"{link.name}.p", p))
 
     def velocity_forces(self) -> list:
-        """∂T/∂q_k at fixed velocities, Π_kᵀ ad_{T_k} S_k, for every coordinate."""
-        out = [sp.S.Zero] * len(self.links)
+        """Π_kᵀ ad_{T_k} S for every unit twist S of every joint: ∂T/∂q at fixed velocities for
+        a revolute or prismatic joint; for the rotations of a spherical or free joint the same
+        expression is ∂T/∂(rotation about the axis) plus the gyroscopic term π × ω of the
+        joint's quasi-velocities (Euler's L̇ = L × ω for one body; for a free root the whole
+        row is the Lie–Poisson term ad_Tᵀ Π)."""
+        out = [sp.S.Zero] * self.n
         for link in self.links:
-            a, u = self.pos[link].S
             w, lin = self.twist[link]
             L, p = self.momentum[link]
-            out[link.index] = dot(L, cross(w, a)) + dot(p, add(cross(w, u), cross(lin, a)))
+            for s, (a, u) in enumerate(map(_twist, link.screws)):
+                out[link.index + s] = dot(L, cross(w, a)) + dot(p, add(cross(w, u), cross(lin, a)))
         return out
 
     def generalized_momenta(self) -> list:
-        """p_k = S_kᵀ Π_k for every coordinate (= M(q) v)."""
-        out = [sp.S.Zero] * len(self.links)
+        """S_kᵀ Π_k for every unit twist (= M(q) v)."""
+        out = [sp.S.Zero] * self.n
         for link in self.links:
-            a, u = self.pos[link].S
             L, p = self.momentum[link]
-            out[link.index] = dot(a, L) + dot(u, p)
+            for s, (a, u) in enumerate(map(_twist, link.screws)):
+                out[link.index + s] = dot(a, L) + dot(u, p)
         return out
 
     def point_velocity(self, link: Link, local: Sequence) -> Vec:
