@@ -46,9 +46,11 @@ __all__ = [
     "vee6",
 ]
 
+from .bodies import Free, Prismatic, Revolute, RigidBody, Spherical, Translational, Universal, Weld
 from .multibody import Multibody  # noqa: E402  (registers the component type)
 
-__all__ += ["Multibody"]
+__all__ += ["Free", "Multibody", "Prismatic", "Revolute", "RigidBody", "Spherical",
+            "Translational", "Universal", "Weld"]
 
 from .free_body import FreeBody  # noqa: E402  (registers the component type)
 

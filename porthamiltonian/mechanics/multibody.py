@@ -1,38 +1,50 @@
 """Multibody trees in joint-space Hamiltonian form.
 
-A :class:`Multibody` component holds rigid bodies joined by revolute, prismatic, translational and
-weld joints in a tree rooted at the world frame. It compiles to
+A :class:`Multibody` component holds rigid bodies joined by revolute, prismatic, translational,
+universal, spherical, free and weld joints (:mod:`.joints`) in a tree rooted at the world frame.
+With coordinates q, velocities v (joint rates, or the quasi-velocities of a quaternion joint: the
+relative angular velocity, or twist, in the child's axes) and their momenta p it compiles to
 
-    q̇ = v,   M(q) v = p   (solved numerically, never inverted symbolically),
-    ṗ_k = ∂T/∂q_k|_v − ∂V/∂q_k + Q_k   (= ½ vᵀ (∂M/∂q_k) v − ∂V/∂q_k + Q_k),
+    q̇ = K(q) v,   M(q) v = p   (solved numerically, never inverted symbolically),
+    ṗ_s = Π_kᵀ ad_{T_k} S_s − ∂V/∂(S_s) + Q_s   for every unit twist S_s of every joint k,
     H = ½ pᵀ v + V(q),
 
-with V the gravity potential and Q the generalized forces from the ports. Everything is formed
-recursively over the tree as compiler intermediates (:mod:`.tree`): the links' relative poses, the
-composite (subtree) inertias and M(q) by the composite-rigid-body recursion; with v solved, the
-body twists (root to tip), the subtree momenta Π_k (tip to root) and ∂T/∂q_k|_v = Π_kᵀ ad_{T_k} S_k
-(S_k joint k's unit twist); gravity from the subtree masses and first moments. The generated code
+with K the identity for revolute and prismatic coordinates and the quaternion kinematics
+q̇ = ½ q ⊗ (0, ω) (and ṙ = R v) otherwise, V the gravity potential and Q the generalized forces
+from the ports. For a revolute or prismatic joint Π_kᵀ ad_{T_k} S_k is ∂T/∂q_k at fixed velocities
+(= ½ vᵀ ∂M/∂q_k v); for the rotations of a quaternion joint it also holds the gyroscopic term of
+the quasi-velocities (Euler's L̇ = L × ω for one body); for a free joint from the world the rows are
+the Lie–Poisson equation Ṗ = ad_Tᵀ P + W of the whole tree's momentum in the base's frame, as in
+:mod:`.free_body`. Everything is formed recursively over the tree as compiler intermediates
+(:mod:`.tree`): the links' relative poses, the composite (subtree) inertias and M(q) by the
+composite-rigid-body recursion; with v solved, the body twists T_k (root to tip) and the subtree
+momenta Π_k (tip to root); gravity from the subtree masses and first moments. The generated code
 grows as about N² along an N-link chain (never by differentiating M's entries), and the Jacobian
 of the state equations follows by the chain rule through the intermediates.
+
 Frames and conventions
 ----------------------
 * Frame names follow :mod:`porthamiltonian.mechanics.screw`; twists (ω, v), wrenches (τ, f).
 * A joint sits at ``origin`` (in the parent body's frame, m); its child body's frame has its origin
-  at the joint and coincides with the parent's frame (shifted to ``origin``) when the joint
-  coordinate is zero. Revolute: rotation by q (rad) about ``axis`` (right hand); prismatic: shift by
-  q (m) along ``axis``; translational: shifts along several axes (one coordinate each, named by the
-  axis, e.g. ``axes = ["x", "z"]``); weld: fixed.
+  at the joint and coincides with the parent's frame (shifted to ``origin``) at zero coordinates
+  (identity quaternion). Revolute: rotation by q (rad) about ``axis`` (right hand); prismatic:
+  shift by q (m) along ``axis``; translational: shifts along several axes (one coordinate each,
+  named by the axis, e.g. ``axes = ["x", "z"]``); universal: rotations about ``axes[0]`` then
+  ``axes[1]``; spherical: the rotation of a unit quaternion; free: a shift (parent axes) and a
+  rotation; weld: fixed. :mod:`.joints` lists the coordinates, velocities and ports of each type.
 * Body data are in the body's frame: ``mass`` (kg), ``com`` (m), ``inertia`` about the centre of
   mass (kg m², a 3x3 matrix, three principal values, or 0 for a point mass), ``points`` (named
   points, m).
 * ``gravity`` is the acceleration of gravity in the world frame (m/s²), default (0, 0, −9.81).
+* A quaternion's rotation is that of q/|q|: a drift of |q| changes nothing physical, and the
+  term ``quaternion_gain``/2 (1 − |q|²) q of its rate (along q, no work) pulls |q| back to 1.
 
-States: ``<name>.q.<joint>`` (and ``<name>.q.<joint>.<axis>`` for translational joints) and the
-conjugate momenta ``<name>.p.<...>``.
+States: ``<name>.q.<coordinate>`` and the momenta ``<name>.p.<velocity>`` (labels in
+:mod:`.joints`: ``<joint>``, ``<joint>.<axis>``, ``<joint>.qw`` …, ``<joint>.wx`` …).
 
 Ports (all optional, orientation set by the bond):
-* one per joint with coordinates, named as the joint: effort = generalized force (N m or N),
-  flow = joint velocity; dimension = its number of coordinates;
+* one per joint with velocities, named as the joint: effort = generalized force (N m, N, or a
+  wrench for a free joint), flow = the joint's velocities; dimension = their number;
 * one per body point, named as the point: effort = force (N), flow = velocity of the point (m/s),
   both in world coordinates (x, y, z), or (x, z) when ``plane = "xz"``;
 * one per body frame (``frames``: origin in the body frame, axes parallel to the body's), named as
@@ -43,8 +55,9 @@ out, the effort is the force the multibody exerts on the element (so an element 
 directly: ``connect("walker.foot", "contact.p")``).
 
 Outputs: ``<name>.<point>.x|y|z`` (world position of each point), ``<name>.T`` and ``<name>.V``
-(kinetic and potential energy, J). Matrices: ``<name>.M`` (mass matrix) and ``<name>.J.<point>``
-(point Jacobian in world coordinates), for impact maps.
+(kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion joint).
+Matrices: ``<name>.M`` (mass matrix, M v = p) and ``<name>.J.<point>`` (the point's velocity is
+J v, world coordinates), for impact maps.
 
 Limits: kinematic loops are not supported (each body has exactly one parent joint); bodies are
 given by their inertial data, not by shapes.

@@ -370,3 +370,53 @@ def test_floating_three_body_tree_matches_sympy_mechanics(seed, isolated_cache):
         assert np.max(np.abs(xdot[:13] - qdot)) < 1e-10 * np.max(np.abs(qdot))
         H = compiled.energy(0.0, x, compiled.param_defaults)[0]
         assert H == pytest.approx(H_ref, rel=1e-10)
+
+
+# --------------------------------------------------------------------------------------------
+# Records, names and errors
+# --------------------------------------------------------------------------------------------
+def test_joint_records_equal_the_tables_and_name_the_coordinates():
+    """Free, Spherical and Universal records build the same equations as the plain tables; the
+    coordinates and momenta are named as docs/model-files.md says."""
+    from porthamiltonian.mechanics import Free, RigidBody, Spherical, Universal
+
+    bodies = {"base": {"mass": 2.0, "inertia": [0.1, 0.2, 0.3]},
+              "arm": {"mass": 0.5, "com": [0, 0, -0.2], "inertia": [0.01, 0.01, 0.002]},
+              "head": {"mass": 0.3, "inertia": [0.001, 0.001, 0.001]}}
+    tables = {"float": {"type": "free", "parent": "world", "child": "base",
+                        "q0": [0, 0, 1, 1, 0, 0, 0]},
+              "uni": {"type": "universal", "parent": "base", "child": "arm", "axes": ["x", "y"],
+                      "q0": [0.1, -0.2]},
+              "ball": {"type": "spherical", "parent": "base", "child": "head",
+                       "origin": [0, 0, 0.3], "v0": [0, 0, 1.0]}}
+    records = {"float": Free(parent="world", child="base", q0=[0, 0, 1, 1, 0, 0, 0]),
+               "uni": Universal(parent="base", child="arm", axes=("x", "y"), q0=[0.1, -0.2]),
+               "ball": Spherical(parent="base", child="head", origin=[0, 0, 0.3], v0=[0, 0, 1.0])}
+    systems = []
+    for joints in (tables, records):
+        m = ph.Model("records")
+        m.add("mb", ph.Multibody(bodies={k: RigidBody(**v) for k, v in bodies.items()},
+                                 joints=joints, gravity=[0, 0, -9.81]))
+        systems.append(ph.symbolic(m))
+    assert [str(e) for e in systems[0].rhs] == [str(e) for e in systems[1].rhs]
+    assert systems[0].state_names == [
+        *(f"mb.q.float.{c}" for c in ("x", "y", "z", "qw", "qx", "qy", "qz")),
+        "mb.q.uni.x", "mb.q.uni.y", *(f"mb.q.ball.{c}" for c in ("qw", "qx", "qy", "qz")),
+        *(f"mb.p.float.{c}" for c in ("wx", "wy", "wz", "vx", "vy", "vz")),
+        "mb.p.uni.x", "mb.p.uni.y", *(f"mb.p.ball.{c}" for c in ("wx", "wy", "wz"))]
+
+
+@pytest.mark.parametrize("joint, message", [
+    ({"type": "universal", "axes": ["x"]}, "needs axes"),
+    ({"type": "universal", "axes": ["x", [2, 0, 0]]}, "parallel axes"),
+    ({"type": "spherical", "q0": [1, 0, 0]}, "q0 needs 4 value"),
+    ({"type": "spherical", "q0": [0, 0, 0, 0]}, "must not be zero"),
+    ({"type": "free", "v0": [0, 0, 0]}, "v0 needs 6 value"),
+])
+def test_bad_3d_joints_are_refused_naming_the_joint(joint, message):
+    model = ph.Model("bad")
+    with pytest.raises(ph.errors.ModelError, match=message) as info:
+        model.add("mb", ph.Multibody(bodies={"b": {"mass": 1.0, "inertia": [1, 1, 1]}},
+                                     joints={"j": {"parent": "world", "child": "b", **joint}}))
+        ph.symbolic(model)
+    assert "'j'" in str(info.value)
