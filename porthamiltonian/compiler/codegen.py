@@ -320,33 +320,33 @@ def _jacobian_with_velocity_intermediates(writer: _Writer, model: SymbolicModel,
         values, where = _sparse_jacobian(exprs, variables)
         return ("sparse", name, values, shape, where)
 
-    chain_values, chain = _sparse_jacobian(defs, ws)
-    update = {}                               # the chain rule's row updates, constants inline
-    for (m, j), g in zip(chain, chain_values):
-        if g == 1 or g == -1:
-            update[m, j] = f"    _Dw[{m}, :] {'+' if g == 1 else '-'}= _Dw[{j}, :]"
-        elif g.is_Number:
-            update[m, j] = f"    _Dw[{m}, :] += {writer.printer.doprint(g)} * _Dw[{j}, :]"
-        else:
-            update[m, j] = f"    _Dw[{m}, :] += _g{m}_{j} * _Dw[{j}, :]"
-    scalars = [(m, j, g) for (m, j), g in zip(chain, chain_values) if not g.is_Number]
+    chain_values, chain = _sparse_jacobian(defs, ws)        # (m, j) by rows: j < m
     groups: list[tuple] = [
         ("array", "_Fx", list(jacobian(rhs, xs)), (n, n)),
         sparse("_Fw", list(rhs), ws, (n, nw)),
         ("array", "_Fv", list(jacobian(rhs, vs)), (n, nv)),
         sparse("_Gx", defs, xs, (nw, n)),
         sparse("_Gv", defs[npos:], vs, (nw - npos, nv)),
-        ("scalars", [f"_g{m}_{j}" for m, j, _ in scalars], [g for _, _, g in scalars]),
         ("array", "_Bx", list(jacobian(sp.Matrix(res), xs)), (nv, n)),
         ("array", "_Ab", list(A), (nv, nv)),
     ]
     if npos:
         groups.append(sparse("_Bw", res, ws[:npos], (nv, npos)))
+    # the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j], row by row, as one loop over index tables (a
+    # compiled back end then builds one loop, not one array statement per partial)
     tail = ["    _Dw = _Gx"]
-    tail += [update[m, j] for m, j in chain if m < npos]
+    npre = sum(1 for m, _ in chain if m < npos)
+    if chain:
+        groups.append(("array", "_gv", chain_values, (len(chain),)))
+        tail += [f"    _cr = np.array({[m for m, _ in chain]})",
+                 f"    _cc = np.array({[j for _, j in chain]})"]
+    update = ["        _Dw[_cr[_k], :] += _gv[_k] * _Dw[_cc[_k], :]"]
+    if npre:
+        tail += [f"    for _k in range({npre}):", *update]
     tail.append(f"    _Vx = np.linalg.solve(_Ab, _Bx + _Bw @ _Dw[:{npos}, :])"
                 if npos else "    _Vx = np.linalg.solve(_Ab, _Bx)")
     tail.append(f"    _Dw[{npos}:, :] += _Gv @ _Vx")
-    tail += [update[m, j] for m, j in chain if m >= npos]
+    if len(chain) > npre:
+        tail += [f"    for _k in range({npre}, {len(chain)}):", *update]
     tail.append("    out = _Fx + _Fw @ _Dw + _Fv @ _Vx")
     return writer.function("jac", "t, x, p", groups, tail=tail, result="out")
