@@ -91,16 +91,6 @@ class Rotation:
     angle: Any = None
     rows: tuple | None = None
 
-    @property
-    def is_identity(self) -> bool:
-        return self.rows is None
-
-    def matrix(self) -> list[list]:
-        """The 3x3 matrix (rows)."""
-        if self.rows is None:
-            return [[sp.S.One if i == j else sp.S.Zero for j in range(3)] for i in range(3)]
-        return [list(r) for r in self.rows]
-
     def apply(self, v: Sequence) -> Vec:
         """R v."""
         if self.rows is None:

@@ -1,38 +1,46 @@
 """The recursive joint-space dynamics of a tree of rigid bodies (used by :mod:`.multibody`).
 
-A tree is a list of *links*, each a rigid frame moved by one joint coordinate relative to its
-parent link (or to the world): bodies welded together share a link, a translational joint with
-several axes is a chain of massless links. Link k's frame has its origin on joint k; relative to
-its parent λ it is rotated by ``Rᵏ = Rot(a_k, q_k)`` (revolute) or shifted along a_k
-(prismatic): ``H_λk = (Rᵏ, pᵏ)`` with ``pᵏ = o_k`` or ``o_k + a_k q_k`` (o_k the joint origin in
-λ's frame). Everything is computed in the links' own frames, so every quantity is formed from
-relative rotations and link-sized offsets (no cancellation between large absolute positions; a
-foot of 1e-9 of the hip's mass keeps its digits). Twists ``T = (ω, v)`` and wrenches
-``W = (τ, f)`` as in :mod:`.screw`; the unit twist of joint k in its own frame is the constant
-``S_k = (a_k, 0)`` (revolute) or ``(0, a_k)`` (prismatic); ``X_k W = (Rᵏ τ + pᵏ × Rᵏ f, Rᵏ f)``
-carries a wrench from frame k to its parent's frame.
+A tree is a list of *links*, each a rigid frame moved by one joint relative to its parent link
+(or to the world): bodies welded together share a link; translational and universal joints are
+chains of massless links with one coordinate each. Link k's frame has its origin on joint k;
+relative to its parent λ it is placed by ``H_λk = (Rᵏ, pᵏ)``: ``Rᵏ = Rot(a_k, q_k)``, ``pᵏ = o_k``
+(revolute: o_k the joint origin in λ's frame), ``Rᵏ = 1``, ``pᵏ = o_k + a_k q_k`` (prismatic),
+``Rᵏ = R(q/|q|)`` of a quaternion (spherical; free: and ``pᵏ = o_k + r``). Everything is
+computed in the links' own frames, so every quantity is formed from relative rotations and
+link-sized offsets (no cancellation between large absolute positions; a foot of 1e-9 of the
+hip's mass keeps its digits). Twists ``T = (ω, v)`` and wrenches ``W = (τ, f)`` as in
+:mod:`.screw`. Each joint has constant unit twists S in its link's frame, one per velocity:
+``(a_k, 0)`` (revolute), ``(0, a_k)`` (prismatic), ``(e_i, 0)`` (spherical: the velocities are
+the relative angular velocity in the link's axes), ``(e_i, 0), (0, e_i)`` (free: the relative
+twist); ``X_k W = (Rᵏ τ + pᵏ × Rᵏ f, Rᵏ f)`` carries a wrench from frame k to its parent's frame.
 
 Position level: the composite (subtree) inertia about each link origin, tip to root,
 ``𝕀ᶜ_k = 𝕀_k + Σ_children X_c 𝕀ᶜ_c X_cᵀ`` (in mass m, first moment h = m c and rotational
 inertia J about the origin), and the mass matrix by the composite-rigid-body recursion
 
-    F_k = 𝕀ᶜ_k S_k,   M_kk = S_kᵀ F_k,   F ← X F and M_ik = S_iᵀ F for each ancestor i of k.
+    F = 𝕀ᶜ_k S,   M = Sᵀ F within joint k,   M_iS = S_iᵀ F for each unit twist S_i of an ancestor
+
+(the latter with F carried to world axes and S_i acting at the ancestor's origin).
 
 Velocity level, with the velocities v solved from M v = p: root to tip the body twists
-``T_k = X_kᵀ T_λ + S_k v_k`` (``ω_k = Rᵏᵀ ω_λ + …``, ``v_k = Rᵏᵀ (v_λ + ω_λ × pᵏ) + …``), tip to
-root the subtree momenta ``Π_k = 𝕀_k T_k + Σ_children X_c Π_c``; the generalized momentum is
-``p_k = S_kᵀ Π_k`` and the velocity term of Hamilton's equations
+``T_k = X_kᵀ T_λ + Σ S v`` (``ω_k = Rᵏᵀ ω_λ + …``, ``v_k = Rᵏᵀ (v_λ + ω_λ × pᵏ) + …``), tip to
+root the subtree momenta ``Π_k = 𝕀_k T_k + Σ_children X_c Π_c``; the momentum of each velocity
+is ``Sᵀ Π_k`` and its rate in Hamilton's equations has the velocity term
 
-    ∂T/∂q_k |_v = Π_kᵀ ad_{T_k} S_k,    ad_T = [[ω̃, 0], [ṽ, ω̃]]
+    Π_kᵀ ad_{T_k} S,    ad_T = [[ω̃, 0], [ṽ, ω̃]].
 
-(moving joint k at fixed velocities changes the twist of every body beyond it by ad_{T_k} S_k,
-expressed in frame k). Gravity, ``g_k = Rᵏᵀ g_λ`` in each frame, acts on the subtree beyond
-joint k as the wrench ``(hᶜ_k × g_k, mᶜ_k g_k)``: ``−∂V/∂q_k = S_kᵀ (hᶜ_k × g_k, mᶜ_k g_k)``.
+For a revolute or prismatic joint this is ∂T/∂q at fixed velocities (moving the joint at fixed
+velocities changes the twist of every body beyond it by ad_{T_k} S, in frame k). For the
+quasi-velocities of a quaternion joint, Hamel's equations add to ∂T/∂(rotation about e_i) the
+term (π × ω_rel)_i of the joint's angular momentum π; the two together are again Π_kᵀ ad_{T_k} S
+(for one free body this is Euler's L̇ = L × ω; for a free root the rows are the Lie–Poisson
+Ṗ = ad_Tᵀ P). Gravity, ``g_k = Rᵏᵀ g_λ`` in each frame, acts on the subtree beyond joint k as
+the wrench ``(hᶜ_k × g_k, mᶜ_k g_k)``, whose work along S is ``Sᵀ (hᶜ_k × g_k, mᶜ_k g_k)``.
 
-Each step is O(1) (O(N) intermediates, plus one wrench carried per entry of M), so the generated
-code grows as N² along an N-link chain where differentiating M's entries grows as N⁴–N⁵. World
-poses ``(R⁰_k, p⁰_k)`` (world axes and origin of each link) serve the outputs: point positions,
-velocities and Jacobians.
+Each step is O(1) (O(N) intermediates, plus one product per entry of M), so the generated code
+grows as N² along an N-link chain where differentiating M's entries grows as N⁴–N⁵. World poses
+``(R⁰_k, p⁰_k)`` (world axes and origin of each link) serve M's off-diagonal entries and the
+outputs: point positions, velocities and Jacobians.
 """
 from __future__ import annotations
 

@@ -187,8 +187,8 @@ def test_multibody_error_points_at_the_nested_key(tmp_path):
     msg, path = message(text, tmp_path)
     n = line_of(text, 'type = "hinge"')
     assert msg == (f"{path}, line {n}: component 'ball': Multibody "
-                   "joint 'drop': type must be one of revolute, prismatic, translational, weld, "
-                   "got 'hinge'")
+                   "joint 'drop': type must be one of revolute, prismatic, translational, "
+                   "universal, spherical, free, weld, got 'hinge'")
     text = edit(BALL, "inertia = 0", "inertia = 0\ncolour = 1")
     msg, path = message(text, tmp_path)
     assert msg.startswith(f"{path}, line {line_of(text, 'colour')}: component 'ball': Multibody "
