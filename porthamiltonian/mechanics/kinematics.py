@@ -27,6 +27,12 @@ Make = Callable[[str, Any], Any]
 ZERO3 = (sp.Integer(0),) * 3
 
 
+def written_out(name: str, expr: Any) -> Any:
+    """A ``make`` that keeps every quantity as an expression (for values needed without
+    intermediates, e.g. initial states)."""
+    return expr
+
+
 def _nonzero(x: Any) -> bool:
     return x != 0
 

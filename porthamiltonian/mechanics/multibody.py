@@ -75,13 +75,8 @@ from ..errors import ModelError, UnknownComponentError
 from ..ports import Port
 from .bodies import as_tables
 from .joints import Joint, joint, quaternion_slice
-from .kinematics import ZERO3, add, cross, dot, named, scale
+from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
 from .tree import COORDINATES, DOFS, Link, Tree
-
-
-def _written_out(name: str, expr: Any) -> Any:
-    """``make`` for :class:`Tree` that keeps every quantity as an expression (initial values)."""
-    return expr
 
 
 def _vector3(value: Any, where: str) -> list:
@@ -262,7 +257,7 @@ class Multibody(Component):
         # initial momenta p0 = M(q0) v0, as S_kᵀ Π_k of the same recursion written out
         p0 = [sp.Integer(0)] * n
         if any(value != 0 for value in v0):
-            start = Tree(links, _written_out)
+            start = Tree(links, written_out)
             start.positions(q0)
             start.velocities(v0)
             p0 = start.generalized_momenta()
