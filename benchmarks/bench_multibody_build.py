@@ -2,9 +2,10 @@
 
 Measures, for compass_walker, compliant_leg_walker and the planar N-link pendulum chains of
 tests/validation/multibody_cases.py: the time of ``porthamiltonian.compiler.symbolic`` (model ->
-state equations, the multibody's build included) and of ``codegen.generate`` (cse, Jacobian,
-printing) on the python back end, and the generated module's size in operations (arithmetic,
-unary, call and augmented-assignment nodes of its syntax tree) and bytes. Every measurement runs
+state equations, the multibody's build included) and of code generation (``codegen.program``:
+cse, Jacobian, printed by ``printers.python_source``; ``codegen.generate`` in older trees), and
+the generated Python module's size in operations (arithmetic, unary, call and
+augmented-assignment nodes of its syntax tree) and bytes. Every measurement runs
 in a fresh interpreter (no sympy cache carried over; imports not timed); when a baseline tree is
 given, its runs and this tree's alternate (interleaved), and the table gives medians and the
 ratio baseline / this. The load average is printed before and after: the machine is shared.
@@ -43,7 +44,13 @@ sys.path.insert(0, {cases!r})
 from multibody_cases import chain_model
 from porthamiltonian import io
 from porthamiltonian.compiler import symbolic
-from porthamiltonian.compiler.codegen import generate
+try:
+    from porthamiltonian.compiler.codegen import program
+    from porthamiltonian.compiler.printers import python_source
+    def generate(sym):
+        return python_source(program(sym))
+except ImportError:                       # a baseline tree from before the printers
+    from porthamiltonian.compiler.codegen import generate
 spec = {spec!r}
 model = chain_model(int(spec[5:])) if spec.startswith("chain") else io.load(spec)
 t0 = time.perf_counter()

@@ -59,12 +59,14 @@ def check_number(name: str, value: Any, *, positive: bool = False, finite: bool 
 
 
 def check_integer(name: str, value: Any, at_least: int = 1) -> int:
+    """``value`` as an int, after checking it is an integer >= ``at_least``; else OptionError."""
     if not isinstance(value, Integral) or isinstance(value, bool) or value < at_least:
         raise OptionError(f"{name} must be an integer >= {at_least}, got {value!r}")
     return int(value)
 
 
 def check_flag(name: str, value: Any) -> bool:
+    """``value`` as a bool, after checking it is True or False; else OptionError."""
     if not isinstance(value, (bool, np.bool_)):
         raise OptionError(f"{name} must be True or False, got {value!r}")
     return bool(value)

@@ -5,7 +5,7 @@
     walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--json]
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
     walker gsn MODEL [--set NAME=VALUE ...] [--json]
-    walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin]
+    walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin] [--view3d]
     walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
@@ -47,16 +47,11 @@ from porthamiltonian.errors import ModelFileError
 
 from .analyses import ANALYSES, get_analysis
 from .gait import analyze_gait, walk
+from .labels import describe, is_nondimensional, shown_unit
+from .report_page import multiplier_cells
 from .results import to_json
 from .robustness import basin, gait_sensitivity_norm, step_down
 from .walkers import available_walkers, load_walker, save_walker
-
-#: units of the gait metrics and of the thesis's section coordinates (SI; angles in rad)
-UNITS = {"step_period": "s", "step_length": "m", "speed": "m/s",
-         "energy_dissipated_per_step": "J", "potential_released_per_step": "J",
-         "max_theta": "rad", "max_phi": "rad", "cost_of_transport": "(dimensionless)",
-         "theta": "rad", "phi": "rad", "theta_dot": "rad/s", "phi_dot": "rad/s",
-         "hip_speed": "m/s", "hub_speed": "m/s"}
 
 
 def _fmt(value) -> str:
@@ -88,9 +83,12 @@ def _walker(args):
                        backend=args.backend)
 
 
-def _with_unit(key: str, value: Any) -> str:
-    unit = UNITS.get(key, "")
-    return f"{_fmt(value)} {unit}".rstrip()
+def _with_unit(walker, key: str, value: Any) -> str:
+    """``value`` and the unit of quantity ``key`` of ``walker`` ("nondim." in a nondimensional
+    model; nothing for a ratio)."""
+    unit = describe(walker, key).unit
+    shown = "" if unit == "1" else shown_unit(unit, is_nondimensional(walker))
+    return f"{_fmt(value)} {shown}".rstrip()
 
 
 def cmd_gait(args) -> int:
@@ -108,19 +106,20 @@ def cmd_gait(args) -> int:
         print("  fixed point on the Poincaré section (heel strike; rigid walkers: just after the "
               "impact, compliant walkers: at touchdown, before it):")
         for name, value in d["fixed_point"].items():
-            print(f"    {name:20s} {_with_unit(name, value)}")
-        print("  Floquet multipliers (error estimate "
-              f"{_fmt(d['multiplier_error'])}):")
-        for m in d["floquet_multipliers"]:
-            print(f"    {m['re']: .10f} {m['im']:+.10f}i   |λ| = {abs(complex(m['re'], m['im'])):.10f}")
+            print(f"    {name:20s} {_with_unit(walker, name, value)}")
+        print(f"  Floquet multipliers, to the digits their error estimate "
+              f"{_fmt(d['multiplier_error'])} supports:")
+        rows, _ = multiplier_cells(result.floquet_multipliers, result.multiplier_error)
+        for value, modulus in rows:
+            print(f"    {value:28s} |λ| {modulus}")
     elif d["status"] == "fell":
         print(f"  fell during step {d['fell_at_step']} ({d['fall_reason']})")
     if d["last_iterate"]:
-        print("  last iterate:", ", ".join(f"{k} = {_with_unit(k, v)}"
+        print("  last iterate:", ", ".join(f"{k} = {_with_unit(walker, k, v)}"
                                            for k, v in d["last_iterate"].items()))
     for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step",
                 "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
-        print(f"  {key:30s} {_with_unit(key, d[key])}")
+        print(f"  {key:30s} {_with_unit(walker, key, d[key])}")
     return 0
 
 
@@ -210,7 +209,8 @@ def cmd_report(args) -> int:
     walker = _walker(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
-                          with_step_down=not args.no_step_down, log=log)
+                          with_step_down=not args.no_step_down, forces=args.forces,
+                          view3d=args.view3d, log=log)
     print(f"wrote {result.out / 'report.html'} ({len(result.files)} files, {result.seconds:.0f} s)")
     return 0
 
@@ -334,6 +334,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="steps of the recorded walk (default: 6)")
     p.add_argument("--basin", action="store_true", help="also the basin of attraction (slow)")
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
+    p.add_argument("--forces", action="store_true",
+                   help="draw the contact-force arrows in walk.gif (the page's player has a "
+                        "switch for them either way)")
+    view = p.add_mutually_exclusive_group()
+    view.add_argument("--view3d", dest="view3d", action="store_true", default=None,
+                      help="an interactive 3D view of the walk for a planar walker too (a 3D "
+                           "walker always has one), with its still image view3d.png")
+    view.add_argument("--no-view3d", dest="view3d", action="store_false",
+                      help="no 3D view, not even for a 3D walker")
     p.set_defaults(func=cmd_report)
 
     p = add_sweep_parser(

@@ -24,8 +24,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .metrics import GaitMetrics, gait_metrics
-from .poincare import (FixedPointResult, FloquetResult, WalkerFell, detect_period,
-                       find_fixed_point, floquet)
+from .poincare import (
+    FixedPointResult,
+    FloquetResult,
+    WalkerFell,
+    detect_period,
+    find_fixed_point,
+    floquet,
+)
 from .protocol import Stride, Walker
 from .results import JSONResult, to_jsonable
 
@@ -87,6 +93,16 @@ class GaitResult(JSONResult):
                   "parameters": self.parameters, "message": self.message})
         return to_jsonable(d)
 
+    def plot(self, walker: Walker | None = None, *, steps: int = 2):
+        """Limit cycle and Floquet multipliers, a quick look (see
+        :func:`walker_library.display.plot_gait`); returns the Axes."""
+        from .display import plot_gait
+        return plot_gait(self, walker, steps=steps)
+
+    def _repr_html_(self) -> str:
+        from .display import gait_html
+        return gait_html(self)
+
 
 
 def _named(walker: Walker, z) -> dict:
@@ -129,8 +145,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8, fd_step: fl
     if tol is None:
         tol = float(getattr(walker, "gait_tolerance", 1e-10))
     z0 = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
-    base = dict(model=walker.name, section=list(walker.section),
-                thesis_section=list(walker.thesis_section), parameters=dict(walker.parameters))
+    base = {"model": walker.name, "section": list(walker.section),
+            "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     fp = find_fixed_point(walker, z0, period=1, tol=tol, max_iter=max_iter)
     newton = _newton_dict(walker, fp)
     unstable = None

@@ -48,8 +48,7 @@ from porthamiltonian.batch import Sweep
 from porthamiltonian.errors import ModelError
 
 from .analyses import basin_case, step_down_case
-from .gait import analyze_gait
-from .report import (
+from .figures import (
     fig_angles,
     fig_energy,
     fig_energy_per_step,
@@ -57,6 +56,7 @@ from .report import (
     pyplot,
     save_figure,
 )
+from .gait import analyze_gait
 from .results import to_json, to_jsonable
 from .robustness import step_down
 from .series import walk_series

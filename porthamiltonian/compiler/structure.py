@@ -26,10 +26,15 @@ import sympy as sp
 
 from ..component import Builder, Built, Component
 from ..elements import _Junction
-from ..errors import (AlgebraicLoopError, DerivativeCausalityError, StructureError,
-                      UnknownParameterError)
+from ..errors import (
+    AlgebraicLoopError,
+    DerivativeCausalityError,
+    ModelError,
+    StructureError,
+    UnknownParameterError,
+)
 from ..expressions import TIME
-from ..model import FlatModel
+from ..model import ModelDescription
 
 
 @dataclass
@@ -43,7 +48,7 @@ class Equation:
 class System:
     """The equation system of a flattened model, before solving."""
 
-    flat: FlatModel
+    flat: ModelDescription
     built: dict[str, Built]
     params: dict[str, sp.Symbol]
     equations: list[Equation]
@@ -64,16 +69,10 @@ class Solution:
     order: list[tuple[sp.Symbol, sp.Expr, Equation]]
 
 
-def _scope_names(flat: FlatModel, prefix: str, params: dict[str, sp.Symbol]) -> dict[str, sp.Symbol]:
-    names = {}
-    for full, symbol in params.items():
-        if full.startswith(prefix) and "." not in full[len(prefix):]:
-            names[full[len(prefix):]] = symbol
-    return names
-
-
-def build_system(flat: FlatModel) -> System:
-    """Run every component's ``build`` and collect the equations, unknowns and states."""
+def build_system(flat: ModelDescription) -> System:
+    """Run every component's ``build`` and collect the equations, unknowns and states. A model
+    error raised by a component carries the component's path (and the argument's, where the
+    component knows it)."""
     params = {name: sp.Symbol(name, real=True) for name in flat.parameters}
     built: dict[str, Built] = {}
     equations: list[Equation] = []
@@ -83,15 +82,18 @@ def build_system(flat: FlatModel) -> System:
         orientation[(hc, hp)] = "in"
     for name, comp in flat.components.items():
         prefix = flat.scopes[name]
-        in_scope = {n[len(prefix):].split(".")[0] for n in flat.components if n.startswith(prefix)}
+        in_scope = flat.in_scope(prefix)
 
         def dotted(ref: str, prefix: str = prefix, in_scope: set[str] = in_scope) -> sp.Symbol | None:
             return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
 
         own = {port: o for (c, port), o in orientation.items() if c == name}
-        b = Builder(name, comp.all_ports(), _scope_names(flat, prefix, params), dotted, own)
+        b = Builder(name, list(flat.ports[name]), flat.scope_names(prefix), dotted, own)
         if not isinstance(comp, _Junction):
-            comp.build(b, **comp.parsed_args(b))
+            try:
+                comp.build(b, **comp.parsed_args(b))
+            except ModelError as err:
+                raise err.within(*flat.paths[name]) from None
         built[name] = b.built
         equations += [Equation(r, name, doc) for r, doc in b.built.equations]
         for pname, pv in b.built.ports.items():

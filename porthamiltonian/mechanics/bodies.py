@@ -40,6 +40,7 @@ class RigidBody:
             raise ModelError(f"RigidBody: mass must be positive, got {self.mass}")
 
     def to_dict(self) -> dict[str, Any]:
+        """The body as a Multibody's table (what a model file holds)."""
         out: dict[str, Any] = {"mass": self.mass, "com": list(self.com), "inertia": self.inertia}
         if self.points:
             out["points"] = {k: list(v) for k, v in self.points.items()}
@@ -57,6 +58,7 @@ class _Joint:
     kind = ""
 
     def to_dict(self) -> dict[str, Any]:
+        """The joint as a Multibody's table (what a model file holds)."""
         out = {"type": self.kind, "parent": self.parent, "child": self.child,
                "origin": list(self.origin)}
         for name in ("axis", "axes", "q0", "v0"):

@@ -1,4 +1,4 @@
-"""The free-floating rigid body in Lie–Poisson (Euler–Kirchhoff) form (DESIGN.md §4).
+"""The free-floating rigid body in Lie–Poisson (Euler–Kirchhoff) form: the FreeBody component.
 
 One component, :class:`FreeBody`: a rigid body in 3D, free of any joint, with its momentum in
 the body frame and its pose (position and unit quaternion) as states. It compiles to
@@ -213,8 +213,9 @@ class FreeBody(Component):
                      "wrench (torque, force) on the body / body twist (omega, v), body frame",
                      optional=True)]
 
-    def build(self, b: Builder, mass, inertia, com, gravity, position0, quaternion0, omega0,
-              v0) -> None:
+    def build(self, b: Builder, mass: sp.Expr, inertia: list, com: list | None,
+              gravity: list | None, position0: list | None, quaternion0: list | None,
+              omega0: list | None, v0: list | None) -> None:
         def vec(value, n, what, default):
             return sp.Matrix([b.parse(v, f"argument {what!r}")
                               for v in _vector(value, n, what, default)])

@@ -1,4 +1,4 @@
-"""Rigid plastic impact: the generic impact map of a multibody (DESIGN.md §4). Numeric, no sympy.
+"""Rigid plastic impact: the generic impact map of a multibody. Numeric, no sympy.
 
 A plastic (no-slip, no-bounce) impact imposes, instantaneously, the velocity constraints
 G(q) v⁺ = 0 (e.g. the new stance foot stops), with the configuration q unchanged. Impulse–momentum
@@ -26,13 +26,17 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg as sl
 
 from ..errors import ModelError, StateError
 
-__all__ = ["ImpactResult", "plastic_impact", "model_impact", "ModelImpact"]
+if TYPE_CHECKING:
+    from ..compiled import CompiledModel
+
+__all__ = ["ImpactResult", "ModelImpact", "model_impact", "plastic_impact"]
 
 
 @dataclass(frozen=True)
@@ -120,7 +124,7 @@ class ModelImpact:
     impact: ImpactResult
 
 
-def model_impact(model, x: np.ndarray, p: np.ndarray, constraints: Sequence[str],
+def model_impact(model: CompiledModel, x: np.ndarray, p: np.ndarray, constraints: Sequence[str],
                  mass_matrix: str = "walker.M", t: float = 0.0, method: str = "kkt",
                  v_minus: np.ndarray | None = None) -> ModelImpact:
     """Plastic impact of a compiled multibody ``model`` at state ``x`` with parameters ``p``.

@@ -37,6 +37,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
+from ..ports import DOMAINS
 
 AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
 TYPES = ("revolute", "prismatic", "translational", "universal", "spherical", "free", "weld")
@@ -44,16 +45,17 @@ _QUATERNION = ("qw", "qx", "qy", "qz")
 _TWIST = ("wx", "wy", "wz", "vx", "vy", "vz")
 
 
-def axis(value: Any, where: str) -> tuple:
-    """A unit axis from "x", "y", "z" or three numbers."""
+def axis(value: Any, where: str, path: tuple = ()) -> tuple:
+    """A unit axis from "x", "y", "z" or three numbers (``path``: the key path of errors)."""
     if isinstance(value, str) and value in AXES:
         return AXES[value]
     try:
         vec = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise ModelError(f"{where}: axis must be 'x', 'y', 'z' or three numbers, got {value!r}") from None
+        raise ModelError(f"{where}: axis must be 'x', 'y', 'z' or three numbers, got {value!r}",
+                         path=path) from None
     if vec.shape != (3,) or not np.linalg.norm(vec) > 0:
-        raise ModelError(f"{where}: axis must be a non-zero 3-vector, got {value!r}")
+        raise ModelError(f"{where}: axis must be a non-zero 3-vector, got {value!r}", path=path)
     vec = vec / np.linalg.norm(vec)
     return tuple(sp.nsimplify(v) if float(v).is_integer() else float(v) for v in vec)
 
@@ -79,10 +81,11 @@ def joint(name: str, table: dict) -> Joint:
     where = f"Multibody joint {name!r}"
     jtype = table.get("type")
     if jtype not in TYPES:
-        raise ModelError(f"{where}: type must be one of {', '.join(TYPES)}, got {jtype!r}")
+        raise ModelError(f"{where}: type must be one of {', '.join(TYPES)}, got {jtype!r}",
+                         path=("joints", name, "type"))
     if jtype in ("revolute", "prismatic"):
         kind = "rotation" if jtype == "revolute" else "translation"
-        a = axis(table.get("axis"), where)
+        a = axis(table.get("axis"), where, ("joints", name, "axis"))
         return Joint(name, jtype, (name,), (name,), ((kind, a, name),),
                      "rotation" if jtype == "revolute" else "translation", (0,), (0,))
     if jtype in ("translational", "universal"):
@@ -90,10 +93,12 @@ def joint(name: str, table: dict) -> Joint:
         count = 2 if jtype == "universal" else None
         if not isinstance(axes, list) or not axes or (count and len(axes) != count):
             example = "['x', 'y']" if count else "['x', 'z']"
-            raise ModelError(f"{where}: a {jtype} joint needs axes, e.g. {example}")
+            raise ModelError(f"{where}: a {jtype} joint needs axes, e.g. {example}",
+                             path=("joints", name, "axes") if "axes" in table else ("joints", name))
         if jtype == "translational" and any(ax not in AXES for ax in axes):
-            raise ModelError(f"{where}: translational axes are 'x', 'y' or 'z', got {axes!r}")
-        vectors = [axis(ax, where) for ax in axes]
+            raise ModelError(f"{where}: translational axes are 'x', 'y' or 'z', got {axes!r}",
+                             path=("joints", name, "axes"))
+        vectors = [axis(ax, where, ("joints", name, "axes", i)) for i, ax in enumerate(axes)]
         named = all(isinstance(ax, str) for ax in axes)
         labels = tuple(f"{name}.{ax}" if named else f"{name}.a{i + 1}" for i, ax in enumerate(axes))
         for i in range(len(vectors)):
@@ -101,7 +106,8 @@ def joint(name: str, table: dict) -> Joint:
                 if abs(float(np.dot(vectors[i], vectors[j]))) > 1 - 1e-12:
                     raise ModelError(f"{where}: coordinates {labels[j]!r} and {labels[i]!r} move "
                                      f"along parallel axes ({axes!r}): the mass matrix would be "
-                                     "singular; give different axes")
+                                     "singular; give different axes",
+                                     path=("joints", name, "axes"))
         kind = "rotation" if jtype == "universal" else "translation"
         return Joint(name, jtype, labels, labels,
                      tuple((kind, a, label) for a, label in zip(vectors, labels)),
@@ -125,3 +131,16 @@ def quaternion_slice(spec: Joint) -> slice | None:
     if spec.type == "free":
         return slice(3, 7)
     return None
+
+
+def units(spec: Joint) -> tuple[list[str], list[str]]:
+    """The SI units of the joint's coordinates (rad, m, or 1 for a quaternion's entries) and of
+    its momenta (N*m*s for a rotation rate, N*s for a linear rate)."""
+    rotation, translation = DOMAINS["rotation"], DOMAINS["translation"]
+    if spec.type in ("spherical", "free"):
+        shift = [translation.displacement_unit] * 3 if spec.type == "free" else []
+        linear = [translation.momentum_unit] * 3 if spec.type == "free" else []
+        return [*shift, *["1"] * 4], [rotation.momentum_unit] * 3 + linear
+    domain = DOMAINS[spec.domain] if spec.domain else rotation
+    return ([domain.displacement_unit] * len(spec.coordinates),
+            [domain.momentum_unit] * len(spec.velocities))

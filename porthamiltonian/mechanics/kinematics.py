@@ -43,10 +43,12 @@ def add(*vectors: Sequence) -> Vec:
 
 
 def sub(a: Sequence, b: Sequence) -> Vec:
+    """Componentwise difference a − b of 3-vectors."""
     return add(a, scale(-1, b))
 
 
 def scale(s: Any, a: Sequence) -> Vec:
+    """The 3-vector ``a`` times the scalar ``s`` (exact zeros kept)."""
     return [s * x if _nonzero(x) else sp.S.Zero for x in a]
 
 
@@ -55,10 +57,12 @@ def _products(pairs) -> Any:
 
 
 def dot(a: Sequence, b: Sequence) -> Any:
+    """The dot product of two 3-vectors (terms with an exact zero left out)."""
     return _products(zip(a, b))
 
 
 def cross(a: Sequence, b: Sequence) -> Vec:
+    """The cross product a × b of two 3-vectors (terms with an exact zero left out)."""
     return [_products(((a[1], b[2]), (-a[2], b[1]))), _products(((a[2], b[0]), (-a[0], b[2]))),
             _products(((a[0], b[1]), (-a[1], b[0])))]
 

@@ -64,7 +64,7 @@ given by their inertial data, not by shapes.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -73,17 +73,17 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import ModelError, UnknownComponentError
 from ..ports import Port
-from .bodies import as_tables
-from .joints import Joint, joint, quaternion_slice
+from .bodies import as_tables, expression_fields
+from .joints import Joint, joint, quaternion_slice, units
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
 from .tree import COORDINATES, DOFS, Link, Tree
 
 
-def _vector3(value: Any, where: str) -> list:
+def _vector3(value: Any, where: str, path: tuple = ()) -> list:
     if value is None:
         return [0, 0, 0]
     if not isinstance(value, (list, tuple)) or len(value) != 3:
-        raise ModelError(f"{where}: expected three components [x, y, z], got {value!r}")
+        raise ModelError(f"{where}: expected three components [x, y, z], got {value!r}", path=path)
     return list(value)
 
 
@@ -123,24 +123,29 @@ class Multibody(Component):
     def _validate(self) -> None:
         bodies, joints = self.value("bodies"), self.value("joints")
         if not isinstance(bodies, Mapping) or not bodies:
-            raise ModelError("Multibody needs 'bodies': a table name -> {mass, com, inertia, points}")
+            raise ModelError("Multibody needs 'bodies': a table name -> {mass, com, inertia, points}",
+                             path=("bodies",))
         if not isinstance(joints, Mapping) or not joints:
-            raise ModelError("Multibody needs 'joints': a table name -> {type, parent, child, ...}")
+            raise ModelError("Multibody needs 'joints': a table name -> {type, parent, child, ...}",
+                             path=("joints",))
         for name, body in bodies.items():
             where = f"Multibody body {name!r}"
             extra = set(body) - {"mass", "com", "inertia", "points", "frames"}
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: "
-                                 "mass, com, inertia, points, frames")
+                                 "mass, com, inertia, points, frames",
+                                 path=("bodies", name, min(extra)))
             if "mass" not in body:
-                raise ModelError(f"{where} needs a mass (kg)")
+                raise ModelError(f"{where} needs a mass (kg)", path=("bodies", name))
             mass = body["mass"]
             if isinstance(mass, (int, float)) and not mass > 0:
-                raise ModelError(f"{where}: mass must be positive, got {mass}")
-            self._inertia(body.get("inertia", 0), where)
-            _vector3(body.get("com"), f"{where} com")
-            for point, pos in {**(body.get("points") or {}), **(body.get("frames") or {})}.items():
-                _vector3(pos, f"{where} point/frame {point!r}")
+                raise ModelError(f"{where}: mass must be positive, got {mass}",
+                                 path=("bodies", name, "mass"))
+            self._inertia(body.get("inertia", 0), where, ("bodies", name, "inertia"))
+            _vector3(body.get("com"), f"{where} com", ("bodies", name, "com"))
+            for key in ("points", "frames"):
+                for point, pos in (body.get(key) or {}).items():
+                    _vector3(pos, f"{where} point/frame {point!r}", ("bodies", name, key, point))
         parent_of: dict[str, str] = {}
         for name, table in joints.items():
             where = f"Multibody joint {name!r}"
@@ -148,24 +153,26 @@ class Multibody(Component):
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: type, "
                                  "parent, child, axis (revolute, prismatic), axes (translational, "
-                                 "universal), origin, q0, v0")
+                                 "universal), origin, q0, v0", path=("joints", name, min(extra)))
             joint(name, table)                      # type, axis, axes
             parent, child = table.get("parent"), table.get("child")
             if parent != "world" and parent not in bodies:
                 raise UnknownComponentError(f"{where}: parent {parent!r} is neither 'world' nor a body "
-                                            f"({', '.join(bodies)})")
+                                            f"({', '.join(bodies)})", path=("joints", name, "parent"))
             if child not in bodies:
-                raise UnknownComponentError(f"{where}: child {child!r} is not a body ({', '.join(bodies)})")
+                raise UnknownComponentError(f"{where}: child {child!r} is not a body ({', '.join(bodies)})",
+                                            path=("joints", name, "child"))
             if child in parent_of:
                 raise ModelError(
                     f"{where}: body {child!r} already hangs on joint {parent_of[child]!r}; a second "
                     "joint would close a kinematic loop, which is not supported (model the loop "
-                    "with a stiff spring-damper between two points instead)")
+                    "with a stiff spring-damper between two points instead)",
+                    path=("joints", name, "child"))
             parent_of[child] = name
         orphans = [b for b in bodies if b not in parent_of]
         if orphans:
             raise ModelError(f"Multibody bodies {', '.join(orphans)} hang on no joint; attach them "
-                             "(a weld joint fixes a body to its parent)")
+                             "(a weld joint fixes a body to its parent)", path=("bodies", orphans[0]))
         for body in bodies:  # every chain must reach the world
             seen, node = set(), body
             while node != "world":
@@ -181,13 +188,13 @@ class Multibody(Component):
         if dup:
             raise ModelError(f"Multibody port names must be unique; repeated: {', '.join(sorted(dup))}")
         if self.value("gravity") is not None:
-            _vector3(self.value("gravity"), "Multibody gravity")
+            _vector3(self.value("gravity"), "Multibody gravity", ("gravity",))
         if self.value("plane") not in (None, "xz"):
-            raise ModelError("Multibody plane must be 'xz' or absent")
+            raise ModelError("Multibody plane must be 'xz' or absent", path=("plane",))
         self._parent_of = parent_of
 
     @staticmethod
-    def _inertia(value: Any, where: str) -> Any:
+    def _inertia(value: Any, where: str, path: tuple = ()) -> Any:
         """Inertia as a 3x3 nested list (point mass: 0), validated where numeric."""
         if isinstance(value, (int, float)) and value == 0:
             return 0
@@ -196,15 +203,23 @@ class Multibody(Component):
         if not (isinstance(value, (list, tuple)) and len(value) == 3
                 and all(isinstance(r, (list, tuple)) and len(r) == 3 for r in value)):
             raise ModelError(f"{where}: inertia must be 0 (point mass), three principal moments or "
-                             f"a 3x3 matrix, got {value!r}")
+                             f"a 3x3 matrix, got {value!r}", path=path)
         try:
             numeric = np.array(value, dtype=float)
         except (TypeError, ValueError):
             return value
         if not np.allclose(numeric, numeric.T) or np.linalg.eigvalsh(numeric).min() <= 0:
             raise ModelError(f"{where}: rotational inertia must be symmetric positive definite (or 0 "
-                             f"for a point mass), got eigenvalues {np.linalg.eigvalsh(numeric).round(12).tolist()}")
+                             f"for a point mass), got eigenvalues {np.linalg.eigvalsh(numeric).round(12).tolist()}",
+                             path=path)
         return value
+
+    def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
+        """The expressions nested in the bodies, joints and gravity, with their key paths (see
+        :meth:`Component.expression_fields` and :func:`.bodies.expression_fields`)."""
+        for path, value, what in expression_fields(self.value("bodies"), self.value("joints"),
+                                                   self.value("gravity")):
+            yield path, value, what, ()
 
     def _joints(self) -> list[Joint]:
         """The joints' structures, in the order of the table."""
@@ -230,7 +245,8 @@ class Multibody(Component):
         return ports
 
     # --- equations --------------------------------------------------------------------------------
-    def build(self, b: Builder, bodies, joints, gravity, plane, quaternion_gain) -> None:
+    def build(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
+              gravity: list | None, plane: str | None, quaternion_gain: sp.Expr) -> None:
         specs = self._joints()
         velocities = [label for spec in specs for label in spec.velocities]
         coordinates = [label for spec in specs for label in spec.coordinates]
@@ -261,8 +277,12 @@ class Multibody(Component):
             start.positions(q0)
             start.velocities(v0)
             p0 = start.generalized_momenta()
-        q = [b.state(f"q.{label}", initial=value) for label, value in zip(coordinates, q0)]
-        p = [b.state(f"p.{label}", initial=value) for label, value in zip(velocities, p0)]
+        q_units = [u for spec in specs for u in units(spec)[0]]
+        p_units = [u for spec in specs for u in units(spec)[1]]
+        q = [b.state(f"q.{label}", unit, value)
+             for label, unit, value in zip(coordinates, q_units, q0)]
+        p = [b.state(f"p.{label}", unit, value)
+             for label, unit, value in zip(velocities, p_units, p0)]
 
         def make(name: str, expr: Any) -> Any:
             expr = sp.sympify(expr)
@@ -300,7 +320,7 @@ class Multibody(Component):
                     for k, column in tree.columns(link, x):
                         J[:, k] = sp.Matrix(column)
                 for i, axis in enumerate("xyz"):
-                    b.output(f"{point}.{axis}", x[i])
+                    b.output(f"{point}.{axis}", x[i], "m")
                 b.matrix(f"J.{point}", J[dims, :])
                 pv, s = b.port(point), b.sign(point)
                 efforts = list(pv.e) if pv.port.dim > 1 else [pv.e]
@@ -344,14 +364,15 @@ class Multibody(Component):
             b.equation(b.der(p[k]), Q[k], "dp/dt = Π'ad_T S - dV/dq + Q")
         kinetic = (sp.Matrix(p).T * sp.Matrix(v))[0, 0] / 2
         b.energy(kinetic + potential)
-        b.output("T", kinetic)
-        b.output("V", potential)
+        b.output("T", kinetic, "J")
+        b.output("V", potential, "J")
         for spec in specs:
             where = quaternion_slice(spec)
             if where is not None:
                 c = coordinates.index(spec.coordinates[0])
                 quat = q[c + where.start:c + where.stop]
-                b.output(f"{spec.name}.q_norm", sp.sqrt(dot(quat[1:], quat[1:]) + quat[0] ** 2))
+                b.output(f"{spec.name}.q_norm", sp.sqrt(dot(quat[1:], quat[1:]) + quat[0] ** 2),
+                         "1")
         b.matrix("M", M)
 
     def _initial(self, b: Builder, joints, specs: list[Joint]) -> tuple[list, list]:
@@ -368,7 +389,8 @@ class Multibody(Component):
                     value if isinstance(value, list) else [value] * len(labels))
                 if len(items) != len(labels):
                     raise ModelError(f"Multibody joint {spec.name!r}: {key} needs {len(labels)} "
-                                     f"value(s) ({', '.join(labels)}), got {value!r}")
+                                     f"value(s) ({', '.join(labels)}), got {value!r}",
+                                     path=("joints", spec.name, key))
                 parsed = [b.parse(x, f"joint {spec.name!r} {key}") for x in items]
                 where = quaternion_slice(spec) if key == "q0" else None
                 if where is not None:
@@ -376,7 +398,8 @@ class Multibody(Component):
                     norm = sp.sqrt(sum(x**2 for x in quat))
                     if norm == 0:
                         raise ModelError(f"Multibody joint {spec.name!r}: the quaternion in q0 must "
-                                         "not be zero (identity: [1, 0, 0, 0])")
+                                         "not be zero (identity: [1, 0, 0, 0])",
+                                         path=("joints", spec.name, key))
                     parsed[where] = [x / norm for x in quat]
                 column += parsed
         return out

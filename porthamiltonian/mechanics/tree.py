@@ -110,6 +110,7 @@ class Link:
 
     @property
     def root(self) -> Link:
+        """The link at the base of this link's branch (its ancestor hanging on the world)."""
         link = self
         while link.parent is not None:
             link = link.parent

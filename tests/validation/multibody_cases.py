@@ -42,7 +42,7 @@ def tree3d_model() -> ph.Model:
     (non-diagonal) inertia matrices, off-axis centres of mass, gravity (0.3, −0.2, −9.81) m/s².
     Ports: the point ``tipA`` (slider) and ``tipB`` (branch) into 3-D linear dampers, the frame
     ``wrist`` (tool) into a 6-D linear damper, the joint ``elbow`` into a rotary damper."""
-    m = ph.Model("tree3d", "spatial tree exercising every joint and port kind")
+    m = ph.Model("tree3d")                  # a spatial tree exercising every joint and port kind
     for name, value, unit in (("m1", 1.3, "kg"), ("l1", 0.45, "m"), ("m2", 0.8, "kg"),
                               ("l2", 0.35, "m"), ("g", 9.81, "m/s^2")):
         m.parameter(name, value, unit)
@@ -88,7 +88,7 @@ def tree3d_model() -> ph.Model:
 def chain_model(n: int) -> ph.Model:
     """N uniform rods (m_i = 1 + 0.1 i kg, l_i = 0.5 + 0.05 i m) hanging from each other on
     revolute joints about y (relative angles q_i, all 0.3 rad initially), gravity (0, 0, −g)."""
-    model = ph.Model(f"chain{n}", f"{n} uniform rods on revolute joints")
+    model = ph.Model(f"chain{n}")                  # n uniform rods on revolute joints
     bodies, joints = {}, {}
     for i in range(1, n + 1):
         model.parameter(f"m{i}", 1.0 + 0.1 * i, "kg")

@@ -52,7 +52,7 @@ QUAT0 = np.array([0.9, 0.2, -0.3, 0.25]) / np.linalg.norm([0.9, 0.2, -0.3, 0.25]
 
 def offset_body_model() -> ph.Model:
     """A FreeBody whose every datum is a parameter (one compile serves all cases)."""
-    m = ph.Model("offset_free_body", "free body with offset CoM and full inertia matrix")
+    m = ph.Model("offset_free_body")   # free body with offset CoM and full inertia matrix
     m.parameter("m", 2.5, "kg")
     m.parameter("g", 9.81, "m/s^2")
     names = {}

@@ -17,7 +17,8 @@ import pytest
 from multibody_cases import chain_model
 
 from porthamiltonian.compiler import symbolic
-from porthamiltonian.compiler.codegen import generate
+from porthamiltonian.compiler.codegen import program
+from porthamiltonian.compiler.printers import python_source
 
 
 def operations(source: str) -> int:
@@ -30,7 +31,7 @@ def operations(source: str) -> int:
 def sizes() -> dict[int, tuple[int, int]]:
     out = {}
     for n in (10, 20):
-        source = generate(symbolic(chain_model(n)))
+        source = python_source(program(symbolic(chain_model(n))))
         out[n] = (operations(source), len(source.encode()))
     return out
 

@@ -1,27 +1,21 @@
-# Template, not imported: appended by porthamiltonian.compiler.codegen to each generated model
-# module, where ``rhs``, ``jac``, ``guards``, ``np``, ``math`` and ``_jit`` are defined.
+# Template, not imported: appended by porthamiltonian.backends to each generated model module,
+# after the model's functions (``rhs``, ``jac``, ``guards``), where ``np``, ``math`` and ``_jit``
+# are defined; the tables of each method and its entry point ``integrate_<method>`` follow it
+# (porthamiltonian/integrators/tableaus.py). rosenbrock_loop.c is the same loop in C: a change
+# here is made there too (tests/validation/test_rodas.py runs both on the same problems).
 #
-# Rodas4: a 6-stage, order-4, L-stable, stiffly accurate Rosenbrock method with an embedded
-# order-3 error estimate and an order-3 dense output (Hairer & Wanner, Solving ODEs II, 2nd ed.,
-# §IV.7, and their RODAS code; coefficients of the "Rodas4" set, γ = 1/4). Each step forms
-# W = I/(hγ) − J once, factors it (LU with partial pivoting) and solves six linear systems.
-# Events: after each accepted step the guards are evaluated; a sign change in the wanted
+# The step loop of the stiffly accurate Rosenbrock methods of tableaus.py (Rodas4, Rodas5P;
+# Hairer & Wanner, Solving ODEs II, 2nd ed., §IV.7). Each step forms W = I/(hγ) − J once, factors
+# it (LU with partial pivoting) and solves one linear system per stage; the last stage's
+# increment is the error estimate. Events: after each accepted step the guards are evaluated at
+# the step's end and at _SAMPLES interior points of the dense output; a sign change in the wanted
 # direction is located on the dense output by the Illinois (regula falsi) method.
+#
+# Room for a variational (sensitivity) variant: the stage inputs U, the increments K and the LU
+# of W of the accepted step are all kept until the next step, which is what a staggered
+# Φ' = J Φ step needs (same W, the coupling term from a directional derivative of J at U).
 
-_R_GAMMA = 0.25
-_R_SAMPLES = 3  # interior guard samples per step
-_R_A = (1.544, 0.9466785280815826, 0.2557011698983284, 3.314825187068521, 2.896124015972201,
-        0.9986419139977817, 1.221224509226641, 6.019134481288629, 12.53708332932087,
-        -0.687886036105895)
-_R_C = (-5.6688, -2.430093356833875, -0.2063599157091915, -0.1073529058151375, -9.594562251023355,
-        -20.47028614809616, 7.496443313967647, -10.24680431464352, -33.99990352819905,
-        11.7089089320616, 8.083246795921522, -7.981132988064893, -31.52159432874371,
-        16.31930543123136, -6.058818238834054)
-_R_CT = (0.386, 0.21, 0.63)
-_R_D = (0.25, -0.1043, 0.1035, -0.0362)
-_R_H = (10.12623508344586, -7.487995877610167, -34.80091861555747, -7.992771707568823,
-        1.025137723295662, -0.6762803392801253, 6.087714651680015, 16.43084320892478,
-        24.76722511418386, -6.594389125716872)
+_SAMPLES = 3  # interior guard samples per step
 
 
 @_jit
@@ -73,15 +67,22 @@ def _lu_solve(A, piv, b):
 
 
 @_jit
-def _dense(theta, y0, y1, d1, d2, out):
+def _dense(theta, y0, y1, E, out):
+    """y(θ) = (1 − θ) y0 + θ (y1 + (1 − θ)(E[0] + θ (E[1] + θ (...))))."""
+    m = E.shape[0]
     for i in range(y0.shape[0]):
-        out[i] = (1.0 - theta) * y0[i] + theta * (y1[i] + (1.0 - theta) * (d1[i] + theta * d2[i]))
+        acc = E[m - 1, i]
+        for r in range(m - 2, -1, -1):
+            acc = E[r, i] + theta * acc
+        out[i] = (1.0 - theta) * y0[i] + theta * (y1[i] + (1.0 - theta) * acc)
 
 
 @_jit
-def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_index,
-                    mask_sign, n_model, bound, max_steps, store_cap, tgrad_step):
-    """Integrate from (t0, y0) to t_end or the first terminal event.
+def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax,
+                directions, terminal, mask_index, mask_sign, n_model, bound, max_steps, store_cap,
+                tgrad_step):
+    """Integrate from (t0, y0) to t_end or the first terminal event with the method of the
+    tables TA, TC, TN, TD, TH, γ = gam, step-size exponent expo (see tableaus.py).
 
     Returns (status, t, y, ts, ys, n_store, nfev, njev, nsteps, event_index, ev_t, ev_k, n_ev, h):
     status 0 reached t_end, 1 terminal event ``event_index``, 2 step-size underflow or singular
@@ -90,13 +91,8 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
     ``ev_t``/``ev_k`` the non-terminal events found.
     """
     n = y0.shape[0]
+    s = TN.shape[0]
     g_count = directions.shape[0]
-    A = _R_A
-    C = _R_C
-    CT = _R_CT
-    D = _R_D
-    H = _R_H
-    gam = _R_GAMMA
     ts = np.empty(store_cap)
     ys = np.empty((store_cap, n))
     ev_t = np.empty(store_cap)
@@ -110,17 +106,11 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
     y = y0.copy()
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    k5 = np.empty(n)
-    k6 = np.empty(n)
-    ut = np.empty(n)
+    K = np.empty((s, n))
+    U = np.empty((s, n))
+    E = np.empty((TH.shape[0], n))
     dT = np.zeros(n)
     y1 = np.empty(n)
-    d1 = np.empty(n)
-    d2 = np.empty(n)
     yi = np.empty(n)
     g_old = guards(t, y, p)[:g_count].copy()
     if mask_index >= 0:
@@ -140,6 +130,7 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
         d1n = math.sqrt(d1n / n_model)
         h = 1e-6 if (d0n < 1e-5 or d1n < 1e-5) else 0.01 * d0n / d1n
         h = min(h, hmax, t_end - t)
+    err = 0.0
     while True:
         if t >= t_end:
             return 0, t, y, ts, ys, n_store, nfev, njev, nsteps, -1, ev_t, ev_k, n_ev, h
@@ -168,69 +159,57 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
             if not _lu_factor(W, piv):
                 h *= 0.5
                 continue
-            # stage 1
-            for i in range(n):
-                k1[i] = f0[i] + h * D[0] * dT[i]
-            _lu_solve(W, piv, k1)
-            for i in range(n):
-                ut[i] = y[i] + A[0] * k1[i]
-            f = rhs(t + CT[0] * h, ut, p)
-            for i in range(n):
-                k2[i] = f[i] + h * D[1] * dT[i] + (C[0] / h) * k1[i]
-            _lu_solve(W, piv, k2)
-            for i in range(n):
-                ut[i] = y[i] + A[1] * k1[i] + A[2] * k2[i]
-            f = rhs(t + CT[1] * h, ut, p)
-            for i in range(n):
-                k3[i] = f[i] + h * D[2] * dT[i] + (C[1] * k1[i] + C[2] * k2[i]) / h
-            _lu_solve(W, piv, k3)
-            for i in range(n):
-                ut[i] = y[i] + A[3] * k1[i] + A[4] * k2[i] + A[5] * k3[i]
-            f = rhs(t + CT[2] * h, ut, p)
-            for i in range(n):
-                k4[i] = f[i] + h * D[3] * dT[i] + (C[3] * k1[i] + C[4] * k2[i] + C[5] * k3[i]) / h
-            _lu_solve(W, piv, k4)
-            for i in range(n):
-                ut[i] = y[i] + A[6] * k1[i] + A[7] * k2[i] + A[8] * k3[i] + A[9] * k4[i]
-            f = rhs(t + h, ut, p)
-            for i in range(n):
-                k5[i] = f[i] + (C[6] * k1[i] + C[7] * k2[i] + C[8] * k3[i] + C[9] * k4[i]) / h
-            _lu_solve(W, piv, k5)
-            for i in range(n):
-                ut[i] += k5[i]
-            f = rhs(t + h, ut, p)
-            for i in range(n):
-                k6[i] = f[i] + (C[10] * k1[i] + C[11] * k2[i] + C[12] * k3[i] + C[13] * k4[i]
-                                + C[14] * k5[i]) / h
-            _lu_solve(W, piv, k6)
-            nfev += 5
+            # stages: U[i] = y + Σ_j TA[i, j] K[j];  W K[i] = f(t + TN[i] h, U[i]) + h TD[i] dT
+            # + (Σ_j TC[i, j] K[j]) / h
+            for st in range(s):
+                if st == 0:
+                    for i in range(n):
+                        U[0, i] = y[i]
+                    f = f0
+                else:
+                    for i in range(n):
+                        acc = y[i]
+                        for j in range(st):
+                            acc += TA[st, j] * K[j, i]
+                        U[st, i] = acc
+                    f = rhs(t + TN[st] * h, U[st], p)
+                    nfev += 1
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(st):
+                        acc += TC[st, j] * K[j, i]
+                    K[st, i] = f[i] + h * TD[st] * dT[i] + acc / h
+                _lu_solve(W, piv, K[st])
             # error norm over all states, the ledger quadratures included (their accuracy is the
             # accuracy of the energy balance); atol per state
             err = 0.0
             finite = True
             for i in range(n):
-                y1[i] = ut[i] + k6[i]
+                y1[i] = U[s - 1, i] + K[s - 1, i]
                 if not math.isfinite(y1[i]):
                     finite = False
                 sc = atol[i] + rtol * max(abs(y[i]), abs(y1[i]))
-                err += (k6[i] / sc) ** 2
+                err += (K[s - 1, i] / sc) ** 2
             err = math.sqrt(err / n) if finite else 1e300
             if err <= 1.0:
                 break
             rejected = True
-            h *= max(0.2, 0.9 * err ** -0.25)
+            h *= max(0.2, 0.9 * err ** -expo)
         # accepted step t -> t + h
         nsteps += 1
         t_new = t + h
-        for i in range(n):
-            d1[i] = H[0] * k1[i] + H[1] * k2[i] + H[2] * k3[i] + H[3] * k4[i] + H[4] * k5[i]
-            d2[i] = H[5] * k1[i] + H[6] * k2[i] + H[7] * k3[i] + H[8] * k4[i] + H[9] * k5[i]
+        for r in range(TH.shape[0]):
+            for i in range(n):
+                acc = 0.0
+                for j in range(s):
+                    acc += TH[r, j] * K[j, i]
+                E[r, i] = acc
         big = 0.0
         for i in range(n_model):
             big = max(big, abs(y1[i]))
         if not (big <= bound):
             return 3, t, y, ts, ys, n_store, nfev, njev, nsteps, -1, ev_t, ev_k, n_ev, h
-        # events on (t, t_new]: guards at the step ends and at _R_SAMPLES interior points of the
+        # events on (t, t_new]: guards at the step ends and at _SAMPLES interior points of the
         # dense output, so that a guard crossing twice within one step (e.g. a ball's whole
         # flight) is not missed
         hit = -1
@@ -239,10 +218,10 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
             g_new = guards(t_new, y1, p)[:g_count].copy()
             g_a = g_old.copy()
             th_a = 0.0
-            for s_i in range(1, _R_SAMPLES + 2):
-                th_b = s_i / (_R_SAMPLES + 1.0)
-                if s_i <= _R_SAMPLES:
-                    _dense(th_b, y, y1, d1, d2, yi)
+            for s_i in range(1, _SAMPLES + 2):
+                th_b = s_i / (_SAMPLES + 1.0)
+                if s_i <= _SAMPLES:
+                    _dense(th_b, y, y1, E, yi)
                     g_b = guards(t + th_b * h, yi, p)[:g_count].copy()
                 else:
                     g_b = g_new
@@ -264,7 +243,7 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
                     th = hi
                     for _ in range(100):
                         th = (lo * ghi - hi * glo) / (ghi - glo)
-                        _dense(th, y, y1, d1, d2, yi)
+                        _dense(th, y, y1, E, yi)
                         gm = guards(t + th * h, yi, p)[k]
                         if gm == 0.0 or (hi - lo) * h < 4e-16 * max(abs(t), 1.0):
                             break
@@ -294,7 +273,7 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
                 g_a = g_b
                 th_a = th_b
             if hit >= 0:
-                _dense((t_hit - t) / h, y, y1, d1, d2, yi)
+                _dense((t_hit - t) / h, y, y1, E, yi)
                 ts[n_store] = t_hit
                 ys[n_store, :] = yi
                 n_store += 1
@@ -308,7 +287,7 @@ def rodas_integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal
         n_store += 1
         f0 = rhs(t, y, p)
         nfev += 1
-        fac = min(6.0, max(0.2, 0.9 * err ** -0.25)) if err > 0.0 else 6.0
+        fac = min(6.0, max(0.2, 0.9 * err ** -expo)) if err > 0.0 else 6.0
         if rejected:
             fac = min(fac, 1.0)
         h = min(h * fac, hmax)

@@ -1,0 +1,351 @@
+/* Template, not compiled alone: appended by porthamiltonian.backends to each model's generated
+ * C functions (rhs, jac, guards; PH_N states, PH_NG guard slots), followed by the tables and
+ * exported entry point ph_integrate_<method> of each method (porthamiltonian/integrators/
+ * tableaus.py). It is rosenbrock_loop.py in C, step for step (same stages, error norm, step-size
+ * rule, dense output, guard samples, Illinois iteration and statuses): a change there is made
+ * here too.
+ *
+ * Entry points: int ph_integrate_<method>(PH_LOOP_PARAMS) returns the status (0 reached t_end,
+ * 1 terminal event, 2 step-size underflow or singular W, 3 divergence, 4 max_steps, 5 store
+ * buffers full) and writes out_th = {t, h}, out_y = y (PH_N values), counts = {n_store, nfev,
+ * njev, nsteps, event_index, n_ev}, the accepted steps into ts (store_cap) / ys (store_cap x PH_N,
+ * row-major) and the non-terminal events into ev_t / ev_k (store_cap). */
+
+typedef struct {
+    int s;              /* stages */
+    int m;              /* rows of the dense-output table */
+    double gamma;
+    double expo;        /* step-size exponent 1/(q + 1), q the embedded order */
+    const double *a;    /* s x s: U_i = y + sum_j a_ij K_j */
+    const double *c;    /* s x s: + (sum_j c_ij K_j) / h */
+    const double *nodes;
+    const double *d;
+    const double *h;    /* m x s dense-output table */
+} ph_tableau;
+
+#define PH_SAMPLES 3    /* interior guard samples per step */
+
+#define PH_LOOP_PARAMS double t0, const double *y0, double t_end, const double *p, double rtol, \
+    const double *atol, double h0, double hmax, const int64_t *directions, \
+    const uint8_t *terminal, int64_t g_count, int64_t mask_index, double mask_sign, \
+    int64_t n_model, double bound, int64_t max_steps, int64_t store_cap, double tgrad_step, \
+    double *ts, double *ys, double *ev_t, int64_t *ev_k, double *out_th, double *out_y, \
+    int64_t *counts
+#define PH_LOOP_ARGS t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, g_count, \
+    mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, ts, ys, ev_t, ev_k, \
+    out_th, out_y, counts
+
+static int ph_lu_factor(double *A, int *piv)
+{
+    const int n = PH_N;
+    for (int k = 0; k < n; ++k) {
+        int m = k;
+        double big = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; ++i) {
+            if (fabs(A[i * n + k]) > big) {
+                big = fabs(A[i * n + k]);
+                m = i;
+            }
+        }
+        piv[k] = m;
+        if (big == 0.0)
+            return 0;
+        if (m != k) {
+            for (int j = 0; j < n; ++j) {
+                double tmp = A[k * n + j];
+                A[k * n + j] = A[m * n + j];
+                A[m * n + j] = tmp;
+            }
+        }
+        for (int i = k + 1; i < n; ++i) {
+            A[i * n + k] /= A[k * n + k];
+            double f = A[i * n + k];
+            if (f != 0.0)
+                for (int j = k + 1; j < n; ++j)
+                    A[i * n + j] -= f * A[k * n + j];
+        }
+    }
+    return 1;
+}
+
+static void ph_lu_solve(const double *A, const int *piv, double *b)
+{
+    const int n = PH_N;
+    for (int k = 0; k < n; ++k) {
+        int m = piv[k];
+        if (m != k) {
+            double tmp = b[k];
+            b[k] = b[m];
+            b[m] = tmp;
+        }
+    }
+    for (int i = 0; i < n; ++i) {
+        double s = b[i];
+        for (int j = 0; j < i; ++j)
+            s -= A[i * n + j] * b[j];
+        b[i] = s;
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        double s = b[i];
+        for (int j = i + 1; j < n; ++j)
+            s -= A[i * n + j] * b[j];
+        b[i] = s / A[i * n + i];
+    }
+}
+
+/* y(theta) = (1 - theta) y0 + theta (y1 + (1 - theta)(E_0 + theta (E_1 + theta (...)))) */
+static void ph_dense(int m, double theta, const double *y0, const double *y1, const double *E,
+                     double *out)
+{
+    for (int i = 0; i < PH_N; ++i) {
+        double acc = E[(m - 1) * PH_N + i];
+        for (int r = m - 2; r >= 0; --r)
+            acc = E[r * PH_N + i] + theta * acc;
+        out[i] = (1.0 - theta) * y0[i] + theta * (y1[i] + (1.0 - theta) * acc);
+    }
+}
+
+static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
+{
+    enum { N = PH_N, NG = PH_NG };
+    const int s = tab->s, nd = tab->m;
+    const double gam = tab->gamma, expo = tab->expo;
+    int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nsteps = 0, hit = -1;
+    int status = 0, piv[PH_N];
+    double t = t0, h = h0, err = 0.0;
+    double g_old[PH_NG], g_new[PH_NG], g_a[PH_NG], g_b[PH_NG];
+    /* the work arrays, on the heap (large models would overflow a thread's stack) */
+    double *work = malloc(sizeof(double) * (size_t)N * (2 * N + 2 * s + nd + 7));
+    if (work == NULL)
+        return 2;
+    double *W = work, *J = W + N * N, *K = J + N * N, *U = K + s * N, *E = U + s * N;
+    double *y = E + nd * N, *dT = y + N, *y1 = dT + N, *yi = y1 + N, *f0 = yi + N;
+    double *f = f0 + N, *fT = f + N;
+
+    memcpy(y, y0, sizeof(double) * N);
+    memset(dT, 0, sizeof(double) * N);
+    guards(t, y, p, g_old);
+    if (mask_index >= 0) {
+        double g = fabs(g_old[mask_index]);
+        g_old[mask_index] = mask_sign * (g > 1e-300 ? g : 1e-300);
+    }
+    rhs(t, y, p, f0);
+    nfev += 1;
+    if (h <= 0.0) {
+        /* initial step from the scaled derivative (Hairer-Wanner II, p. 169, simplified) */
+        double d0n = 0.0, d1n = 0.0;
+        for (int64_t i = 0; i < n_model; ++i) {
+            double sc = atol[i] + rtol * fabs(y[i]);
+            d0n += (y[i] / sc) * (y[i] / sc);
+            d1n += (f0[i] / sc) * (f0[i] / sc);
+        }
+        d0n = sqrt(d0n / (double)n_model);
+        d1n = sqrt(d1n / (double)n_model);
+        h = (d0n < 1e-5 || d1n < 1e-5) ? 1e-6 : 0.01 * d0n / d1n;
+        if (hmax < h)
+            h = hmax;
+        if (t_end - t < h)
+            h = t_end - t;
+    }
+    for (;;) {
+        if (t >= t_end) {
+            status = 0;
+            break;
+        }
+        if (nsteps >= max_steps) {
+            status = 4;
+            break;
+        }
+        if (n_store >= store_cap - 1 || n_ev >= store_cap - 1) {
+            status = 5;
+            break;
+        }
+        jac(t, y, p, J);
+        njev += 1;
+        if (tgrad_step > 0.0) {
+            rhs(t + tgrad_step, y, p, fT);
+            nfev += 1;
+            for (int i = 0; i < N; ++i)
+                dT[i] = (fT[i] - f0[i]) / tgrad_step;
+        }
+        int rejected = 0, underflow = 0;
+        for (;;) {
+            if (h < 1e-14 * fmax(fabs(t), 1.0)) {
+                underflow = 1;
+                break;
+            }
+            if (t + h > t_end)
+                h = t_end - t;
+            const double inv = 1.0 / (h * gam);
+            for (int i = 0; i < N; ++i) {
+                for (int j = 0; j < N; ++j)
+                    W[i * N + j] = -J[i * N + j];
+                W[i * N + i] += inv;
+            }
+            if (!ph_lu_factor(W, piv)) {
+                h *= 0.5;
+                continue;
+            }
+            /* stages: U_i = y + sum_j a_ij K_j; W K_i = f(t + c_i h, U_i) + h d_i dT
+             * + (sum_j C_ij K_j) / h */
+            for (int st = 0; st < s; ++st) {
+                const double *fs = f0;
+                double *Ui = U + st * N, *Ki = K + st * N;
+                if (st == 0) {
+                    memcpy(Ui, y, sizeof(double) * N);
+                } else {
+                    for (int i = 0; i < N; ++i) {
+                        double acc = y[i];
+                        for (int j = 0; j < st; ++j)
+                            acc += tab->a[st * s + j] * K[j * N + i];
+                        Ui[i] = acc;
+                    }
+                    rhs(t + tab->nodes[st] * h, Ui, p, f);
+                    nfev += 1;
+                    fs = f;
+                }
+                for (int i = 0; i < N; ++i) {
+                    double acc = 0.0;
+                    for (int j = 0; j < st; ++j)
+                        acc += tab->c[st * s + j] * K[j * N + i];
+                    Ki[i] = fs[i] + h * tab->d[st] * dT[i] + acc / h;
+                }
+                ph_lu_solve(W, piv, Ki);
+            }
+            /* error norm over all states, the ledger quadratures included; atol per state */
+            const double *Us = U + (s - 1) * N, *Ks = K + (s - 1) * N;
+            int finite = 1;
+            err = 0.0;
+            for (int i = 0; i < N; ++i) {
+                y1[i] = Us[i] + Ks[i];
+                if (!isfinite(y1[i]))
+                    finite = 0;
+                double sc = atol[i] + rtol * fmax(fabs(y[i]), fabs(y1[i]));
+                err += (Ks[i] / sc) * (Ks[i] / sc);
+            }
+            err = finite ? sqrt(err / N) : 1e300;
+            if (err <= 1.0)
+                break;
+            rejected = 1;
+            h *= fmax(0.2, 0.9 * pow(err, -expo));
+        }
+        if (underflow) {
+            status = 2;
+            break;
+        }
+        /* accepted step t -> t + h */
+        nsteps += 1;
+        const double t_new = t + h;
+        for (int r = 0; r < nd; ++r)
+            for (int i = 0; i < N; ++i) {
+                double acc = 0.0;
+                for (int j = 0; j < s; ++j)
+                    acc += tab->h[r * s + j] * K[j * N + i];
+                E[r * N + i] = acc;
+            }
+        double big = 0.0;
+        for (int64_t i = 0; i < n_model; ++i)
+            big = fmax(big, fabs(y1[i]));
+        if (!(big <= bound)) {
+            status = 3;
+            break;
+        }
+        /* events on (t, t_new]: guards at the step ends and at PH_SAMPLES interior points of
+         * the dense output */
+        double t_hit = t_new;
+        hit = -1;
+        if (g_count > 0) {
+            guards(t_new, y1, p, g_new);
+            memcpy(g_a, g_old, sizeof(double) * NG);
+            double th_a = 0.0;
+            for (int s_i = 1; s_i <= PH_SAMPLES + 1; ++s_i) {
+                const double th_b = s_i / (PH_SAMPLES + 1.0);
+                if (s_i <= PH_SAMPLES) {
+                    ph_dense(nd, th_b, y, y1, E, yi);
+                    guards(t + th_b * h, yi, p, g_b);
+                } else {
+                    memcpy(g_b, g_new, sizeof(double) * NG);
+                }
+                for (int64_t k = 0; k < g_count; ++k) {
+                    const double a = g_a[k], b = g_b[k];
+                    const int up = a <= 0.0 && b >= 0.0, down = a >= 0.0 && b <= 0.0;
+                    const int64_t dk = directions[k];
+                    if (a == b || !((up && dk > 0) || (down && dk < 0) || ((up || down) && dk == 0)))
+                        continue;
+                    /* Illinois on theta in [th_a, th_b] */
+                    double lo = th_a, hi = th_b, glo = a, ghi = b, th = hi, gk[PH_NG];
+                    int side = 0;
+                    for (int it = 0; it < 100; ++it) {
+                        th = (lo * ghi - hi * glo) / (ghi - glo);
+                        ph_dense(nd, th, y, y1, E, yi);
+                        guards(t + th * h, yi, p, gk);
+                        const double gm = gk[k];
+                        if (gm == 0.0 || (hi - lo) * h < 4e-16 * fmax(fabs(t), 1.0))
+                            break;
+                        if ((gm > 0.0) == (ghi > 0.0)) {
+                            hi = th;
+                            ghi = gm;
+                            if (side == 1)
+                                glo *= 0.5;
+                            side = 1;
+                        } else {
+                            lo = th;
+                            glo = gm;
+                            if (side == -1)
+                                ghi *= 0.5;
+                            side = -1;
+                        }
+                    }
+                    const double t_root = t + th * h;
+                    if (terminal[k]) {
+                        if (hit < 0 || t_root < t_hit) {
+                            hit = k;
+                            t_hit = t_root;
+                        }
+                    } else if (n_ev < store_cap - 1) {
+                        ev_t[n_ev] = t_root;
+                        ev_k[n_ev] = k;
+                        n_ev += 1;
+                    }
+                }
+                if (hit >= 0)
+                    break;
+                memcpy(g_a, g_b, sizeof(double) * NG);
+                th_a = th_b;
+            }
+            if (hit >= 0) {
+                ph_dense(nd, (t_hit - t) / h, y, y1, E, yi);
+                ts[n_store] = t_hit;
+                memcpy(ys + n_store * N, yi, sizeof(double) * N);
+                n_store += 1;
+                t = t_hit;
+                memcpy(y, yi, sizeof(double) * N);
+                status = 1;
+                break;
+            }
+            memcpy(g_old, g_new, sizeof(double) * NG);
+        }
+        t = t_new;
+        memcpy(y, y1, sizeof(double) * N);
+        ts[n_store] = t;
+        memcpy(ys + n_store * N, y, sizeof(double) * N);
+        n_store += 1;
+        rhs(t, y, p, f0);
+        nfev += 1;
+        double fac = err > 0.0 ? fmin(6.0, fmax(0.2, 0.9 * pow(err, -expo))) : 6.0;
+        if (rejected)
+            fac = fmin(fac, 1.0);
+        h = fmin(h * fac, hmax);
+    }
+    out_th[0] = t;
+    out_th[1] = h;
+    memcpy(out_y, y, sizeof(double) * N);
+    counts[0] = n_store;
+    counts[1] = nfev;
+    counts[2] = njev;
+    counts[3] = nsteps;
+    counts[4] = status == 1 ? hit : -1;
+    counts[5] = n_ev;
+    free(work);
+    return status;
+}
