@@ -54,8 +54,12 @@ When the bond points into the multibody, the effort is the force applied to it; 
 out, the effort is the force the multibody exerts on the element (so an element can be connected
 directly: ``connect("walker.foot", "contact.p")``).
 
-Outputs: ``<name>.<point>.x|y|z`` (world position of each point), ``<name>.T`` and ``<name>.V``
-(kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion joint).
+Outputs: ``<name>.<point>.x|y|z`` (world position of each point, m), ``<name>.T`` and
+``<name>.V`` (kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion
+joint), and each body's pose (for :mod:`porthamiltonian.viewer`): ``<name>.<body>.pose.x|y|z``
+(the origin of its frame, world coordinates, m) and ``<name>.<body>.pose.qw|qx|qy|qz`` (the unit
+quaternion of its orientation, Hamilton, scalar first, body to world: x_W = p + R(q) x_B), for
+planar models too.
 Matrices: ``<name>.M`` (mass matrix, M v = p) and ``<name>.J.<point>`` (the point's velocity is
 J v, world coordinates), for impact maps.
 
@@ -305,6 +309,16 @@ class Multibody(Component):
             P = tree.pos[root]
             first = add(first, scale(P.cmass, P.world_p), P.world_R.apply(P.cfirst))
         potential = -dot(g, first)
+
+        tree.orientations()
+        for body_name in bodies:                    # poses, for the 3D viewer
+            link, offset = placement[body_name]
+            origin, quaternion = (offset, [1, 0, 0, 0]) if link is None else (
+                tree.point(link, offset), tree.pos[link].world_q)
+            for axis, value in zip("xyz", origin):
+                b.output(f"{body_name}.pose.{axis}", value, "m")
+            for label, value in zip(("qw", "qx", "qy", "qz"), quaternion):
+                b.output(f"{body_name}.pose.{label}", value, "1")
 
         dims = [i for i, axis in enumerate("xyz") if axis in self._point_dims()]
         for body_name, body in bodies.items():

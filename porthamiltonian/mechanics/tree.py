@@ -40,7 +40,8 @@ the wrench ``(hᶜ_k × g_k, mᶜ_k g_k)``, whose work along S is ``Sᵀ (hᶜ_k
 Each step is O(1) (O(N) intermediates, plus one product per entry of M), so the generated code
 grows as N² along an N-link chain where differentiating M's entries grows as N⁴–N⁵. World poses
 ``(R⁰_k, p⁰_k)`` (world axes and origin of each link) serve M's off-diagonal entries and the
-outputs: point positions, velocities and Jacobians.
+outputs: point positions, velocities and Jacobians, and the links' poses (with the unit
+quaternion of R⁰_k).
 """
 from __future__ import annotations
 
@@ -180,6 +181,13 @@ class _Pos:
     cinertia: list | None = None
     world_R: Rotation | None = None
     world_p: Vec | None = None
+    world_q: Vec | None = None    # unit quaternion (w, x, y, z) of world_R
+
+
+def _product(a: Sequence, b: Sequence) -> Vec:
+    """The Hamilton product a ⊗ b of quaternions (w, x, y, z): R(a ⊗ b) = R(a) R(b)."""
+    vector = add(scale(a[0], b[1:]), scale(b[0], a[1:]), cross(a[1:], b[1:]))
+    return [a[0] * b[0] - dot(a[1:], b[1:]), *vector]
 
 
 def _twist(screw: tuple[str, tuple]) -> tuple[Vec, Vec]:
@@ -201,10 +209,12 @@ class Tree:
         self.pos: dict[Link, _Pos] = {}
         self.twist: dict[Link, tuple[Vec, Vec]] = {}
         self.momentum: dict[Link, tuple[Vec, Vec]] = {}
+        self.coordinates: list = []
 
     # --- position level -------------------------------------------------------------------------
     def positions(self, q: Sequence) -> None:
         """Relative poses of the links at coordinates ``q``."""
+        self.coordinates = list(q)
         for link in self.links:
             c = link.coordinate
             if link.kind == "rotation":
@@ -328,6 +338,34 @@ class Tree:
             W = self.pos[link.parent]
             P.world_p = named(self.make, f"{link.name}.o", add(W.world_p, W.world_R.apply(P.p)))
             P.world_R = W.world_R.then(P.R, self.make, f"{link.name}.world")
+
+    def orientations(self) -> None:
+        """The unit quaternion (w, x, y, z; Hamilton, R⁰_k = R(q)) of every link's world axes,
+        root to tip (after :meth:`world`): (cos θ/2, sin θ/2 a) of the accumulated angle θ while
+        the rotations share one axis a (intermediates ``name.world.hc``, ``name.world.hs``), else
+        the parent's quaternion times the joint's — (cos q/2, sin q/2 a) for a revolute link, q/|q|
+        for a quaternion joint, 1 for a translation (``name.world.q<w|x|y|z>``)."""
+        make = self.make
+        for link in self.links:
+            P = self.pos[link]
+            parent = [sp.S.One, *ZERO3] if link.parent is None else self.pos[link.parent].world_q
+            if link.kind == "translation":
+                P.world_q = parent
+            elif P.world_R.axis is not None:
+                name, half = f"{link.name}.world", P.world_R.angle / 2
+                P.world_q = [make(f"{name}.hc", sp.cos(half)),
+                             *scale(make(f"{name}.hs", sp.sin(half)), P.world_R.axis)]
+            else:
+                if link.kind == "rotation":
+                    half = self.pos[link].R.angle / 2
+                    step = [make(f"{link.name}.hc", sp.cos(half)),
+                            *scale(make(f"{link.name}.hs", sp.sin(half)), link.axis)]
+                else:
+                    c = link.coordinate + (3 if link.kind == "free" else 0)
+                    quaternion = self.coordinates[c:c + 4]
+                    norm = make(f"{link.name}.qn", sp.sqrt(dot(quaternion, quaternion)))
+                    step = [x / norm for x in quaternion]
+                P.world_q = named(make, f"{link.name}.world.q", _product(parent, step), "wxyz")
 
     def point(self, link: Link, local: Sequence) -> Vec:
         """World position of a link-fixed point given in the link frame."""
