@@ -60,7 +60,7 @@ from pathlib import Path
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # same LAPACK threading for library and hand-written code
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 WALKER = {"M": 3.0, "m_l": 0.01, "m_f": 0.1, "L": 0.7, "g": 9.81}

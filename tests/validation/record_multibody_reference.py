@@ -53,8 +53,9 @@ def record(compiled) -> dict:
 
 def main(commit: str) -> None:
     sys.path.insert(0, str(HERE))
-    import porthamiltonian.mechanics  # noqa: F401
     from multibody_cases import python_cases, shipped_multibody_models
+
+    import porthamiltonian.mechanics  # noqa: F401
     from porthamiltonian import compile_model, io
 
     data = {"commit": commit, "seed": SEED, "models": {}}
