@@ -1,4 +1,4 @@
-"""Gait analysis: find the walker's gait from a rough guess and describe it (DESIGN.md §7).
+"""Gait analysis: find the walker's gait from a rough guess and describe it.
 
 :func:`analyze_gait` is what ``walker gait`` runs:
 

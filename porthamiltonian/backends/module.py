@@ -1,7 +1,7 @@
 """The ``python`` and ``numba`` back ends: the generated Python as an imported module.
 
 ``python``  the generated straight-line code run by CPython on Python floats (``x.tolist()``),
-            which BACKENDS.md measured ~4x faster than numpy-vectorized lambdify.
+            measured ~4x faster than numpy-vectorized lambdify on this project's models.
 ``numba``   the same source with every function compiled by ``numba.njit(cache=True)`` at its
             first call (numba keeps the machine code beside the module).
 """

@@ -1,4 +1,4 @@
-"""The same sweeps through a dask.distributed cluster (DESIGN.md §8): a local cluster of two
+"""The same sweeps through a dask.distributed cluster (docs/sweeps.md): a local cluster of two
 single-threaded workers (processes=False: workers in this process, started in well under a
 second here; processes=True costs ~5 s of start-up on the 2-core machine and computes the same
 numbers), used through ``client.get_executor()`` and through ``walker sweep --scheduler``."""

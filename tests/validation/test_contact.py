@@ -247,7 +247,7 @@ def test_normal_force_never_pulls(ball, dropped):
        n=st.floats(0.5, 2.5), K=st.floats(1e3, 1e8))
 def test_contact_force_and_dissipated_power_are_non_negative(ball, z, zdot, lam, n, K):
     """At any penetration, rate and parameters (λ ≥ 0, n > 0, K > 0): F ≥ 0, P_diss ≥ 0, and
-    P_diss = F ż − dH/dt = (F − K z₊ⁿ) ż (the definition in DESIGN.md §5) to 1e-9 relative."""
+    P_diss = F ż − dH/dt = (F − K z₊ⁿ) ż (the power the force delivers beyond the storage's rate) to 1e-9 relative."""
     p = ball.params(dict(lam=lam, n=n, K=K))
     x = np.array([0.0, 0.05 - z, 0.0, -zdot])          # q_x, q_z, p_x, p_z (m = 1)
     out = outputs_at(ball, x, p)

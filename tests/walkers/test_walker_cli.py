@@ -1,9 +1,8 @@
 """The ``walker`` command and the walker model files (models/simplest_walker.toml, ...; a model plus
 its ``[walker]`` table, docs/walkers.md).
 
-The fields checked are those the walker-library issue names (and ../shared/tools/check-walker-json
-checks): status, period_steps, fixed_point (with theta, theta_dot, phi, phi_dot for legged
-walkers), floquet_multipliers as {re, im}, step_period, step_length, speed,
+The fields checked are those the walker JSON promises (docs/walkers.md): status, period_steps,
+fixed_point (with theta, theta_dot, phi, phi_dot for legged walkers), floquet_multipliers as {re, im}, step_period, step_length, speed,
 energy_dissipated_per_step, max_theta, max_phi. Values are checked in test_rigid_walkers.py.
 """
 from __future__ import annotations
