@@ -9,7 +9,11 @@
  * 1 terminal event, 2 step-size underflow or singular W, 3 divergence, 4 max_steps, 5 store
  * buffers full) and writes out_th = {t, h}, out_y = y (PH_N values), counts = {n_store, nfev,
  * njev, nsteps, event_index, n_ev}, the accepted steps into ts (store_cap) / ys (store_cap x PH_N,
- * row-major) and the non-terminal events into ev_t / ev_k (store_cap). */
+ * row-major) and the non-terminal events into ev_t / ev_k (store_cap).
+ * int ph_integrate_<method>_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS) does the same and
+ * integrates the sensitivities Φ from phi0 (m x PH_N, row c the initial perturbation of direction
+ * c) by the staggered direct method of rosenbrock_loop.py (see its header): Φ at the end into
+ * phi_out (m x PH_N), at the stored points into phis (store_cap x m x PH_N). */
 
 typedef struct {
     int s;              /* stages */
@@ -34,6 +38,8 @@ typedef struct {
 #define PH_LOOP_ARGS t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, g_count, \
     mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, ts, ys, ev_t, ev_k, \
     out_th, out_y, counts
+#define PH_PHI_PARAMS int64_t m, const double *phi0, double *phis, double *phi_out
+#define PH_CBRT_EPS 6.0554544523933395e-06   /* the relative step of the central differences */
 
 static int ph_lu_factor(double *A, int *piv)
 {
@@ -93,19 +99,112 @@ static void ph_lu_solve(const double *A, const int *piv, double *b)
     }
 }
 
-/* y(theta) = (1 - theta) y0 + theta (y1 + (1 - theta)(E_0 + theta (E_1 + theta (...)))) */
-static void ph_dense(int m, double theta, const double *y0, const double *y1, const double *E,
-                     double *out)
+/* y(theta) = (1 - theta) y0 + theta (y1 + (1 - theta)(E_0 + theta (E_1 + theta (...)))) for
+ * vectors of len values (E: m x len) */
+static void ph_dense(int m, int64_t len, double theta, const double *y0, const double *y1,
+                     const double *E, double *out)
 {
-    for (int i = 0; i < PH_N; ++i) {
-        double acc = E[(m - 1) * PH_N + i];
+    for (int64_t i = 0; i < len; ++i) {
+        double acc = E[(m - 1) * len + i];
         for (int r = m - 2; r >= 0; --r)
-            acc = E[r * PH_N + i] + theta * acc;
+            acc = E[r * len + i] + theta * acc;
         out[i] = (1.0 - theta) * y0[i] + theta * (y1[i] + (1.0 - theta) * acc);
     }
 }
 
-static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
+/* D = d_x J(t, y)[Ki] by differences along the stage increment Ki (_coupling of
+ * rosenbrock_loop.py: central, or the one-sided difference without a kink of J); work: 2 N x N +
+ * 2 N. Returns the jac evaluations made. */
+static int ph_coupling(double t, const double *y, const double *p, const double *J,
+                       const double *Ki, const double *sc, int64_t n_model, double *D,
+                       double *work)
+{
+    enum { N = PH_N };
+    double nu = 0.0;
+    for (int64_t i = 0; i < n_model; ++i)
+        nu = fmax(nu, fabs(Ki[i]) / sc[i]);
+    if (nu == 0.0) {
+        memset(D, 0, sizeof(double) * N * N);
+        return 0;
+    }
+    const double eps = PH_CBRT_EPS / nu;
+    double *Jp = work, *Jm = Jp + N * N, *yp = Jm + N * N, *ym = yp + N;
+    for (int i = 0; i < N; ++i) {
+        yp[i] = y[i] + eps * Ki[i];
+        ym[i] = y[i] - eps * Ki[i];
+    }
+    jac(t, yp, p, Jp);
+    jac(t, ym, p, Jm);
+    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
+    for (int k = 0; k < N * N; ++k) {
+        up = fmax(up, fabs(Jp[k] - J[k]));
+        down = fmax(down, fabs(J[k] - Jm[k]));
+        second = fmax(second, fabs(Jp[k] - 2.0 * J[k] + Jm[k]));
+        central = fmax(central, fabs(Jp[k] - Jm[k]));
+    }
+    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
+    for (int k = 0; k < N * N; ++k) {
+        if (!kink)
+            D[k] = (Jp[k] - Jm[k]) / (2.0 * eps);
+        else if (up <= down)
+            D[k] = (Jp[k] - J[k]) / eps;
+        else
+            D[k] = (J[k] - Jm[k]) / eps;
+    }
+    return 2;
+}
+
+/* The Phi-stages of the accepted step t -> t + h (_variational_step of rosenbrock_loop.py): KP
+ * (s x m N) and P1 from P, with the x-stages U, K and the LU of W; JT = d_t J. work: 4 N x N +
+ * m N + 2 N. Returns the jac evaluations made. */
+static int ph_variational_step(const ph_tableau *tab, double t, double h, const double *y,
+                               const double *p, const double *J, const double *JT,
+                               const double *W, const int *piv, const double *U, const double *K,
+                               const double *sc, int64_t n_model, int64_t m, const double *P,
+                               double *KP, double *P1, double *work)
+{
+    enum { N = PH_N };
+    const int s = tab->s;
+    const int64_t nm = m * N;
+    double *Js = work, *D = Js + N * N, *UP = D + N * N, *cw = UP + nm;
+    int nj = 0;
+    for (int st = 0; st < s; ++st) {
+        for (int64_t q = 0; q < nm; ++q) {
+            double acc = P[q];
+            for (int j = 0; j < st; ++j)
+                acc += tab->a[st * s + j] * KP[j * nm + q];
+            UP[q] = acc;
+        }
+        const double *Jst = J;
+        if (st > 0) {
+            jac(t + tab->nodes[st] * h, U + st * N, p, Js);
+            nj += 1;
+            Jst = Js;
+        }
+        nj += ph_coupling(t, y, p, J, K + st * N, sc, n_model, D, cw);
+        const double hd = h * tab->d[st];
+        for (int k = 0; k < N * N; ++k)
+            D[k] += hd * JT[k];
+        for (int64_t c = 0; c < m; ++c) {
+            const double *Uc = UP + c * N, *Pc = P + c * N;
+            double *KPc = KP + st * nm + c * N;
+            for (int i = 0; i < N; ++i) {
+                double acc = 0.0, cc = 0.0;
+                for (int j = 0; j < N; ++j)
+                    acc += Jst[i * N + j] * Uc[j] + D[i * N + j] * Pc[j];
+                for (int j = 0; j < st; ++j)
+                    cc += tab->c[st * s + j] * KP[j * nm + c * N + i];
+                KPc[i] = acc + cc / h;
+            }
+            ph_lu_solve(W, piv, KPc);
+        }
+    }
+    for (int64_t q = 0; q < nm; ++q)
+        P1[q] = UP[q] + KP[(s - 1) * nm + q];
+    return nj;
+}
+
+static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
 {
     enum { N = PH_N, NG = PH_NG };
     const int s = tab->s, nd = tab->m;
@@ -121,6 +220,26 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
     double *W = work, *J = W + N * N, *K = J + N * N, *U = K + s * N, *E = U + s * N;
     double *y = E + nd * N, *dT = y + N, *y1 = dT + N, *yi = y1 + N, *f0 = yi + N;
     double *f = f0 + N, *fT = f + N;
+    /* the sensitivities' work arrays (m > 0) */
+    const int64_t nm = m * N;
+    double *pwork = NULL, *P = NULL, *P1 = NULL, *KP = NULL, *EP = NULL, *JT = NULL, *xscale = NULL;
+    double *vwork = NULL;
+    if (m > 0) {
+        pwork = malloc(sizeof(double) * (size_t)(nm * (s + nd + 3) + 6 * N * N + 4 * N));
+        if (pwork == NULL) {
+            free(work);
+            return 2;
+        }
+        P = pwork;
+        P1 = P + nm;
+        KP = P1 + nm;
+        EP = KP + s * nm;
+        JT = EP + nd * nm;
+        xscale = JT + N * N;
+        vwork = xscale + N;      /* 5 N x N + m N + 3 N: ph_variational_step's and jac at t + dt */
+        memcpy(P, phi0, sizeof(double) * nm);
+        memset(JT, 0, sizeof(double) * N * N);
+    }
 
     memcpy(y, y0, sizeof(double) * N);
     memset(dT, 0, sizeof(double) * N);
@@ -250,6 +369,27 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
             status = 3;
             break;
         }
+        if (m > 0) {
+            /* the Phi-stages of the accepted step, their dense-output coefficients */
+            if (tgrad_step > 0.0) {
+                double *JTa = vwork;
+                jac(t + tgrad_step, y, p, JTa);
+                njev += 1;
+                for (int k = 0; k < N * N; ++k)
+                    JT[k] = (JTa[k] - J[k]) / tgrad_step;
+            }
+            for (int i = 0; i < N; ++i)
+                xscale[i] = fmax(fabs(y[i]), atol[i] / rtol);
+            njev += ph_variational_step(tab, t, h, y, p, J, JT, W, piv, U, K, xscale, n_model, m,
+                                        P, KP, P1, vwork + N * N);
+            for (int r = 0; r < nd; ++r)
+                for (int64_t q = 0; q < nm; ++q) {
+                    double acc = 0.0;
+                    for (int j = 0; j < s; ++j)
+                        acc += tab->h[r * s + j] * KP[j * nm + q];
+                    EP[r * nm + q] = acc;
+                }
+        }
         /* events on (t, t_new]: guards at the step ends and at PH_SAMPLES interior points of
          * the dense output */
         double t_hit = t_new;
@@ -261,7 +401,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
             for (int s_i = 1; s_i <= PH_SAMPLES + 1; ++s_i) {
                 const double th_b = s_i / (PH_SAMPLES + 1.0);
                 if (s_i <= PH_SAMPLES) {
-                    ph_dense(nd, th_b, y, y1, E, yi);
+                    ph_dense(nd, N, th_b, y, y1, E, yi);
                     guards(t + th_b * h, yi, p, g_b);
                 } else {
                     memcpy(g_b, g_new, sizeof(double) * NG);
@@ -277,7 +417,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
                     int side = 0;
                     for (int it = 0; it < 100; ++it) {
                         th = (lo * ghi - hi * glo) / (ghi - glo);
-                        ph_dense(nd, th, y, y1, E, yi);
+                        ph_dense(nd, N, th, y, y1, E, yi);
                         guards(t + th * h, yi, p, gk);
                         const double gm = gk[k];
                         if (gm == 0.0 || (hi - lo) * h < 4e-16 * fmax(fabs(t), 1.0))
@@ -314,7 +454,11 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
                 th_a = th_b;
             }
             if (hit >= 0) {
-                ph_dense(nd, (t_hit - t) / h, y, y1, E, yi);
+                ph_dense(nd, N, (t_hit - t) / h, y, y1, E, yi);
+                if (m > 0) {
+                    ph_dense(nd, nm, (t_hit - t) / h, P, P1, EP, phis + n_store * nm);
+                    memcpy(P, phis + n_store * nm, sizeof(double) * nm);
+                }
                 ts[n_store] = t_hit;
                 memcpy(ys + n_store * N, yi, sizeof(double) * N);
                 n_store += 1;
@@ -329,6 +473,10 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
         memcpy(y, y1, sizeof(double) * N);
         ts[n_store] = t;
         memcpy(ys + n_store * N, y, sizeof(double) * N);
+        if (m > 0) {
+            memcpy(P, P1, sizeof(double) * nm);
+            memcpy(phis + n_store * nm, P, sizeof(double) * nm);
+        }
         n_store += 1;
         rhs(t, y, p, f0);
         nfev += 1;
@@ -346,6 +494,9 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS)
     counts[3] = nsteps;
     counts[4] = status == 1 ? hit : -1;
     counts[5] = n_ev;
+    if (m > 0)
+        memcpy(phi_out, P, sizeof(double) * nm);
+    free(pwork);
     free(work);
     return status;
 }

@@ -11,11 +11,19 @@
 # the step's end and at _SAMPLES interior points of the dense output; a sign change in the wanted
 # direction is located on the dense output by the Illinois (regula falsi) method.
 #
-# Room for a variational (sensitivity) variant: the stage inputs U, the increments K and the LU
-# of W of the accepted step are all kept until the next step, which is what a staggered
-# Φ' = J Φ step needs (same W, the coupling term from a directional derivative of J at U).
+# Sensitivities (the variational equations, given directions ``phi0``; none when it has no rows):
+# Φ' = J(t, x) Φ is integrated beside x by the staggered direct method. The step is the same
+# method applied to the coupled system (x, Φ), whose Jacobian [[J, 0], [∂(JΦ)/∂x, J]] is block
+# lower triangular: the x-stages are computed and the step accepted exactly as without Φ (Φ is not
+# in the error control: the trajectory is bit-identical), then the Φ-stages of the accepted step
+# are solved with the same LU of W = I/(hγ) − J:
+#     W KΦ_i = J(t + c_i h, U_i) UΦ_i + ∂_x J(t, y)[K_i] Φ0 + h d_i ∂_t J Φ0 + (Σ_j C_ij KΦ_j) / h,
+#     UΦ_i = Φ0 + Σ_j a_ij KΦ_j,   Φ1 = UΦ_s + KΦ_s,   dense output from e_r = Σ_j H_rj KΦ_j,
+# the directional derivative of J along the stage increment K_i by differences (_coupling).
+# Φ is held transposed and flattened: P[c * n + i] = Φ[i, c] (row c: direction c).
 
 _SAMPLES = 3  # interior guard samples per step
+_CBRT_EPS = 6.0554544523933395e-06  # ε^(1/3): the relative step of the central differences
 
 
 @_jit
@@ -78,17 +86,109 @@ def _dense(theta, y0, y1, E, out):
 
 
 @_jit
+def _coupling(t, y, p, J, Ki, sc, n_model, D):
+    """D = ∂_x J(t, y)[Ki], the derivative of the Jacobian along the stage increment Ki, by
+    differences with the step ε·Ki, ε = ε_mach^(1/3) / max_i |Ki_i| / sc_i (model states i; every
+    state moves by at most ε_mach^(1/3) of its scale sc_i): central, (J(y + εKi) − J(y − εKi))/2ε,
+    unless J has a kink between y − εKi and y + εKi (a Piecewise law, e.g. a contact's max(z, 0)):
+    then the two one-sided differences disagree by O(1) instead of O(ε), and the smaller one, from
+    the side without the kink, is used. Returns the jac evaluations made (0 when Ki = 0)."""
+    n = y.shape[0]
+    nu = 0.0
+    for i in range(n_model):
+        nu = max(nu, abs(Ki[i]) / sc[i])
+    if nu == 0.0:
+        for i in range(n):
+            for j in range(n):
+                D[i, j] = 0.0
+        return 0
+    eps = _CBRT_EPS / nu
+    yp = y.copy()
+    ym = y.copy()
+    for i in range(n):
+        yp[i] += eps * Ki[i]
+        ym[i] -= eps * Ki[i]
+    Jp = jac(t, yp, p)
+    Jm = jac(t, ym, p)
+    up = 0.0
+    down = 0.0
+    second = 0.0
+    central = 0.0
+    for i in range(n):
+        for j in range(n):
+            up = max(up, abs(Jp[i, j] - J[i, j]))
+            down = max(down, abs(J[i, j] - Jm[i, j]))
+            second = max(second, abs(Jp[i, j] - 2.0 * J[i, j] + Jm[i, j]))
+            central = max(central, abs(Jp[i, j] - Jm[i, j]))
+    kink = second > 0.5 * central and second > 1e-12 * (up + down + 1e-300)
+    for i in range(n):
+        for j in range(n):
+            if not kink:
+                D[i, j] = (Jp[i, j] - Jm[i, j]) / (2.0 * eps)
+            elif up <= down:
+                D[i, j] = (Jp[i, j] - J[i, j]) / eps
+            else:
+                D[i, j] = (J[i, j] - Jm[i, j]) / eps
+    return 2
+
+
+@_jit
+def _variational_step(t, h, y, p, J, JT, W, piv, U, K, TA, TC, TN, TD, sc, n_model, P, KP, P1):
+    """The Φ-stages of the accepted step t -> t + h (see the header): KP (s x m n) and P1 = Φ at
+    t + h from P = Φ at t, with the x-stages U, K and the LU of W of that step; JT = ∂_t J (zero
+    for an autonomous model). Returns the jac evaluations made."""
+    n = y.shape[0]
+    s = K.shape[0]
+    m = P.shape[0] // n
+    UP = np.empty(n * m)
+    D = np.empty((n, n))
+    nj = 0
+    for st in range(s):
+        for q in range(n * m):
+            acc = P[q]
+            for j in range(st):
+                acc += TA[st, j] * KP[j, q]
+            UP[q] = acc
+        if st == 0:
+            Js = J
+        else:
+            Js = jac(t + TN[st] * h, U[st], p)
+            nj += 1
+        nj += _coupling(t, y, p, J, K[st], sc, n_model, D)
+        hd = h * TD[st]
+        for i in range(n):
+            for j in range(n):
+                D[i, j] += hd * JT[i, j]
+        for c in range(m):
+            o = c * n
+            for i in range(n):
+                acc = 0.0
+                for j in range(n):
+                    acc += Js[i, j] * UP[o + j] + D[i, j] * P[o + j]
+                cc = 0.0
+                for j in range(st):
+                    cc += TC[st, j] * KP[j, o + i]
+                KP[st, o + i] = acc + cc / h
+            _lu_solve(W, piv, KP[st, o:o + n])
+    for q in range(n * m):
+        P1[q] = UP[q] + KP[s - 1, q]
+    return nj
+
+
+@_jit
 def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax,
                 directions, terminal, mask_index, mask_sign, n_model, bound, max_steps, store_cap,
-                tgrad_step):
+                tgrad_step, phi0):
     """Integrate from (t0, y0) to t_end or the first terminal event with the method of the
     tables TA, TC, TN, TD, TH, γ = gam, step-size exponent expo (see tableaus.py).
 
-    Returns (status, t, y, ts, ys, n_store, nfev, njev, nsteps, event_index, ev_t, ev_k, n_ev, h):
-    status 0 reached t_end, 1 terminal event ``event_index``, 2 step-size underflow or singular
-    W, 3 divergence (max|x| > bound or non-finite), 4 max_steps, 5 store buffer full (call again
-    from the returned t, y with the returned h). ``ts``/``ys`` hold the accepted steps,
-    ``ev_t``/``ev_k`` the non-terminal events found.
+    Returns (status, t, y, ts, ys, n_store, nfev, njev, nsteps, event_index, ev_t, ev_k, n_ev, h,
+    phi, phis): status 0 reached t_end, 1 terminal event ``event_index``, 2 step-size underflow
+    or singular W, 3 divergence (max|x| > bound or non-finite), 4 max_steps, 5 store buffer full
+    (call again from the returned t, y with the returned h). ``ts``/``ys`` hold the accepted
+    steps, ``ev_t``/``ev_k`` the non-terminal events found. ``phi0`` (m x n, row c the initial
+    perturbation of direction c; m = 0: no sensitivities) gives the sensitivities Φ (see the
+    header): ``phi`` (m x n) at the returned t, ``phis`` (store_cap x m x n) at the stored points.
     """
     n = y0.shape[0]
     s = TN.shape[0]
@@ -112,6 +212,15 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     dT = np.zeros(n)
     y1 = np.empty(n)
     yi = np.empty(n)
+    m = phi0.shape[0]
+    nm = m * n
+    P = phi0.copy().reshape(nm)
+    P1 = np.empty(nm)
+    KP = np.empty((s, nm))
+    EP = np.empty((TH.shape[0], nm))
+    phis = np.empty((store_cap, nm))
+    JT = np.zeros((n, n))
+    xscale = np.empty(n)
     g_old = guards(t, y, p)[:g_count].copy()
     if mask_index >= 0:
         g_old[mask_index] = mask_sign * max(abs(g_old[mask_index]), 1e-300)
@@ -131,13 +240,18 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         h = 1e-6 if (d0n < 1e-5 or d1n < 1e-5) else 0.01 * d0n / d1n
         h = min(h, hmax, t_end - t)
     err = 0.0
+    status = 0
+    hit = -1
     while True:
         if t >= t_end:
-            return 0, t, y, ts, ys, n_store, nfev, njev, nsteps, -1, ev_t, ev_k, n_ev, h
+            status = 0
+            break
         if nsteps >= max_steps:
-            return 4, t, y, ts, ys, n_store, nfev, njev, nsteps, -1, ev_t, ev_k, n_ev, h
+            status = 4
+            break
         if n_store >= store_cap - 1 or n_ev >= store_cap - 1:
-            return 5, t, y, ts, ys, n_store, nfev, njev, nsteps, -1, ev_t, ev_k, n_ev, h
+            status = 5
+            break
         J = jac(t, y, p)
         njev += 1
         if tgrad_step > 0.0:
@@ -146,9 +260,11 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             for i in range(n):
                 dT[i] = (fT[i] - f0[i]) / tgrad_step
         rejected = False
+        underflow = False
         while True:
             if h < 1e-14 * max(abs(t), 1.0):
-                return 2, t, y, ts, ys, n_store, nfev, njev, nsteps, -1, ev_t, ev_k, n_ev, h
+                underflow = True
+                break
             if t + h > t_end:
                 h = t_end - t
             inv = 1.0 / (h * gam)
@@ -195,6 +311,9 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 break
             rejected = True
             h *= max(0.2, 0.9 * err ** -expo)
+        if underflow:
+            status = 2
+            break
         # accepted step t -> t + h
         nsteps += 1
         t_new = t + h
@@ -208,7 +327,26 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         for i in range(n_model):
             big = max(big, abs(y1[i]))
         if not (big <= bound):
-            return 3, t, y, ts, ys, n_store, nfev, njev, nsteps, -1, ev_t, ev_k, n_ev, h
+            status = 3
+            break
+        if m > 0:
+            # the Φ-stages of the accepted step, their dense-output coefficients
+            if tgrad_step > 0.0:
+                JTa = jac(t + tgrad_step, y, p)
+                njev += 1
+                for i in range(n):
+                    for j in range(n):
+                        JT[i, j] = (JTa[i, j] - J[i, j]) / tgrad_step
+            for i in range(n):
+                xscale[i] = max(abs(y[i]), atol[i] / rtol)
+            njev += _variational_step(t, h, y, p, J, JT, W, piv, U, K, TA, TC, TN, TD, xscale,
+                                      n_model, P, KP, P1)
+            for r in range(TH.shape[0]):
+                for q in range(nm):
+                    acc = 0.0
+                    for j in range(s):
+                        acc += TH[r, j] * KP[j, q]
+                    EP[r, q] = acc
         # events on (t, t_new]: guards at the step ends and at _SAMPLES interior points of the
         # dense output, so that a guard crossing twice within one step (e.g. a ball's whole
         # flight) is not missed
@@ -274,16 +412,24 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 th_a = th_b
             if hit >= 0:
                 _dense((t_hit - t) / h, y, y1, E, yi)
+                if m > 0:
+                    _dense((t_hit - t) / h, P, P1, EP, phis[n_store])
+                    P[:] = phis[n_store]
                 ts[n_store] = t_hit
                 ys[n_store, :] = yi
                 n_store += 1
-                return 1, t_hit, yi.copy(), ts, ys, n_store, nfev, njev, nsteps, hit, ev_t, ev_k, n_ev, h
+                t = t_hit
+                y[:] = yi
+                status = 1
+                break
             g_old = g_new
         t = t_new
         for i in range(n):
             y[i] = y1[i]
+        P[:] = P1
         ts[n_store] = t
         ys[n_store, :] = y
+        phis[n_store, :] = P
         n_store += 1
         f0 = rhs(t, y, p)
         nfev += 1
@@ -291,3 +437,5 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         if rejected:
             fac = min(fac, 1.0)
         h = min(h * fac, hmax)
+    return (status, t, y, ts, ys, n_store, nfev, njev, nsteps, hit if status == 1 else -1, ev_t,
+            ev_k, n_ev, h, P.reshape(m, n), phis.reshape(store_cap, m, n))
