@@ -233,11 +233,11 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         extra = ()
         if variational:
             phi0 = np.ascontiguousarray(phi0, dtype=np.float64)
-            if phi0.ndim != 2 or phi0.shape[1] != n:
-                raise ValueError(f"phi0 must have shape (m, {n}), got {phi0.shape}")
-            m = phi0.shape[0]
-            phi = np.empty((m, n))
-            phis = np.empty((store_cap, m, n))
+            if phi0.ndim != 2 or phi0.shape[0] != n:
+                raise ValueError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
+            m = phi0.shape[1]
+            phi = np.empty((n, m))
+            phis = np.empty((store_cap, n, m))
             extra = (m, _pointer(phi0), _pointer(phis), _pointer(phi))
         status = entry(t0, _pointer(y0), t_end, _pointer(p), rtol, _pointer(atol), h0, hmax,
                        _pointer(directions), _pointer(terminal), g, int(mask_index), mask_sign,

@@ -11,9 +11,9 @@
  * njev, nsteps, event_index, n_ev}, the accepted steps into ts (store_cap) / ys (store_cap x PH_N,
  * row-major) and the non-terminal events into ev_t / ev_k (store_cap).
  * int ph_integrate_<method>_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS) does the same and
- * integrates the sensitivities Φ from phi0 (m x PH_N, row c the initial perturbation of direction
- * c) by the staggered direct method of rosenbrock_loop.py (see its header): Φ at the end into
- * phi_out (m x PH_N), at the stored points into phis (store_cap x m x PH_N). */
+ * integrates the sensitivities Phi from phi0 (PH_N x m, row-major; column c the initial
+ * perturbation of direction c) as rosenbrock_loop.py does (see its header): Phi at the end into
+ * phi_out (PH_N x m), at the stored points into phis (store_cap x PH_N x m). */
 
 typedef struct {
     int s;              /* stages */
@@ -112,29 +112,25 @@ static void ph_dense(int m, int64_t len, double theta, const double *y0, const d
     }
 }
 
-/* D = d_x J(t, y)[Ki] by differences along the stage increment Ki (_coupling of
+/* D = d/dt J(t, x(t)) = d_x J[f] + d_t J by differences along (1, f) (_jac_rate of
  * rosenbrock_loop.py: central, or the one-sided difference without a kink of J); work: 2 N x N +
- * 2 N. Returns the jac evaluations made. */
-static int ph_coupling(double t, const double *y, const double *p, const double *J,
-                       const double *Ki, const double *sc, int64_t n_model, double *D,
+ * 2 N. Returns the jac evaluations made (2). */
+static int ph_jac_rate(double t, double h, const double *y, const double *p, const double *J,
+                       const double *f, const double *sc, int64_t n_model, double *D,
                        double *work)
 {
     enum { N = PH_N };
-    double nu = 0.0;
+    double nu = 1.0 / h;
     for (int64_t i = 0; i < n_model; ++i)
-        nu = fmax(nu, fabs(Ki[i]) / sc[i]);
-    if (nu == 0.0) {
-        memset(D, 0, sizeof(double) * N * N);
-        return 0;
-    }
+        nu = fmax(nu, fabs(f[i]) / sc[i]);
     const double eps = PH_CBRT_EPS / nu;
     double *Jp = work, *Jm = Jp + N * N, *yp = Jm + N * N, *ym = yp + N;
     for (int i = 0; i < N; ++i) {
-        yp[i] = y[i] + eps * Ki[i];
-        ym[i] = y[i] - eps * Ki[i];
+        yp[i] = y[i] + eps * f[i];
+        ym[i] = y[i] - eps * f[i];
     }
-    jac(t, yp, p, Jp);
-    jac(t, ym, p, Jm);
+    jac(t + eps, yp, p, Jp);
+    jac(t - eps, ym, p, Jm);
     double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
     for (int k = 0; k < N * N; ++k) {
         up = fmax(up, fabs(Jp[k] - J[k]));
@@ -154,50 +150,97 @@ static int ph_coupling(double t, const double *y, const double *p, const double 
     return 2;
 }
 
+/* Solve A X = B in place for the N x m matrix B (row-major; A: the LU of ph_lu_factor) */
+static void ph_lu_solve_rows(const double *A, const int *piv, double *B, int64_t m)
+{
+    const int n = PH_N;
+    for (int k = 0; k < n; ++k) {
+        int r = piv[k];
+        if (r != k)
+            for (int64_t c = 0; c < m; ++c) {
+                double tmp = B[k * m + c];
+                B[k * m + c] = B[r * m + c];
+                B[r * m + c] = tmp;
+            }
+    }
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < i; ++j) {
+            const double a = A[i * n + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    B[i * m + c] -= a * B[j * m + c];
+        }
+    for (int i = n - 1; i >= 0; --i) {
+        for (int j = i + 1; j < n; ++j) {
+            const double a = A[i * n + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    B[i * m + c] -= a * B[j * m + c];
+        }
+        const double d = A[i * n + i];
+        for (int64_t c = 0; c < m; ++c)
+            B[i * m + c] /= d;
+    }
+}
+
 /* The Phi-stages of the accepted step t -> t + h (_variational_step of rosenbrock_loop.py): KP
- * (s x m N) and P1 from P, with the x-stages U, K and the LU of W; JT = d_t J. work: 4 N x N +
- * m N + 2 N. Returns the jac evaluations made. */
+ * (s x N m) and P1 from P, with the LU of W and the dense output (y, y1, E) of the step; f = x'
+ * at t; J at t + h into J1. work: 4 N x N + 2 m N + 3 N. Returns the jac evaluations made. */
 static int ph_variational_step(const ph_tableau *tab, double t, double h, const double *y,
-                               const double *p, const double *J, const double *JT,
-                               const double *W, const int *piv, const double *U, const double *K,
+                               const double *y1, const double *p, const double *J,
+                               const double *f, const double *W, const int *piv, const double *E,
                                const double *sc, int64_t n_model, int64_t m, const double *P,
-                               double *KP, double *P1, double *work)
+                               double *KP, double *P1, double *J1, double *work)
 {
     enum { N = PH_N };
-    const int s = tab->s;
+    const int s = tab->s, nd = tab->m;
     const int64_t nm = m * N;
-    double *Js = work, *D = Js + N * N, *UP = D + N * N, *cw = UP + nm;
-    int nj = 0;
+    double *Js = work, *D = Js + N * N, *xi = D + N * N, *UP = xi + N, *DP = UP + nm;
+    double *cw = DP + nm;
+    int nj = ph_jac_rate(t, h, y, p, J, f, sc, n_model, D, cw);
+    memset(DP, 0, sizeof(double) * nm);
+    for (int i = 0; i < N; ++i)             /* DP = A'(t) Phi0 */
+        for (int64_t j = 0; j < n_model; ++j) {
+            const double a = D[i * N + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    DP[i * m + c] += a * P[j * m + c];
+        }
+    const double *A = J;
     for (int st = 0; st < s; ++st) {
+        double *KPs = KP + st * nm;
         for (int64_t q = 0; q < nm; ++q) {
             double acc = P[q];
             for (int j = 0; j < st; ++j)
                 acc += tab->a[st * s + j] * KP[j * nm + q];
             UP[q] = acc;
         }
-        const double *Jst = J;
-        if (st > 0) {
-            jac(t + tab->nodes[st] * h, U + st * N, p, Js);
-            nj += 1;
-            Jst = Js;
-        }
-        nj += ph_coupling(t, y, p, J, K + st * N, sc, n_model, D, cw);
-        const double hd = h * tab->d[st];
-        for (int k = 0; k < N * N; ++k)
-            D[k] += hd * JT[k];
-        for (int64_t c = 0; c < m; ++c) {
-            const double *Uc = UP + c * N, *Pc = P + c * N;
-            double *KPc = KP + st * nm + c * N;
-            for (int i = 0; i < N; ++i) {
-                double acc = 0.0, cc = 0.0;
-                for (int j = 0; j < N; ++j)
-                    acc += Jst[i * N + j] * Uc[j] + D[i * N + j] * Pc[j];
-                for (int j = 0; j < st; ++j)
-                    cc += tab->c[st * s + j] * KP[j * nm + c * N + i];
-                KPc[i] = acc + cc / h;
+        if (st > 0 && tab->nodes[st] != tab->nodes[st - 1]) {
+            if (tab->nodes[st] == 1.0) {
+                jac(t + h, y1, p, J1);
+                A = J1;
+            } else {
+                ph_dense(nd, N, tab->nodes[st], y, y1, E, xi);
+                jac(t + tab->nodes[st] * h, xi, p, Js);
+                A = Js;
             }
-            ph_lu_solve(W, piv, KPc);
+            nj += 1;
         }
+        const double hd = h * tab->d[st];
+        for (int64_t q = 0; q < nm; ++q) {
+            double acc = hd * DP[q];
+            for (int j = 0; j < st; ++j)
+                acc += tab->c[st * s + j] * KP[j * nm + q] / h;
+            KPs[q] = acc;
+        }
+        for (int i = 0; i < N; ++i)
+            for (int64_t j = 0; j < n_model; ++j) {
+                const double a = A[i * N + j];
+                if (a != 0.0)
+                    for (int64_t c = 0; c < m; ++c)
+                        KPs[i * m + c] += a * UP[j * m + c];
+            }
+        ph_lu_solve_rows(W, piv, KPs, m);
     }
     for (int64_t q = 0; q < nm; ++q)
         P1[q] = UP[q] + KP[(s - 1) * nm + q];
@@ -220,12 +263,14 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     double *W = work, *J = W + N * N, *K = J + N * N, *U = K + s * N, *E = U + s * N;
     double *y = E + nd * N, *dT = y + N, *y1 = dT + N, *yi = y1 + N, *f0 = yi + N;
     double *f = f0 + N, *fT = f + N;
-    /* the sensitivities' work arrays (m > 0) */
+    /* the sensitivities' work arrays (m > 0); J_next: J at the end of the last step, made for
+     * its Phi-stages */
     const int64_t nm = m * N;
-    double *pwork = NULL, *P = NULL, *P1 = NULL, *KP = NULL, *EP = NULL, *JT = NULL, *xscale = NULL;
-    double *vwork = NULL;
+    double *pwork = NULL, *P = NULL, *P1 = NULL, *KP = NULL, *EP = NULL, *J_next = NULL;
+    double *xscale = NULL, *vwork = NULL;
+    int have_next = 0;
     if (m > 0) {
-        pwork = malloc(sizeof(double) * (size_t)(nm * (s + nd + 3) + 6 * N * N + 4 * N));
+        pwork = malloc(sizeof(double) * (size_t)(nm * (s + nd + 4) + 5 * N * N + 4 * N));
         if (pwork == NULL) {
             free(work);
             return 2;
@@ -234,11 +279,10 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         P1 = P + nm;
         KP = P1 + nm;
         EP = KP + s * nm;
-        JT = EP + nd * nm;
-        xscale = JT + N * N;
-        vwork = xscale + N;      /* 5 N x N + m N + 3 N: ph_variational_step's and jac at t + dt */
+        J_next = EP + nd * nm;
+        xscale = J_next + N * N;
+        vwork = xscale + N;      /* 4 N x N + 2 m N + 3 N: ph_variational_step's */
         memcpy(P, phi0, sizeof(double) * nm);
-        memset(JT, 0, sizeof(double) * N * N);
     }
 
     memcpy(y, y0, sizeof(double) * N);
@@ -279,8 +323,13 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             status = 5;
             break;
         }
-        jac(t, y, p, J);
-        njev += 1;
+        if (have_next) {
+            memcpy(J, J_next, sizeof(double) * N * N);   /* jac(t, y, p) */
+            have_next = 0;
+        } else {
+            jac(t, y, p, J);
+            njev += 1;
+        }
         if (tgrad_step > 0.0) {
             rhs(t + tgrad_step, y, p, fT);
             nfev += 1;
@@ -371,17 +420,11 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         }
         if (m > 0) {
             /* the Phi-stages of the accepted step, their dense-output coefficients */
-            if (tgrad_step > 0.0) {
-                double *JTa = vwork;
-                jac(t + tgrad_step, y, p, JTa);
-                njev += 1;
-                for (int k = 0; k < N * N; ++k)
-                    JT[k] = (JTa[k] - J[k]) / tgrad_step;
-            }
             for (int i = 0; i < N; ++i)
                 xscale[i] = fmax(fabs(y[i]), atol[i] / rtol);
-            njev += ph_variational_step(tab, t, h, y, p, J, JT, W, piv, U, K, xscale, n_model, m,
-                                        P, KP, P1, vwork + N * N);
+            njev += ph_variational_step(tab, t, h, y, y1, p, J, f0, W, piv, E, xscale, n_model, m,
+                                        P, KP, P1, J_next, vwork);
+            have_next = 1;
             for (int r = 0; r < nd; ++r)
                 for (int64_t q = 0; q < nm; ++q) {
                     double acc = 0.0;

@@ -11,16 +11,19 @@
 # the step's end and at _SAMPLES interior points of the dense output; a sign change in the wanted
 # direction is located on the dense output by the Illinois (regula falsi) method.
 #
-# Sensitivities (the variational equations, given directions ``phi0``; none when it has no rows):
-# Φ' = J(t, x) Φ is integrated beside x by the staggered direct method. The step is the same
-# method applied to the coupled system (x, Φ), whose Jacobian [[J, 0], [∂(JΦ)/∂x, J]] is block
-# lower triangular: the x-stages are computed and the step accepted exactly as without Φ (Φ is not
-# in the error control: the trajectory is bit-identical), then the Φ-stages of the accepted step
-# are solved with the same LU of W = I/(hγ) − J:
-#     W KΦ_i = J(t + c_i h, U_i) UΦ_i + ∂_x J(t, y)[K_i] Φ0 + h d_i ∂_t J Φ0 + (Σ_j C_ij KΦ_j) / h,
-#     UΦ_i = Φ0 + Σ_j a_ij KΦ_j,   Φ1 = UΦ_s + KΦ_s,   dense output from e_r = Σ_j H_rj KΦ_j,
-# the directional derivative of J along the stage increment K_i by differences (_coupling).
-# Φ is held transposed and flattened: P[c * n + i] = Φ[i, c] (row c: direction c).
+# Sensitivities (given directions ``phi0``; none when it has no columns): the variational equation
+# Φ' = A(t) Φ, A(t) = J(t, x(t)), is integrated beside x, staggered: each step's x-stages are
+# computed and the step accepted exactly as without Φ (Φ is not in the error control: the
+# trajectory is bit-identical); then the same method takes the accepted step on the linear
+# non-autonomous system Φ' = A(t) Φ, with the same LU of W = I/(hγ) − J (J = A(t)):
+#     W KΦ_i = A(t + c_i h) UΦ_i + h d_i A'(t) Φ0 + (Σ_j C_ij KΦ_j) / h,
+#     UΦ_i = Φ0 + Σ_j a_ij KΦ_j,   Φ1 = UΦ_s + KΦ_s,   dense output from e_r = Σ_j H_rj KΦ_j.
+# A(t + c_i h) is J at the step's dense output (one jac per distinct node; the node c = 1 is y1,
+# whose J the next step reuses) and A'(t) = ∂_x J[f] + ∂_t J a central difference of J along
+# (1, f) (_jac_rate). With A and A' exact this is the method of order p on Φ; the dense output's
+# error (the order of the local error) enters A. Φ (n x m) is held flattened, P[i * m + c] =
+# Φ[i, c], so that products and solves run along rows of m independent values; J's last two
+# columns (the ledger states, which no rate depends on) are zero and skipped.
 
 _SAMPLES = 3  # interior guard samples per step
 _CBRT_EPS = 6.0554544523933395e-06  # ε^(1/3): the relative step of the central differences
@@ -86,30 +89,26 @@ def _dense(theta, y0, y1, E, out):
 
 
 @_jit
-def _coupling(t, y, p, J, Ki, sc, n_model, D):
-    """D = ∂_x J(t, y)[Ki], the derivative of the Jacobian along the stage increment Ki, by
-    differences with the step ε·Ki, ε = ε_mach^(1/3) / max_i |Ki_i| / sc_i (model states i; every
-    state moves by at most ε_mach^(1/3) of its scale sc_i): central, (J(y + εKi) − J(y − εKi))/2ε,
-    unless J has a kink between y − εKi and y + εKi (a Piecewise law, e.g. a contact's max(z, 0)):
-    then the two one-sided differences disagree by O(1) instead of O(ε), and the smaller one, from
-    the side without the kink, is used. Returns the jac evaluations made (0 when Ki = 0)."""
+def _jac_rate(t, h, y, p, J, f, sc, n_model, D):
+    """D = d/dt J(t, x(t)) = ∂_x J[f] + ∂_t J at (t, y), f = ẋ, by a difference of J along
+    (1, f) with the step ε = ε_mach^(1/3) / ν, ν = max(max_i |f_i| / sc_i, 1 / h) (model states
+    i: every state moves by at most ε_mach^(1/3) of its scale sc_i, the time by at most that part
+    of the step): central, (J(t + ε, y + εf) − J(t − ε, y − εf)) / 2ε, unless J has a kink in
+    between (a Piecewise law, e.g. a contact's max(z, 0)): then the two one-sided differences
+    disagree by O(1) instead of O(ε), and the smaller one, from the side without the kink, is
+    used. Returns the jac evaluations made (2)."""
     n = y.shape[0]
-    nu = 0.0
+    nu = 1.0 / h
     for i in range(n_model):
-        nu = max(nu, abs(Ki[i]) / sc[i])
-    if nu == 0.0:
-        for i in range(n):
-            for j in range(n):
-                D[i, j] = 0.0
-        return 0
+        nu = max(nu, abs(f[i]) / sc[i])
     eps = _CBRT_EPS / nu
     yp = y.copy()
     ym = y.copy()
     for i in range(n):
-        yp[i] += eps * Ki[i]
-        ym[i] -= eps * Ki[i]
-    Jp = jac(t, yp, p)
-    Jm = jac(t, ym, p)
+        yp[i] += eps * f[i]
+        ym[i] -= eps * f[i]
+    Jp = jac(t + eps, yp, p)
+    Jm = jac(t - eps, ym, p)
     up = 0.0
     down = 0.0
     second = 0.0
@@ -133,46 +132,86 @@ def _coupling(t, y, p, J, Ki, sc, n_model, D):
 
 
 @_jit
-def _variational_step(t, h, y, p, J, JT, W, piv, U, K, TA, TC, TN, TD, sc, n_model, P, KP, P1):
-    """The Φ-stages of the accepted step t -> t + h (see the header): KP (s x m n) and P1 = Φ at
-    t + h from P = Φ at t, with the x-stages U, K and the LU of W of that step; JT = ∂_t J (zero
-    for an autonomous model). Returns the jac evaluations made."""
+def _lu_solve_rows(A, piv, B, m):
+    """Solve A X = B in place for the n x m matrix B, flattened row by row (A: the LU of
+    _lu_factor)."""
+    n = A.shape[0]
+    for k in range(n):
+        r = piv[k]
+        if r != k:
+            for c in range(m):
+                tmp = B[k * m + c]
+                B[k * m + c] = B[r * m + c]
+                B[r * m + c] = tmp
+    for i in range(n):
+        for j in range(i):
+            a = A[i, j]
+            if a != 0.0:
+                for c in range(m):
+                    B[i * m + c] -= a * B[j * m + c]
+    for i in range(n - 1, -1, -1):
+        for j in range(i + 1, n):
+            a = A[i, j]
+            if a != 0.0:
+                for c in range(m):
+                    B[i * m + c] -= a * B[j * m + c]
+        d = A[i, i]
+        for c in range(m):
+            B[i * m + c] /= d
+
+
+@_jit
+def _variational_step(t, h, y, y1, p, J, f, W, piv, E, TA, TC, TN, TD, sc, n_model, P, KP, P1):
+    """The Φ-stages of the accepted step t -> t + h (see the header): KP (s x n m) and P1 = Φ at
+    t + h from P = Φ at t, with the LU of W and the dense output (y, y1, E) of that step; f = ẋ
+    at t. Returns (jac evaluations made, J at t + h)."""
     n = y.shape[0]
-    s = K.shape[0]
-    m = P.shape[0] // n
-    UP = np.empty(n * m)
+    s = TN.shape[0]
+    nm = P.shape[0]
+    m = nm // n
+    UP = np.empty(nm)
+    DP = np.zeros(nm)
     D = np.empty((n, n))
-    nj = 0
+    xi = np.empty(n)
+    nj = _jac_rate(t, h, y, p, J, f, sc, n_model, D)
+    for i in range(n):                      # DP = A'(t) Φ0
+        for j in range(n_model):
+            a = D[i, j]
+            if a != 0.0:
+                for c in range(m):
+                    DP[i * m + c] += a * P[j * m + c]
+    A = J
+    J1 = J
     for st in range(s):
-        for q in range(n * m):
+        for q in range(nm):
             acc = P[q]
             for j in range(st):
                 acc += TA[st, j] * KP[j, q]
             UP[q] = acc
-        if st == 0:
-            Js = J
-        else:
-            Js = jac(t + TN[st] * h, U[st], p)
+        if st > 0 and TN[st] != TN[st - 1]:
+            if TN[st] == 1.0:
+                A = jac(t + h, y1, p)
+                J1 = A
+            else:
+                _dense(TN[st], y, y1, E, xi)
+                A = jac(t + TN[st] * h, xi, p)
             nj += 1
-        nj += _coupling(t, y, p, J, K[st], sc, n_model, D)
         hd = h * TD[st]
+        for q in range(nm):
+            acc = hd * DP[q]
+            for j in range(st):
+                acc += TC[st, j] * KP[j, q] / h
+            KP[st, q] = acc
         for i in range(n):
-            for j in range(n):
-                D[i, j] += hd * JT[i, j]
-        for c in range(m):
-            o = c * n
-            for i in range(n):
-                acc = 0.0
-                for j in range(n):
-                    acc += Js[i, j] * UP[o + j] + D[i, j] * P[o + j]
-                cc = 0.0
-                for j in range(st):
-                    cc += TC[st, j] * KP[j, o + i]
-                KP[st, o + i] = acc + cc / h
-            _lu_solve(W, piv, KP[st, o:o + n])
-    for q in range(n * m):
+            for j in range(n_model):
+                a = A[i, j]
+                if a != 0.0:
+                    for c in range(m):
+                        KP[st, i * m + c] += a * UP[j * m + c]
+        _lu_solve_rows(W, piv, KP[st], m)
+    for q in range(nm):
         P1[q] = UP[q] + KP[s - 1, q]
-    return nj
+    return nj, J1
 
 
 @_jit
@@ -186,9 +225,10 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     phi, phis): status 0 reached t_end, 1 terminal event ``event_index``, 2 step-size underflow
     or singular W, 3 divergence (max|x| > bound or non-finite), 4 max_steps, 5 store buffer full
     (call again from the returned t, y with the returned h). ``ts``/``ys`` hold the accepted
-    steps, ``ev_t``/``ev_k`` the non-terminal events found. ``phi0`` (m x n, row c the initial
-    perturbation of direction c; m = 0: no sensitivities) gives the sensitivities Φ (see the
-    header): ``phi`` (m x n) at the returned t, ``phis`` (store_cap x m x n) at the stored points.
+    steps, ``ev_t``/``ev_k`` the non-terminal events found. ``phi0`` (n x m, column c the
+    initial perturbation of direction c; m = 0: no sensitivities) gives the sensitivities Φ (see
+    the header): ``phi`` (n x m) at the returned t, ``phis`` (store_cap x n x m) at the stored
+    points.
     """
     n = y0.shape[0]
     s = TN.shape[0]
@@ -212,14 +252,13 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     dT = np.zeros(n)
     y1 = np.empty(n)
     yi = np.empty(n)
-    m = phi0.shape[0]
-    nm = m * n
+    m = phi0.shape[1]
+    nm = n * m
     P = phi0.copy().reshape(nm)
     P1 = np.empty(nm)
     KP = np.empty((s, nm))
     EP = np.empty((TH.shape[0], nm))
     phis = np.empty((store_cap, nm))
-    JT = np.zeros((n, n))
     xscale = np.empty(n)
     g_old = guards(t, y, p)[:g_count].copy()
     if mask_index >= 0:
@@ -242,6 +281,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     err = 0.0
     status = 0
     hit = -1
+    have_next = False
+    J_next = np.empty((n, n))
     while True:
         if t >= t_end:
             status = 0
@@ -252,8 +293,12 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         if n_store >= store_cap - 1 or n_ev >= store_cap - 1:
             status = 5
             break
-        J = jac(t, y, p)
-        njev += 1
+        if have_next:
+            J = J_next          # jac(t, y, p), made for the last step's Φ-stages
+            have_next = False
+        else:
+            J = jac(t, y, p)
+            njev += 1
         if tgrad_step > 0.0:
             fT = rhs(t + tgrad_step, y, p)
             nfev += 1
@@ -331,16 +376,12 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             break
         if m > 0:
             # the Φ-stages of the accepted step, their dense-output coefficients
-            if tgrad_step > 0.0:
-                JTa = jac(t + tgrad_step, y, p)
-                njev += 1
-                for i in range(n):
-                    for j in range(n):
-                        JT[i, j] = (JTa[i, j] - J[i, j]) / tgrad_step
             for i in range(n):
                 xscale[i] = max(abs(y[i]), atol[i] / rtol)
-            njev += _variational_step(t, h, y, p, J, JT, W, piv, U, K, TA, TC, TN, TD, xscale,
-                                      n_model, P, KP, P1)
+            nj, J_next = _variational_step(t, h, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD,
+                                           xscale, n_model, P, KP, P1)
+            njev += nj
+            have_next = True
             for r in range(TH.shape[0]):
                 for q in range(nm):
                     acc = 0.0
@@ -438,4 +479,4 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             fac = min(fac, 1.0)
         h = min(h * fac, hmax)
     return (status, t, y, ts, ys, n_store, nfev, njev, nsteps, hit if status == 1 else -1, ev_t,
-            ev_k, n_ev, h, P.reshape(m, n), phis.reshape(store_cap, m, n))
+            ev_k, n_ev, h, P.reshape(n, m), phis.reshape(store_cap, n, m))
