@@ -177,12 +177,20 @@ class Sensitivity:
         run went through, in order (:class:`Crossing`); final : Φ where the run ended — at a
         stop at an event, the Jacobian of the state on the event's surface (S_stop Φ⁻), else
         Φ at the last point.
+    error : the largest estimate, over the steps, of the relative local error of Φ (its
+        embedded estimate over Φ's size, in the norm of the state's error control), in units
+        of rtol. Φ is not in the error control (the steps are chosen for x, so
+        that the trajectory is the same as without sensitivities): ≲ 1 says the steps taken for
+        x resolve Φ too (Φ's error is then at the level of the tolerance); ≫ 1 says they do not
+        (e.g. a run from an equilibrium, where x does not move and the steps grow): bound the
+        step size (max_step).
     """
 
     seeds: np.ndarray
     phi: np.ndarray
     crossings: tuple[Crossing, ...]
     final: np.ndarray
+    error: float
 
     def __post_init__(self) -> None:
         for array in (self.seeds, self.phi, self.final):

@@ -245,6 +245,7 @@ class Simulator:
         self._jumps: list[tuple[float, str, float]] = []
         self._counts = {"nfev": 0, "njev": 0, "nlu": 0}
         self.phi: np.ndarray | None = None     # the sensitivities (n + 2 x m), when asked for
+        self.phi_error = 0.0                    # their largest error estimate (in rtol)
         self._crossings: list[Crossing] = []
 
     def run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
@@ -318,7 +319,7 @@ class Simulator:
             n = self.model.n_states
             sensitivity = Sensitivity(self.settings.sensitivity.copy(),
                                       np.concatenate([s.phi for s in self._segments]),
-                                      tuple(self._crossings), self.phi[:n].copy())
+                                      tuple(self._crossings), self.phi[:n].copy(), self.phi_error)
         return Trajectory(self.model, self._segments, self._events, self._jumps, status, message,
                           h0=h0, sensitivity=sensitivity, **self._counts)
 
@@ -507,7 +508,7 @@ class Simulator:
         atol = np.ascontiguousarray(np.broadcast_to(settings.atol, (n + 2,)), dtype=float)
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
         sensitive = self.phi is not None
-        if sensitive:       # the variational loop: Φ too (16-tuple)
+        if sensitive:       # the variational loop: Φ too (17-tuple)
             variational = model.functions.variational[settings.method]
             phis = [self.phi[None, :n].copy()]
 
@@ -515,6 +516,7 @@ class Simulator:
                 out = variational(*args, np.ascontiguousarray(self.phi))
                 self.phi = out[14]
                 phis.append(out[15][:out[5], :n].copy())
+                self.phi_error = max(self.phi_error, out[16] / settings.rtol)
                 return out[:14]
         else:
             loop = model.functions.loops[settings.method]

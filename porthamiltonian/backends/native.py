@@ -200,13 +200,13 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Funct
 def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
     """The Python face of a compiled loop: the calling convention of
     porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 14-tuple; with
-    ``variational`` the argument phi0 and the 16-tuple)."""
+    ``variational`` the argument phi0 and the 17-tuple)."""
     c_int64, c_double, c_void_p = ctypes.c_int64, ctypes.c_double, ctypes.c_void_p
     entry.restype = ctypes.c_int
     entry.argtypes = (c_double, c_void_p, c_double, c_void_p, c_double, c_void_p, c_double,
                       c_double, c_void_p, c_void_p, c_int64, c_int64, c_double, c_int64, c_double,
                       c_int64, c_int64, c_double, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p,
-                      c_void_p, c_void_p) + ((c_int64, c_void_p, c_void_p, c_void_p)
+                      c_void_p, c_void_p) + ((c_int64, c_void_p, c_void_p, c_void_p, c_void_p)
                                              if variational else ())
 
     def integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_index,
@@ -238,7 +238,8 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
             m = phi0.shape[1]
             phi = np.empty((n, m))
             phis = np.empty((store_cap, n, m))
-            extra = (m, _pointer(phi0), _pointer(phis), _pointer(phi))
+            phi_error = np.zeros(1)
+            extra = (m, _pointer(phi0), _pointer(phis), _pointer(phi), _pointer(phi_error))
         status = entry(t0, _pointer(y0), t_end, _pointer(p), rtol, _pointer(atol), h0, hmax,
                        _pointer(directions), _pointer(terminal), g, int(mask_index), mask_sign,
                        int(n_model), bound, int(max_steps), store_cap, tgrad_step, _pointer(ts),
@@ -247,7 +248,7 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         c = [int(v) for v in counts]
         out = (status, float(th[0]), y, ts, ys, c[0], c[1], c[2], c[3], c[4], ev_t, ev_k, c[5],
                float(th[1]))
-        return out + (phi, phis) if variational else out
+        return out + (phi, phis, float(phi_error[0])) if variational else out
 
     return integrate
 

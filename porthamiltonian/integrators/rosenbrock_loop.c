@@ -13,7 +13,8 @@
  * int ph_integrate_<method>_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS) does the same and
  * integrates the sensitivities Phi from phi0 (PH_N x m, row-major; column c the initial
  * perturbation of direction c) as rosenbrock_loop.py does (see its header): Phi at the end into
- * phi_out (PH_N x m), at the stored points into phis (store_cap x PH_N x m). */
+ * phi_out (PH_N x m), at the stored points into phis (store_cap x PH_N x m), the largest relative
+ * error estimate of Phi over the steps into phi_error[0]. */
 
 typedef struct {
     int s;              /* stages */
@@ -38,7 +39,8 @@ typedef struct {
 #define PH_LOOP_ARGS t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, g_count, \
     mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, ts, ys, ev_t, ev_k, \
     out_th, out_y, counts
-#define PH_PHI_PARAMS int64_t m, const double *phi0, double *phis, double *phi_out
+#define PH_PHI_PARAMS int64_t m, const double *phi0, double *phis, double *phi_out, \
+    double *phi_error
 #define PH_CBRT_EPS 6.0554544523933395e-06   /* the relative step of the central differences */
 
 static int ph_lu_factor(double *A, int *piv)
@@ -185,12 +187,14 @@ static void ph_lu_solve_rows(const double *A, const int *piv, double *B, int64_t
 
 /* The Phi-stages of the accepted step t -> t + h (_variational_step of rosenbrock_loop.py): KP
  * (s x N m) and P1 from P, with the LU of W and the dense output (y, y1, E) of the step; f = x'
- * at t; J at t + h into J1. work: 4 N x N + 2 m N + 3 N. Returns the jac evaluations made. */
+ * at t; J at t + h into J1; the relative error estimate of P1 into *worst.
+ * work: 4 N x N + 2 m N + 3 N. Returns the jac evaluations made. */
 static int ph_variational_step(const ph_tableau *tab, double t, double h, const double *y,
                                const double *y1, const double *p, const double *J,
                                const double *f, const double *W, const int *piv, const double *E,
                                const double *sc, int64_t n_model, int64_t m, const double *P,
-                               double *KP, double *P1, double *J1, double *work)
+                               double *KP, double *P1, double *J1, double *worst,
+                               double *work)
 {
     enum { N = PH_N };
     const int s = tab->s, nd = tab->m;
@@ -244,6 +248,14 @@ static int ph_variational_step(const ph_tableau *tab, double t, double h, const 
     }
     for (int64_t q = 0; q < nm; ++q)
         P1[q] = UP[q] + KP[(s - 1) * nm + q];
+    double num = 0.0, den = 0.0;
+    for (int64_t i = 0; i < n_model; ++i)
+        for (int64_t c = 0; c < m; ++c) {
+            const double e = KP[(s - 1) * nm + i * m + c] / sc[i], v = P1[i * m + c] / sc[i];
+            num += e * e;
+            den += v * v;
+        }
+    *worst = den > 0.0 ? sqrt(num / den) : 0.0;
     return nj;
 }
 
@@ -283,6 +295,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         xscale = J_next + N * N;
         vwork = xscale + N;      /* 4 N x N + 2 m N + 3 N: ph_variational_step's */
         memcpy(P, phi0, sizeof(double) * nm);
+        phi_error[0] = 0.0;
     }
 
     memcpy(y, y0, sizeof(double) * N);
@@ -422,9 +435,11 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             /* the Phi-stages of the accepted step, their dense-output coefficients */
             for (int i = 0; i < N; ++i)
                 xscale[i] = fmax(fabs(y[i]), atol[i] / rtol);
+            double worst = 0.0;
             njev += ph_variational_step(tab, t, h, y, y1, p, J, f0, W, piv, E, xscale, n_model, m,
-                                        P, KP, P1, J_next, vwork);
+                                        P, KP, P1, J_next, &worst, vwork);
             have_next = 1;
+            phi_error[0] = fmax(phi_error[0], worst);
             for (int r = 0; r < nd; ++r)
                 for (int64_t q = 0; q < nm; ++q) {
                     double acc = 0.0;

@@ -164,7 +164,8 @@ def _lu_solve_rows(A, piv, B, m):
 def _variational_step(t, h, y, y1, p, J, f, W, piv, E, TA, TC, TN, TD, sc, n_model, P, KP, P1):
     """The Φ-stages of the accepted step t -> t + h (see the header): KP (s x n m) and P1 = Φ at
     t + h from P = Φ at t, with the LU of W and the dense output (y, y1, E) of that step; f = ẋ
-    at t. Returns (jac evaluations made, J at t + h)."""
+    at t. Returns (jac evaluations made, J at t + h, the relative error estimate of Φ1:
+    ‖KΦ_s‖ / ‖Φ1‖ in the norm weighted by 1/sc over the model states)."""
     n = y.shape[0]
     s = TN.shape[0]
     nm = P.shape[0]
@@ -211,7 +212,13 @@ def _variational_step(t, h, y, y1, p, J, f, W, piv, E, TA, TC, TN, TD, sc, n_mod
         _lu_solve_rows(W, piv, KP[st], m)
     for q in range(nm):
         P1[q] = UP[q] + KP[s - 1, q]
-    return nj, J1
+    num = 0.0
+    den = 0.0
+    for i in range(n_model):
+        for c in range(m):
+            num += (KP[s - 1, i * m + c] / sc[i]) ** 2
+            den += (P1[i * m + c] / sc[i]) ** 2
+    return nj, J1, math.sqrt(num / den) if den > 0.0 else 0.0
 
 
 @_jit
@@ -222,13 +229,14 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     tables TA, TC, TN, TD, TH, γ = gam, step-size exponent expo (see tableaus.py).
 
     Returns (status, t, y, ts, ys, n_store, nfev, njev, nsteps, event_index, ev_t, ev_k, n_ev, h,
-    phi, phis): status 0 reached t_end, 1 terminal event ``event_index``, 2 step-size underflow
+    phi, phis, phi_err): status 0 reached t_end, 1 terminal event ``event_index``, 2 step-size underflow
     or singular W, 3 divergence (max|x| > bound or non-finite), 4 max_steps, 5 store buffer full
     (call again from the returned t, y with the returned h). ``ts``/``ys`` hold the accepted
     steps, ``ev_t``/``ev_k`` the non-terminal events found. ``phi0`` (n x m, column c the
     initial perturbation of direction c; m = 0: no sensitivities) gives the sensitivities Φ (see
     the header): ``phi`` (n x m) at the returned t, ``phis`` (store_cap x n x m) at the stored
-    points.
+    points, ``phi_err`` the largest relative error estimate of Φ over the steps
+    (_variational_step; compare with rtol).
     """
     n = y0.shape[0]
     s = TN.shape[0]
@@ -283,6 +291,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     hit = -1
     have_next = False
     J_next = np.empty((n, n))
+    phi_err = 0.0
     while True:
         if t >= t_end:
             status = 0
@@ -378,9 +387,10 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             # the Φ-stages of the accepted step, their dense-output coefficients
             for i in range(n):
                 xscale[i] = max(abs(y[i]), atol[i] / rtol)
-            nj, J_next = _variational_step(t, h, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD,
-                                           xscale, n_model, P, KP, P1)
+            nj, J_next, worst = _variational_step(t, h, y, y1, p, J, f0, W, piv, E, TA, TC, TN,
+                                                  TD, xscale, n_model, P, KP, P1)
             njev += nj
+            phi_err = max(phi_err, worst)
             have_next = True
             for r in range(TH.shape[0]):
                 for q in range(nm):
@@ -479,4 +489,4 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             fac = min(fac, 1.0)
         h = min(h * fac, hmax)
     return (status, t, y, ts, ys, n_store, nfev, njev, nsteps, hit if status == 1 else -1, ev_t,
-            ev_k, n_ev, h, P.reshape(n, m), phis.reshape(store_cap, n, m))
+            ev_k, n_ev, h, P.reshape(n, m), phis.reshape(store_cap, n, m), phi_err)

@@ -184,7 +184,7 @@ def c_entry(tab: Tableau) -> str:
             f"{tab.gamma!r}, {1.0 / tab.error_order!r}, {p}_a, {p}_c, {p}_nodes, {p}_d, {p}_h}};\n"
             f"/* {tab.name} (see the loop above) */\n"
             f"PH_EXPORT int ph_integrate_{p}(PH_LOOP_PARAMS)\n"
-            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, 0, NULL, NULL, NULL);\n}}\n"
+            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, 0, NULL, NULL, NULL, NULL);\n}}\n"
             f"/* {tab.name} with sensitivities */\n"
             f"PH_EXPORT int ph_integrate_{p}_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS)\n"
-            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, m, phi0, phis, phi_out);\n}}\n")
+            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, m, phi0, phis, phi_out, phi_error);\n}}\n")
