@@ -14,7 +14,7 @@
  * integrates the sensitivities Phi from phi0 (PH_N x m, row-major; column c the initial
  * perturbation of direction c) as rosenbrock_loop.py does (see its header): Phi at the end into
  * phi_out (PH_N x m), at the stored points into phis (store_cap x PH_N x m), the largest relative
- * error estimate of Phi over the steps into phi_error[0]. */
+ * error estimate of Phi over its accepted sub-steps into phi_error[0]. */
 
 typedef struct {
     int s;              /* stages */
@@ -185,32 +185,30 @@ static void ph_lu_solve_rows(const double *A, const int *piv, double *B, int64_t
     }
 }
 
-/* The Phi-stages of the accepted step t -> t + h (_variational_step of rosenbrock_loop.py): KP
- * (s x N m) and P1 from P, with the LU of W and the dense output (y, y1, E) of the step; f = x'
- * at t; J at t + h into J1; the relative error estimate of P1 into *worst.
- * work: 4 N x N + 2 m N + 3 N. Returns the jac evaluations made. */
-static int ph_variational_step(const ph_tableau *tab, double t, double h, const double *y,
-                               const double *y1, const double *p, const double *J,
-                               const double *f, const double *W, const int *piv, const double *E,
-                               const double *sc, int64_t n_model, int64_t m, const double *P,
-                               double *KP, double *P1, double *J1, double *worst,
-                               double *work)
+/* One sub-step of Phi from t + th_a h to t + th_b h (_phi_substep of rosenbrock_loop.py): KP
+ * (s x N m) and P1 from P, with the LU of W = I/(eta gamma) - Ja and D = A'; A at t + th_b h
+ * into A_end. work: N x N + 2 m N + N. Returns the jac evaluations made. */
+static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, double t, double h,
+                          const double *y, const double *y1, const double *p, const double *E,
+                          const double *Ja, const double *D, const double *W, const int *piv,
+                          int64_t n_model, int64_t m, const double *P, double *KP, double *P1,
+                          double *A_end, double *work)
 {
     enum { N = PH_N };
     const int s = tab->s, nd = tab->m;
     const int64_t nm = m * N;
-    double *Js = work, *D = Js + N * N, *xi = D + N * N, *UP = xi + N, *DP = UP + nm;
-    double *cw = DP + nm;
-    int nj = ph_jac_rate(t, h, y, p, J, f, sc, n_model, D, cw);
+    const double ds = th_b - th_a, eta = ds * h;
+    double *Js = work, *UP = Js + N * N, *DP = UP + nm, *xi = DP + nm;
+    int nj = 0;
     memset(DP, 0, sizeof(double) * nm);
-    for (int i = 0; i < N; ++i)             /* DP = A'(t) Phi0 */
+    for (int i = 0; i < N; ++i)             /* DP = A' Phi0 */
         for (int64_t j = 0; j < n_model; ++j) {
             const double a = D[i * N + j];
             if (a != 0.0)
                 for (int64_t c = 0; c < m; ++c)
                     DP[i * m + c] += a * P[j * m + c];
         }
-    const double *A = J;
+    const double *A = Ja;
     for (int st = 0; st < s; ++st) {
         double *KPs = KP + st * nm;
         for (int64_t q = 0; q < nm; ++q) {
@@ -220,21 +218,22 @@ static int ph_variational_step(const ph_tableau *tab, double t, double h, const 
             UP[q] = acc;
         }
         if (st > 0 && tab->nodes[st] != tab->nodes[st - 1]) {
-            if (tab->nodes[st] == 1.0) {
-                jac(t + h, y1, p, J1);
-                A = J1;
+            const double th = tab->nodes[st] == 1.0 ? th_b : th_a + tab->nodes[st] * ds;
+            double *out = tab->nodes[st] == 1.0 ? A_end : Js;
+            if (th == 1.0) {
+                jac(t + h, y1, p, out);
             } else {
-                ph_dense(nd, N, tab->nodes[st], y, y1, E, xi);
-                jac(t + tab->nodes[st] * h, xi, p, Js);
-                A = Js;
+                ph_dense(nd, N, th, y, y1, E, xi);
+                jac(t + th * h, xi, p, out);
             }
+            A = out;
             nj += 1;
         }
-        const double hd = h * tab->d[st];
+        const double hd = eta * tab->d[st];
         for (int64_t q = 0; q < nm; ++q) {
             double acc = hd * DP[q];
             for (int j = 0; j < st; ++j)
-                acc += tab->c[st * s + j] * KP[j * nm + q] / h;
+                acc += tab->c[st * s + j] * KP[j * nm + q] / eta;
             KPs[q] = acc;
         }
         for (int i = 0; i < N; ++i)
@@ -246,17 +245,94 @@ static int ph_variational_step(const ph_tableau *tab, double t, double h, const 
             }
         ph_lu_solve_rows(W, piv, KPs, m);
     }
+    if (A != A_end)
+        memcpy(A_end, A, sizeof(double) * N * N);
     for (int64_t q = 0; q < nm; ++q)
         P1[q] = UP[q] + KP[(s - 1) * nm + q];
-    double num = 0.0, den = 0.0;
-    for (int64_t i = 0; i < n_model; ++i)
-        for (int64_t c = 0; c < m; ++c) {
-            const double e = KP[(s - 1) * nm + i * m + c] / sc[i], v = P1[i * m + c] / sc[i];
-            num += e * e;
-            den += v * v;
-        }
-    *worst = den > 0.0 ? sqrt(num / den) : 0.0;
     return nj;
+}
+
+#define PH_SUBSTEPS 400     /* at most this many sub-steps of Phi per step */
+#define PH_THETA_MIN 1e-9   /* the smallest sub-step, in parts of the step */
+
+/* Carry Phi (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
+ * error control (_variational_step of rosenbrock_loop.py); A at the end into J_end (the next
+ * step's J when th_end = 1), the evaluations into counts[0] (jac), counts[1] (rhs), the largest
+ * error estimate accepted into *worst. work: (s + 3) m N + 7 N x N + 6 N. */
+static void ph_variational_step(const ph_tableau *tab, double t, double h, double th_end,
+                                const double *y, const double *y1, const double *p,
+                                const double *J, const double *f0, const double *W,
+                                const int *piv, const double *E, double rtol, const double *atol,
+                                int64_t n_model, double expo, int64_t m, double *P,
+                                double *J_end, int64_t *counts, double *worst, double *work)
+{
+    enum { N = PH_N };
+    const int s = tab->s, nd = tab->m;
+    const int64_t nm = m * N;
+    double *KP = work, *P1 = KP + s * nm, *D = P1 + nm, *Ws = D + N * N, *Ja = Ws + N * N;
+    double *Jb = Ja + N * N, *sc = Jb + N * N, *xa = sc + N, *fa = xa + N, *sub = fa + N;
+    double *rate_work = sub + N * N + 2 * nm + N;
+    int pivs[PH_N];
+    for (int i = 0; i < N; ++i)
+        sc[i] = fmax(fabs(y[i]), atol[i] / rtol);
+    memcpy(xa, y, sizeof(double) * N);
+    memcpy(fa, f0, sizeof(double) * N);
+    memcpy(Ja, J, sizeof(double) * N * N);
+    double th_a = 0.0, ds = th_end;
+    int count = 0;
+    *worst = 0.0;
+    while (th_a < th_end) {
+        const int last = ds >= th_end - th_a;
+        const double th_b = last ? th_end : th_a + ds, eta = (th_b - th_a) * h;
+        counts[0] += ph_jac_rate(t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D, rate_work);
+        const double *Wu = W;
+        const int *pu = piv;
+        if (!(th_a == 0.0 && th_b == 1.0)) {
+            const double inv = 1.0 / (eta * tab->gamma);
+            for (int i = 0; i < N; ++i) {
+                for (int j = 0; j < N; ++j)
+                    Ws[i * N + j] = -Ja[i * N + j];
+                Ws[i * N + i] += inv;
+            }
+            if (!ph_lu_factor(Ws, pivs)) {
+                ds = 0.5 * (th_b - th_a);
+                continue;
+            }
+            Wu = Ws;
+            pu = pivs;
+        }
+        counts[0] += ph_phi_substep(tab, th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, n_model,
+                                    m, P, KP, P1, Jb, sub);
+        double num = 0.0, den = 0.0;
+        for (int64_t i = 0; i < n_model; ++i)
+            for (int64_t c = 0; c < m; ++c) {
+                const double e = KP[(s - 1) * nm + i * m + c] / sc[i], v = P1[i * m + c] / sc[i];
+                num += e * e;
+                den += v * v;
+            }
+        const double err = den > 0.0 ? sqrt(num / den) : 0.0;
+        double fac;
+        count += 1;
+        if (err <= rtol || th_b - th_a <= PH_THETA_MIN || count >= PH_SUBSTEPS) {
+            memcpy(P, P1, sizeof(double) * nm);
+            *worst = fmax(*worst, err);
+            double *tmp = Ja;       /* A at the end of the sub-step: the next one's start */
+            Ja = Jb;
+            Jb = tmp;
+            th_a = th_b;
+            if (th_a < th_end) {
+                ph_dense(nd, N, th_a, y, y1, E, xa);
+                rhs(t + th_a * h, xa, p, fa);
+                counts[1] += 1;
+            }
+            fac = err == 0.0 ? 6.0 : fmin(6.0, fmax(0.2, 0.9 * pow(rtol / err, expo)));
+            ds = fmax(ds * fac, PH_THETA_MIN);
+        } else {
+            fac = fmax(0.2, 0.9 * pow(rtol / err, expo));
+            ds = fmax((th_b - th_a) * fac, PH_THETA_MIN);
+        }
+    }
+    memcpy(J_end, Ja, sizeof(double) * N * N);
 }
 
 static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
@@ -275,29 +351,24 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     double *W = work, *J = W + N * N, *K = J + N * N, *U = K + s * N, *E = U + s * N;
     double *y = E + nd * N, *dT = y + N, *y1 = dT + N, *yi = y1 + N, *f0 = yi + N;
     double *f = f0 + N, *fT = f + N;
-    /* the sensitivities' work arrays (m > 0); J_next: J at the end of the last step, made for
-     * its Phi-stages */
+    /* the sensitivities' work arrays (m > 0); J_next: A at the end of the last step, made for
+     * its Phi: the next step's J */
     const int64_t nm = m * N;
-    double *pwork = NULL, *P = NULL, *P1 = NULL, *KP = NULL, *EP = NULL, *J_next = NULL;
-    double *xscale = NULL, *vwork = NULL;
+    double *pwork = NULL, *P = NULL, *J_next = NULL, *vwork = NULL;
     int have_next = 0;
+    int64_t vcounts[2] = {0, 0};
     if (m > 0) {
-        pwork = malloc(sizeof(double) * (size_t)(nm * (s + nd + 4) + 5 * N * N + 4 * N));
+        pwork = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N));
         if (pwork == NULL) {
             free(work);
             return 2;
         }
         P = pwork;
-        P1 = P + nm;
-        KP = P1 + nm;
-        EP = KP + s * nm;
-        J_next = EP + nd * nm;
-        xscale = J_next + N * N;
-        vwork = xscale + N;      /* 4 N x N + 2 m N + 3 N: ph_variational_step's */
+        J_next = P + nm;
+        vwork = J_next + N * N;      /* (s + 3) m N + 7 N x N + 6 N: ph_variational_step's */
         memcpy(P, phi0, sizeof(double) * nm);
         phi_error[0] = 0.0;
     }
-
     memcpy(y, y0, sizeof(double) * N);
     memset(dT, 0, sizeof(double) * N);
     guards(t, y, p, g_old);
@@ -431,23 +502,6 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             status = 3;
             break;
         }
-        if (m > 0) {
-            /* the Phi-stages of the accepted step, their dense-output coefficients */
-            for (int i = 0; i < N; ++i)
-                xscale[i] = fmax(fabs(y[i]), atol[i] / rtol);
-            double worst = 0.0;
-            njev += ph_variational_step(tab, t, h, y, y1, p, J, f0, W, piv, E, xscale, n_model, m,
-                                        P, KP, P1, J_next, &worst, vwork);
-            have_next = 1;
-            phi_error[0] = fmax(phi_error[0], worst);
-            for (int r = 0; r < nd; ++r)
-                for (int64_t q = 0; q < nm; ++q) {
-                    double acc = 0.0;
-                    for (int j = 0; j < s; ++j)
-                        acc += tab->h[r * s + j] * KP[j * nm + q];
-                    EP[r * nm + q] = acc;
-                }
-        }
         /* events on (t, t_new]: guards at the step ends and at PH_SAMPLES interior points of
          * the dense output */
         double t_hit = t_new;
@@ -514,8 +568,12 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             if (hit >= 0) {
                 ph_dense(nd, N, (t_hit - t) / h, y, y1, E, yi);
                 if (m > 0) {
-                    ph_dense(nd, nm, (t_hit - t) / h, P, P1, EP, phis + n_store * nm);
-                    memcpy(P, phis + n_store * nm, sizeof(double) * nm);
+                    double worst = 0.0;
+                    ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, E,
+                                        rtol, atol, n_model, expo, m, P, J_next, vcounts, &worst,
+                                        vwork);
+                    phi_error[0] = fmax(phi_error[0], worst);
+                    memcpy(phis + n_store * nm, P, sizeof(double) * nm);
                 }
                 ts[n_store] = t_hit;
                 memcpy(ys + n_store * N, yi, sizeof(double) * N);
@@ -527,14 +585,19 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             }
             memcpy(g_old, g_new, sizeof(double) * NG);
         }
+        if (m > 0) {       /* Phi over the step; its last A is the next step's J */
+            double worst = 0.0;
+            ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, E, rtol, atol, n_model,
+                                expo, m, P, J_next, vcounts, &worst, vwork);
+            phi_error[0] = fmax(phi_error[0], worst);
+            have_next = 1;
+        }
         t = t_new;
         memcpy(y, y1, sizeof(double) * N);
         ts[n_store] = t;
         memcpy(ys + n_store * N, y, sizeof(double) * N);
-        if (m > 0) {
-            memcpy(P, P1, sizeof(double) * nm);
+        if (m > 0)
             memcpy(phis + n_store * nm, P, sizeof(double) * nm);
-        }
         n_store += 1;
         rhs(t, y, p, f0);
         nfev += 1;
@@ -547,8 +610,8 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     out_th[1] = h;
     memcpy(out_y, y, sizeof(double) * N);
     counts[0] = n_store;
-    counts[1] = nfev;
-    counts[2] = njev;
+    counts[1] = nfev + vcounts[1];
+    counts[2] = njev + vcounts[0];
     counts[3] = nsteps;
     counts[4] = status == 1 ? hit : -1;
     counts[5] = n_ev;

@@ -13,20 +13,27 @@
 #
 # Sensitivities (given directions ``phi0``; none when it has no columns): the variational equation
 # Φ' = A(t) Φ, A(t) = J(t, x(t)), is integrated beside x, staggered: each step's x-stages are
-# computed and the step accepted exactly as without Φ (Φ is not in the error control: the
-# trajectory is bit-identical); then the same method takes the accepted step on the linear
-# non-autonomous system Φ' = A(t) Φ, with the same LU of W = I/(hγ) − J (J = A(t)):
-#     W KΦ_i = A(t + c_i h) UΦ_i + h d_i A'(t) Φ0 + (Σ_j C_ij KΦ_j) / h,
-#     UΦ_i = Φ0 + Σ_j a_ij KΦ_j,   Φ1 = UΦ_s + KΦ_s,   dense output from e_r = Σ_j H_rj KΦ_j.
-# A(t + c_i h) is J at the step's dense output (one jac per distinct node; the node c = 1 is y1,
-# whose J the next step reuses) and A'(t) = ∂_x J[f] + ∂_t J a central difference of J along
-# (1, f) (_jac_rate). With A and A' exact this is the method of order p on Φ; the dense output's
-# error (the order of the local error) enters A. Φ (n x m) is held flattened, P[i * m + c] =
-# Φ[i, c], so that products and solves run along rows of m independent values; J's last two
-# columns (the ledger states, which no rate depends on) are zero and skipped.
+# computed, the step accepted and its events located exactly as without Φ (the trajectory is bit
+# for bit the same); then Φ is carried over the accepted step (to its end, or to the terminal
+# event) by the same method on the linear non-autonomous system Φ' = A(t) Φ, x taken from the
+# step's dense output, in sub-steps of its own error control (_variational_step):
+#     W KΦ_i = A(τ + c_i η) UΦ_i + η d_i A'(τ) Φ0 + (Σ_j C_ij KΦ_j) / η,   W = I/(ηγ) − A(τ),
+#     UΦ_i = Φ0 + Σ_j a_ij KΦ_j,   Φ1 = UΦ_s + KΦ_s,   error estimate KΦ_s,
+# for a sub-step τ -> τ + η. A at the nodes is J at the dense output (one jac per distinct node;
+# the node c = 1 of the step's end is y1, whose J the next step reuses); A'(τ) = ∂_x J[f] + ∂_t J
+# a central difference of J along (1, f) (_jac_rate). The first try is the whole step with the
+# step's own LU: where it meets the tolerance (the usual case) Φ costs no more; where it does
+# not — the steps chosen for x do not resolve Φ, e.g. from an equilibrium where x does not move,
+# or across a kink of J (a Piecewise law switching inside the step) — the step is divided. With A
+# and A' exact each sub-step is the method of order p on Φ; the dense output's error (of the
+# order of the local error) enters A. Φ (n x m) is held flattened, P[i * m + c] = Φ[i, c], so that
+# products and solves run along rows of m independent values; J's last two columns (the ledger
+# states, which no rate depends on) are zero and skipped.
 
 _SAMPLES = 3  # interior guard samples per step
 _CBRT_EPS = 6.0554544523933395e-06  # ε^(1/3): the relative step of the central differences
+_SUBSTEPS = 400     # at most this many sub-steps of Φ per step
+_THETA_MIN = 1e-9   # the smallest sub-step, in parts of the step
 
 
 @_jit
@@ -161,28 +168,27 @@ def _lu_solve_rows(A, piv, B, m):
 
 
 @_jit
-def _variational_step(t, h, y, y1, p, J, f, W, piv, E, TA, TC, TN, TD, sc, n_model, P, KP, P1):
-    """The Φ-stages of the accepted step t -> t + h (see the header): KP (s x n m) and P1 = Φ at
-    t + h from P = Φ at t, with the LU of W and the dense output (y, y1, E) of that step; f = ẋ
-    at t. Returns (jac evaluations made, J at t + h, the relative error estimate of Φ1:
-    ‖KΦ_s‖ / ‖Φ1‖ in the norm weighted by 1/sc over the model states)."""
+def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, TA, TC, TN, TD, n_model, P, KP,
+                 P1, xi):
+    """One sub-step of Φ from τ = t + th_a h to t + th_b h (η = (th_b − th_a) h; see the header):
+    KP and P1 from P, with the LU of W = I/(ηγ) − Ja and D = A'(τ). Returns (jac evaluations
+    made, A at t + th_b h)."""
     n = y.shape[0]
     s = TN.shape[0]
     nm = P.shape[0]
     m = nm // n
+    ds = th_b - th_a
+    eta = ds * h
     UP = np.empty(nm)
     DP = np.zeros(nm)
-    D = np.empty((n, n))
-    xi = np.empty(n)
-    nj = _jac_rate(t, h, y, p, J, f, sc, n_model, D)
-    for i in range(n):                      # DP = A'(t) Φ0
+    for i in range(n):                      # DP = A'(τ) Φ0
         for j in range(n_model):
             a = D[i, j]
             if a != 0.0:
                 for c in range(m):
                     DP[i * m + c] += a * P[j * m + c]
-    A = J
-    J1 = J
+    nj = 0
+    A = Ja
     for st in range(s):
         for q in range(nm):
             acc = P[q]
@@ -190,18 +196,18 @@ def _variational_step(t, h, y, y1, p, J, f, W, piv, E, TA, TC, TN, TD, sc, n_mod
                 acc += TA[st, j] * KP[j, q]
             UP[q] = acc
         if st > 0 and TN[st] != TN[st - 1]:
-            if TN[st] == 1.0:
+            th = th_b if TN[st] == 1.0 else th_a + TN[st] * ds
+            if th == 1.0:
                 A = jac(t + h, y1, p)
-                J1 = A
             else:
-                _dense(TN[st], y, y1, E, xi)
-                A = jac(t + TN[st] * h, xi, p)
+                _dense(th, y, y1, E, xi)
+                A = jac(t + th * h, xi, p)
             nj += 1
-        hd = h * TD[st]
+        hd = eta * TD[st]
         for q in range(nm):
             acc = hd * DP[q]
             for j in range(st):
-                acc += TC[st, j] * KP[j, q] / h
+                acc += TC[st, j] * KP[j, q] / eta
             KP[st, q] = acc
         for i in range(n):
             for j in range(n_model):
@@ -212,13 +218,84 @@ def _variational_step(t, h, y, y1, p, J, f, W, piv, E, TA, TC, TN, TD, sc, n_mod
         _lu_solve_rows(W, piv, KP[st], m)
     for q in range(nm):
         P1[q] = UP[q] + KP[s - 1, q]
-    num = 0.0
-    den = 0.0
-    for i in range(n_model):
-        for c in range(m):
-            num += (KP[s - 1, i * m + c] / sc[i]) ** 2
-            den += (P1[i * m + c] / sc[i]) ** 2
-    return nj, J1, math.sqrt(num / den) if den > 0.0 else 0.0
+    return nj, A
+
+
+@_jit
+def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam, expo, rtol,
+                      atol, n_model, P):
+    """Carry Φ (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
+    error control (see the header): the whole step first, with the step's LU W, piv (when
+    th_end = 1); a sub-step is accepted when its error estimate ‖KΦ_s‖ / ‖Φ1‖ (norm weighted by
+    1/sc, sc_i = max(|y_i|, atol_i / rtol), over the model states) is at most rtol, or when it is
+    _THETA_MIN of the step, or the _SUBSTEPS-th. Returns (jac evaluations, rhs evaluations, A at the end (the next step's J when
+    th_end = 1), the largest error estimate accepted)."""
+    n = y.shape[0]
+    s = TN.shape[0]
+    nm = P.shape[0]
+    m = nm // n
+    KP = np.empty((s, nm))
+    P1 = np.empty(nm)
+    D = np.empty((n, n))
+    Ws = np.empty((n, n))
+    pivs = np.empty(n, dtype=np.int64)
+    sc = np.empty(n)
+    for i in range(n):
+        sc[i] = max(abs(y[i]), atol[i] / rtol)
+    xa = y.copy()
+    xi = np.empty(n)
+    fa = f0
+    Ja = J
+    th_a = 0.0
+    ds = th_end
+    nj = 0
+    nf = 0
+    worst = 0.0
+    count = 0
+    while th_a < th_end:
+        last = ds >= th_end - th_a
+        th_b = th_end if last else th_a + ds
+        eta = (th_b - th_a) * h
+        nj += _jac_rate(t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D)
+        if th_a == 0.0 and th_b == 1.0:
+            Wu = W
+            pu = piv
+        else:
+            inv = 1.0 / (eta * gam)
+            for i in range(n):
+                for j in range(n):
+                    Ws[i, j] = -Ja[i, j]
+                Ws[i, i] += inv
+            if not _lu_factor(Ws, pivs):
+                ds = 0.5 * (th_b - th_a)
+                continue
+            Wu = Ws
+            pu = pivs
+        nj_s, A_end = _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, TA, TC, TN, TD,
+                                   n_model, P, KP, P1, xi)
+        nj += nj_s
+        num = 0.0
+        den = 0.0
+        for i in range(n_model):
+            for c in range(m):
+                num += (KP[s - 1, i * m + c] / sc[i]) ** 2
+                den += (P1[i * m + c] / sc[i]) ** 2
+        err = math.sqrt(num / den) if den > 0.0 else 0.0
+        count += 1
+        if err <= rtol or th_b - th_a <= _THETA_MIN or count >= _SUBSTEPS:
+            P[:] = P1
+            worst = max(worst, err)
+            Ja = A_end
+            th_a = th_b
+            if th_a < th_end:
+                _dense(th_a, y, y1, E, xa)
+                fa = rhs(t + th_a * h, xa, p)
+                nf += 1
+            fac = 6.0 if err == 0.0 else min(6.0, max(0.2, 0.9 * (rtol / err) ** expo))
+            ds = max(ds * fac, _THETA_MIN)
+        else:
+            ds = max((th_b - th_a) * max(0.2, 0.9 * (rtol / err) ** expo), _THETA_MIN)
+    return nj, nf, Ja, worst
 
 
 @_jit
@@ -235,8 +312,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     steps, ``ev_t``/``ev_k`` the non-terminal events found. ``phi0`` (n x m, column c the
     initial perturbation of direction c; m = 0: no sensitivities) gives the sensitivities Φ (see
     the header): ``phi`` (n x m) at the returned t, ``phis`` (store_cap x n x m) at the stored
-    points, ``phi_err`` the largest relative error estimate of Φ over the steps
-    (_variational_step; compare with rtol).
+    points, ``phi_err`` the largest relative error estimate of Φ over its accepted sub-steps
+    (_variational_step; at most rtol unless a sub-step limit was reached).
     """
     n = y0.shape[0]
     s = TN.shape[0]
@@ -263,11 +340,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     m = phi0.shape[1]
     nm = n * m
     P = phi0.copy().reshape(nm)
-    P1 = np.empty(nm)
-    KP = np.empty((s, nm))
-    EP = np.empty((TH.shape[0], nm))
     phis = np.empty((store_cap, nm))
-    xscale = np.empty(n)
     g_old = guards(t, y, p)[:g_count].copy()
     if mask_index >= 0:
         g_old[mask_index] = mask_sign * max(abs(g_old[mask_index]), 1e-300)
@@ -303,7 +376,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             status = 5
             break
         if have_next:
-            J = J_next          # jac(t, y, p), made for the last step's Φ-stages
+            J = J_next          # jac(t, y, p), made for the last step's Φ
             have_next = False
         else:
             J = jac(t, y, p)
@@ -383,21 +456,6 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         if not (big <= bound):
             status = 3
             break
-        if m > 0:
-            # the Φ-stages of the accepted step, their dense-output coefficients
-            for i in range(n):
-                xscale[i] = max(abs(y[i]), atol[i] / rtol)
-            nj, J_next, worst = _variational_step(t, h, y, y1, p, J, f0, W, piv, E, TA, TC, TN,
-                                                  TD, xscale, n_model, P, KP, P1)
-            njev += nj
-            phi_err = max(phi_err, worst)
-            have_next = True
-            for r in range(TH.shape[0]):
-                for q in range(nm):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += TH[r, j] * KP[j, q]
-                    EP[r, q] = acc
         # events on (t, t_new]: guards at the step ends and at _SAMPLES interior points of the
         # dense output, so that a guard crossing twice within one step (e.g. a ball's whole
         # flight) is not missed
@@ -464,8 +522,13 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             if hit >= 0:
                 _dense((t_hit - t) / h, y, y1, E, yi)
                 if m > 0:
-                    _dense((t_hit - t) / h, P, P1, EP, phis[n_store])
-                    P[:] = phis[n_store]
+                    nj, nf, J_next, worst = _variational_step(
+                        t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam,
+                        expo, rtol, atol, n_model, P)
+                    njev += nj
+                    nfev += nf
+                    phi_err = max(phi_err, worst)
+                    phis[n_store, :] = P
                 ts[n_store] = t_hit
                 ys[n_store, :] = yi
                 n_store += 1
@@ -474,10 +537,17 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 status = 1
                 break
             g_old = g_new
+        if m > 0:       # Φ over the step; its last A is the next step's J
+            nj, nf, J_next, worst = _variational_step(t, h, 1.0, y, y1, p, J, f0, W, piv, E, TA,
+                                                      TC, TN, TD, gam, expo, rtol, atol, n_model,
+                                                      P)
+            njev += nj
+            nfev += nf
+            phi_err = max(phi_err, worst)
+            have_next = True
         t = t_new
         for i in range(n):
             y[i] = y1[i]
-        P[:] = P1
         ts[n_store] = t
         ys[n_store, :] = y
         phis[n_store, :] = P
