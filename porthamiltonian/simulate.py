@@ -254,7 +254,8 @@ class Simulator:
         model, settings, n = self.model, self.settings, self.model.n_states
         self.t, self.y, self.p = t_start, y, p
         if settings.sensitivity is not None:
-            self.phi = np.vstack([settings.sensitivity, np.zeros((2, settings.sensitivity.shape[1]))])
+            seeds = settings.sensitivity
+            self.phi = np.vstack([seeds, np.zeros((2, seeds.shape[1]))])
         h0 = float(model.energy(t_start, y, p)[0])
         fired, n_events = None, 0
         while True:

@@ -254,6 +254,8 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
 
 #define PH_SUBSTEPS 400     /* at most this many sub-steps of Phi per step */
 #define PH_THETA_MIN 1e-9   /* the smallest sub-step, in parts of the step */
+#define PH_PHI_TOLERANCE 10.0   /* a sub-step's error estimate may be this many rtol (see
+                                 * _PHI_TOLERANCE in rosenbrock_loop.py) */
 
 /* Carry Phi (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
  * error control (_variational_step of rosenbrock_loop.py); A at the end into J_end (the next
@@ -310,10 +312,9 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
                 num += e * e;
                 den += v * v;
             }
-        const double err = den > 0.0 ? sqrt(num / den) : 0.0;
-        double fac;
+        const double err = den > 0.0 ? sqrt(num / den) : 0.0, tol = PH_PHI_TOLERANCE * rtol;
         count += 1;
-        if (err <= rtol || th_b - th_a <= PH_THETA_MIN || count >= PH_SUBSTEPS) {
+        if (err <= tol || th_b - th_a <= PH_THETA_MIN || count >= PH_SUBSTEPS) {
             memcpy(P, P1, sizeof(double) * nm);
             *worst = fmax(*worst, err);
             double *tmp = Ja;       /* A at the end of the sub-step: the next one's start */
@@ -325,11 +326,10 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
                 rhs(t + th_a * h, xa, p, fa);
                 counts[1] += 1;
             }
-            fac = err == 0.0 ? 6.0 : fmin(6.0, fmax(0.2, 0.9 * pow(rtol / err, expo)));
+            const double fac = err == 0.0 ? 6.0 : fmin(6.0, fmax(0.2, 0.9 * pow(tol / err, expo)));
             ds = fmax(ds * fac, PH_THETA_MIN);
         } else {
-            fac = fmax(0.2, 0.9 * pow(rtol / err, expo));
-            ds = fmax((th_b - th_a) * fac, PH_THETA_MIN);
+            ds = fmax((th_b - th_a) * fmax(0.2, 0.9 * pow(tol / err, expo)), PH_THETA_MIN);
         }
     }
     memcpy(J_end, Ja, sizeof(double) * N * N);
