@@ -36,7 +36,7 @@ from porthamiltonian.saltation import (
 )
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "unit"))
-from test_events import E, G, MASS, ball_model
+from test_events import MASS, E, G, ball_model
 
 BACKENDS = ("python", "numba", "c")
 
