@@ -258,15 +258,17 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
                                  * _PHI_TOLERANCE in rosenbrock_loop.py) */
 
 /* Carry Phi (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
- * error control (_variational_step of rosenbrock_loop.py); A at the end into J_end (the next
- * step's J when th_end = 1), the evaluations into counts[0] (jac), counts[1] (rhs), the largest
- * error estimate accepted into *worst. work: (s + 3) m N + 7 N x N + 6 N. */
+ * error control, the first *eta long (_variational_step of rosenbrock_loop.py); A at the end into
+ * J_end (the next step's J when th_end = 1), the evaluations into counts[0] (jac), counts[1]
+ * (rhs), the largest error estimate accepted into *worst, the next sub-step's length into *eta.
+ * work: (s + 3) m N + 7 N x N + 6 N. */
 static void ph_variational_step(const ph_tableau *tab, double t, double h, double th_end,
                                 const double *y, const double *y1, const double *p,
                                 const double *J, const double *f0, const double *W,
                                 const int *piv, const double *E, double rtol, const double *atol,
                                 int64_t n_model, double expo, int64_t m, double *P,
-                                double *J_end, int64_t *counts, double *worst, double *work)
+                                double *J_end, int64_t *counts, double *worst, double *eta,
+                                double *work)
 {
     enum { N = PH_N };
     const int s = tab->s, nd = tab->m;
@@ -280,7 +282,7 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
     memcpy(xa, y, sizeof(double) * N);
     memcpy(fa, f0, sizeof(double) * N);
     memcpy(Ja, J, sizeof(double) * N * N);
-    double th_a = 0.0, ds = th_end;
+    double th_a = 0.0, ds = fmin(th_end, fmax(*eta / h, PH_THETA_MIN));
     int count = 0;
     *worst = 0.0;
     while (th_a < th_end) {
@@ -333,6 +335,7 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
         }
     }
     memcpy(J_end, Ja, sizeof(double) * N * N);
+    *eta = ds * h;
 }
 
 static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
@@ -357,6 +360,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     double *pwork = NULL, *P = NULL, *J_next = NULL, *vwork = NULL;
     int have_next = 0;
     int64_t vcounts[2] = {0, 0};
+    double eta_phi = 1e300;     /* the length of Phi's next sub-step (s): the whole step */
     if (m > 0) {
         pwork = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N));
         if (pwork == NULL) {
@@ -571,7 +575,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
                     double worst = 0.0;
                     ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, E,
                                         rtol, atol, n_model, expo, m, P, J_next, vcounts, &worst,
-                                        vwork);
+                                        &eta_phi, vwork);
                     phi_error[0] = fmax(phi_error[0], worst);
                     memcpy(phis + n_store * nm, P, sizeof(double) * nm);
                 }
@@ -588,7 +592,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         if (m > 0) {       /* Phi over the step; its last A is the next step's J */
             double worst = 0.0;
             ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, E, rtol, atol, n_model,
-                                expo, m, P, J_next, vcounts, &worst, vwork);
+                                expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork);
             phi_error[0] = fmax(phi_error[0], worst);
             have_next = 1;
         }

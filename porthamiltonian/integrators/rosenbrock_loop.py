@@ -227,14 +227,14 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, TA, TC, TN, TD, n
 
 @_jit
 def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam, expo, rtol,
-                      atol, n_model, P):
+                      atol, n_model, P, eta0):
     """Carry Φ (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
-    error control (see the header): the whole step first, with the step's LU W, piv (when
-    th_end = 1); a sub-step is accepted when its error estimate ‖KΦ_s‖ / ‖Φ1‖ (norm weighted by
-    1/sc, sc_i = max(|y_i|, atol_i / rtol), over the model states) is at most _PHI_TOLERANCE
-    rtol, or when it is _THETA_MIN of the step, or the _SUBSTEPS-th. Returns (jac evaluations,
-    rhs evaluations, A at the end (the next step's J when th_end = 1), the largest error
-    estimate accepted)."""
+    error control (see the header), the first eta0 long (s; the whole step when eta0 >= th_end h,
+    with the step's LU W, piv when th_end = 1); a sub-step is accepted when its error estimate
+    ‖KΦ_s‖ / ‖Φ1‖ (norm weighted by 1/sc, sc_i = max(|y_i|, atol_i / rtol), over the model
+    states) is at most _PHI_TOLERANCE rtol, or when it is _THETA_MIN of the step, or the
+    _SUBSTEPS-th. Returns (jac evaluations, rhs evaluations, A at the end (the next step's J when
+    th_end = 1), the largest error estimate accepted, the next sub-step's length proposed)."""
     n = y.shape[0]
     s = TN.shape[0]
     nm = P.shape[0]
@@ -252,7 +252,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, 
     fa = f0
     Ja = J
     th_a = 0.0
-    ds = th_end
+    ds = min(th_end, max(eta0 / h, _THETA_MIN))
     nj = 0
     nf = 0
     worst = 0.0
@@ -301,7 +301,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, 
             ds = max(ds * fac, _THETA_MIN)
         else:
             ds = max((th_b - th_a) * max(0.2, 0.9 * (tol / err) ** expo), _THETA_MIN)
-    return nj, nf, Ja, worst
+    return nj, nf, Ja, worst, ds * h
 
 
 @_jit
@@ -371,6 +371,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     have_next = False
     J_next = np.empty((n, n))
     phi_err = 0.0
+    eta_phi = 1e300         # the length of Φ's next sub-step (s): the whole step
     while True:
         if t >= t_end:
             status = 0
@@ -528,9 +529,9 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             if hit >= 0:
                 _dense((t_hit - t) / h, y, y1, E, yi)
                 if m > 0:
-                    nj, nf, J_next, worst = _variational_step(
+                    nj, nf, J_next, worst, eta_phi = _variational_step(
                         t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam,
-                        expo, rtol, atol, n_model, P)
+                        expo, rtol, atol, n_model, P, eta_phi)
                     njev += nj
                     nfev += nf
                     phi_err = max(phi_err, worst)
@@ -544,9 +545,9 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 break
             g_old = g_new
         if m > 0:       # Φ over the step; its last A is the next step's J
-            nj, nf, J_next, worst = _variational_step(t, h, 1.0, y, y1, p, J, f0, W, piv, E, TA,
-                                                      TC, TN, TD, gam, expo, rtol, atol, n_model,
-                                                      P)
+            nj, nf, J_next, worst, eta_phi = _variational_step(
+                t, h, 1.0, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam, expo, rtol, atol,
+                n_model, P, eta_phi)
             njev += nj
             nfev += nf
             phi_err = max(phi_err, worst)
