@@ -374,3 +374,19 @@ def test_plastic_impact_jacobian():
                 - (momenta(x[:2] + 2 * e) - momenta(x[:2] - 2 * e))) / (12 * h)
         assert np.all(np.abs(d.value[2:, j] - five) <= d.error[2:, j] + 1e-8)
     assert d.max_error < 1e-8
+
+
+def test_the_documented_example_runs():
+    """docs/sensitivity.md's example: the ball dropped from 1 m bounces once within 1 s; its final
+    Φ is the closed form of test_ball_phi_across_a_bounce_matches_the_closed_form at (1 m, 0)."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "sensitivity.md").read_text()
+    code = text.split("```python\n", 1)[1].split("```", 1)[0]
+    scope: dict = {}
+    exec(compile(code, "docs/sensitivity.md", "exec"), scope)
+    s, model = scope["s"], scope["ball"]
+    T = 1.0
+    zT = E * W * (T - T_HIT) - G * (T - T_HIT) ** 2 / 2
+    vT = E * W - G * (T - T_HIT)
+    exact = np.array(sp.Matrix([zT, vT]).jacobian([Z, V]).subs({Z: 1.0, V: 0.0}), dtype=float)
+    assert np.max(np.abs(s.final - _to_state(model, exact))) < 1e-6
+    assert s.phi.shape[1:] == (2, 2) and len(s.crossings) == 1 and s.error <= 10
