@@ -77,31 +77,12 @@ def walker4_model():
 
 
 def walker6_model():
-    """The skeleton with telescopic legs: feet on prismatic joints along the leg axis."""
-    import porthamiltonian as ph
-    from porthamiltonian.mechanics import Multibody
+    """The skeleton with telescopic legs: feet on prismatic joints along the leg axis (the
+    test suite's model, tests/validation/test_mechanics.py)."""
+    sys.path.insert(0, str(ROOT / "tests" / "validation"))
+    from test_mechanics import walker6_model as model
 
-    model = ph.Model("walker6_skeleton")  # compass-walker skeleton with prismatic (telescopic) legs
-    units = {"M": "kg", "m_l": "kg", "m_f": "kg", "L": "m", "g": "m/s^2"}
-    for name, value in WALKER.items():
-        model.parameter(name, value, units[name])
-    leg = {"mass": "m_l", "com": [0, 0, "-L/2"], "inertia": ["m_l*L**2/12"] * 3}
-    bodies = {"hip_body": {"mass": "M", "inertia": 0},
-              "leg1": dict(leg), "leg2": dict(leg),
-              "foot1_body": {"mass": "m_f", "inertia": 0, "points": {"foot1": [0, 0, 0]}},
-              "foot2_body": {"mass": "m_f", "inertia": 0, "points": {"foot2": [0, 0, 0]}}}
-    joints = {"hip": {"type": "translational", "parent": "world", "child": "hip_body",
-                      "axes": ["x", "z"], "q0": [1.0, 0.7405]},
-              "theta1": {"type": "revolute", "parent": "hip_body", "child": "leg1", "axis": "y",
-                         "q0": 0.15},
-              "theta2": {"type": "revolute", "parent": "hip_body", "child": "leg2", "axis": "y",
-                         "q0": -0.15},
-              "ext1": {"type": "prismatic", "parent": "leg1", "child": "foot1_body",
-                       "axis": [0, 0, -1], "origin": [0, 0, "-L"]},
-              "ext2": {"type": "prismatic", "parent": "leg2", "child": "foot2_body",
-                       "axis": [0, 0, -1], "origin": [0, 0, "-L"]}}
-    model.add("walker", Multibody(bodies=bodies, joints=joints, gravity=[0, 0, "-g"], plane="xz"))
-    return model
+    return model()
 
 
 def chain_masses_lengths(n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -3,6 +3,7 @@
     porthamiltonian simulate MODEL [--set NAME=VALUE ...] [--t-end T] [--json] [--csv FILE]
     porthamiltonian show MODEL [--code [--backend c|numba|python]]
     porthamiltonian check-energy [MODEL ...]
+    porthamiltonian view MODEL [--set NAME=VALUE ...] [--t-end T] [--out DIR] [--rate R]
     porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
                           [--settle NAME [--band B]] [--workers N | --serial | --scheduler ADDR]
 
@@ -247,6 +248,30 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0 if traj.success else 1
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    """``porthamiltonian view``: simulate a model and write its 3D view and still image."""
+    from pathlib import Path
+
+    from .errors import OptionError
+    from .viewer import scene_from_trajectory
+
+    if not (args.rate > 0 and args.rate < float("inf")):
+        raise OptionError(f"--rate: frames per second of simulated time must be a positive "
+                          f"number, got {args.rate:g}")
+    record = io.read(args.model)
+    entry = SimulationModel.load(args.model, args.backend)
+    traj = entry.simulate(args.t_end, parse_assignments(args.set))
+    scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
+                                  title=entry.model.name)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    page = scene.to_html(out / "view.html", caption=record.description, still=False)
+    still = scene.to_png(out / "view.png")
+    print(f"wrote {page} and {still}: {len(scene.bodies)} bod{'y' if len(scene.bodies) == 1 else 'ies'}"
+          f", {len(scene.t)} frames over {traj.t_final:g} s ({traj.status})")
+    return 0 if traj.success else 1
+
+
 def cmd_show(args: argparse.Namespace) -> int:
     """``porthamiltonian show``: components, bonds, parameters and the state equations (with
     ``--code``: the generated source of the chosen back end)."""
@@ -324,6 +349,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv", metavar="FILE",
                    help="also write the trajectory (time, states, ledger, outputs) as CSV")
     p.set_defaults(func=cmd_simulate)
+    p = sub.add_parser("view", parents=[BACKEND_OPTION, SET_OPTION],
+                       help="simulate a model and write an interactive 3D view of its bodies "
+                            "(view.html, works offline) and a still image (view.png)")
+    p.add_argument("model", help=model_help + "; its bodies need poses: a FreeBody, or a "
+                   "Multibody body with outputs <multibody>.<body>.pose.x|y|z|qw|qx|qy|qz")
+    p.add_argument("--t-end", type=float, default=None, metavar="T",
+                   help="end time (s; default: the model file's [simulation] t_end)")
+    p.add_argument("--out", default="view", metavar="DIR",
+                   help="output directory (default: ./view)")
+    p.add_argument("--rate", type=float, default=30.0, metavar="R",
+                   help="frames per second of simulated time (default: 30; at most 900 "
+                        "frames)")
+    p.set_defaults(func=cmd_view)
     p = sub.add_parser("show", parents=[BACKEND_OPTION],
                        help="components, ports, bonds, states, parameters and equations, or "
                             "the generated code (--code)")

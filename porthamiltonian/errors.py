@@ -124,3 +124,8 @@ class StateError(ModelError):
 class CompilerError(ModelError):
     """The C back end cannot build a model: no C compiler was found, or it failed. The message
     shows the command and the path of a file holding the compiler's output, and what to do."""
+
+
+class SceneError(ModelError):
+    """A scene of the 3D viewer (:mod:`porthamiltonian.viewer`) is malformed: a shape, a pose, the
+    times, the ground; the message names the body, shape or frame and says what is expected."""

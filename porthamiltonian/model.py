@@ -278,6 +278,30 @@ class Model:
         self.graph.add_node(name, component=component, bond_ports={})
         return component
 
+    def replace(self, name: str, component: Component | Model) -> Component | Model:
+        """Put ``component`` in place of the component called ``name``, keeping its bonds (by
+        port name): the swap of a contact law or a spring for another. Every bond of ``name`` is
+        checked again as :meth:`connect` checks it (the port exists; domain, dimension and
+        orientation match); on a mismatch nothing changes and the
+        :class:`~porthamiltonian.errors.ConnectError` (or UnknownPortError) names the bond.
+        Returns the new component."""
+        old = self.component(name)                            # UnknownComponentError if absent
+        if not isinstance(component, (Component, Model)):
+            raise ModelError(f"model {self.name!r}: {name!r} must be a Component or a Model, got "
+                             f"{type(component).__name__}")
+        self.graph.nodes[name]["component"] = component
+        try:
+            for u, v, d in self.graph.edges(data=True):
+                if name in (u, v):
+                    tail, head = f"{u}.{d['tail']}", f"{v}.{d['head']}"
+                    t_spec, h_spec = self._resolve(tail)[2], self._resolve(head)[2]
+                    if t_spec is not None and h_spec is not None:
+                        check_bond(tail, t_spec, head, h_spec)
+        except ModelError:
+            self.graph.nodes[name]["component"] = old
+            raise
+        return component
+
     def component(self, name: str) -> Component | Model:
         """The component (or sub-model) called ``name``."""
         try:

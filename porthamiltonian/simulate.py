@@ -29,9 +29,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-import scipy.integrate as si
-from scipy.integrate import OdeSolution
-from scipy.optimize import brentq
 
 from .differences import Derivative, gradient
 from .errors import ModelError, StateError
@@ -401,6 +398,10 @@ class Simulator:
 
     def _scipy_segment(self, t_end: float, fired: int | None) -> tuple[Status, str, int]:
         """One segment through a scipy step-wise solver."""
+        # scipy.integrate is imported here, not at the top: runs on the compiled loops (the
+        # default) never need it, and it costs a third of a second at every start
+        import scipy.integrate as si
+        from scipy.optimize import brentq
         model, settings, n = self.model, self.settings, self.model.n_states
         t0, y0, p = self.t, self.y, self.p
         pn = model.native_params(p)
@@ -428,7 +429,7 @@ class Simulator:
 
         def close(status: Status, message: str, t_last: float, y_last: np.ndarray | None,
                   k: int = -1) -> tuple[Status, str, int]:
-            sol = (OdeSolution([s.t_old for s in interpolants] + [interpolants[-1].t],
+            sol = (si.OdeSolution([s.t_old for s in interpolants] + [interpolants[-1].t],
                                interpolants) if (settings.dense_output and interpolants) else None)
             self._segments.append(Segment(np.array(ts), np.array(ys).T if ys else
                                           np.empty((n + 2, 0)), p.copy(), sol))

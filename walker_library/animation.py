@@ -25,11 +25,13 @@ from typing import Any
 
 import numpy as np
 
+from porthamiltonian.viewer.sampling import resample
+
 from .figures import new_figure, styled
 from .labels import foot_radius
 from .series import GaitSeries
 
-__all__ = ["Scene", "contact_forces", "player_data", "scene", "write_gif"]
+__all__ = ["Scene", "arrow_scale", "contact_forces", "player_data", "scene", "write_gif"]
 
 #: colours of the legs (the matplotlib default cycle's first two, also used by the player)
 LEG_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728")
@@ -70,17 +72,6 @@ def _world(slope: float, xz: np.ndarray) -> np.ndarray:
     c, s = math.cos(slope), math.sin(slope)
     x, z = xz[..., 0], xz[..., 1]
     return np.stack([x * c + z * s, -x * s + z * c], axis=-1)
-
-
-def _resample(t: np.ndarray, values: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """``values`` (N, ...) at ``times``, linearly interpolated inside continuous pieces: at a
-    time with repeated points (an event) the last one (after the reset) is used."""
-    i = np.clip(np.searchsorted(t, times, side="right") - 1, 0, len(t) - 1)
-    j = np.minimum(i + 1, len(t) - 1)
-    span = t[j] - t[i]
-    w = np.where(span > 0, (times - t[i]) / np.where(span > 0, span, 1.0), 0.0)
-    w = w.reshape((-1,) + (1,) * (values.ndim - 1))
-    return values[i] * (1 - w) + values[j] * w
 
 
 def _body_points(walker: Any) -> dict[str, list[str]]:
@@ -147,14 +138,14 @@ def scene(walker: Any, s: GaitSeries, *, rate: float = 30.0, max_frames: int = 6
     radius = np.array([foot_radius(walker, f, values) for f in walker.spec.feet])
     traj = s.strides[-1].info.get("trajectory") if s.strides else None
     raw_force = contact_forces(walker, traj) if traj is not None else None
-    hip = _world(slope, _resample(s.t, s.hip, times))
-    feet = _world(slope, _resample(s.t, s.feet, times))
+    hip = _world(slope, resample(s.t, s.hip, times))
+    feet = _world(slope, resample(s.t, s.feet, times))
     normal = np.array([math.sin(slope), math.cos(slope)])     # the slope normal in the world
     contact = feet - radius[None, :, None] * normal
     force = None
     if raw_force is not None:
-        force = _world(slope, _resample(s.t, raw_force, times))
-    step = np.round(_resample(s.t, s.step.astype(float), times)).astype(int)
+        force = _world(slope, resample(s.t, raw_force, times))
+    step = np.round(resample(s.t, s.step.astype(float), times)).astype(int)
     leg = float(getattr(walker, "leg_length", 1.0))
     pts = np.concatenate([hip[:, None, :], feet, contact], axis=1).reshape(-1, 2)
     pad = 0.12 * leg
@@ -182,7 +173,7 @@ def _foot_direction(hip: np.ndarray, foot: np.ndarray) -> np.ndarray:
     return d / n if n > 0 else np.array([0.0, -1.0])
 
 
-def _arrow_scale(sc: Scene) -> float:
+def arrow_scale(sc: Scene) -> float:
     """Metres of arrow per newton: the weight drawn as 0.35 leg lengths."""
     return 0.35 * sc.leg_length / max(sc.weight, 1e-12)
 
@@ -225,7 +216,7 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
     label = ax.text(0.0, 1.02, "", transform=ax.transAxes, fontsize=8, va="bottom")
     slope_text = f"slope γ = {sc.slope:.3g} rad ({math.degrees(sc.slope):.2g}°), to scale"
     ax.text(1.0, 1.02, slope_text, transform=ax.transAxes, fontsize=8, va="bottom", ha="right")
-    scale = _arrow_scale(sc)
+    scale = arrow_scale(sc)
     tunit = "nondim. time" if nondimensional else "s"
     pace = ("" if nondimensional else " · real time" if abs(speedup - 1) < 0.05
             else f" · {speedup:.2g}× real time")
@@ -269,7 +260,7 @@ def player_data(sc: Scene) -> dict:
             "bounds": list(map(float, sc.bounds)), "ground": r4(sc.ground),
             "slope": sc.slope, "legLength": sc.leg_length, "nSteps": sc.n_steps,
             "arcHalfAngle": ARC_HALF_ANGLE, "colours": list(LEG_COLOURS),
-            "arrowScale": _arrow_scale(sc)}
+            "arrowScale": arrow_scale(sc)}
     if sc.force is not None:
         data["force"] = np.round(sc.force, 2).tolist()
     return data

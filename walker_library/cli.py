@@ -5,7 +5,7 @@
     walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--json]
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
     walker gsn MODEL [--set NAME=VALUE ...] [--json]
-    walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin]
+    walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin] [--view3d]
     walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
@@ -209,7 +209,8 @@ def cmd_report(args) -> int:
     walker = _walker(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
-                          with_step_down=not args.no_step_down, forces=args.forces, log=log)
+                          with_step_down=not args.no_step_down, forces=args.forces,
+                          view3d=args.view3d, log=log)
     print(f"wrote {result.out / 'report.html'} ({len(result.files)} files, {result.seconds:.0f} s)")
     return 0
 
@@ -336,6 +337,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--forces", action="store_true",
                    help="draw the contact-force arrows in walk.gif (the page's player has a "
                         "switch for them either way)")
+    view = p.add_mutually_exclusive_group()
+    view.add_argument("--view3d", dest="view3d", action="store_true", default=None,
+                      help="an interactive 3D view of the walk for a planar walker too (a 3D "
+                           "walker always has one), with its still image view3d.png")
+    view.add_argument("--no-view3d", dest="view3d", action="store_false",
+                      help="no 3D view, not even for a 3D walker")
     p.set_defaults(func=cmd_report)
 
     p = add_sweep_parser(

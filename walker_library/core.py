@@ -28,6 +28,7 @@ labelling when its ``labelling`` condition does not hold).
 from __future__ import annotations
 
 import copy
+import json
 import math
 from collections.abc import Mapping
 from dataclasses import replace
@@ -66,18 +67,43 @@ def compiled(model: Model, backend: str) -> CompiledModel:
 
 
 def _checked(spec: WalkerSpec, text: str) -> tuple[ModelNames, dict]:
-    """The model's names (its symbolic form without its events and model outputs, whose
-    expressions :func:`~.names.check_names` checks with their lines) and the description's
-    linear maps (memoized by model and spec)."""
+    """The model's names (:func:`_model_names`) and the description's linear maps, after
+    :func:`~.names.check_names` (memoized by model and spec)."""
     key = cache.model_key(spec.model) + repr(spec)
     if key not in _CHECKED:
-        bare = copy.deepcopy(spec.model)      # its events' guards are checked with their lines
-        bare.events, bare.outputs = [], {}
-        with ModelFile(bare, spec.source, text).located():
-            sym = symbolic(bare)
-        names = ModelNames.of(spec.model, sym)
+        names = _model_names(spec, text)
         _CHECKED[key] = (names, check_names(spec, names, text))
     return _CHECKED[key]
+
+
+def _model_names(spec: WalkerSpec, text: str) -> ModelNames:
+    """The names of the walker's model: parameters, states and outputs of its symbolic form
+    without its events and model outputs (whose expressions :func:`~.names.check_names` checks
+    with their lines). The symbolic compiler is run once per model: the three name lists are
+    kept in the model's cache entry (``names.json``, verified by its sha256 like every cached
+    file), so a walker that is already built loads without symbolic work."""
+    bare = copy.deepcopy(spec.model)
+    bare.events, bare.outputs = [], {}
+    key = cache.model_key(bare)
+    stored = cache.load_verified(key, _NAMES_FILE)
+    try:
+        lists = json.loads(stored) if stored is not None else None
+        lists = lists if isinstance(lists, dict) and all(
+            isinstance(lists.get(k), list) and all(isinstance(n, str) for n in lists[k])
+            for k in ("params", "states", "outputs")) else None
+    except ValueError:
+        lists = None
+    if lists is None:
+        with ModelFile(bare, spec.source, text).located():
+            sym = symbolic(bare)
+        lists = {"params": list(sym.param_names), "states": list(sym.state_names),
+                 "outputs": list(sym.outputs)}
+        cache.store(key, _NAMES_FILE, json.dumps(lists))
+    return ModelNames.of(spec.model, lists["params"], lists["states"], lists["outputs"])
+
+
+#: the file of a model's cache entry holding the names a walker checks its description against
+_NAMES_FILE = "names.json"
 
 
 class _Outputs:

@@ -11,6 +11,7 @@ basin of attraction — compares the numbers with the publication the model come
 * the figures as PNG files (``angles.png``, ``limit_cycle.png``, ``energy.png``,
   ``energy_per_step.png``, ``floquet.png``, ``step_down.png``, ``basin.png``, and those of
   :data:`EXTRA_FIGURES`) and the animation ``walk.gif`` (every recorded step, looping);
+* for a 3D walker (or when asked), the still image ``view3d.png`` of the interactive 3D view;
 * the results as JSON (``gait.json``, ``step_down.json``, ``gsn.json``, ``basin.json``,
   ``report.json`` with all of them and the comparison), SI units, named fields.
 
@@ -18,6 +19,11 @@ Every table gives each quantity a readable label (the internal name on hover), i
 meaning (:mod:`walker_library.labels`); a nondimensional model is labelled so. A walker without a
 gait (it falls, or no fixed point is found) still gets a report: the status, the message and the
 walk until the fall.
+
+The walk is shown by an interactive player: a 2D walker's stick figure on a canvas, a 3D
+walker's bodies in an interactive 3D view (:mod:`porthamiltonian.viewer`: orbit, play/pause,
+scrub, step through the strides; three.js inline, so the page stays self-contained). ``view3d``
+asks for the 3D view of a planar walker too (beside its 2D player, :mod:`.view3d`).
 
 Extra sections: :class:`ExtraFigure` entries in :data:`EXTRA_FIGURES` (or passed as ``extra=``)
 add a figure section each — a continuation or bifurcation diagram, say — drawn after the
@@ -56,6 +62,7 @@ from .protocol import Walker
 from .results import to_json
 from .robustness import BasinResult, StepDownResult, basin, gait_sensitivity_norm, step_down
 from .series import GaitSeries, walk_series
+from .view3d import is_3d, walker_scene
 
 __all__ = ["EXTRA_FIGURES", "ExtraFigure", "ReportResult", "load_summary", "write_report"]
 
@@ -94,12 +101,15 @@ class ReportResult:
 def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step_down: bool = True,
                  with_basin: bool = False, basin_n: int = 9, step_down_resolution: float | None = None,
                  forces: bool = False, extra: Sequence[ExtraFigure] | None = None,
+                 view3d: bool | None = None,
                  log: Callable[[str], None] | None = None) -> ReportResult:
     """Analyse ``walker`` and write the report into directory ``out`` (module docstring).
 
     n_steps : steps of the recorded walk (figures, animation). forces : draw the contact-force
     arrows in the GIF (the page's player has a switch for them either way). extra : extra figure
-    sections (default :data:`EXTRA_FIGURES`). ``log`` receives progress lines."""
+    sections (default :data:`EXTRA_FIGURES`). view3d : the interactive 3D view (default: for a
+    3D walker only; True: for a planar walker too, beside its 2D player; False: never).
+    ``log`` receives progress lines."""
     t0 = time.perf_counter()
     say = log or (lambda msg: None)
     out = Path(out)
@@ -134,6 +144,12 @@ def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step
     sc = scene(walker, series)
     put("walk.gif", write_gif(sc, out / "walk.gif", forces=forces, nondimensional=nondim),
         "image/gif")
+    three_d = is_3d(walker, series)
+    scene3d = None
+    if three_d if view3d is None else view3d:
+        say(f"{walker.name}: 3D view")
+        scene3d = walker_scene(walker, series, sc, step_period=period)
+        put("view3d.png", scene3d.to_png(out / "view3d.png").read_bytes())
     sd = bas = gsn = None
     if periodic:
         put("floquet.png", fig_floquet(gait.floquet_multipliers, gait.multiplier_error,
@@ -166,9 +182,11 @@ def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step
                "gait": gait_d, "step_down": sd, "gsn": gsn, "basin": bas,
                "comparison": [r.__dict__ for r in comparison], "walk_ledger": ledger}
     dump("report.json", summary)
-    body = _body(walker, gait, sd, gsn, bas, comparison, ledger, series, sc, images, extras, out)
+    body = _body(walker, gait, sd, gsn, bas, comparison, ledger, series, sc, images, extras, out,
+                 (scene3d, three_d))
     (out / "report.html").write_text(P.page(f"{walker.name} — walker report", body,
-                                            with_player=True))
+                                            with_player=not three_d,
+                                            with_viewer=scene3d is not None))
     files.append("report.html")
     seconds = time.perf_counter() - t0
     say(f"{walker.name}: report written to {out / 'report.html'} in {seconds:.1f} s")
@@ -327,8 +345,21 @@ def _floquet_html(gait: GaitResult, images: dict) -> str:
             f"</div><div>{fig}</div></div>")
 
 
+def _view3d_html(walker: Walker, scene3d, three_d: bool, images: dict) -> str:
+    """The interactive 3D view (its still image inside, for browsers without WebGL)."""
+    from porthamiltonian.viewer.page import block
+    gamma = scene3d.ground.slope if scene3d.ground is not None else 0.0
+    what = ("The walker's bodies at their poses" if three_d else
+            "The same walk set upright in 3D (the model is planar: its legs share one plane; "
+            "they are drawn 0.1 leg lengths apart sideways so that neither hides the other)")
+    cap = (f"{what}, on the slope (γ = {gamma:.3g} rad, drawn at its angle); a stride starts at "
+           "each heel strike. view3d.png beside this page is a still image of it.")
+    return block(scene3d, element_id="view3d", caption=cap, still=images["view3d.png"][1],
+                 label=f"3D view of {walker.name} walking")
+
+
 def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
-               nondim: bool) -> str:
+               nondim: bool, view: tuple) -> str:
     J = _u("J", nondim)
     tunit = "nondimensional time" if nondim else "s"
     step_period = gait.metrics.step_period
@@ -339,7 +370,11 @@ def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
            "Click the picture or the button to pause; drag the slider to scrub"
            + ("; the contact forces switch on arrows (the weight is drawn 0.35 leg lengths long)"
               if sc.force is not None else "") + ".")
+    scene3d, three_d = view
     player = P.player(player_data(sc), time_unit=tunit, time_scale=scale, caption=cap)
+    if scene3d is not None:
+        shown = _view3d_html(walker, scene3d, three_d, images)
+        player = shown if three_d else (player + "<h3>In three dimensions</h3>" + shown)
     gif = P.figure(images, "walk.gif", "animation of the walk (GIF)",
                    "The same walk as an animated GIF (walk.gif beside this page), for slides.")
     start = "the fixed point" if gait.status == "periodic" else "the initial guess"
@@ -428,7 +463,7 @@ def _command(walker: Walker) -> str:
 
 
 def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc, images,
-          extras, out: Path) -> str:
+          extras, out: Path, view: tuple) -> str:
     nondim = is_nondimensional(walker)
     sections = [_header(walker, gait, sd, nondim)]
     toc = [("comparison", "comparison", walker.name in REFERENCES),
@@ -440,7 +475,7 @@ def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc
     sections.append('<nav class="toc">' + "".join(f'<a href="#{a}">{t}</a>'
                                                   for a, t, on in toc if on) + "</nav>")
     sections.append(_comparison_html(walker, comparison, out))
-    sections.append(_walk_html(walker, gait, ledger, sc, images, nondim))
+    sections.append(_walk_html(walker, gait, ledger, sc, images, nondim, view))
     sections.append('<h2 id="gait">Gait</h2>'
                     f"<p>Poincaré section: {html.escape(_section_words(walker))}.</p>"
                     + _gait_tables(walker, gait, nondim))

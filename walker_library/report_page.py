@@ -5,7 +5,8 @@ Building blocks used by :mod:`walker_library.report`: :class:`Html` (text that i
 :func:`table` (a table in a horizontally scrolling wrapper, numbers right-aligned), :func:`named`
 (a readable label whose hover text is the internal name), :func:`number` and
 :func:`multiplier_cells` (numbers to the digits they support), :func:`figure`, :func:`player`
-(the interactive animation: play/pause, scrub, speed, contact forces) and :func:`page`.
+(the interactive animation: play/pause, scrub, speed, contact forces) and :func:`page` (which
+also carries the 3D view's assets when the body has one).
 """
 from __future__ import annotations
 
@@ -288,9 +289,16 @@ m.style.cssText='position:fixed;left:0;top:0;width:24px;height:24px;z-index:9;ba
 (over>0?'#ff0000':'#00ff00');b.appendChild(m);}});"""
 
 
-def page(title: str, body: str, *, with_player: bool) -> str:
-    """The whole document around ``body`` (styles and scripts inline)."""
+def page(title: str, body: str, *, with_player: bool, with_viewer: bool = False) -> str:
+    """The whole document around ``body`` (styles and scripts inline). ``with_viewer``: the
+    body holds a 3D view (:func:`porthamiltonian.viewer.page.block`): add its styles, three.js
+    and its script."""
     script = _CHECK_JS + (_PLAYER_JS if with_player else "")
+    if with_viewer:
+        from porthamiltonian.viewer.page import assets
+        script_tags = f"<script>{script}</script>\n{assets()}"
+    else:
+        script_tags = f"<script>{script}</script>"
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
@@ -299,6 +307,6 @@ def page(title: str, body: str, *, with_player: bool) -> str:
 <body><main>
 {body}
 </main>
-<script>{script}</script>
+{script_tags}
 </body></html>
 """

@@ -1,8 +1,9 @@
 """The main job's report (walker_library.report, ``walker report``): files, figures, JSON, the
 comparison with the publication, and the HTML page rendered by a real headless browser.
 
-The browser (Chromium) is found on PATH. Without one these tests skip with a one-line reason,
-unless ``CI`` is set: CI installs Chromium (.ci/run), so there a missing browser fails.
+The browser (Chromium, tests/browser.py) is found on PATH. Without one these tests skip with a
+one-line reason, unless ``CI`` is set: CI installs Chromium (.ci/run), so there a missing browser
+fails.
 
 The browser checks read the page's own load handler, which counts the images that decoded
 (``data-images-ok="k/n"``) and marks the player ready (``data-player="ready:N"``), and
@@ -14,14 +15,13 @@ from __future__ import annotations
 
 import html
 import json
-import os
 import re
 import shutil
-import subprocess
-import tempfile
 from pathlib import Path
 
+import browser
 import pytest
+from browser import console_errors, render
 from PIL import Image
 
 from walker_library import report as report_module
@@ -29,42 +29,12 @@ from walker_library.cli import main
 from walker_library.report import ExtraFigure
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                  "--enable-logging=stderr", "--v=0", "--virtual-time-budget=5000"]
-
-
-def _chromium() -> str:
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        message = ("needs a headless browser: install Chromium (Debian/Ubuntu: apt-get install -y "
-                   "chromium)")
-        if os.environ.get("CI"):
-            pytest.fail(f"{message}; CI installs it (.ci/run)")
-        pytest.skip(message)
-    return exe
-
-
-def _run_chromium(args: list[str]) -> subprocess.CompletedProcess:
-    with tempfile.TemporaryDirectory() as profile:
-        return subprocess.run([_chromium(), *CHROMIUM_FLAGS, f"--user-data-dir={profile}", *args],
-                              capture_output=True, text=True, timeout=120, check=False)
-
-
-def render(path: Path) -> tuple[str, list[str]]:
-    """(DOM after load, console lines) of a local page in headless Chromium."""
-    proc = _run_chromium(["--dump-dom", path.resolve().as_uri()])
-    console = [line for line in proc.stderr.splitlines() if ":CONSOLE" in line]
-    return proc.stdout, console
 
 
 def screenshot(path: Path, width: int, height: int, out: Path) -> Image.Image:
     """A screenshot of the page at a window of ``width`` × ``height`` CSS px, in layout-check
     mode (see the module docstring)."""
-    _run_chromium([f"--window-size={width},{height}", "--hide-scrollbars",
-                   f"--screenshot={out}", path.resolve().as_uri() + "?layout-check"])
-    assert out.is_file(), "Chromium wrote no screenshot"
-    return Image.open(out).convert("RGB")
+    return browser.screenshot(path.resolve().as_uri() + "?layout-check", width, height, out)
 
 
 def layout_mark(image: Image.Image) -> str:
@@ -89,14 +59,14 @@ def report(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(report_module, "EXTRA_FIGURES", extras)
         assert main(["report", "simplest_walker", "--out", str(out), "--steps", "4",
-                     "--quiet"]) == 0
+                     "--view3d", "--quiet"]) == 0
     return out
 
 
 def test_report_files_and_json(report):
     for name in ("report.html", "report.json", "gait.json", "step_down.json", "gsn.json",
                  "walk.gif", "angles.png", "limit_cycle.png", "energy.png",
-                 "energy_per_step.png", "floquet.png", "step_down.png"):
+                 "energy_per_step.png", "floquet.png", "step_down.png", "view3d.png"):
         assert (report / name).is_file(), name
     summary = json.loads((report / "report.json").read_text())
     assert summary["gait"]["status"] == "periodic"
@@ -114,7 +84,7 @@ def test_report_files_and_json(report):
 
 def test_every_figure_is_a_valid_png_and_the_gif_animates_every_step(report):
     pngs = sorted(report.glob("*.png"))
-    assert len(pngs) == 7                       # 6 figures and the extra section's
+    assert len(pngs) == 8                       # 6 figures, the 3D view's still, the extra one
     assert not (report / "none.png").exists()
     for p in pngs:
         assert p.read_bytes()[:8] == PNG_SIGNATURE, p.name
@@ -148,11 +118,18 @@ def test_report_opens_in_a_headless_browser_without_errors(report):
     m = re.search(r'data-images-ok="(\d+)/(\d+)"', dom)
     assert m, "the page's load handler did not run"
     ok, total = int(m.group(1)), int(m.group(2))
-    assert total == 8 and ok == total           # 6 figures, the extra one, the GIF: all decoded
+    assert total == 9 and ok == total           # 6 figures, the extra one, the GIF, the 3D
+    #                                             view's still (hidden while WebGL draws)
     assert "A test section" in dom and "Left out" not in dom
     player = re.search(r'data-player="ready:(\d+)"', dom)
     assert player and int(player.group(1)) > 100, "the player did not start"
-    assert not [c for c in console if "Uncaught" in c or "rror" in c], console
+    # a planar walker keeps its 2D player; asked for, the 3D view comes beside it and draws
+    tag = re.search(r'<figure class="ph-viewer ph-live" id="view3d"[^>]*>', dom)
+    assert tag, "the 3D view did not start"
+    view = dict(re.findall(r'(data-[a-z]+)="([^"]*)"', tag.group(0)))
+    drawn, pixels = map(int, view["data-drawn"].split("/"))
+    assert view["data-viewer"] == player.group(0).split('"')[1] and drawn > 0.02 * pixels
+    assert not console_errors(console), console
     assert "Walker report: simplest_walker" in dom
     assert "http://" not in dom.replace("http://www.w3.org", "") and "https://" not in dom
 
@@ -188,7 +165,7 @@ def test_no_browser_skips_with_a_reason_but_fails_under_ci(monkeypatch):
     monkeypatch.setattr(shutil, "which", lambda name: None)
     monkeypatch.delenv("CI", raising=False)
     with pytest.raises(pytest.skip.Exception, match="needs a headless browser"):
-        _chromium()
+        browser.chromium()
     monkeypatch.setenv("CI", "1")
     with pytest.raises(pytest.fail.Exception, match="CI installs it"):
-        _chromium()
+        browser.chromium()

@@ -149,3 +149,27 @@ def test_components_are_immutable():
                                                      "child": "bob", "axis": "y"}})
     bodies["bob"]["mass"] = -5.0                   # the caller's table, not the component's
     assert arm.args["bodies"]["bob"]["mass"] == 1.0
+
+
+def test_replace_swaps_a_component_and_keeps_its_bonds():
+    """``Model.replace`` is the Python form of the one-line swap of a model file: the damper of a
+    damped oscillator becomes a stiffer one (its bonds kept; the envelope q0 e^{-c t/2} changes
+    with c), and a component without the bonded port is reported by validate, naming it."""
+    model = _oscillator("swap_osc", ph.OneJunction(), ph.C(stiffness=1.0, q0=0.1))
+    model.add("damper", ph.R(resistance=0.2))
+    model.connect("j", "damper.p")
+    new = model.replace("damper", ph.R(resistance=0.4))
+    assert model.component("damper") is new
+    t_end = 2 * np.pi
+    traj = compile_model(model, backend="python").simulate(t_end, rtol=1e-10, atol=1e-12)
+    omega_d = np.sqrt(1 - 0.2**2)     # c = 0.4: q0 e^{-t/5} (cos ω_d t + sin(ω_d t) / (5 ω_d))
+    expected = 0.1 * np.exp(-t_end / 5) * (np.cos(omega_d * t_end)
+                                           + np.sin(omega_d * t_end) / (5 * omega_d))
+    assert traj["spring.q"][-1] == pytest.approx(expected, rel=1e-7)
+    with pytest.raises(ModelError, match=r"'damper' \(TF\) has no port 'p'"):
+        model.replace("damper", ph.TF(ratio=2.0))  # ports p1, p2: the bond to damper.p
+    with pytest.raises(ModelError, match=r"damper\.p"):
+        model.replace("damper", ph.Se(effort=0.0))  # a source gives power: the bond takes it
+    assert model.component("damper") is new        # a refused swap changes nothing
+    with pytest.raises(ModelError, match="no component 'nope'"):
+        model.replace("nope", ph.R(resistance=1.0))
