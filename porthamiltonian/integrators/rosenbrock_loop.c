@@ -76,6 +76,19 @@ static int ph_lu_factor(double *A, int *piv)
     return 1;
 }
 
+/* W = I/(h gamma) - J (hgam = h gamma), factored in place; 0 when W is singular */
+static int ph_w_factor(const double *J, double hgam, double *W, int *piv)
+{
+    const int n = PH_N;
+    const double inv = 1.0 / hgam;
+    for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j)
+            W[i * n + j] = -J[i * n + j];
+        W[i * n + i] += inv;
+    }
+    return ph_lu_factor(W, piv);
+}
+
 static void ph_lu_solve(const double *A, const int *piv, double *b)
 {
     const int n = PH_N;
@@ -292,13 +305,7 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
         const double *Wu = W;
         const int *pu = piv;
         if (!(th_a == 0.0 && th_b == 1.0)) {
-            const double inv = 1.0 / (eta * tab->gamma);
-            for (int i = 0; i < N; ++i) {
-                for (int j = 0; j < N; ++j)
-                    Ws[i * N + j] = -Ja[i * N + j];
-                Ws[i * N + i] += inv;
-            }
-            if (!ph_lu_factor(Ws, pivs)) {
+            if (!ph_w_factor(Ja, eta * tab->gamma, Ws, pivs)) {
                 ds = 0.5 * (th_b - th_a);
                 continue;
             }
@@ -432,13 +439,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             }
             if (t + h > t_end)
                 h = t_end - t;
-            const double inv = 1.0 / (h * gam);
-            for (int i = 0; i < N; ++i) {
-                for (int j = 0; j < N; ++j)
-                    W[i * N + j] = -J[i * N + j];
-                W[i * N + i] += inv;
-            }
-            if (!ph_lu_factor(W, piv)) {
+            if (!ph_w_factor(J, h * gam, W, piv)) {
                 h *= 0.5;
                 continue;
             }

@@ -68,6 +68,18 @@ def _lu_factor(A, piv):
 
 
 @_jit
+def _w_factor(J, hgam, W, piv):
+    """W = I/(hγ) − J (hgam = hγ), factored in place; False when W is singular."""
+    n = J.shape[0]
+    inv = 1.0 / hgam
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = -J[i, j]
+        W[i, i] += inv
+    return _lu_factor(W, piv)
+
+
+@_jit
 def _lu_solve(A, piv, b):
     n = A.shape[0]
     for k in range(n):
@@ -266,12 +278,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, 
             Wu = W
             pu = piv
         else:
-            inv = 1.0 / (eta * gam)
-            for i in range(n):
-                for j in range(n):
-                    Ws[i, j] = -Ja[i, j]
-                Ws[i, i] += inv
-            if not _lu_factor(Ws, pivs):
+            if not _w_factor(Ja, eta * gam, Ws, pivs):
                 ds = 0.5 * (th_b - th_a)
                 continue
             Wu = Ws
@@ -401,12 +408,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 break
             if t + h > t_end:
                 h = t_end - t
-            inv = 1.0 / (h * gam)
-            for i in range(n):
-                for j in range(n):
-                    W[i, j] = -J[i, j]
-                W[i, i] += inv
-            if not _lu_factor(W, piv):
+            if not _w_factor(J, h * gam, W, piv):
                 h *= 0.5
                 continue
             # stages: U[i] = y + Σ_j TA[i, j] K[j];  W K[i] = f(t + TN[i] h, U[i]) + h TD[i] dT
