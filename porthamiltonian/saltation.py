@@ -177,13 +177,11 @@ class Sensitivity:
         run went through, in order (:class:`Crossing`); final : Φ where the run ended — at a
         stop at an event, the Jacobian of the state on the event's surface (S_stop Φ⁻), else
         Φ at the last point.
-    error : the largest estimate, over the steps, of the relative local error of Φ (its
-        embedded estimate over Φ's size, in the norm of the state's error control), in units
-        of rtol. Φ is not in the error control (the steps are chosen for x, so
-        that the trajectory is the same as without sensitivities): ≲ 1 says the steps taken for
-        x resolve Φ too (Φ's error is then at the level of the tolerance); ≫ 1 says they do not
-        (e.g. a run from an equilibrium, where x does not move and the steps grow): bound the
-        step size (max_step).
+    error : the largest error estimate of Φ's accepted sub-steps over the run (relative to Φ,
+        in the norm of the state's error control), in units of rtol: at most 10, the
+        sub-steps' tolerance, unless a limit of the sub-stepping was reached (a sub-step of
+        1e-9 of a step, 400 sub-steps in one step); Φ is then less accurate there. (Φ has its
+        own error control, in sub-steps of the steps chosen for x, which stay as they are.)
     """
 
     seeds: np.ndarray

@@ -312,6 +312,14 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, 
 
 
 @_jit
+def _no_variational(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam, expo, rtol,
+                    atol, n_model, P, eta0):
+    """_variational_step in the copy of _rosenbrock for runs without sensitivities (never
+    called there: m = 0; see porthamiltonian/integrators/__init__.py)."""
+    return 0, 0, J, 0.0, eta0
+
+
+@_jit
 def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax,
                 directions, terminal, mask_index, mask_sign, n_model, bound, max_steps, store_cap,
                 tgrad_step, phi0):
