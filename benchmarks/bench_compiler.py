@@ -73,8 +73,8 @@ def _pin_blas_threads() -> str:
 
 BLAS_THREADS = _pin_blas_threads()
 
-from machine import machine_info  # noqa: E402  (benchmarks/machine.py)
-import numpy as np  # noqa: E402  (after the BLAS thread pinning)
+import numpy as np
+from machine import machine_info
 
 METHODS = ("Radau", "BDF", "LSODA")
 BACKENDS = ("python", "numba")
@@ -289,7 +289,7 @@ def measure_compile(n: int, backend: str, repeats: int) -> dict:
             warm.append(run_child(["compile", str(n), backend, "1"], d))
         finally:
             shutil.rmtree(d, ignore_errors=True)
-    med = lambda rows, key: statistics.median(r[key] for r in rows)  # noqa: E731
+    med = lambda rows, key: statistics.median(r[key] for r in rows)
     return {"cold_compile": med(cold, "compile"), "cold_first": med(cold, "first_call"),
             "warm_compile": med(warm, "compile"), "warm_first": med(warm, "first_call"),
             "repeats": repeats}

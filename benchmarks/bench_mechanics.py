@@ -60,7 +60,7 @@ from pathlib import Path
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # same LAPACK threading for library and hand-written code
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 WALKER = {"M": 3.0, "m_l": 0.01, "m_f": 0.1, "L": 0.7, "g": 9.81}
@@ -91,23 +91,12 @@ def chain_masses_lengths(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def chain_model(n: int):
-    import porthamiltonian as ph
-    from porthamiltonian.mechanics import Multibody
+    """The N-link chain of tests/validation/multibody_cases.py (masses and lengths as
+    :func:`chain_masses_lengths`)."""
+    sys.path.insert(0, str(ROOT / "tests" / "validation"))
+    from multibody_cases import chain_model as model
 
-    m, l = chain_masses_lengths(n)
-    model = ph.Model(f"chain{n}")                  # n uniform rods on revolute joints
-    bodies, joints = {}, {}
-    for i in range(1, n + 1):
-        model.parameter(f"m{i}", float(m[i - 1]), "kg")
-        model.parameter(f"l{i}", float(l[i - 1]), "m")
-        bodies[f"link{i}"] = {"mass": f"m{i}", "com": [0, 0, f"-l{i}/2"],
-                              "inertia": [f"m{i}*l{i}**2/12"] * 3}
-        joints[f"q{i}"] = {"type": "revolute", "parent": "world" if i == 1 else f"link{i - 1}",
-                           "child": f"link{i}", "axis": "y",
-                           "origin": [0, 0, 0] if i == 1 else [0, 0, f"-l{i - 1}"], "q0": 0.3}
-    model.parameter("g", 9.81, "m/s^2")
-    model.add("chain", Multibody(bodies=bodies, joints=joints, gravity=[0, 0, "-g"], plane="xz"))
-    return model
+    return model(n)
 
 
 def build(spec: str):

@@ -85,6 +85,7 @@ def assemble(solution: Solution) -> SymbolicModel:
     p_diss = sp.Integer(0)
     p_in = sp.Integer(0)
     energies: dict[str, sp.Expr] = {}
+    hidden = _hidden_dependencies(system.intermediates, {*states, TIME})
     for cname, b in system.built.items():
         energy = b.energy.xreplace(system.aliases)
         energies[cname] = energy
@@ -92,6 +93,11 @@ def assemble(solution: Solution) -> SymbolicModel:
             raise ModelError(f"component {cname!r}: its stored energy depends on port variables; "
                              "energy must be a function of states, parameters and time")
         H += energy
+        reached = set().union(*(hidden[w] for w in energy.free_symbols if w in hidden))
+        if TIME in reached or (reached - owned[cname] - {TIME} and not b.energy_via_ports):
+            # intermediates hide a dependence on time or on other components' states: the
+            # modulation power is formed from the energy written out in states
+            energy = _inline(energy, system.intermediates)
         modulation = sp.diff(energy, TIME)
         if not b.energy_via_ports:
             modulation += sum((sp.diff(energy, x) * xdot[x] for x in energy.free_symbols & set(states)
@@ -134,6 +140,8 @@ def assemble(solution: Solution) -> SymbolicModel:
     matrices = {name: m.xreplace(system.aliases).xreplace(values)
                 for b in system.built.values() for name, m in b.matrices.items()}
     rhs = [xdot[x] for x in states] + [p_diss, p_in]
+    used = [*rhs, H, *outputs.values(), *(g for _, g in events), *matrices.values(),
+            *(e for _, A, b in system.blocks for e in (*A, *b))]
     return SymbolicModel(
         name=flat.name, states=states, state_names=[str(s) for s in states],
         params=list(system.params.values()), param_names=list(system.params),
@@ -142,7 +150,8 @@ def assemble(solution: Solution) -> SymbolicModel:
         rhs=rhs, hamiltonian=H, p_diss=p_diss, p_in=p_in, outputs=outputs, events=events,
         initial=initial,
         equations=[f"{u} = {expr}" for u, expr, _ in solution.order if u in system.derivatives],
-        blocks=system.blocks, matrices=matrices, intermediates=system.intermediates,
+        blocks=system.blocks, matrices=matrices,
+        intermediates=_needed(system.intermediates, used),
         energy_parts=parts,
         constraints=[c for b in system.built.values() for c in b.constraints],
         units=units,
@@ -171,6 +180,48 @@ def energy_parts(energies: dict[str, sp.Expr],
         outputs[name] = energy
         parts.append((name, "stored"))
     return parts
+
+
+def _needed(intermediates: list[tuple[sp.Symbol, sp.Expr]],
+            exprs: list) -> list[tuple[sp.Symbol, sp.Expr]]:
+    """The intermediates that ``exprs`` use, directly or through other intermediates (in their
+    order): a component may declare more than a model uses (e.g. a multibody's inertia entries
+    that a planar motion never reads)."""
+    wanted: set[sp.Symbol] = set()
+    for e in exprs:
+        wanted |= sp.sympify(e).free_symbols
+    for symbol, expr in reversed(intermediates):
+        if symbol in wanted:
+            wanted |= expr.free_symbols
+    return [(s, e) for s, e in intermediates if s in wanted]
+
+
+def _hidden_dependencies(intermediates: list[tuple[sp.Symbol, sp.Expr]],
+                         leaves: set[sp.Symbol]) -> dict[sp.Symbol, set[sp.Symbol]]:
+    """For each intermediate, the states and time (``leaves``) it depends on, directly or
+    through earlier intermediates."""
+    reach: dict[sp.Symbol, set[sp.Symbol]] = {}
+    for symbol, expr in intermediates:
+        found = expr.free_symbols & leaves
+        for w in expr.free_symbols:
+            if w in reach:
+                found |= reach[w]
+        reach[symbol] = found
+    return reach
+
+
+def _inline(expr: sp.Expr, intermediates: list[tuple[sp.Symbol, sp.Expr]]) -> sp.Expr:
+    """``expr`` with its intermediates substituted by their definitions, recursively."""
+    defs = dict(intermediates)
+    values: dict[sp.Symbol, sp.Expr] = {}
+
+    def value(symbol: sp.Symbol) -> sp.Expr:
+        if symbol not in values:
+            inner = defs[symbol]
+            values[symbol] = inner.xreplace({w: value(w) for w in inner.free_symbols if w in defs})
+        return values[symbol]
+
+    return expr.xreplace({w: value(w) for w in expr.free_symbols if w in defs})
 
 
 def _port_names(comp: str, port: str, dim: int) -> list[str]:

@@ -17,8 +17,10 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 
 Implicit blocks ``A(t, x, p) v = b(t, x, p)`` (e.g. M(q) q̇ = p of a multibody) are solved
 numerically at the top of every function that needs ``v``; in the Jacobian, v's derivative is
-``A⁻¹ (∂b/∂x − ∂(A v)/∂x|_v)`` (implicit differentiation), never a symbolic inverse. Every
-function's documentation lists the order of its arguments' and its result's entries by name.
+``A⁻¹ (∂b/∂x − ∂(A v)/∂x|_v)`` (implicit differentiation), never a symbolic inverse.
+Intermediates may read the blocks' unknowns (velocity-level intermediates, e.g. the body twists
+of a multibody); the chain rule then adds ∂w/∂v · ∂v/∂x to their rows. Every function's
+documentation lists the order of its arguments' and its result's entries by name.
 """
 from __future__ import annotations
 
@@ -31,7 +33,7 @@ from ..expressions import TIME
 from .assemble import SymbolicModel
 
 #: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "4"
+CODEGEN_VERSION = "5"
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -73,13 +75,27 @@ class Solve:
 
 
 @dataclass(frozen=True)
-class RowUpdate:
-    """``array[i, :] += coef * array[j, :]`` (one forward chain-rule step, j < i)."""
+class IndexTable:
+    """``name``: a constant table of integers."""
+
+    name: str
+    values: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class ChainRule:
+    """For k in range(start, stop): ``array[rows[k], :] += coefs[k] * array[cols[k], :]`` — the
+    forward chain rule through intermediates, one step per nonzero partial ∂w_m/∂w_j (j < m) in
+    row order, as one loop over the index tables ``rows`` and ``cols`` (a compiler builds one
+    loop, not one statement per partial); ``coefs`` is a float array, ``array`` has ``ncols``
+    columns."""
 
     array: str
-    i: int
-    coef: str
-    j: int
+    coefs: str
+    rows: str
+    cols: str
+    start: int
+    stop: int
     ncols: int
 
 
@@ -105,7 +121,7 @@ class SolveRows:
     ncols: int
 
 
-Statement = Let | Array | Store | Solve | RowUpdate | SparseProduct | SolveRows
+Statement = Let | Array | Store | Solve | IndexTable | ChainRule | SparseProduct | SolveRows
 
 
 @dataclass(frozen=True)
@@ -194,18 +210,22 @@ class _Builder:
 
     def function(self, name: str, doc: list[str], groups: list[tuple], shape: tuple[int, ...],
                  args: tuple[str, ...] = ("t", "x", "p")) -> Function:
-        """``groups``: ("array", array, expressions, shape), ("scalars", names, expressions) or
-        ("sparse", dst, entries (i, j, expr), shape, src, ncols), in the order of their
-        statements; every expression is cse'd together. The result is the array ``out``."""
-        flat = [sp.sympify(e).xreplace(self.mapping) for g in groups
-                for e in (g[2] if g[0] != "sparse" else [x for _, _, x in g[2]])]
+        """``groups``, in the order of their statements: ("array", array, expressions, shape) (a
+        matrix's zero entries are not stored), ("entries", array, nonzero entries (i, j, expr),
+        shape) for a matrix that is zero elsewhere, ("product", dst, entries (i, j, expr) of F,
+        shape of F, src, ncols) for ``dst += F @ src``, or ("statement", statement) for a
+        statement without expressions; every expression is cse'd together. The result is the
+        array ``out``."""
+        flat = [sp.sympify(e).xreplace(self.mapping) for g in groups for e in _expressions(g)]
         replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("c"), order="none")
         body: list[Statement] = [Let(str(sym), expr) for sym, expr in replacements]
         needed = _names(expr for _, expr in replacements)
         k = 0
         for group in groups:
             kind = group[0]
-            if kind == "array":
+            if kind == "statement":
+                body.append(group[1])
+            elif kind == "array":
                 _, array, exprs, ashape = group
                 sparse = len(ashape) == 2
                 body.append(Array(array, ashape, sparse))
@@ -217,38 +237,65 @@ class _Builder:
                     needed |= _names([expr])
                     body.append(Store(array, divmod(index, ashape[1]) if sparse else (index,),
                                       expr))
-            elif kind == "scalars":
-                for target in group[1]:
-                    needed |= _names([reduced[k]])
-                    body.append(Let(target, reduced[k]))
-                    k += 1
             else:
-                _, dst, entries, fshape, src, ncols = group
                 kept = []
-                for i, j, _ in entries:
+                for i, j, _ in group[2]:
                     if reduced[k] != 0:
                         kept.append((i, j, reduced[k]))
                         needed |= _names([reduced[k]])
                     k += 1
-                body.append(SparseProduct(dst, tuple(kept), fshape, src, ncols))
+                if kind == "entries":
+                    body.append(Array(group[1], group[3], True))
+                    body += [Store(group[1], (i, j), e) for i, j, e in kept]
+                elif kept:
+                    _, dst, _, fshape, src, ncols = group
+                    body.append(SparseProduct(dst, tuple(kept), fshape, src, ncols))
         pre = self.prologue(needed) if "x" in args else []
         return Function(name, args, tuple(doc), tuple(pre + body), shape)
 
 
-def jacobian(exprs: sp.Matrix, variables: list[sp.Symbol]) -> sp.Matrix:
-    """∂exprs/∂variables, differentiating each entry only by the variables it contains."""
+def _expressions(group: tuple) -> list:
+    """The expressions of a group of :meth:`_Builder.function`, in the order of its statements."""
+    if group[0] == "statement":
+        return []
+    if group[0] == "array":
+        return list(group[2])
+    return [e for _, _, e in group[2]]
+
+
+def derivative(expr: sp.Expr, v: sp.Symbol) -> sp.Expr:
+    """∂expr/∂v: sums, products and numeric powers by hand (the bulk of generated expressions,
+    about ten times faster than sympy's general ``diff``), anything else by ``sympy.diff``."""
+    if expr == v:
+        return sp.S.One
+    if v not in expr.free_symbols:
+        return sp.S.Zero
+    if expr.is_Add:
+        return sp.Add(*[derivative(a, v) for a in expr.args if v in a.free_symbols])
+    if expr.is_Mul:
+        args, terms = expr.args, []
+        for i, a in enumerate(args):
+            if v in a.free_symbols:
+                d = derivative(a, v)
+                if d != 0:
+                    terms.append(sp.Mul(*args[:i], d, *args[i + 1:]))
+        return sp.Add(*terms)
+    if expr.is_Pow and expr.exp.is_Number:
+        return expr.exp * expr.base ** (expr.exp - 1) * derivative(expr.base, v)
+    return sp.diff(expr, v)
+
+
+def jacobian(exprs: list, variables: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]]:
+    """The nonzero entries (i, j, ∂exprs[i]/∂variables[j]), row by row and in column order
+    within a row, each expression differentiated only by the variables it contains."""
     index = {v: j for j, v in enumerate(variables)}
-    out = sp.zeros(exprs.shape[0], len(variables))
+    out = []
     for i, expr in enumerate(exprs):
-        for v in expr.free_symbols:
-            if v in index:
-                out[i, index[v]] = sp.diff(expr, v)
+        for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.get):
+            d = derivative(expr, v)
+            if d != 0:
+                out.append((i, index[v], d))
     return out
-
-
-def _nonzero(matrix: sp.Matrix) -> list[tuple[int, int, sp.Expr]]:
-    return [(i, j, matrix[i, j]) for i in range(matrix.shape[0]) for j in range(matrix.shape[1])
-            if matrix[i, j] != 0]
 
 
 def _padded(exprs: list[sp.Expr]) -> list[sp.Expr]:
@@ -321,56 +368,61 @@ def program(model: SymbolicModel) -> Program:
     return Program(model.name, header, tuple(functions), n, len(param_names), n_guards, n_out)
 
 
+def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
+    """How many leading intermediates read no block unknown: the compiler orders those of
+    states, parameters and time first, then those that also read the unknowns (directly or
+    through others), so the first of the latter reads an unknown directly."""
+    reads_v = set(vs)
+    for k, (_, expr) in enumerate(model.intermediates):
+        if expr.free_symbols & reads_v:
+            return k
+    return len(model.intermediates)
+
+
 def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc) -> Function:
-    """∂ẋ/∂x through intermediates w (forward chain rule, row by row with only the nonzero
-    partials) and implicit blocks A v = b (v' = A⁻¹ ∂(b − A v)/∂x, v held fixed)."""
+    """∂ẋ/∂x through intermediates w and implicit blocks A v = b (A and b read states and
+    position-level intermediates only), with only the nonzero partials:
+
+    Dw = ∂w/∂x; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows;
+    R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v (implicit
+    differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
+    velocity-level rows; out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R.
+    """
     n, nw, nv = len(xs), len(ws), len(vs)
-    rhs = sp.Matrix(model.rhs)
-    groups: list[tuple] = [("array", "out", list(jacobian(rhs, xs)), (n, n))]
-    tail: list[Statement] = []
+    rhs = list(model.rhs)
+    defs = [expr for _, expr in model.intermediates]
+    npos = _position_level(model, vs)
+    groups: list[tuple] = [("entries", "out", jacobian(rhs, xs), (n, n))]
+    chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
+    npre = sum(1 for m, _, _ in chain if m < npos)
+
+    def chain_rule(start: int, stop: int) -> list[tuple]:
+        return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, n))] \
+            if stop > start else []
+
     if nw:
-        defs = sp.Matrix([expr for _, expr in model.intermediates])
-        Gw = jacobian(defs, ws)
-        chain = [(m, j) for m in range(nw) for j in range(nw) if Gw[m, j] != 0]
-        groups += [("array", "Dw", list(jacobian(defs, xs)), (nw, n)),
-                   ("scalars", [f"g{m}_{j}" for m, j in chain], [Gw[m, j] for m, j in chain])]
-        # rows in order: Dw[j] is final before it is used (j < m)
-        tail += [RowUpdate("Dw", m, f"g{m}_{j}", j, n) for m, j in chain]
-        tail_product = [("sparse", "out", _nonzero(jacobian(rhs, ws)), (n, nw), "Dw", n)]
-    else:
-        tail_product = []
+        groups.append(("entries", "Dw", jacobian(defs, xs), (nw, n)))
+        if chain:
+            groups += [("array", "g", [e for _, _, e in chain], (len(chain),)),
+                       ("statement", IndexTable("gr", tuple(m for m, _, _ in chain))),
+                       ("statement", IndexTable("gc", tuple(j for _, j, _ in chain)))]
+        groups += chain_rule(0, npre)
     if nv:
         A = sp.diag(*[blk[1] for blk in model.blocks])
         b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
-        res = b - A * sp.Matrix(vs)
-        groups += [("array", "R", list(jacobian(res, xs)), (nv, n)),
-                   ("array", "Ab", list(A), (nv, nv))]
-        if nw:
-            groups.append(("sparse", "R", _nonzero(jacobian(res, ws)), (nv, nw), "Dw", n))
-        groups.append(("sparse", "out", _nonzero(jacobian(rhs, vs)), (n, nv), "R", n))
-    function = builder.function("jac", doc, groups + tail_product, (n, n))
-    return _order_jacobian(function, tail)
+        res = list(b - A * sp.Matrix(vs))
+        groups += [("entries", "R", jacobian(res, xs), (nv, n)),
+                   ("array", "Ab", list(A), (nv, nv)),
+                   ("product", "R", jacobian(res, ws), (nv, nw), "Dw", n),
+                   ("statement", SolveRows("Ab", "R", nv, n)),
+                   ("product", "Dw", [(npos + i, j, e) for i, j, e in jacobian(defs[npos:], vs)],
+                    (nw, nv), "R", n)]
+    groups += chain_rule(npre, len(chain))
+    groups += [("product", "out", jacobian(rhs, ws), (n, nw), "Dw", n),
+               ("product", "out", jacobian(rhs, vs), (n, nv), "R", n)]
+    return builder.function("jac", doc, groups, (n, n))
 
 
-def _order_jacobian(function: Function, chain: list[Statement]) -> Function:
-    """Put the chain-rule row updates after the arrays they update are filled and before the
-    first product that reads them; the block solve R = Ab⁻¹ R before the product that reads R."""
-    body = list(function.body)
-    out: list[Statement] = []
-    chained = solved = False
-    for st in body:
-        if isinstance(st, SparseProduct) and st.src == "Dw" and not chained:
-            out += chain
-            chained = True
-        if isinstance(st, SparseProduct) and st.src == "R" and not solved:
-            n = next(s.shape[0] for s in body if isinstance(s, Array) and s.name == "Ab")
-            out.append(SolveRows("Ab", "R", n, st.ncols))
-            solved = True
-        out.append(st)
-    if chain and not chained:
-        out += chain
-    return Function(function.name, function.args, function.doc, tuple(out), function.shape)
-
-
-__all__ = ["CODEGEN_VERSION", "Array", "Function", "Let", "Program", "RowUpdate", "Solve",
-           "SolveRows", "SparseProduct", "Store", "jacobian", "program"]
+__all__ = ["CODEGEN_VERSION", "Array", "ChainRule", "Function", "IndexTable", "Let", "Program",
+           "Solve", "SolveRows", "SparseProduct", "Statement", "Store", "derivative", "jacobian",
+           "program"]

@@ -9,7 +9,9 @@ Both printers give the language's constructs the same meaning:
 * ``Piecewise`` takes the first true condition (NaN when none is; the parser always ends with
   ``True``);
 * ``DiracDelta`` (derivatives of Heaviside, sign, Abs) is 0: a jump is an event, not an impulse;
-* floats are printed exactly (``repr``), π and e as their double values.
+* floats are printed exactly (``repr``), π and e as their double values;
+* sums and products keep sympy's order of terms (no re-sorting for display), so both languages
+  evaluate them in the same order.
 
 Names from the model (the docstrings and comments listing states, parameters and outputs) are
 escaped by :mod:`.literals`. The C translation unit uses only C99 and ``<math.h>``.
@@ -24,10 +26,11 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from .codegen import (
     Array,
+    ChainRule,
     Function,
+    IndexTable,
     Let,
     Program,
-    RowUpdate,
     Solve,
     SolveRows,
     SparseProduct,
@@ -51,7 +54,7 @@ class PythonPrinter(PythonCodePrinter):
     """sympy -> Python expressions (``math`` functions, ``np`` only for arrays)."""
 
     def __init__(self):
-        super().__init__({"standard": "python3", "fully_qualified_modules": True})
+        super().__init__({"standard": "python3", "fully_qualified_modules": True, "order": "none"})
 
     def _print_Float(self, expr):
         return repr(float(expr))
@@ -69,7 +72,7 @@ class CPrinter(C99CodePrinter):
     """sympy -> C99 expressions with the Python printer's meaning (see the module docstring)."""
 
     def __init__(self):
-        super().__init__({"strict": True})
+        super().__init__({"strict": True, "order": "none"})
 
     def _print_Indexed(self, expr):
         return f"{expr.base}[{int(expr.indices[0])}]"
@@ -180,8 +183,11 @@ def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> 
         else:
             lines.append(f"    {st.b} = np.linalg.solve({st.A}, {st.b})")
             lines += [f"    {t} = {st.b}[{i}]" for i, t in enumerate(st.targets)]
-    elif isinstance(st, RowUpdate):
-        lines.append(f"    {st.array}[{st.i}, :] += {st.coef} * {st.array}[{st.j}, :]")
+    elif isinstance(st, IndexTable):
+        lines.append(f"    {st.name} = np.array({list(st.values)})")
+    elif isinstance(st, ChainRule):
+        lines += [f"    for k in range({st.start}, {st.stop}):",
+                  f"        {st.array}[{st.rows}[k], :] += {st.coefs}[k] * {st.array}[{st.cols}[k], :]"]
     elif isinstance(st, SparseProduct):
         if not st.entries:
             return
@@ -340,10 +346,17 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
             else:
                 lines.append(f"    ph_solve_rows({n}, 1, {st.A}, {st.b});")
                 lines += [f"    const double {t} = {st.b}[{i}];" for i, t in enumerate(st.targets)]
-        elif isinstance(st, RowUpdate):
-            m = st.ncols
-            lines.append(f"    for (int k = 0; k < {m}; ++k) {st.array}[{st.i * m} + k] += "
-                         f"{st.coef} * {st.array}[{st.j * m} + k];")
+        elif isinstance(st, IndexTable):
+            lines.append(f"    static const int {st.name}[{len(st.values)}] = "
+                         f"{{{', '.join(map(str, st.values))}}};")
+        elif isinstance(st, ChainRule):
+            m, a = st.ncols, st.array
+            lines += [f"    for (int k = {st.start}; k < {st.stop}; ++k) {{",
+                      f"        const double f = {st.coefs}[k];",
+                      f"        double *dst = {a} + {st.rows}[k] * {m};",
+                      f"        const double *src = {a} + {st.cols}[k] * {m};",
+                      f"        for (int c = 0; c < {m}; ++c) dst[c] += f * src[c];",
+                      "    }"]
         elif isinstance(st, SparseProduct):
             m = st.ncols
             for i, j, e in st.entries:

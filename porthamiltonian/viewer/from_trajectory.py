@@ -35,9 +35,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
-from .quaternions import about_axis, from_matrix, multiply, normalise, rotate, to_matrix
+from .quaternions import AXES, about_axis, from_matrix, multiply, normalise, rotate, to_matrix
 from .sampling import frame_times, resample, resample_quaternions
-from .scene import AXES, Arrow, Body, Ground, Scene
+from .scene import Arrow, Body, Ground, Scene
 from .shapes import Box, Capsule, Shape, Sphere
 
 __all__ = ["PALETTE", "body_points", "pose_names", "pose_sources", "scene_from_trajectory"]

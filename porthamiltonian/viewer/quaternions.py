@@ -7,8 +7,13 @@ quaternion ``q`` of a body's orientation rotates body-frame coordinates into wor
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-__all__ = ["about_axis", "from_matrix", "multiply", "normalise", "rotate", "to_matrix"]
+__all__ = ["AXES", "about_axis", "from_matrix", "multiply", "normalise", "rotate", "to_matrix"]
+
+#: world unit vectors (downhill x, lateral, up) for each ``up`` axis of a scene (right-handed)
+AXES = {"z": (np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])),
+        "y": (np.array([1.0, 0, 0]), np.array([0, 0, -1.0]), np.array([0, 1.0, 0]))}
 
 
 def normalise(q: np.ndarray) -> np.ndarray:
@@ -17,7 +22,7 @@ def normalise(q: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
-def about_axis(axis, angle) -> np.ndarray:
+def about_axis(axis: ArrayLike, angle: ArrayLike) -> np.ndarray:
     """The rotation by ``angle`` (rad, right hand; scalar or array) about the unit ``axis``."""
     axis = np.asarray(axis, dtype=float)
     axis = axis / np.linalg.norm(axis)

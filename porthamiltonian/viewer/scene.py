@@ -30,14 +30,11 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
-from .quaternions import rotate
+from .quaternions import AXES, rotate
 from .shapes import Shape, colour, positive
 
 __all__ = ["Arrow", "Body", "Ground", "Scene"]
 
-#: world unit vectors (downhill x, lateral, up) for each ``up`` axis (right-handed)
-AXES = {"z": (np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])),
-        "y": (np.array([1.0, 0, 0]), np.array([0, 0, -1.0]), np.array([0, 1.0, 0]))}
 #: largest deviation of a pose quaternion's norm from 1 that is accepted (then normalised)
 QUATERNION_TOLERANCE = 1e-3
 
@@ -121,6 +118,7 @@ class Ground:
         return [quad(u[0], s, 0.0), riser, quad(s, u[1], drop)]
 
     def to_dict(self) -> dict[str, Any]:
+        """The ground as the page's JSON data (slope in rad, step position and height in m)."""
         return {"slope": self.slope, "stepAt": self.step_at, "stepHeight": self.step_height,
                 "colour": self.colour}
 

@@ -10,11 +10,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .quaternions import rotate
-from .scene import AXES, Scene
+from .quaternions import AXES, rotate
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 __all__ = ["still_frames", "write_png"]
 

@@ -16,10 +16,27 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
-from porthamiltonian.mechanics.screw import (Ad, Pose, Twist, Wrench, ad, ad_star, exp_se3, exp_so3,
-                                             hat3, hat6, kinetic_energy, log_se3, log_so3,
-                                             planar_pose, pose_inverse, pose_matrix,
-                                             spatial_inertia, vee3, vee6)
+from porthamiltonian.mechanics.screw import (
+    Ad,
+    Pose,
+    Twist,
+    Wrench,
+    ad,
+    ad_star,
+    exp_se3,
+    exp_so3,
+    hat3,
+    hat6,
+    kinetic_energy,
+    log_se3,
+    log_so3,
+    planar_pose,
+    pose_inverse,
+    pose_matrix,
+    spatial_inertia,
+    vee3,
+    vee6,
+)
 
 # All generated quantities are O(1-10); a few chained 4x4/6x6 products or an expm in double
 # precision stay within ~1e-12, so 1e-9 leaves a wide margin without hiding formula errors

@@ -10,8 +10,8 @@ import pytest
 
 import porthamiltonian as ph
 from porthamiltonian import errors, io
-from porthamiltonian.component import component_class
 from porthamiltonian.compiler import compile_model, symbolic
+from porthamiltonian.component import component_class
 
 
 class Planar(ph.Component):

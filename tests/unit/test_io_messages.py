@@ -188,8 +188,9 @@ def test_multibody_error_points_at_the_nested_key(tmp_path):
     text = edit(BALL, 'type = "translational"', 'type = "hinge"')
     msg, path = message(text, tmp_path)
     n = line_of(text, 'type = "hinge"')
-    check(msg, f"{path}, line {n}", "component 'ball'",
-          "joint 'drop'", "'hinge'", hint="type must be one of revolute, prismatic, translational, weld")
+    check(msg, f"{path}, line {n}", "component 'ball'", "joint 'drop'", "'hinge'",
+          hint="type must be one of revolute, prismatic, translational, universal, spherical, "
+               "free, weld")
     text = edit(BALL, "inertia = 0", "inertia = 0\ncolour = 1")
     msg, path = message(text, tmp_path)
     check(msg, f"{path}, line {line_of(text, 'colour')}", "component 'ball'", "body 'b'",

@@ -36,7 +36,7 @@ from scipy.integrate import quad
 from scipy.special import ellipk
 
 import porthamiltonian as ph
-import porthamiltonian.mechanics  # noqa: F401  (registers the Multibody component type)
+import porthamiltonian.mechanics
 from porthamiltonian import Event, compile_model, io
 from porthamiltonian.mechanics import Multibody
 

@@ -1,12 +1,13 @@
 """Scenes from simulations (porthamiltonian.viewer.from_trajectory) and the walker's 3D scene
 (walker_library.view3d): the names read, the default shapes, the slope frame turned level.
 
-A Multibody's pose outputs (``<mb>.<body>.pose.x|y|z|qw|qx|qy|qz``) are not produced by the
-multibody yet: those cases use stand-in trajectories whose columns are closed-form motions
-(tests/viewer/synthetic.py); a FreeBody's poses are its states, simulated here."""
+Most cases use stand-in trajectories whose columns are closed-form motions
+(tests/viewer/synthetic.py); a real Multibody (the heavy top, whose pose outputs
+``<mb>.<body>.pose.x|y|z|qw|qx|qy|qz`` are validated in tests/validation/test_multibody_poses.py)
+and a FreeBody (whose poses are its states) are simulated here."""
 from __future__ import annotations
 
-import copy
+import dataclasses
 import math
 from types import SimpleNamespace
 
@@ -14,6 +15,7 @@ import numpy as np
 import pytest
 from synthetic import BALL, FakeTrajectory, ball_slope_frame, pose_columns
 
+import porthamiltonian as ph
 from porthamiltonian import io
 from porthamiltonian.errors import SceneError
 from porthamiltonian.viewer import (
@@ -122,8 +124,29 @@ def test_a_free_body_is_its_inertia_box(compile_named):
     assert np.allclose(body.orientation[-1], normalise(q[-1]), atol=1e-12)
 
 
+def test_a_3d_multibody_is_drawn_from_its_pose_outputs(compile_named):
+    """models/heavy_top.toml over 0.2 s: one body, ``top.body``, drawn as a ball at the pivot and
+    a capsule to its point cm = (0, 0, l) (body frame); at the first and last frame (the run's
+    own points) its orientation is the joint's normalised quaternion and the drawn cm,
+    position + R(q) (0, 0, l), is the model's cm output."""
+    compiled = compile_named("heavy_top")
+    traj = compiled.simulate(0.2, method="DOP853", rtol=1e-10, atol=1e-12)
+    sc = scene_from_trajectory(traj, model=io.load("heavy_top"), rate=50)
+    (body,) = sc.bodies
+    assert body.name == "top.body" and len(sc.t) == 11
+    l = compiled.param_defaults[compiled.param_names.index("l")]
+    (link,) = [s for s in body.shapes if isinstance(s, Capsule)]
+    assert np.allclose(link.b, [0, 0, l], rtol=0, atol=1e-12)
+    for frame in (0, -1):
+        q = normalise(np.array([traj[f"top.q.tip.{c}"][frame] for c in ("qw", "qx", "qy", "qz")]))
+        assert np.allclose(body.orientation[frame], q, rtol=0, atol=1e-12)
+        cm = body.position[frame] + rotate(body.orientation[frame], np.array([0, 0, l]))
+        assert np.allclose(cm, [traj[f"top.cm.{a}"][frame] for a in "xyz"], rtol=0, atol=1e-12)
+    assert np.ptp(body.orientation[:, 3]) > 0.1                 # it turned
+
+
 def test_models_without_poses_and_wrong_names_are_refused(compile_named):
-    traj = compile_named("pendulum").simulate(0.1)
+    traj = compile_named("mass_spring_damper").simulate(0.1)
     with pytest.raises(SceneError, match=r"gives no body poses.*pose\.x\|y\|z\|qw\|qx\|qy\|qz"):
         scene_from_trajectory(traj)
     t = np.linspace(0, 1, 5)
@@ -137,12 +160,18 @@ def test_models_without_poses_and_wrong_names_are_refused(compile_named):
 
 # --- the walker's 3D scene -------------------------------------------------------------------------
 def _walker_standin():
-    """compass_walker's file with its multibody made 3D (no plane), as a 3D walker's would be,
-    and a closed-form stride of it: the hip moving down the slope, the legs swinging."""
+    """compass_walker's file with its multibody made 3D (no plane), as a 3D walker's would be
+    (its components without their bonds: the file's contacts are planar), and a closed-form
+    stride of it: the hip moving down the slope, the legs swinging."""
     spec, _ = read_walker("compass_walker")
-    spec = copy.deepcopy(spec)
-    flat = spec.model.component("walker")
-    spec.model.replace("walker", type(flat)(**{k: v for k, v in flat.args.items() if k != "plane"}))
+    model = ph.Model("compass_walker_3d")
+    for name, p in spec.model.parameters.items():
+        model.parameter(name, p.value, p.unit)
+    for name, comp in spec.model.components():
+        if name == "walker":
+            comp = type(comp)(**{k: v for k, v in comp.args.items() if k != "plane"})
+        model.add(name, comp)
+    spec = dataclasses.replace(spec, model=model)
     values = {k: float(p.value) for k, p in spec.model.parameters.items()}
     walker = SimpleNamespace(name="compass_walker", multibody="walker", spec=spec,
                              parameters=values, leg_length=values["l"])
@@ -205,7 +234,7 @@ def test_porthamiltonian_view(compile_named, tmp_path, capsys):
     assert 'data-viewer="loading"' in page and '"name":"body"' in page
     with Image.open(out / "view.png") as im:
         assert im.format == "PNG"
-    assert main(["view", "pendulum", "--backend", "python", "--out", str(out)]) == 2
-    assert "error: model 'pendulum' gives no body poses" in capsys.readouterr().err
+    assert main(["view", "mass_spring_damper", "--backend", "python", "--out", str(out)]) == 2
+    assert "error: model 'mass_spring_damper' gives no body poses" in capsys.readouterr().err
     assert main(["view", "free_rigid_body", "--rate", "0", "--out", str(out)]) == 2
     assert "error: --rate" in capsys.readouterr().err
