@@ -30,8 +30,10 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from .differences import Derivative, gradient
 from .errors import ModelError, StateError
 from .options import check_simulation
+from .saltation import Crossing, Sensitivity, saltation_matrix
 from .trajectory import Segment, Status, Trajectory
 
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
@@ -53,12 +55,16 @@ class Reset:
     stop : end the simulation after this event.
     energy : where a jump of H is booked: ``"dissipated"`` (E_diss += H⁻ − H⁺) or
         ``"supplied"`` (E_in += H⁺ − H⁻).
+    jacobian : ∂x⁺/∂x⁻ (n x n) of the state map, for runs with sensitivities (its saltation
+        matrix, :mod:`porthamiltonian.saltation`); needed when ``x`` moves the state, else the
+        identity.
     """
 
     x: np.ndarray | None = None
     params: Mapping[str, float] | None = None
     stop: bool = False
     energy: Literal["dissipated", "supplied"] = "dissipated"
+    jacobian: np.ndarray | None = None
 
 
 #: An event action: (t, model state x, parameter vector p) -> Reset.
@@ -82,7 +88,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
              actions: Mapping[str, Action] | None = None, events: list[Event] | None = None,
              t_eval: np.ndarray | None = None, dense_output: bool = False,
              max_events: int = 100_000, max_steps: int = 10_000_000,
-             divergence_bound: float = 1e12) -> Trajectory:
+             divergence_bound: float = 1e12,
+             sensitivity: bool | np.ndarray = False) -> Trajectory:
     """Simulate ``model`` from ``t_start`` to ``t_end`` (also ``model.simulate(t_end, ...)``).
 
     Parameters
@@ -108,6 +115,13 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     dense_output : keep the interpolants, for :meth:`Trajectory.sol` (costs time).
     max_events, max_steps : bounds (a chattering guard ends the run with status "failed").
     divergence_bound : the run ends with status "diverged" when max|x| exceeds it.
+    sensitivity : also integrate the derivatives of the run by its initial model state,
+        Φ(t) = ∂x(t)/∂x₀ · V, with saltation matrices at the events (``traj.sensitivity``, a
+        :class:`~porthamiltonian.saltation.Sensitivity`: Φ at every point and where the run
+        ended, the events' saltation matrices): True for V = I (all model states), or the
+        directions V (n x m). Compiled methods only (``"auto"``: Rodas5P); the trajectory is
+        the same, bit for bit, as without; an action that moves the state gives its Jacobian
+        (``Reset(jacobian=...)``). See :mod:`porthamiltonian.saltation`.
 
     Returns the :class:`Trajectory`; its ``status`` (a :class:`Status`) says how the run ended.
 
@@ -119,8 +133,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         model.n_states, t_end, x0, params, t_start=t_start, method=method, rtol=rtol, atol=atol,
         max_step=max_step, first_step=first_step, jacobian=jacobian, actions=actions,
         events=events, t_eval=t_eval, dense_output=dense_output, max_events=max_events,
-        max_steps=max_steps, divergence_bound=divergence_bound)
+        max_steps=max_steps, divergence_bound=divergence_bound, sensitivity=sensitivity)
     t_start, t_end, t_eval = checked["t_start"], checked["t_end"], checked["t_eval"]
+    requested = method
     if method == "auto":
         method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas5P"
     if method not in METHODS:
@@ -143,12 +158,18 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     if method in _COMPILED and (py_events or t_eval is not None or dense_output):
         raise ModelError(f"method {method!r} (a compiled loop) takes model events only and no "
                          "t_eval or dense_output; use a scipy method (e.g. Radau) for those")
+    if checked["sensitivity"] is not None and method not in _COMPILED:
+        raise ModelError(f"sensitivity needs a compiled method ({', '.join(_COMPILED)}), whose "
+                         f"loop integrates the variational equation; got method {method!r}"
+                         + (" (chosen by 'auto' for Python events, t_eval or dense_output)"
+                            if requested == "auto" else ""))
     settings = Settings(
         method=method, rtol=checked["rtol"], atol=_ledger_atol(checked["atol"], model.n_states),
         max_step=checked["max_step"], first_step=checked["first_step"],
         jacobian=checked["jacobian"] and method in _STIFF, actions=actions, events=py_events,
         t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
-        max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"])
+        max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
+        sensitivity=checked["sensitivity"])
     return Simulator(model, settings).run(t_start, y, p, t_end)
 
 
@@ -168,7 +189,7 @@ def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
 class Settings:
     """The checked settings of one simulation (the arguments of :func:`simulate`, which
     documents them; ``atol`` extended to the ledger states, ``jacobian`` only for stiff scipy
-    methods)."""
+    methods, ``sensitivity`` the seed directions V, n x m, or None)."""
 
     method: str
     rtol: float
@@ -183,6 +204,7 @@ class Settings:
     max_events: int
     max_steps: int
     divergence_bound: float
+    sensitivity: np.ndarray | None = None
 
 
 #: The compiled loop's return codes (porthamiltonian/integrators/rodas_loop.py), but 5: its
@@ -219,12 +241,18 @@ class Simulator:
         self._events: list[tuple[float, str]] = []
         self._jumps: list[tuple[float, str, float]] = []
         self._counts = {"nfev": 0, "njev": 0, "nlu": 0}
+        self.phi: np.ndarray | None = None     # the sensitivities (n + 2 x m), when asked for
+        self.phi_error = 0.0                    # their largest error estimate (in rtol)
+        self._crossings: list[Crossing] = []
 
     def run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
         """Integrate from (t_start, y) with parameters p to t_end (or until a terminal event
         without action, a stopping action, a failure); the result."""
         model, settings, n = self.model, self.settings, self.model.n_states
         self.t, self.y, self.p = t_start, y, p
+        if settings.sensitivity is not None:
+            seeds = settings.sensitivity
+            self.phi = np.vstack([seeds, np.zeros((2, seeds.shape[1]))])
         h0 = float(model.energy(t_start, y, p)[0])
         fired, n_events = None, 0
         while True:
@@ -241,8 +269,12 @@ class Simulator:
                                     "to it", h0)
             action = settings.actions.get(name)
             if action is None:
+                if self.phi is not None:
+                    self._cross(k, t, self.y, self.p, self.y, self.p, None, stop=True,
+                                moved=False)
                 return self._result(Status.EVENT, f"terminal event {name!r} at t = {t:.6g}", h0)
             y, p = self.y, self.p
+            y_minus, p_minus = y, p
             reset = action(t, y[:n].copy(), p.copy())
             h_before = float(model.energy(t, y, p)[0])
             moved = reset.x is not None and not np.array_equal(np.asarray(reset.x, dtype=float),
@@ -262,7 +294,11 @@ class Simulator:
                 y[n + 1] += jump
             self.y, self.p = y, p
             self._jumps.append((t, name, jump))
-            self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None))
+            phi = None
+            if self.phi is not None:
+                phi = self._cross(k, t, y_minus, p_minus, y, p, reset.jacobian,
+                                  stop=bool(reset.stop), moved=moved)[None]
+            self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None, phi))
             if reset.stop:
                 return self._result(Status.EVENT, f"stopped by the action of event {name!r} at "
                                     f"t = {t:.6g}", h0)
@@ -276,8 +312,71 @@ class Simulator:
             fired = None if (moved or t == t_restart) else k
 
     def _result(self, status: Status, message: str, h0: float) -> Trajectory:
+        sensitivity = None
+        if self.phi is not None:
+            n = self.model.n_states
+            sensitivity = Sensitivity(self.settings.sensitivity.copy(),
+                                      np.concatenate([s.phi for s in self._segments]),
+                                      tuple(self._crossings), self.phi[:n].copy(), self.phi_error)
         return Trajectory(self.model, self._segments, self._events, self._jumps, status, message,
-                          h0=h0, **self._counts)
+                          h0=h0, sensitivity=sensitivity, **self._counts)
+
+    def _cross(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
+               y_plus: np.ndarray, p_plus: np.ndarray, jacobian: np.ndarray | None, *,
+               stop: bool, moved: bool) -> np.ndarray:
+        """Apply the saltation matrix of event ``k`` at time t (from y_minus, p_minus to y_plus,
+        p_plus; ``jacobian`` the reset's, ``stop``: the run ends on the event's surface) to the
+        sensitivities and record the :class:`~porthamiltonian.saltation.Crossing`; returns Φ⁺
+        (model states)."""
+        model, n = self.model, self.model.n_states
+        name = self.names[k]
+        if jacobian is None:
+            if moved:
+                raise ModelError(f"the action of event {name!r} moved the state at t = {t:.6g} "
+                                 "but gave no Jacobian: with sensitivities it must return "
+                                 "Reset(x=..., jacobian=dx_plus/dx_minus), an n x n array")
+            R = np.eye(n)
+        else:
+            R = np.array(jacobian, dtype=float)
+            if R.shape != (n, n) or not np.all(np.isfinite(R)):
+                raise StateError(f"the action of event {name!r} returned a reset Jacobian of "
+                                 f"shape {R.shape} (must be {n} x {n} and finite)")
+        f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
+        f_plus = (np.zeros(n) if stop else
+                  np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
+        phi_minus = self.phi[:n].copy()
+        if not stop and jacobian is None and np.array_equal(f_plus, f_minus):
+            S, g_x, g_t, error = np.eye(n), np.full(n, np.nan), float("nan"), float("nan")
+        else:
+            grad = self._guard_gradient(k, t, y_minus, p_minus)
+            g_t, g_x, error = float(grad.value[0]), grad.value[1:], grad.max_error
+            S = saltation_matrix(f_minus, f_plus, g_x, R, g_t)
+        phi_plus = S @ phi_minus
+        self.phi = np.vstack([phi_plus, np.zeros((2, phi_plus.shape[1]))])
+        self._crossings.append(Crossing(t, name, y_minus[:n].copy(), y_plus[:n].copy(), f_minus,
+                                        f_plus, g_x, g_t, error, R, S, stop, phi_minus,
+                                        phi_plus))
+        return phi_plus
+
+    def _guard_gradient(self, k: int, t: float, y: np.ndarray, p: np.ndarray) -> Derivative:
+        """(∂g/∂t, ∂g/∂x) of guard ``k`` at (t, y) by central differences, each state stepped
+        relative to max(|x_i|, atol_i/rtol) (the size below which the integration does not
+        resolve it), the time relative to max(|t|, 1)."""
+        model, settings, n = self.model, self.settings, self.model.n_states
+        pn = model.native_params(p)
+        if k < self.n_model_events:
+            def guard(z: np.ndarray) -> float:
+                yz = y.copy()
+                yz[:n] = z[1:]
+                return float(model.functions.guards(float(z[0]), yz, pn)[k])
+        else:
+            event = settings.events[k - self.n_model_events]
+
+            def guard(z: np.ndarray) -> float:
+                return float(event.guard(float(z[0]), z[1:].copy(), p))
+        typical = np.broadcast_to(np.asarray(settings.atol, dtype=float), (n + 2,))[:n]
+        scale = np.concatenate([[1.0], typical / settings.rtol])
+        return gradient(guard, np.concatenate([[t], y[:n]]), scale)
 
     def _guards(self, t: float, y: np.ndarray, pn: Any, p: np.ndarray) -> np.ndarray:
         n = self.model.n_states
@@ -410,7 +509,19 @@ class Simulator:
         ts, ys = [np.array([t0])], [y[None, :].copy()]
         atol = np.ascontiguousarray(np.broadcast_to(settings.atol, (n + 2,)), dtype=float)
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
-        loop = model.functions.loops[settings.method]
+        sensitive = self.phi is not None
+        if sensitive:       # the variational loop: Φ too (17-tuple)
+            variational = model.functions.variational[settings.method]
+            phis = [self.phi[None, :n].copy()]
+
+            def loop(*args):
+                out = variational(*args, np.ascontiguousarray(self.phi))
+                self.phi = out[14]
+                phis.append(out[15][:out[5], :n].copy())
+                self.phi_error = max(self.phi_error, out[16] / settings.rtol)
+                return out[:14]
+        else:
+            loop = model.functions.loops[settings.method]
         while True:
             with np.errstate(all="ignore"):
                 (code, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
@@ -428,7 +539,8 @@ class Simulator:
             if code != _LOOP_BUFFER_FULL:
                 break
         self.h_next = h
-        self._segments.append(Segment(np.concatenate(ts), np.concatenate(ys).T, p.copy(), None))
+        self._segments.append(Segment(np.concatenate(ts), np.concatenate(ys).T, p.copy(), None,
+                                      np.concatenate(phis) if sensitive else None))
         self.t, self.y = float(t), y.copy()
         status = _LOOP_STATUS.get(int(code), Status.FAILED)
         if status == Status.EVENT:

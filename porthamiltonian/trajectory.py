@@ -31,6 +31,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
+    from .saltation import Sensitivity
 
 
 class Status(StrEnum):
@@ -56,10 +57,12 @@ class Segment:
     y: np.ndarray            # (n + 2, len(t)): model states and ledger states
     p: np.ndarray
     sol: Any                 # scipy OdeSolution or None
+    phi: np.ndarray | None = None   # (len(t), n, m): the sensitivities, when asked for
 
     def __post_init__(self) -> None:
-        for array in (self.t, self.y, self.p):
-            _frozen(array)
+        for array in (self.t, self.y, self.p, self.phi):
+            if array is not None:
+                _frozen(array)
 
 
 class Trajectory:
@@ -72,17 +75,22 @@ class Trajectory:
     status : a :class:`Status`; ``message`` says why the run ended.
     nfev, njev, nlu : right-hand-side and Jacobian evaluations, LU decompositions.
     h0 : H at the start (J), the origin of the residual.
+    sensitivity : the derivatives of the run by its initial state
+        (:class:`~porthamiltonian.saltation.Sensitivity`), when ``simulate(...,
+        sensitivity=...)`` asked for them; else None.
     """
 
     __slots__ = ("_cache", "_events", "_jumps", "h0", "message", "model", "nfev", "njev", "nlu",
-                 "segments", "status")
+                 "segments", "sensitivity", "status")
 
     def __init__(self, model: CompiledModel, segments: Sequence[Segment],
                  events: Sequence[tuple[float, str]], jumps: Sequence[tuple[float, str, float]],
-                 status: Status, message: str, *, nfev: int, njev: int, nlu: int, h0: float):
+                 status: Status, message: str, *, nfev: int, njev: int, nlu: int, h0: float,
+                 sensitivity: Sensitivity | None = None):
         values = {"model": model, "segments": tuple(segments), "_events": tuple(events),
                   "_jumps": tuple(jumps), "status": Status(status), "message": message,
-                  "nfev": nfev, "njev": njev, "nlu": nlu, "h0": h0, "_cache": {}}
+                  "nfev": nfev, "njev": njev, "nlu": nlu, "h0": h0, "sensitivity": sensitivity,
+                  "_cache": {}}
         for name, value in values.items():
             object.__setattr__(self, name, value)
 

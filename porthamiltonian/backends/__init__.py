@@ -45,7 +45,8 @@ class Functions:
 
     Each takes ``(t, x, p)`` (``initial`` takes ``p``) where ``x`` and ``p`` are float arrays and
     returns a float array. ``backend`` names what produced them. ``loops`` maps a method name
-    (``"Rodas4"``, ``"Rodas5P"``) to its compiled integration loop (the calling convention of
+    (``"Rodas4"``, ``"Rodas5P"``) to its compiled integration loop, ``variational`` to the same
+    loop integrating the sensitivities too (the calling conventions of
     :mod:`porthamiltonian.integrators`).
     """
 
@@ -58,6 +59,7 @@ class Functions:
     initial: Callable
     matrices: tuple[Callable, ...] = ()
     loops: Mapping[str, Callable] = field(default_factory=dict)
+    variational: Mapping[str, Callable] = field(default_factory=dict)
 
     @property
     def rodas(self) -> Callable:

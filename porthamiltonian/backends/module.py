@@ -41,11 +41,13 @@ def load(path: Path, backend: str, n_matrices: int = 0) -> Functions:
     f = {name: getattr(module, name) for name in _NAMES}
     matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]
     loops = {name: getattr(module, f"integrate_{tab.symbol}") for name, tab in TABLEAUS.items()}
+    variational = {name: getattr(module, f"integrate_{tab.symbol}_variational")
+                   for name, tab in TABLEAUS.items()}
     if backend == "python":
         # plain CPython is fastest on Python floats: hand the generated code lists (the caller
         # passes p as a list too, see CompiledModel.native_params)
         def wrap(fn):
             return lambda t, x, p: fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
         return Functions("python", *(wrap(f[n]) for n in _NAMES[:5]), f["initial"],
-                         tuple(wrap(m) for m in matrices), loops)
-    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices), loops)
+                         tuple(wrap(m) for m in matrices), loops, variational)
+    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices), loops, variational)

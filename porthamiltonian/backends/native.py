@@ -188,23 +188,29 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Funct
     n_guards = shapes["guards"][0]
     loops = {name: _loop(getattr(lib, f"ph_integrate_{tab.symbol}"), n, n_params, n_guards)
              for name, tab in TABLEAUS.items()}
+    variational = {name: _loop(getattr(lib, f"ph_integrate_{tab.symbol}_variational"), n,
+                               n_params, n_guards, variational=True)
+                   for name, tab in TABLEAUS.items()}
     matrices = tuple(function(f"matrix_{k}") for k in range(expected[4]))
     # (ctypes never unloads a library: the functions stay valid)
-    return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops)
+    return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops,
+                     variational)
 
 
-def _loop(entry, n: int, n_params: int, n_guards: int) -> Callable:
+def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
     """The Python face of a compiled loop: the calling convention of
-    porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 14-tuple)."""
+    porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 14-tuple; with
+    ``variational`` the argument phi0 and the 17-tuple)."""
     c_int64, c_double, c_void_p = ctypes.c_int64, ctypes.c_double, ctypes.c_void_p
     entry.restype = ctypes.c_int
     entry.argtypes = (c_double, c_void_p, c_double, c_void_p, c_double, c_void_p, c_double,
                       c_double, c_void_p, c_void_p, c_int64, c_int64, c_double, c_int64, c_double,
                       c_int64, c_int64, c_double, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p,
-                      c_void_p, c_void_p)
+                      c_void_p, c_void_p) + ((c_int64, c_void_p, c_void_p, c_void_p, c_void_p)
+                                             if variational else ())
 
     def integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_index,
-                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step):
+                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0=None):
         y0 = _vector(y0, n, "y0")
         p = _vector(p, n_params, "p")
         atol = _vector(atol, n, "atol")
@@ -224,14 +230,25 @@ def _loop(entry, n: int, n_params: int, n_guards: int) -> Callable:
         th = np.empty(2)
         y = np.empty(n)
         counts = np.empty(6, dtype=np.int64)
+        extra = ()
+        if variational:
+            phi0 = np.ascontiguousarray(phi0, dtype=np.float64)
+            if phi0.ndim != 2 or phi0.shape[0] != n:
+                raise ValueError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
+            m = phi0.shape[1]
+            phi = np.empty((n, m))
+            phis = np.empty((store_cap, n, m))
+            phi_error = np.zeros(1)
+            extra = (m, _pointer(phi0), _pointer(phis), _pointer(phi), _pointer(phi_error))
         status = entry(t0, _pointer(y0), t_end, _pointer(p), rtol, _pointer(atol), h0, hmax,
                        _pointer(directions), _pointer(terminal), g, int(mask_index), mask_sign,
                        int(n_model), bound, int(max_steps), store_cap, tgrad_step, _pointer(ts),
                        _pointer(ys), _pointer(ev_t), _pointer(ev_k), _pointer(th), _pointer(y),
-                       _pointer(counts))
+                       _pointer(counts), *extra)
         c = [int(v) for v in counts]
-        return (status, float(th[0]), y, ts, ys, c[0], c[1], c[2], c[3], c[4], ev_t, ev_k, c[5],
-                float(th[1]))
+        out = (status, float(th[0]), y, ts, ys, c[0], c[1], c[2], c[3], c[4], ev_t, ev_k, c[5],
+               float(th[1]))
+        return out + (phi, phis, float(phi_error[0])) if variational else out
 
     return integrate
 

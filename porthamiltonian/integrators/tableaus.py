@@ -157,9 +157,15 @@ def python_entry(tab: Tableau) -> str:
         "", "",
         "@_jit",
         f"def integrate_{tab.symbol}({_ARGS}):",
-        f'    """{tab.name}: the step loop _rosenbrock with its tables."""',
+        f'    """{tab.name}: the step loop _rosenbrock (its copy without Φ) with its tables."""',
+        (f"    return _rosenbrock_plain({p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
+         f"{1.0 / tab.error_order!r}, {_ARGS}, np.empty((y0.shape[0], 0)))[:14]"),
+        "", "",
+        "@_jit",
+        f"def integrate_{tab.symbol}_variational({_ARGS}, phi0):",
+        f'    """{tab.name} with sensitivities (the variational equations) from phi0."""',
         (f"    return _rosenbrock({p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
-         f"{1.0 / tab.error_order!r}, {_ARGS})"), ""])
+         f"{1.0 / tab.error_order!r}, {_ARGS}, phi0)"), ""])
 
 
 def c_entry(tab: Tableau) -> str:
@@ -178,4 +184,7 @@ def c_entry(tab: Tableau) -> str:
             f"{tab.gamma!r}, {1.0 / tab.error_order!r}, {p}_a, {p}_c, {p}_nodes, {p}_d, {p}_h}};\n"
             f"/* {tab.name} (see the loop above) */\n"
             f"PH_EXPORT int ph_integrate_{p}(PH_LOOP_PARAMS)\n"
-            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS);\n}}\n")
+            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, 0, NULL, NULL, NULL, NULL);\n}}\n"
+            f"/* {tab.name} with sensitivities */\n"
+            f"PH_EXPORT int ph_integrate_{p}_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS)\n"
+            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, m, phi0, phis, phi_out, phi_error);\n}}\n")
