@@ -520,7 +520,7 @@ def main() -> int:
 
     # ---- tables ----------------------------------------------------------------------------------
     out = []
-    out.append("## Compile (fresh subprocess each; medians of %d)" % compile_repeats)
+    out.append(f"## Compile (fresh subprocess each; medians of {compile_repeats})")
     out.append("")
     out.append("| N | back end | cold compile [s] | cold first call rhs+jac+energy [s] "
                "| cached compile [s] | cached first call [s] |")

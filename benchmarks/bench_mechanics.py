@@ -126,7 +126,7 @@ def _hamiltonian_pair(n, mechanics):
 
     def jac(t, y, p=None):
         q, mom = y[:n], y[n:2 * n]
-        M, dM, d2M, dV, d2V = mechanics(q, second=True)
+        M, dM, d2M, _dV, d2V = mechanics(q, second=True)
         Minv = np.linalg.inv(M)
         v = Minv @ mom
         D = (dM @ v).T                                     # D[:, k] = ∂_k M v

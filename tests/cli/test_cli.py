@@ -119,7 +119,7 @@ def test_set_changes_the_result(runs, msd_json):
     run = runs["set"]
     assert run.returncode == 0, run.stderr
     out = json.loads(run.stdout)
-    x, p = msd_free_response(1.0, k=9.0, c=0.6)
+    x, _p = msd_free_response(1.0, k=9.0, c=0.6)
     assert out["final_state"]["spring.q"] == pytest.approx(x, abs=1e-7)
     assert out["final_state"]["spring.q"] != pytest.approx(msd_json["final_state"]["spring.q"],
                                                            abs=1e-3)

@@ -16,10 +16,10 @@ from porthamiltonian.library import (
     VariableSpringDamper,
 )
 
-BALL = dict(bodies={"b": {"mass": 1.0, "inertia": 0, "points": {"tip": [0, 0, 0]}}},
-            joints={"drop": {"type": "translational", "parent": "world", "child": "b",
+BALL = {"bodies": {"b": {"mass": 1.0, "inertia": 0, "points": {"tip": [0, 0, 0]}}},
+            "joints": {"drop": {"type": "translational", "parent": "world", "child": "b",
                              "axes": ["x", "z"], "q0": [0, 0.1]}},
-            plane="xz")
+            "plane": "xz"}
 
 
 def contact_model(contact, friction=None) -> ph.Model:

@@ -29,6 +29,7 @@ References
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -54,7 +55,7 @@ from porthamiltonian.library import (
 CONTACT_MODELS = ["bouncing_ball", "bouncing_ball_kelvin_voigt", "block_on_incline",
                   "variable_stiffness_spring"]
 G = 9.81
-THESIS_FRICTION = dict(mu_st=0.5, mu_c=0.25, mu_v=0.025, s=500.0, v_st=0.02)
+THESIS_FRICTION = {"mu_st": 0.5, "mu_c": 0.25, "mu_v": 0.025, "s": 500.0, "v_st": 0.02}
 
 
 # --------------------------------------------------------------------------------------------
@@ -124,7 +125,7 @@ RESTITUTION_CASES = [(1.0, 0.001), (1.0, 0.01), (1.0, 0.05), (1.0, 0.1), (1.0, 0
 def impact(model, lam_over_k, n=1.0, v_in=V_IN, K=1e6, method="Rodas4"):
     """One impact without gravity: the tip starts 1 mm above the floor moving down at v_in; the
     run stops at the lift-off event. Returns (e, trajectory)."""
-    params = dict(g=0.0, h0=1e-3, vz0=-v_in, K=K, lam=lam_over_k * K, n=n)
+    params = {"g": 0.0, "h0": 1e-3, "vz0": -v_in, "K": K, "lam": lam_over_k * K, "n": n}
     traj = model.simulate(0.1, params=params, actions={"liftoff": stop}, method=method,
                           rtol=1e-10, atol=1e-13)
     assert traj.status == "event" and "liftoff" in traj.message, traj.message
@@ -177,7 +178,7 @@ def test_impact_energy_loss_equals_kinetic_energy_change_and_damping_integral(ba
     relative; and it equals ∫ λ z ż² dt computed independently by adaptive quadrature (scipy
     quad) of the dense output z = r − q_z, ż = −p_z/m, to 1e-8 relative. No energy is
     dissipated in flight."""
-    events = dict((name, t) for t, name in reversed(dropped.events))
+    events = {name: t for t, name in reversed(dropped.events)}
     t_td, t_lo = events["touchdown"], events["liftoff"]
     m, r, lam, h0 = 1.0, 0.05, 1e5, 0.5
     iq, ip = ball.state_index("ball.q.drop.z"), ball.state_index("ball.p.drop.z")
@@ -233,7 +234,7 @@ def test_normal_force_never_pulls(ball, dropped):
     assert dropped["floor.Fn"].min() >= 0.0
     assert dropped["floor.Fn"].max() > 1e3
     z0, v0, K = 1e-3, 5.0, 1e6
-    traj = ball.simulate(0.01, params=dict(g=0.0, h0=-z0, vz0=v0, lam=K * 1.0, K=K),
+    traj = ball.simulate(0.01, params={"g": 0.0, "h0": -z0, "vz0": v0, "lam": K * 1.0, "K": K},
                          actions={"liftoff": stop}, method="Radau", rtol=1e-11, atol=1e-14)
     assert traj.status == "event"
     assert np.all(traj["floor.Fn"] == 0.0)
@@ -248,7 +249,7 @@ def test_normal_force_never_pulls(ball, dropped):
 def test_contact_force_and_dissipated_power_are_non_negative(ball, z, zdot, lam, n, K):
     """At any penetration, rate and parameters (λ ≥ 0, n > 0, K > 0): F ≥ 0, P_diss ≥ 0, and
     P_diss = F ż − dH/dt = (F − K z₊ⁿ) ż (the power the force delivers beyond the storage's rate) to 1e-9 relative."""
-    p = ball.params(dict(lam=lam, n=n, K=K))
+    p = ball.params({"lam": lam, "n": n, "K": K})
     x = np.array([0.0, 0.05 - z, 0.0, -zdot])          # q_x, q_z, p_x, p_z (m = 1)
     out = outputs_at(ball, x, p)
     _, p_diss, _ = ball.energy(0.0, x, p)
@@ -289,7 +290,7 @@ def test_kelvin_voigt_without_clipping_matches_closed_form_and_pulls_at_separati
                               backend="python")
     clipped = compile_model(io.load("bouncing_ball_kelvin_voigt"), backend="python")
     m, K, B, v_in = 1.0, 1e6, 140.0, 3.0
-    params = dict(g=0.0, h0=1e-3, vz0=-v_in)
+    params = {"g": 0.0, "h0": 1e-3, "vz0": -v_in}
     ip = unclipped.state_index("ball.p.drop.z")
     runs = {}
     for name, model in (("unclipped", unclipped), ("clipped", clipped)):
@@ -345,7 +346,7 @@ def test_ball_on_a_slope_keeps_tangential_velocity_and_rebounds_along_the_normal
     model = compile_model(ball_model({'exponent = "n" }': 'exponent = "n", surface = "slope", slope = 0.3 }'}),
                           backend="python")
     # the tip at x = 0 is 1 mm above the surface along the vertical
-    traj = model.simulate(0.1, params=dict(g=0.0, h0=1e-3, vz0=-v), method="Radau",
+    traj = model.simulate(0.1, params={"g": 0.0, "h0": 1e-3, "vz0": -v}, method="Radau",
                           rtol=1e-11, atol=1e-13)
     assert traj.status == "finished"
     ix, iz = model.state_index("ball.p.drop.x"), model.state_index("ball.p.drop.z")
@@ -465,7 +466,7 @@ def test_scvs_law_equals_the_literal_20sim_formula(block):
     literal 20-sim formula [SCVS] to 1e-13 relative (1e-15 N absolute) at v = 0, ±1e-9, around
     the tanh slope, around v_st and at large |v|, for the thesis values and for another set."""
     v = np.array([0.0, 1e-9, -1e-9, 1e-4, -2e-3, 5e-3, 0.01, -0.02, 0.02, 0.05, -0.3, 1.0, 7.0])
-    for fr in (THESIS_FRICTION, dict(mu_st=0.9, mu_c=0.3, mu_v=0.2, s=80.0, v_st=0.1)):
+    for fr in (THESIS_FRICTION, {"mu_st": 0.9, "mu_c": 0.3, "mu_v": 0.2, "s": 80.0, "v_st": 0.1}):
         mu = scvs_from_model(block, v, **fr)
         Fn = 9.81 * math.cos(0.6)
         np.testing.assert_allclose(-Fn * mu, scvs_literal(v, Fn, fr["mu_st"], fr["mu_c"], fr["mu_v"],
@@ -608,9 +609,9 @@ def test_variable_stiffness_supplied_energy_equals_half_kdot_z_squared(model_run
     T = traj.t[-1]
     breaks = list(np.linspace(0, T, 81))
     e_in = sum(quad(supplied, a, b, epsabs=1e-15, epsrel=1e-11, limit=200)[0]
-               for a, b in zip(breaks, breaks[1:]))
+               for a, b in itertools.pairwise(breaks))
     e_diss = sum(quad(dissipated, a, b, epsabs=1e-15, epsrel=1e-11, limit=200)[0]
-                 for a, b in zip(breaks, breaks[1:]))
+                 for a, b in itertools.pairwise(breaks))
     assert abs(traj.E_in[-1]) > 1e-4
     assert traj.E_in[-1] == pytest.approx(e_in, rel=1e-8)
     assert traj.E_diss[-1] == pytest.approx(e_diss, rel=1e-8)
@@ -630,8 +631,8 @@ def spring_with(name: str, stiffness: str, extra_params=(), other=False, **sprin
     """Mass m on a VariableSpringDamper; optionally a second, independent oscillator 'other'
     (mass mo on a linear C) whose position modulates the stiffness."""
     m = ph.Model(name)
-    for name, value in (("m", 3.1), ("K1", 6000.0), ("K2", 8000.0), ("q0", 0.01), *extra_params):
-        m.parameter(name, value)
+    for par, value in (("m", 3.1), ("K1", 6000.0), ("K2", 8000.0), ("q0", 0.01), *extra_params):
+        m.parameter(par, value)
     m.add("j", ph.OneJunction())
     m.add("mass", ph.I(inertance="m"))
     m.add("spring", VariableSpringDamper(stiffness=stiffness, q0="q0", **spring))
@@ -665,7 +666,7 @@ def test_stiffness_switched_by_an_event_books_the_jump_as_supplied(isolated_cach
                           rtol=1e-11, atol=1e-13)
     assert traj.status == "finished" and len(fired) >= 1
     t_e, z_e = fired[0]
-    jump = [j for t, name, j in traj.jumps if name == "stopped"][0]
+    jump = next(j for t, name, j in traj.jumps if name == "stopped")
     assert jump == pytest.approx(0.5 * 2000.0 * z_e**2, rel=1e-12)
     assert traj.E_in[traj.t > t_e].min() == pytest.approx(jump, rel=1e-12)
     assert traj.relative_residual < 1e-9
@@ -688,7 +689,7 @@ def test_stiffness_modulated_by_another_state_with_abs_is_booked_and_closes(isol
         return 0.5 * x[iq] ** 2 * (2000.0 / 0.3) * np.sign(x[io_q]) * x[io_p] / 1.0
 
     breaks = np.linspace(0, 1.0, 81)
-    e_in = sum(quad(p_in, a, b, epsabs=1e-14, epsrel=1e-12, limit=200)[0] for a, b in zip(breaks, breaks[1:]))
+    e_in = sum(quad(p_in, a, b, epsabs=1e-14, epsrel=1e-12, limit=200)[0] for a, b in itertools.pairwise(breaks))
     assert abs(traj.E_in[-1]) > 1e-5
     assert traj.E_in[-1] == pytest.approx(e_in, rel=1e-8)
     assert traj.relative_residual < 1e-9

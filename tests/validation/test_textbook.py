@@ -15,6 +15,7 @@ References
 from __future__ import annotations
 
 import hashlib
+import itertools
 import math
 import os
 import subprocess
@@ -241,7 +242,7 @@ def test_modulated_spring_supplied_energy_matches_quadrature(model_run):
 
     edges = np.linspace(0.0, T, 101)  # pieces shorter than a modulation period
     E_quad = sum(quad(power, lo, hi, epsabs=0.0, epsrel=1e-10, limit=200)[0]
-                 for lo, hi in zip(edges[:-1], edges[1:]))
+                 for lo, hi in itertools.pairwise(edges))
     E_in = traj.ledger()["supplied"]
     assert abs(E_in - E_quad) / abs(E_in) < 1e-6, (E_in, E_quad)
     assert E_in > 100.0  # parametric pumping at ω = 2ω_n does supply a lot of energy

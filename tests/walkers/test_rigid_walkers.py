@@ -64,7 +64,7 @@ def ref_stride(z, gamma=GAMMA):
     crossing upwards after mid-stance (the start of the step is skipped)."""
     th, thd = z
     y0 = [th, thd, 2 * th, thd * (1 - math.cos(2 * th))]
-    opts = dict(method="DOP853", rtol=1e-13, atol=1e-14)
+    opts = {"method": "DOP853", "rtol": 1e-13, "atol": 1e-14}
     a = solve_ivp(_ref_rhs, [0, 1.0], y0, args=(gamma,), **opts)
 
     def strike(t, y, gamma):
@@ -172,7 +172,7 @@ def test_simplest_walker_short_period_gait_is_unstable(simplest):
     assert real[0] == pytest.approx(SHORT_EIG[0], rel=2e-3)
     assert real[1] == pytest.approx(SHORT_EIG[1], rel=2e-3)
     assert abs(real[2]) < 1e-6
-    z_ref, T_ref, _ = ref_fixed_point(SHORT)
+    _z_ref, T_ref, _ = ref_fixed_point(SHORT)
     assert simplest.stride(fp.z).duration == pytest.approx(T_ref, abs=1e-8)
 
 

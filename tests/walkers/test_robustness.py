@@ -8,8 +8,10 @@ response against the linearized stride map x_{k+1} = A x_k + B h_k, T_k = C x_k 
 from separately computed derivatives (Hobbelen & Wisse 2007, eq. for the H2 norm)."""
 from __future__ import annotations
 
+import functools
 import json
 import math
+import operator
 
 import numpy as np
 import pytest
@@ -117,7 +119,7 @@ def test_basin_of_the_compass_gait():
     assert r.theta[2] == pytest.approx(g.fixed_point["theta"], abs=1e-12)
     assert r.theta[4] - r.theta[0] == pytest.approx(2 * 0.1 * 0.4, rel=1e-12)   # scaled by 0.4
     assert r.theta_dot[4] - r.theta_dot[0] == pytest.approx(2 * 0.1 * 0.8, rel=1e-12)
-    assert 0 < r.fraction < 1 and set(sum(r.outcome, [])) <= {"converged", "fell", "wandered"}
+    assert 0 < r.fraction < 1 and set(functools.reduce(operator.iadd, r.outcome, [])) <= {"converged", "fell", "wandered"}
     assert 0 < r.radius <= 0.1 * math.sqrt(2)
     json.loads(r.to_json())
 
