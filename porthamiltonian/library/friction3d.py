@@ -24,9 +24,12 @@ Law (N; the 1D law of :mod:`.friction`, one definition: :func:`~.friction.scvs_c
 The force on the body at the contact point is F_t = −Fn μ(a) v_s / a, with μ the SCVS
 coefficient (odd, μ(0) = 0): along −v_s, of magnitude Fn μ(|v_s|), so that on a line it is
 exactly the 1D law. μ(a)/a is smooth and even in a (its terms are tanh(s a)/a, (1 − E)/a and μ_v),
-with limit μ_st s + μ_v at a = 0, used there (Piecewise on a² > 0): the law is regularised at zero
-slip exactly as the 1D law is (a slope s of its tanh), no division by zero, and its Jacobian at
-a = 0 is −Fn (μ_st s + μ_v) times the tangential projector. Fn is max(Fn, 0).
+with limit μ_st s + μ_v at a = 0: the law is regularised at zero slip exactly as the 1D law is (a
+slope s of its tanh), and its Jacobian at a = 0 is −Fn (μ_st s + μ_v) times the tangential
+projector. The speed is computed as a = √(v_s·v_s + 1e-200), which is |v_s| to the last bit for
+|v_s| > 1e-92 m/s and keeps every back end (the Python one raises on a division by zero) away
+from 0/0 at exactly zero slip (a sphere at rest, a foot in the air moving straight down).
+Fn is max(Fn, 0).
 
 Optional torques (N m; each 0 by default)
 -----------------------------------------
@@ -60,10 +63,13 @@ from ..ports import Port
 from .contact3d import PLANE, check_plane, port_dim, twist, wrench
 from .friction import SCVSFriction, normal_force_source, scvs_coefficient
 
+#: ε² added under the square root of a speed: a = √(v·v + ε²) equals |v| to the last bit for
+#: |v| > 1e-92 (m/s or rad/s) and keeps a, a² and a³ (the Jacobian's) nonzero at v = 0.
+_EPSILON2 = sp.Float("1e-200")
 
-def _regularised(rate_squared: sp.Expr, smooth_over_rate: sp.Expr, limit: sp.Expr) -> sp.Expr:
-    """g(a) = φ(a)/a for a² > 0, its limit at a = 0 otherwise (a = √rate_squared)."""
-    return sp.Piecewise((smooth_over_rate, rate_squared > 0), (limit, True))
+
+def _speed(squared: sp.Expr) -> sp.Expr:
+    return sp.sqrt(squared + _EPSILON2)
 
 
 def _dot(a, b) -> sp.Expr:
@@ -117,21 +123,20 @@ class SCVSFriction3D(Component):
         u = [a + c for a, c in zip(v, _cross(omega, lever))]
         un = _dot(n, u)
         slip = [ui - un * ni for ui, ni in zip(u, n)]
-        a2 = _dot(slip, slip)
-        a = sp.sqrt(a2)
+        a = _speed(_dot(slip, slip))
         mu = scvs_coefficient(a, mu_st, mu_c, mu_v, slope, v_st)
-        g = _regularised(a2, mu / a, mu_st * slope + mu_v)
+        g = mu / a                                               # smooth and even in a
         fn = sp.Piecewise((normal_force, normal_force > 0), (0, True))
         force = [-fn * g * si for si in slip]                    # on the body, at the point
         wn = _dot(n, omega)
         wt = [wi - wn * ni for wi, ni in zip(omega, n)]
-        r2 = _dot(wt, wt)
-        roll = _regularised(r2, sp.tanh(angular_slope * sp.sqrt(r2)) / sp.sqrt(r2), angular_slope)
+        rate = _speed(_dot(wt, wt))
+        roll = sp.tanh(angular_slope * rate) / rate
         torque = [c - fn * rolling * roll * w - fn * spin * sp.tanh(angular_slope * wn) * ni
                   for c, w, ni in zip(_cross(lever, force), wt, n)]
         b.equation(port.e, wrench([-t for t in torque], [-f for f in force], plane),
                    "e = -(wrench of the friction on the body about the centre)")
-        b.dissipate(fn * (g * a2 + rolling * roll * r2
+        b.dissipate(fn * (g * _dot(slip, slip) + rolling * roll * _dot(wt, wt)
                           + spin * sp.tanh(angular_slope * wn) * wn))
         b.output("Ft", fn * g * a, "N")
         b.output("v", a, "m/s")
