@@ -180,7 +180,7 @@ def floating_model(model: Model, multibody: str, root: str, about: str) -> Float
     shift = _offset(joints, bodies, about, root_body) or [0, 0, 0]
     body = bodies[root_body]
     body["com"] = _shifted(body.get("com", [0, 0, 0]), shift)
-    for key in ("points", "frames"):
+    for key in ("points", "frames", "world_frames"):
         if body.get(key):
             body[key] = {k: _shifted(v, shift) for k, v in body[key].items()}
     body["points"] = {**(body.get("points") or {}),

@@ -5,6 +5,10 @@ Importing this package registers its component types for model files:
 * :mod:`.contact`  — ``HuntCrossley``, ``KelvinVoigt`` normal contact of a body point with a
   surface;
 * :mod:`.friction` — ``SCVSFriction``, 20-sim's static/Coulomb/viscous/Stribeck friction;
+* :mod:`.contact3d` — ``HuntCrossley3D``, ``KelvinVoigt3D``: a sphere or point on a surface in 3D
+  (or the x-z plane), on a multibody's world-aligned frame (twist/wrench port);
+* :mod:`.friction3d` — ``SCVSFriction3D``: the SCVS law as a vector law in the tangent plane at a
+  sphere's material contact point, with optional rolling resistance and spin friction;
 * :mod:`.springs`  — ``SpringDamper`` (linear) and ``VariableSpringDamper`` (modulated stiffness,
   damper rule D = 2 α √(m K));
 * :mod:`.surfaces` — plane, slope and slope with a step down (helpers, not components).
@@ -12,15 +16,20 @@ Importing this package registers its component types for model files:
 Each module's docstring gives the law, units, frames, signs, energy role and references.
 """
 from .contact import HuntCrossley, KelvinVoigt
+from .contact3d import HuntCrossley3D, KelvinVoigt3D
 from .friction import SCVSFriction, scvs_coefficient
+from .friction3d import SCVSFriction3D
 from .springs import SpringDamper, VariableSpringDamper
 from .surfaces import SURFACES, Surface, make_surface
 
 __all__ = [
            "SURFACES",
            "HuntCrossley",
+           "HuntCrossley3D",
            "KelvinVoigt",
+           "KelvinVoigt3D",
            "SCVSFriction",
+           "SCVSFriction3D",
            "SpringDamper",
            "Surface",
            "VariableSpringDamper",

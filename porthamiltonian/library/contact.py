@@ -101,6 +101,40 @@ _MODE = {"active": Arg("contact mode flag (0 or 1; a parameter switched by event
                        rule=">=")}
 
 
+Law = tuple[sp.Expr, sp.Expr, sp.Expr]
+
+
+def hunt_crossley(pen: sp.Expr, rate: sp.Expr, K: sp.Expr, lam: sp.Expr, n: sp.Expr,
+                  active: sp.Expr) -> Law:
+    """The Hunt–Crossley law of the module docstring: (normal force F (N, ≥ 0), stored energy
+    (J), dissipated power (W, ≥ 0)) for the penetration ``pen`` (m, > 0 inside) and its rate
+    ``rate`` (m/s). Shared by the planar and the 3D contacts (:mod:`.contact3d`)."""
+    z_pos = sp.Piecewise((pen, pen > 0), (0, True))        # z₊ = max(z, 0), no Heaviside
+    law = K + lam * rate                                    # F / zⁿ
+    pushing = law > 0
+    force = active * z_pos**n * sp.Piecewise((law, pushing), (0, True))
+    energy = active * K * z_pos ** (n + 1) / (n + 1)
+    dissipation = active * z_pos**n * sp.Piecewise((lam * rate**2, pushing), (-K * rate, True))
+    return force, energy, dissipation
+
+
+def kelvin_voigt(pen: sp.Expr, rate: sp.Expr, K: sp.Expr, B: sp.Expr, clip: bool,
+                 active: sp.Expr) -> Law:
+    """The Kelvin–Voigt law of the module docstring, as :func:`hunt_crossley`: (F, stored
+    energy, dissipated power); ``clip`` refuses a tensile force."""
+    law = K * pen + B * rate
+    inside = pen > 0
+    z_pos = sp.Piecewise((pen, inside), (0, True))
+    if clip:
+        force = active * sp.Piecewise((law, inside & (law > 0)), (0, True))
+        dissipation = active * sp.Piecewise((B * rate**2, inside & (law > 0)),
+                                            (-K * pen * rate, inside), (0, True))
+    else:
+        force = active * sp.Piecewise((law, inside), (0, True))
+        dissipation = active * sp.Piecewise((B * rate**2, inside), (0, True))
+    return force, active * K * z_pos**2 / 2, dissipation
+
+
 class _Contact(Component):
     """Shared part of the normal contact laws (port, surface, kinematics, outputs)."""
 
@@ -164,14 +198,7 @@ class HuntCrossley(_Contact):
               step_x: sp.Expr, active: sp.Expr | None) -> None:
         surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
                                            stiffness, damping, active)
-        K, lam, n = stiffness, damping, exponent
-        z_pos = sp.Piecewise((pen, pen > 0), (0, True))        # z₊ = max(z, 0), no Heaviside
-        law = K + lam * rate                                    # F / zⁿ
-        pushing = law > 0
-        force = active * z_pos**n * sp.Piecewise((law, pushing), (0, True))
-        energy = active * K * z_pos ** (n + 1) / (n + 1)
-        dissipation = active * z_pos**n * sp.Piecewise((lam * rate**2, pushing), (-K * rate, True))
-        self._finish(b, surf, force, energy, dissipation)
+        self._finish(b, surf, *hunt_crossley(pen, rate, stiffness, damping, exponent, active))
 
 
 @register
@@ -203,19 +230,7 @@ class KelvinVoigt(_Contact):
                                       f"false, got {clip!r}")
         surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
                                            stiffness, damping, active)
-        K, B = stiffness, damping
-        law = K * pen + B * rate
-        inside = pen > 0
-        z_pos = sp.Piecewise((pen, inside), (0, True))
-        if clip:
-            force = active * sp.Piecewise((law, inside & (law > 0)), (0, True))
-            dissipation = active * sp.Piecewise((B * rate**2, inside & (law > 0)),
-                                                (-K * pen * rate, inside), (0, True))
-        else:
-            force = active * sp.Piecewise((law, inside), (0, True))
-            dissipation = active * sp.Piecewise((B * rate**2, inside), (0, True))
-        energy = active * K * z_pos**2 / 2
-        self._finish(b, surf, force, energy, dissipation)
+        self._finish(b, surf, *kelvin_voigt(pen, rate, stiffness, damping, clip, active))
 
 
-__all__ = ["HuntCrossley", "KelvinVoigt"]
+__all__ = ["HuntCrossley", "KelvinVoigt", "hunt_crossley", "kelvin_voigt"]

@@ -67,6 +67,27 @@ def scvs_coefficient(v: sp.Expr, mu_st: sp.Expr, mu_c: sp.Expr, mu_v: sp.Expr, s
     return mu_st * sp.tanh(slope * v) * E + mu_c * sign * (1 - E) + mu_v * v
 
 
+def normal_force_source(component: Component, where: str, normal_force: sp.Expr | None) -> str:
+    """The name of the one contact whose ``Fn`` output the friction's ``normal_force`` reads
+    (``where`` names the friction in messages)."""
+    if normal_force is None:
+        raise DanglingPortError(
+            f"{where} has no normal-force source: give normal_force = \"<contact>.Fn\", the Fn "
+            "output of the contact (HuntCrossley, KelvinVoigt or their 3D forms) at the same point")
+    sources = sorted({str(s)[: -len(".Fn")] for s in normal_force.free_symbols
+                      if str(s).endswith(".Fn")})
+    if not sources:
+        raise UnknownParameterError(
+            f"{where} argument 'normal_force' = {component.value('normal_force')!r} does not read "
+            "a contact's normal force: give normal_force = \"<contact>.Fn\" (the Fn output of a "
+            "contact component)")
+    if len(sources) > 1:
+        raise ParameterValueError(
+            f"{where} argument 'normal_force' reads the normal forces of several contacts "
+            f"({', '.join(sources)}); use one friction element per contact")
+    return sources[0]
+
+
 @register
 class SCVSFriction(Component):
     """20-sim SCVS friction along a contact's surface, driven by the contact's normal force.
@@ -95,23 +116,7 @@ class SCVSFriction(Component):
 
     def build(self, b: Builder, normal_force: sp.Expr | None, mu_st: sp.Expr, mu_c: sp.Expr,
               mu_v: sp.Expr, slope: sp.Expr, v_st: sp.Expr) -> None:
-        where = f"SCVSFriction {b.name!r}"
-        if normal_force is None:
-            raise DanglingPortError(
-                f"{where} has no normal-force source: give normal_force = \"<contact>.Fn\", the Fn "
-                "output of the HuntCrossley or KelvinVoigt contact at the same point")
-        sources = sorted({str(s)[: -len(".Fn")] for s in normal_force.free_symbols
-                          if str(s).endswith(".Fn")})
-        if not sources:
-            raise UnknownParameterError(
-                f"{where} argument 'normal_force' = {self.value('normal_force')!r} does not read a "
-                "contact's normal force: give normal_force = \"<contact>.Fn\" (the Fn output of a "
-                "HuntCrossley or KelvinVoigt component)")
-        if len(sources) > 1:
-            raise ParameterValueError(
-                f"{where} argument 'normal_force' reads the normal forces of several contacts "
-                f"({', '.join(sources)}); use one friction element per contact")
-        contact = sources[0]
+        contact = normal_force_source(self, f"SCVSFriction {b.name!r}", normal_force)
         tx = sp.Symbol(f"{contact}.tx", real=True)     # the contact's tangent (signals)
         tz = sp.Symbol(f"{contact}.tz", real=True)
         port = b.port("p")
@@ -126,4 +131,4 @@ class SCVSFriction(Component):
         b.output("mu", mu, "1")
 
 
-__all__ = ["SCVSFriction", "scvs_coefficient"]
+__all__ = ["SCVSFriction", "normal_force_source", "scvs_coefficient"]

@@ -25,15 +25,17 @@ Value = float | str
 class RigidBody:
     """A rigid body: ``mass`` (kg, > 0), centre of mass ``com`` (m, body frame), rotational
     ``inertia`` about the centre of mass (kg m²: 0 for a point mass, three principal moments, or
-    a symmetric positive definite 3x3 matrix), named ``points`` (m, body frame; each a force port)
-    and named ``frames`` (origins in the body frame, axes parallel to it; each a wrench/twist
-    port)."""
+    a symmetric positive definite 3x3 matrix), named ``points`` (m, body frame; each a force port),
+    named ``frames`` (origins in the body frame, axes parallel to it; each a wrench/twist port)
+    and named ``world_frames`` (origins in the body frame, axes parallel to the world's; each a
+    wrench/twist port in world coordinates, the port of a 3D contact)."""
 
     mass: Value
     com: list[Value] = field(default_factory=lambda: [0, 0, 0])
     inertia: Any = 0
     points: dict[str, list[Value]] = field(default_factory=dict)
     frames: dict[str, list[Value]] = field(default_factory=dict)
+    world_frames: dict[str, list[Value]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if isinstance(self.mass, (int, float)) and not self.mass > 0:
@@ -46,6 +48,8 @@ class RigidBody:
             out["points"] = {k: list(v) for k, v in self.points.items()}
         if self.frames:
             out["frames"] = {k: list(v) for k, v in self.frames.items()}
+        if self.world_frames:
+            out["world_frames"] = {k: list(v) for k, v in self.world_frames.items()}
         return out
 
 
@@ -148,10 +152,10 @@ def as_tables(bodies: dict[str, Any], joints: dict[str, Any]) -> tuple[dict, dic
     joints = {k: v.to_dict() if isinstance(v, _Joint) else v for k, v in joints.items()}
     for name, body in bodies.items():
         check_name(name, "Multibody body name")
-        for key in ("points", "frames"):
+        for key in ("points", "frames", "world_frames"):
             table = body.get(key) if isinstance(body, dict) else None
             for point in table if isinstance(table, dict) else ():
-                check_name(point, f"Multibody body {name!r} {key[:-1]} name")
+                check_name(point, f"Multibody body {name!r} {key[:-1].replace('_', ' ')} name")
     for name in joints:
         check_name(name, "Multibody joint name")
     return bodies, joints
@@ -175,7 +179,7 @@ def expression_fields(bodies: Any, joints: Any, gravity: Any) -> Iterator[tuple[
         for key in ("mass", "com", "inertia"):
             if key in body:
                 yield from leaves(("bodies", name, key), body[key], f"body {name!r} {key}")
-        for key in ("points", "frames"):
+        for key in ("points", "frames", "world_frames"):
             table = body.get(key)
             for point, pos in (table.items() if isinstance(table, dict) else ()):
                 what = f"point {point!r}" if key == "points" else f"frame {point!r}"

@@ -49,12 +49,19 @@ Ports (all optional, orientation set by the bond):
   both in world coordinates (x, y, z), or (x, z) when ``plane = "xz"``;
 * one per body frame (``frames``: origin in the body frame, axes parallel to the body's), named as
   the frame: screw domain, effort = wrench (τ, f), flow = twist (ω, v) of that frame, both in the
-  frame's own coordinates.
+  frame's own coordinates;
+* one per world-aligned body frame (``world_frames``: origin fixed in the body frame, axes
+  parallel to the world's), named as the frame: screw domain, effort = wrench (τ about the
+  frame's origin, f), flow = (ω, v) with ω the body's angular velocity and v the velocity of the
+  origin, all in world coordinates (x, y, z); with ``plane = "xz"`` the three planar components
+  (τ_y, f_x, f_z) and (ω_y, v_x, v_z). This is the port of the 3D contacts and frictions
+  (:mod:`porthamiltonian.library.contact3d`): a sphere's centre, where the contact needs the
+  body's rotation as well as the centre's velocity.
 When the bond points into the multibody, the effort is the force applied to it; when it points
 out, the effort is the force the multibody exerts on the element (so an element can be connected
 directly: ``connect("walker.foot", "contact.p")``).
 
-Outputs: ``<name>.<point>.x|y|z`` (world position of each point, m), ``<name>.T`` and
+Outputs: ``<name>.<point>.x|y|z`` (world position of each point and world frame, m), ``<name>.T`` and
 ``<name>.V`` (kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion
 joint), and each body's pose (for :mod:`porthamiltonian.viewer`): ``<name>.<body>.pose.x|y|z``
 (the origin of its frame, world coordinates, m) and ``<name>.<body>.pose.qw|qx|qy|qz`` (the unit
@@ -134,10 +141,10 @@ class Multibody(Component):
                              path=("joints",))
         for name, body in bodies.items():
             where = f"Multibody body {name!r}"
-            extra = set(body) - {"mass", "com", "inertia", "points", "frames"}
+            extra = set(body) - {"mass", "com", "inertia", "points", "frames", "world_frames"}
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: "
-                                 "mass, com, inertia, points, frames",
+                                 "mass, com, inertia, points, frames, world_frames",
                                  path=("bodies", name, min(extra)))
             if "mass" not in body:
                 raise ModelError(f"{where} needs a mass (kg)", path=("bodies", name))
@@ -147,7 +154,7 @@ class Multibody(Component):
                                  path=("bodies", name, "mass"))
             self._inertia(body.get("inertia", 0), where, ("bodies", name, "inertia"))
             _vector3(body.get("com"), f"{where} com", ("bodies", name, "com"))
-            for key in ("points", "frames"):
+            for key in ("points", "frames", "world_frames"):
                 for point, pos in (body.get(key) or {}).items():
                     _vector3(pos, f"{where} point/frame {point!r}", ("bodies", name, key, point))
         parent_of: dict[str, str] = {}
@@ -186,7 +193,8 @@ class Multibody(Component):
                 seen.add(node)
                 node = joints[parent_of[node]]["parent"]
         names = [p for b in bodies.values()
-                 for p in [*(b.get("points") or {}), *(b.get("frames") or {})]]
+                 for p in [*(b.get("points") or {}), *(b.get("frames") or {}),
+                           *(b.get("world_frames") or {})]]
         coord_joints = [j for j, d in joints.items() if d["type"] != "weld"]
         dup = {n for n in names + coord_joints if (names + coord_joints).count(n) > 1}
         if dup:
@@ -246,6 +254,10 @@ class Multibody(Component):
                 ports.append(Port(frame, "screw", 6, None, frame,
                                   f"frame {frame} of body {body_name}: wrench (τ, f) / twist (ω, v) "
                                   "in the frame's own coordinates", optional=True))
+            for frame in body.get("world_frames") or {}:
+                ports.append(Port(frame, "screw", 3 if self.value("plane") == "xz" else 6, None, "world",
+                                  f"world-aligned frame {frame} of body {body_name}: wrench "
+                                  "(τ, f) / twist (ω, v) in world coordinates", optional=True))
         return ports
 
     # --- equations --------------------------------------------------------------------------------
@@ -358,6 +370,31 @@ class Multibody(Component):
                 R = tree.pos[link].world_R
                 x = named(make, f"at.{frame}", tree.point(link, local))
                 for k, value in tree.load(link, x, R.apply(list(pv.e[:3])), R.apply(list(pv.e[3:]))):
+                    Q[k] = Q[k] + s * value
+            for frame, pos in (body.get("world_frames") or {}).items():
+                local = add(offset, [b.parse(c, f"frame {frame!r}") for c in _vector3(pos, frame)])
+                pv, s = b.port(frame), b.sign(frame)
+                rotations = [1] if plane == "xz" else [0, 1, 2]
+                if link is None:
+                    x, omega, velocity = local, list(ZERO3), list(ZERO3)
+                else:
+                    x = named(make, f"at.{frame}", tree.point(link, local))
+                    omega = tree.pos[link].world_R.apply(tree.twist[link][0])
+                    velocity = tree.point_velocity(link, local)
+                for i, axis in enumerate("xyz"):
+                    b.output(f"{frame}.{axis}", x[i], "m")
+                b.equation(sp.Matrix(pv.f), sp.Matrix([omega[i] for i in rotations]
+                                                      + [velocity[i] for i in dims]),
+                           "world-aligned frame twist (ω, v), world axes")
+                if link is None:
+                    continue
+                torque, force = list(ZERO3), list(ZERO3)
+                for i, e in zip(rotations + [3 + i for i in dims], pv.e):
+                    if i < 3:
+                        torque[i] = e
+                    else:
+                        force[i - 3] = e
+                for k, value in tree.load(link, x, torque, force):
                     Q[k] = Q[k] + s * value
         start_index = 0
         for spec in specs:
