@@ -30,6 +30,8 @@ Run::
     python benchmarks/bench_build.py                          # all cases, C back end (~10 min)
     python benchmarks/bench_build.py --cases compass_walker,chain10 --backends c,numba
     python benchmarks/bench_build.py --opt-levels
+    python benchmarks/bench_build.py --cases compass_walker,compliant_leg_walker,chain10,chain20,chain40 \\
+        --repeats 5 --once chain40             # the issue-11 targets: medians, interleaved
 """
 from __future__ import annotations
 
@@ -38,6 +40,7 @@ import json
 import math
 import os
 import re
+import shutil
 import statistics
 import subprocess
 import sys
@@ -123,40 +126,72 @@ def generated_size(cache: str) -> dict:
     return best
 
 
-def build_cases(args) -> None:
-    cases = [c for c in args.cases.split(",") if c]
-    rows = []
-    for case in cases:
-        for backend in args.backends.split(","):
-            cache = tempfile.mkdtemp(prefix=f"phbench_build_{case}_")
-            print(f"{case} / {backend}: cold ...", flush=True)
-            cold = run_child(case, backend, cache, args.timeout)
-            warm = (run_child(case, backend, cache, args.timeout) if "error" not in cold
-                    else {"error": "(no cold build)"})
-            size = generated_size(cache)
-            rows.append((case, backend, cold, warm, size))
-            print(f"  cold {cold}\n  warm {warm}\n  size {size}", flush=True)
-    print("\n## Cold and warm builds (fresh subprocesses; cold = empty cache)")
-    print("\n| case | back end | cold: symbolic [s] | code [s] | C [s] | build [s] | first "
-          "result [s] | import [s] | total to first result [s] | warm: build [s] | first "
-          "result [s] | C body [kB] | Python body [kB] | operations (C) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for case, backend, cold, warm, size in rows:
-        if "error" in cold:
-            print(f"| {case} | {backend} | {cold['error']} |||||||||||| ")
-            continue
-        used = cold.get("backend", backend)
+def _load() -> float:
+    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
-        def f(d, k):
-            return f"{d[k]:.2f}" if k in d else "-"
-        print(f"| {case} | {used} | {f(cold, 'symbolic')} | {f(cold, 'code')} | {f(cold, 'C')} | "
-              f"{f(cold, 'build')} | {f(cold, 'first')} | {f(cold, 'import')} | "
-              f"{f(cold, 'total')} | {f(warm, 'build')} | {f(warm, 'first')} | "
+
+def _median(runs: list[dict], key: str) -> float | None:
+    values = [r[key] for r in runs if key in r]
+    return statistics.median(values) if values else None
+
+
+def build_cases(args) -> None:
+    """``--repeats`` rounds; in each, every case (and back end) once cold then once warm, the
+    cases interleaved so that a change of the machine's load hits all of them alike. Every run
+    records the 1-minute load average at its start; the table gives medians and the load range."""
+    cases = [c for c in args.cases.split(",") if c]
+    once = {c for c in args.once.split(",") if c}
+    variants = [(case, backend) for case in cases for backend in args.backends.split(",")]
+    runs: dict = {v: {"cold": [], "warm": [], "size": {}} for v in variants}
+    for rnd in range(args.repeats):
+        for case, backend in variants:
+            if rnd and case in once:
+                continue
+            rec = runs[case, backend]
+            cache = tempfile.mkdtemp(prefix=f"phbench_build_{case}_")
+            load = _load()
+            cold = run_child(case, backend, cache, args.timeout)
+            cold["load"] = load
+            rec["cold"].append(cold)
+            if "error" not in cold:
+                load = _load()
+                warm = run_child(case, backend, cache, args.timeout)
+                warm["load"] = load
+                rec["warm"].append(warm)
+                rec["size"] = generated_size(cache)
+            shutil.rmtree(cache, ignore_errors=True)
+            print(f"round {rnd + 1} {case} / {backend}: cold {cold}\n  warm "
+                  f"{rec['warm'][-1] if rec['warm'] else '-'}", flush=True)
+    print(f"\n## Cold and warm builds (fresh subprocesses; cold = empty cache; medians of "
+          f"{args.repeats} interleaved rounds unless n says otherwise)")
+    print("\n| case | back end | n | cold: symbolic [s] | code [s] | C [s] | build [s] | first "
+          "result [s] | import [s] | **total to first result [s]** (min-max) | warm: import [s] "
+          "| build [s] | first result [s] | total [s] | load (1 min) | C body [kB] | Python body "
+          "[kB] | operations (C) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    chains = []
+    for (case, backend), rec in runs.items():
+        cold = [r for r in rec["cold"] if "error" not in r]
+        if not cold:
+            print(f"| {case} | {backend} | 0 | {rec['cold'][0]['error']} |")
+            continue
+        warm, size = rec["warm"], rec["size"]
+
+        def f(rs, k):
+            m = _median(rs, k)
+            return "-" if m is None else f"{m:.2f}"
+        totals = [r["total"] for r in cold]
+        loads = [r["load"] for r in rec["cold"] + warm]
+        print(f"| {case} | {cold[0].get('backend', backend)} | {len(cold)} | "
+              f"{f(cold, 'symbolic')} | {f(cold, 'code')} | {f(cold, 'C')} | {f(cold, 'build')} | "
+              f"{f(cold, 'first')} | {f(cold, 'import')} | **{f(cold, 'total')}** "
+              f"({min(totals):.2f}-{max(totals):.2f}) | {f(warm, 'import')} | {f(warm, 'build')} | "
+              f"{f(warm, 'first')} | {f(warm, 'total')} | {min(loads):.1f}-{max(loads):.1f} | "
               f"{size.get('c_bytes', 0) / 1e3:.0f} | {size.get('py_bytes', 0) / 1e3:.0f} | "
               f"{size.get('ops', 0)} |")
-    chains = [(int(case[5:]), size) for case, _, cold, _, size in rows
-              if case.startswith("chain") and "error" not in cold and size]
-    big = [(n, s) for n, s in chains if n >= 10]
+        if case.startswith("chain") and size:
+            chains.append((int(case[5:]), size))
+    big = sorted((n, s) for n, s in chains if n >= 10)
     if len(big) >= 2:
         (n0, s0), (n1, s1) = big[0], big[-1]
         for key in ("ops", "c_bytes"):
@@ -232,6 +267,10 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, default=900.0,
                         help="seconds a subprocess may take (default 900)")
     parser.add_argument("--opt-levels", action="store_true")
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="interleaved rounds of cold + warm builds (medians)")
+    parser.add_argument("--once", default="",
+                        help="cases built in the first round only (e.g. chain40)")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--strides", type=int, default=5)
     parser.add_argument("--child", help=argparse.SUPPRESS)
