@@ -19,9 +19,8 @@ that finished. Every run records the 1-minute load average at its start and the 
 (user + system) of the process and its children (the C compiler): on the shared machine the wall
 times move with the load by 2-3x, the CPU times much less. ``--repeats`` interleaves rounds of all
 cases (medians); ``--baseline DIR`` builds the same cases from another source tree (e.g. ``git
-archive main``) interleaved with this one, for before/after comparisons in one run. A case that exceeds ``--timeout`` seconds is reported as such (the recursive
-multibody, issue 11 item 1, is expected to bring the large chains in: rerun this script after it
-lands).
+archive main``) interleaved with this one, for before/after comparisons in one run. A case that
+exceeds ``--timeout`` seconds is reported as such.
 
 ``--opt-levels`` measures instead the C compiler's optimisation levels on the two walkers: build
 time of the translation unit at -O0/-O1/-O2/-O3 and at -O1 with the loop at -O2 (the
