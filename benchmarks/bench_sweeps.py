@@ -77,7 +77,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     walker = walker_cache().walker(MODEL)
     walker.walk(walker.initial_guess(), 1)
-    backend = getattr(getattr(walker, "swing", None), "backend", "?")
+    backend = walker.backend
     print(f"{MODEL} ({backend} back end) compiled and warmed in "
           f"{time.perf_counter() - t0:.1f} s")
     t0 = time.perf_counter()
