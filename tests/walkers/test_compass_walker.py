@@ -195,4 +195,7 @@ def test_a_walk_from_the_cache_does_not_import_scipy(walker):
     status, imported = json.loads(out.stdout.strip().splitlines()[-1])
     assert "building" not in out.stderr      # the fixture's build was reused
     assert status == "step"
-    assert imported == []
+    # numba imports scipy.linalg itself (numba/np/linalg.py: ensure_blas, at its numpy support's
+    # import) when the walker runs on it (.ci/run's second pass)
+    allowed = {"scipy.linalg"} if walker.backend == "numba" else set()
+    assert set(imported) - allowed == set()
