@@ -15,9 +15,12 @@ to the first result), then **warm** on the cache the cold run filled (build and 
 The **generated size** is read from the cache entry: bytes of the C and Python bodies and the
 operations in the C body (arithmetic operators and function calls after cse); the growth
 exponent of the chains is the slope of log(size) against log(N) between N = 10 and the largest N
-that finished. A case that exceeds ``--timeout`` seconds is reported as such (the recursive
-multibody, issue 11 item 1, is expected to bring the large chains in: rerun this script after it
-lands).
+that finished. Every run records the 1-minute load average at its start and the CPU time
+(user + system) of the process and its children (the C compiler): on the shared machine the wall
+times move with the load by 2-3x, the CPU times much less. ``--repeats`` interleaves rounds of all
+cases (medians); ``--baseline DIR`` builds the same cases from another source tree (e.g. ``git
+archive main``) interleaved with this one, for before/after comparisons in one run. A case that
+exceeds ``--timeout`` seconds is reported as such.
 
 ``--opt-levels`` measures instead the C compiler's optimisation levels on the two walkers: build
 time of the translation unit at -O0/-O1/-O2/-O3 and at -O1 with the loop at -O2 (the
@@ -30,6 +33,11 @@ Run::
     python benchmarks/bench_build.py                          # all cases, C back end (~10 min)
     python benchmarks/bench_build.py --cases compass_walker,chain10 --backends c,numba
     python benchmarks/bench_build.py --opt-levels
+    python benchmarks/bench_build.py --cases compass_walker,compliant_leg_walker,chain10,chain20,chain40 \\
+        --repeats 5 --once chain40             # the issue-11 targets: medians, interleaved
+    mkdir /tmp/main && git archive main | tar -x -C /tmp/main
+    python benchmarks/bench_build.py --cases compass_walker,compliant_leg_walker --repeats 5 \\
+        --baseline /tmp/main                   # before / after, interleaved
 """
 from __future__ import annotations
 
@@ -38,6 +46,8 @@ import json
 import math
 import os
 import re
+import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -84,21 +94,27 @@ def child(case: str, backend: str) -> None:
                       "backend": used}))
 
 
-def run_child(case: str, backend: str, cache: str, timeout: float) -> dict:
-    env = dict(os.environ, PORTHAMILTONIAN_CACHE=cache, PYTHONPATH=str(ROOT))
+def run_child(case: str, backend: str, cache: str, timeout: float, tree: Path = ROOT) -> dict:
+    """One build in a fresh subprocess of ``tree``'s code (this tree, or a baseline tree with
+    the same script); ``cpu``: user + system seconds of the process and its children (the C
+    compiler), which the machine's load changes less than the wall times."""
+    env = dict(os.environ, PORTHAMILTONIAN_CACHE=cache, PYTHONPATH=str(tree))
     env.pop("PORTHAMILTONIAN_QUIET", None)
     t0 = time.perf_counter()
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
-        out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--child", case,
-                              "--backends", backend], env=env, capture_output=True, text=True,
-                             timeout=timeout, check=False)
+        out = subprocess.run([sys.executable, str(tree / "benchmarks" / "bench_build.py"),
+                              "--child", case, "--backends", backend], env=env,
+                             capture_output=True, text=True, timeout=timeout, check=False)
     except subprocess.TimeoutExpired:
         return {"error": f"timeout after {timeout:.0f} s"}
     wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if out.returncode != 0:
         return {"error": out.stderr.strip().splitlines()[-1] if out.stderr.strip() else "failed"}
     result = json.loads(out.stdout.strip().splitlines()[-1])
     result["wall"] = wall
+    result["cpu"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     for line in out.stderr.splitlines():
         match = _BUILD_LINE.search(line)
         if match:                       # every model built (a walker may build two)
@@ -123,40 +139,81 @@ def generated_size(cache: str) -> dict:
     return best
 
 
-def build_cases(args) -> None:
-    cases = [c for c in args.cases.split(",") if c]
-    rows = []
-    for case in cases:
-        for backend in args.backends.split(","):
-            cache = tempfile.mkdtemp(prefix=f"phbench_build_{case}_")
-            print(f"{case} / {backend}: cold ...", flush=True)
-            cold = run_child(case, backend, cache, args.timeout)
-            warm = (run_child(case, backend, cache, args.timeout) if "error" not in cold
-                    else {"error": "(no cold build)"})
-            size = generated_size(cache)
-            rows.append((case, backend, cold, warm, size))
-            print(f"  cold {cold}\n  warm {warm}\n  size {size}", flush=True)
-    print("\n## Cold and warm builds (fresh subprocesses; cold = empty cache)")
-    print("\n| case | back end | cold: symbolic [s] | code [s] | C [s] | build [s] | first "
-          "result [s] | import [s] | total to first result [s] | warm: build [s] | first "
-          "result [s] | C body [kB] | Python body [kB] | operations (C) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for case, backend, cold, warm, size in rows:
-        if "error" in cold:
-            print(f"| {case} | {backend} | {cold['error']} |||||||||||| ")
-            continue
-        used = cold.get("backend", backend)
+def _load() -> float:
+    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
-        def f(d, k):
-            return f"{d[k]:.2f}" if k in d else "-"
-        print(f"| {case} | {used} | {f(cold, 'symbolic')} | {f(cold, 'code')} | {f(cold, 'C')} | "
-              f"{f(cold, 'build')} | {f(cold, 'first')} | {f(cold, 'import')} | "
-              f"{f(cold, 'total')} | {f(warm, 'build')} | {f(warm, 'first')} | "
+
+def _median(runs: list[dict], key: str) -> float | None:
+    values = [r[key] for r in runs if key in r]
+    return statistics.median(values) if values else None
+
+
+def build_cases(args) -> None:
+    """``--repeats`` rounds; in each, every case (and back end) once cold then once warm, the
+    cases interleaved so that a change of the machine's load hits all of them alike. Every run
+    records the 1-minute load average at its start; the table gives medians and the load range."""
+    cases = [c for c in args.cases.split(",") if c]
+    once = {c for c in args.once.split(",") if c}
+    trees = {"this": ROOT}
+    if args.baseline:
+        trees["baseline"] = Path(args.baseline).resolve()
+    variants = [(case, backend, tree) for case in cases for backend in args.backends.split(",")
+                for tree in trees]
+    runs: dict = {v: {"cold": [], "warm": [], "size": {}} for v in variants}
+    for rnd in range(args.repeats):
+        # this tree and the baseline alternate which goes first
+        for case, backend, tree in sorted(variants, key=lambda v: (
+                variants.index(v) // len(trees), (list(trees).index(v[2]) + rnd) % len(trees))):
+            if rnd and case in once:
+                continue
+            rec = runs[case, backend, tree]
+            cache = tempfile.mkdtemp(prefix=f"phbench_build_{case}_")
+            load = _load()
+            cold = run_child(case, backend, cache, args.timeout, trees[tree])
+            cold["load"] = load
+            rec["cold"].append(cold)
+            if "error" not in cold:
+                load = _load()
+                warm = run_child(case, backend, cache, args.timeout, trees[tree])
+                warm["load"] = load
+                rec["warm"].append(warm)
+                rec["size"] = generated_size(cache)
+            shutil.rmtree(cache, ignore_errors=True)
+            print(f"round {rnd + 1} {case} / {backend} / {tree}: cold {cold}\n  warm "
+                  f"{rec['warm'][-1] if rec['warm'] else '-'}", flush=True)
+    print(f"\n## Cold and warm builds (fresh subprocesses; cold = empty cache; medians of "
+          f"{args.repeats} interleaved rounds unless n says otherwise)")
+    if args.baseline:
+        print(f"(baseline: {trees['baseline']})")
+    print("\n| case | tree | back end | n | cold: symbolic [s] | code [s] | C [s] | build [s] | "
+          "first result [s] | import [s] | **total to first result [s]** (min-max) | CPU [s] | "
+          "warm: import [s] | build [s] | first result [s] | total [s] | load (1 min) | C body "
+          "[kB] | Python body [kB] | operations (C) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    chains = []
+    for (case, backend, tree), rec in runs.items():
+        cold = [r for r in rec["cold"] if "error" not in r]
+        if not cold:
+            print(f"| {case} | {tree} | {backend} | 0 | {rec['cold'][0]['error']} |")
+            continue
+        warm, size = rec["warm"], rec["size"]
+
+        def f(rs, k):
+            m = _median(rs, k)
+            return "-" if m is None else f"{m:.2f}"
+        totals = [r["total"] for r in cold]
+        loads = [r["load"] for r in rec["cold"] + warm]
+        print(f"| {case} | {tree} | {cold[0].get('backend', backend)} | {len(cold)} | "
+              f"{f(cold, 'symbolic')} | {f(cold, 'code')} | {f(cold, 'C')} | {f(cold, 'build')} | "
+              f"{f(cold, 'first')} | {f(cold, 'import')} | **{f(cold, 'total')}** "
+              f"({min(totals):.2f}-{max(totals):.2f}) | {f(cold, 'cpu')} | {f(warm, 'import')} | "
+              f"{f(warm, 'build')} | "
+              f"{f(warm, 'first')} | {f(warm, 'total')} | {min(loads):.1f}-{max(loads):.1f} | "
               f"{size.get('c_bytes', 0) / 1e3:.0f} | {size.get('py_bytes', 0) / 1e3:.0f} | "
               f"{size.get('ops', 0)} |")
-    chains = [(int(case[5:]), size) for case, _, cold, _, size in rows
-              if case.startswith("chain") and "error" not in cold and size]
-    big = [(n, s) for n, s in chains if n >= 10]
+        if case.startswith("chain") and size and tree == "this":
+            chains.append((int(case[5:]), size))
+    big = sorted((n, s) for n, s in chains if n >= 10)
     if len(big) >= 2:
         (n0, s0), (n1, s1) = big[0], big[-1]
         for key in ("ops", "c_bytes"):
@@ -232,6 +289,12 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, default=900.0,
                         help="seconds a subprocess may take (default 900)")
     parser.add_argument("--opt-levels", action="store_true")
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="interleaved rounds of cold + warm builds (medians)")
+    parser.add_argument("--baseline", metavar="DIR",
+                        help="another source tree (e.g. git archive of main) built interleaved")
+    parser.add_argument("--once", default="",
+                        help="cases built in the first round only (e.g. chain40)")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--strides", type=int, default=5)
     parser.add_argument("--child", help=argparse.SUPPRESS)

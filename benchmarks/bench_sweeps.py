@@ -26,6 +26,8 @@ back end is the walker's default (numba with the compiled Rodas4 loop, or whatev
 from __future__ import annotations
 
 import argparse
+import os
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -39,13 +41,24 @@ MODEL = "compass_walker"
 SLOPE = 0.007
 
 
+def _cpu() -> float:
+    """CPU seconds (user + system) of this process and of its finished children (pool workers)."""
+    return sum(getattr(resource.getrusage(who), f) for who in (resource.RUSAGE_SELF,
+               resource.RUSAGE_CHILDREN) for f in ("ru_utime", "ru_stime"))
+
+
+CPU: dict[str, float] = {}
+
+
 def run(function, cases, fixed, shared=None, **how) -> tuple[float, list[dict]]:
-    """Wall time (s) and table of a fresh sweep; the gait cache cleared first."""
+    """Wall time (s) and table of a fresh sweep; the gait cache cleared first. Its CPU time
+    (this process and the pool's workers) goes into ``CPU["last"]``."""
     walker_cache().clear_gaits()
     with tempfile.TemporaryDirectory() as tmp:
         sw = Sweep(function, cases, Path(tmp) / "r.jsonl", fixed=fixed, shared=shared)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), _cpu()
         sw.run(progress="none", **how)
+        CPU["last"] = _cpu() - c0
         return time.perf_counter() - t0, sw.table()
 
 
@@ -77,7 +90,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     walker = walker_cache().walker(MODEL)
     walker.walk(walker.initial_guess(), 1)
-    backend = getattr(getattr(walker, "swing", None), "backend", "?")
+    backend = walker.backend
     print(f"{MODEL} ({backend} back end) compiled and warmed in "
           f"{time.perf_counter() - t0:.1f} s")
     t0 = time.perf_counter()
@@ -105,6 +118,7 @@ def main(argv=None) -> int:
     t_serial, rows_serial = run(basin_case, cases, fixed, shipped, serial=True)
     t_worker, rows_worker = run(basin_case, cases, fixed, None, **pool)
     t_shipped, rows_shipped = run(basin_case, cases, fixed, shipped, **pool)
+    cpu_shipped = CPU["last"]
     statuses = [[r["status"] for r in rows] for rows in (rows_serial, rows_worker, rows_shipped)]
     same = statuses[0] == statuses[1] == statuses[2]
     name = f"Fig. 2.21 basin {k}x{k}, γ = {SLOPE}"
@@ -113,14 +127,19 @@ def main(argv=None) -> int:
     _row(f"{name}, pool, gait shipped", len(cases), t_shipped,
          f"{t_worker / t_shipped:.2f}x the per-worker variant" + ("" if same else "  (rows differ!)"))
     per_min = 60 * len(cases) / t_shipped
+    workers = args.workers or os.cpu_count() or 1
     print(f"\n50 x 50 basin at {per_min:.0f} points/min (gait shipped): "
-          f"{2500 / per_min:.1f} min + {t_gait:.0f} s for the gait (target: <= 5 min)")
+          f"{2500 / per_min:.1f} min + {t_gait:.0f} s for the gait (target: <= 5 min); "
+          f"CPU {cpu_shipped / len(cases):.3f} s per point: {2500 * cpu_shipped / len(cases) / workers / 60:.1f} "
+          f"min on {workers} idle cores; load now {os.getloadavg()[0]:.1f}")
     if args.full_basin:
         cases = basin_cases(gait.fixed_point, 50)
         t_full, rows = run(basin_case, cases, fixed, shipped, **pool)
         converged = sum(r["status"] == "converged" for r in rows)
         _row(f"Fig. 2.21 basin 50x50, γ = {SLOPE}, pool, gait shipped", len(cases), t_full,
-             f"{t_full / 60:.1f} min; {converged} converged")
+             f"{t_full / 60:.1f} min; {converged} converged; CPU {CPU['last']:.0f} s "
+             f"({CPU['last'] / workers / 60:.1f} min on {workers} idle cores); load at the end "
+             f"{os.getloadavg()[0]:.1f}")
     return 0
 
 

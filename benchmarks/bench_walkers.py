@@ -49,7 +49,9 @@ Measured:
   limit baseline: the model written by hand in C (right-hand side and analytic Jacobian) under
   SUNDIALS CVODE with root finding (benchmarks/cvode_compass_walker.c, built here when
   SUNDIALS is installed: ``apt-get install -y libsundials-dev`` on Debian/Ubuntu; without it
-  the script says so and leaves that line out). Every variant's error is measured against a
+  the script says so and leaves that line out; ``--cvode-rtols``, default 1e-8 … 1e-12, atol =
+  rtol/100, and CVODE's time at the C path's error interpolated on its work-precision line, log-log
+  between the two runs whose errors bracket it). Every variant's error is measured against a
   reference walk (Rodas5P at rtol 1e-12 on C; the simplest walker: DOP853 at 1e-13), so that
   the times are compared at known accuracy.
 """
@@ -57,7 +59,9 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import itertools
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -305,7 +309,7 @@ def bench_backends(name: str, z, args, rec: dict, cvode: tuple[str | None, str])
     times: dict[str, list] = {k: [] for k in variants}
     info: dict[str, dict] = {}
     driver, note = cvode
-    cvode_runs: dict[float, list] = {1e-8: [], 1e-10: []}
+    cvode_runs: dict[float, list] = {float(r): [] for r in args.cvode_rtols.split(",")}
     for r in range(args.rounds):
         if name == "compass" and driver is not None:     # interleaved with the framework's
             for rtol, runs in cvode_runs.items():
@@ -358,6 +362,17 @@ def print_backends(report: dict) -> None:
             before = rows["numba, Rodas4 rtol 1e-8 (before issue 11)"]["median"]
             print(f"\n{name}: C (file's method) is {before / c:.2f}x faster per step than the "
                   "numba loop before issue 11 (target: >= 2x)")
+        cv = sorted((row["error"], row["median"]) for label, row in rows.items()
+                    if label.startswith("hand C + CVODE") and "median" in row)
+        err = rows.get("c, the file's method", {}).get("error")
+        pair = next(((a, b) for a, b in itertools.pairwise(cv) if a[0] <= (err or 0) <= b[0]), None)
+        if pair is not None and c is not None:
+            (e0, t0), (e1, t1) = pair        # CVODE's work-precision line, log-log between runs
+            t_eq = math.exp(math.log(t0) + (math.log(t1) - math.log(t0))
+                            * (math.log(err) - math.log(e0)) / (math.log(e1) - math.log(e0)))
+            print(f"{name}: at C's error {err:.1e}, CVODE (interpolated between its runs at errors "
+                  f"{e0:.1e} and {e1:.1e}) takes {1e3 * t_eq:.2f} ms/step: C takes "
+                  f"{c / t_eq:.2f}x that (target: <= 1.5x)")
         for label, row in rows.items():
             if label.startswith("hand C + CVODE") and "median" in row and c is not None:
                 print(f"{name}: C (file's method) takes {c / row['median']:.2f}x the time per step "
@@ -642,6 +657,8 @@ def main(argv=None) -> int:
                         help="only the cold/cached compile subprocesses")
     parser.add_argument("--no-backends", dest="backends", action="store_false",
                         help="skip the per-back-end table (and the C + CVODE baseline)")
+    parser.add_argument("--cvode-rtols", default="1e-8,1e-10,1e-11,1e-12",
+                        help="tolerances of the C + CVODE baseline (atol = rtol/100)")
     parser.add_argument("--json", help="write the raw numbers to this file")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--backend", default="", help=argparse.SUPPRESS)

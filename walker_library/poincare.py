@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from porthamiltonian.batch.progress import tick
 
@@ -141,6 +140,8 @@ def jacobian(walker: Walker, z, *, period: int = 1, step: float = 1e-3,
 def _paired_difference(a: np.ndarray, b: np.ndarray) -> float:
     if len(a) == 0:
         return 0.0
+    from scipy.optimize import linear_sum_assignment  # here: scipy.optimize takes ~0.2 s
+
     cost = np.abs(a[:, None] - b[None, :])
     rows, cols = linear_sum_assignment(cost)
     return float(np.max(cost[rows, cols]))

@@ -21,7 +21,6 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from porthamiltonian import Trajectory
 
@@ -75,6 +74,7 @@ def _maxima(walker: HybridWalker, traj: Trajectory, X: np.ndarray, i0: int, i1: 
         k = int(np.argmax(vals))
         best = vals[k]
         if 0 < k < len(grid) - 1:       # refine an interior maximum
+            from scipy.optimize import minimize_scalar  # here: scipy.optimize takes ~0.2 s
             res = minimize_scalar(lambda s, j=j: -abs(thph(traj.sol(s))[j]),
                                   bounds=(grid[k - 1], grid[k + 1]), method="bounded",
                                   options={"xatol": 1e-10})

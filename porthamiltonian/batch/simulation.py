@@ -28,7 +28,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..errors import ModelError
 from ..integrators import TABLEAUS
@@ -140,6 +139,8 @@ def settling_time(t: np.ndarray, y: np.ndarray, band: float = 0.02,
     if i >= len(t) - 2:
         return None
     if y_of_t is not None:
+        from scipy.optimize import brentq  # here: scipy.optimize takes ~0.2 s
+
         try:
             return float(brentq(lambda s: abs(y_of_t(s) - final) - limit, t[i], t[i + 1],
                                 xtol=1e-12, rtol=4 * np.finfo(float).eps))

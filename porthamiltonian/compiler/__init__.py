@@ -7,7 +7,10 @@ equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and Jacobian to
 """
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections import OrderedDict
+from types import MappingProxyType
 
 import sympy
 
@@ -21,7 +24,7 @@ from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
 from .literals import printable
 from .printers import c_source, python_source
-from .structure import build_system, solve
+from .structure import Solution, build_system, solve
 
 #: why the C back end failed in this process (``"auto"`` does not try to build again)
 _C_FAILED: list[str] = []
@@ -33,7 +36,36 @@ def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     then structure, assembly. Errors carry the path of what they are about
     (:attr:`~porthamiltonian.errors.ModelError.path`)."""
     description = model.freeze() if isinstance(model, Model) else model
-    return assemble(solve(build_system(description.validate())))
+    return assemble(_solved(description.validate()))
+
+
+#: the solved structures (:func:`structure.build_system` + :func:`structure.solve`, most of the
+#: symbolic work) of the last models of this process, by everything but their events and model
+#: outputs, which only :func:`assemble` reads: a walker runs the compiler on its model without
+#: them (for the names its description may use), then with its own outputs (walker_library.core)
+_SOLVED: OrderedDict[str, tuple[tuple[type, ...], Solution]] = OrderedDict()
+_SOLVED_KEPT = 4
+
+
+def _solved(description: ModelDescription) -> Solution:
+    """``solve(build_system(description))``, reused from :data:`_SOLVED` when only the events
+    or the model outputs differ (the component classes themselves must be the same objects)."""
+    bare = dataclasses.replace(description, events=(), outputs=MappingProxyType({}), scopes=(
+        MappingProxyType({k: v for k, v in description.scopes.items()
+                          if not k.startswith(("event:", "output:"))})))
+    key = bare.canonical()
+    classes = tuple(type(c) for c in description.components.values())
+    hit = _SOLVED.get(key)
+    if hit is not None and len(hit[0]) == len(classes) and all(
+            a is b for a, b in zip(hit[0], classes)):
+        _SOLVED.move_to_end(key)
+        solution = hit[1]
+        return Solution(dataclasses.replace(solution.system, flat=description), solution.order)
+    solution = solve(build_system(description))
+    _SOLVED[key] = (classes, solution)
+    while len(_SOLVED) > _SOLVED_KEPT:
+        _SOLVED.popitem(last=False)
+    return solution
 
 
 def compile_model(model: Model | ModelDescription, backend: str = "auto",

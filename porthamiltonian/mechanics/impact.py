@@ -34,7 +34,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg as sl
 
 from ..differences import Derivative, jacobian
 from ..errors import ModelError, StateError
@@ -101,6 +100,8 @@ def plastic_impact(M: np.ndarray, G: np.ndarray, v_minus: np.ndarray,
                              "the constraints are dependent)") from None
         w_plus, lam = sol[:n], -sol[n:]
     else:
+        import scipy.linalg as sl  # here: importing scipy.linalg takes ~0.3 s
+
         try:
             cho = sl.cho_factor(Ms, lower=True, check_finite=False)
         except np.linalg.LinAlgError:

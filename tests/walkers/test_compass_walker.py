@@ -170,3 +170,32 @@ def test_same_gait_on_every_back_end(walker):
     assert np.max(np.abs(fp.z - TIGHT_FIXED_POINT)) < 1e-9
     mults = sorted(floquet(tight, fp.z).multipliers, key=lambda c: (-abs(c), -c.imag))
     assert np.max(np.abs(np.array(mults) - TIGHT_MULTIPLIERS)) < 1e-5
+
+
+#: modules a walk on a cached model does not need (importing them took ~0.5 s of a cold start)
+_NOT_FOR_A_WALK = ("scipy.linalg", "scipy.optimize", "scipy.integrate", "scipy.sparse")
+
+
+def test_a_walk_from_the_cache_does_not_import_scipy(walker):
+    """A fresh process that loads the walker from the cache (filled by the fixture) and walks a
+    stride imports none of scipy's linear algebra, optimisation or integration (they are
+    imported where an analysis uses them: impacts, stride extremes, multiplier matching, the
+    scipy methods)."""
+    import json
+    import subprocess
+    import sys
+
+    script = ("import json, sys\n"
+              "from walker_library import load_walker\n"
+              "w = load_walker('compass_walker')\n"
+              "s = w.stride(w.initial_guess())\n"
+              f"print(json.dumps([s.status, [m for m in {_NOT_FOR_A_WALK!r} if m in sys.modules]]))")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         check=True, timeout=300)
+    status, imported = json.loads(out.stdout.strip().splitlines()[-1])
+    assert "building" not in out.stderr      # the fixture's build was reused
+    assert status == "step"
+    # numba imports scipy.linalg itself (numba/np/linalg.py: ensure_blas, at its numpy support's
+    # import) when the walker runs on it (.ci/run's second pass)
+    allowed = {"scipy.linalg"} if walker.backend == "numba" else set()
+    assert set(imported) - allowed == set()
