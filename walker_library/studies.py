@@ -598,17 +598,22 @@ def robustness_3d_case(case: dict, *, model: str, horizon: int = 3, n_steps: int
 def run_compliance_3d(ctx: StudyContext) -> dict:
     """Figs. 3.3–3.6's question in 3D (w = 0: the sagittal gait is the 2D one, so the step-downs
     are the 2D walkers'; the lateral pushes are new). K_leg by continuation from the nominal
-    6000 N/m; the rigid legs (compass_walker_3d) as the reference row."""
-    Ks = [6000.0] if ctx.quick else [3000.0, 4500.0, 6000.0, 9000.0]
+    file's 6000 N/m, neighbour by neighbour; the rigid legs (compass_walker_3d) as the reference
+    row."""
+    Ks = [6000.0] if ctx.quick else [3000.0, 4500.0, 6000.0, 7500.0, 9000.0]
     grid = ({"h_resolution": 5e-4, "push_resolution": 1e-3, "horizon": 2} if ctx.quick else {})
     base = _walker(COMPLIANT_3D)
-    cases, z = [], None
-    for k in sorted(Ks, key=lambda k: abs(math.log(k / 6000.0))):
-        fp = find_fixed_point(base.with_parameters(K_leg=k),
-                              base.initial_guess() if z is None else z)
-        z = fp.z if fp.converged else z
-        cases.append({"K_leg": k, **({"guess": [float(x) for x in fp.z]} if fp.converged else {})})
-    cases.sort(key=lambda c: c["K_leg"])
+    start = Ks.index(base.parameters["K_leg"])
+    guesses: dict[float, list[float]] = {}
+    for path in (Ks[start:], Ks[start::-1]):      # outward from the file's K_leg, neighbour by
+        z = base.initial_guess()                  # neighbour (a jump lands on another orbit)
+        for k in path:
+            fp = find_fixed_point(base.with_parameters(K_leg=k), z)
+            if not fp.converged:
+                break
+            z = fp.z
+            guesses[k] = [float(x) for x in z]
+    cases = [{"K_leg": k, **({"guess": guesses[k]} if k in guesses else {})} for k in Ks]
     rows = ctx.sweep("robustness_over_K", robustness_3d_case, cases, model=COMPLIANT_3D, **grid)
     rigid = ctx.sweep("robustness_rigid", robustness_3d_case, [{"w": 0.0}], model=RIGID_3D,
                       **grid)[0]
