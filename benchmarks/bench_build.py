@@ -22,6 +22,11 @@ cases (medians); ``--baseline DIR`` builds the same cases from another source tr
 archive main``) interleaved with this one, for before/after comparisons in one run. A case that
 exceeds ``--timeout`` seconds is reported as such.
 
+``--walker-3d`` measures the 3D walker against the 2D one (issue 15): the 3D fixed point found
+by Newton from compass_walker's fixed point (lateral coordinates 0; the iterations printed) and
+the time per stride of compass_walker_3d (w = 0) against compass_walker's from their fixed points
+(interleaved rounds, medians); its cold and warm builds are the ``compass_walker_3d`` case.
+
 ``--opt-levels`` measures instead the C compiler's optimisation levels on the two walkers: build
 time of the translation unit at -O0/-O1/-O2/-O3 and at -O1 with the loop at -O2 (the
 library's choice, see porthamiltonian.backends.native.FLAGS; median of 3) against the time per stride of a
@@ -38,6 +43,7 @@ Run::
     mkdir /tmp/main && git archive main | tar -x -C /tmp/main
     python benchmarks/bench_build.py --cases compass_walker,compliant_leg_walker --repeats 5 \\
         --baseline /tmp/main                   # before / after, interleaved
+    python benchmarks/bench_build.py --cases compass_walker,compass_walker_3d --walker-3d
 """
 from __future__ import annotations
 
@@ -61,6 +67,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 WALKERS = ("compass_walker", "compliant_leg_walker")
+WALKER_3D = "compass_walker_3d"
 CHAINS = (2, 5, 10, 20, 40)
 _BUILD_LINE = re.compile(r"building (.*?): (.*), (\d+) kB")
 
@@ -73,7 +80,7 @@ def child(case: str, backend: str) -> None:
     import walker_library  # noqa: F401
     t_import = time.perf_counter() - t0
     t0 = time.perf_counter()
-    if case in WALKERS:
+    if case in (*WALKERS, WALKER_3D):
         from walker_library import load_walker
         walker = load_walker(case, backend=backend)
         t_build = time.perf_counter() - t0
@@ -270,6 +277,31 @@ def opt_levels(args) -> None:
                   f"{1e3 * med:.2f} | {med / base:.2f} |", flush=True)
 
 
+def walker_3d(args) -> None:
+    """Newton iterations to the 3D fixed point from the 2D one; time per stride, 3D vs 2D."""
+    import numpy as np
+
+    from walker_library import find_fixed_point, load_walker
+    planar, spatial = load_walker(WALKERS[0], backend="c"), load_walker(WALKER_3D, backend="c")
+    z2 = find_fixed_point(planar, tol=1e-8).z
+    lateral = len(spatial.section) - len(planar.section)
+    fp3 = find_fixed_point(spatial, np.concatenate([z2, np.zeros(lateral)]), tol=1e-8)
+    print(f"\n## 3D walker (w = 0) against compass_walker\n\nNewton from the 2D fixed point: "
+          f"{fp3.iterations} iterations, converged {fp3.converged}, |z3 - z2| (shared) "
+          f"{np.max(np.abs(fp3.z[:len(z2)] - z2)):.1e}")
+    per: dict = {WALKERS[0]: [], WALKER_3D: []}
+    for _ in range(args.rounds):
+        for name, walker, z in ((WALKERS[0], planar, z2), (WALKER_3D, spatial, fp3.z)):
+            t0 = time.perf_counter()
+            strides = walker.walk(z, args.strides)
+            per[name].append((time.perf_counter() - t0) / len(strides))
+    base = statistics.median(per[WALKERS[0]])
+    for name, times in per.items():
+        print(f"time per stride, {name}: {1e3 * statistics.median(times):.2f} ms (median of "
+              f"{args.rounds} interleaved rounds of {args.strides} strides); "
+              f"ratio to compass_walker {statistics.median(times) / base:.2f}", flush=True)
+
+
 def _shapes(model) -> dict:
     """The result shapes of a compiled model's functions (as compile_model's metadata)."""
     n = model.n_states + 2
@@ -284,7 +316,8 @@ def _shapes(model) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", default=",".join([*WALKERS, *(f"chain{n}" for n in CHAINS)]))
+    parser.add_argument("--cases", default=",".join([*WALKERS, WALKER_3D,
+                                                      *(f"chain{n}" for n in CHAINS)]))
     parser.add_argument("--backends", default="c")
     parser.add_argument("--timeout", type=float, default=900.0,
                         help="seconds a subprocess may take (default 900)")
@@ -295,6 +328,8 @@ def main(argv=None) -> int:
                         help="another source tree (e.g. git archive of main) built interleaved")
     parser.add_argument("--once", default="",
                         help="cases built in the first round only (e.g. chain40)")
+    parser.add_argument("--walker-3d", action="store_true",
+                        help="also: Newton iterations and time per stride, 3D vs 2D walker")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--strides", type=int, default=5)
     parser.add_argument("--child", help=argparse.SUPPRESS)
@@ -312,6 +347,8 @@ def main(argv=None) -> int:
         opt_levels(args)
     else:
         build_cases(args)
+    if args.walker_3d:
+        walker_3d(args)
     print(f"\nload average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 

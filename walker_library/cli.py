@@ -114,6 +114,12 @@ def cmd_gait(args) -> int:
             print(f"    {value:28s} |λ| {modulus}")
     elif d["status"] == "fell":
         print(f"  fell during step {d['fell_at_step']} ({d['fall_reason']})")
+    if d["status"] != "periodic" and result.unstable_fixed_point:
+        print("  unstable period-1 fixed point (Newton), Floquet multipliers:")
+        rows, _ = multiplier_cells(result.unstable_fixed_point["floquet_multipliers"],
+                                   float("nan"))
+        for value, modulus in rows:
+            print(f"    {value:28s} |λ| {modulus}")
     if d["last_iterate"]:
         print("  last iterate:", ", ".join(f"{k} = {_with_unit(walker, k, v)}"
                                            for k, v in d["last_iterate"].items()))

@@ -52,6 +52,10 @@ class GaitResult(JSONResult):
     floquet_multipliers : eigenvalues of the Jacobian of S^k (largest modulus first);
         multiplier_error : their estimated error. metrics : see :mod:`walker_library.metrics`.
     fell_at_step : the step (1-based) during which the walker fell, iterating from the guess.
+    unstable_fixed_point : an unstable period-1 fixed point Newton found (its section state and
+        multipliers; the message says so), else None: an unstable gait is reported as "fell" or
+        "no_fixed_point" when the walker's own motion leaves it, as "periodic" with stable false
+        when it stays on it (e.g. a 3D walker started in its invariant sagittal plane).
     last_iterate : the last section state reached when no gait was found (by name).
     newton : the period-1 Newton search (converged, residual, iterations, last iterate).
     """
@@ -149,7 +153,7 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8, fd_step: fl
             "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     fp = find_fixed_point(walker, z0, period=1, tol=tol, max_iter=max_iter)
     newton = _newton_dict(walker, fp)
-    unstable = None
+    unstable, found = None, ""
     if fp.converged:
         try:
             fl = floquet(walker, fp.z, period=1, step=fd_step)
@@ -160,6 +164,9 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8, fd_step: fl
         if fl is not None:
             unstable = {"fixed_point": _named(walker, fp.z),
                         "floquet_multipliers": [complex(m) for m in fl.multipliers]}
+            found = (f"; Newton converged to an unstable period-1 fixed point (largest "
+                     f"|Floquet multiplier| {max(abs(m) for m in fl.multipliers):.4g}: "
+                     f"unstable_fixed_point)")
     pr = detect_period(walker, z0, max_period=max_period, n_steps=n_iterate, tol=period_tol)
     it = pr.iteration
     if pr.fell_at_step is not None:
@@ -172,7 +179,7 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8, fd_step: fl
                           last_iterate=_named(walker, it.states[-1]), newton=newton,
                           unstable_fixed_point=unstable,
                           message=f"the walker fell during step {pr.fell_at_step} "
-                                  f"({it.fall_reason}) iterating from the guess", **base)
+                                  f"({it.fall_reason}) iterating from the guess{found}", **base)
     if pr.period > 0:
         fpk = find_fixed_point(walker, it.states[-1], period=pr.period, tol=tol, max_iter=max_iter)
         if fpk.converged:
@@ -182,7 +189,9 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8, fd_step: fl
                 flk = None
             if flk is not None:
                 return _periodic(walker, fpk, flk, newton, base,
-                                 f"period-{pr.period} gait found by iterating the stride map",
+                                 f"{'' if flk.stable else 'unstable '}period-{pr.period} gait "
+                                 f"found by iterating the stride map (largest |Floquet "
+                                 f"multiplier| {max(abs(m) for m in flk.multipliers):.4g})",
                                  unstable)
     metrics = gait_metrics(it.strides[-max_period:], walker.weight)
     return GaitResult(status="no_fixed_point", period_steps=0, stable=None,

@@ -26,6 +26,9 @@ variable_stiffness     K1 → K2 against constant K: speed, step-down, F–Δz l
                        (Figs. 3.7–3.8, Table 3.1)
 recommendations        the thesis's §4.2: step-down over foot radius, hip stiffness and ankle
                        stiffness around the nominal walker, against the rigid-leg walker
+compliance_3d          the thesis's closing question in 3D: step-down and lateral pushes (roll
+                       rate, lateral hip velocity) survived over K_leg, 3D compliant against 3D
+                       rigid legs (compliant_leg_walker_3d, compass_walker_3d)
 =====================  ==========================================================================
 
 ``quick=True`` runs every study on coarse grids (the tests use it); the full grids are the
@@ -47,7 +50,7 @@ import numpy as np
 from porthamiltonian.batch import Sweep
 from porthamiltonian.errors import ModelError
 
-from .analyses import basin_case, step_down_case
+from .analyses import basin_case, step_down_case, walker_cache
 from .figures import (
     fig_angles,
     fig_energy,
@@ -57,8 +60,9 @@ from .figures import (
     save_figure,
 )
 from .gait import analyze_gait
+from .poincare import find_fixed_point, floquet
 from .results import to_json, to_jsonable
-from .robustness import step_down
+from .robustness import recovers, step_down
 from .series import walk_series
 
 __all__ = ["STUDIES", "Study", "StudyContext", "run_studies"]
@@ -531,6 +535,112 @@ def run_recommendations(ctx: StudyContext) -> dict:
             "better_than_rigid": beats}
 
 
+# --- compliance in 3D ------------------------------------------------------------------------------
+RIGID_3D = "compass_walker_3d"
+COMPLIANT_3D = "compliant_leg_walker_3d"
+PUSHES_3D = {"roll_rate": "walker.v.pelvis.x", "hip_vy": "walker.v.hip_joint.y"}
+
+
+def _largest(survives: Callable[[float], bool], high: float, resolution: float) -> float:
+    """The largest x in [0, high] with ``survives(x)``, by bisection to ``resolution`` (assumes
+    the survived set is an interval from 0; ``high`` itself when it survives)."""
+    if survives(high):
+        return high
+    low = 0.0
+    while high - low > resolution:
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if survives(mid) else (low, mid)
+    return low
+
+
+def robustness_3d_case(case: dict, *, model: str, horizon: int = 3, n_steps: int = 20,
+                       tol: float = 1e-4, h_max: float = 0.02, h_resolution: float = 1e-4,
+                       push_max: float = 0.5, push_resolution: float = 1e-4) -> dict:
+    """A 3D walker's robustness at the case's parameters (``guess``: a section state near the
+    gait): its period-1 fixed point (Newton) and Floquet multipliers; the largest step-down (m)
+    after which the walker returns within ``tol`` of the fixed point in at most 5 × ``n_steps``
+    steps; and for each push of :data:`PUSHES_3D` (a section velocity raised at the fixed point:
+    roll rate in rad/s, lateral hip velocity in m/s) the largest one after which it still walks
+    ``horizon`` steps without falling (a laterally unstable gait recovers from no lateral push:
+    the horizon makes the measure finite). Bisection to the resolutions."""
+    params = dict(case)
+    guess = params.pop("guess", None)
+    walker = walker_cache().walker(model, None, params)
+    fp = find_fixed_point(walker, walker.initial_guess() if guess is None else guess)
+    if not fp.converged:
+        return {"status": "no_gait", "message": fp.message}
+    z = fp.z
+    mults = sorted((complex(m) for m in floquet(walker, z, period=1).multipliers),
+                   key=lambda m: -abs(m))
+
+    def drop_survived(h: float) -> bool:
+        return recovers(walker, z, z[None, :], n_steps=n_steps, tol=tol, ground_drop=h).survived
+
+    def push_survived(index: int) -> Callable[[float], bool]:
+        def survived(dv: float) -> bool:
+            pushed = z.copy()
+            pushed[index] += dv
+            return not walker.walk(pushed, horizon)[-1].fell
+        return survived
+
+    out = {"status": "ok", "guess": [float(x) for x in z],
+           "multipliers": [[m.real, m.imag] for m in mults],
+           "max_multiplier": abs(mults[0]),
+           "max_step_down": _largest(drop_survived, h_max, h_resolution)}
+    for name, coordinate in PUSHES_3D.items():
+        out[f"max_{name}_push"] = _largest(push_survived(walker.section.index(coordinate)),
+                                           push_max, push_resolution)
+    strides = walker.walk(z, 1)
+    out["speed"] = strides[0].step_length / strides[0].duration
+    return to_jsonable(out)
+
+
+def run_compliance_3d(ctx: StudyContext) -> dict:
+    """Figs. 3.3–3.6's question in 3D (w = 0: the sagittal gait is the 2D one, so the step-downs
+    are the 2D walkers'; the lateral pushes are new). K_leg by continuation from the nominal
+    file's 6000 N/m, neighbour by neighbour; the rigid legs (compass_walker_3d) as the reference
+    row."""
+    Ks = [6000.0] if ctx.quick else [3000.0, 4500.0, 6000.0, 7500.0, 9000.0]
+    grid = ({"h_resolution": 5e-4, "push_resolution": 1e-3, "horizon": 2} if ctx.quick else {})
+    base = _walker(COMPLIANT_3D)
+    start = Ks.index(base.parameters["K_leg"])
+    guesses: dict[float, list[float]] = {}
+    for path in (Ks[start:], Ks[start::-1]):      # outward from the file's K_leg, neighbour by
+        z = base.initial_guess()                  # neighbour (a jump lands on another orbit)
+        for k in path:
+            fp = find_fixed_point(base.with_parameters(K_leg=k), z)
+            if not fp.converged:
+                break
+            z = fp.z
+            guesses[k] = [float(x) for x in z]
+    cases = [{"K_leg": k, **({"guess": guesses[k]} if k in guesses else {})} for k in Ks]
+    rows = ctx.sweep("robustness_over_K", robustness_3d_case, cases, model=COMPLIANT_3D, **grid)
+    rigid = ctx.sweep("robustness_rigid", robustness_3d_case, [{"w": 0.0}], model=RIGID_3D,
+                      **grid)[0]
+    keys = ("K_leg", "status", "max_multiplier", "max_step_down", "max_roll_rate_push",
+            "max_hip_vy_push", "speed")
+    table = [{k: r.get(k) for k in keys} for r in rows]
+    _plot_xy(ctx.path("fig_3d_robustness_over_K.png"), Ks,
+             {"step-down (mm)": _mm(rows),
+              "roll-rate push (10 mrad/s)": [100 * (r.get("max_roll_rate_push") or math.nan)
+                                             for r in rows],
+              "lateral hip push (10 mm/s)": [100 * (r.get("max_hip_vy_push") or math.nan)
+                                             for r in rows]},
+             "K_leg (N/m)", "largest survived", "3D walker (w = 0): robustness over K_leg",
+             {"rigid legs, step-down (mm)": 1e3 * (rigid.get("max_step_down") or 0.0)})
+    ok = [r for r in rows if r.get("status") == "ok"]
+    best = max(ok, key=lambda r: r["max_step_down"], default={})
+    return {"rows": [
+        _row("largest step-down, compliant legs (best K_leg)", 1e3 * best["max_step_down"]
+             if best else None, None, "mm", f"K_leg = {best.get('K_leg')} N/m"),
+        _row("largest step-down, rigid legs", 1e3 * (rigid.get("max_step_down") or 0.0), None,
+             "mm"),
+        _row("laterally unstable at every K_leg (|λ| > 1, Kuo 1999)",
+             all(r["max_multiplier"] > 1 for r in ok) and rigid.get("max_multiplier", 0) > 1,
+             None, ""),
+    ], "table": table, "rigid": {k: rigid.get(k) for k in keys[1:]}}
+
+
 STUDIES: dict[str, Study] = {s.name: s for s in [
     Study("table_2_3", "Nominal gait at γ = 0.009", "Table 2.3", run_table_2_3, (NOMINAL,)),
     Study("damping_calibration", "Energy per impact over λ; calibration", "§2.3.2, Fig. 2.12",
@@ -551,6 +661,9 @@ STUDIES: dict[str, Study] = {s.name: s for s in [
           run_variable_stiffness, (COMPLIANT, VARIABLE)),
     Study("recommendations", "Foot radius, hip and ankle stiffness against step-down", "§4.2",
           run_recommendations, (NOMINAL, HIP, ANKLE)),
+    Study("compliance_3d", "Step-down and lateral pushes over K_leg in 3D",
+          "§4.2 (\"build a 3D model and study the effects of applying compliancy to it\")",
+          run_compliance_3d, (COMPLIANT_3D, RIGID_3D)),
 ]}
 
 
