@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .continuation import ContinuationResult
 from .gait import GaitResult, analyze_gait
 from .protocol import Walker
 from .results import to_json
@@ -282,9 +283,11 @@ document.body.setAttribute('data-images-ok',ok+'/'+im.length);});"""
 
 def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step_down: bool = True,
                  with_basin: bool = False, basin_n: int = 9, step_down_resolution: float | None = None,
-                 log=None) -> ReportResult:
+                 log=None, continuation: ContinuationResult | None = None) -> ReportResult:
     """Analyse ``walker`` and write the report into directory ``out`` (module docstring).
-    ``log`` (a callable taking a string) receives progress lines."""
+    ``log`` (a callable taking a string) receives progress lines; ``continuation``: a
+    continuation of the gait (:func:`~.continuation.continue_gait`) whose bifurcation diagram,
+    bifurcations and branch table the report includes."""
     t0 = time.perf_counter()
     say = log or (lambda msg: None)
     out = Path(out)
@@ -332,14 +335,18 @@ def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step
             bas = basin(walker, gait, n=basin_n)
             dump("basin.json", bas)
             put("basin.png", fig_basin(bas, out / "basin.png"))
+    if continuation is not None:
+        put("bifurcation_diagram.png", continuation.figure(out / "bifurcation_diagram.png"))
+        dump("continuation.json", continuation.to_dict())
     comparison = _comparison(walker, gait_d, sd)
     ledger = {"max_abs_residual": float(np.max(np.abs(series.residual))),
               "energy_dissipated": float(series.E_diss[-1]), "energy_supplied": float(series.E_in[-1]),
               "steps": len([s for s in series.strides if not s.fell])}
     summary = {"model": walker.name, "gait": gait_d, "step_down": sd, "gsn": gsn, "basin": bas,
-               "comparison": comparison, "walk_ledger": ledger}
+               "comparison": comparison, "walk_ledger": ledger,
+               "continuation": None if continuation is None else continuation.to_dict()}
     dump("report.json", summary)
-    page = _html(walker, gait, gait_d, sd, gsn, bas, comparison, ledger, images)
+    page = _html(walker, gait, gait_d, sd, gsn, bas, comparison, ledger, images, continuation)
     (out / "report.html").write_text(page)
     files.append("report.html")
     seconds = time.perf_counter() - t0
@@ -362,7 +369,24 @@ def _img(images: dict, name: str, alt: str) -> str:
             f'alt="{html.escape(alt)}" title="{html.escape(name)}">')
 
 
-def _html(walker, gait, gait_d, sd, gsn, bas, comparison, ledger, images) -> str:
+def _continuation_html(c: ContinuationResult | None, images: dict) -> str:
+    if c is None:
+        return ""
+    label = c.path.label
+    bifs = _table([(b.kind.replace("_", "–"), b.branch, b.period, f"{b.mu:.12g}",
+                    f"{b.mu_error:.1g}", f"{b.multiplier:.6f}") for b in c.bifurcations],
+                  ("bifurcation", "branch", "period", label, "± (from the multiplier's error)",
+                   "critical multiplier")) if c.bifurcations else "<p>No bifurcation.</p>"
+    rows = [(r["branch"], r["period_steps"], f"{r[label]:.8g}", f"{r['max_multiplier']:.6f}",
+             "yes" if r["stable"] else "no", f"{r['step_period']:.6g}") for r in c.table()]
+    branch = _table(rows, ("branch", "period", label, "max |λ|", "stable", "step period (s)"))
+    return (f"<h2>Continuation in {html.escape(label)}</h2><p>{html.escape(c.message)}.</p>"
+            + _img(images, "bifurcation_diagram.png", "bifurcation diagram") + bifs
+            + f"<details><summary>The branches ({len(rows)} points)</summary>{branch}</details>")
+
+
+def _html(walker, gait, gait_d, sd, gsn, bas, comparison, ledger, images,
+          continuation=None) -> str:
     m = gait_d
     status = html.escape(f"{gait.status}: {gait.message}")
     params = _table([(k, v) for k, v in walker.parameters.items()], ("parameter", "value (SI)"))
@@ -400,7 +424,8 @@ def _html(walker, gait, gait_d, sd, gsn, bas, comparison, ledger, images) -> str
 Section: <code>{html.escape(", ".join(walker.section))}</code>.</p>
 {("<h2>Compared with the published numbers</h2>" + comp) if comp else ""}
 <h2>Gait</h2>{metrics}{fp}
-<h2>Floquet multipliers</h2><p>Error estimate {_fmt(gait.multiplier_error)}.</p>{mults}
+<h2>Floquet multipliers</h2><p>Error bound {_fmt(gait.multiplier_error)} (finite differences,
+the step chosen per coordinate).</p>{mults}
 {_img(images, "floquet.png", "Floquet multipliers")}
 <h2>Walk from the fixed point</h2>
 <p>{ledger["steps"]} steps in one simulation; energy dissipated {ledger["energy_dissipated"]:.6g} J,
@@ -410,7 +435,7 @@ supplied {ledger["energy_supplied"]:.6g} J, largest ledger residual {ledger["max
 {_img(images, "limit_cycle.png", "limit cycle")}
 {_img(images, "energy.png", "energy ledger")}
 {_img(images, "energy_per_step.png", "energy per step")}
-{sd_html}{gsn_html}{basin_html}
+{sd_html}{gsn_html}{basin_html}{_continuation_html(continuation, images)}
 <h2>Parameters</h2>{params}
 <p>Results as JSON beside this file: gait.json, step_down.json, gsn.json, report.json.</p>
 <script>{_SCRIPT}</script>
