@@ -5,10 +5,10 @@ maps, on a walker's Poincaré section).
 * Pseudo-arclength continuation: a converged point x = (z, μ) and the branch's unit tangent t
   (the null vector of [∂S^k/∂z − I, ∂S^k/∂μ]); predictor x + Δs t, corrector Newton on
   S^k(z; μ) − z = 0 with tᵀ(x − x_pred) = 0 (the last point's Jacobian, with Broyden's
-  updates), converged when the residual is below the tolerance and the Newton step below 100
+  updates and a halving line search), converged when the residual is below the tolerance and the Newton step below 100
   times it (a residual alone accepts the creeping iterates of a nearly neutral map).
-  Coordinates are scaled for the arclength: z_j by max(|z_j|, 1e-3) at the start, μ by the
-  length of the range. Step-size control: Δs grows by 1.5 after an easy correction (≤ 4
+  Coordinates are scaled for the arclength: z_j by |z_j| at the start (at least a tenth of the
+  median |z_j| and 1e-3), μ by the length of the range. Step-size control: Δs grows by 1.5 after an easy correction (≤ 4
   iterations), shrinks after a hard one (> 7), after a large change of the multipliers (0.15)
   or of the tangent (25°), and halves after a failure (Newton diverging or stalling, the walker
   falling), down to ``ds_min``. Unstable branches are followed like stable ones; a branch ends
@@ -20,9 +20,10 @@ maps, on a walker's Poincaré section).
   ∏_{i<j}(λ_i λ_j − 1) (a Neimark–Sacker point: a complex pair through the unit circle; a real
   pair with λ_i λ_j = 1, a neutral saddle, is not reported). A sign change between two points
   is located by Brent's method on the arclength between them (each evaluation a corrected
-  point and its Jacobian) to ``locate_tol`` in the scaled arclength (1e-12: below 1e-10 of the
-  range in μ); each bifurcation reports the error of its parameter implied by the error of its
-  critical multiplier (:func:`~.monodromy.floquet`'s bound over the multiplier's rate of change).
+  point and its Jacobian) to ``locate_tol`` in the scaled arclength (1e-10: below 1e-10 of the
+  range in μ), and its Jacobian recomputed with the full finite-difference ladder; each
+  bifurcation reports the error of its parameter implied by its critical multiplier's error
+  bound and distance from ±1 (over the multiplier's rate of change).
 * Branch switching at a flip: the period-2k orbit bifurcates from the flip point along the
   eigenvector v of λ = −1 (a pitchfork of S^2k); it is found on the hyperplane vᵀ(z − z_flip) = a
   (a small amplitude, halved until the point found is a true period-2k orbit) and continued from
@@ -364,16 +365,16 @@ class _Map:
             raise WalkerFell(z, strides[-1])
         return (strides[-1].z_next - z) / self.s, strides
 
-    def jacobian(self, x: np.ndarray, near: StrideJacobian | None,
-                 accurate: bool = False) -> tuple[np.ndarray, StrideJacobian]:
+    def jacobian(self, x: np.ndarray,
+                 near: StrideJacobian | None) -> tuple[np.ndarray, StrideJacobian]:
         """The scaled [∂S/∂z − I, ∂S/∂μ] (n × (n+1)) and the stride Jacobian at x (``near``: the
-        stride Jacobian of a nearby point, whose steps — and unless ``accurate``, error — are
-        taken; None: the full finite-difference ladder)."""
+        stride Jacobian of a nearby point, whose steps and error are taken: one central
+        difference per coordinate; None: the full finite-difference ladder)."""
         mu, z = self.mu(x), x[:-1] * self.s
         w = self.walker(mu)
         sj = stride_jacobian(w, z, period=self.k, method=self.method,
                              steps=None if near is None else near.steps,
-                             error=None if near is None or accurate else near.error)
+                             error=None if near is None else near.error)
         self.strides += sj.strides
         h = 1e-4 * abs(self.width)
         cols = []
@@ -449,8 +450,8 @@ class _Continuer:
 
     # -- points ------------------------------------------------------------------------------------
     def _state(self, m: _Map, x: np.ndarray, strides: list[Stride], t_prev: np.ndarray | None,
-               near: StrideJacobian | None, accurate: bool = False) -> _State:
-        A, sj = m.jacobian(x, near, accurate)
+               near: StrideJacobian | None) -> _State:
+        A, sj = m.jacobian(x, near)
         t = _tangent(A, t_prev)
         lam, err = eigen_errors(sj.matrix, sj.error)
         z = x[:-1] * m.s
@@ -475,22 +476,19 @@ class _Continuer:
         """Newton on [F(x); row·x − target] from xp with the Jacobian A of a nearby point,
         improved by Broyden's rank-one updates after each iteration (a finite-difference
         Jacobian is good to its error estimate only; the updates make the convergence
-        superlinear again): (x, strides, iterations), or None when it diverges, stalls (the
-        residual not halved in three iterations), falls or leaves the parameter's range."""
+        superlinear again), each step halved up to three times until it lowers the residual (a
+        line search: the stride map has kinks where a walk's sequence of events changes):
+        (x, strides, iterations), or None when it stalls (the residual not halved in three
+        iterations), falls or leaves the parameter's range."""
         B = np.vstack([A, row])
         x = xp.copy()
         history: list[float] = []
-        previous: tuple[np.ndarray, np.ndarray] | None = None
+        try:
+            F, strides = m.walk(x)
+        except (WalkerFell, ParameterValueError):
+            return None
+        G = np.append(F, float(row @ x - target))
         for it in range(max_iter):
-            try:
-                F, strides = m.walk(x)
-            except (WalkerFell, ParameterValueError):
-                return None
-            G = np.append(F, float(row @ x - target))
-            if previous is not None:            # Broyden's update of the F rows
-                dx_prev, G_prev = previous
-                B[:-1] += np.outer((G - G_prev)[:-1] - B[:-1] @ dx_prev, dx_prev) / \
-                    float(dx_prev @ dx_prev)
             try:
                 dx = np.linalg.solve(B, G)
             except np.linalg.LinAlgError:
@@ -501,38 +499,55 @@ class _Continuer:
             if r < self.tol and abs(G[-1]) < 1e-12 and \
                     float(np.max(np.abs(dx[:-1] * m.s))) < 100 * self.tol:
                 return x, strides, it
-            if history and r > 10 * history[-1] and r > 1e3 * self.tol:
-                return None
             if len(history) >= 3 and r > 0.5 * history[-3] and r > 1e3 * self.tol:
                 return None
             history.append(r)
-            previous = (-dx, G)
-            x = x - dx
+            step = 1.0
+            for _ in range(4):
+                x_new = x - step * dx
+                try:
+                    F_new, strides_new = m.walk(x_new)
+                except (WalkerFell, ParameterValueError):
+                    step /= 2
+                    continue
+                if float(np.max(np.abs(F_new * m.s))) < max(r, self.tol):
+                    break
+                step /= 2
+            else:
+                return None
+            G_new = np.append(F_new, float(row @ x_new - target))
+            ds_ = x_new - x                     # Broyden's update of the F rows
+            B[:-1] += np.outer((G_new - G)[:-1] - B[:-1] @ ds_, ds_) / float(ds_ @ ds_)
+            x, F, G, strides = x_new, F_new, G_new, strides_new
         return None
 
     # -- a branch ----------------------------------------------------------------------------------
     def follow(self, m: _Map, first: _State, branch: Branch, index: int) -> None:
-        """Continue ``branch`` from ``first`` along ``first.t``."""
+        """Continue ``branch`` from ``first``: the first step along the tangent ``first.t``, the
+        next along the secant through the last two points (smooth, where a tangent from a
+        finite-difference Jacobian carries its noise; the tangent's μ component still tells a
+        fold)."""
         cur, ds = first, self.ds0
+        direction = first.t
         branch.points.append(first.point)
         fails = 0
         while True:
             if len(branch.points) >= self.max_points:
                 branch.end = f"{self.max_points} points (max_points)"
                 return
-            xp = cur.x + ds * cur.t
+            xp = cur.x + ds * direction
             landing = None
             for bound in (0.0, 1.0):
                 if (xp[-1] - bound) * (cur.x[-1] - bound) < 0 or (xp[-1] == bound):
                     landing = bound
-            if landing is not None and abs(cur.t[-1]) > 1e-12:
-                ds_land = (landing - cur.x[-1]) / cur.t[-1]
-                xp = cur.x + ds_land * cur.t
+            if landing is not None and abs(direction[-1]) > 1e-12:
+                ds_land = (landing - cur.x[-1]) / direction[-1]
+                xp = cur.x + ds_land * direction
                 e = np.zeros(len(xp))
                 e[-1] = 1.0
                 res = self._correct(m, xp, e, cur.A, landing)
             else:
-                res = self._correct(m, xp, cur.t, cur.A, float(cur.t @ xp))
+                res = self._correct(m, xp, direction, cur.A, float(direction @ xp))
             if res is None:
                 ds /= 2
                 fails += 1
@@ -561,14 +576,16 @@ class _Continuer:
             if landing is not None:
                 branch.end = f"reached {self.path.label} = {new.point.mu:.10g} (end of the range)"
                 return
-            # step size: the corrector's effort, the change of the multipliers and tangent
+            # step size: the corrector's effort, the change of the multipliers and of direction
+            secant = (new.x - cur.x) / np.linalg.norm(new.x - cur.x)
             change = _change(cur.point.multipliers, new.point.multipliers)
-            turn = float(new.t @ cur.t)
+            turn = float(secant @ direction)
             factor = 1.5 if iterations <= 4 and fails == 0 else 1.0 if iterations <= 7 else 0.7
             if change > 0.15 or turn < 0.9:
                 factor = 0.5
             ds = min(self.ds_max, max(self.ds_min, ds * factor))
             fails = 0
+            direction = secant
             cur = new
 
     # -- bifurcations --------------------------------------------------------------------------------
@@ -618,7 +635,7 @@ class _Continuer:
                 res = self._correct(m, xp, a.t, a.A, float(a.t @ xp), max_iter=30)
                 if res is None:
                     raise WalkerFell(xp[:-1] * m.s, Stride("fell", None, 0.0, reason="locate"))
-                cache[s] = self._state(m, res[0], res[1], a.t, a.sj, accurate=True)
+                cache[s] = self._state(m, res[0], res[1], a.t, a.sj)
             return cache[s]
 
         try:
@@ -692,7 +709,9 @@ class _Continuer:
         self.log(f"  no period-{2 * m.k} orbit found near the flip at {bif.mu:.10g}")
 
     def run(self, z0: np.ndarray, period: int) -> None:
-        scale = np.maximum(np.abs(z0), 1e-3)
+        # a coordinate's scale: its size at the start, but not below a tenth of the median
+        # size (a small coordinate's changes would otherwise rule the arclength)
+        scale = np.maximum(np.abs(z0), max(1e-3, 0.1 * float(np.median(np.abs(z0)))))
         m = _Map(self.walker, self.path, period, scale, self.method)
         x0 = m.x(z0, self.path.start)
         _, strides = m.walk(x0)
@@ -713,7 +732,7 @@ def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float |
                   stop: float | None = None, *, guess=None, period: int = 1,
                   jacobian: str = "fd", ds: float = 0.05, ds_min: float = 1e-6,
                   ds_max: float = 0.3, max_points: int = 400, tol: float | None = None,
-                  locate: bool = True, locate_tol: float = 1e-12, doublings: int = 2,
+                  locate: bool = True, locate_tol: float = 1e-10, doublings: int = 2,
                   max_branches: int = 8,
                   log: Callable[[str], None] | None = None) -> ContinuationResult:
     """Continue the walker's gait in ``parameter`` from ``start`` to ``stop`` (module docstring).
