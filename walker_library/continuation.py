@@ -21,7 +21,8 @@ maps, on a walker's Poincaré section).
   pair with λ_i λ_j = 1, a neutral saddle, is not reported). A sign change between two points
   is located by Brent's method on the arclength between them (each evaluation a corrected
   point and its Jacobian) to ``locate_tol`` in the scaled arclength (1e-10: below 1e-10 of the
-  range in μ), and its Jacobian recomputed with the full finite-difference ladder; each
+  range in μ), and its Jacobian recomputed with the full finite-difference ladder (when
+  ``locate_tol`` < 1e-6; a coarse location, enough to switch branches, skips it); each
   bifurcation reports the error of its parameter implied by its critical multiplier's error
   bound and distance from ±1 (over the multiplier's rate of change).
 * Branch switching at a flip: the period-2k orbit bifurcates from the flip point along the
@@ -377,15 +378,20 @@ class _Map:
                              error=None if near is None else near.error)
         self.strides += sj.strides
         h = 1e-4 * abs(self.width)
-        cols = []
+        ends = []
         for m in (mu + h, mu - h):
-            strides = self.walker(m).walk(z, self.k)
+            try:
+                w = self.walker(m)
+            except ParameterValueError:         # the parameter's range ends here: one-sided
+                m, w = mu, self.walker(mu)
+            strides = w.walk(z, self.k)
             self.strides += len(strides)
             if len(strides) < self.k or strides[-1].fell:
                 raise WalkerFell(z, strides[-1])
-            cols.append(strides[-1].z_next)
+            ends.append((m, strides[-1].z_next))
+        (m1, s1), (m2, s2) = ends
         self._w = None
-        dS = (cols[0] - cols[1]) / (2 * h) * self.width
+        dS = (s1 - s2) / (m1 - m2) * self.width
         n = len(z)
         A = np.empty((n, n + 1))
         A[:, :n] = (sj.matrix - np.eye(n)) * self.s[None, :] / self.s[:, None]
@@ -641,7 +647,9 @@ class _Continuer:
         try:
             s = brentq(lambda s: state(s).tests[kind], 0.0, d_total, xtol=self.locate_tol,
                        rtol=4 * np.finfo(float).eps, maxiter=100)
-            st = self._refine(m, state(s))
+            st = state(s)
+            if self.locate_tol < 1e-6:       # a precise location: the full ladder there
+                st = self._refine(m, st)
         except (WalkerFell, ParameterValueError, ValueError, RuntimeError):
             return None
         # the parameter's error: the critical multiplier's error over its rate of change
@@ -679,7 +687,7 @@ class _Continuer:
         for _ in range(8):
             xp = at.x + amp * row
             try:
-                A, _ = m2.jacobian(xp, None)
+                A, _ = m2.jacobian(xp, at.sj)
             except (WalkerFell, ParameterValueError):
                 amp /= 2
                 continue
@@ -690,7 +698,7 @@ class _Continuer:
                 gap = float(np.max(np.abs(strides[m.k - 1].z_next - z1) / m.s))
                 if gap > 1e-3 * amp:       # a true period-2k orbit, not the period-k one
                     try:
-                        first = self._state(m2, x1, strides, None, None)
+                        first = self._state(m2, x1, strides, None, at.sj)
                     except (WalkerFell, ParameterValueError):
                         amp /= 2
                         continue

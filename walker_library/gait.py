@@ -293,7 +293,7 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
     try:
         path = ParameterPath.homotopy(walker, nominal_values, walker.parameters)
         result = continue_gait(nominal, path, guess=start.z, period=start.period,
-                               jacobian=search.jacobian, tol=tol, locate_tol=1e-8,
+                               jacobian=search.jacobian, tol=tol, locate_tol=1e-4,
                                doublings=3, max_points=200, log=log)
     except ModelError as err:
         search.tried.append(f"continuation from the nominal gait ({names}): {err}")

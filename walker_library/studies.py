@@ -19,6 +19,9 @@ time_plots             θ/φ over time, limit cycles, energies over steps (Figs.
 slope_multipliers      continuation over the slope: multipliers, the flip (period-1/period-2
                        boundary) located, the period-2/4 branches; walker gait from the default
                        guess at each slope of the table (Table 2.2)
+rigid_bifurcations     the simplest walker's and the compass gait's branches over the slope: flips
+                       located, period-2/4 branches, the unstable short-period gait (Garcia et al.
+                       1998, Goswami et al. 1998)
 step_down_slope        maximum step-down over the slope (Fig. 2.22)
 basin                  basin of attraction at γ = 0.007 and 0.012 (Figs. 2.21, 2.23)
 damper_factor          compliant leg: stable stiffness range and step-down over α (Fig. 3.3)
@@ -285,6 +288,57 @@ def run_slope_multipliers(ctx: StudyContext) -> dict:
            "bifurcations": [b.to_dict(w0) for b in result.bifurcations]}
     if not ctx.quick:
         out["walker_gait"] = _default_guess_gaits(ctx, NOMINAL, "slope", _slopes(ctx), result)
+    return out
+
+
+# --- the classic rigid walkers' bifurcations -------------------------------------------------------
+#: (label, walker, range, guess in the thesis's section coordinates (None: the walker's own),
+#: period doublings, the published first flip (rad) and its source)
+RIGID_CONTINUATIONS = (
+    ("simplest walker, long-period gait", "simplest_walker", (0.002, 0.019), None, 2, 0.0151,
+     "Garcia et al. 1998: period doubling near 0.0151, chaos up to 0.019"),
+    ("simplest walker, short-period gait", "simplest_walker", (0.009, 0.019),
+     (-0.205, 0.386, -0.015), 0, None, "Garcia et al. 1998, Table 1: unstable"),
+    ("compass gait", "compass_gait", (0.01, 0.1), None, 2, None,
+     "Goswami et al. 1998: period-doubling cascade into chaos over the slope"),
+)
+
+
+def run_rigid_bifurcations(ctx: StudyContext) -> dict:
+    """The simplest walker (Garcia et al. 1998) and the compass gait (Goswami et al. 1998)
+    continued over the slope: flips located, the period-2 and period-4 branches, the unstable
+    short-period gait."""
+    rows, out = [], {}
+    for label, model, (lo, hi), guess, doublings, published, source in RIGID_CONTINUATIONS:
+        if ctx.quick:
+            if guess is not None:
+                continue
+            lo, hi, doublings = ((0.014, 0.0155) if model == "simplest_walker"
+                                 else (0.075, 0.0775)), 1
+        w = _walker(model)
+        start = w.with_parameters(slope=lo)
+        z = None if guess is None else start.from_thesis(np.array(guess))
+        z0, period = gait_start(w, "slope", lo, z)
+        result = continue_gait(w, "slope", lo, hi, guess=z0, period=period, doublings=doublings,
+                               log=ctx.log)
+        name = f"{model}_{'short' if guess is not None else 'main'}"
+        (ctx.out / f"{name}.json").write_text(result.to_json())
+        result.figure(ctx.path(f"{name}_bifurcation_diagram.png"))
+        out[name] = {"bifurcations": [b.to_dict(w) for b in result.bifurcations],
+                     "branches": [{"period_steps": b.period, "points": len(b.points),
+                                   "origin": b.origin, "end": b.end} for b in result.branches]}
+        flips = [b for b in result.bifurcations if b.kind == "flip"]
+        for b in flips:
+            rows.append(_row(f"{label}: flip of the period-{b.period} gait", b.mu,
+                             published if b.period == 1 else None, "rad",
+                             f"{np.degrees(b.mu):.4f}°, ± {b.mu_error:.1g}; {source}"))
+        if not flips:
+            stable = any(p.stable for br in result.branches for p in br.points)
+            rows.append(_row(f"{label}: bifurcations over {lo}–{hi}",
+                             len(result.bifurcations), None, "1",
+                             f"{'a stable' if stable else 'no stable'} orbit on the branch; "
+                             f"{source}"))
+    out["rows"] = rows
     return out
 
 
@@ -608,6 +662,9 @@ STUDIES: dict[str, Study] = {s.name: s for s in [
           run_time_plots, (NOMINAL,)),
     Study("slope_multipliers", "Floquet multipliers over slope; period doubling", "Table 2.2",
           run_slope_multipliers, (NOMINAL,)),
+    Study("rigid_bifurcations", "Simplest walker and compass gait over the slope",
+          "Garcia 1998, Goswami 1998", run_rigid_bifurcations,
+          ("simplest_walker", "compass_gait")),
     Study("step_down_slope", "Maximum step-down over slope", "Fig. 2.22", run_step_down_slope,
           (NOMINAL,)),
     Study("basin", "Basin of attraction at γ = 0.007 and 0.012", "Figs. 2.21, 2.23", run_basin,

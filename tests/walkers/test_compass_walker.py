@@ -4,8 +4,9 @@ Twente, ch. 2): rigid legs, arc feet, Hunt–Crossley contact + SCVS friction, t
 γ = 0.009.
 
 Thesis numbers (Table 2.3, §3.1): speed 0.274 m/s, energy dissipated per step 0.08 J. Measured
-here (λ = 3.16e7 N·s/m² from calibrate_damping): speed 0.305 m/s, 0.0874 J per step, step period
-1.008 s, step length 0.307 m, Floquet multipliers |λ| ≤ 0.28. They are compared with the thesis
+here (λ = 3.16e7 N·s/m² from calibrate_damping; legs as rods, I_leg = m_leg l²/12): speed
+0.304 m/s, 0.0874 J per step, step period 1.013 s, step length 0.308 m, Floquet multipliers
+|λ| ≤ 0.27. They are compared with the thesis
 loosely (within 15 %); the energy balance (dissipated = potential released, cost of transport =
 sin γ) is checked tightly, and the gait itself is pinned (regression) at tolerances derived from
 the integration tolerances (see test_regression_pins).
@@ -36,7 +37,9 @@ def gait(walker):
 def test_stable_period_one_gait_at_nominal_slope(walker, gait):
     assert gait.status == "periodic" and gait.period_steps == 1 and gait.stable
     mults = np.abs(np.array(gait.floquet_multipliers))
-    assert mults.max() < 0.5 and gait.multiplier_error < 1e-2
+    # the dominant pair's error bound (the small ones form a nearly defective cluster whose
+    # first-order bounds are large, ≈ 0.07, and irrelevant to the verdict)
+    assert mults.max() < 0.5 and gait.multiplier_errors[0] < 1e-2 and gait.stability_certain
     fp = gait.fixed_point
     # heel strike: the new foot in front (θ > 0), walking downhill (θ̇ < 0), φ ≈ 2θ (the stance
     # foot penetrates a little, so φ − 2θ is small but not 0)
@@ -121,10 +124,13 @@ def test_damping_calibration_the_thesis_way(walker):
     assert 0.05 < cal.max_dissipated < 0.12
 
 
-#: the gait at the defaults, measured (numba + Rodas4 at rtol 1e-8, atol 1e-10; Newton to 1e-8)
-PINS = {"step_period": 1.0076010079, "step_length": 0.3072938955, "speed": 0.3049757723,
-        "energy_dissipated_per_step": 0.0873605681}
-PIN_MULTIPLIER = complex(-0.0930544675, 0.2620491072)
+#: the gait at the defaults, measured (numba + Rodas4 at rtol 1e-8, atol 1e-10; Newton to 1e-8).
+#: Legs as rods (I_leg = m_leg l²/12) since the gait-analysis branch; with point-mass legs they
+#: were 1.0076010079 s, 0.3072938955 m, 0.3049757723 m/s, 0.0873605681 J, −0.0930544675 +
+#: 0.2620491072i (compass_walker_point_legs).
+PINS = {"step_period": 1.0132068997, "step_length": 0.3075614420, "speed": 0.3035524551,
+        "energy_dissipated_per_step": 0.0874366281}
+PIN_MULTIPLIER = complex(-0.1116409256, 0.2387423315)
 
 
 def test_regression_pins(gait):
@@ -132,13 +138,14 @@ def test_regression_pins(gait):
     point is converged to 1e-8 and each stride integrated at rtol 1e-8, so the step period, step
     length, speed and energy per step carry errors of order 1e-8 (relative); a different back
     end or a change of step sequence moves them by as much: asserted to 1e-6 (relative). The
-    multipliers come from central differences of step h = 1e-4 of strides accurate to ≈ 1e-8,
-    an error ≈ 1e-8 / 1e-4 = 1e-4 (the estimate reported is 4e-4): asserted to 1e-3; the other
-    four are below 5e-4 in modulus."""
+    multipliers come from central differences with the step chosen per coordinate; their error
+    bound, 1.6e-3 for the dominant pair, sets the tolerance (3e-3); the other four are below
+    5e-4 in modulus."""
     m = gait.metrics
     for key, value in PINS.items():
         assert getattr(m, key) == pytest.approx(value, rel=1e-6), key
     mults = sorted(gait.floquet_multipliers, key=lambda c: (-abs(c), -c.imag))
-    assert abs(mults[0] - PIN_MULTIPLIER) < 1e-3
-    assert abs(mults[1] - PIN_MULTIPLIER.conjugate()) < 1e-3
+    assert abs(mults[0] - PIN_MULTIPLIER) < 3e-3
+    assert abs(mults[1] - PIN_MULTIPLIER.conjugate()) < 3e-3
+    assert gait.multiplier_errors[0] < 3e-3
     assert all(abs(c) < 5e-4 for c in mults[2:])
