@@ -14,7 +14,8 @@ gait analyses.
   :class:`ParameterSpec`;
 * :mod:`.poincare` — stride map, fixed points (Newton), period detection; :mod:`.monodromy` —
   the stride map's Jacobian (finite differences with the step chosen per coordinate, or the
-  variational equations) and Floquet multipliers with error bounds; :mod:`.continuation` —
+  variational equations; :mod:`.saltation`, the algebra of the latter) and Floquet multipliers
+  with error bounds; :mod:`.continuation` —
   branches of gaits over a parameter, their bifurcations, period doubling (``walker continue``);
 * :mod:`.gait`, :mod:`.metrics` — the gait analysis behind ``walker gait`` and its metrics;
 * :mod:`.robustness` — step-down, basin of attraction, Gait Sensitivity Norm; :mod:`.series`

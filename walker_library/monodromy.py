@@ -15,10 +15,10 @@ One interface, :func:`stride_jacobian`, with a ``method``:
   one of 1e-6 rad by 1e-5). The user's step only sets where the ladder starts, so the result —
   and the stability verdict — does not depend on it.
 * ``"variational"`` — the exact monodromy: the variational equations integrated with the
-  trajectory, a saltation matrix at every event and reset, projected on the section. It needs a
-  walker that provides ``stride_sensitivity(z, n_steps) -> (z_next, dz_next/dz)`` (the
-  integration loops' sensitivity variant); :func:`stride_jacobian` raises a clear error for a
-  walker without it.
+  trajectory, a saltation matrix at every event and reset, projected on the section (the algebra
+  is :mod:`.saltation`, checked on a bouncing ball). It needs a walker that provides
+  ``stride_sensitivity(z, n_steps) -> (z_next, dz_next/dz)`` (the integration loops'
+  sensitivity variant); :func:`stride_jacobian` raises a clear error for a walker without it.
 
 :func:`floquet` turns a Jacobian into Floquet multipliers (largest modulus first) with a
 first-order error bound per multiplier, |δλ_i| ≤ |y_i|ᵀ E |x_i| / |y_iᴴ x_i| (x_i, y_i its right

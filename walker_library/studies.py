@@ -313,8 +313,8 @@ def run_rigid_bifurcations(ctx: StudyContext) -> dict:
         if ctx.quick:
             if guess is not None:
                 continue
-            lo, hi, doublings = ((0.014, 0.0155) if model == "simplest_walker"
-                                 else (0.075, 0.0775)), 1
+            (lo, hi), doublings = ((0.014, 0.0155) if model == "simplest_walker"
+                                   else (0.075, 0.0775)), 1
         w = _walker(model)
         start = w.with_parameters(slope=lo)
         z = None if guess is None else start.from_thesis(np.array(guess))

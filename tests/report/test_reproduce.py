@@ -29,7 +29,7 @@ def test_quick_studies_write_figures_and_thesis_rows(tmp_path, capsys):
     table = summary["slope_multipliers"]["table"]
     assert table[0]["slope"] == 0.009 and table[-1]["slope"] == pytest.approx(0.014)
     assert all(r["period_steps"] == 1 and r["stable"] for r in table)
-    assert table[0]["max_multiplier"] == pytest.approx(0.278, abs=5e-3)
+    assert table[0]["max_multiplier"] == pytest.approx(0.264, abs=5e-3)   # 0.278 with point legs
     for png in ("damping_calibration/fig_2_12_dissipation_over_lambda.png",
                 "slope_multipliers/table_2_2_bifurcation_diagram.png"):
         with Image.open(out / png) as im:
