@@ -50,7 +50,13 @@ from scipy.optimize import brentq, linear_sum_assignment
 
 from porthamiltonian.errors import ModelError, ParameterValueError
 
-from .monodromy import JACOBIAN_METHODS, StrideJacobian, eigen_errors, stride_jacobian
+from .monodromy import (
+    JACOBIAN_METHODS,
+    StrideJacobian,
+    eigen_errors,
+    spectral_radius,
+    stride_jacobian,
+)
 from .poincare import WalkerFell, find_fixed_point
 from .protocol import Stride, Walker
 from .results import JSONResult, to_jsonable
@@ -183,7 +189,7 @@ class BranchPoint:
 
     @property
     def max_modulus(self) -> float:
-        return float(np.max(np.abs(self.multipliers))) if len(self.multipliers) else 0.0
+        return spectral_radius(self.multipliers)
 
     @property
     def stable(self) -> bool:

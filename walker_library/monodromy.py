@@ -38,7 +38,7 @@ from .poincare import WalkerFell, advance
 from .protocol import Walker
 
 __all__ = ["JACOBIAN_METHODS", "FloquetResult", "StrideJacobian", "eigen_errors", "floquet",
-           "stride_jacobian"]
+           "spectral_radius", "stride_jacobian"]
 
 #: the ways of computing the stride map's Jacobian
 JACOBIAN_METHODS = ("fd", "variational")
@@ -190,6 +190,11 @@ def eigen_errors(J: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lam, err
 
 
+def spectral_radius(multipliers: np.ndarray) -> float:
+    """The largest |λ| (0 for none): below 1, the orbit is stable."""
+    return float(np.max(np.abs(multipliers))) if len(multipliers) else 0.0
+
+
 @dataclass
 class FloquetResult:
     """Floquet multipliers of a period-k orbit (eigenvalues of the stride map's Jacobian,
@@ -216,7 +221,7 @@ class FloquetResult:
 
     @property
     def max_modulus(self) -> float:
-        return float(np.max(np.abs(self.multipliers))) if len(self.multipliers) else 0.0
+        return spectral_radius(self.multipliers)
 
     @property
     def stable(self) -> bool:

@@ -18,8 +18,15 @@ import numpy as np
 import pytest
 
 from porthamiltonian.errors import ParameterValueError
-from walker_library import (analyze_gait, compass_gait, find_fixed_point, floquet, rimless_wheel,
-                            simplest_walker, stride_map)
+from walker_library import (
+    analyze_gait,
+    compass_gait,
+    find_fixed_point,
+    floquet,
+    rimless_wheel,
+    simplest_walker,
+    stride_map,
+)
 from walker_library.poincare import jacobian
 
 
