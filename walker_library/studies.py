@@ -169,7 +169,8 @@ def run_table_2_3(ctx: StudyContext) -> dict:
         _row("max φ", m.max_phi, None, "rad", "lost from the thesis text"),
         _row("energy dissipated per step", m.energy_dissipated_per_step, 0.08, "J"),
         _row("max step-down", sd.max_step_down, 0.0024, "m",
-             f"grid {sd.resolution * 1e3:g} mm; contiguous: {sd.contiguous}"),
+             f"grid {sd.resolution * 1e3:g} mm, boundaries bisected to "
+             f"{sd.boundary_tol * 1e3:g} mm; contiguous: {sd.contiguous}"),
         _row("largest |Floquet multiplier|",
              max(abs(complex(x)) for x in gait.floquet_multipliers), None, "1"),
         _row("contact stiffness K", w.parameters["K"], 1.0e6, "N/m", "App. A"),

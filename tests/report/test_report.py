@@ -45,14 +45,16 @@ def render(path: Path) -> tuple[str, list[str]]:
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
-    assert main(["report", "simplest_walker", "--out", str(out), "--steps", "4", "--quiet"]) == 0
+    assert main(["report", "simplest_walker", "--out", str(out), "--steps", "4", "--quiet",
+                 "--continuation", "slope=0.0145:0.0152"]) == 0
     return out
 
 
 def test_report_files_and_json(report):
     for name in ("report.html", "report.json", "gait.json", "step_down.json", "gsn.json",
                  "walk.gif", "angles.png", "limit_cycle.png", "energy.png",
-                 "energy_per_step.png", "floquet.png", "step_down.png"):
+                 "energy_per_step.png", "floquet.png", "step_down.png",
+                 "bifurcation_diagram.png", "continuation.json"):
         assert (report / name).is_file(), name
     summary = json.loads((report / "report.json").read_text())
     assert summary["gait"]["status"] == "periodic"
@@ -61,11 +63,15 @@ def test_report_files_and_json(report):
     assert abs(rows["theta"]["deviation"]) < 1e-8
     assert summary["walk_ledger"]["max_abs_residual"] < 1e-10
     assert isinstance(summary["step_down"]["max_step_down"], float)
+    # --continuation: the flip of Garcia's gait in the range, its diagram and tables
+    flips = [b for b in summary["continuation"]["bifurcations"] if b["kind"] == "flip"]
+    assert len(flips) == 1 and flips[0]["mu"] == pytest.approx(0.0150884, abs=1e-6)
+    assert "Continuation in slope" in (report / "report.html").read_text()
 
 
 def test_every_figure_is_a_valid_png_and_the_gif_animates(report):
     pngs = sorted(report.glob("*.png"))
-    assert len(pngs) == 6
+    assert len(pngs) == 7
     for p in pngs:
         assert p.read_bytes()[:8] == PNG_SIGNATURE, p.name
         with Image.open(p) as im:
@@ -81,7 +87,7 @@ def test_report_opens_in_a_headless_browser_without_errors(report):
     m = re.search(r'data-images-ok="(\d+)/(\d+)"', dom)
     assert m, "the page's load handler did not run"
     ok, total = int(m.group(1)), int(m.group(2))
-    assert total == 7 and ok == total                 # 6 figures + the animation, all decoded
+    assert total == 8 and ok == total                 # 7 figures + the animation, all decoded
     assert not [c for c in console if "Uncaught" in c or "rror" in c], console
     assert "Walker report: simplest_walker" in dom
 
