@@ -437,9 +437,15 @@ def _periodic(walker: Walker, orbit: Orbit, outcome: str, message: str, common: 
 def gait_start(walker: Walker, parameter: str, start: float, guess=None,
                **options) -> tuple[np.ndarray, int]:
     """The fixed point and period of the walker's gait at ``parameter`` = ``start`` (the start
-    of a continuation): :func:`analyze_gait` there, stable or not; a ModelError saying what the
-    search found when there is no orbit."""
+    of a continuation): the period-1 orbit Newton reaches from a given ``guess`` (stable or not:
+    an unstable orbit, Garcia's short-period gait say, is followed as given), else the orbit
+    :func:`analyze_gait` reports there; a ModelError saying what the search found when there is
+    no orbit."""
     w = walker.with_parameters(**{parameter: start})
+    if guess is not None:
+        fp = find_fixed_point(w, guess, tol=float(getattr(w, "gait_tolerance", 1e-10)))
+        if fp.converged:
+            return fp.z, 1
     g = analyze_gait(w, guess, **options)
     if g.status != "periodic":
         raise ModelError(f"{walker.name}: no gait at the start of the range ({parameter} = "
