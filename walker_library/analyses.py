@@ -82,14 +82,16 @@ _THESIS_KEYS = ("theta", "theta_dot", "phi", "phi_dot")
 
 def gait_summary(walker: Walker, result: GaitResult) -> dict:
     """The main fields of a :class:`~walker_library.gait.GaitResult` as a flat dict (SI units,
-    angles in rad): status, period_steps, stable, max_multiplier (largest |Floquet multiplier|),
+    angles in rad): status, outcome, period_steps, stable, max_multiplier (largest |Floquet
+    multiplier|),
     multiplier_error, step_period (s), step_length (m), speed (m/s), energy_dissipated_per_step
     (J), max_theta, max_phi (rad), cost_of_transport (1), the fixed point in the thesis's terms
     (``fixed_point.theta``, ``.theta_dot``, ``.phi``, ``.phi_dot``; a rimless wheel: theta and
     theta_dot), fell_at_step and message. Null where not defined (no gait)."""
     d = result.to_dict()
     mults = [abs(complex(m)) for m in result.floquet_multipliers]
-    out = {"status": d["status"], "period_steps": d["period_steps"], "stable": d["stable"],
+    out = {"status": d["status"], "outcome": d["outcome"], "period_steps": d["period_steps"],
+           "stable": d["stable"],
            "max_multiplier": max(mults) if mults else None,
            "multiplier_error": d["multiplier_error"]}
     for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step", "max_theta",

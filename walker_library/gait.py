@@ -9,7 +9,8 @@
 3. unless a stable orbit was found already (or ``continuation=False``): the model file's
    nominal gait (its own guess at its own parameter values) continued to the requested
    parameters — a homotopy in the parameters that differ (:mod:`.continuation`), switching onto
-   the period-doubled branch at every flip on the way — and the orbits at its end.
+   the period-doubled branch at the flips on the way (periods 1, 2, 4) — and the orbits at its
+   end.
 
 Each orbit's Floquet multipliers come with error bounds (:func:`~.monodromy.floquet`: the
 finite-difference step chosen per coordinate, so the verdict does not depend on a step the user
@@ -294,7 +295,7 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
         path = ParameterPath.homotopy(walker, nominal_values, walker.parameters)
         result = continue_gait(nominal, path, guess=start.z, period=start.period,
                                jacobian=search.jacobian, tol=tol, locate_tol=1e-4,
-                               doublings=3, max_points=200, log=log)
+                               doublings=2, max_points=100, log=log)
     except ModelError as err:
         search.tried.append(f"continuation from the nominal gait ({names}): {err}")
         return
