@@ -408,7 +408,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="longest period (steps) looked for when period 1 fails (default: 8)")
     p.add_argument("--fd-step", type=float, default=None, metavar="H",
                    help="largest finite-difference step of the Floquet Jacobian, relative to "
-                        "max(|z_j|, 1e-3) (default: 1e-2); the step kept is chosen per "
+                        "max(|z_j|, 1e-3) (default: 1e-3); the step kept is chosen per "
                         "coordinate below it, so the result does not depend on it")
     p.add_argument("--iterate", type=int, default=200, metavar="N",
                    help="steps iterated for period detection when period 1 fails (default: 200)")

@@ -355,7 +355,7 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
     fields.
 
     fd_step : where the finite-difference ladder of the Floquet Jacobian starts (relative to
-        max(|z_j|, 1e-3); default 1e-2): the step kept is chosen per coordinate, so this does not
+        max(|z_j|, 1e-3); default 1e-3): the step kept is chosen per coordinate, so this does not
         change the result beyond its error bounds (:mod:`.monodromy`). jacobian : "fd" or
         "variational". tol : Newton tolerance on |S^k(z) − z|_∞ (default: the walker's
         ``gait_tolerance`` if it has one, else 1e-10). n_iterate, period_tol, max_period :

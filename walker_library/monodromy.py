@@ -5,7 +5,7 @@ One interface, :func:`stride_jacobian`, with a ``method``:
 
 * ``"fd"`` (today's) — central finite differences, the step chosen per section coordinate
   automatically. For coordinate j the differences are taken on a ladder of steps
-  h = h0_j 4⁻ᵐ (m = 0, 1, …; h0_j = ``first_step`` × max(|z_j|, 1e-3), ``first_step`` = 1e-2 by
+  h = h0_j 4⁻ᵐ (m = 0, 1, …; h0_j = ``first_step`` × max(|z_j|, 1e-3), ``first_step`` = 1e-3 by
   default), each pair of neighbouring rungs is Richardson-extrapolated (O(h⁴)), and the rung whose
   extrapolation agrees best with the previous one is kept; that disagreement is the column's
   error estimate. Too large a step leaves the region where the stride map is smooth (a
@@ -134,7 +134,7 @@ def stride_jacobian(walker: Walker, z, *, period: int = 1, method: str = "fd",
                     error: np.ndarray | None = None) -> StrideJacobian:
     """The Jacobian of S^period at the section state ``z`` (model coordinates) by ``method``
     (module docstring). ``first_step``: the largest finite-difference step tried, relative to
-    max(|z_j|, 1e-3) (default 1e-2); it does not set the step kept. ``steps``: the steps kept at
+    max(|z_j|, 1e-3) (default 1e-3); it does not set the step kept. ``steps``: the steps kept at
     a nearby state (a previous :attr:`StrideJacobian.steps`), to skip the ladder: two rungs, h
     and h/4, per coordinate; with ``error`` too (that state's :attr:`StrideJacobian.error`),
     one rung, h, whose error is taken to be that one (what continuation does between its
@@ -153,7 +153,7 @@ def stride_jacobian(walker: Walker, z, *, period: int = 1, method: str = "fd",
         _, J = sens(z, period)
         J = np.asarray(J, dtype=float)
         return StrideJacobian(J, np.zeros_like(J), np.full(len(z), np.nan), method, period, period)
-    rel = 1e-2 if first_step is None else float(first_step)
+    rel = 1e-3 if first_step is None else float(first_step)
     if not (math.isfinite(rel) and rel > 0):
         raise ModelError(f"the finite-difference step must be a number > 0, got {first_step!r}")
     n = len(z)
