@@ -73,8 +73,8 @@ def _pin_blas_threads() -> str:
 
 BLAS_THREADS = _pin_blas_threads()
 
-from machine import machine_info  # noqa: E402  (benchmarks/machine.py)
-import numpy as np  # noqa: E402  (after the BLAS thread pinning)
+import numpy as np
+from machine import machine_info
 
 METHODS = ("Radau", "BDF", "LSODA")
 BACKENDS = ("python", "numba")
@@ -104,15 +104,8 @@ def chain_parameters(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _junction_link(model, a: str, b: str) -> None:
-    """Bond from junction ``a`` to junction ``b``.
-
-    ``Model.connect`` refuses a bond between two *new* junction ports even when both junctions
-    have a domain (see the benchmark report), so give ``a`` its port explicitly first.
-    """
-    from porthamiltonian import Port
-
-    port = model.component(a).new_port(Port("x", "translation", orientation=None), f"to_{b}")
-    model.connect(f"{a}.{port.name}", b)
+    """Bond from junction ``a`` (a new port named ``to_<b>``) to junction ``b`` (a new port)."""
+    model.connect(f"{a}.to_{b}", b)
 
 
 def build_chain(n: int):
@@ -120,7 +113,7 @@ def build_chain(n: int):
     from porthamiltonian import C, I, Model, OneJunction, R, Sf, ZeroJunction
 
     m, k, c = chain_parameters(n)
-    model = Model(f"chain{n}", f"wall - spring/damper - mass chain of {n} masses")
+    model = Model(f"chain{n}")               # wall - spring/damper - mass chain of n masses
     for i in range(1, n + 1):
         model.parameter(f"m{i}", float(m[i - 1]), "kg")
         model.parameter(f"k{i}", float(k[i - 1]), "N/m")
@@ -296,7 +289,7 @@ def measure_compile(n: int, backend: str, repeats: int) -> dict:
             warm.append(run_child(["compile", str(n), backend, "1"], d))
         finally:
             shutil.rmtree(d, ignore_errors=True)
-    med = lambda rows, key: statistics.median(r[key] for r in rows)  # noqa: E731
+    med = lambda rows, key: statistics.median(r[key] for r in rows)
     return {"cold_compile": med(cold, "compile"), "cold_first": med(cold, "first_call"),
             "warm_compile": med(warm, "compile"), "warm_first": med(warm, "first_call"),
             "repeats": repeats}

@@ -48,9 +48,9 @@ import time
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # same LAPACK threading for library and hand-written code
 
-from machine import machine_info  # noqa: E402  (benchmarks/machine.py)
-import numpy as np  # noqa: E402  (after the BLAS thread pinning)
-from scipy.integrate import solve_ivp  # noqa: E402
+import numpy as np
+from machine import machine_info
+from scipy.integrate import solve_ivp
 
 RTOL, ATOL = 1e-8, 1e-10
 M, R, H0, K, LAM, G = 1.0, 0.05, 0.5, 1e6, 1e5, 9.81
@@ -203,7 +203,7 @@ def main(argv=None) -> int:
                 stats[v] = {"steps": len(sol.t) - 1, "nfev": sol.nfev, "njev": sol.njev,
                             "events": len(sol.t_events[0]), "z_end": float(sol.y[1, -1])}
             times[v].append(elapsed)
-            print(f"  round {r + 1}: {who:7s} {method:6s} jac={str(jac):5s} {elapsed:8.3f} s",
+            print(f"  round {r + 1}: {who:7s} {method:6s} jac={jac!s:5s} {elapsed:8.3f} s",
                   flush=True)
     med = {v: statistics.median(ts) for v, ts in times.items()}
 

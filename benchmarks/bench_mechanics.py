@@ -60,7 +60,7 @@ from pathlib import Path
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # same LAPACK threading for library and hand-written code
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 WALKER = {"M": 3.0, "m_l": 0.01, "m_f": 0.1, "L": 0.7, "g": 9.81}
@@ -77,31 +77,12 @@ def walker4_model():
 
 
 def walker6_model():
-    """The skeleton with telescopic legs: feet on prismatic joints along the leg axis."""
-    import porthamiltonian as ph
-    from porthamiltonian.mechanics import Multibody
+    """The skeleton with telescopic legs: feet on prismatic joints along the leg axis (the
+    test suite's model, tests/validation/test_mechanics.py)."""
+    sys.path.insert(0, str(ROOT / "tests" / "validation"))
+    from test_mechanics import walker6_model as model
 
-    model = ph.Model("walker6_skeleton", "compass-walker skeleton with prismatic (telescopic) legs")
-    units = {"M": "kg", "m_l": "kg", "m_f": "kg", "L": "m", "g": "m/s^2"}
-    for name, value in WALKER.items():
-        model.parameter(name, value, units[name])
-    leg = {"mass": "m_l", "com": [0, 0, "-L/2"], "inertia": ["m_l*L**2/12"] * 3}
-    bodies = {"hip_body": {"mass": "M", "inertia": 0},
-              "leg1": dict(leg), "leg2": dict(leg),
-              "foot1_body": {"mass": "m_f", "inertia": 0, "points": {"foot1": [0, 0, 0]}},
-              "foot2_body": {"mass": "m_f", "inertia": 0, "points": {"foot2": [0, 0, 0]}}}
-    joints = {"hip": {"type": "translational", "parent": "world", "child": "hip_body",
-                      "axes": ["x", "z"], "q0": [1.0, 0.7405]},
-              "theta1": {"type": "revolute", "parent": "hip_body", "child": "leg1", "axis": "y",
-                         "q0": 0.15},
-              "theta2": {"type": "revolute", "parent": "hip_body", "child": "leg2", "axis": "y",
-                         "q0": -0.15},
-              "ext1": {"type": "prismatic", "parent": "leg1", "child": "foot1_body",
-                       "axis": [0, 0, -1], "origin": [0, 0, "-L"]},
-              "ext2": {"type": "prismatic", "parent": "leg2", "child": "foot2_body",
-                       "axis": [0, 0, -1], "origin": [0, 0, "-L"]}}
-    model.add("walker", Multibody(bodies=bodies, joints=joints, gravity=[0, 0, "-g"], plane="xz"))
-    return model
+    return model()
 
 
 def chain_masses_lengths(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -110,23 +91,12 @@ def chain_masses_lengths(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def chain_model(n: int):
-    import porthamiltonian as ph
-    from porthamiltonian.mechanics import Multibody
+    """The N-link chain of tests/validation/multibody_cases.py (masses and lengths as
+    :func:`chain_masses_lengths`)."""
+    sys.path.insert(0, str(ROOT / "tests" / "validation"))
+    from multibody_cases import chain_model as model
 
-    m, l = chain_masses_lengths(n)
-    model = ph.Model(f"chain{n}", f"{n} uniform rods on revolute joints")
-    bodies, joints = {}, {}
-    for i in range(1, n + 1):
-        model.parameter(f"m{i}", float(m[i - 1]), "kg")
-        model.parameter(f"l{i}", float(l[i - 1]), "m")
-        bodies[f"link{i}"] = {"mass": f"m{i}", "com": [0, 0, f"-l{i}/2"],
-                              "inertia": [f"m{i}*l{i}**2/12"] * 3}
-        joints[f"q{i}"] = {"type": "revolute", "parent": "world" if i == 1 else f"link{i - 1}",
-                           "child": f"link{i}", "axis": "y",
-                           "origin": [0, 0, 0] if i == 1 else [0, 0, f"-l{i - 1}"], "q0": 0.3}
-    model.parameter("g", 9.81, "m/s^2")
-    model.add("chain", Multibody(bodies=bodies, joints=joints, gravity=[0, 0, "-g"], plane="xz"))
-    return model
+    return model(n)
 
 
 def build(spec: str):

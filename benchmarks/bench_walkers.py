@@ -16,14 +16,14 @@ Walkers (framework: ``walker_library`` builders with their defaults; hand-writte
   1e-12, atol 1e-24, max_step 0.25 — the walker's defaults) vs Garcia's equations of motion and
   heel-strike map under ``solve_ivp`` DOP853 at the same rtol/atol/max_step. Extra line: the same
   framework walker on the numba back end.
-* ``compass``: ``compass_walker()`` (the thesis's nominal walker; numba back end + the compiled
-  Rodas4 loop, rtol 1e-8, atol 1e-10, max_step 0.01) vs the hand-written 4-DOF floating-base
-  model under ``solve_ivp`` Radau (jac=None: scipy's finite differences; and jac="fd": a
-  hand-written forward-difference Jacobian) at the same tolerances and max_step, mode switches
-  by terminal events; LSODA for information (the fastest hand-written stiff solver in the contact
-  benchmark).
-* ``legs``: ``compliant_leg_walker()`` (thesis §3.1; numba + Rodas4, same tolerances) vs the
-  hand-written 6-DOF point-mass model, the same variants. Skipped with a note if
+* ``compass``: ``compass_walker()`` (the thesis's nominal walker; its file's settings: the
+  default back end — C when a compiler works — and the compiled Rodas5P loop at rtol 1e-9,
+  atol 1e-11, max_step 0.01) vs the hand-written 4-DOF floating-base model under ``solve_ivp``
+  Radau (jac=None: scipy's finite differences; and jac="fd": a hand-written forward-difference
+  Jacobian) at rtol 1e-8, atol 1e-10 and the same max_step, mode switches by terminal events;
+  LSODA for information (the fastest hand-written stiff solver in the contact benchmark).
+* ``legs``: ``compliant_leg_walker()`` (thesis §3.1; the same settings) vs the hand-written 6-DOF
+  point-mass model, the same variants. Skipped with a note if
   ``walker_library.compliant_leg_walker`` is not there.
 
 Measured:
@@ -41,8 +41,17 @@ Measured:
 * compile (``--no-compile`` skips): a fresh subprocess with an empty $PORTHAMILTONIAN_CACHE
   (cold: symbolic compile + code generation + numba JIT at the first stride) and a second one on
   that warm cache (cached); builder time and first-stride time reported separately;
-* where the framework's time goes: share of the compiled Rodas4 loop (numba walkers) or of the
-  generated RHS (python back end), RHS / Jacobian evaluations and accepted steps per step.
+* where the framework's time goes: share of the compiled loop (C or numba walkers) or of the
+  generated RHS (python back end), RHS / Jacobian evaluations and accepted steps per step;
+* by back end (issue 11): the same walk on the C, numba and python back ends with the walker
+  file's method (python: one step per round, it is slow), the configuration before issue 11
+  (numba, Rodas4 at rtol 1e-8) and Rodas4 at rtol 1e-8 on C, and — for the compass walker — the
+  limit baseline: the model written by hand in C (right-hand side and analytic Jacobian) under
+  SUNDIALS CVODE with root finding (benchmarks/cvode_compass_walker.c, built here when
+  SUNDIALS is installed: ``apt-get install -y libsundials-dev`` on Debian/Ubuntu; without it
+  the script says so and leaves that line out). Every variant's error is measured against a
+  reference walk (Rodas5P at rtol 1e-12 on C; the simplest walker: DOP853 at 1e-13), so that
+  the times are compared at known accuracy.
 """
 from __future__ import annotations
 
@@ -70,6 +79,9 @@ import numpy as np
 from machine import machine_info
 
 WALKERS = ("simplest", "compass", "legs")
+CVODE_SOURCE = ROOT / "benchmarks" / "cvode_compass_walker.c"
+CVODE_LIBS = ("-lsundials_cvode", "-lsundials_nvecserial", "-lsundials_sunmatrixdense",
+              "-lsundials_sunlinsoldense", "-lsundials_generic", "-lm")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -241,6 +253,120 @@ def compile_times(name: str, backend: str = "") -> dict:
 
 
 # ------------------------------------------------------------------------------------------------
+# back ends and the C + CVODE limit baseline
+# ------------------------------------------------------------------------------------------------
+def build_cvode() -> tuple[str | None, str]:
+    """(path of the compiled CVODE driver, or None, and a note saying why not)."""
+    from porthamiltonian.backends import native
+
+    cc = native.compiler()
+    if cc is None:
+        return None, "no C compiler"
+    out = Path(tempfile.mkdtemp(prefix="phbench_cvode_")) / "cvode_compass_walker"
+    run = subprocess.run([*cc, "-O2", str(CVODE_SOURCE), "-o", str(out), *CVODE_LIBS],
+                         capture_output=True, text=True, check=False)
+    if run.returncode != 0:
+        return None, ("SUNDIALS CVODE not found (apt-get install -y libsundials-dev): "
+                      + (run.stderr.strip().splitlines() or ["?"])[0][:200])
+    check = subprocess.run([str(out), "--check"], capture_output=True, text=True, check=True)
+    return str(out), check.stdout.strip()
+
+
+def run_cvode(driver: str, z, n: int, repeats: int, rtol=1e-8, atol=1e-10, max_step=0.01) -> dict:
+    out = subprocess.run([driver, str(n), repr(rtol), repr(atol), repr(max_step), str(repeats),
+                          *(repr(float(v)) for v in z)], capture_output=True, text=True,
+                         check=True)
+    return json.loads(out.stdout)
+
+
+def backend_variants(name: str) -> dict:
+    """label -> (walker, steps per timed walk divisor: None = the full walk)."""
+    out = {f"{b}, the file's method": build_framework(name, b) for b in ("c", "numba", "python")}
+    if name != "simplest":
+        out["numba, Rodas4 rtol 1e-8 (before issue 11)"] = build_framework(name, "numba") \
+            .with_options(method="Rodas4", rtol=1e-8, atol=1e-10)
+        out["c, Rodas4 rtol 1e-8"] = build_framework(name, "c") \
+            .with_options(method="Rodas4", rtol=1e-8, atol=1e-10)
+    return out
+
+
+def bench_backends(name: str, z, args, rec: dict, cvode: tuple[str | None, str]) -> None:
+    """Time per step of the same walk on each back end (and the C + CVODE baseline), each
+    variant's error against a tight reference walk."""
+    n = args.steps
+    variants = backend_variants(name)
+    base = build_framework(name, "c")
+    ref_walker = (base.with_options(rtol=1e-13, atol=1e-24) if name == "simplest" else
+                  base.with_options(method="Rodas5P", rtol=1e-12, atol=1e-14))
+    ref = ref_walker.walk(z, n)
+    z_ref = ref[-1].z_next
+    for w in variants.values():           # build, load, JIT before timing
+        w.stride(z)
+    times: dict[str, list] = {k: [] for k in variants}
+    info: dict[str, dict] = {}
+    driver, note = cvode
+    cvode_runs: dict[float, list] = {1e-8: [], 1e-10: []}
+    for r in range(args.rounds):
+        if name == "compass" and driver is not None:     # interleaved with the framework's
+            for rtol, runs in cvode_runs.items():
+                runs.append(run_cvode(driver, z, n, 1, rtol=rtol, atol=rtol * 1e-2))
+                print(f"  round {r + 1}: hand C + CVODE rtol {rtol:g}"
+                      f"{1e3 * runs[-1]['seconds'][0] / n:30.2f} ms/step", flush=True)
+        for label, w in variants.items():
+            steps = 1 if (label.startswith("python") and name != "simplest") else n
+            t0 = time.perf_counter()
+            out = w.walk(z, steps, record=True)
+            times[label].append((time.perf_counter() - t0) / steps)
+            tr = out[-1].info["trajectory"]
+            info[label] = {"steps": (len(tr.t) - len(tr.segments)) / steps,
+                           "error": (float(np.max(np.abs(out[-1].z_next - z_ref)))
+                                     if steps == n else
+                                     float(np.max(np.abs(out[-1].z_next - ref[0].z_next))))}
+            print(f"  round {r + 1}: {label:45s} {1e3 * times[label][-1]:9.2f} ms/step",
+                  flush=True)
+    rows = {k: {"median": statistics.median(v), **info[k]} for k, v in times.items()}
+    if name == "compass" and driver is None:
+        rows["hand C + CVODE"] = {"note": note}
+    for rtol, runs in cvode_runs.items():
+        if runs:
+            res = runs[-1]
+            rows[f"hand C + CVODE, BDF rtol {rtol:g}"] = {
+                "median": statistics.median(r["seconds"][0] for r in runs) / n,
+                "steps": res["steps"] / n, "error": float(np.max(np.abs(np.array(res["z"]) - z_ref))),
+                "nfev": res["nfev"] / n, "njev": res["njev"] / n, "note": note}
+    rec["backends"] = rows
+
+
+def print_backends(report: dict) -> None:
+    if not any("backends" in r for r in report.values()):
+        return
+    print("\n## Time per step by back end (median of the interleaved rounds; python: one step per "
+          "round for the compliant walkers)")
+    print("\n| walker | variant | [ms/step] | accepted steps per step | error after the walk vs "
+          "the reference | time / C (file's method) |")
+    print("|---|---|---|---|---|---|")
+    for name, rec in report.items():
+        rows = rec.get("backends", {})
+        c = rows.get("c, the file's method", {}).get("median")
+        for label, row in rows.items():
+            if "median" not in row:
+                print(f"| {name} | {label} | — ({row.get('note')}) | | | |")
+                continue
+            print(f"| {name} | {label} | {1e3 * row['median']:.2f} | {row['steps']:.0f} | "
+                  f"{row['error']:.1e} | {row['median'] / c:.2f} |")
+        if c is not None and "numba, Rodas4 rtol 1e-8 (before issue 11)" in rows:
+            before = rows["numba, Rodas4 rtol 1e-8 (before issue 11)"]["median"]
+            print(f"\n{name}: C (file's method) is {before / c:.2f}x faster per step than the "
+                  "numba loop before issue 11 (target: >= 2x)")
+        for label, row in rows.items():
+            if label.startswith("hand C + CVODE") and "median" in row and c is not None:
+                print(f"{name}: C (file's method) takes {c / row['median']:.2f}x the time per step "
+                      f"of {label} (target: <= 1.5x); CVODE's error {row['error']:.1e} vs C's "
+                      f"{rows['c, the file' + chr(39) + 's method']['error']:.1e}; "
+                      f"{row.get('note', '')}")
+
+
+# ------------------------------------------------------------------------------------------------
 # measurements
 # ------------------------------------------------------------------------------------------------
 def source_hash() -> str:
@@ -253,10 +379,11 @@ def source_hash() -> str:
 
 def framework_breakdown(fw, z, n_steps: int) -> dict:
     """Accepted steps, RHS / Jacobian evaluations per step, and the share of the wall time in
-    the compiled Rodas4 loop (numba) or in the generated RHS (python back end)."""
+    the compiled loop (C, numba) or in the generated RHS (python back end)."""
     f = fw.model.functions
-    name = "rodas" if fw.backend == "numba" and getattr(fw.options, "method", "") == "Rodas4" else "rhs"
-    orig = getattr(f, name)
+    method = getattr(fw.options, "method", "")
+    name = "loop" if fw.backend != "python" and method in f.loops else "rhs"
+    orig = f.loops[method] if name == "loop" else f.rhs
     acc = [0.0, 0]
 
     def wrapped(*a):
@@ -266,13 +393,19 @@ def framework_breakdown(fw, z, n_steps: int) -> dict:
         acc[1] += 1
         return r
 
-    object.__setattr__(f, name, wrapped)
+    if name == "loop":
+        f.loops[method] = wrapped
+    else:
+        object.__setattr__(f, "rhs", wrapped)
     try:
         t0 = time.perf_counter()
         strides = fw.walk(z, n_steps, record=True)
         total = time.perf_counter() - t0
     finally:
-        object.__setattr__(f, name, orig)
+        if name == "loop":
+            f.loops[method] = orig
+        else:
+            object.__setattr__(f, "rhs", orig)
     tr = strides[-1].info.get("trajectory")
     steps = len(tr.t) - len(tr.segments)
     return {"part": name, "share": acc[0] / total, "calls": acc[1], "total": total,
@@ -408,6 +541,9 @@ def bench_walker(name: str, args, report: dict) -> None:
     rec["steps_timed"] = n
     rec["breakdown"] = framework_breakdown(fw, z_fw, n)
     print(f"framework breakdown: {rec['breakdown']}", flush=True)
+    if args.backends and fp.converged:
+        print("by back end:", flush=True)
+        bench_backends(name, z_fw, args, rec, args.cvode)
 
 
 def print_tables(report: dict, info: dict, args) -> None:
@@ -473,7 +609,7 @@ def print_tables(report: dict, info: dict, args) -> None:
             continue
         b = rec["breakdown"]
         print(f"| {name} | {rec.get('backend', '')} | {1e3 * b['total'] / args.steps:.2f} | "
-              f"{'compiled Rodas4 loop' if b['part'] == 'rodas' else 'generated RHS'} "
+              f"{'compiled loop' if b['part'] == 'loop' else 'generated RHS'} "
               f"({b['calls']} calls) | {100 * b['share']:.0f} % | {b['events']:.1f} / "
               f"{b['segments']:.1f} | {b['ledger_residual']:.1e} |")
     if any("compile" in r for r in report.values()):
@@ -504,6 +640,8 @@ def main(argv=None) -> int:
                         help="skip the hand-written LSODA fixed-point search")
     parser.add_argument("--compile-only", action="store_true",
                         help="only the cold/cached compile subprocesses")
+    parser.add_argument("--no-backends", dest="backends", action="store_false",
+                        help="skip the per-back-end table (and the C + CVODE baseline)")
     parser.add_argument("--json", help="write the raw numbers to this file")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--backend", default="", help=argparse.SUPPRESS)
@@ -514,6 +652,7 @@ def main(argv=None) -> int:
         args.rounds, args.steps, args.fp_rounds = 1, 3, 1
         args.no_compile, args.fixed_points = True, False
     names = [w.strip() for w in args.walkers.split(",") if w.strip()]
+    args.cvode = build_cvode() if (args.backends and "compass" in names) else (None, "not built")
 
     info = machine_info()
     src0 = source_hash()
@@ -523,9 +662,10 @@ def main(argv=None) -> int:
           f"sympy {info['sympy']}, numba {info['numba']}; BLAS threads "
           f"{os.environ.get('OPENBLAS_NUM_THREADS')}; source hash {src0}")
     print("tolerances: simplest walker rtol 1e-12, atol 1e-24, max_step 0.25 (DOP853, both sides);"
-          " compliant walkers rtol 1e-8, atol 1e-10, max_step 0.01 (framework Rodas4, hand "
-          "Radau/LSODA); Newton tol = the walker's gait_tolerance (1e-10 simplest, 1e-8 "
-          f"compliant), fd step 1e-6; {args.rounds} round(s) of {args.steps} steps", flush=True)
+          " compliant walkers: framework the walker files' (Rodas5P, rtol 1e-9, atol 1e-11, "
+          "max_step 0.01), hand Radau/LSODA rtol 1e-8, atol 1e-10, max_step 0.01; Newton tol = "
+          "the walker's gait_tolerance (1e-10 simplest, 1e-8 compliant), fd step 1e-6; "
+          f"{args.rounds} round(s) of {args.steps} steps", flush=True)
 
     report: dict = {}
     for name in names:
@@ -537,10 +677,9 @@ def main(argv=None) -> int:
             report[name] = {}
             continue
         bench_walker(name, args, report)
-        fw_backend = {"simplest": "python / DOP853", "compass": "numba / Rodas4",
-                      "legs": "numba / Rodas4"}[name]
-        report[name]["backend"] = fw_backend
-        report[name]["tol"] = "1e-10" if name == "simplest" else "1e-8"
+        fw = build_framework(name)
+        report[name]["backend"] = f"{fw.backend} / {fw.options.method}"
+        report[name]["tol"] = f"{fw_tol(fw):g}"
     if not args.no_compile:
         for name in names:
             if report.get(name, {}).get("skipped"):
@@ -550,6 +689,9 @@ def main(argv=None) -> int:
             if name == "simplest":
                 report[name]["compile"]["numba"] = compile_times(name, "numba")
     print_tables(report, info, args)
+    print_backends(report)
+    if args.backends:
+        print(f"\nC + CVODE baseline: {args.cvode[1]}")
     src1 = source_hash()
     print(f"\nload average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}; source "
           f"hash {src1}{'' if src1 == src0 else ' (CHANGED during the run: other sessions edited the library)'}")

@@ -1,8 +1,9 @@
 """Command line ``porthamiltonian``: simulate, show, check-energy and sweep model files.
 
     porthamiltonian simulate MODEL [--set NAME=VALUE ...] [--t-end T] [--json] [--csv FILE]
-    porthamiltonian show MODEL
+    porthamiltonian show MODEL [--code [--backend c|numba|python]]
     porthamiltonian check-energy [MODEL ...]
+    porthamiltonian view MODEL [--set NAME=VALUE ...] [--t-end T] [--out DIR] [--rate R]
     porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
                           [--settle NAME [--band B]] [--workers N | --serial | --scheduler ADDR]
 
@@ -31,6 +32,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from . import backends, io
+from .backends import module, native
 from .batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
 from .batch.progress import MODES
 from .batch.simulation import SimulationModel, prepare_simulation, simulate_case
@@ -97,7 +99,8 @@ SWEEP_OPTIONS.add_argument("--progress-interval", type=float, default=10.0, meta
                            help="seconds between text progress lines (default: 10)")
 
 
-def add_sweep_parser(subparsers, help: str, description: str) -> argparse.ArgumentParser:
+def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
+                     description: str) -> argparse.ArgumentParser:
     """Add a ``sweep`` command to ``subparsers``: ``--backend``, :data:`SWEEP_OPTIONS` and
     ``--json``, and the resume and exit-status rules after ``description``."""
     return subparsers.add_parser(
@@ -206,7 +209,8 @@ SIMULATE = Analysis("simulate", simulate_case,
                     ok_statuses=("finished", "event"))
 
 
-def cmd_sweep(args) -> int:
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """``porthamiltonian sweep``: simulate the model at every grid point (resumable)."""
     if not 0 < args.band < 1:
         raise SweepError(f"--band must be a fraction between 0 and 1 (0.02: the 2 % settling "
                          f"time), got {args.band!r}")
@@ -218,7 +222,8 @@ def cmd_sweep(args) -> int:
 
 
 # --- simulate, show, check-energy -------------------------------------------------------------------
-def cmd_simulate(args) -> int:
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """``porthamiltonian simulate``: one run, its final state and ledger (text or JSON)."""
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set))
@@ -234,7 +239,7 @@ def cmd_simulate(args) -> int:
         print(f"{model.name}: {traj.status} at t = {traj.t_final:g} s ({traj.message}); "
               f"{traj.nfev} right-hand-side evaluations")
         for name, value in result["final_state"].items():
-            print(f"  {name:30s} {value: .10g}")
+            print(f"  {name:30s} {value: .10g} {compiled.units.get(name, '')}".rstrip())
         led = result["energy"]
         print(f"  energy: H(0) = {led['H0']:.10g} J, H(T) = {led['HT']:.10g} J, dissipated = "
               f"{led['dissipated']:.10g} J, supplied = {led['supplied']:.10g} J")
@@ -243,24 +248,58 @@ def cmd_simulate(args) -> int:
     return 0 if traj.success else 1
 
 
-def cmd_show(args) -> int:
-    from .compiler import symbolic
+def cmd_view(args: argparse.Namespace) -> int:
+    """``porthamiltonian view``: simulate a model and write its 3D view and still image."""
+    from pathlib import Path
 
-    model = io.load(args.model)
-    flat = model.flatten()
-    print(f"model {model.name}: {model.doc}")
+    from .errors import OptionError
+    from .viewer import scene_from_trajectory
+
+    if not (args.rate > 0 and args.rate < float("inf")):
+        raise OptionError(f"--rate: frames per second of simulated time must be a positive "
+                          f"number, got {args.rate:g}")
+    record = io.read(args.model)
+    entry = SimulationModel.load(args.model, args.backend)
+    traj = entry.simulate(args.t_end, parse_assignments(args.set))
+    scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
+                                  title=entry.model.name)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    page = scene.to_html(out / "view.html", caption=record.description, still=False)
+    still = scene.to_png(out / "view.png")
+    print(f"wrote {page} and {still}: {len(scene.bodies)} bod{'y' if len(scene.bodies) == 1 else 'ies'}"
+          f", {len(scene.t)} frames over {traj.t_final:g} s ({traj.status})")
+    return 0 if traj.success else 1
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    """``porthamiltonian show``: components, bonds, parameters and the state equations (with
+    ``--code``: the generated source of the chosen back end)."""
+    from .compiler import compile_model, symbolic
+
+    record = io.read(args.model)
+    model = record.model
+    if args.code:
+        with record.located():
+            compiled = compile_model(model, backend=args.backend)
+        print(native.translation_unit(compiled.source) if compiled.backend == "c" else
+              module.module_text(compiled.source, compiled.backend), end="")
+        return 0
+    with record.located():
+        flat = model.validate()
+        sym = symbolic(flat)
+    print(f"model {model.name}: {record.description}")
     print("components:")
     for name, comp in flat.components.items():
         ports = ", ".join(f"{p.name}[{p.domain}{'' if p.dim == 1 else f' x{p.dim}'}, "
-                          f"{p.orientation or 'free'}]" for p in comp.all_ports())
-        print(f"  {name:22s} {comp.kind:8s} {comp.args}  ports: {ports}")
+                          f"{p.orientation or 'free'}]" for p in flat.ports[name])
+        print(f"  {name:22s} {comp.kind:8s} {dict(comp.args)}  ports: {ports}")
     print("bonds (power tail -> head):")
     for (tc, tp), (hc, hp) in flat.bonds:
         print(f"  {tc}.{tp} -> {hc}.{hp}")
     print("parameters:")
     for name, par in flat.parameters.items():
         print(f"  {name:22s} = {par.value:<12g} {par.unit:10s} {par.doc}")
-    sym = symbolic(model)
     print("states:", ", ".join(sym.state_names))
     print("state equations:")
     for line in sym.equations:
@@ -271,7 +310,8 @@ def cmd_show(args) -> int:
     return 0
 
 
-def cmd_check_energy(args) -> int:
+def cmd_check_energy(args: argparse.Namespace) -> int:
+    """``porthamiltonian check-energy``: each model's energy balance against its tolerance."""
     names = args.models or io.available_models()
     failed = []
     for name in names:
@@ -309,8 +349,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv", metavar="FILE",
                    help="also write the trajectory (time, states, ledger, outputs) as CSV")
     p.set_defaults(func=cmd_simulate)
-    p = sub.add_parser("show", help="components, ports, bonds, states, parameters and equations")
+    p = sub.add_parser("view", parents=[BACKEND_OPTION, SET_OPTION],
+                       help="simulate a model and write an interactive 3D view of its bodies "
+                            "(view.html, works offline) and a still image (view.png)")
+    p.add_argument("model", help=model_help + "; its bodies need poses: a FreeBody, or a "
+                   "Multibody body with outputs <multibody>.<body>.pose.x|y|z|qw|qx|qy|qz")
+    p.add_argument("--t-end", type=float, default=None, metavar="T",
+                   help="end time (s; default: the model file's [simulation] t_end)")
+    p.add_argument("--out", default="view", metavar="DIR",
+                   help="output directory (default: ./view)")
+    p.add_argument("--rate", type=float, default=30.0, metavar="R",
+                   help="frames per second of simulated time (default: 30; at most 900 "
+                        "frames)")
+    p.set_defaults(func=cmd_view)
+    p = sub.add_parser("show", parents=[BACKEND_OPTION],
+                       help="components, ports, bonds, states, parameters and equations, or "
+                            "the generated code (--code)")
     p.add_argument("model", help=model_help)
+    p.add_argument("--code", action="store_true",
+                   help="print the generated source the back end compiles (--backend: c, "
+                        "numba or python; default auto, the back end in use)")
     p.set_defaults(func=cmd_show)
     p = sub.add_parser("check-energy", parents=[BACKEND_OPTION],
                        help="simulate models and check their energy residual")
@@ -353,10 +411,12 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
       status 3.
 
     Warnings (e.g. a damaged cache entry being rebuilt) are printed as ``warning: <message>``.
+    The one-time build of a model that is not cached yet is reported in one line on stderr
+    (:func:`porthamiltonian.backends.report`; not with ``--quiet``).
     """
     args = parser.parse_args(argv)
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), backends.quiet(getattr(args, "quiet", False)):
             warnings.showwarning = _show_warning
             status = args.func(args)
             sys.stdout.flush()                 # a closed pipe shows here, not at exit
@@ -400,6 +460,7 @@ def _report_bug() -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``porthamiltonian`` command: the exit status (0 ok, 1 a failed check, 2 bad input)."""
     return run(build_parser(), argv)
 
 

@@ -1,8 +1,15 @@
-"""CompiledModel: the numeric model (functions + layouts). No sympy, no graph.
+"""CompiledModel: the numeric model (layouts and numeric functions). No sympy, no graph.
 
 Values live apart from the description (as in Drake's System/Context): a compiled model is
 simulated with any parameter values without recompiling; ``params()`` builds the parameter vector
-from defaults and overrides by name.
+from defaults and overrides by name; :meth:`~CompiledModel.outputs`, :meth:`~CompiledModel.output`,
+:meth:`~CompiledModel.energy` and :meth:`~CompiledModel.guards` evaluate the model at one point.
+
+``CompiledModel.simulate`` *is* :func:`porthamiltonian.simulate.simulate` (the same function,
+bound as a method: one signature, documented once). The simulator sits below this module in the
+import graph: it needs only the layout and the numeric functions of the model it is handed (it
+imports this module for type checking only), so that the compiled model can offer the call users
+expect (``compile_model(m).simulate(10.0)``) without an import cycle.
 """
 from __future__ import annotations
 
@@ -16,6 +23,7 @@ import numpy as np
 from .backends import Functions
 from .constraints import ConstraintChecker
 from .errors import OptionError, ParameterValueError, StateError, UnknownParameterError
+from .simulate import simulate as _simulate
 
 
 @dataclass(frozen=True)
@@ -38,6 +46,8 @@ class CompiledModel:
         (``<component>.H``, or ``.T`` and ``.V`` of a multibody; kind ``"stored"`` or
         ``"potential"``), for the ledger's scale (Trajectory.energy_scale).
     constraints : the components' constraints on parameter values, checked by :meth:`params`.
+    units : SI unit by name of the states and port variables whose unit is known
+        (``"spring.q": "m"``, ``"mass.p.e": "N"``).
     events : the model's event guards.
     functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
     """
@@ -56,6 +66,7 @@ class CompiledModel:
         self.autonomous: bool = meta["autonomous"]
         self.energy_parts: list[tuple[str, str]] = [tuple(e) for e in meta.get("energy_parts", [])]
         self.constraints = ConstraintChecker(self.name, meta.get("constraints", []))
+        self.units: dict[str, str] = dict(meta.get("units", {}))
         self.functions = functions
         self.source = source
         self.key = key
@@ -65,10 +76,12 @@ class CompiledModel:
 
     @property
     def n_states(self) -> int:
+        """The number of model states (without the two ledger states)."""
         return len(self.state_names)
 
     @property
     def backend(self) -> str:
+        """The back end of the numeric functions (``"python"``, ``"numba"``)."""
         return self.functions.backend
 
     def params(self, values: Mapping[str, float] | None = None, **more: float) -> np.ndarray:
@@ -100,7 +113,7 @@ class CompiledModel:
         self.constraints.check(dict(zip(self.param_names, p.tolist())))
         return p
 
-    def native_params(self, p: np.ndarray):
+    def native_params(self, p: np.ndarray) -> list[float] | np.ndarray:
         """The parameter vector in the form the back end's functions take."""
         return p.tolist() if self.backend == "python" else np.ascontiguousarray(p, dtype=float)
 
@@ -116,6 +129,7 @@ class CompiledModel:
         return x
 
     def state_index(self, name: str) -> int:
+        """The index of the state ``name``; StateError naming the states if there is none."""
         try:
             return self._state_index[name]
         except KeyError:
@@ -123,6 +137,7 @@ class CompiledModel:
                              f"{', '.join(self.state_names)}") from None
 
     def output_index(self, name: str) -> int:
+        """The index of the output ``name``; StateError naming the outputs if there is none."""
         try:
             return self._output_index[name]
         except KeyError:
@@ -137,10 +152,29 @@ class CompiledModel:
                              f"({', '.join(self.state_names)}), got shape {x.shape}")
         return np.concatenate([x, [0.0, 0.0]])
 
-    def energy(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """[H, P_diss, P_in] at one point (x may be the model or the integration state)."""
+    def _point(self, x: np.ndarray) -> np.ndarray:
+        """The integration state of a model or integration state ``x``, contiguous floats."""
         y = x if len(x) == self.n_states + 2 else self.augment(x)
-        return np.asarray(self.functions.energy(t, y, self.native_params(p)))
+        return np.ascontiguousarray(y, dtype=float)
+
+    def energy(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """[H, P_diss, P_in] (J, W, W) at one point (x: the model or the integration state)."""
+        return np.asarray(self.functions.energy(t, self._point(x), self.native_params(p)))
+
+    def outputs(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Every named output at one point, in the order of :attr:`output_names` (x may be the
+        model or the integration state, p the parameter vector)."""
+        return np.asarray(self.functions.outputs(t, self._point(x), self.native_params(p)))
+
+    def output(self, name: str, t: float, x: np.ndarray, p: np.ndarray) -> float:
+        """The named output ``name`` (e.g. ``"spring.p.e"``) at one point; StateError naming the
+        outputs for an unknown name."""
+        return float(self.outputs(t, x, p)[self.output_index(name)])
+
+    def guards(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """The model's event guards at one point, in the order of :attr:`events`."""
+        g = np.asarray(self.functions.guards(t, self._point(x), self.native_params(p)))
+        return g[: len(self.events)]
 
     def matrix(self, name: str, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The named matrix (e.g. ``walker.M``, a mass matrix) at one point."""
@@ -149,8 +183,7 @@ class CompiledModel:
         except ValueError:
             raise StateError(f"model {self.name!r} has no matrix {name!r}; matrices: "
                              f"{', '.join(self.matrix_names) or 'none'}") from None
-        y = x if len(x) == self.n_states + 2 else self.augment(x)
-        return np.asarray(self.functions.matrices[k](t, y, self.native_params(p)))
+        return np.asarray(self.functions.matrices[k](t, self._point(x), self.native_params(p)))
 
     def power_balance(self, t: float, x: np.ndarray, p: np.ndarray, h: float = 1e-3) -> float:
         """dH/dt − P_in + P_diss at one point, dH/dt by a fourth-order central difference of H
@@ -171,11 +204,11 @@ class CompiledModel:
         _, p_diss, p_in = self.functions.energy(t, y, pn)
         return float(dH - p_in + p_diss)
 
-    def simulate(self, t_end: float, x0=None, params: Mapping[str, float] | None = None, **options):
-        """Simulate; see :func:`porthamiltonian.simulate.simulate`."""
-        from .simulate import simulate
+    def _repr_html_(self) -> str:
+        from .display import model_html
+        return model_html(self)
 
-        return simulate(self, t_end, x0, params, **options)
+    simulate = _simulate
 
     def __repr__(self) -> str:
         return (f"CompiledModel({self.name!r}, {self.n_states} states, {len(self.param_names)} "

@@ -24,9 +24,11 @@ as supplied power by itself.
 """
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, ClassVar
 
 import sympy as sp
@@ -34,7 +36,7 @@ import sympy as sp
 from .constraints import RULES, Constraint, violation
 from .errors import ModelError, ParameterValueError, UnknownComponentError, UnknownPortError
 from .expressions import TIME, as_expr, check_name, parse, to_text
-from .ports import Port
+from .ports import Port, domain
 
 REQUIRED = object()
 
@@ -48,7 +50,8 @@ class Arg:
     ``local`` lists the names a law may use beside the model's (e.g. ``("q",)`` for an energy in q).
     ``rule`` is a physical constraint ``value rule 0`` (``">"``, ``">="``, ``"!="``; see
     :mod:`porthamiltonian.constraints`), checked for numbers when the model compiles and for
-    parameter values whenever they are bound.
+    parameter values whenever they are bound. ``check`` validates a given (non-None) plain value
+    when the component is made, raising a ModelError (e.g. a domain name).
     """
 
     doc: str
@@ -57,6 +60,7 @@ class Arg:
     symbolic: bool = True
     local: tuple[str, ...] = ()
     rule: str | None = None
+    check: Callable[[Any], None] | None = None
 
     def __post_init__(self) -> None:
         if self.rule is not None and self.rule not in RULES:
@@ -95,10 +99,11 @@ class Built:
     ports: dict[str, PortVars] = field(default_factory=dict)
     states: list[StateDecl] = field(default_factory=list)
     equations: list[tuple[sp.Expr, str]] = field(default_factory=list)
-    energy: sp.Expr = sp.Integer(0)
-    dissipation: sp.Expr = sp.Integer(0)
-    supply: sp.Expr = sp.Integer(0)
+    energy: sp.Expr = sp.S.Zero
+    dissipation: sp.Expr = sp.S.Zero
+    supply: sp.Expr = sp.S.Zero
     outputs: dict[str, sp.Expr] = field(default_factory=dict)
+    output_units: dict[str, str] = field(default_factory=dict)
     storage_ports: list[str] = field(default_factory=list)
     #: the energy's dependence on other components' states is paid through this component's own
     #: power ports (e.g. a contact whose penetration is a body point's height): no modulation
@@ -243,6 +248,10 @@ class Builder:
         if causality not in ("C", "I"):
             raise ModelError(f"component {self.name!r}: storage causality must be 'C' or 'I'")
         gradient = sp.diff(energy, state)
+        for decl in self.built.states:          # a state without a unit gets its port's
+            if decl.symbol == state and not decl.unit:
+                dom = domain(port.port.domain)
+                decl.unit = dom.displacement_unit if causality == "C" else dom.momentum_unit
         if causality == "C":
             self.equation(self.der(state), port.f, "dq/dt = f")
             self.equation(port.e, gradient, "e = dH/dq")
@@ -259,10 +268,13 @@ class Builder:
         """Add ``power`` (W) to the power supplied to the model from outside."""
         self.built.supply = self.built.supply + power
 
-    def output(self, name: str, expr: sp.Expr) -> None:
-        """A named output ``component.name`` (any expression in the model's variables). Other
-        components may read it as a signal by its dotted name (e.g. ``walker.foot1.z``)."""
+    def output(self, name: str, expr: sp.Expr, unit: str = "") -> None:
+        """A named output ``component.name`` (any expression in the model's variables), in SI
+        ``unit`` if given. Other components may read it as a signal by its dotted name (e.g.
+        ``walker.foot1.z``)."""
         self.built.outputs[self._qualified(name)] = as_expr(expr)
+        if unit:
+            self.built.output_units[self._qualified(name)] = unit
 
     def parse(self, text: Any, what: str, local: Mapping[str, sp.Expr] | None = None) -> sp.Expr:
         """Parse an expression of this component (model names plus ``local`` names)."""
@@ -295,10 +307,25 @@ class Builder:
         return f"{self.name}.{name}"
 
 
-class Component:
+class _Frozen(type):
+    """Metaclass of :class:`Component`: an instance is frozen once its whole ``__init__`` chain
+    has run (subclasses may set private attributes while they are constructed)."""
+
+    def __call__(cls, *args: Any, **kwargs: Any) -> Any:
+        instance = super().__call__(*args, **kwargs)
+        object.__setattr__(instance, "_frozen", True)
+        return instance
+
+
+class Component(metaclass=_Frozen):
     """Base class of all components. Subclasses set ``kind``, ``arguments`` and implement
-    :meth:`ports` and :meth:`build`. Instances hold their arguments as given (text or numbers),
-    so that a model saves back to the same file."""
+    :meth:`ports` and :meth:`build`.
+
+    A component is an immutable value: it holds its arguments as given (text or numbers, copied
+    at construction, so that a model saves back to the same file) in the read-only mapping
+    :attr:`args`, and nothing changes it afterwards: connecting it records the bond (and a
+    junction's new port) on the model's graph, so one instance may be added to several models.
+    """
 
     kind: ClassVar[str] = ""
     arguments: ClassVar[dict[str, Arg]] = {}
@@ -307,24 +334,45 @@ class Component:
     relations: ClassVar[tuple[tuple[str, str, str], ...]] = ()
     #: plain (non-symbolic) arguments that are vectors or matrices of expressions
     vector_arguments: ClassVar[tuple[str, ...]] = ()
-    #: Junction-like components accept new ports at connection time.
+    #: Junction-like components: each bond to them makes a new port (kept on the model's graph).
     free_ports: ClassVar[bool] = False
+    _frozen: bool = False
 
     def __init__(self, **args: Any):
         unknown = sorted(set(args) - set(self.arguments))
         if unknown:
             raise ModelError(
                 f"{self.kind} has no argument(s) {', '.join(unknown)}; its arguments are: "
-                f"{', '.join(self.arguments) or 'none'}"
-            )
+                f"{', '.join(self.arguments) or 'none'}", path=(unknown[0],))
         missing = [n for n, a in self.arguments.items() if a.default is REQUIRED and n not in args]
         if missing:
             raise ModelError(f"{self.kind} needs argument(s) {', '.join(missing)}")
-        for value in args.values():
+        for name, value in args.items():
             if isinstance(value, float) and not math.isfinite(value):
-                raise ModelError(f"{self.kind}: argument value {value!r} is not finite")
-        self.args: dict[str, Any] = dict(args)
-        self.extra_ports: list[Port] = []
+                raise ModelError(f"{self.kind}: argument value {value!r} is not finite",
+                                 path=(name,))
+            check = self.arguments[name].check
+            if check is not None and value is not None:
+                try:
+                    check(value)
+                except ModelError as err:
+                    raise err.within(name) from None
+        self.args: Mapping[str, Any] = MappingProxyType(copy.deepcopy(args))
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if self._frozen:
+            raise AttributeError(f"{self.kind or type(self).__name__} components are immutable "
+                                 f"(cannot set {name!r}); make a new one with other arguments")
+        object.__setattr__(self, name, value)
+
+    def __copy__(self) -> Component:
+        return self
+
+    def __deepcopy__(self, memo: dict) -> Component:
+        return self
+
+    def __reduce__(self) -> tuple:
+        return _rebuild, (type(self), dict(self.args))
 
     def value(self, name: str) -> Any:
         """An argument as given, or its default."""
@@ -334,19 +382,10 @@ class Component:
         """The power ports this component declares."""
         return []
 
-    def all_ports(self) -> list[Port]:
-        return [*self.ports(), *self.extra_ports]
-
-    def new_port(self, like: Port, name: str | None = None) -> Port:
-        """Add a port to a junction-like component (``free_ports``) matching ``like``."""
-        if not self.free_ports:
-            raise ModelError(f"{self.kind} components have fixed ports")
-        name = name or f"p{len(self.extra_ports) + 1}"
-        port = Port(name, like.domain, like.dim, None, like.frame)
-        self.extra_ports.append(port)
-        return port
-
-    def build(self, b: Builder, **args: sp.Expr) -> None:  # pragma: no cover - abstract
+    def build(self, b: Builder, **args: Any) -> None:  # pragma: no cover - abstract
+        """Declare the component's states, laws, energy, dissipation and outputs with the
+        builder ``b``; ``args`` are the arguments by name, symbolic ones parsed
+        (:meth:`parsed_args`)."""
         raise NotImplementedError
 
     def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
@@ -371,15 +410,19 @@ class Component:
 
     def parsed_args(self, b: Builder) -> dict[str, Any]:
         """Arguments for :meth:`build`: symbolic ones parsed (with their local names), others raw;
-        the arguments' rules and the :attr:`relations` declared with :meth:`Builder.require`."""
+        the arguments' rules and the :attr:`relations` declared with :meth:`Builder.require`. An
+        error carries the argument's name as its path."""
         out: dict[str, Any] = {}
         for name, arg in self.arguments.items():
             value = self.value(name)
             if arg.symbolic and value is not None:
                 local = {n: sp.Symbol(n, real=True) for n in arg.local}
-                out[name] = b.parse(value, f"argument {name!r}", local)
-                if arg.rule is not None:
-                    b.require(out[name], arg.rule, f"argument {name!r}")
+                try:
+                    out[name] = b.parse(value, f"argument {name!r}", local)
+                    if arg.rule is not None:
+                        b.require(out[name], arg.rule, f"argument {name!r}")
+                except ModelError as err:
+                    raise err.within(name) from None
             else:
                 out[name] = value
         for name, rule, other in self.relations:
@@ -390,6 +433,11 @@ class Component:
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.args.items())
         return f"{type(self).__name__}({args})"
+
+
+def _rebuild(cls: type[Component], args: dict[str, Any]) -> Component:
+    """Unpickling: the component made again from its arguments."""
+    return cls(**args)
 
 
 REGISTRY: dict[str, type[Component]] = {}
@@ -415,4 +463,5 @@ def component_class(kind: str) -> type[Component]:
         ) from None
 
 
-__all__ = ["Arg", "Builder", "Component", "PortVars", "REGISTRY", "TIME", "component_class", "register"]
+__all__ = ["REGISTRY", "TIME", "Arg", "Builder", "Component", "PortVars", "component_class",
+           "register"]

@@ -43,10 +43,12 @@ class Constraint:
     bound_name: str = ""
 
     def to_dict(self) -> dict[str, str]:
+        """The constraint as a JSON-ready table (the compiled model's metadata)."""
         return asdict(self)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Constraint:
+        """The constraint of a :meth:`to_dict` table."""
         return cls(**{k: str(v) for k, v in data.items()})
 
 

@@ -9,13 +9,31 @@ the modulation as supplied.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
+from typing import Any
+
 import sympy as sp
 
 from .component import Arg, Builder, Component, register
 from .errors import ModelError
-from .ports import Port, domain
+from .ports import DOMAINS, Port, domain
 
-_DOMAIN = Arg("energy domain of the port(s)", symbolic=False, default="translation")
+
+def _check_domain(value: object) -> None:
+    """A domain name, or (a multiport storage) a table of them."""
+    for name in value.values() if isinstance(value, dict) else [value]:
+        if not isinstance(name, str):
+            raise ModelError(f"a domain is a name ({', '.join(sorted(DOMAINS))}), got {name!r}")
+        domain(name)
+
+
+def _check_dim(value: object) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ModelError(f"R: dim must be a whole number >= 1, got {value!r}")
+
+
+_DOMAIN = Arg("energy domain of the port(s)", symbolic=False, default="translation",
+              check=_check_domain)
 
 
 def _exactly_one(kind: str, given: dict[str, object]) -> str:
@@ -48,7 +66,8 @@ class C(_OnePortIn):
         "q0": Arg("initial value of q", default=0),
     }
 
-    def build(self, b: Builder, domain, stiffness, compliance, energy, q0) -> None:
+    def build(self, b: Builder, domain: str, stiffness: sp.Expr | None, compliance: sp.Expr | None,
+              energy: sp.Expr | None, q0: sp.Expr) -> None:
         chosen = _exactly_one("C", {"stiffness": stiffness, "compliance": compliance,
                                     "energy": energy})
         q = b.state("q", initial=q0)
@@ -74,7 +93,8 @@ class I(_OnePortIn):
         "p0": Arg("initial momentum", default=0),
     }
 
-    def build(self, b: Builder, domain, inertance, energy, p0) -> None:
+    def build(self, b: Builder, domain: str, inertance: sp.Expr | None, energy: sp.Expr | None,
+              p0: sp.Expr) -> None:
         chosen = _exactly_one("I", {"inertance": inertance, "energy": energy})
         p = b.state("p", initial=p0)
         H = p**2 / (2 * inertance) if chosen == "inertance" else energy.xreplace(
@@ -98,16 +118,14 @@ class R(_OnePortIn):
         "effort": Arg("effort as a function of the flow f", default=None, local=("f",)),
         "flow": Arg("flow as a function of the effort e", default=None, local=("e",)),
         "dim": Arg("dimension of the port (a vector port: the linear law acts per component)",
-                   symbolic=False, default=1),
+                   symbolic=False, default=1, check=_check_dim),
     }
 
     def ports(self) -> list[Port]:
-        dim = self.value("dim")
-        if isinstance(dim, bool) or not isinstance(dim, int) or dim < 1:
-            raise ModelError(f"R: dim must be a whole number >= 1, got {dim!r}")
-        return [Port("p", self.value("domain"), dim, "in")]
+        return [Port("p", self.value("domain"), self.value("dim"), "in")]
 
-    def build(self, b: Builder, domain, resistance, effort, flow, dim) -> None:
+    def build(self, b: Builder, domain: str, resistance: sp.Expr | None, effort: sp.Expr | None,
+              flow: sp.Expr | None, dim: int) -> None:
         chosen = _exactly_one("R", {"resistance": resistance, "effort": effort, "flow": flow})
         if dim != 1 and chosen != "resistance":
             raise ModelError("R: a vector port (dim > 1) takes a linear 'resistance' only")
@@ -136,7 +154,7 @@ class Se(_Source):
     kind = "Se"
     arguments = {"domain": _DOMAIN, "effort": Arg("imposed effort (N, N m, V, Pa)")}
 
-    def build(self, b: Builder, domain, effort) -> None:
+    def build(self, b: Builder, domain: str, effort: sp.Expr) -> None:
         port = b.port("p")
         b.equation(port.e, effort, "e = source")
         b.supply(port.power)
@@ -152,7 +170,7 @@ class Sf(_Source):
     kind = "Sf"
     arguments = {"domain": _DOMAIN, "flow": Arg("imposed flow (m/s, rad/s, A, m^3/s)")}
 
-    def build(self, b: Builder, domain, flow) -> None:
+    def build(self, b: Builder, domain: str, flow: sp.Expr) -> None:
         port = b.port("p")
         b.equation(port.f, flow, "f = source")
         b.supply(port.power)
@@ -173,11 +191,13 @@ class TF(_TwoPort):
     """
 
     kind = "TF"
-    arguments = {"domain": _DOMAIN, "domain1": Arg("domain of p1", symbolic=False, default=None),
-                 "domain2": Arg("domain of p2", symbolic=False, default=None),
+    arguments = {"domain": _DOMAIN,
+                 "domain1": Arg("domain of p1", symbolic=False, default=None, check=_check_domain),
+                 "domain2": Arg("domain of p2", symbolic=False, default=None, check=_check_domain),
                  "ratio": Arg("transformer modulus n = f2/f1")}
 
-    def build(self, b: Builder, domain, domain1, domain2, ratio) -> None:
+    def build(self, b: Builder, domain: str, domain1: str | None, domain2: str | None,
+              ratio: sp.Expr) -> None:
         p1, p2 = b.port("p1"), b.port("p2")
         b.equation(p2.f, ratio * p1.f, "f2 = n f1")
         b.equation(p1.e, ratio * p2.e, "e1 = n e2")
@@ -193,7 +213,8 @@ class GY(_TwoPort):
     kind = "GY"
     arguments = TF.arguments | {"ratio": Arg("gyrator modulus r (e.g. motor constant N m/A = V s/rad)")}
 
-    def build(self, b: Builder, domain, domain1, domain2, ratio) -> None:
+    def build(self, b: Builder, domain: str, domain1: str | None, domain2: str | None,
+              ratio: sp.Expr) -> None:
         p1, p2 = b.port("p1"), b.port("p2")
         b.equation(p1.e, ratio * p2.f, "e1 = r f2")
         b.equation(p2.e, ratio * p1.f, "e2 = r f1")
@@ -202,9 +223,9 @@ class GY(_TwoPort):
 class _Junction(Component):
     free_ports = True
     arguments = {"domain": Arg("energy domain (default: that of the first bond)", symbolic=False,
-                               default=None)}
+                               default=None, check=_check_domain)}
 
-    def build(self, b: Builder, domain) -> None:  # the compiler calls junction_equations
+    def build(self, b: Builder, domain: str | None) -> None:  # the compiler writes its laws
         pass
 
     def check_domain(self, port: Port) -> None:
@@ -253,7 +274,7 @@ class Storage(Component):
         return [Port(s, dom[s] if isinstance(dom, dict) else dom, orientation="in")
                 for s in self.value("states")]
 
-    def expression_fields(self):
+    def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
         """The energy (in the state names) and the initial values (see
         :meth:`Component.expression_fields`)."""
         states = self.value("states")
@@ -263,7 +284,8 @@ class Storage(Component):
         for name, value in (initial.items() if isinstance(initial, dict) else ()):
             yield ("initial", name), value, f"initial value of state {name!r}", ()
 
-    def build(self, b: Builder, energy, states, domain, initial) -> None:
+    def build(self, b: Builder, energy: str, states: dict[str, str], domain: str | dict[str, str],
+              initial: dict[str, Any] | None) -> None:
         initial = initial or {}
         symbols = {n: b.state(n, initial=initial.get(n, 0)) for n in states}
         H = b.parse(energy, "argument 'energy'", symbols)

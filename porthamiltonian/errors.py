@@ -2,13 +2,52 @@
 
 Every error raised for bad user input is a :class:`ModelError` (a ``ValueError``) or one of its
 subclasses, and its message names the component, port, parameter or file involved and says what
-to do. Tests pin both the type and the names in the message.
+to do. Tests pin the type, the names in the message and the hint.
+
+Where it is known, an error also carries a structured :attr:`~ModelError.path`: the key path of
+what it is about in a model's description, as a model file spells it (``("components", "arm",
+"bodies", "leg", "mass")``, ``("events", 0, "guard")``), relative to whatever raised it until a
+caller that knows more prefixes its part (:meth:`ModelError.within`); the model-file reader maps
+it to a line. Checks that can find several problems at once raise one error listing them all,
+with each problem (an error of its own type and path) in :attr:`~ModelError.problems`.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 
 class ModelError(ValueError):
-    """Base class of all user-facing modeling errors."""
+    """Base class of all user-facing modeling errors.
+
+    path : the key path of what the error is about (see the module docstring); ``()`` if unknown.
+    problems : the single problems an error that lists several is made of; ``()`` otherwise.
+    """
+
+    def __init__(self, message: str = "", *, path: Sequence[str | int] = (),
+                 problems: Sequence[ModelError] = ()):
+        super().__init__(message)
+        self.path: tuple[str | int, ...] = tuple(path)
+        self.problems: tuple[ModelError, ...] = tuple(problems)
+
+    def within(self, *prefix: str | int) -> ModelError:
+        """This error, its path prefixed by ``prefix`` (where the raiser sits); for re-raising."""
+        self.path = (*prefix, *self.path)
+        return self
+
+    def __reduce__(self) -> tuple:      # keep the path and problems across processes (sweeps)
+        return _rebuild, (type(self), str(self), self.path, self.problems)
+
+
+def _rebuild(cls: type[ModelError], message: str, path: tuple,
+             problems: tuple) -> ModelError:
+    error = cls.__new__(cls)
+    ModelError.__init__(error, message, path=path, problems=problems)
+    return error
+
+
+class ValidationError(ModelError):
+    """A model has several problems; :attr:`problems` lists them (each with its own type, names
+    and path) and the message shows them all, one per line."""
 
 
 class DuplicateNameError(ModelError):
@@ -80,3 +119,13 @@ class ModelFileError(ModelError):
 class StateError(ModelError):
     """An initial state or a state name is wrong (unknown name, wrong length, non-finite)."""
 
+
+
+class CompilerError(ModelError):
+    """The C back end cannot build a model: no C compiler was found, or it failed. The message
+    shows the command and the path of a file holding the compiler's output, and what to do."""
+
+
+class SceneError(ModelError):
+    """A scene of the 3D viewer (:mod:`porthamiltonian.viewer`) is malformed: a shape, a pose, the
+    times, the ground; the message names the body, shape or frame and says what is expected."""

@@ -14,6 +14,7 @@ Rules
 * ``t_eval``: finite, non-decreasing times inside [t_start, t_end].
 * ``max_events``, ``max_steps``: integers >= 1; ``divergence_bound``: a number > 0.
 * ``jacobian``, ``dense_output``: booleans; ``method``: a string.
+* ``sensitivity``: False, True (every model state) or finite seed directions, n x m (m >= 1).
 """
 from __future__ import annotations
 
@@ -59,12 +60,14 @@ def check_number(name: str, value: Any, *, positive: bool = False, finite: bool 
 
 
 def check_integer(name: str, value: Any, at_least: int = 1) -> int:
+    """``value`` as an int, after checking it is an integer >= ``at_least``; else OptionError."""
     if not isinstance(value, Integral) or isinstance(value, bool) or value < at_least:
         raise OptionError(f"{name} must be an integer >= {at_least}, got {value!r}")
     return int(value)
 
 
 def check_flag(name: str, value: Any) -> bool:
+    """``value`` as a bool, after checking it is True or False; else OptionError."""
     if not isinstance(value, (bool, np.bool_)):
         raise OptionError(f"{name} must be True or False, got {value!r}")
     return bool(value)
@@ -112,10 +115,32 @@ def check_t_eval(value: Any, t_start: float, t_end: float) -> np.ndarray:
     return times
 
 
+def check_sensitivity(value: Any, n_states: int) -> np.ndarray | None:
+    """The seed directions of the sensitivities: None for False, the identity (n x n) for True,
+    else the given n x m array of finite numbers (a vector: one direction)."""
+    if isinstance(value, (bool, np.bool_)):
+        return np.eye(n_states) if value else None
+    try:
+        seeds = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise OptionError(f"sensitivity must be True, False or an array of directions "
+                          f"({n_states} x m), got {value!r}") from None
+    if seeds.ndim == 1:
+        seeds = seeds[:, None]
+    if seeds.ndim != 2 or seeds.shape[0] != n_states or seeds.shape[1] < 1:
+        raise OptionError(f"sensitivity directions must have shape ({n_states}, m) with m >= 1 "
+                          f"(one column per direction in the model state), got shape "
+                          f"{seeds.shape}")
+    if not np.all(np.isfinite(seeds)):
+        raise OptionError("sensitivity directions must be finite")
+    return seeds
+
+
 def check_simulation(n_states: int, t_end: Any, x0: Any, params: Any, *, t_start: Any,
                      method: Any, rtol: Any, atol: Any, max_step: Any, first_step: Any,
                      jacobian: Any, actions: Any, events: Any, t_eval: Any, dense_output: Any,
-                     max_events: Any, max_steps: Any, divergence_bound: Any) -> dict[str, Any]:
+                     max_events: Any, max_steps: Any, divergence_bound: Any,
+                     sensitivity: Any = False) -> dict[str, Any]:
     """Check every argument of :func:`porthamiltonian.simulate.simulate`; return them converted
     (floats, arrays). Raises OptionError naming the first wrong one."""
     t0 = check_number("t_start", t_start)
@@ -150,6 +175,7 @@ def check_simulation(n_states: int, t_end: Any, x0: Any, params: Any, *, t_start
         "max_steps": check_integer("max_steps", max_steps),
         "divergence_bound": check_number("divergence_bound", divergence_bound, positive=True,
                                         finite=False),
+        "sensitivity": check_sensitivity(sensitivity, n_states),
     }
     if out["first_step"] is not None and out["first_step"] > t1 - t0:
         raise OptionError(f"first_step must be at most the span t_end - t_start = {t1 - t0:g}, "
@@ -158,4 +184,4 @@ def check_simulation(n_states: int, t_end: Any, x0: Any, params: Any, *, t_start
 
 
 __all__ = ["RTOL_MIN", "check_atol", "check_flag", "check_integer", "check_number", "check_rtol",
-           "check_simulation", "check_t_eval"]
+           "check_sensitivity", "check_simulation", "check_t_eval"]

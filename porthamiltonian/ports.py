@@ -42,6 +42,24 @@ class Domain:
     effort_unit: str
     flow_unit: str
 
+    @property
+    def displacement_unit(self) -> str:
+        """Unit of the time integral of the flow (a C storage's state: m, rad, A*s, ...)."""
+        return _integral(self.flow_unit)
+
+    @property
+    def momentum_unit(self) -> str:
+        """Unit of the time integral of the effort (an I storage's state: N*s, N*m*s, ...)."""
+        return _integral(self.effort_unit)
+
+
+def _integral(unit: str) -> str:
+    """The unit of a quantity's time integral: ``"m/s"`` -> ``"m"``, ``"N"`` -> ``"N*s"``; ""
+    when the unit is not one unit (the screw domain's ``"N*m | N"``)."""
+    if not unit or "|" in unit:
+        return ""
+    return unit[:-2] if unit.endswith("/s") else f"{unit}*s"
+
 
 DOMAINS: dict[str, Domain] = {
     d.name: d

@@ -1,19 +1,29 @@
-"""Trajectory: the result of a simulation, with named access and the energy ledger.
+"""Trajectory: the immutable result of a simulation, with named access and the energy ledger.
 
 Shaped like scipy's ``OdeResult`` (``t``, ``status``, ``message``, ``success``, ``nfev``) plus:
 
-* ``traj["mass.p"]`` — a state, or any named output (``"spring.p.e"``: the spring force), over ``t``;
+* ``traj["mass.p"]`` — a state, any named output (``"spring.p.e"``: the spring force) or a
+  parameter (its value in force at each point: modes change at events), over ``t``;
+* ``traj.p`` — the parameter values in force at each point;
 * ``traj.H``, ``traj.E_diss``, ``traj.E_in``, ``traj.residual`` — the energy ledger
   (r = H − H(0) + E_diss − E_in), ``traj.energy_scale`` (the energy that moved during the run,
   blind to a constant offset of H) and ``traj.relative_residual``;
 * ``traj.sol(t)`` — dense output (model states) at any time of the run;
 * ``traj.events`` — (time, name) of every event, ``traj.jumps`` — H jumps booked at resets;
-* ``to_csv`` / ``to_npz`` — export with named columns.
+* ``to_csv`` / ``to_npz`` — export with named columns; ``to_dataframe`` — a pandas data frame
+  with the units in ``df.attrs["units"]`` (:mod:`porthamiltonian.frames`);
+* ``plot(*names)`` — a quick look, and a compact table in Jupyter (:mod:`porthamiltonian.display`).
+
+A trajectory is made once, by :class:`porthamiltonian.simulate.Simulator`, and never changes:
+its arrays are read-only (copy one to modify it); derived quantities (outputs, H) are computed
+on first access and kept.
 """
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,58 +31,93 @@ import numpy as np
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
+    from .saltation import Sensitivity
 
 
-@dataclass
+class Status(StrEnum):
+    """How a simulation ended. A ``str``: ``traj.status == "finished"`` holds, and the value is
+    what the command line and the JSON results show."""
+
+    FINISHED = "finished"      #: reached t_end
+    EVENT = "event"            #: stopped at a terminal event (or by an event action)
+    FAILED = "failed"          #: the integrator failed (step size, too many steps or events)
+    DIVERGED = "diverged"      #: max|x| exceeded the divergence bound, or became non-finite
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True)
 class Segment:
-    """One continuous piece of the run between events."""
+    """One continuous piece of the run between events, with the parameter values in force."""
 
     t: np.ndarray
     y: np.ndarray            # (n + 2, len(t)): model states and ledger states
     p: np.ndarray
     sol: Any                 # scipy OdeSolution or None
+    phi: np.ndarray | None = None   # (len(t), n, m): the sensitivities, when asked for
+
+    def __post_init__(self) -> None:
+        for array in (self.t, self.y, self.p, self.phi):
+            if array is not None:
+                _frozen(array)
 
 
 class Trajectory:
-    """Result of :func:`porthamiltonian.simulate.simulate`. See the module docstring."""
+    """Result of :func:`porthamiltonian.simulate.simulate`. See the module docstring.
 
-    def __init__(self, model: CompiledModel):
-        self.model = model
-        self.segments: list[Segment] = []
-        self.events: list[tuple[float, str]] = []
-        self.jumps: list[tuple[float, str, float]] = []
-        self.status = "running"
-        self.message = ""
-        self.nfev = self.njev = self.nlu = 0
-        self.h0 = float("nan")
-        self.pre_event_sign = 0.0
-        self._cache: dict[str, np.ndarray] = {}
+    Attributes
+    ----------
+    model : the compiled model simulated.
+    segments : the continuous pieces of the run (:class:`Segment`), in time order.
+    status : a :class:`Status`; ``message`` says why the run ended.
+    nfev, njev, nlu : right-hand-side and Jacobian evaluations, LU decompositions.
+    h0 : H at the start (J), the origin of the residual.
+    sensitivity : the derivatives of the run by its initial state
+        (:class:`~porthamiltonian.saltation.Sensitivity`), when ``simulate(...,
+        sensitivity=...)`` asked for them; else None.
+    """
 
-    # --- building -------------------------------------------------------------------------------
-    def add(self, segment: Segment, nfev: int, njev: int, nlu: int) -> None:
-        self.segments.append(segment)
-        self.nfev += nfev
-        self.njev += njev
-        self.nlu += nlu
-        self._cache.clear()
+    __slots__ = ("_cache", "_events", "_jumps", "h0", "message", "model", "nfev", "njev", "nlu",
+                 "segments", "sensitivity", "status")
 
-    def record_event(self, t: float, name: str) -> None:
-        self.events.append((t, name))
+    def __init__(self, model: CompiledModel, segments: Sequence[Segment],
+                 events: Sequence[tuple[float, str]], jumps: Sequence[tuple[float, str, float]],
+                 status: Status, message: str, *, nfev: int, njev: int, nlu: int, h0: float,
+                 sensitivity: Sensitivity | None = None):
+        values = {"model": model, "segments": tuple(segments), "_events": tuple(events),
+                  "_jumps": tuple(jumps), "status": Status(status), "message": message,
+                  "nfev": nfev, "njev": njev, "nlu": nlu, "h0": h0, "sensitivity": sensitivity,
+                  "_cache": {}}
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
 
-    def record_jump(self, t: float, name: str, jump: float) -> None:
-        self.jumps.append((t, name, jump))
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"a Trajectory is immutable (cannot set {name!r}); simulate again, "
+                             "or copy its arrays")
 
-    def finish(self, status: str, message: str) -> None:
-        self.status, self.message = status, message
+    @property
+    def events(self) -> list[tuple[float, str]]:
+        """(time, name) of every event, in time order (a new list)."""
+        return list(self._events)
+
+    @property
+    def jumps(self) -> list[tuple[float, str, float]]:
+        """(time, event name, jump of H in J) of every reset (a new list)."""
+        return list(self._jumps)
 
     # --- access ---------------------------------------------------------------------------------
     @property
     def success(self) -> bool:
         """True when the run reached t_end or stopped at a terminal event (not failed/diverged)."""
-        return self.status in ("finished", "event")
+        return self.status in (Status.FINISHED, Status.EVENT)
 
     @property
     def t(self) -> np.ndarray:
+        """The times of the stored points (s); an event's time appears at the end of the segment
+        before it and at the start of the one after it."""
         return self._concat("t", lambda s: s.t)
 
     @property
@@ -87,26 +132,36 @@ class Trajectory:
 
     @property
     def x_final(self) -> np.ndarray:
+        """The model state at the end of the run (a copy)."""
         return self.segments[-1].y[: self.model.n_states, -1].copy()
 
     @property
     def t_final(self) -> float:
+        """The time the run ended (s)."""
         return float(self.segments[-1].t[-1])
 
-    def _concat(self, key: str, get, axis: int = 0) -> np.ndarray:
+    @property
+    def p(self) -> np.ndarray:
+        """The parameter values in force at each point, shape (len(t), n_params); names in
+        ``model.param_names`` (modes switched by event actions change them between segments)."""
+        return self._concat("p", lambda s: np.repeat(s.p[None, :], len(s.t), axis=0))
+
+    def _concat(self, key: str, get: Callable[[Segment], np.ndarray], axis: int = 0) -> np.ndarray:
         if key not in self._cache:
             parts = [get(s) for s in self.segments]
-            self._cache[key] = np.concatenate(parts, axis=axis) if parts else np.empty(0)
+            self._cache[key] = _frozen(np.concatenate(parts, axis=axis) if parts else np.empty(0))
         return self._cache[key]
 
-    def _per_point(self, key: str, fn) -> np.ndarray:
+    def _per_point(self, key: str, fn: Callable[[float, np.ndarray, Any], Any]) -> np.ndarray:
+        """``fn(t, y, p)`` (a back-end function: the parameters converted once per segment) at
+        every point."""
         if key not in self._cache:
             rows = []
             for s in self.segments:
                 pn = self.model.native_params(s.p)
                 rows += [np.asarray(fn(s.t[k], np.ascontiguousarray(s.y[:, k]), pn))
                          for k in range(len(s.t))]
-            self._cache[key] = np.array(rows)
+            self._cache[key] = _frozen(np.array(rows))
         return self._cache[key]
 
     @property
@@ -115,12 +170,15 @@ class Trajectory:
         return self._per_point("outputs", self.model.functions.outputs)
 
     def __getitem__(self, name: str) -> np.ndarray:
-        """A state or a named output over ``t``."""
+        """A state, a ledger column (``H``, ``E_diss``, ``E_in``, ``residual``), a named output or
+        a parameter (its value in force at each point) over ``t``, looked up in that order."""
         if name in self.model.state_names:
             return self.x[:, self.model.state_index(name)]
         ledger = {"H": self.H, "E_diss": self.E_diss, "E_in": self.E_in, "residual": self.residual}
         if name in ledger:
             return ledger[name]
+        if name in self.model.param_names and name not in self.model.output_names:
+            return self.p[:, self.model.param_names.index(name)]
         return self.outputs[:, self.model.output_index(name)]
 
     def sol(self, t: float | np.ndarray) -> np.ndarray:
@@ -145,14 +203,17 @@ class Trajectory:
 
     @property
     def H(self) -> np.ndarray:
+        """The Hamiltonian (stored energy, J) at each point."""
         return self.power[:, 0]
 
     @property
     def E_diss(self) -> np.ndarray:
+        """The energy dissipated since the start (J), at each point."""
         return self.y[self.model.n_states]
 
     @property
     def E_in(self) -> np.ndarray:
+        """The energy supplied since the start (J), at each point."""
         return self.y[self.model.n_states + 1]
 
     @property
@@ -202,6 +263,8 @@ class Trajectory:
 
     # --- export ---------------------------------------------------------------------------------
     def columns(self, outputs: bool = False) -> dict[str, np.ndarray]:
+        """Named columns: t, the states, the ledger (H, E_diss, E_in, residual), and the outputs
+        if ``outputs`` (what :meth:`to_csv` and :meth:`to_npz` write)."""
         cols = {"t": self.t}
         cols.update({name: self.x[:, i] for i, name in enumerate(self.model.state_names)})
         cols.update({"H": self.H, "E_diss": self.E_diss, "E_in": self.E_in,
@@ -222,6 +285,22 @@ class Trajectory:
         """Write named arrays (t, states, ledger[, outputs]) plus status and message to ``.npz``."""
         np.savez(path, status=self.status, message=self.message, **self.columns(outputs))
 
+    def to_dataframe(self, outputs: bool | list[str] = True) -> Any:
+        """A pandas DataFrame indexed by t (s): states, ledger, outputs (all, none or those
+        named), units in ``df.attrs["units"]`` (see :mod:`porthamiltonian.frames`)."""
+        from .frames import trajectory_frame
+        return trajectory_frame(self, outputs)
+
+    def plot(self, *names: str, ax: Any = None, events: bool = True) -> Any:
+        """Plot states, outputs or ledger terms over t (default: the states); returns the Axes
+        (see :func:`porthamiltonian.display.plot_trajectory`)."""
+        from .display import plot_trajectory
+        return plot_trajectory(self, *names, ax=ax, events=events)
+
+    def _repr_html_(self) -> str:
+        from .display import trajectory_html
+        return trajectory_html(self)
+
     def __repr__(self) -> str:
-        return (f"Trajectory({self.model.name!r}, status={self.status!r}, t=[{self.t[0]:g}, "
+        return (f"Trajectory({self.model.name!r}, status={self.status.value!r}, t=[{self.t[0]:g}, "
                 f"{self.t[-1]:g}], {len(self.t)} points, {len(self.events)} events)")

@@ -2,7 +2,11 @@
 
 * Every test runs with ``PORTHAMILTONIAN_CACHE`` pointing at a session-scoped temporary folder,
   set before anything is compiled, so the suite never reads or writes ``~/.cache`` (subprocesses
-  started by the tests inherit it).
+  started by the tests inherit it), and with ``PORTHAMILTONIAN_QUIET`` set: no build lines on
+  stderr, whose appearance would depend on the order of the tests (tests of the lines unset it).
+* ``PORTHAMILTONIAN_BACKEND`` (``c``, ``numba``, ``python``), when set by the caller, is what
+  back end ``"auto"`` means (porthamiltonian.backends): ``.ci/run`` runs the walker tests once
+  more with ``PORTHAMILTONIAN_BACKEND=numba`` so that the numba fallback stays tested.
 * ``compile_named(name)`` compiles a model of ``models/`` with the fast-to-build ``python`` back
   end (memoized for the session), for tests where the back end does not matter.
 """
@@ -19,6 +23,7 @@ def isolated_cache(tmp_path_factory: pytest.TempPathFactory):
     path = tmp_path_factory.mktemp("porthamiltonian_cache")
     mp = pytest.MonkeyPatch()
     mp.setenv("PORTHAMILTONIAN_CACHE", str(path))
+    mp.setenv("PORTHAMILTONIAN_QUIET", "1")
     yield path
     mp.undo()
 
@@ -45,7 +50,7 @@ def model_settings() -> Callable:
 
     def _settings(name: str) -> dict:
         sim = {"method": "Radau", "rtol": 1e-9, "atol": 1e-12, "energy_tolerance": 1e-6}
-        sim.update(io.load(name).simulation)
+        sim.update(io.read(name).simulation)
         return sim
 
     return _settings

@@ -7,7 +7,7 @@
     walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--json]
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
     walker gsn MODEL [--set NAME=VALUE ...] [--json]
-    walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin]
+    walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin] [--view3d]
                   [--continuation NAME=START:STOP]
     walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
@@ -51,16 +51,11 @@ from porthamiltonian.errors import ModelError, ModelFileError
 from .analyses import ANALYSES, get_analysis
 from .continuation import ParameterPath, continue_gait, parse_range
 from .gait import analyze_gait, gait_start, section_guess, walk
+from .labels import describe, is_nondimensional, shown_unit
+from .report_page import multiplier_cells
 from .results import to_json
 from .robustness import basin, gait_sensitivity_norm, step_down
 from .walkers import available_walkers, load_walker, save_walker
-
-#: units of the gait metrics and of the thesis's section coordinates (SI; angles in rad)
-UNITS = {"step_period": "s", "step_length": "m", "speed": "m/s",
-         "energy_dissipated_per_step": "J", "potential_released_per_step": "J",
-         "max_theta": "rad", "max_phi": "rad", "cost_of_transport": "(dimensionless)",
-         "theta": "rad", "phi": "rad", "theta_dot": "rad/s", "phi_dot": "rad/s",
-         "hip_speed": "m/s", "hub_speed": "m/s"}
 
 
 def _fmt(value) -> str:
@@ -138,9 +133,12 @@ def _walker_and_guess(args):
     return walker, section_guess(walker, previous, named)
 
 
-def _with_unit(key: str, value: Any) -> str:
-    unit = UNITS.get(key, "")
-    return f"{_fmt(value)} {unit}".rstrip()
+def _with_unit(walker, key: str, value: Any) -> str:
+    """``value`` and the unit of quantity ``key`` of ``walker`` ("nondim." in a nondimensional
+    model; nothing for a ratio)."""
+    unit = describe(walker, key).unit
+    shown = "" if unit == "1" else shown_unit(unit, is_nondimensional(walker))
+    return f"{_fmt(value)} {shown}".rstrip()
 
 
 def cmd_gait(args) -> int:
@@ -161,11 +159,11 @@ def cmd_gait(args) -> int:
         print("  fixed point on the Poincaré section (heel strike; rigid walkers: just after the "
               "impact, compliant walkers: at touchdown, before it):")
         for name, value in d["fixed_point"].items():
-            print(f"    {name:20s} {_with_unit(name, value)}")
-        print("  Floquet multipliers (± error bound):")
-        for m, e in zip(d["floquet_multipliers"], d["multiplier_errors"]):
-            print(f"    {m['re']: .10f} {m['im']:+.10f}i   |λ| = "
-                  f"{abs(complex(m['re'], m['im'])):.10f} ± {_fmt(e)}")
+            print(f"    {name:20s} {_with_unit(walker, name, value)}")
+        print("  Floquet multipliers (± error bound), to the digits their error bounds support:")
+        for m, e in zip(result.floquet_multipliers, result.multiplier_errors):
+            (value, modulus), = multiplier_cells([m], e)[0]
+            print(f"    {value:28s} |λ| {modulus} ± {_fmt(e)}")
         if len(d["orbits"]) > 1:
             print("  orbits found:")
             for o in d["orbits"]:
@@ -175,12 +173,12 @@ def cmd_gait(args) -> int:
         print(f"  from the guess the walker fell during step {d['fell_at_step']} "
               f"({d['fall_reason']})")
     if d["last_iterate"]:
-        print("  last iterate:", ", ".join(f"{k} = {_with_unit(k, v)}"
+        print("  last iterate:", ", ".join(f"{k} = {_with_unit(walker, k, v)}"
                                            for k, v in d["last_iterate"].items()))
     if d["status"] == "periodic":
         for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step",
                     "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
-            print(f"  {key:30s} {_with_unit(key, d[key])}")
+            print(f"  {key:30s} {_with_unit(walker, key, d[key])}")
     return 0
 
 
@@ -321,8 +319,8 @@ def cmd_report(args) -> int:
     if args.continuation:
         continuation = _continuation(walker, args.continuation, None, log=log)
     result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
-                          with_step_down=not args.no_step_down, log=log,
-                          continuation=continuation)
+                          with_step_down=not args.no_step_down, forces=args.forces,
+                          view3d=args.view3d, continuation=continuation, log=log)
     print(f"wrote {result.out / 'report.html'} ({len(result.files)} files, {result.seconds:.0f} s)")
     return 0
 
@@ -477,6 +475,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
     p.add_argument("--continuation", default=None, metavar="NAME=START:STOP",
                    help="also the bifurcation diagram over a parameter's range (walker continue)")
+    p.add_argument("--forces", action="store_true",
+                   help="draw the contact-force arrows in walk.gif (the page's player has a "
+                        "switch for them either way)")
+    view = p.add_mutually_exclusive_group()
+    view.add_argument("--view3d", dest="view3d", action="store_true", default=None,
+                      help="an interactive 3D view of the walk for a planar walker too (a 3D "
+                           "walker always has one), with its still image view3d.png")
+    view.add_argument("--no-view3d", dest="view3d", action="store_false",
+                      help="no 3D view, not even for a 3D walker")
     p.set_defaults(func=cmd_report)
 
     p = add_sweep_parser(

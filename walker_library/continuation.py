@@ -289,55 +289,9 @@ class ContinuationResult(JSONResult):
             "seconds": self.seconds, "message": self.message})
 
     def figure(self, path: str | Path) -> bytes:
-        """The bifurcation diagram as a PNG at ``path``: max |λ| (top) and each step's period of
-        the orbit (bottom) against μ; stable solid, unstable dashed; bifurcations marked."""
-        from .report import pyplot, save_figure
-        plt = pyplot()
-        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
-        top = 1.0
-        for i, br in enumerate(self.branches):
-            color = f"C{i % 10}"
-            for run in _runs(br.points):
-                style = "-" if run[0].stable else "--"
-                mu = [p.mu for p in run]
-                ax1.plot(mu, [p.max_modulus for p in run], style, color=color, lw=1.2)
-                for k in range(br.period):
-                    ax2.plot(mu, [p.durations[k] for p in run], style, color=color, lw=1.2)
-            top = max([top] + [p.max_modulus for p in br.points])
-            ax1.plot([], [], "-", color=color, label=f"branch {i}: period {br.period}")
-        marks = {"flip": "o", "fold": "s", "branch_point": "^", "neimark_sacker": "D"}
-        for b in self.bifurcations:
-            ax1.plot(b.mu, abs(b.multiplier), marks[b.kind], color="k", ms=5, mfc="none")
-            for d in b.point.durations:
-                ax2.plot(b.mu, d, marks[b.kind], color="k", ms=5, mfc="none")
-        for kind, m in marks.items():
-            if any(b.kind == kind for b in self.bifurcations):
-                ax1.plot([], [], m, color="k", mfc="none", label=kind.replace("_", "–"))
-        ax1.axhline(1.0, color="0.5", lw=0.7)
-        ax1.set_ylim(0.0, min(top, 3.0) * 1.05)
-        ax1.set_ylabel("max |Floquet multiplier|")
-        ax1.legend(fontsize=7)
-        ax2.set_ylabel("step period of each step (s)")
-        unit = f" ({self.path.unit})" if self.path.unit and self.path.unit != "1" else ""
-        ax2.set_xlabel(f"{self.path.label}{unit}")
-        ax1.set_title(f"{self.model}: bifurcation diagram (solid: stable, dashed: unstable)",
-                      fontsize=10)
-        fig.tight_layout()
-        return save_figure(fig, Path(path))
-
-
-def _runs(points: list[BranchPoint]) -> list[list[BranchPoint]]:
-    """Consecutive points of equal stability (each run shares its end point with the next)."""
-    runs: list[list[BranchPoint]] = []
-    for p in points:
-        if runs and runs[-1][-1].stable != p.stable:
-            runs[-1].append(p)
-            runs.append([p])
-        elif runs:
-            runs[-1].append(p)
-        else:
-            runs.append([p])
-    return runs
+        """The bifurcation diagram as a PNG at ``path`` (:func:`.figures.fig_bifurcation`)."""
+        from .figures import fig_bifurcation
+        return fig_bifurcation(self, Path(path))
 
 
 # --- the map in scaled coordinates -------------------------------------------------------------------

@@ -28,6 +28,7 @@ labelling when its ``labelling`` condition does not hold).
 from __future__ import annotations
 
 import copy
+import json
 import math
 from collections.abc import Mapping
 from dataclasses import replace
@@ -38,10 +39,12 @@ import numpy as np
 from porthamiltonian import Model, compile_model, symbolic
 from porthamiltonian.compiled import CompiledModel
 from porthamiltonian.compiler import cache
-from porthamiltonian.errors import ModelError, ModelFileError, ParameterValueError
+from porthamiltonian.errors import ModelError, ParameterValueError
+from porthamiltonian.integrators import TABLEAUS as COMPILED_METHODS
+from porthamiltonian.io import ModelFile
 
 from .hybrid import Integration, WalkerSpec, expand, parse_condition, parse_equation, parse_interval
-from .machine import Change, Condition, ModeMachine, Transition, WalkLog, outputs
+from .machine import Change, Condition, ModeMachine, Transition, WalkLog
 from .names import ModelNames, check_names
 from .protocol import ParameterSpec, Stride, check_parameters
 from .resets import ImpactMap, Relabel, floating_model
@@ -64,22 +67,43 @@ def compiled(model: Model, backend: str) -> CompiledModel:
 
 
 def _checked(spec: WalkerSpec, text: str) -> tuple[ModelNames, dict]:
-    """The model's names (its symbolic form without its events and model outputs, whose
-    expressions :func:`~.names.check_names` checks with their lines) and the description's
-    linear maps (memoized by model and spec)."""
+    """The model's names (:func:`_model_names`) and the description's linear maps, after
+    :func:`~.names.check_names` (memoized by model and spec)."""
     key = cache.model_key(spec.model) + repr(spec)
     if key not in _CHECKED:
-        bare = copy.deepcopy(spec.model)      # its events' guards are checked with their lines
-        bare.events, bare.outputs = [], {}
-        try:
-            sym = symbolic(bare)
-        except ModelFileError:
-            raise
-        except ModelError as err:
-            raise ModelFileError(f"{spec.source}: {err}") from None
-        names = ModelNames.of(spec.model, sym)
+        names = _model_names(spec, text)
         _CHECKED[key] = (names, check_names(spec, names, text))
     return _CHECKED[key]
+
+
+def _model_names(spec: WalkerSpec, text: str) -> ModelNames:
+    """The names of the walker's model: parameters, states and outputs of its symbolic form
+    without its events and model outputs (whose expressions :func:`~.names.check_names` checks
+    with their lines). The symbolic compiler is run once per model: the three name lists are
+    kept in the model's cache entry (``names.json``, verified by its sha256 like every cached
+    file), so a walker that is already built loads without symbolic work."""
+    bare = copy.deepcopy(spec.model)
+    bare.events, bare.outputs = [], {}
+    key = cache.model_key(bare)
+    stored = cache.load_verified(key, _NAMES_FILE)
+    try:
+        lists = json.loads(stored) if stored is not None else None
+        lists = lists if isinstance(lists, dict) and all(
+            isinstance(lists.get(k), list) and all(isinstance(n, str) for n in lists[k])
+            for k in ("params", "states", "outputs")) else None
+    except ValueError:
+        lists = None
+    if lists is None:
+        with ModelFile(bare, spec.source, text).located():
+            sym = symbolic(bare)
+        lists = {"params": list(sym.param_names), "states": list(sym.state_names),
+                 "outputs": list(sym.outputs)}
+        cache.store(key, _NAMES_FILE, json.dumps(lists))
+    return ModelNames.of(spec.model, lists["params"], lists["states"], lists["outputs"])
+
+
+#: the file of a model's cache entry holding the names a walker checks its description against
+_NAMES_FILE = "names.json"
 
 
 class _Outputs:
@@ -149,7 +173,7 @@ class HybridWalker:
         names, maps = _checked(spec, text)
         self.spec = spec
         self.name = spec.name
-        self.doc = spec.model.doc
+        self.doc = spec.description
         self.options = options or spec.integration
         self.backend = backend or self.options.backend
         self.specs = _specs(spec)
@@ -171,10 +195,10 @@ class HybridWalker:
         if spec.relabel:
             offsets = {b: ex.add(b) for b in maps["relabel"][2] if isinstance(b, str)}
         model = copy.deepcopy(spec.model)
-        model.doc, model.meta, model.sections, model.source = "", {}, {}, spec.source
         for name, text_ in ex.exprs.items():
             model.output(name, text_)
-        self.model = compiled(model, self.backend)
+        with ModelFile(model, spec.source, text).located():
+            self.model = compiled(model, self.backend)
         self.backend = self.model.backend          # "auto" resolved: the back end in use
         m = self.model
         out = {n: i for i, n in enumerate(m.output_names)}
@@ -275,7 +299,7 @@ class HybridWalker:
         m = self.model
         self._p = m.params({k: v for k, v in self.parameters.items() if k in m.param_names})
         self._x_init = m.initial_state(self._p)
-        y = outputs(m, 0.0, self._x_init, self._p)
+        y = m.outputs(0.0, self._x_init, self._p)
         self.total_mass = float(y[self._mass])
         self.leg_length = float(y[self._leg])
 
@@ -313,7 +337,7 @@ class HybridWalker:
     # --- numeric helpers ----------------------------------------------------------------------------
     def outputs(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """All outputs of the compiled model at state ``x`` and parameters ``p``."""
-        return outputs(self.model, t, x, p)
+        return self.model.outputs(t, x, p)
 
     def output(self, name: str, x: np.ndarray, p: np.ndarray | None = None,
                t: float = 0.0) -> float:
@@ -330,7 +354,7 @@ class HybridWalker:
         at their start values (before the ``start`` rules, which need the state)."""
         p = self._p.copy()
         p[self._drop] = float(ground_drop)
-        y = outputs(self.model, 0.0, self._x_init, p)
+        y = self.model.outputs(0.0, self._x_init, p)
         for index, value in self._start:
             p[index] = value if isinstance(value, float) else y[value]
         return p
@@ -461,7 +485,7 @@ class HybridWalker:
 
     def initial_guess(self) -> np.ndarray:
         """The description's rough section state (its ``guess``, from the parameters)."""
-        y = outputs(self.model, 0.0, self._x_init, self._p)
+        y = self.model.outputs(0.0, self._x_init, self._p)
         return np.array([g if isinstance(g, float) else float(y[g]) for g in self._guess])
 
     def _basin_from_guess(self, z_star, theta: float, theta_dot: float) -> np.ndarray:
@@ -501,7 +525,7 @@ class HybridWalker:
             o.max_step_time * n_steps, x0=x0, params=dict(zip(self.model.param_names, p0)),
             method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step,
             actions=self.machine.actions(log), max_events=100 * n_steps + 100,
-            dense_output=(details or record) and o.method != "Rodas4")
+            dense_output=(details or record) and o.method not in COMPILED_METHODS)
         return cut_strides(self, traj, log, details=details, record=record, x0=x0, p0=p0)
 
     def with_options(self, **changes: Any) -> HybridWalker:

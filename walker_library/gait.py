@@ -142,6 +142,16 @@ class GaitResult(JSONResult):
                   "search": self.search, "parameters": self.parameters, "message": self.message})
         return to_jsonable(d)
 
+    def plot(self, walker: Walker | None = None, *, steps: int = 2):
+        """Limit cycle and Floquet multipliers, a quick look (see
+        :func:`walker_library.display.plot_gait`); returns the Axes."""
+        from .display import plot_gait
+        return plot_gait(self, walker, steps=steps)
+
+    def _repr_html_(self) -> str:
+        from .display import gait_html
+        return gait_html(self)
+
 
 def _named(walker: Walker, z) -> dict:
     return {k: float(v) for k, v in walker.section_state(np.asarray(z, dtype=float)).items()}

@@ -191,6 +191,9 @@ class WalkerSpec:
     mass, leg_length : expressions in parameters (kg, m): the total mass (the weight of the
         cost of transport) and the leg length (the scale of the step-down grid).
     hip : the multibody point whose position and speed are reported as the hip's.
+    source, description : the walker file (for messages) and its ``[model] description``.
+    units : the file's ``[model] units``: ``"nondimensional"`` when its numbers are ratios
+        (e.g. g = l = 1), else ``""`` (SI).
     """
 
     model: Model = field(compare=False)
@@ -209,6 +212,8 @@ class WalkerSpec:
     leg_length: str = "1"
     hip: str = ""
     source: str = field(default="<python>", compare=False)
+    description: str = field(default="", compare=False)
+    units: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
         for name in ("modes", "angles", "relabel", "guess", "guess_where", "ranges"):
@@ -369,7 +374,7 @@ def _is_value(v: Any) -> bool:
 
 
 def walker_spec(model: Model, table: Mapping[str, Any], *, source: str = "<python>",
-                text: str = "") -> WalkerSpec:
+                text: str = "", description: str = "", units: str = "") -> WalkerSpec:
     """Read a ``[walker]`` table (as TOML gives it) for ``model`` into a :class:`WalkerSpec`.
 
     Checks the table's structure and the names it uses that the model declares without being
@@ -643,8 +648,7 @@ def walker_spec(model: Model, table: Mapping[str, Any], *, source: str = "<pytho
     bad.raise_if_any()
     return WalkerSpec(model, tuple(feet), tuple(modes), tuple(rules), section, tuple(angles),
                       terrain, tuple(relabel), tuple(guess), tuple(where.items()), tuple(ranges),
-                      integration, mass,
-                      leg, hip, source)
+                      integration, mass, leg, hip, source, description, units)
 
 
 def expand(text: Value, where: Iterable[tuple[str, str]], params: Iterable[str]) -> str:

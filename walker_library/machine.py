@@ -27,16 +27,10 @@ from porthamiltonian.compiled import CompiledModel
 
 from .resets import ImpactMap
 
-__all__ = ["Change", "Condition", "Fired", "ModeMachine", "Transition", "WalkLog", "outputs"]
+__all__ = ["Change", "Condition", "Fired", "ModeMachine", "Transition", "WalkLog"]
 
 _OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge,
         "==": operator.eq, "!=": operator.ne}
-
-
-def outputs(model: CompiledModel, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """All outputs of ``model`` at the model state ``x`` (or the integration state)."""
-    y = model.augment(x) if len(x) == model.n_states else np.asarray(x, dtype=float)
-    return np.asarray(model.functions.outputs(t, y, model.native_params(p)))
 
 
 @dataclass(frozen=True)
@@ -87,9 +81,7 @@ class Transition:
     def guard(self, model: CompiledModel, t: float, x: np.ndarray, p: np.ndarray) -> float:
         """The event's guard g(t, x, p); the transition can fire where it crosses 0 in
         :attr:`direction`."""
-        y = model.augment(x) if len(x) == model.n_states else x
-        return float(np.asarray(model.functions.guards(t, y, model.native_params(p)))
-                     [self.event_index])
+        return float(model.guards(t, x, p)[self.event_index])
 
     def applies(self, y: np.ndarray) -> bool:
         """All conditions hold for the outputs ``y`` (just before the event)."""
@@ -119,7 +111,7 @@ class Transition:
         return self.impact.jacobian(t, x, p, self.params_after(p, self._outputs(t, x, p)))
 
     def _outputs(self, t, x, p):
-        return outputs(self.impact.model, t, x, p)
+        return self.impact.model.outputs(t, x, p)
 
 
 @dataclass(frozen=True)
@@ -170,13 +162,13 @@ class ModeMachine:
 
     def start(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The parameters after the ``start`` rule that applies at the initial state (if any)."""
-        y = outputs(self.model, 0.0, x, p)
+        y = self.model.outputs(0.0, x, p)
         tr = self.first("start", y)
         return p if tr is None else tr.params_after(p, y)
 
     def fire(self, event: str, log: WalkLog, t: float, x: np.ndarray, p: np.ndarray) -> Reset:
         """The action of ``event``: the first transition that applies, recorded in ``log``."""
-        y = outputs(self.model, t, x, p)
+        y = self.model.outputs(t, x, p)
         tr = self.first(event, y)
         if tr is None:
             return Reset()

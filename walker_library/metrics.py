@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-
 from .protocol import Stride
 
 __all__ = ["GaitMetrics", "gait_metrics"]
@@ -33,6 +32,7 @@ class GaitMetrics:
     energy_residual_per_step: float
 
     def to_dict(self) -> dict:
+        """Every metric by name."""
         return asdict(self)
 
 

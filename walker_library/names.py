@@ -11,7 +11,7 @@ those linear maps for :mod:`walker_library.core`; every problem is collected and
 """
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -43,14 +43,15 @@ class ModelNames:
     root_joint: str | None
 
     @classmethod
-    def of(cls, model: Model, symbolic_model: Any) -> ModelNames:
-        """The names of ``model`` from its symbolic form (a
-        :class:`porthamiltonian.compiler.SymbolicModel`)."""
+    def of(cls, model: Model, params: Sequence[str], states: Sequence[str],
+           outputs: Sequence[str]) -> ModelNames:
+        """The names of ``model`` given those its compiled form declares: parameters, states
+        and outputs (:class:`porthamiltonian.compiler.SymbolicModel`'s ``param_names``,
+        ``state_names`` and ``outputs``)."""
         from porthamiltonian import Multibody
         mbs = [name for name, c in model.components() if isinstance(c, Multibody)]
         mb = mbs[0] if len(mbs) == 1 else ""
-        coords = tuple(s[len(mb) + 3:] for s in symbolic_model.state_names
-                       if mb and s.startswith(f"{mb}.q."))
+        coords = tuple(s[len(mb) + 3:] for s in states if mb and s.startswith(f"{mb}.q."))
         points, root = (), None
         if mb:
             comp = model.component(mb)
@@ -59,8 +60,7 @@ class ModelNames:
             roots = [j for j, d in joints.items() if d.get("parent") == "world"]
             root = roots[0] if len(roots) == 1 and joints[roots[0]].get("type") == "revolute" \
                 else None
-        return cls(tuple(symbolic_model.param_names), tuple(symbolic_model.state_names),
-                   tuple(symbolic_model.outputs), mb, coords, points, root)
+        return cls(tuple(params), tuple(states), tuple(outputs), mb, coords, points, root)
 
 
 _NONLINEAR = "a linear expression"

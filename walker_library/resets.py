@@ -202,7 +202,7 @@ def floating_model(model: Model, multibody: str, root: str, about: str) -> Float
     joints = {**free, **{k: ({**v, "parent": base, "origin": [0, 0, 0]} if k == root else v)
                          for k, v in joints.items()}}
     args = {k: v for k, v in comp.args.items() if k not in ("bodies", "joints")}
-    out = Model(f"{model.name}_floating", f"{model.name} with its pin at the root released")
+    out = Model(f"{model.name}_floating")          # the model with its pin at the root released
     for name, par in model.parameters.items():
         out.parameter(name, par.value, par.unit, par.doc)
     out.add(multibody, Multibody(bodies=bodies, joints=joints, **args))
@@ -253,8 +253,7 @@ class ImpactMap:
         the same configuration and velocities, the free base at the hip moving with it."""
         mb, lay = self.multibody, self._layout
         v = np.linalg.solve(self.model.matrix(f"{mb}.M", t, x, p), x[lay["p"]])
-        y = np.asarray(self.model.functions.outputs(t, self.model.augment(x),
-                                                    self.model.native_params(p)))
+        y = self.model.outputs(t, x, p)
         xf = np.zeros(self.floating.n_states)
         xf[lay["fq"]] = lay["F"] @ x[lay["q"]]
         xf[lay["pin_states"]] = y[lay["about"]]
@@ -273,8 +272,7 @@ class ImpactMap:
                            f"{mb}.M", t=t, v_minus=vf)
         pin_v = self.floating.matrix(f"{mb}.J.{PIN}_point", t, imp.x_plus, pf) @ imp.impact.v_plus
         imp = imp.impact
-        y = np.asarray(self.model.functions.outputs(t, self.model.augment(x),
-                                                    self.model.native_params(p)))
+        y = self.model.outputs(t, x, p)
         v_new = self.relabel.rates(lay["F_inv"] @ imp.v_plus[lay["fv"]])
         x_new = self.relabel.state(x, y)
         x_new[lay["p"]] = self.model.matrix(f"{mb}.M", t, x_new, p_after) @ v_new

@@ -23,7 +23,9 @@ class JSONResult:
     ``to_json()``. A result with a custom layout overrides ``to_dict``."""
 
     def to_dict(self) -> dict:
+        """Every field, JSON-ready."""
         return to_jsonable(self.__dict__)
 
     def to_json(self, indent: int | None = 1) -> str:
+        """:meth:`to_dict` as JSON text."""
         return to_json(self.to_dict(), indent)

@@ -11,13 +11,12 @@ normal) for animations. One conversion serves every walker (:class:`~.core.Hybri
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .core import HybridWalker
 from .protocol import Stride
-from .strides import params_per_point
 
 __all__ = ["GaitSeries", "walk_series"]
 
@@ -29,7 +28,9 @@ class GaitSeries:
     t (s); step (0-based index of the step in progress); theta, phi (rad), theta_dot, phi_dot
     (rad/s) — phi and phi_dot are NaN for a walker without φ (the rimless wheel); H, V, T,
     E_diss, E_in, residual (J); hip (N × 2: x, z in m) and feet (N × F × 2: the walker's F feet
-    or spoke tips, m); strides: the :class:`~.protocol.Stride` records of the walk.
+    or spoke tips, m); strides: the :class:`~.protocol.Stride` records of the walk; events:
+    (time, name) of every model event of the run (each stored as repeated time points: the state
+    just before it, and after its reset).
     """
 
     t: np.ndarray
@@ -47,6 +48,7 @@ class GaitSeries:
     hip: np.ndarray
     feet: np.ndarray
     strides: list[Stride]
+    events: list[tuple[float, str]] = field(default_factory=list)
 
     @property
     def step_times(self) -> np.ndarray:
@@ -66,7 +68,7 @@ def walk_series(walker: HybridWalker, z: np.ndarray, n_steps: int, *, ground_dro
     t = traj.t
     ends = np.cumsum([s.duration for s in strides if not s.fell])
     step = np.minimum(np.searchsorted(ends, t, side="left"), len(strides) - 1)
-    P = params_per_point(traj)
+    P = traj.p
     n = walker.model.n_states
     N = len(t)
     angles = {k: np.full(N, np.nan) for k in ("theta", "phi", "theta_dot", "phi_dot")}
@@ -86,4 +88,5 @@ def walk_series(walker: HybridWalker, z: np.ndarray, n_steps: int, *, ground_dro
     mb = walker.multibody
     return GaitSeries(t=t, step=step, H=traj.H, V=np.asarray(traj[f"{mb}.V"]),
                       T=np.asarray(traj[f"{mb}.T"]), E_diss=traj.E_diss, E_in=traj.E_in,
-                      residual=traj.residual, hip=hip, feet=feet, strides=strides, **angles)
+                      residual=traj.residual, hip=hip, feet=feet, strides=strides,
+                      events=list(traj.events), **angles)

@@ -31,12 +31,7 @@ from .protocol import Stride
 if TYPE_CHECKING:
     from .core import HybridWalker
 
-__all__ = ["cut_strides", "params_per_point"]
-
-
-def params_per_point(traj: Trajectory) -> np.ndarray:
-    """The parameter vector in force at each stored point (N × n_params)."""
-    return np.concatenate([np.repeat(seg.p[None, :], len(seg.t), axis=0) for seg in traj.segments])
+__all__ = ["cut_strides"]
 
 
 def _fall_reason(traj: Trajectory) -> str:
@@ -92,7 +87,7 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
                 record: bool, x0: np.ndarray, p0: np.ndarray) -> list[Stride]:
     """The Strides of one walk (see the module docstring)."""
     t, Y = traj.t, traj.y
-    P = params_per_point(traj)
+    P = traj.p
     n = walker.model.n_states
     iV = walker._out[f"{walker.multibody}.V"]
 

@@ -55,8 +55,7 @@ from porthamiltonian.errors import ModelError
 
 from .analyses import basin_case, step_down_case
 from .continuation import continue_gait
-from .gait import analyze_gait, gait_start
-from .report import (
+from .figures import (
     fig_angles,
     fig_energy,
     fig_energy_per_step,
@@ -64,6 +63,7 @@ from .report import (
     pyplot,
     save_figure,
 )
+from .gait import analyze_gait, gait_start
 from .results import to_json, to_jsonable
 from .robustness import step_down
 from .series import walk_series

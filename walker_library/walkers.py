@@ -47,12 +47,14 @@ def read_walker(name_or_path: str | Path) -> tuple[WalkerSpec, str]:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as err:
         raise ModelFileError(f"{path}: cannot read the walker file ({err})") from None
-    model = ph_io.loads(text, source=str(path))
-    table = model.sections.get("walker")
+    record = ph_io.reads(text, source=str(path))
+    table = record.sections.get("walker")
     if table is None:
         raise ModelFileError(f"{path}: not a walker file: it has no [walker] table (a walker is a "
                              "model plus its hybrid description; see docs/walkers.md)")
-    return walker_spec(model, table, source=str(path), text=text), text
+    return walker_spec(record.model, table, source=str(path), text=text,
+                       description=record.description,
+                       units=str(record.meta.get("units", ""))), text
 
 
 def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None = None, *,
@@ -76,7 +78,8 @@ def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str
     values as the defaults). ``header``: comment lines put at the top. Loading the file gives the
     same description, model and gait."""
     spec = walker.spec if isinstance(walker, HybridWalker) else walker
-    data = ph_io.model_to_dict(spec.model)
+    data = ph_io.model_to_dict(ph_io.ModelFile(
+        spec.model, description=spec.description, meta={"units": spec.units} if spec.units else {}))
     data["walker"] = spec.to_table()
     if isinstance(walker, HybridWalker):
         for name, value in walker.parameters.items():

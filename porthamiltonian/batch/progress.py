@@ -69,7 +69,7 @@ class TickChannel:
 
     interval = 0.2
 
-    def __init__(self, mp_context):
+    def __init__(self, mp_context: Any):
         self.reader, self.writer = mp_context.Pipe(duplex=False)
 
     def drain(self) -> Counter:
@@ -85,6 +85,7 @@ class TickChannel:
         return got
 
     def close(self) -> None:
+        """Close both ends of the pipe."""
         self.reader.close()
         self.writer.close()
 
@@ -111,7 +112,7 @@ class _WorkerSink:
         self.last = time.monotonic()
 
 
-def install_worker_sink(writer) -> _WorkerSink:
+def install_worker_sink(writer: Any) -> _WorkerSink:
     """In a worker process: send this process's ticks through ``writer`` (the writing end of a
     :class:`TickChannel`) for the rest of its life. The sink's ``flush()`` sends what is
     pending (the runner calls it after each case)."""
@@ -177,6 +178,7 @@ class SweepProgress:
 
     @property
     def failures(self) -> Counter:
+        """The counts of the statuses that are not successes."""
         return Counter({k: v for k, v in self.counts.items() if k not in self.ok})
 
     def _failure_text(self) -> str:
@@ -231,6 +233,7 @@ class SweepProgress:
             self._line()
 
     def close(self) -> None:
+        """End the display (the bar's last state, or a last text line)."""
         if self.bar is not None:
             self._postfix()
             self.bar.close()

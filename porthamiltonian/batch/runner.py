@@ -56,7 +56,7 @@ from concurrent.futures import (
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from . import progress as _progress
 from .errors import SweepError, SweepFileError
@@ -64,6 +64,9 @@ from .executors import executor_width
 from .grids import cases_sha256, normalize_case
 from .resultsfile import FORMAT, VERSION, ResultsFile, Scan, scan
 from .table import table, to_dataframe, write_csv
+
+if TYPE_CHECKING:  # pandas is optional (the frames extra)
+    import pandas as pd
 from .values import canonical, plain_value, to_jsonable
 
 __all__ = ["Sweep", "SweepInterrupted", "SweepReport", "function_name", "resolve_function",
@@ -283,9 +286,11 @@ class SweepReport:
 
     @property
     def complete(self) -> bool:
+        """Every case of the sweep is done."""
         return self.n_done == self.n_cases
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
+        """The report as JSON-ready data."""
         return {**self.__dict__, "complete": self.complete}
 
 
@@ -458,15 +463,19 @@ class Sweep:
         """Write :meth:`table` as CSV (see :func:`~.table.write_csv`)."""
         return write_csv(self.table(pending=pending), path)
 
-    def dataframe(self, *, pending: bool = False):
+    def dataframe(self, *, pending: bool = False) -> pd.DataFrame:
         """:meth:`table` as a pandas DataFrame indexed by case_id (pandas: the ``frames`` extra)."""
         return to_dataframe(self.table(pending=pending))
 
     # --- running -----------------------------------------------------------------------------------
+    def _repr_html_(self) -> str:
+        from ..display import sweep_html
+        return sweep_html(self)
+
     def run(self, executor: Executor | None = None, *, workers: int | None = None,
             serial: bool = False, progress: str | bool | None = "auto",
             progress_interval: float = 10.0, max_in_flight: int | None = None,
-            mp_context=None) -> SweepReport:
+            mp_context: Any = None) -> SweepReport:
         """Run the cases that are not in the results file yet; return a :class:`SweepReport`.
 
         executor : any :class:`concurrent.futures.Executor` (e.g. ``client.get_executor()`` of

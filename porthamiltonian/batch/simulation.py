@@ -25,12 +25,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.optimize import brentq
 
 from ..errors import ModelError
+from ..integrators import TABLEAUS
+
+if TYPE_CHECKING:
+    from ..compiled import CompiledModel
+    from ..model import Model
+    from ..trajectory import Trajectory
 
 __all__ = ["ModelCache", "SimulationModel", "model_cache", "prepare_simulation",
            "settling_time", "simulate_case", "simulation_settings"]
@@ -49,8 +55,8 @@ class SimulationModel:
     """A model loaded from its file and compiled: the description, the compiled model, and its
     file's simulation settings (completed by :func:`simulation_settings`)."""
 
-    model: Any
-    compiled: Any
+    model: Model
+    compiled: CompiledModel
     settings: dict[str, Any]
 
     @classmethod
@@ -58,21 +64,20 @@ class SimulationModel:
         """Load ``model`` (a name from ``models/`` or a path) and compile it with ``backend``
         (None: "auto")."""
         from .. import io
-        from ..compiler import compile_model
-        description = io.load(model)
-        return cls(description, compile_model(description, backend=backend or "auto"),
-                   simulation_settings(description.simulation))
+        record = io.read(model)
+        return cls(record.model, record.compile(backend=backend or "auto"),
+                   simulation_settings(record.simulation))
 
     def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
-                 dense_output: bool = False):
+                 dense_output: bool = False) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
-        method, rtol, atol and max_step (with ``dense_output``, a file's Rodas4 becomes "auto":
-        Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
+        method, rtol, atol and max_step (with ``dense_output``, a file's compiled method,
+        Rodas4 or Rodas5P, becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
         t_end = self.t_end(t_end)
         sim = self.settings
         options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
         method = sim["method"]
-        if dense_output and method == "Rodas4":
+        if dense_output and method in TABLEAUS:
             method = "auto"              # the compiled loop has no dense output: Radau instead
         return self.compiled.simulate(t_end, params=params, method=method, rtol=sim["rtol"],
                                       atol=sim["atol"], dense_output=dense_output, **options)
@@ -101,6 +106,7 @@ class ModelCache:
         return self._models[key]
 
     def clear(self) -> None:
+        """Forget every model (the next ``get`` loads and compiles again)."""
         self._models.clear()
 
 
@@ -149,13 +155,12 @@ def _signal_of_t(traj, name: str) -> Callable[[float], float]:
     if name in model.state_names:
         k = model.state_index(name)
         return lambda s: float(traj.sol(s)[k])
-    k = model.output_index(name)
+    model.output_index(name)             # an unknown name fails here, naming the outputs
 
     def value(s: float) -> float:
         for seg in traj.segments:
             if seg.t[0] <= s <= seg.t[-1]:
-                x = model.augment(traj.sol(s))
-                return float(np.asarray(model.functions.outputs(s, x, model.native_params(seg.p)))[k])
+                return model.output(name, s, traj.sol(s), seg.p)
         raise ValueError(f"t = {s} is outside the run")
     return value
 

@@ -14,7 +14,10 @@ import csv
 import json
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pandas is optional (the frames extra)
+    import pandas as pd
 
 __all__ = ["read_dataframe", "table", "to_dataframe", "write_csv"]
 
@@ -90,7 +93,7 @@ def write_csv(rows: Sequence[Mapping[str, Any]], path: str | Path) -> Path:
     return path
 
 
-def to_dataframe(rows: Sequence[Mapping[str, Any]]):
+def to_dataframe(rows: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
     """Table rows as a :class:`pandas.DataFrame` indexed by ``case_id`` (null values as NaN in
     numeric columns)."""
     try:
@@ -105,7 +108,7 @@ def to_dataframe(rows: Sequence[Mapping[str, Any]]):
     return frame.set_index("case_id") if "case_id" in frame else frame
 
 
-def read_dataframe(path: str | Path):
+def read_dataframe(path: str | Path) -> pd.DataFrame:
     """The tidy table of a results file as a pandas DataFrame (see :func:`to_dataframe`), rows
     in case order. Only the file is read: no need to rebuild the sweep."""
     from .resultsfile import load_results

@@ -15,7 +15,9 @@ states x, the parameters p and the time t:
   ``<component>.H``, or its outputs ``T`` and ``V`` when it splits its energy into kinetic and
   potential (a multibody), for the ledger's offset-free scale
   (:attr:`porthamiltonian.trajectory.Trajectory.energy_scale`);
-* the constraints on parameter values the components declared (:mod:`porthamiltonian.constraints`).
+* the constraints on parameter values the components declared (:mod:`porthamiltonian.constraints`);
+* the SI units of the states (declared, or a storage port's time integral: m for a C storage on
+  a translation port, N·s for an I storage) and of the port variables (their domain's).
 
 The residual r(t) = H(t) − H(0) + E_diss(t) − E_in(t) is then zero up to integration error;
 :func:`power_balance` gives dH/dt − P_in + P_diss, which is identically zero for a consistent model.
@@ -30,7 +32,8 @@ from ..constraints import Constraint
 from ..errors import ModelError, StateError
 from ..expressions import TIME, parse
 from ..model import EventSpec
-from .structure import Solution, _flat, _scope_names
+from ..ports import domain
+from .structure import Solution, _flat
 
 
 @dataclass
@@ -58,13 +61,18 @@ class SymbolicModel:
     #: (output name, "stored" or "potential") of the energy parts (see :func:`energy_parts`)
     energy_parts: list[tuple[str, str]] = field(default_factory=list)
     constraints: list[Constraint] = field(default_factory=list)
+    #: SI unit by name of the states and port variables whose unit is known
+    units: dict[str, str] = field(default_factory=dict)
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
+        """The symbols of the ledger states E_diss and E_in (appended to the model states)."""
         return [sp.Symbol("ledger.E_diss", real=True), sp.Symbol("ledger.E_in", real=True)]
 
 
 def assemble(solution: Solution) -> SymbolicModel:
+    """The state equations, energy ledger, outputs, guards and initial values of a solved
+    system (see the module docstring)."""
     system = solution.system
     flat = system.flat
     values = {u: expr for u, expr, _ in solution.order}
@@ -77,6 +85,7 @@ def assemble(solution: Solution) -> SymbolicModel:
     p_diss = sp.Integer(0)
     p_in = sp.Integer(0)
     energies: dict[str, sp.Expr] = {}
+    hidden = _hidden_dependencies(system.intermediates, {*states, TIME})
     for cname, b in system.built.items():
         energy = b.energy.xreplace(system.aliases)
         energies[cname] = energy
@@ -84,6 +93,11 @@ def assemble(solution: Solution) -> SymbolicModel:
             raise ModelError(f"component {cname!r}: its stored energy depends on port variables; "
                              "energy must be a function of states, parameters and time")
         H += energy
+        reached = set().union(*(hidden[w] for w in energy.free_symbols if w in hidden))
+        if TIME in reached or (reached - owned[cname] - {TIME} and not b.energy_via_ports):
+            # intermediates hide a dependence on time or on other components' states: the
+            # modulation power is formed from the energy written out in states
+            energy = _inline(energy, system.intermediates)
         modulation = sp.diff(energy, TIME)
         if not b.energy_via_ports:
             modulation += sum((sp.diff(energy, x) * xdot[x] for x in energy.free_symbols & set(states)
@@ -93,19 +107,26 @@ def assemble(solution: Solution) -> SymbolicModel:
         p_in += b.supply.xreplace(system.aliases).xreplace(values)
 
     outputs: dict[str, sp.Expr] = {}
+    units = {str(s.symbol): s.unit for b in system.built.values() for s in b.states if s.unit}
     for cname, b in system.built.items():
         for pname, pv in b.ports.items():
             names = _port_names(cname, pname, pv.port.dim)
-            for name, sym in zip(names, _flat(pv.e) + _flat(pv.f)):
+            dom = domain(pv.port.domain)
+            kinds = [dom.effort_unit] * pv.port.dim + [dom.flow_unit] * pv.port.dim
+            for name, sym, unit in zip(names, _flat(pv.e) + _flat(pv.f), kinds):
                 outputs[name] = values[system.aliases.get(sym, sym)]
+                if unit and "|" not in unit:
+                    units[name] = unit
         for oname, expr in b.outputs.items():
             outputs[oname] = expr.xreplace(system.aliases).xreplace(values)
+        units.update(b.output_units)
     parts = energy_parts(energies, outputs)
+    units.update({name: "J" for name, _ in parts})
     symbol_table = _symbol_table(system, outputs)
     for oname, text in flat.outputs.items():
-        outputs[oname] = _model_expr(text, flat.scopes[f"output:{oname}"], symbol_table, system,
+        outputs[oname] = _model_expr(text, f"output:{oname}", symbol_table, system,
                                      f"output {oname!r}").xreplace(values)
-    events = [(ev, _model_expr(ev.guard, flat.scopes[f"event:{ev.name}"], symbol_table, system,
+    events = [(ev, _model_expr(ev.guard, f"event:{ev.name}", symbol_table, system,
                                f"event {ev.name!r} guard").xreplace(values)) for ev in flat.events]
 
     initial = []
@@ -119,6 +140,8 @@ def assemble(solution: Solution) -> SymbolicModel:
     matrices = {name: m.xreplace(system.aliases).xreplace(values)
                 for b in system.built.values() for name, m in b.matrices.items()}
     rhs = [xdot[x] for x in states] + [p_diss, p_in]
+    used = [*rhs, H, *outputs.values(), *(g for _, g in events), *matrices.values(),
+            *(e for _, A, b in system.blocks for e in (*A, *b))]
     return SymbolicModel(
         name=flat.name, states=states, state_names=[str(s) for s in states],
         params=list(system.params.values()), param_names=list(system.params),
@@ -127,9 +150,11 @@ def assemble(solution: Solution) -> SymbolicModel:
         rhs=rhs, hamiltonian=H, p_diss=p_diss, p_in=p_in, outputs=outputs, events=events,
         initial=initial,
         equations=[f"{u} = {expr}" for u, expr, _ in solution.order if u in system.derivatives],
-        blocks=system.blocks, matrices=matrices, intermediates=system.intermediates,
+        blocks=system.blocks, matrices=matrices,
+        intermediates=_needed(system.intermediates, used),
         energy_parts=parts,
         constraints=[c for b in system.built.values() for c in b.constraints],
+        units=units,
     )
 
 
@@ -157,6 +182,48 @@ def energy_parts(energies: dict[str, sp.Expr],
     return parts
 
 
+def _needed(intermediates: list[tuple[sp.Symbol, sp.Expr]],
+            exprs: list) -> list[tuple[sp.Symbol, sp.Expr]]:
+    """The intermediates that ``exprs`` use, directly or through other intermediates (in their
+    order): a component may declare more than a model uses (e.g. a multibody's inertia entries
+    that a planar motion never reads)."""
+    wanted: set[sp.Symbol] = set()
+    for e in exprs:
+        wanted |= sp.sympify(e).free_symbols
+    for symbol, expr in reversed(intermediates):
+        if symbol in wanted:
+            wanted |= expr.free_symbols
+    return [(s, e) for s, e in intermediates if s in wanted]
+
+
+def _hidden_dependencies(intermediates: list[tuple[sp.Symbol, sp.Expr]],
+                         leaves: set[sp.Symbol]) -> dict[sp.Symbol, set[sp.Symbol]]:
+    """For each intermediate, the states and time (``leaves``) it depends on, directly or
+    through earlier intermediates."""
+    reach: dict[sp.Symbol, set[sp.Symbol]] = {}
+    for symbol, expr in intermediates:
+        found = expr.free_symbols & leaves
+        for w in expr.free_symbols:
+            if w in reach:
+                found |= reach[w]
+        reach[symbol] = found
+    return reach
+
+
+def _inline(expr: sp.Expr, intermediates: list[tuple[sp.Symbol, sp.Expr]]) -> sp.Expr:
+    """``expr`` with its intermediates substituted by their definitions, recursively."""
+    defs = dict(intermediates)
+    values: dict[sp.Symbol, sp.Expr] = {}
+
+    def value(symbol: sp.Symbol) -> sp.Expr:
+        if symbol not in values:
+            inner = defs[symbol]
+            values[symbol] = inner.xreplace({w: value(w) for w in inner.free_symbols if w in defs})
+        return values[symbol]
+
+    return expr.xreplace({w: value(w) for w in expr.free_symbols if w in defs})
+
+
 def _port_names(comp: str, port: str, dim: int) -> list[str]:
     if dim == 1:
         return [f"{comp}.{port}.e", f"{comp}.{port}.f"]
@@ -176,10 +243,17 @@ def _symbol_table(system, outputs) -> dict[str, sp.Expr]:
     return table
 
 
-def _model_expr(text: str, prefix: str, table: dict[str, sp.Symbol], system, where: str) -> sp.Expr:
-    names = _scope_names(system.flat, prefix, system.params)
-    return parse(text, names, f"model {system.flat.name!r} {where}",
-                 lambda ref: table.get(prefix + ref))
+def _model_expr(text: str, key: str, table: dict[str, sp.Symbol], system, where: str) -> sp.Expr:
+    """A model output's or event guard's expression (``key``: ``"output:<name>"`` or
+    ``"event:<name>"``) in its scope; an error carries its path."""
+    flat = system.flat
+    prefix = flat.scopes[key]
+    try:
+        return parse(text, flat.scope_names(prefix), f"model {flat.name!r} {where}",
+                     lambda ref: table.get(prefix + ref))
+    except ModelError as err:
+        suffix = ("guard",) if key.startswith("event:") else ()
+        raise err.within(*flat.paths[key], *suffix) from None
 
 
 def power_balance(model: SymbolicModel) -> sp.Expr:

@@ -5,7 +5,7 @@ Key
 The key hashes the model's canonical description (components with their arguments, bonds,
 parameters, events, outputs), the sources of the package modules that determine the generated code
 (the component classes' modules and what they import, the compiler, the back ends, the integration
-loops), the versions of sympy and of the code generator: editing the command line, the analyses or
+loops and their C templates), the versions of sympy and of the code generator: editing the command line, the analyses or
 a docstring of an unrelated module keeps every cached model.
 
 Layout
@@ -15,9 +15,13 @@ folder per entry, ``<cache>/<key>/``:
 
 ``meta.json``            the layout (states, parameters, outputs, events, energy parts, parameter
                          constraints) and the equations for display
-``body.py``              the generated code body
-``m<key>_<backend>.py``  a back end's module, derived from the body, added when first needed
-other files              artifacts a back end stores with :func:`store` (e.g. a shared library)
+``body.py``, ``body.c``  the generated code (one program printed as Python and as C)
+``m<key>_<backend>.py``  a back end's module (python, numba), derived from body.py, added when
+                         first needed
+``m<key>_c.c``, ``m<key>_c_<platform>.so``  the C back end's translation unit and shared library
+                         (``.dll`` on Windows), added when first needed; ``m<key>_c.log``, the
+                         compiler's output when it failed (never read back, not recorded)
+other files              artifacts a back end stores with :func:`store`
 ``manifest.json``        ``{"key": ..., "files": {name: sha256}}``: every file above
 ``__pycache__/``         written by Python (bytecode) and numba (compiled functions) when a module
                          is imported and first called; they validate these files against the
@@ -80,7 +84,7 @@ from typing import Any
 
 import sympy
 
-from ..model import Model
+from ..model import Model, ModelDescription
 from .codegen import CODEGEN_VERSION
 
 try:  # POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record,
@@ -179,18 +183,17 @@ def _base(persistent: bool) -> Path:
 
 
 # --- the key ---------------------------------------------------------------------------------------
-def model_key(model: Model) -> str:
+def model_key(model: Model | ModelDescription) -> str:
     """A hash of everything that determines the generated code: the model's canonical
-    description, the source of every package module the model's component classes depend on
-    (their modules and, transitively, the package modules those import), the compiler and
-    back-end sources, and the versions of sympy and of the code generator."""
-    from ..io import model_to_dict  # io imports the compiler's users; import late
-
-    description = model_to_dict(model)
-    modules = {type(c).__module__ for c in _all_components(model)}
-    blob = json.dumps({"model": description, "classes": _sources_hash(frozenset(modules)),
-                       "sympy": sympy.__version__, "codegen": CODEGEN_VERSION},
-                      sort_keys=True, default=str)
+    description (:meth:`~porthamiltonian.model.ModelDescription.canonical`), the source of every
+    package module the model's component classes depend on (their modules and, transitively, the
+    package modules those import), the compiler and back-end sources, and the versions of sympy
+    and of the code generator."""
+    description = model.freeze() if isinstance(model, Model) else model
+    modules = {type(c).__module__ for c in description.components.values()}
+    blob = json.dumps({"model": description.canonical(),
+                       "classes": _sources_hash(frozenset(modules)),
+                       "sympy": sympy.__version__, "codegen": CODEGEN_VERSION}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
@@ -215,18 +218,22 @@ def _sources_hash(modules: frozenset[str]) -> str:
             outside.append(_outside_source(module))
     while todo:
         base = todo.pop()
-        candidates = sorted(base.rglob("*.py")) if base.is_dir() else [base.with_suffix(".py")]
+        candidates = (sorted([*base.rglob("*.py"), *base.rglob("*.c")]) if base.is_dir()
+                      else [base.with_suffix(".py")])
         for path in candidates:
             if path in files or not path.is_file():
                 continue
             files.add(path)
-            for dots, name, names in _IMPORT.findall(path.read_text()):
+            for dots, name, names in (_IMPORT.findall(path.read_text())
+                                      if path.suffix == ".py" else ()):
                 root = path.parent
                 for _ in range(len(dots) - 1):
                     root = root.parent
                 target = root.joinpath(*name.split(".")) if name else root
-                todo.append(target)
-                if target.is_dir():  # ``from . import cache``: the named submodules
+                # ``from . import cache``: the package's __init__ and the named submodules (not
+                # the whole package); ``from .x import y``: module x (or all of package x)
+                todo.append(target / "__init__" if not name else target)
+                if target.is_dir():
                     todo += [target / n.strip() for n in names.strip("()").split(",") if n.strip()]
     digest = hashlib.sha256()
     for path in sorted(files):
@@ -243,14 +250,6 @@ def _outside_source(module: str) -> str:
         return inspect.getsource(sys.modules[module])
     except (KeyError, OSError, TypeError):
         return module
-
-
-def _all_components(model: Model):
-    for _, comp in model.components():
-        if isinstance(comp, Model):
-            yield from _all_components(comp)
-        else:
-            yield comp
 
 
 # --- files and the manifest ------------------------------------------------------------------------
@@ -350,8 +349,12 @@ def _verified(entry: Path, name: str, files: dict[str, str]) -> bytes | None:
 
 
 # --- entries: layout and code ------------------------------------------------------------------------
-def read(key: str) -> tuple[dict[str, Any], str] | None:
-    """The entry's ``(meta, body)`` when present and intact; None on a miss. A damaged entry is
+_BODIES = {"python": "body.py", "c": "body.c"}
+
+
+def read(key: str) -> tuple[dict[str, Any], dict[str, str]] | None:
+    """The entry's ``(meta, bodies)`` (bodies: ``{"python": ..., "c": ...}``) when present and
+    intact; None on a miss. A damaged entry is
     reported in one warning naming the file and removed (the caller rebuilds it). When the cache
     folder is not usable, this process's private folder serves instead."""
     entry = _base(True) / key
@@ -359,16 +362,17 @@ def read(key: str) -> tuple[dict[str, Any], str] | None:
         return None
     files = _manifest(entry)
     raw = None
-    if files is not None and not {"meta.json", "body.py"} & set(files):
+    names = ("meta.json", *_BODIES.values())
+    if files is not None and not set(names) & set(files):
         return None                     # only back-end files stored so far: a miss
     if files is not None:
-        raw = {name: _verified(entry, name, files) for name in ("meta.json", "body.py")}
+        raw = {name: _verified(entry, name, files) for name in names}
         if any(v is None for v in raw.values()):
             raw = None
     if raw is not None:
         try:
             meta = json.loads(raw["meta.json"])
-            return meta, raw["body.py"].decode()
+            return meta, {lang: raw[name].decode() for lang, name in _BODIES.items()}
         except (ValueError, UnicodeDecodeError) as err:
             _warn(f"compiled-model cache: {entry / 'meta.json'} cannot be read ({err}); the "
                   "entry is rebuilt")
@@ -376,9 +380,10 @@ def read(key: str) -> tuple[dict[str, Any], str] | None:
     return None
 
 
-def write(key: str, meta: dict[str, Any], body: str) -> None:
-    """Store a new entry (layout and code body), complete or not at all (in this process's
-    private folder when the cache folder is not usable)."""
+def write(key: str, meta: dict[str, Any], bodies: dict[str, str]) -> None:
+    """Store a new entry (layout and code bodies by language, ``"python"`` and ``"c"``),
+    complete or not at all (in this process's private folder when the cache folder is not
+    usable)."""
     base = _base(True)
     try:
         staging = Path(tempfile.mkdtemp(prefix=f".new-{key}-", dir=base))
@@ -386,7 +391,8 @@ def write(key: str, meta: dict[str, Any], body: str) -> None:
         _warn(f"compiled-model cache {base}: cannot write ({err.strerror}); not cached")
         return
     try:
-        contents = {"meta.json": json.dumps(meta, indent=1).encode(), "body.py": body.encode()}
+        contents = {"meta.json": json.dumps(meta, indent=1).encode(),
+                    **{name: bodies[lang].encode() for lang, name in _BODIES.items()}}
         for name, data in contents.items():
             (staging / name).write_bytes(data)
         (staging / _MANIFEST).write_text(json.dumps(
@@ -464,6 +470,12 @@ def verified_path(key: str, name: str) -> Path | None:
     return entry / name
 
 
+def kept(path: Path) -> bool:
+    """True when ``path`` lies in the cache folder (kept after this process ends)."""
+    base = cache_dir()
+    return base is not None and base.resolve() in Path(path).resolve().parents
+
+
 def backend_module(key: str, backend: str, text: str, persistent: bool = True) -> Path:
     """Path of the back-end module for ``key`` with the text ``text``: the stored one when it is
     intact and the same, else written now (and the bytecode compiled from an older one removed)."""
@@ -475,5 +487,5 @@ def backend_module(key: str, backend: str, text: str, persistent: bool = True) -
     return path
 
 
-__all__ = ["CacheWarning", "backend_module", "cache_dir", "configured_dir", "load_verified",
+__all__ = ["CacheWarning", "backend_module", "cache_dir", "configured_dir", "kept", "load_verified",
            "model_key", "private_dir", "read", "store", "verified_path", "write", "write_atomic"]

@@ -1,7 +1,11 @@
-"""Code generation: common-subexpression elimination and printing of straight-line Python source.
+"""Code generation: one intermediate program per model, printed as Python and as C99.
 
-The generated module defines, each taking the time ``t``, the state vector ``x`` (model states
-then the ledger states E_diss, E_in) and the parameter vector ``p``:
+:func:`program` turns a :class:`~.assemble.SymbolicModel` into a :class:`Program` — straight-line
+functions of common-subexpression-eliminated assignments, implicit linear blocks and the
+chain-rule Jacobian — once; :mod:`.printers` prints it as Python (run by CPython or compiled by
+numba) and as C99 (compiled by the machine's C compiler), so that every back end evaluates the same
+assignments in the same order. The functions, each taking the time ``t``, the state vector ``x``
+(model states then the ledger states E_diss, E_in) and the parameter vector ``p``:
 
 ``rhs(t, x, p)``      ẋ, length n + 2
 ``jac(t, x, p)``      ∂ẋ/∂x, (n + 2) x (n + 2), analytic
@@ -14,152 +18,283 @@ then the ledger states E_diss, E_in) and the parameter vector ``p``:
 Implicit blocks ``A(t, x, p) v = b(t, x, p)`` (e.g. M(q) q̇ = p of a multibody) are solved
 numerically at the top of every function that needs ``v``; in the Jacobian, v's derivative is
 ``A⁻¹ (∂b/∂x − ∂(A v)/∂x|_v)`` (implicit differentiation), never a symbolic inverse.
-
-The source uses only ``math``, ``numpy`` array creation, ``np.linalg.solve`` and indexing, so the
-same text runs as plain Python (the reference back end) and under ``numba.njit`` (the compiled back
-end). The layout of ``x`` and ``p`` is written in the module docstring.
+Intermediates may read the blocks' unknowns (velocity-level intermediates, e.g. the body twists
+of a multibody); the chain rule then adds ∂w/∂v · ∂v/∂x to their rows. Every function's
+documentation lists the order of its arguments' and its result's entries by name.
 """
 from __future__ import annotations
 
 import graphlib
+from dataclasses import dataclass
 
 import sympy as sp
-from sympy.printing.pycode import PythonCodePrinter
 
 from ..expressions import TIME
 from .assemble import SymbolicModel
-from .literals import python_docstring
 
 #: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "3"
+CODEGEN_VERSION = "5"
 
 
-class _Printer(PythonCodePrinter):
-    def __init__(self):
-        super().__init__({"standard": "python3", "fully_qualified_modules": True})
+# --- the intermediate program ------------------------------------------------------------------
+@dataclass(frozen=True)
+class Let:
+    """``name = expr``: a scalar local."""
 
-    def _print_Float(self, expr):
-        return repr(float(expr))
-
-    def _print_Heaviside(self, expr):
-        # H(x) with H(0) = 1/2 (sympy's default), as a conditional expression
-        x = self._print(expr.args[0])
-        return f"(1.0 if {x} > 0 else (0.5 if {x} == 0 else 0.0))"
-
-    def _print_DiracDelta(self, expr):
-        # derivatives of Abs/sign/Heaviside: zero almost everywhere (the jump itself is an event)
-        return "0.0"
+    name: str
+    expr: sp.Expr
 
 
-class _Writer:
-    """Writes the generated functions. The intermediates and block solves (the prologue) are
-    cse'd once and shared; each function cse's its own outputs, then emits in dependency order
-    only the prologue nodes it needs, then its output arrays."""
+@dataclass(frozen=True)
+class Array:
+    """A local float array (the function's result when named ``out``): zero-filled when
+    ``zero`` (only its nonzero entries are stored), else every entry is stored."""
 
-    def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel, printer: _Printer):
+    name: str
+    shape: tuple[int, ...]
+    zero: bool
+
+
+@dataclass(frozen=True)
+class Store:
+    """``array[index] = expr``."""
+
+    array: str
+    index: tuple[int, ...]
+    expr: sp.Expr
+
+
+@dataclass(frozen=True)
+class Solve:
+    """Solve ``A v = b`` (arrays of shape (n, n) and (n,), filled before) into the scalars
+    ``targets`` (LU with partial pivoting; closed forms for n <= 2)."""
+
+    A: str
+    b: str
+    targets: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class IndexTable:
+    """``name``: a constant table of integers."""
+
+    name: str
+    values: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class ChainRule:
+    """For k in range(start, stop): ``array[rows[k], :] += coefs[k] * array[cols[k], :]`` — the
+    forward chain rule through intermediates, one step per nonzero partial ∂w_m/∂w_j (j < m) in
+    row order, as one loop over the index tables ``rows`` and ``cols`` (a compiler builds one
+    loop, not one statement per partial); ``coefs`` is a float array, ``array`` has ``ncols``
+    columns."""
+
+    array: str
+    coefs: str
+    rows: str
+    cols: str
+    start: int
+    stop: int
+    ncols: int
+
+
+@dataclass(frozen=True)
+class SparseProduct:
+    """``dst += F @ src`` for F of shape ``shape`` given by its nonzero ``entries`` (i, j, expr);
+    src and dst have ``ncols`` columns."""
+
+    dst: str
+    entries: tuple[tuple[int, int, sp.Expr], ...]
+    shape: tuple[int, int]
+    src: str
+    ncols: int
+
+
+@dataclass(frozen=True)
+class SolveRows:
+    """``R = A⁻¹ R`` for A of shape (n, n) and R of shape (n, ncols)."""
+
+    A: str
+    R: str
+    n: int
+    ncols: int
+
+
+Statement = Let | Array | Store | Solve | IndexTable | ChainRule | SparseProduct | SolveRows
+
+
+@dataclass(frozen=True)
+class Function:
+    """One generated function: ``name(*args) -> out`` of shape ``shape``; ``doc`` holds raw
+    lines (names from the model: printers escape them for their language)."""
+
+    name: str
+    args: tuple[str, ...]
+    doc: tuple[str, ...]
+    body: tuple[Statement, ...]
+    shape: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Program:
+    """A model's generated functions and its layout (``n`` integration states, ``n_params``,
+    ``n_guards`` guard slots, ``n_outputs`` output slots; ``header``: raw lines)."""
+
+    model_name: str
+    header: tuple[str, ...]
+    functions: tuple[Function, ...]
+    n: int
+    n_params: int
+    n_guards: int
+    n_outputs: int
+
+
+# --- building ------------------------------------------------------------------------------------
+def _names(exprs) -> set[str]:
+    return {str(s) for e in exprs for s in e.free_symbols}
+
+
+class _Builder:
+    """Builds the functions. The intermediates and block solves (the prologue) are cse'd once and
+    shared; each function cse's its own results, then takes in dependency order only the prologue
+    nodes it needs, then its result."""
+
+    def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel):
         self.mapping = mapping
-        self.printer = printer
-        pr = printer.doprint
         pre: list[sp.Expr] = [expr for _, expr in model.intermediates]
         for _, A, b in model.blocks:
             pre += list(A) + list(b)
         pre = [sp.sympify(e).xreplace(mapping) for e in pre]
-        replacements, reduced = sp.cse(pre, symbols=sp.numbered_symbols("_p"), order="none")
-        # assignment nodes: (target names, dependencies, lines)
-        self.nodes: list[tuple[list[str], set[str], list[str]]] = [
-            ([str(sym)], {str(s) for s in expr.free_symbols}, [f"    {sym} = {pr(expr)}"])
-            for sym, expr in replacements]
+        replacements, reduced = sp.cse(pre, symbols=sp.numbered_symbols("s"), order="none")
+        # nodes: (targets, dependencies, statements)
+        self.nodes: list[tuple[list[str], set[str], list[Statement]]] = [
+            ([str(sym)], _names([expr]), [Let(str(sym), expr)]) for sym, expr in replacements]
         k = 0
         for symbol, _ in model.intermediates:
             target = str(mapping[symbol])
-            self.nodes.append(([target], {str(s) for s in reduced[k].free_symbols},
-                               [f"    {target} = {pr(reduced[k])}"]))
+            self.nodes.append(([target], _names([reduced[k]]), [Let(target, reduced[k])]))
             k += 1
         for index, (syms, A, b) in enumerate(model.blocks):
             n = len(syms)
-            lines = [f"    _A{index} = np.empty(({n}, {n}))", f"    _b{index} = np.empty({n})"]
+            an, bn = f"A{index}", f"b{index}"
+            stmts: list[Statement] = [Array(an, (n, n), False), Array(bn, (n,), False)]
             deps: set[str] = set()
             for i in range(n):
                 for j in range(n):
-                    lines.append(f"    _A{index}[{i}, {j}] = {pr(reduced[k])}")
-                    deps |= {str(s) for s in reduced[k].free_symbols}
+                    stmts.append(Store(an, (i, j), reduced[k]))
+                    deps |= _names([reduced[k]])
                     k += 1
             for i in range(n):
-                lines.append(f"    _b{index}[{i}] = {pr(reduced[k])}")
-                deps |= {str(s) for s in reduced[k].free_symbols}
+                stmts.append(Store(bn, (i,), reduced[k]))
+                deps |= _names([reduced[k]])
                 k += 1
-            targets = [str(mapping[s]) for s in syms]
-            if n == 1:   # small systems in closed form: no LAPACK call per evaluation
-                lines.append(f"    {targets[0]} = _b{index}[0] / _A{index}[0, 0]")
-            elif n == 2:
-                a, b = f"_A{index}", f"_b{index}"
-                lines.append(f"    _det{index} = {a}[0, 0] * {a}[1, 1] - {a}[0, 1] * {a}[1, 0]")
-                lines.append(f"    {targets[0]} = ({b}[0] * {a}[1, 1] - {a}[0, 1] * {b}[1]) / _det{index}")
-                lines.append(f"    {targets[1]} = ({a}[0, 0] * {b}[1] - {b}[0] * {a}[1, 0]) / _det{index}")
-            else:
-                lines.append(f"    _s{index} = np.linalg.solve(_A{index}, _b{index})")
-                lines += [f"    {t} = _s{index}[{i}]" for i, t in enumerate(targets)]
-            self.nodes.append((targets, deps, lines))
+            targets = tuple(str(mapping[s]) for s in syms)
+            stmts.append(Solve(an, bn, targets))
+            self.nodes.append((list(targets), deps, stmts))
         self.owner = {t: i for i, (targets, _, _) in enumerate(self.nodes) for t in targets}
 
-    def function(self, name: str, args: str, groups: list[tuple], tail: list[str] | None = None,
-                 prologue: bool = True, result: str | None = None) -> str:
-        """``groups``: ("array", name, flat expressions, shape) or ("scalars", names, exprs).
-        ``tail``: extra lines before ``return result`` (default: the first array group)."""
-        pr = self.printer.doprint
-        flat = [sp.sympify(e).xreplace(self.mapping) for g in groups for e in g[2]]
-        replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("_c"), order="none")
-        local = [f"    {sym} = {pr(expr)}" for sym, expr in replacements]
-        needed = {str(s) for _, expr in replacements for s in expr.free_symbols}
-        body: list[str] = []
+    def prologue(self, needed: set[str]) -> list[Statement]:
+        """The prologue statements that ``needed`` depends on, in dependency order."""
+        wanted, stack = set(), [self.owner[n] for n in needed if n in self.owner]
+        while stack:
+            i = stack.pop()
+            if i in wanted:
+                continue
+            wanted.add(i)
+            stack += [self.owner[d] for d in self.nodes[i][1] if d in self.owner]
+        order = graphlib.TopologicalSorter()
+        for i in sorted(wanted):
+            order.add(i, *sorted({self.owner[d] for d in self.nodes[i][1] if d in self.owner}))
+        return [st for i in order.static_order() for st in self.nodes[i][2]]
+
+    def function(self, name: str, doc: list[str], groups: list[tuple], shape: tuple[int, ...],
+                 args: tuple[str, ...] = ("t", "x", "p")) -> Function:
+        """``groups``, in the order of their statements: ("array", array, expressions, shape) (a
+        matrix's zero entries are not stored), ("entries", array, nonzero entries (i, j, expr),
+        shape) for a matrix that is zero elsewhere, ("product", dst, entries (i, j, expr) of F,
+        shape of F, src, ncols) for ``dst += F @ src``, or ("statement", statement) for a
+        statement without expressions; every expression is cse'd together. The result is the
+        array ``out``."""
+        flat = [sp.sympify(e).xreplace(self.mapping) for g in groups for e in _expressions(g)]
+        replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("c"), order="none")
+        body: list[Statement] = [Let(str(sym), expr) for sym, expr in replacements]
+        needed = _names(expr for _, expr in replacements)
         k = 0
         for group in groups:
-            kind, gname, exprs = group[0], group[1], group[2]
-            if kind == "array":
-                shape = group[3]
-                if len(shape) == 2:
-                    body.append(f"    {gname} = np.zeros(({shape[0]}, {shape[1]}))")
-                else:
-                    body.append(f"    {gname} = np.empty({shape[0]})")
-            for index in range(len(exprs)):
-                expr = reduced[k]
-                k += 1
-                needed |= {str(s) for s in expr.free_symbols}
-                if kind == "scalars":
-                    body.append(f"    {gname[index]} = {pr(expr)}")
-                elif len(group[3]) == 2:
-                    i, j = divmod(index, group[3][1])
-                    if expr != 0:
-                        body.append(f"    {gname}[{i}, {j}] = {pr(expr)}")
-                else:
-                    body.append(f"    {gname}[{index}] = {pr(expr)}")
-        pre_lines: list[str] = []
-        if prologue:
-            wanted, stack = set(), [self.owner[n] for n in needed if n in self.owner]
-            while stack:
-                i = stack.pop()
-                if i in wanted:
-                    continue
-                wanted.add(i)
-                stack += [self.owner[d] for d in self.nodes[i][1] if d in self.owner]
-            order = graphlib.TopologicalSorter()
-            for i in sorted(wanted):
-                order.add(i, *sorted({self.owner[d] for d in self.nodes[i][1] if d in self.owner}))
-            for i in order.static_order():
-                pre_lines += self.nodes[i][2]
-        lines = [f"def {name}({args}):", *pre_lines, *local, *body, *(tail or [])]
-        lines.append(f"    return {result or groups[0][1]}")
-        return "\n".join(lines)
+            kind = group[0]
+            if kind == "statement":
+                body.append(group[1])
+            elif kind == "array":
+                _, array, exprs, ashape = group
+                sparse = len(ashape) == 2
+                body.append(Array(array, ashape, sparse))
+                for index in range(len(exprs)):
+                    expr = reduced[k]
+                    k += 1
+                    if sparse and expr == 0:
+                        continue
+                    needed |= _names([expr])
+                    body.append(Store(array, divmod(index, ashape[1]) if sparse else (index,),
+                                      expr))
+            else:
+                kept = []
+                for i, j, _ in group[2]:
+                    if reduced[k] != 0:
+                        kept.append((i, j, reduced[k]))
+                        needed |= _names([reduced[k]])
+                    k += 1
+                if kind == "entries":
+                    body.append(Array(group[1], group[3], True))
+                    body += [Store(group[1], (i, j), e) for i, j, e in kept]
+                elif kept:
+                    _, dst, _, fshape, src, ncols = group
+                    body.append(SparseProduct(dst, tuple(kept), fshape, src, ncols))
+        pre = self.prologue(needed) if "x" in args else []
+        return Function(name, args, tuple(doc), tuple(pre + body), shape)
 
 
-def jacobian(exprs: sp.Matrix, variables: list[sp.Symbol]) -> sp.Matrix:
-    """∂exprs/∂variables, differentiating each entry only by the variables it contains."""
+def _expressions(group: tuple) -> list:
+    """The expressions of a group of :meth:`_Builder.function`, in the order of its statements."""
+    if group[0] == "statement":
+        return []
+    if group[0] == "array":
+        return list(group[2])
+    return [e for _, _, e in group[2]]
+
+
+def derivative(expr: sp.Expr, v: sp.Symbol) -> sp.Expr:
+    """∂expr/∂v: sums, products and numeric powers by hand (the bulk of generated expressions,
+    about ten times faster than sympy's general ``diff``), anything else by ``sympy.diff``."""
+    if expr == v:
+        return sp.S.One
+    if v not in expr.free_symbols:
+        return sp.S.Zero
+    if expr.is_Add:
+        return sp.Add(*[derivative(a, v) for a in expr.args if v in a.free_symbols])
+    if expr.is_Mul:
+        args, terms = expr.args, []
+        for i, a in enumerate(args):
+            if v in a.free_symbols:
+                d = derivative(a, v)
+                if d != 0:
+                    terms.append(sp.Mul(*args[:i], d, *args[i + 1:]))
+        return sp.Add(*terms)
+    if expr.is_Pow and expr.exp.is_Number:
+        return expr.exp * expr.base ** (expr.exp - 1) * derivative(expr.base, v)
+    return sp.diff(expr, v)
+
+
+def jacobian(exprs: list, variables: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]]:
+    """The nonzero entries (i, j, ∂exprs[i]/∂variables[j]), row by row and in column order
+    within a row, each expression differentiated only by the variables it contains."""
     index = {v: j for j, v in enumerate(variables)}
-    out = sp.zeros(exprs.shape[0], len(variables))
+    out = []
     for i, expr in enumerate(exprs):
-        for v in expr.free_symbols:
-            if v in index:
-                out[i, index[v]] = sp.diff(expr, v)
+        for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.get):
+            d = derivative(expr, v)
+            if d != 0:
+                out.append((i, index[v], d))
     return out
 
 
@@ -167,9 +302,12 @@ def _padded(exprs: list[sp.Expr]) -> list[sp.Expr]:
     return list(exprs) or [sp.Integer(0)]
 
 
-def generate(model: SymbolicModel) -> str:
-    """Python source (without back-end header) of the model's numeric functions."""
-    printer = _Printer()
+def _listing(title: str, names: list[str]) -> list[str]:
+    return [title] + [f"  [{i}] {name}" for i, name in enumerate(names)]
+
+
+def program(model: SymbolicModel) -> Program:
+    """The model's numeric functions as one intermediate program (see the module docstring)."""
     x = sp.IndexedBase("x")
     p = sp.IndexedBase("p")
     all_states = [*model.states, *model.ledger_states]
@@ -178,67 +316,113 @@ def generate(model: SymbolicModel) -> str:
     mapping[TIME] = sp.Symbol("t")
     ws = [w for w, _ in model.intermediates]
     vs = [s for syms, _, _ in model.blocks for s in syms]
-    mapping.update({w: sp.Symbol(f"_w{i}") for i, w in enumerate(ws)})
-    mapping.update({v: sp.Symbol(f"_v{i}") for i, v in enumerate(vs)})
-    writer = _Writer(mapping, model, printer)
+    mapping.update({w: sp.Symbol(f"w{i}") for i, w in enumerate(ws)})
+    mapping.update({v: sp.Symbol(f"v{i}") for i, v in enumerate(vs)})
+    builder = _Builder(mapping, model)
     n = len(all_states)
-    rhs = sp.Matrix(model.rhs)
-    header = [(f'"""Generated by porthamiltonian for model {python_docstring(repr(model.name))}. '
-               "Do not edit."), "", "State layout x:"]
-    header += [f"  x[{i}] = {python_docstring(str(s))}" for i, s in enumerate(all_states)]
-    header += ["Parameter layout p:"] + [f"  p[{j}] = {python_docstring(str(s))}"
-                                         for j, s in enumerate(model.params)]
-    header += ['"""']
-    parts = ["\n".join(header), writer.function("rhs", "t, x, p", [("array", "out", model.rhs, (n,))])]
-    parts.append(_jacobian_function(writer, model, rhs, all_states, ws, vs))
-    parts += [
-        writer.function("energy", "t, x, p", [("array", "out", [model.hamiltonian, model.p_diss,
-                                                                  model.p_in], (3,))]),
-        writer.function("outputs", "t, x, p", [("array", "out", _padded(list(model.outputs.values())),
-                                                  (max(len(model.outputs), 1),))]),
-        writer.function("guards", "t, x, p", [("array", "out", _padded([g for _, g in model.events]),
-                                                 (max(len(model.events), 1),))]),
-        writer.function("initial", "p", [("array", "out", _padded(model.initial),
-                                            (max(len(model.initial), 1),))], prologue=False),
+    state_names = [str(s) for s in all_states]
+    param_names = [str(s) for s in model.params]
+    args_doc = (_listing(f"x: the state ({n}):", state_names)
+                + _listing(f"p: the parameters ({len(param_names)}):", param_names))
+    outputs = list(model.outputs)
+    events = [ev.name for ev, _ in model.events]
+    n_out, n_guards = max(len(outputs), 1), max(len(events), 1)
+
+    def doc(summary: str, result: list[str]) -> list[str]:
+        return [summary, *result, *args_doc]
+
+    n_init = max(len(model.initial), 1)
+    initial_doc = [f"The initial state of model {model.name!r} from its parameters.",
+                   *_listing(f"out ({n_init}):", state_names[:len(model.initial)]),
+                   *_listing(f"p: the parameters ({len(param_names)}):", param_names)]
+    functions = [
+        builder.function("rhs", doc(f"dx/dt of model {model.name!r}: out[i] = d(x[i])/dt.", []),
+                         [("array", "out", model.rhs, (n,))], (n,)),
+        _jacobian_function(builder, model, all_states, ws, vs, doc(
+            f"The Jacobian of rhs of model {model.name!r}: out[i, j] = d(rhs[i])/d(x[j]), "
+            f"{n} x {n}, row-major.", [])),
+        builder.function("energy", doc(f"The energy ledger's rates of model {model.name!r}.",
+                                       _listing("out (3):", ["H", "P_diss", "P_in"])),
+                         [("array", "out", [model.hamiltonian, model.p_diss, model.p_in], (3,))],
+                         (3,)),
+        builder.function("outputs", doc(f"The named outputs of model {model.name!r}.",
+                                        _listing(f"out ({n_out}):", outputs)),
+                         [("array", "out", _padded(list(model.outputs.values())), (n_out,))],
+                         (n_out,)),
+        builder.function("guards", doc(f"The event guards of model {model.name!r}.",
+                                       _listing(f"out ({n_guards}):", events)),
+                         [("array", "out", _padded([g for _, g in model.events]), (n_guards,))],
+                         (n_guards,)),
+        builder.function("initial", initial_doc,
+                         [("array", "out", _padded(model.initial), (n_init,))], (n_init,),
+                         args=("p",)),
     ]
     for k, (name, matrix) in enumerate(model.matrices.items()):
-        parts.append(writer.function(f"matrix_{k}", "t, x, p",
-                                     [("array", "out", list(matrix), matrix.shape)]))
-    return "\n\n\n".join(parts) + "\n"
+        functions.append(builder.function(
+            f"matrix_{k}", doc(f"The matrix {name!r} of model {model.name!r}, "
+                               f"{matrix.shape[0]} x {matrix.shape[1]}, row-major.", []),
+            [("array", "out", list(matrix), matrix.shape)], tuple(matrix.shape)))
+    header = (f"Generated by porthamiltonian for model {model.name!r}. Do not edit.",
+              *_listing("State layout x:", state_names),
+              *_listing("Parameter layout p:", param_names))
+    return Program(model.name, header, tuple(functions), n, len(param_names), n_guards, n_out)
 
 
-def _jacobian_function(writer: _Writer, model: SymbolicModel, rhs: sp.Matrix, xs, ws, vs) -> str:
-    """∂ẋ/∂x through intermediates w (forward chain rule, row by row with only the nonzero
-    partials) and implicit blocks A v = b (v' = A⁻¹ ∂(b − A v)/∂x, v held fixed)."""
+def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
+    """How many leading intermediates read no block unknown: the compiler orders those of
+    states, parameters and time first, then those that also read the unknowns (directly or
+    through others), so the first of the latter reads an unknown directly."""
+    reads_v = set(vs)
+    for k, (_, expr) in enumerate(model.intermediates):
+        if expr.free_symbols & reads_v:
+            return k
+    return len(model.intermediates)
+
+
+def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc) -> Function:
+    """∂ẋ/∂x through intermediates w and implicit blocks A v = b (A and b read states and
+    position-level intermediates only), with only the nonzero partials:
+
+    Dw = ∂w/∂x; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows;
+    R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v (implicit
+    differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
+    velocity-level rows; out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R.
+    """
     n, nw, nv = len(xs), len(ws), len(vs)
-    if not ws and not vs:
-        return writer.function("jac", "t, x, p", [("array", "out", list(jacobian(rhs, xs)), (n, n))])
-    groups: list[tuple] = [("array", "_Fx", list(jacobian(rhs, xs)), (n, n))]
-    tail: list[str] = []
+    rhs = list(model.rhs)
+    defs = [expr for _, expr in model.intermediates]
+    npos = _position_level(model, vs)
+    groups: list[tuple] = [("entries", "out", jacobian(rhs, xs), (n, n))]
+    chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
+    npre = sum(1 for m, _, _ in chain if m < npos)
+
+    def chain_rule(start: int, stop: int) -> list[tuple]:
+        return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, n))] \
+            if stop > start else []
+
     if nw:
-        defs = sp.Matrix([expr for _, expr in model.intermediates])
-        Gw = jacobian(defs, ws)
-        chain = [(m, j) for m in range(nw) for j in range(nw) if Gw[m, j] != 0]
-        groups += [("array", "_Fw", list(jacobian(rhs, ws)), (n, nw)),
-                   ("array", "_Gx", list(jacobian(defs, xs)), (nw, n)),
-                   ("scalars", [f"_g{m}_{j}" for m, j in chain], [Gw[m, j] for m, j in chain])]
-        tail.append("    _Dw = _Gx")
-        for m, j in chain:  # rows in order: _Dw[j] is final before it is used (j < m)
-            tail.append(f"    _Dw[{m}, :] += _g{m}_{j} * _Dw[{j}, :]")
-        tail.append("    out = _Fx + _Fw @ _Dw")
-    else:
-        tail.append("    out = _Fx")
+        groups.append(("entries", "Dw", jacobian(defs, xs), (nw, n)))
+        if chain:
+            groups += [("array", "g", [e for _, _, e in chain], (len(chain),)),
+                       ("statement", IndexTable("gr", tuple(m for m, _, _ in chain))),
+                       ("statement", IndexTable("gc", tuple(j for _, j, _ in chain)))]
+        groups += chain_rule(0, npre)
     if nv:
         A = sp.diag(*[blk[1] for blk in model.blocks])
         b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
-        res = b - A * sp.Matrix(vs)
-        groups += [("array", "_Fv", list(jacobian(rhs, vs)), (n, nv)),
-                   ("array", "_Bx", list(jacobian(res, xs)), (nv, n)),
-                   ("array", "_Ab", list(A), (nv, nv))]
-        if nw:
-            groups.append(("array", "_Bw", list(jacobian(res, ws)), (nv, nw)))
-            tail.append("    _R = _Bx + _Bw @ _Dw")
-        else:
-            tail.append("    _R = _Bx")
-        tail.append("    out = out + _Fv @ np.linalg.solve(_Ab, _R)")
-    return writer.function("jac", "t, x, p", groups, tail=tail, result="out")
+        res = list(b - A * sp.Matrix(vs))
+        groups += [("entries", "R", jacobian(res, xs), (nv, n)),
+                   ("array", "Ab", list(A), (nv, nv)),
+                   ("product", "R", jacobian(res, ws), (nv, nw), "Dw", n),
+                   ("statement", SolveRows("Ab", "R", nv, n)),
+                   ("product", "Dw", [(npos + i, j, e) for i, j, e in jacobian(defs[npos:], vs)],
+                    (nw, nv), "R", n)]
+    groups += chain_rule(npre, len(chain))
+    groups += [("product", "out", jacobian(rhs, ws), (n, nw), "Dw", n),
+               ("product", "out", jacobian(rhs, vs), (n, nv), "R", n)]
+    return builder.function("jac", doc, groups, (n, n))
+
+
+__all__ = ["CODEGEN_VERSION", "Array", "ChainRule", "Function", "IndexTable", "Let", "Program",
+           "Solve", "SolveRows", "SparseProduct", "Statement", "Store", "derivative", "jacobian",
+           "program"]

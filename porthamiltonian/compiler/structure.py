@@ -26,10 +26,15 @@ import sympy as sp
 
 from ..component import Builder, Built, Component
 from ..elements import _Junction
-from ..errors import (AlgebraicLoopError, DerivativeCausalityError, StructureError,
-                      UnknownParameterError)
+from ..errors import (
+    AlgebraicLoopError,
+    DerivativeCausalityError,
+    ModelError,
+    StructureError,
+    UnknownParameterError,
+)
 from ..expressions import TIME
-from ..model import FlatModel
+from ..model import ModelDescription
 
 
 @dataclass
@@ -43,7 +48,7 @@ class Equation:
 class System:
     """The equation system of a flattened model, before solving."""
 
-    flat: FlatModel
+    flat: ModelDescription
     built: dict[str, Built]
     params: dict[str, sp.Symbol]
     equations: list[Equation]
@@ -64,16 +69,10 @@ class Solution:
     order: list[tuple[sp.Symbol, sp.Expr, Equation]]
 
 
-def _scope_names(flat: FlatModel, prefix: str, params: dict[str, sp.Symbol]) -> dict[str, sp.Symbol]:
-    names = {}
-    for full, symbol in params.items():
-        if full.startswith(prefix) and "." not in full[len(prefix):]:
-            names[full[len(prefix):]] = symbol
-    return names
-
-
-def build_system(flat: FlatModel) -> System:
-    """Run every component's ``build`` and collect the equations, unknowns and states."""
+def build_system(flat: ModelDescription) -> System:
+    """Run every component's ``build`` and collect the equations, unknowns and states. A model
+    error raised by a component carries the component's path (and the argument's, where the
+    component knows it)."""
     params = {name: sp.Symbol(name, real=True) for name in flat.parameters}
     built: dict[str, Built] = {}
     equations: list[Equation] = []
@@ -83,15 +82,18 @@ def build_system(flat: FlatModel) -> System:
         orientation[(hc, hp)] = "in"
     for name, comp in flat.components.items():
         prefix = flat.scopes[name]
-        in_scope = {n[len(prefix):].split(".")[0] for n in flat.components if n.startswith(prefix)}
+        in_scope = flat.in_scope(prefix)
 
         def dotted(ref: str, prefix: str = prefix, in_scope: set[str] = in_scope) -> sp.Symbol | None:
             return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
 
         own = {port: o for (c, port), o in orientation.items() if c == name}
-        b = Builder(name, comp.all_ports(), _scope_names(flat, prefix, params), dotted, own)
+        b = Builder(name, list(flat.ports[name]), flat.scope_names(prefix), dotted, own)
         if not isinstance(comp, _Junction):
-            comp.build(b, **comp.parsed_args(b))
+            try:
+                comp.build(b, **comp.parsed_args(b))
+            except ModelError as err:
+                raise err.within(*flat.paths[name]) from None
         built[name] = b.built
         equations += [Equation(r, name, doc) for r, doc in b.built.equations]
         for pname, pv in b.built.ports.items():
@@ -122,26 +124,19 @@ def build_system(flat: FlatModel) -> System:
             owner[s.derivative] = cname
     unknowns = list(dict.fromkeys([*(u for u in owner if u not in derivatives), *derivatives]))
     known = {*params.values(), *states, TIME}
-    intermediates = []
-    for cname, b in built.items():
-        for symbol, expr in b.intermediates:
-            stray = expr.free_symbols - known
-            if stray:
-                raise UnknownParameterError(
-                    f"component {cname!r}: intermediate {symbol} may depend on states, parameters, "
-                    f"time and earlier intermediates only, not on {', '.join(sorted(map(str, stray)))}")
-            intermediates.append((symbol, expr))
-            known.add(symbol)
+    intermediates, velocity = _ordered_intermediates(built, known)
+    position = {s for s, _ in intermediates} - velocity
     blocks = []
     for cname, b in built.items():
         for symbols, A, rhs in b.blocks:
-            stray = (A.free_symbols | rhs.free_symbols) - known
+            stray = (A.free_symbols | rhs.free_symbols) - known - position
             if stray:
                 raise UnknownParameterError(
                     f"component {cname!r}: implicit block {symbols[0]}.. may depend on states, "
-                    f"parameters and time only, not on {', '.join(sorted(map(str, stray)))}")
+                    "parameters, time and intermediates of those only, not on "
+                    f"{', '.join(sorted(map(str, stray)))}")
             blocks.append((symbols, A, rhs))
-            known |= set(symbols)
+    known |= {s for s, _ in intermediates} | {s for symbols, _, _ in blocks for s in symbols}
     for eq in equations:
         stray = eq.residual.free_symbols - known - set(unknowns)
         if stray:
@@ -151,6 +146,52 @@ def build_system(flat: FlatModel) -> System:
             )
     return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner,
                   blocks, intermediates)
+
+
+def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol]
+                           ) -> tuple[list[tuple[sp.Symbol, sp.Expr]], set[sp.Symbol]]:
+    """The intermediates of all components in an order where each uses only earlier ones:
+    first those that depend on states, parameters and time only (position level), then those
+    that also depend on the unknowns of implicit blocks (velocity level, e.g. body twists that
+    read the velocities solved from M(q) v = p), each group in declaration order where it
+    allows. Returns the ordered list and the set of velocity-level symbols."""
+    defs: dict[sp.Symbol, sp.Expr] = {}
+    owner: dict[sp.Symbol, str] = {}
+    for cname, b in built.items():
+        for symbol, expr in b.intermediates:
+            defs[symbol], owner[symbol] = expr, cname
+    block_symbols = {s for b in built.values() for symbols, _, _ in b.blocks for s in symbols}
+    defined = set(defs)
+    for symbol, expr in defs.items():
+        stray = expr.free_symbols - known - defined - block_symbols
+        if stray:
+            raise UnknownParameterError(
+                f"component {owner[symbol]!r}: intermediate {symbol} may depend on states, "
+                "parameters, time, other intermediates and the unknowns of implicit blocks only, "
+                f"not on {', '.join(sorted(map(str, stray)))}")
+    velocity: set[sp.Symbol] = set()
+    order: list[sp.Symbol] = []
+    state: dict[sp.Symbol, int] = {}          # 1: being placed, 2: placed
+
+    def place(symbol: sp.Symbol) -> None:
+        if state.get(symbol) == 2:
+            return
+        if state.get(symbol) == 1:
+            raise StructureError(f"intermediate {symbol} depends on itself (through "
+                                 f"component {owner[symbol]!r})")
+        state[symbol] = 1
+        uses = defs[symbol].free_symbols
+        for dep in sorted(uses & defined, key=str):
+            place(dep)
+        if uses & block_symbols or uses & velocity:
+            velocity.add(symbol)
+        state[symbol] = 2
+        order.append(symbol)
+
+    for symbol in defs:
+        place(symbol)
+    ordered = [s for s in order if s not in velocity] + [s for s in order if s in velocity]
+    return [(s, defs[s]) for s in ordered], velocity
 
 
 def _resolve_signals(built: dict[str, Built], equations: list[Equation]) -> None:

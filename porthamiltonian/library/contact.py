@@ -47,8 +47,7 @@ that changes it is paid through the contact's own port (not a modulation).
 Dissipated: the port power minus dH_c/dt, i.e. (F − K z₊ⁿ) ż:
 λ z₊ⁿ ż² while the law holds (B ż² for Kelvin–Voigt), and −K z₊ⁿ ż while clipped (F = 0 then
 means K + λ ż < 0, so ż < 0 and this is > 0: the spring energy released in a separation faster
-than the damper allows is dissipated). So P_diss ≥ 0 at all times and the ledger closes
-(DESIGN.md §5).
+than the damper allows is dissipated). So P_diss ≥ 0 at all times and the ledger closes.
 
 Contact modes
 -------------
@@ -61,7 +60,7 @@ no force. Switch the flag at z = 0 (guards on the penetration, rising for touchd
 lift-off), where the stored energy is zero, so that the switch does not change H; otherwise the
 jump of H is booked by the simulator at the event (as dissipated, or as supplied with
 ``Reset(energy="supplied")``). A resting contact chatters around z = 0: give lift-off guards a
-small margin (e.g. ``-z - 1e-6``) (DESIGN.md §5).
+small margin (e.g. ``-z - 1e-6``).
 
 Outputs (``<name>.<output>``; other components and analyses read them by name)
 ------------------------------------------------------------------------------
@@ -120,10 +119,11 @@ class _Contact(Component):
         rate = surf.penetration_rate(vx, vz)
         nx, nz = surf.normal
         tx, tz = surf.tangent
-        for name, expr in (("z", pen), ("zdot", rate), ("px", x), ("pz", z),
-                           ("s", surf.arc(x, z)), ("vt", surf.tangential_velocity(vx, vz)),
-                           ("nx", nx), ("nz", nz), ("tx", tx), ("tz", tz)):
-            b.output(name, expr)
+        for name, expr, unit in (("z", pen, "m"), ("zdot", rate, "m/s"), ("px", x, "m"),
+                                 ("pz", z, "m"), ("s", surf.arc(x, z), "m"),
+                                 ("vt", surf.tangential_velocity(vx, vz), "m/s"),
+                                 ("nx", nx, "1"), ("nz", nz, "1"), ("tx", tx, "1"), ("tz", tz, "1")):
+            b.output(name, expr, unit)
         return surf, pen, rate
 
     def _finish(self, b: Builder, surf: Surface, force: sp.Expr, energy: sp.Expr,
@@ -133,7 +133,7 @@ class _Contact(Component):
                    "e = -Fn n (reaction of the normal force on the body)")
         b.energy(energy, via_ports=True)
         b.dissipate(dissipation)
-        b.output("Fn", force)
+        b.output("Fn", force, "N")
 
 
 @register
@@ -159,8 +159,9 @@ class HuntCrossley(_Contact):
         **_MODE,
     }
 
-    def build(self, b: Builder, x, z, stiffness, damping, exponent, surface, slope, height,
-              step_height, step_x, active) -> None:
+    def build(self, b: Builder, x: sp.Expr, z: sp.Expr, stiffness: sp.Expr, damping: sp.Expr,
+              exponent: sp.Expr, surface: str, slope: sp.Expr, height: sp.Expr, step_height: sp.Expr,
+              step_x: sp.Expr, active: sp.Expr | None) -> None:
         surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
                                            stiffness, damping, active)
         K, lam, n = stiffness, damping, exponent
@@ -194,8 +195,9 @@ class KelvinVoigt(_Contact):
         **_MODE,
     }
 
-    def build(self, b: Builder, x, z, stiffness, damping, clip, surface, slope, height,
-              step_height, step_x, active) -> None:
+    def build(self, b: Builder, x: sp.Expr, z: sp.Expr, stiffness: sp.Expr, damping: sp.Expr,
+              clip: bool, surface: str, slope: sp.Expr, height: sp.Expr, step_height: sp.Expr,
+              step_x: sp.Expr, active: sp.Expr | None) -> None:
         if not isinstance(clip, bool):
             raise ParameterValueError(f"KelvinVoigt {b.name!r} argument 'clip' must be true or "
                                       f"false, got {clip!r}")

@@ -58,7 +58,8 @@ from ..errors import DanglingPortError, ParameterValueError, UnknownParameterErr
 from ..ports import Port
 
 
-def scvs_coefficient(v, mu_st, mu_c, mu_v, slope, v_st):
+def scvs_coefficient(v: sp.Expr, mu_st: sp.Expr, mu_c: sp.Expr, mu_v: sp.Expr, slope: sp.Expr,
+                     v_st: sp.Expr) -> sp.Expr:
     """μ(v) = −F_t/Fn of the SCVS law (sympy expressions), in the Dirac-free form of the module
     docstring."""
     E = sp.exp(-((v / v_st) ** 2))
@@ -92,7 +93,8 @@ class SCVSFriction(Component):
         return [Port("p", "translation", 2, "in", "world",
                      "contact point: effort = force of the body on the friction, flow = velocity")]
 
-    def build(self, b: Builder, normal_force, mu_st, mu_c, mu_v, slope, v_st) -> None:
+    def build(self, b: Builder, normal_force: sp.Expr | None, mu_st: sp.Expr, mu_c: sp.Expr,
+              mu_v: sp.Expr, slope: sp.Expr, v_st: sp.Expr) -> None:
         where = f"SCVSFriction {b.name!r}"
         if normal_force is None:
             raise DanglingPortError(
@@ -119,9 +121,9 @@ class SCVSFriction(Component):
         b.equation(port.e, sp.Matrix([fn * mu * tx, fn * mu * tz]),
                    "e = -Ft t (reaction of the SCVS friction force on the body)")
         b.dissipate(fn * mu * v)
-        b.output("Ft", -fn * mu)
-        b.output("v", v)
-        b.output("mu", mu)
+        b.output("Ft", -fn * mu, "N")
+        b.output("v", v, "m/s")
+        b.output("mu", mu, "1")
 
 
 __all__ = ["SCVSFriction", "scvs_coefficient"]

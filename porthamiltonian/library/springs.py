@@ -26,7 +26,7 @@ Laws
   the generated Jacobian has no Dirac deltas.
 
 Damper rule (both): give ``damping`` D, or ``alpha`` α and ``mass`` m for D = 2 α √(m K)
-(thesis §3.1, DESIGN.md §5: α ≈ 0.15, m = m + M the mass the leg carries; for a variable K the
+(thesis §3.1: α ≈ 0.15, m = m + M the mass the leg carries; for a variable K the
 damper follows the stiffness), or neither (no damper).
 
 Energy role
@@ -53,7 +53,7 @@ import sympy as sp
 
 from ..component import Arg, Builder, Component, register
 from ..errors import ParameterValueError
-from ..ports import Port
+from ..ports import DOMAINS, Port
 
 _COMMON = {
     "damping": Arg("damping coefficient D (or give alpha and mass)", "N*s/m", default=None,
@@ -73,8 +73,9 @@ class _SpringDamper(Component):
     def ports(self) -> list[Port]:
         return [Port("p", self.value("domain"), orientation="in")]
 
-    def build(self, b: Builder, stiffness, damping, alpha, mass, rest_length, q0, domain,
-              length) -> None:
+    def build(self, b: Builder, stiffness: sp.Expr, damping: sp.Expr | None, alpha: sp.Expr | None,
+              mass: sp.Expr | None, rest_length: sp.Expr, q0: sp.Expr | None, domain: str,
+              length: sp.Expr | None) -> None:
         where = f"{self.kind} {b.name!r}"
         if damping is not None and (alpha is not None or mass is not None):
             raise ParameterValueError(f"{where}: give either 'damping' or 'alpha' and 'mass' (the "
@@ -95,6 +96,7 @@ class _SpringDamper(Component):
                         "states; a SpringDamper is linear (parameters only): use "
                         "VariableSpringDamper for a modulated stiffness")
         port = b.port("p")
+        dom = DOMAINS[domain]               # units: m and N/m, or rad and N*m/rad
         if length is not None:
             if self.variable:
                 raise ParameterValueError(f"{where}: 'length' (a signal) is for a SpringDamper; "
@@ -107,7 +109,8 @@ class _SpringDamper(Component):
             b.energy(energy, via_ports=True)
             force = stiffness * z
         else:
-            q = b.state("q", unit="m", initial=rest_length if q0 is None else q0)
+            q = b.state("q", unit=dom.displacement_unit,
+                        initial=rest_length if q0 is None else q0)
             z = q - rest_length
             energy = stiffness * z**2 / 2
             b.energy(energy)
@@ -118,9 +121,9 @@ class _SpringDamper(Component):
         b.equation(port.e, force + damping * port.f, "e = dH/dq + D f")
         b.built.storage_ports.append("p")
         b.dissipate(damping * port.f**2)
-        b.output("z", z)
-        b.output("K", stiffness)
-        b.output("D", damping)
+        b.output("z", z, dom.displacement_unit)
+        b.output("K", stiffness, f"{dom.effort_unit}/{dom.displacement_unit}")
+        b.output("D", damping, f"{dom.effort_unit}*s/{dom.displacement_unit}")
 
 
 @register

@@ -68,10 +68,10 @@ class Surface:
     """
 
     kind: str
-    gamma: sp.Expr = sp.Integer(0)
-    height: sp.Expr = sp.Integer(0)
-    step_height: sp.Expr = sp.Integer(0)
-    step_x: sp.Expr = sp.Integer(0)
+    gamma: sp.Expr = sp.S.Zero
+    height: sp.Expr = sp.S.Zero
+    step_height: sp.Expr = sp.S.Zero
+    step_x: sp.Expr = sp.S.Zero
 
     @property
     def normal(self) -> tuple[sp.Expr, sp.Expr]:
@@ -86,8 +86,8 @@ class Surface:
     def drop(self, x: sp.Expr) -> sp.Expr:
         """Vertical drop of the surface below the upper plane at x: h·[x ≥ x_step] (m)."""
         if self.kind != "step":
-            return sp.Integer(0)
-        return sp.Piecewise((sp.Integer(0), x < self.step_x), (self.step_height, True))
+            return sp.S.Zero
+        return sp.Piecewise((sp.S.Zero, x < self.step_x), (self.step_height, True))
 
     def elevation(self, x: sp.Expr) -> sp.Expr:
         """Surface height z_s(x) (m)."""
@@ -114,9 +114,9 @@ class Surface:
         return vx * tx + vz * tz
 
 
-def make_surface(kind: Any, where: str, *, slope: sp.Expr = sp.Integer(0),
-                 height: sp.Expr = sp.Integer(0), step_height: sp.Expr = sp.Integer(0),
-                 step_x: sp.Expr = sp.Integer(0)) -> Surface:
+def make_surface(kind: Any, where: str, *, slope: sp.Expr = sp.S.Zero,
+                 height: sp.Expr = sp.S.Zero, step_height: sp.Expr = sp.S.Zero,
+                 step_x: sp.Expr = sp.S.Zero) -> Surface:
     """Build a :class:`Surface` from a component's arguments, checking them.
 
     ``where`` names the component for messages (e.g. ``"HuntCrossley 'floor'"``).

@@ -1,55 +1,14 @@
-"""3D rigid-body mechanics: screw theory (poses, twists, wrenches, spatial inertia).
+"""3D rigid-body mechanics: screw theory (poses, twists, wrenches, spatial inertia; re-exported
+from :mod:`.screw`), the Multibody and FreeBody components, and the body and joint records.
 
 See :mod:`porthamiltonian.mechanics.screw` for the ordering, frame and sign conventions.
 """
-from .screw import (
-    Ad,
-    Pose,
-    Twist,
-    Wrench,
-    ad,
-    ad_star,
-    exp_se3,
-    exp_so3,
-    hat3,
-    hat6,
-    kinetic_energy,
-    log_se3,
-    log_so3,
-    planar_pose,
-    pose_inverse,
-    pose_matrix,
-    spatial_inertia,
-    vee3,
-    vee6,
-)
+from . import screw
+from .bodies import Free, Prismatic, Revolute, RigidBody, Spherical, Translational, Universal, Weld
+from .free_body import FreeBody  # registers the component type
+from .multibody import Multibody  # registers the component type
+from .screw import *  # screw's public names, listed once in screw.__all__
 
-__all__ = [
-    "Ad",
-    "Pose",
-    "Twist",
-    "Wrench",
-    "ad",
-    "ad_star",
-    "exp_se3",
-    "exp_so3",
-    "hat3",
-    "hat6",
-    "kinetic_energy",
-    "log_se3",
-    "log_so3",
-    "planar_pose",
-    "pose_inverse",
-    "pose_matrix",
-    "spatial_inertia",
-    "vee3",
-    "vee6",
-]
-
-from .multibody import Multibody  # noqa: E402  (registers the component type)
-
-__all__ += ["Multibody"]
-
-from .free_body import FreeBody  # noqa: E402  (registers the component type)
-
-__all__ += ["FreeBody"]
+__all__ = ["Free", "FreeBody", "Multibody", "Prismatic", "Revolute", "RigidBody", "Spherical",
+           "Translational", "Universal", "Weld"]
+__all__ += screw.__all__

@@ -40,6 +40,7 @@ class RigidBody:
             raise ModelError(f"RigidBody: mass must be positive, got {self.mass}")
 
     def to_dict(self) -> dict[str, Any]:
+        """The body as a Multibody's table (what a model file holds)."""
         out: dict[str, Any] = {"mass": self.mass, "com": list(self.com), "inertia": self.inertia}
         if self.points:
             out["points"] = {k: list(v) for k, v in self.points.items()}
@@ -57,6 +58,7 @@ class _Joint:
     kind = ""
 
     def to_dict(self) -> dict[str, Any]:
+        """The joint as a Multibody's table (what a model file holds)."""
         out = {"type": self.kind, "parent": self.parent, "child": self.child,
                "origin": list(self.origin)}
         for name in ("axis", "axes", "q0", "v0"):
@@ -94,6 +96,39 @@ class Translational(_Joint):
     q0: Any = 0
     v0: Any = 0
     kind = "translational"
+
+
+@dataclass(frozen=True)
+class Universal(_Joint):
+    """Rotations by q1 about ``axes[0]`` (parent frame) then by q2 about ``axes[1]`` (the frame
+    turned by the first): a Cardan joint."""
+
+    axes: tuple = ("x", "y")
+    q0: Any = 0
+    v0: Any = 0
+    kind = "universal"
+
+
+@dataclass(frozen=True)
+class Spherical(_Joint):
+    """Any rotation about ``origin``: a unit quaternion ``q0`` = [w, x, y, z] (default identity)
+    and the relative angular velocity ``v0`` = [wx, wy, wz] in the child's axes (rad/s)."""
+
+    q0: Any = None
+    v0: Any = None
+    kind = "spherical"
+
+
+@dataclass(frozen=True)
+class Free(_Joint):
+    """Six degrees of freedom (a floating base when the parent is "world"): ``q0`` = [x, y, z, w,
+    qx, qy, qz] (position of the child origin in the parent's axes, m, and a unit quaternion;
+    default at the origin, identity) and the relative twist ``v0`` = [wx, wy, wz, vx, vy, vz] in
+    the child's axes (rad/s, m/s)."""
+
+    q0: Any = None
+    v0: Any = None
+    kind = "free"
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""The free-floating rigid body in Lie–Poisson (Euler–Kirchhoff) form (DESIGN.md §4).
+"""The free-floating rigid body in Lie–Poisson (Euler–Kirchhoff) form: the FreeBody component.
 
 One component, :class:`FreeBody`: a rigid body in 3D, free of any joint, with its momentum in
 the body frame and its pose (position and unit quaternion) as states. It compiles to
@@ -38,7 +38,9 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import ModelError
 from ..ports import Port
+from .kinematics import written_out
 from .screw import ad_star, spatial_inertia
+from .tree import quaternion_rate, quaternion_rotation
 
 _XYZ = ("x", "y", "z")
 _WXYZ = ("w", "x", "y", "z")
@@ -206,37 +208,14 @@ class FreeBody(Component):
         if quat is not None and all(isinstance(v, (int, float)) for v in quat) and not any(quat):
             raise ModelError("FreeBody quaternion0 must not be zero (identity: [1, 0, 0, 0])")
 
-    # The kinematic helpers live in the class so that their source is part of the compiled-model
-    # cache key (the cache hashes the source of component classes, not of module functions).
-    @staticmethod
-    def rotation(q: sp.Matrix) -> sp.Matrix:
-        """Rotation matrix ``R(q)`` (body to world) of the quaternion ``q = (w, x, y, z)``.
-
-        Hamilton convention: ``R(q) u = q ⊗ (0, u) ⊗ q*`` for a unit quaternion. Here ``q`` need
-        not be unit: the result is the rotation of ``q / |q|`` (quadratic form divided by |q|²).
-        """
-        w, x, y, z = q
-        R = sp.Matrix([
-            [w**2 + x**2 - y**2 - z**2, 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), w**2 - x**2 + y**2 - z**2, 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), w**2 - x**2 - y**2 + z**2],
-        ])
-        return R / (w**2 + x**2 + y**2 + z**2)
-
-    @staticmethod
-    def quaternion_rate(q: sp.Matrix, omega: sp.Matrix) -> sp.Matrix:
-        """``q̇ = ½ q ⊗ (0, ω)``, ω the body angular velocity (Hamilton, q = (w, x, y, z))."""
-        w = q[0]
-        u = sp.Matrix(q[1:])
-        return sp.Matrix([-(u.T * omega)[0, 0] / 2, *((w * omega + u.cross(omega)) / 2)])
-
     def ports(self) -> list[Port]:
         return [Port("body", "screw", 6, None, "body",
                      "wrench (torque, force) on the body / body twist (omega, v), body frame",
                      optional=True)]
 
-    def build(self, b: Builder, mass, inertia, com, gravity, position0, quaternion0, omega0,
-              v0) -> None:
+    def build(self, b: Builder, mass: sp.Expr, inertia: list, com: list | None,
+              gravity: list | None, position0: list | None, quaternion0: list | None,
+              omega0: list | None, v0: list | None) -> None:
         def vec(value, n, what, default):
             return sp.Matrix([b.parse(v, f"argument {what!r}")
                               for v in _vector(value, n, what, default)])
@@ -260,7 +239,7 @@ class FreeBody(Component):
         P = sp.Matrix(L + p)
         T = sp.Matrix(b.implicit("T", inertia6, P))                # 𝕀 T = P, solved numerically
         omega, v = T[:3, :], T[3:, :]
-        R = self.rotation(q)                                        # R_W_B
+        R = sp.Matrix(quaternion_rotation(q, written_out, "R").rows)  # R_W_B, of q/|q|
 
         f_g = R.T * (mass * g)                                      # weight, B's axes
         W_g = sp.Matrix.vstack(c.cross(f_g), f_g)                   # at the CoM, about B's origin
@@ -272,7 +251,7 @@ class FreeBody(Component):
             b.equation(b.der(state), rate, "dP/dt = ad_T' P + W_g + s W (Lie-Poisson)")
         for state, rate in zip(r, R * v):
             b.equation(b.der(state), rate, "dr/dt = R(q) v")
-        for state, rate in zip(q, self.quaternion_rate(q, omega)):
+        for state, rate in zip(q, quaternion_rate(q, omega)):
             b.equation(b.der(state), rate, "dq/dt = 1/2 q (x) (0, omega)")
 
         com_world = r + R * c

@@ -1,175 +1,144 @@
-"""Symbolic kinematics that keeps expressions local (compact) for tree-structured mechanisms.
+"""Small symbolic building blocks of the recursive multibody (:mod:`.multibody`).
 
-Composing poses as 4x4 matrices multiplies out cos/sin of every joint angle: a chain of N links
-gives entries with ~2^N terms and mass-matrix entries that need trigonometric simplification. Here
+Vectors are lists of three sympy expressions; zeros stay exact zeros, so a planar mechanism
+keeps only its planar components. A :class:`Rotation` is kept in the cheapest exact form:
 
-* a :class:`Rotation` stays in axis-angle form while it is composed with rotations about the same
-  axis (a planar chain gives R(q1 + q2 + q3), not a product of three matrices);
-* a :class:`Vector` is a sum of rotated constant vectors Σ R_t c_t, so that rotations combine
-  before they are multiplied out, and a dot product u·w = Σ c_tᵀ (R_t⁻¹ R_s) c_s is formed with
-  relative rotations (cos(q2 + q3) rather than cos(q1+q2)cos(q1+q2+q3) + sin(...)sin(...)).
+* the identity;
+* axis-angle, ``R = c 1 + s ã + (1 − c) a aᵀ`` with ``c = cos θ``, ``s = sin θ`` as named
+  intermediates: rotations about one axis compose by adding angles (a planar chain gives
+  cos(θ_{k−1} + q_k), never products of cosines);
+* a 3x3 matrix whose entries are named intermediates (rotations about different axes).
 
-General 3D chains fall back to matrix products where axes differ; results are exact either way.
+Every quantity that is used more than once is given to a ``make(name, expr)`` callback, which
+returns a symbol standing for it (a compiler intermediate) or ``expr`` itself; so expressions stay
+O(1) in size whatever the depth of the tree, and the compiler differentiates through them by the
+chain rule.
 """
 from __future__ import annotations
 
-import functools
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import sympy as sp
 
-from ..expressions import as_expr
-from .screw import exp_so3
+Vec = list
+Make = Callable[[str, Any], Any]
+ZERO3 = (sp.Integer(0),) * 3
+
+
+def written_out(name: str, expr: Any) -> Any:
+    """A ``make`` that keeps every quantity as an expression (for values needed without
+    intermediates, e.g. initial states)."""
+    return expr
+
+
+def _nonzero(x: Any) -> bool:
+    return x != 0
+
+
+def add(*vectors: Sequence) -> Vec:
+    """Componentwise sum of 3-vectors."""
+    return [sp.Add(*[v[i] for v in vectors if _nonzero(v[i])]) for i in range(3)]
+
+
+def sub(a: Sequence, b: Sequence) -> Vec:
+    """Componentwise difference a − b of 3-vectors."""
+    return add(a, scale(-1, b))
+
+
+def scale(s: Any, a: Sequence) -> Vec:
+    """The 3-vector ``a`` times the scalar ``s`` (exact zeros kept)."""
+    return [s * x if _nonzero(x) else sp.S.Zero for x in a]
+
+
+def _products(pairs) -> Any:
+    return sp.Add(*[x * y for x, y in pairs if _nonzero(x) and _nonzero(y)])
+
+
+def dot(a: Sequence, b: Sequence) -> Any:
+    """The dot product of two 3-vectors (terms with an exact zero left out)."""
+    return _products(zip(a, b))
+
+
+def cross(a: Sequence, b: Sequence) -> Vec:
+    """The cross product a × b of two 3-vectors (terms with an exact zero left out)."""
+    return [_products(((a[1], b[2]), (-a[2], b[1]))), _products(((a[2], b[0]), (-a[0], b[2]))),
+            _products(((a[0], b[1]), (-a[1], b[0])))]
+
+
+def named(make: Make, name: str, vector: Sequence, labels: str = "xyz") -> Vec:
+    """``make`` applied to each component (names ``name.x``, ``name.y``, ``name.z``)."""
+    return [make(f"{name}.{labels[i]}", vector[i]) for i in range(len(vector))]
+
+
+def _axis_angle_rows(axis: tuple, c: Any, s: Any) -> tuple:
+    """Rows of c 1 + s ã + (1 − c) a aᵀ (exact zeros and ones for a coordinate axis)."""
+    if axis in ((1, 0, 0), (0, 1, 0), (0, 0, 1)):
+        k = axis.index(1)
+        i, j = (k + 1) % 3, (k + 2) % 3
+        rows = [[sp.S.Zero] * 3 for _ in range(3)]
+        rows[k][k] = sp.S.One
+        rows[i][i] = rows[j][j] = c
+        rows[i][j], rows[j][i] = -s, s
+        return tuple(tuple(r) for r in rows)
+    a = axis
+    skew = ((0, -a[2], a[1]), (a[2], 0, -a[0]), (-a[1], a[0], 0))
+    return tuple(tuple(sp.Add(c if i == j else 0, s * skew[i][j], (1 - c) * a[i] * a[j])
+                       for j in range(3)) for i in range(3))
 
 
 @dataclass(frozen=True)
 class Rotation:
-    """A rotation: axis-angle (``axis`` a unit 3-tuple, ``angle`` rad) or a general matrix."""
+    """A rotation matrix in one of three exact forms (see the module docstring).
 
-    axis: tuple | None
-    angle: Any
-    general: sp.ImmutableMatrix | None = None
+    ``axis`` (unit 3-tuple) and ``angle`` for the axis-angle form (``rows`` then holds its
+    matrix in terms of the cosine and sine intermediates); ``rows`` (3x3) alone for the matrix
+    form; neither for the identity.
+    """
 
-    @staticmethod
-    def about(axis: tuple, angle: Any) -> Rotation:
-        return Rotation(tuple(axis), as_expr(angle))
+    axis: tuple | None = None
+    angle: Any = None
+    rows: tuple | None = None
 
-    @staticmethod
-    def identity() -> Rotation:
-        return Rotation(None, sp.Integer(0))
+    def apply(self, v: Sequence) -> Vec:
+        """R v."""
+        if self.rows is None:
+            return list(v)
+        return [dot(row, v) for row in self.rows]
 
-    @property
-    def is_identity(self) -> bool:
-        return self.general is None and (self.axis is None or self.angle == 0)
+    def apply_T(self, v: Sequence) -> Vec:
+        """Rᵀ v."""
+        if self.rows is None:
+            return list(v)
+        return [dot([row[i] for row in self.rows], v) for i in range(3)]
 
-    @property
-    def matrix(self) -> sp.Matrix:
-        if self.general is not None:
-            return sp.Matrix(self.general)
-        if self.is_identity:
-            return sp.eye(3)
-        return sp.Matrix(_axis_angle_matrix(self.axis, self.angle))
+    def congruence(self, J: Sequence[Sequence]) -> list[list]:
+        """R J Rᵀ of a symmetric 3x3 ``J`` (rows)."""
+        if self.rows is None:
+            return [list(r) for r in J]
+        RJ = [[dot(self.rows[i], [J[k][j] for k in range(3)]) for j in range(3)] for i in range(3)]
+        return [[dot(RJ[i], self.rows[j]) if j >= i else None for j in range(3)] for i in range(3)]
 
-    def __matmul__(self, other: Rotation) -> Rotation:
-        if self.is_identity:
-            return other
-        if other.is_identity:
+    def then(self, step: Rotation, make: Make, name: str) -> Rotation:
+        """This rotation followed by ``step`` (in the rotated frame): R · R_step, with angles
+        added when both turn about the same axis (intermediates ``name.th``, ``name.c``,
+        ``name.s``), else as a matrix (``name.R<i><j>``)."""
+        if self.rows is None:
+            return step
+        if step.rows is None:
             return self
-        if self.general is None and other.general is None and self.axis == other.axis:
-            return Rotation.about(self.axis, self.angle + other.angle)
-        return Rotation(None, None, sp.ImmutableMatrix(self.matrix * other.matrix))
-
-    def inverse(self) -> Rotation:
-        if self.is_identity:
-            return self
-        if self.general is None:
-            return Rotation.about(self.axis, -self.angle)
-        return Rotation(None, None, sp.ImmutableMatrix(self.general.T))
-
-    def key(self) -> tuple:
-        if self.is_identity:
-            return ("I",)
-        return ("aa", self.axis, self.angle) if self.general is None else ("M", self.general)
-
-
-@functools.lru_cache(maxsize=65536)
-def _axis_angle_matrix(axis: tuple, angle: sp.Expr) -> sp.ImmutableMatrix:
-    """Rotation matrix of (axis, angle), cached: the same relative rotations recur many times."""
-    c, s = sp.cos(angle), sp.sin(angle)
-    if axis == (0, 1, 0):
-        return sp.ImmutableMatrix([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-    if axis == (1, 0, 0):
-        return sp.ImmutableMatrix([[1, 0, 0], [0, c, -s], [0, s, c]])
-    if axis == (0, 0, 1):
-        return sp.ImmutableMatrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-    return sp.ImmutableMatrix(exp_so3(sp.Matrix(axis), angle))
-
-
-@dataclass(frozen=True)
-class Vector:
-    """A 3-vector Σ R_t c_t (world or frame coordinates), terms with equal rotations merged."""
-
-    terms: tuple[tuple[Rotation, sp.ImmutableMatrix], ...]
+        if self.axis is not None and self.axis == step.axis:
+            angle = make(f"{name}.th", self.angle + step.angle)
+            return Rotation(step.axis, angle, _axis_angle_rows(
+                step.axis, make(f"{name}.c", sp.cos(angle)), make(f"{name}.s", sp.sin(angle))))
+        rows = tuple(tuple(make(f"{name}.R{i}{j}", dot(self.rows[i], [r[j] for r in step.rows]))
+                           for j in range(3)) for i in range(3))
+        return Rotation(rows=rows)
 
     @staticmethod
-    def of(c: Any, R: Rotation | None = None) -> Vector:
-        return Vector(((R or Rotation.identity(), sp.ImmutableMatrix(sp.Matrix(c))),))._merged()
-
-    @staticmethod
-    def zero() -> Vector:
-        return Vector(())
-
-    def _merged(self) -> Vector:
-        groups: dict[tuple, list] = {}
-        for R, c in self.terms:
-            entry = groups.setdefault(R.key(), [R, sp.zeros(3, 1)])
-            entry[1] = entry[1] + sp.Matrix(c)
-        terms = tuple((R, sp.ImmutableMatrix(c.applyfunc(sp.expand))) for R, c in groups.values()
-                      if any(sp.expand(x) != 0 for x in c))
-        return Vector(terms)
-
-    def __add__(self, other: Vector) -> Vector:
-        return Vector(self.terms + other.terms)._merged()
-
-    def __neg__(self) -> Vector:
-        return Vector(tuple((R, -c) for R, c in self.terms))
-
-    def __sub__(self, other: Vector) -> Vector:
-        return self + (-other)
-
-    def scaled(self, s: Any) -> Vector:
-        return Vector(tuple((R, c * s) for R, c in self.terms))._merged()
-
-    def rotated(self, R: Rotation) -> Vector:
-        """R applied to the vector."""
-        return Vector(tuple((R @ Rt, c) for Rt, c in self.terms))._merged()
-
-    def cross(self, other: Vector) -> Vector:
-        """self × other, each term pair formed in the frame of the second term (R_a a × R_b b =
-        R_b ((R_b⁻¹ R_a a) × b): a joint axis then stays constant in the link frames)."""
-        out = []
-        for Ra, a in self.terms:
-            for Rb, b in other.terms:
-                rel = (Rb.inverse() @ Ra).matrix * sp.Matrix(a)
-                out.append((Rb, sp.ImmutableMatrix(rel.cross(sp.Matrix(b)))))
-        return Vector(tuple(out))._merged()
-
-    def dot(self, other: Vector) -> sp.Expr:
-        """self · other, formed term by term with relative rotations."""
-        total = sp.Integer(0)
-        for Ra, a in self.terms:
-            for Rb, b in other.terms:
-                total += (sp.Matrix(a).T * (Ra.inverse() @ Rb).matrix * sp.Matrix(b))[0, 0]
-        return sp.expand(total)
-
-    def in_frame(self, R: Rotation) -> Vector:
-        """Coordinates in a frame whose axes are R (i.e. Rᵀ applied)."""
-        return self.rotated(R.inverse())
-
-    def matrix(self) -> sp.Matrix:
-        out = sp.zeros(3, 1)
-        for R, c in self.terms:
-            out += R.matrix * sp.Matrix(c)
-        return out
-
-
-@dataclass(frozen=True)
-class Frame:
-    """A pose: origin ``p`` and axes ``R``, both relative to the world frame."""
-
-    R: Rotation
-    p: Vector
-
-    @staticmethod
-    def world() -> Frame:
-        return Frame(Rotation.identity(), Vector.zero())
-
-    def compose(self, R: Rotation | None = None, shift: Any = None) -> Frame:
-        """The frame moved by ``shift`` (in this frame's axes) then rotated by ``R``."""
-        p = self.p if shift is None else self.p + Vector.of(shift).rotated(self.R)
-        return Frame(self.R if R is None else self.R @ R, p)
-
-    def point(self, c: Any) -> Vector:
-        """A point given in this frame's coordinates, as a world vector."""
-        return self.p + Vector.of(c).rotated(self.R)
+    def turn(axis: Sequence, q: Any, make: Make, name: str) -> Rotation:
+        """Rot(axis, q) about a unit ``axis``, with cos q and sin q as ``name.c``, ``name.s``."""
+        axis = tuple(axis)
+        return Rotation(axis, q, _axis_angle_rows(axis, make(f"{name}.c", sp.cos(q)),
+                                                  make(f"{name}.s", sp.sin(q))))

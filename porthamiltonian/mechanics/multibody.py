@@ -1,36 +1,50 @@
-"""Multibody trees in joint-space Hamiltonian form (DESIGN.md §4).
+"""Multibody trees in joint-space Hamiltonian form.
 
-A :class:`Multibody` component holds rigid bodies joined by revolute, prismatic, translational and
-weld joints in a tree rooted at the world frame. It compiles to
+A :class:`Multibody` component holds rigid bodies joined by revolute, prismatic, translational,
+universal, spherical, free and weld joints (:mod:`.joints`) in a tree rooted at the world frame.
+With coordinates q, velocities v (joint rates, or the quasi-velocities of a quaternion joint: the
+relative angular velocity, or twist, in the child's axes) and their momenta p it compiles to
 
-    q̇ = v,   M(q) v = p   (solved numerically, never inverted symbolically),
-    ṗ_k = ½ vᵀ (∂M/∂q_k) v − ∂V/∂q_k + Q_k,
+    q̇ = K(q) v,   M(q) v = p   (solved numerically, never inverted symbolically),
+    ṗ_s = Π_kᵀ ad_{T_k} S_s − ∂V/∂(S_s) + Q_s   for every unit twist S_s of every joint k,
     H = ½ pᵀ v + V(q),
 
-where M(q) = Σ_i J_iᵀ 𝕀_i J_i from the body Jacobians J_i (adjoint chain: the column of joint
-DOF k in body i's Jacobian is Ad(H_i⁻¹ H_k) ξ_k, ξ_k the joint's unit twist in its own frame),
-𝕀_i the spatial inertia in body frame i, V the gravity potential, and Q the generalized forces from
-the ports.
+with K the identity for revolute and prismatic coordinates and the quaternion kinematics
+q̇ = ½ q ⊗ (0, ω) (and ṙ = R v) otherwise, V the gravity potential and Q the generalized forces
+from the ports. For a revolute or prismatic joint Π_kᵀ ad_{T_k} S_k is ∂T/∂q_k at fixed velocities
+(= ½ vᵀ ∂M/∂q_k v); for the rotations of a quaternion joint it also holds the gyroscopic term of
+the quasi-velocities (Euler's L̇ = L × ω for one body); for a free joint from the world the rows are
+the Lie–Poisson equation Ṗ = ad_Tᵀ P + W of the whole tree's momentum in the base's frame, as in
+:mod:`.free_body`. Everything is formed recursively over the tree as compiler intermediates
+(:mod:`.tree`): the links' relative poses, the composite (subtree) inertias and M(q) by the
+composite-rigid-body recursion; with v solved, the body twists T_k (root to tip) and the subtree
+momenta Π_k (tip to root); gravity from the subtree masses and first moments. The generated code
+grows as about N² along an N-link chain (never by differentiating M's entries), and the Jacobian
+of the state equations follows by the chain rule through the intermediates.
 
 Frames and conventions
 ----------------------
 * Frame names follow :mod:`porthamiltonian.mechanics.screw`; twists (ω, v), wrenches (τ, f).
 * A joint sits at ``origin`` (in the parent body's frame, m); its child body's frame has its origin
-  at the joint and coincides with the parent's frame (shifted to ``origin``) when the joint
-  coordinate is zero. Revolute: rotation by q (rad) about ``axis`` (right hand); prismatic: shift by
-  q (m) along ``axis``; translational: shifts along several axes (one coordinate each, named by the
-  axis, e.g. ``axes = ["x", "z"]``); weld: fixed.
+  at the joint and coincides with the parent's frame (shifted to ``origin``) at zero coordinates
+  (identity quaternion). Revolute: rotation by q (rad) about ``axis`` (right hand); prismatic:
+  shift by q (m) along ``axis``; translational: shifts along several axes (one coordinate each,
+  named by the axis, e.g. ``axes = ["x", "z"]``); universal: rotations about ``axes[0]`` then
+  ``axes[1]``; spherical: the rotation of a unit quaternion; free: a shift (parent axes) and a
+  rotation; weld: fixed. :mod:`.joints` lists the coordinates, velocities and ports of each type.
 * Body data are in the body's frame: ``mass`` (kg), ``com`` (m), ``inertia`` about the centre of
   mass (kg m², a 3x3 matrix, three principal values, or 0 for a point mass), ``points`` (named
   points, m).
 * ``gravity`` is the acceleration of gravity in the world frame (m/s²), default (0, 0, −9.81).
+* A quaternion's rotation is that of q/|q|: a drift of |q| changes nothing physical, and the
+  term ``quaternion_gain``/2 (1 − |q|²) q of its rate (along q, no work) pulls |q| back to 1.
 
-States: ``<name>.q.<joint>`` (and ``<name>.q.<joint>.<axis>`` for translational joints) and the
-conjugate momenta ``<name>.p.<...>``.
+States: ``<name>.q.<coordinate>`` and the momenta ``<name>.p.<velocity>`` (labels in
+:mod:`.joints`: ``<joint>``, ``<joint>.<axis>``, ``<joint>.qw`` …, ``<joint>.wx`` …).
 
 Ports (all optional, orientation set by the bond):
-* one per joint with coordinates, named as the joint: effort = generalized force (N m or N),
-  flow = joint velocity; dimension = its number of coordinates;
+* one per joint with velocities, named as the joint: effort = generalized force (N m, N, or a
+  wrench for a free joint), flow = the joint's velocities; dimension = their number;
 * one per body point, named as the point: effort = force (N), flow = velocity of the point (m/s),
   both in world coordinates (x, y, z), or (x, z) when ``plane = "xz"``;
 * one per body frame (``frames``: origin in the body frame, axes parallel to the body's), named as
@@ -40,16 +54,21 @@ When the bond points into the multibody, the effort is the force applied to it; 
 out, the effort is the force the multibody exerts on the element (so an element can be connected
 directly: ``connect("walker.foot", "contact.p")``).
 
-Outputs: ``<name>.<point>.x|y|z`` (world position of each point), ``<name>.T`` and ``<name>.V``
-(kinetic and potential energy, J). Matrices: ``<name>.M`` (mass matrix) and ``<name>.J.<point>``
-(point Jacobian in world coordinates), for impact maps.
+Outputs: ``<name>.<point>.x|y|z`` (world position of each point, m), ``<name>.T`` and
+``<name>.V`` (kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion
+joint), and each body's pose (for :mod:`porthamiltonian.viewer`): ``<name>.<body>.pose.x|y|z``
+(the origin of its frame, world coordinates, m) and ``<name>.<body>.pose.qw|qx|qy|qz`` (the unit
+quaternion of its orientation, Hamilton, scalar first, body to world: x_W = p + R(q) x_B), for
+planar models too.
+Matrices: ``<name>.M`` (mass matrix, M v = p) and ``<name>.J.<point>`` (the point's velocity is
+J v, world coordinates), for impact maps.
 
 Limits: kinematic loops are not supported (each body has exactly one parent joint); bodies are
 given by their inertial data, not by shapes.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -58,31 +77,17 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import ModelError, UnknownComponentError
 from ..ports import Port
-from .bodies import as_tables
-from .kinematics import Frame, Rotation, Vector
-
-_AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
-_JOINT_TYPES = ("revolute", "prismatic", "translational", "weld")
-
-
-def _axis(value: Any, where: str) -> tuple:
-    if isinstance(value, str) and value in _AXES:
-        return _AXES[value]
-    try:
-        vec = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: axis must be 'x', 'y', 'z' or three numbers, got {value!r}") from None
-    if vec.shape != (3,) or not np.linalg.norm(vec) > 0:
-        raise ModelError(f"{where}: axis must be a non-zero 3-vector, got {value!r}")
-    vec = vec / np.linalg.norm(vec)
-    return tuple(sp.nsimplify(v) if float(v).is_integer() else float(v) for v in vec)
+from .bodies import as_tables, expression_fields
+from .joints import Joint, joint, quaternion_slice, units
+from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
+from .tree import COORDINATES, DOFS, Link, Tree
 
 
-def _vector3(value: Any, where: str) -> list:
+def _vector3(value: Any, where: str, path: tuple = ()) -> list:
     if value is None:
         return [0, 0, 0]
     if not isinstance(value, (list, tuple)) or len(value) != 3:
-        raise ModelError(f"{where}: expected three components [x, y, z], got {value!r}")
+        raise ModelError(f"{where}: expected three components [x, y, z], got {value!r}", path=path)
     return list(value)
 
 
@@ -108,6 +113,8 @@ class Multibody(Component):
         "gravity": Arg("gravity acceleration in world coordinates (m/s^2)", symbolic=False,
                        default=None),
         "plane": Arg("'xz' for planar point ports (x, z)", symbolic=False, default=None),
+        "quaternion_gain": Arg("rate at which a spherical or free joint's quaternion is pulled "
+                               "back to unit norm", "1/s", default=1, rule=">="),
     }
 
     def __init__(self, **args: Any):
@@ -120,60 +127,56 @@ class Multibody(Component):
     def _validate(self) -> None:
         bodies, joints = self.value("bodies"), self.value("joints")
         if not isinstance(bodies, Mapping) or not bodies:
-            raise ModelError("Multibody needs 'bodies': a table name -> {mass, com, inertia, points}")
+            raise ModelError("Multibody needs 'bodies': a table name -> {mass, com, inertia, points}",
+                             path=("bodies",))
         if not isinstance(joints, Mapping) or not joints:
-            raise ModelError("Multibody needs 'joints': a table name -> {type, parent, child, ...}")
+            raise ModelError("Multibody needs 'joints': a table name -> {type, parent, child, ...}",
+                             path=("joints",))
         for name, body in bodies.items():
             where = f"Multibody body {name!r}"
             extra = set(body) - {"mass", "com", "inertia", "points", "frames"}
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: "
-                                 "mass, com, inertia, points, frames")
+                                 "mass, com, inertia, points, frames",
+                                 path=("bodies", name, min(extra)))
             if "mass" not in body:
-                raise ModelError(f"{where} needs a mass (kg)")
+                raise ModelError(f"{where} needs a mass (kg)", path=("bodies", name))
             mass = body["mass"]
             if isinstance(mass, (int, float)) and not mass > 0:
-                raise ModelError(f"{where}: mass must be positive, got {mass}")
-            self._inertia(body.get("inertia", 0), where)
-            _vector3(body.get("com"), f"{where} com")
-            for point, pos in {**(body.get("points") or {}), **(body.get("frames") or {})}.items():
-                _vector3(pos, f"{where} point/frame {point!r}")
+                raise ModelError(f"{where}: mass must be positive, got {mass}",
+                                 path=("bodies", name, "mass"))
+            self._inertia(body.get("inertia", 0), where, ("bodies", name, "inertia"))
+            _vector3(body.get("com"), f"{where} com", ("bodies", name, "com"))
+            for key in ("points", "frames"):
+                for point, pos in (body.get(key) or {}).items():
+                    _vector3(pos, f"{where} point/frame {point!r}", ("bodies", name, key, point))
         parent_of: dict[str, str] = {}
-        for name, joint in joints.items():
+        for name, table in joints.items():
             where = f"Multibody joint {name!r}"
-            extra = set(joint) - {"type", "parent", "child", "axis", "axes", "origin", "q0", "v0"}
+            extra = set(table) - {"type", "parent", "child", "axis", "axes", "origin", "q0", "v0"}
             if extra:
                 raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: type, "
-                                 "parent, child, axis (revolute, prismatic), axes (translational), "
-                                 "origin, q0, v0")
-            jtype = joint.get("type")
-            if jtype not in _JOINT_TYPES:
-                raise ModelError(f"{where}: type must be one of {', '.join(_JOINT_TYPES)}, got {jtype!r}")
-            parent, child = joint.get("parent"), joint.get("child")
+                                 "parent, child, axis (revolute, prismatic), axes (translational, "
+                                 "universal), origin, q0, v0", path=("joints", name, min(extra)))
+            joint(name, table)                      # type, axis, axes
+            parent, child = table.get("parent"), table.get("child")
             if parent != "world" and parent not in bodies:
                 raise UnknownComponentError(f"{where}: parent {parent!r} is neither 'world' nor a body "
-                                            f"({', '.join(bodies)})")
+                                            f"({', '.join(bodies)})", path=("joints", name, "parent"))
             if child not in bodies:
-                raise UnknownComponentError(f"{where}: child {child!r} is not a body ({', '.join(bodies)})")
+                raise UnknownComponentError(f"{where}: child {child!r} is not a body ({', '.join(bodies)})",
+                                            path=("joints", name, "child"))
             if child in parent_of:
                 raise ModelError(
                     f"{where}: body {child!r} already hangs on joint {parent_of[child]!r}; a second "
                     "joint would close a kinematic loop, which is not supported (model the loop "
-                    "with a stiff spring-damper between two points instead)")
+                    "with a stiff spring-damper between two points instead)",
+                    path=("joints", name, "child"))
             parent_of[child] = name
-            if jtype in ("revolute", "prismatic"):
-                _axis(joint.get("axis"), where)
-            if jtype == "translational":
-                axes = joint.get("axes")
-                if not isinstance(axes, list) or not axes:
-                    raise ModelError(f"{where}: a translational joint needs axes, e.g. ['x', 'z']")
-                for ax in axes:
-                    if ax not in _AXES:
-                        raise ModelError(f"{where}: translational axes are 'x', 'y' or 'z', got {ax!r}")
         orphans = [b for b in bodies if b not in parent_of]
         if orphans:
             raise ModelError(f"Multibody bodies {', '.join(orphans)} hang on no joint; attach them "
-                             "(a weld joint fixes a body to its parent)")
+                             "(a weld joint fixes a body to its parent)", path=("bodies", orphans[0]))
         for body in bodies:  # every chain must reach the world
             seen, node = set(), body
             while node != "world":
@@ -189,13 +192,13 @@ class Multibody(Component):
         if dup:
             raise ModelError(f"Multibody port names must be unique; repeated: {', '.join(sorted(dup))}")
         if self.value("gravity") is not None:
-            _vector3(self.value("gravity"), "Multibody gravity")
+            _vector3(self.value("gravity"), "Multibody gravity", ("gravity",))
         if self.value("plane") not in (None, "xz"):
-            raise ModelError("Multibody plane must be 'xz' or absent")
+            raise ModelError("Multibody plane must be 'xz' or absent", path=("plane",))
         self._parent_of = parent_of
 
     @staticmethod
-    def _inertia(value: Any, where: str) -> Any:
+    def _inertia(value: Any, where: str, path: tuple = ()) -> Any:
         """Inertia as a 3x3 nested list (point mass: 0), validated where numeric."""
         if isinstance(value, (int, float)) and value == 0:
             return 0
@@ -204,39 +207,37 @@ class Multibody(Component):
         if not (isinstance(value, (list, tuple)) and len(value) == 3
                 and all(isinstance(r, (list, tuple)) and len(r) == 3 for r in value)):
             raise ModelError(f"{where}: inertia must be 0 (point mass), three principal moments or "
-                             f"a 3x3 matrix, got {value!r}")
+                             f"a 3x3 matrix, got {value!r}", path=path)
         try:
             numeric = np.array(value, dtype=float)
         except (TypeError, ValueError):
             return value
         if not np.allclose(numeric, numeric.T) or np.linalg.eigvalsh(numeric).min() <= 0:
             raise ModelError(f"{where}: rotational inertia must be symmetric positive definite (or 0 "
-                             f"for a point mass), got eigenvalues {np.linalg.eigvalsh(numeric).round(12).tolist()}")
+                             f"for a point mass), got eigenvalues {np.linalg.eigvalsh(numeric).round(12).tolist()}",
+                             path=path)
         return value
 
-    def _coordinates(self) -> list[tuple[str, str, tuple, str]]:
-        """(joint, coordinate label, axis, kind) for every joint coordinate, in joint order."""
-        out = []
-        for name, joint in self.value("joints").items():
-            if joint["type"] in ("revolute", "prismatic"):
-                kind = "rotation" if joint["type"] == "revolute" else "translation"
-                out.append((name, name, _axis(joint["axis"], name), kind))
-            elif joint["type"] == "translational":
-                out += [(name, f"{name}.{ax}", _AXES[ax], "translation") for ax in joint["axes"]]
-        return out
+    def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
+        """The expressions nested in the bodies, joints and gravity, with their key paths (see
+        :meth:`Component.expression_fields` and :func:`.bodies.expression_fields`)."""
+        for path, value, what in expression_fields(self.value("bodies"), self.value("joints"),
+                                                   self.value("gravity")):
+            yield path, value, what, ()
+
+    def _joints(self) -> list[Joint]:
+        """The joints' structures, in the order of the table."""
+        return [joint(name, table) for name, table in self.value("joints").items()]
 
     def _point_dims(self) -> list[str]:
         return ["x", "z"] if self.value("plane") == "xz" else ["x", "y", "z"]
 
     def ports(self) -> list[Port]:
         ports = []
-        coords = self._coordinates()
-        for name, joint in self.value("joints").items():
-            mine = [c for c in coords if c[0] == name]
-            if mine:
-                domain = "rotation" if mine[0][3] == "rotation" else "translation"
-                ports.append(Port(name, domain, len(mine), None, "joint", f"joint {name}",
-                                  optional=True))
+        for spec in self._joints():
+            if spec.velocities:
+                ports.append(Port(spec.name, spec.domain, len(spec.velocities), None, "joint",
+                                  f"joint {spec.name}", optional=True))
         for body_name, body in self.value("bodies").items():
             for point in body.get("points") or {}:
                 ports.append(Port(point, "translation", len(self._point_dims()), None, "world",
@@ -248,170 +249,211 @@ class Multibody(Component):
         return ports
 
     # --- equations --------------------------------------------------------------------------------
-    def build(self, b: Builder, bodies, joints, gravity, plane) -> None:
-        coords = self._coordinates()
-        joint_q0: dict[str, list] = {}
-        for name, joint in joints.items():
-            n = sum(1 for c in coords if c[0] == name)
-            for key in ("q0", "v0"):
-                value = joint.get(key, 0)
-                values = value if isinstance(value, list) else [value] * n
-                if len(values) != n:
-                    raise ModelError(f"Multibody joint {name!r}: {key} needs {n} value(s), got {value!r}")
-                joint_q0.setdefault(name, [])
-                joint_q0[name].append([b.parse(v, f"joint {name!r} {key}") for v in values])
-        q = [b.state(f"q.{label}", initial=joint_q0[j][0][[c for c in coords if c[0] == j].index(
-            (j, label, ax, kind))]) for j, label, ax, kind in coords]
-        index = {(c[0], c[1]): k for k, c in enumerate(coords)}
-
-        # kinematics (kept compact, see .kinematics): world frames of the bodies, and per body
-        # the columns of its Jacobian: angular velocity (world) and velocity of a body-fixed point
-        # as functions of the joint axes, both as sums of rotated constant vectors
-        frames: dict[str, Frame] = {"world": Frame.world()}
-        axes: dict[str, dict[int, tuple[str, Vector, Vector]]] = {"world": {}}
-        for jname in self._tree_order():
-            joint = joints[jname]
-            frame = frames[joint["parent"]].compose(shift=[
-                b.parse(v, f"joint {jname!r} origin")
-                for v in _vector3(joint.get("origin"), f"joint {jname!r} origin")])
-            columns = dict(axes[joint["parent"]])
-            for (j, label, ax, kind) in (c for c in coords if c[0] == jname):
-                k = index[(j, label)]
-                axis = Vector.of(ax, frame.R)                  # joint axis, world coordinates
-                columns[k] = (kind, axis, frame.p)
-                if kind == "rotation":
-                    frame = frame.compose(R=Rotation.about(ax, q[k]))
-                else:
-                    frame = frame.compose(shift=[a * q[k] for a in ax])
-            frames[joint["child"]] = frame
-            axes[joint["child"]] = columns
-
-        # M(q) = Σ_i [m_i J_v,iᵀ J_v,i + J_ω,iᵀ R_i I_c,i R_iᵀ J_ω,i]: the spatial-inertia form
-        # about each centre of mass, with every entry formed by relative rotations
-        n = len(coords)
-        M = sp.zeros(n, n)
-        V = sp.Integer(0)
-        g = sp.Matrix([b.parse(v, "gravity") for v in (gravity or [0, 0, "-9.81"])])
-        points: dict[str, sp.Matrix] = {}
-        frames_twist: dict[str, sp.Matrix] = {}   # frame port -> 6 x n twist Jacobian (frame axes)
-        for body_name, body in bodies.items():
-            frame = frames[body_name]
-            mass = b.parse(body["mass"], f"body {body_name!r} mass")
+    def build(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
+              gravity: list | None, plane: str | None, quaternion_gain: sp.Expr) -> None:
+        specs = self._joints()
+        velocities = [label for spec in specs for label in spec.velocities]
+        coordinates = [label for spec in specs for label in spec.coordinates]
+        n = len(velocities)
+        q0, v0 = self._initial(b, joints, specs)
+        links, placement = self._links(b, joints, specs)
+        g = [b.parse(v, "gravity") for v in (gravity or [0, 0, "-9.81"])]
+        static_first = list(ZERO3)          # first moment of the bodies welded to the world
+        for name, body in bodies.items():
+            where = f"body {name!r}"
+            mass = b.parse(body["mass"], f"{where} mass")
             if mass != 0:               # > 0, or written as 0 (a massless body, e.g. "0*m")
-                b.require(mass, ">", f"body {body_name!r} mass")
-            com = [b.parse(v, f"body {body_name!r} com") for v in _vector3(body.get("com"), "com")]
-            c_world = frame.point(com)
-            linear, angular = {}, {}
-            for k, (kind, axis, origin) in axes[body_name].items():
-                if kind == "rotation":
-                    angular[k] = axis
-                    linear[k] = axis.cross(c_world - origin)
-                else:
-                    linear[k] = axis
-            inertia = self._inertia(body.get("inertia", 0), f"body {body_name!r}")
-            I_c = None if inertia == 0 else sp.Matrix(
-                [[b.parse(v, f"body {body_name!r} inertia") for v in row] for row in inertia])
-            body_axes = {k: w.in_frame(frame.R).matrix() for k, w in angular.items()}
-            for j in linear:
-                for k in linear:
-                    if k < j:
-                        continue
-                    entry = mass * linear[j].dot(linear[k])
-                    if I_c is not None and j in body_axes and k in body_axes:
-                        entry += (body_axes[j].T * I_c * body_axes[k])[0, 0]
-                    M[j, k] += entry
-                    if k != j:
-                        M[k, j] += entry
-            V -= mass * (g.T * c_world.matrix())[0, 0]
-            for point, pos in (body.get("points") or {}).items():
-                points[point] = frame.point([b.parse(v, f"point {point!r}")
-                                             for v in _vector3(pos, point)]).matrix()
-            for name, pos in (body.get("frames") or {}).items():
-                J_w = sp.zeros(3, n)
-                for k, w in angular.items():
-                    J_w[:, k] = w.in_frame(frame.R).matrix()        # body-axes angular velocity
-                origin = frame.point([b.parse(v, f"frame {name!r}") for v in _vector3(pos, name)])
-                J_o = origin.matrix().jacobian(q)
-                frames_twist[name] = sp.Matrix.vstack(J_w, frame.R.matrix.T * J_o)
-        M = M.applyfunc(sp.expand)
-
-        # initial momenta p0 = M(q0) v0 (a product, no inversion)
-        q0 = {q[k]: joint_q0[c[0]][0][[d for d in coords if d[0] == c[0]].index(c)]
-              for k, c in enumerate(coords)}
-        v0 = sp.Matrix([joint_q0[c[0]][1][[d for d in coords if d[0] == c[0]].index(c)]
-                        for c in coords])
-        p0 = M.xreplace(q0) * v0
-        p = [b.state(f"p.{c[1]}", initial=p0[k]) for k, c in enumerate(coords)]
-
-        # intermediates keep the generated code local: mass-matrix entries, their derivatives
-        # (for the Coriolis terms ½ vᵀ ∂M/∂q_k v) and the point Jacobians are computed once, and
-        # the Jacobian of the state equations goes through them by the chain rule
-        Mw = sp.zeros(n, n)
-        dM: dict[int, list[tuple[int, int, sp.Expr]]] = {k: [] for k in range(n)}
-        for i in range(n):
-            for j in range(i, n):
-                Mw[i, j] = Mw[j, i] = b.intermediate(f"M.{i}.{j}", M[i, j])
-                for k in range(n):
-                    d = sp.diff(M[i, j], q[k])
-                    if d != 0:
-                        dM[k].append((i, j, b.intermediate(f"dM.{i}.{j}.{k}", d)))
-        v = b.implicit("v", Mw, sp.Matrix(p))
-        vvec = sp.Matrix(v)
-
-        Q = [sp.Integer(0)] * n
-        dims = [("x", 0), ("y", 1), ("z", 2)]
-        keep = [i for name, i in dims if name in self._point_dims()]
-        point_jacobians: dict[str, sp.Matrix] = {}
-        for point, pos in points.items():
-            Jp = sp.Matrix([pos[i] for i in keep]).jacobian(q)
-            point_jacobians[point] = sp.Matrix(Jp.rows, Jp.cols, lambda r, c, point=point, Jp=Jp:
-                                               b.intermediate(f"J.{point}.{r}.{c}", Jp[r, c]))
-        for port_name, pv in b.built.ports.items():
-            s = b.sign(port_name)
-            if port_name in frames_twist:
-                J_T = frames_twist[port_name].applyfunc(sp.expand)
-                J_T = sp.Matrix(6, n, lambda r, c, J_T=J_T, port_name=port_name:
-                                b.intermediate(f"JT.{port_name}.{r}.{c}", J_T[r, c]))
-                b.equation(sp.Matrix(pv.f), J_T * vvec, "frame twist = J_T(q) v")
-                gen = J_T.T * sp.Matrix(pv.e)
-                Q = [Q[k] + s * gen[k] for k in range(n)]
-            elif port_name in points:
-                Jp = point_jacobians[port_name]
-                efforts = sp.Matrix(pv.e) if pv.port.dim > 1 else sp.Matrix([pv.e])
-                flows = sp.Matrix(pv.f) if pv.port.dim > 1 else sp.Matrix([pv.f])
-                b.equation(flows, Jp * vvec, "point velocity = J(q) v")
-                gen = Jp.T * efforts
-                Q = [Q[k] + s * gen[k] for k in range(n)]
+                b.require(mass, ">", f"{where} mass")
+            com = [b.parse(v, f"{where} com") for v in _vector3(body.get("com"), "com")]
+            inertia = self._inertia(body.get("inertia", 0), where)
+            I_c = None if inertia == 0 else [[b.parse(v, f"{where} inertia") for v in row]
+                                             for row in inertia]
+            link, offset = placement[name]
+            if link is None:
+                static_first = add(static_first, scale(mass, add(offset, com)))
             else:
-                ks = [index[(c[0], c[1])] for c in coords if c[0] == port_name]
-                efforts = [pv.e] if pv.port.dim == 1 else list(pv.e)
-                flows = [pv.f] if pv.port.dim == 1 else list(pv.f)
-                for k, e, f in zip(ks, efforts, flows):
-                    b.equation(f, v[k], "joint velocity")
-                    Q[k] = Q[k] + s * e
+                link.add_body(mass, add(offset, com), I_c)
+
+        # initial momenta p0 = M(q0) v0, as S_kᵀ Π_k of the same recursion written out
+        p0 = [sp.Integer(0)] * n
+        if any(value != 0 for value in v0):
+            start = Tree(links, written_out)
+            start.positions(q0)
+            start.velocities(v0)
+            p0 = start.generalized_momenta()
+        q_units = [u for spec in specs for u in units(spec)[0]]
+        p_units = [u for spec in specs for u in units(spec)[1]]
+        q = [b.state(f"q.{label}", unit, value)
+             for label, unit, value in zip(coordinates, q_units, q0)]
+        p = [b.state(f"p.{label}", unit, value)
+             for label, unit, value in zip(velocities, p_units, p0)]
+
+        def make(name: str, expr: Any) -> Any:
+            expr = sp.sympify(expr)
+            if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
+                                and expr.args[1].is_Atom):
+                return expr
+            return b.intermediate(f"mb.{name}", expr)
+
+        tree = Tree(links, make)
+        tree.positions(q)
+        tree.world()
+        tree.composites()
+        M = tree.mass_matrix()
+        v = b.implicit("v", M, sp.Matrix(p))
+        tree.velocities(v)
+        tree.gravity(g)
+        Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces())]
+        first = list(static_first)                  # Σ m c over all bodies, world frame
+        for root in (link for link in links if link.parent is None):
+            P = tree.pos[root]
+            first = add(first, scale(P.cmass, P.world_p), P.world_R.apply(P.cfirst))
+        potential = -dot(g, first)
+
+        tree.orientations()
+        for body_name in bodies:                    # poses, for the 3D viewer
+            link, offset = placement[body_name]
+            origin, quaternion = (offset, [1, 0, 0, 0]) if link is None else (
+                tree.point(link, offset), tree.pos[link].world_q)
+            for axis, value in zip("xyz", origin):
+                b.output(f"{body_name}.pose.{axis}", value, "m")
+            for label, value in zip(("qw", "qx", "qy", "qz"), quaternion):
+                b.output(f"{body_name}.pose.{label}", value, "1")
+
+        dims = [i for i, axis in enumerate("xyz") if axis in self._point_dims()]
+        for body_name, body in bodies.items():
+            link, offset = placement[body_name]
+            for point, pos in (body.get("points") or {}).items():
+                local = add(offset, [b.parse(c, f"point {point!r}") for c in _vector3(pos, point)])
+                J = sp.zeros(3, n)
+                if link is None:
+                    x, velocity = local, list(ZERO3)
+                else:
+                    x = named(make, f"at.{point}", tree.point(link, local))
+                    velocity = named(make, f"at.{point}.velocity", tree.point_velocity(link, local))
+                    for k, column in tree.columns(link, x):
+                        J[:, k] = sp.Matrix(column)
+                for i, axis in enumerate("xyz"):
+                    b.output(f"{point}.{axis}", x[i], "m")
+                b.matrix(f"J.{point}", J[dims, :])
+                pv, s = b.port(point), b.sign(point)
+                efforts = list(pv.e) if pv.port.dim > 1 else [pv.e]
+                force = [sp.S.Zero] * 3
+                for i, e in zip(dims, efforts):
+                    force[i] = e
+                b.equation(sp.Matrix(pv.f if pv.port.dim > 1 else [pv.f]),
+                           sp.Matrix([velocity[i] for i in dims]), "point velocity (world)")
+                if link is not None:
+                    for k, value in tree.load(link, x, ZERO3, force):
+                        Q[k] = Q[k] + s * value
+            for frame, pos in (body.get("frames") or {}).items():
+                pv, s = b.port(frame), b.sign(frame)
+                local = add(offset, [b.parse(c, f"frame {frame!r}") for c in _vector3(pos, frame)])
+                if link is None:
+                    b.equation(sp.Matrix(pv.f), sp.zeros(6, 1), "frame twist (fixed)")
+                    continue
+                w, lin = tree.twist[link]
+                b.equation(sp.Matrix(pv.f), sp.Matrix(w + add(lin, cross(w, local))),
+                           "frame twist (ω, v), frame axes")
+                R = tree.pos[link].world_R
+                x = named(make, f"at.{frame}", tree.point(link, local))
+                for k, value in tree.load(link, x, R.apply(list(pv.e[:3])), R.apply(list(pv.e[3:]))):
+                    Q[k] = Q[k] + s * value
+        start_index = 0
+        for spec in specs:
+            indices = range(start_index, start_index + len(spec.velocities))
+            start_index += len(spec.velocities)
+            if not spec.velocities:
+                continue
+            pv, s = b.port(spec.name), b.sign(spec.name)
+            efforts = [pv.e] if pv.port.dim == 1 else list(pv.e)
+            flows = [pv.f] if pv.port.dim == 1 else list(pv.f)
+            for k, e, f in zip(indices, efforts, flows):
+                b.equation(f, v[k], "joint velocity")
+                Q[k] = Q[k] + s * e
+        rates = tree.coordinate_rates(q, v, quaternion_gain)
+        for k in range(len(q)):
+            b.equation(b.der(q[k]), rates[k], "dq/dt from the joint velocities, M(q) v = p")
         for k in range(n):
-            b.equation(b.der(q[k]), v[k], "dq/dt = v, M(q) v = p")
-            coriolis = sum(((v[i] * v[j] if i != j else v[i] ** 2 / 2) * d for i, j, d in dM[k]),
-                           sp.Integer(0))
-            gravity_force = b.intermediate(f"dV.{k}", -sp.diff(V, q[k]))
-            b.equation(b.der(p[k]), coriolis + gravity_force + Q[k],
-                       "dp/dt = 1/2 v' dM/dq v - dV/dq + Q")
-        kinetic = (sp.Matrix(p).T * vvec)[0, 0] / 2
-        b.energy(kinetic + V)
-        b.output("T", kinetic)
-        b.output("V", V)
-        for point, pos in points.items():
-            for name, i in dims:
-                b.output(f"{point}.{name}", pos[i])
-            b.matrix(f"J.{point}", point_jacobians[point])
-        b.matrix("M", Mw)
+            b.equation(b.der(p[k]), Q[k], "dp/dt = Π'ad_T S - dV/dq + Q")
+        kinetic = (sp.Matrix(p).T * sp.Matrix(v))[0, 0] / 2
+        b.energy(kinetic + potential)
+        b.output("T", kinetic, "J")
+        b.output("V", potential, "J")
+        for spec in specs:
+            where = quaternion_slice(spec)
+            if where is not None:
+                c = coordinates.index(spec.coordinates[0])
+                quat = q[c + where.start:c + where.stop]
+                b.output(f"{spec.name}.q_norm", sp.sqrt(dot(quat[1:], quat[1:]) + quat[0] ** 2),
+                         "1")
+        b.matrix("M", M)
+
+    def _initial(self, b: Builder, joints, specs: list[Joint]) -> tuple[list, list]:
+        """q0 and v0 per coordinate and velocity (expressions in the parameters); a quaternion
+        is normalised."""
+        out: tuple[list, list] = ([], [])
+        for spec in specs:
+            for key, labels, default, column in (("q0", spec.coordinates, spec.q0, out[0]),
+                                                 ("v0", spec.velocities, spec.v0, out[1])):
+                if not labels:
+                    continue
+                value = joints[spec.name].get(key)
+                items = list(default) if value is None else (
+                    value if isinstance(value, list) else [value] * len(labels))
+                if len(items) != len(labels):
+                    raise ModelError(f"Multibody joint {spec.name!r}: {key} needs {len(labels)} "
+                                     f"value(s) ({', '.join(labels)}), got {value!r}",
+                                     path=("joints", spec.name, key))
+                parsed = [b.parse(x, f"joint {spec.name!r} {key}") for x in items]
+                where = quaternion_slice(spec) if key == "q0" else None
+                if where is not None:
+                    quat = parsed[where]
+                    norm = sp.sqrt(sum(x**2 for x in quat))
+                    if norm == 0:
+                        raise ModelError(f"Multibody joint {spec.name!r}: the quaternion in q0 must "
+                                         "not be zero (identity: [1, 0, 0, 0])",
+                                         path=("joints", spec.name, key))
+                    parsed[where] = [x / norm for x in quat]
+                column += parsed
+        return out
+
+    def _links(self, b: Builder, joints, specs: list[Joint]) -> tuple[list[Link], dict]:
+        """The elementary links (parents first) and the placement of every body: (its link,
+        or None for the world, and its origin in the link's frame)."""
+        first: dict[str, tuple[int, int]] = {}
+        velocity = coordinate = 0
+        for spec in specs:
+            first[spec.name] = (velocity, coordinate)
+            velocity += len(spec.velocities)
+            coordinate += len(spec.coordinates)
+        by_name = {spec.name: spec for spec in specs}
+        placement: dict[str, tuple[Link | None, list]] = {}
+        links: list[Link] = []
+        for jname in self._tree_order():
+            table, spec = joints[jname], by_name[jname]
+            link, offset = (None, list(ZERO3)) if table["parent"] == "world" \
+                else placement[table["parent"]]
+            offset = add(offset, [b.parse(v, f"joint {jname!r} origin")
+                                  for v in _vector3(table.get("origin"), f"joint {jname!r} origin")])
+            velocity, coordinate = first[jname]
+            for kind, axis, label in spec.links:
+                new = Link(label, link, offset, kind, axis, velocity, coordinate)
+                velocity += DOFS[kind]
+                coordinate += COORDINATES[kind]
+                if link is not None:
+                    link.children.append(new)
+                links.append(new)
+                link, offset = new, list(ZERO3)
+            placement[table["child"]] = (link, offset)
+        return links, placement
 
     def _tree_order(self) -> list[str]:
         joints = self.value("joints")
         order, placed = [], {"world"}
         while len(order) < len(joints):
-            for name, joint in joints.items():
-                if name not in order and joint["parent"] in placed:
+            for name, table in joints.items():
+                if name not in order and table["parent"] in placed:
                     order.append(name)
-                    placed.add(joint["child"])
+                    placed.add(table["child"])
         return order

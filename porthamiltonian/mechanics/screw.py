@@ -29,6 +29,29 @@ Frames (monogram notation, as in Drake)
 
   so that power is frame independent: ``⟨W_A, T_A⟩ = ⟨W_B, T_B⟩``.
 
+Utilities, not port types
+-------------------------
+:class:`Pose`, :class:`Twist` and :class:`Wrench` are utilities for computing with poses and
+screws (building a component's laws, post-processing a trajectory: ``Pose.act`` to see a frame's
+twist in world coordinates); the power ports of the screw domain do not carry them. This is a
+choice, for three reasons:
+
+* the power pairing is already fixed by the domain: every ``"screw"`` port has dimension 6, its
+  effort is a wrench ``(τ, f)`` and its flow a twist ``(ω, v)`` in the ordering above, so a
+  bond's ``e·f`` is ``⟨W, T⟩`` by construction, and ``connect`` checks domain and dimension;
+* the frame is the frame of the one body port of the bond: a multibody's frame port and a free
+  body's port are expressed in their own frames, the elements that act on them (sources,
+  dampers, springs, junctions) have no frame of their own and take their bond's, and no
+  component changes frames (there is no adjoint transformer yet), so there is no pair of frames
+  a connect-time check could compare;
+* what a check would reject is rejected already: two body ports bonded directly both impose
+  their twist, and the compiler refuses the pair as structurally singular, naming both
+  components (tests/unit/test_multibody_frames.py).
+
+When a component that maps screws between frames is added (an ``Ad`` transformer, a joint
+between two bodies' frame ports), ports should carry their (component-qualified) frame and
+``check_bond`` should compare frames: then these classes become the ports' types.
+
 Numeric and symbolic use
 ------------------------
 The module-level functions accept numpy arrays (or nested sequences) of floats and sympy
@@ -40,7 +63,7 @@ from __future__ import annotations
 
 import numbers
 from collections.abc import Sequence
-from typing import Any, ClassVar, Union
+from typing import Any, ClassVar
 
 import numpy as np
 import sympy as sp
@@ -70,11 +93,11 @@ __all__ = [
 ]
 
 #: Inputs: numpy arrays, nested sequences of numbers, or sympy matrices/expressions.
-ArrayLike = Union[np.ndarray, sp.MatrixBase, Sequence[Any]]
+ArrayLike = np.ndarray | sp.MatrixBase | Sequence[Any]
 #: Outputs: a float numpy array or a ``sympy.Matrix``.
-Array = Union[np.ndarray, sp.Matrix]
+Array = np.ndarray | sp.Matrix
 #: A scalar: a float or a sympy expression.
-Scalar = Union[float, sp.Expr]
+Scalar = float | sp.Expr
 
 #: Below this rotation angle [rad] the Rodrigues coefficients are evaluated by their Taylor
 #: series (relative truncation error at most 2e-16); above it the cancellation error of the closed
@@ -207,7 +230,7 @@ class _SympyBackend:
 
 _NUMPY = _NumpyBackend()
 _SYMPY = _SympyBackend()
-_Backend = Union[_NumpyBackend, _SympyBackend]
+_Backend = _NumpyBackend | _SympyBackend
 
 
 def _contains_sympy(x: Any) -> bool:
@@ -342,7 +365,7 @@ def pose_inverse(H: ArrayLike) -> Array:
     return pose_matrix(R.T, -(R.T @ p))
 
 
-def Ad(H: ArrayLike) -> Array:  # noqa: N802 (standard name of the adjoint map)
+def Ad(H: ArrayLike) -> Array:
     """Adjoint matrix of a pose, in the ``(ω, v)`` ordering.
 
     Parameters
@@ -583,7 +606,7 @@ def _as_float_array(x: Any) -> np.ndarray | None:
         return None
 
 
-def _check_inertia(mass: Scalar, I_com: Array) -> None:  # noqa: N803
+def _check_inertia(mass: Scalar, I_com: Array) -> None:
     """Validate mass and rotational inertia where they are numeric (symbolic ones pass)."""
     m, I_c = _as_float_array(mass), _as_float_array(I_com)
     if m is not None and not m > 0:
@@ -598,7 +621,7 @@ def _check_inertia(mass: Scalar, I_com: Array) -> None:  # noqa: N803
         raise ValueError(f"{message} eigenvalues {eigenvalues.tolist()}")
 
 
-def spatial_inertia(mass: Scalar, com: ArrayLike, I_com: ArrayLike) -> Array:  # noqa: N803
+def spatial_inertia(mass: Scalar, com: ArrayLike, I_com: ArrayLike) -> Array:
     """6x6 spatial inertia of a rigid body in a body frame whose origin may differ from its CoM.
 
     Parameters
@@ -637,7 +660,7 @@ def spatial_inertia(mass: Scalar, com: ArrayLike, I_com: ArrayLike) -> Array:  #
     return ns.block([[I_c + m * C @ C.T, m * C], [m * C.T, m * ns.eye(3)]])
 
 
-def kinetic_energy(I_spatial: ArrayLike, T: ArrayLike) -> Scalar:  # noqa: N803
+def kinetic_energy(I_spatial: ArrayLike, T: ArrayLike) -> Scalar:
     """Kinetic energy ``½ Tᵀ I T`` [J] of a body with spatial inertia ``I`` and twist ``T``.
 
     ``I`` (6x6, see :func:`spatial_inertia`) and ``T = (ω, v)`` [rad/s, m/s] must be expressed in
@@ -847,6 +870,14 @@ class _Screw:
         return f"{type(self).__name__}({components}, frame={self._frame!r})"
 
 
+def _half(k: int, doc: str) -> property:
+    """The read-only property of half ``k`` (0: first three components, 1: last three)."""
+    def get(self: _Screw) -> Array:
+        return self._half(k)
+    get.__doc__ = doc
+    return property(get)
+
+
 class Twist(_Screw):
     """Twist ``(ω, v)`` [rad/s, m/s] expressed in frame ``frame``.
 
@@ -855,44 +886,27 @@ class Twist(_Screw):
     in another frame a ``ValueError``.
     """
 
+    angular = _half(0, "Angular velocity ω [rad/s].")
+    linear = _half(1, "Linear velocity v [m/s] of the point at the frame origin.")
+
     @classmethod
     def from_parts(cls, angular: ArrayLike, linear: ArrayLike, frame: str) -> Twist:
         """Twist from its angular [rad/s] and linear [m/s] velocity 3-vectors."""
         return cls._from_halves(angular, linear, frame)
 
-    @property
-    def angular(self) -> Array:
-        """Angular velocity ω [rad/s]."""
-        return self._half(0)
-
-    @property
-    def linear(self) -> Array:
-        """Linear velocity v [m/s] of the point at the frame origin."""
-        return self._half(1)
-
 
 class Wrench(_Screw):
-    """Wrench ``(τ, f)`` [N·m, N] expressed in frame ``frame``.
+    """Wrench ``(τ, f)`` [N·m, N] expressed in frame ``frame``: it pairs with a :class:`Twist` in
+    the same frame through :meth:`power`, and otherwise behaves as a twist does (same-frame sums,
+    scaling; a ``TypeError`` for a twist, a ``ValueError`` for another frame)."""
 
-    Wrenches in the same frame add and scale by scalars; they pair with a :class:`Twist` in the
-    same frame through :meth:`power`. Adding a twist is a ``TypeError``, adding a wrench expressed
-    in another frame a ``ValueError``.
-    """
+    torque = _half(0, "Torque τ [N·m] about the frame origin.")
+    force = _half(1, "Force f [N].")
 
     @classmethod
     def from_parts(cls, torque: ArrayLike, force: ArrayLike, frame: str) -> Wrench:
         """Wrench from its torque [N·m] (about the frame origin) and force [N] 3-vectors."""
         return cls._from_halves(torque, force, frame)
-
-    @property
-    def torque(self) -> Array:
-        """Torque τ [N·m] about the frame origin."""
-        return self._half(0)
-
-    @property
-    def force(self) -> Array:
-        """Force f [N]."""
-        return self._half(1)
 
 
 Twist._dual = Wrench

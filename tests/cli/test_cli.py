@@ -154,6 +154,19 @@ def test_show_prints_states_and_equations(runs):
     assert "P_in" in out and "P_diss" in out
 
 
+@pytest.mark.parametrize("backend, marks", [
+    ("c", ["static void rhs(double t, const double *x, const double *p, double *out)",
+           " *   [1] spring.q", "PH_EXPORT int ph_integrate_rodas5p("]),
+    ("python", ["def rhs(t, x, p):", "      [1] spring.q", "def integrate_rodas4("])])
+def test_show_code_prints_the_generated_source(backend, marks, capsys):
+    """``show MODEL --code --backend B``: the source the back end compiles, its functions
+    documented with the state order by name, the integration loops included."""
+    assert main(["show", "mass_spring_damper", "--code", "--backend", backend]) == 0
+    out = capsys.readouterr().out
+    for mark in marks:
+        assert mark in out, mark
+
+
 def test_check_energy_passes_on_shipped_models(runs):
     run = runs["check"]
     assert run.returncode == 0, run.stdout + run.stderr
@@ -208,3 +221,5 @@ def test_plain_text_summary(capsys):
     assert status == 0
     assert "rlc_circuit: finished" in out
     assert "capacitor.q" in out and "inductor.p" in out and "residual" in out
+    units = {ln.split()[0]: ln.split()[-1] for ln in out.splitlines() if ln.startswith("  ")}
+    assert units["capacitor.q"] == "A*s" and units["inductor.p"] == "V*s"   # charge, flux linkage

@@ -97,3 +97,27 @@ def test_a_closed_pipe_ends_the_command_quietly():
     proc.stdout.close()
     _, err = proc.communicate(timeout=300)
     assert proc.returncode == 141 and err == b""
+
+
+def test_a_model_build_is_announced_once_and_quiet_silences_it(tmp_path, monkeypatch, capsys):
+    """A model not in the cache is built once, and stderr hears about it in one line; the next
+    run of the same model (cached) is silent, and so is a build with $PORTHAMILTONIAN_QUIET set
+    or inside ``backends.quiet()`` (the commands' --quiet)."""
+    from porthamiltonian import backends
+    from porthamiltonian.cli import main
+    monkeypatch.delenv("PORTHAMILTONIAN_QUIET", raising=False)
+    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
+    argv = ["--backend", "python", "simulate", "mass_spring_damper", "--t-end", "0.1"]
+    for expected in (True, False):
+        assert main(argv) == 0
+        assert ("building mass_spring_damper:" in capsys.readouterr().err) is expected
+    for folder in ("other", "third"):
+        monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / folder))
+        if folder == "other":
+            monkeypatch.setenv("PORTHAMILTONIAN_QUIET", "1")
+            assert main(argv) == 0
+        else:
+            monkeypatch.delenv("PORTHAMILTONIAN_QUIET")
+            with backends.quiet():
+                assert main(argv) == 0
+        assert "building" not in capsys.readouterr().err

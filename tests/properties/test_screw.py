@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
-from porthamiltonian.mechanics import (
+from porthamiltonian.mechanics.screw import (
     Ad,
     Pose,
     Twist,

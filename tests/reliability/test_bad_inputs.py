@@ -143,9 +143,9 @@ def test_the_same_value_as_a_literal_gives_the_same_rule():
     """A mass of 0 written in the model and one bound at run time: the same rule, the same
     names (the literal when the model compiles, the parameter whenever it is bound)."""
     base = io.load("mass_spring_damper")
-    literal = io.loads(io.dumps(base).replace('inertance = "m"', "inertance = 0.0"))
+    literal = io.reads(io.dumps(base).replace('inertance = "m"', "inertance = 0.0"))
     with pytest.raises(ModelFileError) as lit:             # from a model file: names the file
-        compile_model(literal, backend="python", use_cache=False)
+        literal.compile(backend="python", use_cache=False)
     with pytest.raises(ParameterValueError) as bound:
         compile_model(base, backend="python").params({"m": 0.0})
     for message in (str(lit.value), str(bound.value)):

@@ -50,9 +50,9 @@ def test_the_tolerances_reach_both_verdicts_and_the_old_scale_would_pass(model_t
     fail); at h = 1e6 m the old scale (max |H| ≈ m g h) passes the run that fails."""
     verdicts, old = [], []
     for rtol in (RTOLS[0], RTOLS[-1]):
-        model = io.load(pendulum_file(model_text, tmp_path, 1e6, rtol))
-        sim = model.simulation
-        traj = compile_model(model, backend="python").simulate(
+        record = io.read(pendulum_file(model_text, tmp_path, 1e6, rtol))
+        sim = record.simulation
+        traj = compile_model(record.model, backend="python").simulate(
             sim["t_end"], method=sim["method"], rtol=sim["rtol"], atol=sim["atol"])
         verdicts.append(traj.relative_residual <= TOLERANCE)
         old.append(np.max(np.abs(traj.residual)) / np.max(np.abs(traj.H)) <= TOLERANCE)

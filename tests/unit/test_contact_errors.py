@@ -7,9 +7,14 @@ from __future__ import annotations
 import pytest
 
 import porthamiltonian as ph
-from porthamiltonian import compile_model, errors, io, symbolic
-from porthamiltonian.library import (HuntCrossley, KelvinVoigt, SCVSFriction, SpringDamper,
-                                     VariableSpringDamper)
+from porthamiltonian import errors, io, symbolic
+from porthamiltonian.library import (
+    HuntCrossley,
+    KelvinVoigt,
+    SCVSFriction,
+    SpringDamper,
+    VariableSpringDamper,
+)
 
 BALL = dict(bodies={"b": {"mass": 1.0, "inertia": 0, "points": {"tip": [0, 0, 0]}}},
             joints={"drop": {"type": "translational", "parent": "world", "child": "b",
@@ -217,16 +222,16 @@ def test_linear_spring_with_modulated_stiffness_points_to_the_variable_spring(st
 def test_model_file_error_names_the_file_and_the_component():
     text = (io.models_dirs()[-1] / "block_on_incline.toml").read_text()
     text = text.replace('mu_st = "mu_st", mu_c = "mu_c"', 'mu_st = 0.5, mu_c = 0.7')
-    model = io.loads(text, source="bad_incline.toml")
+    record = io.reads(text, source="bad_incline.toml")
     with pytest.raises(errors.ModelFileError) as info:
-        compile_model(model, backend="python", use_cache=False)
+        record.compile(backend="python", use_cache=False)
     assert_names(info.value, "bad_incline.toml", "'friction'", "'mu_c'", "'mu_st'")
 
 
 def test_model_file_with_friction_lacking_its_normal_force_names_the_component():
     text = (io.models_dirs()[-1] / "block_on_incline.toml").read_text()
     text = text.replace('normal_force = "ground.Fn", ', "")
-    model = io.loads(text, source="no_normal.toml")
+    record = io.reads(text, source="no_normal.toml")
     with pytest.raises(errors.ModelFileError) as info:
-        compile_model(model, backend="python", use_cache=False)
+        record.compile(backend="python", use_cache=False)
     assert_names(info.value, "no_normal.toml", "'friction'", "normal-force source")

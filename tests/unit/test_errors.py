@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import porthamiltonian as ph
-from porthamiltonian import errors
-from porthamiltonian.component import component_class
+from porthamiltonian import errors, io
 from porthamiltonian.compiler import compile_model, symbolic
+from porthamiltonian.component import component_class
 
 
 class Planar(ph.Component):
@@ -85,7 +85,7 @@ def test_dangling_port_names_component_and_port():
     m.add("spring", ph.C(stiffness=1.0))
     m.connect("j", "mass.p")
     with pytest.raises(errors.DanglingPortError, match=r"spring\.p"):
-        m.flatten()
+        m.validate()
     with pytest.raises(errors.DanglingPortError, match=r"spring\.p"):
         compile_model(m, backend="python")
 
@@ -292,3 +292,67 @@ def test_unknown_integration_method():
     compiled = compile_model(_mass_spring(), backend="python")
     with pytest.raises(errors.ModelError, match="'Euler'"):
         compiled.simulate(1.0, method="Euler")
+
+
+def test_validate_reports_every_problem_of_a_model_at_once():
+    """Three mistakes (a misspelt parameter, an unconnected damper, a guard that does not parse)
+    come in one ValidationError that lists all three, each a typed problem with its path."""
+    m = ph.Model("three_mistakes")
+    m.parameter("k", 4.0, "N/m")
+    m.add("j", ph.OneJunction())
+    m.add("mass", ph.I(inertance=1.0))
+    m.add("spring", ph.C(stiffness="kk"))
+    m.add("damper", ph.R(resistance=0.1))
+    m.connect("j", "mass.p")
+    m.connect("j", "spring.p")
+    m.event("stretched", "spring.q >")
+    with pytest.raises(errors.ValidationError) as info:
+        m.validate()
+    problems = info.value.problems
+    assert [type(p) for p in problems] == [errors.DanglingPortError, errors.UnknownParameterError,
+                                           errors.ExpressionError]
+    assert [p.path for p in problems] == [("components", "damper"),
+                                          ("components", "spring", "stiffness"),
+                                          ("events", 0, "guard")]
+    msg = str(info.value)
+    assert msg.startswith("model 'three_mistakes' has 3 problems:")
+    for needle in ("damper.p", "connect it", "'spring'", "kk", "'stretched'", "cannot parse"):
+        assert needle in msg
+    with pytest.raises(errors.ValidationError):        # the compiler checks the same way
+        compile_model(m, backend="python")
+
+
+def test_a_model_file_with_three_mistakes_reports_all_three_with_their_lines():
+    text = """
+[parameters]
+k = 4.0
+[components.j]
+type = "1"
+[components.mass]
+type = "I"
+inertance = 1.0
+[components.spring]
+type = "Spring"
+stiffness = "k"
+[components.damper]
+type = "R"
+resistance = "c"
+bonds = []
+"""
+    text = 'bonds = ["j -> mass.p", "j -> spring.p", "j -> dampr.p"]\n' + text.replace(
+        "bonds = []\n", "")
+    with pytest.raises(errors.ModelFileError) as info:
+        io.loads(text, source="three.toml")
+    lines = text.splitlines()
+
+    def line(needle: str) -> int:
+        return next(i for i, t in enumerate(lines, 1) if needle in t)
+
+    msg = str(info.value)
+    assert msg.startswith("three.toml: 3 problems:\n")
+    where = [line(needle) for needle in ('type = "Spring"', "bonds =", 'resistance = "c"')]
+    assert [p.args[0].split(":")[0] for p in info.value.problems] == [
+        f"three.toml, line {n}" for n in where]
+    for needle in ("unknown component type 'Spring'", "did you mean", "no component 'dampr'",
+                   "unknown name(s) c", "'damper'"):
+        assert needle in msg

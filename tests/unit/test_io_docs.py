@@ -110,12 +110,13 @@ def _example() -> str:
 
 
 def test_worked_example_loads_compiles_and_runs():
-    model = io.loads(_example(), source="docs/model-files.md example")
+    record = io.reads(_example(), source="docs/model-files.md example")
+    model = record.model
     assert model.name == "pushed_cart"
     assert [name for name, _ in model.components()] == ["push", "j", "cart", "spring", "damper"]
     compiled = compile_model(model, backend="python", use_cache=False)
     assert set(compiled.state_names) == {"cart.p", "spring.q"}
-    sim = model.simulation
+    sim = record.simulation
     traj = compiled.simulate(2.0, method=sim["method"], rtol=sim["rtol"], atol=sim["atol"])
     assert traj.success and traj.relative_residual < 1e-6
     assert [name for _, name in traj.events][:1] == ["stretched"]

@@ -1,7 +1,8 @@
-"""Messages of malformed model files (porthamiltonian.io): each names the file, the line where the
-problem is (TOML's own line for syntax errors; the line of the offending key, table, bond or
-event otherwise) or the component, and says what to write instead. The messages are pinned
-here word for word, so a change to them is a visible decision."""
+"""Messages of malformed model files (porthamiltonian.io): each is a ModelFileError naming the
+file, the line where the problem is (TOML's own line for syntax errors; the line of the offending
+key, table, bond or event otherwise), the names involved, and what to write instead. The tests pin
+the error type, the file and line, the names and the hint, not whole sentences: a message may be
+reworded, but not lose what it names or what it tells the user to do."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,16 +10,11 @@ from pathlib import Path
 import pytest
 
 from porthamiltonian import io
-from porthamiltonian.component import REGISTRY
 from porthamiltonian.errors import ModelFileError
 
 MODELS_DIR = Path(io.__file__).resolve().parent.parent / "models"
 MSD = (MODELS_DIR / "mass_spring_damper.toml").read_text()
 BALL = (MODELS_DIR / "bouncing_ball.toml").read_text()
-# the registered kinds, as messages list them (test modules may register kinds of their own)
-def kinds() -> str:
-    """The registered kinds now (other tests register components of their own)."""
-    return ", ".join(sorted(REGISTRY))
 
 
 def line_of(text: str, needle: str, start: int = 1) -> int:
@@ -38,29 +34,35 @@ def edit(text: str, old: str, new: str) -> str:
     return text.replace(old, new, 1)
 
 
+def check(msg: str, where: str, *names: str, hint: str = "") -> None:
+    """``msg`` is one problem about ``where`` (``"<file>, line N"`` or ``"<file>"``), names every
+    one of ``names`` and gives the ``hint``."""
+    assert msg.startswith(f"{where}: ") and "\n" not in msg, msg
+    for name in (*names, hint):
+        assert name in msg, (name, msg)
+
+
 # --- TOML syntax ---------------------------------------------------------------------------------
 def test_toml_syntax_error_gives_line_column_the_line_and_the_fix(tmp_path):
     text = edit(MSD, "[components.damper]", "[components.damper")
     msg, path = message(text, tmp_path)
-    n = line_of(text, "[components.damper")
-    assert msg == (f"{path}, line {n}, column 19: TOML syntax error: Expected ']' at the end of a "
-                   "table declaration (in '[components.damper'); fix the TOML syntax of that line "
-                   "(see docs/model-files.md for the format)")
+    check(msg, f"{path}, line {line_of(text, '[components.damper')}, column 19",
+          "TOML syntax error", "Expected ']'", "'[components.damper'",
+          hint="fix the TOML syntax of that line")
 
 
 def test_duplicated_key_says_it_is_defined_twice(tmp_path):
     text = edit(MSD, 'resistance = "c"', 'resistance = "c"\nresistance = "k"')
     msg, path = message(text, tmp_path)
     n = line_of(text, 'resistance = "k"')
-    assert msg == (f"{path}, line {n}, column 17: TOML syntax error: Cannot overwrite a value: a "
-                   "key or table is defined twice; keep one of them (in 'resistance = \"k\"'); fix "
-                   "the TOML syntax of that line (see docs/model-files.md for the format)")
+    check(msg, f"{path}, line {n}, column 17",
+          "TOML syntax error", "'resistance = \"k\"'", hint="defined twice; keep one of them")
 
 
 def test_unclosed_array_at_the_end_of_the_file(tmp_path):
     msg, path = message('bonds = ["force.p -> j"\n', tmp_path)
-    assert msg == (f"{path}, at the end of the file: TOML syntax error: Unclosed array; a table, "
-                   "array or string is not closed (see docs/model-files.md for the format)")
+    check(msg, f"{path}, at the end of the file", "Unclosed array",
+          hint="a table, array or string is not closed")
 
 
 def test_not_utf8_text(tmp_path):
@@ -68,46 +70,46 @@ def test_not_utf8_text(tmp_path):
     path.write_bytes(b"x = 1\n\xff\n")
     with pytest.raises(ModelFileError) as info:
         io.load(path)
-    assert str(info.value) == (f"{path}: not a UTF-8 text file (byte 6: invalid start byte); a "
-                               "model file is TOML text")
+    check(str(info.value), str(path), "not a UTF-8 text file", "byte 6",
+          hint="a model file is TOML text")
 
 
 # --- sections ------------------------------------------------------------------------------------
 def test_unknown_section_suggests_the_right_one(tmp_path):
     text = MSD + "\n[output]\nx = \"spring.q\"\n"
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, '[output]')}: unknown section 'output' (did you "
-                   "mean 'outputs'?); a model file has only bonds, components, events, model, "
-                   "outputs, parameters, simulation (see docs/model-files.md)")
+    check(msg, f"{path}, line {line_of(text, '[output]')}", "unknown section 'output'",
+          "bonds, components, events, model, outputs, parameters, simulation",
+          hint="did you mean 'outputs'?")
 
 
 def test_model_name_must_be_a_string(tmp_path):
     text = edit(MSD, 'name = "mass_spring_damper"', "name = 3")
     msg, path = message(text, tmp_path)
-    assert msg == f"{path}, line {line_of(text, 'name = 3')}: [model] name must be a string, got an integer"
+    check(msg, f"{path}, line {line_of(text, 'name = 3')}", "[model] name", "an integer",
+          hint="must be a string")
 
 
 # --- parameters ------------------------------------------------------------------------------------
 def test_parameter_value_must_be_a_number(tmp_path):
     text = edit(MSD, "k = { value = 4.0,", 'k = { value = "four",')
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'k = {')}: parameter 'k' must be a number (SI "
-                   "units), got a string 'four'; write k = 1.0 or k = { value = 1.0, unit = \"...\" }")
+    check(msg, f"{path}, line {line_of(text, 'k = {')}", "parameter 'k'", "'four'",
+          hint='write k = 1.0 or k = { value = 1.0, unit = "..." }')
 
 
 def test_parameter_table_with_a_misspelt_key(tmp_path):
     text = edit(MSD, 'unit = "N/m"', 'units = "N/m"')
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'k = {')}: parameter 'k': unknown key 'units' "
-                   "(did you mean 'unit'?); write k = { value = ..., unit = \"...\", doc = \"...\" } "
-                   "or k = number")
+    check(msg, f"{path}, line {line_of(text, 'k = {')}", "parameter 'k'", "unknown key 'units'",
+          "did you mean 'unit'?", hint='write k = { value = ..., unit = "...", doc = "..." }')
 
 
 def test_non_finite_parameter(tmp_path):
     text = edit(MSD, "k = { value = 4.0,", "k = { value = inf,")
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'k = {')}: model 'mass_spring_damper' parameter "
-                   "'k': parameter value must be finite, got inf")
+    check(msg, f"{path}, line {line_of(text, 'k = {')}", "model 'mass_spring_damper'",
+          "parameter 'k'", "inf", hint="must be finite")
 
 
 # --- components ------------------------------------------------------------------------------------
@@ -115,35 +117,34 @@ def test_unknown_component_kind_suggests_the_closest(tmp_path):
     text = edit(BALL, 'floor = { type = "HuntCrossley", x', 'floor = { type = "HuntCrossly", x')
     msg, path = message(text, tmp_path)
     n = line_of(text, 'type = "HuntCrossly", x =')
-    assert msg == (f"{path}, line {n}: component 'floor': unknown "
-                   f"component type 'HuntCrossly' (did you mean 'HuntCrossley'?); known types: "
-                   f"{kinds()} (see docs/model-files.md)")
+    check(msg, f"{path}, line {n}", "component 'floor'",
+          "unknown component type 'HuntCrossly'", "known types: 0, 1, C,",
+          hint="did you mean 'HuntCrossley'?")
 
 
 def test_component_type_must_be_a_string(tmp_path):
     text = edit(MSD, 'type = "R"', "type = 3")
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'type = 3')}: component 'damper': type must be a "
-                   f"string naming a component kind (e.g. type = \"C\"), got an integer 3; known "
-                   f"types: {kinds()}")
+    check(msg, f"{path}, line {line_of(text, 'type = 3')}", "component 'damper'", "an integer 3",
+          "known types:", hint='type must be a string naming a component kind (e.g. type = "C")')
 
 
 def test_component_without_type_or_not_a_table(tmp_path):
     text = edit(MSD, 'type = "R"\n', "")
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, '[components.damper]')}: component 'damper' needs "
-                   f"a 'type' (e.g. type = \"C\"); types: {kinds()}")
+    check(msg, f"{path}, line {line_of(text, '[components.damper]')}", "component 'damper'",
+          "types: 0, 1, C,", hint="needs a 'type' (e.g. type = \"C\")")
     msg, path = message("[components]\nwheel = 3\n", tmp_path)
-    assert msg == (f"{path}, line 2: component 'wheel' must be a table ([components.wheel] with "
-                   "type = \"KIND\" and its arguments), got an integer")
+    check(msg, f"{path}, line 2", "component 'wheel'", "an integer",
+          hint='must be a table ([components.wheel] with type = "KIND" and its arguments)')
 
 
 def test_unknown_component_argument_points_at_its_line(tmp_path):
     text = edit(MSD, 'resistance = "c"', 'resistence = "c"')
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'resistence')}: component 'damper': R has no "
-                   "argument 'resistence' (did you mean 'resistance'?); its arguments are: "
-                   "domain, resistance, effort, flow, dim")
+    check(msg, f"{path}, line {line_of(text, 'resistence')}", "component 'damper'",
+          "R has no argument 'resistence'", "domain, resistance, effort, flow, dim",
+          hint="did you mean 'resistance'?")
 
 
 def test_unknown_name_in_an_expression_points_at_the_components_own_line(tmp_path):
@@ -153,46 +154,47 @@ def test_unknown_name_in_an_expression_points_at_the_components_own_line(tmp_pat
     msg, path = message(text, tmp_path)
     n = line_of(text, 'stiffness = "kk"')
     assert n > line_of(text, 'stiffness = "k"')
-    assert msg == (f"{path}, line {n}: component 'spring2' argument 'stiffness': unknown name(s) kk "
-                   "in 'kk'; known names here: F, c, k, m, x0 (declare model parameters under "
-                   "[parameters])")
+    check(msg, f"{path}, line {n}", "component 'spring2' argument 'stiffness'",
+          "unknown name(s) kk", "known names here: F, c, k, m, x0",
+          hint="declare model parameters under [parameters]")
 
 
 def test_expression_error_in_an_inline_table_points_at_its_line(tmp_path):
     text = edit(BALL, 'stiffness = "K", damping = "lam"', 'stiffness = "K", damping = "lam *"')
     msg, path = message(text, tmp_path)
     n = line_of(text, 'damping = "lam *"')
-    assert msg == (f"{path}, line {n}: component 'floor' argument "
-                   "'damping': cannot parse 'lam *': the expression ends too early: expected a "
-                   "number, a name or '('")
+    check(msg, f"{path}, line {n}",
+          "component 'floor' argument 'damping'", "cannot parse 'lam *'",
+          hint="expected a number, a name or '('")
 
 
 def test_argument_of_the_wrong_type(tmp_path):
     text = edit(MSD, 'resistance = "c"', "resistance = [1, 2]")
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'resistance = [1, 2]')}: component 'damper' "
-                   "argument 'resistance': expected a number or an expression, got [1, 2]")
+    check(msg, f"{path}, line {line_of(text, 'resistance = [1, 2]')}",
+          "component 'damper' argument 'resistance'", "[1, 2]",
+          hint="expected a number or an expression")
 
 
 def test_unknown_domain_points_at_the_domain_line(tmp_path):
     text = edit(MSD, 'type = "R"', 'type = "R"\ndomain = "fluid"')
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'domain = ')}: component 'damper': unknown "
-                   "domain 'fluid'; known domains: electric, hydraulic, magnetic, rotation, "
-                   "screw, thermal, translation")
+    check(msg, f"{path}, line {line_of(text, 'domain = ')}", "component 'damper'",
+          "unknown domain 'fluid'",
+          hint="known domains: electric, hydraulic, magnetic, rotation, screw, thermal, translation")
 
 
 def test_multibody_error_points_at_the_nested_key(tmp_path):
     text = edit(BALL, 'type = "translational"', 'type = "hinge"')
     msg, path = message(text, tmp_path)
     n = line_of(text, 'type = "hinge"')
-    assert msg == (f"{path}, line {n}: component 'ball': Multibody "
-                   "joint 'drop': type must be one of revolute, prismatic, translational, weld, "
-                   "got 'hinge'")
+    check(msg, f"{path}, line {n}", "component 'ball'", "joint 'drop'", "'hinge'",
+          hint="type must be one of revolute, prismatic, translational, universal, spherical, "
+               "free, weld")
     text = edit(BALL, "inertia = 0", "inertia = 0\ncolour = 1")
     msg, path = message(text, tmp_path)
-    assert msg.startswith(f"{path}, line {line_of(text, 'colour')}: component 'ball': Multibody "
-                          "body 'b': unknown field(s) colour; fields: mass, com, inertia")
+    check(msg, f"{path}, line {line_of(text, 'colour')}", "component 'ball'", "body 'b'",
+          "unknown field(s) colour", hint="fields: mass, com, inertia")
 
 
 MM = 'mass = "mm"'
@@ -203,23 +205,24 @@ def test_multibody_expression_error_names_file_line_component_and_body(tmp_path)
     compiles), so their errors carry the line too."""
     text = edit(BALL, 'mass = "m"', MM)
     msg, path = message(text, tmp_path, "ball.toml")
-    assert msg == (f"{path}, line {line_of(text, MM)}: component 'ball' body 'b' "
-                   "mass: unknown name(s) mm in 'mm'; known names here: B, K, g, h0, lam, m, n, "
-                   "r, vx0, vz0 (declare model parameters under [parameters])")
+    check(msg, f"{path}, line {line_of(text, MM)}", "component 'ball' body 'b' mass",
+          "unknown name(s) mm", "known names here: B, K, g, h0, lam, m, n, r, vx0, vz0",
+          hint="declare model parameters under [parameters]")
 
 
 # --- bonds ----------------------------------------------------------------------------------------
-@pytest.mark.parametrize("bond, expected", [
-    ("j.p => damper.p", ("bond 'j.p => damper.p' must read \"component.port -> component.port\" "
-                         "(a junction's name alone adds a port to it)")),
-    ("j -> dampr.p", ("bond 'j -> dampr.p': model 'mass_spring_damper' has no component 'dampr'; "
-                      "components: force, j, mass, spring, damper")),
-    ("j -> damper.q", "bond 'j -> damper.q': component 'damper' (R) has no port 'q'; ports: p"),
+@pytest.mark.parametrize("bond, names, hint", [
+    ("j.p => damper.p", ["bond 'j.p => damper.p'"],
+     "must read \"component.port -> component.port\""),
+    ("j -> dampr.p", ["bond 'j -> dampr.p'", "model 'mass_spring_damper'", "'dampr'"],
+     "components: force, j, mass, spring, damper"),
+    ("j -> damper.q", ["bond 'j -> damper.q'", "component 'damper' (R)", "no port 'q'"],
+     "ports: p"),
 ])
-def test_bad_bond_names_the_bond_and_its_line(tmp_path, bond, expected):
+def test_bad_bond_names_the_bond_and_its_line(tmp_path, bond, names, hint):
     text = edit(MSD, '"j -> damper.p"', f'"{bond}"')
     msg, path = message(text, tmp_path)
-    assert msg == f"{path}, line {line_of(text, bond)}: {expected}"
+    check(msg, f"{path}, line {line_of(text, bond)}", *names, hint=hint)
 
 
 def test_bond_on_its_own_line_of_a_multiline_array(tmp_path):
@@ -227,98 +230,112 @@ def test_bond_on_its_own_line_of_a_multiline_array(tmp_path):
                 'bonds = [\n  "force.p -> j",\n  "j -> mass.p",\n  "j -> spring.p",\n'
                 '  "j -> damper.p",\n  "j -> damper.p",\n]')
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'j -> damper.p')}: bond 'j -> damper.p': port "
-                   "damper.p is already connected; a port takes one bond (use a junction to join "
-                   "more)")
+    check(msg, f"{path}, line {line_of(text, 'j -> damper.p')}", "bond 'j -> damper.p'",
+          "damper.p is already connected", hint="use a junction to join more")
 
 
 def test_bonds_must_be_an_array_of_strings(tmp_path):
     text = edit(MSD, 'bonds = ["force.p -> j", "j -> mass.p", "j -> spring.p", "j -> damper.p"]',
                 'bonds = "force.p -> j"')
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'bonds =')}: 'bonds' must be an array of "
-                   "\"tail.port -> head.port\" strings, got a string")
+    check(msg, f"{path}, line {line_of(text, 'bonds =')}", "'bonds'", "a string",
+          hint="must be an array of \"tail.port -> head.port\" strings")
     text = edit(MSD, '"j -> damper.p"', "3")
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'bonds =')}: bond 3 (an integer) must read "
-                   "\"component.port -> component.port\" (a junction's name alone adds a port to it)")
+    check(msg, f"{path}, line {line_of(text, 'bonds =')}", "bond 3 (an integer)",
+          hint="must read \"component.port -> component.port\"")
 
 
 # --- events, outputs, simulation ---------------------------------------------------------------------
 EVENT = '\n[[events]]\nname = "stretched"\nguard = "spring.q - 0.2"\ndirection = 1\n'
 
 
-@pytest.mark.parametrize("old, new, key, expected", [
-    ("direction = 1", 'direction = "up"', "direction",
-     "event 'stretched': direction must be -1 (falling), 0 (both) or 1 (rising), got 'up'"),
-    ("direction = 1", "direction = 0.5", "direction",
-     "event 'stretched': direction must be -1 (falling), 0 (both) or 1 (rising), got 0.5"),
-    ("direction = 1", 'terminal = "yes"', "terminal",
-     "event 'stretched': terminal must be true or false, got 'yes'"),
-    ("direction = 1", "directon = 1", "directon",
-     ("event #1: unknown key 'directon' (did you mean 'direction'?); keys: name, guard, "
-      "direction, terminal")),
-    ('name = "stretched"', "name = 7", "name", "event #1: name must be a string, got an integer"),
+@pytest.mark.parametrize("old, new, key, names, hint", [
+    ("direction = 1", 'direction = "up"', "direction", ["event 'stretched'", "'up'"],
+     "direction must be -1 (falling), 0 (both) or 1 (rising)"),
+    ("direction = 1", "direction = 0.5", "direction", ["event 'stretched'", "0.5"],
+     "direction must be -1 (falling), 0 (both) or 1 (rising)"),
+    ("direction = 1", 'terminal = "yes"', "terminal", ["event 'stretched'", "'yes'"],
+     "terminal must be true or false"),
+    ("direction = 1", "directon = 1", "directon", ["event #1", "unknown key 'directon'",
+                                                   "keys: name, guard, direction, terminal"],
+     "did you mean 'direction'?"),
+    ('name = "stretched"', "name = 7", "name", ["event #1", "an integer"], "must be a string"),
     ('guard = "spring.q - 0.2"', 'guard = "spring.q -"', "guard",
-     ("event 'stretched' guard: cannot parse 'spring.q -': the expression ends too early: "
-      "expected a number, a name or '('")),
+     ["event 'stretched' guard", "cannot parse 'spring.q -'"], "expected a number, a name or '('"),
     ('guard = "spring.q - 0.2"', 'guard = "spring.q - qmax"', "guard",
-     ("event 'stretched' guard: unknown name(s) qmax in 'spring.q - qmax'; known names here: F, "
-      "c, k, m, x0 (declare model parameters under [parameters])")),
+     ["event 'stretched' guard", "unknown name(s) qmax", "known names here: F, c, k, m, x0"],
+     "declare model parameters under [parameters]"),
 ])
-def test_bad_event_points_at_its_key(tmp_path, old, new, key, expected):
+def test_bad_event_points_at_its_key(tmp_path, old, new, key, names, hint):
     text = MSD + edit(EVENT, old, new)
     msg, path = message(text, tmp_path)
-    assert msg == f"{path}, line {line_of(text, key + ' =', line_of(text, '[[events]]'))}: {expected}"
+    check(msg, f"{path}, line {line_of(text, key + ' =', line_of(text, '[[events]]'))}", *names,
+          hint=hint)
 
 
 def test_events_must_be_an_array_of_tables(tmp_path):
     text = MSD + '\n[events]\nname = "a"\n'
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, '[events]')}: events are an array of tables: "
-                   "[[events]] with name = \"...\", guard = \"expression\", direction = -1, 0 or 1, "
-                   "terminal = true/false; got a table")
+    check(msg, f"{path}, line {line_of(text, '[events]')}", "got a table",
+          hint="events are an array of tables: [[events]] with name = \"...\"")
     text = MSD + '\n[[events]]\nname = "a"\n'
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, '[[events]]')}: event #1 needs a name and a "
-                   "guard: [[events]] name = \"...\", guard = \"expression\"")
+    check(msg, f"{path}, line {line_of(text, '[[events]]')}", "event #1",
+          hint="needs a name and a guard")
 
 
 def test_bad_outputs(tmp_path):
     text = MSD + '\n[outputs]\nposition = "spring.q +"\n'
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'position =')}: output 'position': cannot parse "
-                   "'spring.q +': the expression ends too early: expected a number, a name or '('")
+    check(msg, f"{path}, line {line_of(text, 'position =')}", "output 'position'",
+          "cannot parse 'spring.q +'", hint="expected a number, a name or '('")
     text = MSD + "\n[outputs]\nposition = [1]\n"
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'position =')}: output 'position' must be an "
-                   "expression (a string), got an array")
+    check(msg, f"{path}, line {line_of(text, 'position =')}", "output 'position'", "an array",
+          hint="must be an expression (a string)")
     text = "outputs = 1\n" + MSD
     msg, path = message(text, tmp_path)
-    assert msg == f"{path}, line 1: [outputs] must be a table of name = \"expression\", got an integer"
+    check(msg, f"{path}, line 1", "[outputs]", "an integer",
+          hint="must be a table of name = \"expression\"")
 
 
-def test_bad_simulation_settings(tmp_path):
-    text = edit(MSD, "t_end = 20.0", "tend = 20.0")
+@pytest.mark.parametrize("old, new, needle, names, hint", [
+    ("t_end = 20.0", "tend = 20.0", "tend", ["[simulation]", "no key 'tend'",
+                                             "atol, energy_tolerance, initial, max_step, method"],
+     "did you mean 't_end'?"),
+    ("t_end = 20.0", 't_end = "long"', "t_end", ["[simulation] t_end", "'long'"],
+     "must be a positive number"),
+    ('method = "Radau"', "method = 4", "method = 4", ["[simulation] method", "an integer 4"],
+     "must be a string (e.g. \"Radau\")"),
+    ("rtol = 1e-9", "rtol = -1e-9", "rtol", ["[simulation] rtol", "-1e-09"],
+     "must be a positive number"),
+])
+def test_bad_simulation_settings(tmp_path, old, new, needle, names, hint):
+    text = edit(MSD, old, new)
     msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'tend')}: [simulation] has no key 'tend' (did you "
-                   "mean 't_end'?); it takes atol, energy_tolerance, initial, max_step, method, "
-                   "rtol, t_end")
-    text = edit(MSD, "t_end = 20.0", 't_end = "long"')
-    msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 't_end')}: [simulation] t_end must be a positive "
-                   "number, got a string 'long'")
-    text = edit(MSD, 'method = "Radau"', "method = 4")
-    msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'method = 4')}: [simulation] method must be a "
-                   "string (e.g. \"Radau\"), got an integer 4")
-    text = edit(MSD, "rtol = 1e-9", "rtol = -1e-9")
-    msg, path = message(text, tmp_path)
-    assert msg == (f"{path}, line {line_of(text, 'rtol')}: [simulation] rtol must be a positive "
-                   "number, got a number -1e-09")
+    check(msg, f"{path}, line {line_of(text, needle)}", *names, hint=hint)
 
 
 def test_model_from_dict_names_its_source_without_a_line():
     with pytest.raises(ModelFileError) as info:
         io.model_from_dict({"components": {"x": {"type": "Q"}}}, source="<built in code>")
-    assert str(info.value).startswith("<built in code>: component 'x': unknown component type 'Q'")
+    check(str(info.value), "<built in code>", "component 'x'", "unknown component type 'Q'",
+          hint="known types:")
+
+
+def test_several_problems_come_in_one_error_each_with_its_line(tmp_path):
+    """A misspelt kind, a bond to a missing port and an unknown name in another component: one
+    error, one line per problem, in the order of the file's sections; the bond to the component
+    that could not be read is not reported again."""
+    text = edit(MSD, 'type = "R"', 'type = "Resistor"')
+    text = edit(text, '"j -> spring.p"', '"j -> spring.p", "j -> mass.q"')
+    text = edit(text, 'stiffness = "k"', 'stiffness = "kk"')
+    msg, path = message(text, tmp_path)
+    lines = msg.splitlines()
+    assert lines[0] == f"{path}: 3 problems:"
+    where = [line_of(text, needle) for needle in ('type = "Resistor"', "bonds =",
+                                                  'stiffness = "kk"')]
+    assert [line.split(":")[0] for line in lines[1:]] == [f"  line {n}" for n in where]
+    for needle in ("'Resistor'", "no port 'q'", "unknown name(s) kk"):
+        assert needle in msg

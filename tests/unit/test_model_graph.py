@@ -101,3 +101,75 @@ def test_two_springs_on_one_zero_junction_are_dependent_storages():
     with pytest.raises(DerivativeCausalityError) as info:
         symbolic(m)
     assert "spring" in str(info.value) and "spring2" in str(info.value)
+
+
+def _oscillator(name: str, junction: ph.OneJunction, spring: ph.C) -> ph.Model:
+    m = ph.Model(name)
+    m.add("j", junction)
+    m.add("mass", ph.I(inertance=1.0))
+    m.add("spring", spring)
+    m.connect("j", "mass.p")
+    m.connect("j", "spring.p")
+    return m
+
+
+def test_one_component_instance_serves_two_models():
+    """Components are values: one junction and one spring added to two models (one of them
+    with a third bond on the junction) leave both models valid, and each oscillates at its own
+    closed-form frequency (ω = √(k/m): x(t) = q0 cos t for k = m = 1; with a damper c = 0.2 the
+    envelope is q0 e^{-c t/2})."""
+    junction, spring = ph.OneJunction(), ph.C(stiffness=1.0, q0=0.1)
+    plain = _oscillator("plain_osc", junction, spring)
+    damped = _oscillator("damped_osc", junction, spring)
+    damped.add("damper", ph.R(resistance=0.2))
+    damped.connect("j", "damper.p")
+    assert [p.name for p in plain.ports("j")] == ["p1", "p2"]
+    assert [p.name for p in damped.ports("j")] == ["p1", "p2", "p3"]
+    assert junction.ports() == [] and not hasattr(junction, "extra_ports")
+    for model in (plain, damped):
+        model.validate()
+    t_end = 2 * np.pi
+    a = compile_model(plain, backend="python").simulate(t_end, rtol=1e-10, atol=1e-12)
+    b = compile_model(damped, backend="python").simulate(t_end, rtol=1e-10, atol=1e-12)
+    assert a["spring.q"][-1] == pytest.approx(0.1, rel=1e-7)
+    omega_d = np.sqrt(1 - 0.1**2)     # q0 e^{-t/10} (cos ω_d t + sin(ω_d t) / (10 ω_d))
+    expected = 0.1 * np.exp(-t_end / 10) * (np.cos(omega_d * t_end)
+                                            + np.sin(omega_d * t_end) / (10 * omega_d))
+    assert b["spring.q"][-1] == pytest.approx(expected, rel=1e-7)
+
+
+def test_components_are_immutable():
+    spring = ph.C(stiffness=1.0)
+    with pytest.raises(AttributeError, match="immutable"):
+        spring.args = {}
+    with pytest.raises(TypeError):
+        spring.args["stiffness"] = 2.0
+    bodies = {"bob": {"mass": 1.0, "com": [0, 0, -1.0]}}
+    arm = ph.Multibody(bodies=bodies, joints={"pin": {"type": "revolute", "parent": "world",
+                                                     "child": "bob", "axis": "y"}})
+    bodies["bob"]["mass"] = -5.0                   # the caller's table, not the component's
+    assert arm.args["bodies"]["bob"]["mass"] == 1.0
+
+
+def test_replace_swaps_a_component_and_keeps_its_bonds():
+    """``Model.replace`` is the Python form of the one-line swap of a model file: the damper of a
+    damped oscillator becomes a stiffer one (its bonds kept; the envelope q0 e^{-c t/2} changes
+    with c), and a component without the bonded port is reported by validate, naming it."""
+    model = _oscillator("swap_osc", ph.OneJunction(), ph.C(stiffness=1.0, q0=0.1))
+    model.add("damper", ph.R(resistance=0.2))
+    model.connect("j", "damper.p")
+    new = model.replace("damper", ph.R(resistance=0.4))
+    assert model.component("damper") is new
+    t_end = 2 * np.pi
+    traj = compile_model(model, backend="python").simulate(t_end, rtol=1e-10, atol=1e-12)
+    omega_d = np.sqrt(1 - 0.2**2)     # c = 0.4: q0 e^{-t/5} (cos ω_d t + sin(ω_d t) / (5 ω_d))
+    expected = 0.1 * np.exp(-t_end / 5) * (np.cos(omega_d * t_end)
+                                           + np.sin(omega_d * t_end) / (5 * omega_d))
+    assert traj["spring.q"][-1] == pytest.approx(expected, rel=1e-7)
+    with pytest.raises(ModelError, match=r"'damper' \(TF\) has no port 'p'"):
+        model.replace("damper", ph.TF(ratio=2.0))  # ports p1, p2: the bond to damper.p
+    with pytest.raises(ModelError, match=r"damper\.p"):
+        model.replace("damper", ph.Se(effort=0.0))  # a source gives power: the bond takes it
+    assert model.component("damper") is new        # a refused swap changes nothing
+    with pytest.raises(ModelError, match="no component 'nope'"):
+        model.replace("nope", ph.R(resistance=1.0))

@@ -108,3 +108,20 @@ def test_event_guard_reads_a_body_point_output():
     quarter = 2 * np.pi * np.sqrt(1.0 / 9.81) / 4
     assert traj.events[0][1] == "vertical"
     assert traj.events[0][0] == pytest.approx(quarter, rel=2e-5)
+
+
+def test_two_body_frame_ports_bonded_directly_are_refused_naming_both():
+    """Two screw ports that both impose their twist (a multibody's frame port, a free body's
+    port) cannot share a bond: the compiler refuses the pair as structurally singular and names
+    both components (why screw ports need no frame types: mechanics/screw.py)."""
+    m = ph.Model("two_bodies_one_bond")
+    m.add("arm", ph.Multibody(
+        bodies={"bob": RigidBody(mass=1.0, com=[0, 0, -1], inertia=[0.1, 0.1, 0.1],
+                                 frames={"hub": [0, 0, 0]})},
+        joints={"pin": Revolute(parent="world", child="bob", axis="y")}, gravity=[0, 0, 0]))
+    m.add("ball", ph.mechanics.FreeBody(mass=1.0, inertia=[0.1, 0.1, 0.1]))
+    m.connect("arm.hub", "ball.body")
+    with pytest.raises(ph.errors.StructureError) as info:
+        ph.symbolic(m)
+    assert "structurally singular" in str(info.value)
+    assert "arm" in str(info.value) and "ball" in str(info.value)

@@ -52,7 +52,7 @@ QUAT0 = np.array([0.9, 0.2, -0.3, 0.25]) / np.linalg.norm([0.9, 0.2, -0.3, 0.25]
 
 def offset_body_model() -> ph.Model:
     """A FreeBody whose every datum is a parameter (one compile serves all cases)."""
-    m = ph.Model("offset_free_body", "free body with offset CoM and full inertia matrix")
+    m = ph.Model("offset_free_body")   # free body with offset CoM and full inertia matrix
     m.parameter("m", 2.5, "kg")
     m.parameter("g", 9.81, "m/s^2")
     names = {}
@@ -94,10 +94,10 @@ def omega_of(model, traj) -> np.ndarray:
     return np.column_stack([traj[f"body.omega.{a}"] for a in XYZ])
 
 
-def euler_reference(I, w0, t, sign=+1):  # noqa: E741
+def euler_reference(I, w0, t, sign=+1):
     """ω(t) from I ω̇ = sign · (I ω) × ω [LL eq. 36.5 for sign = +1], solve_ivp DOP853 at
     rtol 1e-13, together with R(t) from Ṙ = R ω̃ (R(0) = 1), written without the library."""
-    I = np.asarray(I, dtype=float)  # noqa: E741
+    I = np.asarray(I, dtype=float)
 
     def rhs(_, y):
         w, R = y[:3], y[3:].reshape(3, 3)
@@ -120,7 +120,7 @@ def test_torque_free_body_conserves_kinetic_energy_and_angular_momentum(shipped,
     """Torque-free, I = diag(1, 2, 3): the kinetic energy ½ ωᵀ I ω and |L| = |I ω| are constants
     of the motion [MR ch. 15; LL §36]; over 20 s their relative deviation from the closed-form
     initial values stays below 1e-8 (DOP853, rtol 1e-12)."""
-    I = np.array([1.0, 2.0, 3.0])  # noqa: E741
+    I = np.array([1.0, 2.0, 3.0])
     w0 = np.array(w0)
     params = dict(zip(("wx0", "wy0", "wz0"), w0))
     traj = shipped.simulate(20.0, params=params, **TIGHT)

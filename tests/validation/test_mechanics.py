@@ -36,7 +36,7 @@ from scipy.integrate import quad
 from scipy.special import ellipk
 
 import porthamiltonian as ph
-import porthamiltonian.mechanics  # noqa: F401  (registers the Multibody component type)
+import porthamiltonian.mechanics
 from porthamiltonian import Event, compile_model, io
 from porthamiltonian.mechanics import Multibody
 
@@ -300,7 +300,7 @@ def walker6_model() -> ph.Model:
     along its leg axis (axis [0, 0, −1] in the leg frame at the leg end: d > 0 lengthens the
     leg): 6 coordinates walker.q.hip.x|z, theta1, theta2, ext1, ext2. No springs: a bare
     skeleton, for the mass matrix and the energy balance."""
-    model = ph.Model("walker6_skeleton", "compass-walker skeleton with prismatic (telescopic) legs")
+    model = ph.Model("walker6_skeleton")  # compass-walker skeleton with prismatic (telescopic) legs
     units = {"M": "kg", "m_l": "kg", "m_f": "kg", "L": "m", "g": "m/s^2"}
     for name, value in WALKER.items():
         model.parameter(name, value, units[name])

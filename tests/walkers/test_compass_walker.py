@@ -149,3 +149,29 @@ def test_regression_pins(gait):
     assert abs(mults[1] - PIN_MULTIPLIER.conjugate()) < 3e-3
     assert gait.multiplier_errors[0] < 3e-3
     assert all(abs(c) < 5e-4 for c in mults[2:])
+
+
+#: the gait of strides integrated at rtol 1e-11 (the file's Rodas5P, atol 1e-13; Newton to 1e-11;
+#: Floquet multipliers by the default central differences), measured on the C back end
+TIGHT_FIXED_POINT = [-0.206411020523, 0.206209813786, 0.606829889921, -0.118612721153,
+                     0.825427285873, 0.827699297548]
+TIGHT_MULTIPLIERS = [complex(-0.0932253087, 0.2622787374), complex(-0.0932253087, -0.2622787374),
+                     complex(0.0004719967, 0.0), complex(0.0000002416, 0.0),
+                     complex(-0.0000000430, 0.0000000344), complex(-0.0000000430, -0.0000000344)]
+
+
+def test_same_gait_on_every_back_end(walker):
+    """The back end in use ("auto": C; .ci/run runs this file once more with
+    PORTHAMILTONIAN_BACKEND=numba) gives the gait pinned from the C back end: the fixed point
+    to 1e-9 (measured C vs numba: 4e-12) and the multipliers to 1e-5 (measured C vs numba:
+    ≤ 1.4e-6: the finite differences of step 1e-4 magnify the round-off by which strides
+    through the stiff contact differ between back ends)."""
+    from walker_library import find_fixed_point
+    from walker_library.monodromy import floquet
+
+    tight = walker.with_options(rtol=1e-11, atol=1e-13)
+    fp = find_fixed_point(tight, np.array(TIGHT_FIXED_POINT), tol=1e-11)
+    assert fp.converged
+    assert np.max(np.abs(fp.z - TIGHT_FIXED_POINT)) < 1e-9
+    mults = sorted(floquet(tight, fp.z).multipliers, key=lambda c: (-abs(c), -c.imag))
+    assert np.max(np.abs(np.array(mults) - TIGHT_MULTIPLIERS)) < 1e-5

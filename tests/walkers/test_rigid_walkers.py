@@ -33,8 +33,16 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
-from walker_library import (Walker, analyze_gait, compass_gait, find_fixed_point, floquet,
-                            rimless_wheel, simplest_walker, walk)
+from walker_library import (
+    Walker,
+    analyze_gait,
+    compass_gait,
+    find_fixed_point,
+    floquet,
+    rimless_wheel,
+    simplest_walker,
+    walk,
+)
 
 GAMMA = 0.009
 LONG = (0.20031090049483, -0.19983247291764)          # GARCIA, long-period gait

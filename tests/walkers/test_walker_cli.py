@@ -110,9 +110,10 @@ def test_walker_files_load_as_walkers_and_as_porthamiltonian_models(name):
     """A walker file is both: load_walker builds the walker from it; porthamiltonian.io loads the
     model (the same components, and the [walker] table kept for saving back)."""
     walker = load_walker(name)
-    model = io.load(name)
-    assert io.model_to_dict(model)["components"] == io.model_to_dict(walker.spec.model)["components"]
-    assert walker.name == name and "walker" in model.sections
+    record = io.read(name)
+    assert (io.model_to_dict(record.model)["components"]
+            == io.model_to_dict(walker.spec.model)["components"])
+    assert walker.name == name and "walker" in record.sections
 
 
 def test_walker_file_parameters_overrides_and_edited_components(tmp_path):

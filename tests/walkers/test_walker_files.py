@@ -69,7 +69,7 @@ def test_a_saved_walker_walks_the_same_gait(make, tmp_path):
 def python_simplest_walker() -> HybridWalker:
     """Garcia's simplest walker from components and the description's dataclasses (what
     models/simplest_walker.toml says, written in Python)."""
-    m = Model("simplest_walker_py", "the simplest walker, built in Python")
+    m = Model("simplest_walker_py")
     for name, value in (("slope", 0.009), ("M", 1.0), ("beta", 1e-9), ("l", 1.0), ("g", 1.0),
                         ("theta0", 0.2), ("theta_dot0", -0.2), ("phi_dot0", -0.015),
                         ("contact_margin", 1e-12), ("fall_fraction", 0.5), ("stance_x", 0.0),
@@ -242,3 +242,33 @@ def test_transitions_expose_guard_reset_and_jacobian():
     np.testing.assert_array_equal(tr.impact.relabel.matrix(), [[1.0, 1.0], [0.0, -1.0]])
     assert math.isclose(float(p_plus[w.model.param_names.index("stance_x")]),
                         w.output("walker.swing_foot.x", fired.x_minus, fired.p_minus))
+
+
+def test_a_built_walker_loads_without_symbolic_work_and_a_damaged_names_file_is_rebuilt(
+        tmp_path, monkeypatch):
+    """The names a description is checked against are computed once per model and kept in its
+    cache entry (verified by sha256): a second load in a fresh process (the in-process memo
+    cleared) runs no symbolic compiler; a damaged names file is detected (one warning), the
+    names computed again, and the walker is the same."""
+    import copy
+
+    from porthamiltonian.compiler import cache
+    from walker_library import core
+    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(core, "_CHECKED", {})
+    calls = []
+    real = core.symbolic
+    monkeypatch.setattr(core, "symbolic", lambda m: calls.append(1) or real(m))
+    spec, text = read_walker("simplest_walker")
+    first = core._checked(spec, text)
+    assert calls == [1]
+    core._CHECKED.clear()
+    assert core._checked(spec, text) == first and calls == [1]
+    bare = copy.deepcopy(spec.model)
+    bare.events, bare.outputs = [], {}
+    path = cache.verified_path(cache.model_key(bare), "names.json")
+    path.write_text(path.read_text().replace("slope", "slope_"))
+    core._CHECKED.clear()
+    with pytest.warns(UserWarning, match="names.json"):
+        assert core._checked(spec, text) == first
+    assert calls == [1, 1]

@@ -1,0 +1,256 @@
+"""The ``c`` back end: one C99 translation unit per model, a shared library, called by ctypes.
+
+The translation unit holds the generated functions (:func:`porthamiltonian.compiler.printers.
+c_source`) and the integration loops (``porthamiltonian/integrators/rosenbrock_loop.c`` and each
+method's tables), so that a whole segment between two events runs in C without returning to
+Python. It is built by the machine's C compiler — ``$CC`` (which may carry flags, e.g.
+``CC="gcc -m64"``), else the first of ``cc``, ``gcc``, ``clang`` on ``PATH``, else
+``python -m ziglang cc`` (``pip install 'porthamiltonian[c]'``) — with :data:`FLAGS`. The caller
+(:func:`porthamiltonian.compiler.compile_model`) keeps the library in the compiled-model cache and
+verifies its sha256 before it is loaded.
+
+Every exported function is called through ctypes on contiguous float64 numpy buffers whose sizes
+are checked first (the C code trusts them); ctypes releases the GIL during the call.
+"""
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import os
+import platform
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import CompilerError
+from ..integrators import TABLEAUS, c_loops
+from . import Functions
+
+#: Optimisation and code-generation flags, chosen by measurement on the walkers
+#: (benchmarks/bench_build.py --opt-levels; benchmarks/RESULTS.md): the generated functions —
+#: long straight-line code, where -O2 costs build time and gains little — at -O1, the
+#: integration loop (LU, stages, event location: small loops over the state) at -O2 under GCC
+#: (:data:`LOOP_PRAGMA`), which makes the compliant-leg walker's steps ~1.4x faster.
+#: -fno-math-errno lets sqrt() compile to one instruction; nothing changes results (no
+#: -ffast-math), and nothing is machine-specific (a cache folder may be shared by machines).
+FLAGS = ("-O1", "-fno-math-errno", "-std=c99", "-shared", "-fPIC")
+#: Put before the loop template: GCC optimises the functions that follow at -O2.
+LOOP_PRAGMA = ('#if defined(__GNUC__) && !defined(__clang__)\n#pragma GCC optimize ("O2")\n'
+               '#endif\n')
+_SUFFIX = ".dll" if sys.platform == "win32" else ".so"
+_NAMES = ("rhs", "jac", "energy", "outputs", "guards")
+_SIZES = ("states", "parameters", "guards", "outputs", "matrices")
+
+
+def library_name(key: str) -> str:
+    """The cache file name of a model's library (with the platform: a cache folder may be
+    shared by machines of different kinds)."""
+    machine = platform.machine().lower() or "unknown"
+    return f"m{key}_c_{sys.platform}_{machine}{_SUFFIX}"
+
+
+def translation_unit(body: str, loop_pragma: bool = True) -> str:
+    """The full C source: the generated body followed by the integration loops (after
+    :data:`LOOP_PRAGMA` unless ``loop_pragma`` is false)."""
+    return body + "\n" + (LOOP_PRAGMA if loop_pragma else "") + c_loops()
+
+
+def compiler() -> list[str] | None:
+    """The C compiler command: ``$CC`` split like a shell would, else cc, gcc or clang on PATH,
+    else ``python -m ziglang cc`` when the ziglang package is installed; None when none is."""
+    cc = os.environ.get("CC", "").strip()
+    if cc:
+        return shlex.split(cc)
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path:
+            return [path]
+    if importlib.util.find_spec("ziglang") is not None:
+        return [sys.executable, "-m", "ziglang", "cc"]
+    return None
+
+
+_NO_COMPILER = ("no C compiler found: $CC is not set, none of cc, gcc, clang is on PATH and the "
+                "ziglang package is not installed. Install a C compiler (e.g. apt-get install gcc, "
+                "xcode-select --install), or pip install 'porthamiltonian[c]' (a compiler from the "
+                "package index), or choose the numba or python back end")
+
+
+def build(source: Path, log_dir: Path | None) -> tuple[bytes, float]:
+    """Compile the translation unit ``source`` into a shared library; (its bytes, seconds).
+
+    The library is written in a private temporary folder (the caller stores it). On failure a
+    :class:`~porthamiltonian.errors.CompilerError` shows the command and the file holding the
+    compiler's output: ``log_dir/<source>.log`` (the cache entry), or a kept temporary file when
+    ``log_dir`` is None."""
+    cc = compiler()
+    if cc is None:
+        raise CompilerError(_NO_COMPILER)
+    with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
+        out = Path(tmp) / f"{source.stem}{_SUFFIX}"
+        command = [*cc, *FLAGS, "-o", str(out), str(source), "-lm"]
+        start = time.perf_counter()
+        try:
+            run = subprocess.run(command, capture_output=True, text=True, errors="replace",
+                                 stdin=subprocess.DEVNULL, check=False)
+            failure = None if run.returncode == 0 and out.is_file() else (
+                f"exit status {run.returncode}", run.stdout + run.stderr)
+        except OSError as err:
+            failure = ("could not be started", f"{err}\n")
+        seconds = time.perf_counter() - start
+        if failure is None:
+            return out.read_bytes(), seconds
+    what, output = failure
+    log = _write_log(source, log_dir, command, what, output)
+    raise CompilerError(f"the C compiler failed ({what}) building {source.name}: "
+                        f"{shlex.join(command)}; its output is in {log}. Set CC to a working C "
+                        "compiler, or choose the numba or python back end")
+
+
+def _write_log(source: Path, log_dir: Path | None, command: list[str], what: str,
+               output: str) -> Path:
+    text = f"command: {shlex.join(command)}\n{what}\n\n{output or '(no output)'}\n"
+    if log_dir is not None:
+        path = log_dir / f"{source.stem}.log"
+        try:
+            tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+            tmp.write_text(text)
+            os.replace(tmp, path)
+            return path
+        except OSError:
+            pass
+    fd, name = tempfile.mkstemp(prefix=f"porthamiltonian-{source.stem}-", suffix=".log")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    return Path(name)
+
+
+# --- loading ----------------------------------------------------------------------------------------
+def _pointer(array: np.ndarray) -> int:
+    return array.ctypes.data
+
+
+def _vector(value, size: int, what: str) -> np.ndarray:
+    """``value`` as a contiguous float64 vector of at least ``size`` entries (the C functions
+    read that many)."""
+    array = np.ascontiguousarray(value, dtype=np.float64)
+    if array.ndim != 1 or array.shape[0] < size:
+        raise ValueError(f"{what} must be a vector of {size} floats, got shape {array.shape}")
+    return array
+
+
+def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Functions:
+    """Load the library at ``path`` (verified by the caller) and wrap its functions.
+    ``shapes``: the result shape of each function (``rhs``, ``jac``, ..., ``matrix_<k>``)."""
+    lib = ctypes.CDLL(str(path))
+    layout = (ctypes.c_int64 * 5)()
+    lib.ph_layout(layout)
+    n = shapes["rhs"][0]
+    expected = (n, n_params, shapes["guards"][0], shapes["outputs"][0],
+                sum(1 for name in shapes if name.startswith("matrix_")))
+    if tuple(layout) != expected:
+        raise CompilerError(f"{path}: the library's layout ({dict(zip(_SIZES, layout))}) is not the "
+                            f"model's ({dict(zip(_SIZES, expected))})")
+
+    def function(name: str) -> Callable:
+        fn = getattr(lib, f"ph_{name}")
+        fn.restype = None
+        fn.argtypes = (ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+        shape = shapes[name]
+
+        def call(t, x, p):
+            x = _vector(x, n, "x")
+            p = _vector(p, n_params, "p")
+            out = np.empty(shape)
+            fn(t, _pointer(x), _pointer(p), _pointer(out))
+            return out
+
+        call.__name__ = name
+        return call
+
+    initial_fn = lib.ph_initial
+    initial_fn.restype = None
+    initial_fn.argtypes = (ctypes.c_void_p, ctypes.c_void_p)
+
+    def initial(p):
+        p = _vector(p, n_params, "p")
+        out = np.empty(shapes["initial"])
+        initial_fn(_pointer(p), _pointer(out))
+        return out
+
+    n_guards = shapes["guards"][0]
+    loops = {name: _loop(getattr(lib, f"ph_integrate_{tab.symbol}"), n, n_params, n_guards)
+             for name, tab in TABLEAUS.items()}
+    variational = {name: _loop(getattr(lib, f"ph_integrate_{tab.symbol}_variational"), n,
+                               n_params, n_guards, variational=True)
+                   for name, tab in TABLEAUS.items()}
+    matrices = tuple(function(f"matrix_{k}") for k in range(expected[4]))
+    # (ctypes never unloads a library: the functions stay valid)
+    return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops,
+                     variational)
+
+
+def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
+    """The Python face of a compiled loop: the calling convention of
+    porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 14-tuple; with
+    ``variational`` the argument phi0 and the 17-tuple)."""
+    c_int64, c_double, c_void_p = ctypes.c_int64, ctypes.c_double, ctypes.c_void_p
+    entry.restype = ctypes.c_int
+    entry.argtypes = (c_double, c_void_p, c_double, c_void_p, c_double, c_void_p, c_double,
+                      c_double, c_void_p, c_void_p, c_int64, c_int64, c_double, c_int64, c_double,
+                      c_int64, c_int64, c_double, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p,
+                      c_void_p, c_void_p) + ((c_int64, c_void_p, c_void_p, c_void_p, c_void_p)
+                                             if variational else ())
+
+    def integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_index,
+                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0=None):
+        y0 = _vector(y0, n, "y0")
+        p = _vector(p, n_params, "p")
+        atol = _vector(atol, n, "atol")
+        directions = np.ascontiguousarray(directions, dtype=np.int64)
+        terminal = np.ascontiguousarray(terminal, dtype=np.uint8)
+        g = directions.shape[0]
+        store_cap = int(store_cap)
+        if g > n_guards or terminal.shape != (g,) or not -1 <= int(mask_index) < max(g, 1):
+            raise ValueError(f"{g} event directions for {n_guards} guards (terminal flags "
+                             f"{terminal.shape}, mask index {mask_index})")
+        if store_cap < 2 or not 0 < int(n_model) <= n:
+            raise ValueError(f"store_cap {store_cap} (at least 2), n_model {n_model} (1..{n})")
+        ts = np.empty(store_cap)
+        ys = np.empty((store_cap, n))
+        ev_t = np.empty(store_cap)
+        ev_k = np.empty(store_cap, dtype=np.int64)
+        th = np.empty(2)
+        y = np.empty(n)
+        counts = np.empty(6, dtype=np.int64)
+        extra = ()
+        if variational:
+            phi0 = np.ascontiguousarray(phi0, dtype=np.float64)
+            if phi0.ndim != 2 or phi0.shape[0] != n:
+                raise ValueError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
+            m = phi0.shape[1]
+            phi = np.empty((n, m))
+            phis = np.empty((store_cap, n, m))
+            phi_error = np.zeros(1)
+            extra = (m, _pointer(phi0), _pointer(phis), _pointer(phi), _pointer(phi_error))
+        status = entry(t0, _pointer(y0), t_end, _pointer(p), rtol, _pointer(atol), h0, hmax,
+                       _pointer(directions), _pointer(terminal), g, int(mask_index), mask_sign,
+                       int(n_model), bound, int(max_steps), store_cap, tgrad_step, _pointer(ts),
+                       _pointer(ys), _pointer(ev_t), _pointer(ev_k), _pointer(th), _pointer(y),
+                       _pointer(counts), *extra)
+        c = [int(v) for v in counts]
+        out = (status, float(th[0]), y, ts, ys, c[0], c[1], c[2], c[3], c[4], ev_t, ev_k, c[5],
+               float(th[1]))
+        return out + (phi, phis, float(phi_error[0])) if variational else out
+
+    return integrate
+
+
+__all__ = ["FLAGS", "build", "compiler", "library_name", "load", "translation_unit"]

@@ -1,0 +1,399 @@
+"""Printing of a :class:`~.codegen.Program` as Python (python and numba back ends) and as C99.
+
+Both printers give the language's constructs the same meaning:
+
+* ``Heaviside(x)`` is 1 for x > 0, 1/2 at 0 (sympy's default, or the given H(0)), 0 for x < 0;
+* ``sign(x)`` is 0 when x == 0, else copysign(1, x) (so −1 or +1, also for NaN by its sign bit);
+* ``Min``/``Max`` fold left as Python's ``min``/``max`` do (``b if b < a else a``), NaNs
+  included; ``Mod`` is Python's floored ``%`` of floats;
+* ``Piecewise`` takes the first true condition (NaN when none is; the parser always ends with
+  ``True``);
+* ``DiracDelta`` (derivatives of Heaviside, sign, Abs) is 0: a jump is an event, not an impulse;
+* floats are printed exactly (``repr``), π and e as their double values;
+* sums and products keep sympy's order of terms (no re-sorting for display), so both languages
+  evaluate them in the same order.
+
+Names from the model (the docstrings and comments listing states, parameters and outputs) are
+escaped by :mod:`.literals`. The C translation unit uses only C99 and ``<math.h>``.
+"""
+from __future__ import annotations
+
+import math
+
+import sympy as sp
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.pycode import PythonCodePrinter
+
+from .codegen import (
+    Array,
+    ChainRule,
+    Function,
+    IndexTable,
+    Let,
+    Program,
+    Solve,
+    SolveRows,
+    SparseProduct,
+    Statement,
+    Store,
+)
+from .literals import c_comment, python_docstring
+
+_C_STACK_DOUBLES = 16384  # larger local arrays go to the heap (thread stacks are small)
+
+
+def _float(value: float) -> str:
+    if math.isnan(value):
+        return "NAN"
+    if math.isinf(value):
+        return "INFINITY" if value > 0 else "(-INFINITY)"
+    return repr(value)
+
+
+class PythonPrinter(PythonCodePrinter):
+    """sympy -> Python expressions (``math`` functions, ``np`` only for arrays)."""
+
+    def __init__(self):
+        super().__init__({"standard": "python3", "fully_qualified_modules": True, "order": "none"})
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+    def _print_Heaviside(self, expr):
+        x = self._print(expr.args[0])
+        h0 = self._print(sp.Float(expr.args[1] if len(expr.args) > 1 else 0.5))
+        return f"(1.0 if {x} > 0 else ({h0} if {x} == 0 else 0.0))"
+
+    def _print_DiracDelta(self, expr):
+        return "0.0"
+
+
+class CPrinter(C99CodePrinter):
+    """sympy -> C99 expressions with the Python printer's meaning (see the module docstring)."""
+
+    def __init__(self):
+        super().__init__({"strict": True, "order": "none"})
+
+    def _print_Indexed(self, expr):
+        return f"{expr.base}[{int(expr.indices[0])}]"
+
+    def _print_Float(self, expr):
+        return _float(float(expr))
+
+    def _print_Integer(self, expr):
+        return f"{int(expr)}.0" if expr >= 0 else f"({int(expr)}.0)"
+
+    _print_Zero = _print_One = _print_NegativeOne = _print_Integer
+
+    def _print_Pi(self, expr):
+        return repr(math.pi)
+
+    def _print_Exp1(self, expr):
+        return repr(math.e)
+
+    def _print_BooleanTrue(self, expr):
+        return "1"
+
+    def _print_BooleanFalse(self, expr):
+        return "0"
+
+    def _print_Pow(self, expr):
+        base, e = expr.args
+        if e.is_Integer and 2 <= abs(int(e)) <= 4:          # exact products, no pow() call
+            b = self.parenthesize(base, 1000)       # atoms only, anything else bracketed
+            product = "*".join([b] * abs(int(e)))
+            return f"({product})" if e > 0 else f"(1.0/({product}))"
+        if e == -1:
+            return f"(1.0/{self.parenthesize(base, 1000)})"
+        if e == sp.S.Half:
+            return f"sqrt({self._print(base)})"
+        if e == -sp.S.Half:
+            return f"(1.0/sqrt({self._print(base)}))"
+        return f"pow({self._print(base)}, {self._print(e)})"
+
+    def _print_Heaviside(self, expr):
+        x = self._print(expr.args[0])
+        h0 = _float(float(expr.args[1])) if len(expr.args) > 1 else "0.5"
+        return f"(({x}) > 0 ? 1.0 : (({x}) == 0 ? {h0} : 0.0))"
+
+    def _print_DiracDelta(self, expr):
+        return "0.0"
+
+    def _print_sign(self, expr):
+        x = self._print(expr.args[0])
+        return f"(({x}) == 0 ? 0.0 : copysign(1.0, {x}))"
+
+    def _fold(self, name, args):
+        out = self._print(args[0])
+        for arg in args[1:]:
+            out = f"{name}({out}, {self._print(arg)})"
+        return out
+
+    def _print_Min(self, expr):
+        return self._fold("ph_min", expr.args)
+
+    def _print_Max(self, expr):
+        return self._fold("ph_max", expr.args)
+
+    def _print_Mod(self, expr):
+        return f"ph_mod({self._print(expr.args[0])}, {self._print(expr.args[1])})"
+
+    def _print_Piecewise(self, expr):
+        out = "NAN"
+        for value, cond in reversed(expr.args):
+            if cond == sp.true:
+                out = self._print(value)
+            else:
+                out = f"(({self._print(cond)}) ? ({self._print(value)}) : ({out}))"
+        return out
+
+    def _print_Relational(self, expr):
+        return f"({self._print(expr.lhs)} {expr.rel_op} {self._print(expr.rhs)})"
+
+
+def _closed_form(st: Solve, entry) -> list[tuple[str, str]]:
+    """(name, value) assignments solving a 1 x 1 or 2 x 2 system ``st`` by Cramer's rule;
+    ``entry(i, j)`` prints A's entry in the language."""
+    b, v = st.b, st.targets
+    if len(v) == 1:
+        return [(v[0], f"{b}[0] / {entry(0, 0)}")]
+    det = f"det{st.A}"
+    return [(det, f"{entry(0, 0)} * {entry(1, 1)} - {entry(0, 1)} * {entry(1, 0)}"),
+            (v[0], f"({b}[0] * {entry(1, 1)} - {entry(0, 1)} * {b}[1]) / {det}"),
+            (v[1], f"({entry(0, 0)} * {b}[1] - {b}[0] * {entry(1, 0)}) / {det}")]
+
+
+# --- Python ---------------------------------------------------------------------------------------
+def _python_index(index: tuple[int, ...]) -> str:
+    return ", ".join(str(i) for i in index)
+
+
+def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> None:
+    if isinstance(st, Let):
+        lines.append(f"    {st.name} = {pr(st.expr)}")
+    elif isinstance(st, Array):
+        shape = f"({st.shape[0]}, {st.shape[1]})" if len(st.shape) == 2 else str(st.shape[0])
+        lines.append(f"    {st.name} = np.{'zeros' if st.zero else 'empty'}({shape})")
+    elif isinstance(st, Store):
+        lines.append(f"    {st.array}[{_python_index(st.index)}] = {pr(st.expr)}")
+    elif isinstance(st, Solve):
+        if len(st.targets) <= 2:   # small systems in closed form: no LAPACK call
+            lines += [f"    {name} = {value}" for name, value in
+                      _closed_form(st, lambda i, j: f"{st.A}[{i}, {j}]")]
+        else:
+            lines.append(f"    {st.b} = np.linalg.solve({st.A}, {st.b})")
+            lines += [f"    {t} = {st.b}[{i}]" for i, t in enumerate(st.targets)]
+    elif isinstance(st, IndexTable):
+        lines.append(f"    {st.name} = np.array({list(st.values)})")
+    elif isinstance(st, ChainRule):
+        lines += [f"    for k in range({st.start}, {st.stop}):",
+                  f"        {st.array}[{st.rows}[k], :] += {st.coefs}[k] * {st.array}[{st.cols}[k], :]"]
+    elif isinstance(st, SparseProduct):
+        if not st.entries:
+            return
+        f = f"F{count[0]}"
+        count[0] += 1
+        lines.append(f"    {f} = np.zeros(({st.shape[0]}, {st.shape[1]}))")
+        lines += [f"    {f}[{i}, {j}] = {pr(e)}" for i, j, e in st.entries]
+        lines.append(f"    {st.dst} += {f} @ {st.src}")
+    elif isinstance(st, SolveRows):
+        lines.append(f"    {st.R} = np.linalg.solve({st.A}, {st.R})")
+    else:  # pragma: no cover
+        raise TypeError(st)
+
+
+def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
+    """One function as Python source, decorated with ``@_jit`` (the back end's header defines
+    it: numba's ``njit`` or the identity)."""
+    pr = (printer or PythonPrinter()).doprint
+    doc = "\n".join(f"    {python_docstring(line)}" if i else python_docstring(line)
+                    for i, line in enumerate(fn.doc))
+    lines = ["@_jit", f"def {fn.name}({', '.join(fn.args)}):", f'    """{doc}\n    """']
+    count = [0]
+    for st in fn.body:
+        _python_statement(st, pr, lines, count)
+    lines.append("    return out")
+    return "\n".join(lines)
+
+
+def python_source(prog: Program) -> str:
+    """The program as the body of a Python module (no imports: see porthamiltonian.backends)."""
+    printer = PythonPrinter()
+    header = "\n".join(python_docstring(line) for line in prog.header)
+    parts = [f'"""{header}\n"""']
+    parts += [python_function(fn, printer) for fn in prog.functions]
+    return "\n\n\n".join(parts) + "\n"
+
+
+# --- C ------------------------------------------------------------------------------------------
+_C_PRELUDE = """\
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#if defined(_WIN32)
+#define PH_EXPORT __declspec(dllexport)
+#else
+#define PH_EXPORT __attribute__((visibility("default")))
+#endif
+
+/* min/max as Python's: b if b < a (b > a) else a */
+static inline double ph_min(double a, double b) { return b < a ? b : a; }
+static inline double ph_max(double a, double b) { return b > a ? b : a; }
+
+/* Python's floored % of floats */
+static inline double ph_mod(double a, double b)
+{
+    double r = fmod(a, b);
+    if (r != 0.0) {
+        if ((b < 0.0) != (r < 0.0))
+            r += b;
+    } else {
+        r = copysign(0.0, b);
+    }
+    return r;
+}
+
+static double *ph_alloc(size_t n)
+{
+    double *a = calloc(n, sizeof(double));
+    if (a == NULL)
+        abort();
+    return a;
+}
+
+/* A X = B for A n x n and B n x m (row-major), in place: Gaussian elimination with partial
+ * pivoting (A is destroyed, X replaces B) */
+static void ph_solve_rows(int n, int m, double *A, double *B)
+{
+    for (int k = 0; k < n; ++k) {
+        int piv = k;
+        double big = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; ++i)
+            if (fabs(A[i * n + k]) > big) {
+                big = fabs(A[i * n + k]);
+                piv = i;
+            }
+        if (piv != k) {
+            for (int j = 0; j < n; ++j) {
+                double t = A[k * n + j]; A[k * n + j] = A[piv * n + j]; A[piv * n + j] = t;
+            }
+            for (int j = 0; j < m; ++j) {
+                double t = B[k * m + j]; B[k * m + j] = B[piv * m + j]; B[piv * m + j] = t;
+            }
+        }
+        for (int i = k + 1; i < n; ++i) {
+            double f = A[i * n + k] / A[k * n + k];
+            if (f == 0.0)
+                continue;
+            for (int j = k + 1; j < n; ++j)
+                A[i * n + j] -= f * A[k * n + j];
+            for (int j = 0; j < m; ++j)
+                B[i * m + j] -= f * B[k * m + j];
+        }
+    }
+    for (int i = n - 1; i >= 0; --i)
+        for (int j = 0; j < m; ++j) {
+            double s = B[i * m + j];
+            for (int l = i + 1; l < n; ++l)
+                s -= A[i * n + l] * B[l * m + j];
+            B[i * m + j] = s / A[i * n + i];
+        }
+}
+"""
+
+
+def _size(shape: tuple[int, ...]) -> int:
+    return math.prod(shape)
+
+
+def _c_flat(index: tuple[int, ...], shape: tuple[int, ...]) -> int:
+    return index[0] * shape[1] + index[1] if len(index) == 2 else index[0]
+
+
+def c_function(fn: Function, printer: CPrinter | None = None) -> str:
+    """One function as a ``static void`` C function writing its result into ``out``."""
+    pr = (printer or CPrinter()).doprint
+    shapes: dict[str, tuple[int, ...]] = {"out": fn.shape}
+    heap: list[str] = []
+    comment = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
+                        enumerate(fn.doc))
+    params = "const double *p" if fn.args == ("p",) else "double t, const double *x, const double *p"
+    lines = [f"{comment}\n */", f"static void {fn.name}({params}, double *out)", "{",
+             "    " + " ".join(f"(void){arg};" for arg in fn.args)]
+    for st in fn.body:
+        if isinstance(st, Let):
+            lines.append(f"    const double {st.name} = {pr(st.expr)};")
+        elif isinstance(st, Array):
+            shapes[st.name] = st.shape
+            size = _size(st.shape)
+            if st.name == "out":
+                if st.zero:
+                    lines.append(f"    memset(out, 0, sizeof(double) * {size});")
+            elif size > _C_STACK_DOUBLES:
+                lines.append(f"    double *{st.name} = ph_alloc({size});")
+                heap.append(st.name)
+            else:
+                lines.append(f"    double {st.name}[{size}]{' = {0}' if st.zero else ''};")
+        elif isinstance(st, Store):
+            lines.append(f"    {st.array}[{_c_flat(st.index, shapes[st.array])}] = {pr(st.expr)};")
+        elif isinstance(st, Solve):
+            n = len(st.targets)
+            if n <= 2:
+                lines += [f"    const double {name} = {value};" for name, value in
+                          _closed_form(st, lambda i, j, n=n, a=st.A: f"{a}[{i * n + j}]")]
+            else:
+                lines.append(f"    ph_solve_rows({n}, 1, {st.A}, {st.b});")
+                lines += [f"    const double {t} = {st.b}[{i}];" for i, t in enumerate(st.targets)]
+        elif isinstance(st, IndexTable):
+            lines.append(f"    static const int {st.name}[{len(st.values)}] = "
+                         f"{{{', '.join(map(str, st.values))}}};")
+        elif isinstance(st, ChainRule):
+            m, a = st.ncols, st.array
+            lines += [f"    for (int k = {st.start}; k < {st.stop}; ++k) {{",
+                      f"        const double f = {st.coefs}[k];",
+                      f"        double *dst = {a} + {st.rows}[k] * {m};",
+                      f"        const double *src = {a} + {st.cols}[k] * {m};",
+                      f"        for (int c = 0; c < {m}; ++c) dst[c] += f * src[c];",
+                      "    }"]
+        elif isinstance(st, SparseProduct):
+            m = st.ncols
+            for i, j, e in st.entries:
+                lines.append(f"    {{ const double f = {pr(e)}; for (int k = 0; k < {m}; ++k) "
+                             f"{st.dst}[{i * m} + k] += f * {st.src}[{j * m} + k]; }}")
+        elif isinstance(st, SolveRows):
+            lines.append(f"    ph_solve_rows({st.n}, {st.ncols}, {st.A}, {st.R});")
+        else:  # pragma: no cover
+            raise TypeError(st)
+    lines += [f"    free({name});" for name in heap]
+    lines.append("}")
+    return "\n".join(lines)
+
+
+def c_source(prog: Program) -> str:
+    """The program as a C99 translation unit: the functions (static), their exported wrappers
+    ``ph_<name>``, ``ph_layout`` and the sizes the loop template needs (``PH_N``, ``PH_NG``)."""
+    printer = CPrinter()
+    header = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
+                       enumerate(prog.header))
+    parts = [f"{header}\n */", _C_PRELUDE,
+             f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}"]
+    parts += [c_function(fn, printer) for fn in prog.functions]
+    for fn in prog.functions:
+        if fn.args == ("p",):
+            parts.append(f"PH_EXPORT void ph_{fn.name}(const double *p, double *out) "
+                         f"{{ {fn.name}(p, out); }}")
+        else:
+            parts.append(f"PH_EXPORT void ph_{fn.name}(double t, const double *x, const double *p, "
+                         f"double *out) {{ {fn.name}(t, x, p, out); }}")
+    sizes = [prog.n, prog.n_params, prog.n_guards, prog.n_outputs,
+             sum(1 for fn in prog.functions if fn.name.startswith("matrix_"))]
+    parts.append("/* sizes: states (with the ledger), parameters, guard slots, output slots, "
+                 "matrices */\nPH_EXPORT void ph_layout(int64_t *out)\n{\n" +
+                 "".join(f"    out[{i}] = {v};\n" for i, v in enumerate(sizes)) + "}")
+    return "\n\n".join(parts) + "\n"
+
+
+__all__ = ["CPrinter", "PythonPrinter", "c_function", "c_source", "python_function",
+           "python_source"]

@@ -1,0 +1,628 @@
+/* Template, not compiled alone: appended by porthamiltonian.backends to each model's generated
+ * C functions (rhs, jac, guards; PH_N states, PH_NG guard slots), followed by the tables and
+ * exported entry point ph_integrate_<method> of each method (porthamiltonian/integrators/
+ * tableaus.py). It is rosenbrock_loop.py in C, step for step (same stages, error norm, step-size
+ * rule, dense output, guard samples, Illinois iteration and statuses): a change there is made
+ * here too.
+ *
+ * Entry points: int ph_integrate_<method>(PH_LOOP_PARAMS) returns the status (0 reached t_end,
+ * 1 terminal event, 2 step-size underflow or singular W, 3 divergence, 4 max_steps, 5 store
+ * buffers full) and writes out_th = {t, h}, out_y = y (PH_N values), counts = {n_store, nfev,
+ * njev, nsteps, event_index, n_ev}, the accepted steps into ts (store_cap) / ys (store_cap x PH_N,
+ * row-major) and the non-terminal events into ev_t / ev_k (store_cap).
+ * int ph_integrate_<method>_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS) does the same and
+ * integrates the sensitivities Phi from phi0 (PH_N x m, row-major; column c the initial
+ * perturbation of direction c) as rosenbrock_loop.py does (see its header): Phi at the end into
+ * phi_out (PH_N x m), at the stored points into phis (store_cap x PH_N x m), the largest relative
+ * error estimate of Phi over its accepted sub-steps into phi_error[0]. */
+
+typedef struct {
+    int s;              /* stages */
+    int m;              /* rows of the dense-output table */
+    double gamma;
+    double expo;        /* step-size exponent 1/(q + 1), q the embedded order */
+    const double *a;    /* s x s: U_i = y + sum_j a_ij K_j */
+    const double *c;    /* s x s: + (sum_j c_ij K_j) / h */
+    const double *nodes;
+    const double *d;
+    const double *h;    /* m x s dense-output table */
+} ph_tableau;
+
+#define PH_SAMPLES 3    /* interior guard samples per step */
+
+#define PH_LOOP_PARAMS double t0, const double *y0, double t_end, const double *p, double rtol, \
+    const double *atol, double h0, double hmax, const int64_t *directions, \
+    const uint8_t *terminal, int64_t g_count, int64_t mask_index, double mask_sign, \
+    int64_t n_model, double bound, int64_t max_steps, int64_t store_cap, double tgrad_step, \
+    double *ts, double *ys, double *ev_t, int64_t *ev_k, double *out_th, double *out_y, \
+    int64_t *counts
+#define PH_LOOP_ARGS t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, g_count, \
+    mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, ts, ys, ev_t, ev_k, \
+    out_th, out_y, counts
+#define PH_PHI_PARAMS int64_t m, const double *phi0, double *phis, double *phi_out, \
+    double *phi_error
+#define PH_CBRT_EPS 6.0554544523933395e-06   /* the relative step of the central differences */
+
+static int ph_lu_factor(double *A, int *piv)
+{
+    const int n = PH_N;
+    for (int k = 0; k < n; ++k) {
+        int m = k;
+        double big = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; ++i) {
+            if (fabs(A[i * n + k]) > big) {
+                big = fabs(A[i * n + k]);
+                m = i;
+            }
+        }
+        piv[k] = m;
+        if (big == 0.0)
+            return 0;
+        if (m != k) {
+            for (int j = 0; j < n; ++j) {
+                double tmp = A[k * n + j];
+                A[k * n + j] = A[m * n + j];
+                A[m * n + j] = tmp;
+            }
+        }
+        for (int i = k + 1; i < n; ++i) {
+            A[i * n + k] /= A[k * n + k];
+            double f = A[i * n + k];
+            if (f != 0.0)
+                for (int j = k + 1; j < n; ++j)
+                    A[i * n + j] -= f * A[k * n + j];
+        }
+    }
+    return 1;
+}
+
+/* W = I/(h gamma) - J (hgam = h gamma), factored in place; 0 when W is singular */
+static int ph_w_factor(const double *J, double hgam, double *W, int *piv)
+{
+    const int n = PH_N;
+    const double inv = 1.0 / hgam;
+    for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j)
+            W[i * n + j] = -J[i * n + j];
+        W[i * n + i] += inv;
+    }
+    return ph_lu_factor(W, piv);
+}
+
+static void ph_lu_solve(const double *A, const int *piv, double *b)
+{
+    const int n = PH_N;
+    for (int k = 0; k < n; ++k) {
+        int m = piv[k];
+        if (m != k) {
+            double tmp = b[k];
+            b[k] = b[m];
+            b[m] = tmp;
+        }
+    }
+    for (int i = 0; i < n; ++i) {
+        double s = b[i];
+        for (int j = 0; j < i; ++j)
+            s -= A[i * n + j] * b[j];
+        b[i] = s;
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        double s = b[i];
+        for (int j = i + 1; j < n; ++j)
+            s -= A[i * n + j] * b[j];
+        b[i] = s / A[i * n + i];
+    }
+}
+
+/* y(theta) = (1 - theta) y0 + theta (y1 + (1 - theta)(E_0 + theta (E_1 + theta (...)))) for
+ * vectors of len values (E: m x len) */
+static void ph_dense(int m, int64_t len, double theta, const double *y0, const double *y1,
+                     const double *E, double *out)
+{
+    for (int64_t i = 0; i < len; ++i) {
+        double acc = E[(m - 1) * len + i];
+        for (int r = m - 2; r >= 0; --r)
+            acc = E[r * len + i] + theta * acc;
+        out[i] = (1.0 - theta) * y0[i] + theta * (y1[i] + (1.0 - theta) * acc);
+    }
+}
+
+/* D = d/dt J(t, x(t)) = d_x J[f] + d_t J by differences along (1, f) (_jac_rate of
+ * rosenbrock_loop.py: central, or the one-sided difference without a kink of J); work: 2 N x N +
+ * 2 N. Returns the jac evaluations made (2). */
+static int ph_jac_rate(double t, double h, const double *y, const double *p, const double *J,
+                       const double *f, const double *sc, int64_t n_model, double *D,
+                       double *work)
+{
+    enum { N = PH_N };
+    double nu = 1.0 / h;
+    for (int64_t i = 0; i < n_model; ++i)
+        nu = fmax(nu, fabs(f[i]) / sc[i]);
+    const double eps = PH_CBRT_EPS / nu;
+    double *Jp = work, *Jm = Jp + N * N, *yp = Jm + N * N, *ym = yp + N;
+    for (int i = 0; i < N; ++i) {
+        yp[i] = y[i] + eps * f[i];
+        ym[i] = y[i] - eps * f[i];
+    }
+    jac(t + eps, yp, p, Jp);
+    jac(t - eps, ym, p, Jm);
+    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
+    for (int k = 0; k < N * N; ++k) {
+        up = fmax(up, fabs(Jp[k] - J[k]));
+        down = fmax(down, fabs(J[k] - Jm[k]));
+        second = fmax(second, fabs(Jp[k] - 2.0 * J[k] + Jm[k]));
+        central = fmax(central, fabs(Jp[k] - Jm[k]));
+    }
+    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
+    for (int k = 0; k < N * N; ++k) {
+        if (!kink)
+            D[k] = (Jp[k] - Jm[k]) / (2.0 * eps);
+        else if (up <= down)
+            D[k] = (Jp[k] - J[k]) / eps;
+        else
+            D[k] = (J[k] - Jm[k]) / eps;
+    }
+    return 2;
+}
+
+/* Solve A X = B in place for the N x m matrix B (row-major; A: the LU of ph_lu_factor) */
+static void ph_lu_solve_rows(const double *A, const int *piv, double *B, int64_t m)
+{
+    const int n = PH_N;
+    for (int k = 0; k < n; ++k) {
+        int r = piv[k];
+        if (r != k)
+            for (int64_t c = 0; c < m; ++c) {
+                double tmp = B[k * m + c];
+                B[k * m + c] = B[r * m + c];
+                B[r * m + c] = tmp;
+            }
+    }
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < i; ++j) {
+            const double a = A[i * n + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    B[i * m + c] -= a * B[j * m + c];
+        }
+    for (int i = n - 1; i >= 0; --i) {
+        for (int j = i + 1; j < n; ++j) {
+            const double a = A[i * n + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    B[i * m + c] -= a * B[j * m + c];
+        }
+        const double d = A[i * n + i];
+        for (int64_t c = 0; c < m; ++c)
+            B[i * m + c] /= d;
+    }
+}
+
+/* One sub-step of Phi from t + th_a h to t + th_b h (_phi_substep of rosenbrock_loop.py): KP
+ * (s x N m) and P1 from P, with the LU of W = I/(eta gamma) - Ja and D = A'; A at t + th_b h
+ * into A_end. work: N x N + 2 m N + N. Returns the jac evaluations made. */
+static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, double t, double h,
+                          const double *y, const double *y1, const double *p, const double *E,
+                          const double *Ja, const double *D, const double *W, const int *piv,
+                          int64_t n_model, int64_t m, const double *P, double *KP, double *P1,
+                          double *A_end, double *work)
+{
+    enum { N = PH_N };
+    const int s = tab->s, nd = tab->m;
+    const int64_t nm = m * N;
+    const double ds = th_b - th_a, eta = ds * h;
+    double *Js = work, *UP = Js + N * N, *DP = UP + nm, *xi = DP + nm;
+    int nj = 0;
+    memset(DP, 0, sizeof(double) * nm);
+    for (int i = 0; i < N; ++i)             /* DP = A' Phi0 */
+        for (int64_t j = 0; j < n_model; ++j) {
+            const double a = D[i * N + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    DP[i * m + c] += a * P[j * m + c];
+        }
+    const double *A = Ja;
+    for (int st = 0; st < s; ++st) {
+        double *KPs = KP + st * nm;
+        for (int64_t q = 0; q < nm; ++q) {
+            double acc = P[q];
+            for (int j = 0; j < st; ++j)
+                acc += tab->a[st * s + j] * KP[j * nm + q];
+            UP[q] = acc;
+        }
+        if (st > 0 && tab->nodes[st] != tab->nodes[st - 1]) {
+            const double th = tab->nodes[st] == 1.0 ? th_b : th_a + tab->nodes[st] * ds;
+            double *out = tab->nodes[st] == 1.0 ? A_end : Js;
+            if (th == 1.0) {
+                jac(t + h, y1, p, out);
+            } else {
+                ph_dense(nd, N, th, y, y1, E, xi);
+                jac(t + th * h, xi, p, out);
+            }
+            A = out;
+            nj += 1;
+        }
+        const double hd = eta * tab->d[st];
+        for (int64_t q = 0; q < nm; ++q) {
+            double acc = hd * DP[q];
+            for (int j = 0; j < st; ++j)
+                acc += tab->c[st * s + j] * KP[j * nm + q] / eta;
+            KPs[q] = acc;
+        }
+        for (int i = 0; i < N; ++i)
+            for (int64_t j = 0; j < n_model; ++j) {
+                const double a = A[i * N + j];
+                if (a != 0.0)
+                    for (int64_t c = 0; c < m; ++c)
+                        KPs[i * m + c] += a * UP[j * m + c];
+            }
+        ph_lu_solve_rows(W, piv, KPs, m);
+    }
+    if (A != A_end)
+        memcpy(A_end, A, sizeof(double) * N * N);
+    for (int64_t q = 0; q < nm; ++q)
+        P1[q] = UP[q] + KP[(s - 1) * nm + q];
+    return nj;
+}
+
+#define PH_SUBSTEPS 400     /* at most this many sub-steps of Phi per step */
+#define PH_THETA_MIN 1e-9   /* the smallest sub-step, in parts of the step */
+#define PH_PHI_TOLERANCE 10.0   /* a sub-step's error estimate may be this many rtol (see
+                                 * _PHI_TOLERANCE in rosenbrock_loop.py) */
+
+/* Carry Phi (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
+ * error control, the first *eta long (_variational_step of rosenbrock_loop.py); A at the end into
+ * J_end (the next step's J when th_end = 1), the evaluations into counts[0] (jac), counts[1]
+ * (rhs), the largest error estimate accepted into *worst, the next sub-step's length into *eta.
+ * work: (s + 3) m N + 7 N x N + 6 N. */
+static void ph_variational_step(const ph_tableau *tab, double t, double h, double th_end,
+                                const double *y, const double *y1, const double *p,
+                                const double *J, const double *f0, const double *W,
+                                const int *piv, const double *E, double rtol, const double *atol,
+                                int64_t n_model, double expo, int64_t m, double *P,
+                                double *J_end, int64_t *counts, double *worst, double *eta,
+                                double *work)
+{
+    enum { N = PH_N };
+    const int s = tab->s, nd = tab->m;
+    const int64_t nm = m * N;
+    double *KP = work, *P1 = KP + s * nm, *D = P1 + nm, *Ws = D + N * N, *Ja = Ws + N * N;
+    double *Jb = Ja + N * N, *sc = Jb + N * N, *xa = sc + N, *fa = xa + N, *sub = fa + N;
+    double *rate_work = sub + N * N + 2 * nm + N;
+    int pivs[PH_N];
+    for (int i = 0; i < N; ++i)
+        sc[i] = fmax(fabs(y[i]), atol[i] / rtol);
+    memcpy(xa, y, sizeof(double) * N);
+    memcpy(fa, f0, sizeof(double) * N);
+    memcpy(Ja, J, sizeof(double) * N * N);
+    double th_a = 0.0, ds = fmin(th_end, fmax(*eta / h, PH_THETA_MIN));
+    int count = 0;
+    *worst = 0.0;
+    while (th_a < th_end) {
+        const int last = ds >= th_end - th_a;
+        const double th_b = last ? th_end : th_a + ds, eta = (th_b - th_a) * h;
+        counts[0] += ph_jac_rate(t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D, rate_work);
+        const double *Wu = W;
+        const int *pu = piv;
+        if (!(th_a == 0.0 && th_b == 1.0)) {
+            if (!ph_w_factor(Ja, eta * tab->gamma, Ws, pivs)) {
+                ds = 0.5 * (th_b - th_a);
+                continue;
+            }
+            Wu = Ws;
+            pu = pivs;
+        }
+        counts[0] += ph_phi_substep(tab, th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, n_model,
+                                    m, P, KP, P1, Jb, sub);
+        double num = 0.0, den = 0.0;
+        for (int64_t i = 0; i < n_model; ++i)
+            for (int64_t c = 0; c < m; ++c) {
+                const double e = KP[(s - 1) * nm + i * m + c] / sc[i], v = P1[i * m + c] / sc[i];
+                num += e * e;
+                den += v * v;
+            }
+        const double err = den > 0.0 ? sqrt(num / den) : 0.0, tol = PH_PHI_TOLERANCE * rtol;
+        count += 1;
+        if (err <= tol || th_b - th_a <= PH_THETA_MIN || count >= PH_SUBSTEPS) {
+            memcpy(P, P1, sizeof(double) * nm);
+            *worst = fmax(*worst, err);
+            double *tmp = Ja;       /* A at the end of the sub-step: the next one's start */
+            Ja = Jb;
+            Jb = tmp;
+            th_a = th_b;
+            if (th_a < th_end) {
+                ph_dense(nd, N, th_a, y, y1, E, xa);
+                rhs(t + th_a * h, xa, p, fa);
+                counts[1] += 1;
+            }
+            const double fac = err == 0.0 ? 6.0 : fmin(6.0, fmax(0.2, 0.9 * pow(tol / err, expo)));
+            ds = fmax(ds * fac, PH_THETA_MIN);
+        } else {
+            ds = fmax((th_b - th_a) * fmax(0.2, 0.9 * pow(tol / err, expo)), PH_THETA_MIN);
+        }
+    }
+    memcpy(J_end, Ja, sizeof(double) * N * N);
+    *eta = ds * h;
+}
+
+static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
+{
+    enum { N = PH_N, NG = PH_NG };
+    const int s = tab->s, nd = tab->m;
+    const double gam = tab->gamma, expo = tab->expo;
+    int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nsteps = 0, hit = -1;
+    int status = 0, piv[PH_N];
+    double t = t0, h = h0, err = 0.0;
+    double g_old[PH_NG], g_new[PH_NG], g_a[PH_NG], g_b[PH_NG];
+    /* the work arrays, on the heap (large models would overflow a thread's stack) */
+    double *work = malloc(sizeof(double) * (size_t)N * (2 * N + 2 * s + nd + 7));
+    if (work == NULL)
+        return 2;
+    double *W = work, *J = W + N * N, *K = J + N * N, *U = K + s * N, *E = U + s * N;
+    double *y = E + nd * N, *dT = y + N, *y1 = dT + N, *yi = y1 + N, *f0 = yi + N;
+    double *f = f0 + N, *fT = f + N;
+    /* the sensitivities' work arrays (m > 0); J_next: A at the end of the last step, made for
+     * its Phi: the next step's J */
+    const int64_t nm = m * N;
+    double *pwork = NULL, *P = NULL, *J_next = NULL, *vwork = NULL;
+    int have_next = 0;
+    int64_t vcounts[2] = {0, 0};
+    double eta_phi = 1e300;     /* the length of Phi's next sub-step (s): the whole step */
+    if (m > 0) {
+        pwork = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N));
+        if (pwork == NULL) {
+            free(work);
+            return 2;
+        }
+        P = pwork;
+        J_next = P + nm;
+        vwork = J_next + N * N;      /* (s + 3) m N + 7 N x N + 6 N: ph_variational_step's */
+        memcpy(P, phi0, sizeof(double) * nm);
+        phi_error[0] = 0.0;
+    }
+    memcpy(y, y0, sizeof(double) * N);
+    memset(dT, 0, sizeof(double) * N);
+    guards(t, y, p, g_old);
+    if (mask_index >= 0) {
+        double g = fabs(g_old[mask_index]);
+        g_old[mask_index] = mask_sign * (g > 1e-300 ? g : 1e-300);
+    }
+    rhs(t, y, p, f0);
+    nfev += 1;
+    if (h <= 0.0) {
+        /* initial step from the scaled derivative (Hairer-Wanner II, p. 169, simplified) */
+        double d0n = 0.0, d1n = 0.0;
+        for (int64_t i = 0; i < n_model; ++i) {
+            double sc = atol[i] + rtol * fabs(y[i]);
+            d0n += (y[i] / sc) * (y[i] / sc);
+            d1n += (f0[i] / sc) * (f0[i] / sc);
+        }
+        d0n = sqrt(d0n / (double)n_model);
+        d1n = sqrt(d1n / (double)n_model);
+        h = (d0n < 1e-5 || d1n < 1e-5) ? 1e-6 : 0.01 * d0n / d1n;
+        if (hmax < h)
+            h = hmax;
+        if (t_end - t < h)
+            h = t_end - t;
+    }
+    for (;;) {
+        if (t >= t_end) {
+            status = 0;
+            break;
+        }
+        if (nsteps >= max_steps) {
+            status = 4;
+            break;
+        }
+        if (n_store >= store_cap - 1 || n_ev >= store_cap - 1) {
+            status = 5;
+            break;
+        }
+        if (have_next) {
+            memcpy(J, J_next, sizeof(double) * N * N);   /* jac(t, y, p) */
+            have_next = 0;
+        } else {
+            jac(t, y, p, J);
+            njev += 1;
+        }
+        if (tgrad_step > 0.0) {
+            rhs(t + tgrad_step, y, p, fT);
+            nfev += 1;
+            for (int i = 0; i < N; ++i)
+                dT[i] = (fT[i] - f0[i]) / tgrad_step;
+        }
+        int rejected = 0, underflow = 0;
+        for (;;) {
+            if (h < 1e-14 * fmax(fabs(t), 1.0)) {
+                underflow = 1;
+                break;
+            }
+            if (t + h > t_end)
+                h = t_end - t;
+            if (!ph_w_factor(J, h * gam, W, piv)) {
+                h *= 0.5;
+                continue;
+            }
+            /* stages: U_i = y + sum_j a_ij K_j; W K_i = f(t + c_i h, U_i) + h d_i dT
+             * + (sum_j C_ij K_j) / h */
+            for (int st = 0; st < s; ++st) {
+                const double *fs = f0;
+                double *Ui = U + st * N, *Ki = K + st * N;
+                if (st == 0) {
+                    memcpy(Ui, y, sizeof(double) * N);
+                } else {
+                    for (int i = 0; i < N; ++i) {
+                        double acc = y[i];
+                        for (int j = 0; j < st; ++j)
+                            acc += tab->a[st * s + j] * K[j * N + i];
+                        Ui[i] = acc;
+                    }
+                    rhs(t + tab->nodes[st] * h, Ui, p, f);
+                    nfev += 1;
+                    fs = f;
+                }
+                for (int i = 0; i < N; ++i) {
+                    double acc = 0.0;
+                    for (int j = 0; j < st; ++j)
+                        acc += tab->c[st * s + j] * K[j * N + i];
+                    Ki[i] = fs[i] + h * tab->d[st] * dT[i] + acc / h;
+                }
+                ph_lu_solve(W, piv, Ki);
+            }
+            /* error norm over all states, the ledger quadratures included; atol per state */
+            const double *Us = U + (s - 1) * N, *Ks = K + (s - 1) * N;
+            int finite = 1;
+            err = 0.0;
+            for (int i = 0; i < N; ++i) {
+                y1[i] = Us[i] + Ks[i];
+                if (!isfinite(y1[i]))
+                    finite = 0;
+                double sc = atol[i] + rtol * fmax(fabs(y[i]), fabs(y1[i]));
+                err += (Ks[i] / sc) * (Ks[i] / sc);
+            }
+            err = finite ? sqrt(err / N) : 1e300;
+            if (err <= 1.0)
+                break;
+            rejected = 1;
+            h *= fmax(0.2, 0.9 * pow(err, -expo));
+        }
+        if (underflow) {
+            status = 2;
+            break;
+        }
+        /* accepted step t -> t + h */
+        nsteps += 1;
+        const double t_new = t + h;
+        for (int r = 0; r < nd; ++r)
+            for (int i = 0; i < N; ++i) {
+                double acc = 0.0;
+                for (int j = 0; j < s; ++j)
+                    acc += tab->h[r * s + j] * K[j * N + i];
+                E[r * N + i] = acc;
+            }
+        double big = 0.0;
+        for (int64_t i = 0; i < n_model; ++i)
+            big = fmax(big, fabs(y1[i]));
+        if (!(big <= bound)) {
+            status = 3;
+            break;
+        }
+        /* events on (t, t_new]: guards at the step ends and at PH_SAMPLES interior points of
+         * the dense output */
+        double t_hit = t_new;
+        hit = -1;
+        if (g_count > 0) {
+            guards(t_new, y1, p, g_new);
+            memcpy(g_a, g_old, sizeof(double) * NG);
+            double th_a = 0.0;
+            for (int s_i = 1; s_i <= PH_SAMPLES + 1; ++s_i) {
+                const double th_b = s_i / (PH_SAMPLES + 1.0);
+                if (s_i <= PH_SAMPLES) {
+                    ph_dense(nd, N, th_b, y, y1, E, yi);
+                    guards(t + th_b * h, yi, p, g_b);
+                } else {
+                    memcpy(g_b, g_new, sizeof(double) * NG);
+                }
+                for (int64_t k = 0; k < g_count; ++k) {
+                    const double a = g_a[k], b = g_b[k];
+                    const int up = a <= 0.0 && b >= 0.0, down = a >= 0.0 && b <= 0.0;
+                    const int64_t dk = directions[k];
+                    if (a == b || !((up && dk > 0) || (down && dk < 0) || ((up || down) && dk == 0)))
+                        continue;
+                    /* Illinois on theta in [th_a, th_b] */
+                    double lo = th_a, hi = th_b, glo = a, ghi = b, th = hi, gk[PH_NG];
+                    int side = 0;
+                    for (int it = 0; it < 100; ++it) {
+                        th = (lo * ghi - hi * glo) / (ghi - glo);
+                        ph_dense(nd, N, th, y, y1, E, yi);
+                        guards(t + th * h, yi, p, gk);
+                        const double gm = gk[k];
+                        if (gm == 0.0 || (hi - lo) * h < 4e-16 * fmax(fabs(t), 1.0))
+                            break;
+                        if ((gm > 0.0) == (ghi > 0.0)) {
+                            hi = th;
+                            ghi = gm;
+                            if (side == 1)
+                                glo *= 0.5;
+                            side = 1;
+                        } else {
+                            lo = th;
+                            glo = gm;
+                            if (side == -1)
+                                ghi *= 0.5;
+                            side = -1;
+                        }
+                    }
+                    const double t_root = t + th * h;
+                    if (terminal[k]) {
+                        if (hit < 0 || t_root < t_hit) {
+                            hit = k;
+                            t_hit = t_root;
+                        }
+                    } else if (n_ev < store_cap - 1) {
+                        ev_t[n_ev] = t_root;
+                        ev_k[n_ev] = k;
+                        n_ev += 1;
+                    }
+                }
+                if (hit >= 0)
+                    break;
+                memcpy(g_a, g_b, sizeof(double) * NG);
+                th_a = th_b;
+            }
+            if (hit >= 0) {
+                ph_dense(nd, N, (t_hit - t) / h, y, y1, E, yi);
+                if (m > 0) {
+                    double worst = 0.0;
+                    ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, E,
+                                        rtol, atol, n_model, expo, m, P, J_next, vcounts, &worst,
+                                        &eta_phi, vwork);
+                    phi_error[0] = fmax(phi_error[0], worst);
+                    memcpy(phis + n_store * nm, P, sizeof(double) * nm);
+                }
+                ts[n_store] = t_hit;
+                memcpy(ys + n_store * N, yi, sizeof(double) * N);
+                n_store += 1;
+                t = t_hit;
+                memcpy(y, yi, sizeof(double) * N);
+                status = 1;
+                break;
+            }
+            memcpy(g_old, g_new, sizeof(double) * NG);
+        }
+        if (m > 0) {       /* Phi over the step; its last A is the next step's J */
+            double worst = 0.0;
+            ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, E, rtol, atol, n_model,
+                                expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork);
+            phi_error[0] = fmax(phi_error[0], worst);
+            have_next = 1;
+        }
+        t = t_new;
+        memcpy(y, y1, sizeof(double) * N);
+        ts[n_store] = t;
+        memcpy(ys + n_store * N, y, sizeof(double) * N);
+        if (m > 0)
+            memcpy(phis + n_store * nm, P, sizeof(double) * nm);
+        n_store += 1;
+        rhs(t, y, p, f0);
+        nfev += 1;
+        double fac = err > 0.0 ? fmin(6.0, fmax(0.2, 0.9 * pow(err, -expo))) : 6.0;
+        if (rejected)
+            fac = fmin(fac, 1.0);
+        h = fmin(h * fac, hmax);
+    }
+    out_th[0] = t;
+    out_th[1] = h;
+    memcpy(out_y, y, sizeof(double) * N);
+    counts[0] = n_store;
+    counts[1] = nfev + vcounts[1];
+    counts[2] = njev + vcounts[0];
+    counts[3] = nsteps;
+    counts[4] = status == 1 ? hit : -1;
+    counts[5] = n_ev;
+    if (m > 0)
+        memcpy(phi_out, P, sizeof(double) * nm);
+    free(pwork);
+    free(work);
+    return status;
+}

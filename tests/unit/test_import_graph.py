@@ -1,0 +1,93 @@
+"""The package's import graph: no cycles, and the framework never imports the walker library.
+
+Read from the source (``ast``), not by importing: every ``import`` and ``from ... import``
+statement counts, also those inside functions (a lazy import is still a dependency), except those
+under ``if TYPE_CHECKING:``, which never run. An edge goes to the module named; ``from pkg import
+name`` goes to ``pkg.name`` when that is a module of its own, else to ``pkg``. Importing a module
+also runs its parent packages' ``__init__``, but those edges are left out: a package's
+``__init__`` gathers its submodules by design.
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import networkx as nx
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGE = "porthamiltonian"
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def _imports(tree: ast.AST):
+    """Every Import/ImportFrom node, skipping the bodies of ``if TYPE_CHECKING:``."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, ast.If) and _is_type_checking(node):
+            stack += node.orelse
+            continue
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            yield node
+        stack += ast.iter_child_nodes(node)
+
+
+def import_graph(package: str = PACKAGE) -> tuple[nx.DiGraph, dict[str, set[str]]]:
+    """(graph of the package's modules, every absolute name each module imports)."""
+    files = sorted((ROOT / package).rglob("*.py"))
+    modules = {_module_name(f): f for f in files}
+    graph, named = nx.DiGraph(), {}
+    for name, path in modules.items():
+        graph.add_node(name)
+        is_package = path.name == "__init__.py"
+        here = name if is_package else name.rpartition(".")[0]
+        named[name] = set()
+        for node in _imports(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            else:
+                base = here
+                for _ in range(node.level - 1 if node.level else 0):
+                    base = base.rpartition(".")[0]
+                source = (f"{base}.{node.module}" if node.module else base) if node.level else (
+                    node.module or "")
+                targets = [f"{source}.{a.name}" if f"{source}.{a.name}" in modules else source
+                           for a in node.names]
+            for target in targets:
+                named[name].add(target)
+                while target and target not in modules and "." in target:
+                    target = target.rpartition(".")[0]      # ``import pkg.mod.attr`` forms
+                if target in modules and target != name:
+                    graph.add_edge(name, target)
+    return graph, named
+
+
+def test_the_framework_has_no_import_cycle():
+    graph, _ = import_graph()
+    assert len(graph) > 40                                  # the walk found the package
+    cycles = list(nx.simple_cycles(graph))
+    assert cycles == [], "import cycles: " + "; ".join(" -> ".join([*c, c[0]]) for c in cycles)
+
+
+def test_no_framework_module_imports_the_walker_library():
+    _, named = import_graph()
+    offenders = {m: sorted(t for t in targets if t.split(".")[0] == "walker_library")
+                 for m, targets in named.items()}
+    assert {m: t for m, t in offenders.items() if t} == {}
+
+
+def test_the_walk_sees_lazy_imports_and_skips_type_checking_ones(tmp_path):
+    """The detector itself: a function-level import is an edge, a TYPE_CHECKING one is not."""
+    tree = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import a\n"
+                     "def f():\n    import b\n")
+    assert sorted(n.names[0].name for n in _imports(tree)) == ["TYPE_CHECKING", "b"]

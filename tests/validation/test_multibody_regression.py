@@ -1,0 +1,78 @@
+"""The recursive multibody against the numbers of the entrywise formulation it replaced.
+
+data/multibody_reference.json (written by record_multibody_reference.py with commit 340043a,
+whose Multibody formed M(q) entry by entry and its velocity terms by differentiating those
+entries) holds, for every shipped model with a Multibody and for the spatial tree and 5-link
+chain of multibody_cases.py, at three random states: ẋ, ∂ẋ/∂x, [H, P_diss, P_in], every output
+and every named matrix. The recursive formulation must give the same numbers to round-off:
+|new − old| ≤ 1e-12 · max(|old|, 0.1 · scale) entry by entry, where scale is the largest
+|entry| of the same vector (of the same row of a matrix), so that entries that cancel to nearly
+zero are compared on their vector's scale. The bodies' pose outputs, added later, are checked in
+test_multibody_poses.py.
+"""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from multibody_cases import python_cases
+
+from porthamiltonian import compile_model, io
+
+HERE = Path(__file__).resolve().parent
+REFERENCE = json.loads((HERE / "data" / "multibody_reference.json").read_text())
+RTOL = 1e-12
+
+
+def close(new, old, what: str) -> None:
+    new, old = np.atleast_2d(np.asarray(new, float)), np.atleast_2d(np.asarray(old, float))
+    assert new.shape == old.shape, f"{what}: shape {new.shape} != {old.shape}"
+    scale = np.max(np.abs(old), axis=1, keepdims=True)
+    bound = RTOL * np.maximum(np.abs(old), 0.1 * scale) + 1e-300
+    worst = np.max(np.abs(new - old) / bound)
+    assert worst <= 1.0, f"{what}: deviation {worst:.3g} x tolerance"
+
+
+@pytest.fixture(scope="module")
+def built(isolated_cache):
+    cases = python_cases()
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            model = cases[name] if name in cases else io.load(name)
+            cache[name] = compile_model(model, backend="python")
+        return cache[name]
+
+    return get
+
+
+@pytest.mark.parametrize("name", sorted(REFERENCE["models"]))
+def test_same_numbers_as_the_entrywise_formulation(built, name):
+    ref = REFERENCE["models"][name]
+    model = built(name)
+    assert model.state_names == ref["state_names"]
+    assert model.param_names == ref["param_names"]
+    close(model.initial_state(), ref["initial"], f"{name} initial state")
+    pn = model.native_params(model.param_defaults)
+    f = model.functions
+    for k, entry in enumerate(ref["states"]):
+        x = np.array(entry["x"])
+        y = model.augment(x)
+        close(f.rhs(0.0, y, pn), entry["rhs"], f"{name} rhs #{k}")
+        close(f.jac(0.0, y, pn), entry["jac"], f"{name} jac #{k}")
+        close(f.energy(0.0, y, pn), entry["energy"], f"{name} energy #{k}")
+        outputs = dict(zip(model.output_names, np.asarray(f.outputs(0.0, y, pn), float)))
+        added = set(outputs) - set(entry["outputs"])        # the bodies' poses came later
+        assert set(entry["outputs"]) <= set(outputs), f"{name}: outputs lost"
+        assert all(re.search(r"\.pose\.(x|y|z|qw|qx|qy|qz)$", n) for n in added), added
+        outputs = {n: v for n, v in outputs.items() if n in entry["outputs"]}
+        names = sorted(outputs)
+        close([outputs[n] for n in names], [entry["outputs"][n] for n in names],
+              f"{name} outputs #{k}")
+        assert set(model.matrix_names) == set(entry["matrices"])
+        for mname, value in entry["matrices"].items():
+            close(model.matrix(mname, 0.0, x, model.param_defaults), value, f"{name} {mname} #{k}")
