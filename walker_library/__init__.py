@@ -13,9 +13,9 @@ gait analyses.
 * :mod:`.protocol` — the :class:`Walker` interface the analyses use, :class:`Stride`,
   :class:`ParameterSpec`;
 * :mod:`.poincare` — stride map, fixed points (Newton), period detection; :mod:`.monodromy` —
-  the stride map's Jacobian (finite differences with the step chosen per coordinate, or the
-  variational equations; :mod:`.saltation`, the algebra of the latter) and Floquet multipliers
-  with error bounds; :mod:`.continuation` —
+  the stride map's Jacobian (the variational equations with saltation matrices,
+  :mod:`porthamiltonian.saltation`, or finite differences with the step chosen per coordinate)
+  and Floquet multipliers with error bounds; :mod:`.continuation` —
   branches of gaits over a parameter, their bifurcations, period doubling (``walker continue``);
 * :mod:`.gait`, :mod:`.metrics` — the gait analysis behind ``walker gait`` and its metrics;
 * :mod:`.robustness` — step-down, basin of attraction, Gait Sensitivity Norm; :mod:`.series`
