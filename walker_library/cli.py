@@ -1,8 +1,9 @@
 """Command line ``walker``: gait analyses of the walker models.
 
-    walker gait MODEL [--set NAME=VALUE ...] [--guess FILE] [--max-period K] [--fd-step H] [--json]
+    walker gait MODEL [--set NAME=VALUE ...] [--guess FILE] [--max-period K]
+                [--jacobian variational|fd] [--fd-step H] [--json]
     walker continue MODEL --param NAME=START:STOP [--set NAME=VALUE ...] [--guess FILE]
-                    [--doublings N] [--json] [--out DIR]
+                    [--doublings N] [--jacobian variational|fd] [--json] [--out DIR]
     walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--json]
     walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--json]
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
@@ -163,7 +164,7 @@ def cmd_gait(args) -> int:
         print("  Floquet multipliers (± error bound), to the digits their error bounds support:")
         for m, e in zip(result.floquet_multipliers, result.multiplier_errors):
             (value, modulus), = multiplier_cells([m], e)[0]
-            print(f"    {value:28s} |λ| {modulus} ± {_fmt(e)}")
+            print(f"    {value:28s} |λ| {modulus} ± {e:.1g}")
         if len(d["orbits"]) > 1:
             print("  orbits found:")
             for o in d["orbits"]:
@@ -183,7 +184,7 @@ def cmd_gait(args) -> int:
 
 
 def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: int = 400,
-                  jacobian: str = "fd", log=None):
+                  jacobian: str = "variational", log=None):
     """Continue the gait in ``text`` (NAME=START:STOP): the range and parameter are checked
     before any work, the gait at the start found by the full gait search."""
     name, start, stop = parse_range(text)
@@ -386,9 +387,10 @@ def _guess_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--guess", default=None, metavar="FILE",
                    help="start from the fixed point of a previous `walker gait --json` result "
                         "(--set of a section coordinate, model's or thesis's, changes one value)")
-    p.add_argument("--jacobian", choices=("fd", "variational"), default="fd",
-                   help="the stride map's Jacobian: finite differences (fd, default) or the "
-                        "variational equations (where the walker provides them)")
+    p.add_argument("--jacobian", choices=("variational", "fd"), default="variational",
+                   help="the stride map's Jacobian: exact, from the variational equations with "
+                        "saltation matrices (variational, default), or finite differences (fd, "
+                        "the cross-check)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -405,7 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-period", type=int, default=8, metavar="K",
                    help="longest period (steps) looked for when period 1 fails (default: 8)")
     p.add_argument("--fd-step", type=float, default=None, metavar="H",
-                   help="largest finite-difference step of the Floquet Jacobian, relative to "
+                   help="with --jacobian fd: the largest finite-difference step, relative to "
                         "max(|z_j|, 1e-3) (default: 1e-3); the step kept is chosen per "
                         "coordinate below it, so the result does not depend on it")
     p.add_argument("--iterate", type=int, default=200, metavar="N",

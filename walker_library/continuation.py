@@ -34,7 +34,8 @@ maps, on a walker's Poincaré section).
 :class:`ParameterPath` is the line in parameter space that μ moves along: one parameter, or a
 homotopy from the walker's values to others (what ``walker gait`` uses to reach a gait from the
 model file's nominal one). The Jacobian comes from :func:`~.monodromy.stride_jacobian`
-(``jacobian="fd"`` today, ``"variational"`` when the walker provides it).
+(``jacobian="variational"``, exact, by default; ``"fd"``, finite differences, as a
+cross-check).
 """
 from __future__ import annotations
 
@@ -698,7 +699,7 @@ class _Continuer:
 
 def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float | None = None,
                   stop: float | None = None, *, guess=None, period: int = 1,
-                  jacobian: str = "fd", ds: float = 0.05, ds_min: float = 1e-6,
+                  jacobian: str = "variational", ds: float = 0.05, ds_min: float = 1e-6,
                   ds_max: float = 0.3, max_points: int = 400, tol: float | None = None,
                   locate: bool = True, locate_tol: float = 1e-10, doublings: int = 2,
                   max_branches: int = 8,
@@ -708,7 +709,7 @@ def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float |
     parameter : a parameter's name (then ``start``, ``stop`` its range, in its unit) or a
         :class:`ParameterPath`. guess : a section state (model coordinates) near a fixed point
         of S^period at the start (refined by Newton; default: the walker's own guess);
-        :func:`~.gait.gait_start` finds one by the full gait search. jacobian : "fd" or "variational"
+        :func:`~.gait.gait_start` finds one by the full gait search. jacobian : "variational" or "fd"
         (:func:`~.monodromy.stride_jacobian`). ds, ds_min, ds_max : arclength steps in scaled
         units (the range of μ is 1). tol : Newton tolerance (default: the walker's
         ``gait_tolerance``). locate : detect and locate bifurcations (to ``locate_tol`` of

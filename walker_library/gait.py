@@ -257,7 +257,7 @@ class _Search:
                              jacobian=self.jacobian)
             except WalkerFell:
                 self.tried.append(f"the period-{period} orbit found by {found_by} has no "
-                                  "multipliers: every finite-difference step falls")
+                                  "multipliers: a stride needed for the Jacobian falls")
                 return None
         orbit = Orbit(period, z, fl, found_by)
         self.orbits.append(orbit)
@@ -359,15 +359,16 @@ def _direct(walker: Walker, guess, *, tol: float, max_iter: int, max_period: int
 def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
                  fd_step: float | None = None, tol: float | None = None, n_iterate: int = 200,
                  period_tol: float = 1e-7, max_iter: int = 30, continuation: bool = True,
-                 jacobian: str = "fd", log: Callable[[str], None] | None = None) -> GaitResult:
+                 jacobian: str = "variational", log: Callable[[str], None] | None = None) -> GaitResult:
     """Find and describe the gait of ``walker`` starting from ``guess`` (default: the walker's own
     initial guess). See the module docstring for the search and :class:`GaitResult` for the
     fields.
 
-    fd_step : where the finite-difference ladder of the Floquet Jacobian starts (relative to
-        max(|z_j|, 1e-3); default 1e-3): the step kept is chosen per coordinate, so this does not
-        change the result beyond its error bounds (:mod:`.monodromy`). jacobian : "fd" or
-        "variational". tol : Newton tolerance on |S^k(z) − z|_∞ (default: the walker's
+    jacobian : the stride map's Jacobian, "variational" (exact, the default) or "fd" (finite
+        differences, the cross-check; :mod:`.monodromy`). fd_step : with "fd", where the
+        finite-difference ladder starts (relative to max(|z_j|, 1e-3); default 1e-3): the step
+        kept is chosen per coordinate, so this does not change the result beyond its error
+        bounds. tol : Newton tolerance on |S^k(z) − z|_∞ (default: the walker's
         ``gait_tolerance`` if it has one, else 1e-10). n_iterate, period_tol, max_period :
         period detection. continuation : continue the model file's nominal gait to these
         parameters when no stable orbit is found otherwise.
