@@ -54,7 +54,7 @@ from porthamiltonian.errors import ModelError, ParameterValueError
 from .monodromy import (
     JACOBIAN_METHODS,
     StrideJacobian,
-    eigen_errors,
+    multipliers,
     spectral_radius,
     stride_jacobian,
 )
@@ -420,7 +420,7 @@ class _Continuer:
                near: StrideJacobian | None) -> _State:
         A, sj = m.jacobian(x, near)
         t = _tangent(A, t_prev)
-        lam, err = eigen_errors(sj.matrix, sj.error)
+        lam, err = multipliers(sj)
         z = x[:-1] * m.s
         mu = m.mu(x)
         orbit = [z] + [s.z_next for s in strides[:-1]]
@@ -433,7 +433,7 @@ class _Continuer:
         """``st`` with its Jacobian from the full finite-difference ladder (fresh steps and
         error estimates)."""
         A, sj = m.jacobian(st.x, None)
-        lam, err = eigen_errors(sj.matrix, sj.error)
+        lam, err = multipliers(sj)
         st.A, st.sj = A, sj
         st.point.multipliers, st.point.errors = lam, err
         return st
