@@ -130,7 +130,9 @@ def test_damping_calibration_the_thesis_way(walker):
 #: 0.2620491072i (compass_walker_point_legs).
 PINS = {"step_period": 1.0132068997, "step_length": 0.3075614420, "speed": 0.3035524551,
         "energy_dissipated_per_step": 0.0874366281}
-PIN_MULTIPLIER = complex(-0.1116409256, 0.2387423315)
+#: the dominant multiplier, exact (variational equations; until the exact Jacobian,
+#: −0.1116409256 + 0.2387423315i from finite differences, 5e-4 off)
+PIN_MULTIPLIER = complex(-0.1115854267, 0.2391000346)
 
 
 def test_regression_pins(gait):
@@ -138,34 +140,36 @@ def test_regression_pins(gait):
     point is converged to 1e-8 and each stride integrated at rtol 1e-8, so the step period, step
     length, speed and energy per step carry errors of order 1e-8 (relative); a different back
     end or a change of step sequence moves them by as much: asserted to 1e-6 (relative). The
-    multipliers come from central differences with the step chosen per coordinate; their error
-    bound, 1.6e-3 for the dominant pair, sets the tolerance (3e-3); the other four are below
-    5e-4 in modulus."""
+    multipliers are exact (the variational equations at rtol 1e-9): 5e-9 from those at rtol
+    1e-11, their error bound ≈ 2e-7: asserted to 1e-6; the third is 5.2e-4, the other three
+    below 1e-8 in modulus."""
     m = gait.metrics
     for key, value in PINS.items():
         assert getattr(m, key) == pytest.approx(value, rel=1e-6), key
     mults = sorted(gait.floquet_multipliers, key=lambda c: (-abs(c), -c.imag))
-    assert abs(mults[0] - PIN_MULTIPLIER) < 3e-3
-    assert abs(mults[1] - PIN_MULTIPLIER.conjugate()) < 3e-3
-    assert gait.multiplier_errors[0] < 3e-3
-    assert all(abs(c) < 5e-4 for c in mults[2:])
+    assert abs(mults[0] - PIN_MULTIPLIER) < 1e-6
+    assert abs(mults[1] - PIN_MULTIPLIER.conjugate()) < 1e-6
+    assert gait.multiplier_errors[0] < 1e-6
+    assert abs(mults[2] - 5.198352e-4) < 1e-6
+    assert all(abs(c) < 1e-6 for c in mults[3:])
 
 
 #: the gait of strides integrated at rtol 1e-11 (the file's Rodas5P, atol 1e-13; Newton to 1e-11;
-#: Floquet multipliers by the default central differences), measured on the C back end
-TIGHT_FIXED_POINT = [-0.206411020523, 0.206209813786, 0.606829889921, -0.118612721153,
-                     0.825427285873, 0.827699297548]
-TIGHT_MULTIPLIERS = [complex(-0.0932253087, 0.2622787374), complex(-0.0932253087, -0.2622787374),
-                     complex(0.0004719967, 0.0), complex(0.0000002416, 0.0),
-                     complex(-0.0000000430, 0.0000000344), complex(-0.0000000430, -0.0000000344)]
+#: Floquet multipliers exact, from the variational equations), measured on the C back end. Legs
+#: with a rod's inertia; re-pinned with the exact multipliers (the finite differences' pins, of
+#: the point-leg walker, carried ~1e-4 of their error: the last three "multipliers" 2e-7 to 4e-8
+#: were noise, exactly they are below 1e-11)
+TIGHT_FIXED_POINT = [-0.206593040026, 0.206392004125, 0.606538920573, -0.118663812337,
+                     0.824951668227, 0.827335229012]
+TIGHT_MULTIPLIERS = [complex(-0.1115854267, 0.2391000346), complex(-0.1115854267, -0.2391000346),
+                     complex(0.0005198352, 0.0), 0j, 0j, 0j]
 
 
 def test_same_gait_on_every_back_end(walker):
     """The back end in use ("auto": C; .ci/run runs this file once more with
     PORTHAMILTONIAN_BACKEND=numba) gives the gait pinned from the C back end: the fixed point
-    to 1e-9 (measured C vs numba: 4e-12) and the multipliers to 1e-5 (measured C vs numba:
-    ≤ 1.4e-6: the finite differences of step 1e-4 magnify the round-off by which strides
-    through the stiff contact differ between back ends)."""
+    to 1e-9 (measured C vs numba: 4e-12) and the exact multipliers to 1e-6 (their error bound
+    at rtol 1e-11: ≤ 3e-7)."""
     from walker_library import find_fixed_point
     from walker_library.monodromy import floquet
 
@@ -174,4 +178,4 @@ def test_same_gait_on_every_back_end(walker):
     assert fp.converged
     assert np.max(np.abs(fp.z - TIGHT_FIXED_POINT)) < 1e-9
     mults = sorted(floquet(tight, fp.z).multipliers, key=lambda c: (-abs(c), -c.imag))
-    assert np.max(np.abs(np.array(mults) - TIGHT_MULTIPLIERS)) < 1e-5
+    assert np.max(np.abs(np.array(mults) - TIGHT_MULTIPLIERS)) < 1e-6
