@@ -498,6 +498,12 @@ class _Continuer:
         direction = first.t
         branch.points.append(first.point)
         fails = 0
+        # a period-doubled branch ends where its orbit's two halves meet again (it rejoins the
+        # parent branch at another flip: a closed bubble, which would otherwise be gone round
+        # until max_points)
+        half = branch.period // 2 if branch.origin.startswith("flip") else 0
+        gap0 = _half_gap(first.point, half, m.s) if half else 0.0
+        peak = gap0
         while True:
             if len(branch.points) >= self.max_points:
                 branch.end = f"{self.max_points} points (max_points)"
@@ -543,6 +549,13 @@ class _Continuer:
             if landing is not None:
                 branch.end = f"reached {self.path.label} = {new.point.mu:.10g} (end of the range)"
                 return
+            if half:
+                gap = _half_gap(new.point, half, m.s)
+                peak = max(peak, gap)
+                if peak > 2.0 * gap0 and gap < 0.5 * gap0:
+                    branch.end = (f"rejoined the period-{half} branch near {self.path.label} = "
+                                  f"{new.point.mu:.10g} (its halves meet: a flip of that branch)")
+                    return
             # step size: the corrector's effort, the change of the multipliers and of direction
             secant = (new.x - cur.x) / np.linalg.norm(new.x - cur.x)
             change = _change(cur.point.multipliers, new.point.multipliers)
@@ -695,6 +708,11 @@ class _Continuer:
         while self._pending:
             bif, state, mm = self._pending.pop(0)
             self.switch(bif, state, mm)
+
+
+def _half_gap(point: BranchPoint, half: int, scale: np.ndarray) -> float:
+    """How far apart the two halves of a period-2k orbit are (scaled section coordinates)."""
+    return float(np.max(np.abs(point.orbit[half] - point.orbit[0]) / scale))
 
 
 def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float | None = None,
