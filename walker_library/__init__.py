@@ -12,7 +12,11 @@ gait analyses.
   dissipated by element), :mod:`.standing` (the compliant leg's standing check);
 * :mod:`.protocol` — the :class:`Walker` interface the analyses use, :class:`Stride`,
   :class:`ParameterSpec`;
-* :mod:`.poincare` — stride map, fixed points (Newton), Floquet multipliers, period detection;
+* :mod:`.poincare` — stride map, fixed points (Newton), period detection; :mod:`.monodromy` —
+  the stride map's Jacobian (the variational equations with saltation matrices,
+  :mod:`porthamiltonian.saltation`, or finite differences with the step chosen per coordinate)
+  and Floquet multipliers with error bounds; :mod:`.continuation` —
+  branches of gaits over a parameter, their bifurcations, period doubling (``walker continue``);
 * :mod:`.gait`, :mod:`.metrics` — the gait analysis behind ``walker gait`` and its metrics;
 * :mod:`.robustness` — step-down, basin of attraction, Gait Sensitivity Norm; :mod:`.series`
   (time series for plots); :mod:`.report` (the HTML report);
@@ -21,17 +25,17 @@ gait analyses.
   (``walker reproduce``);
 * :mod:`.results` — JSON serialization; :mod:`.cli` — the ``walker`` command.
 """
+from .continuation import ContinuationResult, ParameterPath, continue_gait
 from .core import HybridWalker
 from .gait import GaitResult, WalkResult, analyze_gait, walk
 from .hybrid import Completion, Foot, Integration, Rule, Section, Terrain, WalkerSpec, walker_spec
 from .metrics import GaitMetrics, gait_metrics
+from .monodromy import FloquetResult, floquet, stride_jacobian
 from .poincare import (
                        FixedPointResult,
-                       FloquetResult,
                        PeriodResult,
                        detect_period,
                        find_fixed_point,
-                       floquet,
                        iterate,
                        jacobian,
                        stride_map,
@@ -52,11 +56,11 @@ from .walkers import (
 )
 
 __all__ = [
-    "Completion", "FixedPointResult", "FloquetResult", "Foot", "GaitMetrics", "GaitResult",
-    "HybridWalker", "Integration", "ParameterSpec", "PeriodResult", "Rule", "Section", "Stride",
+    "Completion", "ContinuationResult", "FixedPointResult", "FloquetResult", "Foot", "GaitMetrics", "GaitResult",
+    "HybridWalker", "Integration", "ParameterPath", "ParameterSpec", "PeriodResult", "Rule", "Section", "Stride",
     "Terrain", "WalkResult", "Walker", "WalkerSpec", "analyze_gait", "available_walkers",
-    "compass_gait", "compass_walker", "compliant_leg_walker", "detect_period",
+    "compass_gait", "compass_walker", "compliant_leg_walker", "continue_gait", "detect_period",
     "find_fixed_point", "floquet", "gait_metrics", "iterate", "jacobian", "load_walker",
     "read_walker", "rigid_compass_walker", "rimless_wheel", "save_walker", "simplest_walker",
-    "stride_map", "variable_stiffness_walker", "walk", "walker_spec",
+    "stride_jacobian", "stride_map", "variable_stiffness_walker", "walk", "walker_spec",
 ]

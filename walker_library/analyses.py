@@ -82,14 +82,16 @@ _THESIS_KEYS = ("theta", "theta_dot", "phi", "phi_dot")
 
 def gait_summary(walker: Walker, result: GaitResult) -> dict:
     """The main fields of a :class:`~walker_library.gait.GaitResult` as a flat dict (SI units,
-    angles in rad): status, period_steps, stable, max_multiplier (largest |Floquet multiplier|),
+    angles in rad): status, outcome, period_steps, stable, max_multiplier (largest |Floquet
+    multiplier|),
     multiplier_error, step_period (s), step_length (m), speed (m/s), energy_dissipated_per_step
     (J), max_theta, max_phi (rad), cost_of_transport (1), the fixed point in the thesis's terms
     (``fixed_point.theta``, ``.theta_dot``, ``.phi``, ``.phi_dot``; a rimless wheel: theta and
     theta_dot), fell_at_step and message. Null where not defined (no gait)."""
     d = result.to_dict()
     mults = [abs(complex(m)) for m in result.floquet_multipliers]
-    out = {"status": d["status"], "period_steps": d["period_steps"], "stable": d["stable"],
+    out = {"status": d["status"], "outcome": d["outcome"], "period_steps": d["period_steps"],
+           "stable": d["stable"],
            "max_multiplier": max(mults) if mults else None,
            "multiplier_error": d["multiplier_error"]}
     for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step", "max_theta",
@@ -105,7 +107,7 @@ def gait_summary(walker: Walker, result: GaitResult) -> dict:
 
 
 def gait_case(case: Mapping[str, Any], *, model: str, backend: str | None = None,
-              max_period: int = 8, fd_step: float = 1e-4, n_iterate: int = 200) -> dict:
+              max_period: int = 8, fd_step: float | None = None, n_iterate: int = 200) -> dict:
     """Case function of ``--analysis gait``: the walker ``model`` with the case's values as
     parameter overrides, :func:`walker_library.gait.analyze_gait` from its initial guess, and
     :func:`gait_summary` of the result."""
@@ -119,15 +121,19 @@ def step_down_case(case: Mapping[str, Any], *, model: str, backend: str | None =
     """Case function of ``--analysis step-down``: the gait and the step-down test of ``model``
     with the case's parameters (and an optional ``guess``: the section state to start the gait
     search from). Returns status ("ok", "no_gait"), max_step_down (m), contiguous,
-    first_failure (m), holes, and the gait's speed (m/s), energy per step (J), step period (s),
-    largest |multiplier|."""
+    contiguous_limit (m), survived_intervals (m), first_failure (m), holes, and the gait's
+    outcome, stability, speed (m/s), energy per step (J), step period (s), largest
+    |multiplier|."""
     walker, gait = walker_cache().gait(model, backend, case)
     r = step_down(walker, gait, resolution=resolution, h_max=h_max)
     mults = [abs(complex(m)) for m in gait.floquet_multipliers]
     m = gait.metrics
     return to_jsonable({"status": r.status, "max_step_down": r.max_step_down,
-                        "contiguous": r.contiguous, "first_failure": r.first_failure,
+                        "contiguous": r.contiguous, "contiguous_limit": r.contiguous_limit,
+                        "survived_intervals": r.survived_intervals,
+                        "first_failure": r.first_failure,
                         "holes": r.holes, "gait_status": gait.status,
+                        "gait_outcome": gait.outcome, "stable": gait.stable,
                         "period_steps": gait.period_steps,
                         "max_multiplier": max(mults) if mults else None,
                         "speed": m.speed, "step_period": m.step_period,

@@ -1,11 +1,15 @@
 """Command line ``walker``: gait analyses of the walker models.
 
-    walker gait MODEL [--set NAME=VALUE ...] [--max-period K] [--fd-step H] [--json]
+    walker gait MODEL [--set NAME=VALUE ...] [--guess FILE] [--max-period K]
+                [--jacobian variational|fd] [--fd-step H] [--json]
+    walker continue MODEL --param NAME=START:STOP [--set NAME=VALUE ...] [--guess FILE]
+                    [--doublings N] [--jacobian variational|fd] [--json] [--out DIR]
     walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--json]
     walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--json]
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
     walker gsn MODEL [--set NAME=VALUE ...] [--json]
     walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin] [--view3d]
+                  [--continuation NAME=START:STOP]
     walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
@@ -43,10 +47,11 @@ from porthamiltonian.cli import (
     run,
     run_sweep,
 )
-from porthamiltonian.errors import ModelFileError
+from porthamiltonian.errors import ModelError, ModelFileError
 
 from .analyses import ANALYSES, get_analysis
-from .gait import analyze_gait, walk
+from .continuation import ParameterPath, continue_gait, parse_range
+from .gait import analyze_gait, gait_start, section_guess, walk
 from .labels import describe, is_nondimensional, shown_unit
 from .report_page import multiplier_cells
 from .results import to_json
@@ -83,6 +88,52 @@ def _walker(args):
                        backend=args.backend)
 
 
+#: the largest guess file read (bytes): a `walker gait --json` result is a few kB
+MAX_GUESS_BYTES = 10_000_000
+
+
+def _read_guess(path: str) -> dict:
+    """A previous ``walker gait --json`` result (the ``--guess`` option): a JSON object."""
+    p = Path(path)
+    try:
+        size = p.stat().st_size
+        if size > MAX_GUESS_BYTES:
+            raise ModelFileError(f"--guess {path}: {size} bytes is too large for a gait result "
+                                 f"(at most {MAX_GUESS_BYTES})")
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise ModelFileError(f"--guess {path}: cannot read it ({err})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise ModelFileError(f"--guess {path}: not a JSON document (line {err.lineno}: "
+                             f"{err.msg}); give the output of `walker gait ... --json`") from None
+    if not isinstance(data, dict):
+        raise ModelFileError(f"--guess {path}: expected a JSON object (a `walker gait --json` "
+                             "result)")
+    return data
+
+
+def _walker_and_guess(args):
+    """The walker with the ``--set`` parameter values, and the section state that the ``--set``
+    section coordinates and ``--guess`` file make (None if neither is given)."""
+    values = parse_assignments(args.set)
+    walker = load_walker(check_walker_name(args.model), None, backend=args.backend)
+    coords = (set(walker.section) | set(walker.thesis_section)) - set(walker.parameters)
+    unknown = [k for k in values if k not in coords and k not in walker.parameters]
+    if unknown:
+        raise ModelFileError(f"{walker.name}: --set {', '.join(unknown)}: neither a parameter "
+                             f"nor a section coordinate; parameters: "
+                             f"{', '.join(walker.parameters)}; section coordinates: "
+                             f"{', '.join(walker.section)} (thesis: "
+                             f"{', '.join(walker.thesis_section)})")
+    params = {k: v for k, v in values.items() if k not in coords}
+    named = {k: v for k, v in values.items() if k in coords}
+    walker = walker.with_parameters(**params) if params else walker
+    previous = _read_guess(args.guess) if getattr(args, "guess", None) else None
+    return walker, section_guess(walker, previous, named)
+
+
 def _with_unit(walker, key: str, value: Any) -> str:
     """``value`` and the unit of quantity ``key`` of ``walker`` ("nondim." in a nondimensional
     model; nothing for a ratio)."""
@@ -92,40 +143,91 @@ def _with_unit(walker, key: str, value: Any) -> str:
 
 
 def cmd_gait(args) -> int:
-    walker = _walker(args)
+    walker, guess = _walker_and_guess(args)
     with activity(f"gait {walker.name}", enabled=not args.quiet):
-        result = analyze_gait(walker, max_period=args.max_period, fd_step=args.fd_step,
-                              n_iterate=args.iterate)
+        result = analyze_gait(walker, guess, max_period=args.max_period, fd_step=args.fd_step,
+                              n_iterate=args.iterate, jacobian=args.jacobian,
+                              continuation=not args.no_continuation)
     if args.json:
         print(result.to_json())
         return 0
     d = result.to_dict()
-    print(f"{walker.name}: {d['status']} ({d['message']})")
+    print(f"{walker.name}: {d['outcome'].replace('_', ' ')} ({d['message']})")
     if d["status"] == "periodic":
-        print(f"  period {d['period_steps']} step(s), {'stable' if d['stable'] else 'UNSTABLE'}")
+        certain = "" if d["stability_certain"] else " (the error bounds allow either verdict)"
+        print(f"  period {d['period_steps']} step(s), "
+              f"{'stable' if d['stable'] else 'UNSTABLE'}{certain}")
         print("  fixed point on the Poincaré section (heel strike; rigid walkers: just after the "
               "impact, compliant walkers: at touchdown, before it):")
         for name, value in d["fixed_point"].items():
             print(f"    {name:20s} {_with_unit(walker, name, value)}")
-        print(f"  Floquet multipliers, to the digits their error estimate "
-              f"{_fmt(d['multiplier_error'])} supports:")
-        rows, _ = multiplier_cells(result.floquet_multipliers, result.multiplier_error)
-        for value, modulus in rows:
-            print(f"    {value:28s} |λ| {modulus}")
-    elif d["status"] == "fell":
-        print(f"  fell during step {d['fell_at_step']} ({d['fall_reason']})")
-    if d["status"] != "periodic" and result.unstable_fixed_point:
-        print("  unstable period-1 fixed point (Newton), Floquet multipliers:")
-        rows, _ = multiplier_cells(result.unstable_fixed_point["floquet_multipliers"],
-                                   float("nan"))
-        for value, modulus in rows:
-            print(f"    {value:28s} |λ| {modulus}")
+        print("  Floquet multipliers (± error bound), to the digits their error bounds support:")
+        for m, e in zip(result.floquet_multipliers, result.multiplier_errors):
+            (value, modulus), = multiplier_cells([m], e)[0]
+            print(f"    {value:28s} |λ| {modulus} ± {e:.1g}")
+        if len(d["orbits"]) > 1:
+            print("  orbits found:")
+            for o in d["orbits"]:
+                print(f"    period {o['period_steps']}: max |λ| = {o['max_multiplier']:.6g} "
+                      f"({'stable' if o['stable'] else 'unstable'}; {o['found_by']})")
+    if d["fell_at_step"] is not None:
+        print(f"  from the guess the walker fell during step {d['fell_at_step']} "
+              f"({d['fall_reason']})")
     if d["last_iterate"]:
         print("  last iterate:", ", ".join(f"{k} = {_with_unit(walker, k, v)}"
                                            for k, v in d["last_iterate"].items()))
-    for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step",
-                "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
-        print(f"  {key:30s} {_with_unit(walker, key, d[key])}")
+    if d["status"] == "periodic":
+        for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step",
+                    "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
+            print(f"  {key:30s} {_with_unit(walker, key, d[key])}")
+    return 0
+
+
+def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: int = 400,
+                  jacobian: str = "variational", log=None):
+    """Continue the gait in ``text`` (NAME=START:STOP): the range and parameter are checked
+    before any work, the gait at the start found by the full gait search."""
+    name, start, stop = parse_range(text)
+    path = ParameterPath.single(walker, name, start, stop)
+    z0, period = gait_start(walker, name, start, guess, jacobian=jacobian)
+    return continue_gait(walker, path, guess=z0, period=period, jacobian=jacobian,
+                         doublings=doublings, max_points=max_points, log=log)
+
+
+def cmd_continue(args) -> int:
+    walker, guess = _walker_and_guess(args)
+    log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    if args.doublings < 0 or args.max_points < 2:
+        raise ModelError("--doublings must be >= 0 and --max-points >= 2")
+    result = _continuation(walker, args.param, guess, doublings=args.doublings,
+                           max_points=args.max_points, jacobian=args.jacobian, log=log)
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "continuation.json").write_text(result.to_json())
+        result.figure(out / "bifurcation_diagram.png")
+    if args.json:
+        print(result.to_json())
+        return 0
+    label, unit = result.path.label, result.path.unit
+    print(f"{walker.name}: continuation in {label} ({unit}) from {result.path.start:g} to "
+          f"{result.path.stop:g}: {result.message} ({result.seconds:.0f} s)")
+    for i, br in enumerate(result.branches):
+        print(f"branch {i}: period {br.period}, {len(br.points)} points; from {br.origin}; "
+              f"{br.end}")
+        print(f"  {label:>14s}  max |λ|    stable  {'  '.join(walker.thesis_section)}")
+        for p in br.points:
+            w = walker.to_thesis(p.z)
+            print(f"  {p.mu:14.10g}  {p.max_modulus:9.6f}  {'yes' if p.stable else 'no ':3s}     "
+                  + "  ".join(f"{v: .6g}" for v in w))
+    if result.bifurcations:
+        print("bifurcations:")
+        for b in result.bifurcations:
+            print(f"  {b.kind:15s} branch {b.branch} (period {b.period}): {label} = "
+                  f"{b.mu:.12g} ± {b.mu_error:.1g}, multiplier {b.multiplier:.8f}"
+                  + (f"; period-{2 * b.period} branch {b.child}" if b.child is not None else ""))
+    if args.out:
+        print(f"wrote {Path(args.out) / 'continuation.json'} and bifurcation_diagram.png")
     return 0
 
 
@@ -214,9 +316,12 @@ def cmd_report(args) -> int:
     from .report import write_report
     walker = _walker(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    continuation = None
+    if args.continuation:
+        continuation = _continuation(walker, args.continuation, None, log=log)
     result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
                           with_step_down=not args.no_step_down, forces=args.forces,
-                          view3d=args.view3d, log=log)
+                          view3d=args.view3d, continuation=continuation, log=log)
     print(f"wrote {result.out / 'report.html'} ({len(result.files)} files, {result.seconds:.0f} s)")
     return 0
 
@@ -278,6 +383,16 @@ def cmd_export(args) -> int:
     return 0
 
 
+def _guess_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--guess", default=None, metavar="FILE",
+                   help="start from the fixed point of a previous `walker gait --json` result "
+                        "(--set of a section coordinate, model's or thesis's, changes one value)")
+    p.add_argument("--jacobian", choices=("variational", "fd"), default="variational",
+                   help="the stride map's Jacobian: exact, from the variational equations with "
+                        "saltation matrices (variational, default), or finite differences (fd, "
+                        "the cross-check)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``walker`` command's parser."""
     model_help = "walker model: a name from models/ (walker list) or a path to a walker file"
@@ -291,12 +406,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("model", help=model_help)
     p.add_argument("--max-period", type=int, default=8, metavar="K",
                    help="longest period (steps) looked for when period 1 fails (default: 8)")
-    p.add_argument("--fd-step", type=float, default=1e-4, metavar="H",
-                   help="perturbation size of the Floquet Jacobian, in the section coordinates' "
-                        "units (default: 1e-4; the thesis used 0.001)")
+    p.add_argument("--fd-step", type=float, default=None, metavar="H",
+                   help="with --jacobian fd: the largest finite-difference step, relative to "
+                        "max(|z_j|, 1e-3) (default: 1e-3); the step kept is chosen per "
+                        "coordinate below it, so the result does not depend on it")
     p.add_argument("--iterate", type=int, default=200, metavar="N",
                    help="steps iterated for period detection when period 1 fails (default: 200)")
+    _guess_options(p)
+    p.add_argument("--no-continuation", action="store_true",
+                   help="do not continue the model file's nominal gait to these parameters when "
+                        "the guess finds no stable gait")
     p.set_defaults(func=cmd_gait)
+
+    p = sub.add_parser("continue", parents=analysis,
+                       help="continuation of the gait in a parameter: branches, stability, "
+                            "bifurcations, period doubling")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--param", required=True, metavar="NAME=START:STOP",
+                   help="the run-time parameter and its range, e.g. slope=0.002:0.02")
+    p.add_argument("--doublings", type=int, default=2, metavar="N",
+                   help="period doublings to follow from flips (default: 2, period 1 -> 2 -> 4)")
+    p.add_argument("--max-points", type=int, default=400, metavar="N",
+                   help="points per branch at most (default: 400)")
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="write continuation.json and bifurcation_diagram.png there")
+    _guess_options(p)
+    p.set_defaults(func=cmd_continue)
 
     p = sub.add_parser("walk", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION],
                        help="walk N steps from the initial guess; per-step records and the "
@@ -340,6 +475,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="steps of the recorded walk (default: 6)")
     p.add_argument("--basin", action="store_true", help="also the basin of attraction (slow)")
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
+    p.add_argument("--continuation", default=None, metavar="NAME=START:STOP",
+                   help="also the bifurcation diagram over a parameter's range (walker continue)")
     p.add_argument("--forces", action="store_true",
                    help="draw the contact-force arrows in walk.gif (the page's player has a "
                         "switch for them either way)")

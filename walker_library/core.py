@@ -49,6 +49,7 @@ from .names import ModelNames, check_names
 from .protocol import ParameterSpec, Stride, check_parameters
 from .resets import ImpactMap, Relabel, floating_model
 from .strides import cut_strides
+from .variational import StrideSensitivity, stride_sensitivity
 
 __all__ = ["HybridWalker", "compiled"]
 
@@ -527,6 +528,13 @@ class HybridWalker:
             actions=self.machine.actions(log), max_events=100 * n_steps + 100,
             dense_output=(details or record) and o.method not in COMPILED_METHODS)
         return cut_strides(self, traj, log, details=details, record=record, x0=x0, p0=p0)
+
+    def stride_sensitivity(self, z: np.ndarray, period: int = 1, *,
+                           factor: float = 1.0) -> StrideSensitivity:
+        """The exact Jacobian of the stride map S^period at section state ``z``, from strides
+        integrated with their variational equations at the walker's tolerances times
+        ``factor`` (:func:`.variational.stride_sensitivity`)."""
+        return stride_sensitivity(self, z, period, factor=factor)
 
     def with_options(self, **changes: Any) -> HybridWalker:
         """A copy with some integrator settings changed (e.g. ``max_step``)."""

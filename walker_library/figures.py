@@ -1,5 +1,5 @@
 """The report's figures (matplotlib, Agg back end, PNG): angles, limit cycle, energy ledger,
-energy per step, Floquet multipliers, step-down, basin of attraction.
+energy per step, Floquet multipliers, step-down, basin of attraction, bifurcation diagram.
 
 Conventions of every figure: a reset (a heel strike relabels the legs and, for a rigid walker,
 applies the impact) is not part of the flow, so curves break at events and the jump is drawn
@@ -27,7 +27,8 @@ from porthamiltonian.display import event_split
 from .labels import shown_unit
 from .series import GaitSeries
 
-__all__ = ["DPI", "STYLE", "draw_multipliers", "draw_phase", "event_split", "fig_angles", "fig_basin", "fig_energy", "fig_energy_per_step",
+__all__ = ["DPI", "STYLE", "draw_multipliers", "draw_phase", "event_split", "fig_angles", "fig_basin",
+           "fig_bifurcation", "fig_energy", "fig_energy_per_step",
            "fig_floquet", "fig_limit_cycle", "fig_step_down", "heel_strike_points", "pyplot",
            "save_figure"]
 
@@ -310,4 +311,56 @@ def fig_basin(r: Any, path: Path | None) -> bytes:
     ax.set_xlabel(f"$\\theta$ / {r.theta_scale:g} rad")
     ax.set_ylabel(f"$\\dot{{\\theta}}$ / {r.theta_dot_scale:g} rad/s")
     fig.legend(loc="outside lower center", ncols=3, frameon=False)
+    return save_figure(fig, path)
+
+
+def _runs(points: Sequence[Any]) -> list[list[Any]]:
+    """Consecutive branch points of equal stability (each run shares its end point with the
+    next)."""
+    runs: list[list[Any]] = []
+    for p in points:
+        if runs and runs[-1][-1].stable != p.stable:
+            runs[-1].append(p)
+            runs.append([p])
+        elif runs:
+            runs[-1].append(p)
+        else:
+            runs.append([p])
+    return runs
+
+
+@styled
+def fig_bifurcation(c: Any, path: Path | None) -> bytes:
+    """The bifurcation diagram of a continuation (:class:`.continuation.ContinuationResult`):
+    max |λ| (top) and each step's duration of the orbit (bottom, s) against the parameter;
+    stable solid, unstable dashed; bifurcations marked."""
+    fig = new_figure(figsize=(7, 6))
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    top = 1.0
+    for i, br in enumerate(c.branches):
+        color = f"C{i % 10}"
+        for run in _runs(br.points):
+            style = "-" if run[0].stable else "--"
+            mu = [p.mu for p in run]
+            ax1.plot(mu, [p.max_modulus for p in run], style, color=color, lw=1.2)
+            for k in range(br.period):
+                ax2.plot(mu, [p.durations[k] for p in run], style, color=color, lw=1.2)
+        top = max([top] + [p.max_modulus for p in br.points])
+        ax1.plot([], [], "-", color=color, label=f"branch {i}: period {br.period}")
+    marks = {"flip": "o", "fold": "s", "branch_point": "^", "neimark_sacker": "D"}
+    for b in c.bifurcations:
+        ax1.plot(b.mu, abs(b.multiplier), marks[b.kind], color="k", ms=5, mfc="none")
+        for d in b.point.durations:
+            ax2.plot(b.mu, d, marks[b.kind], color="k", ms=5, mfc="none")
+    for kind, m in marks.items():
+        if any(b.kind == kind for b in c.bifurcations):
+            ax1.plot([], [], m, color="k", mfc="none", label=kind.replace("_", "–"))
+    ax1.axhline(1.0, color="0.5", lw=0.7)
+    ax1.set_ylim(0.0, min(top, 3.0) * 1.05)
+    ax1.set_ylabel("max |Floquet multiplier|")
+    ax1.legend(fontsize=7)
+    ax2.set_ylabel("duration of each step (s)")
+    unit = f" ({c.path.unit})" if c.path.unit and c.path.unit != "1" else ""
+    ax2.set_xlabel(f"{c.path.label}{unit}")
+    ax1.set_title(f"{c.model}: bifurcation diagram (solid: stable, dashed: unstable)")
     return save_figure(fig, path)

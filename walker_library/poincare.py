@@ -1,20 +1,15 @@
-"""Stride map on the Poincaré section just after heel strike; fixed points, Floquet multipliers,
-period detection (Garcia et al. 1998; the thesis's §2.5-2.6). Generic over :class:`~.protocol.Walker`.
+"""Stride map on the Poincaré section just after heel strike; fixed points, period detection
+(Garcia et al. 1998; the thesis's §2.5-2.6). Generic over :class:`~.protocol.Walker`.
 
 * :func:`stride_map` — S^k(z): k steps from section coordinates z (model's own, or the thesis's
   with ``coordinates="thesis"``); ``None`` when the walker falls.
-* :func:`jacobian` — the Jacobian of S^k by finite differences of size ``step`` (absolute, in the
-  section coordinates' units; the thesis used 0.001, App. C), central or forward.
-* :func:`floquet` — Floquet multipliers (eigenvalues of that Jacobian) with an error estimate:
-  central differences at h and h/2, Richardson-extrapolated (O(h⁴)); the error estimate is the
-  largest change of a multiplier between the extrapolated and the h/2 Jacobians (paired by the
-  Hungarian method).
+* :func:`jacobian` — the Jacobian of S^k by finite differences of one fixed step (absolute, in
+  the section coordinates' units; the thesis used 0.001, App. C), central or forward: what
+  Newton's method uses. The Floquet multipliers use :mod:`.monodromy` (the step chosen per
+  coordinate, with error bounds).
 * :func:`find_fixed_point` — Newton on S^k(z) − z with a forward-difference Jacobian and step
   halving, from a rough guess; returns the last iterate when it does not converge.
 * :func:`detect_period` — iterate the map and find the smallest period k ≤ max_period.
-
-The multipliers are similarity-invariant: they are the same in the model's and the thesis's
-section coordinates (both are returned by :func:`floquet`).
 """
 from __future__ import annotations
 
@@ -29,13 +24,12 @@ from .protocol import Stride, Walker
 
 __all__ = [
     "FixedPointResult",
-    "FloquetResult",
     "IterationResult",
     "PeriodResult",
     "WalkerFell",
+    "advance",
     "detect_period",
     "find_fixed_point",
-    "floquet",
     "iterate",
     "jacobian",
     "stride_map",
@@ -78,7 +72,8 @@ def stride_map(walker: Walker, z, period: int = 1, coordinates: str = "model") -
     return _from_model(walker, strides[-1].z_next, coordinates)
 
 
-def _S(walker: Walker, z: np.ndarray, period: int) -> np.ndarray:
+def advance(walker: Walker, z: np.ndarray, period: int) -> np.ndarray:
+    """S^period(z) in model coordinates; raises :class:`WalkerFell` when the walker falls."""
     strides = _walk(walker, z, period)
     if len(strides) < period or strides[-1].fell:
         raise WalkerFell(z, strides[-1])
@@ -118,7 +113,7 @@ def jacobian(walker: Walker, z, *, period: int = 1, step: float = 1e-3,
     n = len(z)
 
     def S(w):
-        return _from_model(walker, _S(walker, _to_model(walker, w, coordinates), period), coordinates)
+        return _from_model(walker, advance(walker, _to_model(walker, w, coordinates), period), coordinates)
 
     J = np.empty((n, n))
     if scheme == "forward":
@@ -135,58 +130,6 @@ def jacobian(walker: Walker, z, *, period: int = 1, step: float = 1e-3,
     else:
         raise ValueError(f"scheme must be 'central' or 'forward', got {scheme!r}")
     return J
-
-
-def _paired_difference(a: np.ndarray, b: np.ndarray) -> float:
-    if len(a) == 0:
-        return 0.0
-    from scipy.optimize import linear_sum_assignment  # here: scipy.optimize takes ~0.2 s
-
-    cost = np.abs(a[:, None] - b[None, :])
-    rows, cols = linear_sum_assignment(cost)
-    return float(np.max(cost[rows, cols]))
-
-
-def _sorted(mults: np.ndarray) -> np.ndarray:
-    return np.array(sorted(mults, key=lambda c: (-abs(c), -c.imag)))
-
-
-@dataclass
-class FloquetResult:
-    """Floquet multipliers of a period-k gait (eigenvalues of the stride map's Jacobian, largest
-    modulus first) with an error estimate, and the Jacobians in both section coordinates."""
-
-    multipliers: np.ndarray
-    error: float
-    jacobian: np.ndarray
-    jacobian_thesis: np.ndarray
-    step: float
-    period: int
-
-    @property
-    def max_modulus(self) -> float:
-        return float(np.max(np.abs(self.multipliers))) if len(self.multipliers) else 0.0
-
-    @property
-    def stable(self) -> bool:
-        return self.max_modulus < 1.0
-
-
-def floquet(walker: Walker, z, *, period: int = 1, step: float = 1e-4) -> FloquetResult:
-    """Floquet multipliers at a fixed point z of S^period, with an error estimate (see the module
-    docstring). ``step`` is the perturbation size h (absolute; the thesis used 0.001)."""
-    z = np.asarray(z, dtype=float)
-    J1 = jacobian(walker, z, period=period, step=step, scheme="central")
-    J2 = jacobian(walker, z, period=period, step=step / 2, scheme="central")
-    JR = (4.0 * J2 - J1) / 3.0
-    mR = np.linalg.eigvals(JR)
-    m2 = np.linalg.eigvals(J2)
-    error = _paired_difference(mR, m2)
-    # the same Jacobian in the thesis's section coordinates: T J T⁻¹ (T linear)
-    n = len(z)
-    T = np.column_stack([walker.to_thesis(np.eye(n)[:, j]) for j in range(n)])
-    JT = T @ JR @ np.linalg.inv(T)
-    return FloquetResult(_sorted(mR), error, JR, JT, step, period)
 
 
 @dataclass
@@ -217,7 +160,7 @@ def find_fixed_point(walker: Walker, guess=None, *, period: int = 1, tol: float 
     n = len(z)
     history: list[tuple[list[float], float]] = []
     try:
-        Sz = _S(walker, z, period)
+        Sz = advance(walker, z, period)
     except WalkerFell as err:
         return FixedPointResult(False, z, math.inf, 0, period, f"the walker falls from the initial "
                                 f"guess ({err.stride.reason})", fell=True, history=history)
@@ -242,7 +185,7 @@ def find_fixed_point(walker: Walker, guess=None, *, period: int = 1, tol: float 
         for _ in range(12):
             trial = z + lam * dz
             try:
-                S_trial = _S(walker, trial, period)
+                S_trial = advance(walker, trial, period)
             except WalkerFell:
                 lam /= 2
                 continue

@@ -47,6 +47,7 @@ import numpy as np
 from . import report_page as P
 from .animation import player_data, scene, write_gif
 from .comparison import REFERENCES, compare, differing_conditions, doc_link
+from .continuation import ContinuationResult
 from .figures import (
     fig_angles,
     fig_basin,
@@ -101,7 +102,7 @@ class ReportResult:
 def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step_down: bool = True,
                  with_basin: bool = False, basin_n: int = 9, step_down_resolution: float | None = None,
                  forces: bool = False, extra: Sequence[ExtraFigure] | None = None,
-                 view3d: bool | None = None,
+                 view3d: bool | None = None, continuation: ContinuationResult | None = None,
                  log: Callable[[str], None] | None = None) -> ReportResult:
     """Analyse ``walker`` and write the report into directory ``out`` (module docstring).
 
@@ -109,6 +110,8 @@ def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step
     arrows in the GIF (the page's player has a switch for them either way). extra : extra figure
     sections (default :data:`EXTRA_FIGURES`). view3d : the interactive 3D view (default: for a
     3D walker only; True: for a planar walker too, beside its 2D player; False: never).
+    continuation : a continuation of the gait (:func:`~.continuation.continue_gait`) whose
+    bifurcation diagram, bifurcations and branch table the report includes.
     ``log`` receives progress lines."""
     t0 = time.perf_counter()
     say = log or (lambda msg: None)
@@ -174,16 +177,20 @@ def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step
         if caption is not None:
             put(section.filename, (out / section.filename).read_bytes())
             extras.append((section, caption))
+    if continuation is not None:
+        put("bifurcation_diagram.png", continuation.figure(out / "bifurcation_diagram.png"))
+        dump("continuation.json", continuation.to_dict())
     comparison = compare(walker, gait, sd)
     ledger = {"max_abs_residual": float(np.max(np.abs(series.residual))),
               "energy_dissipated": float(series.E_diss[-1]), "energy_supplied": float(series.E_in[-1]),
               "steps": len([s for s in series.strides if not s.fell])}
     summary = {"model": walker.name, "units": "nondimensional" if nondim else "SI",
                "gait": gait_d, "step_down": sd, "gsn": gsn, "basin": bas,
-               "comparison": [r.__dict__ for r in comparison], "walk_ledger": ledger}
+               "comparison": [r.__dict__ for r in comparison], "walk_ledger": ledger,
+               "continuation": None if continuation is None else continuation.to_dict()}
     dump("report.json", summary)
     body = _body(walker, gait, sd, gsn, bas, comparison, ledger, series, sc, images, extras, out,
-                 (scene3d, three_d))
+                 (scene3d, three_d), continuation)
     (out / "report.html").write_text(P.page(f"{walker.name} — walker report", body,
                                             with_player=not three_d,
                                             with_viewer=scene3d is not None))
@@ -411,15 +418,20 @@ def _robustness_html(walker: Walker, sd, gsn, bas, images: dict, nondim: bool) -
     parts = []
     if sd is not None and sd.status == "ok":
         grid = _length(sd.resolution, nondim) if math.isfinite(sd.resolution) else "given heights"
-        verdict = ("every lower height survived too" if sd.contiguous else
-                   f"{len(sd.holes)} lower height(s) fail" if sd.holes else "no height survived")
+        beyond = [iv for iv in sd.survived_intervals
+                  if sd.contiguous_limit is None or iv[0] > sd.contiguous_limit]
+        verdict = ("no height survived" if not sd.survived_intervals else
+                   "every lower height survived too" if sd.contiguous else
+                   "survived beyond it: " + ", ".join(
+                       f"{_length(a, nondim)} to {_length(b, nondim)}" for a, b in beyond))
         parts.append(
             f'<h2 id="step-down">Step-down</h2><p>The surface drops once, ahead of the stance '
             f"foot, and stays down; a height counts as survived when the walker is back within "
             f"{sd.tol:g} of the fixed point (in the section's coordinates) after {sd.n_steps} "
-            "steps. Heights on a grid of "
-            f"{grid}: the largest survived is {_length(sd.max_step_down or 0.0, nondim)}; "
-            f"{verdict}.</p>"
+            f"steps. Heights scanned on a grid of {grid} up to {_length(sd.window, nondim)}, "
+            f"each boundary of the survived set bisected to {_length(sd.boundary_tol, nondim)}: "
+            f"every drop up to {_length(sd.contiguous_limit or 0.0, nondim)} survived; the "
+            f"largest survived is {_length(sd.max_step_down or 0.0, nondim)}; {verdict}.</p>"
             + P.figure(images, "step_down.png", "step-down cases",
                        "Each height tried: survived (converged) or fell."))
     if gsn is not None and gsn.status == "ok":
@@ -440,6 +452,29 @@ def _robustness_html(walker: Walker, sd, gsn, bas, images: dict, nondim: bool) -
                      + P.figure(images, "basin.png", "basin of attraction",
                                 "Grid points that converge to the gait (stars) and the others."))
     return "".join(parts)
+
+
+def _continuation_html(c: ContinuationResult | None, images: dict) -> str:
+    if c is None:
+        return ""
+    label = c.path.label
+    bifs = (P.table(["bifurcation", "branch", "period", label, "± (from the multiplier's error)",
+                     "critical multiplier"],
+                    [[b.kind.replace("_", "–"), b.branch, b.period, f"{b.mu:.12g}",
+                      f"{b.mu_error:.1g}", f"{complex(b.multiplier):.6f}"]
+                     for b in c.bifurcations], numeric=(3, 4))
+            if c.bifurcations else "<p>No bifurcation in the range.</p>")
+    rows = [[r["branch"], r["period_steps"], f"{r[label]:.8g}", f"{r['max_multiplier']:.6f}",
+             "yes" if r["stable"] else "no", f"{r['step_period']:.6g}"] for r in c.table()]
+    branch = P.table(["branch", "period", label, "max |λ|", "stable", "step period (s)"], rows,
+                     numeric=(2, 3, 5))
+    fig = P.figure(images, "bifurcation_diagram.png", "bifurcation diagram",
+                   f"Bifurcation diagram in {label}: the largest Floquet multiplier modulus (top) "
+                   "and the duration of each step of the orbit (bottom); stable solid, unstable "
+                   "dashed, bifurcations marked.")
+    return (f'<h2 id="continuation">Continuation in {html.escape(label)}</h2>'
+            f"<p>{html.escape(c.message)}.</p>" + fig + bifs
+            + f"<details><summary>The branches ({len(rows)} points)</summary>{branch}</details>")
 
 
 def _parameters_html(walker: Walker, nondim: bool) -> str:
@@ -463,14 +498,16 @@ def _command(walker: Walker) -> str:
 
 
 def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc, images,
-          extras, out: Path, view: tuple) -> str:
+          extras, out: Path, view: tuple, continuation: ContinuationResult | None = None) -> str:
     nondim = is_nondimensional(walker)
     sections = [_header(walker, gait, sd, nondim)]
     toc = [("comparison", "comparison", walker.name in REFERENCES),
            ("motion", "the walk", True), ("gait", "gait", True),
            ("floquet", "multipliers", bool(gait.floquet_multipliers)),
            ("step-down", "step-down", sd is not None), ("gsn", "GSN", gsn is not None),
-           ("basin", "basin", bas is not None), ("extra", "more figures", bool(extras)),
+           ("basin", "basin", bas is not None),
+           ("continuation", "continuation", continuation is not None),
+           ("extra", "more figures", bool(extras)),
            ("parameters", "parameters", True)]
     sections.append('<nav class="toc">' + "".join(f'<a href="#{a}">{t}</a>'
                                                   for a, t, on in toc if on) + "</nav>")
@@ -481,6 +518,7 @@ def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc
                     + _gait_tables(walker, gait, nondim))
     sections.append(_floquet_html(gait, images))
     sections.append(_robustness_html(walker, sd, gsn, bas, images, nondim))
+    sections.append(_continuation_html(continuation, images))
     if extras:
         sections.append('<h2 id="extra">More figures</h2>' + "".join(
             f"<h3>{html.escape(s.title)}</h3>" + P.figure(images, s.filename, s.title, caption)
@@ -488,7 +526,8 @@ def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc
     sections.append(_parameters_html(walker, nondim))
     made = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     json_files = ", ".join(f for f in ("gait.json", "step_down.json", "gsn.json", "basin.json",
-                                       "report.json") if (out / f).exists())
+                                       "continuation.json", "report.json")
+                           if (out / f).exists())
     sections.append(f"<footer><p>Made {made} by <code>{html.escape(_command(walker))}</code> "
                     f"(back end {html.escape(str(getattr(walker, 'backend', '')))}). The results "
                     f"as JSON beside this page: {html.escape(json_files)}; the figures as PNG.</p>"

@@ -14,11 +14,16 @@ Walks continue in chunks of ``n_steps`` (at most 5) while the walker neither fal
 so a slow transient near the edge of the basin is not miscounted.
 
 * :func:`step_down` — the surface drops by h once, before the next heel strike (``walk(...,
-  ground_drop=h)``), starting on the gait's fixed point. h is scanned upward on a grid of
-  ``resolution`` (default 2e-4 of the leg length); the scan ends after ``n_beyond`` consecutive
-  failures or at ``h_max``. ``max_step_down`` is the largest h survived on the grid,
-  ``contiguous`` whether every grid height below it was survived too (the thesis's "continuous"
-  vs "chaotic" robustness).
+  ground_drop=h)``), starting on the gait's fixed point. h (in metres) is scanned upward on a
+  grid of ``resolution`` (default 2e-4 of the leg length) over a window of at least twice the
+  first failure, and on until ``n_beyond`` consecutive failures (or ``h_max``); then every
+  boundary between a survived and a failed height is located by bisection to ``boundary_tol``
+  (default 1e-5 m = 0.01 mm), so the answer does not depend on the grid (beyond missing a
+  survived island narrower than it). ``contiguous_limit`` is the largest h with every drop up to
+  it survived; ``survived_intervals`` the survived set found, ``[low, high]`` intervals (the
+  first starts at 0; those after it lie beyond failed drops: the thesis's "chaotic"
+  robustness); ``max_step_down`` the largest drop survived, ``contiguous`` whether it is the
+  contiguous limit.
 * :func:`basin` — a grid of initial section states around the fixed point in the thesis's
   scaled coordinates (θ/θ_scale, θ̇/θ̇_scale; θ_scale = 0.4 rad, θ̇_scale = 0.8 rad/s as in the
   thesis's Fig. 2.21); the other section coordinates follow the fixed point (φ keeps its offset
@@ -31,6 +36,7 @@ so a slow transient near the edge of the basin is not miscounted.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Callable, Iterable
@@ -123,17 +129,25 @@ class StepDownResult(JSONResult):
     """Result of :func:`step_down` (heights in m).
 
     status : "ok", or "no_gait" when the walker has no periodic gait to disturb.
-    max_step_down : largest drop survived on the grid (0.0 when even the first failed; None
-        without a gait). contiguous : every grid height below max_step_down survived.
-    first_failure : the smallest height that failed (None if none did). holes : failed heights
-        below max_step_down. cases : one record per height (h, status, steps, distance, reason).
+    max_step_down : largest drop survived (0.0 when even the first failed; None without a gait).
+    contiguous : every drop below max_step_down survived. contiguous_limit : the largest drop
+    with every smaller one survived. survived_intervals : the survived set, ``[low, high]``
+    pairs in increasing order (each end the survived height nearest its boundary, to
+    ``boundary_tol``). first_failure : the smallest height that failed (None if none did).
+    holes : failed heights below max_step_down. window : the heights scanned (m).
+    cases : one record per height walked (h, status, steps, distance, reason, and whether it was
+    on the grid or a bisection).
     """
 
     model: str
     status: str
     max_step_down: float | None
     contiguous: bool
+    contiguous_limit: float | None
+    survived_intervals: list[list[float]]
     resolution: float
+    boundary_tol: float
+    window: float
     first_failure: float | None
     holes: list[float]
     n_steps: int
@@ -145,36 +159,58 @@ class StepDownResult(JSONResult):
     message: str
 
 
+def _intervals(cases: list[dict]) -> list[list[float]]:
+    """The survived heights as [low, high] intervals of consecutive survived cases (sorted by
+    h; a drop of 0 counts as survived)."""
+    out: list[list[float]] = []
+    prev_ok = True
+    for c in sorted(cases, key=lambda c: c["h"]):
+        if c["survived"]:
+            if prev_ok and out:
+                out[-1][1] = c["h"]
+            elif prev_ok:
+                out.append([0.0, c["h"]])
+            else:
+                out.append([c["h"], c["h"]])
+        prev_ok = c["survived"]
+    return out
+
+
 def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: float | None = None,
               h_max: float | None = None, n_beyond: int = 8, n_steps: int | None = None,
               tol: float = 1e-4, heights: Iterable[float] | None = None,
+              boundary_tol: float = 1e-5,
               progress: Callable[[dict], None] | None = None) -> StepDownResult:
     """The step-down test (module docstring). ``heights`` replaces the upward scan by an explicit
-    list (all evaluated). ``progress`` is called with each case record as it finishes."""
+    list (all evaluated; the boundaries between them are still bisected unless
+    ``boundary_tol`` is 0). ``progress`` is called with each case record as it finishes."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
     base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol}
     if gait.status != "periodic":
         return StepDownResult(status="no_gait", max_step_down=None, contiguous=False,
-                              resolution=math.nan, first_failure=None, holes=[], n_steps=0,
+                              contiguous_limit=None, survived_intervals=[],
+                              resolution=math.nan, boundary_tol=boundary_tol, window=0.0,
+                              first_failure=None, holes=[], n_steps=0,
                               cases=[], fixed_point=gait.fixed_point,
                               seconds=time.perf_counter() - t0,
                               message=f"no periodic gait to disturb: {gait.message}", **base)
     leg = float(getattr(walker, "leg_length", 1.0))
     resolution = 2e-4 * leg if resolution is None else float(resolution)
     h_max = 0.1 * leg if h_max is None else float(h_max)
-    if not (resolution > 0 and h_max > 0):
+    if not (resolution > 0 and h_max > 0 and boundary_tol >= 0):
         raise ParameterValueError(f"step_down: resolution ({resolution!r} m) and h_max "
-                                  f"({h_max!r} m) must be positive")
+                                  f"({h_max!r} m) must be positive, boundary_tol "
+                                  f"({boundary_tol!r} m) >= 0")
     n_steps = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
     fps = fixed_points(walker, gait)
     z0 = fps[0]
     cases: list[dict] = []
 
-    def run(h: float) -> dict:
+    def run(h: float, kind: str) -> dict:
         r = recovers(walker, z0, fps, n_steps=n_steps, tol=tol, ground_drop=h)
         rec = {"h": h, "status": r.status, "survived": r.survived, "steps": r.steps,
-               "distance": r.distance, "reason": r.reason}
+               "distance": r.distance, "reason": r.reason, "kind": kind}
         cases.append(rec)
         if progress is not None:
             progress(rec)
@@ -182,26 +218,56 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
 
     if heights is not None:
         for h in sorted(float(h) for h in heights):
-            run(h)
+            run(h, "given")
         resolution = math.nan
     else:
-        misses, k = 0, 1
-        while misses < n_beyond and k * resolution <= h_max * (1 + 1e-12):
-            misses = 0 if run(round(k * resolution, 12))["survived"] else misses + 1
+        misses, k, first = 0, 1, None
+        while k * resolution <= h_max * (1 + 1e-12):
+            h = round(k * resolution, 12)
+            ok = run(h, "grid")["survived"]
+            misses = 0 if ok else misses + 1
+            if not ok and first is None:
+                first = h
+            if first is not None and h >= 2 * first and misses >= n_beyond:
+                break
             k += 1
+    # each boundary between a survived and a failed height, bisected
+    if boundary_tol > 0:
+        points = sorted(cases, key=lambda c: c["h"])
+        pairs = [(0.0, True, points[0]["h"], points[0]["survived"])] if points else []
+        pairs += [(a["h"], a["survived"], b["h"], b["survived"])
+                  for a, b in itertools.pairwise(points)]
+        for lo, lo_ok, hi, hi_ok in pairs:
+            if lo_ok == hi_ok:
+                continue
+            while hi - lo > boundary_tol:
+                mid = 0.5 * (lo + hi)
+                if run(mid, "bisection")["survived"] == lo_ok:
+                    lo = mid
+                else:
+                    hi = mid
+    survived_intervals = _intervals(cases)
     survived = [c["h"] for c in cases if c["survived"]]
     failed = [c["h"] for c in cases if not c["survived"]]
     best = max(survived) if survived else 0.0
-    holes = [h for h in failed if h < best]
+    holes = sorted(h for h in failed if h < best)
     contiguous = bool(survived) and not holes
-    grid = (f"on a {resolution:.3g} m grid" if math.isfinite(resolution)
-            else f"of {len(cases)} given heights")
-    message = (f"largest drop survived {best:.4g} m {grid}; "
+    limit = survived_intervals[0][1] if survived_intervals and survived_intervals[0][0] == 0.0 \
+        else 0.0
+    window = max((c["h"] for c in cases), default=0.0)
+    grid = (f"{resolution * 1e3:.3g} mm grid up to {window * 1e3:.3g} mm"
+            if math.isfinite(resolution) else f"{len(cases)} heights")
+    beyond = [iv for iv in survived_intervals if iv[0] > 0.0]
+    message = (f"largest drop survived {best * 1e3:.3f} mm ({grid}, boundaries to "
+               f"{boundary_tol * 1e3:g} mm); "
                + ("contiguous" if contiguous else
                   "no drop survived" if not survived else
-                  f"not contiguous: {len(holes)} failed height(s) below it"))
+                  f"contiguous up to {limit * 1e3:.3f} mm, then survived "
+                  + ", ".join(f"{a * 1e3:.3f}–{b * 1e3:.3f} mm" for a, b in beyond)))
     return StepDownResult(status="ok", max_step_down=best, contiguous=contiguous,
-                          resolution=resolution, first_failure=min(failed) if failed else None,
+                          contiguous_limit=limit, survived_intervals=survived_intervals,
+                          resolution=resolution, boundary_tol=boundary_tol, window=window,
+                          first_failure=min(failed) if failed else None,
                           holes=holes, n_steps=n_steps, cases=cases,
                           fixed_point=gait.fixed_points[0], seconds=time.perf_counter() - t0,
                           message=message, **base)

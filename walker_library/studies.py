@@ -16,14 +16,20 @@ table_2_3              nominal walker at γ = 0.009: step period, step length, s
 damping_calibration    energy dissipated per impact over the contact damping λ; the calibrated λ
                        (§2.3.2, Fig. 2.12)
 time_plots             θ/φ over time, limit cycles, energies over steps (Figs. 2.13–2.15, 2.17–2.18)
-slope_multipliers      Floquet multipliers over the slope; period-1/period-2 boundary (Table 2.2)
+slope_multipliers      continuation over the slope: multipliers, the flip (period-1/period-2
+                       boundary) located, the period-2/4 branches; walker gait from the default
+                       guess at each slope of the table (Table 2.2)
+rigid_bifurcations     the simplest walker's and the compass gait's branches over the slope: flips
+                       located, period-2/4 branches, the unstable short-period gait (Garcia et al.
+                       1998, Goswami et al. 1998)
 step_down_slope        maximum step-down over the slope (Fig. 2.22)
 basin                  basin of attraction at γ = 0.007 and 0.012 (Figs. 2.21, 2.23)
 damper_factor          compliant leg: stable stiffness range and step-down over α (Fig. 3.3)
 leg_stiffness          compliant leg at α = 0.15: step-down, speed, energy per step over K, and
-                       robustness over speed, rigid (over slope) vs compliant (over K) (Figs. 3.4–3.6)
-variable_stiffness     K1 → K2 against constant K: speed, step-down, F–Δz loop, injected energy
-                       (Figs. 3.7–3.8, Table 3.1)
+                       robustness over speed, rigid (over slope) vs compliant (over K); the gait
+                       continued in K (lowest stable K, period doubling) (Figs. 3.4–3.6)
+variable_stiffness     K1 → K2 against constant K (φ_max from each K1's own constant gait):
+                       speed, step-down, F–Δz loop, injected energy (Figs. 3.7–3.8, Table 3.1)
 recommendations        the thesis's §4.2: step-down over foot radius, hip stiffness and ankle
                        stiffness around the nominal walker, against the rigid-leg walker
 compliance_3d          the thesis's closing question in 3D: step-down and lateral pushes (roll
@@ -51,6 +57,7 @@ from porthamiltonian.batch import Sweep
 from porthamiltonian.errors import ModelError
 
 from .analyses import basin_case, step_down_case, walker_cache
+from .continuation import continue_gait
 from .figures import (
     fig_angles,
     fig_energy,
@@ -59,8 +66,9 @@ from .figures import (
     pyplot,
     save_figure,
 )
-from .gait import analyze_gait
-from .poincare import find_fixed_point, floquet
+from .gait import analyze_gait, gait_start
+from .monodromy import floquet
+from .poincare import find_fixed_point
 from .results import to_json, to_jsonable
 from .robustness import recovers, step_down
 from .series import walk_series
@@ -166,7 +174,8 @@ def run_table_2_3(ctx: StudyContext) -> dict:
         _row("max φ", m.max_phi, None, "rad", "lost from the thesis text"),
         _row("energy dissipated per step", m.energy_dissipated_per_step, 0.08, "J"),
         _row("max step-down", sd.max_step_down, 0.0024, "m",
-             f"grid {sd.resolution * 1e3:g} mm; contiguous: {sd.contiguous}"),
+             f"grid {sd.resolution * 1e3:g} mm, boundaries bisected to "
+             f"{sd.boundary_tol * 1e3:g} mm; contiguous: {sd.contiguous}"),
         _row("largest |Floquet multiplier|",
              max(abs(complex(x)) for x in gait.floquet_multipliers), None, "1"),
         _row("contact stiffness K", w.parameters["K"], 1.0e6, "N/m", "App. A"),
@@ -221,50 +230,122 @@ def _slopes(ctx: StudyContext) -> list[float]:
     return [0.004, 0.009, 0.014, 0.017] if ctx.quick else list(RIGID_SLOPES) + [0.018, 0.019, 0.020]
 
 
+def _branch_rows(result, label: str) -> list[dict]:
+    """The continuation's points as table rows (no section coordinates)."""
+    keep = ("branch", "period_steps", label, "max_multiplier", "stable", "step_period")
+    return [{k: r[k] for k in keep} for r in result.table()]
+
+
+def _default_guess_gaits(ctx: StudyContext, model: str, key: str, values: list[float],
+                         result) -> list[dict]:
+    """``walker gait`` from the default guess at each value (its full search: guess, iteration,
+    continuation from the file's nominal gait), beside what the continuation found there: a
+    stable orbit on some branch (and its period)."""
+    rows = []
+    for v in values:
+        w = _walker(model, **{key: v})
+        g = analyze_gait(w)
+        stable_here = _stable_on_branches(result, v)
+        rows.append({key: v, "outcome": g.outcome, "period_steps": g.period_steps,
+                     "stable": g.stable,
+                     "max_multiplier": max((abs(complex(m)) for m in g.floquet_multipliers),
+                                           default=None),
+                     "speed": g.metrics.speed,
+                     "continuation_stable_periods": stable_here})
+        ctx.log(f"  walker gait {model} --set {key}={v:g}: {g.outcome} (period "
+                f"{g.period_steps}); continuation: stable periods {stable_here}")
+    return rows
+
+
+def _stable_on_branches(result, value: float) -> list[int]:
+    """Periods of the branches with a stable orbit at ``value`` (interpolated between two
+    stable neighbouring points)."""
+    periods = set()
+    for br in result.branches:
+        for a, b in zip(br.points, br.points[1:]):
+            if min(a.mu, b.mu) <= value <= max(a.mu, b.mu) and a.stable and b.stable:
+                periods.add(br.period)
+    return sorted(periods)
+
+
 def run_slope_multipliers(ctx: StudyContext) -> dict:
-    """Natural-parameter continuation over the slope (serial: each gait search starts from the
-    previous slope's fixed point), so the period-1 branch is followed up to its period doubling
-    and the period-2 gait beyond it is found by iterating the stride map from there."""
-    slopes = _slopes(ctx)
-    if not ctx.quick:
-        slopes = sorted(set(slopes) | {round(0.0170 + 0.0002 * k, 4) for k in range(1, 10)})
+    """Table 2.2 / §2.5 on the continuation of the nominal walker's gait over the slope
+    (:func:`~.continuation.continue_gait`): the period-1 branch with its multipliers, the flip
+    (period doubling) located, the period-2 (and period-4) branches switched onto, unstable
+    branches followed; and ``walker gait`` from the default guess at each slope of the table."""
+    lo, hi = (0.009, 0.014) if ctx.quick else (0.002, 0.020)
     w0 = _walker(NOMINAL)
-    guess, table, boundary, last_p1 = None, [], None, None
-    for slope in slopes:
-        w = w0.with_parameters(slope=slope)
-        g = analyze_gait(w, guess=guess)
-        mults = [complex(m) for m in g.floquet_multipliers]
-        row = {"slope": slope, "status": g.status, "period_steps": g.period_steps,
-               "stable": g.stable, "multipliers": mults,
-               "max_multiplier": max((abs(m) for m in mults), default=None),
-               "speed": g.metrics.speed, "step_period": g.metrics.step_period}
-        table.append(row)
-        ctx.log(f"  slope {slope:.4f}: {g.status} period {g.period_steps} "
-                f"|λ|max {row['max_multiplier'] if mults else float('nan'):.4f}")
-        if g.status == "periodic":
-            guess = np.array([g.fixed_point[k] for k in w.section])
-            if g.period_steps == 1:
-                last_p1 = slope
-            elif boundary is None:
-                boundary = 0.5 * (last_p1 + slope) if last_p1 is not None else slope
-    (ctx.out / "multipliers_over_slope.json").write_text(to_json(table))
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.5, 3.6))
-    for r in table:
-        for m in r["multipliers"]:
-            ax.plot(r["slope"], abs(m), ".", color="C0" if r["period_steps"] == 1 else "C3")
-    ax.axhline(1.0, ls="--", lw=0.8, color="0.4")
-    if boundary is not None:
-        ax.axvline(boundary, ls=":", color="C3", lw=0.8)
-    ax.set_xlabel("slope γ (rad)")
-    ax.set_ylabel("|Floquet multiplier|")
-    ax.set_title("Multipliers over the slope (blue: period 1, red: period 2)", fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, ctx.path("table_2_2_multipliers_over_slope.png"))
-    note = ("midpoint between the last period-1 and the first period-2 slope of the grid"
-            if boundary is not None else "no period doubling on the grid")
-    return {"rows": [_row("period-1/period-2 boundary", boundary, 0.0157, "rad", note)],
-            "table": table}
+    z0, period = gait_start(w0, "slope", lo)
+    result = continue_gait(w0, "slope", lo, hi, guess=z0, period=period,
+                           doublings=0 if ctx.quick else 2, log=ctx.log)
+    (ctx.out / "continuation.json").write_text(result.to_json())
+    result.figure(ctx.path("table_2_2_bifurcation_diagram.png"))
+    flips = [b for b in result.bifurcations if b.kind == "flip" and b.period == 1]
+    boundary = flips[0] if flips else None
+    stable_mu = [p.mu for br in result.branches for p in br.points if p.stable]
+    rows = [_row("period-1/period-2 boundary (flip)", None if boundary is None else boundary.mu,
+                 0.0157, "rad", "located by continuation" + (
+                     f" (± {boundary.mu_error:.1g} from the multiplier's error)" if boundary
+                     else ": no flip in the range")),
+            _row("upper end of the stable gaits (any period)",
+                 max(stable_mu) if stable_mu else None, 0.018, "rad",
+                 f"largest slope with a stable orbit on the branches followed up to {hi}")]
+    out = {"rows": rows, "table": _branch_rows(result, "slope"),
+           "bifurcations": [b.to_dict(w0) for b in result.bifurcations]}
+    if not ctx.quick:
+        out["walker_gait"] = _default_guess_gaits(ctx, NOMINAL, "slope", _slopes(ctx), result)
+    return out
+
+
+# --- the classic rigid walkers' bifurcations -------------------------------------------------------
+#: (label, walker, range, guess in the thesis's section coordinates (None: the walker's own),
+#: period doublings, the published first flip (rad) and its source)
+RIGID_CONTINUATIONS = (
+    ("simplest walker, long-period gait", "simplest_walker", (0.002, 0.019), None, 2, 0.0151,
+     "Garcia et al. 1998: period doubling near 0.0151, chaos up to 0.019"),
+    ("simplest walker, short-period gait", "simplest_walker", (0.009, 0.019),
+     (-0.205, 0.386, -0.015), 0, None, "Garcia et al. 1998, Table 1: unstable"),
+    ("compass gait", "compass_gait", (0.01, 0.1), None, 2, None,
+     "Goswami et al. 1998: period-doubling cascade into chaos over the slope"),
+)
+
+
+def run_rigid_bifurcations(ctx: StudyContext) -> dict:
+    """The simplest walker (Garcia et al. 1998) and the compass gait (Goswami et al. 1998)
+    continued over the slope: flips located, the period-2 and period-4 branches, the unstable
+    short-period gait."""
+    rows, out = [], {}
+    for label, model, (lo, hi), guess, doublings, published, source in RIGID_CONTINUATIONS:
+        if ctx.quick:
+            if guess is not None:
+                continue
+            (lo, hi), doublings = ((0.014, 0.0155) if model == "simplest_walker"
+                                   else (0.075, 0.0775)), 1
+        w = _walker(model)
+        start = w.with_parameters(slope=lo)
+        z = None if guess is None else start.from_thesis(np.array(guess))
+        z0, period = gait_start(w, "slope", lo, z)
+        result = continue_gait(w, "slope", lo, hi, guess=z0, period=period, doublings=doublings,
+                               log=ctx.log)
+        name = f"{model}_{'short' if guess is not None else 'main'}"
+        (ctx.out / f"{name}.json").write_text(result.to_json())
+        result.figure(ctx.path(f"{name}_bifurcation_diagram.png"))
+        out[name] = {"bifurcations": [b.to_dict(w) for b in result.bifurcations],
+                     "branches": [{"period_steps": b.period, "points": len(b.points),
+                                   "origin": b.origin, "end": b.end} for b in result.branches]}
+        flips = [b for b in result.bifurcations if b.kind == "flip"]
+        for b in flips:
+            rows.append(_row(f"{label}: flip of the period-{b.period} gait", b.mu,
+                             published if b.period == 1 else None, "rad",
+                             f"{np.degrees(b.mu):.4f}°, ± {b.mu_error:.1g}; {source}"))
+        if not flips:
+            stable = any(p.stable for br in result.branches for p in br.points)
+            rows.append(_row(f"{label}: bifurcations over {lo}–{hi}",
+                             len(result.bifurcations), None, "1",
+                             f"{'a stable' if stable else 'no stable'} orbit on the branch; "
+                             f"{source}"))
+    out["rows"] = rows
+    return out
 
 
 # --- Fig. 2.22 -----------------------------------------------------------------------------------
@@ -393,6 +474,9 @@ def run_leg_stiffness(ctx: StudyContext) -> dict:
     _, rigid_rows = _rigid_step_down(ctx)
     rigid9 = _at_nominal_slope(rigid_rows)
     sd = _mm(rows)
+    extra = {}
+    if not ctx.quick:
+        extra = _stiffness_continuation(ctx, Ks)
     _plot_xy(ctx.path("fig_3_4_step_down_over_K.png"), Ks, {"compliant leg": sd}, "K (N/m)",
              "max step-down (mm)", "Step-down over leg stiffness (α = 0.15, γ = 0.009)",
              {"rigid legs, γ = 0.009": 1e3 * (rigid9.get("max_step_down") or 0.0)})
@@ -412,18 +496,44 @@ def run_leg_stiffness(ctx: StudyContext) -> dict:
     ax.legend(fontsize=8)
     fig.tight_layout()
     save_figure(fig, ctx.path("fig_3_6_robustness_over_speed.png"))
-    stable = [r["K_leg"] for r in rows if r.get("gait_status") == "periodic"]
+    stable = [r["K_leg"] for r in rows
+              if r.get("gait_status") == "periodic" and r.get("stable")]
     faster = [r["K_leg"] for r in rows
               if (r.get("speed") or 0) > (rigid9.get("speed") or math.inf)]
     better = [r["K_leg"] for r in rows
-              if (r.get("max_step_down") or 0) > (rigid9.get("max_step_down") or math.inf)]
+              if (r.get("contiguous_limit") or 0) > (rigid9.get("contiguous_limit") or math.inf)]
     return {"rows": [
-        _row("lowest stable K", min(stable) if stable else None, 1500.0, "N/m"),
+        _row("lowest stable K on the grid", min(stable) if stable else None, 1500.0, "N/m"),
+        *extra.get("rows", []),
         _row("lowest K faster than the rigid leg", min(faster) if faster else None, 3000.0, "N/m"),
-        _row("lowest K more robust than the rigid leg", min(better) if better else None, 4500.0,
-             "N/m"),
-    ], "table": [{k: r.get(k) for k in ("K_leg", "gait_status", "max_step_down", "contiguous",
-                                        "speed", "energy_dissipated_per_step")} for r in rows]}
+        _row("lowest K more robust than the rigid leg (contiguous step-down)",
+             min(better) if better else None, 4500.0, "N/m"),
+    ], "table": [{k: r.get(k) for k in ("K_leg", "gait_status", "period_steps", "stable",
+                                        "max_step_down", "contiguous_limit", "contiguous",
+                                        "survived_intervals", "speed",
+                                        "energy_dissipated_per_step")} for r in rows],
+        **{k: v for k, v in extra.items() if k != "rows"}}
+
+
+def _stiffness_continuation(ctx: StudyContext, Ks: list[float]) -> dict:
+    """The compliant-leg walker's gait continued in K_leg from the file's 6000 N/m down to
+    1000 N/m (with the period doublings), and ``walker gait`` from the default guess at each K
+    of the grid: the lowest stable K and the period-1/period-2 boundary."""
+    w0 = _walker(COMPLIANT)
+    z0, period = gait_start(w0, "K_leg", w0.parameters["K_leg"])
+    result = continue_gait(w0, "K_leg", w0.parameters["K_leg"], 1000.0, guess=z0,
+                           period=period, doublings=1, log=ctx.log)
+    (ctx.out / "continuation_K_leg.json").write_text(result.to_json())
+    result.figure(ctx.path("continuation_K_leg.png"))
+    flips = [b for b in result.bifurcations if b.kind == "flip" and b.period == 1]
+    stable = [p.mu for br in result.branches for p in br.points if p.stable]
+    rows = [_row("lowest stable K (continuation, any period)", min(stable) if stable else None,
+                 1500.0, "N/m", "the branches followed from 6000 down to 1000 N/m"),
+            _row("period-1/period-2 boundary (flip)", flips[0].mu if flips else None, None,
+                 "N/m", "located by continuation" if flips else "no flip above 1000 N/m")]
+    return {"rows": rows, "continuation": _branch_rows(result, "K_leg"),
+            "bifurcations": [b.to_dict(w0) for b in result.bifurcations],
+            "walker_gait": _default_guess_gaits(ctx, COMPLIANT, "K_leg", Ks, result)}
 
 
 def run_variable_stiffness(ctx: StudyContext) -> dict:
@@ -435,6 +545,7 @@ def run_variable_stiffness(ctx: StudyContext) -> dict:
     if ctx.quick:
         constant, variable = constant[:1], variable[:1]
     res = 2e-4 if ctx.quick else 1e-4
+    variable = [{**c, "phi_max": _phi_max(ctx, c)} for c in variable]
     constant = _guesses(ctx, COMPLIANT, constant, "K_leg")
     variable = _guesses(ctx, VARIABLE, variable, "K2")
     crow = ctx.sweep("constant_K", step_down_case, constant, model=COMPLIANT, resolution=res)
@@ -464,13 +575,27 @@ def run_variable_stiffness(ctx: StudyContext) -> dict:
     fig.tight_layout()
     save_figure(fig, ctx.path("fig_3_7_force_compression.png"))
     table = ([{"kind": "constant", **{k: r.get(k) for k in ("K_leg", "alpha", "speed", "max_step_down",
-                                                           "contiguous")}} for r in crow]
-             + [{"kind": "variable", **{k: r.get(k) for k in ("K1", "K2", "alpha", "speed",
-                                                              "max_step_down", "contiguous")}}
+                                                           "contiguous_limit", "contiguous")}}
+              for r in crow]
+             + [{"kind": "variable", **{k: r.get(k) for k in ("K1", "K2", "alpha", "phi_max",
+                                                              "speed", "max_step_down",
+                                                              "contiguous_limit", "contiguous")}}
                 for r in vrow])
     rows = [_row("energy injected per step (K1 → K2)", extra.get("energy_injected_per_step"),
                  None, "J", "½ K̇ z² booked as supplied in the ledger")]
     return {"rows": rows, "table": table}
+
+
+def _phi_max(ctx: StudyContext, case: dict) -> float:
+    """φ_max of a variable-stiffness case by its definition (the thesis's Eq. 3.3): the peak |φ|
+    of the gait with the constant stiffness K1 (this walker with K2 = K1, the same α)."""
+    w = _walker(VARIABLE, K1=case["K1"], K2=case["K1"], alpha=case["alpha"])
+    g = analyze_gait(w)
+    if g.status != "periodic" or not g.stable:
+        raise ModelError(f"variable_stiffness: no stable constant-K1 gait at K1 = {case['K1']:g}, "
+                         f"α = {case['alpha']:g} to take φ_max from ({g.message})")
+    ctx.log(f"  φ_max at K1 = {case['K1']:g}, α = {case['alpha']:g}: {g.metrics.max_phi:.5f} rad")
+    return float(g.metrics.max_phi)
 
 
 HIP = "hip_and_leg_spring_walker"
@@ -649,6 +774,9 @@ STUDIES: dict[str, Study] = {s.name: s for s in [
           run_time_plots, (NOMINAL,)),
     Study("slope_multipliers", "Floquet multipliers over slope; period doubling", "Table 2.2",
           run_slope_multipliers, (NOMINAL,)),
+    Study("rigid_bifurcations", "Simplest walker and compass gait over the slope",
+          "Garcia 1998, Goswami 1998", run_rigid_bifurcations,
+          ("simplest_walker", "compass_gait")),
     Study("step_down_slope", "Maximum step-down over slope", "Fig. 2.22", run_step_down_slope,
           (NOMINAL,)),
     Study("basin", "Basin of attraction at γ = 0.007 and 0.012", "Figs. 2.21, 2.23", run_basin,

@@ -30,10 +30,12 @@ __all__ = ["SHIPPED", "available_walkers", "compass_gait", "compass_walker",
            "rimless_wheel", "save_walker", "simplest_walker", "variable_stiffness_walker"]
 
 #: the walkers shipped in models/ (their files are the reference; docs/walkers.md describes them):
-#: the classic rigid-impact walkers, the thesis's, and the thesis's recommendations (its §4.2)
+#: the classic rigid-impact walkers, the thesis's, the thesis's recommendations (its §4.2), and
+#: the thesis's two main walkers with point-mass legs (the variants shipped before I_leg)
 SHIPPED = ("simplest_walker", "compass_gait", "rimless_wheel", "rigid_compass_walker",
            "compass_walker", "compliant_leg_walker", "variable_stiffness_walker",
-           "hip_and_leg_spring_walker", "ankle_stiffness_walker", "smooth_stiffness_walker")
+           "hip_and_leg_spring_walker", "ankle_stiffness_walker", "smooth_stiffness_walker",
+           "compass_walker_point_legs", "compliant_leg_walker_point_legs")
 
 
 def read_walker(name_or_path: str | Path) -> tuple[WalkerSpec, str]:

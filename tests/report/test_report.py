@@ -59,14 +59,15 @@ def report(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(report_module, "EXTRA_FIGURES", extras)
         assert main(["report", "simplest_walker", "--out", str(out), "--steps", "4",
-                     "--view3d", "--quiet"]) == 0
+                     "--view3d", "--quiet", "--continuation", "slope=0.0145:0.0152"]) == 0
     return out
 
 
 def test_report_files_and_json(report):
     for name in ("report.html", "report.json", "gait.json", "step_down.json", "gsn.json",
                  "walk.gif", "angles.png", "limit_cycle.png", "energy.png",
-                 "energy_per_step.png", "floquet.png", "step_down.png", "view3d.png"):
+                 "energy_per_step.png", "floquet.png", "step_down.png", "view3d.png",
+                 "bifurcation_diagram.png", "continuation.json"):
         assert (report / name).is_file(), name
     summary = json.loads((report / "report.json").read_text())
     assert summary["gait"]["status"] == "periodic"
@@ -80,11 +81,15 @@ def test_report_files_and_json(report):
     assert abs(rows["max_abs_multiplier"]["ours"] - 0.58828) < 2e-3
     assert summary["walk_ledger"]["max_abs_residual"] < 1e-10
     assert isinstance(summary["step_down"]["max_step_down"], float)
+    # --continuation: the flip of Garcia's gait in the range, its diagram and tables
+    flips = [b for b in summary["continuation"]["bifurcations"] if b["kind"] == "flip"]
+    assert len(flips) == 1 and flips[0]["mu"] == pytest.approx(0.0150884, abs=1e-6)
+    assert "Continuation in slope" in (report / "report.html").read_text()
 
 
 def test_every_figure_is_a_valid_png_and_the_gif_animates_every_step(report):
     pngs = sorted(report.glob("*.png"))
-    assert len(pngs) == 8                       # 6 figures, the 3D view's still, the extra one
+    assert len(pngs) == 9       # 6 figures, the bifurcation diagram, the 3D view's still, the extra
     assert not (report / "none.png").exists()
     for p in pngs:
         assert p.read_bytes()[:8] == PNG_SIGNATURE, p.name
@@ -118,8 +123,9 @@ def test_report_opens_in_a_headless_browser_without_errors(report):
     m = re.search(r'data-images-ok="(\d+)/(\d+)"', dom)
     assert m, "the page's load handler did not run"
     ok, total = int(m.group(1)), int(m.group(2))
-    assert total == 9 and ok == total           # 6 figures, the extra one, the GIF, the 3D
-    #                                             view's still (hidden while WebGL draws)
+    assert total == 10 and ok == total          # 6 figures, the bifurcation diagram, the extra
+    #                                             one, the GIF, the 3D view's still (hidden while
+    #                                             WebGL draws)
     assert "A test section" in dom and "Left out" not in dom
     player = re.search(r'data-player="ready:(\d+)"', dom)
     assert player and int(player.group(1)) > 100, "the player did not start"

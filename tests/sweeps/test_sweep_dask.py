@@ -61,4 +61,7 @@ def test_command_line_scheduler_address(tmp_path, client, capsys, gait_reference
     doc = json.loads(capsys.readouterr().out)
     assert doc["report"]["n_run"] == 4 and doc["report"]["complete"]
     assert _results(load_results(out)) == gait_reference
-    assert [r["status"] for r in doc["table"]] == ["periodic", "periodic", "periodic", "fell"]
+    # γ = 0.019 lies in the simplest walker's chaotic range: only unstable orbits there (the
+    # gait search continues the file's gait through the period doublings and finds no stable one)
+    assert [r["status"] for r in doc["table"]] == ["periodic"] * 4
+    assert [r["stable"] for r in doc["table"]] == [True, True, True, False]

@@ -24,9 +24,10 @@ Nominal compliant-contact walker (the thesis's ch. 2; models/compass_walker.toml
 ----------------------------------------------------------------------------------------------
 Slope frame (x down the slope, z along its normal), gravity g (sin γ, 0, −cos γ), surface z = 0.
 Coordinates q = (x, z, a1, a2): hip position and the absolute leg angles (a = 0: leg along −z; a
-foot in front of the hip has a < 0); velocities v = q̇; state y = (q, v). Each leg: a point mass
-m_leg at l/2 and a foot mass m_foot at l from the hip (no inertias). With S = m_leg l/2 + m_foot l,
-I = m_leg l²/4 + m_foot l², m_t = M + 2 (m_leg + m_foot) (Lagrange's equations, by hand):
+foot in front of the hip has a < 0); velocities v = q̇; state y = (q, v). Each leg: a rod of mass
+m_leg, centre at l/2, moment of inertia I_leg about it, and a foot mass m_foot at l from the hip.
+With S = m_leg l/2 + m_foot l, I = m_leg l²/4 + I_leg + m_foot l², m_t = M + 2 (m_leg + m_foot)
+(Lagrange's equations, by hand):
 
     M(q) = [[m_t, 0, −S cos a1, −S cos a2],
             [0, m_t,  S sin a1,  S sin a2],
@@ -207,7 +208,8 @@ def newton_fixed_point(S, z0, *, tol: float = 1e-10, fd_step: float = 1e-6,
 # ------------------------------------------------------------------------------------------------
 # the thesis's nominal compliant-contact walker
 # ------------------------------------------------------------------------------------------------
-COMPASS_DEFAULTS = {"slope": 0.009, "M": 3.0, "m_leg": 0.01, "m_foot": 0.1, "l": 0.7, "R": 0.05,
+COMPASS_DEFAULTS = {"slope": 0.009, "M": 3.0, "m_leg": 0.01, "I_leg": 0.01 * 0.7**2 / 12,
+                    "m_foot": 0.1, "l": 0.7, "R": 0.05,
                     "g": 9.81, "K": 1.0e6, "lam": 3.16e7, "mu_st": 0.5, "mu_c": 0.25,
                     "mu_v": 0.025, "s_fric": 500.0, "v_st": 0.02, "liftoff_margin": 1e-6,
                     "front_margin": 0.01, "fall_fraction": 0.5}
@@ -241,7 +243,7 @@ class CompassWalkerHand:
         self.jac = jac                     # None: scipy's finite differences; "fd": our own
         l, ml, mf = P["l"], P["m_leg"], P["m_foot"]
         self.S = ml * l / 2 + mf * l
-        self.I = ml * l * l / 4 + mf * l * l
+        self.I = ml * l * l / 4 + P["I_leg"] + mf * l * l
         self.mt = P["M"] + 2 * (ml + mf)
         self.stats = {"nfev": 0, "njev": 0, "nlu": 0, "steps": 0, "segments": 0, "events": 0}
 
@@ -445,10 +447,12 @@ class CompliantLegWalkerHand(CompassWalkerHand):
     the foot centre l + s_k from the hip) and a spring–damper on it, force
     −(K (s − preload/K) + D ṡ), D = 2 α √((M + m_foot) K) (thesis §3.1).
 
-    All masses are points (hip M; leg k: m_leg at l/2; foot k: m_foot at r_k = l + s_k), so the
-    equations of motion are written the point-mass way: with p_i(q) each mass's position,
-    J_i = ∂p_i/∂q and the convective acceleration c_i = J̇_i q̇,
-    M(q) = Σ m_i J_iᵀ J_i and M q̈ = Σ J_iᵀ (m_i g − m_i c_i) + Q (contact, friction, spring).
+    The masses are points (hip M; leg k: m_leg at l/2; foot k: m_foot at r_k = l + s_k) plus each
+    leg's moment of inertia I_leg about its centre, so the equations of motion are written the
+    point-mass way: with p_i(q) each mass's position, J_i = ∂p_i/∂q and the convective
+    acceleration c_i = J̇_i q̇, M(q) = Σ m_i J_iᵀ J_i + I_leg on the legs' angles and
+    M q̈ = Σ J_iᵀ (m_i g − m_i c_i) + Q (contact, friction, spring) (a leg's rotation about its
+    own centre, at the rate ȧ_k, adds ½ I_leg ȧ_k² and nothing else).
     q = (x, z, a1, a2, s1, s2), y = (q, q̇). Contact and friction as for the rigid-leg walker at
     the foot centre (penetration δ = R − z + r cos a) and at the sole, R beyond it along the leg.
     Section: (a_lead, a_trail, ẋ, ż, ȧ_lead, ȧ_trail, s_lead, s_trail, ṡ_lead, ṡ_trail)."""
@@ -485,9 +489,14 @@ class CompliantLegWalkerHand(CompassWalkerHand):
                                          2.0 * sd * w * sa + r * w * w * ca])))
         return pts
 
+    def _leg_inertia(self) -> np.ndarray:
+        D = np.zeros((6, 6))
+        D[2, 2] = D[3, 3] = self.P["I_leg"]
+        return D
+
     def mass_matrix(self, q):
         y = np.concatenate([np.asarray(q, dtype=float), np.zeros(6)])
-        return sum(m * J.T @ J for m, J, _ in self._points(y))
+        return sum(m * J.T @ J for m, J, _ in self._points(y)) + self._leg_inertia()
 
     def potential(self, q):
         P = self.P
@@ -504,7 +513,7 @@ class CompliantLegWalkerHand(CompassWalkerHand):
         P = self.P
         g, gam, l, R, K, lam = P["g"], P["slope"], P["l"], P["R"], P["K"], P["lam"]
         gv = np.array([g * math.sin(gam), -g * math.cos(gam)])
-        M = np.zeros((6, 6))
+        M = self._leg_inertia()
         b = np.zeros(6)
         for m, J, cc in self._points(y):
             M += m * (J.T @ J)

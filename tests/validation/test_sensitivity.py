@@ -255,6 +255,10 @@ def test_ball_phi_across_a_bounce_matches_the_closed_form():
     S = saltation_matrix(cross.f_minus, cross.f_plus, cross.guard_gradient, cross.reset_jacobian)
     np.testing.assert_allclose(cross.saltation, S, rtol=1e-14)
     np.testing.assert_allclose(cross.phi_plus, S @ cross.phi_minus, rtol=1e-14)
+    # the reset's Jacobian alone (no correction for the shifted crossing time) is wrong by O(1)
+    after = sens.final @ np.linalg.inv(cross.phi_plus)           # the flow from the bounce to T
+    reset_only = after @ cross.reset_jacobian @ cross.phi_minus
+    assert np.max(np.abs(reset_only - ref)) > 0.1 * np.max(np.abs(ref))
 
 
 def test_ball_stopping_at_the_bounce_gives_the_impact_map():

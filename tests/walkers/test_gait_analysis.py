@@ -1,9 +1,10 @@
 """The gait analysis tools on bad input and their machine-readable results.
 
 * a walker that falls gives a result with the step at which it fell (never an exception);
-* a slope with no periodic gait gives "no_fixed_point" with the last iterate: the simplest walker
-  at γ = 0.0186 lies in its chaotic range (Garcia et al. 1998, J. Biomech. Eng. 120:281, §4 and
+* where only unstable orbits exist the result says so, with them: the simplest walker at
+  γ = 0.0186 lies in its chaotic range (Garcia et al. 1998, J. Biomech. Eng. 120:281, §4 and
   Fig. 5: period doublings from γ ≈ 0.015, chaos up to γ ≈ 0.019);
+* no orbit from a guess, and no fall, is "no_fixed_point" with the last iterate;
 * parameters out of range, or unknown, raise a ParameterValueError naming the parameter;
 * the stride map and the Floquet multipliers in the thesis's coordinates (θ̇, φ, φ̇) agree with
   the model's own (similarity-invariant multipliers).
@@ -35,37 +36,58 @@ def simplest():
 
 
 def test_walker_on_level_ground_falls_and_reports_the_step(simplest):
-    """γ = 0 from Garcia's rough guess: the walker loses energy at each heel strike and falls
-    (the hip drops below half the leg length) during step 2; the result says so, with the steps
-    taken and the last section state; no gait fields are invented (null)."""
-    r = analyze_gait(simplest.with_parameters(slope=0.0))
-    assert r.status == "fell"
+    """γ = 0 from Garcia's rough guess, without the continuation from the file's gait: the
+    walker loses energy at each heel strike and falls (the hip drops below half the leg length)
+    during step 2; the result says so, with the steps taken and the last section state; no gait
+    fields are invented (null), the metrics included."""
+    r = analyze_gait(simplest.with_parameters(slope=0.0), continuation=False)
+    assert r.status == "fell" and r.outcome == "fell"
     assert r.fell_at_step == 2 and r.fall_reason == "fall"
-    assert r.period_steps == 0 and r.floquet_multipliers == []
+    assert r.period_steps == 0 and r.floquet_multipliers == [] and r.orbits == []
     assert set(r.fixed_point) >= {"theta", "theta_dot", "phi", "phi_dot"}
     assert all(v is None for v in r.fixed_point.values())
     assert r.last_iterate["theta"] > 0
     d = json.loads(r.to_json())
     assert d["status"] == "fell" and d["fell_at_step"] == 2
     assert d["steps"][-1]["status"] == "fell"
+    assert d["step_period"] is None and d["speed"] is None
 
 
-def test_slope_without_periodic_gait_reports_no_fixed_point_with_last_iterate(simplest):
+def test_only_unstable_orbits_are_reported_as_such(simplest):
     """γ = 0.0186 (chaotic range), started on the attractor (a state reached by continuing the
-    period-2/4 gaits from γ = 0.0155): Newton finds only the unstable period-1 orbit, 200 iterated
-    steps repeat with no period ≤ 8 and do not fall: status "no_fixed_point", the last iterate
-    reported by name, and the unstable period-1 fixed point with its multipliers."""
+    period-2/4 gaits from γ = 0.0155), without the continuation from the file's gait: Newton
+    finds the unstable period-1 orbit, 200 iterated steps repeat with no period ≤ 8 and do not
+    fall. Outcome "unstable_orbits_only" (status "periodic", stable false): the orbit with its
+    period and multipliers at the top level and in ``orbits``, and the top-level step period is
+    that orbit's (one stride from its fixed point), not the last iterate's."""
     w = simplest.with_parameters(slope=0.0186)
     guess = w.from_thesis([-0.24837989, 2 * 0.25775171, -0.03227829])
-    r = analyze_gait(w, guess)
-    assert r.status == "no_fixed_point", r.message
-    assert r.period_steps == 0 and r.fell_at_step is None
-    assert r.last_iterate is not None and set(r.last_iterate) >= {"theta", "theta_dot"}
-    assert 0.2 < r.last_iterate["theta"] < 0.3
+    r = analyze_gait(w, guess, continuation=False)
+    assert r.status == "periodic" and r.outcome == "unstable_orbits_only", r.message
+    assert r.stable is False and r.stability_certain and r.period_steps == 1
+    assert r.fell_at_step is None and r.newton["converged"]
+    assert len(r.orbits) == 1 and r.orbits[0]["period_steps"] == 1
+    assert r.orbits[0]["max_multiplier"] == pytest.approx(max(abs(m) for m in
+                                                              r.floquet_multipliers))
+    assert max(abs(m) for m in r.floquet_multipliers) > 1
     assert r.unstable_fixed_point is not None
-    assert max(abs(m) for m in r.unstable_fixed_point["floquet_multipliers"]) > 1
-    assert r.newton["converged"]
-    assert "no stable periodic gait" in r.message
+    z = np.array([r.fixed_point[k] for k in w.section])
+    assert r.metrics.step_period == pytest.approx(w.stride(z).duration, rel=1e-12)
+    assert "only unstable orbits" in r.message
+    d = json.loads(r.to_json())
+    assert d["status"] == "periodic" and d["stable"] is False
+    assert d["orbits"][0]["floquet_multipliers"][0].keys() == {"re", "im"}
+
+
+def test_no_periodic_orbit_from_a_guess_reports_the_last_iterate(simplest):
+    """The same chaotic state with Newton cut to one iteration: no orbit is found, the walker
+    does not fall over 200 steps: "no_fixed_point" with the last iterate by name."""
+    w = simplest.with_parameters(slope=0.0186)
+    guess = w.from_thesis([-0.24837989, 2 * 0.25775171, -0.03227829])
+    r = analyze_gait(w, guess, continuation=False, max_iter=1)
+    assert r.status == "no_fixed_point" and r.outcome == "no_periodic_orbit", r.message
+    assert r.period_steps == 0 and r.fell_at_step is None and r.orbits == []
+    assert r.last_iterate is not None and 0.2 < r.last_iterate["theta"] < 0.3
 
 
 def test_newton_from_a_hopeless_guess_returns_its_last_iterate(simplest):

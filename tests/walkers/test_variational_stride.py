@@ -1,15 +1,17 @@
-"""The exact stride Jacobian from one run with sensitivities (tests/walkers/variational_stride.py,
-a prototype of the wiring into walker_library) against finite differences of
-``HybridWalker.stride``:
+"""The exact stride Jacobian (walker_library.variational, the default ``jacobian="variational"``
+of walker_library.monodromy) against finite differences of ``HybridWalker.walk``:
 
 * rigid walkers (a pinned swing phase, a plastic impact and relabelling at heel strike, the
-  reset's Jacobian by differences with an error estimate): central differences of strides at
-  the files' rtol 1e-12 are accurate to ~1e-8 there; the rimless wheel's one multiplier is
-  cos² 2α in closed form (McGeer 1990; Coleman, Chatterjee & Ruina 1997);
+  impact's Jacobian by differences with an error estimate): central differences of strides at
+  the files' DOP853, rtol 1e-12, are accurate to ~1e-8 there; the rimless wheel's one multiplier
+  is cos² 2α in closed form (McGeer 1990; Coleman, Chatterjee & Ruina 1997);
 * the compliant-contact compass walker (contacts switched by events, no state reset): central
   differences have an O(h²) error with a large constant (the stiff contact), 3e-3 at h = 1e-5;
   their Richardson extrapolation (h = 2e-5, 1e-5, at rtol 1e-12) converges at O(h⁴) and agrees
-  with the exact Jacobian computed at the file's own rtol 1e-9.
+  with the exact Jacobian computed at the file's own rtol 1e-9;
+* every compliant walker: the exact multipliers at the file's tolerances against those of a run
+  at 1/100 of them (the multipliers' error, ≤ 1e-6 on every shipped walker), within the error
+  bound reported.
 """
 from __future__ import annotations
 
@@ -17,44 +19,53 @@ import math
 
 import numpy as np
 import pytest
-from variational_stride import stride_jacobian
 
+from porthamiltonian.errors import ModelError
+from walker_library.monodromy import floquet, stride_jacobian
 from walker_library.poincare import find_fixed_point
 from walker_library.poincare import jacobian as fd_jacobian
 from walker_library.walkers import load_walker
 
 #: the compass walker's fixed point at rtol 1e-11 (tests/walkers/test_compass_walker.py)
-COMPASS_FIXED_POINT = [-0.206411020523, 0.206209813786, 0.606829889921, -0.118612721153,
-                       0.825427285873, 0.827699297548]
+COMPASS_FIXED_POINT = [-0.206593040026, 0.206392004125, 0.606538920573, -0.118663812337,
+                       0.824951668227, 0.827335229012]
 
 
 def _eig(J: np.ndarray) -> np.ndarray:
     return np.array(sorted(np.linalg.eigvals(J), key=lambda c: (-abs(c), -c.imag)))
 
 
+def _fixed_point(walker) -> np.ndarray:
+    fp = find_fixed_point(walker, walker.initial_guess())
+    assert fp.converged
+    return fp.z
+
+
 @pytest.mark.parametrize("name", ["simplest_walker", "compass_gait", "rigid_compass_walker",
                                   "rimless_wheel"])
 def test_rigid_walkers_agree_with_finite_differences(name):
-    """At the fixed point: the exact Jacobian (Rodas5P at the file's rtol) and central
-    differences of strides (step 1e-6, the file's DOP853 at rtol 1e-12) agree to 1e-6 of max|J|
-    (measured 5e-11 to 1e-8), their multipliers to 1e-6; the run's own error estimates are
-    small (Φ within its sub-step tolerance, the difference Jacobians below 1e-5)."""
-    walker = load_walker(name, backend="c")
-    z = find_fixed_point(walker, walker.initial_guess()).z
+    """At the fixed point: the exact Jacobian (Rodas5P with its variational equations at the
+    file's rtol) and central differences of strides (step 1e-6, the file's DOP853 at rtol 1e-12)
+    agree to 1e-6 of max|J| (measured 5e-11 to 1e-8), their multipliers to 1e-6, and the
+    multipliers' error bounds are below 1e-6; so does the finite-difference ladder (the
+    cross-check, ``jacobian="fd"``), within its own bounds."""
+    walker = load_walker(name)
+    z = _fixed_point(walker)
     exact = stride_jacobian(walker, z)
     fd = fd_jacobian(walker, z, step=1e-6)
-    assert np.max(np.abs(exact.J - fd)) < 1e-6 * np.max(np.abs(fd))
-    assert np.max(np.abs(_eig(exact.J) - _eig(fd))) < 1e-6
-    assert np.max(np.abs(exact.z_next - z)) < 1e-8
-    assert exact.phi_error <= 10.0 and exact.difference_error < 1e-5
+    assert exact.method == "variational"
+    assert np.max(np.abs(exact.matrix - fd)) < 1e-6 * np.max(np.abs(fd))
+    assert np.max(np.abs(_eig(exact.matrix) - _eig(fd))) < 1e-6
+    fl, ladder = floquet(walker, z), floquet(walker, z, jacobian="fd")
+    assert fl.error < 1e-6 and fl.certain
+    assert np.max(np.abs(fl.multipliers - ladder.multipliers)) < max(1e-6, 2 * ladder.error)
 
 
 def test_rimless_wheel_multiplier_is_cos_squared_two_alpha():
     """The rimless wheel's stride map has one multiplier, cos² 2α (α = π/n_spokes: 0.5 for 8
     spokes), exactly: the exact Jacobian gives it to 1e-10."""
-    walker = load_walker("rimless_wheel", backend="c")
-    z = find_fixed_point(walker, walker.initial_guess()).z
-    (mult,) = np.linalg.eigvals(stride_jacobian(walker, z).J)
+    walker = load_walker("rimless_wheel")
+    (mult,) = np.linalg.eigvals(stride_jacobian(walker, _fixed_point(walker)).matrix)
     alpha = math.pi / walker.parameters["n_spokes"]
     assert mult.real == pytest.approx(math.cos(2 * alpha) ** 2, abs=1e-10)
 
@@ -62,18 +73,45 @@ def test_rimless_wheel_multiplier_is_cos_squared_two_alpha():
 def test_compass_walker_against_extrapolated_differences():
     """The compliant compass walker at its fixed point: the exact Jacobian at the file's rtol 1e-9
     against Richardson-extrapolated central differences R = (4 D(h/2) − D(h))/3 of strides at
-    rtol 1e-12 (h = 2e-5): J to 1e-6 of max|J| and the multipliers to 5e-6 (measured 6e-7 with
-    the entrywise multibody, 3.2e-6 with the recursive one, whose exact J moved by 1e-8 relative:
-    the difference is R's own error, O(h⁴), ~3e-6 at h = 4e-5), where a single central difference at
-    h = 1e-5 is 30x further off (3e-3 of J)."""
-    walker = load_walker("compass_walker", backend="c")
+    rtol 1e-12 (h = 2e-5): J to 1e-5 of max|J| and the multipliers to 3e-6 (R's own error,
+    O(h⁴), is ~3e-6), where a single central difference at h = 1e-5 is 30x further off."""
+    walker = load_walker("compass_walker")
     z = np.array(COMPASS_FIXED_POINT)
-    exact = stride_jacobian(walker, z)
+    exact = stride_jacobian(walker, z).matrix
     tight = walker.with_options(rtol=1e-12, atol=1e-14)
     d1, d2 = (fd_jacobian(tight, z, step=h) for h in (2e-5, 1e-5))
     rich = (4 * d2 - d1) / 3
     scale = np.max(np.abs(rich))
-    assert np.max(np.abs(exact.J - rich)) < 1e-6 * scale
-    assert np.max(np.abs(_eig(exact.J)[:2] - _eig(rich)[:2])) < 5e-6
-    assert np.max(np.abs(d2 - exact.J)) > 30 * np.max(np.abs(exact.J - rich))
-    assert exact.phi_error <= 10.0
+    assert np.max(np.abs(exact - rich)) < 1e-5 * scale
+    assert np.max(np.abs(_eig(exact)[:2] - _eig(rich)[:2])) < 3e-6
+    assert np.max(np.abs(d2 - exact)) > 30 * np.max(np.abs(exact - rich))
+
+
+@pytest.mark.parametrize("name", ["compass_walker", "compliant_leg_walker",
+                                  "smooth_stiffness_walker", "variable_stiffness_walker",
+                                  "ankle_stiffness_walker", "hip_and_leg_spring_walker",
+                                  "compass_walker_point_legs", "compliant_leg_walker_point_legs"])
+def test_compliant_walker_multipliers_to_1e_6(name):
+    """The exact multipliers at the file's tolerances (rtol 1e-9) differ from those of a run at
+    rtol 1e-11 by less than 1e-6 (measured 5e-9 to 1.1e-7) and by less than their reported
+    error bounds (|λ(rtol) − λ(10 rtol)|, measured 2e-7 to 7e-7)."""
+    walker = load_walker(name)
+    z = _fixed_point(walker)
+    fl = floquet(walker, z)
+    ref = _eig(walker.stride_sensitivity(z, factor=1e-2).jacobian)
+    err = np.array([np.min(np.abs(ref - lam)) for lam in fl.multipliers])
+    assert np.max(err) < 1e-6
+    assert np.all(err <= fl.errors)
+    assert fl.error < 1e-6
+
+
+def test_a_walker_without_sensitivities_is_told_to_use_fd():
+    """A Walker that does not provide ``stride_sensitivity`` gets a clear error naming the
+    alternative, as does an unknown method."""
+    class Plain:
+        name = "plain"
+
+    with pytest.raises(ModelError, match="variational.*stride_sensitivity.*jacobian='fd'"):
+        stride_jacobian(Plain(), np.zeros(2))
+    with pytest.raises(ModelError, match="one of fd, variational"):
+        stride_jacobian(Plain(), np.zeros(2), method="exact")
