@@ -47,7 +47,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import brentq, linear_sum_assignment
 
 from porthamiltonian.errors import ModelError, ParameterValueError
 
@@ -366,6 +365,8 @@ def _change(a: np.ndarray, b: np.ndarray) -> float:
     if not len(a):
         return 0.0
     cost = np.abs(a[:, None] - b[None, :]) / np.maximum(1.0, np.abs(a))[:, None]
+    from scipy.optimize import linear_sum_assignment  # here: scipy.optimize takes ~0.2 s
+
     rows, cols = linear_sum_assignment(cost)
     return float(np.max(cost[rows, cols]))
 
@@ -617,6 +618,8 @@ class _Continuer:
                     raise WalkerFell(xp[:-1] * m.s, Stride("fell", None, 0.0, reason="locate"))
                 cache[s] = self._state(m, res[0], res[1], a.t, a.sj)
             return cache[s]
+
+        from scipy.optimize import brentq
 
         try:
             s = brentq(lambda s: state(s).tests[kind], 0.0, d_total, xtol=self.locate_tol,

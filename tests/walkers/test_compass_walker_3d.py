@@ -24,7 +24,8 @@ import pytest
 
 from walker_library import load_walker, walk
 from walker_library.cli import main
-from walker_library.poincare import find_fixed_point, floquet
+from walker_library.monodromy import floquet
+from walker_library.poincare import find_fixed_point
 
 TIGHT = {"rtol": 1e-12, "atol": 1e-13, "gait_tolerance": 1e-11}
 LATERAL = ["walker.q.pelvis.x", "walker.q.pelvis.z", "walker.v.pelvis.x", "walker.v.pelvis.z",

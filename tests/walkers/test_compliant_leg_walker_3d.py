@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from walker_library import load_walker, walk
-from walker_library.poincare import find_fixed_point, floquet
+from walker_library.monodromy import floquet
+from walker_library.poincare import find_fixed_point
 from walker_library.studies import run_studies
 
 LATERAL = ["walker.q.pelvis.x", "walker.q.pelvis.z", "walker.v.pelvis.x", "walker.v.pelvis.z",
