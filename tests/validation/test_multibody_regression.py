@@ -25,6 +25,10 @@ from porthamiltonian import compile_model, io
 HERE = Path(__file__).resolve().parent
 REFERENCE = json.loads((HERE / "data" / "multibody_reference.json").read_text())
 RTOL = 1e-12
+#: parameter values changed in the files after the reference was recorded (their initial guess
+#: re-tuned for the legs' inertia): the reference's values
+RECORDED = {"smooth_stiffness_walker": {"theta0": 0.2634, "theta_dot0": -0.9481,
+                                        "phi_dot0": 0.0144}}
 
 
 def close(new, old, what: str) -> None:
@@ -55,9 +59,18 @@ def test_same_numbers_as_the_entrywise_formulation(built, name):
     ref = REFERENCE["models"][name]
     model = built(name)
     assert model.state_names == ref["state_names"]
-    assert model.param_names == ref["param_names"]
-    close(model.initial_state(), ref["initial"], f"{name} initial state")
-    pn = model.native_params(model.param_defaults)
+    # the thesis walkers' legs got a rod's inertia I_leg later: at I_leg = 0 (point-mass legs,
+    # the reference's) the numbers must be the reference's
+    later = [n for n in model.param_names if n not in ref["param_names"]]
+    assert later in ([], ["I_leg"]), later
+    assert [n for n in model.param_names if n not in later] == ref["param_names"]
+    params = np.array(model.param_defaults, dtype=float)
+    for n in later:
+        params[model.param_names.index(n)] = 0.0
+    for n, value in RECORDED.get(name, {}).items():
+        params[model.param_names.index(n)] = value
+    close(model.initial_state(params), ref["initial"], f"{name} initial state")
+    pn = model.native_params(params)
     f = model.functions
     for k, entry in enumerate(ref["states"]):
         x = np.array(entry["x"])
@@ -75,4 +88,4 @@ def test_same_numbers_as_the_entrywise_formulation(built, name):
               f"{name} outputs #{k}")
         assert set(model.matrix_names) == set(entry["matrices"])
         for mname, value in entry["matrices"].items():
-            close(model.matrix(mname, 0.0, x, model.param_defaults), value, f"{name} {mname} #{k}")
+            close(model.matrix(mname, 0.0, x, params), value, f"{name} {mname} #{k}")
