@@ -6,10 +6,16 @@ With w = 0 and a sagittal start its gait is compliant_leg_walker's (an independe
 multibody, planar contact and friction), and it is laterally unstable as the rigid-leg 3D walker
 is (Kuo 1999, IJRR 18, "Stabilization of lateral motion in passive dynamic walking": the
 straight-legged 3D passive walker is laterally unstable without control); compliance in the legs
-does not change that (sideways-fall multiplier −36.31 against −32.79 with rigid legs). The
+does not change that (sideways-fall multiplier −36.92 against −33.39 with rigid legs). The
 `compliance_3d` study (walker_library.studies) asks the thesis's Figs. 3.3–3.6 question in 3D;
 its reduced grid is checked here, the full study is `walker reproduce compliance_3d`
 (REPRODUCTION.md).
+
+Floquet multipliers are exact (:func:`~walker_library.monodromy.floquet`'s default). The pins
+changed when the legs got compliant_leg_walker's rod inertia I_leg = m_leg l²/12 (they were point
+masses) and the multipliers became exact (they were central differences at a fixed step of 1e-4):
+the sideways-fall multiplier from −36.311 to −36.923 — all of it the inertia: with I_leg = 0 the
+exact Jacobian gives −36.3111, the old value.
 """
 from __future__ import annotations
 
@@ -39,31 +45,42 @@ def pair(isolated_cache):
 
 def test_sagittal_gait_equals_compliant_leg_walker(pair):
     """Same section coordinates plus the lateral ones; from the 2D fixed point Newton converges in
-    ≤ 8 iterations (measured 1) to the same fixed point, to 1e-8 (measured 4.0e-10 at the files'
-    rtol 1e-9, Newton tolerance 1e-10), lateral coordinates exactly 0. Floquet: the Jacobian is
-    block diagonal (exactly 0 off the blocks, by symmetry), the sagittal multipliers are the 2D
-    walker's to 2e-4 (measured 6e-5: central differences at rtol 1e-9 on two differently
-    formulated models), and one lateral multiplier is unstable (pinned −36.31, 1e-3 relative;
-    −32.79 with rigid legs): a stiff-legged or compliant, the 3D passive walker falls sideways."""
+    ≤ 8 iterations to the same fixed point, to 1e-8, lateral coordinates exactly 0 (measured: 7
+    iterations, 2.8e-9, at the files' rtol 1e-9, Newton tolerance 1e-10 — the 2D fixed point
+    already satisfies the 3D stride map to 1.9e-9, the two models' integration error, and the
+    forward-difference Newton creeps below 1e-10 from there; before the legs' inertia: 1
+    iteration, 4.0e-10). Exact Jacobians: the 3D one is block diagonal (exactly 0 off the blocks,
+    by symmetry: measured exactly 0.0), its sagittal block is the 2D walker's to 1e-5 of its
+    largest entry (measured 1.1e-3 on entries up to 433: 2.5e-6 — the stiff legs' directions) and
+    all ten sagittal multipliers are the 2D walker's to 1e-6 (measured 4.3e-8; with central
+    differences at a fixed step the four largest agreed to 6e-5 only, asserted 2e-4). Lateral
+    multipliers pinned to 1e-4 (error bound 2.5e-6) and 1e-5: −36.92335, −0.997447, −0.006002, 0,
+    0 (−36.311 before the legs' inertia; −33.386 with rigid legs): stiff-legged or compliant,
+    the 3D passive walker falls sideways."""
     planar, spatial, fp2, fp3 = pair
     assert list(spatial.section) == list(planar.section) + LATERAL
     assert fp3.converged and fp3.iterations <= 8
     assert np.max(np.abs(fp3.z[:10] - fp2.z)) < 1e-8
     assert np.all(fp3.z[10:] == 0.0)
-    J = floquet(spatial, fp3.z, period=1, step=1e-4).jacobian
+    f3 = floquet(spatial, fp3.z, period=1)
+    f2 = floquet(planar, fp2.z, period=1)
+    assert f2.method == f3.method == "variational"
+    J = f3.jacobian
     assert np.all(J[10:, :10] == 0.0) and np.all(J[:10, 10:] == 0.0)
-    f2 = floquet(planar, fp2.z, period=1, step=1e-4)
+    assert np.max(np.abs(J[:10, :10] - f2.jacobian)) < 1e-5 * np.max(np.abs(f2.jacobian))
     sagittal = sorted(np.linalg.eigvals(J[:10, :10]), key=lambda m: (-abs(m), m.imag))
     expected = sorted(f2.multipliers, key=lambda m: (-abs(m), m.imag))
-    assert np.max(np.abs(np.array(sagittal[:4]) - np.array(expected[:4]))) < 2e-4
-    lateral = sorted(np.linalg.eigvals(J[10:, 10:]), key=abs, reverse=True)
-    assert lateral[0].real == pytest.approx(-36.311, rel=1e-3) and abs(lateral[0].imag) < 1e-9
-    assert all(abs(m) < 1.0 for m in lateral[1:])
+    assert np.max(np.abs(np.array(sagittal) - np.array(expected))) < 1e-6
+    lateral = np.array(sorted(np.linalg.eigvals(J[10:, 10:]), key=abs, reverse=True))
+    assert np.all(np.abs(lateral.imag) < 1e-9)
+    assert lateral[0].real == pytest.approx(-36.92335, abs=1e-4)
+    assert lateral[1:].real == pytest.approx([-0.997447, -0.006002, 0.0, 0.0], abs=1e-5)
+    assert f3.errors[0] < 1e-4 and f3.certain and not f3.stable
 
 
 def test_ledger_closes_over_20_steps_and_a_roll_push_falls(pair):
     """20 steps from the fixed point at the file's tolerances: ledger residual < 1e-7 J (measured
-    2.8e-10; 1.97 J dissipated), dissipated = potential released (1e-6 relative: a periodic
+    2.7e-10; 1.98 J dissipated), dissipated = potential released (1e-6 relative: a periodic
     gait; measured 3e-8). A roll-rate push of 0.05 rad/s falls sideways within 6 steps (measured
     4): a stride with status "fell", not an exception."""
     _, spatial, _, fp3 = pair
@@ -81,22 +98,25 @@ def test_compliance_3d_study_reduced_grid(pair, tmp_path):
     """`walker reproduce compliance_3d --quick` (K_leg = 6000 N/m and the rigid legs; bisection to
     0.5 mm and 1e-3, pushes survived over 2 steps). At w = 0 a step-down keeps the motion
     sagittal, so the largest step-downs are the 2D walkers' (REPRODUCTION.md: 1.1 mm compliant,
-    2.5 mm rigid, on a 0.1 mm grid): asserted to the bisection's 0.5 mm. Pinned (regression, to the
-    bisection's resolution): compliant 0.94 mm, 0.444 rad/s roll rate, 3.9 mm/s lateral hip
-    velocity; rigid 2.5 mm, 0.126 rad/s, 4.9 mm/s. Both laterally unstable."""
+    2.5 mm rigid, on a 0.1 mm grid, point-mass legs): asserted to the bisection's 0.5 mm. Pinned
+    (regression, to the bisection's resolution; exact multipliers to 1e-4): compliant 0.94 mm,
+    0.430 rad/s roll rate, 3.9 mm/s lateral hip velocity, |λ| 36.923; rigid 2.5 mm, 0.124 rad/s,
+    4.9 mm/s, |λ| 33.386. Both laterally unstable. Before the legs' rod inertia (and with
+    multipliers by central differences at a fixed step): roll rate 0.444 and 0.126 rad/s, |λ|
+    36.311 and 32.794; the step-downs and hip-velocity pushes did not change."""
     summary = run_studies(["compliance_3d"], tmp_path, quick=True, serial=True,
                           progress="none", log=lambda msg: None)["compliance_3d"]
     (row,) = summary["table"]
     rigid = summary["rigid"]
     assert row["status"] == "ok" and rigid["status"] == "ok"
-    assert row["max_multiplier"] == pytest.approx(36.311, rel=1e-3)
-    assert rigid["max_multiplier"] == pytest.approx(32.794, rel=1e-3)
+    assert row["max_multiplier"] == pytest.approx(36.92335, abs=1e-4)
+    assert rigid["max_multiplier"] == pytest.approx(33.38619, abs=1e-4)
     assert abs(row["max_step_down"] - 1.1e-3) <= 5e-4
     assert abs(rigid["max_step_down"] - 2.5e-3) <= 5e-4
     assert row["max_step_down"] == pytest.approx(0.9375e-3, abs=1e-9)
-    assert row["max_roll_rate_push"] == pytest.approx(0.4443, abs=1e-3)
+    assert row["max_roll_rate_push"] == pytest.approx(0.4297, abs=1e-3)
     assert row["max_hip_vy_push"] == pytest.approx(0.0039, abs=1e-3)
-    assert rigid["max_roll_rate_push"] == pytest.approx(0.1260, abs=1e-3)
+    assert rigid["max_roll_rate_push"] == pytest.approx(0.1240, abs=1e-3)
     assert rigid["max_hip_vy_push"] == pytest.approx(0.0049, abs=1e-3)
     saved = json.loads((tmp_path / "compliance_3d" / "summary.json").read_text())
     assert saved["rows"][2]["ours"] is True
