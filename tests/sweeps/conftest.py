@@ -1,5 +1,5 @@
 """Shared by the sweep tests: the reference (uninterrupted, serial, in-process) run of the real
-walker sweep, simplest_walker gait over 4 slopes with the python back end."""
+walker sweep, simplest_walker gait over 4 slopes with the C back end."""
 from __future__ import annotations
 
 import pytest

@@ -406,7 +406,7 @@ def test_a_basin_sweep_ships_the_gait_found_once_to_its_workers(tmp_path):
     """prepare_basin finds the gait in this process; the pool's workers use that one (a gait
     that says "fell" makes every point "no_gait") and give the rows of cases that find it."""
     import dataclasses
-    fixed = {"model": "simplest_walker", "backend": "python", "params": {"slope": 0.009}}
+    fixed = {"model": "simplest_walker", "backend": "c", "params": {"slope": 0.009}}
     cases = grid(theta=[0.2], theta_dot=[-0.2, -0.19])
     shared = analyses.prepare_basin(cases, **fixed)
     assert shared["gait"].status == "periodic"

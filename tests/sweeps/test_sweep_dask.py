@@ -56,7 +56,7 @@ def test_failing_cases_through_dask_are_rows(tmp_path, client):
 def test_command_line_scheduler_address(tmp_path, client, capsys, gait_reference):
     out = tmp_path / "gait.jsonl"
     code = main(["sweep", "simplest_walker", "--grid", "slope=0.004:0.019:4", "--out", str(out),
-                 "--backend", "python", "--scheduler", client.scheduler.address, "--json"])
+                 "--backend", "c", "--scheduler", client.scheduler.address, "--json"])
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["report"]["n_run"] == 4 and doc["report"]["complete"]

@@ -164,11 +164,11 @@ def test_hard_killed_sweep_with_a_torn_last_line_resumes(tmp_path):
 
 def test_interrupted_simplest_walker_gait_sweep_resumes_to_the_same_numbers(tmp_path, capsys,
                                                                             gait_reference):
-    """The real thing: simplest_walker gait over 4 slopes (python back end, one worker), stopped
+    """The real thing: simplest_walker gait over 4 slopes (C back end, one worker), stopped
     by SIGINT after the first row, resumed; the table equals an uninterrupted in-process run."""
     out = tmp_path / "gait.jsonl"
     args = ["sweep", "simplest_walker", "--grid", "slope=0.004:0.019:4", "--out", str(out),
-            "--backend", "python", "--workers", "1", "--progress", "none"]
+            "--backend", "c", "--workers", "1", "--progress", "none"]
     proc = _start(args)
     _wait_for_rows(proc, out, 1)
     proc.send_signal(signal.SIGINT)
@@ -181,7 +181,7 @@ def test_interrupted_simplest_walker_gait_sweep_resumes_to_the_same_numbers(tmp_
     doc = json.loads(capsys.readouterr().out)
     assert doc["report"]["n_run"] == 4 - len(partial) and doc["report"]["complete"]
     assert doc["identity"]["function"] == "walker_library.analyses:gait_case"
-    assert doc["identity"]["fixed"] == {"backend": "python", "model": "simplest_walker"}
+    assert doc["identity"]["fixed"] == {"backend": "c", "model": "simplest_walker"}
     rows = load_results(out)
     assert sorted(r["case_id"] for r in rows) == [0, 1, 2, 3]
     reference = gait_reference
