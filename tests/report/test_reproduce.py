@@ -43,4 +43,4 @@ def test_quick_studies_write_figures_and_thesis_rows(tmp_path, capsys):
 def test_unknown_study_is_refused_with_the_list():
     with pytest.raises(ModelError, match="unknown study 'table_9_9'; studies: table_2_3"):
         run_studies(["table_9_9"], "unused")
-    assert len(STUDIES) == 11
+    assert len(STUDIES) == 12
