@@ -295,7 +295,8 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
     start = _direct(nominal, None, tol=tol, max_iter=max_iter, max_period=max_period,
                     search=_Search(nominal, search.fd_step, search.jacobian, tol))
     if start is None:
-        search.tried.append("the model file's nominal gait: none found from its own guess")
+        search.tried.append("the model file's nominal gait: no stable orbit from its own guess "
+                            "(homotopy continues stable gaits only)")
         return
     if not changed:
         search.add(start.z, start.period, "the model file's nominal gait", start.floquet)
