@@ -97,8 +97,21 @@ _POINT = {
     "x": Arg("world x of the contact point (a signal, e.g. 'walker.foot1.x')", "m"),
     "z": Arg("world z of the contact point (a signal, e.g. 'walker.foot1.z')", "m"),
 }
-_MODE = {"active": Arg("contact mode flag (0 or 1; a parameter switched by events)", "1", default=1,
-                       rule=">=")}
+#: argument tables shared by the planar and the 3D contacts (library/contact3d.py)
+MODE_ARGUMENTS = {"active": Arg("contact mode flag (0 or 1; a parameter switched by events)", "1",
+                                default=1, rule=">=")}
+HUNT_CROSSLEY_ARGUMENTS = {
+    "stiffness": Arg("contact stiffness K", "N/m^n", rule=">="),
+    "damping": Arg("Hunt-Crossley damping λ", "N*s/m^(n+1)", default=0, rule=">="),
+    "exponent": Arg("exponent n of the penetration (1: App. A; 3/2: Hertz)", "1", default=1,
+                    rule=">"),
+}
+KELVIN_VOIGT_ARGUMENTS = {
+    "stiffness": Arg("contact stiffness K", "N/m", rule=">="),
+    "damping": Arg("contact damping B", "N*s/m", default=0, rule=">="),
+    "clip": Arg("clip the force at F >= 0 (false: tensile force possible at separation)",
+                symbolic=False, default=True),
+}
 
 
 Law = tuple[sp.Expr, sp.Expr, sp.Expr]
@@ -185,12 +198,9 @@ class HuntCrossley(_Contact):
     kind = "HuntCrossley"
     arguments = {
         **_POINT,
-        "stiffness": Arg("contact stiffness K", "N/m^n", rule=">="),
-        "damping": Arg("Hunt-Crossley damping λ", "N*s/m^(n+1)", default=0, rule=">="),
-        "exponent": Arg("exponent n of the penetration (1: App. A; 3/2: Hertz)", "1", default=1,
-                        rule=">"),
+        **HUNT_CROSSLEY_ARGUMENTS,
         **surface_arguments(),
-        **_MODE,
+        **MODE_ARGUMENTS,
     }
 
     def build(self, b: Builder, x: sp.Expr, z: sp.Expr, stiffness: sp.Expr, damping: sp.Expr,
@@ -214,12 +224,9 @@ class KelvinVoigt(_Contact):
     kind = "KelvinVoigt"
     arguments = {
         **_POINT,
-        "stiffness": Arg("contact stiffness K", "N/m", rule=">="),
-        "damping": Arg("contact damping B", "N*s/m", default=0, rule=">="),
-        "clip": Arg("clip the force at F >= 0 (false: tensile force possible at separation)",
-                    symbolic=False, default=True),
+        **KELVIN_VOIGT_ARGUMENTS,
         **surface_arguments(),
-        **_MODE,
+        **MODE_ARGUMENTS,
     }
 
     def build(self, b: Builder, x: sp.Expr, z: sp.Expr, stiffness: sp.Expr, damping: sp.Expr,

@@ -58,7 +58,14 @@ import sympy as sp
 from ..component import Arg, Builder, Component, register
 from ..errors import ParameterValueError
 from ..ports import Port
-from .contact import Law, hunt_crossley, kelvin_voigt
+from .contact import (
+    HUNT_CROSSLEY_ARGUMENTS,
+    KELVIN_VOIGT_ARGUMENTS,
+    MODE_ARGUMENTS,
+    Law,
+    hunt_crossley,
+    kelvin_voigt,
+)
 from .surfaces import make_surface, surface_arguments
 
 Vec = list[Any]
@@ -134,9 +141,7 @@ _GEOMETRY = {
     "z": Arg("world z of the sphere's centre (a signal)", "m"),
     "radius": Arg("sphere radius r (0: a point contact)", "m", default=0, rule=">="),
 }
-_MODE = {"active": Arg("contact mode flag (0 or 1; a parameter switched by events)", "1",
-                       default=1, rule=">="),
-         "plane": PLANE}
+_MODE = {**MODE_ARGUMENTS, "plane": PLANE}
 
 
 @register
@@ -152,10 +157,7 @@ class HuntCrossley3D(_Contact3D):
     kind = "HuntCrossley3D"
     arguments = {
         **_GEOMETRY,
-        "stiffness": Arg("contact stiffness K", "N/m^n", rule=">="),
-        "damping": Arg("Hunt-Crossley damping λ", "N*s/m^(n+1)", default=0, rule=">="),
-        "exponent": Arg("exponent n of the penetration (1: App. A; 3/2: Hertz)", "1", default=1,
-                        rule=">"),
+        **HUNT_CROSSLEY_ARGUMENTS,
         **surface_arguments(),
         **_MODE,
     }
@@ -180,10 +182,7 @@ class KelvinVoigt3D(_Contact3D):
     kind = "KelvinVoigt3D"
     arguments = {
         **_GEOMETRY,
-        "stiffness": Arg("contact stiffness K", "N/m", rule=">="),
-        "damping": Arg("contact damping B", "N*s/m", default=0, rule=">="),
-        "clip": Arg("clip the force at F >= 0 (false: tensile force possible at separation)",
-                    symbolic=False, default=True),
+        **KELVIN_VOIGT_ARGUMENTS,
         **surface_arguments(),
         **_MODE,
     }
