@@ -360,20 +360,28 @@ class _Reader:
         return self.error()
 
 
+def read_text(path: Path, *, limit: int, label: str, kind: str, language: str) -> str:
+    """The UTF-8 text of a file that a user names (a model file, a previous result), at most
+    ``limit`` bytes; else a :class:`ModelFileError` starting with ``label`` (how the user named
+    it) and saying what a ``kind`` is (``language`` text, at most ``limit`` bytes)."""
+    try:
+        size = path.stat().st_size
+        if size > limit:
+            raise ModelFileError(f"{label}: the file is {size} bytes long; a {kind} is at most "
+                                 f"{limit} bytes (is it a {kind}?)")
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise ModelFileError(f"{label}: not a UTF-8 text file (byte {err.start}: {err.reason}); "
+                             f"a {kind} is {language} text") from None
+    except OSError as err:
+        raise ModelFileError(f"{label}: cannot read it ({err.strerror or err})") from None
+
+
 def read(name_or_path: str | Path) -> ModelFile:
     """Read a model file by name or path: the :class:`ModelFile` (model and file metadata)."""
     path = model_path(name_or_path)
-    try:
-        size = path.stat().st_size
-        if size > MAX_FILE_SIZE:
-            raise ModelFileError(f"{path}: the file is {size} bytes long; a model file is at most "
-                                 f"{MAX_FILE_SIZE} bytes (is it a model file?)")
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as err:
-        raise ModelFileError(f"{path}: not a UTF-8 text file (byte {err.start}: {err.reason}); "
-                             "a model file is TOML text") from None
-    except OSError as err:
-        raise ModelFileError(f"{path}: cannot read the model file ({err.strerror})") from None
+    text = read_text(path, limit=MAX_FILE_SIZE, label=str(path), kind="model file",
+                     language="TOML")
     return reads(text, source=str(path))
 
 

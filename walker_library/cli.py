@@ -94,15 +94,8 @@ MAX_GUESS_BYTES = 10_000_000
 
 def _read_guess(path: str) -> dict:
     """A previous ``walker gait --json`` result (the ``--guess`` option): a JSON object."""
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-        if size > MAX_GUESS_BYTES:
-            raise ModelFileError(f"--guess {path}: {size} bytes is too large for a gait result "
-                                 f"(at most {MAX_GUESS_BYTES})")
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise ModelFileError(f"--guess {path}: cannot read it ({err})") from None
+    text = ph_io.read_text(Path(path), limit=MAX_GUESS_BYTES, label=f"--guess {path}",
+                           kind="gait result", language="JSON")
     try:
         data = json.loads(text)
     except json.JSONDecodeError as err:
