@@ -36,6 +36,7 @@
 static const double SLOPE = 0.009, MH = 3.0, M_LEG = 0.01, M_FOOT = 0.1, L = 0.7, R = 0.05,
                     G = 9.81, K = 1.0e6, LAM = 3.16e7, MU_ST = 0.5, MU_C = 0.25, MU_V = 0.025,
                     S_FRIC = 500.0, V_ST = 0.02, LIFTOFF_MARGIN = 1e-6, FRONT_MARGIN = 0.01,
+                    I_LEG = 0.01 * 0.7 * 0.7 / 12.0, /* a rod's: m_leg l^2 / 12 */
                     FALL_FRACTION = 0.5, MAX_STEP_TIME = 3.0, START_PENETRATION = 1e-9;
 
 typedef struct {
@@ -44,6 +45,14 @@ typedef struct {
     double t_mask;
     double S, I, mt;
 } Walker;
+
+/* both feet in contact, no guard masked; S, I, m_t of handwritten_walkers.CompassWalkerHand */
+static Walker new_walker(void)
+{
+    Walker w = {{1, 1}, -1, 0.0, M_LEG * L / 2 + M_FOOT * L,
+                M_LEG * L * L / 4 + I_LEG + M_FOOT * L * L, MH + 2 * (M_LEG + M_FOOT)};
+    return w;
+}
 
 static double mu(double v, double *dmu)
 {
@@ -245,8 +254,7 @@ typedef struct {
 static WalkResult walk(const double *z0, int n_steps, double rtol, double atol, double max_step)
 {
     WalkResult out = {0};
-    Walker w = {{1, 1}, -1, 0.0, M_LEG * L / 2 + M_FOOT * L, M_LEG * L * L / 4 + M_FOOT * L * L,
-                MH + 2 * (M_LEG + M_FOOT)};
+    Walker w = new_walker();
     SUNContext ctx;
     SUNContext_Create(NULL, &ctx);
     N_Vector y = N_VNew_Serial(8, ctx);
@@ -331,8 +339,7 @@ static WalkResult walk(const double *z0, int n_steps, double rtol, double atol, 
 
 static int check(void)
 {
-    Walker w = {{1, 1}, -1, 0.0, M_LEG * L / 2 + M_FOOT * L, M_LEG * L * L / 4 + M_FOOT * L * L,
-                MH + 2 * (M_LEG + M_FOOT)};
+    Walker w = new_walker();
     const double states[3][8] = {
         {0.01, 0.7 * cos(0.2) + R - 1e-5, -0.2, 0.21, 0.6, -0.1, 0.8, 0.83},
         {0.02, 0.7 * cos(0.1) + R - 3e-5, 0.1, -0.15, 0.55, 0.02, -0.7, 0.9},

@@ -146,6 +146,17 @@ class Trajectory:
         ``model.param_names`` (modes switched by event actions change them between segments)."""
         return self._concat("p", lambda s: np.repeat(s.p[None, :], len(s.t), axis=0))
 
+    def p_at(self, i: int) -> np.ndarray:
+        """The parameter values in force at stored point ``i`` (``p[i]``, without building
+        :attr:`p`: a walker reads them at a few points of a long run)."""
+        if "ends" not in self._cache:
+            self._cache["ends"] = np.cumsum([len(s.t) for s in self.segments])
+        ends = self._cache["ends"]
+        i = int(i) + int(ends[-1]) if i < 0 else int(i)
+        if not 0 <= i < ends[-1]:
+            raise IndexError(f"point {i} of a trajectory of {int(ends[-1])} points")
+        return self.segments[int(np.searchsorted(ends, i, side="right"))].p
+
     def _concat(self, key: str, get: Callable[[Segment], np.ndarray], axis: int = 0) -> np.ndarray:
         if key not in self._cache:
             parts = [get(s) for s in self.segments]

@@ -87,15 +87,15 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
                 record: bool, x0: np.ndarray, p0: np.ndarray) -> list[Stride]:
     """The Strides of one walk (see the module docstring)."""
     t, Y = traj.t, traj.y
-    P = traj.p
     n = walker.model.n_states
     iV = walker._out[f"{walker.multibody}.V"]
 
     def at(i: int) -> tuple[float, float, float, float]:
         """(H, V, E_diss, E_in) at stored point i."""
         y = np.ascontiguousarray(Y[:, i])
-        H = float(walker.model.energy(t[i], y, P[i])[0])
-        V = float(walker.outputs(t[i], y[:n], P[i])[iV])
+        p = traj.p_at(i)
+        H = float(walker.model.energy(t[i], y, p)[0])
+        V = float(walker.outputs(t[i], y[:n], p)[iV])
         return H, V, float(Y[n, i]), float(Y[n + 1, i])
 
     stance = walker.spec.foot(walker.spec.section.stance).point

@@ -23,6 +23,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -200,8 +201,12 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Funct
 def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
     """The Python face of a compiled loop: the calling convention of
     porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 14-tuple; with
-    ``variational`` the argument phi0 and the 17-tuple)."""
+    ``variational`` the argument phi0 and the 17-tuple). The stored points (times, states,
+    events, Φ) come in buffers of the thread's, reused by its next call of this loop (a segment
+    between two events is short: a fresh 4096-point buffer per call cost more than the
+    segment's Python work); the caller copies what it keeps."""
     c_int64, c_double, c_void_p = ctypes.c_int64, ctypes.c_double, ctypes.c_void_p
+    local = threading.local()
     entry.restype = ctypes.c_int
     entry.argtypes = (c_double, c_void_p, c_double, c_void_p, c_double, c_void_p, c_double,
                       c_double, c_void_p, c_void_p, c_int64, c_int64, c_double, c_int64, c_double,
@@ -223,21 +228,25 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
                              f"{terminal.shape}, mask index {mask_index})")
         if store_cap < 2 or not 0 < int(n_model) <= n:
             raise ValueError(f"store_cap {store_cap} (at least 2), n_model {n_model} (1..{n})")
-        ts = np.empty(store_cap)
-        ys = np.empty((store_cap, n))
-        ev_t = np.empty(store_cap)
-        ev_k = np.empty(store_cap, dtype=np.int64)
-        th = np.empty(2)
-        y = np.empty(n)
-        counts = np.empty(6, dtype=np.int64)
-        extra = ()
+        m = 0
         if variational:
             phi0 = np.ascontiguousarray(phi0, dtype=np.float64)
             if phi0.ndim != 2 or phi0.shape[0] != n:
                 raise ValueError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
             m = phi0.shape[1]
+        buffers = getattr(local, "buffers", None)
+        if buffers is None or buffers[0] != (store_cap, m):
+            buffers = ((store_cap, m), np.empty(store_cap), np.empty((store_cap, n)),
+                       np.empty(store_cap), np.empty(store_cap, dtype=np.int64),
+                       np.empty((store_cap, n, m)))
+            local.buffers = buffers
+        _, ts, ys, ev_t, ev_k, phis = buffers
+        th = np.empty(2)
+        y = np.empty(n)
+        counts = np.empty(6, dtype=np.int64)
+        extra = ()
+        if variational:
             phi = np.empty((n, m))
-            phis = np.empty((store_cap, n, m))
             phi_error = np.zeros(1)
             extra = (m, _pointer(phi0), _pointer(phis), _pointer(phi), _pointer(phi_error))
         status = entry(t0, _pointer(y0), t_end, _pointer(p), rtol, _pointer(atol), h0, hmax,

@@ -33,7 +33,7 @@ from ..expressions import TIME
 from .assemble import SymbolicModel
 
 #: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "5"
+CODEGEN_VERSION = "6"
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -88,7 +88,8 @@ class ChainRule:
     forward chain rule through intermediates, one step per nonzero partial ∂w_m/∂w_j (j < m) in
     row order, as one loop over the index tables ``rows`` and ``cols`` (a compiler builds one
     loop, not one statement per partial); ``coefs`` is a float array, ``array`` has ``ncols``
-    columns."""
+    columns, of which row ``cols[k]`` is zero outside the columns ``lo[k]`` to ``hi[k] - 1``
+    (index tables too: a printer may restrict the row operation to them)."""
 
     array: str
     coefs: str
@@ -97,18 +98,22 @@ class ChainRule:
     start: int
     stop: int
     ncols: int
+    lo: str
+    hi: str
 
 
 @dataclass(frozen=True)
 class SparseProduct:
     """``dst += F @ src`` for F of shape ``shape`` given by its nonzero ``entries`` (i, j, expr);
-    src and dst have ``ncols`` columns."""
+    src and dst have ``ncols`` columns; row j of src is zero outside the columns
+    ``ranges[j][0]`` to ``ranges[j][1] - 1`` (a printer may restrict row operations to them)."""
 
     dst: str
     entries: tuple[tuple[int, int, sp.Expr], ...]
     shape: tuple[int, int]
     src: str
     ncols: int
+    ranges: tuple[tuple[int, int], ...]
 
 
 @dataclass(frozen=True)
@@ -213,7 +218,7 @@ class _Builder:
         """``groups``, in the order of their statements: ("array", array, expressions, shape) (a
         matrix's zero entries are not stored), ("entries", array, nonzero entries (i, j, expr),
         shape) for a matrix that is zero elsewhere, ("product", dst, entries (i, j, expr) of F,
-        shape of F, src, ncols) for ``dst += F @ src``, or ("statement", statement) for a
+        shape of F, src, ncols, the column range of each row of src) for ``dst += F @ src``, or ("statement", statement) for a
         statement without expressions; every expression is cse'd together. The result is the
         array ``out``."""
         flat = [sp.sympify(e).xreplace(self.mapping) for g in groups for e in _expressions(g)]
@@ -248,8 +253,8 @@ class _Builder:
                     body.append(Array(group[1], group[3], True))
                     body += [Store(group[1], (i, j), e) for i, j, e in kept]
                 elif kept:
-                    _, dst, _, fshape, src, ncols = group
-                    body.append(SparseProduct(dst, tuple(kept), fshape, src, ncols))
+                    _, dst, _, fshape, src, ncols, ranges = group
+                    body.append(SparseProduct(dst, tuple(kept), fshape, src, ncols, ranges))
         pre = self.prologue(needed) if "x" in args else []
         return Function(name, args, tuple(doc), tuple(pre + body), shape)
 
@@ -379,6 +384,32 @@ def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
     return len(model.intermediates)
 
 
+class _Columns:
+    """Which columns (states) each row of the Jacobian's work arrays can be nonzero in, followed
+    through the statements of :func:`_jacobian_function` in their order (bit j: column j)."""
+
+    def __init__(self, rows: int):
+        self.masks = [0] * rows
+
+    def set(self, entries) -> None:
+        for i, j, _ in entries:
+            self.masks[i] |= 1 << j
+
+    def add(self, dst: _Columns, entries) -> None:
+        """dst rows += F @ self for F's entries."""
+        for i, j, _ in entries:
+            dst.masks[i] |= self.masks[j]
+
+    def ranges(self) -> tuple[tuple[int, int], ...]:
+        """The column range of each row (:func:`_span`)."""
+        return tuple(_span(m) for m in self.masks)
+
+
+def _span(mask: int) -> tuple[int, int]:
+    """(first column set in ``mask``, last + 1); (0, 0) for no column."""
+    return ((mask & -mask).bit_length() - 1, mask.bit_length()) if mask else (0, 0)
+
+
 def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc) -> Function:
     """∂ẋ/∂x through intermediates w and implicit blocks A v = b (A and b read states and
     position-level intermediates only), with only the nonzero partials:
@@ -386,7 +417,9 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
     Dw = ∂w/∂x; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows;
     R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v (implicit
     differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
-    velocity-level rows; out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R.
+    velocity-level rows; out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R. Each row operation is told the
+    columns its source row can be nonzero in (a position-level row: the coordinates it reads;
+    no row: the ledger quadratures).
     """
     n, nw, nv = len(xs), len(ws), len(vs)
     rhs = list(model.rhs)
@@ -395,31 +428,49 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
     groups: list[tuple] = [("entries", "out", jacobian(rhs, xs), (n, n))]
     chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
     npre = sum(1 for m, _, _ in chain if m < npos)
+    dw, r = _Columns(nw), _Columns(nv)
+    chain_ranges: list[tuple[int, int]] = []
 
     def chain_rule(start: int, stop: int) -> list[tuple]:
-        return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, n))] \
+        for m, j, _ in chain[start:stop]:
+            chain_ranges.append(_span(dw.masks[j]))
+            dw.masks[m] |= dw.masks[j]
+        return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, n, "glo", "ghi"))] \
             if stop > start else []
 
     if nw:
-        groups.append(("entries", "Dw", jacobian(defs, xs), (nw, n)))
-        if chain:
-            groups += [("array", "g", [e for _, _, e in chain], (len(chain),)),
-                       ("statement", IndexTable("gr", tuple(m for m, _, _ in chain))),
-                       ("statement", IndexTable("gc", tuple(j for _, j, _ in chain)))]
+        entries = jacobian(defs, xs)
+        dw.set(entries)
+        groups.append(("entries", "Dw", entries, (nw, n)))
         groups += chain_rule(0, npre)
     if nv:
         A = sp.diag(*[blk[1] for blk in model.blocks])
         b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
         res = list(b - A * sp.Matrix(vs))
-        groups += [("entries", "R", jacobian(res, xs), (nv, n)),
+        entries, product = jacobian(res, xs), jacobian(res, ws)
+        r.set(entries)
+        dw_ranges = dw.ranges()
+        dw.add(r, product)
+        union = 0
+        for m in r.masks:
+            union |= m
+        r.masks = [union] * nv                  # the solve mixes the rows
+        velocity = [(npos + i, j, e) for i, j, e in jacobian(defs[npos:], vs)]
+        groups += [("entries", "R", entries, (nv, n)),
                    ("array", "Ab", list(A), (nv, nv)),
-                   ("product", "R", jacobian(res, ws), (nv, nw), "Dw", n),
+                   ("product", "R", product, (nv, nw), "Dw", n, dw_ranges),
                    ("statement", SolveRows("Ab", "R", nv, n)),
-                   ("product", "Dw", [(npos + i, j, e) for i, j, e in jacobian(defs[npos:], vs)],
-                    (nw, nv), "R", n)]
+                   ("product", "Dw", velocity, (nw, nv), "R", n, r.ranges())]
+        r.add(dw, velocity)
     groups += chain_rule(npre, len(chain))
-    groups += [("product", "out", jacobian(rhs, ws), (n, nw), "Dw", n),
-               ("product", "out", jacobian(rhs, vs), (n, nv), "R", n)]
+    groups += [("product", "out", jacobian(rhs, ws), (n, nw), "Dw", n, dw.ranges()),
+               ("product", "out", jacobian(rhs, vs), (n, nv), "R", n, r.ranges())]
+    if chain:
+        groups[1:1] = [("array", "g", [e for _, _, e in chain], (len(chain),)),
+                       ("statement", IndexTable("gr", tuple(m for m, _, _ in chain))),
+                       ("statement", IndexTable("gc", tuple(j for _, j, _ in chain))),
+                       ("statement", IndexTable("glo", tuple(lo for lo, _ in chain_ranges))),
+                       ("statement", IndexTable("ghi", tuple(hi for _, hi in chain_ranges)))]
     return builder.function("jac", doc, groups, (n, n))
 
 

@@ -187,7 +187,8 @@ def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> 
         lines.append(f"    {st.name} = np.array({list(st.values)})")
     elif isinstance(st, ChainRule):
         lines += [f"    for k in range({st.start}, {st.stop}):",
-                  f"        {st.array}[{st.rows}[k], :] += {st.coefs}[k] * {st.array}[{st.cols}[k], :]"]
+                  f"        a, b = {st.lo}[k], {st.hi}[k]",
+                  f"        {st.array}[{st.rows}[k], a:b] += {st.coefs}[k] * {st.array}[{st.cols}[k], a:b]"]
     elif isinstance(st, SparseProduct):
         if not st.entries:
             return
@@ -263,8 +264,64 @@ static double *ph_alloc(size_t n)
     return a;
 }
 
-/* A X = B for A n x n and B n x m (row-major), in place: Gaussian elimination with partial
- * pivoting (A is destroyed, X replaces B) */
+/* The two loop nests of the generated functions, compiled at -O3 under GCC (they run at every
+ * evaluation; the straight-line code around them stays at -O1, where it builds fast). */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC push_options
+#pragma GCC optimize ("O3")
+#endif
+
+/* dst[rows[k], lo[k]:hi[k]] += f[k] * src[cols[k], lo[k]:hi[k]] for k in [0, count), for the
+ * row-major arrays dst and src of m columns (the same array when rows[k] != cols[k]: the forward
+ * chain rule), where row cols[k] of src is zero outside lo[k]..hi[k] - 1 */
+static void ph_rows_axpy(double *dst, const double *src, const double *f, const int *rows,
+                         const int *cols, const int *lo, const int *hi, int count, int m)
+{
+    for (int k = 0; k < count; ++k) {
+        double *d = dst + rows[k] * m;
+        const double *s = src + cols[k] * m;
+        const double fk = f[k];
+        for (int c = lo[k]; c < hi[k]; ++c)
+            d[c] += fk * s[c];
+    }
+}
+
+/* A x = b for A n x n (row-major), in place: Gaussian elimination with partial pivoting (A is
+ * destroyed, x replaces b); one division per pivot */
+static void ph_solve(int n, double *A, double *b)
+{
+    for (int k = 0; k < n; ++k) {
+        int piv = k;
+        double big = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; ++i)
+            if (fabs(A[i * n + k]) > big) {
+                big = fabs(A[i * n + k]);
+                piv = i;
+            }
+        if (piv != k) {
+            for (int j = k; j < n; ++j) {
+                double t = A[k * n + j]; A[k * n + j] = A[piv * n + j]; A[piv * n + j] = t;
+            }
+            double t = b[k]; b[k] = b[piv]; b[piv] = t;
+        }
+        const double r = 1.0 / A[k * n + k], bk = b[k];
+        A[k * n + k] = r;
+        for (int i = k + 1; i < n; ++i) {
+            const double f = A[i * n + k] * r;
+            for (int j = k + 1; j < n; ++j)
+                A[i * n + j] -= f * A[k * n + j];
+            b[i] -= f * bk;
+        }
+    }
+    for (int k = n - 1; k >= 0; --k) {
+        const double bk = b[k] * A[k * n + k];
+        b[k] = bk;
+        for (int i = 0; i < k; ++i)
+            b[i] -= A[i * n + k] * bk;
+    }
+}
+
+/* A X = B for A n x n and B n x m (row-major), in place: as ph_solve, for m right-hand sides */
 static void ph_solve_rows(int n, int m, double *A, double *B)
 {
     for (int k = 0; k < n; ++k) {
@@ -283,8 +340,10 @@ static void ph_solve_rows(int n, int m, double *A, double *B)
                 double t = B[k * m + j]; B[k * m + j] = B[piv * m + j]; B[piv * m + j] = t;
             }
         }
+        const double r = 1.0 / A[k * n + k];
+        A[k * n + k] = r;
         for (int i = k + 1; i < n; ++i) {
-            double f = A[i * n + k] / A[k * n + k];
+            const double f = A[i * n + k] * r;
             if (f == 0.0)
                 continue;
             for (int j = k + 1; j < n; ++j)
@@ -293,14 +352,21 @@ static void ph_solve_rows(int n, int m, double *A, double *B)
                 B[i * m + j] -= f * B[k * m + j];
         }
     }
-    for (int i = n - 1; i >= 0; --i)
-        for (int j = 0; j < m; ++j) {
-            double s = B[i * m + j];
-            for (int l = i + 1; l < n; ++l)
-                s -= A[i * n + l] * B[l * m + j];
-            B[i * m + j] = s / A[i * n + i];
+    for (int i = n - 1; i >= 0; --i) {
+        const double r = A[i * n + i];
+        for (int j = 0; j < m; ++j)
+            B[i * m + j] *= r;
+        for (int l = 0; l < i; ++l) {
+            const double a = A[l * n + i];
+            if (a != 0.0)
+                for (int j = 0; j < m; ++j)
+                    B[l * m + j] -= a * B[i * m + j];
         }
+    }
 }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC pop_options
+#endif
 """
 
 
@@ -344,24 +410,31 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
                 lines += [f"    const double {name} = {value};" for name, value in
                           _closed_form(st, lambda i, j, n=n, a=st.A: f"{a}[{i * n + j}]")]
             else:
-                lines.append(f"    ph_solve_rows({n}, 1, {st.A}, {st.b});")
+                lines.append(f"    ph_solve({n}, {st.A}, {st.b});")
                 lines += [f"    const double {t} = {st.b}[{i}];" for i, t in enumerate(st.targets)]
         elif isinstance(st, IndexTable):
             lines.append(f"    static const int {st.name}[{len(st.values)}] = "
                          f"{{{', '.join(map(str, st.values))}}};")
         elif isinstance(st, ChainRule):
-            m, a = st.ncols, st.array
-            lines += [f"    for (int k = {st.start}; k < {st.stop}; ++k) {{",
-                      f"        const double f = {st.coefs}[k];",
-                      f"        double *dst = {a} + {st.rows}[k] * {m};",
-                      f"        const double *src = {a} + {st.cols}[k] * {m};",
-                      f"        for (int c = 0; c < {m}; ++c) dst[c] += f * src[c];",
-                      "    }"]
+            k0 = st.start
+            lines.append(f"    ph_rows_axpy({st.array}, {st.array}, {st.coefs} + {k0}, "
+                         f"{st.rows} + {k0}, {st.cols} + {k0}, {st.lo} + {k0}, {st.hi} + {k0}, "
+                         f"{st.stop - k0}, {st.ncols});")
         elif isinstance(st, SparseProduct):
-            m = st.ncols
-            for i, j, e in st.entries:
-                lines.append(f"    {{ const double f = {pr(e)}; for (int k = 0; k < {m}; ++k) "
-                             f"{st.dst}[{i * m} + k] += f * {st.src}[{j * m} + k]; }}")
+            if st.entries:
+                k, m = len(st.entries), st.ncols
+                coefs = ", ".join(pr(e) for _, _, e in st.entries)
+                rows = ", ".join(str(i) for i, _, _ in st.entries)
+                cols = ", ".join(str(j) for _, j, _ in st.entries)
+                lo = ", ".join(str(st.ranges[j][0]) for _, j, _ in st.entries)
+                hi = ", ".join(str(st.ranges[j][1]) for _, j, _ in st.entries)
+                lines += ["    {", f"        const double f[{k}] = {{{coefs}}};",
+                          f"        static const int r[{k}] = {{{rows}}};",
+                          f"        static const int c[{k}] = {{{cols}}};",
+                          f"        static const int lo[{k}] = {{{lo}}};",
+                          f"        static const int hi[{k}] = {{{hi}}};",
+                          f"        ph_rows_axpy({st.dst}, {st.src}, f, r, c, lo, hi, {k}, {m});",
+                          "    }"]
         elif isinstance(st, SolveRows):
             lines.append(f"    ph_solve_rows({st.n}, {st.ncols}, {st.A}, {st.R});")
         else:  # pragma: no cover

@@ -43,13 +43,17 @@ typedef struct {
     double *phi_error
 #define PH_CBRT_EPS 6.0554544523933395e-06   /* the relative step of the central differences */
 
-static int ph_lu_factor(double *A, int *piv)
+/* The leading nf x nf block of the PH_N x PH_N row-major A: PA = LU in place (partial pivoting,
+ * row swaps in piv): L below the diagonal (unit diagonal), U above it, and on the diagonal
+ * 1/U[k, k], so that solves multiply (a division's latency is on the critical path of a small
+ * solve); 0 when the block is singular (_lu_factor of rosenbrock_loop.py) */
+static int ph_lu_factor(double *A, int *piv, int nf)
 {
     const int n = PH_N;
-    for (int k = 0; k < n; ++k) {
+    for (int k = 0; k < nf; ++k) {
         int m = k;
         double big = fabs(A[k * n + k]);
-        for (int i = k + 1; i < n; ++i) {
+        for (int i = k + 1; i < nf; ++i) {
             if (fabs(A[i * n + k]) > big) {
                 big = fabs(A[i * n + k]);
                 m = i;
@@ -65,34 +69,51 @@ static int ph_lu_factor(double *A, int *piv)
                 A[m * n + j] = tmp;
             }
         }
-        for (int i = k + 1; i < n; ++i) {
-            A[i * n + k] /= A[k * n + k];
+        const double r = 1.0 / A[k * n + k];
+        A[k * n + k] = r;
+        for (int i = k + 1; i < nf; ++i) {
+            A[i * n + k] *= r;
             double f = A[i * n + k];
             if (f != 0.0)
-                for (int j = k + 1; j < n; ++j)
+                for (int j = k + 1; j < nf; ++j)
                     A[i * n + j] -= f * A[k * n + j];
         }
     }
     return 1;
 }
 
-/* W = I/(h gamma) - J (hgam = h gamma), factored in place; 0 when W is singular */
-static int ph_w_factor(const double *J, double hgam, double *W, int *piv)
+/* W = I/(h gamma) - J (hgam = h gamma), factored in place (_w_factor of rosenbrock_loop.py).
+ * The ledger quadratures (states n_model..PH_N-1) are read by no right-hand side: when J's
+ * columns of them are zero, W is block lower-triangular and only its model block is factored
+ * (a ledger row is then solved by substitution: its diagonal holds h gamma); otherwise all of
+ * W. Returns the size of the factored block, 0 when it is singular. */
+static int ph_w_factor(const double *J, double hgam, int64_t n_model, double *W, int *piv)
 {
     const int n = PH_N;
     const double inv = 1.0 / hgam;
+    int nf = (int)n_model;
     for (int i = 0; i < n; ++i) {
         for (int j = 0; j < n; ++j)
             W[i * n + j] = -J[i * n + j];
         W[i * n + i] += inv;
+        for (int j = (int)n_model; j < n; ++j)
+            if (J[i * n + j] != 0.0)
+                nf = n;
     }
-    return ph_lu_factor(W, piv);
+    if (!ph_lu_factor(W, piv, nf))
+        return 0;
+    for (int i = nf; i < n; ++i)
+        W[i * n + i] = hgam;
+    return nf;
 }
 
-static void ph_lu_solve(const double *A, const int *piv, double *b)
+/* Solve W x = b in place (W: from ph_w_factor, its block of nf factored), the block by columns
+ * (each step updates the remaining components independently of one another), then the rows
+ * below it by substitution */
+static void ph_lu_solve(const double *A, const int *piv, int nf, double *b)
 {
     const int n = PH_N;
-    for (int k = 0; k < n; ++k) {
+    for (int k = 0; k < nf; ++k) {
         int m = piv[k];
         if (m != k) {
             double tmp = b[k];
@@ -100,17 +121,22 @@ static void ph_lu_solve(const double *A, const int *piv, double *b)
             b[m] = tmp;
         }
     }
-    for (int i = 0; i < n; ++i) {
-        double s = b[i];
-        for (int j = 0; j < i; ++j)
-            s -= A[i * n + j] * b[j];
-        b[i] = s;
+    for (int k = 0; k < nf; ++k) {
+        const double bk = b[k];
+        for (int i = k + 1; i < nf; ++i)
+            b[i] -= A[i * n + k] * bk;
     }
-    for (int i = n - 1; i >= 0; --i) {
-        double s = b[i];
-        for (int j = i + 1; j < n; ++j)
-            s -= A[i * n + j] * b[j];
-        b[i] = s / A[i * n + i];
+    for (int k = nf - 1; k >= 0; --k) {
+        const double bk = b[k] * A[k * n + k];
+        b[k] = bk;
+        for (int i = 0; i < k; ++i)
+            b[i] -= A[i * n + k] * bk;
+    }
+    for (int i = nf; i < n; ++i) {
+        double acc = b[i];
+        for (int j = 0; j < nf; ++j)
+            acc -= A[i * n + j] * b[j];
+        b[i] = acc * A[i * n + i];
     }
 }
 
@@ -165,11 +191,12 @@ static int ph_jac_rate(double t, double h, const double *y, const double *p, con
     return 2;
 }
 
-/* Solve A X = B in place for the N x m matrix B (row-major; A: the LU of ph_lu_factor) */
-static void ph_lu_solve_rows(const double *A, const int *piv, double *B, int64_t m)
+/* Solve W X = B in place for the N x m matrix B (row-major; W: from ph_w_factor, its block of
+ * nf factored) */
+static void ph_lu_solve_rows(const double *A, const int *piv, int nf, double *B, int64_t m)
 {
     const int n = PH_N;
-    for (int k = 0; k < n; ++k) {
+    for (int k = 0; k < nf; ++k) {
         int r = piv[k];
         if (r != k)
             for (int64_t c = 0; c < m; ++c) {
@@ -178,15 +205,15 @@ static void ph_lu_solve_rows(const double *A, const int *piv, double *B, int64_t
                 B[r * m + c] = tmp;
             }
     }
-    for (int i = 0; i < n; ++i)
+    for (int i = 0; i < nf; ++i)
         for (int j = 0; j < i; ++j) {
             const double a = A[i * n + j];
             if (a != 0.0)
                 for (int64_t c = 0; c < m; ++c)
                     B[i * m + c] -= a * B[j * m + c];
         }
-    for (int i = n - 1; i >= 0; --i) {
-        for (int j = i + 1; j < n; ++j) {
+    for (int i = nf - 1; i >= 0; --i) {
+        for (int j = i + 1; j < nf; ++j) {
             const double a = A[i * n + j];
             if (a != 0.0)
                 for (int64_t c = 0; c < m; ++c)
@@ -194,7 +221,18 @@ static void ph_lu_solve_rows(const double *A, const int *piv, double *B, int64_t
         }
         const double d = A[i * n + i];
         for (int64_t c = 0; c < m; ++c)
-            B[i * m + c] /= d;
+            B[i * m + c] *= d;
+    }
+    for (int i = nf; i < n; ++i) {
+        for (int j = 0; j < nf; ++j) {
+            const double a = A[i * n + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    B[i * m + c] -= a * B[j * m + c];
+        }
+        const double d = A[i * n + i];
+        for (int64_t c = 0; c < m; ++c)
+            B[i * m + c] *= d;
     }
 }
 
@@ -204,7 +242,8 @@ static void ph_lu_solve_rows(const double *A, const int *piv, double *B, int64_t
 static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, double t, double h,
                           const double *y, const double *y1, const double *p, const double *E,
                           const double *Ja, const double *D, const double *W, const int *piv,
-                          int64_t n_model, int64_t m, const double *P, double *KP, double *P1,
+                          int nf, int64_t n_model, int64_t m, const double *P, double *KP,
+                          double *P1,
                           double *A_end, double *work)
 {
     enum { N = PH_N };
@@ -256,7 +295,7 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
                     for (int64_t c = 0; c < m; ++c)
                         KPs[i * m + c] += a * UP[j * m + c];
             }
-        ph_lu_solve_rows(W, piv, KPs, m);
+        ph_lu_solve_rows(W, piv, nf, KPs, m);
     }
     if (A != A_end)
         memcpy(A_end, A, sizeof(double) * N * N);
@@ -278,7 +317,8 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
 static void ph_variational_step(const ph_tableau *tab, double t, double h, double th_end,
                                 const double *y, const double *y1, const double *p,
                                 const double *J, const double *f0, const double *W,
-                                const int *piv, const double *E, double rtol, const double *atol,
+                                const int *piv, int nf, const double *E, double rtol,
+                                const double *atol,
                                 int64_t n_model, double expo, int64_t m, double *P,
                                 double *J_end, int64_t *counts, double *worst, double *eta,
                                 double *work)
@@ -304,16 +344,18 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
         counts[0] += ph_jac_rate(t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D, rate_work);
         const double *Wu = W;
         const int *pu = piv;
+        int nfu = nf;
         if (!(th_a == 0.0 && th_b == 1.0)) {
-            if (!ph_w_factor(Ja, eta * tab->gamma, Ws, pivs)) {
+            nfu = ph_w_factor(Ja, eta * tab->gamma, n_model, Ws, pivs);
+            if (!nfu) {
                 ds = 0.5 * (th_b - th_a);
                 continue;
             }
             Wu = Ws;
             pu = pivs;
         }
-        counts[0] += ph_phi_substep(tab, th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, n_model,
-                                    m, P, KP, P1, Jb, sub);
+        counts[0] += ph_phi_substep(tab, th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, nfu,
+                                    n_model, m, P, KP, P1, Jb, sub);
         double num = 0.0, den = 0.0;
         for (int64_t i = 0; i < n_model; ++i)
             for (int64_t c = 0; c < m; ++c) {
@@ -351,7 +393,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     const int s = tab->s, nd = tab->m;
     const double gam = tab->gamma, expo = tab->expo;
     int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nsteps = 0, hit = -1;
-    int status = 0, piv[PH_N];
+    int status = 0, nf = 0, piv[PH_N];
     double t = t0, h = h0, err = 0.0;
     double g_old[PH_NG], g_new[PH_NG], g_a[PH_NG], g_b[PH_NG];
     /* the work arrays, on the heap (large models would overflow a thread's stack) */
@@ -439,7 +481,8 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             }
             if (t + h > t_end)
                 h = t_end - t;
-            if (!ph_w_factor(J, h * gam, W, piv)) {
+            nf = ph_w_factor(J, h * gam, n_model, W, piv);
+            if (!nf) {
                 h *= 0.5;
                 continue;
             }
@@ -467,7 +510,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
                         acc += tab->c[st * s + j] * K[j * N + i];
                     Ki[i] = fs[i] + h * tab->d[st] * dT[i] + acc / h;
                 }
-                ph_lu_solve(W, piv, Ki);
+                ph_lu_solve(W, piv, nf, Ki);
             }
             /* error norm over all states, the ledger quadratures included; atol per state */
             const double *Us = U + (s - 1) * N, *Ks = K + (s - 1) * N;
@@ -574,9 +617,9 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
                 ph_dense(nd, N, (t_hit - t) / h, y, y1, E, yi);
                 if (m > 0) {
                     double worst = 0.0;
-                    ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, E,
-                                        rtol, atol, n_model, expo, m, P, J_next, vcounts, &worst,
-                                        &eta_phi, vwork);
+                    ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nf,
+                                        E, rtol, atol, n_model, expo, m, P, J_next, vcounts,
+                                        &worst, &eta_phi, vwork);
                     phi_error[0] = fmax(phi_error[0], worst);
                     memcpy(phis + n_store * nm, P, sizeof(double) * nm);
                 }
@@ -592,8 +635,8 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         }
         if (m > 0) {       /* Phi over the step; its last A is the next step's J */
             double worst = 0.0;
-            ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, E, rtol, atol, n_model,
-                                expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork);
+            ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, nf, E, rtol, atol,
+                                n_model, expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork);
             phi_error[0] = fmax(phi_error[0], worst);
             have_next = 1;
         }

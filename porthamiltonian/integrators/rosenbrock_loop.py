@@ -41,12 +41,16 @@ _PHI_TOLERANCE = 10.0
 
 
 @_jit
-def _lu_factor(A, piv):
+def _lu_factor(A, piv, nb):
+    """The leading nb x nb block of A: PA = LU in place (partial pivoting, row swaps in
+    ``piv``): L below the diagonal (unit diagonal), U above it, and on the diagonal 1/U[k, k],
+    so that solves multiply (a division's latency is on the critical path of a small solve);
+    False when the block is singular."""
     n = A.shape[0]
-    for k in range(n):
+    for k in range(nb):
         m = k
         big = abs(A[k, k])
-        for i in range(k + 1, n):
+        for i in range(k + 1, nb):
             if abs(A[i, k]) > big:
                 big = abs(A[i, k])
                 m = i
@@ -58,46 +62,67 @@ def _lu_factor(A, piv):
                 tmp = A[k, j]
                 A[k, j] = A[m, j]
                 A[m, j] = tmp
-        for i in range(k + 1, n):
-            A[i, k] /= A[k, k]
+        r = 1.0 / A[k, k]
+        A[k, k] = r
+        for i in range(k + 1, nb):
+            A[i, k] *= r
             f = A[i, k]
             if f != 0.0:
-                for j in range(k + 1, n):
+                for j in range(k + 1, nb):
                     A[i, j] -= f * A[k, j]
     return True
 
 
 @_jit
-def _w_factor(J, hgam, W, piv):
-    """W = I/(hγ) − J (hgam = hγ), factored in place; False when W is singular."""
+def _w_factor(J, hgam, n_model, W, piv):
+    """W = I/(hγ) − J (hgam = hγ), factored in place. The ledger quadratures (states n_model..)
+    are read by no right-hand side: when J's columns of them are zero, W is block
+    lower-triangular and only its model block is factored (a ledger row is then solved by
+    substitution: its diagonal holds hγ); otherwise all of W. Returns the size of the factored
+    block, 0 when it is singular."""
     n = J.shape[0]
     inv = 1.0 / hgam
+    nb = n_model
     for i in range(n):
         for j in range(n):
             W[i, j] = -J[i, j]
         W[i, i] += inv
-    return _lu_factor(W, piv)
+        for j in range(n_model, n):
+            if J[i, j] != 0.0:
+                nb = n
+    if not _lu_factor(W, piv, nb):
+        return 0
+    for i in range(nb, n):
+        W[i, i] = hgam
+    return nb
 
 
 @_jit
-def _lu_solve(A, piv, b):
+def _lu_solve(A, piv, nb, b):
+    """Solve W x = b in place (W: from _w_factor, its block of nb factored), the block by
+    columns (each step updates the remaining components independently of one another), then
+    the rows below it by substitution."""
     n = A.shape[0]
-    for k in range(n):
+    for k in range(nb):
         m = piv[k]
         if m != k:
             tmp = b[k]
             b[k] = b[m]
             b[m] = tmp
-    for i in range(n):
-        s = b[i]
-        for j in range(i):
-            s -= A[i, j] * b[j]
-        b[i] = s
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for j in range(i + 1, n):
-            s -= A[i, j] * b[j]
-        b[i] = s / A[i, i]
+    for k in range(nb):
+        bk = b[k]
+        for i in range(k + 1, nb):
+            b[i] -= A[i, k] * bk
+    for k in range(nb - 1, -1, -1):
+        bk = b[k] * A[k, k]
+        b[k] = bk
+        for i in range(k):
+            b[i] -= A[i, k] * bk
+    for i in range(nb, n):
+        acc = b[i]
+        for j in range(nb):
+            acc -= A[i, j] * b[j]
+        b[i] = acc * A[i, i]
 
 
 @_jit
@@ -155,37 +180,46 @@ def _jac_rate(t, h, y, p, J, f, sc, n_model, D):
 
 
 @_jit
-def _lu_solve_rows(A, piv, B, m):
-    """Solve A X = B in place for the n x m matrix B, flattened row by row (A: the LU of
-    _lu_factor)."""
+def _lu_solve_rows(A, piv, nb, B, m):
+    """Solve W X = B in place for the n x m matrix B, flattened row by row (W: from _w_factor,
+    its block of nb factored)."""
     n = A.shape[0]
-    for k in range(n):
+    for k in range(nb):
         r = piv[k]
         if r != k:
             for c in range(m):
                 tmp = B[k * m + c]
                 B[k * m + c] = B[r * m + c]
                 B[r * m + c] = tmp
-    for i in range(n):
+    for i in range(nb):
         for j in range(i):
             a = A[i, j]
             if a != 0.0:
                 for c in range(m):
                     B[i * m + c] -= a * B[j * m + c]
-    for i in range(n - 1, -1, -1):
-        for j in range(i + 1, n):
+    for i in range(nb - 1, -1, -1):
+        for j in range(i + 1, nb):
             a = A[i, j]
             if a != 0.0:
                 for c in range(m):
                     B[i * m + c] -= a * B[j * m + c]
         d = A[i, i]
         for c in range(m):
-            B[i * m + c] /= d
+            B[i * m + c] *= d
+    for i in range(nb, n):
+        for j in range(nb):
+            a = A[i, j]
+            if a != 0.0:
+                for c in range(m):
+                    B[i * m + c] -= a * B[j * m + c]
+        d = A[i, i]
+        for c in range(m):
+            B[i * m + c] *= d
 
 
 @_jit
-def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, TA, TC, TN, TD, n_model, P, KP,
-                 P1, xi):
+def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, TD, n_model, P,
+                 KP, P1, xi):
     """One sub-step of Φ from τ = t + th_a h to t + th_b h (η = (th_b − th_a) h; see the header):
     KP and P1 from P, with the LU of W = I/(ηγ) − Ja and D = A'(τ). Returns (jac evaluations
     made, A at t + th_b h)."""
@@ -231,15 +265,15 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, TA, TC, TN, TD, n
                 if a != 0.0:
                     for c in range(m):
                         KP[st, i * m + c] += a * UP[j * m + c]
-        _lu_solve_rows(W, piv, KP[st], m)
+        _lu_solve_rows(W, piv, nb, KP[st], m)
     for q in range(nm):
         P1[q] = UP[q] + KP[s - 1, q]
     return nj, A
 
 
 @_jit
-def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam, expo, rtol,
-                      atol, n_model, P, eta0):
+def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
+                      rtol, atol, n_model, P, eta0):
     """Carry Φ (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
     error control (see the header), the first eta0 long (s; the whole step when eta0 >= th_end h,
     with the step's LU W, piv when th_end = 1); a sub-step is accepted when its error estimate
@@ -277,14 +311,16 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, 
         if th_a == 0.0 and th_b == 1.0:
             Wu = W
             pu = piv
+            nbu = nb
         else:
-            if not _w_factor(Ja, eta * gam, Ws, pivs):
+            nbu = _w_factor(Ja, eta * gam, n_model, Ws, pivs)
+            if nbu == 0:
                 ds = 0.5 * (th_b - th_a)
                 continue
             Wu = Ws
             pu = pivs
-        nj_s, A_end = _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, TA, TC, TN, TD,
-                                   n_model, P, KP, P1, xi)
+        nj_s, A_end = _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, nbu, TA, TC, TN,
+                                   TD, n_model, P, KP, P1, xi)
         nj += nj_s
         num = 0.0
         den = 0.0
@@ -312,8 +348,8 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, 
 
 
 @_jit
-def _no_variational(t, h, th_end, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam, expo, rtol,
-                    atol, n_model, P, eta0):
+def _no_variational(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
+                    rtol, atol, n_model, P, eta0):
     """_variational_step in the copy of _rosenbrock for runs without sensitivities (never
     called there: m = 0; see porthamiltonian/integrators/__init__.py)."""
     return 0, 0, J, 0.0, eta0
@@ -352,6 +388,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     y = y0.copy()
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
+    nb = 0          # the size of W's factored block (_w_factor)
     K = np.empty((s, n))
     U = np.empty((s, n))
     E = np.empty((TH.shape[0], n))
@@ -416,7 +453,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 break
             if t + h > t_end:
                 h = t_end - t
-            if not _w_factor(J, h * gam, W, piv):
+            nb = _w_factor(J, h * gam, n_model, W, piv)
+            if nb == 0:
                 h *= 0.5
                 continue
             # stages: U[i] = y + Σ_j TA[i, j] K[j];  W K[i] = f(t + TN[i] h, U[i]) + h TD[i] dT
@@ -439,7 +477,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                     for j in range(st):
                         acc += TC[st, j] * K[j, i]
                     K[st, i] = f[i] + h * TD[st] * dT[i] + acc / h
-                _lu_solve(W, piv, K[st])
+                _lu_solve(W, piv, nb, K[st])
             # error norm over all states, the ledger quadratures included (their accuracy is the
             # accuracy of the energy balance); atol per state
             err = 0.0
@@ -540,8 +578,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 _dense((t_hit - t) / h, y, y1, E, yi)
                 if m > 0:
                     nj, nf, J_next, worst, eta_phi = _variational_step(
-                        t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam,
-                        expo, rtol, atol, n_model, P, eta_phi)
+                        t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD,
+                        gam, expo, rtol, atol, n_model, P, eta_phi)
                     njev += nj
                     nfev += nf
                     phi_err = max(phi_err, worst)
@@ -556,8 +594,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             g_old = g_new
         if m > 0:       # Φ over the step; its last A is the next step's J
             nj, nf, J_next, worst, eta_phi = _variational_step(
-                t, h, 1.0, y, y1, p, J, f0, W, piv, E, TA, TC, TN, TD, gam, expo, rtol, atol,
-                n_model, P, eta_phi)
+                t, h, 1.0, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo, rtol,
+                atol, n_model, P, eta_phi)
             njev += nj
             nfev += nf
             phi_err = max(phi_err, worst)
