@@ -30,6 +30,7 @@ import pytest
 from porthamiltonian.errors import ModelError
 from walker_library import (
     ParameterPath,
+    compass_gait,
     continue_gait,
     find_fixed_point,
     floquet,
@@ -218,8 +219,8 @@ def test_continue_from_where_no_gait_exists_says_so(capsys):
 def test_compass_gait_first_flip_by_the_command(tmp_path, capsys):
     """GOSWAMI's compass gait over the slope, by ``walker continue --json --out``: the period-1
     gait loses stability through a flip (located at 0.07663563 rad = 4.391°, regression pin to
-    1e-8) and a stable period-2 gait takes over; the full cascade (period 4 from 0.0857665,
-    period 8 from 0.0874835 rad) is in REPRODUCTION.md (`walker reproduce rigid_bifurcations`).
+    1e-8) and a stable period-2 gait takes over; the cascade beyond it is checked below and in
+    REPRODUCTION.md (`walker continue compass_gait --param slope=0.075:0.09 --doublings 3`).
     The JSON has the branch table and the bifurcations; --out writes them and the figure."""
     out = tmp_path / "c"
     assert main(["continue", "compass_gait", "--param", "slope=0.0755:0.0775", "--doublings",
@@ -238,6 +239,35 @@ def test_compass_gait_first_flip_by_the_command(tmp_path, capsys):
         set(one["points"][0])
     assert (out / "bifurcation_diagram.png").stat().st_size > 10_000
     assert json.loads((out / "continuation.json").read_text())["bifurcations"][0]["kind"] == "flip"
+
+
+#: GOSWAMI's cascade located by the continuation (regression pins; REPRODUCTION.md):
+#: the flips 1 → 2, 2 → 4 and 4 → 8 (rad)
+COMPASS_FLIPS = (0.0766356316, 0.0857664701, 0.0874835425)
+
+
+@pytest.mark.parametrize("period,start,stop,guess,flip", [
+    (2, 0.0855, 0.0860, [-0.298574, 1.157657, -1.011954], COMPASS_FLIPS[1]),
+    (4, 0.0872, 0.0877, [-0.295132, 1.160227, -1.000589], COMPASS_FLIPS[2]),
+])
+def test_compass_gait_cascade_flips(period, start, stop, guess, flip):
+    """GOSWAMI's period-doubling cascade: the stable period-2 gait (continued from a point of
+    its orbit at 0.0855 rad) flips at 0.0857664701 rad (4.9141°), the stable period-4 gait
+    (from 0.0872) at 0.0874835425 rad (5.0125°); each to 1e-10 (their error bounds are
+    2e-11; runs from other starts agree to 6e-12), stable below the flip, unstable above. The
+    intervals between the flips shrink like a Feigenbaum cascade: (0.0857665 − 0.0766356) /
+    (0.0874835 − 0.0857665) = 5.32, against δ = 4.669 in the limit (the next ratio, with the
+    8 → 16 flip at 0.0878507 of REPRODUCTION.md, is 4.68)."""
+    w = compass_gait()
+    r = continue_gait(w, "slope", start, stop, guess=guess, period=period, doublings=0)
+    (bif,) = r.bifurcations
+    assert bif.kind == "flip" and bif.period == period and bif.branch == 0
+    assert bif.mu == pytest.approx(flip, abs=1e-10) and bif.mu_error < 1e-10
+    br = r.branches[0]
+    assert br.period == period and br.points[-1].mu == pytest.approx(stop, abs=1e-15)
+    assert all(p.stable == (p.mu < bif.mu) for p in br.points)
+    one, two, four = COMPASS_FLIPS
+    assert (two - one) / (four - two) == pytest.approx(5.32, abs=0.01)
 
 
 # --- synthetic stride maps: bifurcations known in closed form -------------------------------------
