@@ -30,9 +30,9 @@ maps, on a walker's Poincaré section).
   eigenvector v of λ = −1 (a pitchfork of S^2k); it is found on the hyperplane vᵀ(z − z_flip) = a
   (a small amplitude, halved until the point found is a true period-2k orbit) and continued from
   there, away from the flip; and so on, ``doublings`` times (period 1 → 2 → 4: a cascade).
-  A period-doubled branch ends where its orbit's two halves meet again: it has rejoined its
-  parent branch, at the parent's flip nearest to its last point (a closed bubble between two
-  flips). An orbit found at a flip that lies on a branch followed already (up to a cyclic
+  A period-doubled branch ends where its orbit's two halves meet again, or swap between two
+  points (a step through the parent): it has rejoined its parent branch, at the parent's flip
+  nearest to its last point (a closed bubble between two flips). An orbit found at a flip that lies on a branch followed already (up to a cyclic
   shift of its points: on that branch's polyline, closed by the flip where it rejoined, and
   confirmed by a corrector run from there) is that branch: the flip "joins" it, and the
   branch is neither followed nor listed again.
@@ -597,9 +597,9 @@ class _Continuer:
 
     def _end_rejoined(self, m: _Map, branch: Branch, index: int, last: BranchPoint,
                       why: str) -> None:
-        """End a period-doubled ``branch`` (number ``index``) that has rejoined its parent, at the parent's located
-        flip nearest (scaled section state and μ) to its ``last`` point, other than the flip it
-        was born at (:attr:`Branch.rejoined`)."""
+        """End the period-doubled branch ``index`` where it has rejoined its parent: at the
+        parent's located flip nearest (scaled section state and μ) to its ``last`` point, other
+        than the flip it was born at (:attr:`Branch.rejoined`)."""
         flips = [b for b in self.bifurcations if b.kind == "flip" and b.branch == branch.parent
                  and b.child != index]
         x = m.x(last.z, last.mu)
