@@ -218,7 +218,9 @@ def cmd_continue(args) -> int:
         for b in result.bifurcations:
             print(f"  {b.kind:15s} branch {b.branch} (period {b.period}): {label} = "
                   f"{b.mu:.12g} ± {b.mu_error:.1g}, multiplier {b.multiplier:.8f}"
-                  + (f"; period-{2 * b.period} branch {b.child}" if b.child is not None else ""))
+                  + ("" if b.child is None else
+                     f"; joins period-{2 * b.period} branch {b.child} (followed already)"
+                     if b.joins else f"; period-{2 * b.period} branch {b.child}"))
     if args.out:
         print(f"wrote {Path(args.out) / 'continuation.json'} and bifurcation_diagram.png")
     return 0

@@ -12,7 +12,8 @@ maps, on a walker's Poincaré section).
   iterations), shrinks after a hard one (> 7), after a large change of the multipliers (0.15)
   or of the tangent (25°), and halves after a failure (Newton diverging or stalling, the walker
   falling), down to ``ds_min``. Unstable branches are followed like stable ones; a branch ends
-  at the end of the range (landed on exactly), when it turns back out of the range, at
+  at the end of the range (landed on exactly: where the predictor or, near a fold, the
+  corrected point would leave the range), when it turns back out of the range, at
   ``max_points``, or where it cannot be followed.
 * Test functions on the multipliers λ_i of the period-k map: ∏(1 + λ_i) (a flip, period
   doubling: a real multiplier through −1), ∏(λ_i − 1) (a real multiplier through +1: a fold,
@@ -29,6 +30,12 @@ maps, on a walker's Poincaré section).
   eigenvector v of λ = −1 (a pitchfork of S^2k); it is found on the hyperplane vᵀ(z − z_flip) = a
   (a small amplitude, halved until the point found is a true period-2k orbit) and continued from
   there, away from the flip; and so on, ``doublings`` times (period 1 → 2 → 4: a cascade).
+  A period-doubled branch ends where its orbit's two halves meet again, or swap between two
+  points (a step through the parent): it has rejoined its parent branch, at the parent's flip
+  nearest to its last point (a closed bubble between two flips). An orbit found at a flip that lies on a branch followed already (up to a cyclic
+  shift of its points: on that branch's polyline, closed by the flip where it rejoined, and
+  confirmed by a corrector run from there) is that branch: the flip "joins" it, and the
+  branch is neither followed nor listed again.
 
 :func:`continue_gait` is the Python API (``walker continue`` is its command);
 :class:`ParameterPath` is the line in parameter space that μ moves along: one parameter, or a
@@ -44,6 +51,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -212,7 +220,9 @@ class Bifurcation:
     """A located bifurcation: ``kind`` "flip", "fold", "branch_point" or "neimark_sacker";
     on branch ``branch`` (of period ``period``) at μ = ``mu`` (± ``mu_error``, from the critical
     multiplier's error), the fixed point there, the critical multiplier, and ``child``: the
-    index of the period-doubled branch switched onto (flips)."""
+    index of the period-doubled branch switched onto (flips); ``joins`` when that branch had
+    been followed already (from another flip: the two flips are the ends of one branch, e.g. a
+    closed period-2 bubble) and was not followed again."""
 
     kind: str
     branch: int
@@ -223,6 +233,7 @@ class Bifurcation:
     point: BranchPoint
     multiplier: complex
     child: int | None = None
+    joins: bool = False
 
     def to_dict(self, walker: Walker) -> dict:
         return to_jsonable({"kind": self.kind, "branch": self.branch, "period_steps": self.period,
@@ -230,18 +241,21 @@ class Bifurcation:
                             "multiplier": complex(self.multiplier),
                             "fixed_point": walker.section_state(self.point.z),
                             "floquet_multipliers": [complex(m) for m in self.point.multipliers],
-                            "child_branch": self.child})
+                            "child_branch": self.child, "joins_known_branch": self.joins})
 
 
 @dataclass
 class Branch:
     """A followed branch of period-``period`` orbits: its points in order, where it came from
-    (``origin``: "start" or "flip of branch i at μ = …") and why it ended (``end``)."""
+    (``origin``: "start" or "flip of branch i at μ = …"; ``parent``: that branch i) and why it
+    ended (``end``; ``rejoined``: the parent's flip where the branch ended on the parent again)."""
 
     period: int
     points: list[BranchPoint] = field(default_factory=list)
     origin: str = "start"
     end: str = ""
+    parent: int | None = None
+    rejoined: Bifurcation | None = None
 
 
 @dataclass
@@ -510,18 +524,18 @@ class _Continuer:
                 branch.end = f"{self.max_points} points (max_points)"
                 return
             xp = cur.x + ds * direction
-            landing = None
-            for bound in (0.0, 1.0):
-                if (xp[-1] - bound) * (cur.x[-1] - bound) < 0 or (xp[-1] == bound):
-                    landing = bound
+            landing = next((b for b in (0.0, 1.0)
+                            if (xp[-1] - b) * (cur.x[-1] - b) < 0 or xp[-1] == b), None)
             if landing is not None and abs(direction[-1]) > 1e-12:
-                ds_land = (landing - cur.x[-1]) / direction[-1]
-                xp = cur.x + ds_land * direction
-                e = np.zeros(len(xp))
-                e[-1] = 1.0
-                res = self._correct(m, xp, e, cur.A, landing)
+                res = self._land(m, cur, direction, landing)
             else:
+                landing = None
                 res = self._correct(m, xp, direction, cur.A, float(direction @ xp))
+                if res is not None and not 0.0 <= res[0][-1] <= 1.0:
+                    # the corrector left the range (near a fold, where the tangent is nearly
+                    # normal to μ): land on the end crossed, from the chord to the point found
+                    landing = 0.0 if res[0][-1] < 0.0 else 1.0
+                    res = self._land(m, cur, res[0] - cur.x, landing)
             if res is None:
                 ds /= 2
                 fails += 1
@@ -541,6 +555,12 @@ class _Continuer:
                     branch.end = f"a Jacobian fell near {self.path.label} = {cur.point.mu:.10g}"
                     return
                 continue
+            if half and float(_halves(new.point, half, m.s) @ _halves(cur.point, half, m.s)) < 0:
+                # the step went through the parent branch (the halves swapped: the same orbits,
+                # each shifted by half its period, lie beyond)
+                self._end_rejoined(m, branch, index, cur.point, "the next step went through "
+                                   "it: the orbit's halves swapped")
+                return
             if self.locate:
                 self._detect(m, cur, new, branch, index)
             branch.points.append(new.point)
@@ -554,8 +574,7 @@ class _Continuer:
                 gap = _half_gap(new.point, half, m.s)
                 peak = max(peak, gap)
                 if peak > 2.0 * gap0 and gap < 0.5 * gap0:
-                    branch.end = (f"rejoined the period-{half} branch near {self.path.label} = "
-                                  f"{new.point.mu:.10g} (its halves meet: a flip of that branch)")
+                    self._end_rejoined(m, branch, index, new.point, "its halves meet")
                     return
             # step size: the corrector's effort, the change of the multipliers and of direction
             secant = (new.x - cur.x) / np.linalg.norm(new.x - cur.x)
@@ -569,10 +588,76 @@ class _Continuer:
             direction = secant
             cur = new
 
+    def _land(self, m: _Map, cur: _State, d: np.ndarray, bound: float):
+        """The corrected point at the end ``bound`` of the range (scaled μ: 0 or 1), from where
+        the line cur.x + τ d crosses it (:meth:`_correct`'s result)."""
+        e = np.zeros(len(cur.x))
+        e[-1] = 1.0
+        return self._correct(m, cur.x + (bound - cur.x[-1]) / d[-1] * d, e, cur.A, bound)
+
+    def _end_rejoined(self, m: _Map, branch: Branch, index: int, last: BranchPoint,
+                      why: str) -> None:
+        """End the period-doubled branch ``index`` where it has rejoined its parent: at the
+        parent's located flip nearest (scaled section state and μ) to its ``last`` point, other
+        than the flip it was born at (:attr:`Branch.rejoined`)."""
+        flips = [b for b in self.bifurcations if b.kind == "flip" and b.branch == branch.parent
+                 and b.child != index]
+        x = m.x(last.z, last.mu)
+        branch.rejoined = min(flips, default=None,
+                              key=lambda b: float(np.linalg.norm(m.x(b.point.z, b.mu) - x)))
+        at = ("" if branch.rejoined is None else
+              f" at its flip at {self.path.label} = {branch.rejoined.mu:.10g}")
+        branch.end = (f"rejoined the period-{branch.period // 2} branch {branch.parent}{at} "
+                      f"({why}; last point at {self.path.label} = {last.mu:.10g})")
+
+    def _known(self, m: _Map, st: _State) -> int | None:
+        """The index of an already-followed branch of period ``m.k`` through the orbit of
+        ``st`` (up to a cyclic shift of its points), or None.
+
+        The branch's polyline (its points, closed by the flip where it rejoined its parent, a
+        period-k orbit gone round twice) is searched for the segment nearest to the scaled
+        (orbit[s], μ) of each shift s; within a quarter of that segment's length (the chord
+        of a curved branch strays from it by less), a corrector run from the nearest point of
+        the segment onto the hyperplane through the orbit, normal to the segment, must land on
+        the orbit itself (to 1e-6 of each coordinate's scale): a point on the known branch."""
+        p = st.point
+        for i, br in enumerate(self.branches):
+            if br.period != m.k or not br.points:
+                continue
+            ends = [(q.z, q.mu) for q in br.points]
+            if br.rejoined is not None:
+                ends.append((br.rejoined.point.z, br.rejoined.mu))
+            V = np.array([m.x(z, mu) for z, mu in ends])
+            for s in range(m.k):
+                xs = m.x(p.orbit[s], p.mu)
+                best = None
+                for a, b in pairwise(V):
+                    d = b - a
+                    length = float(np.linalg.norm(d))
+                    if length == 0.0:
+                        continue
+                    near = a + min(1.0, max(0.0, float((xs - a) @ d) / length**2)) * d
+                    dist = float(np.linalg.norm(xs - near))
+                    if dist <= 0.25 * length and (best is None or dist < best[0]):
+                        best = (dist, near, d / length)
+                if best is None:
+                    continue
+                _, near, row = best
+                try:
+                    A, _ = m.jacobian(near, st.sj)
+                except (WalkerFell, ParameterValueError):
+                    continue
+                res = self._correct(m, near, row, A, float(row @ xs), max_iter=30)
+                if res is not None and float(np.max(np.abs(res[0] - xs))) < 1e-6:
+                    return i
+        return None
+
     # -- bifurcations --------------------------------------------------------------------------------
     def _detect(self, m: _Map, a: _State, b: _State, branch: Branch, index: int) -> None:
         for kind in ("flip", "plus_one", "neimark_sacker"):
-            if a.tests[kind] * b.tests[kind] >= 0:
+            # a sign change; a test exactly 0 at a point (a point on the bifurcation) counts
+            # between it and the point before
+            if a.tests[kind] * b.tests[kind] > 0 or a.tests[kind] == 0.0:
                 continue
             hit = self._locate(m, a, b, kind)
             if hit is None:
@@ -660,7 +745,7 @@ class _Continuer:
         amp = 0.02
         index = len(self.branches)
         branch = Branch(2 * m.k, origin=f"flip of branch {bif.branch} at {self.path.label} = "
-                                        f"{bif.mu:.10g}")
+                                        f"{bif.mu:.10g}", parent=bif.branch)
         for _ in range(8):
             xp = at.x + amp * row
             try:
@@ -679,6 +764,13 @@ class _Continuer:
                     except (WalkerFell, ParameterValueError):
                         amp /= 2
                         continue
+                    known = self._known(m2, first)
+                    if known is not None:       # e.g. the other end of a closed bubble
+                        bif.child, bif.joins = known, True
+                        self.log(f"  the period-{2 * m.k} orbit at the flip at "
+                                 f"{self.path.label} = {bif.mu:.10g} is on branch {known} "
+                                 "(followed already): joins it")
+                        return
                     if float(first.t @ (x1 - at.x)) < 0:
                         first.t = -first.t
                     first.point.tangent_mu = float(first.t[-1])
@@ -713,9 +805,14 @@ class _Continuer:
             self.switch(bif, state, mm)
 
 
+def _halves(point: BranchPoint, half: int, scale: np.ndarray) -> np.ndarray:
+    """The difference of the two halves of a period-2k orbit (scaled section coordinates)."""
+    return (point.orbit[half] - point.orbit[0]) / scale
+
+
 def _half_gap(point: BranchPoint, half: int, scale: np.ndarray) -> float:
     """How far apart the two halves of a period-2k orbit are (scaled section coordinates)."""
-    return float(np.max(np.abs(point.orbit[half] - point.orbit[0]) / scale))
+    return float(np.max(np.abs(_halves(point, half, scale))))
 
 
 def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float | None = None,

@@ -459,9 +459,11 @@ def _continuation_html(c: ContinuationResult | None, images: dict) -> str:
         return ""
     label = c.path.label
     bifs = (P.table(["bifurcation", "branch", "period", label, "± (from the multiplier's error)",
-                     "critical multiplier"],
+                     "critical multiplier", "period-doubled branch"],
                     [[b.kind.replace("_", "–"), b.branch, b.period, f"{b.mu:.12g}",
-                      f"{b.mu_error:.1g}", f"{complex(b.multiplier):.6f}"]
+                      f"{b.mu_error:.1g}", f"{complex(b.multiplier):.6f}",
+                      "" if b.child is None else
+                      f"{b.child} (joins it: followed already)" if b.joins else b.child]
                      for b in c.bifurcations], numeric=(3, 4))
             if c.bifurcations else "<p>No bifurcation in the range.</p>")
     rows = [[r["branch"], r["period_steps"], f"{r[label]:.8g}", f"{r['max_multiplier']:.6f}",

@@ -20,8 +20,8 @@ slope_multipliers      continuation over the slope: multipliers, the flip (perio
                        boundary) located, the period-2/4 branches; walker gait from the default
                        guess at each slope of the table (Table 2.2)
 rigid_bifurcations     the simplest walker's and the compass gait's branches over the slope: flips
-                       located, period-2/4 branches, the unstable short-period gait (Garcia et al.
-                       1998, Goswami et al. 1998)
+                       located, period-2/4 branches (the compass gait's to period 8), the unstable
+                       short-period gait (Garcia et al. 1998, Goswami et al. 1998)
 step_down_slope        maximum step-down over the slope (Fig. 2.22)
 basin                  basin of attraction at γ = 0.007 and 0.012 (Figs. 2.21, 2.23)
 damper_factor          compliant leg: stable stiffness range and step-down over α (Fig. 3.3)
@@ -305,15 +305,15 @@ RIGID_CONTINUATIONS = (
      "Garcia et al. 1998: period doubling near 0.0151, chaos up to 0.019"),
     ("simplest walker, short-period gait", "simplest_walker", (0.009, 0.019),
      (-0.205, 0.386, -0.015), 0, None, "Garcia et al. 1998, Table 1: unstable"),
-    ("compass gait", "compass_gait", (0.01, 0.1), None, 2, None,
+    ("compass gait", "compass_gait", (0.01, 0.1), None, 3, None,
      "Goswami et al. 1998: period-doubling cascade into chaos over the slope"),
 )
 
 
 def run_rigid_bifurcations(ctx: StudyContext) -> dict:
     """The simplest walker (Garcia et al. 1998) and the compass gait (Goswami et al. 1998)
-    continued over the slope: flips located, the period-2 and period-4 branches, the unstable
-    short-period gait."""
+    continued over the slope: flips located, the period-2 and period-4 branches (the compass
+    gait's on to period 8), the unstable short-period gait."""
     rows, out = [], {}
     for label, model, (lo, hi), guess, doublings, published, source in RIGID_CONTINUATIONS:
         if ctx.quick:

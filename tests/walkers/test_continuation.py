@@ -30,6 +30,7 @@ import pytest
 from porthamiltonian.errors import ModelError
 from walker_library import (
     ParameterPath,
+    compass_gait,
     continue_gait,
     find_fixed_point,
     floquet,
@@ -38,6 +39,8 @@ from walker_library import (
 )
 from walker_library.cli import main
 from walker_library.monodromy import eigen_errors
+from walker_library.protocol import Stride
+from walker_library.variational import StrideSensitivity
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "validation"))
 from handwritten_walkers import SimplestWalkerHand, newton_fixed_point
@@ -216,8 +219,8 @@ def test_continue_from_where_no_gait_exists_says_so(capsys):
 def test_compass_gait_first_flip_by_the_command(tmp_path, capsys):
     """GOSWAMI's compass gait over the slope, by ``walker continue --json --out``: the period-1
     gait loses stability through a flip (located at 0.07663563 rad = 4.391°, regression pin to
-    1e-8) and a stable period-2 gait takes over; the full cascade (period 4 from 0.0857665,
-    period 8 from 0.0874835 rad) is in REPRODUCTION.md (`walker reproduce rigid_bifurcations`).
+    1e-8) and a stable period-2 gait takes over; the cascade beyond it is checked below and in
+    REPRODUCTION.md (`walker continue compass_gait --param slope=0.075:0.09 --doublings 3`).
     The JSON has the branch table and the bifurcations; --out writes them and the figure."""
     out = tmp_path / "c"
     assert main(["continue", "compass_gait", "--param", "slope=0.0755:0.0775", "--doublings",
@@ -236,3 +239,212 @@ def test_compass_gait_first_flip_by_the_command(tmp_path, capsys):
         set(one["points"][0])
     assert (out / "bifurcation_diagram.png").stat().st_size > 10_000
     assert json.loads((out / "continuation.json").read_text())["bifurcations"][0]["kind"] == "flip"
+
+
+#: GOSWAMI's cascade located by the continuation (regression pins; REPRODUCTION.md):
+#: the flips 1 → 2, 2 → 4 and 4 → 8 (rad)
+COMPASS_FLIPS = (0.0766356316, 0.0857664701, 0.0874835425)
+
+
+@pytest.mark.parametrize("period,start,stop,guess,flip", [
+    (2, 0.0855, 0.0860, [-0.298574, 1.157657, -1.011954], COMPASS_FLIPS[1]),
+    (4, 0.0872, 0.0877, [-0.295132, 1.160227, -1.000589], COMPASS_FLIPS[2]),
+])
+def test_compass_gait_cascade_flips(period, start, stop, guess, flip):
+    """GOSWAMI's period-doubling cascade: the stable period-2 gait (continued from a point of
+    its orbit at 0.0855 rad) flips at 0.0857664701 rad (4.9141°), the stable period-4 gait
+    (from 0.0872) at 0.0874835425 rad (5.0125°); each to 1e-10 (their error bounds are
+    2e-11; runs from other starts agree to 6e-12), stable below the flip, unstable above. The
+    intervals between the flips shrink like a Feigenbaum cascade: (0.0857665 − 0.0766356) /
+    (0.0874835 − 0.0857665) = 5.32, against δ = 4.669 in the limit (the next ratio, with the
+    8 → 16 flip at 0.0878507 of REPRODUCTION.md, is 4.68)."""
+    w = compass_gait()
+    r = continue_gait(w, "slope", start, stop, guess=guess, period=period, doublings=0)
+    (bif,) = r.bifurcations
+    assert bif.kind == "flip" and bif.period == period and bif.branch == 0
+    assert bif.mu == pytest.approx(flip, abs=1e-10) and bif.mu_error < 1e-10
+    br = r.branches[0]
+    assert br.period == period and br.points[-1].mu == pytest.approx(stop, abs=1e-15)
+    assert all(p.stable == (p.mu < bif.mu) for p in br.points)
+    one, two, four = COMPASS_FLIPS
+    assert (two - one) / (four - two) == pytest.approx(5.32, abs=0.01)
+
+
+# --- synthetic stride maps: bifurcations known in closed form -------------------------------------
+class _SyntheticMap:
+    """A stride map z' = f(z; μ) on a two-coordinate section with its exact Jacobian, run
+    through the :class:`~walker_library.protocol.Walker` interface (one "stride" per map
+    iteration), so the continuation's branch logic is checked against closed forms in
+    milliseconds."""
+
+    legged = False
+    section = thesis_section = ("x", "y")
+    gait_tolerance = 1e-12
+    weight = 1.0
+
+    def __init__(self, mu: float):
+        self.parameters = {"mu": float(mu)}
+        self.mu = float(mu)
+
+    def with_parameters(self, **values):
+        return type(self)(values.get("mu", self.mu))
+
+    def walk(self, z, n_steps, **options):
+        z, out = np.asarray(z, dtype=float), []
+        for _ in range(n_steps):
+            z = self.f(z)
+            out.append(Stride("step", z, 1.0, 1.0))
+        return out
+
+    def stride(self, z, **options):
+        return self.walk(z, 1)[0]
+
+    def stride_sensitivity(self, z, period=1, *, factor=1.0):
+        z, J = np.asarray(z, dtype=float), np.eye(2)
+        for _ in range(period):
+            J, z = self.jac(z) @ J, self.f(z)
+        return StrideSensitivity(z, J, 0.0, np.zeros((2, 2)), 1e-12, "closed form")
+
+    def section_state(self, z):
+        return dict(zip(self.section, map(float, z)))
+
+    def to_thesis(self, z):
+        return np.asarray(z, dtype=float)
+
+    from_thesis = to_thesis
+
+
+class _Bubbles(_SyntheticMap):
+    """u' = a(μ) u + u³, v' = v/2 + u²/10 (u = x − 1, v = y − 2): the fixed point z = (1, 2)
+    has the multipliers a(μ) and 1/2, so it flips where a = −1; where a < −1 a stable period-2
+    orbit u = ±√(−1 − a), v = u²/5 exists (multipliers (3 + 2a)² and 1/4): a closed bubble
+    between each pair of flips. ``shape`` "two": a = −1 + cos(πμ)/2, flips at μ = ±0.5, ±1.5
+    (two bubbles in [−2, 2]); "one": a = −1 − (1 − μ²)/2, flips at ±1 (one bubble)."""
+
+    name = "bubbles"
+
+    def __init__(self, mu: float, shape: str = "two"):
+        super().__init__(mu)
+        self.shape = shape
+
+    def with_parameters(self, **values):
+        return _Bubbles(values.get("mu", self.mu), self.shape)
+
+    def a(self):
+        if self.shape == "two":
+            return -1.0 + 0.5 * math.cos(math.pi * self.mu)
+        return -1.0 - 0.5 * (1.0 - self.mu**2)
+
+    def f(self, z):
+        u, v = z[0] - 1.0, z[1] - 2.0
+        return np.array([1.0 + self.a() * u + u**3, 2.0 + 0.5 * v + 0.1 * u * u])
+
+    def jac(self, z):
+        u = z[0] - 1.0
+        return np.array([[self.a() + 3.0 * u * u, 0.0], [0.2 * u, 0.5]])
+
+
+def _bubbles(shape: str, **options):
+    return continue_gait(_Bubbles(-2.0, shape), "mu", -2.0, 2.0, guess=[1.0, 2.0], doublings=1,
+                         **options)
+
+
+@pytest.fixture(scope="module")
+def bubbles():
+    return _bubbles("two")
+
+
+def test_a_bubble_found_from_its_second_flip_joins_the_known_branch(bubbles):
+    """The fixed point's four flips are located where a = −1 (to 1e-9; the one at −1.5 falls
+    on a point of the branch, where the flip test is exactly 0); the period-2 orbit switched
+    onto at −1.5 is followed round its bubble to −0.5, and the orbit found at −0.5 is
+    recognised as that branch (the same bubble, met from its other end; its points are the
+    known ones shifted by one step): it joins branch 1 and is not followed or listed again;
+    the bubble between 0.5 and 1.5 (another orbit) is a branch of its own. Its period-2 points
+    match the closed form, u² = −1 − a and the multipliers (3 + 2a)², 1/4 (to 1e-8); no fold
+    or branch point is reported where a bubble closes. The same with one bubble (flips at ±1)."""
+    r = bubbles
+    assert [b.kind for b in r.bifurcations] == ["flip"] * 4
+    assert [b.mu for b in r.bifurcations] == pytest.approx([-1.5, -0.5, 0.5, 1.5], abs=1e-9)
+    assert [b.child for b in r.bifurcations] == [1, 1, 2, 2]
+    assert [b.joins for b in r.bifurcations] == [False, True, False, True]
+    assert [br.period for br in r.branches] == [1, 2, 2]
+    for br, (lo, hi) in zip(r.branches[1:], [(-1.5, -0.5), (0.5, 1.5)]):
+        assert all(lo - 1e-6 < p.mu < hi + 1e-6 for p in br.points)
+        for p in br.points:
+            a = _Bubbles(p.mu).a()
+            u = [z[0] - 1.0 for z in p.orbit]
+            assert u[0] == pytest.approx(-u[1], abs=1e-9)
+            assert u[0] ** 2 == pytest.approx(-1.0 - a, abs=1e-9)
+            assert sorted(abs(p.multipliers)) == pytest.approx(sorted([(3 + 2 * a) ** 2, 0.25]),
+                                                               abs=1e-8)
+            assert p.stable
+    d = r.to_dict()
+    assert [b["joins_known_branch"] for b in d["bifurcations"]] == [False, True, False, True]
+    assert len(d["branches"]) == 3
+    one = _bubbles("one")
+    assert [b.mu for b in one.bifurcations] == pytest.approx([-1.0, 1.0], abs=1e-9)
+    assert [(b.child, b.joins) for b in one.bifurcations] == [(1, False), (1, True)]
+    assert len(one.branches) == 2
+
+
+def test_a_period_doubled_branch_ends_where_it_rejoins_its_parent(bubbles):
+    """The rule that ends a period-2 branch where it rejoins its parent, at the parent's other
+    flip, named: after one pass round the bubble (μ increasing throughout, the last point
+    within 1e-3 of that flip), where the next step would have gone through the parent onto the
+    same orbits shifted by one step (the default steps: the halves swapped) or, with short
+    steps (ds_max = 0.02), where the orbit's two halves meet. Without either the branch would
+    go round the closed bubble again and again, until max_points."""
+    cases = [(bubbles.branches[1], bubbles.bifurcations[1], "halves swapped"),
+             (bubbles.branches[2], bubbles.bifurcations[3], "halves swapped"),
+             (_bubbles("one", ds_max=0.02).branches[1], None, "its halves meet")]
+    for branch, flip, why in cases:
+        other = branch.rejoined
+        assert other is not None and other.branch == 0 and other.joins
+        if flip is not None:
+            assert other is flip
+        assert branch.end.startswith(f"rejoined the period-1 branch 0 at its flip at mu = "
+                                     f"{other.mu:.10g} (") and why in branch.end
+        mus = [p.mu for p in branch.points]
+        assert mus == sorted(mus) and len(mus) < 100
+        assert mus[-1] == pytest.approx(other.mu, abs=1e-3)
+
+
+class _SFold(_SyntheticMap):
+    """x' = x + (μ − ε(u³ − 3u))/5, y' = y/2 + 1 (u = x − 1, ε = 0.01): fixed points on the
+    S-curve μ = ε(u³ − 3u), with folds at u = ±1 (μ = ∓2ε); the multiplier
+    1 − ε(3u² − 3)/5 makes the outer branches stable (|u| > 1) and the middle one unstable.
+    Between the folds the curve spans 4ε of μ: nearly normal to the parameter axis."""
+
+    name = "s_fold"
+    eps = 0.01
+
+    def f(self, z):
+        u = z[0] - 1.0
+        return np.array([z[0] + 0.2 * (self.mu - self.eps * (u**3 - 3 * u)), 0.5 * z[1] + 1.0])
+
+    def jac(self, z):
+        u = z[0] - 1.0
+        return np.array([[1.0 - 0.2 * self.eps * (3 * u * u - 3), 0.0], [0.0, 0.5]])
+
+
+def test_a_branch_ends_on_the_end_of_the_range_after_folds_near_it():
+    """Continued from μ = 0.5 to −3ε, the branch turns at both folds (located at ∓2ε to 1e-9)
+    and leaves the range, nearly normal to μ, where the corrector (not the predictor) crossed
+    its end: it lands on μ = −3ε exactly and ends there, every point inside the range, on the
+    curve and with the closed-form stability. (Before, the corrected point was taken beyond the
+    end and the branch followed out to μ ≈ −60 until max_points.)"""
+    eps = _SFold.eps
+    # the guess: near the outer root u ≈ 3.83 of ε(u³ − 3u) = 0.5 (Newton refines it)
+    r = continue_gait(_SFold(0.5), "mu", 0.5, -3 * eps, guess=[4.8, 2.0], doublings=0)
+    br = r.branches[0]
+    assert [b.kind for b in r.bifurcations] == ["fold", "fold"]
+    assert [b.mu for b in r.bifurcations] == pytest.approx([-2 * eps, 2 * eps], abs=1e-9)
+    assert br.end == f"reached mu = {-3 * eps:.10g} (end of the range)"
+    assert br.points[-1].mu == pytest.approx(-3 * eps, abs=1e-15)
+    assert all(-3 * eps - 1e-15 <= p.mu <= 0.5 for p in br.points)
+    for p in br.points:
+        u = p.z[0] - 1.0
+        assert eps * (u**3 - 3 * u) == pytest.approx(p.mu, abs=1e-10)
+        assert p.stable == (abs(u) > 1.0)
+    assert min(p.z[0] - 1.0 for p in br.points) < -2.0      # round both folds to the left branch
