@@ -93,25 +93,48 @@ class CompiledModel:
                               f"{type(values).__name__}")
         p = self.param_defaults.copy()
         for name, value in {**(values or {}), **more}.items():
-            if name not in self._param_index:
-                raise UnknownParameterError(
-                    f"model {self.name!r} has no parameter {name!r}; parameters: "
-                    f"{', '.join(self.param_names) or 'none'}"
-                )
-            if isinstance(value, (bool, str, bytes)) or np.ndim(value) != 0:
-                raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
-                                          f"number, got {value!r}")
-            try:
-                value = float(value)
-            except (TypeError, ValueError):
-                raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
-                                          f"number, got {value!r}") from None
-            if not math.isfinite(value):
-                raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be "
-                                          f"finite, got {value!r}")
-            p[self._param_index[name]] = value
+            p[self._param_index_of(name)] = self._param_value(name, value)
         self.constraints.check(dict(zip(self.param_names, p.tolist())))
         return p
+
+    def changed_params(self, p: np.ndarray, changes: Mapping[str, float]) -> np.ndarray:
+        """A copy of the parameter vector ``p`` (valid already) with ``changes`` applied, checked
+        like :meth:`params`; only the constraints that read a changed parameter are evaluated
+        again (an event action switching a mode flag is then cheap)."""
+        p = np.array(p, dtype=float)
+        changed = set()
+        for name, value in changes.items():
+            i = self._param_index_of(name)
+            value = self._param_value(name, value)
+            if value != p[i]:
+                p[i] = value
+                changed.add(name)
+        if changed:
+            self.constraints.check(dict(zip(self.param_names, p.tolist())), changed)
+        return p
+
+    def _param_index_of(self, name: str) -> int:
+        if name not in self._param_index:
+            raise UnknownParameterError(
+                f"model {self.name!r} has no parameter {name!r}; parameters: "
+                f"{', '.join(self.param_names) or 'none'}"
+            )
+        return self._param_index[name]
+
+    def _param_value(self, name: str, value: Any) -> float:
+        """``value`` as a finite float, or a ParameterValueError naming the parameter."""
+        if isinstance(value, (bool, str, bytes)) or np.ndim(value) != 0:
+            raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
+                                      f"number, got {value!r}")
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
+                                      f"number, got {value!r}") from None
+        if not math.isfinite(value):
+            raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be "
+                                      f"finite, got {value!r}")
+        return value
 
     def native_params(self, p: np.ndarray) -> list[float] | np.ndarray:
         """The parameter vector in the form the back end's functions take."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from collections.abc import Set as AbstractSet
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -72,18 +73,23 @@ class ConstraintChecker:
         self.constraints = [Constraint.from_dict(c) for c in constraints]
         self._parsed: list[tuple[Constraint, Expression, Expression]] = [
             (c, parse_text(c.expression), parse_text(c.bound)) for c in self.constraints]
+        self._reads = [expr.names | bound.names for _, expr, bound in self._parsed]
 
-    def check(self, values: Mapping[str, float]) -> None:
-        """Raise ParameterValueError naming every violated constraint and the parameters."""
+    def check(self, values: Mapping[str, float], changed: AbstractSet[str] | None = None) -> None:
+        """Raise ParameterValueError naming every violated constraint and the parameters;
+        ``changed``: evaluate only the constraints that read one of these parameters (the others
+        held before)."""
         problems = []
-        for constraint, expr, bound in self._parsed:
+        for (constraint, expr, bound), reads in zip(self._parsed, self._reads):
+            if changed is not None and not reads & changed:
+                continue
             try:
                 message = violation(constraint, expr.evaluate(values), bound.evaluate(values))
             except (ArithmeticError, ValueError) as err:
                 message = (f"component {constraint.component!r} {constraint.argument} = "
                            f"{constraint.expression} cannot be evaluated ({err})")
             if message:
-                names = sorted((expr.names | bound.names) & set(values))
+                names = sorted(reads & set(values))
                 problems.append(f"{message} (with {', '.join(f'{n} = {values[n]:g}' for n in names)})")
         if problems:
             raise ParameterValueError(f"model {self.model_name!r}: " + "; ".join(problems)

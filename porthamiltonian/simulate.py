@@ -280,7 +280,7 @@ class Simulator:
             moved = reset.x is not None and not np.array_equal(np.asarray(reset.x, dtype=float),
                                                                y[:n])
             if reset.params:
-                p = model.params(dict(zip(model.param_names, p)) | dict(reset.params))
+                p = model.changed_params(p, reset.params)
             y = y.copy()
             if reset.x is not None:
                 new_x = np.asarray(reset.x, dtype=float)

@@ -132,11 +132,27 @@ PARAMETERS = [
 def test_bad_parameter_value_is_refused_like_a_literal(compile_named, name, values, error, words):
     model = compile_named(name)
     for call in (lambda: model.simulate(0.01, params=values, method="Radau"),
-                 lambda: model.params(values)):
+                 lambda: model.params(values),
+                 lambda: model.changed_params(model.param_defaults, values)):
         with pytest.raises(error) as info:
             call()
         for word in words:
             assert word in str(info.value), str(info.value)
+
+
+def test_changed_params_checks_the_constraints_of_what_changed(compile_named):
+    """An event action's parameter changes (CompiledModel.changed_params): the values of
+    params(...) with them; a constraint that reads no changed parameter is not evaluated again,
+    so a vector that already violates it passes unless that parameter changes."""
+    model = compile_named("mass_spring_damper")
+    p = model.params({"k": 9.0})
+    assert np.array_equal(model.changed_params(p, {"c": 0.2, "F": 1.5}),
+                          model.params({"k": 9.0, "c": 0.2, "F": 1.5}))
+    bad = p.copy()
+    bad[model.param_names.index("m")] = -1.0            # m's constraint fails for this vector
+    assert model.changed_params(bad, {"F": 2.0})[model.param_names.index("F")] == 2.0
+    with pytest.raises(ParameterValueError, match="'mass'"):
+        model.changed_params(bad, {"m": -2.0})
 
 
 def test_the_same_value_as_a_literal_gives_the_same_rule():
