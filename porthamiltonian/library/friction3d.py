@@ -122,11 +122,13 @@ class SCVSFriction3D(Component):
         lever = [-radius * ni for ni in n]                       # centre -> contact point
         u = [a + c for a, c in zip(v, _cross(omega, lever))]
         un = _dot(n, u)
-        slip = [ui - un * ni for ui, ni in zip(u, n)]
-        a = _speed(_dot(slip, slip))
-        mu = scvs_coefficient(a, mu_st, mu_c, mu_v, slope, v_st)
-        g = mu / a                                               # smooth and even in a
-        fn = sp.Piecewise((normal_force, normal_force > 0), (0, True))
+        # the slip, its speed and the law as intermediates (of the port's flow): computed once,
+        # differentiated by the chain rule, never expanded into the state equations
+        slip = [b.intermediate(f"slip_{axis}", ui - un * ni) for axis, ui, ni in zip("xyz", u, n)]
+        a = b.intermediate("speed", _speed(_dot(slip, slip)))
+        mu = b.intermediate("mu", scvs_coefficient(a, mu_st, mu_c, mu_v, slope, v_st))
+        g = b.intermediate("mu_over_speed", mu / a)              # smooth and even in a
+        fn = b.intermediate("Fn", sp.Piecewise((normal_force, normal_force > 0), (0, True)))
         force = [-fn * g * si for si in slip]                    # on the body, at the point
         wn = _dot(n, omega)
         wt = [wi - wn * ni for wi, ni in zip(omega, n)]
