@@ -1,9 +1,10 @@
 """The 3D compass walker (models/compass_walker_3d.toml): the thesis's nominal walker with a pelvis
 of width w, spherical feet, the 3D Hunt–Crossley contact and vector SCVS friction.
 
-With w = 0 and a sagittal start the lateral coordinates stay 0 and the gait is compass_walker's
-(an independent model file: planar multibody, planar contact and friction; both with the legs'
-rod inertia I_leg = m_leg l²/12). The lateral multipliers of that gait: one unstable (measured
+With w = 0 and a sagittal start the lateral coordinates stay 0 and the gait is
+compass_walker_sole_friction's (an independent model file: planar multibody, planar contact and
+friction at the sole point; both with the legs' rod inertia I_leg = m_leg l²/12): the 3D file keeps
+the friction at the sole point, compass_walker moved it to the rolling contact's material point. The lateral multipliers of that gait: one unstable (measured
 −33.386, the sideways fall: Kuo 1999, IJRR 18, "Stabilization of lateral motion in passive
 dynamic walking": the straight-legged 3D walker is laterally unstable without control; we agree),
 one ≈ −1.0026 (the heading: yaw is neutral up to the slope's gravity component, and the section's
@@ -42,7 +43,7 @@ LATERAL = ["walker.q.pelvis.x", "walker.q.pelvis.z", "walker.v.pelvis.x", "walke
 
 @pytest.fixture(scope="module")
 def pair(isolated_cache):
-    planar = load_walker("compass_walker").with_options(**TIGHT)
+    planar = load_walker("compass_walker_sole_friction").with_options(**TIGHT)
     spatial = load_walker("compass_walker_3d", {"w": 0.0}).with_options(**TIGHT)
     fp2 = find_fixed_point(planar, tol=1e-11)
     return planar, spatial, fp2
