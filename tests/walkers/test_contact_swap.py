@@ -1,7 +1,8 @@
 """Swapping a walker's contact law by editing its model file (docs/walkers.md, docs/model-files.md):
-the two feet's contact lines of models/compass_walker.toml become Kelvin–Voigt contacts (linear
-damping B_contact = 1e3 N·s/m, calibrated the thesis's way: walker_library.calibration), and one
-parameter line declares B_contact.
+the two feet's contact lines of models/compass_walker.toml (HuntCrossley3D in the x-z plane, the
+rolling arc feet) become Kelvin–Voigt contacts (KelvinVoigt3D, linear damping B_contact = 1e3
+N·s/m, calibrated the thesis's way: walker_library.calibration), and one parameter line declares
+B_contact.
 
 Measured (γ = 0.009, B = 1e3 N·s/m): the walker walks from the Hunt–Crossley walker's initial
 guess, and analyze_gait finds a stable period-1 gait (Newton from the guess does not converge;
@@ -32,11 +33,12 @@ B_CONTACT = 1.0e3
 def kelvin_voigt(text: str) -> str:
     """The file with both feet's Hunt–Crossley lines made Kelvin–Voigt and B_contact declared."""
     for k in (1, 2):
+        geometry = f'plane = "xz", x = "walker.c{k}.x", z = "walker.c{k}.z", radius = "R", '
         text = text.replace(
-            f'floor{k} = {{ type = "HuntCrossley", x = "walker.foot{k}.x", z = "walker.foot{k}.z - R", '
-            'stiffness = "K", damping = "lam", exponent = 1,',
-            f'floor{k} = {{ type = "KelvinVoigt", x = "walker.foot{k}.x", z = "walker.foot{k}.z - R", '
-            'stiffness = "K", damping = "B_contact",', 1)
+            f'floor{k} = {{ type = "HuntCrossley3D", {geometry}stiffness = "K", damping = "lam", '
+            'exponent = 1,',
+            f'floor{k} = {{ type = "KelvinVoigt3D", {geometry}stiffness = "K", '
+            'damping = "B_contact",', 1)
     line = 'lam = { value = 3.16e7'
     i = text.index(line)
     return (text[:i] + f'B_contact = {{ value = {B_CONTACT}, unit = "N*s/m", doc = "Kelvin-Voigt '
@@ -77,9 +79,9 @@ def test_both_feet_get_kelvin_voigt_contacts(walker):
     model = walker.spec.model
     for k in (1, 2):
         floor = model.component(f"floor{k}")
-        assert floor.kind == "KelvinVoigt"
+        assert floor.kind == "KelvinVoigt3D"
         assert floor.args["damping"] == "B_contact" and floor.args["stiffness"] == "K"
-        assert model.component(f"fric{k}").kind == "SCVSFriction"
+        assert model.component(f"fric{k}").kind == "SCVSFriction3D"
     assert [f.contact for f in walker.spec.feet] == ["floor1", "floor2"]
     assert walker.parameters["B_contact"] == B_CONTACT
     assert walker.parameters["lam"] == 3.16e7 and walker.parameters["slope"] == 0.009
@@ -118,11 +120,11 @@ def test_save_and_reload_keep_the_swap(walker, tmp_path):
 
 def test_a_misspelt_contact_law_names_the_file_and_line(tmp_path):
     bad = tmp_path / "hertz.toml"
-    text = ORIGINAL.read_text().replace('floor1 = { type = "HuntCrossley"',
-                                        'floor1 = { type = "HuntCrosley"', 1)
+    text = ORIGINAL.read_text().replace('floor1 = { type = "HuntCrossley3D"',
+                                        'floor1 = { type = "HuntCrosley3D"', 1)
     bad.write_text(text)
     line = next(i for i, ln in enumerate(text.splitlines(), 1) if "HuntCrosley" in ln)
     with pytest.raises(ModelFileError) as err:
         load_walker(bad)
     msg = str(err.value)
-    assert msg.startswith(f"{bad}, line {line}:") and "'HuntCrossley'" in msg
+    assert msg.startswith(f"{bad}, line {line}:") and "'HuntCrossley3D'" in msg
