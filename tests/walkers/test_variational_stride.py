@@ -93,7 +93,9 @@ def test_compass_walker_against_extrapolated_differences():
 @pytest.mark.parametrize("name", ["compass_walker", "compliant_leg_walker",
                                   "smooth_stiffness_walker", "variable_stiffness_walker",
                                   "ankle_stiffness_walker", "hip_and_leg_spring_walker",
-                                  "compass_walker_point_legs", "compliant_leg_walker_point_legs"])
+                                  "compass_walker_point_legs", "compliant_leg_walker_point_legs",
+                                  "compass_walker_sole_friction",
+                                  "compliant_leg_walker_sole_friction"])
 def test_compliant_walker_multipliers_to_1e_6(name):
     """The exact multipliers at the file's tolerances (rtol 1e-9) differ from those of a run at
     rtol 1e-11 by less than 1e-6 (measured 5e-9 to 1.1e-7) and by less than their reported
