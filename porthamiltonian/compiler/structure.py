@@ -16,6 +16,12 @@ Then
 * strongly connected blocks of size > 1 in the dependency graph -> :class:`AlgebraicLoopError`
   naming the components and port variables of the loop;
 * otherwise a topological order of single-equation blocks, each solved explicitly.
+
+Component intermediates (:meth:`~porthamiltonian.component.Builder.intermediate`) stay symbols in
+the solved expressions. Those that read port variables (port level, e.g. a friction's slip from
+its port's flow) are not known when the equations are matched: after the solution their port
+variables are replaced by the solved expressions and all intermediates reordered
+(:func:`_port_level`), so that the state equations never contain the expanded law.
 """
 from __future__ import annotations
 
