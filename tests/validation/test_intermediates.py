@@ -25,6 +25,17 @@ from porthamiltonian.errors import UnknownParameterError
 from porthamiltonian.mechanics.bodies import Revolute, RigidBody
 
 
+def _central_differences(model, y: np.ndarray, p) -> np.ndarray:
+    """∂ẋ/∂x of a compiled model at the augmented state y by central differences, step 1e-6."""
+    fd = np.empty((len(y), len(y)))
+    for j in range(len(y)):
+        step = np.zeros(len(y))
+        step[j] = 1e-6
+        fd[:, j] = (np.asarray(model.functions.rhs(0.0, y + step, p))
+                    - np.asarray(model.functions.rhs(0.0, y - step, p))) / 2e-6
+    return fd
+
+
 def test_jacobian_through_velocity_level_intermediates_matches_finite_differences():
     """tree3d (every joint and port kind, 7 coordinates): ∂ẋ/∂x at 3 random states against a
     central difference with step 1e-6 (|x| ~ 1), to 1e-6 of the largest entry of each row."""
@@ -33,12 +44,7 @@ def test_jacobian_through_velocity_level_intermediates_matches_finite_difference
     for x in random_states(model, 5, 3):
         y = model.augment(x)
         jac = np.asarray(model.functions.jac(0.0, y, pn))
-        fd = np.empty_like(jac)
-        for j in range(len(y)):
-            step = np.zeros(len(y))
-            step[j] = 1e-6
-            fd[:, j] = (np.asarray(model.functions.rhs(0.0, y + step, pn))
-                        - np.asarray(model.functions.rhs(0.0, y - step, pn))) / 2e-6
+        fd = _central_differences(model, y, pn)
         scale = np.max(np.abs(fd), axis=1, keepdims=True) + 1e-12
         assert np.max(np.abs(jac - fd) / scale) < 1e-6
 
@@ -173,12 +179,7 @@ def test_port_level_intermediates_equal_the_expanded_law():
                                        np.asarray(getattr(plain.functions, fn)(0.0, y, p)),
                                        rtol=1e-13, atol=1e-13)
         jac = np.asarray(staged.functions.jac(0.0, y, p))
-        fd = np.empty_like(jac)
-        for j in range(len(y)):
-            step = np.zeros(len(y))
-            step[j] = 1e-6
-            fd[:, j] = (np.asarray(staged.functions.rhs(0.0, y + step, p))
-                        - np.asarray(staged.functions.rhs(0.0, y - step, p))) / 2e-6
+        fd = _central_differences(staged, y, p)
         np.testing.assert_allclose(jac, fd, rtol=1e-6, atol=1e-6 * np.max(np.abs(fd)))
 
 
