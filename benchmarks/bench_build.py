@@ -23,8 +23,9 @@ archive main``) interleaved with this one, for before/after comparisons in one r
 exceeds ``--timeout`` seconds is reported as such.
 
 ``--walker-3d`` measures the 3D walker against the 2D one (issue 15): the 3D fixed point found
-by Newton from compass_walker's fixed point (lateral coordinates 0; the iterations printed) and
-the time per stride of compass_walker_3d (w = 0) against compass_walker's from their fixed points
+by Newton from compass_walker_sole_friction's fixed point (its 2D twin: friction at the sole
+point; lateral coordinates 0; the iterations printed) and the time per stride of
+compass_walker_3d (w = 0) against that walker's from their fixed points
 (interleaved rounds, medians); its cold and warm builds are the ``compass_walker_3d`` case.
 
 ``--opt-levels`` measures instead the C compiler's optimisation levels on the two walkers: build
@@ -68,6 +69,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 WALKERS = ("compass_walker", "compliant_leg_walker")
 WALKER_3D = "compass_walker_3d"
+PLANAR_TWIN = "compass_walker_sole_friction"   # the 2D walker compass_walker_3d equals at w = 0
 CHAINS = (2, 5, 10, 20, 40)
 _BUILD_LINE = re.compile(r"building (.*?): (.*), (\d+) kB")
 
@@ -282,24 +284,24 @@ def walker_3d(args) -> None:
     import numpy as np
 
     from walker_library import find_fixed_point, load_walker
-    planar, spatial = load_walker(WALKERS[0], backend="c"), load_walker(WALKER_3D, backend="c")
+    planar, spatial = load_walker(PLANAR_TWIN, backend="c"), load_walker(WALKER_3D, backend="c")
     z2 = find_fixed_point(planar, tol=1e-8).z
     lateral = len(spatial.section) - len(planar.section)
     fp3 = find_fixed_point(spatial, np.concatenate([z2, np.zeros(lateral)]), tol=1e-8)
-    print(f"\n## 3D walker (w = 0) against compass_walker\n\nNewton from the 2D fixed point: "
+    print(f"\n## 3D walker (w = 0) against {PLANAR_TWIN}\n\nNewton from the 2D fixed point: "
           f"{fp3.iterations} iterations, converged {fp3.converged}, |z3 - z2| (shared) "
           f"{np.max(np.abs(fp3.z[:len(z2)] - z2)):.1e}")
-    per: dict = {WALKERS[0]: [], WALKER_3D: []}
+    per: dict = {PLANAR_TWIN: [], WALKER_3D: []}
     for _ in range(args.rounds):
-        for name, walker, z in ((WALKERS[0], planar, z2), (WALKER_3D, spatial, fp3.z)):
+        for name, walker, z in ((PLANAR_TWIN, planar, z2), (WALKER_3D, spatial, fp3.z)):
             t0 = time.perf_counter()
             strides = walker.walk(z, args.strides)
             per[name].append((time.perf_counter() - t0) / len(strides))
-    base = statistics.median(per[WALKERS[0]])
+    base = statistics.median(per[PLANAR_TWIN])
     for name, times in per.items():
         print(f"time per stride, {name}: {1e3 * statistics.median(times):.2f} ms (median of "
               f"{args.rounds} interleaved rounds of {args.strides} strides); "
-              f"ratio to compass_walker {statistics.median(times) / base:.2f}", flush=True)
+              f"ratio to {PLANAR_TWIN} {statistics.median(times) / base:.2f}", flush=True)
 
 
 def _shapes(model) -> dict:

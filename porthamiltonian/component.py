@@ -162,10 +162,14 @@ class Builder:
         return 1 if orientation == "in" else -1
 
     def intermediate(self, name: str, expr: sp.Expr) -> sp.Expr:
-        """A named intermediate ``component.name = expr`` (expr in states, parameters, time and
-        earlier intermediates). The generated code computes it once and differentiates through it
-        by the chain rule, so expressions stay local (e.g. mass-matrix entries and their
-        derivatives). Constants are returned as they are."""
+        """A named intermediate ``component.name = expr`` (expr in states, parameters, time,
+        earlier intermediates, the unknowns of implicit blocks and port variables). The generated
+        code computes it once and differentiates through it by the chain rule, so expressions
+        stay local (e.g. mass-matrix entries and their derivatives, a friction law of its port's
+        slip). An intermediate that reads port variables gets them replaced by their solutions
+        once the model's structure is solved; a port variable solved from such an intermediate
+        of itself is an algebraic loop, and a stored energy may not read one. Constants are
+        returned as they are."""
         expr = as_expr(expr)
         if expr.is_number:
             return expr

@@ -75,13 +75,18 @@ def _world(slope: float, xz: np.ndarray) -> np.ndarray:
 
 
 def _body_points(walker: Any) -> dict[str, list[str]]:
-    """The multibody's points by body (names ``<mb>.<point>``)."""
+    """The multibody's points and world-aligned frames by body (names ``<mb>.<point>``)."""
     mb = walker.multibody
     try:
         bodies = walker.spec.model.component(mb).value("bodies")
     except (AttributeError, KeyError, ValueError):
         return {}
-    return {b: [f"{mb}.{p}" for p in (d.get("points") or {})] for b, d in bodies.items()}
+    return {b: [f"{mb}.{p}" for key in ("points", "world_frames") for p in (d.get(key) or {})]
+            for b, d in bodies.items()}
+
+
+#: the efforts of a port of dimension 2, 3 or 6 that hold the force's x and z
+_FORCE_XZ = {2: (0, 1), 3: (1, 2), 6: (3, 5)}
 
 
 def contact_forces(walker: Any, traj: Any) -> np.ndarray | None:
@@ -101,7 +106,11 @@ def contact_forces(walker: Any, traj: Any) -> np.ndarray | None:
             for near, far, sign in (((tc, tp), (hc, hp), -1.0), ((hc, hp), (tc, tp), 1.0)):
                 if f"{near[0]}.{near[1]}" not in body:
                     continue
-                names = [f"{far[0]}.{far[1]}.e0", f"{far[0]}.{far[1]}.e1"]
+                port = f"{far[0]}.{far[1]}"
+                dim = sum(1 for i in range(6) if f"{port}.e{i}" in outputs)
+                # the force's x and z among the efforts: a point's (f_x, f_z), a planar screw's
+                # (τ_y, f_x, f_z), a screw's (τ, f)
+                names = [f"{port}.e{i}" for i in _FORCE_XZ.get(dim, (0, 1))]
                 if not all(n in outputs for n in names):
                     continue
                 Y = traj.outputs if Y is None else Y

@@ -16,7 +16,7 @@ from .core import HybridWalker
 
 __all__ = ["dissipation_breakdown"]
 
-_FRICTION = ("SCVSFriction",)
+_FRICTION = ("SCVSFriction", "SCVSFriction3D")
 _DAMPERS = ("SpringDamper", "VariableSpringDamper")
 
 
@@ -37,8 +37,9 @@ def dissipation_breakdown(walker: HybridWalker, z: np.ndarray, n_steps: int = 1)
     for name, comp in walker.spec.model.components():
         kind = getattr(comp, "kind", "")
         if kind in _FRICTION:
+            dim = sum(1 for n in col if n.startswith(f"{name}.p.e"))   # 2, 3 (planar screw), 6
             friction += sum(Y[:, col[f"{name}.p.e{i}"]] * Y[:, col[f"{name}.p.f{i}"]]
-                            for i in (0, 1))
+                            for i in range(dim))
         elif kind in _DAMPERS:
             damper += Y[:, col[f"{name}.D"]] * Y[:, col[f"{name}.p.f"]] ** 2
     total = traj.power[:, 1]

@@ -194,14 +194,21 @@ def parameter(walker: Any, name: str) -> Quantity:
 
 def foot_radius(walker: Any, foot: Any, values: dict[str, float]) -> float:
     """The radius (m) of an arc foot: how far below its point the foot's contact reads the
-    surface (a contact ``z = "<point>.z - R"`` -> R), 0 for a point foot (no contact component,
-    or a contact whose height is not the point's height minus a constant)."""
+    surface (a contact ``z = "<point>.z - R"`` -> R; a contact with a ``radius``, the circle or
+    sphere of the 3D contacts about the frame its ``z`` reads, which the walker files put at the
+    foot's point -> that radius), 0 for a point foot (no contact component, or a contact whose
+    height is not a point's height minus a constant)."""
     from porthamiltonian.errors import ExpressionError, ModelError
     from porthamiltonian.expressions import parse_text
     if not getattr(foot, "contact", None):
         return 0.0
     try:
-        z_text = walker.spec.model.component(foot.contact).args.get("z")
+        args = walker.spec.model.component(foot.contact).args
+        if "radius" in args:
+            radius = parse_text(str(args["radius"]), f"contact {foot.contact!r} radius")
+            value = radius.evaluate(values)
+            return value if math.isfinite(value) and value > 0 else 0.0
+        z_text = args.get("z")
         expr = parse_text(str(z_text), f"contact {foot.contact!r} z")
         height = f"{foot.point}.z"
         low = expr.evaluate({**values, height: 0.0})

@@ -33,7 +33,7 @@ from ..errors import ModelError, StateError
 from ..expressions import TIME, parse
 from ..model import EventSpec
 from ..ports import domain
-from .structure import Solution, _flat
+from .structure import Solution, _flat, _reaching
 
 
 @dataclass
@@ -86,10 +86,12 @@ def assemble(solution: Solution) -> SymbolicModel:
     p_in = sp.Integer(0)
     energies: dict[str, sp.Expr] = {}
     hidden = _hidden_dependencies(system.intermediates, {*states, TIME})
+    # port variables, and the intermediates that read them (directly or through others)
+    ported = unknowns | system.port_level | _reaching(system.intermediates, system.port_level)
     for cname, b in system.built.items():
         energy = b.energy.xreplace(system.aliases)
         energies[cname] = energy
-        if energy.free_symbols & unknowns:
+        if energy.free_symbols & ported:
             raise ModelError(f"component {cname!r}: its stored energy depends on port variables; "
                              "energy must be a function of states, parameters and time")
         H += energy

@@ -19,7 +19,8 @@ Implicit blocks ``A(t, x, p) v = b(t, x, p)`` (e.g. M(q) q̇ = p of a multibody)
 numerically at the top of every function that needs ``v``; in the Jacobian, v's derivative is
 ``A⁻¹ (∂b/∂x − ∂(A v)/∂x|_v)`` (implicit differentiation), never a symbolic inverse.
 Intermediates may read the blocks' unknowns (velocity-level intermediates, e.g. the body twists
-of a multibody); the chain rule then adds ∂w/∂v · ∂v/∂x to their rows. Every function's
+of a multibody, and the port-level ones of :mod:`.structure` once their port variables are
+solved); the chain rule then adds ∂w/∂v · ∂v/∂x to their rows. Every function's
 documentation lists the order of its arguments' and its result's entries by name.
 """
 from __future__ import annotations

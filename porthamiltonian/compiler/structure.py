@@ -16,6 +16,12 @@ Then
 * strongly connected blocks of size > 1 in the dependency graph -> :class:`AlgebraicLoopError`
   naming the components and port variables of the loop;
 * otherwise a topological order of single-equation blocks, each solved explicitly.
+
+Component intermediates (:meth:`~porthamiltonian.component.Builder.intermediate`) stay symbols in
+the solved expressions. Those that read port variables (port level, e.g. a friction's slip from
+its port's flow) are not known when the equations are matched: after the solution their port
+variables are replaced by the solved expressions and all intermediates reordered
+(:func:`_port_level`), so that the state equations never contain the expanded law.
 """
 from __future__ import annotations
 
@@ -59,6 +65,9 @@ class System:
     owner: dict[sp.Symbol, str] = field(default_factory=dict)   # unknown -> component
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
+    #: the intermediates that read port variables (directly or through others); :func:`solve`
+    #: replaces those variables by their solutions
+    port_level: set[sp.Symbol] = field(default_factory=set)
 
 
 @dataclass
@@ -124,8 +133,12 @@ def build_system(flat: ModelDescription) -> System:
             owner[s.derivative] = cname
     unknowns = list(dict.fromkeys([*(u for u in owner if u not in derivatives), *derivatives]))
     known = {*params.values(), *states, TIME}
-    intermediates, velocity = _ordered_intermediates(built, known)
+    for b in built.values():
+        b.intermediates = [(s, e.xreplace(aliases)) for s, e in b.intermediates]
+    port_variables = set(unknowns) - set(derivatives)
+    intermediates, velocity = _ordered_intermediates(built, known, port_variables)
     position = {s for s, _ in intermediates} - velocity
+    port_level = _reaching(intermediates, port_variables)
     blocks = []
     for cname, b in built.items():
         for symbols, A, rhs in b.blocks:
@@ -145,16 +158,29 @@ def build_system(flat: ModelDescription) -> System:
                 "is not a parameter, state or port variable of the model"
             )
     return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner,
-                  blocks, intermediates)
+                  blocks, intermediates, port_level)
 
 
-def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol]
+def _reaching(intermediates: list[tuple[sp.Symbol, sp.Expr]], leaves: set[sp.Symbol]
+              ) -> set[sp.Symbol]:
+    """The (ordered) intermediates that read one of ``leaves``, directly or through others."""
+    found: set[sp.Symbol] = set()
+    for symbol, expr in intermediates:
+        if expr.free_symbols & (leaves | found):
+            found.add(symbol)
+    return found
+
+
+def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol],
+                           port_variables: set[sp.Symbol]
                            ) -> tuple[list[tuple[sp.Symbol, sp.Expr]], set[sp.Symbol]]:
     """The intermediates of all components in an order where each uses only earlier ones:
     first those that depend on states, parameters and time only (position level), then those
     that also depend on the unknowns of implicit blocks (velocity level, e.g. body twists that
-    read the velocities solved from M(q) v = p), each group in declaration order where it
-    allows. Returns the ordered list and the set of velocity-level symbols."""
+    read the velocities solved from M(q) v = p) or on port variables (port level, e.g. a
+    friction's slip speed from its port's flow: ordered after :func:`solve` has solved the port
+    variables, see :func:`_port_level`), each group in declaration order where it allows.
+    Returns the ordered list and the set of velocity- and port-level symbols."""
     defs: dict[sp.Symbol, sp.Expr] = {}
     owner: dict[sp.Symbol, str] = {}
     for cname, b in built.items():
@@ -163,12 +189,20 @@ def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol]
     block_symbols = {s for b in built.values() for symbols, _, _ in b.blocks for s in symbols}
     defined = set(defs)
     for symbol, expr in defs.items():
-        stray = expr.free_symbols - known - defined - block_symbols
+        stray = expr.free_symbols - known - defined - block_symbols - port_variables
         if stray:
             raise UnknownParameterError(
                 f"component {owner[symbol]!r}: intermediate {symbol} may depend on states, "
-                "parameters, time, other intermediates and the unknowns of implicit blocks only, "
-                f"not on {', '.join(sorted(map(str, stray)))}")
+                "parameters, time, other intermediates, the unknowns of implicit blocks and port "
+                f"variables only, not on {', '.join(sorted(map(str, stray)))}")
+    return _order(defs, owner, block_symbols | port_variables)
+
+
+def _order(defs: dict[sp.Symbol, sp.Expr], owner: dict[sp.Symbol, str],
+           unknowns: set[sp.Symbol]) -> tuple[list[tuple[sp.Symbol, sp.Expr]], set[sp.Symbol]]:
+    """``defs`` in an order where each uses only earlier ones, those that read ``unknowns``
+    (directly or through others) last; and the set of those."""
+    defined = set(defs)
     velocity: set[sp.Symbol] = set()
     order: list[sp.Symbol] = []
     state: dict[sp.Symbol, int] = {}          # 1: being placed, 2: placed
@@ -183,7 +217,7 @@ def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol]
         uses = defs[symbol].free_symbols
         for dep in sorted(uses & defined, key=str):
             place(dep)
-        if uses & block_symbols or uses & velocity:
+        if uses & unknowns or uses & velocity:
             velocity.add(symbol)
         state[symbol] = 2
         order.append(symbol)
@@ -303,7 +337,27 @@ def solve(system: System) -> Solution:
         expr = (-rest / coefficient).xreplace(values)
         values[u] = expr
         order.append((u, expr, eqs[i]))
+    if system.port_level:
+        system.intermediates = _port_level(system, values)
     return Solution(system, order)
+
+
+def _port_level(system: System, values: dict[sp.Symbol, sp.Expr]
+                ) -> list[tuple[sp.Symbol, sp.Expr]]:
+    """The intermediates with the port variables that port-level ones read replaced by their
+    solutions (in states, parameters, time, block unknowns and intermediates), reordered. A port
+    variable whose solution reads the intermediate that reads it is an algebraic loop."""
+    owner = {s: c for c, b in system.built.items() for s, _ in b.intermediates}
+    defs = {s: (e.xreplace(values) if s in system.port_level else e)
+            for s, e in system.intermediates}
+    blocks = {s for symbols, _, _ in system.blocks for s in symbols}
+    try:
+        ordered, _ = _order(defs, owner, blocks)
+    except StructureError as err:
+        raise AlgebraicLoopError(
+            f"{err}: it reads port variables whose solution reads it back (an algebraic loop "
+            "through a port-level intermediate). Put a storage (C or I) in the loop") from None
+    return ordered
 
 
 def _report_singular(system: System, appears: list[set[sp.Symbol]], matched: dict[int, sp.Symbol]):

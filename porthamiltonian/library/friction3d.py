@@ -29,7 +29,9 @@ slope s of its tanh), and its Jacobian at a = 0 is −Fn (μ_st s + μ_v) times 
 projector. The speed is computed as a = √(v_s·v_s + 1e-200), which is |v_s| to the last bit for
 |v_s| > 1e-92 m/s and keeps every back end (the Python one raises on a division by zero) away
 from 0/0 at exactly zero slip (a sphere at rest, a foot in the air moving straight down).
-Fn is max(Fn, 0).
+Fn is max(Fn, 0). The slip, a, μ(a), μ(a)/a and max(Fn, 0) are declared as intermediates (of
+the port's flow): computed once per evaluation and differentiated by the chain rule, never
+expanded into the state equations (a sphere's code generation took 12 s with them expanded).
 
 Optional torques (N m; each 0 by default)
 -----------------------------------------
@@ -122,11 +124,13 @@ class SCVSFriction3D(Component):
         lever = [-radius * ni for ni in n]                       # centre -> contact point
         u = [a + c for a, c in zip(v, _cross(omega, lever))]
         un = _dot(n, u)
-        slip = [ui - un * ni for ui, ni in zip(u, n)]
-        a = _speed(_dot(slip, slip))
-        mu = scvs_coefficient(a, mu_st, mu_c, mu_v, slope, v_st)
-        g = mu / a                                               # smooth and even in a
-        fn = sp.Piecewise((normal_force, normal_force > 0), (0, True))
+        # the slip, its speed and the law as intermediates (of the port's flow): computed once,
+        # differentiated by the chain rule, never expanded into the state equations
+        slip = [b.intermediate(f"slip_{axis}", ui - un * ni) for axis, ui, ni in zip("xyz", u, n)]
+        a = b.intermediate("speed", _speed(_dot(slip, slip)))
+        mu = b.intermediate("mu", scvs_coefficient(a, mu_st, mu_c, mu_v, slope, v_st))
+        g = b.intermediate("mu_over_speed", mu / a)              # smooth and even in a
+        fn = b.intermediate("Fn", sp.Piecewise((normal_force, normal_force > 0), (0, True)))
         force = [-fn * g * si for si in slip]                    # on the body, at the point
         wn = _dot(n, omega)
         wt = [wi - wn * ni for wi, ni in zip(omega, n)]

@@ -40,11 +40,13 @@ With S = m_leg l/2 + m_foot l, I = m_leg l²/4 + I_leg + m_foot l², m_t = M + 2
 Contact of foot k (arc foot of radius R, centre at the leg's end, contact point R below the
 centre along the slope normal): penetration δ = R − (z − l cos a), δ̇ = −(ż + l sin a ȧ);
 Hunt–Crossley with exponent 1, F = c_k δ (K + λ δ̇) for δ > 0 and K + λ δ̇ > 0, else 0, acting
-along +z on the foot centre: Q_z += F, Q_a += F l sin a. SCVS friction at the leg's material
-point R beyond the foot centre (the "sole", l + R from the hip, as the framework model does), slip
-velocity v = ẋ − (l + R) cos a ȧ, F_t = −F μ(v) with the 20-sim law
-μ(v) = (μ_c + (μ_st |tanh(s v)| − μ_c) exp(−(v/v_st)²)) sign(v) + μ_v v: Q_x += F_t,
-Q_a −= (l + R) cos a F_t. c_k ∈ {0, 1} are the contact flags.
+along +z on the foot centre: Q_z += F, Q_a += F l sin a. SCVS friction F_t = −F μ(v) with the
+20-sim law μ(v) = (μ_c + (μ_st |tanh(s v)| − μ_c) exp(−(v/v_st)²)) sign(v) + μ_v v, at the
+rolling arc's material contact point (``rolling=True``, models/compass_walker.toml): the point
+R below the foot centre, fixed in the leg at that instant, slip v = ẋ − (l cos a + R) ȧ, Q_x +=
+F_t, Q_a −= (l cos a + R) F_t; or (``rolling=False``, models/compass_walker_sole_friction.toml) at
+the leg's material point R beyond the foot centre (the "sole", l + R from the hip), slip
+v = ẋ − (l + R) cos a ȧ, Q_a −= (l + R) cos a F_t. c_k ∈ {0, 1} are the contact flags.
 
 Scuffing rule (contact flags switched by events, as the framework's walker does): a touchdown
 (δ_k rising through 0) of an inactive foot starts its contact if the foot is the leading foot
@@ -231,7 +233,8 @@ class CompassWalkerHand:
     """The nominal compliant-contact walker by hand (see the module docstring)."""
 
     def __init__(self, *, method: str = "Radau", rtol: float = 1e-8, atol: float = 1e-10,
-                 max_step: float = 0.01, max_step_time: float = 3.0, jac=None, **params):
+                 max_step: float = 0.01, max_step_time: float = 3.0, jac=None,
+                 rolling: bool = True, **params):
         P = dict(COMPASS_DEFAULTS)
         unknown = set(params) - set(P)
         if unknown:
@@ -241,6 +244,7 @@ class CompassWalkerHand:
         self.method, self.rtol, self.atol, self.max_step = method, rtol, atol, max_step
         self.max_step_time = max_step_time
         self.jac = jac                     # None: scipy's finite differences; "fd": our own
+        self.rolling = rolling             # friction at the rolling contact point, or the sole
         l, ml, mf = P["l"], P["m_leg"], P["m_foot"]
         self.S = ml * l / 2 + mf * l
         self.I = ml * l * l / 4 + P["I_leg"] + mf * l * l
@@ -272,6 +276,12 @@ class CompassWalkerHand:
         return ((P["mu_c"] + (P["mu_st"] * abs(math.tanh(P["s_fric"] * v)) - P["mu_c"]) * E) * sgn
                 + P["mu_v"] * v)
 
+    def lever(self, r, a):
+        """∂(x of the friction's point)/∂a for a foot centre r from the hip at leg angle a: the
+        rolling contact point's r cos a + R, or the sole's (r + R) cos a."""
+        R = self.P["R"]
+        return r * math.cos(a) + R if self.rolling else (r + R) * math.cos(a)
+
     def contact_forces(self, y, c):
         """(F_n, F_t) of both feet at state y with flags c."""
         P = self.P
@@ -288,13 +298,13 @@ class CompassWalkerHand:
                     law = K + lam * dd
                     if law > 0.0:
                         F = d * law
-                        Ft = -F * self.mu(vx - (l + R) * math.cos(a) * w)
+                        Ft = -F * self.mu(vx - self.lever(l, a) * w)
             out.append((F, Ft))
         return out
 
     def rhs(self, t, y, c):
         P = self.P
-        S, mt, l, R = self.S, self.mt, P["l"], P["R"]
+        S, mt, l = self.S, self.mt, P["l"]
         g, gam = P["g"], P["slope"]
         a1, a2, w1, w2 = y[2], y[3], y[6], y[7]
         s1, c1, s2, c2 = math.sin(a1), math.cos(a1), math.sin(a2), math.cos(a2)
@@ -307,7 +317,7 @@ class CompassWalkerHand:
                 a = y[2 + k]
                 b[0] += Ft
                 b[1] += F
-                b[2 + k] += F * l * math.sin(a) - (l + R) * math.cos(a) * Ft
+                b[2 + k] += F * l * math.sin(a) - self.lever(l, a) * Ft
         M = np.array([[mt, 0.0, -S * c1, -S * c2],
                       [0.0, mt, S * s1, S * s2],
                       [-S * c1, S * s1, self.I, 0.0],
@@ -454,7 +464,8 @@ class CompliantLegWalkerHand(CompassWalkerHand):
     M q̈ = Σ J_iᵀ (m_i g − m_i c_i) + Q (contact, friction, spring) (a leg's rotation about its
     own centre, at the rate ȧ_k, adds ½ I_leg ȧ_k² and nothing else).
     q = (x, z, a1, a2, s1, s2), y = (q, q̇). Contact and friction as for the rigid-leg walker at
-    the foot centre (penetration δ = R − z + r cos a) and at the sole, R beyond it along the leg.
+    the foot centre (penetration δ = R − z + r cos a) and at the rolling contact point (slip
+    ẋ − ṡ sin a − (r cos a + R) ȧ) or the sole, R beyond it along the leg.
     Section: (a_lead, a_trail, ẋ, ż, ȧ_lead, ȧ_trail, s_lead, s_trail, ṡ_lead, ṡ_trail)."""
 
     def __init__(self, *, K_leg: float = 6000.0, alpha: float = 0.15, preload: float = 0.0,
@@ -534,12 +545,13 @@ class CompliantLegWalkerHand(CompassWalkerHand):
             if law <= 0.0:
                 continue
             F = d * law
-            rs = r + R
-            Ft = -F * self.mu(x_d - sd * sa - rs * ca * w)
-            # normal force (0, F) at the foot centre, friction (Ft, 0) at the sole
+            lever = self.lever(r, a)
+            Ft = -F * self.mu(x_d - sd * sa - lever * w)
+            # normal force (0, F) at the foot centre, friction (Ft, 0) at the contact point (or
+            # the sole)
             b[0] += Ft
             b[1] += F
-            b[2 + k] += F * r * sa - rs * ca * Ft
+            b[2 + k] += F * r * sa - lever * Ft
             b[4 + k] += -F * ca - sa * Ft
         return np.concatenate((y[6:], np.linalg.solve(M, b)))
 

@@ -6,7 +6,8 @@ scipy's DOP853; ``walker_library.simplest_walker`` builds the same walker from m
 components with a generic plastic impact map (β = 1e-9). Their fixed points, found by the same
 Newton iteration, must agree to well below 1e-8 (the β effect is O(1e-9)), and one stride from
 the framework's fixed point must land on the same next state. One stride of compass_walker checks
-the legs' rotational inertia against typed-in Lagrange equations; the compliant-contact walkers'
+the legs' rotational inertia and the friction at the rolling contact point (and one of
+compass_walker_sole_friction the sole point's) against typed-in Lagrange equations; the compliant-contact walkers'
 gaits are compared in ``benchmarks/bench_walkers.py``.
 """
 from __future__ import annotations
@@ -58,3 +59,19 @@ def test_legs_inertia_of_compass_walker_against_hand_written_lagrange():
     assert np.max(np.abs(a - b)) < 1e-8
     c = hw.CompassWalkerHand(I_leg=0.0).walk(z, 1)[0].z_next
     assert np.max(np.abs(a - c)) > 1e-4
+
+
+def test_friction_point_of_compass_walker_against_hand_written_lagrange():
+    """The friction's point: compass_walker puts it on the rolling arc's material contact point
+    (checked above, slip ẋ − (l cos a + R) ȧ), compass_walker_sole_friction on the sole point R
+    beyond the foot centre along the leg (slip ẋ − (l + R) cos a ȧ); the hand-written walker with
+    the sole gives the latter's stride from the same guess to 1e-8, and the two friction points'
+    strides differ by more than 1e-5 (so the check can tell them apart)."""
+    from walker_library import load_walker
+    sole = load_walker("compass_walker_sole_friction")
+    z = sole.initial_guess()
+    a = sole.stride(z).z_next
+    b = hw.CompassWalkerHand(rolling=False).walk(z, 1)[0].z_next
+    assert np.max(np.abs(a - b)) < 1e-8
+    c = hw.CompassWalkerHand().walk(z, 1)[0].z_next
+    assert np.max(np.abs(a - c)) > 1e-5

@@ -8,6 +8,9 @@ power of an energy that reads intermediates.
   numeric power balance dH/dt − P_in + P_diss vanishes.
 * An implicit block may not read velocity-level intermediates (its Jacobian would be wrong):
   a clear error.
+* Intermediates that read port variables (port level, e.g. a friction's slip from its port's
+  flow) give the same functions as the law written out; a port variable solved from its own
+  intermediate is an algebraic loop, and a stored energy may not read them: clear errors.
 """
 from __future__ import annotations
 
@@ -22,6 +25,17 @@ from porthamiltonian.errors import UnknownParameterError
 from porthamiltonian.mechanics.bodies import Revolute, RigidBody
 
 
+def _central_differences(model, y: np.ndarray, p) -> np.ndarray:
+    """∂ẋ/∂x of a compiled model at the augmented state y by central differences, step 1e-6."""
+    fd = np.empty((len(y), len(y)))
+    for j in range(len(y)):
+        step = np.zeros(len(y))
+        step[j] = 1e-6
+        fd[:, j] = (np.asarray(model.functions.rhs(0.0, y + step, p))
+                    - np.asarray(model.functions.rhs(0.0, y - step, p))) / 2e-6
+    return fd
+
+
 def test_jacobian_through_velocity_level_intermediates_matches_finite_differences():
     """tree3d (every joint and port kind, 7 coordinates): ∂ẋ/∂x at 3 random states against a
     central difference with step 1e-6 (|x| ~ 1), to 1e-6 of the largest entry of each row."""
@@ -30,12 +44,7 @@ def test_jacobian_through_velocity_level_intermediates_matches_finite_difference
     for x in random_states(model, 5, 3):
         y = model.augment(x)
         jac = np.asarray(model.functions.jac(0.0, y, pn))
-        fd = np.empty_like(jac)
-        for j in range(len(y)):
-            step = np.zeros(len(y))
-            step[j] = 1e-6
-            fd[:, j] = (np.asarray(model.functions.rhs(0.0, y + step, pn))
-                        - np.asarray(model.functions.rhs(0.0, y - step, pn))) / 2e-6
+        fd = _central_differences(model, y, pn)
         scale = np.max(np.abs(fd), axis=1, keepdims=True) + 1e-12
         assert np.max(np.abs(jac - fd) / scale) < 1e-6
 
@@ -87,3 +96,107 @@ def test_a_block_reading_a_velocity_level_intermediate_is_refused():
     m.add("c", _LeakyBlock())
     with pytest.raises(UnknownParameterError, match="implicit block c.u0.. may depend on"):
         ph.compile_model(m, backend="python", use_cache=False)
+
+
+# --- port-level intermediates: intermediates that read port variables -----------------------------
+class _CubicDamper(Component):
+    """Test-only: a damper e = c f³ + d f, written directly."""
+
+    kind = "TestCubicDamper"
+
+    def ports(self):
+        from porthamiltonian.ports import Port
+        return [Port("p", "translation", orientation="in")]
+
+    def law(self, b, w1, w2):
+        b.equation(b.port("p").e, 0.7 * w1 * w2 + 0.3 * w1)
+        b.dissipate(b.port("p").e * b.port("p").f)
+
+    def build(self, b):
+        f = b.port("p").f
+        self.law(b, f, f**2)
+
+
+class _StagedCubicDamper(_CubicDamper):
+    """The same law with intermediates of the port's flow: w1 = f, w2 = w1²."""
+
+    kind = "TestStagedCubicDamper"
+
+    def build(self, b):
+        w1 = b.intermediate("w1", b.port("p").f)
+        self.law(b, w1, b.intermediate("w2", w1**2))
+
+
+class _LoopDamper(_CubicDamper):
+    """The port's flow solved from an intermediate of itself: f = 2 w + e, w = f."""
+
+    kind = "TestLoopDamper"
+
+    def build(self, b):
+        port = b.port("p")
+        b.equation(port.f, 2 * b.intermediate("w", port.f) + port.e)
+
+
+class _FlowEnergyDamper(_StagedCubicDamper):
+    """The staged damper with a stored energy that reads its port's flow (not allowed)."""
+
+    kind = "TestFlowEnergyDamper"
+
+    def build(self, b):
+        x = b.state("x", initial=1)
+        b.equation(b.der(x), -x)
+        b.energy(b.intermediate("w", b.port("p").f) * x**2)
+        super().build(b)
+
+
+def _mass_on_cubic_damper(component: Component) -> ph.Model:
+    m = ph.Model("mass_on_damper")
+    m.add("mass", ph.elements.I(domain="translation", inertance=2.0, p0=1.5))
+    m.add("spring", ph.elements.C(domain="translation", compliance=0.5, q0=0.2))
+    m.add("d", component)
+    m.add("j", ph.elements.OneJunction())
+    m.connect("j", "mass.p")
+    m.connect("j", "spring.p")
+    m.connect("j", "d.p")
+    return m
+
+
+def test_port_level_intermediates_equal_the_expanded_law():
+    """A damper whose law reads its port's flow through intermediates (port level: substituted
+    after the structure is solved) gives the same ẋ, Jacobian, dissipated power and outputs as
+    the same law written out, at random states; its Jacobian equals central differences."""
+    staged = ph.compile_model(_mass_on_cubic_damper(_StagedCubicDamper()), backend="python",
+                              use_cache=False)
+    plain = ph.compile_model(_mass_on_cubic_damper(_CubicDamper()), backend="python",
+                             use_cache=False)
+    assert staged.state_names == plain.state_names
+    p = staged.native_params(staged.param_defaults)
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        y = staged.augment(rng.uniform(-2, 2, staged.n_states))
+        for fn in ("rhs", "jac", "energy", "outputs"):
+            np.testing.assert_allclose(np.asarray(getattr(staged.functions, fn)(0.0, y, p)),
+                                       np.asarray(getattr(plain.functions, fn)(0.0, y, p)),
+                                       rtol=1e-13, atol=1e-13)
+        jac = np.asarray(staged.functions.jac(0.0, y, p))
+        fd = _central_differences(staged, y, p)
+        np.testing.assert_allclose(jac, fd, rtol=1e-6, atol=1e-6 * np.max(np.abs(fd)))
+
+
+def test_a_port_variable_solved_from_its_own_intermediate_is_an_algebraic_loop():
+    from porthamiltonian.errors import AlgebraicLoopError
+    m = ph.Model("spring_on_damper")          # the spring sets the effort, the damper the flow
+    m.add("spring", ph.elements.C(domain="translation", compliance=0.5, q0=0.2))
+    m.add("d", _LoopDamper())
+    m.add("j", ph.elements.ZeroJunction())
+    m.connect("j", "spring.p")
+    m.connect("j", "d.p")
+    with pytest.raises(AlgebraicLoopError, match="d.w .*algebraic loop"):
+        ph.compile_model(m, backend="python", use_cache=False)
+
+
+def test_a_stored_energy_reading_a_port_level_intermediate_is_refused():
+    from porthamiltonian.errors import ModelError
+    with pytest.raises(ModelError, match="component 'd': its stored energy depends on port"):
+        ph.compile_model(_mass_on_cubic_damper(_FlowEnergyDamper()),
+                         backend="python", use_cache=False)

@@ -1,11 +1,11 @@
 """The thesis's nominal walker (models/compass_walker.toml; M. Jafarian 2010, "Variable stiffness
 for robust and energy efficient 2D bipedal locomotion", MSc report 022CE2010, University of
-Twente, ch. 2): rigid legs, arc feet, Hunt–Crossley contact + SCVS friction, the scuffing rule,
-γ = 0.009.
+Twente, ch. 2): rigid legs, rolling arc feet, Hunt–Crossley contact + SCVS friction at the
+rolling contact point, the scuffing rule, γ = 0.009.
 
 Thesis numbers (Table 2.3, §3.1): speed 0.274 m/s, energy dissipated per step 0.08 J. Measured
 here (λ = 3.16e7 N·s/m² from calibrate_damping; legs as rods, I_leg = m_leg l²/12): speed
-0.304 m/s, 0.0874 J per step, step period 1.013 s, step length 0.308 m, Floquet multipliers
+0.304 m/s, 0.0876 J per step, step period 1.013 s, step length 0.308 m, Floquet multipliers
 |λ| ≤ 0.27. They are compared with the thesis
 loosely (within 15 %); the energy balance (dissipated = potential released, cost of transport =
 sin γ) is checked tightly, and the gait itself is pinned (regression) at tolerances derived from
@@ -124,15 +124,20 @@ def test_damping_calibration_the_thesis_way(walker):
     assert 0.05 < cal.max_dissipated < 0.12
 
 
-#: the gait at the defaults, measured (numba + Rodas4 at rtol 1e-8, atol 1e-10; Newton to 1e-8).
-#: Legs as rods (I_leg = m_leg l²/12) since the gait-analysis branch; with point-mass legs they
-#: were 1.0076010079 s, 0.3072938955 m, 0.3049757723 m/s, 0.0873605681 J, −0.0930544675 +
-#: 0.2620491072i (compass_walker_point_legs).
-PINS = {"step_period": 1.0132068997, "step_length": 0.3075614420, "speed": 0.3035524551,
-        "energy_dissipated_per_step": 0.0874366281}
-#: the dominant multiplier, exact (variational equations; until the exact Jacobian,
-#: −0.1116409256 + 0.2387423315i from finite differences, 5e-4 off)
-PIN_MULTIPLIER = complex(-0.1115854267, 0.2391000346)
+#: the gait at the defaults, measured (C + Rodas5P at rtol 1e-9, atol 1e-11; Newton to 1e-8).
+#: The friction at the rolling contact point since issue 14; with the friction at the sole point
+#: (compass_walker_sole_friction, the pins before) they were 1.0132068997 s, 0.3075614420 m,
+#: 0.3035524551 m/s, 0.0874366281 J, −0.1115854267 + 0.2391000346i (test_sole_friction_variant
+#: below keeps them); with point-mass legs as well 1.0076010079 s, 0.3072938955 m, 0.3049757723
+#: m/s, 0.0873605681 J, −0.0930544675 + 0.2620491072i (compass_walker_point_legs).
+PINS = {"step_period": 1.0128548571, "step_length": 0.3080182966, "speed": 0.3041090186,
+        "energy_dissipated_per_step": 0.0875665077}
+SOLE_PINS = {"step_period": 1.0132068997, "step_length": 0.3075614420, "speed": 0.3035524551,
+             "energy_dissipated_per_step": 0.0874366281}
+#: the dominant multiplier, exact (variational equations; the sole point's −0.1115854267 +
+#: 0.2391000346i; until the exact Jacobian, −0.1116409256 + 0.2387423315i from finite differences)
+PIN_MULTIPLIER = complex(-0.1064134582, 0.2440763673)
+SOLE_MULTIPLIER = complex(-0.1115854267, 0.2391000346)
 
 
 def test_regression_pins(gait):
@@ -140,8 +145,8 @@ def test_regression_pins(gait):
     point is converged to 1e-8 and each stride integrated at rtol 1e-8, so the step period, step
     length, speed and energy per step carry errors of order 1e-8 (relative); a different back
     end or a change of step sequence moves them by as much: asserted to 1e-6 (relative). The
-    multipliers are exact (the variational equations at rtol 1e-9): 5e-9 from those at rtol
-    1e-11, their error bound ≈ 2e-7: asserted to 1e-6; the third is 5.2e-4, the other three
+    multipliers are exact (the variational equations at rtol 1e-9): 3e-8 from those at rtol
+    1e-11, their error bound ≈ 1.2e-7: asserted to 1e-6; the third is 5.1e-4, the other three
     below 1e-8 in modulus."""
     m = gait.metrics
     for key, value in PINS.items():
@@ -150,19 +155,34 @@ def test_regression_pins(gait):
     assert abs(mults[0] - PIN_MULTIPLIER) < 1e-6
     assert abs(mults[1] - PIN_MULTIPLIER.conjugate()) < 1e-6
     assert gait.multiplier_errors[0] < 1e-6
-    assert abs(mults[2] - 5.198352e-4) < 1e-6
+    assert abs(mults[2] - 5.143658e-4) < 1e-6
     assert all(abs(c) < 1e-6 for c in mults[3:])
+
+
+def test_sole_friction_variant_keeps_the_old_gait():
+    """compass_walker_sole_friction (the friction at the sole point, R beyond the foot centre
+    along the leg: compass_walker before its arc foot became a rolling contact) walks the gait
+    pinned before, to the same tolerances: the rolling contact is the whole difference."""
+    from walker_library import load_walker
+    gait = analyze_gait(load_walker("compass_walker_sole_friction"))
+    assert gait.status == "periodic" and gait.period_steps == 1 and gait.stable
+    for key, value in SOLE_PINS.items():
+        assert getattr(gait.metrics, key) == pytest.approx(value, rel=1e-6), key
+    assert abs(max(gait.floquet_multipliers, key=lambda c: (abs(c), c.imag)) - SOLE_MULTIPLIER) \
+        < 1e-6
+    assert abs(gait.metrics.speed - PINS["speed"]) > 5e-4        # the two walkers differ
 
 
 #: the gait of strides integrated at rtol 1e-11 (the file's Rodas5P, atol 1e-13; Newton to 1e-11;
 #: Floquet multipliers exact, from the variational equations), measured on the C back end. Legs
-#: with a rod's inertia; re-pinned with the exact multipliers (the finite differences' pins, of
-#: the point-leg walker, carried ~1e-4 of their error: the last three "multipliers" 2e-7 to 4e-8
-#: were noise, exactly they are below 1e-11)
-TIGHT_FIXED_POINT = [-0.206593040026, 0.206392004125, 0.606538920573, -0.118663812337,
-                     0.824951668227, 0.827335229012]
-TIGHT_MULTIPLIERS = [complex(-0.1115854267, 0.2391000346), complex(-0.1115854267, -0.2391000346),
-                     complex(0.0005198352, 0.0), 0j, 0j, 0j]
+#: with a rod's inertia, the friction at the rolling contact point (at the sole point, the pins
+#: before: −0.206593040026, 0.206392004125, 0.606538920573, −0.118663812337, 0.824951668227,
+#: 0.827335229012; multipliers −0.1115854267 ± 0.2391000346i, 0.0005198352; compass_walker_
+#: sole_friction gives them to 1e-12); the last three multipliers are below 1e-11
+TIGHT_FIXED_POINT = [-0.206804111206, 0.206603239163, 0.607219067185, -0.118749925976,
+                     0.824827471111, 0.827100015272]
+TIGHT_MULTIPLIERS = [complex(-0.1064134323, 0.2440764027), complex(-0.1064134323, -0.2440764027),
+                     complex(0.0005143661, 0.0), 0j, 0j, 0j]
 
 
 def test_same_gait_on_every_back_end(walker):

@@ -1,9 +1,11 @@
 """The 3D compass walker (models/compass_walker_3d.toml): the thesis's nominal walker with a pelvis
 of width w, spherical feet, the 3D Hunt–Crossley contact and vector SCVS friction.
 
-With w = 0 and a sagittal start the lateral coordinates stay 0 and the gait is compass_walker's
-(an independent model file: planar multibody, planar contact and friction; both with the legs'
-rod inertia I_leg = m_leg l²/12). The lateral multipliers of that gait: one unstable (measured
+With w = 0 and a sagittal start the lateral coordinates stay 0 and the gait is
+compass_walker_sole_friction's (an independent model file: planar multibody, planar contact and
+friction at the sole point; both with the legs' rod inertia I_leg = m_leg l²/12): the 3D file
+keeps the friction at the sole point, compass_walker moved it to the rolling contact's material
+point. The lateral multipliers of that gait: one unstable (measured
 −33.386, the sideways fall: Kuo 1999, IJRR 18, "Stabilization of lateral motion in passive
 dynamic walking": the straight-legged 3D walker is laterally unstable without control; we agree),
 one ≈ −1.0026 (the heading: yaw is neutral up to the slope's gravity component, and the section's
@@ -42,7 +44,7 @@ LATERAL = ["walker.q.pelvis.x", "walker.q.pelvis.z", "walker.v.pelvis.x", "walke
 
 @pytest.fixture(scope="module")
 def pair(isolated_cache):
-    planar = load_walker("compass_walker").with_options(**TIGHT)
+    planar = load_walker("compass_walker_sole_friction").with_options(**TIGHT)
     spatial = load_walker("compass_walker_3d", {"w": 0.0}).with_options(**TIGHT)
     fp2 = find_fixed_point(planar, tol=1e-11)
     return planar, spatial, fp2
@@ -54,14 +56,14 @@ def test_sections_share_the_planar_coordinates(pair):
 
 
 def test_sagittal_gait_equals_compass_walker(pair):
-    """From compass_walker's fixed point (lateral coordinates 0) Newton converges in ≤ 8
+    """From compass_walker_sole_friction's fixed point (lateral coordinates 0) Newton converges in ≤ 8
     iterations to the same fixed point (asserted 1e-8; measured: 0 iterations, the 2D fixed point
     is within the Newton tolerance 1e-11 of the 3D stride map's at rtol 1e-12), with the lateral
     coordinates exactly 0. Exact Jacobians of the stride maps: the 3D one is block diagonal
     (sagittal/lateral), exactly 0 off the blocks (measured exactly 0.0 on the C and numba back
     ends: by the mirror symmetry, no lateral state or variation is ever nonzero in the sagittal
     columns' runs, nor a sagittal one in the lateral rows); its sagittal block equals
-    compass_walker's to 1e-6 (measured 1.5e-8 C, 7.1e-8 numba, on entries up to 94) and so do the
+    compass_walker_sole_friction's to 1e-6 (measured 1.5e-8 C, 7.1e-8 numba, on entries up to 94) and so do the
     multipliers (the issue's 1e-6; measured 4.4e-10 C, 7.0e-10 numba — with step-1e-4 finite
     differences they were asserted to 1e-5 only, measured 3.5e-6). Lateral multipliers (pinned to
     1e-5, their error bounds are 1e-8; measured −33.386187, −1.0025858, −0.0110616, −0.0016387, 0;
@@ -141,7 +143,7 @@ def test_wide_pelvis_gait_is_laterally_unstable(continued, case):
     their eigenvectors' share in the lateral coordinates: one unstable lateral (the sideways fall,
     > 0.95 lateral, measured 0.991 and 0.965: Kuo 1999 — the straight-legged 3D passive walker is
     laterally unstable without control; we agree), the heading (lateral, > 0.9, measured 0.983
-    and 0.933; |λ| just below 1), the sagittal complex pair as compass_walker's (−0.1116 ±
+    and 0.933; |λ| just below 1), the sagittal complex pair as compass_walker_sole_friction's (−0.1116 ±
     0.2391i at w = 0; < 0.1 lateral, measured 0.014 and 0.029), and every other one inside the
     unit circle."""
     w, yaw, hip_vy, fall, heading, pair_ = case

@@ -2,8 +2,8 @@
 foot on a prismatic joint along its leg and compliant_leg_walker's spring–damper (K_leg = 6000
 N/m, α = 0.15).
 
-With w = 0 and a sagittal start its gait is compliant_leg_walker's (an independent file: planar
-multibody, planar contact and friction), and it is laterally unstable as the rigid-leg 3D walker
+With w = 0 and a sagittal start its gait is compliant_leg_walker_sole_friction's (an independent
+file: planar multibody, planar contact and friction at the sole point, as this file's), and it is laterally unstable as the rigid-leg 3D walker
 is (Kuo 1999, IJRR 18, "Stabilization of lateral motion in passive dynamic walking": the
 straight-legged 3D passive walker is laterally unstable without control); compliance in the legs
 does not change that (sideways-fall multiplier −36.92 against −33.39 with rigid legs). The
@@ -35,7 +35,7 @@ LATERAL = ["walker.q.pelvis.x", "walker.q.pelvis.z", "walker.v.pelvis.x", "walke
 
 @pytest.fixture(scope="module")
 def pair(isolated_cache):
-    planar = load_walker("compliant_leg_walker")
+    planar = load_walker("compliant_leg_walker_sole_friction")
     spatial = load_walker("compliant_leg_walker_3d")
     fp2 = find_fixed_point(planar, tol=1e-10)
     assert fp2.converged

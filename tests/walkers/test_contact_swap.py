@@ -1,13 +1,16 @@
 """Swapping a walker's contact law by editing its model file (docs/walkers.md, docs/model-files.md):
-the two feet's contact lines of models/compass_walker.toml become Kelvin–Voigt contacts (linear
-damping B_contact = 1e3 N·s/m, calibrated the thesis's way: walker_library.calibration), and one
-parameter line declares B_contact.
+the two feet's contact lines of models/compass_walker.toml (HuntCrossley3D in the x-z plane, the
+rolling arc feet) become Kelvin–Voigt contacts (KelvinVoigt3D, linear damping B_contact = 1e3
+N·s/m, calibrated the thesis's way: walker_library.calibration), and one parameter line declares
+B_contact.
 
-Measured (γ = 0.009, B = 1e3 N·s/m): the walker walks from the Hunt–Crossley walker's initial
-guess, and analyze_gait finds a stable period-1 gait (Newton from the guess does not converge;
-iterating the stride map does): step period 1.007 s, step length 0.307 m, speed 0.305 m/s,
-0.0872 J per step (= the potential released), Floquet multipliers −0.089 ± 0.262i (|λ| = 0.276)
-and four below 3e-3 — within 1 % of the Hunt–Crossley walker's gait.
+Measured (γ = 0.009, B = 1e3 N·s/m; legs as rods, the rolling contact): the walker walks from
+the Hunt–Crossley walker's initial guess, and analyze_gait finds a stable period-1 gait (Newton
+from the guess does not converge; iterating the stride map does): step period 1.0125 s, step
+length 0.3076 m, speed 0.3038 m/s, 0.0874 J per step (= the potential released), Floquet
+multipliers −0.102 ± 0.244i (|λ| = 0.264) and four below 3e-3 — within 1 % of the Hunt–Crossley
+walker's gait. (Point-mass legs and the sole-point friction gave 1.007 s, 0.307 m, 0.305 m/s,
+0.0872 J, −0.089 ± 0.262i.)
 
 The Kelvin–Voigt model compiles once (numba ≈ 30 s, cached on disk); the module fixture builds it
 once.
@@ -32,11 +35,12 @@ B_CONTACT = 1.0e3
 def kelvin_voigt(text: str) -> str:
     """The file with both feet's Hunt–Crossley lines made Kelvin–Voigt and B_contact declared."""
     for k in (1, 2):
+        geometry = f'plane = "xz", x = "walker.c{k}.x", z = "walker.c{k}.z", radius = "R", '
         text = text.replace(
-            f'floor{k} = {{ type = "HuntCrossley", x = "walker.foot{k}.x", z = "walker.foot{k}.z - R", '
-            'stiffness = "K", damping = "lam", exponent = 1,',
-            f'floor{k} = {{ type = "KelvinVoigt", x = "walker.foot{k}.x", z = "walker.foot{k}.z - R", '
-            'stiffness = "K", damping = "B_contact",', 1)
+            f'floor{k} = {{ type = "HuntCrossley3D", {geometry}stiffness = "K", damping = "lam", '
+            'exponent = 1,',
+            f'floor{k} = {{ type = "KelvinVoigt3D", {geometry}stiffness = "K", '
+            'damping = "B_contact",', 1)
     line = 'lam = { value = 3.16e7'
     i = text.index(line)
     return (text[:i] + f'B_contact = {{ value = {B_CONTACT}, unit = "N*s/m", doc = "Kelvin-Voigt '
@@ -77,9 +81,9 @@ def test_both_feet_get_kelvin_voigt_contacts(walker):
     model = walker.spec.model
     for k in (1, 2):
         floor = model.component(f"floor{k}")
-        assert floor.kind == "KelvinVoigt"
+        assert floor.kind == "KelvinVoigt3D"
         assert floor.args["damping"] == "B_contact" and floor.args["stiffness"] == "K"
-        assert model.component(f"fric{k}").kind == "SCVSFriction"
+        assert model.component(f"fric{k}").kind == "SCVSFriction3D"
     assert [f.contact for f in walker.spec.feet] == ["floor1", "floor2"]
     assert walker.parameters["B_contact"] == B_CONTACT
     assert walker.parameters["lam"] == 3.16e7 and walker.parameters["slope"] == 0.009
@@ -97,8 +101,8 @@ def test_stable_period_one_gait(walker, gait):
     assert gait.status == "periodic" and gait.period_steps == 1 and gait.stable
     assert np.abs(np.array(gait.floquet_multipliers)).max() < 0.5
     m = gait.metrics
-    assert m.step_period == pytest.approx(1.007, rel=0.02)
-    assert m.step_length == pytest.approx(0.307, rel=0.02)
+    assert m.step_period == pytest.approx(1.0125, rel=0.02)
+    assert m.step_length == pytest.approx(0.3076, rel=0.02)
     assert m.energy_dissipated_per_step == pytest.approx(m.potential_released_per_step, rel=1e-5)
     assert m.cost_of_transport == pytest.approx(math.sin(walker.parameters["slope"]), rel=1e-4)
     z = np.array([gait.fixed_point[k] for k in walker.section])
@@ -118,11 +122,11 @@ def test_save_and_reload_keep_the_swap(walker, tmp_path):
 
 def test_a_misspelt_contact_law_names_the_file_and_line(tmp_path):
     bad = tmp_path / "hertz.toml"
-    text = ORIGINAL.read_text().replace('floor1 = { type = "HuntCrossley"',
-                                        'floor1 = { type = "HuntCrosley"', 1)
+    text = ORIGINAL.read_text().replace('floor1 = { type = "HuntCrossley3D"',
+                                        'floor1 = { type = "HuntCrosley3D"', 1)
     bad.write_text(text)
     line = next(i for i, ln in enumerate(text.splitlines(), 1) if "HuntCrosley" in ln)
     with pytest.raises(ModelFileError) as err:
         load_walker(bad)
     msg = str(err.value)
-    assert msg.startswith(f"{bad}, line {line}:") and "'HuntCrossley'" in msg
+    assert msg.startswith(f"{bad}, line {line}:") and "'HuntCrossley3D'" in msg

@@ -127,11 +127,12 @@ def test_python_built_walker_walks_the_file_walkers_gait():
 
 # --- an edited component is honoured ------------------------------------------------------------------
 def test_swapping_one_foots_friction_for_a_viscous_damper_changes_the_walk(tmp_path):
-    """fric1 (SCVS friction at foot 1's sole) becomes a linear viscous damper on the sole point
-    while foot 1's contact is on (R on the 2-D point port, resistance B_sole·c1): the walker is
-    that edited model (its component kinds), it walks with a closed ledger, and its stride is not
-    the original's (python back end: no compilation of the compiled loop)."""
-    text = (MODELS / "compass_walker.toml").read_text()
+    """fric1 (SCVS friction at foot 1's sole, compass_walker_sole_friction: a 2-D point port)
+    becomes a linear viscous damper on the sole point while foot 1's contact is on (R on the 2-D
+    point port, resistance B_sole·c1): the walker is that edited model (its component kinds), it
+    walks with a closed ledger, and its stride is not the original's (python back end: no
+    compilation of the compiled loop)."""
+    text = (MODELS / "compass_walker_sole_friction.toml").read_text()
     line = next(ln for ln in text.splitlines() if ln.startswith("fric1 = "))
     edited = text.replace(line, 'fric1 = { type = "R", dim = 2, resistance = "B_sole*c1" }').replace(
         "lam = { value", 'B_sole = { value = 5.0, unit = "N*s/m", doc = "sole damper" }\nlam = { value', 1)
@@ -140,7 +141,7 @@ def test_swapping_one_foots_friction_for_a_viscous_damper_changes_the_walk(tmp_p
     w = load_walker(path, backend="python")
     assert w.spec.model.component("fric1").kind == "R"
     assert w.spec.model.component("fric2").kind == "SCVSFriction"
-    original = load_walker("compass_walker", backend="python")
+    original = load_walker("compass_walker_sole_friction", backend="python")
     z = original.initial_guess()
     a, b = original.stride(z), w.stride(z, record=True)
     assert a.status == "step"
