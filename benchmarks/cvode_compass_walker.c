@@ -134,12 +134,14 @@ static void forces(const Walker *w, const double *y, double *b, double db[4][8])
         const double dd = -(y[5] + L * s * wk), law = K + LAM * dd;
         if (!(law > 0.0))
             continue;
-        const double F = d * law, vs = y[4] - (L + R) * c * wk;
+        /* friction at the rolling arc's material contact point, R below the foot centre: its
+         * x velocity is vx - (L cos a + R) w (the lever of Ft about the leg's angle) */
+        const double lever = L * c + R, F = d * law, vs = y[4] - lever * wk;
         double dmu;
         const double m = mu(vs, &dmu), Ft = -F * m;
         b[0] += Ft;
         b[1] += F;
-        b[2 + k] += F * L * s - (L + R) * c * Ft;
+        b[2 + k] += F * L * s - lever * Ft;
         if (!db)
             continue;
         /* dF and dFt with respect to (z, a_k, vx, vz, w_k) */
@@ -149,16 +151,16 @@ static void forces(const Walker *w, const double *y, double *b, double db[4][8])
         dF[ia] = law * (-L * s) + d * LAM * (-L * c * wk);
         dF[ivz] = -d * LAM;
         dF[iw] = -d * LAM * L * s;
-        dvs[ia] = (L + R) * s * wk;
+        dvs[ia] = L * s * wk;
         dvs[ivx] = 1.0;
-        dvs[iw] = -(L + R) * c;
+        dvs[iw] = -lever;
         for (int j = 0; j < 8; ++j) {
             dFt[j] = -m * dF[j] - F * dmu * dvs[j];
             db[0][j] += dFt[j];
             db[1][j] += dF[j];
-            db[2 + k][j] += dF[j] * L * s - (L + R) * c * dFt[j];
+            db[2 + k][j] += dF[j] * L * s - lever * dFt[j];
         }
-        db[2 + k][ia] += F * L * c + (L + R) * s * Ft;
+        db[2 + k][ia] += F * L * c + L * s * Ft;
     }
 }
 
