@@ -286,42 +286,8 @@ static void ph_rows_axpy(double *dst, const double *src, const double *f, const 
     }
 }
 
-/* A x = b for A n x n (row-major), in place: Gaussian elimination with partial pivoting (A is
- * destroyed, x replaces b); one division per pivot */
-static void ph_solve(int n, double *A, double *b)
-{
-    for (int k = 0; k < n; ++k) {
-        int piv = k;
-        double big = fabs(A[k * n + k]);
-        for (int i = k + 1; i < n; ++i)
-            if (fabs(A[i * n + k]) > big) {
-                big = fabs(A[i * n + k]);
-                piv = i;
-            }
-        if (piv != k) {
-            for (int j = k; j < n; ++j) {
-                double t = A[k * n + j]; A[k * n + j] = A[piv * n + j]; A[piv * n + j] = t;
-            }
-            double t = b[k]; b[k] = b[piv]; b[piv] = t;
-        }
-        const double r = 1.0 / A[k * n + k], bk = b[k];
-        A[k * n + k] = r;
-        for (int i = k + 1; i < n; ++i) {
-            const double f = A[i * n + k] * r;
-            for (int j = k + 1; j < n; ++j)
-                A[i * n + j] -= f * A[k * n + j];
-            b[i] -= f * bk;
-        }
-    }
-    for (int k = n - 1; k >= 0; --k) {
-        const double bk = b[k] * A[k * n + k];
-        b[k] = bk;
-        for (int i = 0; i < k; ++i)
-            b[i] -= A[i * n + k] * bk;
-    }
-}
-
-/* A X = B for A n x n and B n x m (row-major), in place: as ph_solve, for m right-hand sides */
+/* A X = B for A n x n and B n x m (row-major), in place: Gaussian elimination with partial
+ * pivoting (A is destroyed, X replaces B); one division per pivot */
 static void ph_solve_rows(int n, int m, double *A, double *B)
 {
     for (int k = 0; k < n; ++k) {
@@ -410,7 +376,7 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
                 lines += [f"    const double {name} = {value};" for name, value in
                           _closed_form(st, lambda i, j, n=n, a=st.A: f"{a}[{i * n + j}]")]
             else:
-                lines.append(f"    ph_solve({n}, {st.A}, {st.b});")
+                lines.append(f"    ph_solve_rows({n}, 1, {st.A}, {st.b});")
                 lines += [f"    const double {t} = {st.b}[{i}];" for i, t in enumerate(st.targets)]
         elif isinstance(st, IndexTable):
             lines.append(f"    static const int {st.name}[{len(st.values)}] = "

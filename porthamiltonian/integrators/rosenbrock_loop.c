@@ -191,6 +191,22 @@ static int ph_jac_rate(double t, double h, const double *y, const double *p, con
     return 2;
 }
 
+/* Row i of the N x m matrix B (row-major) solved from rows j0..j1-1: B_i = (B_i - sum_j
+ * A_ij B_j) A_ii (A_ii holds the inverse of the pivot) */
+static void ph_row_solved(const double *A, double *B, int64_t m, int i, int j0, int j1)
+{
+    const int n = PH_N;
+    for (int j = j0; j < j1; ++j) {
+        const double a = A[i * n + j];
+        if (a != 0.0)
+            for (int64_t c = 0; c < m; ++c)
+                B[i * m + c] -= a * B[j * m + c];
+    }
+    const double d = A[i * n + i];
+    for (int64_t c = 0; c < m; ++c)
+        B[i * m + c] *= d;
+}
+
 /* Solve W X = B in place for the N x m matrix B (row-major; W: from ph_w_factor, its block of
  * nf factored) */
 static void ph_lu_solve_rows(const double *A, const int *piv, int nf, double *B, int64_t m)
@@ -212,28 +228,10 @@ static void ph_lu_solve_rows(const double *A, const int *piv, int nf, double *B,
                 for (int64_t c = 0; c < m; ++c)
                     B[i * m + c] -= a * B[j * m + c];
         }
-    for (int i = nf - 1; i >= 0; --i) {
-        for (int j = i + 1; j < nf; ++j) {
-            const double a = A[i * n + j];
-            if (a != 0.0)
-                for (int64_t c = 0; c < m; ++c)
-                    B[i * m + c] -= a * B[j * m + c];
-        }
-        const double d = A[i * n + i];
-        for (int64_t c = 0; c < m; ++c)
-            B[i * m + c] *= d;
-    }
-    for (int i = nf; i < n; ++i) {
-        for (int j = 0; j < nf; ++j) {
-            const double a = A[i * n + j];
-            if (a != 0.0)
-                for (int64_t c = 0; c < m; ++c)
-                    B[i * m + c] -= a * B[j * m + c];
-        }
-        const double d = A[i * n + i];
-        for (int64_t c = 0; c < m; ++c)
-            B[i * m + c] *= d;
-    }
+    for (int i = nf - 1; i >= 0; --i)          /* U, its diagonal stored inverted */
+        ph_row_solved(A, B, m, i, i + 1, nf);
+    for (int i = nf; i < n; ++i)                /* the ledger rows: their diagonal is h gamma */
+        ph_row_solved(A, B, m, i, 0, nf);
 }
 
 /* One sub-step of Phi from t + th_a h to t + th_b h (_phi_substep of rosenbrock_loop.py): KP

@@ -180,6 +180,20 @@ def _jac_rate(t, h, y, p, J, f, sc, n_model, D):
 
 
 @_jit
+def _row_solved(A, B, m, i, j0, j1):
+    """Row i of the n x m matrix B (flattened row by row) solved from rows j0..j1-1:
+    B_i = (B_i − Σ_j A[i, j] B_j) A[i, i] (A[i, i] holds the inverse of the pivot)."""
+    for j in range(j0, j1):
+        a = A[i, j]
+        if a != 0.0:
+            for c in range(m):
+                B[i * m + c] -= a * B[j * m + c]
+    d = A[i, i]
+    for c in range(m):
+        B[i * m + c] *= d
+
+
+@_jit
 def _lu_solve_rows(A, piv, nb, B, m):
     """Solve W X = B in place for the n x m matrix B, flattened row by row (W: from _w_factor,
     its block of nb factored)."""
@@ -197,24 +211,10 @@ def _lu_solve_rows(A, piv, nb, B, m):
             if a != 0.0:
                 for c in range(m):
                     B[i * m + c] -= a * B[j * m + c]
-    for i in range(nb - 1, -1, -1):
-        for j in range(i + 1, nb):
-            a = A[i, j]
-            if a != 0.0:
-                for c in range(m):
-                    B[i * m + c] -= a * B[j * m + c]
-        d = A[i, i]
-        for c in range(m):
-            B[i * m + c] *= d
-    for i in range(nb, n):
-        for j in range(nb):
-            a = A[i, j]
-            if a != 0.0:
-                for c in range(m):
-                    B[i * m + c] -= a * B[j * m + c]
-        d = A[i, i]
-        for c in range(m):
-            B[i * m + c] *= d
+    for i in range(nb - 1, -1, -1):             # U, its diagonal stored inverted
+        _row_solved(A, B, m, i, i + 1, nb)
+    for i in range(nb, n):                      # the ledger rows: their diagonal is hγ
+        _row_solved(A, B, m, i, 0, nb)
 
 
 @_jit
