@@ -33,7 +33,7 @@ from ..errors import ModelError, StateError
 from ..expressions import TIME, parse
 from ..model import EventSpec
 from ..ports import domain
-from .structure import Solution, _flat, _reaching
+from .structure import Solution, _flat
 
 
 @dataclass
@@ -87,7 +87,7 @@ def assemble(solution: Solution) -> SymbolicModel:
     energies: dict[str, sp.Expr] = {}
     hidden = _hidden_dependencies(system.intermediates, {*states, TIME})
     # port variables, and the intermediates that read them (directly or through others)
-    ported = unknowns | system.port_level | _reaching(system.intermediates, system.port_level)
+    ported = unknowns | system.port_level
     for cname, b in system.built.items():
         energy = b.energy.xreplace(system.aliases)
         energies[cname] = energy
