@@ -37,10 +37,10 @@ import numpy as np
 from machine import machine_info
 from variational_stride import _with_reset_jacobians, stride_jacobian
 
-from porthamiltonian.differences import jacobian as difference_jacobian
+from porthamiltonian.simulation.differences import jacobian as difference_jacobian
 from walker_library import find_fixed_point, load_walker
-from walker_library.machine import WalkLog
-from walker_library.poincare import jacobian as fd_jacobian
+from walker_library.analyses.poincare import jacobian as fd_jacobian
+from walker_library.core.machine import WalkLog
 
 
 def _eig(J: np.ndarray) -> np.ndarray:

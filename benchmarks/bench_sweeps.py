@@ -35,7 +35,7 @@ from pathlib import Path
 from machine import machine_info
 
 from porthamiltonian.batch import Sweep
-from walker_library.analyses import basin_case, step_down_case, walker_cache
+from walker_library.analyses.cases import basin_case, step_down_case, walker_cache
 
 MODEL = "compass_walker"
 SLOPE = 0.007

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from porthamiltonian import C, I, Model, OneJunction, R, Se, compile_model
 from porthamiltonian.batch import Sweep, grid, read_dataframe
-from porthamiltonian.batch.simulation import simulate_case
+from porthamiltonian.interfaces.sweeps import simulate_case
 
 m = Model("msd")
 m.parameter("k", 4.0, "N/m")

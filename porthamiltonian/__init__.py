@@ -8,18 +8,18 @@ from . import (
     errors,
     library,  # registers the contact, friction and spring components
 )
-from .compiled import CompiledModel
 from .compiler import compile_model, power_balance, symbolic
-from .component import Arg, Builder, Component, register
-from .elements import GY, TF, C, I, OneJunction, R, Se, Sf, Storage, ZeroJunction
+from .interfaces import io
 from .mechanics import Multibody
 from .mechanics.bodies import Prismatic, Revolute, RigidBody, Translational, Weld
-from .model import Model, ModelDescription, Parameter
-from .ports import DOMAINS, Port
-from .simulate import Event, Reset, simulate
-from .trajectory import Status, Trajectory
-
-__version__ = "0.1.0"
+from .modeling.component import Arg, Builder, Component, register
+from .modeling.elements import GY, TF, C, I, OneJunction, R, Se, Sf, Storage, ZeroJunction
+from .modeling.model import Model, ModelDescription, Parameter
+from .modeling.ports import DOMAINS, Port
+from .simulation.compiled import CompiledModel
+from .simulation.simulate import Event, Reset, simulate
+from .simulation.trajectory import Status, Trajectory
+from .version import __version__ as __version__
 
 __all__ = [
     "DOMAINS",
@@ -53,6 +53,7 @@ __all__ = [
     "ZeroJunction",
     "compile_model",
     "errors",
+    "io",
     "library",
     "power_balance",
     "register",

@@ -127,5 +127,5 @@ class CompilerError(ModelError):
 
 
 class SceneError(ModelError):
-    """A scene of the 3D viewer (:mod:`porthamiltonian.viewer`) is malformed: a shape, a pose, the
+    """A scene of the 3D viewer (:mod:`porthamiltonian.interfaces.viewer`) is malformed: a shape, a pose, the
     times, the ground; the message names the body, shape or frame and says what is expected."""

@@ -1,37 +1,25 @@
-"""walker_library: passive walkers as port-Hamiltonian models plus a hybrid description, and their
-gait analyses.
+"""walker_library: passive and controlled walkers as port-Hamiltonian models plus a hybrid
+description, and their gait analyses.
 
-* :mod:`.hybrid` — the ``[walker]`` table of a model file as dataclasses (:class:`WalkerSpec`:
-  feet, modes, rules, relabelling, section, angles, guess, ranges, terrain, integration);
-* :mod:`.core` — :class:`HybridWalker`, the one class that runs every walker from its spec;
-  :mod:`.machine` (the mode machine: transitions returning simulation resets),
-  :mod:`.resets` (relabelling and the rigid plastic impact), :mod:`.strides` (the stride recorder);
-* :mod:`.walkers` — walker files: :func:`load_walker`, :func:`save_walker`, the shipped walkers by
-  name (models/, described in docs/walkers.md);
-* :mod:`.calibration` (the thesis's contact-damping calibration), :mod:`.dissipation` (energy
-  dissipated by element), :mod:`.standing` (the compliant leg's standing check);
-* :mod:`.protocol` — the :class:`Walker` interface the analyses use, :class:`Stride`,
-  :class:`ParameterSpec`;
-* :mod:`.poincare` — stride map, fixed points (Newton), period detection; :mod:`.monodromy` —
-  the stride map's Jacobian (the variational equations with saltation matrices,
-  :mod:`porthamiltonian.saltation`, or finite differences with the step chosen per coordinate)
-  and Floquet multipliers with error bounds; :mod:`.continuation` —
-  branches of gaits over a parameter, their bifurcations, period doubling (``walker continue``);
-* :mod:`.gait`, :mod:`.metrics` — the gait analysis behind ``walker gait`` and its metrics;
-* :mod:`.robustness` — step-down, basin of attraction, Gait Sensitivity Norm; :mod:`.series`
-  (time series for plots); :mod:`.report` (the HTML report);
-* :mod:`.analyses` — those analyses as sweep case functions (``walker sweep``), with a cache of
-  compiled walkers and gaits; :mod:`.studies` — the thesis's tables and figures
-  (``walker reproduce``);
-* :mod:`.results` — JSON serialization; :mod:`.cli` — the ``walker`` command.
+The package follows its data flow, one sub-package per stage:
+
+* :mod:`.core` — a model file's ``[walker]`` table → a runnable walker: the table as dataclasses
+  (:class:`WalkerSpec`), the names the model provides, :class:`HybridWalker` (the one class that
+  runs every walker), the mode machine, resets, the stride recorder, the exact stride Jacobian,
+  the :class:`Walker` protocol the analyses use, and walker files (:func:`load_walker`,
+  :func:`save_walker`, the shipped walkers by name);
+* :mod:`.analyses` — walker → numbers: stride map and fixed points, Floquet multipliers,
+  continuation and bifurcations, the gait analysis and its metrics, step-down, basins, the Gait
+  Sensitivity Norm, the analyses as sweep case functions, the thesis's calibration checks;
+* :mod:`.report` — numbers → pages and pictures: the main job's HTML report, figures,
+  animations, the 3D scene, the thesis's studies (``walker reproduce``);
+* :mod:`.cli` — the ``walker`` command.
 """
-from .continuation import ContinuationResult, ParameterPath, continue_gait
-from .core import HybridWalker
-from .gait import GaitResult, WalkResult, analyze_gait, walk
-from .hybrid import Completion, Foot, Integration, Rule, Section, Terrain, WalkerSpec, walker_spec
-from .metrics import GaitMetrics, gait_metrics
-from .monodromy import FloquetResult, floquet, stride_jacobian
-from .poincare import (
+from .analyses.continuation import ContinuationResult, ParameterPath, continue_gait
+from .analyses.gait import GaitResult, WalkResult, analyze_gait, walk
+from .analyses.metrics import GaitMetrics, gait_metrics
+from .analyses.monodromy import FloquetResult, floquet, stride_jacobian
+from .analyses.poincare import (
                        FixedPointResult,
                        PeriodResult,
                        detect_period,
@@ -40,8 +28,7 @@ from .poincare import (
                        jacobian,
                        stride_map,
 )
-from .protocol import ParameterSpec, Stride, Walker
-from .walkers import (
+from .core.files import (
                        available_walkers,
                        compass_gait,
                        compass_walker,
@@ -54,6 +41,18 @@ from .walkers import (
                        simplest_walker,
                        variable_stiffness_walker,
 )
+from .core.hybrid import (
+                       Completion,
+                       Foot,
+                       Integration,
+                       Rule,
+                       Section,
+                       Terrain,
+                       WalkerSpec,
+                       walker_spec,
+)
+from .core.protocol import ParameterSpec, Stride, Walker
+from .core.walker import HybridWalker
 
 __all__ = [
     "Completion", "ContinuationResult", "FixedPointResult", "FloquetResult", "Foot", "GaitMetrics", "GaitResult",

@@ -36,7 +36,8 @@ from typing import Any
 from porthamiltonian import io as ph_io
 from porthamiltonian.batch import SweepError, open_executor
 from porthamiltonian.batch.progress import activity
-from porthamiltonian.cli import (
+from porthamiltonian.errors import ModelError, ModelFileError
+from porthamiltonian.interfaces.cli import (
     BACKEND_OPTION,
     JSON_OPTION,
     QUIET_OPTION,
@@ -47,16 +48,15 @@ from porthamiltonian.cli import (
     run,
     run_sweep,
 )
-from porthamiltonian.errors import ModelError, ModelFileError
 
-from .analyses import ANALYSES, get_analysis
-from .continuation import ParameterPath, continue_gait, parse_range
-from .gait import analyze_gait, gait_start, section_guess, walk
-from .labels import describe, is_nondimensional, shown_unit
-from .report_page import multiplier_cells
-from .results import to_json
-from .robustness import basin, gait_sensitivity_norm, step_down
-from .walkers import available_walkers, load_walker, save_walker
+from .analyses.cases import ANALYSES, get_analysis
+from .analyses.continuation import ParameterPath, continue_gait, parse_range
+from .analyses.gait import analyze_gait, gait_start, section_guess, walk
+from .analyses.results import to_json
+from .analyses.robustness import basin, gait_sensitivity_norm, step_down
+from .core.files import available_walkers, load_walker, save_walker
+from .report.labels import describe, is_nondimensional, shown_unit
+from .report.page import multiplier_cells
 
 
 def _fmt(value) -> str:
@@ -308,7 +308,7 @@ def cmd_gsn(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from .report import write_report
+    from .report.writer import write_report
     walker = _walker(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     continuation = None
@@ -339,7 +339,7 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_reproduce(args) -> int:
-    from .studies import STUDIES, run_studies
+    from .report.studies import STUDIES, run_studies
     if args.list:
         for study in STUDIES.values():
             print(f"{study.name:22s} {study.thesis:28s} {study.title}")

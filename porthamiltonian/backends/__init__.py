@@ -8,7 +8,7 @@
 ``python``  the reference: the generated straight-line Python run by CPython on Python floats.
 
 A back end yields a :class:`Functions` record; models and analyses only see it (and
-:class:`~porthamiltonian.compiled.CompiledModel`).
+:class:`~porthamiltonian.simulation.compiled.CompiledModel`).
 
 ``"auto"`` tries ``c``, then ``numba`` (when installed), then ``python``; the environment
 variable ``PORTHAMILTONIAN_BACKEND`` (``c``, ``numba`` or ``python``) makes ``"auto"`` mean that

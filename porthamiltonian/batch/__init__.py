@@ -6,7 +6,7 @@ where it stopped, after Ctrl-C, SIGTERM or even a SIGKILL of its main process. T
 tidy table or a pandas data frame in one call::
 
     from porthamiltonian.batch import Sweep, grid, read_dataframe
-    from porthamiltonian.batch.simulation import simulate_case
+    from porthamiltonian.interfaces.sweeps import simulate_case
 
     cases = grid(k=[1.0, 4.0, 9.0], c=[0.4, 0.8])
     Sweep(simulate_case, cases, "msd.jsonl",

@@ -3,7 +3,7 @@
 ::
 
     {"format": "porthamiltonian-sweep", "version": 1,
-     "sweep": {"function": "porthamiltonian.batch.simulation:simulate_case",
+     "sweep": {"function": "porthamiltonian.interfaces.sweeps:simulate_case",
                "fixed": {"model": "mass_spring_damper", "backend": "python", ...},
                "n_cases": 4, "cases_sha256": "..."},
      "created": "2026-...Z", "meta": {...}, "software": {...}}

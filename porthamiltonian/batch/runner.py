@@ -378,7 +378,7 @@ class Sweep:
                 "n_cases": len(self.cases), "cases_sha256": cases_sha256(self.cases)}
 
     def _header_line(self) -> bytes:
-        from .. import __version__ as ph_version
+        from ..version import __version__ as ph_version
         header = {"format": FORMAT, "version": VERSION, "sweep": self.identity,
                   "created": _utc_now(), "meta": self.meta,
                   "software": {"porthamiltonian": ph_version, "python": platform.python_version(),
@@ -469,7 +469,7 @@ class Sweep:
 
     # --- running -----------------------------------------------------------------------------------
     def _repr_html_(self) -> str:
-        from ..display import sweep_html
+        from ..simulation.display import sweep_html
         return sweep_html(self)
 
     def run(self, executor: Executor | None = None, *, workers: int | None = None,

@@ -16,9 +16,9 @@ import sympy
 
 from .. import backends
 from ..backends import module, native
-from ..compiled import CompiledModel
 from ..errors import CompilerError
-from ..model import Model, ModelDescription
+from ..modeling.model import Model, ModelDescription
+from ..simulation.compiled import CompiledModel
 from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
@@ -32,7 +32,7 @@ _C_FAILED: list[str] = []
 
 def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     """Run the symbolic part of the compiler (no code generation, no cache): validate the frozen
-    description (every problem at once, :meth:`~porthamiltonian.model.ModelDescription.validate`),
+    description (every problem at once, :meth:`~porthamiltonian.modeling.model.ModelDescription.validate`),
     then structure, assembly. Errors carry the path of what they are about
     (:attr:`~porthamiltonian.errors.ModelError.path`)."""
     description = model.freeze() if isinstance(model, Model) else model
@@ -166,7 +166,7 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
 
 def _autonomous(sym: SymbolicModel) -> bool:
     """True when the state equations do not depend on time explicitly."""
-    from ..expressions import TIME
+    from ..modeling.expressions import TIME
 
     exprs = [*sym.rhs, *(e for _, e in sym.intermediates)]
     exprs += [e for _, A, b in sym.blocks for e in (*A, *b)]

@@ -14,8 +14,8 @@ states x, the parameters p and the time t:
 * the energy *parts* (:func:`energy_parts`): each storage component's stored energy as an output
   ``<component>.H``, or its outputs ``T`` and ``V`` when it splits its energy into kinetic and
   potential (a multibody), for the ledger's offset-free scale
-  (:attr:`porthamiltonian.trajectory.Trajectory.energy_scale`);
-* the constraints on parameter values the components declared (:mod:`porthamiltonian.constraints`);
+  (:attr:`porthamiltonian.simulation.trajectory.Trajectory.energy_scale`);
+* the constraints on parameter values the components declared (:mod:`porthamiltonian.modeling.constraints`);
 * the SI units of the states (declared, or a storage port's time integral: m for a C storage on
   a translation port, N·s for an I storage) and of the port variables (their domain's).
 
@@ -28,11 +28,11 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from ..constraints import Constraint
 from ..errors import ModelError, StateError
-from ..expressions import TIME, parse
-from ..model import EventSpec
-from ..ports import domain
+from ..modeling.constraints import Constraint
+from ..modeling.expressions import TIME, parse
+from ..modeling.model import EventSpec
+from ..modeling.ports import domain
 from .structure import Solution, _flat
 
 
@@ -262,7 +262,7 @@ def power_balance(model: SymbolicModel) -> sp.Expr:
     """dH/dt − P_in + P_diss along the state equations (zero for a consistent model).
 
     Symbolic, so only for models without implicit blocks; for those use
-    :meth:`porthamiltonian.compiled.CompiledModel.power_balance` (numeric).
+    :meth:`porthamiltonian.simulation.compiled.CompiledModel.power_balance` (numeric).
     """
     if model.blocks:
         raise ModelError(f"model {model.name!r} has implicit blocks (e.g. a mass matrix solved "

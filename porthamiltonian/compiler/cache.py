@@ -84,7 +84,7 @@ from typing import Any
 
 import sympy
 
-from ..model import Model, ModelDescription
+from ..modeling.model import Model, ModelDescription
 from .codegen import CODEGEN_VERSION
 
 try:  # POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record,
@@ -185,7 +185,7 @@ def _base(persistent: bool) -> Path:
 # --- the key ---------------------------------------------------------------------------------------
 def model_key(model: Model | ModelDescription) -> str:
     """A hash of everything that determines the generated code: the model's canonical
-    description (:meth:`~porthamiltonian.model.ModelDescription.canonical`), the source of every
+    description (:meth:`~porthamiltonian.modeling.model.ModelDescription.canonical`), the source of every
     package module the model's component classes depend on (their modules and, transitively, the
     package modules those import), the compiler and back-end sources, and the versions of sympy
     and of the code generator."""
@@ -199,8 +199,7 @@ def model_key(model: Model | ModelDescription) -> str:
 
 _PACKAGE = Path(__file__).resolve().parent.parent
 #: package modules that shape the generated code whatever the model holds
-_CORE = ("compiler", "backends", "integrators", "component", "ports", "expressions", "model",
-         "elements", "constraints")
+_CORE = ("compiler", "backends", "integrators", "modeling")
 _IMPORT = re.compile(r"^\s*from\s+(\.+)([\w.]*)\s+import\s+([\w, ()]+)", re.MULTILINE)
 
 
@@ -230,11 +229,14 @@ def _sources_hash(modules: frozenset[str]) -> str:
                 for _ in range(len(dots) - 1):
                     root = root.parent
                 target = root.joinpath(*name.split(".")) if name else root
-                # ``from . import cache``: the package's __init__ and the named submodules (not
-                # the whole package); ``from .x import y``: module x (or all of package x)
-                todo.append(target / "__init__" if not name else target)
+                # ``from .x import y``: module x; for a package x, its __init__ (which imports
+                # what it gathers) and the named submodules, not the whole package
                 if target.is_dir():
-                    todo += [target / n.strip() for n in names.strip("()").split(",") if n.strip()]
+                    todo.append(target / "__init__")
+                    todo += [target / n.split(" as ")[0].strip()
+                             for n in names.strip("()").split(",") if n.strip()]
+                else:
+                    todo.append(target)
     digest = hashlib.sha256()
     for path in sorted(files):
         digest.update(str(path.relative_to(_PACKAGE)).encode() + b"\0" + path.read_bytes())

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from ..expressions import TIME
+from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
 
 #: Bumped whenever generated code changes meaning; part of the cache key.

@@ -17,7 +17,7 @@ Then
   naming the components and port variables of the loop;
 * otherwise a topological order of single-equation blocks, each solved explicitly.
 
-Component intermediates (:meth:`~porthamiltonian.component.Builder.intermediate`) stay symbols in
+Component intermediates (:meth:`~porthamiltonian.modeling.component.Builder.intermediate`) stay symbols in
 the solved expressions. Those that read port variables (port level, e.g. a friction's slip from
 its port's flow) are not known when the equations are matched: after the solution their port
 variables are replaced by the solved expressions and all intermediates reordered
@@ -30,8 +30,6 @@ from dataclasses import dataclass, field
 import networkx as nx
 import sympy as sp
 
-from ..component import Builder, Built, Component
-from ..elements import _Junction
 from ..errors import (
     AlgebraicLoopError,
     DerivativeCausalityError,
@@ -39,8 +37,10 @@ from ..errors import (
     StructureError,
     UnknownParameterError,
 )
-from ..expressions import TIME
-from ..model import ModelDescription
+from ..modeling.component import Builder, Built, Component
+from ..modeling.elements import _Junction
+from ..modeling.expressions import TIME
+from ..modeling.model import ModelDescription
 
 
 @dataclass

@@ -73,7 +73,7 @@ them too: a touchdown guard is simply ``floor.z``.
 
 Errors (:class:`~porthamiltonian.errors.ParameterValueError`, naming the component and argument):
 a stiffness, damping or ``active`` < 0, an exponent n ≤ 0 (numbers when the model compiles,
-parameter values whenever they are bound: :mod:`porthamiltonian.constraints`), an unknown surface.
+parameter values whenever they are bound: :mod:`porthamiltonian.modeling.constraints`), an unknown surface.
 
 References
 ----------
@@ -88,9 +88,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..component import Arg, Builder, Component, register
 from ..errors import ParameterValueError
-from ..ports import Port
+from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.ports import Port
 from .surfaces import Surface, make_surface, surface_arguments
 
 _POINT = {

@@ -55,9 +55,9 @@ from typing import Any
 
 import sympy as sp
 
-from ..component import Arg, Builder, Component, register
 from ..errors import ParameterValueError
-from ..ports import Port
+from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.ports import Port
 from .contact import (
     HUNT_CROSSLEY_ARGUMENTS,
     KELVIN_VOIGT_ARGUMENTS,

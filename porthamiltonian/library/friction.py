@@ -53,9 +53,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..component import Arg, Builder, Component, register
 from ..errors import DanglingPortError, ParameterValueError, UnknownParameterError
-from ..ports import Port
+from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.ports import Port
 
 
 def scvs_coefficient(v: sp.Expr, mu_st: sp.Expr, mu_c: sp.Expr, mu_v: sp.Expr, slope: sp.Expr,

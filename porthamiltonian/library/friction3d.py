@@ -60,8 +60,8 @@ from typing import Any
 
 import sympy as sp
 
-from ..component import Arg, Builder, Component, register
-from ..ports import Port
+from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.ports import Port
 from .contact3d import PLANE, check_plane, port_dim, twist, wrench
 from .friction import SCVSFriction, normal_force_source, scvs_coefficient
 

@@ -51,9 +51,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..component import Arg, Builder, Component, register
 from ..errors import ParameterValueError
-from ..ports import DOMAINS, Port
+from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.ports import DOMAINS, Port
 
 _COMMON = {
     "damping": Arg("damping coefficient D (or give alpha and mass)", "N*s/m", default=None,

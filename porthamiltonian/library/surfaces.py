@@ -48,7 +48,7 @@ from typing import Any
 import sympy as sp
 
 from ..errors import ParameterValueError
-from ..expressions import as_expr
+from ..modeling.expressions import as_expr
 
 #: The surfaces a contact may use, with one line each (for messages and docs).
 SURFACES: dict[str, str] = {
@@ -143,7 +143,7 @@ def make_surface(kind: Any, where: str, *, slope: sp.Expr = sp.S.Zero,
 
 def surface_arguments() -> Mapping[str, Any]:
     """The component arguments that describe a surface (shared by the contact laws)."""
-    from ..component import Arg
+    from ..modeling.component import Arg
 
     return {
         "surface": Arg("surface kind: " + ", ".join(SURFACES), symbolic=False, default="plane"),

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import ModelError
-from ..expressions import check_name
+from ..modeling.expressions import check_name
 
 Value = float | str
 
@@ -144,7 +144,7 @@ class Weld(_Joint):
 
 def as_tables(bodies: dict[str, Any], joints: dict[str, Any]) -> tuple[dict, dict]:
     """Bodies and joints as plain tables (accepting records or tables). Body, joint, point and
-    frame names must be names (:func:`~porthamiltonian.expressions.check_name`): they name states,
+    frame names must be names (:func:`~porthamiltonian.modeling.expressions.check_name`): they name states,
     ports and outputs."""
     if not isinstance(bodies, dict) or not isinstance(joints, dict):
         return bodies, joints              # Multibody's checks say what is wrong

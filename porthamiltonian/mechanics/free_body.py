@@ -35,9 +35,9 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from ..component import Arg, Builder, Component, register
 from ..errors import ModelError
-from ..ports import Port
+from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.ports import Port
 from .kinematics import written_out
 from .screw import ad_star, spatial_inertia
 from .tree import quaternion_rate, quaternion_rotation

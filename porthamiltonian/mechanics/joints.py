@@ -37,7 +37,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
-from ..ports import DOMAINS
+from ..modeling.ports import DOMAINS
 
 AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
 TYPES = ("revolute", "prismatic", "translational", "universal", "spherical", "free", "weld")

@@ -63,7 +63,7 @@ directly: ``connect("walker.foot", "contact.p")``).
 
 Outputs: ``<name>.<point>.x|y|z`` (world position of each point and world frame, m), ``<name>.T`` and
 ``<name>.V`` (kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion
-joint), and each body's pose (for :mod:`porthamiltonian.viewer`): ``<name>.<body>.pose.x|y|z``
+joint), and each body's pose (for :mod:`porthamiltonian.interfaces.viewer`): ``<name>.<body>.pose.x|y|z``
 (the origin of its frame, world coordinates, m) and ``<name>.<body>.pose.qw|qx|qy|qz`` (the unit
 quaternion of its orientation, Hamilton, scalar first, body to world: x_W = p + R(q) x_B), for
 planar models too.
@@ -81,9 +81,9 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from ..component import Arg, Builder, Component, register
 from ..errors import ModelError, UnknownComponentError
-from ..ports import Port
+from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.ports import Port
 from .bodies import as_tables, expression_fields
 from .joints import Joint, joint, quaternion_slice, units
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out

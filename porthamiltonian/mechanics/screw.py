@@ -68,7 +68,7 @@ from typing import Any, ClassVar
 import numpy as np
 import sympy as sp
 
-from ..expressions import as_expr
+from ..modeling.expressions import as_expr
 
 __all__ = [
     "Ad",
@@ -167,7 +167,7 @@ class _NumpyBackend:
 
 def _no_text(x: Any) -> Any:
     """``x`` unchanged, after checking that no entry is text (``sp.Matrix`` would sympify it,
-    i.e. run it as Python); expressions from text go through porthamiltonian.expressions."""
+    i.e. run it as Python); expressions from text go through porthamiltonian.modeling.expressions."""
     stack = [x]
     while stack:
         item = stack.pop()

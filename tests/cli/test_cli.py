@@ -1,4 +1,4 @@
-"""The command line, run as a user would: ``python -m porthamiltonian.cli ...`` in a subprocess.
+"""The command line, run as a user would: ``python -m porthamiltonian ...`` in a subprocess.
 
 The python back end is chosen (``--backend python``) to keep the runs short; the cache folder is
 the session's temporary one (inherited PORTHAMILTONIAN_CACHE, see tests/conftest.py).
@@ -15,13 +15,13 @@ from pathlib import Path
 import pytest
 
 from porthamiltonian import io
-from porthamiltonian.cli import main
+from porthamiltonian.interfaces.cli import main
 
-MSD_TEXT = (Path(io.__file__).resolve().parent.parent / "models" / "mass_spring_damper.toml").read_text()
+MSD_TEXT = (Path(io.__file__).resolve().parents[2] / "models" / "mass_spring_damper.toml").read_text()
 
 
 def _command(*args: str) -> list[str]:
-    return [sys.executable, "-m", "porthamiltonian.cli", "--backend", "python", *args]
+    return [sys.executable, "-m", "porthamiltonian", "--backend", "python", *args]
 
 
 class ConcurrentRuns:
@@ -190,7 +190,7 @@ def test_unknown_model_exits_2_with_message(runs):
 
 
 # The remaining bad-input checks call the entry point in-process (``main`` returns the exit status
-# that ``python -m porthamiltonian.cli`` exits with), saving an interpreter start-up each.
+# that ``python -m porthamiltonian.interfaces.cli`` exits with), saving an interpreter start-up each.
 def test_set_without_equals_exits_2_with_message(capsys):
     status = main(["--backend", "python", "simulate", "mass_spring_damper", "--t-end", "1",
                    "--set", "k"])

@@ -11,7 +11,7 @@ import sys
 import pytest
 
 from porthamiltonian import backends
-from porthamiltonian.cli import build_parser as ph_parser
+from porthamiltonian.interfaces.cli import build_parser as ph_parser
 from walker_library import available_walkers
 from walker_library.cli import build_parser as walker_parser
 from walker_library.cli import main as walker_main
@@ -68,7 +68,7 @@ def test_mistyped_walker_model_gets_a_suggestion_among_walker_models(capsys):
 
 
 def test_mistyped_model_name_gets_a_suggestion(capsys):
-    from porthamiltonian.cli import main
+    from porthamiltonian.interfaces.cli import main
     assert main(["show", "mass_spring_dumper"]) == 2
     assert "no model called 'mass_spring_dumper' (did you mean 'mass_spring_damper'?)" in \
         capsys.readouterr().err
@@ -104,7 +104,7 @@ def test_a_model_build_is_announced_once_and_quiet_silences_it(tmp_path, monkeyp
     run of the same model (cached) is silent, and so is a build with $PORTHAMILTONIAN_QUIET set
     or inside ``backends.quiet()`` (the commands' --quiet)."""
     from porthamiltonian import backends
-    from porthamiltonian.cli import main
+    from porthamiltonian.interfaces.cli import main
     monkeypatch.delenv("PORTHAMILTONIAN_QUIET", raising=False)
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
     argv = ["--backend", "python", "simulate", "mass_spring_damper", "--t-end", "0.1"]

@@ -1,6 +1,6 @@
 """Every bad numerical option and parameter value gets a typed error naming it, before any work
-(issue 10, item 4): porthamiltonian.options (simulate's arguments) and the components'
-constraints on parameter values (porthamiltonian.constraints, checked by CompiledModel.params).
+(issue 10, item 4): porthamiltonian.simulation.options (simulate's arguments) and the components'
+constraints on parameter values (porthamiltonian.modeling.constraints, checked by CompiledModel.params).
 
 Before: a NaN tolerance hung the step loop, rtol = 0 hung or divided by zero, a negative one
 returned wrong numbers marked "finished", a mass of 0 bound at run time raised ZeroDivisionError

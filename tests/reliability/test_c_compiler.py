@@ -105,7 +105,7 @@ def test_auto_falls_back_with_one_warning(fresh, monkeypatch):
 
 
 def test_cli_prints_the_fallback_as_one_warning_line(fresh, monkeypatch, capsys):
-    from porthamiltonian import cli
+    from porthamiltonian.interfaces import cli
 
     monkeypatch.setenv("CC", "false")
     assert cli.main(["show", "mass_spring_damper", "--code"]) == 0

@@ -1,7 +1,7 @@
 """The command line never shows a traceback for a user error (issue 10, item 7): ``error:
 <message>`` on stderr and exit status 2; a bug shows its traceback and asks to be reported
 (status 3); Ctrl-C exits 130 and a closed pipe 141, both without a traceback
-(porthamiltonian.cli.run, shared by the ``walker`` command)."""
+(porthamiltonian.interfaces.cli.run, shared by the ``walker`` command)."""
 from __future__ import annotations
 
 import argparse
@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from porthamiltonian import cli
+from porthamiltonian.interfaces import cli
 from walker_library import cli as walker_cli
 
 HOSTILE = ('[components.spring]\ntype = "C"\n'
@@ -107,7 +107,7 @@ def test_closed_pipe_exits_quietly(isolated_cache):
     """``porthamiltonian show MODEL | head -0``: the reader is gone before the first line (closed
     before the child has even imported the package, so the write always fails)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    code = ("import sys; from porthamiltonian.cli import main; "
+    code = ("import sys; from porthamiltonian.interfaces.cli import main; "
             "sys.exit(main(['show', 'mass_spring_damper']))")
     proc = subprocess.Popen([sys.executable, "-c", code],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)

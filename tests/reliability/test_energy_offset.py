@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from porthamiltonian import cli, compile_model, io
+from porthamiltonian import compile_model, io
+from porthamiltonian.interfaces import cli
 
 RTOLS = (1e-3, 1e-4, 1e-6, 1e-9)
 TOLERANCE = 1e-6

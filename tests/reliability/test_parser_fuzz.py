@@ -1,4 +1,4 @@
-"""Hypothesis fuzz of the expression parser (porthamiltonian.expressions): random token sequences,
+"""Hypothesis fuzz of the expression parser (porthamiltonian.modeling.expressions): random token sequences,
 random unicode and random well-formed expressions.
 
 Properties:
@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from porthamiltonian import io
 from porthamiltonian.errors import ExpressionError, ModelFileError, UnknownParameterError
-from porthamiltonian.expressions import parse, parse_text, to_text
+from porthamiltonian.modeling.expressions import parse, parse_text, to_text
 
 NAMES = {n: sp.Symbol(n, real=True) for n in ("k", "m", "c", "x0")}
 VALUES = {"k": 4.0, "m": 1.5, "c": -0.4, "x0": 0.1}

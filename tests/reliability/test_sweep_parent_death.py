@@ -18,7 +18,7 @@ import pytest
 
 from porthamiltonian.batch import Sweep, SweepFileError, load_results
 from porthamiltonian.batch.resultsfile import ResultsFile
-from walker_library.analyses import gait_case
+from walker_library.analyses.cases import gait_case
 from walker_library.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -157,6 +157,6 @@ def test_unknown_option_is_refused_before_any_case_runs(tmp_path, capsys):
                  "--serial", "--option", "max_periods=4", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: unknown option 'max_periods' of the case function "
-                          "walker_library.analyses:gait_case; it takes: model, backend, "
+                          "walker_library.analyses.cases:gait_case; it takes: model, backend, "
                           "max_period, fd_step, n_iterate"), err
     assert not out.exists()

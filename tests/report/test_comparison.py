@@ -1,5 +1,5 @@
 """The report's comparison with the publications and its labels and units, without running a
-walker (walker_library.comparison, walker_library.labels, walker_library.report_page).
+walker (walker_library.report.comparison, walker_library.report.labels, walker_library.report.page).
 
 Published numbers: M. Jafarian (2010), MSc report 022CE2010, University of Twente, Table 2.3:
 speed 0.274 m/s, energy dissipated per step 0.08 J, max step-down 2.4 mm; Garcia et al. (1998),
@@ -13,11 +13,17 @@ from types import SimpleNamespace
 
 import pytest
 
-from walker_library.comparison import REFERENCES, ROOT, compare, doc_link, slug
-from walker_library.labels import describe, foot_radius, is_nondimensional, pretty_unit, shown_unit
-from walker_library.protocol import ParameterSpec
-from walker_library.report_page import multiplier_cells, number, text
-from walker_library.walkers import read_walker
+from walker_library.core.files import read_walker
+from walker_library.core.protocol import ParameterSpec
+from walker_library.report.comparison import REFERENCES, ROOT, compare, doc_link, slug
+from walker_library.report.labels import (
+    describe,
+    foot_radius,
+    is_nondimensional,
+    pretty_unit,
+    shown_unit,
+)
+from walker_library.report.page import multiplier_cells, number, text
 
 
 def _walker(name: str, **changes: float) -> SimpleNamespace:

@@ -24,9 +24,9 @@ import pytest
 from browser import console_errors, render
 from PIL import Image
 
-from walker_library import report as report_module
 from walker_library.cli import main
-from walker_library.report import ExtraFigure
+from walker_library.report import writer as report_module
+from walker_library.report.writer import ExtraFigure
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -44,7 +44,7 @@ def layout_mark(image: Image.Image) -> str:
 
 def _extra_figure(walker, gait, path: Path) -> str:
     """An extra section as another branch would add one (a continuation diagram, say)."""
-    from walker_library.figures import new_figure, save_figure
+    from walker_library.report.figures import new_figure, save_figure
     fig = new_figure(figsize=(3, 2))
     fig.subplots().plot([0, 1], [gait.metrics.speed, gait.metrics.speed])
     save_figure(fig, path)

@@ -1,4 +1,4 @@
-"""``walker reproduce`` (walker_library.studies): studies run on coarse grids (``--quick``) write
+"""``walker reproduce`` (walker_library.report.studies): studies run on coarse grids (``--quick``) write
 their figures, results and summary rows beside the thesis's numbers; an unknown study is refused
 with the list of studies. The full studies and their numbers are in REPRODUCTION.md."""
 from __future__ import annotations
@@ -10,7 +10,7 @@ from PIL import Image
 
 from porthamiltonian.errors import ModelError
 from walker_library.cli import main
-from walker_library.studies import STUDIES, run_studies
+from walker_library.report.studies import STUDIES, run_studies
 
 
 def test_quick_studies_write_figures_and_thesis_rows(tmp_path, capsys):

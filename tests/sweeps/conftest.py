@@ -6,7 +6,7 @@ import pytest
 from sweep_cases import GAIT_CASES, GAIT_FIXED
 
 from porthamiltonian.batch import Sweep, load_results
-from walker_library.analyses import gait_case
+from walker_library.analyses.cases import gait_case
 
 
 @pytest.fixture(scope="session")

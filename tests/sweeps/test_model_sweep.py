@@ -1,4 +1,4 @@
-"""A sweep of a plain model (porthamiltonian.batch.simulation, ``porthamiltonian sweep``): the
+"""A sweep of a plain model (porthamiltonian.interfaces.sweeps, ``porthamiltonian sweep``): the
 example of docs/sweeps.md — the mass–spring–damper's settling time over k and c — checked case
 by case against the closed-form free response; the settling-time rule on signals with known
 answers; bad input refused before any case runs; the Python API and the data frame."""
@@ -14,8 +14,8 @@ import pytest
 from scipy.optimize import brentq
 
 from porthamiltonian.batch import Sweep, grid, read_dataframe
-from porthamiltonian.batch.simulation import settling_time, simulate_case
-from porthamiltonian.cli import main
+from porthamiltonian.interfaces.cli import main
+from porthamiltonian.interfaces.sweeps import settling_time, simulate_case
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "sweeps.md"
 M, X0 = 1.0, 0.1          # models/mass_spring_damper.toml: mass (kg), initial elongation (m)

@@ -30,7 +30,7 @@ from porthamiltonian.batch import (
     write_csv,
 )
 from porthamiltonian.errors import ModelError
-from walker_library import analyses
+from walker_library.analyses import cases as analyses
 
 CASES = grid(x=[1.0, 2.0, 3.0], y=[0.0, 0.5])
 

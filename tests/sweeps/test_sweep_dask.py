@@ -12,7 +12,7 @@ from distributed import Client, LocalCluster
 from sweep_cases import GAIT_CASES, GAIT_FIXED
 
 from porthamiltonian.batch import Sweep, grid, load_results
-from walker_library.analyses import gait_case
+from walker_library.analyses.cases import gait_case
 from walker_library.cli import main
 
 

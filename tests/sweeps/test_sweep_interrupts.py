@@ -180,7 +180,7 @@ def test_interrupted_simplest_walker_gait_sweep_resumes_to_the_same_numbers(tmp_
     assert main([*args, "--json"]) == 0                    # the same command, again
     doc = json.loads(capsys.readouterr().out)
     assert doc["report"]["n_run"] == 4 - len(partial) and doc["report"]["complete"]
-    assert doc["identity"]["function"] == "walker_library.analyses:gait_case"
+    assert doc["identity"]["function"] == "walker_library.analyses.cases:gait_case"
     assert doc["identity"]["fixed"] == {"backend": "c", "model": "simplest_walker"}
     rows = load_results(out)
     assert sorted(r["case_id"] for r in rows) == [0, 1, 2, 3]

@@ -53,9 +53,9 @@ def test_editing_the_command_line_keeps_the_key_editing_a_component_does_not(tmp
                     ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copytree(ROOT / "models", tree / "models")
     before = _key_in(tree)
-    cli = tree / "porthamiltonian" / "cli.py"
+    cli = tree / "porthamiltonian" / "interfaces" / "cli.py"
     cli.write_text(cli.read_text().replace('"""Command line', '"""The command line', 1))
     assert _key_in(tree) == before
-    elements = tree / "porthamiltonian" / "elements.py"
+    elements = tree / "porthamiltonian" / "modeling" / "elements.py"
     elements.write_text(elements.read_text().replace('"""Capacitive storage', '"""Capacitor', 1))
     assert _key_in(tree) != before

@@ -11,7 +11,7 @@ import pytest
 import porthamiltonian as ph
 from porthamiltonian import errors, io
 from porthamiltonian.compiler import compile_model, symbolic
-from porthamiltonian.component import component_class
+from porthamiltonian.modeling.component import component_class
 
 
 class Planar(ph.Component):

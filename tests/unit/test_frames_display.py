@@ -17,8 +17,8 @@ import pytest
 
 from porthamiltonian import C, I, Model, OneJunction, R, Se, compile_model, io
 from porthamiltonian.batch import Sweep, grid
-from porthamiltonian.batch.simulation import simulate_case
-from porthamiltonian.display import MAX_ROWS, records_html
+from porthamiltonian.interfaces.sweeps import simulate_case
+from porthamiltonian.simulation.display import MAX_ROWS, records_html
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
 

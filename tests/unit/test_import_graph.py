@@ -91,3 +91,37 @@ def test_the_walk_sees_lazy_imports_and_skips_type_checking_ones(tmp_path):
     tree = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import a\n"
                      "def f():\n    import b\n")
     assert sorted(n.names[0].name for n in _imports(tree)) == ["TYPE_CHECKING", "b"]
+
+
+#: the stages of each package in import order: a module may import its own stage and earlier ones.
+#: (The compiler comes after the simulation stage in import order although it runs before it: it
+#: builds the CompiledModel, so it imports that class; the simulation never imports the compiler.)
+STAGES = {
+    "porthamiltonian": [("errors", "version"), ("modeling",), ("library", "mechanics"),
+                        ("integrators",), ("backends",), ("simulation",), ("compiler",),
+                        ("batch",), ("interfaces",), ("__init__", "__main__")],
+    "walker_library": [("core",), ("analyses",), ("report",), ("cli", "__init__", "__main__")],
+}
+#: lazy imports that still reach a later stage (a result's notebook hooks); to go
+KNOWN_UPWARD = {
+    ("walker_library.analyses.gait", "walker_library.report.display"),
+    ("walker_library.analyses.continuation", "walker_library.report.figures"),
+}
+
+
+def _stage(package: str, module: str) -> int:
+    part = module.split(".")[1] if "." in module else "__init__"
+    for i, names in enumerate(STAGES[package]):
+        if part in names:
+            return i
+    raise AssertionError(f"{module}: its stage is not declared in STAGES (tests/unit)")
+
+
+def test_each_stage_imports_only_its_own_and_earlier_stages():
+    upward = []
+    for package in STAGES:
+        graph, _ = import_graph(package)
+        for a, b in graph.edges:
+            if _stage(package, a) < _stage(package, b) and (a, b) not in KNOWN_UPWARD:
+                upward.append(f"{a} -> {b}")
+    assert upward == []

@@ -1,4 +1,4 @@
-"""Messages of malformed model files (porthamiltonian.io): each is a ModelFileError naming the
+"""Messages of malformed model files (porthamiltonian.interfaces.io): each is a ModelFileError naming the
 file, the line where the problem is (TOML's own line for syntax errors; the line of the offending
 key, table, bond or event otherwise), the names involved, and what to write instead. The tests pin
 the error type, the file and line, the names and the hint, not whole sentences: a message may be
@@ -12,7 +12,7 @@ import pytest
 from porthamiltonian import io
 from porthamiltonian.errors import ModelFileError
 
-MODELS_DIR = Path(io.__file__).resolve().parent.parent / "models"
+MODELS_DIR = Path(io.__file__).resolve().parents[2] / "models"
 MSD = (MODELS_DIR / "mass_spring_damper.toml").read_text()
 BALL = (MODELS_DIR / "bouncing_ball.toml").read_text()
 

@@ -1,4 +1,4 @@
-"""Fuzzing the model-file loader (porthamiltonian.io): random text, random TOML documents shaped
+"""Fuzzing the model-file loader (porthamiltonian.interfaces.io): random text, random TOML documents shaped
 like model files, and mutations of the real files in models/ (a line deleted, duplicated or
 swapped, a value's type changed, a component kind renamed, a bond broken, a table dropped, a
 name in an expression misspelt, the file cut short).
@@ -21,10 +21,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from porthamiltonian import compile_model, io
-from porthamiltonian.component import REGISTRY
 from porthamiltonian.errors import ModelError, ModelFileError
+from porthamiltonian.modeling.component import REGISTRY
 
-MODELS_DIR = Path(io.__file__).resolve().parent.parent / "models"
+MODELS_DIR = Path(io.__file__).resolve().parents[2] / "models"
 FILES = {p.stem: p.read_text() for p in sorted(MODELS_DIR.glob("*.toml"))}
 # compiled after loading (python back end, each well under a second): the models without a
 # multibody and the small multibody ones; not the walkers (seconds each)

@@ -9,7 +9,7 @@ import pytest
 from porthamiltonian import compile_model, io, symbolic
 from porthamiltonian.errors import ModelFileError
 
-MODELS_DIR = Path(io.__file__).resolve().parent.parent / "models"
+MODELS_DIR = Path(io.__file__).resolve().parents[2] / "models"
 MSD_TEXT = (MODELS_DIR / "mass_spring_damper.toml").read_text()
 
 

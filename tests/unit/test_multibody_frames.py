@@ -11,9 +11,9 @@ import pytest
 import sympy as sp
 
 import porthamiltonian as ph
-from porthamiltonian.component import Arg, Component
 from porthamiltonian.mechanics.bodies import Prismatic, Revolute, RigidBody, Translational, Weld
-from porthamiltonian.ports import Port
+from porthamiltonian.modeling.component import Arg, Component
+from porthamiltonian.modeling.ports import Port
 
 
 class _Wrench(Component):

@@ -28,7 +28,7 @@ def _tree() -> dict[str, set[str]]:
 
 def _actual(package: str) -> set[str]:
     base = ROOT / package
-    return ({p.name for p in base.glob("*.py") if p.name != "__init__.py"}
+    return ({p.name for p in base.glob("*.py") if p.name not in ("__init__.py", "__main__.py")}
             | {f"{p.name}/" for p in base.iterdir() if (p / "__init__.py").is_file()})
 
 

@@ -4,10 +4,10 @@
   each point: a ball whose gravity an event action switches off at its first ground contact
   (t₁ = √(2h/g), closed form) has g before t₁ and 0 after, in ``traj.p`` and ``traj["g"]``; after
   the switch it flies up at constant speed v₁ = g t₁ (no gravity).
-* Statuses are a :class:`~porthamiltonian.simulate.Status` whose values are the strings users see.
+* Statuses are a :class:`~porthamiltonian.simulation.simulate.Status` whose values are the strings users see.
 * ``CompiledModel.outputs``/``output``/``guards`` agree with the trajectory's columns and with the
   closed forms at a point (spring force k q, guard value q).
-* ``CompiledModel.simulate`` is :func:`porthamiltonian.simulate` itself (one signature).
+* ``CompiledModel.simulate`` is :func:`porthamiltonian.simulation.simulate` itself (one signature).
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import porthamiltonian as ph
-from porthamiltonian.simulate import Status
+from porthamiltonian.simulation.simulate import Status
 
 G, H = 9.81, 1.0
 

@@ -42,8 +42,7 @@ from scipy.optimize import brentq
 
 import porthamiltonian as ph
 from porthamiltonian import compile_model, io, symbolic
-from porthamiltonian.cli import main as cli_main
-from porthamiltonian.expressions import TIME
+from porthamiltonian.interfaces.cli import main as cli_main
 from porthamiltonian.library import (
     HuntCrossley,
     SpringDamper,
@@ -51,6 +50,7 @@ from porthamiltonian.library import (
     make_surface,
     scvs_coefficient,
 )
+from porthamiltonian.modeling.expressions import TIME
 
 CONTACT_MODELS = ["bouncing_ball", "bouncing_ball_kelvin_voigt", "block_on_incline",
                   "variable_stiffness_spring"]

@@ -20,9 +20,9 @@ import sympy as sp
 from multibody_cases import random_states, tree3d_model
 
 import porthamiltonian as ph
-from porthamiltonian.component import Component
 from porthamiltonian.errors import UnknownParameterError
 from porthamiltonian.mechanics.bodies import Revolute, RigidBody
+from porthamiltonian.modeling.component import Component
 
 
 def _central_differences(model, y: np.ndarray, p) -> np.ndarray:
@@ -105,7 +105,7 @@ class _CubicDamper(Component):
     kind = "TestCubicDamper"
 
     def ports(self):
-        from porthamiltonian.ports import Port
+        from porthamiltonian.modeling.ports import Port
         return [Port("p", "translation", orientation="in")]
 
     def law(self, b, w1, w2):
@@ -151,10 +151,10 @@ class _FlowEnergyDamper(_StagedCubicDamper):
 
 def _mass_on_cubic_damper(component: Component) -> ph.Model:
     m = ph.Model("mass_on_damper")
-    m.add("mass", ph.elements.I(domain="translation", inertance=2.0, p0=1.5))
-    m.add("spring", ph.elements.C(domain="translation", compliance=0.5, q0=0.2))
+    m.add("mass", ph.I(domain="translation", inertance=2.0, p0=1.5))
+    m.add("spring", ph.C(domain="translation", compliance=0.5, q0=0.2))
     m.add("d", component)
-    m.add("j", ph.elements.OneJunction())
+    m.add("j", ph.OneJunction())
     m.connect("j", "mass.p")
     m.connect("j", "spring.p")
     m.connect("j", "d.p")
@@ -186,9 +186,9 @@ def test_port_level_intermediates_equal_the_expanded_law():
 def test_a_port_variable_solved_from_its_own_intermediate_is_an_algebraic_loop():
     from porthamiltonian.errors import AlgebraicLoopError
     m = ph.Model("spring_on_damper")          # the spring sets the effort, the damper the flow
-    m.add("spring", ph.elements.C(domain="translation", compliance=0.5, q0=0.2))
+    m.add("spring", ph.C(domain="translation", compliance=0.5, q0=0.2))
     m.add("d", _LoopDamper())
-    m.add("j", ph.elements.ZeroJunction())
+    m.add("j", ph.ZeroJunction())
     m.connect("j", "spring.p")
     m.connect("j", "d.p")
     with pytest.raises(AlgebraicLoopError, match="d.w .*algebraic loop"):

@@ -77,7 +77,7 @@ def test_model_files_load_in_a_fresh_process():
 def test_check_energy_passes_on_the_mechanics_models():
     """``porthamiltonian check-energy`` (python back end) closes the energy balance of each
     mechanics model with its own [simulation] settings and energy_tolerance."""
-    run = subprocess.run([sys.executable, "-m", "porthamiltonian.cli", "--backend", "python",
+    run = subprocess.run([sys.executable, "-m", "porthamiltonian", "--backend", "python",
                           "check-energy", *MECHANICS_MODELS],
                          capture_output=True, text=True, timeout=600, check=False)
     assert run.returncode == 0, run.stdout + run.stderr

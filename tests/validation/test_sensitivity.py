@@ -27,7 +27,7 @@ from scipy.linalg import expm
 import porthamiltonian as ph
 from porthamiltonian import compile_model, io
 from porthamiltonian.errors import ModelError, OptionError
-from porthamiltonian.saltation import (
+from porthamiltonian.simulation.saltation import (
     compose,
     saltation_matrix,
     section_jacobian,
@@ -353,7 +353,7 @@ def test_plastic_impact_jacobian():
     explicit inverses; the configuration columns (through M(q), G(q)) agree with a five-point
     difference of the map at a 100x larger step to 1e-8, within the estimated error plus that;
     positions are unchanged (identity rows)."""
-    from porthamiltonian.mechanics.impact import impact_jacobian, model_impact
+    from porthamiltonian.simulation.impact import impact_jacobian, model_impact
 
     model = compile_model(io.load("double_pendulum"), backend="c")
     p = model.param_defaults

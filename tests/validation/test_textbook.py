@@ -28,7 +28,7 @@ from scipy.integrate import quad
 
 import porthamiltonian
 from porthamiltonian import compile_model, io, power_balance, symbolic
-from porthamiltonian.expressions import TIME
+from porthamiltonian.modeling.expressions import TIME
 
 
 # --------------------------------------------------------------------------------------------

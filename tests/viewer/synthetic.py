@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from porthamiltonian.viewer.quaternions import about_axis, multiply
+from porthamiltonian.interfaces.viewer.quaternions import about_axis, multiply
 
 G = 9.81
 #: top: mass (kg), distance pivot-centre of mass (m), moments (kg m²), tilt (rad), spin ω3 (rad/s)
@@ -51,7 +51,7 @@ def ball_slope_frame(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 class FakeTrajectory:
-    """What the adapter reads of a :class:`~porthamiltonian.trajectory.Trajectory`: ``t``, named
+    """What the adapter reads of a :class:`~porthamiltonian.simulation.trajectory.Trajectory`: ``t``, named
     columns (here all outputs) and the model's names."""
 
     def __init__(self, t: np.ndarray, columns: dict[str, np.ndarray], name: str = "synthetic"):

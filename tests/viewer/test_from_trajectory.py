@@ -1,5 +1,5 @@
-"""Scenes from simulations (porthamiltonian.viewer.from_trajectory) and the walker's 3D scene
-(walker_library.view3d): the names read, the default shapes, the slope frame turned level.
+"""Scenes from simulations (porthamiltonian.interfaces.viewer.from_trajectory) and the walker's 3D scene
+(walker_library.report.view3d): the names read, the default shapes, the slope frame turned level.
 
 Most cases use stand-in trajectories whose columns are closed-form motions
 (tests/viewer/synthetic.py); a real Multibody (the heavy top, whose pose outputs
@@ -18,7 +18,7 @@ from synthetic import BALL, FakeTrajectory, ball_slope_frame, pose_columns
 import porthamiltonian as ph
 from porthamiltonian import io
 from porthamiltonian.errors import SceneError
-from porthamiltonian.viewer import (
+from porthamiltonian.interfaces.viewer import (
     Arrow,
     Capsule,
     Ground,
@@ -27,10 +27,10 @@ from porthamiltonian.viewer import (
     pose_sources,
     scene_from_trajectory,
 )
-from porthamiltonian.viewer.from_trajectory import body_points
-from porthamiltonian.viewer.quaternions import about_axis, multiply, normalise, rotate
-from walker_library.view3d import is_3d, walker_scene
-from walker_library.walkers import read_walker
+from porthamiltonian.interfaces.viewer.from_trajectory import body_points
+from porthamiltonian.interfaces.viewer.quaternions import about_axis, multiply, normalise, rotate
+from walker_library.core.files import read_walker
+from walker_library.report.view3d import is_3d, walker_scene
 
 
 def test_pose_sources_by_name():
@@ -223,7 +223,7 @@ def test_a_3d_walker_is_drawn_from_its_poses():
 def test_porthamiltonian_view(compile_named, tmp_path, capsys):
     from PIL import Image
 
-    from porthamiltonian.cli import main
+    from porthamiltonian.interfaces.cli import main
 
     compile_named("free_rigid_body")                   # the python back end, compiled once
     out = tmp_path / "view"

@@ -1,4 +1,4 @@
-"""The viewer's scene (porthamiltonian.viewer): quaternions, resampling, checks of bad scenes, the
+"""The viewer's scene (porthamiltonian.interfaces.viewer): quaternions, resampling, checks of bad scenes, the
 page's data and the still image — against closed forms where there are some (tests/viewer/
 synthetic.py: a top in steady precession, a sphere rolling down a slope)."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ from PIL import Image
 from synthetic import BALL, TOP, ball_slope_frame, top_pose, top_precession
 
 from porthamiltonian.errors import SceneError
-from porthamiltonian.viewer import (
+from porthamiltonian.interfaces.viewer import (
     Arrow,
     Body,
     Box,
@@ -23,8 +23,8 @@ from porthamiltonian.viewer import (
     Sphere,
     TorusArc,
 )
-from porthamiltonian.viewer.page import block, document
-from porthamiltonian.viewer.quaternions import (
+from porthamiltonian.interfaces.viewer.page import block, document
+from porthamiltonian.interfaces.viewer.quaternions import (
     about_axis,
     from_matrix,
     multiply,
@@ -32,9 +32,9 @@ from porthamiltonian.viewer.quaternions import (
     rotate,
     to_matrix,
 )
-from porthamiltonian.viewer.sampling import resample, resample_quaternions
-from porthamiltonian.viewer.shapes import shape_from_dict
-from porthamiltonian.viewer.still import still_frames
+from porthamiltonian.interfaces.viewer.sampling import resample, resample_quaternions
+from porthamiltonian.interfaces.viewer.shapes import shape_from_dict
+from porthamiltonian.interfaces.viewer.still import still_frames
 
 RNG = np.random.default_rng(7)
 

@@ -10,8 +10,8 @@ import re
 import tomllib
 from pathlib import Path
 
-from porthamiltonian import viewer
-from porthamiltonian.viewer.page import THREE_VERSION, assets
+from porthamiltonian.interfaces import viewer
+from porthamiltonian.interfaces.viewer.page import THREE_VERSION, assets
 
 VENDOR = Path(viewer.__file__).parent / "vendor" / "three"
 ROOT = Path(__file__).resolve().parents[2]

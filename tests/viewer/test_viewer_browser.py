@@ -3,7 +3,7 @@ a browser these tests skip with a one-line reason, under CI they fail).
 
 One page holds three views: the closed-form scene (a top in steady precession and a sphere
 rolling down a slope with a step, tests/viewer/synthetic.py), an empty scene, and a scene whose
-data names an unknown shape. Each view reports on its element (porthamiltonian.viewer.page):
+data names an unknown shape. Each view reports on its element (porthamiltonian.interfaces.viewer.page):
 ``data-viewer`` (ready, no-webgl or the error), ``data-drawn`` (pixels of its first picture that
 differ from the background, read back from WebGL) and ``data-probe`` (where three.js put each
 body's first shape at frame 0, compared here with the scene's own poses: a wrong quaternion order
@@ -21,7 +21,7 @@ import pytest
 from browser import console_errors, render, run, screenshot
 from synthetic import BALL, ball_slope_frame, top_pose
 
-from porthamiltonian.viewer import (
+from porthamiltonian.interfaces.viewer import (
     Arrow,
     Body,
     Box,
@@ -31,8 +31,8 @@ from porthamiltonian.viewer import (
     Sphere,
     TorusArc,
 )
-from porthamiltonian.viewer.page import assets, block
-from porthamiltonian.viewer.quaternions import about_axis, multiply, rotate
+from porthamiltonian.interfaces.viewer.page import assets, block
+from porthamiltonian.interfaces.viewer.quaternions import about_axis, multiply, rotate
 
 TOP_RED, BALL_GREEN = "#d62728", "#2ca02c"
 

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from walker_library import analyze_gait, compass_walker, walk
-from walker_library.calibration import calibrate_damping
+from walker_library.analyses.calibration import calibrate_damping
 
 
 @pytest.fixture(scope="module")
@@ -191,7 +191,7 @@ def test_same_gait_on_every_back_end(walker):
     to 1e-9 (measured C vs numba: 4e-12) and the exact multipliers to 1e-6 (their error bound
     at rtol 1e-11: ≤ 3e-7)."""
     from walker_library import find_fixed_point
-    from walker_library.monodromy import floquet
+    from walker_library.analyses.monodromy import floquet
 
     tight = walker.with_options(rtol=1e-11, atol=1e-13)
     fp = find_fixed_point(tight, np.array(TIGHT_FIXED_POINT), tol=1e-11)

@@ -19,7 +19,7 @@ unit circle (−0.9967, −0.9786). `walker gait` reports the unstable orbit wit
 (outcome "unstable_orbits_only"), and the walker's own motion from it — or from a roll push —
 falls sideways as a result.
 
-Floquet multipliers here are exact (:func:`~walker_library.monodromy.floquet`'s default: the
+Floquet multipliers here are exact (:func:`~walker_library.analyses.monodromy.floquet`'s default: the
 variational equations with saltation matrices). The pins changed when the legs got their rod
 inertia (they were point masses) and the multipliers became exact (they were central differences
 at a fixed step of 1e-4): the sideways-fall multiplier at w = 0 from −32.794 to −33.386 — all of it
@@ -33,9 +33,9 @@ import numpy as np
 import pytest
 
 from walker_library import load_walker, walk
+from walker_library.analyses.monodromy import floquet
+from walker_library.analyses.poincare import find_fixed_point
 from walker_library.cli import main
-from walker_library.monodromy import floquet
-from walker_library.poincare import find_fixed_point
 
 TIGHT = {"rtol": 1e-12, "atol": 1e-13, "gait_tolerance": 1e-11}
 LATERAL = ["walker.q.pelvis.x", "walker.q.pelvis.z", "walker.v.pelvis.x", "walker.v.pelvis.z",

@@ -39,10 +39,10 @@ import numpy as np
 import pytest
 
 from walker_library import analyze_gait, compass_walker, compliant_leg_walker, walk
-from walker_library.dissipation import dissipation_breakdown
-from walker_library.metrics import gait_metrics
-from walker_library.poincare import find_fixed_point
-from walker_library.standing import load_above_spring, stand, static_compression
+from walker_library.analyses.dissipation import dissipation_breakdown
+from walker_library.analyses.metrics import gait_metrics
+from walker_library.analyses.poincare import find_fixed_point
+from walker_library.analyses.standing import load_above_spring, stand, static_compression
 
 
 @pytest.fixture(scope="module")

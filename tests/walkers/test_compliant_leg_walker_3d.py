@@ -7,11 +7,11 @@ file: planar multibody, planar contact and friction at the sole point, as this f
 is (Kuo 1999, IJRR 18, "Stabilization of lateral motion in passive dynamic walking": the
 straight-legged 3D passive walker is laterally unstable without control); compliance in the legs
 does not change that (sideways-fall multiplier −36.92 against −33.39 with rigid legs). The
-`compliance_3d` study (walker_library.studies) asks the thesis's Figs. 3.3–3.6 question in 3D;
+`compliance_3d` study (walker_library.report.studies) asks the thesis's Figs. 3.3–3.6 question in 3D;
 its reduced grid is checked here, the full study is `walker reproduce compliance_3d`
 (REPRODUCTION.md).
 
-Floquet multipliers are exact (:func:`~walker_library.monodromy.floquet`'s default). The pins
+Floquet multipliers are exact (:func:`~walker_library.analyses.monodromy.floquet`'s default). The pins
 changed when the legs got compliant_leg_walker's rod inertia I_leg = m_leg l²/12 (they were point
 masses) and the multipliers became exact (they were central differences at a fixed step of 1e-4):
 the sideways-fall multiplier from −36.311 to −36.923 — all of it the inertia: with I_leg = 0 the
@@ -25,9 +25,9 @@ import numpy as np
 import pytest
 
 from walker_library import load_walker, walk
-from walker_library.monodromy import floquet
-from walker_library.poincare import find_fixed_point
-from walker_library.studies import run_studies
+from walker_library.analyses.monodromy import floquet
+from walker_library.analyses.poincare import find_fixed_point
+from walker_library.report.studies import run_studies
 
 LATERAL = ["walker.q.pelvis.x", "walker.q.pelvis.z", "walker.v.pelvis.x", "walker.v.pelvis.z",
            "walker.v.hip_joint.y"]

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 from walker_library import analyze_gait, compass_walker
-from walker_library.poincare import find_fixed_point
-from walker_library.walkers import rigid_compass_walker
+from walker_library.analyses.poincare import find_fixed_point
+from walker_library.core.files import rigid_compass_walker
 
 
 @pytest.fixture(scope="module")

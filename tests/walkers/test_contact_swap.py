@@ -1,7 +1,7 @@
 """Swapping a walker's contact law by editing its model file (docs/walkers.md, docs/model-files.md):
 the two feet's contact lines of models/compass_walker.toml (HuntCrossley3D in the x-z plane, the
 rolling arc feet) become Kelvin–Voigt contacts (KelvinVoigt3D, linear damping B_contact = 1e3
-N·s/m, calibrated the thesis's way: walker_library.calibration), and one parameter line declares
+N·s/m, calibrated the thesis's way: walker_library.analyses.calibration), and one parameter line declares
 B_contact.
 
 Measured (γ = 0.009, B = 1e3 N·s/m; legs as rods, the rolling contact): the walker walks from
@@ -28,7 +28,7 @@ from porthamiltonian import io
 from porthamiltonian.errors import ModelFileError
 from walker_library import analyze_gait, load_walker, save_walker
 
-ORIGINAL = Path(io.__file__).resolve().parent.parent / "models" / "compass_walker.toml"
+ORIGINAL = Path(io.__file__).resolve().parents[2] / "models" / "compass_walker.toml"
 B_CONTACT = 1.0e3
 
 

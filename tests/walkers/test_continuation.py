@@ -1,5 +1,5 @@
-"""Continuation of gaits and their bifurcations (walker_library.continuation), and the stability
-verdict of the stride map's Jacobian (walker_library.monodromy: exact by default; finite
+"""Continuation of gaits and their bifurcations (walker_library.analyses.continuation), and the stability
+verdict of the stride map's Jacobian (walker_library.analyses.monodromy: exact by default; finite
 differences with the step chosen per coordinate as the cross-check).
 
 Independent references:
@@ -37,10 +37,10 @@ from walker_library import (
     rimless_wheel,
     simplest_walker,
 )
+from walker_library.analyses.monodromy import eigen_errors
 from walker_library.cli import main
-from walker_library.monodromy import eigen_errors
-from walker_library.protocol import Stride
-from walker_library.variational import StrideSensitivity
+from walker_library.core.protocol import Stride
+from walker_library.core.variational import StrideSensitivity
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "validation"))
 from handwritten_walkers import SimplestWalkerHand, newton_fixed_point
@@ -151,7 +151,7 @@ def test_stability_verdict_does_not_depend_on_the_settings(simplest):
     whatever step it starts from (1e-1 to 1e-5 of the coordinates), within 2e-7 and its error
     bounds; a single fixed step does not: 1e-3 (the thesis's, App. C) gives −0.9916, 'stable';
     1e-2 makes a perturbed stride fall."""
-    from walker_library.poincare import WalkerFell, jacobian
+    from walker_library.analyses.poincare import WalkerFell, jacobian
     w = simplest.with_parameters(slope=0.01512)
     fp = find_fixed_point(w, w.from_thesis([-0.2319, 2 * 0.2369, -0.0256]))
     assert fp.converged
@@ -273,7 +273,7 @@ def test_compass_gait_cascade_flips(period, start, stop, guess, flip):
 # --- synthetic stride maps: bifurcations known in closed form -------------------------------------
 class _SyntheticMap:
     """A stride map z' = f(z; μ) on a two-coordinate section with its exact Jacobian, run
-    through the :class:`~walker_library.protocol.Walker` interface (one "stride" per map
+    through the :class:`~walker_library.core.protocol.Walker` interface (one "stride" per map
     iteration), so the continuation's branch logic is checked against closed forms in
     milliseconds."""
 

@@ -27,7 +27,7 @@ from walker_library import (
     simplest_walker,
     stride_map,
 )
-from walker_library.poincare import jacobian
+from walker_library.analyses.poincare import jacobian
 
 
 @pytest.fixture(scope="module")

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from walker_library import analyze_gait, simplest_walker
+from walker_library.analyses.gait import section_guess
 from walker_library.cli import main
-from walker_library.gait import section_guess
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from porthamiltonian.errors import ModelError, StateError
-from porthamiltonian.mechanics.impact import model_impact, plastic_impact
+from porthamiltonian.simulation.impact import model_impact, plastic_impact
 from walker_library import compass_gait, rimless_wheel, simplest_walker
 
 

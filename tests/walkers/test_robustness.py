@@ -1,4 +1,4 @@
-"""Robustness analyses (walker_library.robustness): the step-down test, the basin of attraction
+"""Robustness analyses (walker_library.analyses.robustness): the step-down test, the basin of attraction
 and the Gait Sensitivity Norm, on the rigid-impact walkers (fast; the compliant-contact walkers
 use the same code through the Walker protocol).
 
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from walker_library import analyze_gait, compass_gait, simplest_walker
+from walker_library.analyses.poincare import jacobian
+from walker_library.analyses.robustness import basin, gait_sensitivity_norm, recovers, step_down
 from walker_library.cli import main
-from walker_library.poincare import jacobian
-from walker_library.robustness import basin, gait_sensitivity_norm, recovers, step_down
 
 
 @pytest.fixture(scope="module")

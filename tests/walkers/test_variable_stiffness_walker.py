@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from walker_library import analyze_gait, variable_stiffness_walker, walk
-from walker_library.standing import stand
+from walker_library.analyses.standing import stand
 
 #: φ_max of the file: the largest |φ| over a step of the constant-K1 gait (K2 = K1, α = 0.2)
 PHI_MAX_K1 = 0.4379

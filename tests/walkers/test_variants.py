@@ -24,7 +24,7 @@ import pytest
 from porthamiltonian import io
 from walker_library import analyze_gait, load_walker, walk
 
-MODELS = Path(io.__file__).resolve().parent.parent / "models"
+MODELS = Path(io.__file__).resolve().parents[2] / "models"
 
 VARIANTS = {
     "hip spring": ("hip_and_leg_spring_walker", {}),

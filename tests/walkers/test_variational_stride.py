@@ -1,5 +1,5 @@
-"""The exact stride Jacobian (walker_library.variational, the default ``jacobian="variational"``
-of walker_library.monodromy) against finite differences of ``HybridWalker.walk``:
+"""The exact stride Jacobian (walker_library.core.variational, the default ``jacobian="variational"``
+of walker_library.analyses.monodromy) against finite differences of ``HybridWalker.walk``:
 
 * rigid walkers (a pinned swing phase, a plastic impact and relabelling at heel strike, the
   impact's Jacobian by differences with an error estimate): central differences of strides at
@@ -21,10 +21,10 @@ import numpy as np
 import pytest
 
 from porthamiltonian.errors import ModelError
-from walker_library.monodromy import floquet, stride_jacobian
-from walker_library.poincare import find_fixed_point
-from walker_library.poincare import jacobian as fd_jacobian
-from walker_library.walkers import load_walker
+from walker_library.analyses.monodromy import floquet, stride_jacobian
+from walker_library.analyses.poincare import find_fixed_point
+from walker_library.analyses.poincare import jacobian as fd_jacobian
+from walker_library.core.files import load_walker
 
 #: the compass walker's fixed point at rtol 1e-11 (tests/walkers/test_compass_walker.py; the
 #: friction at the rolling contact point since issue 14)

@@ -18,7 +18,7 @@ from porthamiltonian import io
 from walker_library import analyze_gait, available_walkers, load_walker
 from walker_library.cli import main
 
-MODELS = Path(io.__file__).resolve().parent.parent / "models"
+MODELS = Path(io.__file__).resolve().parents[2] / "models"
 WALKERS = ["simplest_walker", "compass_gait", "rimless_wheel"]
 LEGGED = {"simplest_walker", "compass_gait"}
 
@@ -106,7 +106,7 @@ def test_shipped_walker_files_are_found_and_export_round_trips(tmp_path, capsys)
 
 @pytest.mark.parametrize("name", WALKERS)
 def test_walker_files_load_as_walkers_and_as_porthamiltonian_models(name):
-    """A walker file is both: load_walker builds the walker from it; porthamiltonian.io loads the
+    """A walker file is both: load_walker builds the walker from it; porthamiltonian.interfaces.io loads the
     model (the same components, and the [walker] table kept for saving back)."""
     walker = load_walker(name)
     record = io.read(name)

@@ -34,10 +34,10 @@ from walker_library import (
     save_walker,
     simplest_walker,
 )
-from walker_library.hybrid import Integration, walker_spec
-from walker_library.walkers import SHIPPED
+from walker_library.core.files import SHIPPED
+from walker_library.core.hybrid import Integration, walker_spec
 
-MODELS = Path(io.__file__).resolve().parent.parent / "models"
+MODELS = Path(io.__file__).resolve().parents[2] / "models"
 
 
 # --- files round-trip ----------------------------------------------------------------------------
@@ -157,7 +157,7 @@ def _line(text: str, needle: str) -> int:
 @pytest.fixture
 def no_compilation(monkeypatch):
     """Fail the test if a walker's model gets compiled."""
-    from walker_library import core
+    from walker_library.core import walker as core
 
     def refuse(*a, **k):
         raise AssertionError("a model was compiled before the description was checked")
@@ -254,7 +254,7 @@ def test_a_built_walker_loads_without_symbolic_work_and_a_damaged_names_file_is_
     import copy
 
     from porthamiltonian.compiler import cache
-    from walker_library import core
+    from walker_library.core import walker as core
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(core, "_CHECKED", {})
     calls = []

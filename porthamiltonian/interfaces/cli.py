@@ -1,0 +1,469 @@
+"""Command line ``porthamiltonian``: simulate, show, check-energy and sweep model files.
+
+    porthamiltonian simulate MODEL [--set NAME=VALUE ...] [--t-end T] [--json] [--csv FILE]
+    porthamiltonian show MODEL [--code [--backend c|numba|python]]
+    porthamiltonian check-energy [MODEL ...]
+    porthamiltonian view MODEL [--set NAME=VALUE ...] [--t-end T] [--out DIR] [--rate R]
+    porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
+                          [--settle NAME [--band B]] [--workers N | --serial | --scheduler ADDR]
+
+MODEL is a name from ``models/`` or a path to a ``.toml`` model file. Every option may be given
+anywhere after its command (``--backend`` also before it). Exit status: 0 on success, 1 when a
+check fails (or, for a sweep, some cases were lost: rerun it), 2 on bad input (``error: <message>``
+on stderr, naming what is wrong; never a traceback), 3 on a bug in porthamiltonian (a traceback
+and a request to report it), 130 when interrupted (Ctrl-C; 128 + the signal's number for a
+sweep), 141 when the reader of the output went away (``| head``).
+
+This module also holds what the ``walker`` command shares with this one: the parent parsers of
+the common options (:data:`SET_OPTION`, :data:`JSON_OPTION`, :func:`backend_option`,
+:data:`QUIET_OPTION`, :data:`SWEEP_OPTIONS`), :func:`parse_assignments`, :func:`run_sweep` and
+the runner :func:`run`.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import sys
+import traceback
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+from .. import backends
+from ..backends import module, native
+from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
+from ..batch.progress import MODES
+from ..batch.table import write_csv
+from ..errors import ModelError
+from . import io
+from .sweeps import SimulationModel, prepare_simulation, simulate_case
+
+
+# --- options shared by the commands (argparse parent parsers) ------------------------------------
+def _parent() -> argparse.ArgumentParser:
+    return argparse.ArgumentParser(add_help=False)
+
+
+#: ``--set NAME=VALUE`` (repeatable): parameter values, read by :func:`parse_assignments`
+SET_OPTION = _parent()
+SET_OPTION.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="give a parameter a value (SI units), e.g. --set k=9; repeatable")
+#: ``--json``: one JSON document on stdout
+JSON_OPTION = _parent()
+JSON_OPTION.add_argument("--json", action="store_true",
+                         help="print one JSON document on stdout (SI units, named fields)")
+def backend_option(default: str | None = argparse.SUPPRESS) -> argparse.ArgumentParser:
+    """A parent parser of ``--backend`` (the names :mod:`porthamiltonian.backends` accepts).
+    A command's top-level parser takes it with the command's default; its subcommands take
+    :data:`BACKEND_OPTION` (no default), so the option works before and after the subcommand."""
+    parent = _parent()
+    parent.add_argument("--backend", choices=("auto", *backends.BACKENDS), default=default,
+                        help="numeric back end; 'auto' picks the fastest one installed "
+                             "(default: auto; walkers: the walker's own)")
+    return parent
+
+
+#: ``--backend NAME`` of a subcommand (see :func:`backend_option`)
+BACKEND_OPTION = backend_option()
+#: ``--quiet``: no progress display on stderr
+QUIET_OPTION = _parent()
+QUIET_OPTION.add_argument("--quiet", action="store_true",
+                          help="no progress lines or bar on stderr")
+
+
+#: the options of a resumable sweep (``porthamiltonian sweep``, ``walker sweep``)
+SWEEP_OPTIONS = _parent()
+SWEEP_OPTIONS.add_argument(
+    "--grid", action="append", default=[], required=True, metavar="NAME=SPEC",
+    help="an axis of the grid: NAME=start:stop:n (n values, both ends included) or "
+         "NAME=v1,v2,...; repeat for a cartesian product (the last axis varies fastest)")
+SWEEP_OPTIONS.add_argument(
+    "--out", required=True, metavar="FILE",
+    help="results file (JSON Lines, one row per finished case); rerunning the same command "
+         "resumes it")
+SWEEP_OPTIONS.add_argument("--workers", type=int, default=None, metavar="N",
+                           help="worker processes of the local pool (default: one per core), or "
+                                "of --scheduler local")
+SWEEP_OPTIONS.add_argument("--serial", action="store_true",
+                           help="run the cases in this process, one after the other")
+SWEEP_OPTIONS.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                           help="run on a dask.distributed cluster: a scheduler address "
+                                "(tcp://host:8786), or 'local' for a local cluster")
+SWEEP_OPTIONS.add_argument("--csv", default=None, metavar="FILE",
+                           help="also write the table as CSV")
+SWEEP_OPTIONS.add_argument("--progress", choices=MODES, default=None,
+                           help="progress display on stderr (default: auto, a bar on a "
+                                "terminal, else text lines; none with --json)")
+SWEEP_OPTIONS.add_argument("--progress-interval", type=float, default=10.0, metavar="S",
+                           help="seconds between text progress lines (default: 10)")
+
+
+def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
+                     description: str) -> argparse.ArgumentParser:
+    """Add a ``sweep`` command to ``subparsers``: ``--backend``, :data:`SWEEP_OPTIONS` and
+    ``--json``, and the resume and exit-status rules after ``description``."""
+    return subparsers.add_parser(
+        "sweep", parents=[BACKEND_OPTION, SWEEP_OPTIONS, JSON_OPTION], help=help,
+        description=f"{description} Rerunning the same command resumes the sweep where it "
+                    "stopped (also after the command was killed). Exit status: 0 all cases "
+                    "done, 1 some lost (rerun), 2 bad input or a refused file, 130/143 "
+                    "interrupted (rerun to resume).")
+
+
+def parse_assignments(pairs: Sequence[str]) -> dict[str, float]:
+    """``["k=9", "slope=0.01"]`` (the ``--set`` options) -> ``{"k": 9.0, "slope": 0.01}``."""
+    out = {}
+    for pair in pairs:
+        name, sep, value = pair.partition("=")
+        if not sep or not name.strip():
+            raise ModelError(f"--set takes NAME=VALUE, got {pair!r}")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ModelError(f"--set {name}: {value!r} is not a number") from None
+    return out
+
+
+# --- sweeps ----------------------------------------------------------------------------------------
+def _model_file_meta(model: str) -> dict[str, str]:
+    """The model file a sweep's model name resolves to, and its sha256 (header metadata: a
+    resumed sweep whose file changed warns); {} for a name that is no file (a builder)."""
+    try:
+        path = io.model_path(model)
+        return {"model_file": str(path), "model_file_sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+    except (ModelError, OSError):
+        return {}
+
+
+def _fmt(value: Any) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def _print_table(rows: list[dict], names: list[str], columns: Sequence[str]) -> None:
+    cols = ["case_id", *names, "status", *columns]
+    cells = [[_fmt(row.get(c)) for c in cols] for row in rows]
+    widths = [max(len(c), *(len(r[i]) for r in cells)) for i, c in enumerate(cols)]
+    print("  ".join(c.ljust(w) for c, w in zip(cols, widths)))
+    for r in cells:
+        print("  ".join(v.ljust(w) for v, w in zip(r, widths)))
+
+
+def run_sweep(args: argparse.Namespace, analysis: Analysis, fixed: dict[str, Any],
+              columns: Sequence[str] | None = None) -> int:
+    """Run (or resume) the sweep of a ``sweep`` command: ``analysis`` over the cases of
+    ``args.grid`` with the keyword arguments ``fixed``, into ``args.out``, then print the
+    report and the table (``columns``: result fields shown; default the analysis's).
+
+    Everything that can be refused is refused before any case runs: the grid, options the case
+    function does not take, a results file that is a directory or belongs to another sweep, and
+    (the analysis's ``prepare``) the cases themselves. Exit status: 0 when every case is in the
+    file (failed cases included), 1 when some were lost by the executor (rerun to resume),
+    128 + the signal's number when interrupted."""
+    cases = parse_grid(args.grid)
+    if args.workers is not None and args.workers < 1:
+        raise SweepError(f"--workers must be at least 1, got {args.workers}")
+    meta = {"analysis": analysis.name, "grid": list(args.grid),
+            **_model_file_meta(str(fixed.get("model", "")))}
+    sweep = Sweep(analysis.resolve(), cases, args.out, fixed=fixed, meta=meta,
+                  ok_statuses=analysis.ok_statuses)
+    if sweep.pending():
+        sweep.set_shared(analysis.run_prepare(sweep.cases, sweep.fixed))
+    progress = args.progress or ("none" if args.json else "auto")
+    try:
+        with open_executor(args.scheduler, args.workers) as executor:
+            report = sweep.run(executor, workers=args.workers, serial=args.serial,
+                               progress=progress, progress_interval=args.progress_interval)
+    except SweepInterrupted as stop:
+        print(f"interrupted: {stop}", file=sys.stderr)
+        return 128 + stop.signum
+    rows = sweep.table()
+    if args.csv:
+        write_csv(rows, args.csv)
+    if args.json:
+        print(json.dumps({"file": str(sweep.path), "identity": sweep.identity,
+                          "report": report.to_dict(), "table": rows}, indent=1, allow_nan=False))
+    else:
+        counts = ", ".join(f"{k} {v}" for k, v in sorted(report.status_counts.items()))
+        print(f"{sweep.path}: {report.n_done}/{report.n_cases} cases ({counts}); this run "
+              f"{report.n_run} case(s) in {report.seconds:.3g} s, {report.n_previously_done} "
+              "already done")
+        if len(rows) <= 60:
+            _print_table(rows, list(cases[0]), analysis.columns if columns is None else columns)
+        if args.csv:
+            print(f"wrote {args.csv}")
+    if report.n_lost:
+        print(f"{report.n_lost} case(s) were lost by the executor; run the same command again "
+              "to finish the sweep", file=sys.stderr)
+        return 1
+    return 0
+
+
+SIMULATE = Analysis("simulate", simulate_case,
+                    "simulate the model with each case's parameter values: status, ledger, "
+                    "final/min/max of outputs, settling time", prepare=prepare_simulation,
+                    ok_statuses=("finished", "event"))
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """``porthamiltonian sweep``: simulate the model at every grid point (resumable)."""
+    if not 0 < args.band < 1:
+        raise SweepError(f"--band must be a fraction between 0 and 1 (0.02: the 2 % settling "
+                         f"time), got {args.band!r}")
+    fixed = {"model": args.model, "backend": args.backend, "t_end": args.t_end,
+             "outputs": args.output or None, "settle": args.settle, "band": args.band}
+    columns = ([f"final.{n}" for n in args.output] + (["settling_time"] if args.settle else [])
+               + ["energy.dissipated", "energy.relative_residual"])
+    return run_sweep(args, SIMULATE, fixed, columns)
+
+
+# --- simulate, show, check-energy -------------------------------------------------------------------
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """``porthamiltonian simulate``: one run, its final state and ledger (text or JSON)."""
+    entry = SimulationModel.load(args.model, args.backend)
+    model, compiled = entry.model, entry.compiled
+    traj = entry.simulate(args.t_end, parse_assignments(args.set))
+    result = {"model": model.name, "status": traj.status, "message": traj.message,
+              "t_end": traj.t_final,
+              "final_state": dict(zip(compiled.state_names, traj.x_final.tolist())),
+              "energy": traj.ledger(), "nfev": traj.nfev, "events": traj.events}
+    if args.csv:
+        traj.to_csv(args.csv, outputs=True)
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(f"{model.name}: {traj.status} at t = {traj.t_final:g} s ({traj.message}); "
+              f"{traj.nfev} right-hand-side evaluations")
+        for name, value in result["final_state"].items():
+            print(f"  {name:30s} {value: .10g} {compiled.units.get(name, '')}".rstrip())
+        led = result["energy"]
+        print(f"  energy: H(0) = {led['H0']:.10g} J, H(T) = {led['HT']:.10g} J, dissipated = "
+              f"{led['dissipated']:.10g} J, supplied = {led['supplied']:.10g} J")
+        print(f"  residual H(T) - H(0) + dissipated - supplied = {led['residual']:.3e} J "
+              f"(max |r| / energy scale = {led['relative_residual']:.3e})")
+    return 0 if traj.success else 1
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    """``porthamiltonian view``: simulate a model and write its 3D view and still image."""
+    from pathlib import Path
+
+    from ..errors import OptionError
+    from .viewer import scene_from_trajectory
+
+    if not (args.rate > 0 and args.rate < float("inf")):
+        raise OptionError(f"--rate: frames per second of simulated time must be a positive "
+                          f"number, got {args.rate:g}")
+    record = io.read(args.model)
+    entry = SimulationModel.load(args.model, args.backend)
+    traj = entry.simulate(args.t_end, parse_assignments(args.set))
+    scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
+                                  title=entry.model.name)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    page = scene.to_html(out / "view.html", caption=record.description, still=False)
+    still = scene.to_png(out / "view.png")
+    print(f"wrote {page} and {still}: {len(scene.bodies)} bod{'y' if len(scene.bodies) == 1 else 'ies'}"
+          f", {len(scene.t)} frames over {traj.t_final:g} s ({traj.status})")
+    return 0 if traj.success else 1
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    """``porthamiltonian show``: components, bonds, parameters and the state equations (with
+    ``--code``: the generated source of the chosen back end)."""
+    from ..compiler import compile_model, symbolic
+
+    record = io.read(args.model)
+    model = record.model
+    if args.code:
+        with record.located():
+            compiled = compile_model(model, backend=args.backend)
+        print(native.translation_unit(compiled.source) if compiled.backend == "c" else
+              module.module_text(compiled.source, compiled.backend), end="")
+        return 0
+    with record.located():
+        flat = model.validate()
+        sym = symbolic(flat)
+    print(f"model {model.name}: {record.description}")
+    print("components:")
+    for name, comp in flat.components.items():
+        ports = ", ".join(f"{p.name}[{p.domain}{'' if p.dim == 1 else f' x{p.dim}'}, "
+                          f"{p.orientation or 'free'}]" for p in flat.ports[name])
+        print(f"  {name:22s} {comp.kind:8s} {dict(comp.args)}  ports: {ports}")
+    print("bonds (power tail -> head):")
+    for (tc, tp), (hc, hp) in flat.bonds:
+        print(f"  {tc}.{tp} -> {hc}.{hp}")
+    print("parameters:")
+    for name, par in flat.parameters.items():
+        print(f"  {name:22s} = {par.value:<12g} {par.unit:10s} {par.doc}")
+    print("states:", ", ".join(sym.state_names))
+    print("state equations:")
+    for line in sym.equations:
+        print("  " + line)
+    print(f"H      = {sym.hamiltonian}")
+    print(f"P_diss = {sym.p_diss}")
+    print(f"P_in   = {sym.p_in}")
+    return 0
+
+
+def cmd_check_energy(args: argparse.Namespace) -> int:
+    """``porthamiltonian check-energy``: each model's energy balance against its tolerance."""
+    names = args.models or io.available_models()
+    failed = []
+    for name in names:
+        try:
+            entry = SimulationModel.load(name, args.backend)
+            traj = entry.simulate(None)
+        except ModelError as err:
+            print(f"FAIL {name}: {err}")
+            failed.append(name)
+            continue
+        rel, tol = traj.relative_residual, float(entry.settings["energy_tolerance"])
+        ok = traj.success and rel <= tol
+        print(f"{'ok  ' if ok else 'FAIL'} {name}: status {traj.status}, max |residual| / energy "
+              f"scale = {rel:.2e} (tolerance {tol:.0e}), energy scale {traj.energy_scale:.3g} J")
+        if not ok:
+            failed.append(name)
+    if failed:
+        print(f"energy check failed for: {', '.join(failed)}")
+        return 1
+    print(f"energy balance closed for all {len(names)} models")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``porthamiltonian`` command's parser."""
+    model_help = "model: a name from models/ (see check-energy's list) or a path to a .toml file"
+    parser = argparse.ArgumentParser(prog="porthamiltonian", description=__doc__.splitlines()[0],
+                                     parents=[backend_option("auto")])
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    p = sub.add_parser("simulate", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION],
+                       help="simulate a model and print its final state and energy ledger")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--t-end", type=float, default=None, metavar="T",
+                   help="end time (s; default: the model file's [simulation] t_end)")
+    p.add_argument("--csv", metavar="FILE",
+                   help="also write the trajectory (time, states, ledger, outputs) as CSV")
+    p.set_defaults(func=cmd_simulate)
+    p = sub.add_parser("view", parents=[BACKEND_OPTION, SET_OPTION],
+                       help="simulate a model and write an interactive 3D view of its bodies "
+                            "(view.html, works offline) and a still image (view.png)")
+    p.add_argument("model", help=model_help + "; its bodies need poses: a FreeBody, or a "
+                   "Multibody body with outputs <multibody>.<body>.pose.x|y|z|qw|qx|qy|qz")
+    p.add_argument("--t-end", type=float, default=None, metavar="T",
+                   help="end time (s; default: the model file's [simulation] t_end)")
+    p.add_argument("--out", default="view", metavar="DIR",
+                   help="output directory (default: ./view)")
+    p.add_argument("--rate", type=float, default=30.0, metavar="R",
+                   help="frames per second of simulated time (default: 30; at most 900 "
+                        "frames)")
+    p.set_defaults(func=cmd_view)
+    p = sub.add_parser("show", parents=[BACKEND_OPTION],
+                       help="components, ports, bonds, states, parameters and equations, or "
+                            "the generated code (--code)")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--code", action="store_true",
+                   help="print the generated source the back end compiles (--backend: c, "
+                        "numba or python; default auto, the back end in use)")
+    p.set_defaults(func=cmd_show)
+    p = sub.add_parser("check-energy", parents=[BACKEND_OPTION],
+                       help="simulate models and check their energy residual")
+    p.add_argument("models", nargs="*", metavar="MODEL",
+                   help="models to check (default: every model in models/)")
+    p.set_defaults(func=cmd_check_energy)
+    p = add_sweep_parser(
+        sub, "simulate a model for every case of a parameter grid, resumably",
+        "Simulate MODEL once per case of a parameter grid (the case's values bound as "
+        "parameters), appending one row per case to a JSON Lines file: the run's status and "
+        "energy ledger, final value, minimum and maximum of chosen outputs, and a settling time.")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--t-end", type=float, default=None, metavar="T",
+                   help="end time of every run (s; default: the model file's [simulation] t_end)")
+    p.add_argument("--output", action="append", default=[], metavar="NAME",
+                   help="a state or named output whose final value, minimum and maximum are "
+                        "recorded (repeatable; default: every state)")
+    p.add_argument("--settle", default=None, metavar="NAME",
+                   help="also record the settling time (s) of this state or output")
+    p.add_argument("--band", type=float, default=0.02, metavar="B",
+                   help="settling band as a fraction of the largest deviation from the final "
+                        "value (default: 0.02, the 2%% settling time)")
+    p.set_defaults(func=cmd_sweep)
+    return parser
+
+
+#: exit statuses of :func:`run`
+EXIT_USER_ERROR, EXIT_BUG, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 2, 3, 130, 141
+
+
+def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> int:
+    """Parse ``argv`` and run the chosen command, shared by the ``walker`` command.
+
+    * bad input — a :class:`ModelError` (unknown model, bad file, out-of-range option or
+      parameter) or a file that cannot be read or written: ``error: <message>`` on stderr, exit
+      status 2, no traceback (argparse's own usage errors exit 2 too);
+    * Ctrl-C: ``interrupted`` on stderr, status 130, no traceback;
+    * the reader of stdout went away (``walker list | head``): no message, status 141;
+    * anything else is a bug in the project: the traceback, then a line asking to report it,
+      status 3.
+
+    Warnings (e.g. a damaged cache entry being rebuilt) are printed as ``warning: <message>``.
+    The one-time build of a model that is not cached yet is reported in one line on stderr
+    (:func:`porthamiltonian.backends.report`; not with ``--quiet``).
+    """
+    args = parser.parse_args(argv)
+    try:
+        with warnings.catch_warnings(), backends.quiet(getattr(args, "quiet", False)):
+            warnings.showwarning = _show_warning
+            status = args.func(args)
+            sys.stdout.flush()                 # a closed pipe shows here, not at exit
+        return status
+    except ModelError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        _detach_stdout()
+        return EXIT_BROKEN_PIPE
+    except OSError as err:
+        if err.filename is None:
+            return _report_bug()
+        print(f"error: {err.filename}: {err.strerror or err}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except Exception:  # noqa: BLE001 - a bug: report it, with the traceback
+        return _report_bug()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"warning: {message}", file=sys.stderr)
+
+
+def _detach_stdout() -> None:
+    """Point stdout at /dev/null, so that flushing it at exit raises nothing more."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
+def _report_bug() -> int:
+    traceback.print_exc()
+    print("error: this is a bug in porthamiltonian, not a problem with your input; please report "
+          "it with the command line and the traceback above", file=sys.stderr)
+    return EXIT_BUG
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The ``porthamiltonian`` command: the exit status (0 ok, 1 a failed check, 2 bad input)."""
+    return run(build_parser(), argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

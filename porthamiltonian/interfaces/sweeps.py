@@ -1,0 +1,228 @@
+"""The generic case of a model sweep: simulate a model with the case's parameter values.
+
+``porthamiltonian sweep MODEL --grid k=1:10:5 ...`` runs :func:`simulate_case` for each case: the
+model (a name from ``models/`` or a path) compiled once per process (:class:`ModelCache`),
+simulated to ``t_end`` with the case's values bound as parameters and the model file's
+``[simulation]`` settings, and summarised as JSON:
+
+``status``, ``message``, ``t_final`` (s), ``nfev``, ``n_events``
+    the run (a run that fails or diverges is a row with that status, not a lost sweep);
+``energy``
+    the ledger at the end: ``H0``, ``HT``, ``dissipated``, ``supplied``, ``residual`` (J) and
+    ``max_abs_residual`` (J), ``relative_residual`` (1);
+``final``, ``min``, ``max``
+    of each name in ``outputs`` (states or named outputs; default: every state), in its unit;
+``settling_time``
+    with ``settle=NAME``: :func:`settling_time` of that state or output (s), None when it is
+    still outside its band at the end of the run.
+
+:func:`prepare_simulation` compiles the model once in the main process and checks every case's
+parameter names and values, the names in ``outputs``/``settle`` and the options before any case
+runs.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import ModelError
+from ..integrators import TABLEAUS
+
+if TYPE_CHECKING:
+    from ..modeling.model import Model
+    from ..simulation.compiled import CompiledModel
+    from ..simulation.trajectory import Trajectory
+
+__all__ = ["ModelCache", "SimulationModel", "model_cache", "prepare_simulation",
+           "settling_time", "simulate_case", "simulation_settings"]
+
+#: integration settings of a model file's [simulation] table when it does not give them
+DEFAULT_SETTINGS = {"method": "auto", "rtol": 1e-9, "atol": 1e-12, "energy_tolerance": 1e-6}
+
+
+def simulation_settings(file_settings: Mapping[str, Any]) -> dict[str, Any]:
+    """A model file's ``[simulation]`` table completed with :data:`DEFAULT_SETTINGS`."""
+    return {**DEFAULT_SETTINGS, **file_settings}
+
+
+@dataclass(frozen=True)
+class SimulationModel:
+    """A model loaded from its file and compiled: the description, the compiled model, and its
+    file's simulation settings (completed by :func:`simulation_settings`)."""
+
+    model: Model
+    compiled: CompiledModel
+    settings: dict[str, Any]
+
+    @classmethod
+    def load(cls, model: str, backend: str | None = None) -> SimulationModel:
+        """Load ``model`` (a name from ``models/`` or a path) and compile it with ``backend``
+        (None: "auto")."""
+        from . import io
+        record = io.read(model)
+        return cls(record.model, record.compile(backend=backend or "auto"),
+                   simulation_settings(record.simulation))
+
+    def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
+                 dense_output: bool = False) -> Trajectory:
+        """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
+        method, rtol, atol and max_step (with ``dense_output``, a file's compiled method,
+        Rodas4 or Rodas5P, becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
+        t_end = self.t_end(t_end)
+        sim = self.settings
+        options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
+        method = sim["method"]
+        if dense_output and method in TABLEAUS:
+            method = "auto"              # the compiled loop has no dense output: Radau instead
+        return self.compiled.simulate(t_end, params=params, method=method, rtol=sim["rtol"],
+                                      atol=sim["atol"], dense_output=dense_output, **options)
+
+    def t_end(self, t_end: float | None) -> float:
+        """``t_end`` (s), else the file's; ModelError when neither is given."""
+        t_end = self.settings.get("t_end") if t_end is None else t_end
+        if t_end is None:
+            raise ModelError(f"model {self.model.name!r} has no [simulation] t_end; pass --t-end")
+        return float(t_end)
+
+
+class ModelCache:
+    """The models of this process, loaded and compiled once per (model, back end): a sweep's
+    workers compile (or load from the on-disk cache) once and bind each case's parameters."""
+
+    def __init__(self) -> None:
+        self._models: dict[tuple[str, str], SimulationModel] = {}
+
+    def get(self, model: str, backend: str | None = None) -> SimulationModel:
+        """The compiled ``model`` (a name from ``models/`` or a path) with ``backend``
+        (None: "auto")."""
+        key = (str(model), backend or "auto")
+        if key not in self._models:
+            self._models[key] = SimulationModel.load(*key)
+        return self._models[key]
+
+    def clear(self) -> None:
+        """Forget every model (the next ``get`` loads and compiles again)."""
+        self._models.clear()
+
+
+_PROCESS_MODELS = ModelCache()
+
+
+def model_cache() -> ModelCache:
+    """This process's :class:`ModelCache` (forked workers inherit the parent's)."""
+    return _PROCESS_MODELS
+
+
+def settling_time(t: np.ndarray, y: np.ndarray, band: float = 0.02,
+                  y_of_t: Callable[[float], float] | None = None) -> float | None:
+    """The time (s) after which ``y`` stays within ``band`` × its largest deviation from its
+    final value (the 2 % settling time for ``band=0.02``; for a release from rest or a step this
+    deviation is the step size, the textbook definition).
+
+    The final value is the last sample ``y[-1]``: the run must be long enough for ``y`` to get
+    there (a ramp "settles" into the band around its last sample). The last crossing of the band
+    is found between the samples by a root of ``y_of_t`` (e.g. dense output) when given, else by
+    linear interpolation. None when ``y`` is still outside the band at its second-to-last sample;
+    ``t[0]`` when it never leaves the band."""
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    final = y[-1]
+    deviation = np.abs(y - final)
+    limit = band * float(np.max(deviation))
+    outside = np.nonzero(deviation > limit)[0]
+    if limit == 0 or not len(outside):
+        return float(t[0])
+    i = int(outside[-1])
+    if i >= len(t) - 2:
+        return None
+    if y_of_t is not None:
+        from scipy.optimize import brentq  # here: scipy.optimize takes ~0.2 s
+
+        try:
+            return float(brentq(lambda s: abs(y_of_t(s) - final) - limit, t[i], t[i + 1],
+                                xtol=1e-12, rtol=4 * np.finfo(float).eps))
+        except ValueError:       # round-off at a sample exactly on the band: interpolate
+            pass
+    d0, d1 = deviation[i] - limit, deviation[i + 1] - limit
+    return float(t[i] + (t[i + 1] - t[i]) * d0 / (d0 - d1))
+
+
+def _signal_of_t(traj, name: str) -> Callable[[float], float]:
+    """``name`` (a state or output) at any time of a dense-output run."""
+    model = traj.model
+    if name in model.state_names:
+        k = model.state_index(name)
+        return lambda s: float(traj.sol(s)[k])
+    model.output_index(name)             # an unknown name fails here, naming the outputs
+
+    def value(s: float) -> float:
+        for seg in traj.segments:
+            if seg.t[0] <= s <= seg.t[-1]:
+                return model.output(name, s, traj.sol(s), seg.p)
+        raise ValueError(f"t = {s} is outside the run")
+    return value
+
+
+def _check_names(compiled, names: Sequence[str]) -> None:
+    known = set(compiled.state_names) | set(compiled.output_names)
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ModelError(f"model {compiled.name!r} has no state or output "
+                         f"{', '.join(repr(n) for n in unknown)}; states: "
+                         f"{', '.join(compiled.state_names)}; outputs: "
+                         f"{', '.join(compiled.output_names) or 'none'}")
+
+
+def _check_band(band: float) -> None:
+    if not (isinstance(band, (int, float)) and 0 < band < 1):
+        raise ModelError(f"band must be a fraction between 0 and 1 (0.02: the 2 % settling "
+                         f"time), got {band!r}")
+
+
+def prepare_simulation(cases: Sequence[Mapping[str, Any]], *, model: str,
+                       backend: str | None = None, t_end: float | None = None,
+                       outputs: Sequence[str] | None = None, settle: str | None = None,
+                       band: float = 0.02) -> None:
+    """Compile ``model`` once here (forked workers inherit it) and check everything a case will
+    use before any runs: the end time, the names, the band and each case's parameters."""
+    entry = model_cache().get(model, backend)
+    end = entry.t_end(t_end)
+    if not (math.isfinite(end) and end > 0):
+        raise ModelError(f"t_end must be a finite time > 0 s, got {end!r}")
+    _check_names(entry.compiled, [*(outputs or ()), *([settle] if settle else [])])
+    _check_band(band)
+    for index, case in enumerate(cases):
+        try:
+            entry.compiled.params(case)
+        except ModelError as err:
+            raise type(err)(f"case {index} {dict(case)}: {err}") from None
+
+
+def simulate_case(case: Mapping[str, Any], *, model: str, backend: str | None = None,
+                  t_end: float | None = None, outputs: Sequence[str] | None = None,
+                  settle: str | None = None, band: float = 0.02) -> dict:
+    """Case function of a model sweep (see the module docstring): the case's values are
+    parameters of ``model``; returns the run's status, ledger, final/min/max of ``outputs`` and
+    the settling time of ``settle``."""
+    entry = model_cache().get(model, backend)
+    compiled = entry.compiled
+    names = list(outputs) if outputs else list(compiled.state_names)
+    _check_names(compiled, [*names, *([settle] if settle else [])])
+    _check_band(band)
+    dense = settle is not None
+    traj = entry.simulate(t_end, dict(case), dense_output=dense)
+    series = {name: np.asarray(traj[name], dtype=float) for name in names}
+    result: dict[str, Any] = {
+        "status": traj.status, "message": traj.message, "t_final": traj.t_final,
+        "nfev": traj.nfev, "n_events": len(traj.events), "energy": traj.ledger(),
+        "final": {n: float(v[-1]) for n, v in series.items()},
+        "min": {n: float(np.min(v)) for n, v in series.items()},
+        "max": {n: float(np.max(v)) for n, v in series.items()},
+    }
+    if settle is not None:
+        y = np.asarray(traj[settle], dtype=float)
+        result["settling_time"] = settling_time(traj.t, y, band, _signal_of_t(traj, settle))
+    return result

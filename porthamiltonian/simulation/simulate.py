@@ -1,0 +1,583 @@
+"""Hybrid simulation: stiff integration with the analytic Jacobian, events, modes and resets.
+
+The integration state is the model state followed by the ledger states E_diss and E_in
+(see :mod:`porthamiltonian.compiler.assemble`). Discrete modes are parameters (contact flags,
+stance leg...) that an event action changes; a reset map changes the state. Every jump of the
+Hamiltonian at a reset is booked in the ledger (as dissipated energy by default, e.g. a plastic
+impact; as supplied energy when the action says so, e.g. a controller switching a stiffness), so
+the residual r = H(t) − H(0) + E_diss − E_in stays closed across events.
+
+The step loop is our own, over scipy's public step-wise solvers (``scipy.integrate.Radau``, ``BDF``,
+``LSODA``, ``RK45``, ``DOP853``), rather than ``solve_ivp``: all guards are evaluated by one compiled
+call per step, the step's interpolant is built only when a guard changes sign (or when dense output
+is asked for), divergence is a cheap per-step check, a guard that has just fired is kept on its new
+side at the restart (no re-firing at the same crossing), non-terminal events are recorded, and a
+failing step keeps everything integrated before it. A failing or diverging integration ends with a
+status in the :class:`Trajectory`, never with an exception from inside scipy.
+
+:func:`simulate` checks its arguments and hands them to a :class:`Simulator`, which owns the
+integration state (as Drake's Simulator owns a Context beside the System): the current time,
+state and parameters, the next step size of the compiled loop, the side a guard that has just
+fired is kept on, the counters; the :class:`Trajectory` it returns is an immutable result. The
+compiled loop (Rodas5P or Rodas4, ``Functions.loops``) is called in one place, :meth:`Simulator._compiled_segment`.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from ..errors import ModelError, StateError
+from .differences import Derivative, gradient
+from .options import check_simulation
+from .saltation import Crossing, Sensitivity, saltation_matrix
+from .trajectory import Segment, Status, Trajectory
+
+if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
+    from .compiled import CompiledModel
+
+METHODS = ("Rodas4", "Rodas5P", "Radau", "BDF", "LSODA", "RK45", "DOP853")
+#: the methods whose whole step loop is compiled with the model (Functions.loops)
+_COMPILED = ("Rodas4", "Rodas5P")
+_STIFF = ("Radau", "BDF", "LSODA")
+_EPS = np.finfo(float).eps
+
+
+@dataclass
+class Reset:
+    """What an event action returns.
+
+    x : new model state (length n), or None to keep it.
+    params : parameters (modes) to change, by name.
+    stop : end the simulation after this event.
+    energy : where a jump of H is booked: ``"dissipated"`` (E_diss += H⁻ − H⁺) or
+        ``"supplied"`` (E_in += H⁺ − H⁻).
+    jacobian : ∂x⁺/∂x⁻ (n x n) of the state map, for runs with sensitivities (its saltation
+        matrix, :mod:`porthamiltonian.simulation.saltation`); needed when ``x`` moves the state, else the
+        identity.
+    """
+
+    x: np.ndarray | None = None
+    params: Mapping[str, float] | None = None
+    stop: bool = False
+    energy: Literal["dissipated", "supplied"] = "dissipated"
+    jacobian: np.ndarray | None = None
+
+
+#: An event action: (t, model state x, parameter vector p) -> Reset.
+Action = Callable[[float, np.ndarray, np.ndarray], Reset]
+
+
+@dataclass
+class Event:
+    """A Python-level event: guard g(t, x, p) on the model state; fires when g crosses zero."""
+
+    name: str
+    guard: Callable[[float, np.ndarray, np.ndarray], float]
+    direction: int = 0
+    terminal: bool = True
+
+
+def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, float] | None = None,
+             params: Mapping[str, float] | None = None, *, t_start: float = 0.0,
+             method: str = "auto", rtol: float = 1e-8, atol: float | np.ndarray = 1e-10,
+             max_step: float = math.inf, first_step: float | None = None, jacobian: bool = True,
+             actions: Mapping[str, Action] | None = None, events: list[Event] | None = None,
+             t_eval: np.ndarray | None = None, dense_output: bool = False,
+             max_events: int = 100_000, max_steps: int = 10_000_000,
+             divergence_bound: float = 1e12,
+             sensitivity: bool | np.ndarray = False) -> Trajectory:
+    """Simulate ``model`` from ``t_start`` to ``t_end`` (also ``model.simulate(t_end, ...)``).
+
+    Parameters
+    ----------
+    x0 : initial model state: an array (length n), a mapping ``{state name: value}`` overriding
+        the components' initial values, or None for those values.
+    params : parameter values by name (defaults for the others).
+    rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
+        tiny momenta); the ledger states E_diss, E_in get the largest of them.
+    method : ``"auto"`` (default: Rodas5P, or Radau when Python events, ``t_eval`` or dense
+        output are asked for), ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable Rosenbrock methods
+        of order 5 and 4 whose whole step loop is compiled with the model: the fast path with
+        the C or numba back end; model events only, no ``t_eval`` or dense output; Rodas5P
+        takes fewer steps at the same accuracy, benchmarks/RESULTS.md), or a scipy method:
+        Radau, BDF, LSODA (stiff, given the analytic Jacobian unless ``jacobian=False``), RK45,
+        DOP853.
+    max_step, first_step : bounds on the step size (s); ``first_step`` for the scipy methods.
+    jacobian : give the stiff scipy methods the analytic Jacobian.
+    actions : event name -> action (model events or ``events``). An event without action is
+        recorded; if it is terminal, the simulation stops there.
+    events : extra Python-level events.
+    t_eval : times at which to store the solution (default: every accepted step).
+    dense_output : keep the interpolants, for :meth:`Trajectory.sol` (costs time).
+    max_events, max_steps : bounds (a chattering guard ends the run with status "failed").
+    divergence_bound : the run ends with status "diverged" when max|x| exceeds it.
+    sensitivity : also integrate the derivatives of the run by its initial model state,
+        Φ(t) = ∂x(t)/∂x₀ · V, with saltation matrices at the events (``traj.sensitivity``, a
+        :class:`~porthamiltonian.simulation.saltation.Sensitivity`: Φ at every point and where the run
+        ended, the events' saltation matrices): True for V = I (all model states), or the
+        directions V (n x m). Compiled methods only (``"auto"``: Rodas5P); the trajectory is
+        the same, bit for bit, as without; an action that moves the state gives its Jacobian
+        (``Reset(jacobian=...)``). See :mod:`porthamiltonian.simulation.saltation`.
+
+    Returns the :class:`Trajectory`; its ``status`` (a :class:`Status`) says how the run ended.
+
+    Every argument is checked first (:mod:`porthamiltonian.simulation.options`): a wrong type or a value
+    outside its rule (a NaN, zero or negative tolerance, ``rtol >= 1``, ``t_eval`` outside the
+    span) raises :class:`~porthamiltonian.errors.OptionError` naming it, before any work.
+    """
+    checked = check_simulation(
+        model.n_states, t_end, x0, params, t_start=t_start, method=method, rtol=rtol, atol=atol,
+        max_step=max_step, first_step=first_step, jacobian=jacobian, actions=actions,
+        events=events, t_eval=t_eval, dense_output=dense_output, max_events=max_events,
+        max_steps=max_steps, divergence_bound=divergence_bound, sensitivity=sensitivity)
+    t_start, t_end, t_eval = checked["t_start"], checked["t_end"], checked["t_eval"]
+    requested = method
+    if method == "auto":
+        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas5P"
+    if method not in METHODS:
+        raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
+    p = model.params(params)
+    if x0 is None or isinstance(x0, Mapping):
+        x = model.initial_state(p, x0)
+    else:
+        x = np.array(x0, dtype=float)
+    y = model.augment(x)
+    if not np.all(np.isfinite(y)):
+        raise StateError(f"model {model.name!r}: initial state is not finite: {x}")
+    py_events = tuple(events or ())
+    names = [e.name for e in model.events] + [e.name for e in py_events]
+    actions = dict(actions or {})
+    unknown = set(actions) - set(names)
+    if unknown:
+        raise ModelError(f"actions for unknown event(s) {', '.join(sorted(unknown))}; events: "
+                         f"{', '.join(names) or 'none'}")
+    if method in _COMPILED and (py_events or t_eval is not None or dense_output):
+        raise ModelError(f"method {method!r} (a compiled loop) takes model events only and no "
+                         "t_eval or dense_output; use a scipy method (e.g. Radau) for those")
+    if checked["sensitivity"] is not None and method not in _COMPILED:
+        raise ModelError(f"sensitivity needs a compiled method ({', '.join(_COMPILED)}), whose "
+                         f"loop integrates the variational equation; got method {method!r}"
+                         + (" (chosen by 'auto' for Python events, t_eval or dense_output)"
+                            if requested == "auto" else ""))
+    settings = Settings(
+        method=method, rtol=checked["rtol"], atol=_ledger_atol(checked["atol"], model.n_states),
+        max_step=checked["max_step"], first_step=checked["first_step"],
+        jacobian=checked["jacobian"] and method in _STIFF, actions=actions, events=py_events,
+        t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
+        max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
+        sensitivity=checked["sensitivity"])
+    return Simulator(model, settings).run(t_start, y, p, t_end)
+
+
+def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
+    """The absolute tolerance of the integration state: per model state, the ledger states E_diss
+    and E_in scaled like the largest of them."""
+    atol = np.asarray(atol, dtype=float)
+    if atol.ndim == 1:
+        if atol.shape != (n,):
+            raise ModelError(f"atol must be a scalar or have one value per state ({n}), got "
+                             f"shape {atol.shape}")
+        return np.concatenate([atol, [atol.max(), atol.max()]])
+    return float(atol)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The checked settings of one simulation (the arguments of :func:`simulate`, which
+    documents them; ``atol`` extended to the ledger states, ``jacobian`` only for stiff scipy
+    methods, ``sensitivity`` the seed directions V, n x m, or None)."""
+
+    method: str
+    rtol: float
+    atol: float | np.ndarray
+    max_step: float
+    first_step: float | None
+    jacobian: bool
+    actions: Mapping[str, Action]
+    events: tuple[Event, ...]
+    t_eval: np.ndarray | None
+    dense_output: bool
+    max_events: int
+    max_steps: int
+    divergence_bound: float
+    sensitivity: np.ndarray | None = None
+
+
+#: The compiled loop's return codes (porthamiltonian/integrators/rodas_loop.py), but 5: its
+#: store buffer is full, call again
+_LOOP_STATUS = {0: Status.FINISHED, 1: Status.EVENT, 2: Status.FAILED, 3: Status.DIVERGED,
+                4: Status.FAILED}
+_LOOP_BUFFER_FULL = 5
+
+
+class Simulator:
+    """Integrates one compiled model with fixed :class:`Settings`; made by :func:`simulate`.
+
+    It owns the integration state of a run (Drake's Context): the time ``t``, the integration
+    state ``y`` (model states, then E_diss and E_in), the parameters ``p`` (modes change at
+    events), the step size the compiled loop proposes next, the sign a terminal guard had before
+    it fired (to keep it on its new side at the restart), the step and event counters, and what
+    has been recorded so far. :meth:`run` returns the immutable :class:`Trajectory`.
+    """
+
+    def __init__(self, model: CompiledModel, settings: Settings):
+        self.model, self.settings = model, settings
+        events = [*model.events, *settings.events]
+        self.names = [e.name for e in events]
+        self.direction = np.array([e.direction for e in events])
+        self.terminal = np.array([e.terminal or e.name in settings.actions for e in events],
+                                 dtype=bool)
+        self.n_model_events = len(model.events)
+        # the integration state
+        self.t, self.y, self.p = 0.0, np.empty(0), np.empty(0)
+        self.h_next = 0.0               # the compiled loop's next step size (0: its own guess)
+        self.pre_event_sign = 0.0       # sign of the last terminal guard before it fired
+        self.steps = 0
+        self._segments: list[Segment] = []
+        self._events: list[tuple[float, str]] = []
+        self._jumps: list[tuple[float, str, float]] = []
+        self._counts = {"nfev": 0, "njev": 0, "nlu": 0}
+        self.phi: np.ndarray | None = None     # the sensitivities (n + 2 x m), when asked for
+        self.phi_error = 0.0                    # their largest error estimate (in rtol)
+        self._crossings: list[Crossing] = []
+
+    def run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
+        """Integrate from (t_start, y) with parameters p to t_end (or until a terminal event
+        without action, a stopping action, a failure); the result."""
+        model, settings, n = self.model, self.settings, self.model.n_states
+        self.t, self.y, self.p = t_start, y, p
+        if settings.sensitivity is not None:
+            seeds = settings.sensitivity
+            self.phi = np.vstack([seeds, np.zeros((2, seeds.shape[1]))])
+        h0 = float(model.energy(t_start, y, p)[0])
+        fired, n_events = None, 0
+        while True:
+            t_restart = self.t
+            status, message, k = self._segment(t_end, fired)
+            if status != Status.EVENT:
+                return self._result(status, message, h0)
+            t, name = self.t, self.names[k]
+            self._events.append((t, name))
+            n_events += 1
+            if n_events > settings.max_events:
+                return self._result(Status.FAILED, f"more than {settings.max_events} events (last "
+                                    f"{name!r} at t = {t:.6g}): the guard chatters; add hysteresis "
+                                    "to it", h0)
+            action = settings.actions.get(name)
+            if action is None:
+                if self.phi is not None:
+                    self._cross(k, t, self.y, self.p, self.y, self.p, None, stop=True,
+                                moved=False)
+                return self._result(Status.EVENT, f"terminal event {name!r} at t = {t:.6g}", h0)
+            y, p = self.y, self.p
+            y_minus, p_minus = y, p
+            reset = action(t, y[:n].copy(), p.copy())
+            h_before = float(model.energy(t, y, p)[0])
+            moved = reset.x is not None and not np.array_equal(np.asarray(reset.x, dtype=float),
+                                                               y[:n])
+            if reset.params:
+                p = model.changed_params(p, reset.params)
+            y = y.copy()
+            if reset.x is not None:
+                new_x = np.asarray(reset.x, dtype=float)
+                if new_x.shape != (n,) or not np.all(np.isfinite(new_x)):
+                    raise StateError(f"action for event {name!r} returned an invalid state {new_x}")
+                y[:n] = new_x
+            jump = float(model.energy(t, y, p)[0]) - h_before
+            if reset.energy == "dissipated":
+                y[n] -= jump
+            else:
+                y[n + 1] += jump
+            self.y, self.p = y, p
+            self._jumps.append((t, name, jump))
+            phi = None
+            if self.phi is not None:
+                phi = self._cross(k, t, y_minus, p_minus, y, p, reset.jacobian,
+                                  stop=bool(reset.stop), moved=moved)[None]
+            self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None, phi))
+            if reset.stop:
+                return self._result(Status.EVENT, f"stopped by the action of event {name!r} at "
+                                    f"t = {t:.6g}", h0)
+            if t >= t_end:
+                return self._result(Status.FINISHED, "reached t_end", h0)
+            # a guard that fired after some integration and whose state was not moved sits on its
+            # root: keep it on its new side at the restart so that it does not fire again at the
+            # same crossing. After a reset that moved the state, or an event at the very start of
+            # a segment, guards are taken as they are (a state put back onto a guard and pushed
+            # across it again fires again: a chattering contact, caught by max_events)
+            fired = None if (moved or t == t_restart) else k
+
+    def _result(self, status: Status, message: str, h0: float) -> Trajectory:
+        sensitivity = None
+        if self.phi is not None:
+            n = self.model.n_states
+            sensitivity = Sensitivity(self.settings.sensitivity.copy(),
+                                      np.concatenate([s.phi for s in self._segments]),
+                                      tuple(self._crossings), self.phi[:n].copy(), self.phi_error)
+        return Trajectory(self.model, self._segments, self._events, self._jumps, status, message,
+                          h0=h0, sensitivity=sensitivity, **self._counts)
+
+    def _cross(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
+               y_plus: np.ndarray, p_plus: np.ndarray, jacobian: np.ndarray | None, *,
+               stop: bool, moved: bool) -> np.ndarray:
+        """Apply the saltation matrix of event ``k`` at time t (from y_minus, p_minus to y_plus,
+        p_plus; ``jacobian`` the reset's, ``stop``: the run ends on the event's surface) to the
+        sensitivities and record the :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺
+        (model states)."""
+        model, n = self.model, self.model.n_states
+        name = self.names[k]
+        if jacobian is None:
+            if moved:
+                raise ModelError(f"the action of event {name!r} moved the state at t = {t:.6g} "
+                                 "but gave no Jacobian: with sensitivities it must return "
+                                 "Reset(x=..., jacobian=dx_plus/dx_minus), an n x n array")
+            R = np.eye(n)
+        else:
+            R = np.array(jacobian, dtype=float)
+            if R.shape != (n, n) or not np.all(np.isfinite(R)):
+                raise StateError(f"the action of event {name!r} returned a reset Jacobian of "
+                                 f"shape {R.shape} (must be {n} x {n} and finite)")
+        f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
+        f_plus = (np.zeros(n) if stop else
+                  np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
+        phi_minus = self.phi[:n].copy()
+        if not stop and jacobian is None and np.array_equal(f_plus, f_minus):
+            S, g_x, g_t, error = np.eye(n), np.full(n, np.nan), float("nan"), float("nan")
+        else:
+            grad = self._guard_gradient(k, t, y_minus, p_minus)
+            g_t, g_x, error = float(grad.value[0]), grad.value[1:], grad.max_error
+            S = saltation_matrix(f_minus, f_plus, g_x, R, g_t)
+        phi_plus = S @ phi_minus
+        self.phi = np.vstack([phi_plus, np.zeros((2, phi_plus.shape[1]))])
+        self._crossings.append(Crossing(t, name, y_minus[:n].copy(), y_plus[:n].copy(), f_minus,
+                                        f_plus, g_x, g_t, error, R, S, stop, phi_minus,
+                                        phi_plus))
+        return phi_plus
+
+    def _guard_gradient(self, k: int, t: float, y: np.ndarray, p: np.ndarray) -> Derivative:
+        """(∂g/∂t, ∂g/∂x) of guard ``k`` at (t, y) by central differences, each state stepped
+        relative to max(|x_i|, atol_i/rtol) (the size below which the integration does not
+        resolve it), the time relative to max(|t|, 1)."""
+        model, settings, n = self.model, self.settings, self.model.n_states
+        pn = model.native_params(p)
+        if k < self.n_model_events:
+            def guard(z: np.ndarray) -> float:
+                yz = y.copy()
+                yz[:n] = z[1:]
+                return float(model.functions.guards(float(z[0]), yz, pn)[k])
+        else:
+            event = settings.events[k - self.n_model_events]
+
+            def guard(z: np.ndarray) -> float:
+                return float(event.guard(float(z[0]), z[1:].copy(), p))
+        typical = np.broadcast_to(np.asarray(settings.atol, dtype=float), (n + 2,))[:n]
+        scale = np.concatenate([[1.0], typical / settings.rtol])
+        return gradient(guard, np.concatenate([[t], y[:n]]), scale)
+
+    def _guards(self, t: float, y: np.ndarray, pn: Any, p: np.ndarray) -> np.ndarray:
+        n = self.model.n_states
+        g = np.asarray(self.model.functions.guards(t, y, pn))[: self.n_model_events]
+        if self.settings.events:
+            g = np.concatenate([g, [e.guard(t, y[:n], p) for e in self.settings.events]])
+        return g
+
+    def _fired_side(self, fired: int) -> float:
+        """The side (+1/-1) a guard that has just fired is kept on at the restart."""
+        return float(self.direction[fired] or -np.sign(self.pre_event_sign or 1.0))
+
+    def _segment(self, t_end: float, fired: int | None) -> tuple[Status, str, int]:
+        """Integrate from the current (t, y) until t_end or a terminal event; record the segment,
+        advance the state; returns (status, message, index of the terminal event or -1)."""
+        if self.settings.method in _COMPILED:
+            return self._compiled_segment(t_end, fired)
+        return self._scipy_segment(t_end, fired)
+
+    def _scipy_segment(self, t_end: float, fired: int | None) -> tuple[Status, str, int]:
+        """One segment through a scipy step-wise solver."""
+        # scipy.integrate is imported here, not at the top: runs on the compiled loops (the
+        # default) never need it, and it costs a third of a second at every start
+        import scipy.integrate as si
+        from scipy.optimize import brentq
+        model, settings, n = self.model, self.settings, self.model.n_states
+        t0, y0, p = self.t, self.y, self.p
+        pn = model.native_params(p)
+        rhs, jacf = model.functions.rhs, model.functions.jac
+
+        def fun(t, y):
+            return rhs(t, y, pn)
+
+        options: dict[str, Any] = {"rtol": settings.rtol, "atol": settings.atol,
+                                   "max_step": settings.max_step}
+        if settings.first_step is not None:
+            options["first_step"] = settings.first_step
+        if settings.jacobian:
+            options["jac"] = lambda t, y: jacf(t, y, pn)
+        solver = getattr(si, settings.method)(fun, t0, y0, t_end, **options)
+        t_eval = settings.t_eval
+        ts, ys, interpolants = [t0], [y0], []
+        if t_eval is not None:
+            ts, ys = [], []
+            self._eval_at(ts, ys, None, t0, t0, y0, include_start=True)
+        has_events = len(self.direction) > 0
+        g_old = self._guards(t0, y0, pn, p) if has_events else None
+        if fired is not None:  # keep a guard that just fired on its new side at the restart
+            g_old[fired] = self._fired_side(fired) * max(abs(g_old[fired]), 1e-300)
+
+        def close(status: Status, message: str, t_last: float, y_last: np.ndarray | None,
+                  k: int = -1) -> tuple[Status, str, int]:
+            sol = (si.OdeSolution([s.t_old for s in interpolants] + [interpolants[-1].t],
+                               interpolants) if (settings.dense_output and interpolants) else None)
+            self._segments.append(Segment(np.array(ts), np.array(ys).T if ys else
+                                          np.empty((n + 2, 0)), p.copy(), sol))
+            for key in self._counts:
+                self._counts[key] += getattr(solver, key)
+            self.t = t_last
+            if y_last is not None:
+                self.y = y_last
+            return status, message, k
+
+        while True:
+            t_old = solver.t
+            try:
+                with np.errstate(all="ignore"):
+                    message = solver.step()
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+                return close(Status.FAILED, f"integration failed at t = {t_old:.6g}: {err}",
+                             t_old, None)
+            self.steps += 1
+            if solver.status == "failed":
+                return close(Status.FAILED, f"{settings.method} failed at t = {t_old:.6g}: "
+                             f"{message}", t_old, None)
+            t_new, y_new = solver.t, solver.y
+            bound = settings.divergence_bound
+            if not np.all(np.isfinite(y_new)) or np.max(np.abs(y_new[:n])) > bound:
+                return close(Status.DIVERGED, f"max|x| exceeded {bound:g} (or "
+                             f"became non-finite) near t = {t_new:.6g}", t_old, None)
+            step_sol = None
+            if settings.dense_output or t_eval is not None:
+                step_sol = solver.dense_output()
+                if settings.dense_output:
+                    interpolants.append(step_sol)
+            if has_events:
+                g_new = self._guards(t_new, y_new, pn, p)
+                active = _active(g_old, g_new, self.direction)
+                if len(active):
+                    step_sol = step_sol or solver.dense_output()
+                    roots = []
+                    for k in active:
+                        def gk(t, k=k, sol=step_sol):
+                            return self._guards(t, sol(t), pn, p)[k]
+                        roots.append((brentq(gk, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS), k))
+                    roots.sort()
+                    for t_root, k in roots:
+                        y_root = step_sol(t_root)
+                        if self.terminal[k]:
+                            self.pre_event_sign = float(np.sign(g_old[k]))
+                            self._eval_at(ts, ys, step_sol, t_old, t_root, y_root)
+                            if t_eval is None:
+                                ts.append(t_root)
+                                ys.append(y_root)
+                            if settings.dense_output and interpolants:
+                                interpolants[-1] = _Clipped(interpolants[-1], t_root)
+                            return close(Status.EVENT, "", t_root, y_root, k)
+                        self._events.append((t_root, self.names[k]))
+                g_old = g_new
+            self._eval_at(ts, ys, step_sol, t_old, t_new, y_new)
+            if t_eval is None:
+                ts.append(t_new)
+                ys.append(y_new.copy())
+            if solver.status == "finished":
+                return close(Status.FINISHED, "reached t_end", t_new, y_new)
+            if self.steps >= settings.max_steps:
+                return close(Status.FAILED, f"more than {settings.max_steps} steps (t = "
+                             f"{t_new:.6g})", t_new, y_new)
+
+    def _compiled_segment(self, t_end: float, fired: int | None) -> tuple[Status, str, int]:
+        """One segment through the model's compiled loop of the method (the one place it is called)."""
+        model, settings, n = self.model, self.settings, self.model.n_states
+        t0, p = self.t, self.p
+        pn = np.ascontiguousarray(p, dtype=float) if model.backend == "numba" else p.copy()
+        mask_index, mask_sign = -1, 0.0
+        if fired is not None:
+            mask_index, mask_sign = fired, self._fired_side(fired)
+        tgrad = 0.0 if model.autonomous else 1e-7 * max(1.0, abs(t0))
+        t, y, h = t0, np.ascontiguousarray(self.y, dtype=float), self.h_next
+        ts, ys = [np.array([t0])], [y[None, :].copy()]
+        atol = np.ascontiguousarray(np.broadcast_to(settings.atol, (n + 2,)), dtype=float)
+        hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
+        sensitive = self.phi is not None
+        if sensitive:       # the variational loop: Φ too (17-tuple)
+            variational = model.functions.variational[settings.method]
+            phis = [self.phi[None, :n].copy()]
+
+            def loop(*args):
+                out = variational(*args, np.ascontiguousarray(self.phi))
+                self.phi = out[14]
+                phis.append(out[15][:out[5], :n].copy())
+                self.phi_error = max(self.phi_error, out[16] / settings.rtol)
+                return out[:14]
+        else:
+            loop = model.functions.loops[settings.method]
+        while True:
+            with np.errstate(all="ignore"):
+                (code, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
+                 h) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
+                           self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
+                           settings.max_steps - self.steps, 4096, tgrad)
+            self.steps += nsteps
+            self._counts["nfev"] += nfev
+            self._counts["njev"] += njev
+            ts.append(t_store[:n_store].copy())
+            ys.append(y_store[:n_store].copy())
+            for j in range(n_ev):
+                self._events.append((float(ev_t[j]), self.names[int(ev_k[j])]))
+            mask_index = -1
+            if code != _LOOP_BUFFER_FULL:
+                break
+        self.h_next = h
+        self._segments.append(Segment(np.concatenate(ts), np.concatenate(ys).T, p.copy(), None,
+                                      np.concatenate(phis) if sensitive else None))
+        self.t, self.y = float(t), y.copy()
+        status = _LOOP_STATUS.get(int(code), Status.FAILED)
+        if status == Status.EVENT:
+            self.pre_event_sign = -float(np.sign(self.direction[k])) if self.direction[k] else 0.0
+            return status, "", int(k)
+        message = {0: "reached t_end",
+                   2: f"{settings.method}: step size too small (or W singular) at t = {t:.6g}",
+                   3: f"max|x| exceeded {settings.divergence_bound:g} (or became non-finite) near "
+                      f"t = {t:.6g}"}.get(int(code), f"more than {settings.max_steps} steps "
+                                                     f"(t = {t:.6g})")
+        return status, message, -1
+
+    def _eval_at(self, ts: list, ys: list, step_sol: Any, t_old: float, t_new: float,
+                 y_new: np.ndarray, include_start: bool = False) -> None:
+        """Append the points of ``t_eval`` in (t_old, t_new] (or [t_old, ...]) to ts, ys."""
+        te = self.settings.t_eval
+        if te is None:
+            return
+        mask = ((te >= t_old) if include_start else (te > t_old)) & (te <= t_new)
+        for t in te[mask]:
+            ts.append(float(t))
+            ys.append(y_new.copy() if (step_sol is None or t == t_new) else step_sol(t))
+
+
+class _Clipped:
+    """A step interpolant whose step ended early at a terminal event."""
+
+    def __init__(self, inner, t_end):
+        self.inner, self.t_old, self.t = inner, inner.t_old, t_end
+
+    def __call__(self, t):
+        return self.inner(t)
+
+
+def _active(g, g_new, direction):
+    up = (g <= 0) & (g_new >= 0)
+    down = (g >= 0) & (g_new <= 0)
+    either = up | down
+    mask = (up & (direction > 0)) | (down & (direction < 0)) | (either & (direction == 0))
+    return np.nonzero(mask)[0]

@@ -1,0 +1,5 @@
+"""``python -m walker_library``: the ``walker`` command."""
+from .cli import main
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,247 @@
+"""Stride map on the Poincaré section just after heel strike; fixed points, period detection
+(Garcia et al. 1998; the thesis's §2.5-2.6). Generic over :class:`~.protocol.Walker`.
+
+* :func:`stride_map` — S^k(z): k steps from section coordinates z (model's own, or the thesis's
+  with ``coordinates="thesis"``); ``None`` when the walker falls.
+* :func:`jacobian` — the Jacobian of S^k by finite differences of one fixed step (absolute, in
+  the section coordinates' units; the thesis used 0.001, App. C), central or forward: what
+  Newton's method uses. The Floquet multipliers use :mod:`.monodromy` (the step chosen per
+  coordinate, with error bounds).
+* :func:`find_fixed_point` — Newton on S^k(z) − z with a forward-difference Jacobian and step
+  halving, from a rough guess; returns the last iterate when it does not converge.
+* :func:`detect_period` — iterate the map and find the smallest period k ≤ max_period.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from porthamiltonian.batch.progress import tick
+
+from ..core.protocol import Stride, Walker
+
+__all__ = [
+    "FixedPointResult",
+    "IterationResult",
+    "PeriodResult",
+    "WalkerFell",
+    "advance",
+    "detect_period",
+    "find_fixed_point",
+    "iterate",
+    "jacobian",
+    "stride_map",
+]
+
+
+class WalkerFell(RuntimeError):
+    """Raised inside the analyses when a stride needed for a derivative falls."""
+
+    def __init__(self, z, stride: Stride):
+        super().__init__(f"the walker fell ({stride.reason}) from section state {np.asarray(z).tolist()}")
+        self.z, self.stride = z, stride
+
+
+def _walk(walker: Walker, z, n_steps: int) -> list[Stride]:
+    """``walker.walk``, counting the strides as progress (``porthamiltonian.batch.progress``)."""
+    strides = walker.walk(z, n_steps)
+    tick("stride", len(strides))
+    return strides
+
+
+def _to_model(walker: Walker, z, coordinates: str) -> np.ndarray:
+    z = np.asarray(z, dtype=float)
+    if coordinates == "model":
+        return z
+    if coordinates == "thesis":
+        return np.asarray(walker.from_thesis(z), dtype=float)
+    raise ValueError(f"coordinates must be 'model' or 'thesis', got {coordinates!r}")
+
+
+def _from_model(walker: Walker, z, coordinates: str) -> np.ndarray:
+    return np.asarray(z if coordinates == "model" else walker.to_thesis(z), dtype=float)
+
+
+def stride_map(walker: Walker, z, period: int = 1, coordinates: str = "model") -> np.ndarray | None:
+    """S^period(z) on the section (``coordinates``: "model" or "thesis"); None if the walker falls."""
+    strides = _walk(walker, _to_model(walker, z, coordinates), period)
+    if len(strides) < period or strides[-1].fell:
+        return None
+    return _from_model(walker, strides[-1].z_next, coordinates)
+
+
+def advance(walker: Walker, z: np.ndarray, period: int) -> np.ndarray:
+    """S^period(z) in model coordinates; raises :class:`WalkerFell` when the walker falls."""
+    strides = _walk(walker, z, period)
+    if len(strides) < period or strides[-1].fell:
+        raise WalkerFell(z, strides[-1])
+    return strides[-1].z_next
+
+
+@dataclass
+class IterationResult:
+    """Iterates z_0 … z_n of the stride map; ``fell_at_step`` is the 1-based index of the step
+    during which the walker fell (None if it did not)."""
+
+    states: list[np.ndarray]
+    strides: list[Stride]
+    fell_at_step: int | None = None
+    fall_reason: str = ""
+
+
+def iterate(walker: Walker, z0, n_steps: int, chunk: int = 50) -> IterationResult:
+    """Walk ``n_steps`` steps from ``z0`` (in chunks of one simulation each)."""
+    states = [np.asarray(z0, dtype=float)]
+    strides: list[Stride] = []
+    while len(strides) < n_steps:
+        batch = _walk(walker, states[-1], min(chunk, n_steps - len(strides)))
+        for s in batch:
+            strides.append(s)
+            if s.fell:
+                return IterationResult(states, strides, len(strides), s.reason)
+            states.append(s.z_next)
+    return IterationResult(states, strides)
+
+
+def jacobian(walker: Walker, z, *, period: int = 1, step: float = 1e-3,
+             scheme: str = "central", coordinates: str = "model", base=None) -> np.ndarray:
+    """Finite-difference Jacobian of S^period at z (raises :class:`WalkerFell` when a perturbed
+    stride falls). ``step`` is absolute, in the units of the chosen section coordinates."""
+    z = np.asarray(z, dtype=float)
+    n = len(z)
+
+    def S(w):
+        return _from_model(walker, advance(walker, _to_model(walker, w, coordinates), period), coordinates)
+
+    J = np.empty((n, n))
+    if scheme == "forward":
+        f0 = S(z) if base is None else np.asarray(base, dtype=float)
+        for j in range(n):
+            e = np.zeros(n)
+            e[j] = step
+            J[:, j] = (S(z + e) - f0) / step
+    elif scheme == "central":
+        for j in range(n):
+            e = np.zeros(n)
+            e[j] = step
+            J[:, j] = (S(z + e) - S(z - e)) / (2 * step)
+    else:
+        raise ValueError(f"scheme must be 'central' or 'forward', got {scheme!r}")
+    return J
+
+
+@dataclass
+class FixedPointResult:
+    """Result of :func:`find_fixed_point`.
+
+    converged : |S^k(z) − z|_∞ < tol. z : the fixed point, or the last iterate when not converged.
+    residual : |S^k(z) − z|_∞ at z. fell : the walker fell from the last iterate (no residual).
+    history : (iterate, residual) of each Newton step.
+    """
+
+    converged: bool
+    z: np.ndarray
+    residual: float
+    iterations: int
+    period: int
+    message: str = ""
+    fell: bool = False
+    history: list[tuple[list[float], float]] = field(default_factory=list)
+
+
+def find_fixed_point(walker: Walker, guess=None, *, period: int = 1, tol: float = 1e-10,
+                     max_iter: int = 30, fd_step: float = 1e-6) -> FixedPointResult:
+    """Newton's method on S^period(z) − z from ``guess`` (default: the walker's initial guess),
+    with a forward-difference Jacobian (perturbation ``fd_step``) and step halving when a step
+    does not reduce the residual or makes the walker fall."""
+    z = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
+    n = len(z)
+    history: list[tuple[list[float], float]] = []
+    try:
+        Sz = advance(walker, z, period)
+    except WalkerFell as err:
+        return FixedPointResult(False, z, math.inf, 0, period, f"the walker falls from the initial "
+                                f"guess ({err.stride.reason})", fell=True, history=history)
+    F = Sz - z
+    res = float(np.max(np.abs(F)))
+    history.append((z.tolist(), res))
+    for it in range(1, max_iter + 1):
+        if res < tol:
+            return FixedPointResult(True, z, res, it - 1, period, "converged", history=history)
+        try:
+            J = jacobian(walker, z, period=period, step=fd_step, scheme="forward", base=Sz)
+        except WalkerFell as err:
+            return FixedPointResult(False, z, res, it, period, f"a perturbed stride fell "
+                                    f"({err.stride.reason}) at Newton iteration {it}",
+                                    history=history)
+        try:
+            dz = -np.linalg.solve(J - np.eye(n), F)
+        except np.linalg.LinAlgError:
+            return FixedPointResult(False, z, res, it, period, "singular Newton matrix (a "
+                                    "multiplier equals 1)", history=history)
+        lam, accepted = 1.0, False
+        for _ in range(12):
+            trial = z + lam * dz
+            try:
+                S_trial = advance(walker, trial, period)
+            except WalkerFell:
+                lam /= 2
+                continue
+            F_trial = S_trial - trial
+            r_trial = float(np.max(np.abs(F_trial)))
+            if r_trial < res or r_trial < tol:
+                z, Sz, F, res, accepted = trial, S_trial, F_trial, r_trial, True
+                break
+            lam /= 2
+        history.append((z.tolist(), res))
+        if not accepted:
+            return FixedPointResult(res < tol, z, res, it, period,
+                                    "converged" if res < tol else
+                                    "no Newton step reduced the residual", history=history)
+    return FixedPointResult(res < tol, z, res, max_iter, period,
+                            "converged" if res < tol else f"not converged in {max_iter} iterations",
+                            history=history)
+
+
+@dataclass
+class PeriodResult:
+    """Result of :func:`detect_period`: ``period`` (0 when none ≤ max_period was found), the
+    iterates, and the step at which the walker fell (None if it did not)."""
+
+    period: int
+    iteration: IterationResult
+    distance: float
+
+    @property
+    def fell_at_step(self) -> int | None:
+        return self.iteration.fell_at_step
+
+
+def detect_period(walker: Walker, z0, *, max_period: int = 8, n_steps: int = 200,
+                  tol: float = 1e-7, chunk: int = 25) -> PeriodResult:
+    """Iterate the stride map from ``z0`` (at most ``n_steps`` steps, checked every ``chunk``
+    steps) and return the smallest period k ≤ ``max_period`` with |z_N − z_{N−k}|_∞ <
+    tol (1 + |z_N|_∞) over the last ``max_period`` iterates."""
+    states = [np.asarray(z0, dtype=float)]
+    strides: list[Stride] = []
+    best = math.inf
+    while len(strides) < n_steps:
+        part = iterate(walker, states[-1], min(chunk, n_steps - len(strides)))
+        strides += part.strides
+        states += part.states[1:]
+        if part.fell_at_step is not None:
+            it = IterationResult(states, strides, len(strides), part.fall_reason)
+            return PeriodResult(0, it, math.nan)
+        Z = np.array(states)
+        scale = 1.0 + float(np.max(np.abs(Z[-1])))
+        for k in range(1, max_period + 1):
+            if len(Z) < 2 * k + 1:
+                break
+            recent = Z[-(max_period + k):]
+            d = float(np.max(np.abs(recent[k:] - recent[:-k])))
+            best = min(best, d / scale)
+            if d < tol * scale:
+                return PeriodResult(k, IterationResult(states, strides), d)
+    return PeriodResult(0, IterationResult(states, strides), best)

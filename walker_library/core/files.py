@@ -1,0 +1,130 @@
+"""Walker model files: loading, saving and listing them; the shipped walkers by name.
+
+A walker file (``models/<name>.toml``) is an ordinary porthamiltonian model file — its
+components, bonds, parameters and events are the walker's mechanism, so ``porthamiltonian show``
+and ``check-energy`` work on it — plus a ``[walker]`` table, the hybrid description
+(:mod:`walker_library.hybrid`; docs/walkers.md). The file is the walker: :func:`load_walker`
+builds it from the file alone, so editing a component (a contact law, a friction, a spring, a
+foot radius) changes the walker that every ``walker`` command analyses.
+
+The functions named after the shipped walkers (:func:`simplest_walker`, :func:`compass_gait`,
+...) load their files with parameter values given as keyword arguments:
+``compass_walker(slope=0.01)`` is ``load_walker("compass_walker", {"slope": 0.01})``.
+"""
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import tomli_w
+
+from porthamiltonian import io as ph_io
+from porthamiltonian.errors import ModelFileError, ParameterValueError
+
+from .hybrid import Integration, WalkerSpec, walker_spec
+from .walker import HybridWalker
+
+__all__ = ["SHIPPED", "available_walkers", "compass_gait", "compass_walker",
+           "compliant_leg_walker", "load_walker", "read_walker", "rigid_compass_walker",
+           "rimless_wheel", "save_walker", "simplest_walker", "variable_stiffness_walker"]
+
+#: the walkers shipped in models/ (their files are the reference; docs/walkers.md describes them):
+#: the classic rigid-impact walkers, the thesis's, the thesis's recommendations (its §4.2), and
+#: the thesis's two main walkers with point-mass legs (the variants shipped before I_leg)
+SHIPPED = ("simplest_walker", "compass_gait", "rimless_wheel", "rigid_compass_walker",
+           "compass_walker", "compliant_leg_walker", "variable_stiffness_walker",
+           "hip_and_leg_spring_walker", "ankle_stiffness_walker", "smooth_stiffness_walker",
+           "compass_walker_point_legs", "compliant_leg_walker_point_legs")
+
+
+def read_walker(name_or_path: str | Path) -> tuple[WalkerSpec, str]:
+    """The :class:`~.hybrid.WalkerSpec` of a walker file (by name in models/ or by path) and
+    the file's text. Raises ModelFileError (file, line, part) for a file that is not a walker
+    file or whose ``[walker]`` table is wrong."""
+    path = ph_io.model_path(name_or_path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise ModelFileError(f"{path}: cannot read the walker file ({err})") from None
+    record = ph_io.reads(text, source=str(path))
+    table = record.sections.get("walker")
+    if table is None:
+        raise ModelFileError(f"{path}: not a walker file: it has no [walker] table (a walker is a "
+                             "model plus its hybrid description; see docs/walkers.md)")
+    return walker_spec(record.model, table, source=str(path), text=text,
+                       description=record.description,
+                       units=str(record.meta.get("units", ""))), text
+
+
+def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None = None, *,
+                backend: str | None = None, options: Integration | None = None) -> HybridWalker:
+    """The walker of a walker file (a name in models/, or a path), with its ``[parameters]``
+    values, ``overrides`` applied (validated against ``[walker.ranges]``).
+
+    ``backend``: None for the file's own (``[walker.integration] backend``); ``options``:
+    integrator settings replacing the file's. Raises ModelFileError for a bad file (before
+    anything is compiled) and ParameterValueError for unknown or out-of-range parameters.
+    """
+    spec, text = read_walker(name_or_path)
+    try:
+        return HybridWalker(spec, backend=backend, options=options, values=overrides, text=text)
+    except ParameterValueError as err:
+        raise ParameterValueError(f"{spec.source}: {err}") from None
+
+
+def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str = "") -> Path:
+    """Write a walker file: the model and its ``[walker]`` table (a walker's current parameter
+    values as the defaults). ``header``: comment lines put at the top. Loading the file gives the
+    same description, model and gait."""
+    spec = walker.spec if isinstance(walker, HybridWalker) else walker
+    data = ph_io.model_to_dict(ph_io.ModelFile(
+        spec.model, description=spec.description, meta={"units": spec.units} if spec.units else {}))
+    data["walker"] = spec.to_table()
+    if isinstance(walker, HybridWalker):
+        for name, value in walker.parameters.items():
+            entry = data["parameters"][name]
+            if isinstance(entry, dict):
+                entry["value"] = value
+            else:
+                data["parameters"][name] = value
+    text = tomli_w.dumps(data)
+    if header:
+        text = "".join(f"# {line}".rstrip() + "\n" for line in header.splitlines()) + "\n" + text
+    path = Path(path)
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def available_walkers() -> list[str]:
+    """Names of the model files found by name (models/, $PORTHAMILTONIAN_MODELS) that have a
+    ``[walker]`` table."""
+    out = []
+    for name in ph_io.available_models():
+        try:
+            data = tomllib.loads(ph_io.model_path(name).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, ModelFileError):
+            continue
+        if isinstance(data.get("walker"), dict):
+            out.append(name)
+    return out
+
+
+def _by_name(name: str) -> Callable[..., HybridWalker]:
+    def make(*, backend: str | None = None, options: Integration | None = None,
+             **values: float) -> HybridWalker:
+        """(replaced below)"""
+        return load_walker(name, values, backend=backend, options=options)
+    make.__name__ = make.__qualname__ = name
+    make.__doc__ = (f"The walker of models/{name}.toml (docs/walkers.md), parameter values as "
+                    "keyword arguments; ``backend`` and ``options`` as for :func:`load_walker`.")
+    return make
+
+
+simplest_walker = _by_name("simplest_walker")
+compass_gait = _by_name("compass_gait")
+rimless_wheel = _by_name("rimless_wheel")
+rigid_compass_walker = _by_name("rigid_compass_walker")
+compass_walker = _by_name("compass_walker")
+compliant_leg_walker = _by_name("compliant_leg_walker")
+variable_stiffness_walker = _by_name("variable_stiffness_walker")

@@ -1,0 +1,186 @@
+"""The mode machine: a walker's rules as immutable transitions that return simulation resets.
+
+:class:`Transition` is one rule of :class:`~.hybrid.WalkerSpec` compiled against the walker's
+model: the event it acts on (its guard ``g(t, x, p)`` is the model's compiled guard, crossed in
+its ``direction``), its conditions (compiled outputs compared with 0), the mode parameters it
+sets (constants or compiled outputs, evaluated just before the event), and an optional reset map
+of the state (:class:`~.resets.ImpactMap`). :meth:`Transition.apply` gives the state and the
+parameters after it; :meth:`Transition.reset_jacobian` the Jacobian of the state map (the
+identity without a reset), so that saltation matrices can be formed at every event.
+
+:class:`ModeMachine` holds the transitions of a walker. For one walk it applies the ``start``
+rules to the initial modes and gives :func:`porthamiltonian.simulate` one action per event
+(:meth:`ModeMachine.actions`); every transition that fires is recorded in the walk's
+:class:`WalkLog` (:class:`Fired`: time, transition, state and parameters before and after), and
+the walk stops after the requested number of heel strikes or at a fall.
+"""
+from __future__ import annotations
+
+import functools
+import operator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from porthamiltonian import Reset
+from porthamiltonian.simulation.compiled import CompiledModel
+
+from .resets import ImpactMap
+
+__all__ = ["Change", "Condition", "Fired", "ModeMachine", "Transition", "WalkLog"]
+
+_OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge,
+        "==": operator.eq, "!=": operator.ne}
+
+
+@dataclass(frozen=True)
+class Condition:
+    """``text`` holds when output ``output`` (lhs − rhs) compares with 0 by ``op``."""
+
+    text: str
+    output: int
+    op: str
+
+    def holds(self, y: np.ndarray) -> bool:
+        """Whether the condition holds for the outputs ``y``."""
+        return bool(_OPS[self.op](y[self.output], 0.0))
+
+
+@dataclass(frozen=True)
+class Change:
+    """Mode parameter ``name`` (index ``index``) takes ``constant``, or the value of output
+    ``output`` just before the event."""
+
+    name: str
+    index: int
+    constant: float | None = None
+    output: int | None = None
+
+    def value(self, y: np.ndarray) -> float:
+        """The new value, for the outputs ``y`` just before the event."""
+        return float(self.constant if self.output is None else y[self.output])
+
+
+@dataclass(frozen=True)
+class Transition:
+    """One rule (see the module docstring). ``event_index`` is the event's index in the compiled
+    model (-1 for ``start``); ``foot`` the foot that strikes (heel strikes)."""
+
+    name: str
+    event: str
+    event_index: int
+    direction: int
+    conditions: tuple[Condition, ...]
+    changes: tuple[Change, ...]
+    impact: ImpactMap | None = None
+    heel_strike: bool = False
+    fall: bool = False
+    energy: str = "dissipated"
+    foot: str | None = None
+
+    def guard(self, model: CompiledModel, t: float, x: np.ndarray, p: np.ndarray) -> float:
+        """The event's guard g(t, x, p); the transition can fire where it crosses 0 in
+        :attr:`direction`."""
+        return float(model.guards(t, x, p)[self.event_index])
+
+    def applies(self, y: np.ndarray) -> bool:
+        """All conditions hold for the outputs ``y`` (just before the event)."""
+        return all(c.holds(y) for c in self.conditions)
+
+    def params_after(self, p: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The parameter vector after the transition (its changes applied to ``p``)."""
+        out = np.array(p, dtype=float)
+        for c in self.changes:
+            out[c.index] = c.value(y)
+        return out
+
+    def apply(self, t: float, x: np.ndarray, p: np.ndarray,
+              y: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+        """(state after, parameters after, the reset's record) for the state ``x`` and outputs
+        ``y`` just before the event."""
+        p_after = self.params_after(p, y)
+        if self.impact is None:
+            return np.array(x, dtype=float), p_after, {}
+        x_after, info = self.impact(t, x, p, p_after)
+        return x_after, p_after, info
+
+    def reset_jacobian(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """∂x⁺/∂x⁻ of the state map (the identity when the transition has no reset)."""
+        if self.impact is None:
+            return np.eye(len(x))
+        return self.impact.jacobian(t, x, p, self.params_after(p, self._outputs(t, x, p)))
+
+    def _outputs(self, t, x, p):
+        return self.impact.model.outputs(t, x, p)
+
+
+@dataclass(frozen=True)
+class Fired:
+    """A transition that fired: at time ``t``, from (x_minus, p_minus) to (x_plus, p_plus)."""
+
+    t: float
+    transition: Transition
+    x_minus: np.ndarray
+    p_minus: np.ndarray
+    x_plus: np.ndarray
+    p_plus: np.ndarray
+    info: dict
+
+
+@dataclass
+class WalkLog:
+    """What one walk's transitions did: every :class:`Fired` in order, and the heel strikes."""
+
+    target: int
+    fired: list[Fired] = field(default_factory=list)
+
+    @property
+    def heel_strikes(self) -> list[Fired]:
+        """The fired transitions that ended a step."""
+        return [f for f in self.fired if f.transition.heel_strike]
+
+
+@dataclass(frozen=True)
+class ModeMachine:
+    """The transitions of a walker, by event (see the module docstring)."""
+
+    model: CompiledModel
+    transitions: tuple[Transition, ...]
+
+    def on(self, event: str) -> tuple[Transition, ...]:
+        """The transitions of ``event``, in the description's order."""
+        return tuple(tr for tr in self.transitions if tr.event == event)
+
+    @property
+    def events(self) -> tuple[str, ...]:
+        """The model events that have transitions."""
+        return tuple(dict.fromkeys(tr.event for tr in self.transitions if tr.event != "start"))
+
+    def first(self, event: str, y: np.ndarray) -> Transition | None:
+        """The first transition of ``event`` that applies for outputs ``y``."""
+        return next((tr for tr in self.on(event) if tr.applies(y)), None)
+
+    def start(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """The parameters after the ``start`` rule that applies at the initial state (if any)."""
+        y = self.model.outputs(0.0, x, p)
+        tr = self.first("start", y)
+        return p if tr is None else tr.params_after(p, y)
+
+    def fire(self, event: str, log: WalkLog, t: float, x: np.ndarray, p: np.ndarray) -> Reset:
+        """The action of ``event``: the first transition that applies, recorded in ``log``."""
+        y = self.model.outputs(t, x, p)
+        tr = self.first(event, y)
+        if tr is None:
+            return Reset()
+        x_after, p_after, info = tr.apply(t, x, p, y)
+        log.fired.append(Fired(t, tr, np.array(x, dtype=float), np.array(p, dtype=float),
+                               x_after, p_after, info))
+        stop = tr.fall or (tr.heel_strike and len(log.heel_strikes) >= log.target)
+        names = self.model.param_names
+        params = {names[c.index]: p_after[c.index] for c in tr.changes}
+        return Reset(x=x_after if tr.impact is not None else None, params=params or None,
+                     stop=stop, energy=tr.energy)
+
+    def actions(self, log: WalkLog) -> dict:
+        """One action per event that has transitions, for :func:`porthamiltonian.simulate`."""
+        return {event: functools.partial(self.fire, event, log) for event in self.events}

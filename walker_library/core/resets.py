@@ -1,0 +1,294 @@
+"""Reset maps of a heel strike: the relabelling of coordinates and the rigid plastic impact.
+
+* :class:`Relabel` — the linear (affine) map of :attr:`~.hybrid.WalkerSpec.relabel` on a state
+  and its modes: position coordinates q' = A q + b (a signed permutation for a symmetric walker),
+  the multibody's joint rates by the same map v' = A_mb v, the modes by theirs.
+* :func:`floating_model` — the multibody of a model pinned at its root (a revolute joint from
+  the world at the stance foot) with the pin released: a massless base body on a translational
+  x/z joint between the world and the root joint, so that the root can move.
+* :class:`ImpactMap` — the plastic impact of a rigid walker at heel strike
+  (:func:`porthamiltonian.simulation.impact.model_impact` on the floating model: the striking
+  point stops, the old pin is free), followed by the relabelling that re-pins the model at the
+  striking point. The state is mapped, the mode parameters are the rule's business.
+
+Both maps are functions of the state with a Jacobian (:meth:`Relabel.matrix`, exact;
+:meth:`ImpactMap.jacobian`, central differences) for saltation-matrix computations.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from porthamiltonian import Model, Multibody
+from porthamiltonian.modeling.expressions import parse
+from porthamiltonian.simulation.compiled import CompiledModel
+from porthamiltonian.simulation.impact import model_impact
+
+__all__ = ["PIN", "Floating", "ImpactMap", "Relabel", "floating_model"]
+
+#: name of the translational joint (and its base body) that :func:`floating_model` inserts
+PIN = "pin"
+
+
+def _frozen(a) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True)
+class Relabel:
+    """The relabelling of a walker's coordinates (see the module docstring).
+
+    positions : state indices of the position-like coordinates the map acts on (every state but
+        the multibody momenta); A, b : the map on them. coordinates : indices into ``positions``
+        of the multibody coordinates, in the multibody's order (their rates map with A
+        restricted to them). modes : parameter indices of the modes; B, c : their map.
+    b_outputs, c_outputs : (row, output index) of offsets that depend on parameters (e.g. one
+        spoke's angle, 2 pi / n_spokes): added from the model's outputs ``y``.
+    """
+
+    positions: tuple[int, ...]
+    A: np.ndarray
+    b: np.ndarray
+    coordinates: tuple[int, ...]
+    modes: tuple[int, ...]
+    B: np.ndarray
+    c: np.ndarray
+    b_outputs: tuple[tuple[int, int], ...] = ()
+    c_outputs: tuple[tuple[int, int], ...] = ()
+
+    @classmethod
+    def build(cls, space: list[str], A: list[list[float]], b: list[float | int | str],
+              state_names: list[str],
+              param_names: list[str], coordinates: list[str],
+              output_of: dict[str, int] | None = None) -> Relabel:
+        """From :func:`~.hybrid.check_names`'s ``relabel`` (names of the map's space, its matrix
+        and offsets) and the compiled model's layout; ``coordinates``: the multibody's
+        coordinate states in order; ``output_of``: the output index of each offset that is an
+        expression."""
+        A = np.asarray(A, dtype=float)
+        pos = [i for i, n in enumerate(space) if n in state_names]
+        mod = [i for i, n in enumerate(space) if n not in state_names]
+        where = {space[i]: k for k, i in enumerate(pos)}
+
+        def split(rows: list[int]) -> tuple[np.ndarray, tuple[tuple[int, int], ...]]:
+            """Numeric offsets of ``rows`` (0 where an expression) and the expressions' outputs."""
+            const = [0.0 if isinstance(b[i], str) else float(b[i]) for i in rows]
+            outs = tuple((k, output_of[b[i]]) for k, i in enumerate(rows) if isinstance(b[i], str))
+            return _frozen(const), outs
+
+        b_pos, b_out = split(pos)
+        c_mod, c_out = split(mod)
+        return cls(tuple(state_names.index(space[i]) for i in pos), _frozen(A[np.ix_(pos, pos)]),
+                   b_pos, tuple(where[c] for c in coordinates),
+                   tuple(param_names.index(space[i]) for i in mod),
+                   _frozen(A[np.ix_(mod, mod)]), c_mod, b_out, c_out)
+
+    def matrix(self) -> np.ndarray:
+        """A (the Jacobian of the map on the position coordinates)."""
+        return self.A
+
+    @staticmethod
+    def _offsets(const: np.ndarray, outs, y) -> np.ndarray:
+        b = const.copy()
+        for k, o in outs:
+            b[k] += y[o]
+        return b
+
+    def state(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """``x`` with its position coordinates mapped (momenta untouched: see :meth:`rates`);
+        ``y``: the model's outputs (for offsets that depend on parameters)."""
+        out = np.array(x, dtype=float)
+        idx = list(self.positions)
+        out[idx] = self.A @ out[idx] + self._offsets(self.b, self.b_outputs, y)
+        return out
+
+    def rates(self, v: np.ndarray) -> np.ndarray:
+        """The multibody's joint rates mapped: v' = A_mb v."""
+        r = list(self.coordinates)
+        return self.A[np.ix_(r, r)] @ np.asarray(v, dtype=float)
+
+    def params(self, p: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The parameter vector with its modes mapped."""
+        out = np.array(p, dtype=float)
+        idx = list(self.modes)
+        if idx:
+            out[idx] = self.B @ out[idx] + self._offsets(self.c, self.c_outputs, y)
+        return out
+
+
+def _shifted(value, by) -> list:
+    """A 3-vector of numbers/expressions minus ``by`` (component-wise, as expressions)."""
+    return [v if b == 0 else f"({v}) - ({b})" for v, b in zip(value, by)]
+
+
+def _offset(joints: dict, bodies: dict, point: str, root_body: str) -> list | None:
+    """Position of ``point`` in ``root_body``'s frame when the point's body is welded to it
+    (through weld joints only), else None."""
+    body = next((b for b, d in bodies.items() if point in (d.get("points") or {})), None)
+    if body is None:
+        return None
+    total = list(bodies[body]["points"][point])
+    while body != root_body:
+        joint = next((j for j in joints.values() if j.get("child") == body), None)
+        if joint is None or joint.get("type") != "weld":
+            return None
+        total = [f"({a}) + ({b})" if b != 0 else a
+                 for a, b in zip(total, joint.get("origin", [0, 0, 0]))]
+        body = joint["parent"]
+    return total
+
+
+def _is_zero(vector, params) -> bool:
+    names = {n: sp.Symbol(n, real=True) for n in params}
+    return all(parse(v, names, "joint origin") == 0 for v in vector)
+
+
+@dataclass(frozen=True)
+class Floating:
+    """:func:`floating_model`'s result: the model, the root joint, and the joints re-hung from
+    the free base (their coordinates become absolute: ψ = q + q_root)."""
+
+    model: Model
+    root: str
+    rehung: tuple[str, ...]
+
+
+def floating_model(model: Model, multibody: str, root: str, about: str) -> Floating:
+    """The multibody of ``model`` (alone, same parameters) with its pinned root joint ``root``
+    (a revolute joint from the world) released, for the impact map.
+
+    A massless base body on a translational x/z joint :data:`PIN` carries the root body at the
+    point ``about`` (the hip; a point of the root body or of a body welded to it): the root body's
+    frame is moved there, and its revolute joint hangs from the base. Revolute joints of the root
+    body at that point about the same axis (the other leg at the hip) are re-hung from the base
+    too, so that every leg's coordinate is an absolute angle. Coordinates: ``<mb>.q.pin.x``,
+    ``<mb>.q.pin.z`` (the position of ``about``), then the original ones (absolute for the
+    re-hung joints); a point ``pin_point`` marks the released pin.
+
+    This is the floating base of Goswami et al. and Garcia et al.'s impact equations: with light
+    legs (Garcia's mass ratio 1e-9) the angular momentum of the trailing leg about the hip is then
+    one coordinate's momentum, which the impact leaves exactly unchanged, instead of a difference
+    of large numbers that loses nine digits."""
+    comp = model.component(multibody)
+    bodies = {k: dict(v) for k, v in comp.value("bodies").items()}
+    joints = {k: dict(v) for k, v in comp.value("joints").items()}
+    root_body = joints[root]["child"]
+    shift = _offset(joints, bodies, about, root_body) or [0, 0, 0]
+    body = bodies[root_body]
+    body["com"] = _shifted(body.get("com", [0, 0, 0]), shift)
+    for key in ("points", "frames", "world_frames"):
+        if body.get(key):
+            body[key] = {k: _shifted(v, shift) for k, v in body[key].items()}
+    body["points"] = {**(body.get("points") or {}),
+                      f"{PIN}_point": _shifted([0, 0, 0], shift)}
+    base = f"{PIN}_base"
+    rehung = []
+    for name, joint in joints.items():
+        if joint.get("parent") != root_body:
+            continue
+        origin = _shifted(joint.get("origin", [0, 0, 0]), shift)
+        joints[name] = {**joint, "origin": origin}
+        if (joint.get("type") == "revolute" and joint.get("axis", "y") == joints[root].get("axis", "y")
+                and _is_zero(origin, model.parameters)):
+            joints[name]["parent"] = base
+            rehung.append(name)
+    bodies[base] = {"mass": "0", "com": [0, 0, 0], "inertia": 0}
+    free = {PIN: {"type": "translational", "parent": "world", "child": base,
+                  "origin": [0, 0, 0], "axes": ["x", "z"]}}
+    joints = {**free, **{k: ({**v, "parent": base, "origin": [0, 0, 0]} if k == root else v)
+                         for k, v in joints.items()}}
+    args = {k: v for k, v in comp.args.items() if k not in ("bodies", "joints")}
+    out = Model(f"{model.name}_floating")          # the model with its pin at the root released
+    for name, par in model.parameters.items():
+        out.parameter(name, par.value, par.unit, par.doc)
+    out.add(multibody, Multibody(bodies=bodies, joints=joints, **args))
+    return Floating(out, root, tuple(rehung))
+
+
+@dataclass(frozen=True)
+class ImpactMap:
+    """Plastic impact at ``point`` of a rigid walker pinned at its root, then :class:`Relabel`.
+
+    model : the walker's compiled model; floating : the compiled :func:`floating_model` (free at
+    the point ``about``); multibody : its name; relabel : the re-pinning map. ``__call__(t, x, p, p_after)`` returns
+    the state just after the heel strike (momenta from the relabelled rates with the parameters
+    ``p_after``, i.e. the new stance foot's position) and the impact's record.
+    """
+
+    model: CompiledModel
+    floating: CompiledModel
+    multibody: str
+    point: str
+    about: str
+    relabel: Relabel
+    root: str
+    rehung: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        mb, m, f = self.multibody, self.model, self.floating
+        q = [i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.q.")]
+        fcoords = [s for s in f.state_names if s.startswith(f"{mb}.q.")]
+        coords = [m.state_names[i][len(mb) + 3:] for i in q]
+        F = np.eye(len(q))                       # floated joint coordinates = F @ pinned ones
+        for j in self.rehung:
+            F[coords.index(j), coords.index(self.root)] = 1.0
+        layout = {"q": q, "p": [i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.p.")],
+                  "F": F, "F_inv": np.linalg.inv(F),
+                  "fq": [f.state_index(m.state_names[i]) for i in q],
+                  "fv": [fcoords.index(m.state_names[i]) for i in q],
+                  "pin": [fcoords.index(f"{mb}.q.{PIN}.{a}") for a in "xz"],
+                  "pin_states": [f.state_index(f"{mb}.q.{PIN}.{a}") for a in "xz"],
+                  "about": [m.output_index(f"{self.about}.{a}") for a in "xz"],
+                  "params": [f.param_names.index(n) for n in m.param_names if n in f.param_names],
+                  "mine": [i for i, n in enumerate(m.param_names) if n in f.param_names]}
+        object.__setattr__(self, "_layout", layout)
+
+    def floating_state(self, t: float, x: np.ndarray,
+                       p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(state, joint rates, parameters) of the floating model at the walker's state ``x``:
+        the same configuration and velocities, the free base at the hip moving with it."""
+        mb, lay = self.multibody, self._layout
+        v = np.linalg.solve(self.model.matrix(f"{mb}.M", t, x, p), x[lay["p"]])
+        y = self.model.outputs(t, x, p)
+        xf = np.zeros(self.floating.n_states)
+        xf[lay["fq"]] = lay["F"] @ x[lay["q"]]
+        xf[lay["pin_states"]] = y[lay["about"]]
+        pf = self.floating.param_defaults.copy()
+        pf[lay["params"]] = np.asarray(p)[lay["mine"]]
+        vf = np.zeros(len(lay["fq"]) + 2)
+        vf[lay["fv"]] = lay["F"] @ v
+        vf[lay["pin"]] = self.model.matrix(f"{mb}.J.{self.about.split('.', 1)[1]}", t, x, p) @ v
+        return xf, vf, pf
+
+    def __call__(self, t: float, x: np.ndarray, p: np.ndarray,
+                 p_after: np.ndarray) -> tuple[np.ndarray, dict]:
+        mb, lay = self.multibody, self._layout
+        xf, vf, pf = self.floating_state(t, x, p)
+        imp = model_impact(self.floating, xf, pf, [f"{mb}.J.{self.point.split('.', 1)[1]}"],
+                           f"{mb}.M", t=t, v_minus=vf)
+        pin_v = self.floating.matrix(f"{mb}.J.{PIN}_point", t, imp.x_plus, pf) @ imp.impact.v_plus
+        imp = imp.impact
+        y = self.model.outputs(t, x, p)
+        v_new = self.relabel.rates(lay["F_inv"] @ imp.v_plus[lay["fv"]])
+        x_new = self.relabel.state(x, y)
+        x_new[lay["p"]] = self.model.matrix(f"{mb}.M", t, x_new, p_after) @ v_new
+        info = {"impact_energy_lost": imp.energy_lost, "impulse": imp.impulse.tolist(),
+                "trailing_foot_normal_velocity": float(pin_v[1]),
+                "constraint_velocity": float(np.max(np.abs(imp.constraint_velocity)))}
+        return x_new, info
+
+    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
+                 step: float = 1e-7) -> np.ndarray:
+        """∂x⁺/∂x⁻ by central differences (step relative to max(1, |x_j|))."""
+        n = len(x)
+        J = np.empty((n, n))
+        for j in range(n):
+            h = step * max(1.0, abs(x[j]))
+            e = np.zeros(n)
+            e[j] = h
+            J[:, j] = (self(t, x + e, p, p_after)[0] - self(t, x - e, p, p_after)[0]) / (2 * h)
+        return J

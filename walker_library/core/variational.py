@@ -1,0 +1,133 @@
+"""The exact stride-map Jacobian of a :class:`~.core.HybridWalker`: one run of a stride with the
+framework's sensitivities (``simulate(..., sensitivity=X)``, :mod:`porthamiltonian.saltation`).
+
+For the stride map S: z ↦ z' on the Poincaré section (z the section coordinates, x the model
+state, x₀ = L(z) the lift, z' = P(x⁺) the projection with the relabelling),
+
+    ∂z'/∂z = Z · Φ_final · X,
+
+* X = ∂L/∂z (n × k), the seeds of the run, so that it integrates Φ = ∂x(t)/∂z directly (k
+  columns instead of n);
+* Φ_final: the run's sensitivities where it stops, at the heel strike that ends the stride —
+  the variational equation Φ' = J Φ between events (the compiled Jacobian, integrated with the
+  trajectory by the Rodas loops), at every event on the way the saltation matrix (contacts
+  switching, mid-stance stiffness changes: a change of the vector field; an impact: the reset's
+  Jacobian too), and at the heel strike the projection along the flow onto the guard's surface
+  followed by the reset (the impact and/or the change of modes);
+* Z = ∂P/∂x⁺ (k × n) at the state after the heel strike.
+
+X, Z and the impact maps' Jacobians R_x come from central differences with error estimates
+(:func:`porthamiltonian.differences.jacobian`: these maps are smooth and cheap); the largest of
+their errors relative to the Jacobian's largest entry, ρ (~1e-11), bounds their contribution to
+∂z'/∂z elementwise by 3ρ |Z| |Φ_final X| (first order: three factors, Z, X and the impacts'
+R_x inside Φ_final, each in error by ρ relative at most). A period-k orbit's Jacobian is the product of its k strides' (each stride
+its own run, from the section state the previous one reached), so that parameters a heel strike
+sets from the state (a rigid walker's stance-foot position) never enter a differentiated flow.
+
+The run uses the walker's compiled Rosenbrock method, or Rodas5P when its file integrates with a
+scipy method (the rigid walkers' DOP853), at the walker's tolerances; the flow of the run is the
+same as a stride's (to that tolerance), so its z' agrees with :meth:`HybridWalker.walk`'s.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from porthamiltonian import Reset
+from porthamiltonian.integrators import TABLEAUS
+from porthamiltonian.simulation.differences import jacobian
+from porthamiltonian.simulation.saltation import section_jacobian
+
+from .machine import WalkLog
+
+__all__ = ["StrideSensitivity", "stride_sensitivity"]
+
+
+@dataclass(frozen=True)
+class StrideSensitivity:
+    """The Jacobian of S^period at z (section coordinates, k × k) from runs with sensitivities.
+
+    z_next : S^period(z). jacobian : ∂S^period/∂z. phi_error : the largest error estimate of Φ's
+    sub-steps over the runs, in units of rtol (:attr:`porthamiltonian.saltation.Sensitivity.error`).
+    difference_error : the elementwise bound of the error that the difference Jacobians (lift,
+    impacts, projection) bring into ``jacobian`` (module docstring; k × k). rtol : the runs' relative tolerance. method : the
+    integrator. fell : the reason when a stride fell (then ``jacobian`` is None).
+    """
+
+    z_next: np.ndarray | None
+    jacobian: np.ndarray | None
+    phi_error: float
+    difference_error: np.ndarray | None
+    rtol: float
+    method: str
+    fell: str = ""
+
+
+def _actions(walker, log: WalkLog, errors: list[float]) -> dict:
+    """The mode machine's actions, each that moves the state returning its map's Jacobian."""
+    def wrap(action):
+        def act(t: float, x: np.ndarray, p: np.ndarray) -> Reset:
+            reset = action(t, x, p)
+            if reset.x is None:
+                return reset
+            fired = log.fired[-1]
+            impact = fired.transition.impact
+            d = jacobian(lambda xx: impact(t, xx, p, fired.p_plus)[0], x, 1.0)
+            errors.append(_relative(d))
+            return replace(reset, jacobian=d.value)
+        return act
+
+    return {event: wrap(action) for event, action in walker.machine.actions(log).items()}
+
+
+def _relative(d) -> float:
+    """A difference Jacobian's largest error relative to its largest entry."""
+    size = float(np.max(np.abs(d.value))) if d.value.size else 0.0
+    return d.max_error / size if size > 0 else 0.0
+
+
+def _one(walker, z: np.ndarray, method: str, rtol: float, atol) -> tuple:
+    """(z', ∂z'/∂z, Φ error, difference-error bound) of one stride, or a fall reason (str)."""
+    p0 = walker.start_params()
+    lift = jacobian(lambda w: walker.lift(w, p0), z, 1.0)
+    x0 = walker.lift(z, p0)
+    p0 = walker.machine.start(x0, p0)
+    log = WalkLog(1)
+    errors = [_relative(lift)]
+    o = walker.options
+    traj = walker.model.simulate(
+        o.max_step_time, x0=x0, params=dict(zip(walker.model.param_names, p0)), method=method,
+        rtol=rtol, atol=atol, max_step=o.max_step, actions=_actions(walker, log, errors),
+        max_events=200, sensitivity=lift.value)
+    strikes = log.heel_strikes
+    if not strikes or any(f.transition.fall for f in log.fired):
+        return f"no heel strike ({traj.message})"
+    last = strikes[-1]
+    project = jacobian(lambda x: walker.project(x, last.p_plus), last.x_plus, 1.0)
+    errors.append(_relative(project))
+    final = traj.sensitivity.final
+    J = section_jacobian(final, project.value)
+    bound = 3.0 * max(errors) * (np.abs(project.value) @ np.abs(final))
+    return walker.project(last.x_plus, last.p_plus), J, traj.sensitivity.error, bound
+
+
+def stride_sensitivity(walker, z, period: int = 1, *, factor: float = 1.0) -> StrideSensitivity:
+    """The exact Jacobian of the stride map S^period at section state ``z`` (module docstring)
+    at the walker's tolerances times ``factor`` (rtol at least 3e-14). A fall is a result
+    (``fell``)."""
+    o = walker.options
+    method = o.method if o.method in TABLEAUS else "Rodas5P"
+    factor = max(float(factor), 3e-14 / o.rtol)
+    rtol, atol = o.rtol * factor, np.asarray(o.atol, dtype=float) * factor
+    z = np.asarray(z, dtype=float)
+    J, E = np.eye(len(z)), np.zeros((len(z), len(z)))
+    phi_err = 0.0
+    for _ in range(int(period)):
+        out = _one(walker, z, method, rtol, atol)
+        if isinstance(out, str):
+            return StrideSensitivity(None, None, phi_err, None, rtol, method, fell=out)
+        z, Js, pe, Es = out
+        J, E = Js @ J, Es @ np.abs(J) + np.abs(Js) @ E
+        phi_err = max(phi_err, pe)
+    return StrideSensitivity(z, J, phi_err, E, rtol, method)
