@@ -129,3 +129,8 @@ class CompilerError(ModelError):
 class SceneError(ModelError):
     """A scene of the 3D viewer (:mod:`porthamiltonian.interfaces.viewer`) is malformed: a shape, a pose, the
     times, the ground; the message names the body, shape or frame and says what is expected."""
+
+
+class ExportError(ModelError):
+    """A model cannot be exported as asked (e.g. an FMU of a model whose events or actions are
+    Python callables); the message says why and what can be exported instead."""

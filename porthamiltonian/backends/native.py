@@ -87,13 +87,17 @@ _NO_COMPILER = ("no C compiler found: $CC is not set, none of cc, gcc, clang is 
                 "package index), or choose the numba or python back end")
 
 
-def build(source: Path, log_dir: Path | None) -> tuple[bytes, float]:
+#: what a failed build's message advises (the C back end's; an FMU's build says its own)
+ADVICE = "Set CC to a working C compiler, or choose the numba or python back end"
+
+
+def build(source: Path, log_dir: Path | None, advice: str = ADVICE) -> tuple[bytes, float]:
     """Compile the translation unit ``source`` into a shared library; (its bytes, seconds).
 
     The library is written in a private temporary folder (the caller stores it). On failure a
     :class:`~porthamiltonian.errors.CompilerError` shows the command and the file holding the
     compiler's output: ``log_dir/<source>.log`` (the cache entry), or a kept temporary file when
-    ``log_dir`` is None."""
+    ``log_dir`` is None; then ``advice``."""
     cc = compiler()
     if cc is None:
         raise CompilerError(_NO_COMPILER)
@@ -114,8 +118,7 @@ def build(source: Path, log_dir: Path | None) -> tuple[bytes, float]:
     what, output = failure
     log = _write_log(source, log_dir, command, what, output)
     raise CompilerError(f"the C compiler failed ({what}) building {source.name}: "
-                        f"{shlex.join(command)}; its output is in {log}. Set CC to a working C "
-                        "compiler, or choose the numba or python back end")
+                        f"{shlex.join(command)}; its output is in {log}. {advice}")
 
 
 def _write_log(source: Path, log_dir: Path | None, command: list[str], what: str,

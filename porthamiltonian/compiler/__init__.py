@@ -136,7 +136,10 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         note = " (numba compiles it at the first call)" if name == "numba" else ""
         backends.report(f"building {printable(meta['name'])}: {', '.join(parts)}, "
                         f"{size:.0f} kB{note}")
-    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key)
+    docs = {par_name: par.doc for par_name, par in description.parameters.items()}
+    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
+                         c_source=bodies["c"],
+                         param_docs=[docs.get(n, "") for n in meta["param_names"]])
 
 
 def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bool,

@@ -233,10 +233,13 @@ _C_PRELUDE = """\
 #include <stdlib.h>
 #include <string.h>
 
+/* the entry points' linkage; a translation unit that embeds the model (an FMU) defines it first */
+#ifndef PH_EXPORT
 #if defined(_WIN32)
 #define PH_EXPORT __declspec(dllexport)
 #else
 #define PH_EXPORT __attribute__((visibility("default")))
+#endif
 #endif
 
 /* min/max as Python's: b if b < a (b > a) else a */

@@ -6,6 +6,7 @@
     porthamiltonian view MODEL [--set NAME=VALUE ...] [--t-end T] [--out DIR] [--rate R]
     porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
                           [--settle NAME [--band B]] [--workers N | --serial | --scheduler ADDR]
+    porthamiltonian export-fmu MODEL --out FILE [--fmi 2|3] [--kind me|cs|both] [--set NAME=VALUE]
 
 MODEL is a name from ``models/`` or a path to a ``.toml`` model file. Every option may be given
 anywhere after its command (``--backend`` also before it). Exit status: 0 on success, 1 when a
@@ -37,8 +38,9 @@ from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor
 from ..batch.progress import MODES
 from ..batch.table import write_csv
 from ..errors import ModelError
+from ..integrators import TABLEAUS
 from . import io
-from .sweeps import SimulationModel, prepare_simulation, simulate_case
+from .sweeps import SimulationModel, prepare_simulation, simulate_case, simulation_settings
 
 
 # --- options shared by the commands (argparse parent parsers) ------------------------------------
@@ -336,6 +338,32 @@ def cmd_check_energy(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_export_fmu(args: argparse.Namespace) -> int:
+    """``porthamiltonian export-fmu``: the model as an FMU (docs/fmu.md)."""
+    from ..fmu import export_fmu
+
+    record = io.read(args.model)
+    settings = simulation_settings(record.simulation)
+    with record.located():
+        compiled = record.compile(backend=args.backend)
+    method = settings["method"] if settings["method"] in TABLEAUS else "Rodas5P"
+    t_end = args.t_end if args.t_end is not None else settings.get("t_end")
+    path = export_fmu(compiled, args.out, fmi=args.fmi, kind=args.kind,
+                      params=parse_assignments(args.set), method=method, rtol=settings["rtol"],
+                      atol=settings["atol"], max_step=settings.get("max_step", float("inf")),
+                      stop_time=t_end, description=record.description)
+    kinds = {"me": "model exchange", "cs": "co-simulation",
+             "both": "model exchange and co-simulation"}[args.kind]
+    print(f"wrote {path}: FMI {args.fmi}.0 ({kinds}), {compiled.n_states} + 2 states (the ledger's "
+          f"E_diss, E_in), {len(compiled.events)} event indicator(s), "
+          f"{len(compiled.param_names)} parameters, {len(compiled.output_names)} outputs")
+    if "walker" in record.sections:
+        print(f"note: {args.model} is a walker file: this FMU is its model with the modes fixed "
+              "at their values (as `porthamiltonian simulate` runs it); `walker export-fmu` "
+              "exports the walker with its mode machine", file=sys.stderr)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``porthamiltonian`` command's parser."""
     model_help = "model: a name from models/ (see check-energy's list) or a path to a .toml file"
@@ -393,6 +421,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="settling band as a fraction of the largest deviation from the final "
                         "value (default: 0.02, the 2%% settling time)")
     p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION],
+                       help="write the model as an FMU (FMI 2.0 or 3.0, model exchange and/or "
+                            "co-simulation) for other tools; docs/fmu.md")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--out", required=True, metavar="FILE", help="the FMU to write (model.fmu)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="FMI version: 2 (2.0, default) or 3 (3.0)")
+    p.add_argument("--kind", choices=("me", "cs", "both"), default="both",
+                   help="model exchange (me), co-simulation (cs) or both (default)")
+    p.add_argument("--t-end", type=float, default=None, metavar="T",
+                   help="the FMU's default stop time (s; default: the model file's [simulation] "
+                        "t_end)")
+    p.set_defaults(func=cmd_export_fmu)
     return parser
 
 

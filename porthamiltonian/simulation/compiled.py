@@ -9,12 +9,14 @@ from defaults and overrides by name; :meth:`~CompiledModel.outputs`, :meth:`~Com
 bound as a method: one signature, documented once). The simulator sits below this module in the
 import graph: it needs only the layout and the numeric functions of the model it is handed (it
 imports this module for type checking only), so that the compiled model can offer the call users
-expect (``compile_model(m).simulate(10.0)``) without an import cycle.
+expect (``compile_model(m).simulate(10.0)``) without an import cycle. ``export_fmu`` is
+:func:`porthamiltonian.fmu.export_fmu` bound the same way (the FMU exporter sits in the back-end
+stage).
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,6 +24,7 @@ import numpy as np
 
 from ..backends import Functions
 from ..errors import OptionError, ParameterValueError, StateError, UnknownParameterError
+from ..fmu import export_fmu as _export_fmu
 from ..modeling.constraints import ConstraintChecker
 from .simulate import simulate as _simulate
 
@@ -50,9 +53,13 @@ class CompiledModel:
         (``"spring.q": "m"``, ``"mass.p.e": "N"``).
     events : the model's event guards.
     functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
+    source : the generated source the back end runs (C or Python); c_source : the generated C
+        body (what the C back end compiles, also under the other back ends: an FMU embeds it).
+    param_docs : the parameters' descriptions, in the order of :attr:`param_names`.
     """
 
-    def __init__(self, meta: Mapping[str, Any], functions: Functions, source: str, key: str):
+    def __init__(self, meta: Mapping[str, Any], functions: Functions, source: str, key: str, *,
+                 c_source: str = "", param_docs: Sequence[str] = ()):
         self.name: str = meta["name"]
         self.state_names: list[str] = meta["state_names"]
         self.param_names: list[str] = meta["param_names"]
@@ -69,6 +76,8 @@ class CompiledModel:
         self.units: dict[str, str] = dict(meta.get("units", {}))
         self.functions = functions
         self.source = source
+        self.c_source = c_source
+        self.param_docs: list[str] = list(param_docs) or [""] * len(self.param_names)
         self.key = key
         self._state_index = {n: i for i, n in enumerate(self.state_names)}
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
@@ -232,6 +241,7 @@ class CompiledModel:
         return model_html(self)
 
     simulate = _simulate
+    export_fmu = _export_fmu
 
     def __repr__(self) -> str:
         return (f"CompiledModel({self.name!r}, {self.n_states} states, {len(self.param_names)} "
