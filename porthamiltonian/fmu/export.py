@@ -136,6 +136,10 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
         raise OptionError(f"program must be an EventProgram (porthamiltonian.fmu), got "
                           f"{type(program).__name__}")
     program.check(model)
+    if getattr(model, "input_names", None):
+        raise ExportError(f"model {model.name!r} has inputs ({', '.join(model.input_names)}): "
+                          "FMUs of models with inputs are not written yet (they will be FMI "
+                          "input variables)")
     if not model.c_source:
         raise ExportError(f"model {model.name!r} carries no generated C code (a CompiledModel "
                           "made outside compile_model): compile it with compile_model")
@@ -170,7 +174,7 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
     identifier = _identifier(model.name, model_identifier)
     hmax = solver[2] if math.isfinite(solver[2]) else 1e300
     variables = variable_table(model, program=program, param_start=p, x_start=x_start,
-                               outputs=chosen, solver=(solver[0], solver[1], hmax),
+                               states_from_parameters=states_from_parameters, outputs=chosen, solver=(solver[0], solver[1], hmax),
                                cosimulation="cs" in kinds, method=method)
     token = _token(model, variables, version, kinds, program, method, identifier)
     folder, suffix = platform_folder(version)

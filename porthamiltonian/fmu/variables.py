@@ -95,12 +95,14 @@ def _output_description(name: str) -> str:
 
 
 def variable_table(model: CompiledModel, *, program: EventProgram, param_start: np.ndarray,
-                   x_start: np.ndarray, outputs: Sequence[str], solver: Sequence[float],
-                   cosimulation: bool, method: str) -> list[Variable]:
+                   x_start: np.ndarray, states_from_parameters: bool, outputs: Sequence[str],
+                   solver: Sequence[float], cosimulation: bool, method: str) -> list[Variable]:
     """The FMU's variables (see the module docstring) of ``model``.
 
     program : the event rules (its modes become discrete variables, its counters outputs).
-    param_start, x_start : start values of the parameters and of the model states.
+    param_start, x_start : start values of the parameters and of the model states;
+        ``states_from_parameters``: the FMU computes the initial state from the parameters
+        (else the states start at ``x_start``).
     outputs : the named outputs that are FMI outputs (the others are local variables).
     solver : rtol, atol, max_step of the co-simulation integrator ``method`` (variables only
         when ``cosimulation``).
@@ -129,9 +131,11 @@ def variable_table(model: CompiledModel, *, program: EventProgram, param_start: 
             add(name, "Real", "parameter", "tunable", "exact", value, unit, doc, "param", i,
                 access="tunable")
         else:
+            role = ("sets the initial state only" if states_from_parameters else
+                    "unused here: it sets the model's initial state, and this FMU's states have "
+                    "start values of their own")
             add(name, "Real", "parameter", "fixed", "exact", value, unit,
-                f"{doc}{' ' if doc else ''}(sets the initial state only)", "param", i,
-                access="before_init")
+                f"{doc}{' ' if doc else ''}({role})", "param", i, access="before_init")
     n = model.n_states
     ledger = (("ledger.E_diss", "energy dissipated since the start (the ledger's E_diss)"),
               ("ledger.E_in", "energy supplied since the start (the ledger's E_in)"))

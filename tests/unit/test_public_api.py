@@ -14,7 +14,7 @@ import pytest
 WALKER_MODULES = ("analyses.cases", "analyses.calibration", "core.walker", "analyses.dissipation",
                   "core.hybrid", "core.machine", "analyses.metrics", "core.names", "core.protocol",
                   "report.writer", "core.resets", "analyses.results", "analyses.series",
-                  "analyses.standing", "core.strides", "core.files")
+                  "analyses.standing", "core.strides", "core.files", "core.fmu")
 
 
 def _modules(package: str):
