@@ -71,7 +71,9 @@ def model_source(model: CompiledModel, variables: Sequence[Variable], *, program
     n_ev, rules = len(model.events), program.rules
     counters = [name for name, _ in program.counters]
     actions = set(program.actions())
-    conditions, changes, rule_rows = [], [], []
+    conditions: list[str] = []
+    changes: list[str] = []
+    rule_rows: list[str] = []
     for r in rules:
         first_c, first_ch = len(conditions), len(changes)
         conditions += [f"{{{c.output}, {OPERATORS.index(c.op)}}}" for c in r.conditions]

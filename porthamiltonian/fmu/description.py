@@ -137,7 +137,7 @@ def _fmi2(root: ET.Element, variables: Sequence[Variable], interface: Interface,
     common = {"modelIdentifier": interface.identifier, "canNotUseMemoryManagementFunctions": "true",
               "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true",
               "providesDirectionalDerivative": "true"}
-    kinds = []
+    kinds: list[tuple[str, dict[str, str]]] = []
     if interface.model_exchange:
         kinds.append(("ModelExchange", {}))
     if interface.co_simulation:

@@ -72,18 +72,19 @@ def index_html(model: CompiledModel, variables: Sequence[Variable], program: Eve
         "<h3>State equations</h3><pre>" + _e("\n".join(model.equations)) + "</pre>",
     ]
     if model.events:
-        rows = [(k, e.name, {1: "rising", -1: "falling", 0: "either"}.get(e.direction, ""),
-                 "yes" if (e.terminal or k in program.actions()) else "no")
-                for k, e in enumerate(model.events)]
+        events: list[tuple[object, ...]] = [
+            (k, e.name, {1: "rising", -1: "falling", 0: "either"}.get(e.direction, ""),
+             "yes" if (e.terminal or k in program.actions()) else "no")
+            for k, e in enumerate(model.events)]
         parts += [("<h2>Events</h2><p>Each event's guard is an event indicator "
-                  "(<code>events.&lt;name&gt;.indicator</code>); an event fires when it crosses "
-                  "zero in the event's direction. <code>events.&lt;name&gt;.count</code> and "
-                  "<code>.time</code> say how often and when it last fired. A terminal event "
-                  "without rules ends the simulation.</p>"),
-                  _table(("#", "event", "direction", "terminal"), rows)]
+                   "(<code>events.&lt;name&gt;.indicator</code>); an event fires when it crosses "
+                   "zero in the event's direction. <code>events.&lt;name&gt;.count</code> and "
+                   "<code>.time</code> say how often and when it last fired. A terminal event "
+                   "without rules ends the simulation.</p>"),
+                  _table(("#", "event", "direction", "terminal"), events)]
     if program.rules:
         names = [e.name for e in model.events]
-        rows = []
+        rules: list[tuple[object, ...]] = []
         for i, r in enumerate(program.rules):
             conds = "; ".join(c.text or f"output {model.output_names[c.output]} {c.op} 0"
                               for c in r.conditions) or "always"
@@ -94,13 +95,13 @@ def index_html(model: CompiledModel, variables: Sequence[Variable], program: Eve
             flags = ", ".join(filter(None, ("ends the run" if r.stop else "",
                                             f"counts {r.counter}" if r.counter else "",
                                             f"energy jump {r.energy}")))
-            rows.append((i + 1, r.name, "start" if r.event < 0 else names[r.event], conds, sets,
-                         flags))
+            rules.append((i + 1, r.name, "start" if r.event < 0 else names[r.event], conds, sets,
+                          flags))
         parts += [(f"<h2>Rules{f' ({_e(program.source)})' if program.source else ''}</h2>"
-                  "<p>At an event, the first of its rules whose conditions hold (outputs "
-                  "evaluated just before the event) sets its modes; the start rules apply once "
-                  "when initialization ends.</p>"),
-                  _table(("#", "rule", "event", "if", "set", ""), rows)]
+                   "<p>At an event, the first of its rules whose conditions hold (outputs "
+                   "evaluated just before the event) sets its modes; the start rules apply once "
+                   "when initialization ends.</p>"),
+                  _table(("#", "rule", "event", "if", "set", ""), rules)]
     if "cs" in page.kinds:
         parts.append(
             f"<h2>Co-simulation</h2><p>The FMU integrates with its own {_e(page.method)} "

@@ -136,8 +136,9 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
         raise OptionError(f"program must be an EventProgram (porthamiltonian.fmu), got "
                           f"{type(program).__name__}")
     program.check(model)
-    if getattr(model, "input_names", None):
-        raise ExportError(f"model {model.name!r} has inputs ({', '.join(model.input_names)}): "
+    inputs = getattr(model, "input_names", None)
+    if inputs:
+        raise ExportError(f"model {model.name!r} has inputs ({', '.join(inputs)}): "
                           "FMUs of models with inputs are not written yet (they will be FMI "
                           "input variables)")
     if not model.c_source:

@@ -55,7 +55,7 @@ PH_FMI_EXPORT fmi2Component PH_FMI2(fmi2Instantiate)(fmi2String instanceName, fm
         return NULL;
     }
     ph_instance *inst = ph_instantiate(instanceName, fmuType == fmi2CoSimulation, environment,
-                                       (void *)logger, ph_fmi2_log, loggingOn);
+                                       (ph_callback)logger, ph_fmi2_log, loggingOn);
     return inst;
 }
 

@@ -46,7 +46,7 @@ static fmi3Instance ph_fmi3_instantiate(fmi3String instanceName, fmi3String toke
                        "another FMU?");
         return NULL;
     }
-    return ph_instantiate(instanceName, cosimulation, environment, (void *)logMessage,
+    return ph_instantiate(instanceName, cosimulation, environment, (ph_callback)logMessage,
                           ph_fmi3_log, loggingOn);
 }
 

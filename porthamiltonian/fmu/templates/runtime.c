@@ -59,13 +59,14 @@ typedef struct {
 } ph_values;
 
 typedef struct ph_instance_s ph_instance;
+typedef void (*ph_callback)(void);      /* the standard's logger, whichever version's */
 typedef void (*ph_log_fn)(ph_instance *, int status, const char *category, const char *message);
 
 struct ph_instance_s {
     int cosimulation;
     char *name;
     void *environment;
-    void *logger;                   /* the standard's callback (FMI 2 or 3) */
+    ph_callback logger;             /* the standard's callback (FMI 2 or 3) */
     ph_log_fn log;
     int logging, log_events;
     ph_values v;
@@ -150,7 +151,7 @@ static void ph_defaults(ph_instance *c)
 }
 
 static ph_instance *ph_instantiate(const char *name, int cosimulation, void *environment,
-                                   void *logger, ph_log_fn log, int logging)
+                                   ph_callback logger, ph_log_fn log, int logging)
 {
     ph_instance *c = calloc(1, sizeof(ph_instance));
     if (c == NULL)
