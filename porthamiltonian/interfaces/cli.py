@@ -38,6 +38,7 @@ from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor
 from ..batch.progress import MODES
 from ..batch.table import write_csv
 from ..errors import ModelError
+from ..fmu import export_fmu
 from ..integrators import TABLEAUS
 from . import io
 from .sweeps import SimulationModel, prepare_simulation, simulate_case, simulation_settings
@@ -340,8 +341,6 @@ def cmd_check_energy(args: argparse.Namespace) -> int:
 
 def cmd_export_fmu(args: argparse.Namespace) -> int:
     """``porthamiltonian export-fmu``: the model as an FMU (docs/fmu.md)."""
-    from ..fmu import export_fmu
-
     record = io.read(args.model)
     settings = simulation_settings(record.simulation)
     with record.located():
