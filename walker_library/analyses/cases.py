@@ -172,19 +172,16 @@ def prepare_walker(cases: Sequence[Mapping[str, Any]], *, model: str,
     """Build the walker once (forked workers inherit it) and check every case's parameter names
     and values against the walker's specs, so a typo fails before the sweep starts."""
     walker = walker_cache().walker(model, backend)
-    specs = getattr(walker, "specs", None)
+    specs = walker.specs
     for index, case in enumerate(cases):
         try:
-            if specs is not None:
-                unknown = sorted(set(case) - set(specs))
-                if unknown:
-                    raise ParameterValueError(
-                        f"unknown parameter(s) {', '.join(unknown)} of {walker.name}; "
-                        f"parameters: {', '.join(specs)}")
-                for name, value in case.items():
-                    specs[name].check(value)
-            elif index == 0:
-                walker.with_parameters(**case)
+            unknown = sorted(set(case) - set(specs))
+            if unknown:
+                raise ParameterValueError(
+                    f"unknown parameter(s) {', '.join(unknown)} of {walker.name}; "
+                    f"parameters: {', '.join(specs)}")
+            for name, value in case.items():
+                specs[name].check(value)
         except ParameterValueError as err:
             raise ParameterValueError(f"case {index} {canonical(dict(case))}: {err}") from None
 

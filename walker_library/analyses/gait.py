@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -49,7 +50,7 @@ from .continuation import ParameterPath, continue_gait
 from .metrics import GaitMetrics, gait_metrics
 from .monodromy import FloquetResult, floquet
 from .poincare import WalkerFell, detect_period, find_fixed_point
-from .results import JSONResult, to_jsonable
+from .results import JSONResult, to_jsonable, view
 
 __all__ = ["GaitResult", "Orbit", "WalkResult", "analyze_gait", "gait_start", "section_guess",
            "walk"]
@@ -142,15 +143,13 @@ class GaitResult(JSONResult):
                   "search": self.search, "parameters": self.parameters, "message": self.message})
         return to_jsonable(d)
 
-    def plot(self, walker: Walker | None = None, *, steps: int = 2):
-        """Limit cycle and Floquet multipliers, a quick look (see
+    def plot(self, walker: Walker | None = None, *, steps: int = 2) -> Any:
+        """Limit cycle and Floquet multipliers, a quick look (the report's view,
         :func:`walker_library.report.display.plot_gait`); returns the Axes."""
-        from ..report.display import plot_gait
-        return plot_gait(self, walker, steps=steps)
+        return view(self, "plot")(self, walker, steps=steps)
 
     def _repr_html_(self) -> str:
-        from ..report.display import gait_html
-        return gait_html(self)
+        return view(self, "html")(self)
 
 
 def _named(walker: Walker, z) -> dict:
@@ -281,8 +280,7 @@ class _Search:
 
 
 def _defaults(walker: Walker) -> dict[str, float]:
-    specs = getattr(walker, "specs", None) or {}
-    return {k: s.value for k, s in specs.items()}
+    return {k: s.value for k, s in walker.specs.items()}
 
 
 def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max_period: int,
@@ -375,7 +373,7 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
         parameters when no stable orbit is found otherwise.
     """
     if tol is None:
-        tol = float(getattr(walker, "gait_tolerance", 1e-10))
+        tol = float(walker.gait_tolerance)
     base = {"model": walker.name, "section": list(walker.section),
             "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     search = _Search(walker, fd_step, jacobian, tol)
@@ -456,7 +454,7 @@ def gait_start(walker: Walker, parameter: str, start: float, guess=None,
     no orbit."""
     w = walker.with_parameters(**{parameter: start})
     if guess is not None:
-        fp = find_fixed_point(w, guess, tol=float(getattr(w, "gait_tolerance", 1e-10)))
+        fp = find_fixed_point(w, guess, tol=float(w.gait_tolerance))
         if fp.converged:
             return fp.z, 1
     g = analyze_gait(w, guess, **options)

@@ -178,12 +178,7 @@ def stride_jacobian(walker: Walker, z, *, period: int = 1, method: str = "variat
 
 def _variational(walker: Walker, z: np.ndarray, period: int) -> StrideJacobian:
     """The exact Jacobian and its error estimate (module docstring)."""
-    sens = getattr(walker, "stride_sensitivity", None)
-    if not callable(sens):
-        raise ModelError(f"{walker.name}: jacobian='variational' needs the walker's "
-                         "stride_sensitivity (the stride with its variational equations), which "
-                         "it does not provide; use jacobian='fd'")
-    runs = [sens(z, period), sens(z, period, factor=10.0)]
+    runs = [walker.stride_sensitivity(z, period), walker.stride_sensitivity(z, period, factor=10.0)]
     for run in runs:
         if run.fell:
             raise WalkerFell(z, Stride("fell", None, 0.0, reason=run.fell))

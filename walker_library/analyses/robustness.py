@@ -195,7 +195,7 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
                               cases=[], fixed_point=gait.fixed_point,
                               seconds=time.perf_counter() - t0,
                               message=f"no periodic gait to disturb: {gait.message}", **base)
-    leg = float(getattr(walker, "leg_length", 1.0))
+    leg = float(walker.leg_length)
     resolution = 2e-4 * leg if resolution is None else float(resolution)
     h_max = 0.1 * leg if h_max is None else float(h_max)
     if not (resolution > 0 and h_max > 0 and boundary_tol >= 0):
@@ -277,9 +277,9 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
 def basin_state(walker: Walker, z_star, theta: float, theta_dot: float) -> np.ndarray:
     """Section state with thesis θ, θ̇ set and the rest taken from the fixed point ``z_star``
     (φ keeps its offset from 2θ). A walker's own ``basin_state`` method takes precedence."""
-    own = getattr(walker, "basin_state", None)
-    if callable(own):
-        return np.asarray(own(z_star, theta, theta_dot), dtype=float)
+    own = walker.basin_state(z_star, theta, theta_dot)
+    if own is not None:
+        return np.asarray(own, dtype=float)
     names = list(walker.thesis_section)
     w = np.array(walker.to_thesis(np.asarray(z_star, dtype=float)), dtype=float)
     named = walker.section_state(z_star)
@@ -407,7 +407,7 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
         return GSNResult(status="no_gait", gsn=math.nan, by_indicator={}, response={},
                          error=math.nan, h=math.nan, n_steps=0,
                          message=f"no periodic gait: {gait.message}", **base)
-    leg = float(getattr(walker, "leg_length", 1.0))
+    leg = float(walker.leg_length)
     h = 1e-5 * leg if h is None else float(h)
     n_steps = recovery_steps(gait, 1e-8) if n_steps is None else int(n_steps)
     z0 = fixed_points(walker, gait)[0]

@@ -49,11 +49,12 @@ def _maxima(walker: HybridWalker, traj: Trajectory, X: np.ndarray, i0: int, i1: 
     if not t1 > t0:
         return math.nan, math.nan
     n = walker.model.n_states
-    flip = walker.relabelled(X[:n, i0], p)
+    relabel = walker.compiled.relabel
+    flip = relabel is not None and walker.relabelled(X[:n, i0], p)
     y0 = walker.outputs(0.0, X[:n, i0], p) if flip else None
 
     def thph(x: np.ndarray) -> tuple[float, float]:
-        a = walker.angles(walker._relabel.state(x[:n], y0) if flip else x[:n])
+        a = walker.angles(relabel.state(x[:n], y0) if relabel is not None and flip else x[:n])
         return a.get("theta", math.nan), a.get("phi", math.nan)
 
     if not any(seg.sol is not None for seg in traj.segments):
@@ -88,7 +89,7 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
     """The Strides of one walk (see the module docstring)."""
     t, Y = traj.t, traj.y
     n = walker.model.n_states
-    iV = walker._out[f"{walker.multibody}.V"]
+    iV = walker.model.output_index(f"{walker.multibody}.V")
 
     def at(i: int) -> tuple[float, float, float, float]:
         """(H, V, E_diss, E_in) at stored point i."""
