@@ -91,15 +91,12 @@ class Layout:
 
     @classmethod
     def from_json(cls, data: dict) -> Layout:
-        """The record of a :meth:`to_json` table; ValueError when it is not one."""
-        try:
-            lists = [tuple(data[k]) for k in ("param_names", "state_names", "output_names")]
-            if not all(isinstance(n, str) for names in lists for n in names):
-                raise TypeError("a name is not a string")
-            constraints = tuple(Constraint.from_dict(c) for c in data["constraints"])
-            return cls(str(data["name"]), *lists, constraints)
-        except (KeyError, TypeError, ValueError, AttributeError) as err:
-            raise ValueError(f"not a model layout ({type(err).__name__}: {err})") from None
+        """The record of a :meth:`to_json` table; KeyError or TypeError when it is not one."""
+        lists = [tuple(data[k]) for k in ("param_names", "state_names", "output_names")]
+        if not all(isinstance(n, str) for names in lists for n in names):
+            raise TypeError("a name is not a string")
+        constraints = tuple(Constraint.from_dict(c) for c in data["constraints"])
+        return cls(str(data["name"]), *lists, constraints)
 
 
 #: the file of a cache entry holding its model's :class:`Layout`
@@ -119,7 +116,7 @@ def layout(model: Model | ModelDescription, use_cache: bool = True) -> Layout:
     if stored is not None:
         try:
             return Layout.from_json(json.loads(stored))
-        except ValueError:
+        except (KeyError, TypeError, ValueError, AttributeError):
             pass                          # another version's file: computed and written again
     sym = symbolic(description)
     found = Layout(sym.name, tuple(sym.param_names), tuple(sym.state_names), tuple(sym.outputs),
@@ -203,7 +200,7 @@ def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
         return None, {}
     try:
         return ModelMeta.from_json(hit[0]), hit[1]
-    except ValueError:
+    except (KeyError, TypeError, ValueError, AttributeError):
         return None, {}
 
 

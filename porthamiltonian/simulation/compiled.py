@@ -78,27 +78,25 @@ class ModelMeta:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> ModelMeta:
-        """The record of a :meth:`to_json` table; ValueError when it is not one (a cache entry
-        written by another version, or damaged)."""
-        try:
-            return cls(
-                name=str(data["name"]), state_names=_strings(data["state_names"]),
-                param_names=_strings(data["param_names"]),
-                param_defaults=tuple(float(v) for v in data["param_defaults"]),
-                param_units=_strings(data["param_units"]),
-                output_names=_strings(data["output_names"]),
-                events=tuple(EventInfo(str(e["name"]), int(e["direction"]), bool(e["terminal"]))
-                             for e in data["events"]),
-                equations=_strings(data["equations"]), hamiltonian=str(data["hamiltonian"]),
-                matrices=_strings(data["matrices"]),
-                shapes=MappingProxyType({str(k): tuple(int(n) for n in v)
-                                         for k, v in data["shapes"].items()}),
-                autonomous=bool(data["autonomous"]),
-                energy_parts=tuple((str(a), str(b)) for a, b in data.get("energy_parts", [])),
-                constraints=tuple(Constraint.from_dict(c) for c in data.get("constraints", [])),
-                units=MappingProxyType({str(k): str(v) for k, v in data.get("units", {}).items()}))
-        except (KeyError, TypeError, ValueError, AttributeError) as err:
-            raise ValueError(f"not a compiled model's metadata ({type(err).__name__}: {err})") from None
+        """The record of a :meth:`to_json` table; KeyError, TypeError or ValueError when it is
+        not one (a cache entry written by another version, or damaged)."""
+        return cls(
+            name=str(data["name"]), state_names=_strings(data["state_names"]),
+            param_names=_strings(data["param_names"]),
+            param_defaults=tuple(float(v) for v in data["param_defaults"]),
+            param_units=_strings(data["param_units"]),
+            output_names=_strings(data["output_names"]),
+            events=tuple(EventInfo(str(e["name"]), int(e["direction"]), bool(e["terminal"]))
+                         for e in data["events"]),
+            equations=_strings(data["equations"]), hamiltonian=str(data["hamiltonian"]),
+            matrices=_strings(data["matrices"]),
+            shapes=MappingProxyType({str(k): tuple(int(n) for n in v)
+                                     for k, v in dict(data["shapes"]).items()}),
+            autonomous=bool(data["autonomous"]),
+            energy_parts=tuple((str(a), str(b)) for a, b in data.get("energy_parts", [])),
+            constraints=tuple(Constraint.from_dict(c) for c in data.get("constraints", [])),
+            units=MappingProxyType({str(k): str(v)
+                                    for k, v in dict(data.get("units", {})).items()}))
 
 
 def _strings(values: Any) -> tuple[str, ...]:

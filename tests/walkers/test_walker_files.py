@@ -22,6 +22,7 @@ from porthamiltonian.errors import ModelFileError
 from walker_library import (
     Completion,
     Foot,
+    HybridWalker,
     Rule,
     Section,
     Terrain,
@@ -290,9 +291,9 @@ def _walker_expressions(table: dict) -> int:
             + sum(2 * len(r.get("if", [])) + len(r.get("set", {})) for r in table["rules"])
             + len(table.get("relabel", {})) + len(table.get("angles", {}))
             + len([k for k in guess if k != "where"]) + len(guess.get("where", {}))
-            + sum(b.strip().lower().lstrip("+-") != "inf"
+            + sum(b.strip(" []()").lower().lstrip("+-") != "inf"
                   for r in table.get("ranges", {}).values()
-                  for b in r.strip("[]() integer").split(","))
+                  for b in r.removesuffix("integer").strip().split(","))
             + completions + len(section.get("thesis", {}))
             + 2 * ("labelling" in section) + 2)
 

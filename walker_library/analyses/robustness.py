@@ -413,18 +413,21 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
     z0 = fixed_points(walker, gait)[0]
     attr = {"step_period": "duration", "step_length": "step_length"}
 
-    def series(drop: float) -> dict:
+    def series(drop: float) -> dict | None:
         strides = walker.walk(z0, n_steps, ground_drop=drop)
         tick("stride", len(strides))
         if strides[-1].fell:
-            raise RuntimeError(f"the walker fell after a drop of {drop:g} m")
+            return None
         return {k: np.array([getattr(s, attr[k]) for s in strides]) for k in indicators}
 
-    try:
-        s0, s1, s2 = series(0.0), series(h), series(h / 2)
-    except RuntimeError as err:
-        return GSNResult(status="fell", gsn=math.nan, by_indicator={}, response={},
-                         error=math.nan, h=h, n_steps=n_steps, message=str(err), **base)
+    runs = []
+    for drop in (0.0, h, h / 2):
+        runs.append(series(drop))
+        if runs[-1] is None:
+            return GSNResult(status="fell", gsn=math.nan, by_indicator={}, response={},
+                             error=math.nan, h=h, n_steps=n_steps,
+                             message=f"the walker fell after a drop of {drop:g} m", **base)
+    s0, s1, s2 = runs
     g1 = {k: (s1[k] - s0[k]) / h for k in indicators}
     g2 = {k: (s2[k] - s0[k]) / (h / 2) for k in indicators}
     by = {k: float(np.linalg.norm(g2[k])) for k in indicators}
