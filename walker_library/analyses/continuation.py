@@ -58,7 +58,7 @@ import numpy as np
 
 from porthamiltonian.errors import ModelError, ParameterValueError
 
-from ..core.protocol import Stride, Walker
+from ..core.protocol import Stride, StrideStatus, Walker
 from .monodromy import (
     JACOBIAN_METHODS,
     StrideJacobian,
@@ -691,7 +691,7 @@ class _Continuer:
                 xp = a.x + s * a.t
                 res = self._correct(m, xp, a.t, a.A, float(a.t @ xp), max_iter=30)
                 if res is None:
-                    raise WalkerFell(xp[:-1] * m.s, Stride("fell", None, 0.0, reason="locate"))
+                    raise WalkerFell(xp[:-1] * m.s, Stride(StrideStatus.FELL, None, 0.0, reason="locate"))
                 cache[s] = self._state(m, res[0], res[1], a.t, a.sj)
             return cache[s]
 

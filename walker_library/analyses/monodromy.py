@@ -40,7 +40,7 @@ import numpy as np
 
 from porthamiltonian.errors import ModelError
 
-from ..core.protocol import Stride, Walker
+from ..core.protocol import Stride, StrideStatus, Walker
 from .poincare import WalkerFell, advance
 
 __all__ = ["JACOBIAN_METHODS", "FloquetResult", "StrideJacobian", "eigen_errors", "floquet",
@@ -181,7 +181,7 @@ def _variational(walker: Walker, z: np.ndarray, period: int) -> StrideJacobian:
     runs = [walker.stride_sensitivity(z, period), walker.stride_sensitivity(z, period, factor=10.0)]
     for run in runs:
         if run.fell:
-            raise WalkerFell(z, Stride("fell", None, 0.0, reason=run.fell))
+            raise WalkerFell(z, Stride(StrideStatus.FELL, None, 0.0, reason=run.fell))
     J, bound, coarse = runs[0].jacobian, runs[0].difference_error, runs[1].jacobian
     E = np.abs(J - coarse) + bound
     return StrideJacobian(J, E, np.full(len(z), np.nan), "variational", period,

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
@@ -36,7 +37,7 @@ from porthamiltonian.errors import ParameterValueError
 if TYPE_CHECKING:
     from .variational import StrideSensitivity
 
-__all__ = ["ParameterSpec", "Stride", "Walker", "check_parameters"]
+__all__ = ["ParameterSpec", "Stride", "StrideStatus", "Walker", "check_parameters"]
 
 
 @dataclass(frozen=True)
@@ -88,11 +89,19 @@ def check_parameters(specs: Mapping[str, ParameterSpec],
     return out
 
 
+class StrideStatus(StrEnum):
+    """How a stride ended. A ``str``: ``stride.status == "fell"`` holds, and the value is what
+    the JSON results show."""
+
+    STEP = "step"      #: a heel strike ended the step (the state is on the section again)
+    FELL = "fell"      #: the walker fell (the stride's ``reason`` says how)
+
+
 @dataclass
 class Stride:
     """One step of a walker from a section state to the next (SI units).
 
-    status : ``"step"`` (a heel strike ended the step) or ``"fell"``.
+    status : :class:`StrideStatus` ``"step"`` (a heel strike ended the step) or ``"fell"``.
     z_next : section coordinates just after the heel strike that ended the step (None if fell).
     duration : step period (s). step_length : distance along the slope between the successive
         stance feet (m). energy_dissipated : energy booked as dissipated in the ledger during the
@@ -103,7 +112,7 @@ class Stride:
     info : walker-specific extras (e.g. the impact impulse, the trailing foot's velocity).
     """
 
-    status: str
+    status: StrideStatus
     z_next: np.ndarray | None
     duration: float
     step_length: float = math.nan
@@ -118,7 +127,7 @@ class Stride:
     @property
     def fell(self) -> bool:
         """True when the stride ended in a fall (status other than "step")."""
-        return self.status != "step"
+        return self.status != StrideStatus.STEP
 
 
 @runtime_checkable

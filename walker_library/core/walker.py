@@ -53,7 +53,7 @@ from porthamiltonian.simulation.compiled import CompiledModel
 from .hybrid import Integration, WalkerSpec
 from .machine import Change, Condition, ModeMachine, Transition, WalkLog
 from .plan import SetState, WalkerPlan, walker_plan
-from .protocol import ParameterSpec, Stride, check_parameters
+from .protocol import ParameterSpec, Stride, StrideStatus, check_parameters
 from .reading import walker_spec
 from .resets import ImpactMap, Relabel
 from .strides import cut_strides
@@ -553,9 +553,9 @@ class HybridWalker:
         try:
             x0 = self.lift(z, p0)
         except (np.linalg.LinAlgError, ModelError, ValueError) as err:
-            return [Stride("fell", None, 0.0, reason=f"invalid_state: {err}")]
+            return [Stride(StrideStatus.FELL, None, 0.0, reason=f"invalid_state: {err}")]
         if not np.all(np.isfinite(x0)):
-            return [Stride("fell", None, 0.0, reason="invalid_state")]
+            return [Stride(StrideStatus.FELL, None, 0.0, reason="invalid_state")]
         p0 = self.machine.start(x0, p0)
         log = WalkLog(int(n_steps))
         o = self.options
