@@ -38,7 +38,10 @@ import sympy as sp
 
 from porthamiltonian import Multibody
 from porthamiltonian.compiler import Layout
+from porthamiltonian.errors import ModelFileError
+from porthamiltonian.interfaces.io import locate
 from porthamiltonian.modeling.constraints import Constraint
+from porthamiltonian.modeling.expressions import Expression, parse_text
 from porthamiltonian.modeling.model import ModelDescription
 
 from .hybrid import Expr, Interval, Parsed, WalkerSpec, parse_equation
@@ -46,7 +49,7 @@ from .problems import Problems, suggestion
 from .protocol import ParameterSpec
 from .resets import Floating, floating_model
 
-__all__ = ["ChangePlan", "ConditionPlan", "ModelNames", "Projected", "RelabelMap", "SectionMap",
+__all__ = ["BodiesMass", "ChangePlan", "ConditionPlan", "ModelNames", "Projected", "RelabelMap", "SectionMap",
            "SetState", "SolveState", "TransitionPlan", "WalkerPlan", "walker_plan"]
 
 #: prefix of the outputs the walker adds to its model (one per evaluated expression)
@@ -199,6 +202,31 @@ class RelabelMap:
 
 
 @dataclass(frozen=True)
+class BodiesMass:
+    """The multibody's bodies' masses (kg), each an expression in parameters (parsed for the
+    numeric evaluator), against which ``[walker] mass`` is checked at every parameter set;
+    ``where``: the file and line of ``[walker] mass``, for the error."""
+
+    masses: tuple[Expression, ...]
+    prefix: str
+    where: str
+
+    def total(self, values: Mapping[str, float]) -> float:
+        """The bodies' total mass (kg) at the parameter values ``values`` (by full name)."""
+        local = {k[len(self.prefix):]: v for k, v in values.items() if k.startswith(self.prefix)}
+        return float(sum(m.evaluate(local) for m in self.masses))
+
+    def check(self, mass: float, values: Mapping[str, float]) -> None:
+        """ModelFileError unless ``mass`` (the walker's, kg) is the bodies' total."""
+        total = self.total(values)
+        if not math.isclose(mass, total, rel_tol=1e-9, abs_tol=1e-12):
+            raise ModelFileError(
+                f"{self.where}: [walker] mass gives {mass:.10g} kg but the multibody's bodies weigh "
+                f"{total:.10g} kg in total: the cost of transport divides by the walker's weight, "
+                "so [walker] mass must be the bodies' total mass (write the sum of their masses)")
+
+
+@dataclass(frozen=True)
 class WalkerPlan:
     """Everything a walker is, checked, before compilation (see the module docstring).
 
@@ -210,6 +238,7 @@ class WalkerPlan:
     mass, leg_length : the outputs of the total mass (kg) and the leg length (m). drop : the
     terrain's drop parameter. parameters : the user-settable parameters with their ranges.
     floating : the multibody with its pin released, for the plastic impact (rigid walkers).
+    bodies : the bodies' masses, which ``[walker] mass`` must add up to.
     """
 
     spec: WalkerSpec
@@ -226,6 +255,7 @@ class WalkerPlan:
     drop: str
     parameters: Mapping[str, ParameterSpec]
     floating: Floating | None
+    bodies: BodiesMass
 
     @property
     def legged(self) -> bool:
@@ -301,7 +331,18 @@ def walker_plan(spec: WalkerSpec, layout: Layout, text: str = "") -> WalkerPlan:
                                   spec.hip.split(".", 1)[1])
     return WalkerPlan(spec, names, spec.frozen.with_outputs(ex.exprs),
                       MappingProxyType(dict(ex.exprs)), section, relabel, transitions, start, guess,
-                      mass, leg, spec.terrain.drop, MappingProxyType(parameters), floating)
+                      mass, leg, spec.terrain.drop, MappingProxyType(parameters), floating,
+                      _bodies(spec, names.multibody, text))
+
+
+def _bodies(spec: WalkerSpec, mb: str, text: str) -> BodiesMass:
+    """The multibody's bodies' masses, for the check of ``[walker] mass``."""
+    frozen = spec.frozen
+    bodies = frozen.components[mb].value("bodies")
+    masses = tuple(parse_text(str(b.get("mass", 0)), f"body {name!r} mass")
+                   for name, b in bodies.items())
+    line = locate(text, "walker", "mass") if text else None
+    return BodiesMass(masses, frozen.scopes[mb], f"{spec.source}{f', line {line}' if line else ''}")
 
 
 def _number(value: Any) -> float | None:
@@ -563,18 +604,86 @@ def _det(rows: list[list[float]]) -> float:
     return float(np.linalg.det(np.array(rows, dtype=float))) if rows else 1.0
 
 
-# --- the parameters --------------------------------------------------------------------------------
+# --- the parameters ------------------------------------------------------------------------------
+#: a component's constraint on one parameter, as the interval it allows (rule, closed end)
+_ALLOWS = {">": ("low", False), ">=": ("low", True), "<=": ("high", True)}
+
+
+def _constraint_bounds(constraints: Sequence[Constraint],
+                       params: Iterable[str]) -> dict[str, list[tuple[Constraint, float]]]:
+    """The components' constraints that bound one parameter by a number (``m_leg > 0``), by
+    parameter. (Relations between arguments and bounds on expressions stay with the compiled
+    model's check of every parameter vector.)"""
+    out: dict[str, list[tuple[Constraint, float]]] = {}
+    names = set(params)
+    for c in constraints:
+        if c.bound_name or c.rule not in _ALLOWS or c.expression.strip() not in names:
+            continue
+        try:
+            bound = float(c.bound)
+        except ValueError:
+            continue
+        if math.isfinite(bound):
+            out.setdefault(c.expression.strip(), []).append((c, bound))
+    return out
+
+
+def _refused(interval: Interval, rule: str, bound: float) -> str | None:
+    """What of ``interval`` the constraint ``value rule bound`` refuses (text), or None."""
+    side, closed = _ALLOWS[rule]
+    if side == "low":
+        if interval.low < bound:
+            return f"< {bound:g}"
+        return f"= {bound:g}" if interval.low == bound and interval.low_closed and not closed else None
+    if interval.high > bound:
+        return f"> {bound:g}"
+    return None
+
+
+def _tightened(interval: Interval, rule: str, bound: float) -> Interval:
+    """``interval`` narrowed to what the constraint ``value rule bound`` allows."""
+    side, closed = _ALLOWS[rule]
+    if side == "low" and (bound > interval.low or (bound == interval.low and not closed)):
+        return interval._replace(low=bound, low_closed=closed)
+    if side == "high" and bound < interval.high:
+        return interval._replace(high=bound, high_closed=closed)
+    return interval
+
+
+def _interval_text(interval: Interval) -> str:
+    lo, hi = ("[" if interval.low_closed else "("), ("]" if interval.high_closed else ")")
+    return (f"{lo}{interval.low:g}, {interval.high:g}{hi}"
+            + (" integer" if interval.integer else ""))
+
+
 def _parameters(bad: Problems, spec: WalkerSpec, ranges: Sequence[tuple[str, Interval]],
                 constraints: Sequence[Constraint]) -> dict[str, ParameterSpec]:
-    """The user-settable parameters (the model's, less the modes), with their ranges."""
+    """The user-settable parameters (the model's, less the modes) with their ranges: one
+    parameter system. A ``[walker.ranges]`` entry must not admit a value a component's
+    constraint refuses (``m_leg`` in [0, inf) where a body's mass must be > 0: a problem naming
+    both and the range to write); a parameter without an entry gets the range its components'
+    constraints allow."""
     given = dict(ranges)
+    texts = dict(spec.ranges)
     modes = set(spec.mode_names)
+    bounds = _constraint_bounds(constraints, spec.frozen.parameters)
     out = {}
     for name, par in spec.frozen.parameters.items():
         if name in modes:
             continue
-        low, high, low_closed, high_closed, integer = given.get(
-            name, Interval(-math.inf, math.inf, False, False, False))
+        interval = given.get(name, Interval(-math.inf, math.inf, False, False, False))
+        allowed, limits = interval, []
+        for c, bound in bounds.get(name, ()):
+            refused = _refused(interval, c.rule, bound) if name in given else None
+            if _tightened(allowed, c.rule, bound) != allowed:
+                allowed = _tightened(allowed, c.rule, bound)
+                limits.append(f"component {c.component!r} {c.argument} must be {c.rule} {bound:g}")
+            if refused:
+                bad.add(f"range of {name!r} {texts[name]!r} admits {name} {refused}, which "
+                        f"component {c.component!r} {c.argument} refuses (it must be {c.rule} "
+                        f"{bound:g}); write {_interval_text(_tightened(interval, c.rule, bound))!r}",
+                        "ranges", name)
+        low, high, low_closed, high_closed, integer = allowed
         out[name] = ParameterSpec(name, par.value, par.unit, par.doc, "", low, high, low_closed,
-                                  high_closed, integer)
+                                  high_closed, integer, "; ".join(limits))
     return out

@@ -44,7 +44,8 @@ __all__ = ["ParameterSpec", "Stride", "StrideStatus", "Walker", "check_parameter
 class ParameterSpec:
     """A walker parameter: default value (SI), unit, meaning and source, and its valid range
     ``low < value < high`` (``<=`` at an end that is ``*_inclusive``; a whole number if
-    ``integer``)."""
+    ``integer``); ``limits``: the components' constraints the range comes from, if any (e.g.
+    "component 'walker' body 'leg1' mass must be > 0")."""
 
     name: str
     value: float
@@ -56,6 +57,7 @@ class ParameterSpec:
     low_inclusive: bool = False
     high_inclusive: bool = False
     integer: bool = False
+    limits: str = ""
 
     def check(self, value: float) -> float:
         """``value`` as a float if it is in range, else ParameterValueError naming the range."""
@@ -69,7 +71,8 @@ class ParameterSpec:
             lo, hi = "[" if self.low_inclusive else "(", "]" if self.high_inclusive else ")"
             raise ParameterValueError(
                 f"parameter {self.name!r} = {value:g} is out of range: it must lie in "
-                f"{lo}{self.low:g}, {self.high:g}{hi} {self.unit} ({self.doc})")
+                f"{lo}{self.low:g}, {self.high:g}{hi} {self.unit} ({self.doc}"
+                f"{f'; {self.limits}' if self.limits else ''})")
         if self.integer and value != round(value):
             raise ParameterValueError(f"parameter {self.name!r} = {value:g} must be a whole number "
                                       f"({self.doc})")

@@ -52,7 +52,7 @@ from porthamiltonian.simulation.compiled import CompiledModel
 
 from .hybrid import Integration, WalkerSpec
 from .machine import Change, Condition, ModeMachine, Transition, WalkLog
-from .plan import SetState, WalkerPlan, walker_plan
+from .plan import BodiesMass, SetState, WalkerPlan, walker_plan
 from .protocol import ParameterSpec, Stride, StrideStatus, check_parameters
 from .reading import walker_spec
 from .resets import ImpactMap, Relabel
@@ -80,7 +80,8 @@ class CompiledWalker:
     from_thesis : the section's thesis map and its inverse. labelling : the section's labelling
     condition. start : the modes' start values; guess : the initial guess per section
     coordinate (:class:`~.machine.Change`: a number or an output). mass, leg_length : output
-    indices; drop : the drop parameter's index. machine : the mode machine.
+    indices; drop : the drop parameter's index. machine : the mode machine. bodies : the
+    bodies' masses ``[walker] mass`` is checked against.
     """
 
     model: CompiledModel
@@ -100,6 +101,7 @@ class CompiledWalker:
     leg_length: int
     drop: int
     machine: ModeMachine
+    bodies: BodiesMass
 
 
 def compile_walker(plan: WalkerPlan, backend: str | None = None, text: str = "") -> CompiledWalker:
@@ -134,7 +136,8 @@ def compile_walker(plan: WalkerPlan, backend: str | None = None, text: str = "")
                     for k, c in enumerate(plan.guess)),
         mass=out[plan.mass], leg_length=out[plan.leg_length],
         drop=m.param_names.index(plan.drop),
-        machine=ModeMachine(m, _transitions(plan, m, floating, relabel, out)))
+        machine=ModeMachine(m, _transitions(plan, m, floating, relabel, out)),
+        bodies=plan.bodies)
 
 
 def _transitions(plan: WalkerPlan, m: CompiledModel, floating: CompiledModel | None,
@@ -180,8 +183,10 @@ class RunValues:
         p = m.params({k: v for k, v in parameters.items() if k in m.param_names})
         x = m.initial_state(p)
         y = m.outputs(0.0, x, p)
-        return cls(MappingProxyType(dict(parameters)), _frozen(p), _frozen(x),
-                   float(y[compiled.mass]), float(y[compiled.leg_length]), options)
+        mass = float(y[compiled.mass])
+        compiled.bodies.check(mass, {**parameters, **dict(zip(m.param_names, p.tolist()))})
+        return cls(MappingProxyType(dict(parameters)), _frozen(p), _frozen(x), mass,
+                   float(y[compiled.leg_length]), options)
 
     def with_parameters(self, compiled: CompiledWalker, parameters: Mapping[str, float]) -> RunValues:
         """These run values with other parameters (validated already)."""
