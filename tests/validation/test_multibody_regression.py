@@ -66,14 +66,15 @@ def sole_friction(text: str) -> str:
     return text
 
 
-#: a uniform rod's inertia about its centre, as the thesis walkers' files give their legs'
-ROD = '"m_leg*l**2/12"'
+#: a leg's inertia as the thesis walkers' files give it: a uniform rod, m_leg l²/12 about its
+#: centre (across the leg in the 3D files)
+ROD = re.compile(r'inertia = \[[^\]\n]*"m_leg\*l\*\*2/12"[^\]\n]*\]')
 
 
 def point_legs(text: str) -> str:
-    """A walker file's text with its legs' rod inertia m_leg l²/12 set to 0 (point-mass legs,
-    as the files were when the reference was recorded)."""
-    return text.replace(ROD, "0")
+    """A walker file's text with its legs' rod inertia set to 0 (point-mass legs, as the files
+    were when the reference was recorded)."""
+    return ROD.sub("inertia = 0", text)
 
 
 def close(new, old, what: str) -> None:

@@ -672,17 +672,19 @@ def _parameters(bad: Problems, spec: WalkerSpec, ranges: Sequence[tuple[str, Int
         if name in modes:
             continue
         interval = given.get(name, Interval(-math.inf, math.inf, False, False, False))
-        allowed, limits = interval, []
+        allowed, limits, refusals = interval, [], {}
         for c, bound in bounds.get(name, ()):
+            rule = f"component {c.component!r} {c.argument} must be {c.rule} {bound:g}"
             refused = _refused(interval, c.rule, bound) if name in given else None
+            if refused:
+                refusals.setdefault(refused, []).append(rule)
             if _tightened(allowed, c.rule, bound) != allowed:
                 allowed = _tightened(allowed, c.rule, bound)
-                limits.append(f"component {c.component!r} {c.argument} must be {c.rule} {bound:g}")
-            if refused:
-                bad.add(f"range of {name!r} {texts[name]!r} admits {name} {refused}, which "
-                        f"component {c.component!r} {c.argument} refuses (it must be {c.rule} "
-                        f"{bound:g}); write {_interval_text(_tightened(interval, c.rule, bound))!r}",
-                        "ranges", name)
+                limits.append(rule)
+        for refused, rules in refusals.items():
+            bad.add(f"range of {name!r} {texts[name]!r} admits {name} {refused}, which the "
+                    f"components refuse ({'; '.join(rules)}); write "
+                    f"{_interval_text(allowed)!r}", "ranges", name)
         low, high, low_closed, high_closed, integer = allowed
         out[name] = ParameterSpec(name, par.value, par.unit, par.doc, "", low, high, low_closed,
                                   high_closed, integer, "; ".join(limits))
