@@ -242,7 +242,7 @@ class HybridWalker:
         self.plan = plan
         self.compiled = compiled
         self.run = run if run is not None else RunValues.of(
-            compiled, check_parameters(dict(plan.parameters), dict(values or {})),
+            compiled, check_parameters(plan.parameters, dict(values or {})),
             options or plan.spec.integration)
 
     # --- what the walker is --------------------------------------------------------------------
@@ -354,7 +354,7 @@ class HybridWalker:
     # --- other values --------------------------------------------------------------------------
     def with_parameters(self, **values: float) -> HybridWalker:
         """A walker with some parameters changed (validated; plan and compiled model shared)."""
-        parameters = check_parameters(dict(self.plan.parameters), {**self.parameters, **values})
+        parameters = check_parameters(self.plan.parameters, {**self.parameters, **values})
         return HybridWalker(self.plan, self.compiled,
                             self.run.with_parameters(self.compiled, parameters))
 
