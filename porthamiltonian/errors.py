@@ -126,6 +126,11 @@ class CompilerError(ModelError):
     shows the command and the path of a file holding the compiler's output, and what to do."""
 
 
+class FrameError(ModelError):
+    """Screw quantities (poses, twists, wrenches) combined across different frames, or a matrix
+    that is not a rotation or a pose; the message names the frames or shows the matrix."""
+
+
 class SceneError(ModelError):
     """A scene of the 3D viewer (:mod:`porthamiltonian.interfaces.viewer`) is malformed: a shape, a pose, the
     times, the ground; the message names the body, shape or frame and says what is expected."""

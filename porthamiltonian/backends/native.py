@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import CompilerError
+from ..errors import CompilerError, OptionError
 from ..integrators import TABLEAUS, c_loops
 from . import Functions
 
@@ -149,7 +149,7 @@ def _vector(value, size: int, what: str) -> np.ndarray:
     read that many)."""
     array = np.ascontiguousarray(value, dtype=np.float64)
     if array.ndim != 1 or array.shape[0] < size:
-        raise ValueError(f"{what} must be a vector of {size} floats, got shape {array.shape}")
+        raise OptionError(f"{what} must be a vector of {size} floats, got shape {array.shape}")
     return array
 
 
@@ -230,15 +230,15 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         g = directions.shape[0]
         store_cap = int(store_cap)
         if g > n_guards or terminal.shape != (g,) or not -1 <= int(mask_index) < max(g, 1):
-            raise ValueError(f"{g} event directions for {n_guards} guards (terminal flags "
+            raise OptionError(f"{g} event directions for {n_guards} guards (terminal flags "
                              f"{terminal.shape}, mask index {mask_index})")
         if store_cap < 2 or not 0 < int(n_model) <= n:
-            raise ValueError(f"store_cap {store_cap} (at least 2), n_model {n_model} (1..{n})")
+            raise OptionError(f"store_cap {store_cap} (at least 2), n_model {n_model} (1..{n})")
         m = 0
         if variational:
             phi0 = np.ascontiguousarray(phi0, dtype=np.float64)
             if phi0.ndim != 2 or phi0.shape[0] != n:
-                raise ValueError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
+                raise OptionError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
             m = phi0.shape[1]
         buffers = getattr(local, "buffers", None)
         if buffers is None or buffers[0] != (store_cap, m):

@@ -8,6 +8,7 @@ equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and Jacobian to
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from collections import OrderedDict
 from types import MappingProxyType
@@ -17,8 +18,9 @@ import sympy
 from .. import backends
 from ..backends import module, native
 from ..errors import CompilerError
+from ..modeling.constraints import Constraint
 from ..modeling.model import Model, ModelDescription
-from ..simulation.compiled import CompiledModel
+from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
@@ -41,8 +43,8 @@ def symbolic(model: Model | ModelDescription) -> SymbolicModel:
 
 #: the solved structures (:func:`structure.build_system` + :func:`structure.solve`, most of the
 #: symbolic work) of the last models of this process, by everything but their events and model
-#: outputs, which only :func:`assemble` reads: a walker runs the compiler on its model without
-#: them (for the names its description may use), then with its own outputs (walker_library.core)
+#: outputs, which only :func:`assemble` reads: a walker asks for its model's :func:`layout` (for
+#: the names its description may use), then compiles it with its own outputs (walker_library.core)
 _SOLVED: OrderedDict[str, tuple[tuple[type, ...], Solution]] = OrderedDict()
 _SOLVED_KEPT = 4
 
@@ -68,6 +70,62 @@ def _solved(description: ModelDescription) -> Solution:
     return solution
 
 
+@dataclasses.dataclass(frozen=True)
+class Layout:
+    """The names a model compiles to, known after the symbolic stage (no code generated):
+    its parameters, states and outputs (port variables, component outputs, energy parts, model
+    outputs) in the compiled model's order, and the components' constraints on parameter
+    values."""
+
+    name: str
+    param_names: tuple[str, ...]
+    state_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+    constraints: tuple[Constraint, ...] = ()
+
+    def to_json(self) -> dict:
+        """The record as a JSON table (``layout.json`` of a cache entry)."""
+        return {"name": self.name, "param_names": list(self.param_names),
+                "state_names": list(self.state_names), "output_names": list(self.output_names),
+                "constraints": [c.to_dict() for c in self.constraints]}
+
+    @classmethod
+    def from_json(cls, data: dict) -> Layout:
+        """The record of a :meth:`to_json` table; KeyError or TypeError when it is not one."""
+        lists = [tuple(data[k]) for k in ("param_names", "state_names", "output_names")]
+        if not all(isinstance(n, str) for names in lists for n in names):
+            raise TypeError("a name is not a string")
+        constraints = tuple(Constraint.from_dict(c) for c in data["constraints"])
+        return cls(str(data["name"]), *lists, constraints)
+
+
+#: the file of a cache entry holding its model's :class:`Layout`
+_LAYOUT_FILE = "layout.json"
+
+
+def layout(model: Model | ModelDescription, use_cache: bool = True) -> Layout:
+    """The :class:`Layout` of ``model`` (a model, or its frozen description): the symbolic
+    compiler's names without code generation, for checking names against a model before it is
+    compiled (a walker's description). Kept in the model's cache entry (``layout.json``,
+    verified by its sha256 like every cached file), so that a model seen before needs no
+    symbolic work; the solved structure is reused by the compile that usually follows
+    (:func:`_solved`). Raises the model's errors as :func:`symbolic` does."""
+    description = model.freeze() if isinstance(model, Model) else model
+    key = cache.model_key(description)
+    stored = cache.load_verified(key, _LAYOUT_FILE) if use_cache else None
+    if stored is not None:
+        try:
+            return Layout.from_json(json.loads(stored))
+        except (KeyError, TypeError, ValueError, AttributeError):
+            pass                          # another version's file: computed and written again
+    sym = symbolic(description)
+    found = Layout(sym.name, tuple(sym.param_names), tuple(sym.state_names), tuple(sym.outputs),
+                   tuple(sym.constraints))
+    if use_cache:
+        cache.store(key, _LAYOUT_FILE, json.dumps(found.to_json(), indent=1))
+    return found
+
+
 def compile_model(model: Model | ModelDescription, backend: str = "auto",
                   use_cache: bool = True) -> CompiledModel:
     """Compile ``model`` (a model, or its frozen description) for numeric simulation.
@@ -91,9 +149,9 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     order = backends.candidates(backend)
     description = model.freeze() if isinstance(model, Model) else model
     key = cache.model_key(description)
-    hit = cache.read(key) if use_cache else None
+    meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
-    if hit is None:
+    if meta is None:
         start = time.perf_counter()
         sym = symbolic(description)
         times["symbolic"] = time.perf_counter() - start
@@ -101,24 +159,19 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         prog = program(sym)
         bodies = {"python": python_source(prog), "c": c_source(prog)}
         times["code"] = time.perf_counter() - start
-        meta = {
-            "name": sym.name, "state_names": sym.state_names, "param_names": sym.param_names,
-            "param_defaults": sym.param_defaults, "param_units": sym.param_units,
-            "output_names": list(sym.outputs),
-            "events": [{"name": ev.name, "direction": ev.direction, "terminal": ev.terminal}
-                       for ev, _ in sym.events],
-            "equations": sym.equations, "hamiltonian": str(sym.hamiltonian),
-            "matrices": list(sym.matrices),
-            "shapes": {fn.name: list(fn.shape) for fn in prog.functions},
-            "autonomous": _autonomous(sym),
-            "energy_parts": sym.energy_parts,
-            "constraints": [c.to_dict() for c in sym.constraints],
-            "units": sym.units,
-        }
+        meta = ModelMeta(
+            name=sym.name, state_names=tuple(sym.state_names), param_names=tuple(sym.param_names),
+            param_defaults=tuple(float(v) for v in sym.param_defaults),
+            param_units=tuple(sym.param_units),
+            output_names=tuple(sym.outputs),
+            events=tuple(EventInfo(ev.name, ev.direction, ev.terminal) for ev, _ in sym.events),
+            equations=tuple(sym.equations), hamiltonian=str(sym.hamiltonian),
+            matrices=tuple(sym.matrices),
+            shapes=MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
+            autonomous=_autonomous(sym), energy_parts=tuple(sym.energy_parts),
+            constraints=tuple(sym.constraints), units=MappingProxyType(dict(sym.units)))
         if use_cache:
-            cache.write(key, meta, bodies)
-    else:
-        meta, bodies = hit
+            cache.write(key, meta.to_json(), bodies)
     for i, name in enumerate(order):
         try:
             functions = _load(name, key, meta, bodies, use_cache, times, explicit=len(order) == 1)
@@ -134,23 +187,35 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         parts = [f"{k} {v:.1f} s" for k, v in times.items()]
         size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
         note = " (numba compiles it at the first call)" if name == "numba" else ""
-        backends.report(f"building {printable(meta['name'])}: {', '.join(parts)}, "
+        backends.report(f"building {printable(meta.name)}: {', '.join(parts)}, "
                         f"{size:.0f} kB{note}")
     docs = {par_name: par.doc for par_name, par in description.parameters.items()}
     return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
                          c_source=bodies["c"],
-                         param_docs=[docs.get(n, "") for n in meta["param_names"]])
+                         param_docs=[docs.get(n, "") for n in meta.param_names])
 
 
-def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bool,
+def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
+    """The cache entry's (metadata, code bodies), or (None, {}) on a miss; an entry whose
+    metadata is not this version's record is a miss (it is rebuilt and written again)."""
+    hit = cache.read(key)
+    if hit is None:
+        return None, {}
+    try:
+        return ModelMeta.from_json(hit[0]), hit[1]
+    except (KeyError, TypeError, ValueError, AttributeError):
+        return None, {}
+
+
+def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
           times: dict[str, float], explicit: bool) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
     compile time goes into ``times``."""
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
-        return module.load(path, name, len(meta["matrices"]))
-    shapes = {k: tuple(v) for k, v in meta["shapes"].items()}
+        return module.load(path, name, len(meta.matrices))
+    shapes = dict(meta.shapes)
     lib_name = native.library_name(key)
     path = cache.verified_path(key, lib_name) if use_cache else None
     if path is None:
@@ -161,7 +226,7 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
         times["C"] = seconds
         path = cache.store(key, lib_name, data, use_cache)
     try:
-        return native.load(path, shapes, len(meta["param_names"]))
+        return native.load(path, shapes, len(meta.param_names))
     except OSError as err:
         raise CompilerError(f"the C library {path} cannot be loaded ({err}); remove it to "
                             "rebuild it, or choose the numba or python back end") from None
@@ -176,4 +241,4 @@ def _autonomous(sym: SymbolicModel) -> bool:
     return not any(TIME in sympy.sympify(e).free_symbols for e in exprs)
 
 
-__all__ = ["SymbolicModel", "compile_model", "power_balance", "symbolic"]
+__all__ = ["Layout", "SymbolicModel", "compile_model", "layout", "power_balance", "symbolic"]

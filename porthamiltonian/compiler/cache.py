@@ -84,6 +84,7 @@ from typing import Any
 
 import sympy
 
+from ..errors import OptionError
 from ..modeling.model import Model, ModelDescription
 from .codegen import CODEGEN_VERSION
 
@@ -275,7 +276,7 @@ def write_atomic(path: Path, data: str | bytes) -> None:
 
 def _check_file_name(name: str) -> None:
     if not (isinstance(name, str) and _NAME.fullmatch(name)) or name in (_MANIFEST, _LOCK):
-        raise ValueError(f"cache file name {name!r}: letters, digits, '_', '.', '-' only, not "
+        raise OptionError(f"cache file name {name!r}: letters, digits, '_', '.', '-' only, not "
                          f"{_MANIFEST}")
 
 
@@ -301,7 +302,7 @@ def _manifest(entry: Path) -> dict[str, str] | None:
         files = data["files"]
         if data.get("key") != entry.name or not isinstance(files, dict) or not all(
                 isinstance(k, str) and isinstance(v, str) for k, v in files.items()):
-            raise ValueError("unexpected contents")
+            raise TypeError("unexpected contents")
     except FileNotFoundError:
         if entry.exists():
             _warn(f"compiled-model cache: {path} is missing; the entry is rebuilt")

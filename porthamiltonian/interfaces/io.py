@@ -64,7 +64,7 @@ import tomli_w
 from ..compiler import compile_model
 from ..errors import ModelError, ModelFileError, OptionError
 from ..modeling.component import REGISTRY, Component, component_class
-from ..modeling.model import Model
+from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel
 from ..simulation.options import check_rtol
 
@@ -271,6 +271,8 @@ class ModelFile:
     meta : further keys and tables under ``[model]``, kept on save.
     sections : the tables passed through for other libraries (:data:`PASSED_THROUGH`, e.g. the
         walker library's ``[walker]``), kept on save.
+    frozen : the model's frozen description as the reader checked it (None for a model file
+        built in Python): what later stages compile, without freezing the model again.
     """
 
     model: Model
@@ -280,6 +282,7 @@ class ModelFile:
     simulation: Mapping[str, Any] = field(default_factory=dict)
     meta: Mapping[str, Any] = field(default_factory=dict)
     sections: Mapping[str, Any] = field(default_factory=dict)
+    frozen: ModelDescription | None = field(default=None, repr=False, compare=False)
 
     def line(self, path: Sequence[str | int]) -> int | None:
         """The line of the key path ``path`` (or of its longest known prefix) in the text."""
@@ -436,11 +439,14 @@ def file_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = "")
               f"{', '.join(sorted(_CORE_SECTIONS))} (see docs/model-files.md)", name)
     name, description, meta = _read_head(data, source, r)
     model = _read_model(name, data, r, ())
+    frozen = model.freeze()                    # the whole file (its sub-models are inside)
+    for problem in frozen.problems(missing=r.missing if r else None):
+        r.add(str(problem), *problem.path, kind=problem)
     simulation = _read_simulation(data, r)
     if r:
         raise r.error()
     return ModelFile(model, source, text, description, simulation, meta,
-                     {k: data[k] for k in PASSED_THROUGH if k in data})
+                     {k: data[k] for k in PASSED_THROUGH if k in data}, frozen)
 
 
 def _read_head(data: dict[str, Any], source: str, r: _Reader) -> tuple[str, str, dict[str, Any]]:
@@ -465,8 +471,9 @@ def _read_head(data: dict[str, Any], source: str, r: _Reader) -> tuple[str, str,
 
 def _read_model(name: str, data: dict[str, Any], r: _Reader, at: tuple) -> Model:
     """A model's own tables (at key path ``at``: ``()`` for the file, ``("components", "sub",
-    "model")`` for a sub-model): parameters, components, bonds, events, outputs, then the checks
-    of the whole (:meth:`~porthamiltonian.modeling.model.ModelDescription.problems`)."""
+    "model")`` for a sub-model): parameters, components, bonds, events, outputs (the checks of
+    the whole, :meth:`~porthamiltonian.modeling.model.ModelDescription.problems`, follow in
+    :func:`file_from_dict`)."""
     model = Model(name)
     prefix = "".join(f"{part}." for part in at[1::3])     # the sub-model's flattened prefix
     r.missing |= {prefix + n for n in _read_parameters(model, data.get("parameters", {}), r, at)}
@@ -475,9 +482,6 @@ def _read_model(name: str, data: dict[str, Any], r: _Reader, at: tuple) -> Model
     _read_bonds(model, data.get("bonds", []), failed, r, at)
     _read_events(model, data.get("events", []), r, at)
     _read_outputs(model, data.get("outputs", {}), r, at)
-    if not at:                                 # the whole file (its sub-models are inside)
-        for problem in model.freeze().problems(missing=r.missing if r else None):
-            r.add(str(problem), *problem.path, kind=problem)
     return model
 
 

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import ModelError, OptionError
 from ..integrators import TABLEAUS
 
 if TYPE_CHECKING:
@@ -162,7 +162,8 @@ def _signal_of_t(traj, name: str) -> Callable[[float], float]:
         for seg in traj.segments:
             if seg.t[0] <= s <= seg.t[-1]:
                 return model.output(name, s, traj.sol(s), seg.p)
-        raise ValueError(f"t = {s} is outside the run")
+        raise OptionError(f"t = {s} is outside the run ({traj.segments[0].t[0]:g} to "
+                          f"{traj.t_final:g} s)")
     return value
 
 

@@ -135,6 +135,20 @@ class ModelDescription:
         """The local names of the components (and sub-models) of the scope ``prefix``."""
         return {n[len(prefix):].split(".")[0] for n in self.components if n.startswith(prefix)}
 
+    def with_outputs(self, outputs: Mapping[str, str]) -> ModelDescription:
+        """This description with more model outputs, declared at its top level (as
+        :meth:`Model.output` then :meth:`Model.freeze` would give, without freezing again): each
+        an expression over the model's parameters, states, port variables and outputs."""
+        for name in outputs:
+            check_name(name, f"model {self.name!r}: output name")
+            if name in self.outputs:
+                raise DuplicateNameError(f"model {self.name!r}: output {name!r} declared twice")
+        new = dict(outputs)
+        return dataclasses.replace(
+            self, outputs=MappingProxyType({**self.outputs, **new}),
+            scopes=MappingProxyType({**self.scopes, **{f"output:{n}": "" for n in new}}),
+            paths=MappingProxyType({**self.paths, **{f"output:{n}": ("outputs", n) for n in new}}))
+
     # --- canonical form ----------------------------------------------------------------------
     def canonical(self) -> str:
         """A canonical text (JSON) of everything in the description that determines the

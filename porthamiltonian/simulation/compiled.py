@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -25,15 +26,86 @@ import numpy as np
 from ..backends import Functions
 from ..errors import OptionError, ParameterValueError, StateError, UnknownParameterError
 from ..fmu import export_fmu as _export_fmu
-from ..modeling.constraints import ConstraintChecker
+from ..modeling.constraints import Constraint, ConstraintChecker
 from .simulate import simulate as _simulate
 
 
 @dataclass(frozen=True)
 class EventInfo:
+    """A model event as the simulator sees it: its name, the direction of the guard's zero
+    crossing that triggers it (+1 rising, -1 falling, 0 both) and whether it ends the run."""
+
     name: str
     direction: int
     terminal: bool
+
+
+@dataclass(frozen=True)
+class ModelMeta:
+    """What the compiler hands a :class:`CompiledModel` besides its numeric functions: the
+    layouts and the equations for display (``meta.json`` of a cache entry, :meth:`to_json`).
+
+    name : the model's name. state_names, param_names, param_defaults (SI), param_units,
+    output_names : the layouts. events : the model events. equations, hamiltonian : text for
+    display. matrices : the named matrices (``walker.M``); shapes : the shape of every generated
+    function's result by function name. autonomous : the state equations do not read time.
+    energy_parts : ``(output, kind)`` of the outputs that split H. constraints : the components'
+    constraints on parameter values. units : SI unit by state or port-variable name.
+    """
+
+    name: str
+    state_names: tuple[str, ...]
+    param_names: tuple[str, ...]
+    param_defaults: tuple[float, ...]
+    param_units: tuple[str, ...]
+    output_names: tuple[str, ...]
+    events: tuple[EventInfo, ...]
+    equations: tuple[str, ...]
+    hamiltonian: str
+    matrices: tuple[str, ...]
+    shapes: Mapping[str, tuple[int, ...]]
+    autonomous: bool
+    energy_parts: tuple[tuple[str, str], ...] = ()
+    constraints: tuple[Constraint, ...] = ()
+    units: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+
+    def to_json(self) -> dict[str, Any]:
+        """The record as the JSON table of ``meta.json`` (the cache's format: lists, tables)."""
+        out: dict[str, Any] = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(events=[{"name": e.name, "direction": e.direction, "terminal": e.terminal}
+                           for e in self.events],
+                   shapes={k: list(v) for k, v in self.shapes.items()},
+                   energy_parts=[list(e) for e in self.energy_parts],
+                   constraints=[c.to_dict() for c in self.constraints], units=dict(self.units))
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in out.items()}
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> ModelMeta:
+        """The record of a :meth:`to_json` table; KeyError, TypeError or ValueError when it is
+        not one (a cache entry written by another version, or damaged)."""
+        return cls(
+            name=str(data["name"]), state_names=_strings(data["state_names"]),
+            param_names=_strings(data["param_names"]),
+            param_defaults=tuple(float(v) for v in data["param_defaults"]),
+            param_units=_strings(data["param_units"]),
+            output_names=_strings(data["output_names"]),
+            events=tuple(EventInfo(str(e["name"]), int(e["direction"]), bool(e["terminal"]))
+                         for e in data["events"]),
+            equations=_strings(data["equations"]), hamiltonian=str(data["hamiltonian"]),
+            matrices=_strings(data["matrices"]),
+            shapes=MappingProxyType({str(k): tuple(int(n) for n in v)
+                                     for k, v in dict(data["shapes"]).items()}),
+            autonomous=bool(data["autonomous"]),
+            energy_parts=tuple((str(a), str(b)) for a, b in data.get("energy_parts", [])),
+            constraints=tuple(Constraint.from_dict(c) for c in data.get("constraints", [])),
+            units=MappingProxyType({str(k): str(v)
+                                    for k, v in dict(data.get("units", {})).items()}))
+
+
+def _strings(values: Any) -> tuple[str, ...]:
+    if isinstance(values, str) or not all(isinstance(v, str) for v in values):
+        raise TypeError(f"expected a list of strings, got {values!r}")
+    return tuple(values)
 
 
 class CompiledModel:
@@ -51,29 +123,31 @@ class CompiledModel:
     constraints : the components' constraints on parameter values, checked by :meth:`params`.
     units : SI unit by name of the states and port variables whose unit is known
         (``"spring.q": "m"``, ``"mass.p.e": "N"``).
-    events : the model's event guards.
+    events : the model's event guards (:class:`EventInfo`).
+    meta : the compiler's :class:`ModelMeta` these layouts come from.
     functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
     source : the generated source the back end runs (C or Python); c_source : the generated C
         body (what the C back end compiles, also under the other back ends: an FMU embeds it).
     param_docs : the parameters' descriptions, in the order of :attr:`param_names`.
     """
 
-    def __init__(self, meta: Mapping[str, Any], functions: Functions, source: str, key: str, *,
+    def __init__(self, meta: ModelMeta, functions: Functions, source: str, key: str, *,
                  c_source: str = "", param_docs: Sequence[str] = ()):
-        self.name: str = meta["name"]
-        self.state_names: list[str] = meta["state_names"]
-        self.param_names: list[str] = meta["param_names"]
-        self.param_defaults = np.array(meta["param_defaults"], dtype=float)
-        self.param_units: list[str] = meta["param_units"]
-        self.output_names: list[str] = meta["output_names"]
-        self.events = [EventInfo(**e) for e in meta["events"]]
-        self.equations: list[str] = meta["equations"]
-        self.hamiltonian: str = meta["hamiltonian"]
-        self.matrix_names: list[str] = meta["matrices"]
-        self.autonomous: bool = meta["autonomous"]
-        self.energy_parts: list[tuple[str, str]] = [tuple(e) for e in meta.get("energy_parts", [])]
-        self.constraints = ConstraintChecker(self.name, meta.get("constraints", []))
-        self.units: dict[str, str] = dict(meta.get("units", {}))
+        self.meta = meta
+        self.name: str = meta.name
+        self.state_names: list[str] = list(meta.state_names)
+        self.param_names: list[str] = list(meta.param_names)
+        self.param_defaults = np.array(meta.param_defaults, dtype=float)
+        self.param_units: list[str] = list(meta.param_units)
+        self.output_names: list[str] = list(meta.output_names)
+        self.events = list(meta.events)
+        self.equations: list[str] = list(meta.equations)
+        self.hamiltonian: str = meta.hamiltonian
+        self.matrix_names: list[str] = list(meta.matrices)
+        self.autonomous: bool = meta.autonomous
+        self.energy_parts: list[tuple[str, str]] = list(meta.energy_parts)
+        self.constraints = ConstraintChecker(self.name, [c.to_dict() for c in meta.constraints])
+        self.units: dict[str, str] = dict(meta.units)
         self.functions = functions
         self.source = source
         self.c_source = c_source

@@ -29,6 +29,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import OptionError
+
 if TYPE_CHECKING:
     from .compiled import CompiledModel
     from .saltation import Sensitivity
@@ -202,8 +204,8 @@ class Trajectory:
                     out[:, k] = s.sol(tk)[: self.model.n_states]
                     break
             else:
-                raise ValueError(f"t = {tk} is outside the simulated interval, or the run was made "
-                                 "without dense_output=True")
+                raise OptionError(f"t = {tk} is outside the simulated interval, or the run was "
+                                  "made without dense_output=True")
         return out[:, 0] if np.ndim(t) == 0 else out
 
     # --- energy ledger --------------------------------------------------------------------------

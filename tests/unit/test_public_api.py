@@ -12,7 +12,8 @@ import pytest
 #: walker_library modules checked; the others (cli, analyses.gait, analyses.poincare,
 #: analyses.robustness, report.studies) are being reworked and join this list when they are
 WALKER_MODULES = ("analyses.cases", "analyses.calibration", "core.walker", "analyses.dissipation",
-                  "core.hybrid", "core.machine", "analyses.metrics", "core.names", "core.protocol",
+                  "core.hybrid", "core.machine", "analyses.metrics", "core.plan", "core.problems",
+                  "core.protocol", "core.reading",
                   "report.writer", "core.resets", "analyses.results", "analyses.series",
                   "analyses.standing", "core.strides", "core.files", "core.fmu")
 
