@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from ..errors import ModelError, StateError
+from ..integrators import COMPILED_METHODS
 from .differences import Derivative, gradient
 from .options import check_simulation
 from .saltation import Crossing, Sensitivity, saltation_matrix
@@ -39,9 +40,9 @@ from .trajectory import Segment, Status, Trajectory
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
     from .compiled import CompiledModel
 
-METHODS = ("Rodas4", "Rodas5P", "Radau", "BDF", "LSODA", "RK45", "DOP853")
+METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 #: the methods whose whole step loop is compiled with the model (Functions.loops)
-_COMPILED = ("Rodas4", "Rodas5P")
+_COMPILED = COMPILED_METHODS
 _STIFF = ("Radau", "BDF", "LSODA")
 _EPS = np.finfo(float).eps
 
@@ -510,27 +511,28 @@ class Simulator:
         atol = np.ascontiguousarray(np.broadcast_to(settings.atol, (n + 2,)), dtype=float)
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
         sensitive = self.phi is not None
-        if sensitive:       # the variational loop: Φ too (17-tuple)
+        if sensitive:       # the variational loop: Φ too (18-tuple)
             variational = model.functions.variational[settings.method]
             phis = [self.phi[None, :n].copy()]
 
             def loop(*args):
                 out = variational(*args, np.ascontiguousarray(self.phi))
-                self.phi = out[14]
-                phis.append(out[15][:out[5], :n].copy())
-                self.phi_error = max(self.phi_error, out[16] / settings.rtol)
-                return out[:14]
+                self.phi = out[15]
+                phis.append(out[16][:out[5], :n].copy())
+                self.phi_error = max(self.phi_error, out[17] / settings.rtol)
+                return out[:15]
         else:
             loop = model.functions.loops[settings.method]
         while True:
             with np.errstate(all="ignore"):
                 (code, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
-                 h) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
+                 h, nlu) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
                            self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
                            settings.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
             self._counts["nfev"] += nfev
             self._counts["njev"] += njev
+            self._counts["nlu"] += nlu
             ts.append(t_store[:n_store].copy())
             ys.append(y_store[:n_store].copy())
             for j in range(n_ev):

@@ -39,7 +39,7 @@ import numpy as np
 from porthamiltonian import Model, compile_model, symbolic
 from porthamiltonian.compiler import cache
 from porthamiltonian.errors import ModelError, ParameterValueError
-from porthamiltonian.integrators import TABLEAUS as COMPILED_METHODS
+from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.interfaces.io import ModelFile
 from porthamiltonian.simulation.compiled import CompiledModel
 
