@@ -100,13 +100,16 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     params : parameter values by name (defaults for the others).
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
-    method : ``"auto"`` (default: Rodas5P, or Radau when Python events, ``t_eval`` or dense
-        output are asked for), ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable Rosenbrock methods
-        of order 5 and 4 whose whole step loop is compiled with the model: the fast path with
-        the C or numba back end; model events only, no ``t_eval`` or dense output; Rodas5P
-        takes fewer steps at the same accuracy, benchmarks/RESULTS.md), or a scipy method:
-        Radau, BDF, LSODA (stiff, given the analytic Jacobian unless ``jacobian=False``), RK45,
-        DOP853.
+    method : ``"auto"`` (default: Radau when Python events, ``t_eval`` or dense output are
+        asked for, else :func:`auto_method`: QBDF for a multibody of two or more coordinates,
+        Rodas5P otherwise), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
+        Rosenbrock methods of order 5 and 4: a Jacobian and an LU at every step; Rodas5P takes
+        fewer steps at the same accuracy), ``"QBDF"`` (variable-order BDF, orders 1-5, reusing
+        its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
+        below: compare them at equal accuracy, benchmarks/RESULTS.md) — whose whole step loop
+        is compiled with the model (the fast path with the C or numba back end; model events
+        only, no ``t_eval`` or dense output), or a scipy method: Radau, BDF, LSODA (stiff, given
+        the analytic Jacobian unless ``jacobian=False``), RK45, DOP853.
     max_step, first_step : bounds on the step size (s); ``first_step`` for the scipy methods.
     jacobian : give the stiff scipy methods the analytic Jacobian.
     actions : event name -> action (model events or ``events``). An event without action is
@@ -120,7 +123,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         Φ(t) = ∂x(t)/∂x₀ · V, with saltation matrices at the events (``traj.sensitivity``, a
         :class:`~porthamiltonian.simulation.saltation.Sensitivity`: Φ at every point and where the run
         ended, the events' saltation matrices): True for V = I (all model states), or the
-        directions V (n x m). Compiled methods only (``"auto"``: Rodas5P); the trajectory is
+        directions V (n x m). Compiled methods only (``"auto"``: as without); the trajectory is
         the same, bit for bit, as without; an action that moves the state gives its Jacobian
         (``Reset(jacobian=...)``). See :mod:`porthamiltonian.simulation.saltation`.
 
@@ -138,7 +141,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     t_start, t_end, t_eval = checked["t_start"], checked["t_end"], checked["t_eval"]
     requested = method
     if method == "auto":
-        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas5P"
+        method = ("Radau" if (events or t_eval is not None or dense_output) else
+                  auto_method(model))
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
     p = model.params(params)
@@ -172,6 +176,25 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
         sensitivity=checked["sensitivity"])
     return Simulator(model, settings).run(t_start, y, p, t_end)
+
+
+def auto_method(model: CompiledModel) -> str:
+    """The compiled method ``method="auto"`` runs ``model`` with (no Python events, ``t_eval``
+    or dense output): QBDF for a model with a multibody of two or more coordinates (a named
+    mass matrix ``<component>.M`` and states ``<component>.q.*``: its Jacobian, the chain rule
+    through the mass-matrix solve, costs several right-hand sides, which QBDF evaluates once in
+    tens of steps), else Rodas5P. Measured at equal accuracy (benchmarks/RESULTS.md, "Jacobian
+    reuse"): QBDF takes 0.5x Rodas5P's time on the compass and compliant-leg walkers, 0.7x on
+    the double pendulum, about the same on the bouncing ball (two coordinates, a constant mass
+    matrix), and 1.1-2.5x on small models with a cheap Jacobian (a pendulum, the mass-spring
+    damper, the dc motor, the free rigid body), where Rodas5P's error is far below its
+    tolerance."""
+    for name in model.matrix_names:
+        if name.endswith(".M"):
+            prefix = name[:-1] + "q."
+            if sum(1 for s in model.state_names if s.startswith(prefix)) >= 2:
+                return "QBDF"
+    return "Rodas5P"
 
 
 def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
