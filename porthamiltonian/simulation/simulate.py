@@ -184,11 +184,12 @@ def auto_method(model: CompiledModel) -> str:
     mass matrix ``<component>.M`` and states ``<component>.q.*``: its Jacobian, the chain rule
     through the mass-matrix solve, costs several right-hand sides, which QBDF evaluates once in
     tens of steps), else Rodas5P. Measured at equal accuracy (benchmarks/RESULTS.md, "Jacobian
-    reuse"): QBDF takes 0.5x Rodas5P's time on the compass and compliant-leg walkers, 0.7x on
-    the double pendulum, about the same on the bouncing ball (two coordinates, a constant mass
-    matrix), and 1.1-2.5x on small models with a cheap Jacobian (a pendulum, the mass-spring
-    damper, the dc motor, the free rigid body), where Rodas5P's error is far below its
-    tolerance."""
+    reuse"): QBDF takes 0.1-0.3x Rodas5P's time on a sphere rolling in 3-D contact, 0.3-0.5x on
+    the compass and compliant-leg walkers, 0.7x on the double pendulum, 0.8-1.0x on the bouncing
+    ball (two coordinates, a constant mass matrix); 1.1-3x on the models without such a
+    multibody (a stiff spring chain, the dc motor, the mass-spring-damper, a one-coordinate
+    pendulum, the free rigid body), whose Jacobian is cheap and where Rodas5P's error is far
+    below its tolerance."""
     for name in model.matrix_names:
         if name.endswith(".M"):
             prefix = name[:-1] + "q."
