@@ -59,7 +59,7 @@ typedef struct {
     double t_mask;
 } Walker;
 
-/* --- the equations in doubles --------------------------------------------------------------------- */
+/* --- the equations in doubles ----------------------------------------------------------------- */
 static double mu(double v)
 {
     if (v == 0.0)
@@ -147,7 +147,7 @@ static void rhs_values(const Walker *w, const double *y, double *ydot)
     }
 }
 
-/* --- the same equations in dual numbers: value and the NY partial derivatives ------------------- */
+/* --- the same equations in dual numbers: value and the NY partial derivatives ----------------- */
 typedef struct {
     double v, d[NY];
 } dual;
@@ -324,7 +324,7 @@ static void jac_values(const Walker *w, const double *yv, double Jac[NY][NY])
     }
 }
 
-/* --- CVODE callbacks ------------------------------------------------------------------------------- */
+/* --- CVODE callbacks -------------------------------------------------------------------------- */
 static long n_rhs_calls = 0, n_jac_calls = 0;
 
 static int rhs_cb(sunrealtype t, N_Vector y, N_Vector ydot, void *data)
@@ -348,7 +348,10 @@ static int jac_cb(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jm, void *da
     return 0;
 }
 
-static double penetration(const double *y, int k) { return R - y[1] + (L + y[4 + k]) * cos(y[2 + k]); }
+static double penetration(const double *y, int k)
+{
+    return R - y[1] + (L + y[4 + k]) * cos(y[2 + k]);
+}
 static double foot_x(const double *y, int k) { return y[0] - (L + y[4 + k]) * sin(y[2 + k]); }
 
 static int roots_cb(sunrealtype t, N_Vector yv, sunrealtype *g, void *data)
@@ -458,9 +461,12 @@ static int check(void)
 {
     Walker w = {{1, 1}, -1, 0.0};
     const double states[3][NY] = {
-        {0.01, 0.7 * cos(0.2) + R - 1e-5, -0.2, 0.21, 1e-4, -2e-4, 0.6, -0.1, 0.8, 0.83, 0.01, -0.02},
-        {0.02, 0.7 * cos(0.1) + R - 3e-5, 0.1, -0.15, -3e-4, 1e-4, 0.55, 0.02, -0.7, 0.9, -0.03, 0.01},
-        {0.0, 0.7 * cos(0.25) + R - 2e-6, 0.25, -0.25, 2e-4, 2e-4, 0.5, -0.05, 0.3, -0.2, 0.0, 0.02}};
+        {0.01, 0.7 * cos(0.2) + R - 1e-5, -0.2, 0.21, 1e-4, -2e-4,
+         0.6, -0.1, 0.8, 0.83, 0.01, -0.02},
+        {0.02, 0.7 * cos(0.1) + R - 3e-5, 0.1, -0.15, -3e-4, 1e-4,
+         0.55, 0.02, -0.7, 0.9, -0.03, 0.01},
+        {0.0, 0.7 * cos(0.25) + R - 2e-6, 0.25, -0.25, 2e-4, 2e-4,
+         0.5, -0.05, 0.3, -0.2, 0.0, 0.02}};
     double worst = 0.0;
     for (int s = 0; s < 3; ++s) {
         double J[NY][NY], f1[NY], f2[NY], y[NY], scale = 0.0;

@@ -8,8 +8,8 @@
  * Entry points: int ph_integrate_<method>(PH_LOOP_PARAMS) returns the status (0 reached t_end,
  * 1 terminal event, 2 step-size underflow or singular W, 3 divergence, 4 max_steps, 5 store
  * buffers full) and writes out_th = {t, h}, out_y = y (PH_N values), counts = {n_store, nfev,
- * njev, nsteps, event_index, n_ev, nlu}, the accepted steps into ts (store_cap) / ys (store_cap x PH_N,
- * row-major) and the non-terminal events into ev_t / ev_k (store_cap).
+ * njev, nsteps, event_index, n_ev, nlu}, the accepted steps into ts (store_cap) / ys
+ * (store_cap x PH_N, row-major) and the non-terminal events into ev_t / ev_k (store_cap).
  * int ph_integrate_<method>_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS) does the same and
  * integrates the sensitivities Phi from phi0 (PH_N x m, row-major; column c the initial
  * perturbation of direction c) as rosenbrock_loop.py does (see its header): Phi at the end into
