@@ -19,7 +19,8 @@ status in the :class:`Trajectory`, never with an exception from inside scipy.
 integration state (as Drake's Simulator owns a Context beside the System): the current time,
 state and parameters, the next step size of the compiled loop, the side a guard that has just
 fired is kept on, the counters; the :class:`Trajectory` it returns is an immutable result. The
-compiled loop (Rodas5P or Rodas4, ``Functions.loops``) is called in one place, :meth:`Simulator._compiled_segment`.
+compiled loop (Rodas5P, Rodas4 or QBDF, ``Functions.loops``) is called in one place,
+:meth:`Simulator._compiled_segment`.
 """
 from __future__ import annotations
 
@@ -232,7 +233,7 @@ class Settings:
     sensitivity: np.ndarray | None = None
 
 
-#: The compiled loop's return codes (porthamiltonian/integrators/rodas_loop.py), but 5: its
+#: The compiled loops' return codes (porthamiltonian/integrators/rosenbrock_loop.py), but 5: its
 #: store buffer is full, call again
 _LOOP_STATUS = {0: Status.FINISHED, 1: Status.EVENT, 2: Status.FAILED, 3: Status.DIVERGED,
                 4: Status.FAILED}
