@@ -71,15 +71,18 @@ static void ph_bdf_dense(const double *D, int order, int nd, double *E)
                 acc += B[j - 1][k - 1];
             B[j][k] = acc / j;
         }
-    memset(E, 0, sizeof(double) * nd * N);
-    for (int k = order; k > 1; --k)
-        for (int i = 0; i < N; ++i) {
+    for (int i = 0; i < N; ++i) {
+        double acc = 0.0;               /* sum of c_k' over k' >= k, k from the top down */
+        for (int k = order; k > 1; --k) {
             double ck = 0.0;
             for (int j = k; j <= order; ++j)
                 ck += B[j][k] * D[j * N + i];
-            for (int r = 0; r < k - 1; ++r)
-                E[r * N + i] -= ck;
+            acc += ck;
+            E[(k - 2) * N + i] = -acc;
         }
+        for (int r = order > 1 ? order - 1 : 0; r < nd; ++r)
+            E[r * N + i] = 0.0;
+    }
 }
 
 /* The RMS norm of v_i / w_i over i < n */

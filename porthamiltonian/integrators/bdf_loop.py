@@ -111,16 +111,16 @@ def _bdf_dense(D, order, E):
             if k > 0:
                 acc += B[j - 1, k - 1]
             B[j, k] = acc / j
-    for r in range(E.shape[0]):
-        for i in range(n):
-            E[r, i] = 0.0
-    for k in range(order, 1, -1):             # c_k, summed into E_0..E_{k-2}
-        for i in range(n):
+    for i in range(n):
+        acc = 0.0                             # Σ_{k' ≥ k} c_k', k from the top down
+        for k in range(order, 1, -1):
             ck = 0.0
             for j in range(k, order + 1):
                 ck += B[j, k] * D[j, i]
-            for r in range(k - 1):
-                E[r, i] -= ck
+            acc += ck
+            E[k - 2, i] = -acc
+        for r in range(max(order - 1, 0), E.shape[0]):
+            E[r, i] = 0.0
 
 
 @_jit
