@@ -45,7 +45,7 @@ class Functions:
 
     Each takes ``(t, x, p)`` (``initial`` takes ``p``) where ``x`` and ``p`` are float arrays and
     returns a float array. ``backend`` names what produced them. ``loops`` maps a method name
-    (``"Rodas4"``, ``"Rodas5P"``) to its compiled integration loop, ``variational`` to the same
+    (``"Rodas4"``, ``"Rodas5P"``, ``"QBDF"``) to its compiled integration loop, ``variational`` to the same
     loop integrating the sensitivities too (the calling conventions of
     :mod:`porthamiltonian.integrators`).
     """

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..integrators import TABLEAUS, python_loops
+from ..integrators import LOOPS, python_loops
 from . import Functions
 
 _HEADERS = {
@@ -40,9 +40,9 @@ def load(path: Path, backend: str, n_matrices: int = 0) -> Functions:
         sys.modules[module_name] = module
     f = {name: getattr(module, name) for name in _NAMES}
     matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]
-    loops = {name: getattr(module, f"integrate_{tab.symbol}") for name, tab in TABLEAUS.items()}
-    variational = {name: getattr(module, f"integrate_{tab.symbol}_variational")
-                   for name, tab in TABLEAUS.items()}
+    loops = {name: getattr(module, f"integrate_{symbol}") for name, symbol in LOOPS.items()}
+    variational = {name: getattr(module, f"integrate_{symbol}_variational")
+                   for name, symbol in LOOPS.items()}
     if backend == "python":
         # plain CPython is fastest on Python floats: hand the generated code lists (the caller
         # passes p as a list too, see CompiledModel.native_params)

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CompilerError, OptionError
-from ..integrators import TABLEAUS, c_loops
+from ..integrators import LOOPS, c_loops
 from . import Functions
 
 #: Optimisation and code-generation flags, chosen by measurement on the walkers
@@ -193,11 +193,11 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Funct
         return out
 
     n_guards = shapes["guards"][0]
-    loops = {name: _loop(getattr(lib, f"ph_integrate_{tab.symbol}"), n, n_params, n_guards)
-             for name, tab in TABLEAUS.items()}
-    variational = {name: _loop(getattr(lib, f"ph_integrate_{tab.symbol}_variational"), n,
+    loops = {name: _loop(getattr(lib, f"ph_integrate_{symbol}"), n, n_params, n_guards)
+             for name, symbol in LOOPS.items()}
+    variational = {name: _loop(getattr(lib, f"ph_integrate_{symbol}_variational"), n,
                                n_params, n_guards, variational=True)
-                   for name, tab in TABLEAUS.items()}
+                   for name, symbol in LOOPS.items()}
     matrices = tuple(function(f"matrix_{k}") for k in range(expected[4]))
     # (ctypes never unloads a library: the functions stay valid)
     return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops,
@@ -206,8 +206,8 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Funct
 
 def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
     """The Python face of a compiled loop: the calling convention of
-    porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 14-tuple; with
-    ``variational`` the argument phi0 and the 17-tuple). The stored points (times, states,
+    porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 15-tuple; with
+    ``variational`` the argument phi0 and the 18-tuple). The stored points (times, states,
     events, Φ) come in buffers of the thread's, reused by its next call of this loop (a segment
     between two events is short: a fresh 4096-point buffer per call cost more than the
     segment's Python work); the caller copies what it keeps."""
@@ -249,7 +249,7 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         _, ts, ys, ev_t, ev_k, phis = buffers
         th = np.empty(2)
         y = np.empty(n)
-        counts = np.empty(6, dtype=np.int64)
+        counts = np.empty(7, dtype=np.int64)
         extra = ()
         if variational:
             phi = np.empty((n, m))
@@ -262,7 +262,7 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
                        _pointer(counts), *extra)
         c = [int(v) for v in counts]
         out = (status, float(th[0]), y, ts, ys, c[0], c[1], c[2], c[3], c[4], ev_t, ev_k, c[5],
-               float(th[1]))
+               float(th[1]), c[6])
         return out + (phi, phis, float(phi_error[0])) if variational else out
 
     return integrate

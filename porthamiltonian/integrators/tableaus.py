@@ -166,7 +166,7 @@ def python_entry(tab: Tableau) -> str:
         f"def integrate_{tab.symbol}({_ARGS}):",
         f'    """{tab.name}: the step loop _rosenbrock (its copy without Φ) with its tables."""',
         (f"    return _rosenbrock_plain({p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
-         f"{1.0 / tab.error_order!r}, {_ARGS}, np.empty((y0.shape[0], 0)))[:14]"),
+         f"{1.0 / tab.error_order!r}, {_ARGS}, np.empty((y0.shape[0], 0)))[:15]"),
         "", "",
         "@_jit",
         f"def integrate_{tab.symbol}_variational({_ARGS}, phi0):",

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ModelError, OptionError
-from ..integrators import TABLEAUS
+from ..integrators import COMPILED_METHODS
 
 if TYPE_CHECKING:
     from ..modeling.model import Model
@@ -71,12 +71,12 @@ class SimulationModel:
                  dense_output: bool = False) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
         method, rtol, atol and max_step (with ``dense_output``, a file's compiled method,
-        Rodas4 or Rodas5P, becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
+        Rodas4, Rodas5P or QBDF, becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
         t_end = self.t_end(t_end)
         sim = self.settings
         options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
         method = sim["method"]
-        if dense_output and method in TABLEAUS:
+        if dense_output and method in COMPILED_METHODS:
             method = "auto"              # the compiled loop has no dense output: Radau instead
         return self.compiled.simulate(t_end, params=params, method=method, rtol=sim["rtol"],
                                       atol=sim["atol"], dense_output=dense_output, **options)

@@ -19,7 +19,8 @@ status in the :class:`Trajectory`, never with an exception from inside scipy.
 integration state (as Drake's Simulator owns a Context beside the System): the current time,
 state and parameters, the next step size of the compiled loop, the side a guard that has just
 fired is kept on, the counters; the :class:`Trajectory` it returns is an immutable result. The
-compiled loop (Rodas5P or Rodas4, ``Functions.loops``) is called in one place, :meth:`Simulator._compiled_segment`.
+compiled loop (Rodas5P, Rodas4 or QBDF, ``Functions.loops``) is called in one place,
+:meth:`Simulator._compiled_segment`.
 """
 from __future__ import annotations
 
@@ -31,6 +32,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from ..errors import ModelError, StateError
+from ..integrators import COMPILED_METHODS
 from .differences import Derivative, gradient
 from .options import check_simulation
 from .saltation import Crossing, Sensitivity, saltation_matrix
@@ -39,9 +41,9 @@ from .trajectory import Segment, Status, Trajectory
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
     from .compiled import CompiledModel
 
-METHODS = ("Rodas4", "Rodas5P", "Radau", "BDF", "LSODA", "RK45", "DOP853")
+METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 #: the methods whose whole step loop is compiled with the model (Functions.loops)
-_COMPILED = ("Rodas4", "Rodas5P")
+_COMPILED = COMPILED_METHODS
 _STIFF = ("Radau", "BDF", "LSODA")
 _EPS = np.finfo(float).eps
 
@@ -99,13 +101,16 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     params : parameter values by name (defaults for the others).
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
-    method : ``"auto"`` (default: Rodas5P, or Radau when Python events, ``t_eval`` or dense
-        output are asked for), ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable Rosenbrock methods
-        of order 5 and 4 whose whole step loop is compiled with the model: the fast path with
-        the C or numba back end; model events only, no ``t_eval`` or dense output; Rodas5P
-        takes fewer steps at the same accuracy, benchmarks/RESULTS.md), or a scipy method:
-        Radau, BDF, LSODA (stiff, given the analytic Jacobian unless ``jacobian=False``), RK45,
-        DOP853.
+    method : ``"auto"`` (default: Radau when Python events, ``t_eval`` or dense output are
+        asked for, else :func:`auto_method`: QBDF for a multibody of two or more coordinates,
+        Rodas5P otherwise), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
+        Rosenbrock methods of order 5 and 4: a Jacobian and an LU at every step; Rodas5P takes
+        fewer steps at the same accuracy), ``"QBDF"`` (variable-order BDF, orders 1-5, reusing
+        its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
+        below: compare them at equal accuracy, benchmarks/RESULTS.md) — whose whole step loop
+        is compiled with the model (the fast path with the C or numba back end; model events
+        only, no ``t_eval`` or dense output), or a scipy method: Radau, BDF, LSODA (stiff, given
+        the analytic Jacobian unless ``jacobian=False``), RK45, DOP853.
     max_step, first_step : bounds on the step size (s); ``first_step`` for the scipy methods.
     jacobian : give the stiff scipy methods the analytic Jacobian.
     actions : event name -> action (model events or ``events``). An event without action is
@@ -119,7 +124,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         Φ(t) = ∂x(t)/∂x₀ · V, with saltation matrices at the events (``traj.sensitivity``, a
         :class:`~porthamiltonian.simulation.saltation.Sensitivity`: Φ at every point and where the run
         ended, the events' saltation matrices): True for V = I (all model states), or the
-        directions V (n x m). Compiled methods only (``"auto"``: Rodas5P); the trajectory is
+        directions V (n x m). Compiled methods only (``"auto"``: as without); the trajectory is
         the same, bit for bit, as without; an action that moves the state gives its Jacobian
         (``Reset(jacobian=...)``). See :mod:`porthamiltonian.simulation.saltation`.
 
@@ -137,7 +142,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     t_start, t_end, t_eval = checked["t_start"], checked["t_end"], checked["t_eval"]
     requested = method
     if method == "auto":
-        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas5P"
+        method = ("Radau" if (events or t_eval is not None or dense_output) else
+                  auto_method(model))
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
     p = model.params(params)
@@ -171,6 +177,26 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
         sensitivity=checked["sensitivity"])
     return Simulator(model, settings).run(t_start, y, p, t_end)
+
+
+def auto_method(model: CompiledModel) -> str:
+    """The compiled method ``method="auto"`` runs ``model`` with (no Python events, ``t_eval``
+    or dense output): QBDF for a model with a multibody of two or more coordinates (a named
+    mass matrix ``<component>.M`` and states ``<component>.q.*``: its Jacobian, the chain rule
+    through the mass-matrix solve, costs several right-hand sides, which QBDF evaluates once in
+    tens of steps), else Rodas5P. Measured at equal accuracy (benchmarks/RESULTS.md, "Jacobian
+    reuse"): QBDF takes 0.1-0.3x Rodas5P's time on a sphere rolling in 3-D contact, 0.3-0.5x on
+    the compass and compliant-leg walkers, 0.7x on the double pendulum, 0.8-1.0x on the bouncing
+    ball (two coordinates, a constant mass matrix); 1.1-3x on the models without such a
+    multibody (a stiff spring chain, the dc motor, the mass-spring-damper, a one-coordinate
+    pendulum, the free rigid body), whose Jacobian is cheap and where Rodas5P's error is far
+    below its tolerance."""
+    for name in model.matrix_names:
+        if name.endswith(".M"):
+            prefix = name[:-1] + "q."
+            if sum(1 for s in model.state_names if s.startswith(prefix)) >= 2:
+                return "QBDF"
+    return "Rodas5P"
 
 
 def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
@@ -207,7 +233,7 @@ class Settings:
     sensitivity: np.ndarray | None = None
 
 
-#: The compiled loop's return codes (porthamiltonian/integrators/rodas_loop.py), but 5: its
+#: The compiled loops' return codes (porthamiltonian/integrators/rosenbrock_loop.py), but 5: its
 #: store buffer is full, call again
 _LOOP_STATUS = {0: Status.FINISHED, 1: Status.EVENT, 2: Status.FAILED, 3: Status.DIVERGED,
                 4: Status.FAILED}
@@ -510,27 +536,28 @@ class Simulator:
         atol = np.ascontiguousarray(np.broadcast_to(settings.atol, (n + 2,)), dtype=float)
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
         sensitive = self.phi is not None
-        if sensitive:       # the variational loop: Φ too (17-tuple)
+        if sensitive:       # the variational loop: Φ too (18-tuple)
             variational = model.functions.variational[settings.method]
             phis = [self.phi[None, :n].copy()]
 
             def loop(*args):
                 out = variational(*args, np.ascontiguousarray(self.phi))
-                self.phi = out[14]
-                phis.append(out[15][:out[5], :n].copy())
-                self.phi_error = max(self.phi_error, out[16] / settings.rtol)
-                return out[:14]
+                self.phi = out[15]
+                phis.append(out[16][:out[5], :n].copy())
+                self.phi_error = max(self.phi_error, out[17] / settings.rtol)
+                return out[:15]
         else:
             loop = model.functions.loops[settings.method]
         while True:
             with np.errstate(all="ignore"):
                 (code, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
-                 h) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
+                 h, nlu) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
                            self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
                            settings.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
             self._counts["nfev"] += nfev
             self._counts["njev"] += njev
+            self._counts["nlu"] += nlu
             ts.append(t_store[:n_store].copy())
             ys.append(y_store[:n_store].copy())
             for j in range(n_ev):

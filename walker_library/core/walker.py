@@ -46,7 +46,7 @@ import numpy as np
 from porthamiltonian import compile_model
 from porthamiltonian.compiler import layout
 from porthamiltonian.errors import ModelError, ParameterValueError, StateError
-from porthamiltonian.integrators import TABLEAUS as COMPILED_METHODS
+from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.interfaces.io import ModelFile
 from porthamiltonian.simulation.compiled import CompiledModel
 

@@ -75,7 +75,7 @@ struct ph_instance_s {
     double rates[PH_N], out[PH_NO1], energy[3], g[PH_NG];
     /* buffers of the loop */
     double ts[PH_STORE], ys[PH_STORE * PH_N], ev_t[PH_STORE], th[2], y_out[PH_N], atol[PH_N];
-    int64_t ev_k[PH_STORE], counts[6];
+    int64_t ev_k[PH_STORE], counts[7];   /* the loops' counters (rosenbrock_loop.c) */
 };
 
 enum { PH_OK, PH_WARNING, PH_DISCARD, PH_ERROR };
