@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections import OrderedDict
+from collections.abc import Sequence
 from types import MappingProxyType
 
 import sympy
@@ -23,6 +24,7 @@ from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
 from .literals import printable
+from .phform import ph_form, ph_functions
 from .printers import c_source, python_source
 from .structure import Solution, build_system, solve
 
@@ -69,7 +71,8 @@ def _solved(description: ModelDescription) -> Solution:
 
 
 def compile_model(model: Model | ModelDescription, backend: str = "auto",
-                  use_cache: bool = True) -> CompiledModel:
+                  use_cache: bool = True, *, jac_p: Sequence[str] | None = None,
+                  ph: bool = False) -> CompiledModel:
     """Compile ``model`` (a model, or its frozen description) for numeric simulation.
 
     Parameters
@@ -87,18 +90,28 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     ``$PORTHAMILTONIAN_QUIET`` is set). With ``backend="c"``, a missing or failing C compiler
     raises :class:`~porthamiltonian.errors.CompilerError` (the command and the file holding
     its output).
+    jac_p : parameter names: also generate ``jac_p``, the exact ∂ẋ/∂p by those parameters
+        (``CompiledModel.parameter_jacobian``; :func:`.codegen.jacobian_function`).
+    ph : also generate the explicit port-Hamiltonian form (:mod:`.phform`): the matrices and the
+        vector [∇H; z; u] at a point (``CompiledModel.ph_matrices``; a compiled model asks for
+        them itself, once, when they are first needed).
     """
     order = backends.candidates(backend)
     description = model.freeze() if isinstance(model, Model) else model
-    key = cache.model_key(description)
+    options = {k: v for k, v in (("jac_p", list(jac_p or [])), ("ph", ph)) if v}
+    key = cache.model_key(description, options)
     hit = cache.read(key) if use_cache else None
     times: dict[str, float] = {}
     if hit is None:
         start = time.perf_counter()
         sym = symbolic(description)
+        form = ph_form(description, sym) if ph else None
         times["symbolic"] = time.perf_counter() - start
         start = time.perf_counter()
-        prog = program(sym)
+        prog = program(sym, jac_p=list(jac_p or []))
+        if form is not None:
+            prog = dataclasses.replace(prog, functions=(*prog.functions,
+                                                        *ph_functions(prog, sym, form)))
         bodies = {"python": python_source(prog), "c": c_source(prog)}
         times["code"] = time.perf_counter() - start
         meta = {
@@ -114,6 +127,10 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             "energy_parts": sym.energy_parts,
             "constraints": [c.to_dict() for c in sym.constraints],
             "units": sym.units,
+            "input_names": sym.input_names, "input_units": sym.input_units,
+            "state_roles": sym.state_roles, "declared_outputs": sym.declared_outputs,
+            "jac_p": list(jac_p or []),
+            "ph": form.layout() if form is not None else None,
         }
         if use_cache:
             cache.write(key, meta, bodies)
@@ -136,7 +153,12 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         note = " (numba compiles it at the first call)" if name == "numba" else ""
         backends.report(f"building {printable(meta['name'])}: {', '.join(parts)}, "
                         f"{size:.0f} kB{note}")
-    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key)
+    def rebuild(**more) -> CompiledModel:
+        """This model compiled again with the options ``more`` added (for CompiledModel)."""
+        merged = {"jac_p": list(jac_p or []), "ph": ph, **more}
+        return compile_model(description, backend=backend, use_cache=use_cache, **merged)
+
+    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key, rebuild)
 
 
 def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bool,
@@ -146,7 +168,7 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
-        return module.load(path, name, len(meta["matrices"]))
+        return module.load(path, name, len(meta["matrices"]), extra_functions(meta))
     shapes = {k: tuple(v) for k, v in meta["shapes"].items()}
     lib_name = native.library_name(key)
     path = cache.verified_path(key, lib_name) if use_cache else None
@@ -158,10 +180,24 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
         times["C"] = seconds
         path = cache.store(key, lib_name, data, use_cache)
     try:
-        return native.load(path, shapes, len(meta["param_names"]))
+        return native.load(path, shapes, slot_count(meta))
     except OSError as err:
         raise CompilerError(f"the C library {path} cannot be loaded ({err}); remove it to "
                             "rebuild it, or choose the numba or python back end") from None
+
+
+def slot_count(meta: dict) -> int:
+    """The length of the parameter vector of a compiled model's functions: its parameters and
+    two slots per input (:func:`.codegen.input_slots`)."""
+    return len(meta["param_names"]) + 2 * len(meta.get("input_names", []))
+
+
+def extra_functions(meta: dict) -> list[str]:
+    """The generated functions beyond the standard ones (``jac_u``, ``out_jac``, ``jac_p``,
+    the pH form's), by name, from a compiled model's metadata."""
+    standard = {"rhs", "jac", "energy", "outputs", "guards", "initial"}
+    return [name for name in meta["shapes"] if name not in standard
+            and not name.startswith("matrix_")]
 
 
 def _autonomous(sym: SymbolicModel) -> bool:

@@ -63,6 +63,15 @@ class SymbolicModel:
     constraints: list[Constraint] = field(default_factory=list)
     #: SI unit by name of the states and port variables whose unit is known
     units: dict[str, str] = field(default_factory=dict)
+    #: the model's inputs (signals bound at run time), their names and units
+    inputs: list[sp.Symbol] = field(default_factory=list)
+    input_names: list[str] = field(default_factory=list)
+    input_units: list[str] = field(default_factory=list)
+    #: the role of each state (:data:`porthamiltonian.modeling.component.STATE_ROLES`)
+    state_roles: list[str] = field(default_factory=list)
+    #: the model's declared outputs y (model-level ``outputs``), in order: the rows of the
+    #: linearization's C and D
+    declared_outputs: list[str] = field(default_factory=list)
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
@@ -124,6 +133,7 @@ def assemble(solution: Solution) -> SymbolicModel:
         units.update(b.output_units)
     parts = energy_parts(energies, outputs)
     units.update({name: "J" for name, _ in parts})
+    units.update({name: i.unit for name, i in flat.inputs.items() if i.unit})
     symbol_table = _symbol_table(system, outputs)
     for oname, text in flat.outputs.items():
         outputs[oname] = _model_expr(text, f"output:{oname}", symbol_table, system,
@@ -157,6 +167,10 @@ def assemble(solution: Solution) -> SymbolicModel:
         energy_parts=parts,
         constraints=[c for b in system.built.values() for c in b.constraints],
         units=units,
+        inputs=list(system.inputs.values()), input_names=list(system.inputs),
+        input_units=[i.unit for i in flat.inputs.values()],
+        state_roles=[s.role for b in system.built.values() for s in b.states],
+        declared_outputs=list(flat.outputs),
     )
 
 

@@ -62,6 +62,7 @@ class System:
     states: list[sp.Symbol]
     derivatives: dict[sp.Symbol, sp.Symbol]        # derivative symbol -> state symbol
     aliases: dict[sp.Symbol, sp.Symbol]             # head port symbol -> tail port symbol
+    inputs: dict[str, sp.Symbol] = field(default_factory=dict)   # the model's input signals
     owner: dict[sp.Symbol, str] = field(default_factory=dict)   # unknown -> component
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
@@ -83,6 +84,7 @@ def build_system(flat: ModelDescription) -> System:
     error raised by a component carries the component's path (and the argument's, where the
     component knows it)."""
     params = {name: sp.Symbol(name, real=True) for name in flat.parameters}
+    inputs = {name: sp.Symbol(name, real=True) for name in flat.inputs}
     built: dict[str, Built] = {}
     equations: list[Equation] = []
     orientation: dict[tuple[str, str], str] = {}
@@ -97,7 +99,8 @@ def build_system(flat: ModelDescription) -> System:
             return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
 
         own = {port: o for (c, port), o in orientation.items() if c == name}
-        b = Builder(name, list(flat.ports[name]), flat.scope_names(prefix), dotted, own)
+        b = Builder(name, list(flat.ports[name]), flat.scope_names(prefix), dotted, own,
+                    inputs.values())
         if not isinstance(comp, _Junction):
             try:
                 comp.build(b, **comp.parsed_args(b))
@@ -132,7 +135,7 @@ def build_system(flat: ModelDescription) -> System:
         for s in b.states:
             owner[s.derivative] = cname
     unknowns = list(dict.fromkeys([*(u for u in owner if u not in derivatives), *derivatives]))
-    known = {*params.values(), *states, TIME}
+    known = {*params.values(), *inputs.values(), *states, TIME}
     for b in built.values():
         b.intermediates = [(s, e.xreplace(aliases)) for s, e in b.intermediates]
     port_variables = set(unknowns) - set(derivatives)
@@ -157,8 +160,8 @@ def build_system(flat: ModelDescription) -> System:
                 f"component {eq.component!r} refers to {', '.join(sorted(map(str, stray)))}, which "
                 "is not a parameter, state or port variable of the model"
             )
-    return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner,
-                  blocks, intermediates, port_level)
+    return System(flat, built, params, equations, unknowns, states, derivatives, aliases, inputs,
+                  owner, blocks, intermediates, port_level)
 
 
 def _reaching(intermediates: list[tuple[sp.Symbol, sp.Expr]], leaves: set[sp.Symbol]

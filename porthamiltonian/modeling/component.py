@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, ClassVar
@@ -83,12 +83,20 @@ class PortVars:
         return (self.e.T * self.f)[0, 0]
 
 
+#: the roles of a state (:meth:`Builder.state`)
+STATE_ROLES = ("storage", "signal", "quadrature", "discrete")
+
+
 @dataclass
 class StateDecl:
+    """A declared state: its symbol, the symbol of its time derivative, unit, initial value and
+    role (one of :data:`STATE_ROLES`)."""
+
     symbol: sp.Symbol
     derivative: sp.Symbol
     unit: str
     initial: sp.Expr
+    role: str = "storage"
 
 
 @dataclass
@@ -124,11 +132,14 @@ class Builder:
 
     def __init__(self, name: str, ports: list[Port], names: Mapping[str, sp.Expr],
                  dotted: Callable[[str], sp.Expr | None] | None = None,
-                 orientation: Mapping[str, str] | None = None):
+                 orientation: Mapping[str, str] | None = None,
+                 inputs: Collection[sp.Expr] = ()):
         self.name = name
         self._names = names
         self._dotted = dotted
         self._orientation = dict(orientation or {})
+        #: the symbols of the model's inputs among ``names`` (signals, not parameters)
+        self._inputs = frozenset(inputs)
         self.built = Built(name)
         for port in ports:
             self.built.ports[port.name] = self._port_vars(port)
@@ -196,15 +207,26 @@ class Builder:
         """A named matrix ``component.name`` available numerically (e.g. a mass matrix)."""
         self.built.matrices[self._qualified(name)] = sp.Matrix(value)
 
-    def state(self, name: str, unit: str = "", initial: Any = 0) -> sp.Symbol:
-        """Declare a state ``component.name`` with an initial value (expression in parameters)."""
+    def state(self, name: str, unit: str = "", initial: Any = 0, role: str = "storage"
+              ) -> sp.Symbol:
+        """Declare a state ``component.name`` with an initial value (expression in parameters).
+
+        ``role``: ``"storage"`` (an energy storage's state, the default), ``"signal"`` (a signal
+        block's continuous state: a controller's integrator, a filter; it joins the model's
+        states but not its Hamiltonian), ``"quadrature"`` (an integral read by no rate, e.g. an
+        actuator's work; left out of linearizations) or ``"discrete"`` (a value held between the
+        sampling instants of a discrete-time block: zero rate, updated by
+        :meth:`sample`)."""
+        if role not in STATE_ROLES:
+            raise ModelError(f"component {self.name!r}: state role must be one of "
+                             f"{', '.join(STATE_ROLES)}, got {role!r}")
         symbol = sp.Symbol(self._qualified(name), real=True)
         if any(s.symbol == symbol for s in self.built.states):
             raise ModelError(f"component {self.name!r} declares state {name!r} twice")
         init = initial if isinstance(initial, sp.Basic) else self.parse(
             initial, f"initial value of state {name!r}")
         self.built.states.append(StateDecl(symbol, sp.Symbol(f"d({self.name}.{name})/dt", real=True),
-                                           unit, init))
+                                           unit, init, role))
         return symbol
 
     def der(self, state: sp.Symbol) -> sp.Symbol:
@@ -293,7 +315,7 @@ class Builder:
         (ParameterValueError), recorded for the run-time parameter check when they depend on
         parameters only, skipped when they depend on states or time."""
         value, bound = as_expr(value), as_expr(bound)
-        params = set(self._names.values())
+        params = set(self._names.values()) - self._inputs
         if not (value.free_symbols | bound.free_symbols) <= params:
             return
         constraint = Constraint(self.name, what, to_text(value), rule, to_text(bound), bound_name)

@@ -24,7 +24,7 @@ import dataclasses
 import json
 import math
 from collections.abc import Collection, Iterator, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -65,6 +65,23 @@ class Parameter:
         if not math.isfinite(self.value):
             raise ParameterValueError(f"parameter value must be finite, got {self.value!r}")
         object.__setattr__(self, "value", float(self.value))
+
+
+@dataclass(frozen=True)
+class Input:
+    """A model input: a signal of time declared by the model (``[inputs]`` in a model file,
+    :meth:`Model.input`), usable in every expression like a parameter, and bound when the model
+    is simulated (:mod:`porthamiltonian.simulation.inputs`: a constant, samples held or
+    interpolated, a Python callable, or a controller compiled into the model). ``unit``: its SI
+    unit; ``doc``: one line."""
+
+    unit: str = ""
+    doc: str = ""
+
+    def __post_init__(self) -> None:
+        for name in ("unit", "doc"):
+            if not isinstance(getattr(self, name), str):
+                raise ModelError(f"input {name} must be a string, got {getattr(self, name)!r}")
 
 
 @dataclass(frozen=True)
@@ -109,6 +126,7 @@ class ModelDescription:
     bonds : ``((tail component, port), (head component, port))``, full names.
     parameters : full parameter name -> :class:`Parameter`.
     events, outputs : the model events (full names) and outputs (full name -> expression).
+    inputs : full input name -> :class:`Input` (signals bound at run time).
     scopes : full component name, ``"event:<name>"`` or ``"output:<name>"`` -> the prefix of the
         (sub-)model it was declared in (``""`` or ``"sub."``); names in its expressions are local
         to that scope.
@@ -124,12 +142,18 @@ class ModelDescription:
     outputs: Mapping[str, str]
     scopes: Mapping[str, str]
     paths: Mapping[str, Path]
+    inputs: Mapping[str, Input] = field(default_factory=lambda: MappingProxyType({}))
 
     def scope_names(self, prefix: str) -> dict[str, sp.Symbol]:
-        """The parameters visible in the scope ``prefix``, by their local names (the symbols
-        carry the full names)."""
-        return {full[len(prefix):]: sp.Symbol(full, real=True) for full in self.parameters
+        """The parameters and inputs visible in the scope ``prefix``, by their local names (the
+        symbols carry the full names)."""
+        return {full[len(prefix):]: sp.Symbol(full, real=True)
+                for full in (*self.parameters, *self.inputs)
                 if full.startswith(prefix) and "." not in full[len(prefix):]}
+
+    def input_symbols(self) -> set[sp.Symbol]:
+        """The symbols of the model's inputs (full names)."""
+        return {sp.Symbol(name, real=True) for name in self.inputs}
 
     def in_scope(self, prefix: str) -> set[str]:
         """The local names of the components (and sub-models) of the scope ``prefix``."""
@@ -153,6 +177,8 @@ class ModelDescription:
             "outputs": list(self.outputs.items()),
             "scopes": sorted(self.scopes.items()),
         }
+        if self.inputs:
+            data["inputs"] = [[n, i.unit] for n, i in self.inputs.items()]
         return json.dumps(data, sort_keys=True, default=_jsonable, separators=(",", ":"))
 
     # --- validation --------------------------------------------------------------------------
@@ -250,20 +276,35 @@ class Model:
         self.exposed: dict[str, tuple[str, str]] = {}
         self.events: list[EventSpec] = []
         self.outputs: dict[str, str] = {}
+        self.inputs: dict[str, Input] = {}
 
     # --- construction ---------------------------------------------------------------------------
+    def _check_value_name(self, name: str, what: str) -> None:
+        """A parameter's or input's name: a plain name, not reserved, not taken by either."""
+        if name in _RESERVED:
+            raise ModelError(f"model {self.name!r}: {name!r} is not a valid {what} name (it "
+                             "means the time or a constant in expressions)")
+        check_name(name, f"model {self.name!r}: {what} name")
+        if name in self.parameters or name in self.inputs:
+            taken = "parameter" if name in self.parameters else "input"
+            raise DuplicateNameError(f"model {self.name!r}: {name!r} is declared twice (already "
+                                     f"a {taken})")
+
     def parameter(self, name: str, value: float, unit: str = "", doc: str = "") -> None:
         """Declare a parameter with its default value (SI units)."""
-        if name in _RESERVED:
-            raise ModelError(f"model {self.name!r}: {name!r} is not a valid parameter name (it "
-                             "means the time or a constant in expressions)")
-        check_name(name, f"model {self.name!r}: parameter name")
-        if name in self.parameters:
-            raise DuplicateNameError(f"model {self.name!r}: parameter {name!r} declared twice")
+        self._check_value_name(name, "parameter")
         try:
             self.parameters[name] = Parameter(value, unit, doc)
         except ParameterValueError as err:
             raise ParameterValueError(f"model {self.name!r} parameter {name!r}: {err}") from None
+
+    def input(self, name: str, unit: str = "", doc: str = "") -> None:
+        """Declare an input ``name`` (SI ``unit``): a signal of time that every expression may
+        read like a parameter (e.g. ``Se(effort="F")``), bound when the model is simulated
+        (``simulate(..., inputs={"F": ...})``: a constant, samples, a callable; see
+        :mod:`porthamiltonian.simulation.inputs`) and a column of the linearization's B and D."""
+        self._check_value_name(name, "input")
+        self.inputs[name] = Input(unit, doc)
 
     def add(self, name: str, component: Component | Model) -> Component | Model:
         """Add a component (or a sub-model) under ``name``; return it. The component is a value:
@@ -441,7 +482,7 @@ class Model:
         """The frozen, flattened :class:`ModelDescription` of this model as it is now (later
         changes to the model do not reach it). Not checked: see :meth:`validate`."""
         parts: dict[str, dict] = {key: {} for key in (
-            "components", "ports", "parameters", "outputs", "scopes", "paths")}
+            "components", "ports", "parameters", "outputs", "scopes", "paths", "inputs")}
         bonds: list = []
         events: list[EventSpec] = []
         self._flatten_into(parts, bonds, events, "")
@@ -458,6 +499,8 @@ class Model:
         here = _scope_path(prefix)
         for pname, par in self.parameters.items():
             parts["parameters"][prefix + pname] = par
+        for iname, signal in self.inputs.items():
+            parts["inputs"][prefix + iname] = signal
         ends: dict[tuple[str, str], tuple[str, str]] = {}  # (local comp, port) -> (full comp, port)
         for name, comp in self.components():
             if isinstance(comp, Model):

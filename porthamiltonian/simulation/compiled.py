@@ -14,15 +14,23 @@ expect (``compile_model(m).simulate(10.0)``) without an import cycle.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..backends import Functions
-from ..errors import OptionError, ParameterValueError, StateError, UnknownParameterError
+from ..errors import (
+    ModelError,
+    OptionError,
+    ParameterValueError,
+    StateError,
+    UnknownParameterError,
+)
+from . import linearize as _linearize
 from ..modeling.constraints import ConstraintChecker
+from .sampling import DiscreteBlock
 from .simulate import simulate as _simulate
 
 
@@ -52,7 +60,8 @@ class CompiledModel:
     functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
     """
 
-    def __init__(self, meta: Mapping[str, Any], functions: Functions, source: str, key: str):
+    def __init__(self, meta: Mapping[str, Any], functions: Functions, source: str, key: str,
+                 rebuild: Callable[..., CompiledModel] | None = None):
         self.name: str = meta["name"]
         self.state_names: list[str] = meta["state_names"]
         self.param_names: list[str] = meta["param_names"]
@@ -67,9 +76,22 @@ class CompiledModel:
         self.energy_parts: list[tuple[str, str]] = [tuple(e) for e in meta.get("energy_parts", [])]
         self.constraints = ConstraintChecker(self.name, meta.get("constraints", []))
         self.units: dict[str, str] = dict(meta.get("units", {}))
+        self.input_names: list[str] = list(meta.get("input_names", []))
+        self.input_units: list[str] = list(meta.get("input_units", []))
+        self.state_roles: list[str] = list(meta.get("state_roles", ["storage"] * len(
+            self.state_names)))
+        self.declared_outputs: list[str] = list(meta.get("declared_outputs", []))
+        self.jac_p_names: list[str] = list(meta.get("jac_p", []))
+        self.discrete = [DiscreteBlock(d["component"], d["period"], tuple(d["states"]),
+                                       d["update"]) for d in meta.get("discrete", [])]
+        self.ph_layout: dict | None = meta.get("ph")
         self.functions = functions
         self.source = source
         self.key = key
+        #: compiles this model again with more generated functions (``ph=True``, ``jac_p=``):
+        #: set by the compiler; None for a model made otherwise
+        self._rebuild = rebuild
+        self._extended: dict[str, CompiledModel] = {}
         self._state_index = {n: i for i, n in enumerate(self.state_names)}
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
         self._output_index = {n: i for i, n in enumerate(self.output_names)}
@@ -91,7 +113,7 @@ class CompiledModel:
         if values is not None and not isinstance(values, Mapping):
             raise OptionError(f"params must be a mapping {{name: value}} (e.g. {{'k': 9.0}}), got "
                               f"{type(values).__name__}")
-        p = self.param_defaults.copy()
+        p = self._padded(self.param_defaults)
         for name, value in {**(values or {}), **more}.items():
             p[self._param_index_of(name)] = self._param_value(name, value)
         self.constraints.check(dict(zip(self.param_names, p.tolist())))
@@ -113,7 +135,17 @@ class CompiledModel:
             self.constraints.check(dict(zip(self.param_names, p.tolist())), changed)
         return p
 
+    def _padded(self, p: np.ndarray) -> np.ndarray:
+        """Parameter values followed by the input slots (zero where ``p`` has none)."""
+        out = np.zeros(len(self.param_names) + 2 * len(self.input_names))
+        out[:len(p)] = p
+        return out
+
     def _param_index_of(self, name: str) -> int:
+        if name in self.input_names:
+            raise UnknownParameterError(
+                f"{name!r} is an input of model {self.name!r}, not a parameter: bind it with "
+                f"inputs={{{name!r}: ...}} (simulate) or u= (derivative, linearize)")
         if name not in self._param_index:
             raise UnknownParameterError(
                 f"model {self.name!r} has no parameter {name!r}; parameters: "
@@ -143,7 +175,7 @@ class CompiledModel:
     def initial_state(self, p: np.ndarray | None = None,
                       values: Mapping[str, float] | None = None) -> np.ndarray:
         """Initial model state from the components' initial values, overridden by name."""
-        p = self.param_defaults if p is None else p
+        p = self._padded(self.param_defaults if p is None else p)
         x = np.array(self.functions.initial(self.native_params(p)), dtype=float)[: self.n_states]
         for name, value in (values or {}).items():
             x[self.state_index(name)] = value
@@ -226,6 +258,75 @@ class CompiledModel:
         dH = (8 * (H(1) - H(-1)) - (H(2) - H(-2))) / (12 * step)
         _, p_diss, p_in = self.functions.energy(t, y, pn)
         return float(dH - p_in + p_diss)
+
+    @property
+    def n_slots(self) -> int:
+        """The length of the parameter vector the functions take: the parameters, then two
+        slots per input (:mod:`porthamiltonian.simulation.inputs`)."""
+        return len(self.param_names) + 2 * len(self.input_names)
+
+    # --- the model at a point: derivative, Jacobians, linearization, trim -----------------------
+    def derivative(self, t: float = 0.0, x: Any = None, u: Any = None,
+                   params: Any = None) -> np.ndarray:
+        """ẋ = f(t, x, u, p) of the model states at one point: ``x`` the model state (array or
+        ``{state: value}`` over the initial values), ``u`` the inputs (array or ``{input:
+        value}``), ``params`` parameter values by name (see
+        :mod:`porthamiltonian.simulation.linearize`)."""
+        return _linearize.derivative(self, t, x, u, params)
+
+    def jacobian(self, t: float = 0.0, x: Any = None, u: Any = None,
+                 params: Any = None) -> np.ndarray:
+        """∂ẋ/∂x (n x n) at one point, exact (the generated chain rule); arguments as
+        :meth:`derivative`."""
+        return _linearize.jacobian(self, t, x, u, params)
+
+    def input_jacobian(self, t: float = 0.0, x: Any = None, u: Any = None,
+                       params: Any = None) -> np.ndarray:
+        """∂ẋ/∂u (n x m) at one point, exact; arguments as :meth:`derivative`."""
+        return _linearize.input_jacobian(self, t, x, u, params)
+
+    def linearize(self, x: Any = None, u: Any = None, params: Any = None,
+                  t: float = 0.0) -> _linearize.LinearModel:
+        """(A, B, C, D) at (t, x, u, params) from the exact Jacobians, as a
+        :class:`~porthamiltonian.simulation.linearize.LinearModel` (``.to_control()``: a
+        python-control StateSpace). States: the dynamic ones (storages, continuous signal
+        blocks); outputs: the declared outputs (else the states)."""
+        return _linearize.linearize(self, x, u, params, t)
+
+    def trim(self, x: Any = None, u: Any = None, params: Any = None, t: float = 0.0,
+             free_states: Any = None, free_inputs: Any = (), tol: float = 1e-12,
+             max_iter: int = 50) -> _linearize.TrimResult:
+        """An equilibrium ẋ = 0 by Newton's method with the exact Jacobians, from the point
+        (x, u): the free states (default: all dynamic ones) and free inputs (default: none) are
+        solved for (see :func:`porthamiltonian.simulation.linearize.trim`)."""
+        return _linearize.trim(self, x, u, params, t, free_states, free_inputs, tol, max_iter)
+
+    def to_control(self, x: Any = None, u: Any = None, params: Any = None,
+                   t: float = 0.0) -> Any:
+        """The linearization at (t, x, u, params) as a python-control ``StateSpace``
+        (:meth:`linearize` then ``to_control``)."""
+        return self.linearize(x, u, params, t).to_control()
+
+    def parameter_jacobian(self, names: Any, t: float = 0.0, x: Any = None, u: Any = None,
+                           params: Any = None) -> np.ndarray:
+        """∂ẋ/∂p (n x len(names)) by the parameters ``names`` at one point, exact: the generated
+        ``jac_p`` (this model compiles itself again with it, once, when it lacks it)."""
+        names = [names] if isinstance(names, str) else list(names)
+        model = self if self.jac_p_names == names else self.extended(jac_p=names)
+        pt = _linearize.point(model, t, x, u, params)
+        out = model.functions.extra["jac_p"](pt.t, pt.y, model.native_params(pt.p))
+        return np.asarray(out, dtype=float)[:self.n_states]
+
+    def extended(self, **options: Any) -> CompiledModel:
+        """This model compiled again with more generated functions (``ph=True``: the
+        port-Hamiltonian form; ``jac_p=[...]``: ∂ẋ/∂p), kept for later calls."""
+        key = repr(sorted(options.items()))
+        if key not in self._extended:
+            if self._rebuild is None:
+                raise ModelError(f"model {self.name!r} was not made by compile_model: compile it "
+                                 f"with {', '.join(f'{k}={v!r}' for k, v in options.items())}")
+            self._extended[key] = self._rebuild(**options)
+        return self._extended[key]
 
     def _repr_html_(self) -> str:
         from .display import model_html
