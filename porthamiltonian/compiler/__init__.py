@@ -38,7 +38,9 @@ def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     then structure, assembly. Errors carry the path of what they are about
     (:attr:`~porthamiltonian.errors.ModelError.path`)."""
     description = model.freeze() if isinstance(model, Model) else model
-    return assemble(_solved(description.validate()))
+    sym = assemble(_solved(description.validate()))
+    sym.ph_maker = lambda: ph_form(description, sym, _solved(description))
+    return sym
 
 
 #: the solved structures (:func:`structure.build_system` + :func:`structure.solve`, most of the
@@ -105,7 +107,7 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     if hit is None:
         start = time.perf_counter()
         sym = symbolic(description)
-        form = ph_form(description, sym) if ph else None
+        form = ph_form(description, sym, _solved(description)) if ph else None
         times["symbolic"] = time.perf_counter() - start
         start = time.perf_counter()
         prog = program(sym, jac_p=list(jac_p or []))

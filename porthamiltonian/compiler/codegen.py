@@ -173,7 +173,7 @@ def _names(exprs) -> set[str]:
     return {str(s) for e in exprs for s in e.free_symbols}
 
 
-class _Builder:
+class FunctionBuilder:
     """Builds the functions. The intermediates and block solves (the prologue) are cse'd once and
     shared; each function cse's its own results, then takes in dependency order only the prologue
     nodes it needs, then its result."""
@@ -273,7 +273,7 @@ class _Builder:
 
 
 def _expressions(group: tuple) -> list:
-    """The expressions of a group of :meth:`_Builder.function`, in the order of its statements."""
+    """The expressions of a group of :meth:`FunctionBuilder.function`, in the order of its statements."""
     if group[0] == "statement":
         return []
     if group[0] == "array":
@@ -324,19 +324,10 @@ def _listing(title: str, names: list[str]) -> list[str]:
     return [title] + [f"  [{i}] {name}" for i, name in enumerate(names)]
 
 
-def input_slots(names: list[str]) -> list[str]:
-    """The names of the parameter-vector slots of the inputs ``names``: input k of m reads
-    u_k(t) = p[P + k] + p[P + m + k] · t (P parameters before them), so that a constant, a
-    held sample or one piece of a linear interpolation is bound by setting two numbers
-    (:mod:`porthamiltonian.simulation.inputs`)."""
-    return [f"{n} (input, at t = 0)" for n in names] + [f"{n} (input, rate)" for n in names]
-
-
-def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
-    """The model's numeric functions as one intermediate program (see the module docstring).
-
-    ``jac_p``: parameter names whose Jacobian ``jac_p`` (∂ẋ/∂p over those parameters, in that
-    order) is generated too, by the chain rule of ``jac``."""
+def symbol_map(model: SymbolicModel) -> dict[sp.Symbol, sp.Expr]:
+    """The model's symbols as generated code names them: states and ledger states ``x[i]``,
+    parameters ``p[j]``, input k ``p[P + k] + p[P + m + k]·t`` (:func:`input_slots`), time
+    ``t``, intermediates ``w<i>`` and the implicit blocks' unknowns ``v<i>``."""
     x = sp.IndexedBase("x")
     p = sp.IndexedBase("p")
     all_states = [*model.states, *model.ledger_states]
@@ -350,7 +341,24 @@ def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
     vs = [s for syms, _, _ in model.blocks for s in syms]
     mapping.update({w: sp.Symbol(f"w{i}") for i, w in enumerate(ws)})
     mapping.update({v: sp.Symbol(f"v{i}") for i, v in enumerate(vs)})
-    builder = _Builder(mapping, model)
+    return mapping
+
+
+def input_slots(names: list[str]) -> list[str]:
+    """The names of the parameter-vector slots of the inputs ``names``: input k of m reads
+    u_k(t) = p[P + k] + p[P + m + k] · t (P parameters before them), so that a constant, a
+    held sample or one piece of a linear interpolation is bound by setting two numbers
+    (:mod:`porthamiltonian.simulation.inputs`)."""
+    return [f"{n} (input, at t = 0)" for n in names] + [f"{n} (input, rate)" for n in names]
+
+
+def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
+    """The model's numeric functions as one intermediate program (see the module docstring).
+
+    ``jac_p``: parameter names whose Jacobian ``jac_p`` (∂ẋ/∂p over those parameters, in that
+    order) is generated too, by the chain rule of ``jac``."""
+    all_states = [*model.states, *model.ledger_states]
+    builder = FunctionBuilder(symbol_map(model), model)
     n = len(all_states)
     state_names = [str(s) for s in all_states]
     param_names = [str(s) for s in model.params] + input_slots(model.input_names)
@@ -401,7 +409,7 @@ def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
     return Program(model.name, header, tuple(functions), n, len(param_names), n_guards, n_out)
 
 
-def _derivative_functions(builder: _Builder, model: SymbolicModel, jac_p: list[str],
+def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p: list[str],
                           doc) -> list[Function]:
     """The exact Jacobians beside ``jac``, each by :func:`jacobian_function`: ``jac_u``
     (∂ẋ/∂u, when the model has inputs), ``out_jac`` (∂y/∂[x, u] of the declared outputs y,
@@ -474,7 +482,7 @@ def _span(mask: int) -> tuple[int, int]:
     return ((mask & -mask).bit_length() - 1, mask.bit_length()) if mask else (0, 0)
 
 
-def jacobian_function(builder: _Builder, model: SymbolicModel, name: str, exprs: list,
+def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str, exprs: list,
                       variables: list[sp.Symbol], doc: list[str]) -> Function:
     """The function ``name``: the exact Jacobian ∂exprs/∂variables, ``len(exprs)`` x
     ``len(variables)``, of expressions of the model (its right-hand side, its outputs) by any of
@@ -546,4 +554,4 @@ def jacobian_function(builder: _Builder, model: SymbolicModel, name: str, exprs:
 
 __all__ = ["CODEGEN_VERSION", "Array", "ChainRule", "Function", "IndexTable", "Let", "Program",
            "Solve", "SolveRows", "SparseProduct", "Statement", "Store", "derivative",
-           "input_slots", "jacobian", "jacobian_function", "program"]
+           "input_slots", "jacobian", "jacobian_function", "program", "symbol_map"]

@@ -148,6 +148,20 @@ def kelvin_voigt(pen: sp.Expr, rate: sp.Expr, K: sp.Expr, B: sp.Expr, clip: bool
     return force, active * K * z_pos**2 / 2, dissipation
 
 
+def split_law(b: Builder, force: sp.Expr, energy: sp.Expr, pen: sp.Expr, rate: sp.Expr
+              ) -> sp.Expr:
+    """The normal force of a contact law as the builder takes it: ``force`` itself, or in the
+    port-Hamiltonian form's cut build its elastic part ∂E/∂z (stored through the body's
+    coordinates, :meth:`Builder.stored_via_ports`) plus the rest, a dissipator of the
+    penetration rate ż (λ zⁿ ż, or −K zⁿ while the force is clipped: its power is the law's
+    dissipated power)."""
+    if b.ph is None:
+        return force
+    z = sp.Dummy("z", real=True)
+    elastic = sp.diff(energy.xreplace({pen: z}), z).xreplace({z: pen})
+    return b.stored_via_ports(elastic) + b.resistive(force - elastic, rate, "normal")
+
+
 class _Contact(Component):
     """Shared part of the normal contact laws (port, surface, kinematics, outputs)."""
 
@@ -174,9 +188,10 @@ class _Contact(Component):
         return surf, pen, rate
 
     def _finish(self, b: Builder, surf: Surface, force: sp.Expr, energy: sp.Expr,
-                dissipation: sp.Expr) -> None:
+                dissipation: sp.Expr, pen: sp.Expr, rate: sp.Expr) -> None:
         nx, nz = surf.normal
-        b.equation(b.port("p").e, sp.Matrix([-force * nx, -force * nz]),
+        pushed = split_law(b, force, energy, pen, rate)
+        b.equation(b.port("p").e, sp.Matrix([-pushed * nx, -pushed * nz]),
                    "e = -Fn n (reaction of the normal force on the body)")
         b.energy(energy, via_ports=True)
         b.dissipate(dissipation)
@@ -208,7 +223,8 @@ class HuntCrossley(_Contact):
               step_x: sp.Expr, active: sp.Expr | None) -> None:
         surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
                                            stiffness, damping, active)
-        self._finish(b, surf, *hunt_crossley(pen, rate, stiffness, damping, exponent, active))
+        self._finish(b, surf, *hunt_crossley(pen, rate, stiffness, damping, exponent, active),
+                     pen, rate)
 
 
 @register
@@ -237,7 +253,8 @@ class KelvinVoigt(_Contact):
                                       f"false, got {clip!r}")
         surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
                                            stiffness, damping, active)
-        self._finish(b, surf, *kelvin_voigt(pen, rate, stiffness, damping, clip, active))
+        self._finish(b, surf, *kelvin_voigt(pen, rate, stiffness, damping, clip, active),
+                     pen, rate)
 
 
-__all__ = ["HuntCrossley", "KelvinVoigt", "hunt_crossley", "kelvin_voigt"]
+__all__ = ["HuntCrossley", "KelvinVoigt", "hunt_crossley", "kelvin_voigt", "split_law"]

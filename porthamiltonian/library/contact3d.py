@@ -65,6 +65,7 @@ from .contact import (
     Law,
     hunt_crossley,
     kelvin_voigt,
+    split_law,
 )
 from .surfaces import make_surface, surface_arguments
 
@@ -123,7 +124,8 @@ class _Contact3D(Component):
         pen = surf.penetration(px, pz)
         rate = surf.penetration_rate(v[0], v[2])
         force, energy, dissipation = law(pen, rate)
-        b.equation(port.e, wrench([0, 0, 0], [-force * ni for ni in n], plane),
+        pushed = split_law(b, force, energy, pen, rate)
+        b.equation(port.e, wrench([0, 0, 0], [-pushed * ni for ni in n], plane),
                    "e = (0, -Fn n): reaction of the normal force, through the centre")
         b.energy(energy, via_ports=True)
         b.dissipate(dissipation)

@@ -107,7 +107,7 @@ class _SpringDamper(Component):
             z = length - rest_length
             energy = stiffness * z**2 / 2
             b.energy(energy, via_ports=True)
-            force = stiffness * z
+            force = b.stored_via_ports(stiffness * z)
         else:
             q = b.state("q", unit=dom.displacement_unit,
                         initial=rest_length if q0 is None else q0)
@@ -115,10 +115,11 @@ class _SpringDamper(Component):
             energy = stiffness * z**2 / 2
             b.energy(energy)
             b.equation(b.der(q), port.f, "dq/dt = f")
-            force = sp.diff(energy, q)
+            force = b.coenergy(q, sp.diff(energy, q))
         if damping is None:
             damping = 2 * alpha * sp.sqrt(mass * stiffness) if alpha is not None else sp.Integer(0)
-        b.equation(port.e, force + damping * port.f, "e = dH/dq + D f")
+        b.equation(port.e, force + b.resistive(damping * port.f, port.f, "damper"),
+                   "e = dH/dq + D f")
         b.built.storage_ports.append("p")
         b.dissipate(damping * port.f**2)
         b.output("z", z, dom.displacement_unit)

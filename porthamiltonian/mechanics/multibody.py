@@ -87,6 +87,7 @@ from ..modeling.ports import Port
 from .bodies import as_tables, expression_fields
 from .joints import Joint, joint, quaternion_slice, units
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
+from .poisson import poisson_rates
 from .tree import COORDINATES, DOFS, Link, Tree
 
 
@@ -312,10 +313,17 @@ class Multibody(Component):
         tree.world()
         tree.composites()
         M = tree.mass_matrix()
-        v = b.implicit("v", M, sp.Matrix(p))
+        if b.ph is None:
+            v = b.implicit("v", M, sp.Matrix(p))
+        else:                       # the pH form's cut build: v = ∂H/∂p (mechanics/poisson.py)
+            v = [b.ph.eta(pk) for pk in p]
         tree.velocities(v)
         tree.gravity(g)
-        Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces())]
+        if b.ph is None:
+            Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces())]
+        else:
+            Q = poisson_rates(specs, joints, tree.coordinate_rates(q, v, 0), q, p,
+                              [b.ph.eta(qk) for qk in q], v, f"Multibody {b.name!r}")
         first = list(static_first)                  # Σ m c over all bodies, world frame
         for root in (link for link in links if link.parent is None):
             P = tree.pos[root]
@@ -408,7 +416,7 @@ class Multibody(Component):
             for k, e, f in zip(indices, efforts, flows):
                 b.equation(f, v[k], "joint velocity")
                 Q[k] = Q[k] + s * e
-        rates = tree.coordinate_rates(q, v, quaternion_gain)
+        rates = tree.coordinate_rates(q, v, quaternion_gain if b.ph is None else 0)
         for k in range(len(q)):
             b.equation(b.der(q[k]), rates[k], "dq/dt from the joint velocities, M(q) v = p")
         for k in range(n):

@@ -123,6 +123,61 @@ class Built:
     constraints: list[Constraint] = field(default_factory=list)
 
 
+@dataclass
+class Dissipator:
+    """A dissipative law of a component, as the port-Hamiltonian form's cut build records it
+    (:meth:`Builder.resistive`): the law's effort-like output ``z`` and flow-like input ``w``
+    (expressions over the component's port variables, states, parameters; scalars as 1-vectors),
+    the symbols ``zeta`` that stand for z in the cut build, and ``coefficient`` C when the law is
+    linear, z = C(x) w (a linear dissipator: it goes into R = G C Gᵀ), else None."""
+
+    component: str
+    name: str
+    z: list[sp.Expr]
+    w: list[sp.Expr]
+    zeta: list[sp.Symbol]
+    coefficient: sp.Matrix | None
+
+
+@dataclass
+class Source:
+    """A port imposed from outside (an effort or flow source, an actuator, an open port) as the
+    cut build records it (:meth:`Builder.source`): its imposed ``value`` (the input u), the
+    ``conjugate`` port variable (supplied power u·conjugate) and the symbol ``upsilon`` standing
+    for u in the cut build."""
+
+    component: str
+    name: str
+    value: sp.Expr
+    conjugate: sp.Expr
+    upsilon: sp.Symbol
+
+
+@dataclass
+class PHCut:
+    """The records of the port-Hamiltonian form's cut build (:mod:`porthamiltonian.compiler.
+    phform`): there every constitutive law is replaced by a symbol — a storage's co-energy
+    ∂H/∂x by η(x), a dissipator's output by ζ, a source's value by υ — so that the solved
+    junction structure (junctions, transformers, gyrators, a multibody's kinematics) is linear
+    in them with the matrix M₀(x) of [ẋ; w; y] = M₀ [∇H; z; u]."""
+
+    coenergies: dict[sp.Symbol, sp.Symbol] = field(default_factory=dict)
+    dissipators: list[Dissipator] = field(default_factory=list)
+    sources: list[Source] = field(default_factory=list)
+
+    def eta(self, state: sp.Symbol) -> sp.Symbol:
+        """η(x): the symbol of ∂H/∂x for the state ``x``."""
+        if state not in self.coenergies:
+            self.coenergies[state] = sp.Symbol(f"dH/d({state})", real=True)
+        return self.coenergies[state]
+
+    @property
+    def symbols(self) -> set[sp.Symbol]:
+        """Every symbol of the cut (η, ζ, υ)."""
+        return ({*self.coenergies.values()} | {z for d in self.dissipators for z in d.zeta}
+                | {s.upsilon for s in self.sources})
+
+
 class Builder:
     """Collects the declarations of one component during compilation.
 
@@ -140,6 +195,8 @@ class Builder:
         self._orientation = dict(orientation or {})
         #: the symbols of the model's inputs among ``names`` (signals, not parameters)
         self._inputs = frozenset(inputs)
+        #: None, or the records of the port-Hamiltonian form's cut build (:class:`PHCut`)
+        self.ph: PHCut | None = None
         self.built = Built(name)
         for port in ports:
             self.built.ports[port.name] = self._port_vars(port)
@@ -280,11 +337,64 @@ class Builder:
                 decl.unit = dom.displacement_unit if causality == "C" else dom.momentum_unit
         if causality == "C":
             self.equation(self.der(state), port.f, "dq/dt = f")
-            self.equation(port.e, gradient, "e = dH/dq")
+            self.equation(port.e, self.coenergy(state, gradient), "e = dH/dq")
         else:
             self.equation(self.der(state), port.e, "dp/dt = e")
-            self.equation(port.f, gradient, "f = dH/dp")
+            self.equation(port.f, self.coenergy(state, gradient), "f = dH/dp")
         self.built.storage_ports.append(port.port.name)
+
+    # --- the explicit port-Hamiltonian form (porthamiltonian/compiler/phform.py) ---------------
+    # In an ordinary build these return their expression. In the cut build of the pH form
+    # (``self.ph`` set) they return symbols standing for the laws, so that the solved junction
+    # structure is linear in them; a component whose laws pass through these declares its
+    # port-Hamiltonian structure with no further code.
+    def coenergy(self, state: sp.Symbol, gradient: Any) -> Any:
+        """A storage law's output, the co-energy ∂H/∂``state`` (``gradient``): as given, or η in
+        the cut build."""
+        return gradient if self.ph is None else self.ph.eta(state)
+
+    def stored_via_ports(self, effort: Any) -> Any:
+        """An elastic effort whose energy is stored as a function of other components' states
+        and paid through this component's ports (``energy(..., via_ports=True)``, e.g. a contact
+        spring on a body point): as given; zero in the cut build, where the owner of those
+        states carries it as part of their ∇H."""
+        return effort if self.ph is None else 0 * effort
+
+    def resistive(self, effort: Any, flow: Any, name: str = "R") -> Any:
+        """A dissipative law's output ``effort`` (scalar or vector: z) of its input ``flow``
+        (w), with z·w >= 0 its dissipated power: as given, or the symbols ζ in the cut build
+        (which records the law and, when it is linear, z = C w with C free of port variables,
+        its coefficient C)."""
+        if self.ph is None:
+            return effort
+        z = _entries(effort)
+        w = _entries(flow)
+        ports = {v for pv in self.built.ports.values() for v in _entries(pv.e) + _entries(pv.f)}
+        linear = (all(isinstance(wj, sp.Symbol) for wj in w)   # (a law of a port's flow)
+                  and all(zi.is_polynomial(*w) for zi in z))
+        if linear:
+            C = sp.Matrix(len(z), len(w), lambda i, j: sp.diff(z[i], w[j]))
+            linear = (not (C.free_symbols & (ports | set(w)))
+                      and all(sp.expand(zi - sum(C[i, j] * w[j] for j in range(len(w)))) == 0
+                              for i, zi in enumerate(z)))
+        index = len(self.ph.dissipators)
+        zeta = [sp.Symbol(f"z{index}[{self.name}.{name}{'' if len(z) == 1 else i}]", real=True)
+                for i in range(len(z))]
+        self.ph.dissipators.append(Dissipator(self.name, name, z, w, zeta,
+                                              C if linear else None))
+        return zeta[0] if isinstance(effort, sp.Basic) and not isinstance(
+            effort, sp.MatrixBase) else sp.Matrix(zeta)
+
+    def source(self, value: Any, conjugate: Any, name: str = "p") -> Any:
+        """An imposed port variable ``value`` (a source's effort or flow: the input u) whose
+        ``conjugate`` port variable makes the supplied power u·conjugate: as given, or the
+        symbol υ in the cut build."""
+        if self.ph is None:
+            return value
+        upsilon = sp.Symbol(f"u{len(self.ph.sources)}[{self.name}.{name}]", real=True)
+        self.ph.sources.append(Source(self.name, name, as_expr(value), as_expr(conjugate),
+                                      upsilon))
+        return upsilon
 
     def dissipate(self, power: sp.Expr) -> None:
         """Add ``power`` (W, >= 0) to the dissipated power."""
@@ -331,6 +441,15 @@ class Builder:
         checked to be a name (these reach generated code and its layout)."""
         check_name(name, f"component {self.name!r}: state, output or matrix name", dotted=True)
         return f"{self.name}.{name}"
+
+
+def _entries(value: Any) -> list[sp.Expr]:
+    """A scalar or a vector (matrix, list) as a list of expressions."""
+    if isinstance(value, sp.MatrixBase):
+        return list(value)
+    if isinstance(value, (list, tuple)):
+        return [as_expr(v) for v in value]
+    return [as_expr(value)]
 
 
 class _Frozen(type):
@@ -489,5 +608,5 @@ def component_class(kind: str) -> type[Component]:
         ) from None
 
 
-__all__ = ["REGISTRY", "TIME", "Arg", "Builder", "Component", "PortVars", "component_class",
-           "register"]
+__all__ = ["REGISTRY", "STATE_ROLES", "TIME", "Arg", "Builder", "Component", "Dissipator",
+           "PHCut", "PortVars", "Source", "component_class", "register"]

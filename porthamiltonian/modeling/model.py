@@ -77,11 +77,16 @@ class Input:
 
     unit: str = ""
     doc: str = ""
+    #: an expression (e.g. a controller's output ``"pid.y"``) the input is bound to in the
+    #: model: then it is compiled with the model and is no longer an input of the compiled model
+    bind: str | None = None
 
     def __post_init__(self) -> None:
         for name in ("unit", "doc"):
             if not isinstance(getattr(self, name), str):
                 raise ModelError(f"input {name} must be a string, got {getattr(self, name)!r}")
+        if self.bind is not None and not isinstance(self.bind, (str, int, float)):
+            raise ModelError(f"input bind must be an expression (text), got {self.bind!r}")
 
 
 @dataclass(frozen=True)
@@ -178,7 +183,7 @@ class ModelDescription:
             "scopes": sorted(self.scopes.items()),
         }
         if self.inputs:
-            data["inputs"] = [[n, i.unit] for n, i in self.inputs.items()]
+            data["inputs"] = [[n, i.unit, i.bind] for n, i in self.inputs.items()]
         return json.dumps(data, sort_keys=True, default=_jsonable, separators=(",", ":"))
 
     # --- validation --------------------------------------------------------------------------
@@ -206,6 +211,11 @@ class ModelDescription:
             key = f"output:{name}"
             found += self._parse_problem(text, f"output {name!r}", key, (), self.paths[key],
                                          missing or ())
+        for name, signal in self.inputs.items():
+            if signal.bind is not None:
+                key = f"input:{name}"
+                found += self._parse_problem(signal.bind, f"input {name!r} binding", key, (),
+                                             (*self.paths[key], "bind"), missing or ())
         return found
 
     def _structure_problems(self) -> list[ModelError]:
@@ -298,13 +308,24 @@ class Model:
         except ParameterValueError as err:
             raise ParameterValueError(f"model {self.name!r} parameter {name!r}: {err}") from None
 
-    def input(self, name: str, unit: str = "", doc: str = "") -> None:
+    def input(self, name: str, unit: str = "", doc: str = "", bind: str | None = None) -> None:
         """Declare an input ``name`` (SI ``unit``): a signal of time that every expression may
         read like a parameter (e.g. ``Se(effort="F")``), bound when the model is simulated
         (``simulate(..., inputs={"F": ...})``: a constant, samples, a callable; see
-        :mod:`porthamiltonian.simulation.inputs`) and a column of the linearization's B and D."""
+        :mod:`porthamiltonian.simulation.inputs`) and a column of the linearization's B and D.
+        ``bind``: an expression to bind it to in the model instead (:meth:`bind_input`)."""
         self._check_value_name(name, "input")
-        self.inputs[name] = Input(unit, doc)
+        self.inputs[name] = Input(unit, doc, bind)
+
+    def bind_input(self, name: str, expression: str | None) -> None:
+        """Bind the input ``name`` to ``expression`` in the model — typically a controller's
+        output (``"pid.y"``) or any signal (``"2*sin(t)"``): the binding is compiled with the
+        model (the compiled model no longer has that input); None unbinds it. Swapping the
+        controller is :meth:`replace`."""
+        if name not in self.inputs:
+            raise ModelError(f"model {self.name!r} has no input {name!r}; inputs: "
+                             f"{', '.join(self.inputs) or 'none'}")
+        self.inputs[name] = replace(self.inputs[name], bind=expression)
 
     def add(self, name: str, component: Component | Model) -> Component | Model:
         """Add a component (or a sub-model) under ``name``; return it. The component is a value:
@@ -501,6 +522,8 @@ class Model:
             parts["parameters"][prefix + pname] = par
         for iname, signal in self.inputs.items():
             parts["inputs"][prefix + iname] = signal
+            parts["scopes"].setdefault(f"input:{prefix}{iname}", prefix)
+            parts["paths"].setdefault(f"input:{prefix}{iname}", (*here, "inputs", iname))
         ends: dict[tuple[str, str], tuple[str, str]] = {}  # (local comp, port) -> (full comp, port)
         for name, comp in self.components():
             if isinstance(comp, Model):

@@ -28,8 +28,9 @@ from ..errors import (
     StateError,
     UnknownParameterError,
 )
-from . import linearize as _linearize
 from ..modeling.constraints import ConstraintChecker
+from . import linearize as _linearize
+from .phmatrices import PHMatrices, ph_matrices
 from .sampling import DiscreteBlock
 from .simulate import simulate as _simulate
 
@@ -316,6 +317,16 @@ class CompiledModel:
         pt = _linearize.point(model, t, x, u, params)
         out = model.functions.extra["jac_p"](pt.t, pt.y, model.native_params(pt.p))
         return np.asarray(out, dtype=float)[:self.n_states]
+
+    def ph_matrices(self, x: Any = None, params: Any = None, t: float = 0.0,
+                    u: Any = None) -> PHMatrices:
+        """The explicit port-Hamiltonian form [ẋ; w; y] = (J − R)[∇H; z; u] at one point
+        (arguments as :meth:`derivative`): J, R, ∇H, z, u and the checks
+        (:mod:`porthamiltonian.simulation.phmatrices`; this model compiles itself again with
+        the form's functions, once, when it lacks them)."""
+        model = self if self.ph_layout is not None else self.extended(ph=True)
+        pt = _linearize.point(model, t, x, u, params)
+        return ph_matrices(model, pt.t, pt.y, pt.p)
 
     def extended(self, **options: Any) -> CompiledModel:
         """This model compiled again with more generated functions (``ph=True``: the
