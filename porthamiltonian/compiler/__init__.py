@@ -132,6 +132,9 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             "input_names": sym.input_names, "input_units": sym.input_units,
             "state_roles": sym.state_roles, "declared_outputs": sym.declared_outputs,
             "jac_p": list(jac_p or []),
+            "discrete": [{"component": c, "period": period, "states": [str(s) for s in states],
+                          "update": f"update_{j}"}
+                         for j, (c, period, states, _) in enumerate(sym.discrete)],
             "ph": form.layout() if form is not None else None,
         }
         if use_cache:

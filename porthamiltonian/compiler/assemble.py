@@ -73,6 +73,9 @@ class SymbolicModel:
     #: the model's declared outputs y (model-level ``outputs``), in order: the rows of the
     #: linearization's C and D
     declared_outputs: list[str] = field(default_factory=list)
+    #: the discrete-time blocks: (component, its period output, its discrete states, their
+    #: values at a sampling instant as expressions of the model)
+    discrete: list[tuple[str, str, list[sp.Symbol], list[sp.Expr]]] = field(default_factory=list)
     #: makes the explicit port-Hamiltonian form (set by :func:`porthamiltonian.compiler.symbolic`)
     ph_maker: Any = field(default=None, repr=False, compare=False)
 
@@ -163,9 +166,13 @@ def assemble(solution: Solution) -> SymbolicModel:
 
     matrices = {name: m.xreplace(system.aliases).xreplace(values)
                 for b in system.built.values() for name, m in b.matrices.items()}
+    discrete = [(cname, f"{cname}.T", [state for state, _ in updates],
+                 [v.xreplace(system.aliases).xreplace(values) for _, v in updates])
+                for cname, b in system.built.items() for _, updates in b.samples]
     rhs = [xdot[x] for x in states] + [p_diss, p_in]
     used = [*rhs, H, *outputs.values(), *(g for _, g in events), *matrices.values(),
-            *(e for _, A, b in system.blocks for e in (*A, *b))]
+            *(e for _, A, b in system.blocks for e in (*A, *b)),
+            *(v for *_, new in discrete for v in new)]
     return SymbolicModel(
         name=flat.name, states=states, state_names=[str(s) for s in states],
         params=list(system.params.values()), param_names=list(system.params),
@@ -183,6 +190,7 @@ def assemble(solution: Solution) -> SymbolicModel:
         input_units=[i.unit for i in flat.inputs.values() if i.bind is None],
         state_roles=[s.role for b in system.built.values() for s in b.states],
         declared_outputs=list(flat.outputs),
+        discrete=discrete,
     )
 
 

@@ -17,6 +17,7 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 ``jac_u(t, x, p)``    ∂ẋ/∂u by the model's inputs, (n + 2) x m (models with inputs)
 ``out_jac(t, x, p)``  ∂y/∂[x, u] of the declared outputs y by the model states and inputs
 ``jac_p(t, x, p)``    ∂ẋ/∂p by the parameters asked for (``program(model, jac_p=[...])``)
+``update_<j>(t, x, p)`` the new discrete states of discrete-time block j at a sampling instant
 
 The parameter vector ``p`` holds the parameters, then two slots per input (:func:`input_slots`):
 input k of m is ``u_k(t) = p[P + k] + p[P + m + k] t``, so that the compiled functions and loops
@@ -429,6 +430,12 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             f"states and the inputs: out[i, j] = d(y[i])/d([x, u][j]), {len(ys)} x "
             f"{len(states) + len(model.inputs)}, row-major.",
             _listing("outputs y:", model.declared_outputs))))
+    for j, (component, _, states_j, values) in enumerate(model.discrete):
+        out.append(builder.function(f"update_{j}", doc(
+            f"The sampling of the discrete-time block {component!r} of model {model.name!r}: "
+            "the new values of its discrete states from the state just before the instant.",
+            _listing(f"out ({len(values)}):", [str(s) for s in states_j])),
+            [("array", "out", values, (len(values),))], (len(values),)))
     if jac_p:
         index = {str(s): s for s in model.params}
         unknown = [name for name in jac_p if name not in index]

@@ -224,6 +224,42 @@ def ph_form(description: ModelDescription, sym: SymbolicModel, normal: Solution)
                   system.blocks, rows, columns, energies, vals, normal.system.intermediates)
 
 
+def ph_text(form: PHForm) -> str:
+    """The form as text (``porthamiltonian show MODEL --ph``): the states, the nonlinear
+    dissipators' z(w), the linear ones' coefficients, the ports' u, and the nonzero entries of
+    J and R over [∇H; z; u] (intermediates of positions shown by name, e.g. a multibody's)."""
+    M = form.reduced()
+    J, R = (M - M.T) / 2, -(M + M.T) / 2
+    kept, _, _ = form._split()
+    names = form.column_names()
+    cols = [names[i] for i in kept]
+    rows = [form.row_names()[i] for i in kept]
+    lines = [(f"port-Hamiltonian form of model {form.name!r}: [dx/dt; w; y] = (J - R) "
+              "[dH/dx; z(w); u]"),
+             f"x (the storages' states): {', '.join(form.state_names) or 'none'}"]
+    for d in form.dissipators:
+        kind = "linear, z = C w, in R" if d.coefficient is not None else "z(w)"
+        lines.append(f"dissipator {d.component}.{d.name} ({kind}): w = {_short(d.w)}, "
+                     f"z = {_short(d.z)}" + (f", C = {_short(list(d.coefficient))}"
+                                             if d.coefficient is not None else ""))
+    for source in form.sources:
+        lines.append(f"port {source.component}.{source.name}: u = {source.value}, y = "
+                     f"-{source.conjugate} (supplied power -u*y)")
+    for label, matrix in (("J", J), ("R", R)):
+        entries = [(i, j, sp.simplify(matrix[i, j])) for i in range(matrix.rows)
+                   for j in range(matrix.cols) if matrix[i, j] != 0]
+        entries = [(i, j, v) for i, j, v in entries if v != 0]
+        lines.append(f"{label}: {len(entries)} nonzero entries (rows {', '.join(rows)}; columns "
+                     f"{', '.join(cols)})" if entries else f"{label} = 0")
+        lines += [f"  {label}[{rows[i]}, {cols[j]}] = {v}" for i, j, v in entries]
+    return "\n".join(lines) + "\n"
+
+
+def _short(exprs: list) -> str:
+    text = ", ".join(str(e) for e in exprs)
+    return f"[{text}]" if len(exprs) > 1 else text
+
+
 def _check_coefficient(d: Dissipator) -> None:
     """A linear dissipator whose coefficient is a constant with a negative eigenvalue (or a
     negative symmetric part) is active: PassivityError naming it."""
@@ -280,4 +316,4 @@ def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list:
     return functions
 
 
-__all__ = ["PHForm", "ph_form", "ph_functions"]
+__all__ = ["PHForm", "ph_form", "ph_functions", "ph_text"]

@@ -290,6 +290,7 @@ def _resolve_signals(built: dict[str, Built], equations: list[Equation],
         b.intermediates = [(s, sub(e)) for s, e in b.intermediates]
         b.blocks = [(syms, A.applyfunc(sub), r.applyfunc(sub)) for syms, A, r in b.blocks]
         b.matrices = {n: m.applyfunc(sub) for n, m in b.matrices.items()}
+        b.samples = [(sub(T), [(s, sub(v)) for s, v in updates]) for T, updates in b.samples]
     if ph is not None:              # the cut build's records read signals too
         for d in ph.dissipators:
             d.z, d.w = [sub(e) for e in d.z], [sub(e) for e in d.w]

@@ -121,6 +121,8 @@ class Built:
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
     #: constraints on parameter values, checked when they are bound (see :meth:`Builder.require`)
     constraints: list[Constraint] = field(default_factory=list)
+    #: a discrete-time block's sampling (:meth:`Builder.sample`): (period, [(state, value)])
+    samples: list[tuple[sp.Expr, list[tuple[sp.Symbol, sp.Expr]]]] = field(default_factory=list)
 
 
 @dataclass
@@ -285,6 +287,30 @@ class Builder:
         self.built.states.append(StateDecl(symbol, sp.Symbol(f"d({self.name}.{name})/dt", real=True),
                                            unit, init, role))
         return symbol
+
+    def sample(self, period: Any, updates: list[tuple[sp.Symbol, Any]]) -> None:
+        """Make this component a discrete-time block sampled every ``period`` seconds (an
+        expression in parameters, output as ``<component>.T``): at each sampling instant
+        t_k = t₀ + k·period the states of ``updates`` (declared with ``role="discrete"``) take
+        their new values (expressions in the model's variables just before t_k: states, port
+        variables, outputs, inputs) and hold them until the next one (their rate is zero). See
+        :mod:`porthamiltonian.simulation.sampling`."""
+        if self.built.samples:
+            raise ModelError(f"component {self.name!r} declares its sampling twice")
+        period = as_expr(period)
+        if period.free_symbols - (set(self._names.values()) - self._inputs):
+            raise ModelError(f"component {self.name!r}: the sample period must depend on "
+                             f"parameters only, got {period}")
+        roles = {s.symbol: s.role for s in self.built.states}
+        for state, _ in updates:
+            if roles.get(state) != "discrete":
+                raise ModelError(f"component {self.name!r}: {state} is not one of its discrete "
+                                 "states (declare it with role='discrete')")
+        self.built.samples.append((period, [(state, as_expr(v)) for state, v in updates]))
+        self.output("T", period, "s")
+        self.require(period, ">", "sample period")
+        for state, _ in updates:
+            self.equation(self.der(state), 0, "held between samples")
 
     def der(self, state: sp.Symbol) -> sp.Symbol:
         """The time-derivative symbol of one of this component's states."""

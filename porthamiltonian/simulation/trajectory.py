@@ -286,12 +286,22 @@ class Trajectory:
         ``energy_tolerance``."""
         return float(np.max(np.abs(self.residual)) / self.energy_scale)
 
-    def ledger(self) -> dict[str, float]:
-        """The final ledger: H(0), H(T), dissipated, supplied, residual, relative residual."""
-        return {"H0": self.h0, "HT": float(self.H[-1]), "dissipated": float(self.E_diss[-1]),
-                "supplied": float(self.E_in[-1]), "residual": float(self.residual[-1]),
-                "max_abs_residual": float(np.max(np.abs(self.residual))),
-                "relative_residual": self.relative_residual}
+    def ledger(self) -> dict[str, Any]:
+        """The final ledger: H(0), H(T), dissipated, supplied, residual, relative residual, and
+        (models with actuators, :class:`porthamiltonian.library.signals.Actuator`) the energy
+        each actuator supplied, ``actuators`` = {name: J} (part of ``supplied``)."""
+        out: dict[str, Any] = {
+            "H0": self.h0, "HT": float(self.H[-1]), "dissipated": float(self.E_diss[-1]),
+            "supplied": float(self.E_in[-1]), "residual": float(self.residual[-1]),
+            "max_abs_residual": float(np.max(np.abs(self.residual))),
+            "relative_residual": self.relative_residual}
+        works = {name[:-len(".work")]: float(self.x[-1, i] - self.x[0, i])
+                 for i, (name, role) in enumerate(zip(self.model.state_names,
+                                                      self.model.state_roles))
+                 if role == "quadrature" and name.endswith(".work")}
+        if works:
+            out["actuators"] = works
+        return out
 
     # --- export ---------------------------------------------------------------------------------
     def columns(self, outputs: bool = False) -> dict[str, np.ndarray]:
