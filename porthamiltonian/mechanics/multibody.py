@@ -61,7 +61,10 @@ When the bond points into the multibody, the effort is the force applied to it; 
 out, the effort is the force the multibody exerts on the element (so an element can be connected
 directly: ``connect("walker.foot", "contact.p")``).
 
-Outputs: ``<name>.<point>.x|y|z`` (world position of each point and world frame, m), ``<name>.T`` and
+Outputs: ``<name>.v.<velocity>`` (each velocity v = ∂H/∂p, rad/s or m/s; its rate, the
+acceleration ``<name>.a.<velocity>`` of a revolute, prismatic, translational or universal joint,
+is evaluated exactly by the compiled model: ``CompiledModel.accelerations``, ``traj[...]``),
+``<name>.<point>.x|y|z`` (world position of each point and world frame, m), ``<name>.T`` and
 ``<name>.V`` (kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion
 joint), and each body's pose (for :mod:`porthamiltonian.interfaces.viewer`): ``<name>.<body>.pose.x|y|z``
 (the origin of its frame, world coordinates, m) and ``<name>.<body>.pose.qw|qx|qy|qz`` (the unit
@@ -421,6 +424,9 @@ class Multibody(Component):
             b.equation(b.der(q[k]), rates[k], "dq/dt from the joint velocities, M(q) v = p")
         for k in range(n):
             b.equation(b.der(p[k]), Q[k], "dp/dt = Π'ad_T S - dV/dq + Q")
+        rate_units = {"N*m*s": "rad/s", "N*s": "m/s"}
+        for label, unit, vk in zip(velocities, p_units, v):
+            b.output(f"v.{label}", vk, rate_units.get(unit, ""))
         kinetic = (sp.Matrix(p).T * sp.Matrix(v))[0, 0] / 2
         b.energy(kinetic + potential)
         b.output("T", kinetic, "J")

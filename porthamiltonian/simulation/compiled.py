@@ -286,6 +286,14 @@ class CompiledModel:
         """∂ẋ/∂u (n x m) at one point, exact; arguments as :meth:`derivative`."""
         return _linearize.input_jacobian(self, t, x, u, params)
 
+    def accelerations(self, t: float = 0.0, x: Any = None, u: Any = None,
+                      params: Any = None) -> dict[str, float]:
+        """A multibody's accelerations v̇ at one point, ``{"<mb>.a.<velocity>": value}``
+        (rad/s², m/s²), exact: the rate of the velocity output ``<mb>.v.<velocity>`` of each
+        revolute, prismatic, translational and universal joint; arguments as
+        :meth:`derivative`. A trajectory gives them by name too (``traj["arm.a.pivot"]``)."""
+        return _linearize.accelerations(self, t, x, u, params)
+
     def linearize(self, x: Any = None, u: Any = None, params: Any = None,
                   t: float = 0.0) -> _linearize.LinearModel:
         """(A, B, C, D) at (t, x, u, params) from the exact Jacobians, as a

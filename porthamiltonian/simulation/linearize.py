@@ -164,6 +164,37 @@ def outputs_y(model: CompiledModel, t: float = 0.0, x: Any = None, u: Any = None
     return np.array([values[model.output_index(name)] for name in model.declared_outputs])
 
 
+def acceleration_rows(model: CompiledModel) -> dict[str, int]:
+    """The multibodies' accelerations the model gives exactly, ``"<mb>.a.<velocity>"`` -> the
+    index of the coordinate whose rate is that velocity (a revolute, prismatic, translational or
+    universal joint: q̇ = v, so v̇ = (∂q̇/∂x) ẋ, a row of the generated Jacobian times the
+    right-hand side)."""
+    states = set(model.state_names)
+    out = {}
+    for name in model.output_names:
+        mb, sep, label = name.partition(".v.")
+        if sep and f"{mb}.q.{label}" in states and f"{mb}.p.{label}" in states:
+            out[f"{mb}.a.{label}"] = model.state_index(f"{mb}.q.{label}")
+    return out
+
+
+def acceleration_values(model: CompiledModel, t: float, y: np.ndarray, pn: Any) -> np.ndarray:
+    """The accelerations of :func:`acceleration_rows` (in its order) at (t, y) with the
+    back end's parameters ``pn``."""
+    rows = list(acceleration_rows(model).values())
+    f = np.asarray(model.functions.rhs(t, y, pn), dtype=float)
+    J = np.asarray(model.functions.jac(t, y, pn), dtype=float)
+    return J[rows] @ f
+
+
+def accelerations(model: CompiledModel, t: float = 0.0, x: Any = None, u: Any = None,
+                  params: Any = None) -> dict[str, float]:
+    """``{"<mb>.a.<velocity>": v̇}`` at a point, exact (:func:`acceleration_rows`)."""
+    pt = point(model, t, x, u, params)
+    values = acceleration_values(model, pt.t, pt.y, model.native_params(pt.p))
+    return dict(zip(acceleration_rows(model), values.tolist()))
+
+
 @dataclass(frozen=True)
 class LinearModel:
     """ẋ ≈ A δx + B δu, y ≈ C δx + D δu about an operating point; names of the states, inputs
@@ -306,6 +337,7 @@ def trim(model: CompiledModel, x: Any = None, u: Any = None, params: Any = None,
     return TrimResult(y[:n].copy(), p[P:P + m].copy(), residual, iterations, False, message)
 
 
-__all__ = ["DYNAMIC", "LinearModel", "Point", "TrimResult", "derivative", "dynamic_states",
+__all__ = ["DYNAMIC", "LinearModel", "Point", "TrimResult", "acceleration_rows",
+           "acceleration_values", "accelerations", "derivative", "dynamic_states",
            "input_jacobian", "input_vector", "jacobian", "linearize", "outputs_y", "point",
            "trim"]

@@ -3,7 +3,8 @@
 Shaped like scipy's ``OdeResult`` (``t``, ``status``, ``message``, ``success``, ``nfev``) plus:
 
 * ``traj["mass.p"]`` — a state, any named output (``"spring.p.e"``: the spring force), a
-  parameter (its value in force at each point: modes change at events) or an input, over ``t``;
+  parameter (its value in force at each point: modes change at events), an input, or a
+  multibody's acceleration (``"arm.a.pivot"``), over ``t``;
 * ``traj.p`` — the parameter values in force at each point;
 * ``traj.H``, ``traj.E_diss``, ``traj.E_in``, ``traj.residual`` — the energy ledger
   (r = H − H(0) + E_diss − E_in), ``traj.energy_scale`` (the energy that moved during the run,
@@ -28,6 +29,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from .linearize import acceleration_rows, acceleration_values
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
@@ -197,6 +200,11 @@ class Trajectory:
             return self.p[:, self.model.param_names.index(name)]
         if name in self.model.input_names and name not in self.model.output_names:
             return self.inputs[:, self.model.input_names.index(name)]
+        rows = acceleration_rows(self.model)
+        if name in rows and name not in self.model.output_names:
+            values = self._per_point("accelerations", lambda t, y, pn: acceleration_values(
+                self.model, t, y, pn))
+            return values[:, list(rows).index(name)]
         return self.outputs[:, self.model.output_index(name)]
 
     @property
