@@ -9,8 +9,9 @@ Importing this package registers its component types for model files:
   (or the x-z plane), on a multibody's world-aligned frame (twist/wrench port);
 * :mod:`.friction3d` — ``SCVSFriction3D``: the SCVS law as a vector law in the tangent plane at a
   sphere's material contact point, with optional rolling resistance and spin friction;
-* :mod:`.springs`  — ``SpringDamper`` (linear) and ``VariableSpringDamper`` (modulated stiffness,
-  damper rule D = 2 α √(m K));
+* :mod:`.springs`  — ``SpringDamper`` (linear), ``VariableSpringDamper`` (modulated stiffness,
+  damper rule D = 2 α √(m K)) and ``ActuatedSpringDamper`` (the stiffness a state set through a
+  power port);
 * :mod:`.surfaces` — plane, slope and slope with a step down (helpers, not components);
 * :mod:`.signals`  — signal blocks and controllers (``Gain``, ``Sum``, ``Integrator``,
   ``Derivative``, ``PID``, ``TransferFunction``, ``StateSpace``, ``Saturation``, ``LookupTable``,
@@ -39,12 +40,13 @@ from .signals import (
     TransferFunction,
     ZeroOrderHold,
 )
-from .springs import SpringDamper, VariableSpringDamper
+from .springs import ActuatedSpringDamper, SpringDamper, VariableSpringDamper
 from .surfaces import SURFACES, Surface, make_surface
 
 __all__ = [
     "PID",
     "SURFACES",
+    "ActuatedSpringDamper",
     "Actuator",
     "Derivative",
     "DiscretePID",
