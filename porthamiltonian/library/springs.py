@@ -196,8 +196,9 @@ class ActuatedSpringDamper(Component):
         z = q - rest_length
         energy = K * z**2 / 2
         b.energy(energy)
-        if damping is None:
-            damping = 2 * alpha * sp.sqrt(mass * K) if alpha is not None else sp.Integer(0)
+        if damping is None:         # (K >= 0 physically; max(K, 0) keeps the root real anywhere)
+            damping = (2 * alpha * sp.sqrt(mass * sp.Max(K, 0)) if alpha is not None
+                       else sp.Integer(0))
         b.equation(b.der(q), port.f, "dq/dt = f")
         b.equation(b.der(K), kport.f, "dK/dt = f_k")
         b.equation(port.e, b.coenergy(q, sp.diff(energy, q))

@@ -287,6 +287,9 @@ class Model:
         self.events: list[EventSpec] = []
         self.outputs: dict[str, str] = {}
         self.inputs: dict[str, Input] = {}
+        #: exposed port -> "effort" or "flow": what the environment imposes there when it is
+        #: left open (see :meth:`expose`)
+        self._open_causality: dict[str, str] = {}
 
     # --- construction ---------------------------------------------------------------------------
     def _check_value_name(self, name: str, what: str) -> None:
@@ -464,8 +467,18 @@ class Model:
         return any((u == comp and d["tail"] == port) or (v == comp and d["head"] == port)
                    for u, v, d in self.graph.edges(data=True))
 
-    def expose(self, name: str, target: str) -> None:
-        """Expose the port ``target`` (``component.port``) of this model as its port ``name``."""
+    def expose(self, name: str, target: str, causality: str | None = None) -> None:
+        """Expose the port ``target`` (``component.port``) of this model as its port ``name``.
+
+        A port this model exposes and leaves unconnected when it is compiled on its own is an
+        open power port at the model's boundary: an input/output pair. The environment imposes
+        the port's effort (``causality="effort"``, the default) or flow (``"flow"``) as the input
+        ``name`` (its unit the domain's), the conjugate variable is the declared output
+        ``<name>.y``, and the power input × output goes to the ledger as supplied (an effort or
+        flow source named ``name`` stands at the port)."""
+        if causality not in (None, "effort", "flow"):
+            raise ModelError(f"model {self.name!r}: exposed port {name!r}: causality must be "
+                             f"'effort' or 'flow', got {causality!r}")
         comp_name, port_name, spec = self._resolve(target)
         new: list[tuple[str, Port]] = []
         if spec is None:
@@ -481,6 +494,7 @@ class Model:
         for comp, port in new:
             self.graph.nodes[comp]["bond_ports"][port.name] = port
         self.exposed[name] = (comp_name, port_name)
+        self._open_causality[name] = causality or "effort"
 
     def event(self, name: str, guard: str, direction: int = 0, terminal: bool = False) -> None:
         """Declare a named event guard (an expression in t, parameters, states and port variables)."""
@@ -506,9 +520,50 @@ class Model:
             "components", "ports", "parameters", "outputs", "scopes", "paths", "inputs")}
         bonds: list = []
         events: list[EventSpec] = []
-        self._flatten_into(parts, bonds, events, "")
+        ends = self._flatten_into(parts, bonds, events, "")
+        self._open_ports(parts, bonds, ends)
         frozen = {key: MappingProxyType(value) for key, value in parts.items()}
         return ModelDescription(self.name, bonds=tuple(bonds), events=tuple(events), **frozen)
+
+    def _open_ports(self, parts: dict[str, dict], bonds: list,
+                    ends: dict[tuple[str, str], tuple[str, str]]) -> None:
+        """The exposed ports of this (top-level) model left unconnected: each an effort (or flow)
+        source named as the port, driven by the input of that name, its conjugate the declared
+        output ``<name>.y`` (see :meth:`expose`)."""
+        from .elements import Se, Sf
+        from .ports import domain
+
+        bonded = {end for bond in bonds for end in bond}
+        for name, (comp, port) in self.exposed.items():
+            end = ends[(comp, port)]
+            if end in bonded:
+                continue
+            spec = self._resolve(f"{comp}.{port}")[2]
+            if spec.dim != 1 or spec.orientation == "out":
+                raise ModelError(f"model {self.name!r}: exposed port {name!r} ({comp}.{port}) is "
+                                 "left open, but only a one-dimensional port that takes power "
+                                 "in can be an input/output pair; connect it (e.g. to a source)")
+            if name in parts["components"] or name in parts["inputs"] or name in parts["parameters"]:
+                raise DuplicateNameError(f"model {self.name!r}: the open port {name!r} needs the "
+                                         "name for its source and input; rename the port")
+            dom = domain(spec.domain)
+            effort = self._open_causality.get(name, "effort") == "effort"
+            source = (Se(effort=name, domain=spec.domain) if effort
+                      else Sf(flow=name, domain=spec.domain))
+            parts["components"][name] = source
+            parts["ports"][name] = tuple(source.ports())
+            parts["scopes"][name] = ""
+            parts["paths"][name] = ("exposed", name)
+            parts["inputs"][name] = Input(dom.effort_unit if effort else dom.flow_unit,
+                                          f"open port {name}: the {'effort' if effort else 'flow'}"
+                                          " the environment imposes")
+            parts["scopes"][f"input:{name}"] = ""
+            parts["paths"][f"input:{name}"] = ("exposed", name)
+            output = f"{name}.y"
+            parts["outputs"][output] = f"{name}.p.{'f' if effort else 'e'}"
+            parts["scopes"][f"output:{output}"] = ""
+            parts["paths"][f"output:{output}"] = ("exposed", name)
+            bonds.append(((name, "p"), end))
 
     def validate(self) -> ModelDescription:
         """The frozen description, checked: every problem at once (see

@@ -170,7 +170,10 @@ class CompiledModel:
         return value
 
     def native_params(self, p: np.ndarray) -> list[float] | np.ndarray:
-        """The parameter vector in the form the back end's functions take."""
+        """The parameter vector in the form the back end's functions take (a vector of the
+        parameters alone gets its input slots appended, zero)."""
+        if len(p) < self.n_slots:
+            p = self._padded(p)
         return p.tolist() if self.backend == "python" else np.ascontiguousarray(p, dtype=float)
 
     def initial_state(self, p: np.ndarray | None = None,

@@ -196,7 +196,7 @@ def plan_inputs(names: list[str], n_params: int, inputs: Any, t_start: float,
         raise InputError(f"the model has no inputs, but inputs were given: {_shown(inputs)}")
     if inputs is None:
         raise InputError(f"the model's inputs {listed} are not bound: pass inputs={{name: "
-                         "value}} to simulate (a number, Samples(t, values, hold), or a "
+                         "value} to simulate (a number, Samples(t, values, hold), or a "
                          "callable u(t, x)), or bind them in the model (Model.bind_input)")
     m = len(names)
     if callable(inputs) and not isinstance(inputs, Mapping):

@@ -377,3 +377,27 @@ def test_lqr_design_loop_on_the_cart_pole(cart_pole):
         traj = closed.simulate(10.0, params={"theta0": theta0})
         assert traj.status == "finished"
         assert abs(traj["cart_pole.q.pivot"][-1]) < 1e-4 and abs(traj["cart_pole.q.slider"][-1]) < 1e-4
+
+
+# --- open ports ---------------------------------------------------------------------------------
+def test_an_open_port_is_an_input_output_pair_booked_as_supplied():
+    """A mass–spring–damper whose 1-junction is exposed and left open: the input is the force
+    the environment imposes (N), the declared output ``shaft.y`` the junction's velocity, so
+    C = [1/m, 0] over (p, q), B = [1, 0]; for a constant force u the supplied energy is
+    u (q(T) − q(0)) (∫ u y dt with y = q̇) to 1e-8 relative."""
+    m = Model("open")
+    m.add("j", OneJunction(domain="translation"))
+    m.add("mass", I(inertance=MASS))
+    m.add("spring", C(stiffness=K_SPRING))
+    m.add("damper", R(resistance=C_DAMP))
+    for element in ("mass", "spring", "damper"):
+        m.connect("j", f"{element}.p")
+    m.expose("shaft", "j")
+    model = compile_model(m, backend="python")
+    assert model.input_names == ["shaft"] and model.declared_outputs == ["shaft.y"]
+    lin = model.linearize(u=[0.0])
+    np.testing.assert_allclose(lin.B, [[1.0], [0.0]], atol=1e-14)
+    np.testing.assert_allclose(lin.C, [[1 / MASS, 0.0]], atol=1e-14)
+    traj = model.simulate(5.0, inputs={"shaft": 1.5}, rtol=1e-11, atol=1e-13)
+    q = traj["spring.q"]
+    assert traj.ledger()["supplied"] == pytest.approx(1.5 * (q[-1] - q[0]), rel=1e-8)
