@@ -31,12 +31,20 @@ CASES = [  # (K1, K2, alpha, phi_max): REPRODUCTION.md, Table 3.1 (rolling conta
 ]
 
 
-def per_step(name: str, values: dict, steps: int) -> dict:
-    """Gait and ledger per step of walker ``name`` with parameter ``values``."""
+def per_step(name: str, values: dict, steps: int, start: dict | None = None) -> dict:
+    """Gait and ledger per step of walker ``name`` with parameter ``values``; ``start``: a
+    fixed point (by name) of the switched walker to start the actuated walker's search from
+    (its stiffness states from the rule there)."""
     from walker_library import analyze_gait, load_walker
 
     walker = load_walker(name, values)
-    result = analyze_gait(walker)
+    guess = None
+    if start is not None:
+        K1, K2, phi_max = values["K1"], values["K2"], values["phi_max"]
+        start = {**start, "spring1.K": K1,
+                 "spring2.K": K1 + (K2 - K1) * abs(start["phi"]) / phi_max}
+        guess = [start[k] for k in walker.section]
+    result = analyze_gait(walker, guess=guess)
     if result.status != "periodic":
         return {"status": result.status}
     z = np.array([result.fixed_point[k] for k in walker.section])
@@ -44,7 +52,7 @@ def per_step(name: str, values: dict, steps: int) -> dict:
     ledger = strides[-1].info["trajectory"].ledger()
     actuators = ledger.get("actuators", {})
     return {"status": f"period {result.period_steps}, {'stable' if result.stable else 'unstable'}",
-            "speed": result.metrics.speed,
+            "fixed_point": result.fixed_point, "speed": result.metrics.speed,
             "supplied": ledger["supplied"] / steps,
             "actuators": sum(actuators.values()) / steps if actuators else None,
             "dissipated": ledger["dissipated"] / steps,
@@ -61,10 +69,12 @@ def main() -> None:
           f"{'actuators J/step':>17s} {'dissipated J/step':>18s}  status")
     for K1, K2, alpha, phi_max in CASES:
         values = {"K1": K1, "K2": K2, "alpha": alpha, "phi_max": phi_max}
+        seed = None
         for label, name, extra in (("switched", "variable_stiffness_walker", {}),
                                    ("actuated", "actuated_stiffness_walker", {"tau_K": args.tau})):
             start = time.perf_counter()
-            r = per_step(name, {**values, **extra}, args.steps)
+            r = per_step(name, {**values, **extra}, args.steps, seed)
+            seed = r.get("fixed_point")
             case = f"{K1:.0f} -> {K2:.0f}, a = {alpha}"
             if "speed" not in r:
                 print(f"{case:24s} {label:12s} {r['status']}")
