@@ -118,7 +118,7 @@ def test_unknown_component_kind_suggests_the_closest(tmp_path):
     msg, path = message(text, tmp_path)
     n = line_of(text, 'type = "HuntCrossly", x =')
     check(msg, f"{path}, line {n}", "component 'floor'",
-          "unknown component type 'HuntCrossly'", "known types: 0, 1, Actuator, C,",
+          "unknown component type 'HuntCrossly'", "known types: 0, 1, ActuatedSpringDamper, Actuator, C,",
           hint="did you mean 'HuntCrossley'?")
 
 
@@ -133,7 +133,7 @@ def test_component_without_type_or_not_a_table(tmp_path):
     text = edit(MSD, 'type = "R"\n', "")
     msg, path = message(text, tmp_path)
     check(msg, f"{path}, line {line_of(text, '[components.damper]')}", "component 'damper'",
-          "types: 0, 1, Actuator, C,", hint="needs a 'type' (e.g. type = \"C\")")
+          "types: 0, 1, ActuatedSpringDamper, Actuator, C,", hint="needs a 'type' (e.g. type = \"C\")")
     msg, path = message("[components]\nwheel = 3\n", tmp_path)
     check(msg, f"{path}, line 2", "component 'wheel'", "an integer",
           hint='must be a table ([components.wheel] with type = "KIND" and its arguments)')
@@ -181,7 +181,7 @@ def test_unknown_domain_points_at_the_domain_line(tmp_path):
     msg, path = message(text, tmp_path)
     check(msg, f"{path}, line {line_of(text, 'domain = ')}", "component 'damper'",
           "unknown domain 'fluid'",
-          hint="known domains: electric, hydraulic, magnetic, rotation, screw, thermal, translation")
+          hint="known domains: electric, hydraulic, magnetic, rotation, screw, stiffness, thermal, translation")
 
 
 def test_multibody_error_points_at_the_nested_key(tmp_path):
