@@ -80,6 +80,22 @@ def _matrix(b: Builder, value: Any, what: str, rows: int | None = None,
     return matrix
 
 
+def _state_space(b: Builder, where: str, inputs: list, A: list, B: list, C: list,
+                 D: list | None, initial: list | None) -> tuple:
+    """(u, A, B, C, D, x0) of a state-space block's arguments, parsed and checked: A square
+    (n x n), B n x m for the m inputs, C p x n, D p x m (zero when not given), x0 of length n."""
+    u = sp.Matrix(_vector(b, inputs, f"{where} inputs"))
+    Am = _matrix(b, A, f"{where} A")
+    n, m = Am.rows, u.rows
+    if Am.cols != n:
+        raise ModelError(f"{where}: A must be square, got {Am.rows} x {Am.cols}")
+    Bm = _matrix(b, B, f"{where} B", n, m)
+    Cm = _matrix(b, C, f"{where} C", None, n)
+    Dm = _matrix(b, D, f"{where} D", Cm.rows, m) if D is not None else sp.zeros(Cm.rows, m)
+    x0 = _vector(b, initial, f"{where} initial", n) if initial is not None else [0] * n
+    return u, Am, Bm, Cm, Dm, x0
+
+
 _INPUT = Arg("the block's input: an expression of the model's signals")
 
 
@@ -260,16 +276,9 @@ class StateSpace(_Block):
 
     def build(self, b: Builder, inputs: list, A: list, B: list, C: list, D: list | None,
               initial: list | None) -> None:
-        where = f"StateSpace {b.name!r}"
-        u = sp.Matrix(_vector(b, inputs, f"{where} inputs"))
-        Am = _matrix(b, A, f"{where} A")
-        n, m = Am.rows, u.rows
-        Bm = _matrix(b, B, f"{where} B", n, m)
-        Cm = _matrix(b, C, f"{where} C", None, n)
-        Dm = _matrix(b, D, f"{where} D", Cm.rows, m) if D is not None else sp.zeros(Cm.rows, m)
-        x0 = _vector(b, initial, f"{where} initial", n) if initial is not None else [0] * n
-        if Am.cols != n:
-            raise ModelError(f"{where}: A must be square, got {Am.rows} x {Am.cols}")
+        u, Am, Bm, Cm, Dm, x0 = _state_space(b, f"StateSpace {b.name!r}", inputs, A, B, C, D,
+                                             initial)
+        n = Am.rows
         x = sp.Matrix([b.state(f"x{k + 1}", initial=x0[k], role="signal") for k in range(n)])
         rates = Am * x + Bm * u
         for k in range(n):
@@ -434,14 +443,9 @@ class DiscreteStateSpace(_Block):
 
     def build(self, b: Builder, inputs: list, A: list, B: list, C: list, D: list | None,
               initial: list | None, period: sp.Expr) -> None:
-        where = f"DiscreteStateSpace {b.name!r}"
-        u = sp.Matrix(_vector(b, inputs, f"{where} inputs"))
-        Am = _matrix(b, A, f"{where} A")
-        n, m = Am.rows, u.rows
-        Bm = _matrix(b, B, f"{where} B", n, m)
-        Cm = _matrix(b, C, f"{where} C", None, n)
-        Dm = _matrix(b, D, f"{where} D", Cm.rows, m) if D is not None else sp.zeros(Cm.rows, m)
-        x0 = _vector(b, initial, f"{where} initial", n) if initial is not None else [0] * n
+        u, Am, Bm, Cm, Dm, x0 = _state_space(b, f"DiscreteStateSpace {b.name!r}", inputs, A, B,
+                                             C, D, initial)
+        n = Am.rows
         x = sp.Matrix([b.state(f"x{k + 1}", initial=x0[k], role="discrete") for k in range(n)])
         y = [b.state(f"y{k + 1}", role="discrete") for k in range(Cm.rows)]
         x_next, y_now = Am * x + Bm * u, Cm * x + Dm * u

@@ -29,6 +29,7 @@ from porthamiltonian.library import (
     DiscreteStateSpace,
     LookupTable,
     Saturation,
+    Sensor,
     StateSpace,
     Sum,
     TransferFunction,
@@ -401,3 +402,25 @@ def test_an_open_port_is_an_input_output_pair_booked_as_supplied():
     traj = model.simulate(5.0, inputs={"shaft": 1.5}, rtol=1e-11, atol=1e-13)
     q = traj["spring.q"]
     assert traj.ledger()["supplied"] == pytest.approx(1.5 * (q[-1] - q[0]), rel=1e-8)
+
+
+def test_trim_finds_the_input_that_holds_a_state(open_msd):
+    """The force that holds the spring at q = 0.5 m at rest is k q = 2 N (free input F, the
+    states given; and with the momentum free too), to 1e-12."""
+    held = open_msd.trim(x={"spring.q": 0.5, "mass.p": 0.0}, u=[0.0], free_states=[],
+                         free_inputs=["F"])
+    assert held.success and held.u[0] == pytest.approx(K_SPRING * 0.5, abs=1e-12)
+    square = open_msd.trim(x={"spring.q": 0.5, "mass.p": 0.3}, u=[0.0],
+                           free_states=["mass.p"], free_inputs=["F"])
+    assert square.success and square.u[0] == pytest.approx(2.0, abs=1e-12)
+    assert square.x[open_msd.state_index("mass.p")] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_sensor_reads_a_flow():
+    """A Sensor of the mass's flow (its velocity) with gain 2 and a unit: 2 p/m along a run."""
+    m = msd("F")
+    m.add("speedometer", Sensor(input="mass.p.f", gain=2, unit="m/s"))
+    model = compile_model(m, backend="python")
+    traj = model.simulate(2.0, inputs={"F": 1.0})
+    np.testing.assert_allclose(traj["speedometer.y"], 2 * traj["mass.p"] / MASS, rtol=1e-14)
+    assert model.units["speedometer.y"] == "m/s"
