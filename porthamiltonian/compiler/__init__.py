@@ -2,8 +2,9 @@
 
 Pipeline: :meth:`Model.freeze` (then ``validate``) -> :func:`structure.build_system` ->
 :func:`structure.solve` (causality, loops, dependent storages) -> :func:`assemble.assemble` (state
-equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and Jacobian together) ->
-:mod:`.printers` (Python and C) -> cache -> back end.
+equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and exact Jacobians together) ->
+:mod:`.printers` (Python and C) -> cache -> back end. :mod:`.phform` derives the explicit
+port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
 """
 from __future__ import annotations
 

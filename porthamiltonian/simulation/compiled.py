@@ -3,7 +3,10 @@
 Values live apart from the description (as in Drake's System/Context): a compiled model is
 simulated with any parameter values without recompiling; ``params()`` builds the parameter vector
 from defaults and overrides by name; :meth:`~CompiledModel.outputs`, :meth:`~CompiledModel.output`,
-:meth:`~CompiledModel.energy` and :meth:`~CompiledModel.guards` evaluate the model at one point.
+:meth:`~CompiledModel.energy` and :meth:`~CompiledModel.guards` evaluate the model at one point,
+as do :meth:`~CompiledModel.derivative`, the exact Jacobians, :meth:`~CompiledModel.linearize`,
+:meth:`~CompiledModel.trim` (:mod:`.linearize`) and :meth:`~CompiledModel.ph_matrices`
+(:mod:`.phmatrices`).
 
 ``CompiledModel.simulate`` *is* :func:`porthamiltonian.simulation.simulate.simulate` (the same function,
 bound as a method: one signature, documented once). The simulator sits below this module in the
@@ -58,6 +61,13 @@ class CompiledModel:
     units : SI unit by name of the states and port variables whose unit is known
         (``"spring.q": "m"``, ``"mass.p.e": "N"``).
     events : the model's event guards.
+    input_names, input_units : the inputs (bound at run time, :mod:`.inputs`); the parameter
+        vector the functions take has two slots per input after the parameters (:attr:`n_slots`).
+    state_roles : per state "storage", "signal", "quadrature" or "discrete" (a linearization
+        keeps the first two).
+    declared_outputs : the model's outputs y (rows of the linearization's C and D).
+    discrete : the discrete-time blocks (:class:`~.sampling.DiscreteBlock`).
+    ph_layout : the port-Hamiltonian form's layout when compiled with ``ph=True``, else None.
     functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
     """
 
