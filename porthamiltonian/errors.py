@@ -120,6 +120,16 @@ class StateError(ModelError):
     """An initial state or a state name is wrong (unknown name, wrong length, non-finite)."""
 
 
+class InputError(ModelError):
+    """A model's inputs are bound wrongly at run time: an input left unbound, an unknown input
+    name, a value of the wrong shape or type, samples that do not cover the simulated span."""
+
+
+class PassivityError(ModelError):
+    """A component declared as a dissipator is active (its law would make the port-Hamiltonian
+    form's R indefinite, or its z(w)·w negative); the message names the component."""
+
+
 
 class CompilerError(ModelError):
     """The C back end cannot build a model: no C compiler was found, or it failed. The message

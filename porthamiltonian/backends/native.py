@@ -199,9 +199,11 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Funct
                                n_params, n_guards, variational=True)
                    for name, symbol in LOOPS.items()}
     matrices = tuple(function(f"matrix_{k}") for k in range(expected[4]))
+    extra = {name: function(name) for name in shapes
+             if name not in (*_NAMES, "initial") and not name.startswith("matrix_")}
     # (ctypes never unloads a library: the functions stay valid)
     return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops,
-                     variational)
+                     variational, extra)
 
 
 def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:

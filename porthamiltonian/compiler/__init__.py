@@ -2,8 +2,9 @@
 
 Pipeline: :meth:`Model.freeze` (then ``validate``) -> :func:`structure.build_system` ->
 :func:`structure.solve` (causality, loops, dependent storages) -> :func:`assemble.assemble` (state
-equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and Jacobian together) ->
-:mod:`.printers` (Python and C) -> cache -> back end.
+equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and exact Jacobians together) ->
+:mod:`.printers` (Python and C) -> cache -> back end. :mod:`.phform` derives the explicit
+port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
 """
 from __future__ import annotations
 
@@ -11,7 +12,9 @@ import dataclasses
 import json
 import time
 from collections import OrderedDict
+from collections.abc import Sequence
 from types import MappingProxyType
+from typing import Any
 
 import sympy
 
@@ -21,10 +24,12 @@ from ..errors import CompilerError
 from ..modeling.constraints import Constraint
 from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
+from ..simulation.sampling import DiscreteBlock
 from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
 from .literals import printable
+from .phform import ph_form, ph_functions
 from .printers import c_source, python_source
 from .structure import Solution, build_system, solve
 
@@ -38,7 +43,9 @@ def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     then structure, assembly. Errors carry the path of what they are about
     (:attr:`~porthamiltonian.errors.ModelError.path`)."""
     description = model.freeze() if isinstance(model, Model) else model
-    return assemble(_solved(description.validate()))
+    sym = assemble(_solved(description.validate()))
+    sym.ph_maker = lambda: ph_form(description, sym, _solved(description))
+    return sym
 
 
 #: the solved structures (:func:`structure.build_system` + :func:`structure.solve`, most of the
@@ -127,7 +134,8 @@ def layout(model: Model | ModelDescription, use_cache: bool = True) -> Layout:
 
 
 def compile_model(model: Model | ModelDescription, backend: str = "auto",
-                  use_cache: bool = True) -> CompiledModel:
+                  use_cache: bool = True, *, jac_p: Sequence[str] | None = None,
+                  ph: bool = False) -> CompiledModel:
     """Compile ``model`` (a model, or its frozen description) for numeric simulation.
 
     Parameters
@@ -145,18 +153,28 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     ``$PORTHAMILTONIAN_QUIET`` is set). With ``backend="c"``, a missing or failing C compiler
     raises :class:`~porthamiltonian.errors.CompilerError` (the command and the file holding
     its output).
+    jac_p : parameter names: also generate ``jac_p``, the exact ∂ẋ/∂p by those parameters
+        (``CompiledModel.parameter_jacobian``; :func:`.codegen.jacobian_function`).
+    ph : also generate the explicit port-Hamiltonian form (:mod:`.phform`): the matrices and the
+        vector [∇H; z; u] at a point (``CompiledModel.ph_matrices``; a compiled model asks for
+        them itself, once, when they are first needed).
     """
     order = backends.candidates(backend)
     description = model.freeze() if isinstance(model, Model) else model
-    key = cache.model_key(description)
+    options = {k: v for k, v in (("jac_p", list(jac_p or [])), ("ph", ph)) if v}
+    key = cache.model_key(description, options)
     meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
     if meta is None:
         start = time.perf_counter()
         sym = symbolic(description)
+        form = ph_form(description, sym, _solved(description)) if ph else None
         times["symbolic"] = time.perf_counter() - start
         start = time.perf_counter()
-        prog = program(sym)
+        prog = program(sym, jac_p=list(jac_p or []))
+        if form is not None:
+            prog = dataclasses.replace(prog, functions=(*prog.functions,
+                                                        *ph_functions(prog, sym, form)))
         bodies = {"python": python_source(prog), "c": c_source(prog)}
         times["code"] = time.perf_counter() - start
         meta = ModelMeta(
@@ -169,7 +187,14 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             matrices=tuple(sym.matrices),
             shapes=MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
             autonomous=_autonomous(sym), energy_parts=tuple(sym.energy_parts),
-            constraints=tuple(sym.constraints), units=MappingProxyType(dict(sym.units)))
+            constraints=tuple(sym.constraints), units=MappingProxyType(dict(sym.units)),
+            input_names=tuple(sym.input_names), input_units=tuple(sym.input_units),
+            state_roles=tuple(sym.state_roles),
+            declared_outputs=tuple(sym.declared_outputs), jac_p=tuple(jac_p or ()),
+            discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states),
+                                         f"update_{j}")
+                           for j, (c, period, states, _) in enumerate(sym.discrete)),
+            ph=form.layout() if form is not None else None)
         if use_cache:
             cache.write(key, meta.to_json(), bodies)
     for i, name in enumerate(order):
@@ -189,10 +214,15 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         note = " (numba compiles it at the first call)" if name == "numba" else ""
         backends.report(f"building {printable(meta.name)}: {', '.join(parts)}, "
                         f"{size:.0f} kB{note}")
+    def rebuild(**more: Any) -> CompiledModel:
+        """This model compiled again with the options ``more`` added (for CompiledModel)."""
+        merged = {"jac_p": list(jac_p or []), "ph": ph, **more}
+        return compile_model(description, backend=backend, use_cache=use_cache, **merged)
+
     docs = {par_name: par.doc for par_name, par in description.parameters.items()}
     return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
                          c_source=bodies["c"],
-                         param_docs=[docs.get(n, "") for n in meta.param_names])
+                         param_docs=[docs.get(n, "") for n in meta.param_names], rebuild=rebuild)
 
 
 def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
@@ -214,7 +244,7 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
-        return module.load(path, name, len(meta.matrices))
+        return module.load(path, name, len(meta.matrices), extra_functions(meta))
     shapes = dict(meta.shapes)
     lib_name = native.library_name(key)
     path = cache.verified_path(key, lib_name) if use_cache else None
@@ -226,10 +256,24 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
         times["C"] = seconds
         path = cache.store(key, lib_name, data, use_cache)
     try:
-        return native.load(path, shapes, len(meta.param_names))
+        return native.load(path, shapes, slot_count(meta))
     except OSError as err:
         raise CompilerError(f"the C library {path} cannot be loaded ({err}); remove it to "
                             "rebuild it, or choose the numba or python back end") from None
+
+
+def slot_count(meta: ModelMeta) -> int:
+    """The length of the parameter vector of a compiled model's functions: its parameters and
+    two slots per input (:func:`.codegen.input_slots`)."""
+    return len(meta.param_names) + 2 * len(meta.input_names)
+
+
+def extra_functions(meta: ModelMeta) -> list[str]:
+    """The generated functions beyond the standard ones (``jac_u``, ``out_jac``, ``jac_p``,
+    the pH form's), by name, from a compiled model's metadata."""
+    standard = {"rhs", "jac", "energy", "outputs", "guards", "initial"}
+    return [name for name in meta.shapes if name not in standard
+            and not name.startswith("matrix_")]
 
 
 def _autonomous(sym: SymbolicModel) -> bool:

@@ -184,17 +184,20 @@ def _base(persistent: bool) -> Path:
 
 
 # --- the key ---------------------------------------------------------------------------------------
-def model_key(model: Model | ModelDescription) -> str:
+def model_key(model: Model | ModelDescription, options: dict | None = None) -> str:
     """A hash of everything that determines the generated code: the model's canonical
     description (:meth:`~porthamiltonian.modeling.model.ModelDescription.canonical`), the source of every
     package module the model's component classes depend on (their modules and, transitively, the
-    package modules those import), the compiler and back-end sources, and the versions of sympy
-    and of the code generator."""
+    package modules those import), the compiler and back-end sources, the versions of sympy
+    and of the code generator, and the compiler's ``options`` (JSON-able; e.g. the parameters
+    of a generated ``jac_p``), when given."""
     description = model.freeze() if isinstance(model, Model) else model
     modules = {type(c).__module__ for c in description.components.values()}
-    blob = json.dumps({"model": description.canonical(),
-                       "classes": _sources_hash(frozenset(modules)),
-                       "sympy": sympy.__version__, "codegen": CODEGEN_VERSION}, sort_keys=True)
+    content = {"model": description.canonical(), "classes": _sources_hash(frozenset(modules)),
+               "sympy": sympy.__version__, "codegen": CODEGEN_VERSION}
+    if options:
+        content["options"] = options
+    blob = json.dumps(content, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 

@@ -14,6 +14,19 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 ``guards(t, x, p)``   the model's event guards
 ``initial(p)``        the initial model states (n) from the parameters
 ``matrix_<k>(t, x, p)`` the named matrices (e.g. mass matrices), in the order of the metadata
+``jac_u(t, x, p)``    ∂ẋ/∂u by the model's inputs, (n + 2) x m (models with inputs)
+``out_jac(t, x, p)``  ∂y/∂[x, u] of the declared outputs y by the model states and inputs
+``jac_p(t, x, p)``    ∂ẋ/∂p by the parameters asked for (``program(model, jac_p=[...])``)
+``update_<j>(t, x, p)`` the new discrete states of discrete-time block j at a sampling instant
+
+The parameter vector ``p`` holds the parameters, then two slots per input (:func:`input_slots`):
+input k of m is ``u_k(t) = p[P + k] + p[P + m + k] t``, so that the compiled functions and loops
+see a bound input (a constant, a held sample, a piece of a linear interpolation) as parameters.
+
+Every Jacobian comes from one algorithm, :func:`jacobian_function`: the derivatives of any
+expressions of the model by any of its symbols (states, inputs, parameters), exact, through the
+intermediates by the forward chain rule and through the implicit blocks by implicit
+differentiation. A new derivative (e.g. ∂ẋ/∂p for parameter sensitivities) is one call of it.
 
 Implicit blocks ``A(t, x, p) v = b(t, x, p)`` (e.g. M(q) q̇ = p of a multibody) are solved
 numerically at the top of every function that needs ``v``; in the Jacobian, v's derivative is
@@ -34,7 +47,7 @@ from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
 
 #: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "6"
+CODEGEN_VERSION = "7"
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -161,7 +174,7 @@ def _names(exprs) -> set[str]:
     return {str(s) for e in exprs for s in e.free_symbols}
 
 
-class _Builder:
+class FunctionBuilder:
     """Builds the functions. The intermediates and block solves (the prologue) are cse'd once and
     shared; each function cse's its own results, then takes in dependency order only the prologue
     nodes it needs, then its result."""
@@ -261,7 +274,7 @@ class _Builder:
 
 
 def _expressions(group: tuple) -> list:
-    """The expressions of a group of :meth:`_Builder.function`, in the order of its statements."""
+    """The expressions of a group of :meth:`FunctionBuilder.function`, in the order of its statements."""
     if group[0] == "statement":
         return []
     if group[0] == "array":
@@ -312,22 +325,44 @@ def _listing(title: str, names: list[str]) -> list[str]:
     return [title] + [f"  [{i}] {name}" for i, name in enumerate(names)]
 
 
-def program(model: SymbolicModel) -> Program:
-    """The model's numeric functions as one intermediate program (see the module docstring)."""
+def symbol_map(model: SymbolicModel) -> dict[sp.Symbol, sp.Expr]:
+    """The model's symbols as generated code names them: states and ledger states ``x[i]``,
+    parameters ``p[j]``, input k ``p[P + k] + p[P + m + k]·t`` (:func:`input_slots`), time
+    ``t``, intermediates ``w<i>`` and the implicit blocks' unknowns ``v<i>``."""
     x = sp.IndexedBase("x")
     p = sp.IndexedBase("p")
     all_states = [*model.states, *model.ledger_states]
     mapping: dict[sp.Symbol, sp.Expr] = {s: x[i] for i, s in enumerate(all_states)}
     mapping.update({s: p[j] for j, s in enumerate(model.params)})
     mapping[TIME] = sp.Symbol("t")
+    n_par, n_in = len(model.params), len(model.inputs)
+    mapping.update({u: p[n_par + k] + p[n_par + n_in + k] * mapping[TIME]
+                    for k, u in enumerate(model.inputs)})
     ws = [w for w, _ in model.intermediates]
     vs = [s for syms, _, _ in model.blocks for s in syms]
     mapping.update({w: sp.Symbol(f"w{i}") for i, w in enumerate(ws)})
     mapping.update({v: sp.Symbol(f"v{i}") for i, v in enumerate(vs)})
-    builder = _Builder(mapping, model)
+    return mapping
+
+
+def input_slots(names: list[str]) -> list[str]:
+    """The names of the parameter-vector slots of the inputs ``names``: input k of m reads
+    u_k(t) = p[P + k] + p[P + m + k] · t (P parameters before them), so that a constant, a
+    held sample or one piece of a linear interpolation is bound by setting two numbers
+    (:mod:`porthamiltonian.simulation.inputs`)."""
+    return [f"{n} (input, at t = 0)" for n in names] + [f"{n} (input, rate)" for n in names]
+
+
+def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
+    """The model's numeric functions as one intermediate program (see the module docstring).
+
+    ``jac_p``: parameter names whose Jacobian ``jac_p`` (∂ẋ/∂p over those parameters, in that
+    order) is generated too, by the chain rule of ``jac``."""
+    all_states = [*model.states, *model.ledger_states]
+    builder = FunctionBuilder(symbol_map(model), model)
     n = len(all_states)
     state_names = [str(s) for s in all_states]
-    param_names = [str(s) for s in model.params]
+    param_names = [str(s) for s in model.params] + input_slots(model.input_names)
     args_doc = (_listing(f"x: the state ({n}):", state_names)
                 + _listing(f"p: the parameters ({len(param_names)}):", param_names))
     outputs = list(model.outputs)
@@ -344,7 +379,7 @@ def program(model: SymbolicModel) -> Program:
     functions = [
         builder.function("rhs", doc(f"dx/dt of model {model.name!r}: out[i] = d(x[i])/dt.", []),
                          [("array", "out", model.rhs, (n,))], (n,)),
-        _jacobian_function(builder, model, all_states, ws, vs, doc(
+        jacobian_function(builder, model, "jac", model.rhs, all_states, doc(
             f"The Jacobian of rhs of model {model.name!r}: out[i, j] = d(rhs[i])/d(x[j]), "
             f"{n} x {n}, row-major.", [])),
         builder.function("energy", doc(f"The energy ledger's rates of model {model.name!r}.",
@@ -368,10 +403,53 @@ def program(model: SymbolicModel) -> Program:
             f"matrix_{k}", doc(f"The matrix {name!r} of model {model.name!r}, "
                                f"{matrix.shape[0]} x {matrix.shape[1]}, row-major.", []),
             [("array", "out", list(matrix), matrix.shape)], tuple(matrix.shape)))
+    functions += _derivative_functions(builder, model, jac_p or [], doc)
     header = (f"Generated by porthamiltonian for model {model.name!r}. Do not edit.",
               *_listing("State layout x:", state_names),
               *_listing("Parameter layout p:", param_names))
     return Program(model.name, header, tuple(functions), n, len(param_names), n_guards, n_out)
+
+
+def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p: list[str],
+                          doc) -> list[Function]:
+    """The exact Jacobians beside ``jac``, each by :func:`jacobian_function`: ``jac_u``
+    (∂ẋ/∂u, when the model has inputs), ``out_jac`` (∂y/∂[x, u] of the declared outputs y,
+    when it declares some) and ``jac_p`` (∂ẋ/∂p over the parameters ``jac_p``)."""
+    out: list[Function] = []
+    n = len(model.rhs)
+    states = list(model.states)
+    if model.inputs:
+        out.append(jacobian_function(builder, model, "jac_u", model.rhs, model.inputs, doc(
+            f"The Jacobian of rhs of model {model.name!r} by its inputs: out[i, k] = "
+            f"d(rhs[i])/d(u[k]), {n} x {len(model.inputs)}, row-major.",
+            _listing("inputs u:", model.input_names))))
+    if model.declared_outputs:
+        ys = [model.outputs[name] for name in model.declared_outputs]
+        out.append(jacobian_function(builder, model, "out_jac", ys, states + model.inputs, doc(
+            f"The Jacobian of the declared outputs y of model {model.name!r} by the model "
+            f"states and the inputs: out[i, j] = d(y[i])/d([x, u][j]), {len(ys)} x "
+            f"{len(states) + len(model.inputs)}, row-major.",
+            _listing("outputs y:", model.declared_outputs))))
+    for j, (component, _, states_j, values) in enumerate(model.discrete):
+        out.append(builder.function(f"update_{j}", doc(
+            f"The sampling of the discrete-time block {component!r} of model {model.name!r}: "
+            "the new values of its discrete states from the state just before the instant.",
+            _listing(f"out ({len(values)}):", [str(s) for s in states_j])),
+            [("array", "out", values, (len(values),))], (len(values),)))
+    if jac_p:
+        index = {str(s): s for s in model.params}
+        unknown = [name for name in jac_p if name not in index]
+        if unknown:
+            from ..errors import UnknownParameterError
+            raise UnknownParameterError(
+                f"model {model.name!r} has no parameter(s) {', '.join(unknown)} for jac_p; "
+                f"parameters: {', '.join(index) or 'none'}")
+        out.append(jacobian_function(builder, model, "jac_p", model.rhs,
+                                     [index[name] for name in jac_p], doc(
+            f"The Jacobian of rhs of model {model.name!r} by parameters: out[i, k] = "
+            f"d(rhs[i])/d(p[k]), {n} x {len(jac_p)}, row-major.",
+            _listing("parameters:", list(jac_p)))))
+    return out
 
 
 def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
@@ -387,7 +465,7 @@ def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
 
 class _Columns:
     """Which columns (states) each row of the Jacobian's work arrays can be nonzero in, followed
-    through the statements of :func:`_jacobian_function` in their order (bit j: column j)."""
+    through the statements of :func:`jacobian_function` in their order (bit j: column j)."""
 
     def __init__(self, rows: int):
         self.masks = [0] * rows
@@ -411,22 +489,28 @@ def _span(mask: int) -> tuple[int, int]:
     return ((mask & -mask).bit_length() - 1, mask.bit_length()) if mask else (0, 0)
 
 
-def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc) -> Function:
-    """∂ẋ/∂x through intermediates w and implicit blocks A v = b (A and b read states and
-    position-level intermediates only), with only the nonzero partials:
+def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str, exprs: list,
+                      variables: list[sp.Symbol], doc: list[str]) -> Function:
+    """The function ``name``: the exact Jacobian ∂exprs/∂variables, ``len(exprs)`` x
+    ``len(variables)``, of expressions of the model (its right-hand side, its outputs) by any of
+    its symbols — states, inputs, parameters — through intermediates w and implicit blocks
+    A v = b (A and b read states and position-level intermediates only), with only the nonzero
+    partials. One algorithm for ``jac`` (by the states), ``jac_u`` (by the inputs), ``out_jac``
+    and ``jac_p`` (by parameters): with z the variables,
 
-    Dw = ∂w/∂x; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows;
-    R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v (implicit
+    Dw = ∂w/∂z; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows;
+    R = A⁻¹ (∂r/∂z + ∂r/∂w · Dw) = ∂v/∂z with r = b − A v at fixed v (implicit
     differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
-    velocity-level rows; out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R. Each row operation is told the
-    columns its source row can be nonzero in (a position-level row: the coordinates it reads;
-    no row: the ledger quadratures).
+    velocity-level rows; out = ∂e/∂z + ∂e/∂w · Dw + ∂e/∂v · R. Each row operation is told the
+    columns its source row can be nonzero in (a position-level row: the variables it reads;
+    no row: e.g. the ledger quadratures).
     """
-    n, nw, nv = len(xs), len(ws), len(vs)
-    rhs = list(model.rhs)
+    ws = [w for w, _ in model.intermediates]
+    vs = [s for syms, _, _ in model.blocks for s in syms]
+    rows, ncols, nw, nv = len(exprs), len(variables), len(ws), len(vs)
     defs = [expr for _, expr in model.intermediates]
     npos = _position_level(model, vs)
-    groups: list[tuple] = [("entries", "out", jacobian(rhs, xs), (n, n))]
+    groups: list[tuple] = [("entries", "out", jacobian(exprs, variables), (rows, ncols))]
     chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
     npre = sum(1 for m, _, _ in chain if m < npos)
     dw, r = _Columns(nw), _Columns(nv)
@@ -436,19 +520,19 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
         for m, j, _ in chain[start:stop]:
             chain_ranges.append(_span(dw.masks[j]))
             dw.masks[m] |= dw.masks[j]
-        return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, n, "glo", "ghi"))] \
-            if stop > start else []
+        return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, ncols, "glo",
+                                        "ghi"))] if stop > start else []
 
     if nw:
-        entries = jacobian(defs, xs)
+        entries = jacobian(defs, variables)
         dw.set(entries)
-        groups.append(("entries", "Dw", entries, (nw, n)))
+        groups.append(("entries", "Dw", entries, (nw, ncols)))
         groups += chain_rule(0, npre)
     if nv:
         A = sp.diag(*[blk[1] for blk in model.blocks])
         b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
         res = list(b - A * sp.Matrix(vs))
-        entries, product = jacobian(res, xs), jacobian(res, ws)
+        entries, product = jacobian(res, variables), jacobian(res, ws)
         r.set(entries)
         dw_ranges = dw.ranges()
         dw.add(r, product)
@@ -457,24 +541,24 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
             union |= m
         r.masks = [union] * nv                  # the solve mixes the rows
         velocity = [(npos + i, j, e) for i, j, e in jacobian(defs[npos:], vs)]
-        groups += [("entries", "R", entries, (nv, n)),
+        groups += [("entries", "R", entries, (nv, ncols)),
                    ("array", "Ab", list(A), (nv, nv)),
-                   ("product", "R", product, (nv, nw), "Dw", n, dw_ranges),
-                   ("statement", SolveRows("Ab", "R", nv, n)),
-                   ("product", "Dw", velocity, (nw, nv), "R", n, r.ranges())]
+                   ("product", "R", product, (nv, nw), "Dw", ncols, dw_ranges),
+                   ("statement", SolveRows("Ab", "R", nv, ncols)),
+                   ("product", "Dw", velocity, (nw, nv), "R", ncols, r.ranges())]
         r.add(dw, velocity)
     groups += chain_rule(npre, len(chain))
-    groups += [("product", "out", jacobian(rhs, ws), (n, nw), "Dw", n, dw.ranges()),
-               ("product", "out", jacobian(rhs, vs), (n, nv), "R", n, r.ranges())]
+    groups += [("product", "out", jacobian(exprs, ws), (rows, nw), "Dw", ncols, dw.ranges()),
+               ("product", "out", jacobian(exprs, vs), (rows, nv), "R", ncols, r.ranges())]
     if chain:
         groups[1:1] = [("array", "g", [e for _, _, e in chain], (len(chain),)),
                        ("statement", IndexTable("gr", tuple(m for m, _, _ in chain))),
                        ("statement", IndexTable("gc", tuple(j for _, j, _ in chain))),
                        ("statement", IndexTable("glo", tuple(lo for lo, _ in chain_ranges))),
                        ("statement", IndexTable("ghi", tuple(hi for _, hi in chain_ranges)))]
-    return builder.function("jac", doc, groups, (n, n))
+    return builder.function(name, doc, groups, (rows, ncols))
 
 
 __all__ = ["CODEGEN_VERSION", "Array", "ChainRule", "Function", "IndexTable", "Let", "Program",
-           "Solve", "SolveRows", "SparseProduct", "Statement", "Store", "derivative", "jacobian",
-           "program"]
+           "Solve", "SolveRows", "SparseProduct", "Statement", "Store", "derivative",
+           "input_slots", "jacobian", "jacobian_function", "program", "symbol_map"]

@@ -616,7 +616,9 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         }
         /* accepted step t -> t + h */
         nsteps += 1;
-        const double t_new = t + h;
+        /* a step that ends within the smallest step size of t_end ends at t_end exactly (a
+         * breakpoint: a sampling instant, an input sample; else the remainder would fail) */
+        const double t_new = (t_end - (t + h) < 1e-14 * fmax(fabs(t_end), 1.0)) ? t_end : t + h;
         for (int r = 0; r < nd; ++r)
             for (int i = 0; i < N; ++i) {
                 double acc = 0.0;

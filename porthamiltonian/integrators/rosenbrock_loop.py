@@ -580,7 +580,9 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             break
         # accepted step t -> t + h
         nsteps += 1
-        t_new = t + h
+        # a step that ends within the smallest step size of t_end ends at t_end exactly (a
+        # breakpoint: a sampling instant, an input sample; else the remainder would fail)
+        t_new = t_end if t_end - (t + h) < 1e-14 * max(abs(t_end), 1.0) else t + h
         for r in range(TH.shape[0]):
             for i in range(n):
                 acc = 0.0

@@ -1,7 +1,9 @@
 """Command line ``porthamiltonian``: simulate, show, check-energy and sweep model files.
 
     porthamiltonian simulate MODEL [--set NAME=VALUE ...] [--t-end T] [--json] [--csv FILE]
-    porthamiltonian show MODEL [--code [--backend c|numba|python]]
+    porthamiltonian show MODEL [--code [--backend c|numba|python]] [--ph]
+    porthamiltonian linearize MODEL [--set NAME=VALUE ...] [--at NAME=VALUE ...] [--trim|--no-trim]
+                          [--json]
     porthamiltonian check-energy [MODEL ...]
     porthamiltonian view MODEL [--set NAME=VALUE ...] [--t-end T] [--out DIR] [--rate R]
     porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
@@ -40,7 +42,7 @@ from ..batch.table import write_csv
 from ..errors import ModelError
 from ..fmu import export_fmu
 from ..integrators import TABLEAUS
-from . import io
+from . import io, linearization
 from .sweeps import SimulationModel, prepare_simulation, simulate_case, simulation_settings
 
 
@@ -115,17 +117,18 @@ def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
                     "interrupted (rerun to resume).")
 
 
-def parse_assignments(pairs: Sequence[str]) -> dict[str, float]:
-    """``["k=9", "slope=0.01"]`` (the ``--set`` options) -> ``{"k": 9.0, "slope": 0.01}``."""
+def parse_assignments(pairs: Sequence[str], option: str = "--set") -> dict[str, float]:
+    """``["k=9", "slope=0.01"]`` (the ``--set`` options, or those of ``option``) ->
+    ``{"k": 9.0, "slope": 0.01}``."""
     out = {}
     for pair in pairs:
         name, sep, value = pair.partition("=")
         if not sep or not name.strip():
-            raise ModelError(f"--set takes NAME=VALUE, got {pair!r}")
+            raise ModelError(f"{option} takes NAME=VALUE, got {pair!r}")
         try:
             out[name.strip()] = float(value)
         except ValueError:
-            raise ModelError(f"--set {name}: {value!r} is not a number") from None
+            raise ModelError(f"{option} {name}: {value!r} is not a number") from None
     return out
 
 
@@ -280,6 +283,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     """``porthamiltonian show``: components, bonds, parameters and the state equations (with
     ``--code``: the generated source of the chosen back end)."""
     from ..compiler import compile_model, symbolic
+    from ..compiler.phform import ph_text
 
     record = io.read(args.model)
     model = record.model
@@ -292,6 +296,9 @@ def cmd_show(args: argparse.Namespace) -> int:
     with record.located():
         flat = model.validate()
         sym = symbolic(flat)
+        if args.ph:
+            print(ph_text(sym.ph_form()), end="")
+            return 0
     print(f"model {model.name}: {record.description}")
     print("components:")
     for name, comp in flat.components.items():
@@ -312,6 +319,13 @@ def cmd_show(args: argparse.Namespace) -> int:
     print(f"P_diss = {sym.p_diss}")
     print(f"P_in   = {sym.p_in}")
     return 0
+
+
+def cmd_linearize(args: argparse.Namespace) -> int:
+    """``porthamiltonian linearize``: A, B, C, D and eigenvalues at the operating point
+    (:mod:`porthamiltonian.interfaces.linearization`)."""
+    return linearization.run_linearize(args, parse_assignments(args.at, "--at"),
+                                       parse_assignments(args.set))
 
 
 def cmd_check_energy(args: argparse.Namespace) -> int:
@@ -397,7 +411,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--code", action="store_true",
                    help="print the generated source the back end compiles (--backend: c, "
                         "numba or python; default auto, the back end in use)")
+    p.add_argument("--ph", action="store_true",
+                   help="print the explicit port-Hamiltonian form: J, R, the dissipators' "
+                        "z(w) and the ports' u")
     p.set_defaults(func=cmd_show)
+    p = linearization.add_linearize_parser(sub, [BACKEND_OPTION, SET_OPTION, JSON_OPTION],
+                                           model_help)
+    p.set_defaults(func=cmd_linearize)
     p = sub.add_parser("check-energy", parents=[BACKEND_OPTION],
                        help="simulate models and check their energy residual")
     p.add_argument("models", nargs="*", metavar="MODEL",

@@ -33,8 +33,16 @@ docs/model-files.md)::
     [outputs]
     position = "spring.q"
 
+    [inputs]                    # signals bound at run time (docs/control.md)
+    F = { unit = "N", doc = "applied force" }      # bind = "pid.y": bound in the model
+
     [simulation]                # defaults for the command line and check-energy
     t_end = 10.0; method = "Radau"; rtol = 1e-9; atol = 1e-12; energy_tolerance = 1e-6
+    inputs = { F = 0.0 }        # constant inputs of those runs
+
+    [linearize]                 # the operating point of `porthamiltonian linearize`
+    trim = true                 # an equilibrium found from the states below (false: as given)
+    states = { "arm.q.pivot" = 3.14159 }; inputs = { F = 0.0 }; free_inputs = []
 
 Loading by name looks in ``$PORTHAMILTONIAN_MODELS`` (if set), then in the ``models/`` folder of the
 source tree. Every problem of a file is reported at once, in one
@@ -72,8 +80,8 @@ from ..simulation.options import check_rtol
 #: (``Model.sections``, written back on save): the walker library's ``[walker]`` table
 PASSED_THROUGH = ("walker",)
 #: a model's own tables (a sub-model has these)
-_MODEL_TABLES = {"bonds", "model", "parameters", "components", "events", "outputs"}
-_CORE_SECTIONS = _MODEL_TABLES | {"simulation"}
+_MODEL_TABLES = {"bonds", "model", "parameters", "components", "events", "outputs", "inputs"}
+_CORE_SECTIONS = _MODEL_TABLES | {"simulation", "linearize"}
 _SECTIONS = _CORE_SECTIONS | set(PASSED_THROUGH)
 #: the ``type`` of a sub-model's table
 SUB_MODEL = "model"
@@ -273,6 +281,8 @@ class ModelFile:
         walker library's ``[walker]``), kept on save.
     frozen : the model's frozen description as the reader checked it (None for a model file
         built in Python): what later stages compile, without freezing the model again.
+    linearize : the ``[linearize]`` operating point (``states``, ``inputs``, ``trim``,
+        ``free_inputs``, ``t``) of ``porthamiltonian linearize``.
     """
 
     model: Model
@@ -283,6 +293,7 @@ class ModelFile:
     meta: Mapping[str, Any] = field(default_factory=dict)
     sections: Mapping[str, Any] = field(default_factory=dict)
     frozen: ModelDescription | None = field(default=None, repr=False, compare=False)
+    linearize: Mapping[str, Any] = field(default_factory=dict)
 
     def line(self, path: Sequence[str | int]) -> int | None:
         """The line of the key path ``path`` (or of its longest known prefix) in the text."""
@@ -443,10 +454,11 @@ def file_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = "")
     for problem in frozen.problems(missing=r.missing if r else None):
         r.add(str(problem), *problem.path, kind=problem)
     simulation = _read_simulation(data, r)
+    linearize = _read_linearize(data, r)
     if r:
         raise r.error()
     return ModelFile(model, source, text, description, simulation, meta,
-                     {k: data[k] for k in PASSED_THROUGH if k in data}, frozen)
+                     {k: data[k] for k in PASSED_THROUGH if k in data}, frozen, linearize)
 
 
 def _read_head(data: dict[str, Any], source: str, r: _Reader) -> tuple[str, str, dict[str, Any]]:
@@ -477,6 +489,7 @@ def _read_model(name: str, data: dict[str, Any], r: _Reader, at: tuple) -> Model
     model = Model(name)
     prefix = "".join(f"{part}." for part in at[1::3])     # the sub-model's flattened prefix
     r.missing |= {prefix + n for n in _read_parameters(model, data.get("parameters", {}), r, at)}
+    r.missing |= {prefix + n for n in _read_inputs(model, data.get("inputs", {}), r, at)}
     failed = _read_components(model, data.get("components", {}), r, at)
     r.missing |= {prefix + n for n in failed}
     _read_bonds(model, data.get("bonds", []), failed, r, at)
@@ -522,6 +535,37 @@ def _read_parameters(model: Model, params: Any, r: _Reader, at: tuple) -> set[st
             failed.discard(name)
         except ModelError as err:
             r.add(str(err), *where, kind=err)
+    return failed
+
+
+_INPUT_KEYS = ("unit", "doc", "bind")
+
+
+def _read_inputs(model: Model, inputs: Any, r: _Reader, at: tuple) -> set[str]:
+    """``[inputs]``: ``name = { unit, doc, bind }`` (each key optional); the names of those
+    that could not be read."""
+    if not isinstance(inputs, dict):
+        r.add(f"[inputs] must be a table of name = {{ unit = \"...\", doc = \"...\" }}, got "
+              f"{_type_name(inputs)}", *at, "inputs")
+        return set()
+    failed = set()
+    for name, spec in inputs.items():
+        where = (*at, "inputs", name)
+        extra = sorted(set(spec) - set(_INPUT_KEYS)) if isinstance(spec, dict) else []
+        bad = next((k for k in ("unit", "doc", "bind") if isinstance(spec, dict) and k in spec
+                    and not isinstance(spec[k], str)), None)
+        if not isinstance(spec, dict) or extra or bad:
+            what = (f"unknown key {extra[0]!r}{_suggest(extra[0], _INPUT_KEYS)}" if extra else
+                    f"{bad} must be a string" if bad else f"got {_type_name(spec)}")
+            r.add(f"input {name!r}: {what}; write {name} = {{ unit = \"...\", doc = \"...\" }} "
+                  "(bind = \"expression\" binds it in the model)", *where)
+            failed.add(name)
+            continue
+        try:
+            model.input(name, spec.get("unit", ""), spec.get("doc", ""), spec.get("bind"))
+        except ModelError as err:
+            r.add(str(err), *where, kind=err)
+            failed.add(name)
     return failed
 
 
@@ -710,7 +754,8 @@ def _read_outputs(model: Model, outputs: Any, r: _Reader, at: tuple) -> None:
 
 
 _SIM_TYPES = {"t_end": "number", "rtol": "number", "atol": "number", "max_step": "number",
-              "energy_tolerance": "number", "method": "string", "initial": "table"}
+              "energy_tolerance": "number", "method": "string", "initial": "table",
+              "inputs": "table"}
 
 
 def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
@@ -740,6 +785,36 @@ def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
             except OptionError as err:
                 r.add(f"[simulation] {err}", "simulation", key)
     return dict(sim)
+
+
+_LINEARIZE_KEYS = {"states": "a table of state = number", "inputs": "a table of input = number",
+                   "trim": "true or false", "free_inputs": "an array of input names",
+                   "t": "a number"}
+
+
+def _read_linearize(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
+    """``[linearize]``: the operating point of ``porthamiltonian linearize`` (keys checked for
+    their types; names are checked against the compiled model when it is linearized)."""
+    table = data.get("linearize", {})
+    if not isinstance(table, dict):
+        r.add(f"[linearize] must be a table, got {_type_name(table)}", "linearize")
+        return {}
+    for key, value in table.items():
+        if key not in _LINEARIZE_KEYS:
+            r.add(f"[linearize] has no key {key!r}{_suggest(key, _LINEARIZE_KEYS)}; it takes "
+                  f"{', '.join(sorted(_LINEARIZE_KEYS))}", "linearize", key)
+            continue
+        ok = {"states": lambda v: isinstance(v, dict) and all(
+                  _is_number(x) and math.isfinite(x) for x in v.values()),
+              "inputs": lambda v: isinstance(v, dict) and all(
+                  _is_number(x) and math.isfinite(x) for x in v.values()),
+              "trim": lambda v: isinstance(v, bool),
+              "free_inputs": lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
+              "t": lambda v: _is_number(v) and math.isfinite(v)}[key](value)
+        if not ok:
+            r.add(f"[linearize] {key} must be {_LINEARIZE_KEYS[key]}, got {_type_name(value)} "
+                  f"{value!r}", "linearize", key)
+    return dict(table)
 
 
 def _is_number(value: Any) -> bool:
@@ -809,8 +884,14 @@ def model_to_dict(model: Model | ModelFile) -> dict[str, Any]:
                            "terminal": e.terminal} for e in model.events]
     if model.outputs:
         data["outputs"] = dict(model.outputs)
+    if model.inputs:
+        data["inputs"] = {n: {k: v for k, v in (("unit", i.unit), ("doc", i.doc),
+                                                ("bind", i.bind)) if v}
+                          for n, i in model.inputs.items()}
     if record.simulation:
         data["simulation"] = dict(record.simulation)
+    if record.linearize:
+        data["linearize"] = dict(record.linearize)
     data.update(record.sections)
     return data
 

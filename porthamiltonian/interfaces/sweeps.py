@@ -70,14 +70,17 @@ class SimulationModel:
     def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
                  dense_output: bool = False) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
-        method, rtol, atol and max_step (with ``dense_output``, a file's compiled method,
-        Rodas4, Rodas5P or QBDF, becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
+        method, rtol, atol, max_step and constant ``inputs`` (with ``dense_output``, a file's
+        compiled method, Rodas4, Rodas5P or QBDF, becomes "auto": Radau); a
+        :class:`~porthamiltonian.errors.ModelError` when no end is known."""
         t_end = self.t_end(t_end)
         sim = self.settings
         options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
         method = sim["method"]
         if dense_output and method in COMPILED_METHODS:
             method = "auto"              # the compiled loop has no dense output: Radau instead
+        if self.compiled.input_names:
+            options["inputs"] = sim.get("inputs")     # the file's constant inputs
         return self.compiled.simulate(t_end, params=params, method=method, rtol=sim["rtol"],
                                       atol=sim["atol"], dense_output=dense_output, **options)
 

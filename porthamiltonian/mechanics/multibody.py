@@ -61,7 +61,10 @@ When the bond points into the multibody, the effort is the force applied to it; 
 out, the effort is the force the multibody exerts on the element (so an element can be connected
 directly: ``connect("walker.foot", "contact.p")``).
 
-Outputs: ``<name>.<point>.x|y|z`` (world position of each point and world frame, m), ``<name>.T`` and
+Outputs: ``<name>.v.<velocity>`` (each velocity v = ∂H/∂p, rad/s or m/s; its rate, the
+acceleration ``<name>.a.<velocity>`` of a revolute, prismatic, translational or universal joint,
+is evaluated exactly by the compiled model: ``CompiledModel.accelerations``, ``traj[...]``),
+``<name>.<point>.x|y|z`` (world position of each point and world frame, m), ``<name>.T`` and
 ``<name>.V`` (kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion
 joint), and each body's pose (for :mod:`porthamiltonian.interfaces.viewer`): ``<name>.<body>.pose.x|y|z``
 (the origin of its frame, world coordinates, m) and ``<name>.<body>.pose.qw|qx|qy|qz`` (the unit
@@ -87,6 +90,7 @@ from ..modeling.ports import Port
 from .bodies import as_tables, expression_fields
 from .joints import Joint, joint, quaternion_slice, units
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
+from .poisson import poisson_rates
 from .tree import COORDINATES, DOFS, Link, Tree
 
 
@@ -312,10 +316,17 @@ class Multibody(Component):
         tree.world()
         tree.composites()
         M = tree.mass_matrix()
-        v = b.implicit("v", M, sp.Matrix(p))
+        if b.ph is None:
+            v = b.implicit("v", M, sp.Matrix(p))
+        else:                       # the pH form's cut build: v = ∂H/∂p (mechanics/poisson.py)
+            v = [b.ph.eta(pk) for pk in p]
         tree.velocities(v)
         tree.gravity(g)
-        Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces())]
+        if b.ph is None:
+            Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces())]
+        else:
+            Q = poisson_rates(specs, joints, tree.coordinate_rates(q, v, 0), q, p,
+                              [b.ph.eta(qk) for qk in q], v, f"Multibody {b.name!r}")
         first = list(static_first)                  # Σ m c over all bodies, world frame
         for root in (link for link in links if link.parent is None):
             P = tree.pos[root]
@@ -408,11 +419,14 @@ class Multibody(Component):
             for k, e, f in zip(indices, efforts, flows):
                 b.equation(f, v[k], "joint velocity")
                 Q[k] = Q[k] + s * e
-        rates = tree.coordinate_rates(q, v, quaternion_gain)
+        rates = tree.coordinate_rates(q, v, quaternion_gain if b.ph is None else 0)
         for k in range(len(q)):
             b.equation(b.der(q[k]), rates[k], "dq/dt from the joint velocities, M(q) v = p")
         for k in range(n):
             b.equation(b.der(p[k]), Q[k], "dp/dt = Π'ad_T S - dV/dq + Q")
+        rate_units = {"N*m*s": "rad/s", "N*s": "m/s"}
+        for label, unit, vk in zip(velocities, p_units, v):
+            b.output(f"v.{label}", vk, rate_units.get(unit, ""))
         kinetic = (sp.Matrix(p).T * sp.Matrix(v))[0, 0] / 2
         b.energy(kinetic + potential)
         b.output("T", kinetic, "J")

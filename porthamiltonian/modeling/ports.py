@@ -72,6 +72,8 @@ DOMAINS: dict[str, Domain] = {
         Domain("thermal", "temperature", "entropy flow", "K", "W/K"),
         Domain("screw", "wrench (torque, force)", "twist (angular, linear velocity)",
                "N*m | N", "rad/s | m/s"),
+        Domain("stiffness", "z^2/2 (dH/dK of a spring's energy K z^2/2)",
+               "stiffness rate dK/dt", "m^2", "N/(m*s)"),
     )
 }
 

@@ -8,7 +8,7 @@ and every named matrix. The recursive formulation must give the same numbers to 
 |new − old| ≤ 1e-12 · max(|old|, 0.1 · scale) entry by entry, where scale is the largest
 |entry| of the same vector (of the same row of a matrix), so that entries that cancel to nearly
 zero are compared on their vector's scale. The bodies' pose outputs, added later, are checked in
-test_multibody_poses.py. The thesis walkers, whose friction has since moved to the rolling contact
+test_multibody_poses.py; the velocity outputs, added later too, against the joints' port flows. The thesis walkers, whose friction has since moved to the rolling contact
 point, are compared with the friction put back at the sole point (:func:`sole_friction`; for
 compass_walker and compliant_leg_walker the result is their *_sole_friction files' model).
 """
@@ -131,9 +131,14 @@ def test_same_numbers_as_the_entrywise_formulation(built, name):
         close(f.jac(0.0, y, pn), entry["jac"], f"{name} jac #{k}")
         close(f.energy(0.0, y, pn), entry["energy"], f"{name} energy #{k}")
         outputs = dict(zip(model.output_names, np.asarray(f.outputs(0.0, y, pn), float)))
-        added = set(outputs) - set(entry["outputs"])        # the bodies' poses came later
-        assert set(entry["outputs"]) <= set(outputs), f"{name}: outputs lost"
-        assert all(re.search(r"\.pose\.(x|y|z|qw|qx|qy|qz)$", n) for n in added), added
+        added = set(outputs) - set(entry["outputs"])        # the bodies' poses came later,
+        assert set(entry["outputs"]) <= set(outputs), f"{name}: outputs lost"   # the velocities too
+        assert all(re.search(r"\.pose\.(x|y|z|qw|qx|qy|qz)$", n) or ".v." in n for n in added), \
+            added
+        for n in added:             # a one-coordinate joint's velocity is its port's flow
+            mb, _, joint = n.partition(".v.")
+            if f"{mb}.{joint}.f" in outputs:
+                assert outputs[n] == outputs[f"{mb}.{joint}.f"], n
         outputs = {n: v for n, v in outputs.items() if n in entry["outputs"]}
         names = sorted(outputs)
         close([outputs[n] for n in names], [entry["outputs"][n] for n in names],
