@@ -38,13 +38,17 @@ documentation lists the order of its arguments' and its result's entries by name
 """
 from __future__ import annotations
 
+import bisect
 import graphlib
 from dataclasses import dataclass
 
 import sympy as sp
 
+from ..errors import CompilerError
+from ..modeling.differentiation import derivative
 from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
+from .structure import stages
 
 #: Bumped whenever generated code changes meaning; part of the cache key.
 CODEGEN_VERSION = "7"
@@ -282,28 +286,6 @@ def _expressions(group: tuple) -> list:
     return [e for _, _, e in group[2]]
 
 
-def derivative(expr: sp.Expr, v: sp.Symbol) -> sp.Expr:
-    """∂expr/∂v: sums, products and numeric powers by hand (the bulk of generated expressions,
-    about ten times faster than sympy's general ``diff``), anything else by ``sympy.diff``."""
-    if expr == v:
-        return sp.S.One
-    if v not in expr.free_symbols:
-        return sp.S.Zero
-    if expr.is_Add:
-        return sp.Add(*[derivative(a, v) for a in expr.args if v in a.free_symbols])
-    if expr.is_Mul:
-        args, terms = expr.args, []
-        for i, a in enumerate(args):
-            if v in a.free_symbols:
-                d = derivative(a, v)
-                if d != 0:
-                    terms.append(sp.Mul(*args[:i], d, *args[i + 1:]))
-        return sp.Add(*terms)
-    if expr.is_Pow and expr.exp.is_Number:
-        return expr.exp * expr.base ** (expr.exp - 1) * derivative(expr.base, v)
-    return sp.diff(expr, v)
-
-
 def jacobian(exprs: list, variables: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]]:
     """The nonzero entries (i, j, ∂exprs[i]/∂variables[j]), row by row and in column order
     within a row, each expression differentiated only by the variables it contains."""
@@ -452,15 +434,23 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
     return out
 
 
-def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
-    """How many leading intermediates read no block unknown: the compiler orders those of
-    states, parameters and time first, then those that also read the unknowns (directly or
-    through others), so the first of the latter reads an unknown directly."""
-    reads_v = set(vs)
-    for k, (_, expr) in enumerate(model.intermediates):
-        if expr.free_symbols & reads_v:
-            return k
-    return len(model.intermediates)
+def _stage_layout(model: SymbolicModel) -> tuple[list[int], list[int]]:
+    """The stage of each implicit block and the end of each stage's run of intermediates
+    (:func:`.structure.stages`; the compiler orders the intermediates by stage): ``ends[s]`` is
+    one past the last intermediate of stage s, for s = 0 .. the highest block stage."""
+    defs = dict(model.intermediates)
+    _, stage, block_stages = stages(defs, model.blocks)
+    top = max(block_stages, default=0)
+    ends, s = [], 0
+    for k, (w, _) in enumerate(model.intermediates):
+        if stage[w] < s:
+            raise CompilerError(f"model {model.name!r}: intermediate {w} (stage {stage[w]}) comes "
+                                f"after intermediates of stage {s}")
+        while stage[w] > s:
+            ends.append(k)
+            s += 1
+    ends += [len(model.intermediates)] * (top + 1 - len(ends))
+    return block_stages, ends
 
 
 class _Columns:
@@ -494,26 +484,27 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
     """The function ``name``: the exact Jacobian ∂exprs/∂variables, ``len(exprs)`` x
     ``len(variables)``, of expressions of the model (its right-hand side, its outputs) by any of
     its symbols — states, inputs, parameters — through intermediates w and implicit blocks
-    A v = b (A and b read states and position-level intermediates only), with only the nonzero
-    partials. One algorithm for ``jac`` (by the states), ``jac_u`` (by the inputs), ``out_jac``
-    and ``jac_p`` (by parameters): with z the variables,
+    A v = b, with only the nonzero partials. One algorithm for ``jac`` (by the states), ``jac_u``
+    (by the inputs), ``out_jac`` and ``jac_p`` (by parameters): with z the variables,
 
     Dw = ∂w/∂z; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows;
-    R = A⁻¹ (∂r/∂z + ∂r/∂w · Dw) = ∂v/∂z with r = b − A v at fixed v (implicit
-    differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
-    velocity-level rows; out = ∂e/∂z + ∂e/∂w · Dw + ∂e/∂v · R. Each row operation is told the
-    columns its source row can be nonzero in (a position-level row: the variables it reads;
-    no row: e.g. the ledger quadratures).
+    then stage by stage (:func:`_stage_layout`: the blocks of stage s read intermediates and
+    unknowns of the stages below): R_s = A_s⁻¹ (∂r_s/∂z + ∂r_s/∂w · Dw + Σ_{t<s} ∂r_s/∂v_t · R_t)
+    = ∂v_s/∂z with r_s = b_s − A_s v_s at fixed v_s (implicit differentiation); Dw[stage-s
+    rows] += ∂w/∂v_t · R_t (t <= s); the chain rule over the stage-s rows; finally
+    out = ∂e/∂z + ∂e/∂w · Dw + Σ_s ∂e/∂v_s · R_s. Each row operation is told the columns its
+    source row can be nonzero in (a position-level row: the variables it reads; no row: e.g.
+    the ledger quadratures). A model whose blocks are all of stage 1 (a multibody's M(q) v = p)
+    has one R; closed kinematic loops add a stage-2 block (their accelerations and multipliers).
     """
     ws = [w for w, _ in model.intermediates]
-    vs = [s for syms, _, _ in model.blocks for s in syms]
-    rows, ncols, nw, nv = len(exprs), len(variables), len(ws), len(vs)
+    rows, ncols, nw = len(exprs), len(variables), len(ws)
     defs = [expr for _, expr in model.intermediates]
-    npos = _position_level(model, vs)
+    block_stages, ends = _stage_layout(model)
     groups: list[tuple] = [("entries", "out", jacobian(exprs, variables), (rows, ncols))]
     chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
-    npre = sum(1 for m, _, _ in chain if m < npos)
-    dw, r = _Columns(nw), _Columns(nv)
+    chain_rows = [m for m, _, _ in chain]
+    dw = _Columns(nw)
     chain_ranges: list[tuple[int, int]] = []
 
     def chain_rule(start: int, stop: int) -> list[tuple]:
@@ -523,33 +514,60 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
         return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, ncols, "glo",
                                         "ghi"))] if stop > start else []
 
+    cursor = 0
+
+    def rows_upto(end: int) -> list[tuple]:
+        nonlocal cursor
+        stop = bisect.bisect_left(chain_rows, end)
+        out, cursor = chain_rule(cursor, stop), stop
+        return out
+
     if nw:
         entries = jacobian(defs, variables)
         dw.set(entries)
         groups.append(("entries", "Dw", entries, (nw, ncols)))
-        groups += chain_rule(0, npre)
-    if nv:
-        A = sp.diag(*[blk[1] for blk in model.blocks])
-        b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
-        res = list(b - A * sp.Matrix(vs))
-        entries, product = jacobian(res, variables), jacobian(res, ws)
-        r.set(entries)
-        dw_ranges = dw.ranges()
-        dw.add(r, product)
-        union = 0
-        for m in r.masks:
-            union |= m
-        r.masks = [union] * nv                  # the solve mixes the rows
-        velocity = [(npos + i, j, e) for i, j, e in jacobian(defs[npos:], vs)]
-        groups += [("entries", "R", entries, (nv, ncols)),
-                   ("array", "Ab", list(A), (nv, nv)),
-                   ("product", "R", product, (nv, nw), "Dw", ncols, dw_ranges),
-                   ("statement", SolveRows("Ab", "R", nv, ncols)),
-                   ("product", "Dw", velocity, (nw, nv), "R", ncols, r.ranges())]
-        r.add(dw, velocity)
-    groups += chain_rule(npre, len(chain))
-    groups += [("product", "out", jacobian(exprs, ws), (rows, nw), "Dw", ncols, dw.ranges()),
-               ("product", "out", jacobian(exprs, vs), (rows, nv), "R", ncols, r.ranges())]
+        groups += rows_upto(ends[0])
+    solved: list[tuple[str, list[sp.Symbol], _Columns]] = []     # (array, unknowns, columns)
+    for s in range(1, len(ends)):
+        members = [blk for blk, st in zip(model.blocks, block_stages) if st == s]
+        vs = [v for syms, _, _ in members for v in syms]
+        nv = len(vs)
+        if nv:
+            R, Ab = ("R", "Ab") if s == 1 else (f"R{s}", f"Ab{s}")
+            A = sp.diag(*[blk[1] for blk in members])
+            b = sp.Matrix.vstack(*[blk[2] for blk in members])
+            res = list(b - A * sp.Matrix(vs))
+            entries, product = jacobian(res, variables), jacobian(res, ws)
+            r = _Columns(nv)
+            r.set(entries)
+            dw_ranges = dw.ranges()
+            dw.add(r, product)
+            earlier = [(array, jacobian(res, prior), prior, prior_cols)
+                       for array, prior, prior_cols in solved]
+            for _, part, _, prior_cols in earlier:
+                prior_cols.add(r, part)
+            union = 0
+            for m in r.masks:
+                union |= m
+            r.masks = [union] * nv                  # the solve mixes the rows
+            groups += [("entries", R, entries, (nv, ncols)),
+                       ("array", Ab, list(A), (nv, nv)),
+                       ("product", R, product, (nv, nw), "Dw", ncols, dw_ranges)]
+            groups += [("product", R, part, (nv, len(prior)), array, ncols, prior_cols.ranges())
+                       for array, part, prior, prior_cols in earlier]
+            groups.append(("statement", SolveRows(Ab, R, nv, ncols)))
+            solved.append((R, vs, r))
+        lo, hi = ends[s - 1], ends[s]
+        for array, vs_t, r_t in solved:
+            velocity = [(lo + i, j, e) for i, j, e in jacobian(defs[lo:hi], vs_t)]
+            groups.append(("product", "Dw", velocity, (nw, len(vs_t)), array, ncols,
+                           r_t.ranges()))
+            r_t.add(dw, velocity)
+        groups += rows_upto(hi)
+    groups += rows_upto(nw)
+    groups.append(("product", "out", jacobian(exprs, ws), (rows, nw), "Dw", ncols, dw.ranges()))
+    groups += [("product", "out", jacobian(exprs, vs_t), (rows, len(vs_t)), array, ncols,
+                r_t.ranges()) for array, vs_t, r_t in solved]
     if chain:
         groups[1:1] = [("array", "g", [e for _, _, e in chain], (len(chain),)),
                        ("statement", IndexTable("gr", tuple(m for m, _, _ in chain))),

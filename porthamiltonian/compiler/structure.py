@@ -22,6 +22,13 @@ the solved expressions. Those that read port variables (port level, e.g. a frict
 its port's flow) are not known when the equations are matched: after the solution their port
 variables are replaced by the solved expressions and all intermediates reordered
 (:func:`_port_level`), so that the state equations never contain the expanded law.
+
+Intermediates and implicit blocks are ordered by *stage* (:func:`stages`): stage 0 reads states,
+parameters and time only (position level); a block's unknowns are one stage above everything its
+matrix and right-hand side read; an intermediate is at the stage of the latest thing it reads. A
+multibody's velocities (M(q) v = p) are stage 1; a block that reads velocity-level intermediates —
+the accelerations and multipliers of closed kinematic loops, whose right-hand side holds the
+velocity products — is stage 2. The code generator differentiates stage by stage.
 """
 from __future__ import annotations
 
@@ -145,19 +152,20 @@ def build_system(flat: ModelDescription, ph: PHCut | None = None) -> System:
     for b in built.values():
         b.intermediates = [(s, e.xreplace(aliases)) for s, e in b.intermediates]
     port_variables = set(unknowns) - set(derivatives)
-    intermediates, velocity = _ordered_intermediates(built, known, port_variables)
-    position = {s for s, _ in intermediates} - velocity
-    port_level = _reaching(intermediates, port_variables)
+    defined = {s for b in built.values() for s, _ in b.intermediates}
+    block_symbols = {s for b in built.values() for symbols, _, _ in b.blocks for s in symbols}
     blocks = []
     for cname, b in built.items():
         for symbols, A, rhs in b.blocks:
-            stray = (A.free_symbols | rhs.free_symbols) - known - position
+            stray = (A.free_symbols | rhs.free_symbols) - known - defined - block_symbols
             if stray:
                 raise UnknownParameterError(
                     f"component {cname!r}: implicit block {symbols[0]}.. may depend on states, "
-                    "parameters, time and intermediates of those only, not on "
+                    "parameters, time, intermediates and other blocks' unknowns only, not on "
                     f"{', '.join(sorted(map(str, stray)))}")
             blocks.append((symbols, A, rhs))
+    intermediates, _, blocks = _ordered_intermediates(built, known, port_variables, blocks)
+    port_level = _reaching(intermediates, port_variables)
     known |= {s for s, _ in intermediates} | {s for symbols, _, _ in blocks for s in symbols}
     for eq in equations:
         stray = eq.residual.free_symbols - known - set(unknowns)
@@ -180,22 +188,26 @@ def _reaching(intermediates: list[tuple[sp.Symbol, sp.Expr]], leaves: set[sp.Sym
     return found
 
 
+Block = tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]
+
+
 def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol],
-                           port_variables: set[sp.Symbol]
-                           ) -> tuple[list[tuple[sp.Symbol, sp.Expr]], set[sp.Symbol]]:
-    """The intermediates of all components in an order where each uses only earlier ones:
-    first those that depend on states, parameters and time only (position level), then those
-    that also depend on the unknowns of implicit blocks (velocity level, e.g. body twists that
-    read the velocities solved from M(q) v = p) or on port variables (port level, e.g. a
-    friction's slip speed from its port's flow: ordered after :func:`solve` has solved the port
-    variables, see :func:`_port_level`), each group in declaration order where it allows.
-    Returns the ordered list and the set of velocity- and port-level symbols."""
+                           port_variables: set[sp.Symbol], blocks: list[Block]
+                           ) -> tuple[list[tuple[sp.Symbol, sp.Expr]], set[sp.Symbol], list[Block]]:
+    """The intermediates of all components in an order where each uses only earlier ones, by
+    stage (see the module docstring): first those that depend on states, parameters and time only
+    (position level), then those that also depend on the unknowns of implicit blocks (velocity
+    level, e.g. body twists that read the velocities solved from M(q) v = p) or on port variables
+    (port level, e.g. a friction's slip speed from its port's flow: ordered after :func:`solve`
+    has solved the port variables, see :func:`_port_level`), each group in declaration order
+    where it allows. Returns the ordered list, the set of the symbols above the position level
+    and the blocks ordered by stage."""
     defs: dict[sp.Symbol, sp.Expr] = {}
     owner: dict[sp.Symbol, str] = {}
     for cname, b in built.items():
         for symbol, expr in b.intermediates:
             defs[symbol], owner[symbol] = expr, cname
-    block_symbols = {s for b in built.values() for symbols, _, _ in b.blocks for s in symbols}
+    block_symbols = {s for symbols, _, _ in blocks for s in symbols}
     defined = set(defs)
     for symbol, expr in defs.items():
         stray = expr.free_symbols - known - defined - block_symbols - port_variables
@@ -204,15 +216,18 @@ def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol],
                 f"component {owner[symbol]!r}: intermediate {symbol} may depend on states, "
                 "parameters, time, other intermediates, the unknowns of implicit blocks and port "
                 f"variables only, not on {', '.join(sorted(map(str, stray)))}")
-    return _order(defs, owner, block_symbols | port_variables)
+    return _order(defs, owner, port_variables, blocks)
 
 
-def _order(defs: dict[sp.Symbol, sp.Expr], owner: dict[sp.Symbol, str],
-           unknowns: set[sp.Symbol]) -> tuple[list[tuple[sp.Symbol, sp.Expr]], set[sp.Symbol]]:
-    """``defs`` in an order where each uses only earlier ones, those that read ``unknowns``
-    (directly or through others) last; and the set of those."""
-    defined = set(defs)
-    velocity: set[sp.Symbol] = set()
+def stages(defs: dict[sp.Symbol, sp.Expr], blocks: list[Block], unknowns: set[sp.Symbol] = frozenset(),
+           owner: dict[sp.Symbol, str] | None = None
+           ) -> tuple[list[sp.Symbol], dict[sp.Symbol, int], list[int]]:
+    """The stage of every intermediate (``defs``) and block (see the module docstring): a
+    topological order of the intermediates (each after what it reads, in declaration order where
+    that allows), their stages, and the stage of each block. ``unknowns`` (port variables not yet
+    solved) count as stage 1. A cycle raises StructureError."""
+    owner = owner or {}
+    block_of = {s: i for i, (symbols, _, _) in enumerate(blocks) for s in symbols}
     order: list[sp.Symbol] = []
     state: dict[sp.Symbol, int] = {}          # 1: being placed, 2: placed
 
@@ -221,20 +236,54 @@ def _order(defs: dict[sp.Symbol, sp.Expr], owner: dict[sp.Symbol, str],
             return
         if state.get(symbol) == 1:
             raise StructureError(f"intermediate {symbol} depends on itself (through "
-                                 f"component {owner[symbol]!r})")
+                                 f"component {owner.get(symbol, '?')!r})")
         state[symbol] = 1
-        uses = defs[symbol].free_symbols
-        for dep in sorted(uses & defined, key=str):
+        for dep in sorted(defs[symbol].free_symbols & defs.keys(), key=str):
             place(dep)
-        if uses & unknowns or uses & velocity:
-            velocity.add(symbol)
         state[symbol] = 2
         order.append(symbol)
 
     for symbol in defs:
         place(symbol)
-    ordered = [s for s in order if s not in velocity] + [s for s in order if s in velocity]
-    return [(s, defs[s]) for s in ordered], velocity
+    stage: dict[sp.Symbol, int] = {}
+    block_stage: dict[int, int | None] = {}
+
+    def level(symbol: sp.Symbol) -> int:
+        if symbol in stage:
+            return stage[symbol]
+        if symbol in block_of:
+            i = block_of[symbol]
+            if i not in block_stage:
+                block_stage[i] = None
+                symbols, A, b = blocks[i]
+                reads = (A.free_symbols | b.free_symbols) - set(symbols)
+                block_stage[i] = 1 + max((level(s) for s in reads), default=0)
+            found = block_stage[i]
+            if found is None:
+                raise StructureError(f"implicit block {blocks[i][0][0]}.. depends on its own "
+                                     "unknowns")
+            return found
+        if symbol in defs:            # read by a block before its place in the order
+            stage[symbol] = max((level(d) for d in defs[symbol].free_symbols), default=0)
+            return stage[symbol]
+        return 1 if symbol in unknowns else 0
+
+    for symbol in order:
+        level(symbol)
+    return order, stage, [level(blocks[i][0][0]) for i in range(len(blocks))]
+
+
+def _order(defs: dict[sp.Symbol, sp.Expr], owner: dict[sp.Symbol, str],
+           unknowns: set[sp.Symbol], blocks: list[Block]
+           ) -> tuple[list[tuple[sp.Symbol, sp.Expr]], set[sp.Symbol], list[Block]]:
+    """``defs`` in an order where each uses only earlier ones, by stage (:func:`stages`:
+    those that read ``unknowns`` or block unknowns, directly or through others, after the
+    position-level ones); the set of those above stage 0; the blocks sorted by stage."""
+    order, stage, block_stages = stages(defs, blocks, unknowns, owner)
+    ordered = sorted(order, key=lambda s: stage[s])            # stable: declaration order kept
+    velocity = {s for s in order if stage[s] > 0}
+    by_stage = [blocks[i] for i in sorted(range(len(blocks)), key=lambda i: block_stages[i])]
+    return [(s, defs[s]) for s in ordered], velocity, by_stage
 
 
 def _bound_inputs(flat: ModelDescription) -> dict[sp.Symbol, sp.Expr]:
@@ -394,9 +443,8 @@ def _port_level(system: System, values: dict[sp.Symbol, sp.Expr]
     owner = {s: c for c, b in system.built.items() for s, _ in b.intermediates}
     defs = {s: (e.xreplace(values) if s in system.port_level else e)
             for s, e in system.intermediates}
-    blocks = {s for symbols, _, _ in system.blocks for s in symbols}
     try:
-        ordered, _ = _order(defs, owner, blocks)
+        ordered, _, system.blocks = _order(defs, owner, set(), system.blocks)
     except StructureError as err:
         raise AlgebraicLoopError(
             f"{err}: it reads port variables whose solution reads it back (an algebraic loop "

@@ -12,6 +12,8 @@ Importing this package registers its component types for model files:
 * :mod:`.springs`  — ``SpringDamper`` (linear), ``VariableSpringDamper`` (modulated stiffness,
   damper rule D = 2 α √(m K)) and ``ActuatedSpringDamper`` (the stiffness a state set through a
   power port);
+* :mod:`.point_spring` — ``PointSpringDamper``: a spring–damper between two body points (or a
+  point and a fixed anchor), along their line or isotropic (a compliant loop closure);
 * :mod:`.surfaces` — plane, slope and slope with a step down (helpers, not components);
 * :mod:`.signals`  — signal blocks and controllers (``Gain``, ``Sum``, ``Integrator``,
   ``Derivative``, ``PID``, ``TransferFunction``, ``StateSpace``, ``Saturation``, ``LookupTable``,
@@ -24,6 +26,7 @@ from .contact import HuntCrossley, KelvinVoigt
 from .contact3d import HuntCrossley3D, KelvinVoigt3D
 from .friction import SCVSFriction, scvs_coefficient
 from .friction3d import SCVSFriction3D
+from .point_spring import PointSpringDamper
 from .signals import (
     PID,
     Actuator,
@@ -58,6 +61,7 @@ __all__ = [
     "KelvinVoigt",
     "KelvinVoigt3D",
     "LookupTable",
+    "PointSpringDamper",
     "SCVSFriction",
     "SCVSFriction3D",
     "Saturation",

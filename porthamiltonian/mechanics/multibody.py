@@ -73,8 +73,17 @@ planar models too.
 Matrices: ``<name>.M`` (mass matrix, M v = p) and ``<name>.J.<point>`` (the point's velocity is
 J v, world coordinates), for impact maps.
 
-Limits: kinematic loops are not supported (each body has exactly one parent joint); bodies are
-given by their inertial data, not by shapes.
+Closed loops and constraints (:mod:`.closure`, :mod:`.constrained`): a ``loops`` table of
+loop-closing joints (any joint type but free, between two bodies or a body and the world) and a
+``constraints`` table (a point held on a point or a world position, a locked joint, a disc or a
+ball rolling without slipping), each row G(q) v = 0 (and φ(q) = 0 when holonomic) enforced by a
+multiplier λ solved from the index-reduced equations in the generated code, with the drift
+stabilized at the rate ``constraint_gain``. Outputs ``<name>.reaction.<constraint>.<row>`` (the
+constraint forces and torques), ``<name>.phi.<constraint>.<row>`` (the residuals),
+``<name>.velocity.<constraint>.<row>`` (G v), ``<name>.active.<constraint>``; matrices
+``<name>.G`` and ``<name>.G.<constraint>`` (for impacts onto a constraint).
+
+Limits: bodies are given by their inertial data, not by shapes.
 """
 from __future__ import annotations
 
@@ -87,6 +96,7 @@ import sympy as sp
 from ..errors import ModelError, UnknownComponentError
 from ..modeling.component import Arg, Builder, Component, register
 from ..modeling.ports import Port
+from . import closure, constrained
 from .bodies import as_tables, expression_fields
 from .joints import Joint, joint, quaternion_slice, units
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
@@ -126,6 +136,12 @@ class Multibody(Component):
         "plane": Arg("'xz' for planar point ports (x, z)", symbolic=False, default=None),
         "quaternion_gain": Arg("rate at which a spherical or free joint's quaternion is pulled "
                                "back to unit norm", "1/s", default=1, rule=">="),
+        "loops": Arg("name -> {type, parent, child, origin, child_origin, axis/axes, active}: "
+                     "loop-closing joints", symbolic=False, default=None),
+        "constraints": Arg("name -> {type: point|lock|rolling|sphere, ...}: constraints on "
+                           "points, joints and the ground", symbolic=False, default=None),
+        "constraint_gain": Arg("rate at which a constraint's drift (position and velocity "
+                               "error) decays", "1/s", default=10, rule=">="),
     }
 
     def __init__(self, **args: Any):
@@ -180,9 +196,8 @@ class Multibody(Component):
             if child in parent_of:
                 raise ModelError(
                     f"{where}: body {child!r} already hangs on joint {parent_of[child]!r}; a second "
-                    "joint would close a kinematic loop, which is not supported (model the loop "
-                    "with a stiff spring-damper between two points instead)",
-                    path=("joints", name, "child"))
+                    "joint would close a kinematic loop: declare it in the multibody's 'loops' "
+                    "table instead (a loop-closing joint)", path=("joints", name, "child"))
             parent_of[child] = name
         orphans = [b for b in bodies if b not in parent_of]
         if orphans:
@@ -207,7 +222,16 @@ class Multibody(Component):
             _vector3(self.value("gravity"), "Multibody gravity", ("gravity",))
         if self.value("plane") not in (None, "xz"):
             raise ModelError("Multibody plane must be 'xz' or absent", path=("plane",))
+        closure.validate(self.value("loops"), self.value("constraints"), bodies, joints,
+                         {point: body_name for body_name, (point, _) in self._points()})
         self._parent_of = parent_of
+
+    def _points(self) -> Iterator[tuple[str, tuple[str, Any]]]:
+        """(body, (point, local position)) of every point, frame and world frame."""
+        for body_name, body in self.value("bodies").items():
+            for key in ("points", "frames", "world_frames"):
+                for point, pos in (body.get(key) or {}).items():
+                    yield body_name, (point, pos)
 
     @staticmethod
     def _inertia(value: Any, where: str, path: tuple = ()) -> Any:
@@ -235,6 +259,9 @@ class Multibody(Component):
         :meth:`Component.expression_fields` and :func:`.bodies.expression_fields`)."""
         for path, value, what in expression_fields(self.value("bodies"), self.value("joints"),
                                                    self.value("gravity")):
+            yield path, value, what, ()
+        for path, value, what in closure.expression_fields(self.value("loops"),
+                                                           self.value("constraints")):
             yield path, value, what, ()
 
     def _joints(self) -> list[Joint]:
@@ -266,7 +293,8 @@ class Multibody(Component):
 
     # --- equations --------------------------------------------------------------------------------
     def build(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
-              gravity: list | None, plane: str | None, quaternion_gain: sp.Expr) -> None:
+              gravity: list | None, plane: str | None, quaternion_gain: sp.Expr,
+              loops: dict | None, constraints: dict | None, constraint_gain: sp.Expr) -> None:
         specs = self._joints()
         velocities = [label for spec in specs for label in spec.velocities]
         coordinates = [label for spec in specs for label in spec.coordinates]
@@ -420,6 +448,9 @@ class Multibody(Component):
                 b.equation(f, v[k], "joint velocity")
                 Q[k] = Q[k] + s * e
         rates = tree.coordinate_rates(q, v, quaternion_gain if b.ph is None else 0)
+        if loops or constraints:
+            rates, Q = self._closed(b, tree, placement, make, specs, q, v, M, Q, rates,
+                                    constraint_gain)
         for k in range(len(q)):
             b.equation(b.der(q[k]), rates[k], "dq/dt from the joint velocities, M(q) v = p")
         for k in range(n):
@@ -439,6 +470,24 @@ class Multibody(Component):
                 b.output(f"{spec.name}.q_norm", sp.sqrt(dot(quat[1:], quat[1:]) + quat[0] ** 2),
                          "1")
         b.matrix("M", M)
+
+    def _closed(self, b: Builder, tree: Tree, placement: dict, make, specs: list[Joint],
+                q: list, v: list, M: sp.Matrix, Q: list, rates: list, gain: sp.Expr
+                ) -> tuple[list, list]:
+        """The coordinate and momentum rates with the loops and constraints enforced
+        (:mod:`.constrained`)."""
+        velocity_index, coordinate, k, c = {}, {}, 0, 0
+        for spec in specs:
+            velocity_index[spec.name] = list(range(k, k + len(spec.velocities)))
+            coordinate[spec.name] = q[c:c + len(spec.coordinates)]
+            k, c = k + len(spec.velocities), c + len(spec.coordinates)
+        points = {point: (body, pos) for body, (point, pos) in self._points()}
+        closures = closure.Closures(tree, placement, make, b.parse, velocity_index, coordinate,
+                                    points)
+        rows = closures.rows(self.value("loops"), self.value("constraints"))
+        return constrained.constrain(b, rows, q, v, M, Q, rates,
+                                     lambda w: tree.coordinate_rates(q, w, 0), gain,
+                                     f"Multibody {b.name!r}")
 
     def _initial(self, b: Builder, joints, specs: list[Joint]) -> tuple[list, list]:
         """q0 and v0 per coordinate and velocity (expressions in the parameters); a quaternion

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..errors import InputError, ModelError, StateError
 from ..integrators import COMPILED_METHODS
+from .assembly import consistent
 from .differences import Derivative, gradient
 from .inputs import InputPlan, plan_inputs
 from .options import check_simulation
@@ -162,6 +163,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     else:
         x = np.array(x0, dtype=float)
     y = model.augment(x)
+    if np.all(np.isfinite(y)):                  # a constrained multibody starts on its manifold
+        y[:model.n_states] = consistent(model, y[:model.n_states], p, t_start)
     if not np.all(np.isfinite(y)):
         raise StateError(f"model {model.name!r}: initial state is not finite: {x}")
     py_events = tuple(events or ())

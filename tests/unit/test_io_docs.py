@@ -28,6 +28,8 @@ def _sample(kind: str):
         return cls(energy="q**2/2", states={"q": "C"})
     if kind == "FreeBody":
         return cls(mass=1, inertia=[1, 1, 1])
+    if kind == "PointSpringDamper":
+        return cls(stiffness=1, position_a=[0, 0, 0], position_b=[0, 0, 0])
     return cls(**{n: "1" for n, a in cls.arguments.items() if a.default is REQUIRED})
 
 
