@@ -11,7 +11,9 @@ constraint Jacobian ``<mb>.G`` (rows over its velocities), the holonomic residua
   then velocities by the M-orthogonal projection v ← v − M⁻¹Gᵀ(G M⁻¹ Gᵀ)⁻¹ G v (p = M v), the
   plastic impact onto the constraints, which removes only the kinetic energy of the velocity
   error (Kelvin). A state already consistent is returned unchanged; one off the manifold is
-  assembled with a :class:`AssemblyWarning` quoting the residual and the correction; one that
+  assembled, with a :class:`AssemblyWarning` quoting the residual and the correction when the
+  residual exceeds 1e-6 of the model's scale (below that it is the drift a run leaves, e.g. a
+  run continued from where another one ended: projected silently); one that
   cannot be assembled (no convergence: the constraints are inconsistent there) raises
   :class:`~porthamiltonian.errors.StateError` with the residual.
 * the rank check: G's active rows must be independent where the run starts; dependent rows
@@ -41,6 +43,9 @@ __all__ = ["AssemblyWarning", "ConstraintRows", "check_rank", "consistent", "con
 #: Newton iterations at most; the residual tolerance relative to the length scale of the model
 _ITERATIONS = 50
 _TOLERANCE = 1e-12
+#: residuals below this (relative, as _TOLERANCE) are the drift an integration leaves (a run
+#: continued from the state another run ended with): projected without a warning
+_SILENT = 1e-6
 
 
 class AssemblyWarning(UserWarning):
@@ -225,7 +230,7 @@ def _assemble(model: CompiledModel, rows: ConstraintRows, x: np.ndarray, p: np.n
         x[pidx] = M @ v_new
     else:
         error = 0.0
-    if warn and (first > _TOLERANCE * scale * 10 or error > 0):
+    if warn and (first > _SILENT * scale or error > _SILENT * speed):
         warnings.warn(
             f"model {model.name!r}, multibody {rows.name!r}: the initial state is off its "
             f"constraints (position residual {first:.3g}, constraint velocity {error:.3g}); "
