@@ -143,8 +143,18 @@ def _moved(x: np.ndarray, rows: ConstraintRows, dv: np.ndarray) -> np.ndarray:
 def _system(model: CompiledModel, rows: ConstraintRows, t: float, x: np.ndarray,
             p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(M, G of the active rows, their residuals (0 for velocity-level rows), the active row
-    indices) at a point."""
-    y = model.outputs(t, x, p)
+    indices) at a point. The outputs solve the constrained equations (the reactions); where
+    they cannot (a singular saddle-point matrix: dependent rows), the rank check names the rows
+    (all taken as active)."""
+    try:
+        y = model.outputs(t, x, p)
+    except (np.linalg.LinAlgError, ZeroDivisionError, ArithmeticError):
+        y = None
+    if y is None or not np.all(np.isfinite(y)):
+        everything = np.arange(len(rows.rows))
+        check_rank(model, rows, model.matrix(f"{rows.name}.G", t, x, p), everything)
+        if y is None:
+            y = model.outputs(t, x, p)            # raises the back end's own error
     on = [i for i, k in enumerate(rows.active) if y[k] > 0.5]
     G = model.matrix(f"{rows.name}.G", t, x, p)[on]
     M = model.matrix(f"{rows.name}.M", t, x, p)

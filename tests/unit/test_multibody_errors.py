@@ -317,3 +317,64 @@ def test_model_file_bond_to_a_missing_port_lists_the_ports():
     msg = str(info.value)
     assert msg.startswith("bad_pendulum.toml, line 2")
     assert "'ankle'" in msg and "pivot" in msg and "tip" in msg
+
+
+# --- loops and constraints (porthamiltonian.mechanics.closure) --------------------------------
+TWO_RODS = {"a": rod(points={"tip_a": [0, 0, -1]}), "b": rod(points={"tip_b": [0, 0, -1]})}
+TWO_PIVOTS = {"j1": revolute("world", "a"), "j2": revolute("world", "b", origin=[1, 0, 0])}
+
+
+@pytest.mark.parametrize("more, kind, path, words", [
+    ({"loops": {"L": {"type": "revolute", "parent": "a", "child": "c", "axis": "y"}}},
+     errors.UnknownComponentError, ("loops", "L", "child"), ["'c' is not a body", "a, b, world"]),
+    ({"loops": {"L": {"type": "free", "parent": "a", "child": "b"}}},
+     errors.ModelError, ("loops", "L", "type"), ["type must be one of", "'free'"]),
+    ({"loops": {"L": {"type": "revolute", "parent": "a", "child": "b", "axis": "y",
+                      "orign": [0, 0, 0]}}},
+     errors.ModelError, ("loops", "L", "orign"), ["unknown field(s) orign", "child_origin"]),
+    ({"loops": {"L": {"type": "revolute", "parent": "a", "child": "a", "axis": "y"}}},
+     errors.ModelError, ("loops", "L", "child"), ["parent and child are the same body"]),
+    ({"loops": {"L": {"type": "universal", "parent": "a", "child": "b", "axes": ["x", "x"]}}},
+     errors.ModelError, ("loops", "L", "axes"), ["must be perpendicular"]),
+    ({"constraints": {"P": {"type": "point", "point": "tip_c"}}},
+     errors.UnknownComponentError, ("constraints", "P", "point"), ["'tip_c'", "tip_a, tip_b"]),
+    ({"constraints": {"P": {"type": "lock", "joint": "j9"}}},
+     errors.UnknownComponentError, ("constraints", "P", "joint"), ["'j9'", "j1, j2"]),
+    ({"constraints": {"P": {"type": "rolling", "body": "a", "axis": "y"}}},
+     errors.ModelError, ("constraints", "P"), ["needs a radius (m)"]),
+    ({"constraints": {"tip_a": {"type": "point", "point": "tip_b"}}},
+     errors.ModelError, ("constraints", "tip_a"), ["already used"]),
+    ({"constraints": {"P": {"type": "glue"}}},
+     errors.ModelError, ("constraints", "P", "type"), ["point, lock, rolling, sphere", "'glue'"]),
+])
+def test_bad_loop_or_constraint_names_the_entry_and_field(more, kind, path, words):
+    """Each malformed entry of the loops and constraints tables: its typed error names the
+    entry and the field (the key path the model-file reader turns into a line)."""
+    with pytest.raises(kind) as info:
+        build(TWO_RODS, TWO_PIVOTS, **more)
+    assert tuple(info.value.path) == path
+    for word in words:
+        assert word in str(info.value)
+
+
+def test_more_constraint_rows_than_velocities_is_refused_when_compiling():
+    """Two rods on two pivots with the tips joined twice in x and z: 4 rows on 2 velocities."""
+    joined = {"type": "point", "point": "tip_a", "to": "tip_b", "axes": ["x", "z"]}
+    mb = build(TWO_RODS, TWO_PIVOTS, constraints={"P": joined, "Q": dict(joined)})
+    with pytest.raises(errors.ModelError) as info:
+        compile_symbolic(mb)
+    assert "4 constraint rows (P: 2, Q: 2) on 2 velocities" in str(info.value)
+
+
+def test_dependent_constraint_rows_are_refused_with_the_rank(isolated_cache):
+    """The tips joined twice along x (2 rows on 2 velocities, rank 1): the run is refused before
+    it starts with a ModelError naming both constraints, the dependent rows and the rank (the
+    saddle-point matrix is singular, so no multiplier exists)."""
+    joined = {"type": "point", "point": "tip_a", "to": "tip_b", "axes": ["x"]}
+    model = ph.Model("redundant")
+    model.add("mb", build(TWO_RODS, TWO_PIVOTS, constraints={"P": joined, "Q": dict(joined)}))
+    compiled = ph.compile_model(model, backend="python")
+    with pytest.raises(errors.ModelError) as info:
+        compiled.simulate(0.1)
+    msg = str(info.value)
+    assert "rank 1" in msg and "P, Q" in msg and "P.x, Q.x" in msg and "redundant" in msg
