@@ -254,3 +254,103 @@ def test_rolling_disc_is_stable_upright_above_the_classical_speed(rolling_disc, 
     assert (lean > 0.3) if falls else (lean < 1e-3), lean
     assert traj.relative_residual < 1e-8
     assert residuals(rolling_disc, traj, "velocity") < 1e-8
+
+
+# --- a constraint switched by an event: a knee that locks -------------------------------------
+KNEE = """
+[model]
+name = "locking_knee"
+
+[parameters]
+locked = 0.0
+
+[components.mb]
+type = "Multibody"
+
+[components.mb.bodies.thigh]
+mass = 2.0
+com = [0, 0, -0.2]
+inertia = [0.03, 0.03, 0.03]
+
+[components.mb.bodies.shank]
+mass = 1.0
+com = [0, 0, -0.25]
+inertia = [0.02, 0.02, 0.02]
+
+[components.mb.joints.hip]
+type = "revolute"
+parent = "world"
+child = "thigh"
+axis = "y"
+q0 = 0.3
+v0 = -1.0
+
+[components.mb.joints.knee]
+type = "revolute"
+parent = "thigh"
+child = "shank"
+origin = [0, 0, -0.4]
+axis = "y"
+q0 = -0.4
+v0 = 3.0
+
+[components.mb.constraints.lock]
+type = "lock"
+joint = "knee"
+active = "locked"
+
+[[events]]
+name = "knee_strike"
+guard = "mb.q.knee - locked"        # off once locked
+direction = 1
+"""
+
+
+@pytest.fixture(scope="module")
+def knee(isolated_cache):
+    return ph.compile_model(io.loads(KNEE, "locking_knee.toml"), backend="python")
+
+
+def test_knee_locks_by_a_plastic_impact_onto_its_constraint(knee):
+    """A two-segment leg swinging from a hip pivot, its knee free until it reaches full extension
+    (the event), then locked (``switching.engage``: the plastic impact onto the lock, then the
+    constraint active). The lock's impulse acts on the knee coordinate only, so the momentum
+    conjugate to the hip angle — the leg's angular momentum about the hip — is conserved through
+    the impact (to 1e-12), the knee rate after it is zero and the hip rate is that momentum over
+    the locked leg's inertia about the hip (both to 1e-12); afterwards the knee stays straight
+    (|q_knee| ≤ 1e-9 over 1 s) and the energy ledger closes with the impact's loss booked as
+    dissipated (to 1e-9; the loss is Kelvin's ½ Δvᵀ M Δv)."""
+    from porthamiltonian.simulation.switching import engage
+
+    action = engage(knee, "mb", "lock", "locked")
+    traj = knee.simulate(1.0, actions={"knee_strike": action}, method="Radau", rtol=1e-11,
+                         atol=1e-13)
+    assert [name for _, name in traj.events] == ["knee_strike"]
+    t_hit = traj.events[0][0]
+    k = int(np.searchsorted(traj.t, t_hit)) + 1       # the event's point after the impact
+    ih, ik = knee.state_index("mb.p.hip"), knee.state_index("mb.p.knee")
+    before, after = traj.x[k - 1], traj.x[k]
+    assert traj.t[k - 1] == traj.t[k] == t_hit
+    assert after[ih] == pytest.approx(before[ih], rel=1e-12)
+    p = knee.params({"locked": 1.0})
+    M = knee.matrix("mb.M", t_hit, after, p)
+    v_plus = np.linalg.solve(M, after[[ih, ik]])
+    assert v_plus[1] == pytest.approx(0.0, abs=1e-12)
+    assert v_plus[0] == pytest.approx(after[ih] / M[0, 0], rel=1e-12)
+    v_minus = np.linalg.solve(M, before[[ih, ik]])
+    loss = 0.5 * (v_minus - v_plus) @ M @ (v_minus - v_plus)
+    assert traj.E_diss[k] - traj.E_diss[k - 1] == pytest.approx(loss, rel=1e-9)
+    assert loss > 0.01
+    assert np.max(np.abs(traj["mb.q.knee"][k:])) < 1e-9
+    assert traj.relative_residual < 1e-9
+
+
+def test_switching_a_constraint_that_does_not_exist_names_the_known_ones(knee):
+    from porthamiltonian.simulation.switching import engage, release
+
+    with pytest.raises(errors.ModelError, match=r"no loop or constraint 'lok' \(lock\)"):
+        engage(knee, "mb", "lok", "locked")
+    with pytest.raises(errors.ModelError, match=r"'walker' is not a multibody.*\(mb\)"):
+        release(knee, "walker", "lock", "locked")
+    with pytest.raises(errors.ModelError, match=r"'lockd' is not a parameter"):
+        release(knee, "mb", "lock", "lockd")
