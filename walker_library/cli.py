@@ -71,7 +71,7 @@ def check_walker_name(model: str) -> str:
     """``model`` if it can name a walker: a path, a walker file of models/, or a model of models/
     (whose loading then says it is not a walker file); else a ModelFileError listing the walker
     models, with the closest one suggested."""
-    if Path(model).suffix == ".toml" or Path(model).exists():
+    if ph_io.is_path(model):
         return model
     walkers = available_walkers()
     if model in walkers or model in ph_io.available_models():
@@ -111,6 +111,7 @@ def _walker_and_guess(args):
     """The walker with the ``--set`` parameter values, and the section state that the ``--set``
     section coordinates and ``--guess`` file make (None if neither is given)."""
     values = parse_assignments(args.set)
+    previous = _read_guess(args.guess) if getattr(args, "guess", None) else None
     walker = load_walker(check_walker_name(args.model), None, backend=args.backend)
     coords = (set(walker.section) | set(walker.thesis_section)) - set(walker.parameters)
     unknown = [k for k in values if k not in coords and k not in walker.parameters]
@@ -123,7 +124,6 @@ def _walker_and_guess(args):
     params = {k: v for k, v in values.items() if k not in coords}
     named = {k: v for k, v in values.items() if k in coords}
     walker = walker.with_parameters(**params) if params else walker
-    previous = _read_guess(args.guess) if getattr(args, "guess", None) else None
     return walker, section_guess(walker, previous, named)
 
 

@@ -31,7 +31,7 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-from .. import backends
+from .. import backends, userfiles
 from ..backends import module, native
 from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
 from ..batch.progress import MODES
@@ -132,9 +132,13 @@ def _model_file_meta(model: str) -> dict[str, str]:
     resumed sweep whose file changed warns); {} for a name that is no file (a builder)."""
     try:
         path = io.model_path(model)
-        return {"model_file": str(path), "model_file_sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
-    except (ModelError, OSError):
+    except ModelError:
         return {}
+    if userfiles.is_pipe(path):
+        raise SweepError(f"{model}: a sweep reads its model file again in every worker process, "
+                         "and a pipe can be read once only; save the model to a file")
+    data = userfiles.read_bytes(path, limit=io.MAX_FILE_SIZE, label=str(path), kind="model file")
+    return {"model_file": str(path), "model_file_sha256": hashlib.sha256(data).hexdigest()}
 
 
 def _fmt(value: Any) -> str:
@@ -260,7 +264,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         raise OptionError(f"--rate: frames per second of simulated time must be a positive "
                           f"number, got {args.rate:g}")
     record = io.read(args.model)
-    entry = SimulationModel.load(args.model, args.backend)
+    entry = SimulationModel.from_file(record, args.backend)
     traj = entry.simulate(args.t_end, parse_assignments(args.set))
     scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
                                   title=entry.model.name)

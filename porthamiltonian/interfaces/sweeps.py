@@ -34,6 +34,7 @@ from ..integrators import TABLEAUS
 
 if TYPE_CHECKING:
     from ..modeling.model import Model
+    from .io import ModelFile
     from ..simulation.compiled import CompiledModel
     from ..simulation.trajectory import Trajectory
 
@@ -63,7 +64,12 @@ class SimulationModel:
         """Load ``model`` (a name from ``models/`` or a path) and compile it with ``backend``
         (None: "auto")."""
         from . import io
-        record = io.read(model)
+        return cls.from_file(io.read(model), backend)
+
+    @classmethod
+    def from_file(cls, record: ModelFile, backend: str | None = None) -> SimulationModel:
+        """The model of a model file already read (``record``), compiled with ``backend``
+        (None: "auto"): a file that can be read once only (a pipe) is read once."""
         return cls(record.model, record.compile(backend=backend or "auto"),
                    simulation_settings(record.simulation))
 

@@ -42,12 +42,8 @@ def read_walker(name_or_path: str | Path) -> tuple[WalkerSpec, str]:
     """The :class:`~.hybrid.WalkerSpec` of a walker file (by name in models/ or by path) and
     the file's text. Raises ModelFileError (file, line, part) for a file that is not a walker
     file or whose ``[walker]`` table is wrong."""
-    path = ph_io.model_path(name_or_path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise ModelFileError(f"{path}: cannot read the walker file ({err})") from None
-    record = ph_io.reads(text, source=str(path))
+    record = ph_io.read(name_or_path)
+    path, text = record.source, record.text
     table = record.sections.get("walker")
     if table is None:
         raise ModelFileError(f"{path}: not a walker file: it has no [walker] table (a walker is a "
@@ -102,8 +98,10 @@ def available_walkers() -> list[str]:
     out = []
     for name in ph_io.available_models():
         try:
-            data = tomllib.loads(ph_io.model_path(name).read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, ModelFileError):
+            path = ph_io.model_path(name)
+            data = tomllib.loads(ph_io.read_text(path, limit=ph_io.MAX_FILE_SIZE, label=str(path),
+                                                 kind="model file", language="TOML"))
+        except (tomllib.TOMLDecodeError, RecursionError, ModelFileError):
             continue
         if isinstance(data.get("walker"), dict):
             out.append(name)
