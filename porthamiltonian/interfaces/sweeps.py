@@ -34,9 +34,9 @@ from ..integrators import TABLEAUS
 
 if TYPE_CHECKING:
     from ..modeling.model import Model
-    from .io import ModelFile
     from ..simulation.compiled import CompiledModel
     from ..simulation.trajectory import Trajectory
+    from .io import ModelFile
 
 __all__ = ["ModelCache", "SimulationModel", "model_cache", "prepare_simulation",
            "settling_time", "simulate_case", "simulation_settings"]
