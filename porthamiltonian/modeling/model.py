@@ -260,6 +260,7 @@ class Model:
         check_name(name, f"model {self.name!r}: parameter name")
         if name in self.parameters:
             raise DuplicateNameError(f"model {self.name!r}: parameter {name!r} declared twice")
+        self._unclaimed(name, "parameter")
         try:
             self.parameters[name] = Parameter(value, unit, doc)
         except ParameterValueError as err:
@@ -272,6 +273,7 @@ class Model:
         check_name(name, f"model {self.name!r}: component name")
         if name in self.graph:
             raise DuplicateNameError(f"model {self.name!r}: a component is already called {name!r}")
+        self._unclaimed(name, "component")
         if not isinstance(component, (Component, Model)):
             raise ModelError(f"model {self.name!r}: {name!r} must be a Component or a Model, got "
                              f"{type(component).__name__}")
@@ -434,7 +436,20 @@ class Model:
         check_name(name, f"model {self.name!r}: output name")
         if name in self.outputs:
             raise DuplicateNameError(f"model {self.name!r}: output {name!r} declared twice")
+        self._unclaimed(name, "output")
         self.outputs[name] = expression
+
+    def _unclaimed(self, name: str, kind: str) -> None:
+        """Refuse a new ``kind`` called ``name`` when a parameter, component or output of this
+        model already has that name: they share one namespace (``k`` in an expression, or in
+        ``trajectory["k"]``, must mean one thing)."""
+        for other, taken in (("parameter", name in self.parameters),
+                             ("component", name in self.graph),
+                             ("output", name in self.outputs)):
+            if taken and other != kind:
+                raise DuplicateNameError(f"model {self.name!r}: the {kind} {name!r} has the name "
+                                         f"of its {other} {name!r}; parameters, components and "
+                                         "outputs share one namespace: rename one of them")
 
     # --- the frozen description ------------------------------------------------------------------
     def freeze(self) -> ModelDescription:
