@@ -13,7 +13,7 @@
     walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
-    walker export MODEL PATH [--set NAME=VALUE ...]
+    walker export MODEL PATH [--set NAME=VALUE ...] [--force]
 
 MODEL is a walker name from ``models/`` (a walker file: a model file with a ``[walker]`` table, see
 docs/walkers.md; ``walker list`` names them) or a path to such a file; ``export`` writes the
@@ -36,15 +36,18 @@ from typing import Any
 from porthamiltonian import io as ph_io
 from porthamiltonian.batch import SweepError, open_executor
 from porthamiltonian.batch.progress import activity
-from porthamiltonian.errors import ModelError, ModelFileError
+from porthamiltonian.errors import ModelFileError
 from porthamiltonian.interfaces.cli import (
     BACKEND_OPTION,
     JSON_OPTION,
     QUIET_OPTION,
     SET_OPTION,
     add_sweep_parser,
+    at_least,
     backend_option,
     parse_assignments,
+    positive,
+    rules,
     run,
     run_sweep,
 )
@@ -54,7 +57,7 @@ from .analyses.continuation import ParameterPath, continue_gait, parse_range
 from .analyses.gait import analyze_gait, gait_start, section_guess, walk
 from .analyses.results import to_json
 from .analyses.robustness import basin, gait_sensitivity_norm, step_down
-from .core.files import available_walkers, load_walker, save_walker
+from .core.files import available_walkers, check_target, load_walker, save_walker
 from .report.labels import describe, is_nondimensional, shown_unit
 from .report.page import multiplier_cells
 
@@ -190,8 +193,6 @@ def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: i
 def cmd_continue(args) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    if args.doublings < 0 or args.max_points < 2:
-        raise ModelError("--doublings must be >= 0 and --max-points >= 2")
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
                            max_points=args.max_points, jacobian=args.jacobian, log=log)
     if args.out:
@@ -371,9 +372,10 @@ def cmd_list(args) -> int:
 
 
 def cmd_export(args) -> int:
-    walker = load_walker(args.model, parse_assignments(args.set))
+    check_target(args.path, overwrite=args.force)             # before any work
+    walker = load_walker(check_walker_name(args.model), parse_assignments(args.set))
     path = save_walker(walker, args.path, f"Walker file written by `walker export {args.model}` "
-                       "(docs/walkers.md).")
+                       "(docs/walkers.md).", overwrite=args.force)
     print(f"wrote {path}")
     return 0
 
@@ -411,6 +413,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-continuation", action="store_true",
                    help="do not continue the model file's nominal gait to these parameters when "
                         "the guess finds no stable gait")
+    rules(p, max_period=at_least(1), fd_step=positive, iterate=at_least(1))
     p.set_defaults(func=cmd_gait)
 
     p = sub.add_parser("continue", parents=analysis,
@@ -426,6 +429,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, metavar="DIR",
                    help="write continuation.json and bifurcation_diagram.png there")
     _guess_options(p)
+    rules(p, doublings=at_least(0), max_points=at_least(2))
     p.set_defaults(func=cmd_continue)
 
     p = sub.add_parser("walk", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION],
@@ -434,6 +438,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("model", help=model_help)
     p.add_argument("--steps", type=int, default=20, metavar="N",
                    help="steps to walk (default: 20)")
+    rules(p, steps=at_least(1))
     p.set_defaults(func=cmd_walk)
 
     p = sub.add_parser("step-down", parents=analysis,
@@ -444,6 +449,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="height grid (m; default: 2e-4 of the leg length)")
     p.add_argument("--h-max", type=float, default=None, metavar="H",
                    help="largest height tried (m; default: 0.1 of the leg length)")
+    rules(p, resolution=positive, h_max=positive)
     p.set_defaults(func=cmd_step_down)
 
     p = sub.add_parser("basin", parents=analysis,
@@ -453,6 +459,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--span", type=float, default=0.1,
                    help="half-width of the grid in scaled units (theta/0.4 rad, "
                         "theta_dot/0.8 rad/s; default: 0.1)")
+    rules(p, n=at_least(2), span=positive)
     p.set_defaults(func=cmd_basin)
 
     p = sub.add_parser("gsn", parents=analysis,
@@ -481,6 +488,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "walker always has one), with its still image view3d.png")
     view.add_argument("--no-view3d", dest="view3d", action="store_false",
                       help="no 3D view, not even for a 3D walker")
+    rules(p, steps=at_least(1))
     p.set_defaults(func=cmd_report)
 
     p = add_sweep_parser(
@@ -511,6 +519,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="a dask.distributed scheduler address, or 'local' for a local cluster")
     p.add_argument("--list", action="store_true", help="list the studies and exit")
+    rules(p, workers=at_least(1))
     p.set_defaults(func=cmd_reproduce)
 
     p = sub.add_parser("list", parents=[JSON_OPTION], help="the walker model files")
@@ -520,6 +529,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="write a walker's model file (with the --set values)")
     p.add_argument("model", help=model_help)
     p.add_argument("path", help="the model file to write (.toml)")
+    p.add_argument("--force", action="store_true",
+                   help="replace what is at PATH already (a link is replaced, not written "
+                        "through)")
     p.set_defaults(func=cmd_export)
     return parser
 

@@ -16,7 +16,7 @@ import sympy
 
 from .. import backends
 from ..backends import module, native
-from ..errors import CompilerError
+from ..errors import CompilerError, ModelError
 from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel
 from . import cache
@@ -88,6 +88,11 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     raises :class:`~porthamiltonian.errors.CompilerError` (the command and the file holding
     its output).
     """
+    if not isinstance(model, (Model, ModelDescription)):
+        hint = (f"; to compile a model file, read it first: compile_model(io.load({model!r}))"
+                if isinstance(model, str) else "")
+        raise ModelError(f"compile_model takes a Model (or its ModelDescription), got "
+                         f"{type(model).__name__} {model!r:.80}{hint}")
     order = backends.candidates(backend)
     description = model.freeze() if isinstance(model, Model) else model
     key = cache.model_key(description)

@@ -24,11 +24,12 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import os
 import sys
 import traceback
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from .. import backends, userfiles
@@ -36,12 +37,40 @@ from ..backends import module, native
 from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
 from ..batch.progress import MODES
 from ..batch.table import write_csv
-from ..errors import ModelError
+from ..errors import ModelError, OptionError
 from . import io
 from .sweeps import SimulationModel, prepare_simulation, simulate_case
 
 
 # --- options shared by the commands (argparse parent parsers) ------------------------------------
+def at_least(minimum: int) -> Callable[[str, Any], None]:
+    """A rule of an option (see :func:`rules`): a whole number >= ``minimum``."""
+    def check(option: str, value: Any) -> None:
+        if value < minimum:
+            raise OptionError(f"{option} must be at least {minimum}, got {value}")
+    return check
+
+
+def positive(option: str, value: float) -> None:
+    """A rule of an option (see :func:`rules`): a finite number > 0."""
+    if not (math.isfinite(value) and value > 0):
+        raise OptionError(f"{option} must be a finite number > 0, got {value:g}")
+
+
+def rules(parser: argparse.ArgumentParser, **checks: Callable[[str, Any], None]) -> None:
+    """Give the options of a command's ``parser`` their rules (``steps=at_least(1)``,
+    ``rate=positive``): :func:`run` applies them before the command runs, so a bad value is
+    an ``error: --steps must be at least 1, got 0`` (status 2) and never reaches the work."""
+    parser.set_defaults(option_rules={**(parser.get_default("option_rules") or {}), **checks})
+
+
+def _check_rules(args: argparse.Namespace) -> None:
+    for dest, check in (getattr(args, "option_rules", None) or {}).items():
+        value = getattr(args, dest, None)
+        if value is not None:
+            check(f"--{dest.replace('_', '-')}", value)
+
+
 def _parent() -> argparse.ArgumentParser:
     return argparse.ArgumentParser(add_help=False)
 
@@ -104,12 +133,14 @@ def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
                      description: str) -> argparse.ArgumentParser:
     """Add a ``sweep`` command to ``subparsers``: ``--backend``, :data:`SWEEP_OPTIONS` and
     ``--json``, and the resume and exit-status rules after ``description``."""
-    return subparsers.add_parser(
+    parser = subparsers.add_parser(
         "sweep", parents=[BACKEND_OPTION, SWEEP_OPTIONS, JSON_OPTION], help=help,
         description=f"{description} Rerunning the same command resumes the sweep where it "
                     "stopped (also after the command was killed). Exit status: 0 all cases "
                     "done, 1 some lost (rerun), 2 bad input or a refused file, 130/143 "
                     "interrupted (rerun to resume).")
+    rules(parser, workers=at_least(1), progress_interval=positive)
+    return parser
 
 
 def parse_assignments(pairs: Sequence[str]) -> dict[str, float]:
@@ -170,8 +201,6 @@ def run_sweep(args: argparse.Namespace, analysis: Analysis, fixed: dict[str, Any
     file (failed cases included), 1 when some were lost by the executor (rerun to resume),
     128 + the signal's number when interrupted."""
     cases = parse_grid(args.grid)
-    if args.workers is not None and args.workers < 1:
-        raise SweepError(f"--workers must be at least 1, got {args.workers}")
     meta = {"analysis": analysis.name, "grid": list(args.grid),
             **_model_file_meta(str(fixed.get("model", "")))}
     sweep = Sweep(analysis.resolve(), cases, args.out, fixed=fixed, meta=meta,
@@ -257,12 +286,8 @@ def cmd_view(args: argparse.Namespace) -> int:
     """``porthamiltonian view``: simulate a model and write its 3D view and still image."""
     from pathlib import Path
 
-    from ..errors import OptionError
     from .viewer import scene_from_trajectory
 
-    if not (args.rate > 0 and args.rate < float("inf")):
-        raise OptionError(f"--rate: frames per second of simulated time must be a positive "
-                          f"number, got {args.rate:g}")
     record = io.read(args.model)
     entry = SimulationModel.from_file(record, args.backend)
     traj = entry.simulate(args.t_end, parse_assignments(args.set))
@@ -366,6 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate", type=float, default=30.0, metavar="R",
                    help="frames per second of simulated time (default: 30; at most 900 "
                         "frames)")
+    rules(p, rate=positive)
     p.set_defaults(func=cmd_view)
     p = sub.add_parser("show", parents=[BACKEND_OPTION],
                        help="components, ports, bonds, states, parameters and equations, or "
@@ -421,6 +447,7 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
     """
     args = parser.parse_args(argv)
     try:
+        _check_rules(args)
         with warnings.catch_warnings(), backends.quiet(getattr(args, "quiet", False)):
             warnings.showwarning = _show_warning
             status = args.func(args)

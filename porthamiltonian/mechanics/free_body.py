@@ -38,8 +38,8 @@ import sympy as sp
 from ..errors import ModelError
 from ..modeling.component import Arg, Builder, Component, register
 from ..modeling.ports import Port
-from .kinematics import written_out
 from .inertia import numeric_problem, require_consistent
+from .kinematics import written_out
 from .screw import ad_star, spatial_inertia
 from .tree import quaternion_rate, quaternion_rotation
 

@@ -32,6 +32,7 @@ import networkx as nx
 import sympy as sp
 
 from ..errors import (
+    ConnectError,
     DanglingPortError,
     DuplicateNameError,
     ExpressionError,
@@ -358,6 +359,11 @@ class Model:
         domain, dimension and orientation; raises a :class:`~porthamiltonian.errors.ConnectError`
         naming both ports.
         """
+        for end, ref in (("tail", tail), ("head", head)):
+            if not isinstance(ref, str):
+                raise ConnectError(f"model {self.name!r}: connect's {end} must be a string "
+                                   f"\"component.port\" (or a junction's name), got "
+                                   f"{type(ref).__name__} {ref!r}")
         t_comp, t_port, t_spec = self._resolve(tail)
         h_comp, h_port, h_spec = self._resolve(head)
         new: list[tuple[str, Port]] = []     # junction ports this bond makes (kept if it is made)
