@@ -19,7 +19,7 @@ from ..backends import module, native
 from ..errors import CompilerError, ModelError
 from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel
-from . import cache
+from . import cache, numba_cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
 from .literals import printable
@@ -151,7 +151,8 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
-        return module.load(path, name, len(meta["matrices"]))
+        attach = numba_cache.verified_caches(path.parent) if name == "numba" else None
+        return module.load(path, name, len(meta["matrices"]), source=text, attach=attach)
     shapes = {k: tuple(v) for k, v in meta["shapes"].items()}
     lib_name = native.library_name(key)
     path = cache.verified_path(key, lib_name) if use_cache else None
