@@ -8,7 +8,9 @@ equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and Jacobian to
 from __future__ import annotations
 
 import dataclasses
+import shlex
 import time
+import warnings
 from collections import OrderedDict
 from types import MappingProxyType
 
@@ -154,20 +156,55 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
         attach = numba_cache.verified_caches(path.parent) if name == "numba" else None
         return module.load(path, name, len(meta["matrices"]), source=text, attach=attach)
     shapes = {k: tuple(v) for k, v in meta["shapes"].items()}
-    lib_name = native.library_name(key)
+    n_params = len(meta["param_names"])
+    identity = native.compiler_identity()
+    lib_name = native.library_name(key, identity or "none")
     path = cache.verified_path(key, lib_name) if use_cache else None
-    if path is None:
-        if _C_FAILED and not explicit:
-            raise CompilerError(_C_FAILED[0])
-        source = cache.store(key, f"m{key}_c.c", native.translation_unit(bodies["c"]), use_cache)
-        data, seconds = native.build(source, source.parent if cache.kept(source) else None)
-        times["C"] = seconds
-        path = cache.store(key, lib_name, data, use_cache)
+    if path is not None:
+        try:
+            return native.load(path, shapes, n_params, key)
+        except CompilerError as err:
+            cache.warn(f"compiled-model cache: {err}; the library is removed and rebuilt")
+            cache.discard(key, path.name)
+    if _C_FAILED and not explicit:
+        raise CompilerError(_C_FAILED[0])
+    source = cache.store(key, f"m{key}_c.c", native.translation_unit(bodies["c"], key=key),
+                         use_cache)
     try:
-        return native.load(path, shapes, len(meta["param_names"]))
-    except OSError as err:
-        raise CompilerError(f"the C library {path} cannot be loaded ({err}); remove it to "
-                            "rebuild it, or choose the numba or python back end") from None
+        data, seconds = native.build(source, source.parent if cache.kept(source) else None)
+    except CompilerError as err:
+        # no working compiler now: this model's library built by another compiler will do,
+        # after its self-check (a cached library needs no compiler)
+        earlier = _earlier_library(key, shapes, n_params) if use_cache else None
+        if earlier is None:
+            raise
+        warnings.warn(f"{err}; using this model's C library built earlier by another compiler "
+                      "(it passed its self-check)", backends.BackendWarning, stacklevel=4)
+        return earlier
+    times["C"] = seconds
+    path = cache.store(key, lib_name, data, use_cache)
+    try:
+        return native.load(path, shapes, n_params, key)
+    except CompilerError as err:
+        cache.discard(key, lib_name)
+        raise CompilerError(f"the C compiler ({shlex.join(native.compiler() or ['?'])}) built a "
+                            f"library that fails its self-check: {err}. Set CC to a working C "
+                            "compiler, or choose the numba or python back end") from None
+
+
+def _earlier_library(key: str, shapes: dict, n_params: int) -> backends.Functions | None:
+    """A library of model ``key`` for this machine that another compiler built, loaded after
+    its self-check (one that fails it is removed); None when there is none."""
+    for name in cache.recorded(key, native.library_prefix(key)):
+        path = cache.verified_path(key, name)
+        if path is None:
+            continue
+        try:
+            return native.load(path, shapes, n_params, key)
+        except CompilerError as err:
+            cache.warn(f"compiled-model cache: {err}; the library is removed")
+            cache.discard(key, name)
+    return None
 
 
 def _autonomous(sym: SymbolicModel) -> bool:

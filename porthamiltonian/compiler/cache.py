@@ -111,6 +111,11 @@ def _warn(message: str) -> None:
     warnings.warn(message, CacheWarning, stacklevel=3)
 
 
+def warn(message: str) -> None:
+    """One :class:`CacheWarning` (for the back ends' checks of what they load from the cache)."""
+    warnings.warn(message, CacheWarning, stacklevel=3)
+
+
 # --- where -----------------------------------------------------------------------------------------
 def configured_dir() -> Path:
     """The cache folder asked for: ``$PORTHAMILTONIAN_CACHE`` or ``~/.cache/porthamiltonian``."""
@@ -525,6 +530,26 @@ def verified_path(key: str, name: str) -> Path | None:
     return entry / name
 
 
+def discard(key: str, name: str) -> None:
+    """Remove file ``name`` of entry ``key`` and its record (a library that failed its
+    self-check: the next build replaces it)."""
+    _check_file_name(name)
+    entry = _base(True) / key
+    with contextlib.suppress(OSError):
+        (entry / name).unlink()
+    if (entry / _MANIFEST).exists():
+        _record(entry, {name: None})
+
+
+def recorded(key: str, prefix: str = "") -> list[str]:
+    """The names of the files recorded in entry ``key`` that start with ``prefix`` (none when
+    the entry is absent or cannot be used)."""
+    entry = _base(True) / key
+    if not entry.is_dir() or not _usable(entry):
+        return []
+    return sorted(n for n in (_manifest(entry) or {}) if n.startswith(prefix) and "/" not in n)
+
+
 def kept(path: Path) -> bool:
     """True when ``path`` lies in the cache folder (kept after this process ends)."""
     base = cache_dir()
@@ -619,7 +644,26 @@ def record_written(entry: Path, paths: Callable[[], Iterable[Path]]) -> Iterator
         _record(entry, updates)
 
 
-__all__ = ["CacheWarning", "backend_module", "cache_dir", "configured_dir", "drop_pycache", "kept",
-           "load_verified", "model_key", "private_dir", "private_problem", "pycache_usable", "read",
-           "read_recorded",
-           "record_written", "store", "verified_path", "write", "write_atomic"]
+__all__ = [
+    "CacheWarning",
+    "backend_module",
+    "cache_dir",
+    "configured_dir",
+    "discard",
+    "drop_pycache",
+    "kept",
+    "load_verified",
+    "model_key",
+    "private_dir",
+    "private_problem",
+    "pycache_usable",
+    "read",
+    "read_recorded",
+    "record_written",
+    "recorded",
+    "store",
+    "verified_path",
+    "warn",
+    "write",
+    "write_atomic",
+]
