@@ -21,7 +21,7 @@ from ..backends import module, native
 from ..errors import CompilerError, ModelError
 from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel
-from . import cache, numba_cache
+from . import cache, estimate, numba_cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
 from .literals import printable
@@ -101,6 +101,7 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     hit = cache.read(key) if use_cache else None
     times: dict[str, float] = {}
     if hit is None:
+        estimate.check(description, backends.report)      # refused, or announced, before work
         start = time.perf_counter()
         sym = symbolic(description)
         times["symbolic"] = time.perf_counter() - start

@@ -35,6 +35,7 @@ from typing import Any
 from .. import backends, userfiles
 from ..backends import module, native
 from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
+from ..batch.grids import MAX_CASES
 from ..batch.progress import MODES
 from ..batch.table import write_csv
 from ..errors import ModelError, OptionError
@@ -120,6 +121,9 @@ SWEEP_OPTIONS.add_argument("--serial", action="store_true",
 SWEEP_OPTIONS.add_argument("--scheduler", default=None, metavar="ADDRESS",
                            help="run on a dask.distributed cluster: a scheduler address "
                                 "(tcp://host:8786), or 'local' for a local cluster")
+SWEEP_OPTIONS.add_argument("--max-cases", type=int, default=MAX_CASES, metavar="N",
+                           help=f"refuse a grid of more cases than this (default {MAX_CASES}: a "
+                                "case list takes about 0.5 kB of memory per case); 0: no limit")
 SWEEP_OPTIONS.add_argument("--csv", default=None, metavar="FILE",
                            help="also write the table as CSV")
 SWEEP_OPTIONS.add_argument("--progress", choices=MODES, default=None,
@@ -139,7 +143,7 @@ def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
                     "stopped (also after the command was killed). Exit status: 0 all cases "
                     "done, 1 some lost (rerun), 2 bad input or a refused file, 130/143 "
                     "interrupted (rerun to resume).")
-    rules(parser, workers=at_least(1), progress_interval=positive)
+    rules(parser, workers=at_least(1), progress_interval=positive, max_cases=at_least(0))
     return parser
 
 
@@ -200,7 +204,7 @@ def run_sweep(args: argparse.Namespace, analysis: Analysis, fixed: dict[str, Any
     (the analysis's ``prepare``) the cases themselves. Exit status: 0 when every case is in the
     file (failed cases included), 1 when some were lost by the executor (rerun to resume),
     128 + the signal's number when interrupted."""
-    cases = parse_grid(args.grid)
+    cases = parse_grid(args.grid, args.max_cases or None)
     meta = {"analysis": analysis.name, "grid": list(args.grid),
             **_model_file_meta(str(fixed.get("model", "")))}
     sweep = Sweep(analysis.resolve(), cases, args.out, fixed=fixed, meta=meta,
