@@ -45,6 +45,7 @@ from porthamiltonian.interfaces.cli import (
     add_sweep_parser,
     at_least,
     backend_option,
+    not_negative,
     parse_assignments,
     positive,
     rules,
@@ -54,7 +55,7 @@ from porthamiltonian.interfaces.cli import (
 
 from .analyses.cases import ANALYSES, get_analysis
 from .analyses.continuation import ParameterPath, continue_gait, parse_range
-from .analyses.gait import analyze_gait, gait_start, section_guess, walk
+from .analyses.gait import TIME_LIMIT, analyze_gait, gait_start, section_guess, walk
 from .analyses.results import to_json
 from .analyses.robustness import basin, gait_sensitivity_norm, step_down
 from .core.files import available_walkers, check_target, load_walker, save_walker
@@ -130,6 +131,10 @@ def _walker_and_guess(args):
     return walker, section_guess(walker, previous, named)
 
 
+#: the default time limit of `walker continue` and `walker report --continuation` (s)
+CONTINUATION_TIME_LIMIT = 3600.0
+
+
 def _with_unit(walker, key: str, value: Any) -> str:
     """``value`` and the unit of quantity ``key`` of ``walker`` ("nondim." in a nondimensional
     model; nothing for a ratio)."""
@@ -140,10 +145,12 @@ def _with_unit(walker, key: str, value: Any) -> str:
 
 def cmd_gait(args) -> int:
     walker, guess = _walker_and_guess(args)
-    with activity(f"gait {walker.name}", enabled=not args.quiet):
+    with activity(f"gait {walker.name}", enabled=not args.quiet) as shown:
         result = analyze_gait(walker, guess, max_period=args.max_period, fd_step=args.fd_step,
                               n_iterate=args.iterate, jacobian=args.jacobian,
-                              continuation=not args.no_continuation)
+                              continuation=not args.no_continuation,
+                              log=None if args.quiet else shown.write,
+                              time_limit=args.time_limit or None)
     if args.json:
         print(result.to_json())
         return 0
@@ -180,21 +187,24 @@ def cmd_gait(args) -> int:
 
 
 def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: int = 400,
-                  jacobian: str = "variational", log=None):
+                  jacobian: str = "variational", log=None, time_limit: float | None = None):
     """Continue the gait in ``text`` (NAME=START:STOP): the range and parameter are checked
-    before any work, the gait at the start found by the full gait search."""
+    before any work, the gait at the start found by the full gait search; ``time_limit``
+    (s) bounds the continuation."""
     name, start, stop = parse_range(text)
     path = ParameterPath.single(walker, name, start, stop)
-    z0, period = gait_start(walker, name, start, guess, jacobian=jacobian)
+    z0, period = gait_start(walker, name, start, guess, jacobian=jacobian, log=log)
     return continue_gait(walker, path, guess=z0, period=period, jacobian=jacobian,
-                         doublings=doublings, max_points=max_points, log=log)
+                         doublings=doublings, max_points=max_points, log=log,
+                         time_limit=time_limit)
 
 
 def cmd_continue(args) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
-                           max_points=args.max_points, jacobian=args.jacobian, log=log)
+                           max_points=args.max_points, jacobian=args.jacobian, log=log,
+                           time_limit=args.time_limit or None)
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
@@ -314,7 +324,8 @@ def cmd_report(args) -> int:
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     continuation = None
     if args.continuation:
-        continuation = _continuation(walker, args.continuation, None, log=log)
+        continuation = _continuation(walker, args.continuation, None, log=log,
+                                     time_limit=args.time_limit or None)
     result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
                           with_step_down=not args.no_step_down, forces=args.forces,
                           view3d=args.view3d, continuation=continuation, log=log)
@@ -413,7 +424,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-continuation", action="store_true",
                    help="do not continue the model file's nominal gait to these parameters when "
                         "the guess finds no stable gait")
-    rules(p, max_period=at_least(1), fd_step=positive, iterate=at_least(1))
+    p.add_argument("--time-limit", type=float, default=TIME_LIMIT, metavar="S",
+                   help=f"stop the search after S seconds with what it found (default "
+                        f"{TIME_LIMIT:g}; 0: no limit)")
+    rules(p, max_period=at_least(1), fd_step=positive, iterate=at_least(1),
+          time_limit=not_negative)
     p.set_defaults(func=cmd_gait)
 
     p = sub.add_parser("continue", parents=analysis,
@@ -428,8 +443,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="points per branch at most (default: 400)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="write continuation.json and bifurcation_diagram.png there")
+    p.add_argument("--time-limit", type=float, default=CONTINUATION_TIME_LIMIT, metavar="S",
+                   help=f"start no new point after S seconds (default "
+                        f"{CONTINUATION_TIME_LIMIT:g}; 0: no limit)")
     _guess_options(p)
-    rules(p, doublings=at_least(0), max_points=at_least(2))
+    rules(p, doublings=at_least(0), max_points=at_least(2), time_limit=not_negative)
     p.set_defaults(func=cmd_continue)
 
     p = sub.add_parser("walk", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION],
@@ -479,6 +497,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
     p.add_argument("--continuation", default=None, metavar="NAME=START:STOP",
                    help="also the bifurcation diagram over a parameter's range (walker continue)")
+    p.add_argument("--time-limit", type=float, default=CONTINUATION_TIME_LIMIT, metavar="S",
+                   help=f"with --continuation: start no new point after S seconds (default "
+                        f"{CONTINUATION_TIME_LIMIT:g}; 0: no limit)")
     p.add_argument("--forces", action="store_true",
                    help="draw the contact-force arrows in walk.gif (the page's player has a "
                         "switch for them either way)")
@@ -488,7 +509,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "walker always has one), with its still image view3d.png")
     view.add_argument("--no-view3d", dest="view3d", action="store_false",
                       help="no 3D view, not even for a 3D walker")
-    rules(p, steps=at_least(1))
+    rules(p, steps=at_least(1), time_limit=not_negative)
     p.set_defaults(func=cmd_report)
 
     p = add_sweep_parser(

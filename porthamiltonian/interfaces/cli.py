@@ -58,6 +58,12 @@ def positive(option: str, value: float) -> None:
         raise OptionError(f"{option} must be a finite number > 0, got {value:g}")
 
 
+def not_negative(option: str, value: float) -> None:
+    """A rule of an option (see :func:`rules`): a finite number >= 0 (0 often means "none")."""
+    if not (math.isfinite(value) and value >= 0):
+        raise OptionError(f"{option} must be a finite number >= 0, got {value:g}")
+
+
 def rules(parser: argparse.ArgumentParser, **checks: Callable[[str, Any], None]) -> None:
     """Give the options of a command's ``parser`` their rules (``steps=at_least(1)``,
     ``rate=positive``): :func:`run` applies them before the command runs, so a bad value is
