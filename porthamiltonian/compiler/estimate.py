@@ -28,7 +28,8 @@ from ..mechanics.joints import joint
 from ..modeling.model import ModelDescription
 from .literals import printable
 
-__all__ = ["LIMIT_VARIABLE", "MAX_CODE_MB", "BuildEstimate", "check", "estimate", "limit"]
+__all__ = ["LIMIT_VARIABLE", "MAX_CODE_MB", "BuildEstimate", "check", "duration_text", "estimate",
+           "limit"]
 
 #: the largest generated code built without asking (MB): an 80-link chain, minutes to build
 MAX_CODE_MB = 8.0
@@ -56,7 +57,7 @@ class BuildEstimate:
         """``"60 bodies, about 2.4 MB of code (about 1.1 GB of memory and 1 min to build)"``."""
         return (f"{self.bodies} bod{'y' if self.bodies == 1 else 'ies'}, about "
                 f"{_size(self.code_bytes)} of code (about {_size(self.memory_bytes)} of memory "
-                f"and {_duration(self.seconds)} to build)")
+                f"and {duration_text(self.seconds)} to build)")
 
 
 def _size(n: float) -> str:
@@ -66,7 +67,10 @@ def _size(n: float) -> str:
     return f"{n:.0f} B"
 
 
-def _duration(seconds: float) -> str:
+def duration_text(seconds: float) -> str:
+    """``"5.4 h"``, ``"2 min"``, ``"40 s"``, ``"3.2e+07 years"``: a time span in words."""
+    if seconds >= 3.15e7:
+        return f"{seconds / 3.156e7:.2g} years"
     for unit, scale in (("days", 86400), ("h", 3600), ("min", 60)):
         if seconds >= scale:
             return f"{seconds / scale:.2g} {unit}"

@@ -27,6 +27,7 @@ import json
 import math
 import os
 import sys
+import time
 import traceback
 import warnings
 from collections.abc import Callable, Sequence
@@ -38,6 +39,7 @@ from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor
 from ..batch.grids import MAX_CASES
 from ..batch.progress import MODES
 from ..batch.table import write_csv
+from ..compiler.estimate import duration_text
 from ..errors import ModelError, OptionError
 from . import io
 from .sweeps import SimulationModel, prepare_simulation, simulate_case
@@ -266,11 +268,44 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 # --- simulate, show, check-energy -------------------------------------------------------------------
+class RunProgress:
+    """Lines on stderr during a long run (``simulate``, ``view``): the simulated time reached
+    and, at the pace so far, how long to the end, or where the run will stop at ``max_steps``
+    (the first line after 5 s, then every 30 s: a ``t_end = 1e12`` does not run silently).
+    Called with the simulated time and the steps taken
+    (:func:`~porthamiltonian.simulation.simulate.simulate`'s ``progress``)."""
+
+    def __init__(self, name: str, t_end: float, t_start: float = 0.0,
+                 max_steps: int = 10_000_000):
+        self.name, self.t_end, self.t_start, self.max_steps = name, t_end, t_start, max_steps
+        self.start = time.monotonic()
+        self.next = 5.0
+
+    def __call__(self, t: float, steps: int) -> None:
+        """Report where the run is, if it is time for a line."""
+        elapsed = time.monotonic() - self.start
+        if elapsed < self.next or t <= self.t_start:
+            return
+        self.next = elapsed + 30.0
+        done = (t - self.t_start) / (self.t_end - self.t_start)
+        line = (f"{self.name}: t = {t:.4g} s of {self.t_end:g} s ({100 * done:.3g} %) after "
+                f"{elapsed:.0f} s, {steps} steps")
+        if steps / done > self.max_steps:
+            stop = self.t_start + (t - self.t_start) * self.max_steps / max(steps, 1)
+            line += (f"; at this pace the run needs about {steps / done:.2g} steps and will stop "
+                     f"at the limit of {self.max_steps} steps near t = {stop:.3g} s, in about "
+                     f"{duration_text(elapsed * (self.max_steps / max(steps, 1) - 1))}")
+        else:
+            line += f"; about {duration_text(elapsed * (1 / done - 1))} to go at this pace"
+        backends.report(line + " (Ctrl-C stops the run)")
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``porthamiltonian simulate``: one run, its final state and ledger (text or JSON)."""
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
-    traj = entry.simulate(args.t_end, parse_assignments(args.set))
+    traj = entry.simulate(args.t_end, parse_assignments(args.set),
+                          progress=RunProgress(model.name, entry.t_end(args.t_end)))
     result = {"model": model.name, "status": traj.status, "message": traj.message,
               "t_end": traj.t_final,
               "final_state": dict(zip(compiled.state_names, traj.x_final.tolist())),
@@ -300,7 +335,8 @@ def cmd_view(args: argparse.Namespace) -> int:
 
     record = io.read(args.model)
     entry = SimulationModel.from_file(record, args.backend)
-    traj = entry.simulate(args.t_end, parse_assignments(args.set))
+    traj = entry.simulate(args.t_end, parse_assignments(args.set),
+                          progress=RunProgress(entry.model.name, entry.t_end(args.t_end)))
     scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
                                   title=entry.model.name)
     out = Path(args.out)

@@ -74,10 +74,12 @@ class SimulationModel:
                    simulation_settings(record.simulation))
 
     def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
-                 dense_output: bool = False) -> Trajectory:
+                 dense_output: bool = False,
+                 progress: Callable[[float, int], None] | None = None) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
         method, rtol, atol and max_step (with ``dense_output``, a file's compiled method,
-        Rodas4 or Rodas5P, becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
+        Rodas4 or Rodas5P, becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known.
+        ``progress``: see :func:`~porthamiltonian.simulation.simulate.simulate`."""
         t_end = self.t_end(t_end)
         sim = self.settings
         options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
@@ -85,7 +87,8 @@ class SimulationModel:
         if dense_output and method in TABLEAUS:
             method = "auto"              # the compiled loop has no dense output: Radau instead
         return self.compiled.simulate(t_end, params=params, method=method, rtol=sim["rtol"],
-                                      atol=sim["atol"], dense_output=dense_output, **options)
+                                      atol=sim["atol"], dense_output=dense_output,
+                                      progress=progress, **options)
 
     def t_end(self, t_end: float | None) -> float:
         """``t_end`` (s), else the file's; ModelError when neither is given."""

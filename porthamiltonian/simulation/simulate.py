@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from ..errors import ModelError, StateError
+from ..errors import ModelError, OptionError, StateError
 from .differences import Derivative, gradient
 from .options import check_simulation
 from .saltation import Crossing, Sensitivity, saltation_matrix
@@ -89,7 +89,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
              t_eval: np.ndarray | None = None, dense_output: bool = False,
              max_events: int = 100_000, max_steps: int = 10_000_000,
              divergence_bound: float = 1e12,
-             sensitivity: bool | np.ndarray = False) -> Trajectory:
+             sensitivity: bool | np.ndarray = False,
+             progress: Callable[[float, int], None] | None = None) -> Trajectory:
     """Simulate ``model`` from ``t_start`` to ``t_end`` (also ``model.simulate(t_end, ...)``).
 
     Parameters
@@ -122,6 +123,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         directions V (n x m). Compiled methods only (``"auto"``: Rodas5P); the trajectory is
         the same, bit for bit, as without; an action that moves the state gives its Jacobian
         (``Reset(jacobian=...)``). See :mod:`porthamiltonian.simulation.saltation`.
+    progress : called with the simulated time and the steps taken so far, now and then during
+        the run (after each batch of up to 4096 steps of a compiled loop, every 1000 steps of a
+        scipy method): for a progress display of a long run (the command line's).
 
     Returns the :class:`Trajectory`; its ``status`` (a :class:`Status`) says how the run ended.
 
@@ -135,6 +139,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         events=events, t_eval=t_eval, dense_output=dense_output, max_events=max_events,
         max_steps=max_steps, divergence_bound=divergence_bound, sensitivity=sensitivity)
     t_start, t_end, t_eval = checked["t_start"], checked["t_end"], checked["t_eval"]
+    if progress is not None and not callable(progress):
+        raise OptionError(f"progress must be a function of the time and steps, or None, got "
+                          f"{type(progress).__name__}")
     requested = method
     if method == "auto":
         method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas5P"
@@ -169,7 +176,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         jacobian=checked["jacobian"] and method in _STIFF, actions=actions, events=py_events,
         t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
-        sensitivity=checked["sensitivity"])
+        sensitivity=checked["sensitivity"], progress=progress)
     return Simulator(model, settings).run(t_start, y, p, t_end)
 
 
@@ -205,6 +212,7 @@ class Settings:
     max_steps: int
     divergence_bound: float
     sensitivity: np.ndarray | None = None
+    progress: Callable[[float, int], None] | None = None
 
 
 #: The compiled loop's return codes (porthamiltonian/integrators/rodas_loop.py), but 5: its
@@ -453,6 +461,8 @@ class Simulator:
                 return close(Status.FAILED, f"{settings.method} failed at t = {t_old:.6g}: "
                              f"{message}", t_old, None)
             t_new, y_new = solver.t, solver.y
+            if settings.progress is not None and self.steps % 1000 == 0:
+                settings.progress(float(t_new), self.steps)
             bound = settings.divergence_bound
             if not np.all(np.isfinite(y_new)) or np.max(np.abs(y_new[:n])) > bound:
                 return close(Status.DIVERGED, f"max|x| exceeded {bound:g} (or "
@@ -529,6 +539,8 @@ class Simulator:
                            self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
                            settings.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
+            if settings.progress is not None:
+                settings.progress(float(t), self.steps)
             self._counts["nfev"] += nfev
             self._counts["njev"] += njev
             ts.append(t_store[:n_store].copy())
