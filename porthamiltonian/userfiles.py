@@ -36,8 +36,7 @@ def _kind(mode: int) -> str | None:
     if stat.S_ISDIR(mode):
         return "a directory, not a file"
     if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return ("a device, not a file (a device has no end, or waits for input); give the path "
-                "of a file")
+        return "a device, not a file (a device has no end, or waits for input)"
     if stat.S_ISSOCK(mode):
         return "a socket, not a file"
     if stat.S_ISREG(mode) or stat.S_ISFIFO(mode):
