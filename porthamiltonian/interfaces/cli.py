@@ -276,14 +276,15 @@ class RunProgress:
     (:func:`~porthamiltonian.simulation.simulate.simulate`'s ``progress``)."""
 
     def __init__(self, name: str, t_end: float, t_start: float = 0.0,
-                 max_steps: int = 10_000_000):
+                 max_steps: int = 10_000_000, clock: Callable[[], float] = time.monotonic):
         self.name, self.t_end, self.t_start, self.max_steps = name, t_end, t_start, max_steps
-        self.start = time.monotonic()
+        self.clock = clock
+        self.start = clock()
         self.next = 5.0
 
     def __call__(self, t: float, steps: int) -> None:
         """Report where the run is, if it is time for a line."""
-        elapsed = time.monotonic() - self.start
+        elapsed = self.clock() - self.start
         if elapsed < self.next or t <= self.t_start:
             return
         self.next = elapsed + 30.0
