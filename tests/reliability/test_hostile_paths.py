@@ -161,13 +161,13 @@ def test_a_pipe_that_never_ends_is_read_to_the_bound_only(within, capsys):
 
 
 def test_process_substitution_works_for_simulate_as_for_guess(isolated_cache):
-    """The shell's ``<(...)`` (a /dev/fd/N pipe): simulate reads it; view reads it once."""
+    """The shell's ``<(...)`` (a /dev/fd/N pipe): simulate reads it, as --guess does."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
     model = MODELS_DIR / "mass_spring_damper.toml"
-    proc = subprocess.run(
-        ["bash", "-c", f'"{sys.executable}" -m porthamiltonian --backend python simulate '
-                       f'<(cat "{model}") --t-end 1'],
-        capture_output=True, text=True, env=env, timeout=300, check=False)
+    command = (f'"{sys.executable}" -m porthamiltonian --backend python simulate '
+               f'<(cat "{model}") --t-end 1')
+    proc = subprocess.run(["bash", "-c", command], capture_output=True, text=True, env=env,
+                          timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith("mass_spring_damper: finished at t = 1 s")
 
