@@ -14,6 +14,7 @@ are checked first (the C code trusts them); ctypes releases the GIL during the c
 """
 from __future__ import annotations
 
+import atexit
 import ctypes
 import functools
 import hashlib
@@ -226,6 +227,26 @@ def _subnormals() -> bool:
     return sys.float_info.min / 2 > 0.0
 
 
+#: the libraries this process loaded: path -> (device, inode) of the file then
+_LOADED: dict[str, tuple[int, int]] = {}
+
+
+def _fresh_path(path: Path) -> Path:
+    """``path``, or, when this process loaded another file by that path before (a library
+    replaced since: rebuilt after failing its check), a private copy under a new name: the
+    dynamic loader would otherwise hand back the library it loaded first."""
+    info = path.stat()
+    ident = (info.st_dev, info.st_ino)
+    before = _LOADED.setdefault(str(path), ident)
+    if before == ident:
+        return path
+    folder = Path(tempfile.mkdtemp(prefix="porthamiltonian-lib-"))
+    atexit.register(shutil.rmtree, folder, True)
+    copy = folder / path.name
+    shutil.copyfile(path, copy)
+    return copy
+
+
 def _check(lib: ctypes.CDLL, path: Path, key: str | None, subnormals: bool) -> None:
     """The self-check of a loaded library (see :func:`load`); CompilerError on failure, after
     restoring the floating-point environment when loading it changed it."""
@@ -264,7 +285,7 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     layout that is not the model's."""
     subnormals = _subnormals()
     try:
-        lib = ctypes.CDLL(str(path))
+        lib = ctypes.CDLL(str(_fresh_path(Path(path))))
     except OSError as err:
         raise CompilerError(f"{path}: not a loadable shared library ({err})") from None
     _check(lib, path, key, subnormals)
