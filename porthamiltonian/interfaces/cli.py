@@ -151,7 +151,7 @@ def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
                     "stopped (also after the command was killed). Exit status: 0 all cases "
                     "done, 1 some lost (rerun), 2 bad input or a refused file, 130/143 "
                     "interrupted (rerun to resume).")
-    rules(parser, workers=at_least(1), progress_interval=positive, max_cases=at_least(0))
+    rules(parser, workers=at_least(1), progress_interval=not_negative, max_cases=at_least(0))
     return parser
 
 

@@ -189,9 +189,8 @@ def test_a_gait_search_that_would_run_for_hours_stops_at_its_time_limit(capsys, 
     out, err = capsys.readouterr()
     assert status == 0, err
     assert "the search stopped at its time limit (8 s; --time-limit)" in out
-    assert "compass_walker: Newton on the stride map from the guess" in err     # progress
     if "(K 1e+06 -> 1e+15)" in out:           # it got as far as the homotopy (not under load)
-        assert "continuing the model file's nominal gait: K 1e+06 -> 1e+15" in err
+        assert "continuing the model file's nominal gait: K 1e+06 -> 1e+15" in err  # progress
 
 
 def test_a_continuation_stops_at_its_time_limit_and_says_where():

@@ -113,7 +113,7 @@ def test_a_bad_option_gets_its_own_message_before_any_work(argv, words, capsys, 
 @pytest.mark.parametrize("argv, words", [
     (["view", "free_rigid_body", "--rate", "inf"], "--rate must be a finite number > 0, got inf"),
     (["sweep", "mass_spring_damper", "--grid", "k=1", "--out", "x.jsonl",
-      "--progress-interval", "0"], "--progress-interval must be a finite number > 0"),
+      "--progress-interval", "-1"], "--progress-interval must be a finite number >= 0"),
 ])
 def test_porthamiltonian_options_too(argv, words, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)

@@ -404,19 +404,18 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
         parameters when no stable orbit is found otherwise. time_limit : seconds after which
         the search starts nothing new (default :data:`TIME_LIMIT`; None: no limit); what it
         found by then is the result, and ``search`` and the message say where it stopped.
-        log : progress lines (the phases, and the continuation's points).
+        log : progress lines of the homotopy (where it goes, each point): the part of the
+        search that can take long.
     """
     if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
         raise ModelError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
     deadline = math.inf if time_limit is None else time.perf_counter() + time_limit
-    say = log or (lambda msg: None)
     if tol is None:
         tol = float(getattr(walker, "gait_tolerance", 1e-10))
     base = {"model": walker.name, "section": list(walker.section),
             "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     search = _Search(walker, fd_step, jacobian, tol)
     search.time_limit = time_limit
-    say(f"{walker.name}: Newton on the stride map from the guess, then the walker's own motion")
     gait = _direct(walker, guess, tol=tol, max_iter=max_iter, max_period=max_period,
                    search=search, n_iterate=n_iterate, period_tol=period_tol, deadline=deadline)
     fp, pr = search.newton, search.period
