@@ -179,8 +179,10 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
         earlier = _earlier_library(key, shapes, n_params) if use_cache else None
         if earlier is None:
             raise
-        warnings.warn(f"{err}; using this model's C library built earlier by another compiler "
-                      "(it passed its self-check)", backends.BackendWarning, stacklevel=4)
+        if identity is not None:        # a compiler that fails (none at all: nothing to say)
+            warnings.warn(f"{err}; using this model's C library built earlier by another "
+                          "compiler (it passed its self-check)", backends.BackendWarning,
+                          stacklevel=4)
         return earlier
     times["C"] = seconds
     path = cache.store(key, lib_name, data, use_cache)
