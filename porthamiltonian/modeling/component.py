@@ -138,7 +138,10 @@ class Builder:
         self.built = Built(name)
         self._claimed: dict[str, str] = {}
         for port in ports:
-            self.built.ports[port.name] = self._port_vars(port)
+            variables = self._port_vars(port)
+            self.built.ports[port.name] = variables
+            for symbol in (*sp.Matrix([variables.e]), *sp.Matrix([variables.f])):
+                self._claimed[symbol.name] = f"port {port.name!r} variable"
 
     def _port_vars(self, port: Port) -> PortVars:
         base = f"{self.name}.{port.name}"

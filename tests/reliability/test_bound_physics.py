@@ -191,6 +191,9 @@ def _pendulum(points: str = "", joint: str = "pivot", body: str = "bob") -> str:
 NAMES = [
     (_pendulum(', q = [0, 0, "-l"]', joint="x"), "its output 'q.x' has the name of its state 'q.x'"),
     (_pendulum(', p = [0, 0, "-l"]', joint="z"), "its output 'p.z' has the name of its state 'p.z'"),
+    (_pendulum(joint="e0").replace('points = {', 'frames = { q = [0, 0, 0] }\npoints = {'),
+     "its state 'q.e0' has the name of its port 'q' variable 'q.e0'"),
+    (_pendulum(', q = [0, 0, "-l"]', joint="f1"), "state 'q.f1' has the name of its port 'q'"),
     (_pendulum(body="world"), "'world' is the fixed frame"),
     (_text("mass_spring_damper") + '\n[outputs]\nk = "spring.q"\n',
      "the output 'k' has the name of its parameter 'k'"),
