@@ -296,9 +296,16 @@ class CompiledModel:
         p = self._padded(self.param_defaults if p is None else p)
         x = np.array(self.functions.initial(self.native_params(p)), dtype=float)[: self.n_states]
         for name, value in (values or {}).items():
-            x[self.state_index(name)] = value
+            index = self.state_index(name)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+                raise StateError(f"model {self.name!r}: the initial value of state {name!r} must "
+                                 f"be a number, got {type(value).__name__} {value!r}")
+            x[index] = value
         if not np.all(np.isfinite(x)):
-            raise StateError(f"model {self.name!r}: initial state is not finite: {x}")
+            bad = ", ".join(f"{n} = {v}" for n, v in zip(self.state_names, x) if not np.isfinite(v))
+            raise StateError(f"model {self.name!r}: initial state is not finite: {bad} (from the "
+                             "initial values the components compute from the parameters; check "
+                             "the parameters they read)")
         return x
 
     def state_index(self, name: str) -> int:
