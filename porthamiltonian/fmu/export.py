@@ -205,7 +205,8 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
                               rtol, step_size),
         tool=tool, date=date)
     page = index_html(model, variables, program, Page(version, kinds, identifier, method, solver,
-                                                      tool, date, folder, description))
+                                                      tool, date, folder, description,
+                                                      tuple(periods)))
     members: dict[str, bytes] = {"modelDescription.xml": xml,
                                  f"binaries/{folder}/{identifier}{suffix}": library,
                                  "documentation/index.html": page.encode()}
