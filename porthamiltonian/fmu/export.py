@@ -177,7 +177,7 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
     if unknown:
         raise OptionError(f"outputs: model {model.name!r} has no output(s) {', '.join(unknown)}")
     identifier = _identifier(model.name, model_identifier)
-    periods = sample_periods(model, start_time, x_start, p)
+    periods = _sample_periods(model, start_time, x_start, p)
     if step_size is None and periods:
         step_size = min(periods)
     hmax = solver[2] if math.isfinite(solver[2]) else 1e300
@@ -244,7 +244,7 @@ def _input_starts(model: CompiledModel, p: np.ndarray,
     return p
 
 
-def sample_periods(model: CompiledModel, t0: float, x: np.ndarray, p: np.ndarray) -> list[float]:
+def _sample_periods(model: CompiledModel, t0: float, x: np.ndarray, p: np.ndarray) -> list[float]:
     """The sample periods T (s) of the model's discrete-time blocks at the start (the FMU reads
     them again at its initialization, from the parameters it is given); an
     :class:`~porthamiltonian.errors.ExportError` names a block whose period is not > 0."""
