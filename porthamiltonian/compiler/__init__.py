@@ -230,7 +230,12 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     docs = {par_name: par.doc for par_name, par in description.parameters.items()}
     return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
                          c_source=bodies["c"],
-                         param_docs=[docs.get(n, "") for n in meta.param_names], rebuild=rebuild)
+                         param_docs=[docs.get(n, "") for n in meta.param_names],
+                         input_docs=[description.inputs[n].doc for n in meta.input_names],
+                         output_expressions={n: description.outputs[n]
+                                             for n in meta.declared_outputs
+                                             if n in description.outputs},
+                         rebuild=rebuild)
 
 
 def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:

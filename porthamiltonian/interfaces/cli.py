@@ -440,17 +440,27 @@ def cmd_export_fmu(args: argparse.Namespace) -> int:
     path = export_fmu(compiled, args.out, fmi=args.fmi, kind=args.kind,
                       params=parse_assignments(args.set), method=method, rtol=settings["rtol"],
                       atol=settings["atol"], max_step=settings.get("max_step", float("inf")),
-                      stop_time=t_end, description=record.description)
+                      stop_time=t_end, description=record.description,
+                      inputs=_constant_inputs(settings.get("inputs")))
     kinds = {"me": "model exchange", "cs": "co-simulation",
              "both": "model exchange and co-simulation"}[args.kind]
     print(f"wrote {path}: FMI {args.fmi}.0 ({kinds}), {compiled.n_states} + 2 states (the ledger's "
           f"E_diss, E_in), {len(compiled.events)} event indicator(s), "
-          f"{len(compiled.param_names)} parameters, {len(compiled.output_names)} outputs")
+          f"{len(compiled.param_names)} parameters, {len(compiled.input_names)} input(s), "
+          f"{len(compiled.output_names)} outputs")
     if "walker" in record.sections:
         print(f"note: {args.model} is a walker file: this FMU is its model with the modes fixed "
               "at their values (as `porthamiltonian simulate` runs it); `walker export-fmu` "
               "exports the walker with its mode machine", file=sys.stderr)
     return 0
+
+
+def _constant_inputs(inputs: Any) -> dict[str, float] | None:
+    """The numbers of a model file's ``[simulation] inputs`` (the FMU's input start values)."""
+    if not isinstance(inputs, dict):
+        return None
+    return {k: v for k, v in inputs.items() if isinstance(v, (int, float))
+            and not isinstance(v, bool)}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -171,10 +171,14 @@ class CompiledModel:
     source : the generated source the back end runs (C or Python); c_source : the generated C
         body (what the C back end compiles, also under the other back ends: an FMU embeds it).
     param_docs : the parameters' descriptions, in the order of :attr:`param_names`.
+    input_docs : the inputs' descriptions, in the order of :attr:`input_names`.
+    output_expressions : the declared outputs' expressions as the model states them
+        (``{"x": "cart_pole.q.slider"}``), for documentation (an FMU's variables).
     """
 
     def __init__(self, meta: ModelMeta, functions: Functions, source: str, key: str, *,
                  c_source: str = "", param_docs: Sequence[str] = (),
+                 input_docs: Sequence[str] = (), output_expressions: Mapping[str, str] | None = None,
                  rebuild: Callable[..., CompiledModel] | None = None):
         self.meta = meta
         self.name: str = meta.name
@@ -202,6 +206,8 @@ class CompiledModel:
         self.source = source
         self.c_source = c_source
         self.param_docs: list[str] = list(param_docs) or [""] * len(self.param_names)
+        self.input_docs: list[str] = list(input_docs) or [""] * len(self.input_names)
+        self.output_expressions: dict[str, str] = dict(output_expressions or {})
         self.key = key
         #: compiles this model again with more generated functions (``ph=True``, ``jac_p=``):
         #: set by the compiler; None for a model made otherwise
