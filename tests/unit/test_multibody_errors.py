@@ -382,3 +382,17 @@ def test_dependent_constraint_rows_are_refused_with_the_rank(isolated_cache):
         compiled.simulate(0.1)
     msg = str(info.value)
     assert "rank 1" in msg and "P, Q" in msg and "P.x, Q.x" in msg and "redundant" in msg
+
+
+def test_a_configuration_that_cannot_be_assembled_is_refused_with_the_residual(isolated_cache):
+    """A rod's tip (1 m from its pivot) held on the line x = 3 m: no configuration
+    closes; the StateError quotes the residual after the Newton steps and the rows furthest
+    off."""
+    pin = {"type": "point", "point": "tip_a", "position": [3, 0, 0], "axes": ["x"]}
+    model = ph.Model("unreachable")
+    model.add("mb", build(TWO_RODS, TWO_PIVOTS, constraints={"pin": pin}))
+    compiled = ph.compile_model(model, backend="python")
+    with pytest.raises(errors.StateError) as info:
+        compiled.simulate(0.1)
+    msg = str(info.value)
+    assert "cannot be assembled" in msg and "residual 2" in msg and "pin.x" in msg
