@@ -61,7 +61,9 @@ def model_settings() -> Callable:
 def model_run(compile_named, model_settings) -> Callable:
     """``model_run(name)`` -> (CompiledModel, Trajectory) simulated with the model file's own
     [simulation] settings (t_end, method, rtol, atol, max_step, inputs), memoized for the
-    session."""
+    session; with dense output unless the method is a compiled loop (Rodas5P, Rodas4, QBDF)."""
+    from porthamiltonian.integrators import COMPILED_METHODS
+
     runs: dict[str, tuple] = {}
 
     def _run(name: str):
@@ -71,7 +73,9 @@ def model_run(compile_named, model_settings) -> Callable:
             options = {k: sim[k] for k in ("method", "rtol", "atol", "max_step") if k in sim}
             if model.input_names:
                 options["inputs"] = sim.get("inputs")
-            runs[name] = (model, model.simulate(float(sim["t_end"]), dense_output=True, **options))
+            dense = sim.get("method") not in COMPILED_METHODS     # a compiled loop keeps none
+            runs[name] = (model, model.simulate(float(sim["t_end"]), dense_output=dense,
+                                                **options))
         return runs[name]
 
     return _run
