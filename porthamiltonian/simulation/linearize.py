@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import InputError, ModelError, OptionError, StateError
+from .assembly import consistent, constraint_rows
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
@@ -299,7 +300,8 @@ def trim(model: CompiledModel, x: Any = None, u: Any = None, params: Any = None,
     the starting point (and the values of what is not free); ``free_states`` default to every
     dynamic state, ``free_inputs`` to none (give some to find the inputs that hold a given
     state). Converged when max |ẋ| <= tol · (1 + max |∂ẋ/∂z · z|) (z the free variables). Never
-    raises on non-convergence: ``success`` says."""
+    raises on non-convergence: ``success`` says. A multibody with loops or constraints is kept
+    on them: every iterate is assembled (:func:`~.assembly.consistent`)."""
     pt = point(model, t, x, u, params)
     n, m, P = model.n_states, len(model.input_names), len(model.param_names)
     keep = dynamic_states(model)
@@ -312,7 +314,11 @@ def trim(model: CompiledModel, x: Any = None, u: Any = None, params: Any = None,
     y, p = pt.y.copy(), pt.p.copy()
     rows = keep
     residual, iterations, message = np.inf, 0, ""
+    constrained = bool(constraint_rows(model))
     for iterations in range(max_iter + 1):
+        if constrained:         # every iterate on the constraints: an equilibrium off them,
+            # where the drift stabilization balances the forces, is no equilibrium of the mechanism
+            y[:n] = consistent(model, y[:n], p, pt.t, warn=False)
         cur = Point(pt.t, y, p)
         f = _rhs(model, cur)[:n][rows]
         J = _jac(model, cur)[:n, :n]
