@@ -105,7 +105,7 @@ def translation_unit(body: str, loop_pragma: bool = True, key: str = "") -> str:
     :data:`LOOP_PRAGMA` unless ``loop_pragma`` is false), the self-check and ``ph_model_key``
     returning ``key`` (the model's cache key: letters and digits)."""
     if not key.isalnum() and key:
-        raise ValueError(f"model key {key!r}: letters and digits only")
+        raise OptionError(f"model key {key!r}: letters and digits only")
     return (body + "\n" + (LOOP_PRAGMA if loop_pragma else "") + c_loops()
             + _SELF_CHECK.replace("%s", key))
 
