@@ -43,8 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from porthamiltonian import compile_model
-from porthamiltonian.compiler import layout
+from porthamiltonian.compiler import compile_model, layout
 from porthamiltonian.errors import ModelError, ParameterValueError, StateError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.interfaces.io import ModelFile
