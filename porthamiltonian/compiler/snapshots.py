@@ -79,7 +79,7 @@ def remember(key: str, kind: str, data: Mapping[str, Any]) -> None:
     """Keep ``data`` (a JSON-able mapping: numbers, text, lists, tables) as the snapshot ``key``
     (:func:`snapshot_key`) of ``kind``."""
     document = {"format": FORMAT, "kind": kind, "key": key, "data": data}
-    cache.store(key, _FILE, json.dumps(document, sort_keys=True, separators=(",", ":")))
+    cache.store(key, _FILE, json.dumps(document, separators=(",", ":")))  # order kept
 
 
 def recall(key: str, kind: str) -> dict[str, Any] | None:

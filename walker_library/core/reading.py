@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
-from porthamiltonian.errors import ModelError
+from porthamiltonian.errors import ModelError, ModelFileError
 from porthamiltonian.modeling.expressions import parse
 
 from .hybrid import (
@@ -45,9 +45,10 @@ from .problems import Problems, suggestion
 if TYPE_CHECKING:
     import sympy as sp
 
+    from porthamiltonian.interfaces.io import ModelFile
     from porthamiltonian.modeling.model import Model, ModelDescription
 
-__all__ = ["walker_spec"]
+__all__ = ["file_spec", "walker_spec"]
 
 _TOP = ("mass", "leg_length", "hip", "integration", "feet", "modes", "terrain", "rules",
         "relabel", "section", "angles", "guess", "ranges")
@@ -126,6 +127,20 @@ class _Reading:
             return None
         sides = [self.expr(side, f"{where} {text!r}", *path, evaluated=True) for side in (lhs, rhs)]
         return None if None in sides else Comparison(text, sides[0], op, sides[1])
+
+
+def file_spec(record: ModelFile) -> WalkerSpec:
+    """The :class:`WalkerSpec` of a model file read by :func:`porthamiltonian.io.reads`: its
+    ``[walker]`` table read against its model. Raises ModelFileError (file, line, part) for a
+    file that is not a walker file or whose ``[walker]`` table is wrong."""
+    table = record.sections.get("walker")
+    if table is None:
+        raise ModelFileError(f"{record.source}: not a walker file: it has no [walker] table (a "
+                             "walker is a model plus its hybrid description; see "
+                             "docs/walkers.md)")
+    return walker_spec(record.model, table, source=record.source, text=record.text,
+                       description=record.description, units=str(record.meta.get("units", "")),
+                       frozen=record.frozen)
 
 
 def walker_spec(model: Model, table: Mapping[str, Any], *, source: str = "<python>",
