@@ -78,11 +78,9 @@ def check_walker_name(model: str) -> str:
     """``model`` if it can name a walker: a path, a walker file of models/, or a model of models/
     (whose loading then says it is not a walker file); else a ModelFileError listing the walker
     models, with the closest one suggested."""
-    if ph_io.is_path(model):
-        return model
+    if ph_io.is_path(model) or model in ph_io.available_models():
+        return model                   # (loading a model that is no walker file says so)
     walkers = available_walkers()
-    if model in walkers or model in ph_io.available_models():
-        return model
     close = difflib.get_close_matches(model, walkers, n=1, cutoff=0.6)
     hint = f" (did you mean {close[0]}?)" if close else ""
     raise ModelFileError(f"no walker model called {model!r}{hint}; walker models: "

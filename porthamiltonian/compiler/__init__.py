@@ -14,26 +14,43 @@ import shlex
 import time
 import warnings
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
-from typing import Any
-
-import sympy
+from typing import TYPE_CHECKING, Any
 
 from .. import backends
 from ..backends import module, native
 from ..errors import CompilerError, ModelError
 from ..modeling.constraints import Constraint
-from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from ..simulation.sampling import DiscreteBlock
 from . import cache, estimate, numba_cache
-from .assemble import SymbolicModel, assemble, power_balance
-from .codegen import program
 from .literals import printable
-from .phform import ph_form, ph_functions
-from .printers import c_source, python_source
-from .structure import Solution, build_system, solve
+from .snapshots import recall, remember, snapshot_key
+
+if TYPE_CHECKING:
+    from ..modeling.model import Model, ModelDescription
+    from .assemble import SymbolicModel
+    from .structure import Solution
+
+# The symbolic stages (sympy) and the model builder (networkx) are imported by the functions
+# that run them: a compiled model reopened from the cache (:func:`reopen`) needs neither.
+
+
+def __getattr__(name: str) -> Any:
+    """``power_balance`` and ``SymbolicModel`` (of :mod:`.assemble`), imported on first use."""
+    if name in ("power_balance", "SymbolicModel"):
+        from . import assemble
+
+        return getattr(assemble, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _frozen(model: Model | ModelDescription) -> ModelDescription:
+    """The frozen description of ``model`` (a model, or its description already)."""
+    from ..modeling.model import Model
+
+    return model.freeze() if isinstance(model, Model) else model
 
 #: why the C back end failed in this process (``"auto"`` does not try to build again)
 _C_FAILED: list[str] = []
@@ -44,7 +61,10 @@ def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     description (every problem at once, :meth:`~porthamiltonian.modeling.model.ModelDescription.validate`),
     then structure, assembly. Errors carry the path of what they are about
     (:attr:`~porthamiltonian.errors.ModelError.path`)."""
-    description = model.freeze() if isinstance(model, Model) else model
+    from .assemble import assemble
+    from .phform import ph_form
+
+    description = _frozen(model)
     sym = assemble(_solved(description.validate()))
     sym.ph_maker = lambda: ph_form(description, sym, _solved(description))
     return sym
@@ -61,6 +81,8 @@ _SOLVED_KEPT = 4
 def _solved(description: ModelDescription) -> Solution:
     """``solve(build_system(description))``, reused from :data:`_SOLVED` when only the events
     or the model outputs differ (the component classes themselves must be the same objects)."""
+    from .structure import Solution, build_system, solve
+
     bare = dataclasses.replace(description, events=(), outputs=MappingProxyType({}), scopes=(
         MappingProxyType({k: v for k, v in description.scopes.items()
                           if not k.startswith(("event:", "output:"))})))
@@ -119,7 +141,7 @@ def layout(model: Model | ModelDescription, use_cache: bool = True) -> Layout:
     verified by its sha256 like every cached file), so that a model seen before needs no
     symbolic work; the solved structure is reused by the compile that usually follows
     (:func:`_solved`). Raises the model's errors as :func:`symbolic` does."""
-    description = model.freeze() if isinstance(model, Model) else model
+    description = _frozen(model)
     key = cache.model_key(description)
     stored = cache.load_verified(key, _LAYOUT_FILE) if use_cache else None
     if stored is not None:
@@ -161,18 +183,24 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         vector [∇H; z; u] at a point (``CompiledModel.ph_matrices``; a compiled model asks for
         them itself, once, when they are first needed).
     """
+    from ..modeling.model import Model, ModelDescription
+
     if not isinstance(model, (Model, ModelDescription)):
         hint = (f"; to compile a model file, read it first: compile_model(io.load({model!r}))"
                 if isinstance(model, str) else "")
         raise ModelError(f"compile_model takes a Model (or its ModelDescription), got "
                          f"{type(model).__name__} {model!r:.80}{hint}")
     order = backends.candidates(backend)
-    description = model.freeze() if isinstance(model, Model) else model
+    description = _frozen(model)
     options = {k: v for k, v in (("jac_p", list(jac_p or [])), ("ph", ph)) if v}
     key = cache.model_key(description, options)
     meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
     if meta is None:
+        from .codegen import program
+        from .phform import ph_form, ph_functions
+        from .printers import c_source, python_source
+
         estimate.check(description, backends.report)      # refused, or announced, before work
         start = time.perf_counter()
         sym = symbolic(description)
@@ -235,6 +263,57 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                          output_expressions={n: description.outputs[n]
                                              for n in meta.declared_outputs
                                              if n in description.outputs},
+                         rebuild=rebuild)
+
+
+def compiled_record(compiled: CompiledModel) -> dict[str, Any]:
+    """What :func:`reopen` needs to open ``compiled`` again from the cache, as plain data: its
+    cache key, back end and generated extras, and the parameters', inputs' and outputs' texts
+    that come from its description (for a snapshot, :mod:`.snapshots`)."""
+    return {"key": compiled.key, "backend": compiled.backend,
+            "jac_p": list(compiled.jac_p_names), "ph": compiled.ph_layout is not None,
+            "param_docs": list(compiled.param_docs), "input_docs": list(compiled.input_docs),
+            "output_expressions": dict(compiled.output_expressions)}
+
+
+def reopen(record: Mapping[str, Any],
+           description: Callable[[], ModelDescription]) -> CompiledModel | None:
+    """The compiled model of ``record`` (:func:`compiled_record`) from the cache, without the
+    symbolic compiler (no sympy, no networkx): its metadata and code verified as
+    :func:`compile_model` verifies them, its library loaded (built when only the library is
+    missing). None when the entry is gone or damaged, or the back end cannot load it: the caller
+    compiles the model as usual. ``description`` gives the model's description when it is
+    needed after all (a compiled model extended with ``ph=True`` or ``jac_p``)."""
+    try:
+        key, name = str(record["key"]), str(record["backend"])
+        jac_p = [str(n) for n in record["jac_p"]]
+        ph = bool(record["ph"])
+        docs = {k: [str(d) for d in record[k]] for k in ("param_docs", "input_docs")}
+        outputs = {str(k): str(v) for k, v in dict(record["output_expressions"]).items()}
+    except (KeyError, TypeError, ValueError):
+        return None
+    if name not in backends.BACKENDS or not cache.model_key_form(key):
+        return None
+    meta, bodies = _cached(key)
+    if meta is None or list(meta.jac_p) != jac_p or (meta.ph is not None) != ph:
+        return None
+    times: dict[str, float] = {}
+    try:
+        functions = _load(name, key, meta, bodies, True, times, explicit=True)
+    except CompilerError:
+        return None
+    if times:
+        backends.report(f"building {printable(meta.name)}: "
+                        f"{', '.join(f'{k} {v:.1f} s' for k, v in times.items())}")
+
+    def rebuild(**more: Any) -> CompiledModel:
+        """This model compiled again with the options ``more`` added (for CompiledModel)."""
+        merged = {"jac_p": jac_p, "ph": ph, **more}
+        return compile_model(description(), backend=name, **merged)
+
+    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
+                         c_source=bodies["c"], param_docs=docs["param_docs"],
+                         input_docs=docs["input_docs"], output_expressions=outputs,
                          rebuild=rebuild)
 
 
@@ -330,6 +409,8 @@ def extra_functions(meta: ModelMeta) -> list[str]:
 
 def _autonomous(sym: SymbolicModel) -> bool:
     """True when the state equations do not depend on time explicitly."""
+    import sympy
+
     from ..modeling.expressions import TIME
 
     exprs = [*sym.rhs, *(e for _, e in sym.intermediates)]
@@ -337,4 +418,5 @@ def _autonomous(sym: SymbolicModel) -> bool:
     return not any(TIME in sympy.sympify(e).free_symbols for e in exprs)
 
 
-__all__ = ["Layout", "SymbolicModel", "compile_model", "layout", "power_balance", "symbolic"]
+__all__ = ["Layout", "SymbolicModel", "compile_model", "compiled_record", "layout",
+           "power_balance", "recall", "remember", "reopen", "snapshot_key", "symbolic"]

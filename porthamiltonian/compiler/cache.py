@@ -84,13 +84,12 @@ import threading
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
-from typing import Any
-
-import sympy
+from typing import TYPE_CHECKING, Any
 
 from ..errors import OptionError
-from ..modeling.model import Model, ModelDescription
-from .codegen import CODEGEN_VERSION
+
+if TYPE_CHECKING:
+    from ..modeling.model import Model, ModelDescription
 
 try:  # POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record,
     import fcntl  # which only costs a rebuild of that file)
@@ -237,7 +236,13 @@ def model_key(model: Model | ModelDescription, options: dict | None = None) -> s
     package module the model's component classes depend on (their modules and, transitively, the
     package modules those import), the compiler and back-end sources, the versions of sympy
     and of the code generator, and the compiler's ``options`` (JSON-able; e.g. the parameters
-    of a generated ``jac_p``), when given."""
+    of a generated ``jac_p``), when given. (The files of an entry are read and written without
+    sympy: only the key needs it.)"""
+    import sympy
+
+    from ..modeling.model import Model
+    from .codegen import CODEGEN_VERSION
+
     description = model.freeze() if isinstance(model, Model) else model
     modules = {type(c).__module__ for c in description.components.values()}
     content = {"model": description.canonical(), "classes": _sources_hash(frozenset(modules)),
@@ -246,6 +251,15 @@ def model_key(model: Model | ModelDescription, options: dict | None = None) -> s
         content["options"] = options
     blob = json.dumps(content, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+_KEY = re.compile(r"[0-9a-f]{32}")
+
+
+def model_key_form(key: str) -> bool:
+    """True when ``key`` has the form of a :func:`model_key` (32 hexadecimal digits): a key read
+    from a file names a folder of the cache only then."""
+    return isinstance(key, str) and _KEY.fullmatch(key) is not None
 
 
 _PACKAGE = Path(__file__).resolve().parent.parent
@@ -658,6 +672,7 @@ __all__ = [
     "kept",
     "load_verified",
     "model_key",
+    "model_key_form",
     "private_dir",
     "private_problem",
     "pycache_usable",

@@ -22,11 +22,13 @@ import os
 import resource
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from ..errors import CostError
-from ..mechanics.joints import joint
-from ..modeling.model import ModelDescription
 from .literals import printable
+
+if TYPE_CHECKING:
+    from ..modeling.model import ModelDescription
 
 __all__ = ["LIMIT_VARIABLE", "MAX_CODE_MB", "BuildEstimate", "check", "duration_text", "estimate",
            "limit"]
@@ -80,6 +82,8 @@ def duration_text(seconds: float) -> str:
 def estimate(description: ModelDescription) -> BuildEstimate:
     """The cost of building ``description`` (module docstring); counts the joint coordinates of
     every ``Multibody`` component from its tables, without building anything."""
+    from ..mechanics.joints import joint
+
     bodies = terms = 0
     for component in description.components.values():
         if component.kind != "Multibody":

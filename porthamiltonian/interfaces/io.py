@@ -65,17 +65,22 @@ from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import tomli_w
 
 from .. import userfiles
-from ..compiler import compile_model
 from ..errors import ModelError, ModelFileError, OptionError
-from ..modeling.component import REGISTRY, Component, component_class
-from ..modeling.model import Model, ModelDescription
-from ..simulation.compiled import CompiledModel
 from ..simulation.options import check_rtol
+
+if TYPE_CHECKING:
+    from ..modeling.component import Component
+    from ..modeling.model import Model, ModelDescription
+    from ..simulation.compiled import CompiledModel
+
+# The model layers (sympy, networkx) and the compiler are imported where a model is read, built
+# or written, not with this module: finding and reading a file's text (:func:`model_path`,
+# :func:`read_text`, :func:`locate`) stays light, for the warm start of a cached model.
 
 #: top-level tables that the loader keeps as they are, for the libraries that read them
 #: (``Model.sections``, written back on save): the walker library's ``[walker]`` table
@@ -340,6 +345,8 @@ class ModelFile:
     def compile(self, backend: str = "auto", use_cache: bool = True) -> CompiledModel:
         """:func:`~porthamiltonian.compiler.compile_model` of the model, its errors naming this
         file and line."""
+        from ..compiler import compile_model
+
         with self.located():
             return compile_model(self.model, backend=backend, use_cache=use_cache)
 
@@ -448,6 +455,8 @@ def file_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = "")
     when the TOML ``text`` is given); a bond naming a component that could not be read is not
     reported again, and unconnected ports are reported only when every component and bond
     was read."""
+    from .. import library, mechanics  # noqa: F401 - register their component types
+
     r = _Reader(source, text)
     if not isinstance(data, dict):
         raise r.fail("a model file must be a TOML table")
@@ -497,6 +506,8 @@ def _read_model(name: str, data: dict[str, Any], r: _Reader, at: tuple) -> Model
     "model")`` for a sub-model): parameters, components, bonds, events, outputs (the checks of
     the whole, :meth:`~porthamiltonian.modeling.model.ModelDescription.problems`, follow in
     :func:`file_from_dict`)."""
+    from ..modeling.model import Model
+
     model = Model(name)
     prefix = "".join(f"{part}." for part in at[1::3])     # the sub-model's flattened prefix
     r.missing |= {prefix + n for n in _read_parameters(model, data.get("parameters", {}), r, at)}
@@ -604,6 +615,8 @@ def _read_components(model: Model, comps: Any, r: _Reader, at: tuple) -> set[str
 
 def _read_component(name: str, spec: Any, r: _Reader, where: tuple) -> Component | Model | None:
     """One component (or sub-model) table, or None after recording its problem."""
+    from ..modeling.component import REGISTRY, component_class
+
     kinds = ", ".join(sorted(REGISTRY))
     if not isinstance(spec, dict):
         r.add(f"component {name!r} must be a table ([components.{name}] with type = "
@@ -873,6 +886,8 @@ def model_to_dict(model: Model | ModelFile) -> dict[str, Any]:
     """The TOML structure of a model or model file (sub-models as ``type = "model"`` tables
     with their own tables under ``model`` and their ``exposed`` ports; a model file's
     description, ``[model]`` keys, ``[simulation]`` and passed-through tables too)."""
+    from ..modeling.model import Model
+
     record = model if isinstance(model, ModelFile) else ModelFile(model)
     model = record.model
     data: dict[str, Any] = {"model": {"name": model.name}}

@@ -23,14 +23,15 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
-import sympy as sp
-
-from porthamiltonian import Model
 from porthamiltonian.errors import ModelError
 from porthamiltonian.modeling.expressions import parse
-from porthamiltonian.modeling.model import ModelDescription
+
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from porthamiltonian.modeling.model import Model, ModelDescription
 
 __all__ = ["Comparison", "Completion", "Expr", "Foot", "Integration", "Interval", "Parsed",
            "Rule", "Section", "Terrain", "WalkerSpec", "parse_condition", "parse_equation",

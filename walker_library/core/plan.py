@@ -31,23 +31,28 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sympy as sp
 
-from porthamiltonian import Multibody
 from porthamiltonian.compiler import Layout
 from porthamiltonian.errors import ModelFileError
 from porthamiltonian.interfaces.io import locate
 from porthamiltonian.modeling.constraints import Constraint
 from porthamiltonian.modeling.expressions import Expression, parse_text
-from porthamiltonian.modeling.model import ModelDescription
 
 from .hybrid import Expr, Interval, Parsed, WalkerSpec, parse_equation
 from .problems import Problems, suggestion
 from .protocol import ParameterSpec
 from .resets import Floating, floating_model
+
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from porthamiltonian.modeling.model import ModelDescription
+
+# The records import no sympy (a walker restored from its snapshot uses them); the checks that
+# need it (linear maps, the thesis's inverse) import it when they run.
 
 __all__ = ["BodiesMass", "ChangePlan", "ConditionPlan", "ModelNames", "Projected", "RelabelMap", "SectionMap",
            "SetState", "SolveState", "TransitionPlan", "WalkerPlan", "walker_plan"]
@@ -76,6 +81,8 @@ class ModelNames:
     @classmethod
     def of(cls, frozen: ModelDescription, layout: Layout) -> ModelNames:
         """The names of the model ``frozen`` whose compiled form has ``layout``."""
+        from porthamiltonian.mechanics import Multibody
+
         mbs = [name for name, c in frozen.components.items() if isinstance(c, Multibody)]
         mb = mbs[0] if len(mbs) == 1 else ""
         states = layout.state_names
@@ -482,6 +489,8 @@ def _linear(expr: sp.Expr, variables: list[sp.Symbol],
     """(coefficients, constant) of an expression that is affine in ``variables`` with numeric
     coefficients, else None. The constant is a number, or (when it depends on the symbols
     ``constants``, e.g. parameters) the text of its expression."""
+    import sympy as sp
+
     coeffs = []
     for v in variables:
         d = sp.diff(expr, v)
@@ -495,6 +504,8 @@ def _linear(expr: sp.Expr, variables: list[sp.Symbol],
 
 
 def _symbols(names: Iterable[str]) -> list[sp.Symbol]:
+    import sympy as sp
+
     return [sp.Symbol(n, real=True) for n in names]
 
 
@@ -516,6 +527,8 @@ def _thesis(bad: Problems, spec: WalkerSpec, parsed: Parsed, names: ModelNames) 
             bad.add(f"thesis coordinate {k!r} = {expr.text!r} must be {_NONLINEAR} of the "
                     "section coordinates without a constant", "section", "thesis")
         rows.append(lin[0] if lin else [0.0] * len(zsyms))
+    import sympy as sp
+
     T = sp.Matrix([[sp.nsimplify(c) for c in row] for row in rows])
     if len(rows) != len(zsyms) or T.det() == 0:
         if len(rows) == len(zsyms):

@@ -18,14 +18,10 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import sympy as sp
-
-from porthamiltonian import Model
-from porthamiltonian.errors import ModelError
+from porthamiltonian.errors import ModelError, ModelFileError
 from porthamiltonian.modeling.expressions import parse
-from porthamiltonian.modeling.model import ModelDescription
 
 from .hybrid import (
     Comparison,
@@ -46,7 +42,13 @@ from .hybrid import (
 )
 from .problems import Problems, suggestion
 
-__all__ = ["walker_spec"]
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from porthamiltonian.interfaces.io import ModelFile
+    from porthamiltonian.modeling.model import Model, ModelDescription
+
+__all__ = ["file_spec", "walker_spec"]
 
 _TOP = ("mass", "leg_length", "hip", "integration", "feet", "modes", "terrain", "rules",
         "relabel", "section", "angles", "guess", "ranges")
@@ -73,13 +75,16 @@ class _Reading:
     evaluated: list[Expr] = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        import sympy as sp  # the table's expressions are parsed into sympy
+
+        self._symbol = sp.Symbol
         self.symbols = {p: sp.Symbol(p, real=True) for p in self.frozen.parameters}
         self.scope = self.frozen.in_scope("")
         self.components = set(self.frozen.components)
 
     def dotted(self, ref: str) -> sp.Symbol | None:
         """A dotted name of one of the model's components, as its symbol (checked later)."""
-        return sp.Symbol(ref, real=True) if ref.split(".")[0] in self.scope else None
+        return self._symbol(ref, real=True) if ref.split(".")[0] in self.scope else None
 
     def expr(self, value: Value, where: str, *path: str | int, extra: Mapping | None = None,
              dotted: bool = True, evaluated: bool = False) -> Expr | None:
@@ -122,6 +127,20 @@ class _Reading:
             return None
         sides = [self.expr(side, f"{where} {text!r}", *path, evaluated=True) for side in (lhs, rhs)]
         return None if None in sides else Comparison(text, sides[0], op, sides[1])
+
+
+def file_spec(record: ModelFile) -> WalkerSpec:
+    """The :class:`WalkerSpec` of a model file read by :func:`porthamiltonian.io.reads`: its
+    ``[walker]`` table read against its model. Raises ModelFileError (file, line, part) for a
+    file that is not a walker file or whose ``[walker]`` table is wrong."""
+    table = record.sections.get("walker")
+    if table is None:
+        raise ModelFileError(f"{record.source}: not a walker file: it has no [walker] table (a "
+                             "walker is a model plus its hybrid description; see "
+                             "docs/walkers.md)")
+    return walker_spec(record.model, table, source=record.source, text=record.text,
+                       description=record.description, units=str(record.meta.get("units", "")),
+                       frozen=record.frozen)
 
 
 def walker_spec(model: Model, table: Mapping[str, Any], *, source: str = "<python>",
@@ -485,7 +504,7 @@ def _read_thesis(r: _Reading, thesis: Any, coords: list[str]) -> tuple[
         r.bad.add(f"[walker.section] thesis has {len(thesis)} coordinates for a section of "
                   f"{len(coords)}: the thesis's coordinates are an invertible map of the "
                   "section's", "section", "thesis")
-    plain = {n: sp.Symbol(n, real=True) for n in coords if "." not in n}
+    plain = {n: r._symbol(n, real=True) for n in coords if "." not in n}
     parsed = []
     for k, v in thesis.items():
         expr = r.expr(v, f"thesis coordinate {k!r}", "section", "thesis", extra=plain)

@@ -18,15 +18,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy as sp
 
-from porthamiltonian import Model, Multibody
 from porthamiltonian.modeling.expressions import parse
-from porthamiltonian.modeling.model import ModelDescription
 from porthamiltonian.simulation.compiled import CompiledModel
 from porthamiltonian.simulation.impact import model_impact
+
+if TYPE_CHECKING:
+    from porthamiltonian.modeling.model import Model, ModelDescription
 
 __all__ = ["PIN", "Floating", "ImpactMap", "Relabel", "floating_model"]
 
@@ -145,6 +146,8 @@ def _offset(joints: dict, bodies: dict, point: str, root_body: str) -> list | No
 
 def _is_zero(vector, params) -> bool:
     """Whether a joint origin (numbers, or expressions in ``params``) is zero."""
+    import sympy as sp
+
     names = {n: sp.Symbol(n, real=True) for n in params}
     return all(v == 0 if isinstance(v, (int, float)) else parse(v, names, "joint origin") == 0
                for v in vector)
@@ -206,6 +209,8 @@ def floating_model(model: ModelDescription, multibody: str, root: str, about: st
     joints = {**free, **{k: ({**v, "parent": base, "origin": [0, 0, 0]} if k == root else v)
                          for k, v in joints.items()}}
     args = {k: v for k, v in comp.args.items() if k not in ("bodies", "joints")}
+    from porthamiltonian import Model, Multibody
+
     out = Model(f"{model.name}_floating")          # the model with its pin at the root released
     for name, par in model.parameters.items():
         out.parameter(name, par.value, par.unit, par.doc)
