@@ -25,7 +25,7 @@ compiled loop (Rodas5P, Rodas4 or QBDF, ``Functions.loops``) is called in one pl
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -33,10 +33,11 @@ import numpy as np
 
 from ..errors import InputError, ModelError, StateError
 from ..integrators import COMPILED_METHODS
-from .differences import Derivative, gradient
+from .differences import Derivative, gradient, jacobian
 from .inputs import InputPlan, plan_inputs
 from .options import check_simulation
-from .saltation import Crossing, Sensitivity, saltation_matrix
+from .psensitivity import ParameterColumns, parameter_jump
+from .saltation import Crossing, Seeds, Sensitivity, saltation_matrix
 from .sampling import Breakpoints, sample
 from .trajectory import Segment, Status, Trajectory
 
@@ -62,6 +63,13 @@ class Reset:
     jacobian : ∂x⁺/∂x⁻ (n x n) of the state map, for runs with sensitivities (its saltation
         matrix, :mod:`porthamiltonian.simulation.saltation`); needed when ``x`` moves the state, else the
         identity.
+    jacobian_p : ∂x⁺/∂p by parameter name (a vector of n each), for runs with parameter
+        sensitivities: needed when ``x`` moves the state, for every differentiated parameter (a
+        name left out: the map does not read it).
+    params_jacobian : for a parameter that ``params`` sets from the state or from other
+        parameters, the gradient of its new value by [x⁻, p] (a vector of n + len(param_names):
+        the model states, then every parameter in the model's order), for runs with parameter
+        sensitivities; a parameter not in it is set to a constant.
     """
 
     x: np.ndarray | None = None
@@ -69,6 +77,8 @@ class Reset:
     stop: bool = False
     energy: Literal["dissipated", "supplied"] = "dissipated"
     jacobian: np.ndarray | None = None
+    jacobian_p: Mapping[str, np.ndarray] | None = None
+    params_jacobian: Mapping[str, np.ndarray] | None = None
 
 
 #: An event action: (t, model state x, parameter vector p) -> Reset.
@@ -93,7 +103,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
              t_eval: np.ndarray | None = None, dense_output: bool = False,
              max_events: int = 100_000, max_steps: int = 10_000_000,
              divergence_bound: float = 1e12,
-             sensitivity: bool | np.ndarray = False, inputs: Any = None) -> Trajectory:
+             sensitivity: bool | np.ndarray | Sequence[str] | Seeds = False,
+             inputs: Any = None) -> Trajectory:
     """Simulate ``model`` from ``t_start`` to ``t_end`` (also ``model.simulate(t_end, ...)``).
 
     Parameters
@@ -132,7 +143,12 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         ended, the events' saltation matrices): True for V = I (all model states), or the
         directions V (n x m). Compiled methods only (``"auto"``: as without); the trajectory is
         the same, bit for bit, as without; an action that moves the state gives its Jacobian
-        (``Reset(jacobian=...)``). See :mod:`porthamiltonian.simulation.saltation`.
+        (``Reset(jacobian=...)``). Parameter names (``["k", "c"]``) add the columns ∂x(t)/∂p
+        (``traj.sensitivity.parameters[name]``, from ∂x₀/∂p of the model's initial values),
+        integrated with the generated ∂ẋ/∂p (the model compiles itself again with it, once),
+        through events whose guard, reset or mode change reads p; a
+        :class:`~porthamiltonian.simulation.saltation.Seeds` gives both the directions and the
+        parameters (and ∂x₀/∂p). See :mod:`porthamiltonian.simulation.saltation`.
 
     Returns the :class:`Trajectory`; its ``status`` (a :class:`Status`) says how the run ended.
 
@@ -164,6 +180,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     y = model.augment(x)
     if not np.all(np.isfinite(y)):
         raise StateError(f"model {model.name!r}: initial state is not finite: {x}")
+    seeds = checked["sensitivity"]
+    if seeds is not None and seeds.parameters:
+        seeds = _parameter_seeds(model, seeds, p, x0)
     py_events = tuple(events or ())
     names = [e.name for e in model.events] + [e.name for e in py_events]
     actions = dict(actions or {})
@@ -178,7 +197,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         raise InputError(f"method {method!r} (a compiled loop) cannot call Python inputs "
                          "u(t, x); bind them to numbers or Samples, compile the controller "
                          "into the model, or use a scipy method (e.g. Radau)")
-    if checked["sensitivity"] is not None and method not in _COMPILED:
+    if seeds is not None and method not in _COMPILED:
         raise ModelError(f"sensitivity needs a compiled method ({', '.join(_COMPILED)}), whose "
                          f"loop integrates the variational equation; got method {method!r}"
                          + (" (chosen by 'auto' for Python events, t_eval or dense_output)"
@@ -190,8 +209,32 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         events=py_events,
         t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
-        sensitivity=checked["sensitivity"], inputs=plan)
+        sensitivity=seeds, inputs=plan)
     return Simulator(model, settings).run(t_start, y, p, t_end)
+
+
+def _parameter_seeds(model: CompiledModel, seeds: Seeds, p: np.ndarray, x0: Any) -> Seeds:
+    """``seeds`` with its parameters checked and ∂x₀/∂p filled in: given, else that of the
+    model's initial values (x0 None or a mapping: the states it names are fixed) by central
+    differences (:mod:`.differences`; the initial values are the parameters' expressions,
+    smooth), else zero (x0 given as an array)."""
+    names = list(seeds.parameters)
+    for name in names:
+        model._param_index_of(name)         # UnknownParameterError naming the parameters
+    if seeds.initial is not None:
+        return seeds
+    n = model.n_states
+    if x0 is not None and not isinstance(x0, Mapping):
+        return Seeds(seeds.states, seeds.parameters, np.zeros((n, len(names))))
+    index = [model.param_names.index(name) for name in names]
+
+    def initial(values: np.ndarray) -> np.ndarray:
+        q = p.copy()
+        q[index] = values
+        return model.initial_state(q, x0)
+
+    d = jacobian(initial, p[index], 1.0)
+    return Seeds(seeds.states, seeds.parameters, d.value)
 
 
 def auto_method(model: CompiledModel) -> str:
@@ -230,7 +273,8 @@ def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
 class Settings:
     """The checked settings of one simulation (the arguments of :func:`simulate`, which
     documents them; ``atol`` extended to the ledger states, ``jacobian`` only for stiff scipy
-    methods, ``sensitivity`` the seed directions V, n x m, or None)."""
+    methods, ``sensitivity`` the :class:`~.saltation.Seeds` (directions V, n x m, parameters
+    and ∂x₀/∂p filled in) or None)."""
 
     method: str
     rtol: float
@@ -245,7 +289,7 @@ class Settings:
     max_events: int
     max_steps: int
     divergence_bound: float
-    sensitivity: np.ndarray | None = None
+    sensitivity: Seeds | None = None
     inputs: InputPlan | None = None
 
 
@@ -286,15 +330,20 @@ class Simulator:
         self.phi: np.ndarray | None = None     # the sensitivities (n + 2 x m), when asked for
         self.phi_error = 0.0                    # their largest error estimate (in rtol)
         self._crossings: list[Crossing] = []
+        self.columns: ParameterColumns | None = None    # with parameters: Π and the build
 
     def run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
         """Integrate from (t_start, y) with parameters p to t_end (or until a terminal event
         without action, a stopping action, a failure); the result."""
         model, settings, n = self.model, self.settings, self.model.n_states
         self.t, self.y, self.p = t_start, y, p
-        if settings.sensitivity is not None:
-            seeds = settings.sensitivity
-            self.phi = np.vstack([seeds, np.zeros((2, seeds.shape[1]))])
+        seeds = settings.sensitivity
+        if seeds is not None:
+            columns = seeds.states
+            if seeds.parameters:
+                columns = np.hstack([columns, seeds.initial])
+                self.columns = ParameterColumns(model, seeds.parameters, columns.shape[1])
+            self.phi = np.vstack([columns, np.zeros((2, columns.shape[1]))])
         h0 = float(model.energy(t_start, y, p)[0])
         breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p)
         if breaks:
@@ -320,7 +369,7 @@ class Simulator:
             action = settings.actions.get(name)
             if action is None:
                 if self.phi is not None:
-                    self._cross(k, t, self.y, self.p, self.y, self.p, None, stop=True,
+                    self._cross(k, t, self.y, self.p, self.y, self.p, Reset(stop=True),
                                 moved=False)
                 return self._result(Status.EVENT, f"terminal event {name!r} at t = {t:.6g}", h0)
             y, p = self.y, self.p
@@ -346,8 +395,8 @@ class Simulator:
             self._jumps.append((t, name, jump))
             phi = None
             if self.phi is not None:
-                phi = self._cross(k, t, y_minus, p_minus, y, p, reset.jacobian,
-                                  stop=bool(reset.stop), moved=moved)[None]
+                self._cross(k, t, y_minus, p_minus, y, p, reset, moved=moved)
+                phi = self.phi[None].copy()
             self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None, phi,
                                           inputs=self._binder()))
             if reset.stop:
@@ -390,21 +439,34 @@ class Simulator:
         sensitivity = None
         if self.phi is not None:
             n = self.model.n_states
-            sensitivity = Sensitivity(self.settings.sensitivity.copy(),
-                                      np.concatenate([s.phi for s in self._segments]),
-                                      tuple(self._crossings), self.phi[:n].copy(), self.phi_error)
+            seeds = self.settings.sensitivity
+            m0 = seeds.states.shape[1]
+            phi = np.concatenate([s.phi for s in self._segments])
+            extra = {}
+            if self.columns is not None:
+                names = seeds.parameters
+                extra = dict(parameter_names=names,
+                             parameters={name: phi[:, :n, m0 + j].copy()
+                                         for j, name in enumerate(names)},
+                             final_parameters=self.phi[:n, m0:].copy(),
+                             ledger=phi[:, n:, :].copy(), final_ledger=self.phi[n:].copy(),
+                             final_params=self.columns.pi.copy())
+            sensitivity = Sensitivity(seeds.states.copy(), phi[:, :n, :m0].copy(),
+                                      tuple(self._crossings), self.phi[:n, :m0].copy(),
+                                      self.phi_error, **extra)
         return Trajectory(self.model, self._segments, self._events, self._jumps, status, message,
                           h0=h0, sensitivity=sensitivity, **self._counts)
 
     def _cross(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
-               y_plus: np.ndarray, p_plus: np.ndarray, jacobian: np.ndarray | None, *,
-               stop: bool, moved: bool) -> np.ndarray:
+               y_plus: np.ndarray, p_plus: np.ndarray, reset: Reset, *,
+               moved: bool) -> np.ndarray:
         """Apply the saltation matrix of event ``k`` at time t (from y_minus, p_minus to y_plus,
-        p_plus; ``jacobian`` the reset's, ``stop``: the run ends on the event's surface) to the
-        sensitivities and record the :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺
-        (model states)."""
+        p_plus by the action's ``reset``: its Jacobians; its ``stop``: the run ends on the
+        event's surface) to the sensitivities and record the
+        :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺ (model states)."""
         model, n = self.model, self.model.n_states
         name = self.names[k]
+        jacobian, stop = reset.jacobian, bool(reset.stop)
         if jacobian is None:
             if moved:
                 raise ModelError(f"the action of event {name!r} moved the state at t = {t:.6g} "
@@ -416,22 +478,69 @@ class Simulator:
             if R.shape != (n, n) or not np.all(np.isfinite(R)):
                 raise StateError(f"the action of event {name!r} returned a reset Jacobian of "
                                  f"shape {R.shape} (must be {n} x {n} and finite)")
+        if self.columns is not None:
+            return self._cross_parameters(k, t, y_minus, p_minus, y_plus, p_plus, reset, R,
+                                          moved)
         f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
         f_plus = (np.zeros(n) if stop else
                   np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
         phi_minus = self.phi[:n].copy()
         if not stop and jacobian is None and np.array_equal(f_plus, f_minus):
             S, g_x, g_t, error = np.eye(n), np.full(n, np.nan), float("nan"), float("nan")
+            tau = np.full(phi_minus.shape[1], np.nan)
         else:
             grad = self._guard_gradient(k, t, y_minus, p_minus)
             g_t, g_x, error = float(grad.value[0]), grad.value[1:], grad.max_error
             S = saltation_matrix(f_minus, f_plus, g_x, R, g_t)
+            tau = -(g_x @ phi_minus) / (g_t + g_x @ f_minus)
         phi_plus = S @ phi_minus
         self.phi = np.vstack([phi_plus, np.zeros((2, phi_plus.shape[1]))])
         self._crossings.append(Crossing(t, name, y_minus[:n].copy(), y_plus[:n].copy(), f_minus,
                                         f_plus, g_x, g_t, error, R, S, stop, phi_minus,
-                                        phi_plus))
+                                        phi_plus, tau))
         return phi_plus
+
+    def _cross_parameters(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
+                          y_plus: np.ndarray, p_plus: np.ndarray, reset: Reset, R: np.ndarray,
+                          moved: bool) -> np.ndarray:
+        """:meth:`_cross` of a run with parameter sensitivities: the augmented saltation
+        matrix over (x, E_diss, E_in, p) (:func:`.psensitivity.parameter_jump`)."""
+        model, settings, n = self.model, self.settings, self.model.n_states
+        columns, stop = self.columns, bool(reset.stop)
+        if k < self.n_model_events:
+            def guard(t: float, x: np.ndarray, p: np.ndarray) -> float:
+                yz = y_minus.copy()
+                yz[:n] = x
+                return float(model.functions.guards(t, yz, model.native_params(p))[k])
+        else:
+            guard = settings.events[k - self.n_model_events].guard
+        given = dict(reset.params_jacobian or {})
+        unknown = set(given) - set(reset.params or {})
+        if unknown:
+            raise ModelError(f"the action of event {self.names[k]!r} gave params_jacobian for "
+                             f"{', '.join(sorted(unknown))}, which it does not set")
+        changed = {name: given.get(name) for name in (reset.params or {})}
+        typical = np.broadcast_to(np.asarray(settings.atol, dtype=float), (n + 2,))[:n]
+        scale = np.concatenate([[1.0], typical / settings.rtol])
+        phi_minus = self.phi[:n].copy()
+        out = parameter_jump(columns, self.phi, t, y_minus, p_minus, y_plus, p_plus, R,
+                             reset.jacobian_p, changed, reset.energy, stop, moved, guard, scale,
+                             self.names[k])
+        self.phi, columns.pi = out.phi, out.pi
+        if not stop:
+            columns.follow()
+        N = n + 2
+        names = model.param_names
+        S = out.augmented[:n, :n]
+        f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
+        f_plus = (np.zeros(n) if stop else
+                  np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
+        self._crossings.append(Crossing(
+            t, self.names[k], y_minus[:n].copy(), y_plus[:n].copy(), f_minus, f_plus, out.g_x,
+            out.g_t, out.guard_error, R, S, stop, phi_minus, out.phi[:n].copy(),
+            out.time_sensitivity, out.augmented[:N + len(names), :N + len(names)],
+            {names[i]: v for i, v in out.g_p.items()}))
+        return out.phi[:n]
 
     def _guard_gradient(self, k: int, t: float, y: np.ndarray, p: np.ndarray) -> Derivative:
         """(∂g/∂t, ∂g/∂x) of guard ``k`` at (t, y) by central differences, each state stepped
@@ -593,13 +702,16 @@ class Simulator:
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
         sensitive = self.phi is not None
         if sensitive:       # the variational loop: Φ too (18-tuple)
-            variational = model.functions.variational[settings.method]
-            phis = [self.phi[None, :n].copy()]
+            build = model if self.columns is None else self.columns.build
+            variational = build.functions.variational[settings.method]
+            gain = (np.zeros((0, self.phi.shape[1])) if self.columns is None
+                    else self.columns.gain())
+            phis = [self.phi[None].copy()]
 
             def loop(*args):
-                out = variational(*args, np.ascontiguousarray(self.phi))
+                out = variational(*args, np.ascontiguousarray(self.phi), gain)
                 self.phi = out[15]
-                phis.append(out[16][:out[5], :n].copy())
+                phis.append(out[16][:out[5]].copy())
                 self.phi_error = max(self.phi_error, out[17] / settings.rtol)
                 return out[:15]
         else:
