@@ -190,6 +190,8 @@ class Crossing:
         g_x · f⁻) (NaN when the guard gradient was not needed: no sensitivities of the time).
     augmented : with parameters, S_w over (x, E_diss, E_in, p) (module docstring), else None.
     guard_parameters : with parameters, g_p by parameter name (those differentiated).
+    params_minus : with parameters, Π⁻ = ∂p/∂(columns) of the parameters in force before the
+        event (len(param_names) x m), else None.
     """
 
     t: float
@@ -209,6 +211,7 @@ class Crossing:
     time_sensitivity: np.ndarray | None = None
     augmented: np.ndarray | None = None
     guard_parameters: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    params_minus: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

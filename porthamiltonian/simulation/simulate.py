@@ -522,7 +522,7 @@ class Simulator:
         changed = {name: given.get(name) for name in (reset.params or {})}
         typical = np.broadcast_to(np.asarray(settings.atol, dtype=float), (n + 2,))[:n]
         scale = np.concatenate([[1.0], typical / settings.rtol])
-        phi_minus = self.phi[:n].copy()
+        phi_minus, pi_minus = self.phi[:n].copy(), columns.pi.copy()
         out = parameter_jump(columns, self.phi, t, y_minus, p_minus, y_plus, p_plus, R,
                              reset.jacobian_p, changed, reset.energy, stop, moved, guard, scale,
                              self.names[k])
@@ -539,7 +539,7 @@ class Simulator:
             t, self.names[k], y_minus[:n].copy(), y_plus[:n].copy(), f_minus, f_plus, out.g_x,
             out.g_t, out.guard_error, R, S, stop, phi_minus, out.phi[:n].copy(),
             out.time_sensitivity, out.augmented[:N + len(names), :N + len(names)],
-            {names[i]: v for i, v in out.g_p.items()}))
+            {names[i]: v for i, v in out.g_p.items()}, pi_minus))
         return out.phi[:n]
 
     def _guard_gradient(self, k: int, t: float, y: np.ndarray, p: np.ndarray) -> Derivative:
