@@ -1,7 +1,7 @@
 """Command line ``walker``: gait analyses of the walker models.
 
     walker gait MODEL [--set NAME=VALUE ...] [--guess FILE] [--max-period K]
-                [--jacobian variational|fd] [--fd-step H] [--json]
+                [--jacobian variational|fd] [--fd-step H] [--gradient NAMES] [--json]
     walker continue MODEL --param NAME=START:STOP [--set NAME=VALUE ...] [--guess FILE]
                     [--doublings N] [--jacobian variational|fd] [--json] [--out DIR]
     walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--json]
@@ -35,6 +35,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from porthamiltonian import io as ph_io
 from porthamiltonian.batch import SweepError, open_executor
 from porthamiltonian.batch.progress import activity
@@ -54,9 +56,11 @@ from porthamiltonian.interfaces.cli import (
 from .analyses.cases import ANALYSES, get_analysis
 from .analyses.continuation import ParameterPath, continue_gait, parse_range
 from .analyses.gait import analyze_gait, gait_start, section_guess, walk
+from .analyses.gradients import gait_gradient
 from .analyses.results import to_json
 from .analyses.robustness import basin, gait_sensitivity_norm, step_down
 from .core.files import available_walkers, load_walker, save_walker
+from .core.gradients import check_names
 from .core.fmu import export_walker_fmu
 from .report.labels import describe, is_nondimensional, shown_unit
 from .report.page import multiplier_cells
@@ -140,10 +144,17 @@ def _with_unit(walker, key: str, value: Any) -> str:
 
 def cmd_gait(args) -> int:
     walker, guess = _walker_and_guess(args)
+    names = check_names(walker, _names(args.gradient)) if args.gradient else None
     with activity(f"gait {walker.name}", enabled=not args.quiet):
         result = analyze_gait(walker, guess, max_period=args.max_period, fd_step=args.fd_step,
                               n_iterate=args.iterate, jacobian=args.jacobian,
                               continuation=not args.no_continuation)
+        if names and result.status == "periodic":
+            z = np.array([result.fixed_point[k] for k in walker.section], dtype=float)
+            grad = gait_gradient(walker, z, names, result.period_steps)
+            if not grad.fell:
+                result.gradients, result.gradient_errors = grad.gradients, grad.errors
+                result.fixed_point_gradient = grad.fixed_point_gradient
     if args.json:
         print(result.to_json())
         return 0
@@ -176,7 +187,21 @@ def cmd_gait(args) -> int:
         for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step",
                     "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
             print(f"  {key:30s} {_with_unit(walker, key, d[key])}")
+    if result.gradients:
+        print("  gradients (exact; the multiplier's ± its error bound):")
+        for key, row in result.gradients.items():
+            cells = [f"d/d{n} = {v:.8g}" + (f" ± {result.gradient_errors[key][n]:.1g}"
+                                           if result.gradient_errors[key][n] else "")
+                     for n, v in row.items()]
+            print(f"    {key:28s} " + ", ".join(cells))
+    elif names:
+        print("  no gradients: no periodic orbit, or a stride of it fell")
     return 0
+
+
+def _names(text: str) -> list[str]:
+    """Comma-separated parameter names (``--gradient K1,K2``)."""
+    return [n.strip() for n in text.split(",") if n.strip()]
 
 
 def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: int = 400,
@@ -422,6 +447,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-continuation", action="store_true",
                    help="do not continue the model file's nominal gait to these parameters when "
                         "the guess finds no stable gait")
+    p.add_argument("--gradient", default=None, metavar="NAMES",
+                   help="also the exact derivatives of the gait's quantities by these "
+                        "parameters, comma-separated (e.g. K_leg,slope; JSON: \"gradients\")")
     p.set_defaults(func=cmd_gait)
 
     p = sub.add_parser("continue", parents=analysis,
