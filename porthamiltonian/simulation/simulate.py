@@ -118,7 +118,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         all. See :mod:`porthamiltonian.simulation.inputs`; a model without inputs takes None.
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
-    method : ``"auto"`` (default: Radau when Python events, ``t_eval`` or dense output are
+    method : ``"auto"`` (default: Radau when Python events, ``t_eval`` (without
+        ``sensitivity``) or dense output are
         asked for, else :func:`auto_method`: QBDF for a multibody of two or more coordinates,
         Rodas5P otherwise), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
         Rosenbrock methods of order 5 and 4: a Jacobian and an LU at every step; Rodas5P takes
@@ -126,14 +127,17 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
         below: compare them at equal accuracy, benchmarks/RESULTS.md) — whose whole step loop
         is compiled with the model (the fast path with the C or numba back end; model events
-        only, no ``t_eval`` or dense output), or a scipy method: Radau, BDF, LSODA (stiff, given
+        only, no dense output; ``t_eval``: the steps end exactly on its times), or a scipy
+        method: Radau, BDF, LSODA (stiff, given
         the analytic Jacobian unless ``jacobian=False``), RK45, DOP853.
     max_step, first_step : bounds on the step size (s); ``first_step`` for the scipy methods.
     jacobian : give the stiff scipy methods the analytic Jacobian.
     actions : event name -> action (model events or ``events``). An event without action is
         recorded; if it is terminal, the simulation stops there.
     events : extra Python-level events.
-    t_eval : times at which to store the solution (default: every accepted step).
+    t_eval : times at which to store the solution (default: every accepted step); a compiled
+        loop stops exactly on each (a breakpoint), so that the values (and sensitivities) there
+        are the integration's own, not interpolated.
     dense_output : keep the interpolants, for :meth:`Trajectory.sol` (costs time).
     max_events, max_steps : bounds (a chattering guard ends the run with status "failed").
     divergence_bound : the run ends with status "diverged" when max|x| exceeds it.
@@ -166,7 +170,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     calls = plan is not None and plan.has_callable
     requested = method
     if method == "auto":
-        method = ("Radau" if (events or t_eval is not None or dense_output or calls) else
+        evaluated = t_eval is not None and checked["sensitivity"] is None
+        method = ("Radau" if (events or evaluated or dense_output or calls) else
                   auto_method(model))
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
@@ -190,9 +195,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     if unknown:
         raise ModelError(f"actions for unknown event(s) {', '.join(sorted(unknown))}; events: "
                          f"{', '.join(names) or 'none'}")
-    if method in _COMPILED and (py_events or t_eval is not None or dense_output):
+    if method in _COMPILED and (py_events or dense_output):
         raise ModelError(f"method {method!r} (a compiled loop) takes model events only and no "
-                         "t_eval or dense_output; use a scipy method (e.g. Radau) for those")
+                         "dense_output; use a scipy method (e.g. Radau) for those")
     if method in _COMPILED and calls:
         raise InputError(f"method {method!r} (a compiled loop) cannot call Python inputs "
                          "u(t, x); bind them to numbers or Samples, compile the controller "
@@ -345,7 +350,8 @@ class Simulator:
                 self.columns = ParameterColumns(model, seeds.parameters, columns.shape[1])
             self.phi = np.vstack([columns, np.zeros((2, columns.shape[1]))])
         h0 = float(model.energy(t_start, y, p)[0])
-        breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p)
+        stops = settings.t_eval if settings.method in _COMPILED else None
+        breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p, stops)
         if breaks:
             self._break(breaks, t_start)            # the first samples (k = 0) at the start
         fired, n_events = None, 0
@@ -734,8 +740,14 @@ class Simulator:
             if code != _LOOP_BUFFER_FULL:
                 break
         self.h_next = h
-        self._segments.append(Segment(np.concatenate(ts), np.concatenate(ys).T, p.copy(), None,
-                                      np.concatenate(phis) if sensitive else None))
+        t_all, y_all = np.concatenate(ts), np.concatenate(ys)
+        phi_all = np.concatenate(phis) if sensitive else None
+        if settings.t_eval is not None:     # the points asked for (the loop stopped on them)
+            keep = np.isin(t_all, settings.t_eval)
+            keep[0] &= not self._segments
+            t_all, y_all = t_all[keep], y_all[keep]
+            phi_all = phi_all[keep] if sensitive else None
+        self._segments.append(Segment(t_all, y_all.T, p.copy(), None, phi_all))
         self.t, self.y = float(t), y.copy()
         status = _LOOP_STATUS.get(int(code), Status.FAILED)
         if status == Status.EVENT:

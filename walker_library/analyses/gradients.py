@@ -124,9 +124,11 @@ def solve_gait(walker: Walker, z, names: Sequence[str], period: int = 1, *,
                tol: float | None = None, max_iter: int = 12) -> tuple[np.ndarray, _Period, int]:
     """Newton on S^k(z) − z with the exact Jacobian (each iteration one run per stride, which
     also gives the derivatives by ``names``): (z*, the period's values and rows at z*, runs).
-    ``tol``: the walker's gait tolerance by default. When a stride falls or Newton stalls,
-    the last period is returned with ``fell`` set (its reason, or "no convergence")."""
-    tol = walker.gait_tolerance if tol is None else tol
+    ``tol``: 1e-3 of the walker's gait tolerance by default (at least 1e-12; the gradients'
+    accuracy follows the fixed point's), a stall below the gait tolerance accepted. When a
+    stride falls or Newton fails, the last period is returned with ``fell`` set (its reason,
+    or "no convergence")."""
+    tol = max(1e-3 * walker.gait_tolerance, 1e-12) if tol is None else tol
     z = np.asarray(z, dtype=float)
     k = len(z)
     runs = 0
@@ -141,6 +143,8 @@ def solve_gait(walker: Walker, z, names: Sequence[str], period: int = 1, *,
         if res < tol:
             return z, per, runs
         if best is not None and res > 0.5 * best:
+            if res < max(tol, walker.gait_tolerance):
+                return z, per, runs
             break
         best = res
         try:
