@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import DataError, OptionError, ParameterValueError
-from .differences import jacobian
+from .psensitivity import output_gradient
 from .saltation import Seeds
 from .simulate import Reset
 
@@ -207,7 +207,6 @@ class _Problem:
         """(weighted residuals, their Jacobian) at θ."""
         traj = self.run(theta)
         model, q = self.model, len(self.params)
-        n = model.n_states
         S = np.stack([traj.sensitivity.parameters[p] for p in self.params], axis=2)   # (i, n, q)
         index = [model.param_names.index(p) for p in self.params]
         rows, jac = [], []
@@ -223,14 +222,8 @@ class _Problem:
                 for r, i in enumerate(at):
                     x, p = traj.x[i], traj.p_at(i)
                     value[r] = model.outputs(t_all[i], x, p)[o]
-                    gx = jacobian(lambda xx: model.outputs(t_all[i], xx, p)[o:o + 1], x,
-                                  1.0).value[0]
-
-                    def by_params(v: np.ndarray) -> np.ndarray:
-                        pp = p.copy()
-                        pp[index] = v
-                        return model.outputs(t_all[i], x, pp)[o:o + 1]
-                    d[r] = gx @ S[i] + jacobian(by_params, p[index], 1.0).value[0]
+                    gx, gp = output_gradient(model, o, t_all[i], x, p, index)
+                    d[r] = gx @ S[i] + gp[index]
             rows.append(s.weight * (value - s.y))
             jac.append(s.weight[:, None] * d)
         for e in self.events:
@@ -320,8 +313,8 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
     if np.any(theta0 < lo) or np.any(theta0 > hi):
         raise OptionError(f"the initial values {dict(zip(params, theta0.tolist()))} lie "
                           "outside the bounds")
-    options = dict(x0=x0, t_start=t_start, t_end=t_end, method=method, rtol=rtol, atol=atol,
-                   max_step=max_step, actions=actions, inputs=inputs)
+    options = {"x0": x0, "t_start": t_start, "t_end": t_end, "method": method, "rtol": rtol,
+               "atol": atol, "max_step": max_step, "actions": actions, "inputs": inputs}
     problem = _Problem(model, series, event_series, params, fixed, options)
     tol = max(1e-6, 100.0 * rtol) if rank_tol is None else float(rank_tol)
     result = FitResult(params, dict(zip(params, theta0.tolist())),

@@ -32,13 +32,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ModelError, StateError
-from .differences import gradient
+from .differences import gradient, jacobian
 from .saltation import saltation_matrix
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
 
-__all__ = ["JumpResult", "ParameterColumns", "parameter_jump"]
+__all__ = ["JumpResult", "ParameterColumns", "output_gradient", "parameter_jump"]
 
 
 class ParameterColumns:
@@ -235,3 +235,24 @@ def parameter_jump(columns: ParameterColumns, phi: np.ndarray, t: float, y_minus
     out = S @ psi
     return JumpResult(out[:N], out[N:], S, tau, g_t, g_x,
                       {int(i): float(v) for i, v in zip(live, g_p)}, grad.max_error)
+
+
+def output_gradient(model: CompiledModel, o: int, t: float, x: np.ndarray, p: np.ndarray,
+                    rows: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(∂y_o/∂x, ∂y_o/∂p) of output ``o`` at (t, x, p) by central differences
+    (:mod:`.differences`); ∂y_o/∂p over every parameter of the model, by those of ``rows``
+    (the parameters whose row of Π is not zero) and 0 by the others, which are not perturbed
+    (a mode or an unrelated parameter). The chain rule with the run's columns gives the
+    output's sensitivity: dy = ∂y/∂x S + ∂y/∂p Π."""
+    rows = np.asarray(rows, dtype=int)
+    dx = jacobian(lambda xx: model.outputs(t, xx, p)[o:o + 1], x, 1.0).value[0]
+
+    def by(v: np.ndarray) -> np.ndarray:
+        q = p.copy()
+        q[rows] = v
+        return model.outputs(t, x, q)[o:o + 1]
+
+    dp = np.zeros(len(model.param_names))
+    if len(rows):
+        dp[rows] = jacobian(by, p[rows], 1.0).value[0]
+    return dx, dp

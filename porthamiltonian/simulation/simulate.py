@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from ..errors import InputError, ModelError, StateError
+from ..errors import InputError, ModelError, OptionError, StateError
 from ..integrators import COMPILED_METHODS
 from .differences import Derivative, gradient, jacobian
 from .inputs import InputPlan, plan_inputs
@@ -104,7 +104,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
              max_events: int = 100_000, max_steps: int = 10_000_000,
              divergence_bound: float = 1e12,
              sensitivity: bool | np.ndarray | Sequence[str] | Seeds = False,
-             inputs: Any = None) -> Trajectory:
+             inputs: Any = None,
+             progress: Callable[[float, int], None] | None = None) -> Trajectory:
     """Simulate ``model`` from ``t_start`` to ``t_end`` (also ``model.simulate(t_end, ...)``).
 
     Parameters
@@ -153,6 +154,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         through events whose guard, reset or mode change reads p; a
         :class:`~porthamiltonian.simulation.saltation.Seeds` gives both the directions and the
         parameters (and ∂x₀/∂p). See :mod:`porthamiltonian.simulation.saltation`.
+    progress : called with the simulated time and the steps taken so far, now and then during
+        the run (after each batch of up to 4096 steps of a compiled loop, every 1000 steps of a
+        scipy method): for a progress display of a long run (the command line's).
 
     Returns the :class:`Trajectory`; its ``status`` (a :class:`Status`) says how the run ended.
 
@@ -168,6 +172,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     t_start, t_end, t_eval = checked["t_start"], checked["t_end"], checked["t_eval"]
     plan = plan_inputs(model.input_names, len(model.param_names), inputs, t_start, t_end)
     calls = plan is not None and plan.has_callable
+    if progress is not None and not callable(progress):
+        raise OptionError(f"progress must be a function of the time and steps, or None, got "
+                          f"{type(progress).__name__}")
     requested = method
     if method == "auto":
         evaluated = t_eval is not None and checked["sensitivity"] is None
@@ -214,7 +221,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         events=py_events,
         t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
-        sensitivity=seeds, inputs=plan)
+        sensitivity=seeds, inputs=plan, progress=progress)
     return Simulator(model, settings).run(t_start, y, p, t_end)
 
 
@@ -296,6 +303,7 @@ class Settings:
     divergence_bound: float
     sensitivity: Seeds | None = None
     inputs: InputPlan | None = None
+    progress: Callable[[float, int], None] | None = None
 
 
 #: The compiled loops' return codes (porthamiltonian/integrators/rosenbrock_loop.py), but 5: its
@@ -451,12 +459,12 @@ class Simulator:
             extra = {}
             if self.columns is not None:
                 names = seeds.parameters
-                extra = dict(parameter_names=names,
-                             parameters={name: phi[:, :n, m0 + j].copy()
-                                         for j, name in enumerate(names)},
-                             final_parameters=self.phi[:n, m0:].copy(),
-                             ledger=phi[:, n:, :].copy(), final_ledger=self.phi[n:].copy(),
-                             final_params=self.columns.pi.copy())
+                extra = {"parameter_names": names,
+                         "parameters": {name: phi[:, :n, m0 + j].copy()
+                                        for j, name in enumerate(names)},
+                         "final_parameters": self.phi[:n, m0:].copy(),
+                         "ledger": phi[:, n:, :].copy(), "final_ledger": self.phi[n:].copy(),
+                         "final_params": self.columns.pi.copy()}
             sensitivity = Sensitivity(seeds.states.copy(), phi[:, :n, :m0].copy(),
                                       tuple(self._crossings), self.phi[:n, :m0].copy(),
                                       self.phi_error, **extra)
@@ -648,6 +656,8 @@ class Simulator:
                 return close(Status.FAILED, f"{settings.method} failed at t = {t_old:.6g}: "
                              f"{message}", t_old, None)
             t_new, y_new = solver.t, solver.y
+            if settings.progress is not None and self.steps % 1000 == 0:
+                settings.progress(float(t_new), self.steps)
             bound = settings.divergence_bound
             if not np.all(np.isfinite(y_new)) or np.max(np.abs(y_new[:n])) > bound:
                 return close(Status.DIVERGED, f"max|x| exceeded {bound:g} (or "
@@ -729,6 +739,8 @@ class Simulator:
                            self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
                            settings.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
+            if settings.progress is not None:
+                settings.progress(float(t), self.steps)
             self._counts["nfev"] += nfev
             self._counts["njev"] += njev
             self._counts["nlu"] += nlu

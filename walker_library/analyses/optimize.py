@@ -49,7 +49,7 @@ from porthamiltonian.errors import ModelError, OptionError
 from ..core.gradients import check_names
 from ..core.protocol import Walker
 from .gait import GaitStatus, analyze_gait
-from .gradients import GAIT_QUANTITIES, GaitGradient, gait_gradient, solve_gait
+from .gradients import GAIT_QUANTITIES, GaitGradient, gait_gradient
 from .results import JSONResult
 
 __all__ = ["Constraint", "OptimizationResult", "optimize_gait", "parse_constraint"]

@@ -38,6 +38,7 @@ import numpy as np
 from porthamiltonian.errors import ModelError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.simulation.differences import jacobian
+from porthamiltonian.simulation.psensitivity import output_gradient
 from porthamiltonian.simulation.saltation import Seeds
 
 from .machine import WalkLog
@@ -170,8 +171,8 @@ def stride_gradient(walker, z, names: Sequence[str], *, factor: float = 1.0) -> 
     o_foot, o_stance = model.output_index(f"{foot}.x"), model.output_index(f"{stance}.x")
     on_surface = crossing.phi_minus + np.outer(crossing.f_minus, crossing.time_sensitivity)
     rows = np.flatnonzero(np.any(crossing.params_minus != 0.0, axis=1) | np.any(unit, axis=1))
-    foot_x = _output_gradient(model, o_foot, last.t, last.x_minus, last.p_minus, rows)
-    stance_x = _output_gradient(model, o_stance, 0.0, x0, p0, rows)
+    foot_x = output_gradient(model, o_foot, last.t, last.x_minus, last.p_minus, rows)
+    stance_x = output_gradient(model, o_stance, 0.0, x0, p0, rows)
     pi0 = np.hstack([np.zeros((len(unit), k)), unit])
     d_length = (foot_x[0] @ on_surface + foot_x[1] @ crossing.params_minus
                 - stance_x[0] @ np.hstack([lift.value, x0_p]) - stance_x[1] @ pi0)
@@ -186,18 +187,3 @@ def stride_gradient(walker, z, names: Sequence[str], *, factor: float = 1.0) -> 
         s.final_ledger[0].copy(), float(y_end[n + 1]), s.final_ledger[1].copy(), s.error,
         max(errors), rtol, method)
 
-
-def _output_gradient(model, o: int, t: float, x: np.ndarray, p: np.ndarray,
-                     rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(∂y_o/∂x, ∂y_o/∂p over every parameter: by those of ``rows``, 0 by the others, whose
-    rows of Π are zero) by central differences."""
-    dx = jacobian(lambda xx: model.outputs(t, xx, p)[o:o + 1], x, 1.0).value[0]
-
-    def by(v: np.ndarray) -> np.ndarray:
-        q = p.copy()
-        q[rows] = v
-        return model.outputs(t, x, q)[o:o + 1]
-
-    dp = np.zeros(len(model.param_names))
-    dp[rows] = jacobian(by, p[rows], 1.0).value[0]
-    return dx, dp
