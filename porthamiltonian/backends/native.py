@@ -113,7 +113,7 @@ def translation_unit(body: str, loop_pragma: bool = True, key: str = "") -> str:
     false), the self-check and ``ph_model_key`` returning ``key`` (the model's cache key:
     letters and digits)."""
     if not key.isalnum() and key:
-        raise ValueError(f"model key {key!r}: letters and digits only")
+        raise OptionError(f"model key {key!r}: letters and digits only")
     stub = "" if "static void jac_p(" in body else JAC_P_STUB
     return (body + "\n" + stub + (LOOP_PRAGMA if loop_pragma else "") + c_loops()
             + _SELF_CHECK.replace("%s", key))
