@@ -17,6 +17,7 @@ from .modeling.elements import GY, TF, C, I, OneJunction, R, Se, Sf, Storage, Ze
 from .modeling.model import Model, ModelDescription, Parameter
 from .modeling.ports import DOMAINS, Port
 from .simulation.compiled import CompiledModel
+from .simulation.fitting import FitResult, fit
 from .simulation.simulate import Event, Reset, simulate
 from .simulation.trajectory import Status, Trajectory
 from .version import __version__ as __version__
@@ -31,6 +32,7 @@ __all__ = [
     "CompiledModel",
     "Component",
     "Event",
+    "FitResult",
     "I",
     "Model",
     "ModelDescription",
@@ -53,6 +55,7 @@ __all__ = [
     "ZeroJunction",
     "compile_model",
     "errors",
+    "fit",
     "io",
     "library",
     "power_balance",

@@ -755,7 +755,8 @@ class Simulator:
         t_all, y_all = np.concatenate(ts), np.concatenate(ys)
         phi_all = np.concatenate(phis) if sensitive else None
         if settings.t_eval is not None:     # the points asked for (the loop stopped on them)
-            keep = np.isin(t_all, settings.t_eval)
+            te = settings.t_eval
+            keep = np.isin(t_all, te[np.searchsorted(te, t0):np.searchsorted(te, t, "right")])
             keep[0] &= not self._segments
             t_all, y_all = t_all[keep], y_all[keep]
             phi_all = phi_all[keep] if sensitive else None

@@ -57,6 +57,8 @@ __all__ = ["Constraint", "OptimizationResult", "optimize_gait", "parse_constrain
 _OPS = {"<=": operator.le, ">=": operator.ge}
 #: the step in scaled units that marks an infeasible evaluation (module docstring)
 _INFEASIBLE = 10.0
+#: significant digits of a point's key: nearer points are one gait evaluation
+_DIGITS = 10
 
 
 @dataclass(frozen=True)
@@ -135,7 +137,7 @@ class _Evaluator:
                  log: Callable[[str], None] | None):
         self.walker, self.vary, self.scale, self.multiplier = walker, vary, scale, multiplier
         self.record, self.known, self.log = record, known, log
-        self.cache: dict[bytes, dict] = {}
+        self.cache: dict[str, dict] = {}
         self.z: np.ndarray | None = None         # the last fixed point, and its parameters
         self.p: np.ndarray | None = None
         self.dzdp: np.ndarray | None = None
@@ -144,13 +146,16 @@ class _Evaluator:
         self.reused = 0
 
     def key(self, p: np.ndarray) -> str:
-        return json.dumps([float(v) for v in p])
+        """The point's key: its parameters to :data:`_DIGITS` significant digits (points the
+        optimizer proposes closer than that — its last steps — are one gait evaluation: the
+        gait's quantities are accurate to the runs' tolerance, far coarser)."""
+        return json.dumps([float(f"{v:.{_DIGITS}g}") for v in p])
 
     def __call__(self, u: np.ndarray) -> dict:
         p = np.asarray(u, dtype=float) * self.scale
-        if p.tobytes() in self.cache:
-            return self.cache[p.tobytes()]
         key = self.key(p)
+        if key in self.cache:
+            return self.cache[key]
         if key in self.known:
             out = self.known[key]
             self.reused += 1
@@ -166,7 +171,7 @@ class _Evaluator:
             self.p = p
             self.dzdp = np.array(out["dzdp"])
             self.period = out["period"]
-        self.cache[p.tobytes()] = out
+        self.cache[key] = out
         if self.log is not None:
             self.log(f"gait evaluation {self.count}: " + ", ".join(
                 f"{n} = {v:.6g}" for n, v in zip(self.vary, p)) + (
