@@ -37,6 +37,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from porthamiltonian.simulation.differences import gradient
 
@@ -120,7 +121,7 @@ def _chain(walker: Walker, z: np.ndarray, names: Sequence[str], period: int,
     return _Period(z, dz, totals, rows, period)
 
 
-def solve_gait(walker: Walker, z, names: Sequence[str], period: int = 1, *,
+def solve_gait(walker: Walker, z: ArrayLike, names: Sequence[str], period: int = 1, *,
                tol: float | None = None, max_iter: int = 12) -> tuple[np.ndarray, _Period, int]:
     """Newton on S^k(z) − z with the exact Jacobian (each iteration one run per stride, which
     also gives the derivatives by ``names``): (z*, the period's values and rows at z*, runs).
@@ -167,7 +168,7 @@ def _weight(walker: Walker, names: Sequence[str]) -> tuple[float, np.ndarray]:
     return walker.weight, gradient(weight, values, 1.0).value
 
 
-def gait_gradient(walker: Walker, z, names: Sequence[str], period: int = 1, *,
+def gait_gradient(walker: Walker, z: ArrayLike, names: Sequence[str], period: int = 1, *,
                   multiplier: bool = True, solve: bool = True) -> GaitGradient:
     """The gradients of the gait through (or, with ``solve``, Newton-refined from) the section
     state ``z`` of period ``period`` by the parameters ``names`` (module docstring)."""

@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from porthamiltonian.batch.errors import SweepFileError
 from porthamiltonian.batch.resultsfile import FORMAT, VERSION, ResultsFile
@@ -239,7 +240,7 @@ def optimize_gait(walker: Walker, vary: Sequence[str], objective: str, *,
                   bounds: Mapping[str, tuple[float, float]] | None = None,
                   method: str = "SLSQP", max_evaluations: int = 30, tol: float = 1e-6,
                   record: str | Path | None = None, step_down: str = "ends",
-                  guess=None, log: Callable[[str], None] | None = None) -> OptimizationResult:
+                  guess: ArrayLike | None = None, log: Callable[[str], None] | None = None) -> OptimizationResult:
     """Optimize ``objective`` (a gait quantity; minimised, or maximised with ``maximize``) over
     the parameters ``vary`` within ``bounds`` ({name: (low, high)}, SI) subject to
     ``constraints`` (:class:`Constraint` or text ``"speed >= 0.33"``) by ``method`` ("SLSQP" or

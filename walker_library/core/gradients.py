@@ -34,6 +34,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from porthamiltonian.errors import ModelError
 from porthamiltonian.integrators import COMPILED_METHODS
@@ -42,6 +43,7 @@ from porthamiltonian.simulation.psensitivity import output_gradient
 from porthamiltonian.simulation.saltation import Seeds
 
 from .machine import WalkLog
+from .protocol import Walker
 
 __all__ = ["StrideGradient", "stride_gradient"]
 
@@ -101,7 +103,7 @@ def _start(walker, z: np.ndarray, names: Sequence[str], values: np.ndarray | Non
     return x0, w.machine.start(x0, p0)
 
 
-def check_names(walker, names: Sequence[str]) -> tuple[str, ...]:
+def check_names(walker: Walker, names: Sequence[str]) -> tuple[str, ...]:
     """``names`` if each is a parameter of the walker's model the user sets (not a mode);
     else a ModelError naming them."""
     names = tuple(names)
@@ -115,7 +117,8 @@ def check_names(walker, names: Sequence[str]) -> tuple[str, ...]:
     return names
 
 
-def stride_gradient(walker, z, names: Sequence[str], *, factor: float = 1.0) -> StrideGradient:
+def stride_gradient(walker: Walker, z: ArrayLike, names: Sequence[str], *,
+                    factor: float = 1.0) -> StrideGradient:
     """One stride from section state ``z`` with its derivatives by z and by the parameters
     ``names`` (module docstring), at the walker's tolerances times ``factor``. A fall is a
     result (``fell``)."""
