@@ -26,6 +26,7 @@ _NAMES = {
     **{n: "modeling.model" for n in ("Model", "ModelDescription", "Parameter")},
     "DOMAINS": "modeling.ports", "Port": "modeling.ports",
     "CompiledModel": "simulation.compiled",
+    "FitResult": "simulation.fitting", "fit": "simulation.fitting",
     **{n: "simulation.simulate" for n in ("Event", "Reset", "simulate")},
     "Status": "simulation.trajectory", "Trajectory": "simulation.trajectory",
 }
@@ -66,6 +67,7 @@ if TYPE_CHECKING:
     from .modeling.model import Model, ModelDescription, Parameter
     from .modeling.ports import DOMAINS, Port
     from .simulation.compiled import CompiledModel
+    from .simulation.fitting import FitResult, fit
     from .simulation.simulate import Event, Reset, simulate
     from .simulation.trajectory import Status, Trajectory
 
@@ -79,6 +81,7 @@ __all__ = [
     "CompiledModel",
     "Component",
     "Event",
+    "FitResult",
     "I",
     "Model",
     "ModelDescription",
@@ -101,6 +104,7 @@ __all__ = [
     "ZeroJunction",
     "compile_model",
     "errors",
+    "fit",
     "io",
     "library",
     "power_balance",

@@ -1,7 +1,7 @@
 """Command line ``walker``: gait analyses of the walker models.
 
     walker gait MODEL [--set NAME=VALUE ...] [--guess FILE] [--max-period K]
-                [--jacobian variational|fd] [--fd-step H] [--json]
+                [--jacobian variational|fd] [--fd-step H] [--gradient NAMES] [--json]
     walker continue MODEL --param NAME=START:STOP [--set NAME=VALUE ...] [--guess FILE]
                     [--doublings N] [--jacobian variational|fd] [--json] [--out DIR]
     walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--json]
@@ -15,6 +15,9 @@
     walker list
     walker export MODEL PATH [--set NAME=VALUE ...] [--force]
     walker export-fmu MODEL --out FILE [--fmi 2|3] [--kind me|cs|both] [--steps N] [--set ...]
+    walker optimize MODEL --vary NAMES --objective QUANTITY [--maximize] [--constraint C ...]
+                    [--bounds NAME=LOW:HIGH ...] [--method SLSQP|trust-constr] [--record FILE]
+                    [--step-down none|ends|path] [--max-evaluations N] [--set ...] [--json]
 
 MODEL is a walker name from ``models/`` (a walker file: a model file with a ``[walker]`` table, see
 docs/walkers.md; ``walker list`` names them) or a path to such a file; ``export`` writes the
@@ -35,10 +38,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from porthamiltonian import io as ph_io
 from porthamiltonian.batch import SweepError, open_executor
 from porthamiltonian.batch.progress import activity
-from porthamiltonian.errors import ModelFileError
+from porthamiltonian.errors import ModelError, ModelFileError
 from porthamiltonian.interfaces.cli import (
     BACKEND_OPTION,
     JSON_OPTION,
@@ -58,10 +63,13 @@ from porthamiltonian.interfaces.cli import (
 from .analyses.cases import ANALYSES, get_analysis
 from .analyses.continuation import ParameterPath, continue_gait, parse_range
 from .analyses.gait import TIME_LIMIT, analyze_gait, gait_start, section_guess, walk
+from .analyses.gradients import GAIT_QUANTITIES, gait_gradient
+from .analyses.optimize import optimize_gait, parse_constraint
 from .analyses.results import to_json
 from .analyses.robustness import basin, gait_sensitivity_norm, step_down
 from .core.files import available_walkers, check_target, load_walker, save_walker
 from .core.fmu import export_walker_fmu
+from .core.gradients import check_names
 from .report.labels import describe, is_nondimensional, shown_unit
 from .report.page import multiplier_cells
 
@@ -146,12 +154,19 @@ def _with_unit(walker, key: str, value: Any) -> str:
 
 def cmd_gait(args) -> int:
     walker, guess = _walker_and_guess(args)
+    names = check_names(walker, _names(args.gradient)) if args.gradient else None
     with activity(f"gait {walker.name}", enabled=not args.quiet) as shown:
         result = analyze_gait(walker, guess, max_period=args.max_period, fd_step=args.fd_step,
                               n_iterate=args.iterate, jacobian=args.jacobian,
                               continuation=not args.no_continuation,
                               log=None if args.quiet else shown.write,
                               time_limit=args.time_limit or None)
+        if names and result.status == "periodic":
+            z = np.array([result.fixed_point[k] for k in walker.section], dtype=float)
+            grad = gait_gradient(walker, z, names, result.period_steps)
+            if not grad.fell:
+                result.gradients, result.gradient_errors = grad.gradients, grad.errors
+                result.fixed_point_gradient = grad.fixed_point_gradient
     if args.json:
         print(result.to_json())
         return 0
@@ -184,7 +199,61 @@ def cmd_gait(args) -> int:
         for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step",
                     "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
             print(f"  {key:30s} {_with_unit(walker, key, d[key])}")
+    if result.gradients:
+        print("  gradients (exact; the multiplier's ± its error bound):")
+        for key, row in result.gradients.items():
+            cells = [f"d/d{n} = {v:.8g}" + (f" ± {result.gradient_errors[key][n]:.1g}"
+                                           if result.gradient_errors[key][n] else "")
+                     for n, v in row.items()]
+            print(f"    {key:28s} " + ", ".join(cells))
+    elif names:
+        print("  no gradients: no periodic orbit, or a stride of it fell")
     return 0
+
+
+def cmd_optimize(args) -> int:
+    walker, guess = _walker_and_guess(args)
+    vary = check_names(walker, _names(args.vary))
+    constraints = [parse_constraint(c) for c in args.constraint]
+    bounds = {}
+    for item in args.bounds:
+        name, sep, text = item.partition("=")
+        low, sep2, high = text.partition(":")
+        try:
+            bounds[name.strip()] = (float(low), float(high))
+        except ValueError:
+            sep2 = ""
+        if not (sep and sep2):
+            raise ModelError(f"--bounds {item!r}: expected NAME=LOW:HIGH (numbers, inf allowed)")
+    log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    result = optimize_gait(walker, vary, args.objective, maximize=args.maximize,
+                           constraints=constraints, bounds=bounds, method=args.method,
+                           max_evaluations=args.max_evaluations, tol=args.tol,
+                           record=args.record, step_down=args.step_down, guess=guess, log=log)
+    if args.json:
+        print(result.to_json())
+        return 0
+    sense = "max" if args.maximize else "min"
+    print(f"{walker.name}: {sense} {args.objective} over {', '.join(vary)}"
+          + (f" subject to {'; '.join(result.constraints)}" if result.constraints else "")
+          + f": {result.message} ({result.iterations} iterations, {result.evaluations} gait "
+            f"evaluations, {result.reused} read back, {result.seconds:.0f} s)")
+    for n in vary:
+        print(f"  {n:20s} {result.start[n]:.8g} -> {result.optimum.get(n, float('nan')):.8g}")
+    for key, value in result.values.items():
+        print(f"  {key:28s} {_with_unit(walker, key, value)}")
+    if result.kkt:
+        print(f"  first-order conditions: |grad L| = {result.kkt['gradient_of_lagrangian']:.2g} "
+              f"(|grad f| = {result.kkt['gradient']:.2g}, scaled units); active: "
+              f"{', '.join(result.kkt['active']) or 'none'}")
+    for key, value in result.step_down.items():
+        print(f"  max step-down at the {key:8s} {_fmt(value)} m")
+    return 0 if result.success else 1
+
+
+def _names(text: str) -> list[str]:
+    """Comma-separated parameter names (``--gradient K1,K2``)."""
+    return [n.strip() for n in text.split(",") if n.strip()]
 
 
 def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: int = 400,
@@ -433,12 +502,47 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-continuation", action="store_true",
                    help="do not continue the model file's nominal gait to these parameters when "
                         "the guess finds no stable gait")
+    p.add_argument("--gradient", default=None, metavar="NAMES",
+                   help="also the exact derivatives of the gait's quantities by these "
+                        "parameters, comma-separated (e.g. K_leg,slope; JSON: \"gradients\")")
     p.add_argument("--time-limit", type=float, default=TIME_LIMIT, metavar="S",
                    help=f"stop the search after S seconds with what it found (default "
                         f"{TIME_LIMIT:g}; 0: no limit)")
     rules(p, max_period=at_least(1), fd_step=positive, iterate=at_least(1),
           time_limit=not_negative)
     p.set_defaults(func=cmd_gait)
+
+    p = sub.add_parser("optimize", parents=analysis,
+                       help="tune parameters for a gait quantity with exact gradients (SLSQP), "
+                            "under constraints on others; every gait evaluation recorded")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--vary", required=True, metavar="NAMES",
+                   help="the parameters to tune, comma-separated (they start from the file's "
+                        "or --set values)")
+    p.add_argument("--objective", required=True, choices=GAIT_QUANTITIES,
+                   help="the gait quantity to minimise (--maximize: maximise)")
+    p.add_argument("--maximize", action="store_true", help="maximise the objective")
+    p.add_argument("--constraint", action="append", default=[], metavar="QUANTITY<=VALUE",
+                   help="an inequality on a gait quantity, e.g. "
+                        "'max_multiplier_modulus<=0.6' (repeatable)")
+    p.add_argument("--bounds", action="append", default=[], metavar="NAME=LOW:HIGH",
+                   help="bounds of a varied parameter (repeatable)")
+    p.add_argument("--method", choices=("SLSQP", "trust-constr"), default="SLSQP",
+                   help="scipy's optimizer (default: SLSQP)")
+    p.add_argument("--max-evaluations", type=int, default=30, metavar="N",
+                   help="the optimizer's iteration limit (default: 30)")
+    p.add_argument("--tol", type=float, default=1e-6,
+                   help="relative tolerance of the optimizer (default: 1e-6)")
+    p.add_argument("--record", default=None, metavar="FILE",
+                   help="record every gait evaluation in this JSON Lines file (run again: "
+                        "evaluations in it are read back, not simulated)")
+    p.add_argument("--step-down", choices=("none", "ends", "path"), default="ends",
+                   help="the step-down test (not differentiated) at the start and the optimum "
+                        "(ends, default), also at every accepted iterate (path), or never")
+    p.add_argument("--guess", default=None, metavar="FILE",
+                   help="start from the fixed point of a `walker gait --json` result")
+    rules(p, max_evaluations=at_least(1), tol=positive)
+    p.set_defaults(func=cmd_optimize)
 
     p = sub.add_parser("continue", parents=analysis,
                        help="continuation of the gait in a parameter: branches, stability, "

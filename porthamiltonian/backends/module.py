@@ -26,10 +26,18 @@ _HEADERS = {
 _NAMES = ("rhs", "jac", "energy", "outputs", "guards", "initial")
 
 
+#: The loops' forcing of parameter sensitivities calls ``jac_p``; a model compiled without it
+#: has this stub (no parameter columns)
+JAC_P_STUB = ('@_jit\ndef jac_p(t, x, p):\n    """No parameter Jacobian generated '
+              '(compile_model(..., jac_p=[...])): no columns."""\n'
+              '    return np.zeros((x.shape[0], 0))\n')
+
+
 def module_text(body: str, backend: str) -> str:
-    """The module of ``backend``: its header, the generated body and the integration loops
-    (which call the body's functions directly)."""
-    return _HEADERS[backend] + "\n\n" + body + "\n\n" + python_loops()
+    """The module of ``backend``: its header, the generated body (and :data:`JAC_P_STUB` when it
+    has no ``jac_p``) and the integration loops (which call the body's functions directly)."""
+    stub = "" if "def jac_p(" in body else JAC_P_STUB
+    return _HEADERS[backend] + "\n\n" + body + "\n\n" + stub + "\n\n" + python_loops()
 
 
 def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (), *,

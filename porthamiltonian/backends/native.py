@@ -74,6 +74,13 @@ def library_name(key: str, identity: str | None = None) -> str:
     return f"{library_prefix(key)}{identity}{_SUFFIX}"
 
 
+#: The loops' forcing of parameter sensitivities calls ``jac_p``; a model compiled without it
+#: has this stub (the loops call it with no parameter columns, so it is never reached)
+JAC_P_STUB = ("/* no parameter Jacobian generated (compile_model(..., jac_p=[...])) */\n"
+              "static void jac_p(double t, const double *x, const double *p, double *out)\n"
+              "{\n    (void)t; (void)x; (void)p; (void)out;\n}\n")
+
+
 #: appended to every translation unit: the library's self-check and its model key
 _SELF_CHECK = r"""
 #include <fenv.h>
@@ -101,12 +108,14 @@ PH_EXPORT const char *ph_model_key(void) { return "%s"; }
 
 
 def translation_unit(body: str, loop_pragma: bool = True, key: str = "") -> str:
-    """The full C source: the generated body followed by the integration loops (after
-    :data:`LOOP_PRAGMA` unless ``loop_pragma`` is false), the self-check and ``ph_model_key``
-    returning ``key`` (the model's cache key: letters and digits)."""
+    """The full C source: the generated body (and :data:`JAC_P_STUB` when it has no ``jac_p``)
+    followed by the integration loops (after :data:`LOOP_PRAGMA` unless ``loop_pragma`` is
+    false), the self-check and ``ph_model_key`` returning ``key`` (the model's cache key:
+    letters and digits)."""
     if not key.isalnum() and key:
         raise OptionError(f"model key {key!r}: letters and digits only")
-    return (body + "\n" + (LOOP_PRAGMA if loop_pragma else "") + c_loops()
+    stub = "" if "static void jac_p(" in body else JAC_P_STUB
+    return (body + "\n" + stub + (LOOP_PRAGMA if loop_pragma else "") + c_loops()
             + _SELF_CHECK.replace("%s", key))
 
 
@@ -317,8 +326,9 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     n_guards = shapes["guards"][0]
     loops = {name: _loop(getattr(lib, f"ph_integrate_{symbol}"), n, n_params, n_guards)
              for name, symbol in LOOPS.items()}
+    n_gain = shapes["jac_p"][1] if "jac_p" in shapes else 0
     variational = {name: _loop(getattr(lib, f"ph_integrate_{symbol}_variational"), n,
-                               n_params, n_guards, variational=True)
+                               n_params, n_guards, variational=True, n_gain=n_gain)
                    for name, symbol in LOOPS.items()}
     matrices = tuple(function(f"matrix_{k}") for k in range(expected[4]))
     extra = {name: function(name) for name in shapes
@@ -372,10 +382,12 @@ def _function(fn, name: str, shape: tuple[int, ...], n: int, n_params: int) -> C
     return call
 
 
-def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
+def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False,
+          n_gain: int = 0) -> Callable:
     """The Python face of a compiled loop: the calling convention of
     porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 15-tuple; with
-    ``variational`` the argument phi0 and the 18-tuple). The stored points (times, states,
+    ``variational`` the arguments phi0 and gain (its rows: none, or one per column of the
+    library's ``jac_p``, ``n_gain``) and the 18-tuple). The stored points (times, states,
     events, Φ) come in buffers of the thread's, reused by its next call of this loop (a segment
     between two events is short: a fresh 4096-point buffer per call cost more than the
     segment's Python work); the caller copies what it keeps."""
@@ -385,11 +397,12 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
     entry.argtypes = (c_double, c_void_p, c_double, c_void_p, c_double, c_void_p, c_double,
                       c_double, c_void_p, c_void_p, c_int64, c_int64, c_double, c_int64, c_double,
                       c_int64, c_int64, c_double, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p,
-                      c_void_p, c_void_p) + ((c_int64, c_void_p, c_void_p, c_void_p, c_void_p)
-                                             if variational else ())
+                      c_void_p, c_void_p) + ((c_int64, c_void_p, c_int64, c_void_p, c_void_p,
+                                              c_void_p, c_void_p) if variational else ())
 
     def integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_index,
-                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0=None):
+                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0=None,
+                  gain=None):
         y0 = _vector(y0, n, "y0")
         p = _vector(p, n_params, "p")
         atol = _vector(atol, n, "atol")
@@ -408,6 +421,10 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
             if phi0.ndim != 2 or phi0.shape[0] != n:
                 raise OptionError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
             m = phi0.shape[1]
+            gain = np.ascontiguousarray(np.zeros((0, m)) if gain is None else gain,
+                                        dtype=np.float64)
+            if gain.ndim != 2 or gain.shape[1] != m or gain.shape[0] not in (0, n_gain):
+                raise OptionError(f"gain must have shape (0 or {n_gain}, {m}), got {gain.shape}")
         buffers = getattr(local, "buffers", None)
         if buffers is None or buffers[0] != (store_cap, m):
             buffers = ((store_cap, m), np.empty(store_cap), np.empty((store_cap, n)),
@@ -422,7 +439,8 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         if variational:
             phi = np.empty((n, m))
             phi_error = np.zeros(1)
-            extra = (m, _pointer(phi0), _pointer(phis), _pointer(phi), _pointer(phi_error))
+            extra = (m, _pointer(phi0), gain.shape[0], _pointer(gain), _pointer(phis),
+                     _pointer(phi), _pointer(phi_error))
         status = entry(t0, _pointer(y0), t_end, _pointer(p), rtol, _pointer(atol), h0, hmax,
                        _pointer(directions), _pointer(terminal), g, int(mask_index), mask_sign,
                        int(n_model), bound, int(max_steps), store_cap, tgrad_step, _pointer(ts),

@@ -17,6 +17,8 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 ``jac_u(t, x, p)``    ∂ẋ/∂u by the model's inputs, (n + 2) x m (models with inputs)
 ``out_jac(t, x, p)``  ∂y/∂[x, u] of the declared outputs y by the model states and inputs
 ``jac_p(t, x, p)``    ∂ẋ/∂p by the parameters asked for (``program(model, jac_p=[...])``)
+``energy_jac(t, x, p)`` ∂H/∂[x, p] by the states and those parameters (with ``jac_p``: the
+                      parameter sensitivities' energy ledger at events)
 ``update_<j>(t, x, p)`` the new discrete states of discrete-time block j at a sampling instant
 
 The parameter vector ``p`` holds the parameters, then two slots per input (:func:`input_slots`):
@@ -47,7 +49,7 @@ from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
 
 #: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "7"
+CODEGEN_VERSION = "8"
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -414,7 +416,8 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
                           doc) -> list[Function]:
     """The exact Jacobians beside ``jac``, each by :func:`jacobian_function`: ``jac_u``
     (∂ẋ/∂u, when the model has inputs), ``out_jac`` (∂y/∂[x, u] of the declared outputs y,
-    when it declares some) and ``jac_p`` (∂ẋ/∂p over the parameters ``jac_p``)."""
+    when it declares some), ``jac_p`` (∂ẋ/∂p over the parameters ``jac_p``) and with it
+    ``energy_jac`` (∂H/∂[x, p] over the states, the ledger's included, and those parameters)."""
     out: list[Function] = []
     n = len(model.rhs)
     states = list(model.states)
@@ -449,6 +452,12 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             f"The Jacobian of rhs of model {model.name!r} by parameters: out[i, k] = "
             f"d(rhs[i])/d(p[k]), {n} x {len(jac_p)}, row-major.",
             _listing("parameters:", list(jac_p)))))
+        all_states = [*model.states, *model.ledger_states]
+        out.append(jacobian_function(builder, model, "energy_jac", [model.hamiltonian],
+                                     all_states + [index[name] for name in jac_p], doc(
+            f"The gradient of the Hamiltonian H of model {model.name!r} by the states and "
+            f"parameters: out[0, j] = dH/d([x, p][j]), 1 x {n + len(jac_p)}.",
+            _listing("parameters (after the states):", list(jac_p)))))
     return out
 
 

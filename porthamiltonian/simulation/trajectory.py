@@ -61,7 +61,7 @@ class Segment:
     y: np.ndarray            # (n + 2, len(t)): model states and ledger states
     p: np.ndarray
     sol: Any                 # scipy OdeSolution or None
-    phi: np.ndarray | None = None   # (len(t), n, m): the sensitivities, when asked for
+    phi: np.ndarray | None = None   # (len(t), n + 2, m): the sensitivities, when asked for
     #: callable inputs (scipy path): (t, x, p) -> p with their slots set, else None
     inputs: Any = None
 

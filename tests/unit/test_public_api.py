@@ -15,7 +15,8 @@ WALKER_MODULES = ("analyses.cases", "analyses.calibration", "core.walker", "anal
                   "core.hybrid", "core.machine", "analyses.metrics", "core.plan", "core.problems",
                   "core.protocol", "core.reading",
                   "report.writer", "core.resets", "analyses.results", "analyses.series",
-                  "analyses.standing", "core.strides", "core.files", "core.fmu")
+                  "analyses.standing", "core.strides", "core.files", "core.fmu",
+                  "core.gradients", "analyses.gradients", "analyses.optimize")
 
 
 def _modules(package: str):

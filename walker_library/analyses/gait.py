@@ -119,6 +119,11 @@ class GaitResult(JSONResult):
         found (by name). newton : the period-1 Newton search from the guess.
     unstable_fixed_point : the unstable period-1 orbit Newton found from the guess, if any.
     search : what was tried, in order.
+    gradients : with ``walker gait --gradient``: {quantity: {parameter: derivative}} of the
+        reported orbit (:mod:`.gradients`: step_period, speed, step_length,
+        energy_dissipated_per_step, cost_of_transport, max_multiplier_modulus); gradient_errors
+        the same layout (the multiplier's error bound); fixed_point_gradient {coordinate:
+        {parameter: dz*/dp}}. None without.
     """
 
     model: str
@@ -145,6 +150,9 @@ class GaitResult(JSONResult):
     search: list[str]
     parameters: dict
     message: str
+    gradients: dict | None = None
+    gradient_errors: dict | None = None
+    fixed_point_gradient: dict | None = None
 
     def to_dict(self) -> dict:
         d = {
@@ -163,6 +171,9 @@ class GaitResult(JSONResult):
                   "fall_reason": self.fall_reason, "last_iterate": self.last_iterate,
                   "newton": self.newton, "unstable_fixed_point": self.unstable_fixed_point,
                   "search": self.search, "parameters": self.parameters, "message": self.message})
+        if self.gradients is not None:
+            d.update({"gradients": self.gradients, "gradient_errors": self.gradient_errors,
+                      "fixed_point_gradient": self.fixed_point_gradient})
         return to_jsonable(d)
 
     def plot(self, walker: Walker | None = None, *, steps: int = 2) -> Any:
