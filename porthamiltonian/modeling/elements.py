@@ -10,7 +10,7 @@ the modulation as supplied.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any, TypeVar
+from typing import Any, ClassVar, TypeVar
 
 import sympy as sp
 
@@ -229,6 +229,8 @@ class GY(_TwoPort):
 
 class _Junction(Component):
     free_ports = True
+    #: the variable all ports share: "e" (0-junction) or "f" (1-junction)
+    common: ClassVar[str]
     arguments = {"domain": Arg("energy domain (default: that of the first bond)", symbolic=False,
                                default=None, check=_check_domain)}
 
