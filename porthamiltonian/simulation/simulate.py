@@ -41,7 +41,7 @@ from .sampling import Breakpoints, sample
 from .trajectory import Segment, Status, Trajectory
 
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
-    from .compiled import CompiledModel
+    from .compiled import CompiledModel, EventInfo
 
 METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 #: the methods whose whole step loop is compiled with the model (Functions.loops)
@@ -276,11 +276,11 @@ class Simulator:
 
     def __init__(self, model: CompiledModel, settings: Settings):
         self.model, self.settings = model, settings
-        events = [*model.events, *settings.events]
+        events: list[EventInfo | Event] = [*model.events, *settings.events]
         self.names = [e.name for e in events]
         self.direction = np.array([e.direction for e in events])
         self.terminal = np.array([e.terminal or e.name in settings.actions for e in events],
-                                 dtype=bool)
+                                 dtype=np.bool_)
         self.n_model_events = len(model.events)
         # the integration state
         self.t, self.y, self.p = 0.0, np.empty(0), np.empty(0)
@@ -328,7 +328,7 @@ class Simulator:
             action = settings.actions.get(name)
             if action is None:
                 if self.phi is not None:
-                    self._cross(k, t, self.y, self.p, self.y, self.p, None, stop=True,
+                    self._cross(self.phi, k, t, self.y, self.p, self.y, self.p, None, stop=True,
                                 moved=False)
                 return self._result(Status.EVENT, f"terminal event {name!r} at t = {t:.6g}", h0)
             y, p = self.y, self.p
@@ -354,7 +354,7 @@ class Simulator:
             self._jumps.append((t, name, jump))
             phi = None
             if self.phi is not None:
-                phi = self._cross(k, t, y_minus, p_minus, y, p, reset.jacobian,
+                phi = self._cross(self.phi, k, t, y_minus, p_minus, y, p, reset.jacobian,
                                   stop=bool(reset.stop), moved=moved)[None]
             self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None, phi,
                                           inputs=self._binder()))
@@ -376,7 +376,7 @@ class Simulator:
         a point of its own (the state before it ends the previous segment)."""
         self.t = t
         starts, blocks = breaks.due(t)
-        if starts:
+        if starts and self.settings.inputs is not None:     # (starts come from the inputs)
             self.p = self.settings.inputs.slots(self.p, t)
         if blocks:
             if self.phi is not None:
@@ -396,21 +396,22 @@ class Simulator:
 
     def _result(self, status: Status, message: str, h0: float) -> Trajectory:
         sensitivity = None
-        if self.phi is not None:
+        seeds = self.settings.sensitivity
+        if self.phi is not None and seeds is not None:      # (phi is set from the seeds)
             n = self.model.n_states
-            sensitivity = Sensitivity(self.settings.sensitivity.copy(),
+            sensitivity = Sensitivity(seeds.copy(),
                                       np.concatenate([s.phi for s in self._segments]),
                                       tuple(self._crossings), self.phi[:n].copy(), self.phi_error)
         return Trajectory(self.model, self._segments, self._events, self._jumps, status, message,
                           h0=h0, sensitivity=sensitivity, **self._counts)
 
-    def _cross(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
+    def _cross(self, phi: np.ndarray, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
                y_plus: np.ndarray, p_plus: np.ndarray, jacobian: np.ndarray | None, *,
                stop: bool, moved: bool) -> np.ndarray:
         """Apply the saltation matrix of event ``k`` at time t (from y_minus, p_minus to y_plus,
         p_plus; ``jacobian`` the reset's, ``stop``: the run ends on the event's surface) to the
-        sensitivities and record the :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺
-        (model states)."""
+        sensitivities ``phi`` (Φ⁻) and record the
+        :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺ (model states)."""
         model, n = self.model, self.model.n_states
         name = self.names[k]
         if jacobian is None:
@@ -427,14 +428,14 @@ class Simulator:
         f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
         f_plus = (np.zeros(n) if stop else
                   np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
-        phi_minus = self.phi[:n].copy()
+        phi_minus = phi[:n].copy()
         if not stop and jacobian is None and np.array_equal(f_plus, f_minus):
             S, g_x, g_t, error = np.eye(n), np.full(n, np.nan), float("nan"), float("nan")
         else:
             grad = self._guard_gradient(k, t, y_minus, p_minus)
             g_t, g_x, error = float(grad.value[0]), grad.value[1:], grad.max_error
             S = saltation_matrix(f_minus, f_plus, g_x, R, g_t)
-        phi_plus = S @ phi_minus
+        phi_plus: np.ndarray = S @ phi_minus
         self.phi = np.vstack([phi_plus, np.zeros((2, phi_plus.shape[1]))])
         self._crossings.append(Crossing(t, name, y_minus[:n].copy(), y_plus[:n].copy(), f_minus,
                                         f_plus, g_x, g_t, error, R, S, stop, phi_minus,
@@ -495,7 +496,7 @@ class Simulator:
             """The parameters at (t, y): p with the callable inputs' values."""
             return pn if binder is None else model.native_params(binder(t, y[:n], p))
 
-        def fun(t, y):
+        def fun(t: float, y: np.ndarray) -> Any:
             return rhs(t, y, params_at(t, y))
 
         options: dict[str, Any] = {"rtol": settings.rtol, "atol": settings.atol,
@@ -506,12 +507,12 @@ class Simulator:
             options["jac"] = lambda t, y: jacf(t, y, params_at(t, y))
         solver = getattr(si, settings.method)(fun, t0, y0, t_end, **options)
         t_eval = settings.t_eval
-        ts, ys, interpolants = [t0], [y0], []
+        ts, ys, interpolants = [t0], [y0], list[Any]()
         if t_eval is not None:
             ts, ys = [], []
             self._eval_at(ts, ys, None, t0, t0, y0, include_start=True)
         has_events = len(self.direction) > 0
-        g_old = self._guards(t0, y0, params_at(t0, y0), p) if has_events else None
+        g_old = self._guards(t0, y0, params_at(t0, y0), p) if has_events else np.empty(0)
         if fired is not None:  # keep a guard that just fired on its new side at the restart
             g_old[fired] = self._fired_side(fired) * max(abs(g_old[fired]), 1e-300)
 
@@ -559,9 +560,9 @@ class Simulator:
                     step_sol = step_sol or solver.dense_output()
                     roots = []
                     for k in active:
-                        def gk(t, k=k, sol=step_sol):
+                        def gk(t: float, k: int = k, sol: Any = step_sol) -> float:
                             y_t = sol(t)
-                            return self._guards(t, y_t, params_at(t, y_t), p)[k]
+                            return float(self._guards(t, y_t, params_at(t, y_t), p)[k])
                         roots.append((brentq(gk, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS), k))
                     roots.sort()
                     for t_root, k in roots:
@@ -602,11 +603,11 @@ class Simulator:
         atol = np.ascontiguousarray(np.broadcast_to(settings.atol, (n + 2,)), dtype=float)
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
         sensitive = self.phi is not None
-        if sensitive:       # the variational loop: Φ too (18-tuple)
+        if self.phi is not None:       # the variational loop: Φ too (18-tuple)
             variational = model.functions.variational[settings.method]
             phis = [self.phi[None, :n].copy()]
 
-            def loop(*args):
+            def loop(*args: Any) -> Any:
                 out = variational(*args, np.ascontiguousarray(self.phi))
                 self.phi = out[15]
                 phis.append(out[16][:out[5], :n].copy())
@@ -648,7 +649,7 @@ class Simulator:
                                                      f"(t = {t:.6g})")
         return status, message, -1
 
-    def _eval_at(self, ts: list, ys: list, step_sol: Any, t_old: float, t_new: float,
+    def _eval_at(self, ts: list[Any], ys: list[Any], step_sol: Any, t_old: float, t_new: float,
                  y_new: np.ndarray, include_start: bool = False) -> None:
         """Append the points of ``t_eval`` in (t_old, t_new] (or [t_old, ...]) to ts, ys."""
         te = self.settings.t_eval
@@ -663,14 +664,14 @@ class Simulator:
 class _Clipped:
     """A step interpolant whose step ended early at a terminal event."""
 
-    def __init__(self, inner, t_end):
+    def __init__(self, inner: Any, t_end: float) -> None:
         self.inner, self.t_old, self.t = inner, inner.t_old, t_end
 
-    def __call__(self, t):
+    def __call__(self, t: float) -> Any:
         return self.inner(t)
 
 
-def _active(g, g_new, direction):
+def _active(g: np.ndarray, g_new: np.ndarray, direction: np.ndarray) -> np.ndarray:
     up = (g <= 0) & (g_new >= 0)
     down = (g >= 0) & (g_new <= 0)
     either = up | down
