@@ -32,6 +32,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -216,7 +217,7 @@ def _pointer(array: np.ndarray) -> int:
     return array.ctypes.data
 
 
-def _vector(value, size: int, what: str) -> np.ndarray:
+def _vector(value: Any, size: int, what: str) -> np.ndarray:
     """``value`` as a contiguous float64 vector of at least ``size`` entries (the C functions
     read that many)."""
     array = np.ascontiguousarray(value, dtype=np.float64)
@@ -307,7 +308,7 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
         fn.argtypes = (ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
         shape = shapes[name]
 
-        def call(t, x, p):
+        def call(t: float, x: Any, p: Any) -> np.ndarray:
             x = _vector(x, n, "x")
             p = _vector(p, n_params, "p")
             out = np.empty(shape)
@@ -321,7 +322,7 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     initial_fn.restype = None
     initial_fn.argtypes = (ctypes.c_void_p, ctypes.c_void_p)
 
-    def initial(p):
+    def initial(p: Any) -> np.ndarray:
         p = _vector(p, n_params, "p")
         out = np.empty(shapes["initial"])
         initial_fn(_pointer(p), _pointer(out))
@@ -337,11 +338,13 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     extra = {name: function(name) for name in shapes
              if name not in (*_NAMES, "initial") and not name.startswith("matrix_")}
     # (ctypes never unloads a library: the functions stay valid)
-    return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops,
+    rhs, jac, energy, outputs, guards = (function(name) for name in _NAMES)
+    return Functions("c", rhs, jac, energy, outputs, guards, initial, matrices, loops,
                      variational, extra)
 
 
-def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
+def _loop(entry: Any, n: int, n_params: int, n_guards: int, variational: bool = False
+          ) -> Callable[..., Any]:
     """The Python face of a compiled loop: the calling convention of
     porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 15-tuple; with
     ``variational`` the argument phi0 and the 18-tuple). The stored points (times, states,
@@ -357,8 +360,10 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
                       c_void_p, c_void_p) + ((c_int64, c_void_p, c_void_p, c_void_p, c_void_p)
                                              if variational else ())
 
-    def integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_index,
-                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0=None):
+    def integrate(t0: float, y0: Any, t_end: float, p: Any, rtol: float, atol: Any, h0: float,
+                  hmax: float, directions: Any, terminal: Any, mask_index: int, mask_sign: float,
+                  n_model: int, bound: float, max_steps: int, store_cap: int, tgrad_step: float,
+                  phi0: Any = None) -> tuple[Any, ...]:
         y0 = _vector(y0, n, "y0")
         p = _vector(p, n_params, "p")
         atol = _vector(atol, n, "atol")
@@ -387,7 +392,7 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         th = np.empty(2)
         y = np.empty(n)
         counts = np.empty(7, dtype=np.int64)
-        extra = ()
+        extra: tuple[Any, ...] = ()
         if variational:
             phi = np.empty((n, m))
             phi_error = np.zeros(1)
