@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import CompilerError
 from ..integrators import LOOPS, python_loops
 from . import Functions
 
@@ -53,6 +54,8 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
     if module is None:
         if source is None:
             spec = importlib.util.spec_from_file_location(module_name, path)
+            if spec is None or spec.loader is None:
+                raise CompilerError(f"{path}: not a Python module")
             module = importlib.util.module_from_spec(spec)
             spec.loader.exec_module(module)
         else:
@@ -72,10 +75,12 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
     if backend == "python":
         # plain CPython is fastest on Python floats: hand the generated code lists (the caller
         # passes p as a list too, see CompiledModel.native_params)
-        def wrap(fn):
+        def wrap(fn: Callable[..., Any]) -> Callable[..., Any]:
             return lambda t, x, p: fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
-        return Functions("python", *(wrap(f[n]) for n in _NAMES[:5]), f["initial"],
+        rhs, jac, energy, outputs, guards = (wrap(f[n]) for n in _NAMES[:5])
+        return Functions("python", rhs, jac, energy, outputs, guards, f["initial"],
                          tuple(wrap(m) for m in matrices), loops, variational,
                          {name: wrap(getattr(module, name)) for name in extra})
-    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices), loops, variational,
-                     {name: getattr(module, name) for name in extra})
+    rhs, jac, energy, outputs, guards, initial = (f[n] for n in _NAMES)
+    return Functions("numba", rhs, jac, energy, outputs, guards, initial, tuple(matrices), loops,
+                     variational, {name: getattr(module, name) for name in extra})

@@ -32,6 +32,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -225,7 +226,7 @@ def _pointer(array: np.ndarray) -> int:
     return array.ctypes.data
 
 
-def _vector(value, size: int, what: str) -> np.ndarray:
+def _vector(value: Any, size: int, what: str) -> np.ndarray:
     """``value`` as a contiguous float64 vector of at least ``size`` entries (the C functions
     read that many)."""
     array = np.ascontiguousarray(value, dtype=np.float64)
@@ -317,7 +318,7 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     initial_fn.restype = None
     initial_fn.argtypes = (ctypes.c_void_p, ctypes.c_void_p)
 
-    def initial(p):
+    def initial(p: Any) -> np.ndarray:
         p = _vector(p, n_params, "p")
         out = np.empty(shapes["initial"])
         initial_fn(_pointer(p), _pointer(out))
@@ -334,7 +335,8 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     extra = {name: function(name) for name in shapes
              if name not in (*_NAMES, "initial") and not name.startswith("matrix_")}
     # (ctypes never unloads a library: the functions stay valid)
-    return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops,
+    rhs, jac, energy, outputs, guards = (function(name) for name in _NAMES)
+    return Functions("c", rhs, jac, energy, outputs, guards, initial, matrices, loops,
                      variational, extra)
 
 
@@ -435,7 +437,7 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         th = np.empty(2)
         y = np.empty(n)
         counts = np.empty(7, dtype=np.int64)
-        extra = ()
+        extra: tuple[Any, ...] = ()
         if variational:
             phi = np.empty((n, m))
             phi_error = np.zeros(1)

@@ -114,20 +114,21 @@ class Layout:
     output_names: tuple[str, ...]
     constraints: tuple[Constraint, ...] = ()
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         """The record as a JSON table (``layout.json`` of a cache entry)."""
         return {"name": self.name, "param_names": list(self.param_names),
                 "state_names": list(self.state_names), "output_names": list(self.output_names),
                 "constraints": [c.to_dict() for c in self.constraints]}
 
     @classmethod
-    def from_json(cls, data: dict) -> Layout:
+    def from_json(cls, data: dict[str, Any]) -> Layout:
         """The record of a :meth:`to_json` table; KeyError or TypeError when it is not one."""
-        lists = [tuple(data[k]) for k in ("param_names", "state_names", "output_names")]
-        if not all(isinstance(n, str) for names in lists for n in names):
+        params, states, outputs = (tuple(data[k]) for k in
+                                   ("param_names", "state_names", "output_names"))
+        if not all(isinstance(n, str) for names in (params, states, outputs) for n in names):
             raise TypeError("a name is not a string")
         constraints = tuple(Constraint.from_dict(c) for c in data["constraints"])
-        return cls(str(data["name"]), *lists, constraints)
+        return cls(str(data["name"]), params, states, outputs, constraints)
 
 
 #: the file of a cache entry holding its model's :class:`Layout`
@@ -343,13 +344,13 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
     n_params = slot_count(meta)
     identity = native.compiler_identity()
     lib_name = native.library_name(key, identity or "none")
-    path = cache.verified_path(key, lib_name) if use_cache else None
-    if path is not None:
+    cached = cache.verified_path(key, lib_name) if use_cache else None
+    if cached is not None:
         try:
-            return native.load(path, shapes, n_params, key)
+            return native.load(cached, shapes, n_params, key)
         except CompilerError as err:
             cache.warn(f"compiled-model cache: {err}; the library is removed and rebuilt")
-            cache.discard(key, path.name)
+            cache.discard(key, cached.name)
     if _C_FAILED and not explicit:
         raise CompilerError(_C_FAILED[0])
     source = cache.store(key, f"m{key}_c.c", native.translation_unit(bodies["c"], key=key),
@@ -378,7 +379,8 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
                             "compiler, or choose the numba or python back end") from None
 
 
-def _earlier_library(key: str, shapes: dict, n_params: int) -> backends.Functions | None:
+def _earlier_library(key: str, shapes: dict[str, tuple[int, ...]], n_params: int
+                     ) -> backends.Functions | None:
     """A library of model ``key`` for this machine that another compiler built, loaded after
     its self-check (one that fails it is removed); None when there is none."""
     for name in cache.recorded(key, native.library_prefix(key)):

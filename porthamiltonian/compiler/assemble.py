@@ -24,6 +24,7 @@ The residual r(t) = H(t) − H(0) + E_diss(t) − E_in(t) is then zero up to int
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,7 +35,7 @@ from ..modeling.constraints import Constraint
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import EventSpec
 from ..modeling.ports import domain
-from .structure import Solution, _flat
+from .structure import Solution, System, _flat
 
 
 @dataclass
@@ -219,7 +220,7 @@ def energy_parts(energies: dict[str, sp.Expr],
 
 
 def _needed(intermediates: list[tuple[sp.Symbol, sp.Expr]],
-            exprs: list) -> list[tuple[sp.Symbol, sp.Expr]]:
+            exprs: list[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
     """The intermediates that ``exprs`` use, directly or through other intermediates (in their
     order): a component may declare more than a model uses (e.g. a multibody's inertia entries
     that a planar motion never reads)."""
@@ -266,7 +267,7 @@ def _port_names(comp: str, port: str, dim: int) -> list[str]:
     return [f"{comp}.{port}.e{i}" for i in range(dim)] + [f"{comp}.{port}.f{i}" for i in range(dim)]
 
 
-def _symbol_table(system, outputs) -> dict[str, sp.Expr]:
+def _symbol_table(system: System, outputs: Mapping[str, sp.Expr]) -> dict[str, sp.Expr]:
     """Names a model-level expression (event guard, output) may use: states, port variables and
     every component output (e.g. a body point's height ``walker.foot1.z``)."""
     table: dict[str, sp.Expr] = {str(s): s for s in system.states}
@@ -279,7 +280,8 @@ def _symbol_table(system, outputs) -> dict[str, sp.Expr]:
     return table
 
 
-def _model_expr(text: str, key: str, table: dict[str, sp.Symbol], system, where: str) -> sp.Expr:
+def _model_expr(text: str, key: str, table: dict[str, sp.Symbol], system: System,
+                where: str) -> sp.Expr:
     """A model output's or event guard's expression (``key``: ``"output:<name>"`` or
     ``"event:<name>"``) in its scope; an error carries its path."""
     flat = system.flat

@@ -91,10 +91,10 @@ from ..errors import OptionError
 if TYPE_CHECKING:
     from ..modeling.model import Model, ModelDescription
 
-try:  # POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record,
-    import fcntl  # which only costs a rebuild of that file)
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None
+# POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record, which
+# only costs a rebuild of that file)
+if sys.platform != "win32":
+    import fcntl
 
 _MANIFEST = "manifest.json"
 _LOCK = ".lock"
@@ -230,7 +230,7 @@ def _base(persistent: bool) -> Path:
 
 
 # --- the key ---------------------------------------------------------------------------------------
-def model_key(model: Model | ModelDescription, options: dict | None = None) -> str:
+def model_key(model: Model | ModelDescription, options: dict[str, Any] | None = None) -> str:
     """A hash of everything that determines the generated code: the model's canonical
     description (:meth:`~porthamiltonian.modeling.model.ModelDescription.canonical`), the source of every
     package module the model's component classes depend on (their modules and, transitively, the
@@ -351,7 +351,7 @@ _HELD = threading.local()
 def _locked(entry: Path) -> Iterator[None]:
     """Hold the entry's lock (manifest read-modify-write); reentrant within a thread."""
     held = _HELD.__dict__.setdefault("entries", set())
-    if fcntl is None or str(entry) in held:  # pragma: no cover - (Windows)
+    if sys.platform == "win32" or str(entry) in held:  # pragma: no cover - (Windows)
         yield
         return
     fd = os.open(entry / _LOCK, os.O_RDWR | os.O_CREAT, 0o600)
@@ -437,13 +437,14 @@ def read(key: str) -> tuple[dict[str, Any], dict[str, str]] | None:
     if not entry.is_dir() or not _usable(entry):
         return None
     files = _manifest(entry)
-    raw = None
+    raw: dict[str, bytes] | None = None
     names = ("meta.json", *_BODIES.values())
     if files is not None and not set(names) & set(files):
         return None                     # only back-end files stored so far: a miss
     if files is not None:
-        raw = {name: _verified(entry, name, files) for name in names}
-        if any(v is None for v in raw.values()):
+        found = {name: _verified(entry, name, files) for name in names}
+        raw = {name: data for name, data in found.items() if data is not None}
+        if len(raw) < len(found):
             raw = None
     if raw is not None:
         try:

@@ -41,7 +41,9 @@ documentation lists the order of its arguments' and its result's entries by name
 from __future__ import annotations
 
 import graphlib
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import sympy as sp
 
@@ -172,7 +174,7 @@ class Program:
 
 
 # --- building ------------------------------------------------------------------------------------
-def _names(exprs) -> set[str]:
+def _names(exprs: Iterable[sp.Expr]) -> set[str]:
     return {str(s) for e in exprs for s in e.free_symbols}
 
 
@@ -224,12 +226,13 @@ class FunctionBuilder:
                 continue
             wanted.add(i)
             stack += [self.owner[d] for d in self.nodes[i][1] if d in self.owner]
-        order = graphlib.TopologicalSorter()
+        order: graphlib.TopologicalSorter[int] = graphlib.TopologicalSorter()
         for i in sorted(wanted):
             order.add(i, *sorted({self.owner[d] for d in self.nodes[i][1] if d in self.owner}))
         return [st for i in order.static_order() for st in self.nodes[i][2]]
 
-    def function(self, name: str, doc: list[str], groups: list[tuple], shape: tuple[int, ...],
+    def function(self, name: str, doc: list[str], groups: list[tuple[Any, ...]],
+                 shape: tuple[int, ...],
                  args: tuple[str, ...] = ("t", "x", "p")) -> Function:
         """``groups``, in the order of their statements: ("array", array, expressions, shape) (a
         matrix's zero entries are not stored), ("entries", array, nonzero entries (i, j, expr),
@@ -275,7 +278,7 @@ class FunctionBuilder:
         return Function(name, args, tuple(doc), tuple(pre + body), shape)
 
 
-def _expressions(group: tuple) -> list:
+def _expressions(group: tuple[Any, ...]) -> list[sp.Expr]:
     """The expressions of a group of :meth:`FunctionBuilder.function`, in the order of its statements."""
     if group[0] == "statement":
         return []
@@ -306,13 +309,13 @@ def derivative(expr: sp.Expr, v: sp.Symbol) -> sp.Expr:
     return sp.diff(expr, v)
 
 
-def jacobian(exprs: list, variables: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]]:
+def jacobian(exprs: list[sp.Expr], variables: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]]:
     """The nonzero entries (i, j, ∂exprs[i]/∂variables[j]), row by row and in column order
     within a row, each expression differentiated only by the variables it contains."""
     index = {v: j for j, v in enumerate(variables)}
     out = []
     for i, expr in enumerate(exprs):
-        for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.get):
+        for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.__getitem__):
             d = derivative(expr, v)
             if d != 0:
                 out.append((i, index[v], d))
@@ -413,7 +416,7 @@ def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
 
 
 def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p: list[str],
-                          doc) -> list[Function]:
+                          doc: Callable[[str, list[str]], list[str]]) -> list[Function]:
     """The exact Jacobians beside ``jac``, each by :func:`jacobian_function`: ``jac_u``
     (∂ẋ/∂u, when the model has inputs), ``out_jac`` (∂y/∂[x, u] of the declared outputs y,
     when it declares some), ``jac_p`` (∂ẋ/∂p over the parameters ``jac_p``) and with it
@@ -479,11 +482,11 @@ class _Columns:
     def __init__(self, rows: int):
         self.masks = [0] * rows
 
-    def set(self, entries) -> None:
+    def set(self, entries: Iterable[tuple[int, int, sp.Expr]]) -> None:
         for i, j, _ in entries:
             self.masks[i] |= 1 << j
 
-    def add(self, dst: _Columns, entries) -> None:
+    def add(self, dst: _Columns, entries: Iterable[tuple[int, int, sp.Expr]]) -> None:
         """dst rows += F @ self for F's entries."""
         for i, j, _ in entries:
             dst.masks[i] |= self.masks[j]
@@ -498,7 +501,8 @@ def _span(mask: int) -> tuple[int, int]:
     return ((mask & -mask).bit_length() - 1, mask.bit_length()) if mask else (0, 0)
 
 
-def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str, exprs: list,
+def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
+                      exprs: list[sp.Expr],
                       variables: list[sp.Symbol], doc: list[str]) -> Function:
     """The function ``name``: the exact Jacobian ∂exprs/∂variables, ``len(exprs)`` x
     ``len(variables)``, of expressions of the model (its right-hand side, its outputs) by any of
@@ -519,13 +523,13 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
     rows, ncols, nw, nv = len(exprs), len(variables), len(ws), len(vs)
     defs = [expr for _, expr in model.intermediates]
     npos = _position_level(model, vs)
-    groups: list[tuple] = [("entries", "out", jacobian(exprs, variables), (rows, ncols))]
+    groups: list[tuple[Any, ...]] = [("entries", "out", jacobian(exprs, variables), (rows, ncols))]
     chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
     npre = sum(1 for m, _, _ in chain if m < npos)
     dw, r = _Columns(nw), _Columns(nv)
     chain_ranges: list[tuple[int, int]] = []
 
-    def chain_rule(start: int, stop: int) -> list[tuple]:
+    def chain_rule(start: int, stop: int) -> list[tuple[Any, ...]]:
         for m, j, _ in chain[start:stop]:
             chain_ranges.append(_span(dw.masks[j]))
             dw.masks[m] |= dw.masks[j]

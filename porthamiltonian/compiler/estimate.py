@@ -94,7 +94,8 @@ def estimate(description: ModelDescription) -> BuildEstimate:
         parent = {table.get("child"): table.get("parent") for table in joints.values()}
         depth: dict[str, int] = {}
         for body in component.value("bodies") or {}:
-            chain, node = [], body
+            chain: list[str] = []
+            node = body
             while node in parent and node not in depth and len(chain) <= len(parent):
                 chain.append(node)
                 node = parent[node]

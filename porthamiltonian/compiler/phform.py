@@ -50,7 +50,7 @@ from ..errors import PassivityError
 from ..modeling.component import Dissipator, PHCut, Source
 from ..modeling.model import ModelDescription
 from .assemble import SymbolicModel, _needed
-from .codegen import FunctionBuilder, Program, jacobian_function, symbol_map
+from .codegen import Function, FunctionBuilder, Program, jacobian_function, symbol_map
 from .structure import Solution, build_system, solve
 
 
@@ -72,7 +72,7 @@ class PHForm:
     dissipators: list[Dissipator]
     sources: list[Source]
     intermediates: list[tuple[sp.Symbol, sp.Expr]]
-    blocks: list
+    blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]]
     rows: list[sp.Expr] = field(default_factory=list, repr=False)
     columns: list[sp.Symbol] = field(default_factory=list, repr=False)
     energies: list[tuple[str, sp.Expr, list[int]]] = field(default_factory=list, repr=False)
@@ -255,7 +255,7 @@ def ph_text(form: PHForm) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _short(exprs: list) -> str:
+def _short(exprs: list[sp.Expr]) -> str:
     text = ", ".join(str(e) for e in exprs)
     return f"[{text}]" if len(exprs) > 1 else text
 
@@ -289,7 +289,7 @@ def _matrix(rows: list[sp.Expr], columns: list[sp.Symbol],
     return sp.Matrix(len(full), len(columns), lambda i, j: sp.diff(full[i], columns[j]))
 
 
-def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list:
+def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list[Function]:
     """The generated functions of the form (see the module docstring): ``ph_M0``, ``ph_grad``,
     ``ph_values``, built with the same program machinery as the model's own functions."""
     cut_model = dataclasses.replace(sym, intermediates=form.intermediates, blocks=form.blocks)

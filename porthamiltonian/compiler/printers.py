@@ -19,6 +19,7 @@ escaped by :mod:`.literals`. The C translation unit uses only C99 and ``<math.h>
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
@@ -53,51 +54,51 @@ def _float(value: float) -> str:
 class PythonPrinter(PythonCodePrinter):
     """sympy -> Python expressions (``math`` functions, ``np`` only for arrays)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         super().__init__({"standard": "python3", "fully_qualified_modules": True, "order": "none"})
 
-    def _print_Float(self, expr):
+    def _print_Float(self, expr: sp.Basic) -> str:
         return repr(float(expr))
 
-    def _print_Heaviside(self, expr):
+    def _print_Heaviside(self, expr: sp.Basic) -> str:
         x = self._print(expr.args[0])
         h0 = self._print(sp.Float(expr.args[1] if len(expr.args) > 1 else 0.5))
         return f"(1.0 if {x} > 0 else ({h0} if {x} == 0 else 0.0))"
 
-    def _print_DiracDelta(self, expr):
+    def _print_DiracDelta(self, expr: sp.Basic) -> str:
         return "0.0"
 
 
 class CPrinter(C99CodePrinter):
     """sympy -> C99 expressions with the Python printer's meaning (see the module docstring)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         super().__init__({"strict": True, "order": "none"})
 
-    def _print_Indexed(self, expr):
+    def _print_Indexed(self, expr: sp.Basic) -> str:
         return f"{expr.base}[{int(expr.indices[0])}]"
 
-    def _print_Float(self, expr):
+    def _print_Float(self, expr: sp.Basic) -> str:
         return _float(float(expr))
 
-    def _print_Integer(self, expr):
+    def _print_Integer(self, expr: sp.Basic) -> str:
         return f"{int(expr)}.0" if expr >= 0 else f"({int(expr)}.0)"
 
     _print_Zero = _print_One = _print_NegativeOne = _print_Integer
 
-    def _print_Pi(self, expr):
+    def _print_Pi(self, expr: sp.Basic) -> str:
         return repr(math.pi)
 
-    def _print_Exp1(self, expr):
+    def _print_Exp1(self, expr: sp.Basic) -> str:
         return repr(math.e)
 
-    def _print_BooleanTrue(self, expr):
+    def _print_BooleanTrue(self, expr: sp.Basic) -> str:
         return "1"
 
-    def _print_BooleanFalse(self, expr):
+    def _print_BooleanFalse(self, expr: sp.Basic) -> str:
         return "0"
 
-    def _print_Pow(self, expr):
+    def _print_Pow(self, expr: sp.Basic) -> str:
         base, e = expr.args
         if e.is_Integer and 2 <= abs(int(e)) <= 4:          # exact products, no pow() call
             b = self.parenthesize(base, 1000)       # atoms only, anything else bracketed
@@ -111,34 +112,34 @@ class CPrinter(C99CodePrinter):
             return f"(1.0/sqrt({self._print(base)}))"
         return f"pow({self._print(base)}, {self._print(e)})"
 
-    def _print_Heaviside(self, expr):
+    def _print_Heaviside(self, expr: sp.Basic) -> str:
         x = self._print(expr.args[0])
         h0 = _float(float(expr.args[1])) if len(expr.args) > 1 else "0.5"
         return f"(({x}) > 0 ? 1.0 : (({x}) == 0 ? {h0} : 0.0))"
 
-    def _print_DiracDelta(self, expr):
+    def _print_DiracDelta(self, expr: sp.Basic) -> str:
         return "0.0"
 
-    def _print_sign(self, expr):
+    def _print_sign(self, expr: sp.Basic) -> str:
         x = self._print(expr.args[0])
         return f"(({x}) == 0 ? 0.0 : copysign(1.0, {x}))"
 
-    def _fold(self, name, args):
-        out = self._print(args[0])
+    def _fold(self, name: str, args: tuple[sp.Basic, ...]) -> str:
+        out: str = self._print(args[0])
         for arg in args[1:]:
             out = f"{name}({out}, {self._print(arg)})"
         return out
 
-    def _print_Min(self, expr):
+    def _print_Min(self, expr: sp.Basic) -> str:
         return self._fold("ph_min", expr.args)
 
-    def _print_Max(self, expr):
+    def _print_Max(self, expr: sp.Basic) -> str:
         return self._fold("ph_max", expr.args)
 
-    def _print_Mod(self, expr):
+    def _print_Mod(self, expr: sp.Basic) -> str:
         return f"ph_mod({self._print(expr.args[0])}, {self._print(expr.args[1])})"
 
-    def _print_Piecewise(self, expr):
+    def _print_Piecewise(self, expr: sp.Basic) -> str:
         out = "NAN"
         for value, cond in reversed(expr.args):
             if cond == sp.true:
@@ -147,11 +148,11 @@ class CPrinter(C99CodePrinter):
                 out = f"(({self._print(cond)}) ? ({self._print(value)}) : ({out}))"
         return out
 
-    def _print_Relational(self, expr):
+    def _print_Relational(self, expr: sp.Basic) -> str:
         return f"({self._print(expr.lhs)} {expr.rel_op} {self._print(expr.rhs)})"
 
 
-def _closed_form(st: Solve, entry) -> list[tuple[str, str]]:
+def _closed_form(st: Solve, entry: Callable[[int, int], str]) -> list[tuple[str, str]]:
     """(name, value) assignments solving a 1 x 1 or 2 x 2 system ``st`` by Cramer's rule;
     ``entry(i, j)`` prints A's entry in the language."""
     b, v = st.b, st.targets
@@ -163,12 +164,18 @@ def _closed_form(st: Solve, entry) -> list[tuple[str, str]]:
             (v[1], f"({entry(0, 0)} * {b}[1] - {b}[0] * {entry(1, 0)}) / {det}")]
 
 
+def _c_entry(array: str, n: int) -> Callable[[int, int], str]:
+    """Prints entry (i, j) of the row-major n x n C ``array``."""
+    return lambda i, j: f"{array}[{i * n + j}]"
+
+
 # --- Python ---------------------------------------------------------------------------------------
 def _python_index(index: tuple[int, ...]) -> str:
     return ", ".join(str(i) for i in index)
 
 
-def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> None:
+def _python_statement(st: Statement, pr: Callable[[sp.Basic], str], lines: list[str],
+                      count: list[int]) -> None:
     if isinstance(st, Let):
         lines.append(f"    {st.name} = {pr(st.expr)}")
     elif isinstance(st, Array):
@@ -377,7 +384,7 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
             n = len(st.targets)
             if n <= 2:
                 lines += [f"    const double {name} = {value};" for name, value in
-                          _closed_form(st, lambda i, j, n=n, a=st.A: f"{a}[{i * n + j}]")]
+                          _closed_form(st, _c_entry(st.A, n))]
             else:
                 lines.append(f"    ph_solve_rows({n}, 1, {st.A}, {st.b});")
                 lines += [f"    const double {t} = {st.b}[{i}];" for i, t in enumerate(st.targets)]

@@ -16,6 +16,7 @@ prints them as literals into each model's module (:func:`python_literals`, :func
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from ..errors import OptionError
@@ -143,7 +144,7 @@ for _t in TABLEAUS.values():
     _t.check()
 
 
-def _flat(table) -> list[float]:
+def _flat(table: Iterable[Iterable[float]]) -> list[float]:
     return [float(v) for row in table for v in row]
 
 
@@ -179,7 +180,7 @@ def python_entry(tab: Tableau) -> str:
 def c_entry(tab: Tableau) -> str:
     """The tables of ``tab`` as a ``static const ph_tableau`` and its exported entry point
     ``ph_integrate_<symbol>`` (the C loop template's ``rosenbrock`` with them)."""
-    def arr(values) -> str:
+    def arr(values: Iterable[float]) -> str:
         return "{" + ", ".join(repr(float(v)) for v in values) + "}"
 
     p = tab.symbol

@@ -315,7 +315,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
                           progress=RunProgress(model.name, entry.t_end(args.t_end)))
-    result = {"model": model.name, "status": traj.status, "message": traj.message,
+    result: dict[str, Any] = {"model": model.name, "status": traj.status, "message": traj.message,
               "t_end": traj.t_final,
               "final_state": dict(zip(compiled.state_names, traj.x_final.tolist())),
               "energy": traj.ledger(), "nfev": traj.nfev, "events": traj.events}
@@ -600,7 +600,8 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
         return _report_bug()
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: Any = None, line: str | None = None) -> None:
     print(f"warning: {message}", file=sys.stderr)
 
 

@@ -61,7 +61,7 @@ import math
 import os
 import re
 import tomllib
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -213,9 +213,9 @@ class _Locator:
 
     def __init__(self, text: str):
         self.lines = text.splitlines()
-        self.where: dict[tuple, int] = {}
-        table: tuple = ()
-        arrays: dict[tuple, int] = {}
+        self.where: dict[tuple[str | int, ...], int] = {}
+        table: tuple[str | int, ...] = ()
+        arrays: dict[tuple[str | int, ...], int] = {}
         depth = 0                     # open [ / { of a value continued on the next lines
         multiline = ""                # inside a multi-line string
         for number, line in enumerate(self.lines, 1):
@@ -229,7 +229,7 @@ class _Locator:
                 continue
             header = _HEADER_RE.match(line)
             if header:
-                path = _key_parts(header.group(2))
+                path: tuple[str | int, ...] = _key_parts(header.group(2))
                 if header.group(1) == "[[":
                     index = arrays.get(path, -1) + 1
                     arrays[path] = index
@@ -253,7 +253,7 @@ class _Locator:
                     self.where.setdefault((*path, *_key_parts(inner.group(1))), number)
             depth = max(depth, 0)
 
-    def line(self, *path) -> int | None:
+    def line(self, *path: str | int) -> int | None:
         """The line of ``path``, or of its longest prefix that is known."""
         path = tuple(path)
         while path:
@@ -278,7 +278,7 @@ def locate(text: str, *path: str | int) -> int | None:
     return _Locator(text).line(*path)
 
 
-def _suggest(name: str, known) -> str:
+def _suggest(name: str | os.PathLike[str], known: Iterable[str]) -> str:
     close = difflib.get_close_matches(str(name), [str(k) for k in known], n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
@@ -496,9 +496,10 @@ def _read_head(data: dict[str, Any], source: str, r: _Reader) -> tuple[str, str,
                    else _text_problem(value, name=key == "name"))
         if problem:
             r.add(f"[model] {key} {problem}", "model", key)
-    name = head.get("name") if isinstance(head.get("name"), str) else Path(source).stem
-    description = head.get("description") if isinstance(head.get("description"), str) else ""
-    return name, description, {k: v for k, v in head.items() if k not in ("name", "description")}
+    name, description = head.get("name"), head.get("description")
+    return (name if isinstance(name, str) else Path(source).stem,
+            description if isinstance(description, str) else "",
+            {k: v for k, v in head.items() if k not in ("name", "description")})
 
 
 def _read_model(name: str, data: dict[str, Any], r: _Reader, at: tuple) -> Model:
@@ -867,10 +868,10 @@ def _text_problem(text: str, name: bool) -> str | None:
     return None
 
 
-def _too_deep(data: Any) -> tuple | None:
+def _too_deep(data: Any) -> tuple[str | int, ...] | None:
     """The key path of a value nested more than MAX_NESTING levels deep, or None (iterative:
     no recursion on hostile input)."""
-    stack = [((), data)]
+    stack: list[tuple[tuple[str | int, ...], Any]] = [((), data)]
     while stack:
         path, value = stack.pop()
         if len(path) > MAX_NESTING:

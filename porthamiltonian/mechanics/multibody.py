@@ -253,7 +253,7 @@ class Multibody(Component):
     def ports(self) -> list[Port]:
         ports = []
         for spec in self._joints():
-            if spec.velocities:
+            if spec.velocities and spec.domain is not None:    # (a fixed joint has neither)
                 ports.append(Port(spec.name, spec.domain, len(spec.velocities), None, "joint",
                                   f"joint {spec.name}", optional=True))
         for body_name, body in self.value("bodies").items():
@@ -440,15 +440,16 @@ class Multibody(Component):
         b.output("T", kinetic, "J")
         b.output("V", potential, "J")
         for spec in specs:
-            where = quaternion_slice(spec)
-            if where is not None:
+            span = quaternion_slice(spec)
+            if span is not None:
                 c = coordinates.index(spec.coordinates[0])
-                quat = q[c + where.start:c + where.stop]
+                quat = q[c + span.start:c + span.stop]
                 b.output(f"{spec.name}.q_norm", sp.sqrt(dot(quat[1:], quat[1:]) + quat[0] ** 2),
                          "1")
         b.matrix("M", M)
 
-    def _initial(self, b: Builder, joints, specs: list[Joint]) -> tuple[list, list]:
+    def _initial(self, b: Builder, joints: dict[str, Any], specs: list[Joint]
+                 ) -> tuple[list[Any], list[Any]]:
         """q0 and v0 per coordinate and velocity (expressions in the parameters); a quaternion
         is normalised."""
         out: tuple[list, list] = ([], [])
@@ -479,7 +480,8 @@ class Multibody(Component):
                 column += parsed
         return out
 
-    def _links(self, b: Builder, joints, specs: list[Joint]) -> tuple[list[Link], dict]:
+    def _links(self, b: Builder, joints: dict[str, Any], specs: list[Joint]
+               ) -> tuple[list[Link], dict[str, tuple[Link | None, list[Any]]]]:
         """The elementary links (parents first) and the placement of every body: (its link,
         or None for the world, and its origin in the link's frame)."""
         first: dict[str, tuple[int, int]] = {}
@@ -511,7 +513,8 @@ class Multibody(Component):
 
     def _tree_order(self) -> list[str]:
         joints = self.value("joints")
-        order, placed = [], {"world"}
+        order: list[str] = []
+        placed = {"world"}
         while len(order) < len(joints):
             for name, table in joints.items():
                 if name not in order and table["parent"] in placed:

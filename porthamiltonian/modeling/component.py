@@ -526,6 +526,11 @@ def _may_be_undefined(expr: Any) -> bool:
         for node in sp.preorder_traversal(expr))
 
 
+#: an expression among a component's arguments, as :meth:`Component.expression_fields` yields
+#: it: ``(key path, value, what, local names)``
+ExpressionField = tuple[tuple[str | int, ...], Any, str, tuple[str, ...]]
+
+
 class _Frozen(type):
     """Metaclass of :class:`Component`: an instance is frozen once its whole ``__init__`` chain
     has run (subclasses may set private attributes while they are constructed)."""
@@ -587,10 +592,10 @@ class Component(metaclass=_Frozen):
     def __copy__(self) -> Component:
         return self
 
-    def __deepcopy__(self, memo: dict) -> Component:
+    def __deepcopy__(self, memo: dict[int, Any]) -> Component:
         return self
 
-    def __reduce__(self) -> tuple:
+    def __reduce__(self) -> tuple[Any, ...]:
         return _rebuild, (type(self), dict(self.args))
 
     def value(self, name: str) -> Any:
@@ -601,13 +606,16 @@ class Component(metaclass=_Frozen):
         """The power ports this component declares."""
         return []
 
-    def build(self, b: Builder, **args: Any) -> None:  # pragma: no cover - abstract
+    def build(self, b: Builder, *args: Any, **kwargs: Any) -> None:  # pragma: no cover - abstract
         """Declare the component's states, laws, energy, dissipation and outputs with the
-        builder ``b``; ``args`` are the arguments by name, symbolic ones parsed
-        (:meth:`parsed_args`)."""
+        builder ``b``; the arguments come by name, symbolic ones parsed (:meth:`parsed_args`).
+
+        Each subclass lists its own :attr:`arguments` as keyword parameters (``def build(self,
+        b, domain, stiffness, ...)``); this signature is the one every such override matches
+        (a type checker holds ``b`` to :class:`Builder` and leaves the rest to the subclass)."""
         raise NotImplementedError
 
-    def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
+    def expression_fields(self) -> Iterator[ExpressionField]:
         """Every expression among the arguments as ``(key path, value, what, local names)``, for
         the model-file loader to parse and locate: the symbolic arguments, and the entries of the
         :attr:`vector_arguments`. ``what`` is how the compiler names the field in messages
@@ -619,7 +627,8 @@ class Component(metaclass=_Frozen):
             if arg.symbolic:
                 yield (name,), value, f"argument {name!r}", arg.local
             elif name in self.vector_arguments and isinstance(value, list):
-                stack = [((name, i), item) for i, item in enumerate(value)]
+                stack: list[tuple[tuple[str | int, ...], Any]] = [
+                    ((name, i), item) for i, item in enumerate(value)]
                 while stack:
                     path, item = stack.pop(0)
                     if isinstance(item, list):
@@ -683,4 +692,4 @@ def component_class(kind: str) -> type[Component]:
 
 
 __all__ = ["REGISTRY", "STATE_ROLES", "TIME", "Arg", "Builder", "Component", "Dissipator",
-           "PHCut", "PortVars", "Source", "component_class", "register"]
+           "ExpressionField", "PHCut", "PortVars", "Source", "component_class", "register"]

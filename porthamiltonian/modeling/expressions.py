@@ -171,7 +171,7 @@ def _tokens(text: str) -> list[Token]:
             ch = text[pos]
             hint = _HINTS.get(ch, "not part of the expression language")
             raise _Syntax(f"unexpected character {ch!r} at column {pos + 1} ({hint})")
-        kind = match.lastgroup
+        kind = match.lastgroup or ""      # every alternative of _TOKEN is a named group
         token = match.group()
         if kind == "name":
             _check_name(token, pos + 1)
@@ -210,6 +210,7 @@ class _Syntax(Exception):
 # | ("add", [("+" or "-", term), ...]) | ("mul", [("*" or "/", factor), ...]) | ("pow", base, exp)
 # | ("call", function, [args], column) | ("cmp", op, a, b) | ("true",) | ("piece", [(value, cond)])
 # (sums and products are flat lists, so a long sum is a shallow tree)
+Node = tuple[Any, ...]
 
 
 class _Parser:
@@ -239,7 +240,7 @@ class _Parser:
         token = self.token
         return "at the end" if token.kind == "end" else f"at {token.text!r} (column {token.column})"
 
-    def node(self, value: tuple) -> tuple:
+    def node(self, value: Node) -> Node:
         self.nodes += 1
         if self.nodes > MAX_NODES:
             raise _Syntax(f"more than {MAX_NODES} operations and operands (the limit of an "
@@ -251,7 +252,7 @@ class _Parser:
         if self.depth > MAX_DEPTH:
             raise _Syntax(f"nested more than {MAX_DEPTH} levels deep {self.where()}")
 
-    def whole(self) -> tuple:
+    def whole(self) -> Node:
         if self.token.kind == "end":
             raise _Syntax("the expression is empty")
         tree = self.sum()
@@ -264,7 +265,7 @@ class _Parser:
             raise _Syntax(f"expected an operator or the end {self.where()}")
         return tree
 
-    def sum(self) -> tuple:
+    def sum(self) -> Node:
         self.enter()
         items = [("+", self.term())]
         while self.token.kind == "op" and self.token.text in "+-":
@@ -273,14 +274,14 @@ class _Parser:
         self.depth -= 1
         return items[0][1] if len(items) == 1 else self.node(("add", items))
 
-    def term(self) -> tuple:
+    def term(self) -> Node:
         items = [("*", self.unary())]
         while self.token.kind == "op" and self.token.text in ("*", "/"):
             op = self.take().text
             items.append((op, self.unary()))
         return items[0][1] if len(items) == 1 else self.node(("mul", items))
 
-    def unary(self) -> tuple:
+    def unary(self) -> Node:
         if self.token.kind == "op" and self.token.text in "+-":
             op = self.take().text
             self.enter()
@@ -289,7 +290,7 @@ class _Parser:
             return operand if op == "+" else self.node(("neg", operand))
         return self.power()
 
-    def power(self) -> tuple:
+    def power(self) -> Node:
         base = self.atom()
         if self.token.kind == "op" and self.token.text == "**":
             self.take()
@@ -299,7 +300,7 @@ class _Parser:
             return self.node(("pow", base, exponent))
         return base
 
-    def atom(self) -> tuple:
+    def atom(self) -> Node:
         token = self.token
         if token.kind == "number":
             self.take()
@@ -326,7 +327,7 @@ class _Parser:
             raise _Syntax("the expression ends too early: expected a number, a name or '('")
         raise _Syntax(f"expected a number, a name or '(' {self.where()}")
 
-    def call(self, name: Token) -> tuple:
+    def call(self, name: Token) -> Node:
         if name.text not in FUNCTIONS and name.text not in _CONDITIONALS:
             known = ", ".join([*FUNCTIONS, *_CONDITIONALS])
             raise _Syntax(f"unknown function {name.text!r} (column {name.column}); functions: "
@@ -358,7 +359,7 @@ class _Parser:
         self.expect(")")
         return tree
 
-    def piecewise(self, name: Token) -> tuple:
+    def piecewise(self, name: Token) -> Node:
         pairs = []
         while True:
             self.expect("(")
@@ -374,7 +375,7 @@ class _Parser:
                           "value where no condition holds")
         return self.node(("piece", pairs))
 
-    def condition(self) -> tuple:
+    def condition(self) -> Node:
         if self.token.kind == "name" and self.token.text == "True":
             self.take()
             return ("true",)
@@ -385,7 +386,7 @@ class _Parser:
         return self.node(("cmp", op, left, self.sum()))
 
 
-def _walk(tree: tuple) -> Iterator[tuple]:
+def _walk(tree: Node) -> Iterator[Node]:
     stack = [tree]
     while stack:
         node = stack.pop()
@@ -406,7 +407,7 @@ def _walk(tree: tuple) -> Iterator[tuple]:
                 stack += [value, cond]
 
 
-def _literal(node: tuple) -> float | None:
+def _literal(node: Node) -> float | None:
     """The value of a number or a negated number node, else None."""
     if node[0] == "num":
         return float(node[1])
@@ -415,7 +416,7 @@ def _literal(node: tuple) -> float | None:
     return None
 
 
-def _terms(node: tuple) -> int:
+def _terms(node: Node) -> int:
     """An upper bound of the number of terms of ``node`` multiplied out (for MAX_TERMS)."""
     kind = node[0]
     if kind == "neg":
@@ -447,7 +448,7 @@ class Expression:
     """A parsed expression: ``text`` and its tree. Build with :func:`parse_text`."""
 
     text: str
-    tree: tuple
+    tree: Node
 
     @property
     def names(self) -> set[str]:
@@ -460,7 +461,7 @@ class Expression:
         sp = _sympy()
         unknown: list[str] = []
 
-        def build(node: tuple) -> Any:
+        def build(node: Node) -> Any:
             kind = node[0]
             if kind == "num":
                 return _number(node[1])
@@ -513,10 +514,10 @@ class Expression:
         ArithmeticError/ValueError where the arithmetic fails (0 ** -1, log(-1), overflow).
         Zeros carry no sign (as in sympy), so that atan2 and divisions see what sympy sees."""
 
-        def value(node: tuple) -> float:
+        def value(node: Node) -> float:
             return raw(node) + 0.0             # -0.0 + 0.0 is 0.0
 
-        def raw(node: tuple) -> float:
+        def raw(node: Node) -> float:
             kind = node[0]
             if kind == "num":
                 return float(node[1])
@@ -732,7 +733,7 @@ def to_text(expr: sp.Basic) -> str:
     if expr is sp.true:
         return "True"
     if isinstance(expr, sp.Symbol):
-        return expr.name
+        return str(expr.name)
     if isinstance(expr, sp.Integer):
         return str(int(expr)) if expr >= 0 else f"(-{-int(expr)})"
     if isinstance(expr, sp.Rational):

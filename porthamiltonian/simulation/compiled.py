@@ -280,14 +280,14 @@ class CompiledModel:
             raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
                                       f"number, got {value!r}")
         try:
-            value = float(value)
+            number = float(value)
         except (TypeError, ValueError):
             raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
                                       f"number, got {value!r}") from None
-        if not math.isfinite(value):
+        if not math.isfinite(number):
             raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be "
-                                      f"finite, got {value!r}")
-        return value
+                                      f"finite, got {number!r}")
+        return number
 
     def native_params(self, p: np.ndarray) -> list[float] | np.ndarray:
         """The parameter vector in the form the back end's functions take (a vector of the

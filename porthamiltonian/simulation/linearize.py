@@ -184,7 +184,8 @@ def acceleration_values(model: CompiledModel, t: float, y: np.ndarray, pn: Any) 
     rows = list(acceleration_rows(model).values())
     f = np.asarray(model.functions.rhs(t, y, pn), dtype=float)
     J = np.asarray(model.functions.jac(t, y, pn), dtype=float)
-    return J[rows] @ f
+    values: np.ndarray = J[rows] @ f
+    return values
 
 
 def accelerations(model: CompiledModel, t: float = 0.0, x: Any = None, u: Any = None,

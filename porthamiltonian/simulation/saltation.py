@@ -154,7 +154,7 @@ def section_jacobian(final: np.ndarray, project: np.ndarray,
     """∂z'/∂z = Z · final · X of a Poincaré map in section coordinates (module docstring):
     ``final`` the run's final Φ (n x k when the run was seeded with X = ``lift``, else n x n and
     ``lift`` is applied here), ``project`` Z = ∂z/∂x (k x n) at the final state."""
-    out = np.asarray(project, dtype=float) @ np.asarray(final, dtype=float)
+    out: np.ndarray = np.asarray(project, dtype=float) @ np.asarray(final, dtype=float)
     return out if lift is None else out @ np.asarray(lift, dtype=float)
 
 

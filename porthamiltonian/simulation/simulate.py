@@ -42,7 +42,7 @@ from .sampling import Breakpoints, sample
 from .trajectory import Segment, Status, Trajectory
 
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
-    from .compiled import CompiledModel
+    from .compiled import CompiledModel, EventInfo
 
 METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 #: the methods whose whole step loop is compiled with the model (Functions.loops)
@@ -325,11 +325,11 @@ class Simulator:
 
     def __init__(self, model: CompiledModel, settings: Settings):
         self.model, self.settings = model, settings
-        events = [*model.events, *settings.events]
+        events: list[EventInfo | Event] = [*model.events, *settings.events]
         self.names = [e.name for e in events]
         self.direction = np.array([e.direction for e in events])
         self.terminal = np.array([e.terminal or e.name in settings.actions for e in events],
-                                 dtype=bool)
+                                 dtype=np.bool_)
         self.n_model_events = len(model.events)
         # the integration state
         self.t, self.y, self.p = 0.0, np.empty(0), np.empty(0)
@@ -431,7 +431,7 @@ class Simulator:
         a point of its own (the state before it ends the previous segment)."""
         self.t = t
         starts, blocks = breaks.due(t)
-        if starts:
+        if starts and self.settings.inputs is not None:     # (starts come from the inputs)
             self.p = self.settings.inputs.slots(self.p, t)
         if blocks:
             if self.phi is not None:
@@ -451,7 +451,8 @@ class Simulator:
 
     def _result(self, status: Status, message: str, h0: float) -> Trajectory:
         sensitivity = None
-        if self.phi is not None:
+        seeds = self.settings.sensitivity
+        if self.phi is not None and seeds is not None:      # (phi is set from the seeds)
             n = self.model.n_states
             seeds = self.settings.sensitivity
             m0 = seeds.states.shape[1]
@@ -498,7 +499,7 @@ class Simulator:
         f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
         f_plus = (np.zeros(n) if stop else
                   np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
-        phi_minus = self.phi[:n].copy()
+        phi_minus = phi[:n].copy()
         if not stop and jacobian is None and np.array_equal(f_plus, f_minus):
             S, g_x, g_t, error = np.eye(n), np.full(n, np.nan), float("nan"), float("nan")
             tau = np.full(phi_minus.shape[1], np.nan)
@@ -610,7 +611,7 @@ class Simulator:
             """The parameters at (t, y): p with the callable inputs' values."""
             return pn if binder is None else model.native_params(binder(t, y[:n], p))
 
-        def fun(t, y):
+        def fun(t: float, y: np.ndarray) -> Any:
             return rhs(t, y, params_at(t, y))
 
         options: dict[str, Any] = {"rtol": settings.rtol, "atol": settings.atol,
@@ -621,12 +622,12 @@ class Simulator:
             options["jac"] = lambda t, y: jacf(t, y, params_at(t, y))
         solver = getattr(si, settings.method)(fun, t0, y0, t_end, **options)
         t_eval = settings.t_eval
-        ts, ys, interpolants = [t0], [y0], []
+        ts, ys, interpolants = [t0], [y0], list[Any]()
         if t_eval is not None:
             ts, ys = [], []
             self._eval_at(ts, ys, None, t0, t0, y0, include_start=True)
         has_events = len(self.direction) > 0
-        g_old = self._guards(t0, y0, params_at(t0, y0), p) if has_events else None
+        g_old = self._guards(t0, y0, params_at(t0, y0), p) if has_events else np.empty(0)
         if fired is not None:  # keep a guard that just fired on its new side at the restart
             g_old[fired] = self._fired_side(fired) * max(abs(g_old[fired]), 1e-300)
 
@@ -674,9 +675,9 @@ class Simulator:
                     step_sol = step_sol or solver.dense_output()
                     roots = []
                     for k in active:
-                        def gk(t, k=k, sol=step_sol):
+                        def gk(t: float, k: int = k, sol: Any = step_sol) -> float:
                             y_t = sol(t)
-                            return self._guards(t, y_t, params_at(t, y_t), p)[k]
+                            return float(self._guards(t, y_t, params_at(t, y_t), p)[k])
                         roots.append((brentq(gk, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS), k))
                     roots.sort()
                     for t_root, k in roots:
@@ -773,7 +774,7 @@ class Simulator:
                                                      f"(t = {t:.6g})")
         return status, message, -1
 
-    def _eval_at(self, ts: list, ys: list, step_sol: Any, t_old: float, t_new: float,
+    def _eval_at(self, ts: list[Any], ys: list[Any], step_sol: Any, t_old: float, t_new: float,
                  y_new: np.ndarray, include_start: bool = False) -> None:
         """Append the points of ``t_eval`` in (t_old, t_new] (or [t_old, ...]) to ts, ys."""
         te = self.settings.t_eval
@@ -788,14 +789,14 @@ class Simulator:
 class _Clipped:
     """A step interpolant whose step ended early at a terminal event."""
 
-    def __init__(self, inner, t_end):
+    def __init__(self, inner: Any, t_end: float) -> None:
         self.inner, self.t_old, self.t = inner, inner.t_old, t_end
 
-    def __call__(self, t):
+    def __call__(self, t: float) -> Any:
         return self.inner(t)
 
 
-def _active(g, g_new, direction):
+def _active(g: np.ndarray, g_new: np.ndarray, direction: np.ndarray) -> np.ndarray:
     up = (g <= 0) & (g_new >= 0)
     down = (g >= 0) & (g_new <= 0)
     either = up | down
