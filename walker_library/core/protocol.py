@@ -138,7 +138,7 @@ class Walker(Protocol):
     """What the gait analyses need from a walker model (every member is used by some analysis;
     an analysis reads nothing else).
 
-    Attributes
+    Attributes (read-only)
     ----------
     name : model name. legged : True when θ, φ (and rates) are defined.
     section : names of the independent coordinates of the Poincaré section just after heel
@@ -154,17 +154,28 @@ class Walker(Protocol):
         for the cost of transport.
     """
 
-    name: str
-    legged: bool
-    section: tuple[str, ...]
-    thesis_section: tuple[str, ...]
-    parameters: Mapping[str, float]
-    specs: Mapping[str, ParameterSpec]
-    mode_names: tuple[str, ...]
-    run_time_parameters: tuple[str, ...]
-    gait_tolerance: float
-    leg_length: float
-    weight: float
+    @property
+    def name(self) -> str: ...
+    @property
+    def legged(self) -> bool: ...
+    @property
+    def section(self) -> tuple[str, ...]: ...
+    @property
+    def thesis_section(self) -> tuple[str, ...]: ...
+    @property
+    def parameters(self) -> Mapping[str, float]: ...
+    @property
+    def specs(self) -> Mapping[str, ParameterSpec]: ...
+    @property
+    def mode_names(self) -> tuple[str, ...]: ...
+    @property
+    def run_time_parameters(self) -> tuple[str, ...]: ...
+    @property
+    def gait_tolerance(self) -> float: ...
+    @property
+    def leg_length(self) -> float: ...
+    @property
+    def weight(self) -> float: ...
 
     def with_parameters(self, **values: float) -> Walker:
         """A walker with some parameters changed (validated: out of range raises)."""
