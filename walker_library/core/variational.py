@@ -30,16 +30,24 @@ same as a stride's (to that tolerance), so its z' agrees with :meth:`HybridWalke
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from porthamiltonian import Reset
 from porthamiltonian.integrators import COMPILED_METHODS
-from porthamiltonian.simulation.differences import jacobian
+from porthamiltonian.simulation.differences import Derivative, jacobian
 from porthamiltonian.simulation.saltation import section_jacobian
 
 from .machine import WalkLog
+
+if TYPE_CHECKING:
+    from .walker import HybridWalker
+
+#: one stride's (z', ∂z'/∂z, Φ error, difference-error bound)
+_Step = tuple[np.ndarray, np.ndarray, float, np.ndarray]
 
 __all__ = ["StrideSensitivity", "stride_sensitivity"]
 
@@ -64,15 +72,15 @@ class StrideSensitivity:
     fell: str = ""
 
 
-def _actions(walker, log: WalkLog, errors: list[float]) -> dict:
+def _actions(walker: HybridWalker, log: WalkLog, errors: list[float]) -> dict:
     """The mode machine's actions, each that moves the state returning its map's Jacobian."""
-    def wrap(action):
+    def wrap(action: Callable[[float, np.ndarray, np.ndarray], Reset]) -> Callable[..., Reset]:
         def act(t: float, x: np.ndarray, p: np.ndarray) -> Reset:
             reset = action(t, x, p)
-            if reset.x is None:
+            impact = log.fired[-1].transition.impact if reset.x is not None else None
+            if impact is None:                  # the state moves only at an impact
                 return reset
             fired = log.fired[-1]
-            impact = fired.transition.impact
             d = jacobian(lambda xx: impact(t, xx, p, fired.p_plus)[0], x, 1.0)
             errors.append(_relative(d))
             return replace(reset, jacobian=d.value)
@@ -81,13 +89,14 @@ def _actions(walker, log: WalkLog, errors: list[float]) -> dict:
     return {event: wrap(action) for event, action in walker.machine.actions(log).items()}
 
 
-def _relative(d) -> float:
+def _relative(d: Derivative) -> float:
     """A difference Jacobian's largest error relative to its largest entry."""
     size = float(np.max(np.abs(d.value))) if d.value.size else 0.0
     return d.max_error / size if size > 0 else 0.0
 
 
-def _one(walker, z: np.ndarray, method: str, rtol: float, atol) -> tuple:
+def _one(walker: HybridWalker, z: np.ndarray, method: str, rtol: float,
+         atol: np.ndarray) -> _Step | str:
     """(z', ∂z'/∂z, Φ error, difference-error bound) of one stride, or a fall reason (str)."""
     p0 = walker.start_params()
     lift = jacobian(lambda w: walker.lift(w, p0), z, 1.0)
@@ -112,7 +121,8 @@ def _one(walker, z: np.ndarray, method: str, rtol: float, atol) -> tuple:
     return walker.project(last.x_plus, last.p_plus), J, traj.sensitivity.error, bound
 
 
-def stride_sensitivity(walker, z, period: int = 1, *, factor: float = 1.0) -> StrideSensitivity:
+def stride_sensitivity(walker: HybridWalker, z: np.ndarray, period: int = 1, *,
+                       factor: float = 1.0) -> StrideSensitivity:
     """The exact Jacobian of the stride map S^period at section state ``z`` (module docstring)
     at the walker's tolerances times ``factor`` (rtol at least 3e-14). A fall is a result
     (``fell``)."""

@@ -147,7 +147,8 @@ def _transitions(plan: WalkerPlan, m: CompiledModel, floating: CompiledModel | N
     result = []
     for t in plan.transitions:
         impact = None
-        if t.impact is not None and plan.floating is not None and floating is not None:
+        if (t.impact is not None and plan.floating is not None and floating is not None
+                and relabel is not None):       # the reader asks for a relabel with an impact
             impact = ImpactMap(m, floating, plan.names.multibody, t.impact, plan.spec.hip,
                                relabel, plan.floating.root, plan.floating.rehung)
         k = events.index(t.event) if t.event != "start" else -1
@@ -208,7 +209,7 @@ def build_walker(spec: WalkerSpec, *, backend: str | None = None,
         spec = walker_spec(spec.model, spec.to_table(), source=spec.source, text=text,
                            description=spec.description, units=spec.units)
     with ModelFile(spec.model, spec.source, text).located():
-        names = layout(spec.frozen)
+        names = layout(spec.frozen if spec.frozen is not None else spec.model)
     plan = walker_plan(spec, names, text)
     options = options or spec.integration
     compiled = compile_walker(plan, backend or options.backend, text)

@@ -98,10 +98,12 @@ class Described(Protocol):
     ``Described | None``, None gives the file-independent labels."""
 
     @property
-    def spec(self) -> WalkerSpec: ...
+    def spec(self) -> WalkerSpec:
+        """The walker file's description (its model, feet, section, units)."""
 
     @property
-    def multibody(self) -> str: ...
+    def multibody(self) -> str:
+        """The name of the model's multibody component (``""``: none)."""
 
 
 def is_nondimensional(walker: Described | None) -> bool:

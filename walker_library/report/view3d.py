@@ -53,13 +53,16 @@ class Drawn(Described, Protocol):
     name, its parameter values (SI) and its leg length (m, the scale of the feet's markers)."""
 
     @property
-    def name(self) -> str: ...
+    def name(self) -> str:
+        """The model name (the scene's title)."""
 
     @property
-    def parameters(self) -> Mapping[str, float]: ...
+    def parameters(self) -> Mapping[str, float]:
+        """Parameter values by name (SI)."""
 
     @property
-    def leg_length(self) -> float: ...
+    def leg_length(self) -> float:
+        """The leg length (m)."""
 
 
 def _units(walker: Described, step_period: float) -> dict[str, Any]:
