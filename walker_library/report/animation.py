@@ -235,7 +235,7 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
     pace = ("" if nondimensional else " · real time" if abs(speedup - 1) < 0.05
             else f" · {speedup:.2g}× real time")
 
-    def draw(k: int):
+    def draw(k: int) -> list[Any]:
         f = frames[k]
         h = sc.hip[f]
         for j in range(K):

@@ -42,6 +42,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -53,6 +54,7 @@ from ..analyses.gait import GaitResult, analyze_gait
 from ..analyses.results import to_json
 from ..analyses.robustness import (
     BasinResult,
+    GSNResult,
     StepDownResult,
     basin,
     gait_sensitivity_norm,
@@ -62,8 +64,8 @@ from ..analyses.series import GaitSeries, walk_series
 from ..core.protocol import Walker
 from ..core.walker import HybridWalker
 from . import page as P
-from .animation import player_data, scene, write_gif
-from .comparison import REFERENCES, compare, differing_conditions, doc_link
+from .animation import Scene, player_data, scene, write_gif
+from .comparison import REFERENCES, ComparisonRow, compare, differing_conditions, doc_link
 from .figures import (
     fig_angles,
     fig_basin,
@@ -75,6 +77,9 @@ from .figures import (
 )
 from .labels import METRICS, describe, is_nondimensional, parameter, shown_unit
 from .view3d import is_3d, walker_scene
+
+if TYPE_CHECKING:
+    from porthamiltonian.interfaces.viewer import Scene as Scene3D
 
 __all__ = ["EXTRA_FIGURES", "ExtraFigure", "ReportResult", "load_summary", "write_report"]
 
@@ -136,7 +141,7 @@ def write_report(walker: HybridWalker, out: str | Path, *, n_steps: int = 6, wit
         files.append(name)
         images[name] = (mime, data)
 
-    def dump(name: str, obj) -> None:
+    def dump(name: str, obj: Any) -> None:
         (out / name).write_text(to_json(obj) + "\n")
         files.append(name)
 
@@ -269,7 +274,7 @@ def _comparison_html(walker: HybridWalker, rows: list, out: Path) -> str:
                          for k, (ours, theirs) in differ.items())
         return head + (f"<p>Not compared: the published numbers hold for other parameter values "
                        f"than this run's: {html.escape(what)}.</p>")
-    cells = []
+    cells: list[Any] = []
     for k, r in enumerate(rows):
         if r.agrees is None:
             verdict = P.Html("—")
@@ -313,7 +318,7 @@ def _gait_tables(walker: HybridWalker, gait: GaitResult, nondim: bool) -> str:
     m = gait.metrics.to_dict()
     rows = [[P.named(q.label, k), m[k], _u(q.unit, nondim), q.doc]
             for k, q in METRICS.items() if k in m]
-    parts = [P.table(["gait metric", "value", "unit", "meaning"], rows, numeric=(1,))]
+    parts: list[str] = [P.table(["gait metric", "value", "unit", "meaning"], rows, numeric=(1,))]
     fp = gait.fixed_point or {}
     if gait.status == "periodic" and fp:
         thesis = [k for k in walker.thesis_section if k in fp]
@@ -323,7 +328,7 @@ def _gait_tables(walker: HybridWalker, gait: GaitResult, nondim: bool) -> str:
         label = ("Fixed point on the Poincaré section (the state at heel strike that the gait "
                  "returns to every period), in the thesis's coordinates")
 
-        def rows_of(keys):
+        def rows_of(keys: list[str]) -> list[list[Any]]:
             return [[P.named(describe(walker, k).label, k), fp[k],
                      _u(describe(walker, k).unit, nondim), describe(walker, k).doc] for k in keys]
         parts.append(f"<h3>{html.escape(label)}</h3>")
@@ -362,7 +367,7 @@ def _floquet_html(gait: GaitResult, images: dict) -> str:
             f"</div><div>{fig}</div></div>")
 
 
-def _view3d_html(walker: HybridWalker, scene3d, three_d: bool, images: dict) -> str:
+def _view3d_html(walker: HybridWalker, scene3d: Scene3D, three_d: bool, images: dict) -> str:
     """The interactive 3D view (its still image inside, for browsers without WebGL)."""
     from porthamiltonian.interfaces.viewer.page import block
     gamma = scene3d.ground.slope if scene3d.ground is not None else 0.0
@@ -375,7 +380,7 @@ def _view3d_html(walker: HybridWalker, scene3d, three_d: bool, images: dict) -> 
                  label=f"3D view of {walker.name} walking")
 
 
-def _walk_html(walker: HybridWalker, gait: GaitResult, ledger: dict, sc, images: dict,
+def _walk_html(walker: HybridWalker, gait: GaitResult, ledger: dict, sc: Scene, images: dict,
                nondim: bool, view: tuple) -> str:
     J = _u("J", nondim)
     tunit = "nondimensional time" if nondim else "s"
@@ -388,7 +393,7 @@ def _walk_html(walker: HybridWalker, gait: GaitResult, ledger: dict, sc, images:
            + ("; the contact forces switch on arrows (the weight is drawn 0.35 leg lengths long)"
               if sc.force is not None else "") + ".")
     scene3d, three_d = view
-    player = P.player(player_data(sc), time_unit=tunit, time_scale=scale, caption=cap)
+    player: str = P.player(player_data(sc), time_unit=tunit, time_scale=scale, caption=cap)
     if scene3d is not None:
         shown = _view3d_html(walker, scene3d, three_d, images)
         player = shown if three_d else (player + "<h3>In three dimensions</h3>" + shown)
@@ -424,7 +429,8 @@ def _walk_html(walker: HybridWalker, gait: GaitResult, ledger: dict, sc, images:
                        "periodic gait."))
 
 
-def _robustness_html(walker: HybridWalker, sd, gsn, bas, images: dict, nondim: bool) -> str:
+def _robustness_html(walker: HybridWalker, sd: StepDownResult | None, gsn: GSNResult | None,
+                     bas: BasinResult | None, images: dict, nondim: bool) -> str:
     parts = []
     if sd is not None and sd.status == "ok":
         grid = _length(sd.resolution, nondim) if math.isfinite(sd.resolution) else "given heights"
@@ -521,8 +527,11 @@ def _command(walker: HybridWalker) -> str:
     return shlex.join(["walker", "report", target, *sets])
 
 
-def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc, images,
-          extras, out: Path, view: tuple, continuation: ContinuationResult | None = None) -> str:
+def _body(walker: HybridWalker, gait: GaitResult, sd: StepDownResult | None,
+          gsn: GSNResult | None, bas: BasinResult | None, comparison: list[ComparisonRow],
+          ledger: dict, series: GaitSeries, sc: Scene, images: dict,
+          extras: list[tuple[ExtraFigure, str]], out: Path, view: tuple,
+          continuation: ContinuationResult | None = None) -> str:
     nondim = is_nondimensional(walker)
     sections = [_header(walker, gait, sd, nondim)]
     toc = [("comparison", "comparison", walker.name in REFERENCES),
