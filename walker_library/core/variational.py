@@ -32,14 +32,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from porthamiltonian import Reset
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.simulation.differences import Derivative, jacobian
-from porthamiltonian.simulation.saltation import section_jacobian
+from porthamiltonian.simulation.saltation import Sensitivity, section_jacobian
 
 from .machine import WalkLog
 
@@ -115,10 +115,10 @@ def _one(walker: HybridWalker, z: np.ndarray, method: str, rtol: float,
     last = strikes[-1]
     project = jacobian(lambda x: walker.project(x, last.p_plus), last.x_plus, 1.0)
     errors.append(_relative(project))
-    final = traj.sensitivity.final
-    J = section_jacobian(final, project.value)
-    bound = 3.0 * max(errors) * (np.abs(project.value) @ np.abs(final))
-    return walker.project(last.x_plus, last.p_plus), J, traj.sensitivity.error, bound
+    sens = cast(Sensitivity, traj.sensitivity)      # a run given sensitivity= records it
+    J = section_jacobian(sens.final, project.value)
+    bound = 3.0 * max(errors) * (np.abs(project.value) @ np.abs(sens.final))
+    return walker.project(last.x_plus, last.p_plus), J, sens.error, bound
 
 
 def stride_sensitivity(walker: HybridWalker, z: np.ndarray, period: int = 1, *,
