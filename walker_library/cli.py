@@ -34,7 +34,7 @@ import argparse
 import difflib
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -61,7 +61,7 @@ from porthamiltonian.interfaces.cli import (
 )
 
 from .analyses.cases import ANALYSES, get_analysis
-from .analyses.continuation import ParameterPath, continue_gait, parse_range
+from .analyses.continuation import ContinuationResult, ParameterPath, continue_gait, parse_range
 from .analyses.gait import TIME_LIMIT, analyze_gait, gait_start, section_guess, walk
 from .analyses.gradients import GAIT_QUANTITIES, gait_gradient
 from .analyses.optimize import optimize_gait, parse_constraint
@@ -70,11 +70,12 @@ from .analyses.robustness import basin, gait_sensitivity_norm, step_down
 from .core.files import available_walkers, check_target, load_walker, save_walker
 from .core.fmu import export_walker_fmu
 from .core.gradients import check_names
+from .core.walker import HybridWalker
 from .report.labels import describe, is_nondimensional, shown_unit
 from .report.page import multiplier_cells
 
 
-def _fmt(value) -> str:
+def _fmt(value: Any) -> str:
     if value is None:
         return "-"
     if isinstance(value, float):
@@ -95,7 +96,7 @@ def check_walker_name(model: str) -> str:
                          f"{', '.join(walkers) or 'none'}; or give the path to a walker file")
 
 
-def _walker(args):
+def _walker(args: argparse.Namespace) -> HybridWalker:
     """The walker named by ``args.model`` with the ``--set`` values and ``--backend``."""
     return load_walker(check_walker_name(args.model), parse_assignments(args.set),
                        backend=args.backend)
@@ -120,7 +121,7 @@ def _read_guess(path: str) -> dict:
     return data
 
 
-def _walker_and_guess(args):
+def _walker_and_guess(args: argparse.Namespace) -> tuple[HybridWalker, np.ndarray | None]:
     """The walker with the ``--set`` parameter values, and the section state that the ``--set``
     section coordinates and ``--guess`` file make (None if neither is given)."""
     values = parse_assignments(args.set)
@@ -144,7 +145,7 @@ def _walker_and_guess(args):
 CONTINUATION_TIME_LIMIT = 3600.0
 
 
-def _with_unit(walker, key: str, value: Any) -> str:
+def _with_unit(walker: HybridWalker, key: str, value: Any) -> str:
     """``value`` and the unit of quantity ``key`` of ``walker`` ("nondim." in a nondimensional
     model; nothing for a ratio)."""
     unit = describe(walker, key).unit
@@ -152,7 +153,7 @@ def _with_unit(walker, key: str, value: Any) -> str:
     return f"{_fmt(value)} {shown}".rstrip()
 
 
-def cmd_gait(args) -> int:
+def cmd_gait(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     names = check_names(walker, _names(args.gradient)) if args.gradient else None
     with activity(f"gait {walker.name}", enabled=not args.quiet) as shown:
@@ -256,8 +257,10 @@ def _names(text: str) -> list[str]:
     return [n.strip() for n in text.split(",") if n.strip()]
 
 
-def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: int = 400,
-                  jacobian: str = "variational", log=None, time_limit: float | None = None):
+def _continuation(walker: HybridWalker, text: str, guess: np.ndarray | None, *,
+                  doublings: int = 2, max_points: int = 400, jacobian: str = "variational",
+                  log: Callable[[str], None] | None = None,
+                  time_limit: float | None = None) -> ContinuationResult:
     """Continue the gait in ``text`` (NAME=START:STOP): the range and parameter are checked
     before any work, the gait at the start found by the full gait search; ``time_limit``
     (s) bounds the continuation."""
@@ -269,7 +272,7 @@ def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: i
                          time_limit=time_limit)
 
 
-def cmd_continue(args) -> int:
+def cmd_continue(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
@@ -307,7 +310,7 @@ def cmd_continue(args) -> int:
     return 0
 
 
-def cmd_walk(args) -> int:
+def cmd_walk(args: argparse.Namespace) -> int:
     walker = _walker(args)
     result = walk(walker, None, args.steps)
     if args.json:
@@ -324,7 +327,8 @@ def cmd_walk(args) -> int:
     return 0
 
 
-def _case_lines(args, label: str, shown):
+def _case_lines(args: argparse.Namespace, label: str,
+                shown: Any) -> Callable[[dict], None] | None:
     """A per-case line on stderr (stdout keeps the JSON document clean), through ``shown``
     (the activity display); None with --quiet."""
     if args.quiet:
@@ -339,7 +343,7 @@ def _case_lines(args, label: str, shown):
     return report
 
 
-def cmd_step_down(args) -> int:
+def cmd_step_down(args: argparse.Namespace) -> int:
     walker = _walker(args)
     with activity(f"step-down {walker.name}", enabled=not args.quiet) as shown:
         result = step_down(walker, resolution=args.resolution, h_max=args.h_max,
@@ -354,7 +358,7 @@ def cmd_step_down(args) -> int:
     return 0
 
 
-def cmd_basin(args) -> int:
+def cmd_basin(args: argparse.Namespace) -> int:
     walker = _walker(args)
     with activity(f"basin {walker.name}", enabled=not args.quiet) as shown:
         result = basin(walker, n=args.n, span=args.span,
@@ -373,7 +377,7 @@ def cmd_basin(args) -> int:
     return 0
 
 
-def cmd_gsn(args) -> int:
+def cmd_gsn(args: argparse.Namespace) -> int:
     walker = _walker(args)
     with activity(f"gsn {walker.name}", enabled=not args.quiet):
         result = gait_sensitivity_norm(walker)
@@ -388,7 +392,7 @@ def cmd_gsn(args) -> int:
     return 0
 
 
-def cmd_report(args) -> int:
+def cmd_report(args: argparse.Namespace) -> int:
     from .report.writer import write_report
     walker = _walker(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
@@ -414,13 +418,13 @@ def _option(pair: str) -> tuple[str, Any]:
     return name.strip(), parsed
 
 
-def cmd_sweep(args) -> int:
+def cmd_sweep(args: argparse.Namespace) -> int:
     analysis = get_analysis(args.analysis)
     options = dict(_option(p) for p in args.option)
     return run_sweep(args, analysis, {"model": args.model, "backend": args.backend, **options})
 
 
-def cmd_reproduce(args) -> int:
+def cmd_reproduce(args: argparse.Namespace) -> int:
     from .report.studies import STUDIES, run_studies
     if args.list:
         for study in STUDIES.values():
@@ -443,7 +447,7 @@ def cmd_reproduce(args) -> int:
     return 0
 
 
-def cmd_list(args) -> int:
+def cmd_list(args: argparse.Namespace) -> int:
     names = available_walkers()
     if args.json:
         print(json.dumps({"models": names}))
@@ -452,7 +456,7 @@ def cmd_list(args) -> int:
     return 0
 
 
-def cmd_export(args) -> int:
+def cmd_export(args: argparse.Namespace) -> int:
     check_target(args.path, overwrite=args.force)             # before any work
     walker = load_walker(check_walker_name(args.model), parse_assignments(args.set))
     path = save_walker(walker, args.path, f"Walker file written by `walker export {args.model}` "
@@ -461,7 +465,7 @@ def cmd_export(args) -> int:
     return 0
 
 
-def cmd_export_fmu(args) -> int:
+def cmd_export_fmu(args: argparse.Namespace) -> int:
     walker = _walker(args)
     path = export_walker_fmu(walker, args.out, fmi=args.fmi, kind=args.kind, steps=args.steps)
     print(f"wrote {path}: walker {walker.name} as an FMI {args.fmi}.0 FMU ({args.kind}); its "

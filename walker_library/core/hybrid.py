@@ -23,7 +23,7 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 from porthamiltonian.errors import ModelError
 from porthamiltonian.modeling.expressions import parse
@@ -38,6 +38,8 @@ __all__ = ["Comparison", "Completion", "Expr", "Foot", "Integration", "Interval"
            "parse_interval"]
 
 Value = str | float
+#: where a jump of H at an event is booked (:class:`porthamiltonian.Reset`)
+Booking = Literal["dissipated", "supplied"]
 
 #: the comparison operators of a rule's conditions
 COMPARISONS = ("<=", ">=", "==", "!=", "<", ">")
@@ -92,7 +94,7 @@ class Rule:
     impact: str | None = None
     heel_strike: bool = False
     fall: bool = False
-    energy: str = "dissipated"
+    energy: Booking = "dissipated"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "when", tuple(self.when))
@@ -203,7 +205,7 @@ class WalkerSpec:
     section: Section
     angles: tuple[tuple[str, str], ...]
     terrain: Terrain
-    relabel: tuple[tuple[str, str], ...] = ()
+    relabel: tuple[tuple[str, Value], ...] = ()
     guess: tuple[tuple[str, Value], ...] = ()
     guess_where: tuple[tuple[str, str], ...] = ()
     ranges: tuple[tuple[str, str], ...] = ()

@@ -30,6 +30,7 @@ import functools
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -37,6 +38,7 @@ from porthamiltonian import Reset
 from porthamiltonian.simulation.compiled import CompiledModel
 from porthamiltonian.simulation.differences import Derivative, jacobian
 
+from .hybrid import Booking
 from .resets import ImpactMap
 
 __all__ = ["Change", "Condition", "Fired", "ModeMachine", "Transition", "WalkLog"]
@@ -70,7 +72,9 @@ class Change:
 
     def value(self, y: np.ndarray) -> float:
         """The new value, for the outputs ``y`` just before the event."""
-        return float(self.constant if self.output is None else y[self.output])
+        if self.output is not None:
+            return float(y[self.output])
+        return float(cast(float, self.constant))    # the plan sets one of the two
 
 
 @dataclass(frozen=True)
@@ -87,7 +91,7 @@ class Transition:
     impact: ImpactMap | None = None
     heel_strike: bool = False
     fall: bool = False
-    energy: str = "dissipated"
+    energy: Booking = "dissipated"
     foot: str | None = None
 
     def guard(self, model: CompiledModel, t: float, x: np.ndarray, p: np.ndarray) -> float:
@@ -120,10 +124,8 @@ class Transition:
         """∂x⁺/∂x⁻ of the state map (the identity when the transition has no reset)."""
         if self.impact is None:
             return np.eye(len(x))
-        return self.impact.jacobian(t, x, p, self.params_after(p, self._outputs(t, x, p)))
-
-    def _outputs(self, t, x, p):
-        return self.impact.model.outputs(t, x, p)
+        y = self.impact.model.outputs(t, x, p)
+        return self.impact.jacobian(t, x, p, self.params_after(p, y))
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ from porthamiltonian.interfaces.io import locate
 from porthamiltonian.modeling.constraints import Constraint
 from porthamiltonian.modeling.expressions import Expression, parse_text
 
-from .hybrid import Expr, Interval, Parsed, WalkerSpec, parse_equation
+from .hybrid import Booking, Expr, Interval, Parsed, WalkerSpec, parse_equation
 from .problems import Problems, suggestion
 from .protocol import ParameterSpec
 from .resets import Floating, floating_model
@@ -146,7 +146,7 @@ class TransitionPlan:
     impact: str | None
     heel_strike: bool
     fall: bool
-    energy: str
+    energy: Booking
     foot: str | None
 
 
@@ -313,7 +313,7 @@ def walker_plan(spec: WalkerSpec, layout: Layout, text: str = "") -> WalkerPlan:
     to_thesis, from_thesis = _thesis(bad, spec, parsed, names)
     angles = _angles(bad, parsed, names)
     relabel = _relabel(bad, spec, parsed, names)
-    parameters = _parameters(bad, spec, parsed.ranges, layout.constraints)
+    parameters = _parameters(bad, spec, spec.frozen, parsed.ranges, layout.constraints)
     bad.raise_if_any()
 
     ex = _Outputs()
@@ -339,12 +339,11 @@ def walker_plan(spec: WalkerSpec, layout: Layout, text: str = "") -> WalkerPlan:
     return WalkerPlan(spec, names, spec.frozen.with_outputs(ex.exprs),
                       MappingProxyType(dict(ex.exprs)), section, relabel, transitions, start, guess,
                       mass, leg, spec.terrain.drop, MappingProxyType(parameters), floating,
-                      _bodies(spec, names.multibody, text))
+                      _bodies(spec, spec.frozen, names.multibody, text))
 
 
-def _bodies(spec: WalkerSpec, mb: str, text: str) -> BodiesMass:
+def _bodies(spec: WalkerSpec, frozen: ModelDescription, mb: str, text: str) -> BodiesMass:
     """The multibody's bodies' masses, for the check of ``[walker] mass``."""
-    frozen = spec.frozen
     bodies = frozen.components[mb].value("bodies")
     masses = tuple(parse_text(str(b.get("mass", 0)), f"body {name!r} mass")
                    for name, b in bodies.items())
@@ -669,7 +668,8 @@ def _interval_text(interval: Interval) -> str:
             + (" integer" if interval.integer else ""))
 
 
-def _parameters(bad: Problems, spec: WalkerSpec, ranges: Sequence[tuple[str, Interval]],
+def _parameters(bad: Problems, spec: WalkerSpec, frozen: ModelDescription,
+                ranges: Sequence[tuple[str, Interval]],
                 constraints: Sequence[Constraint]) -> dict[str, ParameterSpec]:
     """The user-settable parameters (the model's, less the modes) with their ranges: one
     parameter system. A ``[walker.ranges]`` entry must not admit a value a component's
@@ -679,13 +679,14 @@ def _parameters(bad: Problems, spec: WalkerSpec, ranges: Sequence[tuple[str, Int
     given = dict(ranges)
     texts = dict(spec.ranges)
     modes = set(spec.mode_names)
-    bounds = _constraint_bounds(constraints, spec.frozen.parameters)
+    bounds = _constraint_bounds(constraints, frozen.parameters)
     out = {}
-    for name, par in spec.frozen.parameters.items():
+    for name, par in frozen.parameters.items():
         if name in modes:
             continue
         interval = given.get(name, Interval(-math.inf, math.inf, False, False, False))
-        allowed, limits, refusals = interval, [], {}
+        allowed, limits = interval, []
+        refusals: dict[str, list[str]] = {}
         for c, bound in bounds.get(name, ()):
             rule = f"component {c.component!r} {c.argument} must be {c.rule} {bound:g}"
             refused = _refused(interval, c.rule, bound) if name in given else None

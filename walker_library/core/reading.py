@@ -125,8 +125,9 @@ class _Reading:
         except ModelError as err:
             self.bad.add(f"{where}: {err}", *path)
             return None
-        sides = [self.expr(side, f"{where} {text!r}", *path, evaluated=True) for side in (lhs, rhs)]
-        return None if None in sides else Comparison(text, sides[0], op, sides[1])
+        left, right = (self.expr(side, f"{where} {text!r}", *path, evaluated=True)
+                       for side in (lhs, rhs))
+        return None if left is None or right is None else Comparison(text, left, op, right)
 
 
 def file_spec(record: ModelFile) -> WalkerSpec:
@@ -174,7 +175,7 @@ def walker_spec(model: Model, table: Mapping[str, Any], *, source: str = "<pytho
     parsed = Parsed(tuple(r.evaluated), conditions, labelling, guessed, thesis, angles, relabel,
                     intervals)
     return WalkerSpec(model, tuple(feet), tuple(modes), tuple(rules), section,
-                      tuple((k, e.text) for k, e in angles), terrain,
+                      tuple((k, str(e.text)) for k, e in angles), terrain,
                       tuple((k, e.text) for k, e in relabel), guess, where, ranges, integration,
                       mass, leg, hip, source, description, units, r.frozen, parsed)
 
@@ -326,7 +327,7 @@ def _read_rule(r: _Reading, i: int, entry: Mapping, feet: set[str],
         r.bad.add(f"{where}: energy must be \"dissipated\" or \"supplied\", got {energy!r}",
                   "rules", i, "energy")
         energy = "dissipated"
-    rule = Rule(on, tuple(when), sets, foot, impact, flags["heel_strike"], flags["fall"], energy)
+    rule = Rule(on, tuple(when), tuple(sets.items()), foot, impact, flags["heel_strike"], flags["fall"], energy)
     return rule, tuple(c for c in conds if c is not None)
 
 
@@ -456,7 +457,7 @@ def _read_section(r: _Reading, feet: list[Foot], relabel: tuple) -> tuple[
     if basin not in ("fixed_point", "guess"):
         r.bad.add(f"[walker.section] basin must be \"fixed_point\" or \"guess\", got {basin!r}",
                   "section", "basin")
-    section = Section(tuple(coords), tuple(complete), thesis, stance, labelling, basin)
+    section = Section(tuple(coords), tuple(complete), tuple(thesis.items()), stance, labelling, basin)
     return section, parsed_thesis, parsed_labelling
 
 

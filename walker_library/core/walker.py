@@ -154,7 +154,8 @@ def _transitions(plan: WalkerPlan, m: CompiledModel, floating: CompiledModel | N
     result = []
     for t in plan.transitions:
         impact = None
-        if t.impact is not None and plan.floating is not None and floating is not None:
+        if (t.impact is not None and plan.floating is not None and floating is not None
+                and relabel is not None):       # the reader asks for a relabel with an impact
             impact = ImpactMap(m, floating, plan.names.multibody, t.impact, plan.spec.hip,
                                relabel, plan.floating.root, plan.floating.rehung)
         k = events.index(t.event) if t.event != "start" else -1
