@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..errors import ModelError, StateError
+from ..modeling.calls import KernelCall
 from ..modeling.constraints import Constraint
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import EventSpec
@@ -63,6 +64,8 @@ class SymbolicModel:
     constraints: list[Constraint] = field(default_factory=list)
     #: SI unit by name of the states and port variables whose unit is known
     units: dict[str, str] = field(default_factory=dict)
+    #: the components' kernel calls by name (:mod:`porthamiltonian.modeling.calls`)
+    calls: dict[str, KernelCall] = field(default_factory=dict)
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
@@ -133,9 +136,15 @@ def assemble(solution: Solution) -> SymbolicModel:
 
     initial = []
     param_set = set(system.params.values())
+    # intermediates of the parameters alone (e.g. a kernel's initial momenta) may give initial
+    # values (the intermediates are ordered: one pass)
+    constant: set[sp.Symbol] = set()
+    for w, expr in system.intermediates:
+        if expr.free_symbols <= param_set | constant:
+            constant.add(w)
     for b in system.built.values():
         for s in b.states:
-            if not s.initial.free_symbols <= param_set | {TIME}:
+            if not s.initial.free_symbols <= param_set | {TIME} | constant:
                 raise StateError(f"initial value of {s.symbol} must depend on parameters only")
             initial.append(s.initial.subs(TIME, 0))
 
@@ -143,7 +152,7 @@ def assemble(solution: Solution) -> SymbolicModel:
                 for b in system.built.values() for name, m in b.matrices.items()}
     rhs = [xdot[x] for x in states] + [p_diss, p_in]
     used = [*rhs, H, *outputs.values(), *(g for _, g in events), *matrices.values(),
-            *(e for _, A, b in system.blocks for e in (*A, *b))]
+            *(e for _, A, b in system.blocks for e in (*A, *b)), *initial]
     return SymbolicModel(
         name=flat.name, states=states, state_names=[str(s) for s in states],
         params=list(system.params.values()), param_names=list(system.params),
@@ -157,6 +166,7 @@ def assemble(solution: Solution) -> SymbolicModel:
         energy_parts=parts,
         constraints=[c for b in system.built.values() for c in b.constraints],
         units=units,
+        calls={name: call for b in system.built.values() for name, call in b.calls.items()},
     )
 
 
@@ -264,9 +274,10 @@ def power_balance(model: SymbolicModel) -> sp.Expr:
     Symbolic, so only for models without implicit blocks; for those use
     :meth:`porthamiltonian.simulation.compiled.CompiledModel.power_balance` (numeric).
     """
-    if model.blocks:
-        raise ModelError(f"model {model.name!r} has implicit blocks (e.g. a mass matrix solved "
-                         "numerically): check its power balance with CompiledModel.power_balance")
+    if model.blocks or model.calls:
+        raise ModelError(f"model {model.name!r} has implicit blocks or kernel calls (e.g. a mass "
+                         "matrix solved numerically): check its power balance with "
+                         "CompiledModel.power_balance")
     n = len(model.states)
     if model.intermediates:
         return power_balance(_inlined(model))

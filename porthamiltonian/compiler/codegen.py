@@ -22,19 +22,30 @@ Intermediates may read the blocks' unknowns (velocity-level intermediates, e.g. 
 of a multibody, and the port-level ones of :mod:`.structure` once their port variables are
 solved); the chain rule then adds ∂w/∂v · ∂v/∂x to their rows. Every function's
 documentation lists the order of its arguments' and its result's entries by name.
+
+Kernel calls (:mod:`porthamiltonian.modeling.calls`, e.g. a multibody's recursion) are evaluated
+once where their outputs are first needed (:class:`Call`); in the Jacobian their outputs' rows
+come from the kernel's own tangents (:class:`CallTangent`: the rows of the inputs in, the rows of
+the outputs out), between the chain rule's segments before and after them. Only the
+intermediates the state equations read get Jacobian rows.
 """
 from __future__ import annotations
 
+import bisect
+import dataclasses
 import graphlib
 from dataclasses import dataclass
 
 import sympy as sp
+from sympy.core.symbol import Str
 
+from ..errors import CompilerError
+from ..modeling.calls import KernelOutput
 from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
 
 #: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "6"
+CODEGEN_VERSION = "7"
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -127,7 +138,44 @@ class SolveRows:
     ncols: int
 
 
-Statement = Let | Array | Store | Solve | IndexTable | ChainRule | SparseProduct | SolveRows
+@dataclass(frozen=True)
+class Call:
+    """A kernel call (:mod:`porthamiltonian.modeling.calls`): the routine ``entry`` of ``kernel``
+    on the integer ``table``, the ``constants`` and ``inputs`` (expressions), writing its
+    ``n_outputs`` outputs into the local array named ``label``; ``outputs``: (index, local name)
+    of the outputs the function reads, each made a scalar local."""
+
+    label: str
+    kernel: str
+    entry: str
+    table: tuple[int, ...]
+    constants: tuple[sp.Expr, ...]
+    inputs: tuple[sp.Expr, ...]
+    n_outputs: int
+    outputs: tuple[tuple[int, str], ...]
+
+
+@dataclass(frozen=True)
+class CallTangent:
+    """A kernel call with tangents, in the Jacobian: the directions of its inputs are the rows
+    ``rows[j]`` — ``("x", i)`` the unit row of state i, ``(array, m)`` row m of the array (``Dw``
+    or ``R``), None a zero row —, each ``ncols`` long; the derivatives of output k go to row m of
+    ``array`` for every ``(k, array, m)`` of ``into`` (the other fields as in :class:`Call`)."""
+
+    label: str
+    kernel: str
+    entry: str
+    table: tuple[int, ...]
+    constants: tuple[sp.Expr, ...]
+    inputs: tuple[sp.Expr, ...]
+    n_outputs: int
+    ncols: int
+    rows: tuple[tuple[str, int] | None, ...]
+    into: tuple[tuple[int, str, int], ...]
+
+
+Statement = (Let | Array | Store | Solve | IndexTable | ChainRule | SparseProduct | SolveRows | Call
+             | CallTangent)
 
 
 @dataclass(frozen=True)
@@ -168,7 +216,8 @@ class _Builder:
 
     def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel):
         self.mapping = mapping
-        pre: list[sp.Expr] = [expr for _, expr in model.intermediates]
+        regular = [(w, e) for w, e in model.intermediates if not isinstance(e, KernelOutput)]
+        pre: list[sp.Expr] = [expr for _, expr in regular]
         for _, A, b in model.blocks:
             pre += list(A) + list(b)
         pre = [sp.sympify(e).xreplace(mapping) for e in pre]
@@ -177,10 +226,22 @@ class _Builder:
         self.nodes: list[tuple[list[str], set[str], list[Statement]]] = [
             ([str(sym)], _names([expr]), [Let(str(sym), expr)]) for sym, expr in replacements]
         k = 0
-        for symbol, _ in model.intermediates:
+        for symbol, _ in regular:
             target = str(mapping[symbol])
             self.nodes.append(([target], _names([reduced[k]]), [Let(target, reduced[k])]))
             k += 1
+        #: the kernel calls: name -> (label, mapped constants, mapped inputs, [(index, symbol)])
+        self.calls: dict[str, tuple[str, tuple, tuple, list]] = {}
+        for name, (inputs, outs) in _call_groups(model).items():
+            call = model.calls[name]
+            label = f"kern{len(self.calls)}"
+            constants = tuple(_float(sp.sympify(c).xreplace(mapping)) for c in call.constants)
+            args = tuple(_float(sp.sympify(u).xreplace(mapping)) for u in inputs)
+            self.calls[name] = (label, constants, args, outs)
+            stmt = Call(label, call.kernel, call.entry, call.table, constants, args,
+                        call.n_outputs, tuple((i, str(mapping[w])) for i, w in outs))
+            self.nodes.append(([str(mapping[w]) for _, w in outs], _names(constants + args),
+                               [stmt]))
         for index, (syms, A, b) in enumerate(model.blocks):
             n = len(syms)
             an, bn = f"A{index}", f"b{index}"
@@ -231,6 +292,9 @@ class _Builder:
             kind = group[0]
             if kind == "statement":
                 body.append(group[1])
+            elif kind == "call":
+                body.append(group[1])
+                needed |= _names(group[1].constants + group[1].inputs)
             elif kind == "array":
                 _, array, exprs, ashape = group
                 sparse = len(ashape) == 2
@@ -256,17 +320,80 @@ class _Builder:
                 elif kept:
                     _, dst, _, fshape, src, ncols, ranges = group
                     body.append(SparseProduct(dst, tuple(kept), fshape, src, ncols, ranges))
-        pre = self.prologue(needed) if "x" in args else []
+        pre = self.prologue(needed)       # (initial(p) needs only nodes of the parameters)
         return Function(name, args, tuple(doc), tuple(pre + body), shape)
 
 
 def _expressions(group: tuple) -> list:
     """The expressions of a group of :meth:`_Builder.function`, in the order of its statements."""
-    if group[0] == "statement":
+    if group[0] in ("statement", "call"):
         return []
     if group[0] == "array":
         return list(group[2])
     return [e for _, _, e in group[2]]
+
+
+def _float(expr: sp.Expr) -> sp.Expr:
+    """Numbers as floats (the arrays a kernel call is handed are of doubles)."""
+    return sp.Float(float(expr)) if expr.is_number else expr
+
+
+def _call_groups(model: SymbolicModel) -> dict[str, tuple[tuple, list]]:
+    """Each kernel call of the model's intermediates: name -> (its inputs, [(output index,
+    symbol)]) in the order of the intermediates (see :func:`_gathered`)."""
+    out: dict[str, tuple[tuple, list]] = {}
+    for w, e in model.intermediates:
+        if isinstance(e, KernelOutput):
+            out.setdefault(e.call, (e.inputs, []))[1].append((e.index, w))
+    return out
+
+
+def _gathered(model: SymbolicModel) -> SymbolicModel:
+    """The model with every kernel call's outputs moved to the place of its first output (they
+    all read the same inputs, which come before it) and each input that is not a symbol or a
+    number made an intermediate of its own just before them (so that it has a Jacobian row)."""
+    if not model.calls:
+        return model
+    groups: dict[str, list] = {}
+    for w, e in model.intermediates:
+        if isinstance(e, KernelOutput):
+            groups.setdefault(e.call, []).append((w, e))
+    out: list[tuple[sp.Symbol, sp.Expr]] = []
+    placed: set[str] = set()
+    for w, e in model.intermediates:
+        if not isinstance(e, KernelOutput):
+            out.append((w, e))
+            continue
+        if e.call in placed:
+            continue
+        placed.add(e.call)
+        if any(other.inputs != e.inputs for _, other in groups[e.call]):
+            raise CompilerError(f"kernel call {e.call}: its outputs read different inputs")
+        inputs = []
+        for j, u in enumerate(e.inputs):
+            if u.is_Symbol or u.is_number:
+                inputs.append(u)
+            else:
+                symbol = sp.Symbol(f"{e.call}.in{j}", real=True)
+                out.append((symbol, u))
+                inputs.append(symbol)
+        out += [(o, KernelOutput(Str(e.call), sp.Integer(other.index), *inputs))
+                for o, other in groups[e.call]]
+    return dataclasses.replace(model, intermediates=out)
+
+
+def _rhs_reads(model: SymbolicModel) -> set[sp.Symbol]:
+    """The intermediates (and other symbols) the state equations read, directly or through
+    intermediates and implicit blocks."""
+    wanted: set[sp.Symbol] = set()
+    for e in model.rhs:
+        wanted |= sp.sympify(e).free_symbols
+    for _, A, b in model.blocks:
+        wanted |= A.free_symbols | b.free_symbols
+    for w, e in reversed(model.intermediates):
+        if w in wanted:
+            wanted |= e.free_symbols
+    return wanted
 
 
 def derivative(expr: sp.Expr, v: sp.Symbol) -> sp.Expr:
@@ -314,6 +441,7 @@ def _listing(title: str, names: list[str]) -> list[str]:
 
 def program(model: SymbolicModel) -> Program:
     """The model's numeric functions as one intermediate program (see the module docstring)."""
+    model = _gathered(model)
     x = sp.IndexedBase("x")
     p = sp.IndexedBase("p")
     all_states = [*model.states, *model.ledger_states]
@@ -412,25 +540,42 @@ def _span(mask: int) -> tuple[int, int]:
 
 
 def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc) -> Function:
-    """∂ẋ/∂x through intermediates w and implicit blocks A v = b (A and b read states and
-    position-level intermediates only), with only the nonzero partials:
+    """∂ẋ/∂x through intermediates w, implicit blocks A v = b (A and b read states and
+    position-level intermediates only) and kernel calls, with only the nonzero partials:
 
-    Dw = ∂w/∂x; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows;
-    R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v (implicit
-    differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
-    velocity-level rows; out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R. Each row operation is told the
-    columns its source row can be nonzero in (a position-level row: the coordinates it reads;
-    no row: the ledger quadratures).
+    Dw = ∂w/∂x; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows,
+    in segments between the kernel calls, each of which sets its outputs' rows from its inputs'
+    (:class:`CallTangent`); R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v
+    (implicit differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
+    velocity-level rows (and calls); out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R. Only the intermediates
+    the state equations read get rows. Each row operation is told the columns its source row can
+    be nonzero in (a position-level row: the coordinates it reads; no row: the ledger
+    quadratures).
     """
     n, nw, nv = len(xs), len(ws), len(vs)
     rhs = list(model.rhs)
-    defs = [expr for _, expr in model.intermediates]
+    reads = _rhs_reads(model)
+    row_of = {w: m for m, w in enumerate(ws)}
+    calls = {w: e for w, e in model.intermediates if isinstance(e, KernelOutput)}
+    defs = [e if w in reads and w not in calls else sp.S.Zero for w, e in model.intermediates]
     npos = _position_level(model, vs)
+    barriers: dict[int, str] = {}            # row of a call's first output -> the call
+    for m, (w, e) in enumerate(model.intermediates):
+        if w in calls and w in reads and e.call not in barriers.values():
+            if not model.calls[e.call].tangents:
+                raise CompilerError(
+                    f"the state equations read {w}, an output of the kernel call {e.call} "
+                    f"({model.calls[e.call].kernel}.{model.calls[e.call].entry}), which has no "
+                    "derivatives: such outputs (e.g. a body's orientation quaternion) may feed "
+                    "outputs, guards and matrices only")
+            barriers[m] = e.call
     groups: list[tuple] = [("entries", "out", jacobian(rhs, xs), (n, n))]
     chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
-    npre = sum(1 for m, _, _ in chain if m < npos)
+    chain_rows = [m for m, _, _ in chain]
     dw, r = _Columns(nw), _Columns(nv)
     chain_ranges: list[tuple[int, int]] = []
+    x_index = {x: i for i, x in enumerate(xs)}
+    v_index = {v: i for i, v in enumerate(vs)}
 
     def chain_rule(start: int, stop: int) -> list[tuple]:
         for m, j, _ in chain[start:stop]:
@@ -439,11 +584,49 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
         return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, n, "glo", "ghi"))] \
             if stop > start else []
 
+    def tangent(name: str) -> tuple:
+        label, constants, inputs, outs = builder.calls[name]
+        call = model.calls[name]
+        source = _call_groups(model)[name][0]
+        rows: list[tuple[str, int] | None] = []
+        mask = 0
+        for u in source:
+            if u in x_index:
+                rows.append(("x", x_index[u]))
+                mask |= 1 << x_index[u]
+            elif u in row_of:
+                rows.append(("Dw", row_of[u]))
+                mask |= dw.masks[row_of[u]]
+            elif u in v_index:
+                rows.append(("R", v_index[u]))
+                mask |= r.masks[v_index[u]]
+            else:
+                rows.append(None)
+        for _, w in outs:
+            dw.masks[row_of[w]] = mask
+        return ("call", CallTangent(f"t{label}", call.kernel, call.entry, call.table, constants,
+                                    inputs, call.n_outputs, n, tuple(rows),
+                                    tuple((i, "Dw", row_of[w]) for i, w in outs)))
+
+    def segments(first: int, last: int, cursor: int) -> tuple[list[tuple], int]:
+        """The chain rule over the rows first .. last - 1 (from chain entry ``cursor``) with the
+        calls among them in place; returns the groups and the next chain entry."""
+        out = []
+        for m0 in sorted(b for b in barriers if first <= b < last):
+            stop = bisect.bisect_left(chain_rows, m0)
+            out += chain_rule(cursor, stop)
+            out.append(tangent(barriers[m0]))
+            cursor = stop
+        stop = bisect.bisect_left(chain_rows, last)
+        return out + chain_rule(cursor, stop), stop
+
+    cursor = 0
     if nw:
         entries = jacobian(defs, xs)
         dw.set(entries)
         groups.append(("entries", "Dw", entries, (nw, n)))
-        groups += chain_rule(0, npre)
+        more, cursor = segments(0, npos, 0)
+        groups += more
     if nv:
         A = sp.diag(*[blk[1] for blk in model.blocks])
         b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
@@ -463,7 +646,9 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
                    ("statement", SolveRows("Ab", "R", nv, n)),
                    ("product", "Dw", velocity, (nw, nv), "R", n, r.ranges())]
         r.add(dw, velocity)
-    groups += chain_rule(npre, len(chain))
+    if nw:
+        more, cursor = segments(npos, nw, cursor)
+        groups += more
     groups += [("product", "out", jacobian(rhs, ws), (n, nw), "Dw", n, dw.ranges()),
                ("product", "out", jacobian(rhs, vs), (n, nv), "R", n, r.ranges())]
     if chain:
@@ -475,6 +660,6 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
     return builder.function("jac", doc, groups, (n, n))
 
 
-__all__ = ["CODEGEN_VERSION", "Array", "ChainRule", "Function", "IndexTable", "Let", "Program",
-           "Solve", "SolveRows", "SparseProduct", "Statement", "Store", "derivative", "jacobian",
-           "program"]
+__all__ = ["CODEGEN_VERSION", "Array", "Call", "CallTangent", "ChainRule", "Function", "IndexTable",
+           "Let", "Program", "Solve", "SolveRows", "SparseProduct", "Statement", "Store",
+           "derivative", "jacobian", "program"]

@@ -24,8 +24,11 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
+from ..mechanics.sources import c_template, python_template
 from .codegen import (
     Array,
+    Call,
+    CallTangent,
     ChainRule,
     Function,
     IndexTable,
@@ -199,8 +202,35 @@ def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> 
         lines.append(f"    {st.dst} += {f} @ {st.src}")
     elif isinstance(st, SolveRows):
         lines.append(f"    {st.R} = np.linalg.solve({st.A}, {st.R})")
+    elif isinstance(st, Call):
+        lines.append(f"    {st.label} = {st.entry}({_table_name(st.table)}, "
+                     f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
+                     f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
+                     "_NO_TANGENTS)[0]")
+        lines += [f"    {name} = {st.label}[{k}]" for k, name in st.outputs]
+    elif isinstance(st, CallTangent):
+        d = f"{st.label}d"
+        lines.append(f"    {d} = np.zeros(({len(st.inputs)}, {st.ncols}))")
+        for j, row in enumerate(st.rows):
+            if row is not None:
+                lines.append(f"    {d}[{j}, {row[1]}] = 1.0" if row[0] == "x" else
+                             f"    {d}[{j}, :] = {row[0]}[{row[1]}, :]")
+        lines.append(f"    {st.label}e = {st.entry}({_table_name(st.table)}, "
+                     f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
+                     f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
+                     f"{d})[1]")
+        lines += [f"    {array}[{m}, :] = {st.label}e[{k}, :]" for k, array, m in st.into]
     else:  # pragma: no cover
         raise TypeError(st)
+
+
+def _table_name(table: tuple[int, ...]) -> str:
+    """The module-level name of a kernel call's integer table (one per distinct table)."""
+    return f"_KT{abs(hash(table)) % 10**12:012d}"
+
+
+def _kernel_calls(prog: Program) -> list[Call | CallTangent]:
+    return [st for fn in prog.functions for st in fn.body if isinstance(st, (Call, CallTangent))]
 
 
 def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
@@ -218,10 +248,18 @@ def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
 
 
 def python_source(prog: Program) -> str:
-    """The program as the body of a Python module (no imports: see porthamiltonian.backends)."""
+    """The program as the body of a Python module (no imports: see porthamiltonian.backends);
+    with kernel calls, the kernels' templates and the calls' integer tables first."""
     printer = PythonPrinter()
     header = "\n".join(python_docstring(line) for line in prog.header)
     parts = [f'"""{header}\n"""']
+    calls = _kernel_calls(prog)
+    for kernel in sorted({st.kernel for st in calls}):
+        parts.append(python_template(kernel))
+    if calls:
+        tables = {st.table: None for st in calls}
+        parts.append("\n".join(f"{_table_name(t)} = np.array({list(t)}, dtype=np.int64)"
+                               for t in tables) + "\n_NO_TANGENTS = np.zeros((1, 0))")
     parts += [python_function(fn, printer) for fn in prog.functions]
     return "\n\n\n".join(parts) + "\n"
 
@@ -403,11 +441,45 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
                           "    }"]
         elif isinstance(st, SolveRows):
             lines.append(f"    ph_solve_rows({st.n}, {st.ncols}, {st.A}, {st.R});")
+        elif isinstance(st, Call):
+            lines += _c_call_arrays(st, pr)
+            lines.append(f"    double {st.label}o[{max(st.n_outputs, 1)}];")
+            lines.append(f"    ph_{st.entry}({st.label}s, {st.label}c, {st.label}i, {st.label}o, 0, "
+                         "NULL, NULL);")
+            lines += [f"    const double {name} = {st.label}o[{k}];" for k, name in st.outputs]
+        elif isinstance(st, CallTangent):
+            n, label = st.ncols, st.label
+            lines.append("    {")
+            lines += ["    " + line for line in _c_call_arrays(st, pr)]
+            lines += [f"        double {label}o[{max(st.n_outputs, 1)}];",
+                      f"        double *{label}d = ph_alloc({max(len(st.inputs), 1) * n});",
+                      f"        double *{label}e = ph_alloc({max(st.n_outputs, 1) * n});"]
+            for j, row in enumerate(st.rows):
+                if row is not None:
+                    lines.append(f"        {label}d[{j * n + row[1]}] = 1.0;" if row[0] == "x" else
+                                 f"        memcpy({label}d + {j * n}, {row[0]} + {row[1] * n}, "
+                                 f"sizeof(double) * {n});")
+            lines.append(f"        ph_{st.entry}({label}s, {label}c, {label}i, {label}o, {n}, "
+                         f"{label}d, {label}e);")
+            lines += [f"        memcpy({array} + {m * n}, {label}e + {k * n}, sizeof(double) * {n});"
+                      for k, array, m in st.into]
+            lines += [f"        free({label}d);", f"        free({label}e);", "    }"]
         else:  # pragma: no cover
             raise TypeError(st)
     lines += [f"    free({name});" for name in heap]
     lines.append("}")
     return "\n".join(lines)
+
+
+def _c_call_arrays(st: Call | CallTangent, pr) -> list[str]:
+    """The integer table, constants and inputs of a kernel call as local C arrays."""
+    def values(exprs) -> str:
+        return ", ".join(pr(e) for e in exprs) or "0.0"
+
+    return [f"    static const int {st.label}s[{len(st.table)}] = "
+            f"{{{', '.join(map(str, st.table))}}};",
+            f"    const double {st.label}c[{max(len(st.constants), 1)}] = {{{values(st.constants)}}};",
+            f"    const double {st.label}i[{max(len(st.inputs), 1)}] = {{{values(st.inputs)}}};"]
 
 
 def c_source(prog: Program) -> str:
@@ -416,8 +488,9 @@ def c_source(prog: Program) -> str:
     printer = CPrinter()
     header = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
                        enumerate(prog.header))
-    parts = [f"{header}\n */", _C_PRELUDE,
-             f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}"]
+    parts = [f"{header}\n */", _C_PRELUDE]
+    parts += [c_template(kernel) for kernel in sorted({st.kernel for st in _kernel_calls(prog)})]
+    parts.append(f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}")
     parts += [c_function(fn, printer) for fn in prog.functions]
     for fn in prog.functions:
         if fn.args == ("p",):
