@@ -15,6 +15,7 @@ are checked first (the C code trusts them); ctypes releases the GIL during the c
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import importlib.util
 import os
 import platform
@@ -87,8 +88,26 @@ _NO_COMPILER = ("no C compiler found: $CC is not set, none of cc, gcc, clang is 
                 "package index), or choose the numba or python back end")
 
 
-def build(source: Path, log_dir: Path | None) -> tuple[bytes, float]:
-    """Compile the translation unit ``source`` into a shared library; (its bytes, seconds).
+def object_key(text: str) -> str:
+    """The cache key of an object compiled from ``text`` (by :func:`compile_object`): a hash of
+    the text, the compiler command, its flags and the platform."""
+    blob = "\0".join([*(compiler() or ["none"]), *FLAGS, sys.platform, platform.machine(), text])
+    return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+def compile_object(text: str, name: str, log_dir: Path | None = None) -> tuple[bytes, float]:
+    """Compile the C source ``text`` (e.g. a kernel, sources.c_object_source) into a
+    position-independent object file; (its bytes, seconds). Errors as :func:`build`."""
+    with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
+        source = Path(tmp) / f"{name}.c"
+        source.write_text(text)
+        return build(source, log_dir, (), object_only=True)
+
+
+def build(source: Path, log_dir: Path | None, objects: tuple[Path, ...] = (),
+          object_only: bool = False) -> tuple[bytes, float]:
+    """Compile the translation unit ``source`` into a shared library linked with ``objects``
+    (or, ``object_only``, into an object file); (its bytes, seconds).
 
     The library is written in a private temporary folder (the caller stores it). On failure a
     :class:`~porthamiltonian.errors.CompilerError` shows the command and the file holding the
@@ -98,8 +117,10 @@ def build(source: Path, log_dir: Path | None) -> tuple[bytes, float]:
     if cc is None:
         raise CompilerError(_NO_COMPILER)
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
-        out = Path(tmp) / f"{source.stem}{_SUFFIX}"
-        command = [*cc, *FLAGS, "-o", str(out), str(source), "-lm"]
+        out = Path(tmp) / f"{source.stem}{'.o' if object_only else _SUFFIX}"
+        flags = [f for f in FLAGS if f != "-shared"] + ["-c"] if object_only else list(FLAGS)
+        command = [*cc, *flags, "-o", str(out), str(source),
+                   *(() if object_only else (*map(str, objects), "-lm"))]
         start = time.perf_counter()
         try:
             run = subprocess.run(command, capture_output=True, text=True, errors="replace",
@@ -265,4 +286,5 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
     return integrate
 
 
-__all__ = ["FLAGS", "build", "compiler", "library_name", "load", "translation_unit"]
+__all__ = ["FLAGS", "build", "compile_object", "compiler", "library_name", "load", "object_key",
+           "translation_unit"]

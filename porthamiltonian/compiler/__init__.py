@@ -8,6 +8,7 @@ equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and Jacobian to
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
 from collections import OrderedDict
 from types import MappingProxyType
@@ -17,13 +18,14 @@ import sympy
 from .. import backends
 from ..backends import module, native
 from ..errors import CompilerError
+from ..mechanics.sources import c_object_source
 from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel
 from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
 from .literals import printable
-from .printers import c_source, python_source
+from .printers import c_source, kernels, python_source
 from .structure import Solution, build_system, solve
 
 #: why the C back end failed in this process (``"auto"`` does not try to build again)
@@ -114,6 +116,7 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             "energy_parts": sym.energy_parts,
             "constraints": [c.to_dict() for c in sym.constraints],
             "units": sym.units,
+            "kernels": kernels(prog),
         }
         if use_cache:
             cache.write(key, meta, bodies)
@@ -154,14 +157,31 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
         if _C_FAILED and not explicit:
             raise CompilerError(_C_FAILED[0])
         source = cache.store(key, f"m{key}_c.c", native.translation_unit(bodies["c"]), use_cache)
-        data, seconds = native.build(source, source.parent if cache.kept(source) else None)
-        times["C"] = seconds
+        objects = tuple(_kernel_object(name, use_cache, times) for name in meta.get("kernels", ()))
+        data, seconds = native.build(source, source.parent if cache.kept(source) else None,
+                                     objects)
+        times["C"] = times.get("C", 0.0) + seconds
         path = cache.store(key, lib_name, data, use_cache)
     try:
         return native.load(path, shapes, len(meta["param_names"]))
     except OSError as err:
         raise CompilerError(f"the C library {path} cannot be loaded ({err}); remove it to "
                             "rebuild it, or choose the numba or python back end") from None
+
+
+def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float]):
+    """The compiled object of ``kernel`` (:mod:`porthamiltonian.mechanics.sources`), from the
+    cache (an entry of its own, keyed by its source and the compiler) or compiled now (its time
+    added to ``times["C"]``): one compile serves every model that calls the kernel."""
+    text = c_object_source(kernel)
+    key = native.object_key(text)
+    name = f"{kernel}_{sys.platform}.o"
+    path = cache.verified_path(key, name) if use_cache else None
+    if path is None:
+        data, seconds = native.compile_object(text, kernel)
+        times["C"] = times.get("C", 0.0) + seconds
+        path = cache.store(key, name, data, use_cache)
+    return path
 
 
 def _autonomous(sym: SymbolicModel) -> bool:

@@ -40,12 +40,14 @@ import sympy as sp
 from sympy.core.symbol import Str
 
 from ..errors import CompilerError
+from ..mechanics.sources import digest as kernel_digest
 from ..modeling.calls import KernelOutput
 from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
 
-#: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "7"
+#: Bumped whenever generated code changes meaning; part of the cache key (with a hash of the
+#: kernels' templates, which generated modules include or link).
+CODEGEN_VERSION = "7." + kernel_digest()
 
 
 # --- the intermediate program ------------------------------------------------------------------

@@ -24,7 +24,7 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
-from ..mechanics.sources import c_template, python_template
+from ..mechanics.sources import c_declarations, python_template
 from .codegen import (
     Array,
     Call,
@@ -231,6 +231,11 @@ def _table_name(table: tuple[int, ...]) -> str:
 
 def _kernel_calls(prog: Program) -> list[Call | CallTangent]:
     return [st for fn in prog.functions for st in fn.body if isinstance(st, (Call, CallTangent))]
+
+
+def kernels(prog: Program) -> list[str]:
+    """The kernels the program calls (the C back end links their objects)."""
+    return sorted({st.kernel for st in _kernel_calls(prog)})
 
 
 def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
@@ -476,8 +481,8 @@ def _c_call_arrays(st: Call | CallTangent, pr) -> list[str]:
     def values(exprs) -> str:
         return ", ".join(pr(e) for e in exprs) or "0.0"
 
-    return [f"    static const int {st.label}s[{len(st.table)}] = "
-            f"{{{', '.join(map(str, st.table))}}};",
+    table = ", ".join(map(str, st.table))
+    return [f"    static const int {st.label}s[{len(st.table)}] = {{{table}}};",
             f"    const double {st.label}c[{max(len(st.constants), 1)}] = {{{values(st.constants)}}};",
             f"    const double {st.label}i[{max(len(st.inputs), 1)}] = {{{values(st.inputs)}}};"]
 
@@ -489,7 +494,7 @@ def c_source(prog: Program) -> str:
     header = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
                        enumerate(prog.header))
     parts = [f"{header}\n */", _C_PRELUDE]
-    parts += [c_template(kernel) for kernel in sorted({st.kernel for st in _kernel_calls(prog)})]
+    parts += [c_declarations(kernel) for kernel in kernels(prog)]
     parts.append(f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}")
     parts += [c_function(fn, printer) for fn in prog.functions]
     for fn in prog.functions:
@@ -507,5 +512,5 @@ def c_source(prog: Program) -> str:
     return "\n\n".join(parts) + "\n"
 
 
-__all__ = ["CPrinter", "PythonPrinter", "c_function", "c_source", "python_function",
+__all__ = ["CPrinter", "PythonPrinter", "c_function", "c_source", "kernels", "python_function",
            "python_source"]

@@ -1,6 +1,7 @@
-/* Template, not compiled alone: inserted by porthamiltonian.compiler.printers into the C
- * translation unit of every model with a kernel-formulated Multibody, after the prelude (which
- * includes <math.h>, <stdlib.h>, <string.h>) and before the generated functions that call it.
+/* Template: compiled once as its own translation unit (porthamiltonian.mechanics.sources.
+ * c_object_source: MB_ENTRY defined, the entries external and hidden), cached, and linked into
+ * every model library whose generated functions call it (they declare the entries,
+ * sources.c_declarations); without MB_ENTRY the entries are static, for inclusion in one unit.
  * kernel.py is the same algorithm in Python (the python and numba back ends) and documents it; a
  * change here is made there too (tests/validation/test_multibody_kernel.py runs both).
  *
@@ -22,10 +23,15 @@
  */
 #if defined(__GNUC__)
 #define MB_FLATTEN __attribute__((flatten))
-#define MB_ENTRY static __attribute__((unused))
 #else
 #define MB_FLATTEN
+#endif
+#ifndef MB_ENTRY
+#if defined(__GNUC__)
+#define MB_ENTRY static __attribute__((unused))
+#else
 #define MB_ENTRY static
+#endif
 #endif
 #define MB_INLINE static inline
 #if defined(__GNUC__) && !defined(__clang__)
@@ -318,6 +324,7 @@ static void mb_mass(int D, const mb_tab *t, const double *R0, const double *p0, 
                     const double *hc, const double *Jc, double *S0, double *M)
 {
     const int nv = t->nv;
+    memset(M, 0, sizeof(double) * (size_t)nv * nv);   /* zero where two velocities share no path */
     for (int k = 0; k < t->nl; ++k) {          /* the unit twists in world axes (a0, u0) */
         const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
         const double *Rk = R0 + 9 * D * k;

@@ -48,9 +48,9 @@ except NameError:
     def _jit(f):
         return f
 
-import math  # noqa: E402 - after the header's names
+import math
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 _MB_ROT, _MB_TRANS, _MB_SPH, _MB_FREE = 0, 1, 2, 3
 _MB_LINK = 16
@@ -348,29 +348,49 @@ def _mb_composites(D, s, c, R, p, mc, hc, Jc):
 @_jit
 def _mb_lambda(s):
     """The dof-level parent of every velocity (the previous velocity of a multi-velocity joint,
-    else the last velocity of the parent link; −1 at the root)."""
+    else the last velocity of the parent link; −1 at the root) and the first of the contiguous
+    ancestors of each (run[i] = j: lam[m] = m − 1 for j < m ≤ i): (lam, run)."""
     nl, nv = s[0], s[1]
     lam = np.empty(nv, dtype=np.int64)
+    run = np.empty(nv, dtype=np.int64)
     for k in range(nl):
         parent, i0, n = s[4 + 4 * k], s[4 + 4 * k + 2], _mb_dofs(s[4 + 4 * k + 1])
         lam[i0] = -1 if parent < 0 else s[4 + 4 * parent + 2] + _mb_dofs(s[4 + 4 * parent + 1]) - 1
         for r in range(1, n):
             lam[i0 + r] = i0 + r - 1
-    return lam
+    for i in range(nv):
+        run[i] = run[i - 1] if (i > 0 and lam[i] == i - 1) else i
+    return lam, run
 
 
 @_jit
-def _mb_mass(D, s, c, R, p, mc, hc, Jc, M):
+def _mb_mass(D, s, c, R0, p0, mc, hc, Jc, M):
     """M (nv x nv, row-major) by the composite-rigid-body recursion, from the values of the dual
-    arrays R, p, hc."""
+    arrays R0, p0, hc: within a joint M = Sᵀ Iᶜ S in its link's frame; for an ancestor's unit
+    twist (a, u) at its origin o, a⁰ · (τ⁰ + (p⁰_k − o) × f⁰) + u⁰ · f⁰ with the wrench F = Iᶜ S
+    (torque about p⁰_k) and the twist in world axes."""
     nl, nv = s[0], s[1]
     a, u, b, w = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3)
-    tau, f, Rt, Rf, h = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3)
+    tau, f, tw, fw, h, pk, d, cc = (np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
+                                    np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
+    S0 = np.zeros(6 * nv)
+    for i in range(nv * nv):                     # zero where two velocities share no path
+        M[i] = 0.0
+    for k in range(nl):                          # the unit twists in world axes (a0, u0)
+        i0, iR = s[4 + 4 * k + 2], 9 * D * k
+        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+            _mb_screw(s, c, k, r, a, u)
+            for i in range(3):
+                S0[6 * (i0 + r) + i] = (R0[iR + 3 * i * D] * a[0] + R0[iR + (3 * i + 1) * D] * a[1]
+                                        + R0[iR + (3 * i + 2) * D] * a[2])
+                S0[6 * (i0 + r) + 3 + i] = (R0[iR + 3 * i * D] * u[0] + R0[iR + (3 * i + 1) * D] * u[1]
+                                            + R0[iR + (3 * i + 2) * D] * u[2])
     for k in range(nl):
         kind, i0 = s[4 + 4 * k + 1], s[4 + 4 * k + 2]
-        J, m = 9 * k, mc[k]
+        J, m, iR = 9 * k, mc[k], 9 * D * k
         for i in range(3):
             h[i] = hc[3 * D * k + i * D]
+            pk[i] = p0[3 * D * k + i * D]
         for r in range(_mb_dofs(kind)):
             _mb_screw(s, c, k, r, a, u)
             for i in range(3):
@@ -384,30 +404,32 @@ def _mb_mass(D, s, c, R, p, mc, hc, Jc, M):
                      + w[0] * f[0] + w[1] * f[1] + w[2] * f[2])
                 M[(i0 + t) * nv + i0 + r] = e
                 M[(i0 + r) * nv + i0 + t] = e
-            j = k
-            while s[4 + 4 * j] >= 0:                     # carry the wrench up the tree
-                iR, ip = 9 * D * j, 3 * D * j
+            if s[4 + 4 * k] < 0:
+                continue
+            for i in range(3):
+                tw[i] = (R0[iR + 3 * i * D] * tau[0] + R0[iR + (3 * i + 1) * D] * tau[1]
+                         + R0[iR + (3 * i + 2) * D] * tau[2])
+                fw[i] = (R0[iR + 3 * i * D] * f[0] + R0[iR + (3 * i + 1) * D] * f[1]
+                         + R0[iR + (3 * i + 2) * D] * f[2])
+            j = s[4 + 4 * k]
+            while j >= 0:
+                j0 = s[4 + 4 * j + 2]
                 for i in range(3):
-                    Rt[i] = (R[iR + 3 * i * D] * tau[0] + R[iR + (3 * i + 1) * D] * tau[1]
-                             + R[iR + (3 * i + 2) * D] * tau[2])
-                    Rf[i] = (R[iR + 3 * i * D] * f[0] + R[iR + (3 * i + 1) * D] * f[1]
-                             + R[iR + (3 * i + 2) * D] * f[2])
+                    d[i] = pk[i] - p0[3 * D * j + i * D]
                 for i in range(3):
                     i1, i2 = (i + 1) % 3, (i + 2) % 3
-                    tau[i] = Rt[i] + p[ip + i1 * D] * Rf[i2] - p[ip + i2 * D] * Rf[i1]
-                    f[i] = Rf[i]
-                j = s[4 + 4 * j]
-                j0 = s[4 + 4 * j + 2]
+                    cc[i] = tw[i] + d[i1] * fw[i2] - d[i2] * fw[i1]
                 for t in range(_mb_dofs(s[4 + 4 * j + 1])):
-                    _mb_screw(s, c, j, t, b, w)
-                    e = (b[0] * tau[0] + b[1] * tau[1] + b[2] * tau[2]
-                         + w[0] * f[0] + w[1] * f[1] + w[2] * f[2])
+                    S = 6 * (j0 + t)
+                    e = (S0[S] * cc[0] + S0[S + 1] * cc[1] + S0[S + 2] * cc[2]
+                         + S0[S + 3] * fw[0] + S0[S + 4] * fw[1] + S0[S + 5] * fw[2])
                     M[(j0 + t) * nv + i0 + r] = e
                     M[(i0 + r) * nv + j0 + t] = e
+                j = s[4 + 4 * j]
 
 
 @_jit
-def _mb_ltdl(n, lam, H):
+def _mb_ltdl(n, lam, run, H):
     """M = Lᵀ D L in place (Featherstone's LTDL: no fill-in outside the ancestors)."""
     for k in range(n - 1, -1, -1):
         i = lam[k]
@@ -415,22 +437,24 @@ def _mb_ltdl(n, lam, H):
             a = H[k * n + i] / H[k * n + k]
             j = i
             while j >= 0:
-                H[i * n + j] -= a * H[k * n + j]
-                j = lam[j]
+                for m in range(j, run[j] - 1, -1):
+                    H[i * n + m] -= a * H[k * n + m]
+                j = lam[run[j]]
             H[k * n + i] = a
             i = lam[i]
 
 
 @_jit
-def _mb_solve(D, j0, n, lam, H, x):
-    """x = M⁻¹ x for the columns j0 .. D − 1 of x (n x D) with the factors of _ltdl."""
+def _mb_solve(D, j0, n, lam, run, H, x):
+    """x = M⁻¹ x for the columns j0 .. D − 1 of x (n x D) with the factors of _mb_ltdl."""
     for i in range(n - 1, -1, -1):                      # Lᵀ y = x
         j = lam[i]
         while j >= 0:
-            a = H[i * n + j]
-            for col in range(j0, D):
-                x[j * D + col] -= a * x[i * D + col]
-            j = lam[j]
+            for m in range(j, run[j] - 1, -1):
+                a = H[i * n + m]
+                for col in range(j0, D):
+                    x[m * D + col] -= a * x[i * D + col]
+            j = lam[run[j]]
     for i in range(n):                                  # D z = y, then L x = z
         r = 1.0 / H[i * n + i]
         for col in range(j0, D):
@@ -438,10 +462,11 @@ def _mb_solve(D, j0, n, lam, H, x):
     for i in range(n):
         j = lam[i]
         while j >= 0:
-            a = H[i * n + j]
-            for col in range(j0, D):
-                x[i * D + col] -= a * x[j * D + col]
-            j = lam[j]
+            for m in range(j, run[j] - 1, -1):
+                a = H[i * n + m]
+                for col in range(j0, D):
+                    x[i * D + col] -= a * x[m * D + col]
+            j = lam[run[j]]
 
 
 # --- velocities -----------------------------------------------------------------------------------
@@ -546,12 +571,12 @@ def mb_state(s, c, values, din):
     _mb_seed(D, nq + nv, values, din, x)
     _mb_positions(D, s, c, x, R, p, R0, p0)
     _mb_composites(D, s, c, R, p, mc, hc, Jc)
-    _mb_mass(D, s, c, R, p, mc, hc, Jc, M)
-    lam = _mb_lambda(s)
-    _mb_ltdl(nv, lam, M)
+    _mb_mass(D, s, c, R0, p0, mc, hc, Jc, M)
+    lam, run = _mb_lambda(s)
+    _mb_ltdl(nv, lam, run, M)
     for i in range(nv):
         _mb_set(D, v, i * D, values[nq + i])
-    _mb_solve(D, 0, nv, lam, M, v)
+    _mb_solve(D, 0, nv, lam, run, M, v)
     if K > 0:      # dv = M⁻¹ (dp − d(M v)|_v): the momenta's tangents at fixed v first
         _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
         for k in range(nl):
@@ -563,7 +588,7 @@ def mb_state(s, c, values, din):
                 _mb_dot_c(D, u, 0, P, 3 * D * k, e, 0)
                 for j in range(1, D):
                     v[(i0 + r) * D + j] = x[(nq + i0 + r) * D + j] - e[j]
-        _mb_solve(D, 1, nv, lam, M, v)
+        _mb_solve(D, 1, nv, lam, run, M, v)
     _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
     G = _MB_LINK * nl
     for k in range(nl):                                 # gravity in each link's frame
@@ -711,7 +736,7 @@ def _mb_position_values(what, s, c, values):
     if what == 0 or what == 3:
         M = np.zeros(nv * nv)
         _mb_composites(1, s, c, R, p, mc, hc, Jc)
-        _mb_mass(1, s, c, R, p, mc, hc, Jc, M)
+        _mb_mass(1, s, c, R0, p0, mc, hc, Jc, M)
         if what == 0:
             return M
         out = np.zeros(nv)

@@ -21,7 +21,7 @@ def _modules(package: str):
     root = importlib.import_module(package)
     yield root
     for info in pkgutil.walk_packages(root.__path__, f"{package}."):
-        if info.name.endswith(("rodas_loop", "rosenbrock_loop")):   # source templates
+        if info.name.endswith(("rodas_loop", "rosenbrock_loop", "mechanics.kernel")):  # templates
             continue
         yield importlib.import_module(info.name)
 
