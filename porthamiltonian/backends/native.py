@@ -63,8 +63,92 @@ def library_name(key: str) -> str:
 
 def translation_unit(body: str, loop_pragma: bool = True) -> str:
     """The full C source: the generated body followed by the integration loops (after
-    :data:`LOOP_PRAGMA` unless ``loop_pragma`` is false)."""
+    :data:`LOOP_PRAGMA` unless ``loop_pragma`` is false), for one unit (e.g. to measure
+    optimisation levels); :func:`loop_source` is the loops as a unit of their own."""
     return body + "\n" + (LOOP_PRAGMA if loop_pragma else "") + c_loops()
+
+
+_LOOP_HEADER = """\
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#if defined(_WIN32)
+#define PH_EXPORT __declspec(dllexport)
+#else
+#define PH_EXPORT __attribute__((visibility("default")))
+#endif
+#if defined(__GNUC__)
+#define PH_HIDDEN __attribute__((visibility("hidden")))
+#else
+#define PH_HIDDEN
+#endif
+"""
+
+
+def loop_source(n: int, n_guards: int) -> str:
+    """The integration loops as a translation unit of their own, for a model of ``n`` states
+    (with the ledger) and ``n_guards`` guard slots, calling the model's ``rhs``, ``jac`` and
+    ``guards`` (hidden external functions of its generated unit): it depends on the model only
+    through the two sizes, so its object is compiled once per sizes (and compiler) and cached,
+    and it compiles in parallel with the model's code generation (compiler.compile_model)."""
+    declarations = "".join(f"PH_HIDDEN void {name}(double t, const double *x, const double *p, "
+                           "double *out);\n" for name in ("rhs", "jac", "guards"))
+    return (_LOOP_HEADER + f"#define PH_N {n}\n#define PH_NG {n_guards}\n" + declarations
+            + LOOP_PRAGMA + c_loops())
+
+
+class Pending:
+    """A compile running in the background (:func:`start_object`); :meth:`result` waits for it:
+    (the object's bytes, seconds of wall time), errors as :func:`build`."""
+
+    def __init__(self, text: str, name: str):
+        self._tmp = tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-")
+        folder = Path(self._tmp.name)
+        self.source = folder / f"{name}.c"
+        self.source.write_text(text)
+        self.out = folder / f"{name}.o"
+        self.log = folder / f"{name}.log"
+        cc = compiler()
+        self.command = [*(cc or ["cc"]), *(f for f in FLAGS if f != "-shared"), "-c", "-o",
+                        str(self.out), str(self.source)]
+        self.start = time.perf_counter()
+        self.process = None
+        if cc is not None:
+            try:
+                with open(self.log, "w") as log:
+                    self.process = subprocess.Popen(self.command, stdout=log, stderr=log,
+                                                    stdin=subprocess.DEVNULL)
+            except OSError:
+                self.process = None
+
+    def close(self) -> None:
+        """Wait for the compiler (if running) and remove the temporary folder."""
+        if self.process is not None and self.process.poll() is None:
+            self.process.wait()
+        self._tmp.cleanup()
+
+    def result(self, log_dir: Path | None) -> tuple[bytes, float]:
+        try:
+            if self.process is None:        # no compiler, or it could not start: say why
+                return build(self.source, log_dir, (), object_only=True)
+            status = self.process.wait()
+            seconds = time.perf_counter() - self.start
+            if status == 0 and self.out.is_file():
+                return self.out.read_bytes(), seconds
+            log = _write_log(self.source, log_dir, self.command, f"exit status {status}",
+                             self.log.read_text(errors="replace"))
+            raise CompilerError(f"the C compiler failed (exit status {status}) building "
+                                f"{self.source.name}: {shlex.join(self.command)}; its output is "
+                                f"in {log}. Set CC to a working C compiler, or choose the numba "
+                                "or python back end")
+        finally:
+            self._tmp.cleanup()
+
+
+def start_object(text: str, name: str) -> Pending:
+    """Start compiling the C source ``text`` into an object file in the background."""
+    return Pending(text, name)
 
 
 def compiler() -> list[str] | None:
@@ -286,5 +370,5 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
     return integrate
 
 
-__all__ = ["FLAGS", "build", "compile_object", "compiler", "library_name", "load", "object_key",
-           "translation_unit"]
+__all__ = ["FLAGS", "Pending", "build", "compile_object", "compiler", "library_name", "load",
+           "loop_source", "object_key", "start_object", "translation_unit"]

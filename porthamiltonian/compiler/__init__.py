@@ -95,10 +95,13 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     key = cache.model_key(description)
     hit = cache.read(key) if use_cache else None
     times: dict[str, float] = {}
+    pending = None
     if hit is None:
         start = time.perf_counter()
         sym = symbolic(description)
         times["symbolic"] = time.perf_counter() - start
+        if order[0] == "c" and not _C_FAILED:       # the loops compile while the code is made
+            pending = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
         start = time.perf_counter()
         prog = program(sym)
         bodies = {"python": python_source(prog), "c": c_source(prog)}
@@ -122,17 +125,22 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             cache.write(key, meta, bodies)
     else:
         meta, bodies = hit
-    for i, name in enumerate(order):
-        try:
-            functions = _load(name, key, meta, bodies, use_cache, times, explicit=len(order) == 1)
-        except CompilerError as err:
-            if len(order) == 1:
-                raise
-            if not _C_FAILED:
-                _C_FAILED.append(str(err))
-                backends.fell_back(str(err), order[i + 1])
-            continue
-        break
+    try:
+        for i, name in enumerate(order):
+            try:
+                functions = _load(name, key, meta, bodies, use_cache, times,
+                                  explicit=len(order) == 1, pending=pending)
+            except CompilerError as err:
+                if len(order) == 1:
+                    raise
+                if not _C_FAILED:
+                    _C_FAILED.append(str(err))
+                    backends.fell_back(str(err), order[i + 1])
+                continue
+            break
+    finally:
+        if pending is not None:
+            pending.close()
     if times:
         parts = [f"{k} {v:.1f} s" for k, v in times.items()]
         size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
@@ -143,9 +151,12 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
 
 
 def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bool,
-          times: dict[str, float], explicit: bool) -> backends.Functions:
+          times: dict[str, float], explicit: bool,
+          pending: native.Pending | None = None) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
-    compile time goes into ``times``."""
+    compile time (the time waited for it) goes into ``times``. The C library links the model's
+    unit with the integration loops' object (:func:`native.loop_source`, by the model's sizes)
+    and the objects of the kernels it calls, each compiled once and cached."""
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
@@ -156,10 +167,10 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
     if path is None:
         if _C_FAILED and not explicit:
             raise CompilerError(_C_FAILED[0])
-        source = cache.store(key, f"m{key}_c.c", native.translation_unit(bodies["c"]), use_cache)
+        source = cache.store(key, f"m{key}_c.c", bodies["c"], use_cache)
         objects = tuple(_kernel_object(name, use_cache, times) for name in meta.get("kernels", ()))
         data, seconds = native.build(source, source.parent if cache.kept(source) else None,
-                                     objects)
+                                     objects + (_loop_object(meta, use_cache, times, pending),))
         times["C"] = times.get("C", 0.0) + seconds
         path = cache.store(key, lib_name, data, use_cache)
     try:
@@ -167,6 +178,34 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
     except OSError as err:
         raise CompilerError(f"the C library {path} cannot be loaded ({err}); remove it to "
                             "rebuild it, or choose the numba or python back end") from None
+
+
+def _loop_name() -> str:
+    return f"loops_{sys.platform}.o"
+
+
+def _start_loop(n: int, n_guards: int, use_cache: bool) -> native.Pending | None:
+    """Start compiling the loops' object for these sizes unless it is cached."""
+    text = native.loop_source(n, n_guards)
+    if use_cache and cache.verified_path(native.object_key(text), _loop_name()) is not None:
+        return None
+    return native.start_object(text, "loops")
+
+
+def _loop_object(meta: dict, use_cache: bool, times: dict[str, float],
+                 pending: native.Pending | None):
+    """The integration loops' object for the model's sizes: cached, or the background compile
+    ``pending`` waited for, or compiled now (the time waited added to ``times["C"]``)."""
+    text = native.loop_source(meta["shapes"]["rhs"][0], meta["shapes"]["guards"][0])
+    key = native.object_key(text)
+    path = cache.verified_path(key, _loop_name()) if use_cache else None
+    if path is None:
+        start = time.perf_counter()
+        data = (pending.result(None)[0] if pending is not None
+                else native.compile_object(text, "loops")[0])
+        times["C"] = times.get("C", 0.0) + time.perf_counter() - start
+        path = cache.store(key, _loop_name(), data, use_cache)
+    return path
 
 
 def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float]):

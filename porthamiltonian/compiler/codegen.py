@@ -144,8 +144,7 @@ class SolveRows:
 class Call:
     """A kernel call (:mod:`porthamiltonian.modeling.calls`): the routine ``entry`` of ``kernel``
     on the integer ``table``, the ``constants`` and ``inputs`` (expressions), writing its
-    ``n_outputs`` outputs into the local array named ``label``; ``outputs``: (index, local name)
-    of the outputs the function reads, each made a scalar local."""
+    ``n_outputs`` outputs into the local array ``<label>o``, which expressions index."""
 
     label: str
     kernel: str
@@ -154,7 +153,6 @@ class Call:
     constants: tuple[sp.Expr, ...]
     inputs: tuple[sp.Expr, ...]
     n_outputs: int
-    outputs: tuple[tuple[int, str], ...]
 
 
 @dataclass(frozen=True)
@@ -236,12 +234,12 @@ class _Builder:
         self.calls: dict[str, tuple[str, tuple, tuple, list]] = {}
         for name, (inputs, outs) in _call_groups(model).items():
             call = model.calls[name]
-            label = f"kern{len(self.calls)}"
+            label = f"kern{len(self.calls)}"        # its outputs: kern<i>o[k] (see program)
             constants = tuple(_float(sp.sympify(c).xreplace(mapping)) for c in call.constants)
             args = tuple(_float(sp.sympify(u).xreplace(mapping)) for u in inputs)
             self.calls[name] = (label, constants, args, outs)
             stmt = Call(label, call.kernel, call.entry, call.table, constants, args,
-                        call.n_outputs, tuple((i, str(mapping[w])) for i, w in outs))
+                        call.n_outputs)
             self.nodes.append(([str(mapping[w]) for _, w in outs], _names(constants + args),
                                [stmt]))
         for index, (syms, A, b) in enumerate(model.blocks):
@@ -454,6 +452,9 @@ def program(model: SymbolicModel) -> Program:
     vs = [s for syms, _, _ in model.blocks for s in syms]
     mapping.update({w: sp.Symbol(f"w{i}") for i, w in enumerate(ws)})
     mapping.update({v: sp.Symbol(f"v{i}") for i, v in enumerate(vs)})
+    for i, (_, outs) in enumerate(_call_groups(model).values()):   # read from the call's array
+        array = sp.IndexedBase(f"kern{i}o")
+        mapping.update({w: array[k] for k, w in outs})
     builder = _Builder(mapping, model)
     n = len(all_states)
     state_names = [str(s) for s in all_states]
@@ -550,20 +551,22 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
     (:class:`CallTangent`); R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v
     (implicit differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
     velocity-level rows (and calls); out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R. Only the intermediates
-    the state equations read get rows. Each row operation is told the columns its source row can
-    be nonzero in (a position-level row: the coordinates it reads; no row: the ledger
-    quadratures).
+    the state equations read get rows (``ws`` is not used: Dw's rows are those). Each row
+    operation is told the columns its source row can be nonzero in (a position-level row: the
+    coordinates it reads; no row: the ledger quadratures).
     """
+    reads = _rhs_reads(model)
+    npos = sum(1 for w, _ in model.intermediates[:_position_level(model, vs)] if w in reads)
+    rows = [(w, e) for w, e in model.intermediates if w in reads]     # the rows of Dw
+    ws = [w for w, _ in rows]
     n, nw, nv = len(xs), len(ws), len(vs)
     rhs = list(model.rhs)
-    reads = _rhs_reads(model)
     row_of = {w: m for m, w in enumerate(ws)}
-    calls = {w: e for w, e in model.intermediates if isinstance(e, KernelOutput)}
-    defs = [e if w in reads and w not in calls else sp.S.Zero for w, e in model.intermediates]
-    npos = _position_level(model, vs)
+    calls = {w: e for w, e in rows if isinstance(e, KernelOutput)}
+    defs = [sp.S.Zero if w in calls else e for w, e in rows]
     barriers: dict[int, str] = {}            # row of a call's first output -> the call
-    for m, (w, e) in enumerate(model.intermediates):
-        if w in calls and w in reads and e.call not in barriers.values():
+    for m, (w, e) in enumerate(rows):
+        if w in calls and e.call not in barriers.values():
             if not model.calls[e.call].tangents:
                 raise CompilerError(
                     f"the state equations read {w}, an output of the kernel call {e.call} "
@@ -604,11 +607,11 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
                 mask |= r.masks[v_index[u]]
             else:
                 rows.append(None)
-        for _, w in outs:
-            dw.masks[row_of[w]] = mask
+        into = tuple((i, "Dw", row_of[w]) for i, w in outs if w in row_of)
+        for _, _, m in into:
+            dw.masks[m] = mask
         return ("call", CallTangent(f"t{label}", call.kernel, call.entry, call.table, constants,
-                                    inputs, call.n_outputs, n, tuple(rows),
-                                    tuple((i, "Dw", row_of[w]) for i, w in outs)))
+                                    inputs, call.n_outputs, n, tuple(rows), into))
 
     def segments(first: int, last: int, cursor: int) -> tuple[list[tuple], int]:
         """The chain rule over the rows first .. last - 1 (from chain entry ``cursor``) with the

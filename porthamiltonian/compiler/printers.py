@@ -203,11 +203,10 @@ def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> 
     elif isinstance(st, SolveRows):
         lines.append(f"    {st.R} = np.linalg.solve({st.A}, {st.R})")
     elif isinstance(st, Call):
-        lines.append(f"    {st.label} = {st.entry}({_table_name(st.table)}, "
+        lines.append(f"    {st.label}o = {st.entry}({_table_name(st.table)}, "
                      f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
                      f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
-                     "_NO_TANGENTS)[0]")
-        lines += [f"    {name} = {st.label}[{k}]" for k, name in st.outputs]
+                     "np.zeros((1, 0)))[0]")
     elif isinstance(st, CallTangent):
         d = f"{st.label}d"
         lines.append(f"    {d} = np.zeros(({len(st.inputs)}, {st.ncols}))")
@@ -264,7 +263,7 @@ def python_source(prog: Program) -> str:
     if calls:
         tables = {st.table: None for st in calls}
         parts.append("\n".join(f"{_table_name(t)} = np.array({list(t)}, dtype=np.int64)"
-                               for t in tables) + "\n_NO_TANGENTS = np.zeros((1, 0))")
+                               for t in tables))
     parts += [python_function(fn, printer) for fn in prog.functions]
     return "\n\n\n".join(parts) + "\n"
 
@@ -280,6 +279,11 @@ _C_PRELUDE = """\
 #define PH_EXPORT __declspec(dllexport)
 #else
 #define PH_EXPORT __attribute__((visibility("default")))
+#endif
+#if defined(__GNUC__) && !defined(PH_HIDDEN)
+#define PH_HIDDEN __attribute__((visibility("hidden")))
+#elif !defined(PH_HIDDEN)
+#define PH_HIDDEN
 #endif
 
 /* min/max as Python's: b if b < a (b > a) else a */
@@ -387,15 +391,22 @@ def _c_flat(index: tuple[int, ...], shape: tuple[int, ...]) -> int:
     return index[0] * shape[1] + index[1] if len(index) == 2 else index[0]
 
 
+#: the generated functions the integration loops call: external (hidden, not exported), since
+#: the loops are compiled as a unit of their own (porthamiltonian.backends.native.loop_source)
+LOOP_FUNCTIONS = ("rhs", "jac", "guards")
+
+
 def c_function(fn: Function, printer: CPrinter | None = None) -> str:
-    """One function as a ``static void`` C function writing its result into ``out``."""
+    """One function as a ``static void`` C function writing its result into ``out`` (hidden
+    external for :data:`LOOP_FUNCTIONS`)."""
     pr = (printer or CPrinter()).doprint
     shapes: dict[str, tuple[int, ...]] = {"out": fn.shape}
     heap: list[str] = []
     comment = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
                         enumerate(fn.doc))
     params = "const double *p" if fn.args == ("p",) else "double t, const double *x, const double *p"
-    lines = [f"{comment}\n */", f"static void {fn.name}({params}, double *out)", "{",
+    linkage = "PH_HIDDEN" if fn.name in LOOP_FUNCTIONS else "static"
+    lines = [f"{comment}\n */", f"{linkage} void {fn.name}({params}, double *out)", "{",
              "    " + " ".join(f"(void){arg};" for arg in fn.args)]
     for st in fn.body:
         if isinstance(st, Let):
@@ -451,7 +462,6 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
             lines.append(f"    double {st.label}o[{max(st.n_outputs, 1)}];")
             lines.append(f"    ph_{st.entry}({st.label}s, {st.label}c, {st.label}i, {st.label}o, 0, "
                          "NULL, NULL);")
-            lines += [f"    const double {name} = {st.label}o[{k}];" for k, name in st.outputs]
         elif isinstance(st, CallTangent):
             n, label = st.ncols, st.label
             lines.append("    {")
@@ -512,5 +522,5 @@ def c_source(prog: Program) -> str:
     return "\n\n".join(parts) + "\n"
 
 
-__all__ = ["CPrinter", "PythonPrinter", "c_function", "c_source", "kernels", "python_function",
-           "python_source"]
+__all__ = ["LOOP_FUNCTIONS", "CPrinter", "PythonPrinter", "c_function", "c_source", "kernels",
+           "python_function", "python_source"]

@@ -15,12 +15,22 @@ from the ports. For a revolute or prismatic joint Π_kᵀ ad_{T_k} S_k is ∂T/�
 (= ½ vᵀ ∂M/∂q_k v); for the rotations of a quaternion joint it also holds the gyroscopic term of
 the quasi-velocities (Euler's L̇ = L × ω for one body); for a free joint from the world the rows are
 the Lie–Poisson equation Ṗ = ad_Tᵀ P + W of the whole tree's momentum in the base's frame, as in
-:mod:`.free_body`. Everything is formed recursively over the tree as compiler intermediates
-(:mod:`.tree`): the links' relative poses, the composite (subtree) inertias and M(q) by the
-composite-rigid-body recursion; with v solved, the body twists T_k (root to tip) and the subtree
-momenta Π_k (tip to root); gravity from the subtree masses and first moments. The generated code
-grows as about N² along an N-link chain (never by differentiating M's entries), and the Jacobian
-of the state equations follows by the chain rule through the intermediates.
+:mod:`.free_body`. Everything is formed recursively over the tree: the links' relative poses,
+the composite (subtree) inertias and M(q) by the composite-rigid-body recursion; with v solved,
+the body twists T_k (root to tip) and the subtree momenta Π_k (tip to root); gravity from the
+subtree masses and first moments (never by differentiating M's entries). Two formulations give
+the same numbers (docs/multibody.md):
+
+* ``formulation = "kernel"``: one compiled recursive kernel (:mod:`.kernel`, ``kernel.c``) over
+  the tree's numeric tables (:mod:`.kernel_tables`): axes, offsets, masses and inertias are
+  run-time parameters, the generated code holds a table entry per link whatever the axes, and
+  the Jacobian passes through the kernel by its forward-mode tangents;
+* ``formulation = "symbolic"``: the recursion written out as compiler intermediates
+  (:mod:`.tree`): exact zeros fold (a planar walker's code is small and fast), the code grows as
+  about N² along an N-link chain, and much faster with axes that are not coordinate axes; the
+  Jacobian follows by the chain rule through the intermediates;
+* ``"auto"`` (default): the kernel when an axis is not a coordinate axis or the tree has more
+  than :data:`KERNEL_LINKS` links (and its tables depend on parameters only), else symbolic.
 
 Frames and conventions
 ----------------------
@@ -123,6 +133,7 @@ class Multibody(Component):
         q0, v0}; ``q0``/``v0`` are the initial coordinate(s) and velocity(ies).
     gravity : [gx, gy, gz] in m/s², default [0, 0, "-9.81"].
     plane : "xz" for planar models: point ports carry (x, z) components only.
+    formulation : "kernel", "symbolic" or "auto" (default; see the module docstring).
     """
 
     kind = "Multibody"

@@ -31,8 +31,9 @@ def c_template(kernel: str) -> str:
     return (_HERE / _FILES[kernel][1]).read_text()
 
 
-_HIDDEN = ('#if defined(__GNUC__)\n#define PH_HIDDEN __attribute__((visibility("hidden")))\n'
-           '#else\n#define PH_HIDDEN\n#endif\n')
+_HIDDEN = ('#if defined(__GNUC__) && !defined(PH_HIDDEN)\n'
+           '#define PH_HIDDEN __attribute__((visibility("hidden")))\n'
+           '#elif !defined(PH_HIDDEN)\n#define PH_HIDDEN\n#endif\n')
 
 
 def c_object_source(kernel: str) -> str:

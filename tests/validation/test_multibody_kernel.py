@@ -22,10 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from multibody_cases import random_states, tree3d_model
+from multibody_cases import random_states, tree3d_model, with_formulation
 
 import porthamiltonian as ph
-from porthamiltonian import io
 from porthamiltonian.errors import ModelError
 from porthamiltonian.mechanics import Multibody
 
@@ -83,16 +82,6 @@ def all_joints_model() -> ph.Model:
     return m
 
 
-def formulated(model: ph.Model, formulation: str) -> ph.Model:
-    """The model with its Multibody's ``formulation`` set (through the model file's tables)."""
-    data = io.model_to_dict(model)
-    for comp in data["components"].values():
-        if comp.get("type") == "Multibody":
-            comp["formulation"] = formulation
-    data.setdefault("model", {})["name"] = f"{model.name}_{formulation}"
-    return io.model_from_dict(data)
-
-
 CASES = {"tree3d": tree3d_model, "all_joints": all_joints_model}
 
 
@@ -103,7 +92,7 @@ def pairs(isolated_cache):
     def get(case: str, backend: str):
         if (case, backend) not in built:
             model = CASES[case]()
-            built[case, backend] = tuple(ph.compile_model(formulated(model, f), backend=backend)
+            built[case, backend] = tuple(ph.compile_model(with_formulation(model, f), backend=backend)
                                          for f in ("kernel", "symbolic"))
         return built[case, backend]
 
@@ -161,7 +150,7 @@ def test_energy_is_conserved_by_a_kernel_simulation(isolated_cache):
     for name, p in model.freeze().parameters.items():
         bare.parameter(name, p.value, p.unit)
     bare.add("mb", model.freeze().components["mb"])
-    compiled = ph.compile_model(formulated(bare, "kernel"), backend="c")
+    compiled = ph.compile_model(with_formulation(bare, "kernel"), backend="c")
     traj = compiled.simulate(2.0, rtol=1e-10, atol=1e-12)
     assert traj.status == "finished"
     assert np.ptp(traj["H"]) < 1e-8 * traj.energy_scale
