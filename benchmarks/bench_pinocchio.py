@@ -162,12 +162,12 @@ def main() -> None:
             check_same_mechanism(model, table, q, v)
             work = Path(cache)
             (work / "table.txt").write_text(table)
-            (work / "state.txt").write_text(" ".join(map(repr, [*q, *v])) + "\n")
+            (work / "state.txt").write_text(" ".join(repr(float(a)) for a in [*q, *v]) + "\n")
             y = model.augment(x)
             pn = model.native_params(model.param_defaults)
             (work / "model.txt").write_text(
-                f"{len(y)}\n" + "\n".join(map(repr, y)) + f"\n{len(pn)}\n"
-                + "\n".join(map(repr, np.asarray(pn, float))) + "\n")
+                f"{len(y)}\n" + "\n".join(repr(float(a)) for a in y) + f"\n{len(pn)}\n"
+                + "\n".join(repr(float(a)) for a in np.asarray(pn, float)) + "\n")
             ours, theirs = [], []
             for _ in range(args.rounds):
                 out = subprocess.run([str(model_rhs), str(library), str(work / "model.txt"),

@@ -26,8 +26,8 @@ documentation lists the order of its arguments' and its result's entries by name
 Kernel calls (:mod:`porthamiltonian.modeling.calls`, e.g. a multibody's recursion) are evaluated
 once where their outputs are first needed (:class:`Call`); in the Jacobian their outputs' rows
 come from the kernel's own tangents (:class:`CallTangent`: the rows of the inputs in, the rows of
-the outputs out), between the chain rule's segments before and after them. Only the
-intermediates the state equations read get Jacobian rows.
+the outputs out), between the chain rule's segments before and after them; in such a model only
+the intermediates the state equations read get Jacobian rows.
 """
 from __future__ import annotations
 
@@ -550,12 +550,15 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
     in segments between the kernel calls, each of which sets its outputs' rows from its inputs'
     (:class:`CallTangent`); R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v
     (implicit differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
-    velocity-level rows (and calls); out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R. Only the intermediates
-    the state equations read get rows (``ws`` is not used: Dw's rows are those). Each row
+    velocity-level rows (and calls); out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R. In a model with kernel
+    calls only the intermediates the state equations read get rows (``ws`` is not used: Dw's rows
+    are those). Each row
     operation is told the columns its source row can be nonzero in (a position-level row: the
     coordinates it reads; no row: the ledger quadratures).
     """
-    reads = _rhs_reads(model)
+    # with kernel calls (many outputs read by outputs and matrices only), rows only for what the
+    # state equations read; without, every intermediate (the walkers' code kept as it was)
+    reads = _rhs_reads(model) if model.calls else {w for w, _ in model.intermediates}
     npos = sum(1 for w, _ in model.intermediates[:_position_level(model, vs)] if w in reads)
     rows = [(w, e) for w, e in model.intermediates if w in reads]     # the rows of Dw
     ws = [w for w, _ in rows]

@@ -19,6 +19,7 @@ escaped by :mod:`.literals`. The C translation unit uses only C99 and ``<math.h>
 from __future__ import annotations
 
 import math
+import re
 
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
@@ -69,6 +70,10 @@ class PythonPrinter(PythonCodePrinter):
 
     def _print_DiracDelta(self, expr):
         return "0.0"
+
+    def _print_ITE(self, expr):
+        c, a, b = (self._print(x) for x in expr.args)
+        return f"(({a}) if ({c}) else ({b}))"
 
 
 class CPrinter(C99CodePrinter):
@@ -153,6 +158,12 @@ class CPrinter(C99CodePrinter):
     def _print_Relational(self, expr):
         return f"({self._print(expr.lhs)} {expr.rel_op} {self._print(expr.rhs)})"
 
+    def _print_ITE(self, expr):
+        """if-then-else directly (sympy's rewrite as a Piecewise sorts the conditions, which
+        took minutes on conditions reading a kernel's output array)."""
+        c, a, b = (self._print(x) for x in expr.args)
+        return f"(({c}) ? ({a}) : ({b}))"
+
 
 def _closed_form(st: Solve, entry) -> list[tuple[str, str]]:
     """(name, value) assignments solving a 1 x 1 or 2 x 2 system ``st`` by Cramer's rule;
@@ -223,6 +234,29 @@ def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> 
         raise TypeError(st)
 
 
+_KERNEL_ARRAY = re.compile(r"kern\d+o$")
+
+
+def _copy_run(body: tuple, start: int, flat) -> tuple[int, int, str, int] | None:
+    """A run of at least 4 statements from ``body[start]`` that copy consecutive entries of a
+    kernel call's output array into consecutive entries of one array (``flat(array, index)``:
+    the flat position): (count, first destination, source array, first source); else None."""
+    first = body[start]
+    if not (isinstance(first, Store) and isinstance(first.expr, sp.Indexed)
+            and _KERNEL_ARRAY.match(str(first.expr.base))):
+        return None
+    base, dst0, src0 = str(first.expr.base), flat(first.array, first.index), int(first.expr.indices[0])
+    count = 1
+    while start + count < len(body):
+        st = body[start + count]
+        if not (isinstance(st, Store) and st.array == first.array and isinstance(st.expr, sp.Indexed)
+                and str(st.expr.base) == base and flat(st.array, st.index) == dst0 + count
+                and int(st.expr.indices[0]) == src0 + count):
+            break
+        count += 1
+    return (count, dst0, base, src0) if count >= 4 else None
+
+
 def _table_name(table: tuple[int, ...]) -> str:
     """The module-level name of a kernel call's integer table (one per distinct table)."""
     return f"_KT{abs(hash(table)) % 10**12:012d}"
@@ -245,8 +279,22 @@ def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
                     for i, line in enumerate(fn.doc))
     lines = ["@_jit", f"def {fn.name}({', '.join(fn.args)}):", f'    """{doc}\n    """']
     count = [0]
-    for st in fn.body:
+    ncols: dict[str, int] = {"out": fn.shape[1] if len(fn.shape) == 2 else 0}
+    position = 0
+    while position < len(fn.body):
+        st = fn.body[position]
+        if isinstance(st, Array):
+            ncols[st.name] = st.shape[1] if len(st.shape) == 2 else 0
+        run = _copy_run(fn.body, position,
+                        lambda a, i: i[0] * ncols[a] + i[1] if len(i) == 2 else i[0])
+        if run is not None:              # a block of a kernel's outputs: one slice copy
+            n, dst, src, first = run
+            target = st.array if not ncols[st.array] else f"{st.array}.reshape(-1)"
+            lines.append(f"    {target}[{dst}:{dst + n}] = {src}[{first}:{first + n}]")
+            position += n
+            continue
         _python_statement(st, pr, lines, count)
+        position += 1
     lines.append("    return out")
     return "\n".join(lines)
 
@@ -408,7 +456,16 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
     linkage = "PH_HIDDEN" if fn.name in LOOP_FUNCTIONS else "static"
     lines = [f"{comment}\n */", f"{linkage} void {fn.name}({params}, double *out)", "{",
              "    " + " ".join(f"(void){arg};" for arg in fn.args)]
-    for st in fn.body:
+    position = 0
+    while position < len(fn.body):
+        st = fn.body[position]
+        run = _copy_run(fn.body, position, lambda a, i: _c_flat(i, shapes[a]))
+        position += 1
+        if run is not None:              # a block of a kernel's outputs: one copy
+            n, dst, src, first = run
+            lines.append(f"    memcpy({st.array} + {dst}, {src} + {first}, sizeof(double) * {n});")
+            position += n - 1
+            continue
         if isinstance(st, Let):
             lines.append(f"    const double {st.name} = {pr(st.expr)};")
         elif isinstance(st, Array):

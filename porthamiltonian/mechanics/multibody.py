@@ -29,8 +29,9 @@ the same numbers (docs/multibody.md):
   (:mod:`.tree`): exact zeros fold (a planar walker's code is small and fast), the code grows as
   about N² along an N-link chain, and much faster with axes that are not coordinate axes; the
   Jacobian follows by the chain rule through the intermediates;
-* ``"auto"`` (default): the kernel when an axis is not a coordinate axis or the tree has more
-  than :data:`KERNEL_LINKS` links (and its tables depend on parameters only), else symbolic.
+* ``"auto"`` (default): the kernel when an axis is not along a coordinate axis or the tree has
+  more than :data:`KERNEL_LINKS` links (and its tables depend on parameters only), else
+  symbolic.
 
 Frames and conventions
 ----------------------
@@ -95,14 +96,15 @@ from ..errors import ModelError, UnknownComponentError
 from ..modeling.component import Arg, Builder, Component, register
 from ..modeling.ports import Port
 from .bodies import as_tables, expression_fields
-from .joints import AXES, Joint, joint, quaternion_slice, units
+from .joints import Joint, joint, quaternion_slice, units
 from .kernel_tables import FRAME, POINT, WORLD_FRAME, KernelTree, Site
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
 from .tree import COORDINATES, DOFS, Link, Tree, coordinate_rates, quaternion_rotation
 
 #: the largest number of links (one per joint velocity; spherical and free joints count one)
 #: that ``formulation = "auto"`` writes out as symbolic code when every axis is a coordinate axis
-KERNEL_LINKS = 8
+#: (every shipped model: compliant_leg_walker_3d has 9)
+KERNEL_LINKS = 9
 FORMULATIONS = ("auto", "kernel", "symbolic")
 
 
@@ -357,7 +359,8 @@ class Multibody(Component):
                                  f"not {stray[0]}; use formulation = 'symbolic'",
                                  path=("formulation",))
             return True
-        generic = any(link.axis is not None and link.axis not in AXES.values() for link in links)
+        generic = any(link.axis is not None and sum(1 for a in link.axis if a != 0) > 1
+                      for link in links)       # an axis not along a coordinate axis (±)
         return not stray and (generic or len(links) > KERNEL_LINKS)
 
     def _build_kernel(self, b: Builder, bodies: dict[str, Any], plane: str | None,

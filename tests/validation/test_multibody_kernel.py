@@ -167,11 +167,12 @@ def chain(n: int, axis) -> ph.Model:
     return model
 
 
-@pytest.mark.parametrize(("n", "axis", "kernel"), [(3, "y", False), (8, "y", False),
-                                                   (9, "y", True), (2, [0.6, 0, 0.8], True)])
+@pytest.mark.parametrize(("n", "axis", "kernel"), [(3, "y", False), (9, "y", False),
+                                                   (3, [0, 0, -1], False), (10, "y", True),
+                                                   (2, [0.6, 0, 0.8], True)])
 def test_auto_formulation_writes_out_small_trees_on_coordinate_axes_only(n, axis, kernel):
-    """``formulation = "auto"``: the kernel for a generic axis or more than 8 links, the symbolic
-    recursion otherwise (where it folds to little code)."""
+    """``formulation = "auto"``: the kernel for an axis off the coordinate axes or more than 9
+    links, the symbolic recursion otherwise (where it folds to little code)."""
     sym = ph.compiler.symbolic(chain(n, axis))
     assert bool(sym.calls) == kernel
 
