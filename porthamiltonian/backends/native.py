@@ -130,19 +130,19 @@ class Pending:
             self.process.wait()
         self._tmp.cleanup()
 
-    def result(self, log_dir: Path | None) -> tuple[bytes, float]:
+    def result(self, log_dir: Path | None, log_as: Path | None = None) -> tuple[bytes, float]:
         """Wait for the compile: (the object's bytes, seconds since it started); a failure
-        raises CompilerError with its command and log (in ``log_dir``, or a kept temporary
-        file)."""
+        raises CompilerError with its command and log (in ``log_dir``, named after ``log_as``
+        when given, or a kept temporary file)."""
         try:
             if self.process is None:        # no compiler, or it could not start: say why
-                return build(self.source, log_dir, (), object_only=True)
+                return build(self.source, log_dir, (), object_only=True, log_as=log_as)
             status = self.process.wait()
             seconds = time.perf_counter() - self.start
             if status == 0 and self.out.is_file():
                 return self.out.read_bytes(), seconds
-            log = _write_log(self.source, log_dir, self.command, f"exit status {status}",
-                             self.log.read_text(errors="replace"))
+            log = _write_log(log_as or self.source, log_dir, self.command,
+                             f"exit status {status}", self.log.read_text(errors="replace"))
             raise CompilerError(f"the C compiler failed (exit status {status}) building "
                                 f"{self.source.name}: {shlex.join(self.command)}; its output is "
                                 f"in {log}. Set CC to a working C compiler, or choose the numba "
@@ -184,24 +184,26 @@ def object_key(text: str) -> str:
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
-def compile_object(text: str, name: str, log_dir: Path | None = None) -> tuple[bytes, float]:
+def compile_object(text: str, name: str, log_dir: Path | None = None,
+                   log_as: Path | None = None) -> tuple[bytes, float]:
     """Compile the C source ``text`` (e.g. a kernel, sources.c_object_source) into a
-    position-independent object file; (its bytes, seconds). Errors as :func:`build`."""
+    position-independent object file; (its bytes, seconds). Errors as :func:`build` (the log
+    named after ``log_as``, e.g. the model's unit that needs the object, when given)."""
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
         source = Path(tmp) / f"{name}.c"
         source.write_text(text)
-        return build(source, log_dir, (), object_only=True)
+        return build(source, log_dir, (), object_only=True, log_as=log_as)
 
 
 def build(source: Path, log_dir: Path | None, objects: tuple[Path, ...] = (),
-          object_only: bool = False) -> tuple[bytes, float]:
+          object_only: bool = False, log_as: Path | None = None) -> tuple[bytes, float]:
     """Compile the translation unit ``source`` into a shared library linked with ``objects``
     (or, ``object_only``, into an object file); (its bytes, seconds).
 
     The library is written in a private temporary folder (the caller stores it). On failure a
     :class:`~porthamiltonian.errors.CompilerError` shows the command and the file holding the
-    compiler's output: ``log_dir/<source>.log`` (the cache entry), or a kept temporary file when
-    ``log_dir`` is None."""
+    compiler's output: ``log_dir/<source>.log`` (the cache entry; ``<log_as>.log`` when given),
+    or a kept temporary file when ``log_dir`` is None."""
     cc = compiler()
     if cc is None:
         raise CompilerError(_NO_COMPILER)
@@ -222,7 +224,7 @@ def build(source: Path, log_dir: Path | None, objects: tuple[Path, ...] = (),
         if failure is None:
             return out.read_bytes(), seconds
     what, output = failure
-    log = _write_log(source, log_dir, command, what, output)
+    log = _write_log(log_as or source, log_dir, command, what, output)
     raise CompilerError(f"the C compiler failed ({what}) building {source.name}: "
                         f"{shlex.join(command)}; its output is in {log}. Set CC to a working C "
                         "compiler, or choose the numba or python back end")

@@ -168,9 +168,11 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
         if _C_FAILED and not explicit:
             raise CompilerError(_C_FAILED[0])
         source = cache.store(key, f"m{key}_c.c", bodies["c"], use_cache)
-        objects = tuple(_kernel_object(name, use_cache, times) for name in meta.get("kernels", ()))
-        data, seconds = native.build(source, source.parent if cache.kept(source) else None,
-                                     objects + (_loop_object(meta, use_cache, times, pending),))
+        log_dir = source.parent if cache.kept(source) else None   # failures: the model's log
+        objects = tuple(_kernel_object(name, use_cache, times, log_dir, source)
+                        for name in meta.get("kernels", ()))
+        objects += (_loop_object(meta, use_cache, times, pending, log_dir, source),)
+        data, seconds = native.build(source, log_dir, objects)
         times["C"] = times.get("C", 0.0) + seconds
         path = cache.store(key, lib_name, data, use_cache)
     try:
@@ -193,31 +195,34 @@ def _start_loop(n: int, n_guards: int, use_cache: bool) -> native.Pending | None
 
 
 def _loop_object(meta: dict, use_cache: bool, times: dict[str, float],
-                 pending: native.Pending | None):
+                 pending: native.Pending | None, log_dir, model_source):
     """The integration loops' object for the model's sizes: cached, or the background compile
-    ``pending`` waited for, or compiled now (the time waited added to ``times["C"]``)."""
+    ``pending`` waited for, or compiled now (the time waited added to ``times["C"]``); a
+    failure is logged as the model's (``log_dir``, named after ``model_source``)."""
     text = native.loop_source(meta["shapes"]["rhs"][0], meta["shapes"]["guards"][0])
     key = native.object_key(text)
     path = cache.verified_path(key, _loop_name()) if use_cache else None
     if path is None:
         start = time.perf_counter()
-        data = (pending.result(None)[0] if pending is not None
-                else native.compile_object(text, "loops")[0])
+        data = (pending.result(log_dir, model_source)[0] if pending is not None
+                else native.compile_object(text, "loops", log_dir, model_source)[0])
         times["C"] = times.get("C", 0.0) + time.perf_counter() - start
         path = cache.store(key, _loop_name(), data, use_cache)
     return path
 
 
-def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float]):
+def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_dir,
+                   model_source):
     """The compiled object of ``kernel`` (:mod:`porthamiltonian.mechanics.sources`), from the
     cache (an entry of its own, keyed by its source and the compiler) or compiled now (its time
-    added to ``times["C"]``): one compile serves every model that calls the kernel."""
+    added to ``times["C"]``; a failure logged as the model's): one compile serves every model
+    that calls the kernel."""
     text = c_object_source(kernel)
     key = native.object_key(text)
     name = f"{kernel}_{sys.platform}.o"
     path = cache.verified_path(key, name) if use_cache else None
     if path is None:
-        data, seconds = native.compile_object(text, kernel)
+        data, seconds = native.compile_object(text, kernel, log_dir, model_source)
         times["C"] = times.get("C", 0.0) + seconds
         path = cache.store(key, name, data, use_cache)
     return path
