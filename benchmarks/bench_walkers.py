@@ -45,15 +45,20 @@ Measured:
   generated RHS (python back end), RHS / Jacobian evaluations and accepted steps per step;
 * by back end (issue 11): the same walk on the C, numba and python back ends with the walker
   file's method (python: one step per round, it is slow), the configuration before issue 11
-  (numba, Rodas4 at rtol 1e-8) and Rodas4 at rtol 1e-8 on C, and — for the compass walker — the
-  limit baseline: the model written by hand in C (right-hand side and analytic Jacobian) under
-  SUNDIALS CVODE with root finding (benchmarks/cvode_compass_walker.c, built here when
+  (numba, Rodas4 at rtol 1e-8), Rodas4 at rtol 1e-8 on C, QBDF (the compiled BDF that reuses its
+  Jacobian, issue 26) on C at rtol 1e-10, 1e-11, 1e-12 (atol = rtol/100), and — for the compass
+  and the compliant-leg walkers — the limit baseline: the model written by hand in C
+  (right-hand side and exact Jacobian) under SUNDIALS CVODE with root finding
+  (benchmarks/cvode_compass_walker.c, benchmarks/cvode_compliant_leg_walker.c, built here when
   SUNDIALS is installed: ``apt-get install -y libsundials-dev`` on Debian/Ubuntu; without it
-  the script says so and leaves that line out; ``--cvode-rtols``, default 1e-8 … 1e-12, atol =
-  rtol/100, and CVODE's time at the C path's error interpolated on its work-precision line, log-log
-  between the two runs whose errors bracket it). Every variant's error is measured against a
-  reference walk (Rodas5P at rtol 1e-12 on C; the simplest walker: DOP853 at 1e-13), so that
-  the times are compared at known accuracy.
+  the script says so and leaves those lines out; ``--cvode-rtols``, default 1e-8 … 1e-12, atol =
+  rtol/100). For each C variant, CVODE's time at that variant's error is interpolated on
+  CVODE's work-precision line, log-log between the two runs whose errors bracket it: the ratio
+  at equal accuracy. Every variant's error is measured against a reference walk (Rodas5P at
+  rtol 1e-12 on C; the simplest walker: DOP853 at 1e-13), so that the times are compared at
+  known accuracy.
+
+``--walkers`` takes the names above (simplest, compass, legs); any other name is refused.
 """
 from __future__ import annotations
 
@@ -83,7 +88,11 @@ import numpy as np
 from machine import machine_info
 
 WALKERS = ("simplest", "compass", "legs")
-CVODE_SOURCE = ROOT / "benchmarks" / "cvode_compass_walker.c"
+#: the hand-written C + CVODE drivers, by walker
+CVODE_SOURCES = {"compass": ROOT / "benchmarks" / "cvode_compass_walker.c",
+                 "legs": ROOT / "benchmarks" / "cvode_compliant_leg_walker.c"}
+#: the compiled methods' work-precision lines beside the file's method (QBDF: Jacobian reuse)
+QBDF_RTOLS = (1e-10, 1e-11, 1e-12)
 CVODE_LIBS = ("-lsundials_cvode", "-lsundials_nvecserial", "-lsundials_sunmatrixdense",
               "-lsundials_sunlinsoldense", "-lsundials_generic", "-lm")
 
@@ -259,15 +268,16 @@ def compile_times(name: str, backend: str = "") -> dict:
 # ------------------------------------------------------------------------------------------------
 # back ends and the C + CVODE limit baseline
 # ------------------------------------------------------------------------------------------------
-def build_cvode() -> tuple[str | None, str]:
-    """(path of the compiled CVODE driver, or None, and a note saying why not)."""
+def build_cvode(name: str) -> tuple[str | None, str]:
+    """(path of the walker's compiled CVODE driver, or None, and a note saying why not)."""
     from porthamiltonian.backends import native
 
     cc = native.compiler()
     if cc is None:
         return None, "no C compiler"
-    out = Path(tempfile.mkdtemp(prefix="phbench_cvode_")) / "cvode_compass_walker"
-    run = subprocess.run([*cc, "-O2", str(CVODE_SOURCE), "-o", str(out), *CVODE_LIBS],
+    source = CVODE_SOURCES[name]
+    out = Path(tempfile.mkdtemp(prefix="phbench_cvode_")) / source.stem
+    run = subprocess.run([*cc, "-O2", str(source), "-o", str(out), *CVODE_LIBS],
                          capture_output=True, text=True, check=False)
     if run.returncode != 0:
         return None, ("SUNDIALS CVODE not found (apt-get install -y libsundials-dev): "
@@ -276,11 +286,21 @@ def build_cvode() -> tuple[str | None, str]:
     return str(out), check.stdout.strip()
 
 
-def run_cvode(driver: str, z, n: int, repeats: int, rtol=1e-8, atol=1e-10, max_step=0.01) -> dict:
+def run_cvode(name: str, fw, driver: str, z, n: int, repeats: int, rtol=1e-8, atol=1e-10,
+              max_step=0.01) -> dict:
+    """One run of the walker's CVODE driver from the framework's section state z; its section
+    state after the walk in the framework's coordinates as ``z``. The compass driver takes and
+    gives section states (the same coordinates); the compliant-leg one the hand-written state
+    at the touchdown, converted by :class:`FrameworkSection`."""
+    ad = adapter(name, fw)
+    start = z if ad is None else ad.to_y(z)
     out = subprocess.run([driver, str(n), repr(rtol), repr(atol), repr(max_step), str(repeats),
-                          *(repr(float(v)) for v in z)], capture_output=True, text=True,
+                          *(repr(float(v)) for v in start)], capture_output=True, text=True,
                          check=True)
-    return json.loads(out.stdout)
+    res = json.loads(out.stdout)
+    if ad is not None:
+        res["z"] = ad.to_z(np.array(res["y"]), res["lead"]).tolist()
+    return res
 
 
 def backend_variants(name: str) -> dict:
@@ -291,10 +311,14 @@ def backend_variants(name: str) -> dict:
             .with_options(method="Rodas4", rtol=1e-8, atol=1e-10)
         out["c, Rodas4 rtol 1e-8"] = build_framework(name, "c") \
             .with_options(method="Rodas4", rtol=1e-8, atol=1e-10)
+        for rtol in QBDF_RTOLS:
+            out[f"c, QBDF rtol {rtol:g}"] = build_framework(name, "c") \
+                .with_options(method="QBDF", rtol=rtol, atol=rtol * 1e-2)
     return out
 
 
-def bench_backends(name: str, z, args, rec: dict, cvode: tuple[str | None, str]) -> None:
+def bench_backends(name: str, z, args, rec: dict, cvode: dict[str, tuple[str | None, str]]
+                   ) -> None:
     """Time per step of the same walk on each back end (and the C + CVODE baseline), each
     variant's error against a tight reference walk."""
     n = args.steps
@@ -308,12 +332,12 @@ def bench_backends(name: str, z, args, rec: dict, cvode: tuple[str | None, str])
         w.stride(z)
     times: dict[str, list] = {k: [] for k in variants}
     info: dict[str, dict] = {}
-    driver, note = cvode
+    driver, note = cvode.get(name, (None, "not built"))
     cvode_runs: dict[float, list] = {float(r): [] for r in args.cvode_rtols.split(",")}
     for r in range(args.rounds):
-        if name == "compass" and driver is not None:     # interleaved with the framework's
+        if driver is not None:                          # interleaved with the framework's
             for rtol, runs in cvode_runs.items():
-                runs.append(run_cvode(driver, z, n, 1, rtol=rtol, atol=rtol * 1e-2))
+                runs.append(run_cvode(name, base, driver, z, n, 1, rtol=rtol, atol=rtol * 1e-2))
                 print(f"  round {r + 1}: hand C + CVODE rtol {rtol:g}"
                       f"{1e3 * runs[-1]['seconds'][0] / n:30.2f} ms/step", flush=True)
         for label, w in variants.items():
@@ -323,13 +347,14 @@ def bench_backends(name: str, z, args, rec: dict, cvode: tuple[str | None, str])
             times[label].append((time.perf_counter() - t0) / steps)
             tr = out[-1].info["trajectory"]
             info[label] = {"steps": (len(tr.t) - len(tr.segments)) / steps,
+                           "nfev": tr.nfev / steps, "njev": tr.njev / steps, "nlu": tr.nlu / steps,
                            "error": (float(np.max(np.abs(out[-1].z_next - z_ref)))
                                      if steps == n else
                                      float(np.max(np.abs(out[-1].z_next - ref[0].z_next))))}
             print(f"  round {r + 1}: {label:45s} {1e3 * times[label][-1]:9.2f} ms/step",
                   flush=True)
     rows = {k: {"median": statistics.median(v), **info[k]} for k, v in times.items()}
-    if name == "compass" and driver is None:
+    if name in CVODE_SOURCES and driver is None:
         rows["hand C + CVODE"] = {"note": note}
     for rtol, runs in cvode_runs.items():
         if runs:
@@ -346,8 +371,8 @@ def print_backends(report: dict) -> None:
         return
     print("\n## Time per step by back end (median of the interleaved rounds; python: one step per "
           "round for the compliant walkers)")
-    print("\n| walker | variant | [ms/step] | accepted steps per step | error after the walk vs "
-          "the reference | time / C (file's method) |")
+    print("\n| walker | variant | [ms/step] | accepted steps / rhs / jac / LU per step | error "
+          "after the walk vs the reference | time / C (file's method) |")
     print("|---|---|---|---|---|---|")
     for name, rec in report.items():
         rows = rec.get("backends", {})
@@ -356,7 +381,9 @@ def print_backends(report: dict) -> None:
             if "median" not in row:
                 print(f"| {name} | {label} | — ({row.get('note')}) | | | |")
                 continue
-            print(f"| {name} | {label} | {1e3 * row['median']:.2f} | {row['steps']:.0f} | "
+            counts = " / ".join(f"{row[k]:.0f}" if k in row else "—"
+                                for k in ("steps", "nfev", "njev", "nlu"))
+            print(f"| {name} | {label} | {1e3 * row['median']:.2f} | {counts} | "
                   f"{row['error']:.1e} | {row['median'] / c:.2f} |")
         if c is not None and "numba, Rodas4 rtol 1e-8 (before issue 11)" in rows:
             before = rows["numba, Rodas4 rtol 1e-8 (before issue 11)"]["median"]
@@ -364,21 +391,36 @@ def print_backends(report: dict) -> None:
                   "numba loop before issue 11 (target: >= 2x)")
         cv = sorted((row["error"], row["median"]) for label, row in rows.items()
                     if label.startswith("hand C + CVODE") and "median" in row)
-        err = rows.get("c, the file's method", {}).get("error")
-        pair = next(((a, b) for a, b in itertools.pairwise(cv) if a[0] <= (err or 0) <= b[0]), None)
-        if pair is not None and c is not None:
-            (e0, t0), (e1, t1) = pair        # CVODE's work-precision line, log-log between runs
-            t_eq = math.exp(math.log(t0) + (math.log(t1) - math.log(t0))
-                            * (math.log(err) - math.log(e0)) / (math.log(e1) - math.log(e0)))
-            print(f"{name}: at C's error {err:.1e}, CVODE (interpolated between its runs at errors "
-                  f"{e0:.1e} and {e1:.1e}) takes {1e3 * t_eq:.2f} ms/step: C takes "
-                  f"{c / t_eq:.2f}x that (target: <= 1.5x)")
+        for label, row in rows.items():
+            if not label.startswith("c, ") or "median" not in row:
+                continue
+            t_eq = time_at_error(cv, row["error"])
+            if t_eq is not None:
+                print(f"{name}: {label}: at its error {row['error']:.1e}, CVODE (interpolated "
+                      f"log-log between its runs bracketing it) takes {1e3 * t_eq:.2f} ms/step: "
+                      f"{label} takes {row['median'] / t_eq:.2f}x that (target: <= 1.0x)")
+            else:
+                print(f"{name}: {label}: its error {row['error']:.1e} is not bracketed by "
+                      "CVODE's runs")
         for label, row in rows.items():
             if label.startswith("hand C + CVODE") and "median" in row and c is not None:
                 print(f"{name}: C (file's method) takes {c / row['median']:.2f}x the time per step "
-                      f"of {label} (target: <= 1.5x); CVODE's error {row['error']:.1e} vs C's "
+                      f"of {label} (information: unequal errors); CVODE's error "
+                      f"{row['error']:.1e} vs C's "
                       f"{rows['c, the file' + chr(39) + 's method']['error']:.1e}; "
                       f"{row.get('note', '')}")
+
+
+def time_at_error(runs: list[tuple[float, float]], error: float) -> float | None:
+    """The time at ``error`` on a work-precision line, log-log between the two runs (error,
+    time) that bracket it; None when none do."""
+    runs = sorted(runs)
+    pair = next(((a, b) for a, b in itertools.pairwise(runs) if a[0] <= error <= b[0]), None)
+    if pair is None or not pair[0][0] > 0 or pair[1][0] == pair[0][0]:
+        return None
+    (e0, t0), (e1, t1) = pair
+    return math.exp(math.log(t0) + (math.log(t1) - math.log(t0))
+                    * (math.log(error) - math.log(e0)) / (math.log(e1) - math.log(e0)))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -669,7 +711,13 @@ def main(argv=None) -> int:
         args.rounds, args.steps, args.fp_rounds = 1, 3, 1
         args.no_compile, args.fixed_points = True, False
     names = [w.strip() for w in args.walkers.split(",") if w.strip()]
-    args.cvode = build_cvode() if (args.backends and "compass" in names) else (None, "not built")
+    unknown = [w for w in names if w not in WALKERS]
+    if unknown or not names:
+        parser.error(f"unknown walker name(s) {', '.join(map(repr, unknown)) or '(none given)'} "
+                     f"in --walkers; choose from {', '.join(WALKERS)} (simplest = "
+                     "simplest_walker, compass = compass_walker, legs = compliant_leg_walker)")
+    args.cvode = {name: build_cvode(name) for name in names
+                  if args.backends and name in CVODE_SOURCES}
 
     info = machine_info()
     src0 = source_hash()
@@ -707,8 +755,8 @@ def main(argv=None) -> int:
                 report[name]["compile"]["numba"] = compile_times(name, "numba")
     print_tables(report, info, args)
     print_backends(report)
-    if args.backends:
-        print(f"\nC + CVODE baseline: {args.cvode[1]}")
+    for name, (_, note) in args.cvode.items():
+        print(f"\nC + CVODE baseline, {name}: {note}")
     src1 = source_hash()
     print(f"\nload average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}; source "
           f"hash {src1}{'' if src1 == src0 else ' (CHANGED during the run: other sessions edited the library)'}")

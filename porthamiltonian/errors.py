@@ -120,12 +120,32 @@ class StateError(ModelError):
     """An initial state or a state name is wrong (unknown name, wrong length, non-finite)."""
 
 
+class InputError(ModelError):
+    """A model's inputs are bound wrongly at run time: an input left unbound, an unknown input
+    name, a value of the wrong shape or type, samples that do not cover the simulated span."""
+
+
+class PassivityError(ModelError):
+    """A component declared as a dissipator is active (its law would make the port-Hamiltonian
+    form's R indefinite, or its z(w)·w negative); the message names the component."""
+
+
 
 class CompilerError(ModelError):
     """The C back end cannot build a model: no C compiler was found, or it failed. The message
     shows the command and the path of a file holding the compiler's output, and what to do."""
 
 
+class FrameError(ModelError):
+    """Screw quantities (poses, twists, wrenches) combined across different frames, or a matrix
+    that is not a rotation or a pose; the message names the frames or shows the matrix."""
+
+
 class SceneError(ModelError):
     """A scene of the 3D viewer (:mod:`porthamiltonian.interfaces.viewer`) is malformed: a shape, a pose, the
     times, the ground; the message names the body, shape or frame and says what is expected."""
+
+
+class ExportError(ModelError):
+    """A model cannot be exported as asked (e.g. an FMU of a model whose events or actions are
+    Python callables); the message says why and what can be exported instead."""

@@ -60,7 +60,8 @@ def model_settings() -> Callable:
 @pytest.fixture(scope="session")
 def model_run(compile_named, model_settings) -> Callable:
     """``model_run(name)`` -> (CompiledModel, Trajectory) simulated with the model file's own
-    [simulation] settings (t_end, method, rtol, atol, max_step), memoized for the session."""
+    [simulation] settings (t_end, method, rtol, atol, max_step, inputs), memoized for the
+    session."""
     runs: dict[str, tuple] = {}
 
     def _run(name: str):
@@ -68,6 +69,8 @@ def model_run(compile_named, model_settings) -> Callable:
             sim = model_settings(name)
             model = compile_named(name)
             options = {k: sim[k] for k in ("method", "rtol", "atol", "max_step") if k in sim}
+            if model.input_names:
+                options["inputs"] = sim.get("inputs")
             runs[name] = (model, model.simulate(float(sim["t_end"]), dense_output=True, **options))
         return runs[name]
 

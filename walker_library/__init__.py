@@ -3,11 +3,12 @@ description, and their gait analyses.
 
 The package follows its data flow, one sub-package per stage:
 
-* :mod:`.core` — a model file's ``[walker]`` table → a runnable walker: the table as dataclasses
-  (:class:`WalkerSpec`), the names the model provides, :class:`HybridWalker` (the one class that
-  runs every walker), the mode machine, resets, the stride recorder, the exact stride Jacobian,
-  the :class:`Walker` protocol the analyses use, and walker files (:func:`load_walker`,
-  :func:`save_walker`, the shipped walkers by name);
+* :mod:`.core` — a model file's ``[walker]`` table → a runnable walker: the table read into
+  dataclasses (:class:`WalkerSpec`, expressions parsed), checked against the names the model
+  compiles to (a :class:`~.core.plan.WalkerPlan`), compiled and bound into :class:`HybridWalker`
+  (the one class that runs every walker; :func:`build_walker`), the mode machine, resets, the
+  stride recorder, the exact stride Jacobian, the :class:`Walker` protocol the analyses use, and
+  walker files (:func:`load_walker`, :func:`save_walker`, the shipped walkers by name);
 * :mod:`.analyses` — walker → numbers: stride map and fixed points, Floquet multipliers,
   continuation and bifurcations, the gait analysis and its metrics, step-down, basins, the Gait
   Sensitivity Norm, the analyses as sweep case functions, the thesis's calibration checks;
@@ -49,15 +50,16 @@ from .core.hybrid import (
                        Section,
                        Terrain,
                        WalkerSpec,
-                       walker_spec,
 )
 from .core.protocol import ParameterSpec, Stride, Walker
-from .core.walker import HybridWalker
+from .core.reading import walker_spec
+from .core.walker import HybridWalker, build_walker
+from .report import display as _display  # noqa: F401 - registers the results' notebook views
 
 __all__ = [
     "Completion", "ContinuationResult", "FixedPointResult", "FloquetResult", "Foot", "GaitMetrics", "GaitResult",
     "HybridWalker", "Integration", "ParameterPath", "ParameterSpec", "PeriodResult", "Rule", "Section", "Stride",
-    "Terrain", "WalkResult", "Walker", "WalkerSpec", "analyze_gait", "available_walkers",
+    "Terrain", "WalkResult", "Walker", "WalkerSpec", "analyze_gait", "available_walkers", "build_walker",
     "compass_gait", "compass_walker", "compliant_leg_walker", "continue_gait", "detect_period",
     "find_fixed_point", "floquet", "gait_metrics", "iterate", "jacobian", "load_walker",
     "read_walker", "rigid_compass_walker", "rimless_wheel", "save_walker", "simplest_walker",

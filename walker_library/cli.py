@@ -14,10 +14,12 @@
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
     walker export MODEL PATH [--set NAME=VALUE ...]
+    walker export-fmu MODEL --out FILE [--fmi 2|3] [--kind me|cs|both] [--steps N] [--set ...]
 
 MODEL is a walker name from ``models/`` (a walker file: a model file with a ``[walker]`` table, see
 docs/walkers.md; ``walker list`` names them) or a path to such a file; ``export`` writes the
-walker's file with the given parameter values. Every option may be given anywhere after its
+walker's file with the given parameter values, ``export-fmu`` the walker with its mode machine as
+an FMU (docs/fmu.md). Every option may be given anywhere after its
 command (``--backend`` also before it). ``--json`` prints one JSON document (SI units, named
 fields) on stdout; progress goes to stderr. Exit status: 0 on success (including a walker that
 falls or has no gait: those are results), 2 on bad input (unknown model, unknown or
@@ -55,6 +57,7 @@ from .analyses.gait import analyze_gait, gait_start, section_guess, walk
 from .analyses.results import to_json
 from .analyses.robustness import basin, gait_sensitivity_norm, step_down
 from .core.files import available_walkers, load_walker, save_walker
+from .core.fmu import export_walker_fmu
 from .report.labels import describe, is_nondimensional, shown_unit
 from .report.page import multiplier_cells
 
@@ -378,6 +381,14 @@ def cmd_export(args) -> int:
     return 0
 
 
+def cmd_export_fmu(args) -> int:
+    walker = _walker(args)
+    path = export_walker_fmu(walker, args.out, fmi=args.fmi, kind=args.kind, steps=args.steps)
+    print(f"wrote {path}: walker {walker.name} as an FMI {args.fmi}.0 FMU ({args.kind}); its "
+          "heel strikes: outputs walker.heel_strike.count and walker.heel_strike.time")
+    return 0
+
+
 def _guess_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--guess", default=None, metavar="FILE",
                    help="start from the fixed point of a previous `walker gait --json` result "
@@ -521,6 +532,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("model", help=model_help)
     p.add_argument("path", help="the model file to write (.toml)")
     p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION],
+                       help="write the walker (its model and mode machine) as an FMU, starting "
+                            "from its initial guess; docs/fmu.md")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--out", required=True, metavar="FILE", help="the FMU to write (walker.fmu)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="FMI version: 2 (2.0, default) or 3 (3.0)")
+    p.add_argument("--kind", choices=("me", "cs", "both"), default="cs",
+                   help="co-simulation (cs, default), model exchange (me) or both")
+    p.add_argument("--steps", type=int, default=5, metavar="N",
+                   help="the default stop time is N times the walker's max_step_time (default: 5)")
+    p.set_defaults(func=cmd_export_fmu)
     return parser
 
 

@@ -45,9 +45,11 @@ class Functions:
 
     Each takes ``(t, x, p)`` (``initial`` takes ``p``) where ``x`` and ``p`` are float arrays and
     returns a float array. ``backend`` names what produced them. ``loops`` maps a method name
-    (``"Rodas4"``, ``"Rodas5P"``) to its compiled integration loop, ``variational`` to the same
+    (``"Rodas4"``, ``"Rodas5P"``, ``"QBDF"``) to its compiled integration loop, ``variational`` to the same
     loop integrating the sensitivities too (the calling conventions of
-    :mod:`porthamiltonian.integrators`).
+    :mod:`porthamiltonian.integrators`). ``extra`` maps the name of every further generated
+    function (``jac_u``, ``out_jac``, ``jac_p``, the pH form's; see
+    :mod:`porthamiltonian.compiler.codegen`) to its callable, ``(t, x, p)`` like ``jac``.
     """
 
     backend: str
@@ -60,6 +62,7 @@ class Functions:
     matrices: tuple[Callable, ...] = ()
     loops: Mapping[str, Callable] = field(default_factory=dict)
     variational: Mapping[str, Callable] = field(default_factory=dict)
+    extra: Mapping[str, Callable] = field(default_factory=dict)
 
     @property
     def rodas(self) -> Callable:

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from ..integrators import TABLEAUS, python_loops
+from ..integrators import LOOPS, python_loops
 from . import Functions
 
 _HEADERS = {
@@ -29,8 +30,9 @@ def module_text(body: str, backend: str) -> str:
     return _HEADERS[backend] + "\n\n" + body + "\n\n" + python_loops()
 
 
-def load(path: Path, backend: str, n_matrices: int = 0) -> Functions:
-    """Import the generated module at ``path`` and wrap its functions for ``backend``."""
+def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = ()) -> Functions:
+    """Import the generated module at ``path`` and wrap its functions for ``backend``
+    (``extra``: the names of its further generated functions, e.g. ``jac_u``)."""
     module_name = f"_porthamiltonian_generated_{path.stem}"
     module = sys.modules.get(module_name)
     if module is None:
@@ -40,14 +42,16 @@ def load(path: Path, backend: str, n_matrices: int = 0) -> Functions:
         sys.modules[module_name] = module
     f = {name: getattr(module, name) for name in _NAMES}
     matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]
-    loops = {name: getattr(module, f"integrate_{tab.symbol}") for name, tab in TABLEAUS.items()}
-    variational = {name: getattr(module, f"integrate_{tab.symbol}_variational")
-                   for name, tab in TABLEAUS.items()}
+    loops = {name: getattr(module, f"integrate_{symbol}") for name, symbol in LOOPS.items()}
+    variational = {name: getattr(module, f"integrate_{symbol}_variational")
+                   for name, symbol in LOOPS.items()}
     if backend == "python":
         # plain CPython is fastest on Python floats: hand the generated code lists (the caller
         # passes p as a list too, see CompiledModel.native_params)
         def wrap(fn):
             return lambda t, x, p: fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
         return Functions("python", *(wrap(f[n]) for n in _NAMES[:5]), f["initial"],
-                         tuple(wrap(m) for m in matrices), loops, variational)
-    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices), loops, variational)
+                         tuple(wrap(m) for m in matrices), loops, variational,
+                         {name: wrap(getattr(module, name)) for name in extra})
+    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices), loops, variational,
+                     {name: getattr(module, name) for name in extra})

@@ -31,8 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import CompilerError
-from ..integrators import TABLEAUS, c_loops
+from ..errors import CompilerError, OptionError
+from ..integrators import LOOPS, c_loops
 from . import Functions
 
 #: Optimisation and code-generation flags, chosen by measurement on the walkers
@@ -145,8 +145,7 @@ class Pending:
                              f"exit status {status}", self.log.read_text(errors="replace"))
             raise CompilerError(f"the C compiler failed (exit status {status}) building "
                                 f"{self.source.name}: {shlex.join(self.command)}; its output is "
-                                f"in {log}. Set CC to a working C compiler, or choose the numba "
-                                "or python back end")
+                                f"in {log}. {ADVICE}")
         finally:
             self._tmp.cleanup()
 
@@ -177,6 +176,10 @@ _NO_COMPILER = ("no C compiler found: $CC is not set, none of cc, gcc, clang is 
                 "package index), or choose the numba or python back end")
 
 
+#: what a failed build's message advises (the C back end's; an FMU's build says its own)
+ADVICE = "Set CC to a working C compiler, or choose the numba or python back end"
+
+
 def object_key(text: str) -> str:
     """The cache key of an object compiled from ``text`` (by :func:`compile_object`): a hash of
     the text, the compiler command, its flags and the platform."""
@@ -185,25 +188,26 @@ def object_key(text: str) -> str:
 
 
 def compile_object(text: str, name: str, log_dir: Path | None = None,
-                   log_as: Path | None = None) -> tuple[bytes, float]:
+                   log_as: Path | None = None, advice: str = ADVICE) -> tuple[bytes, float]:
     """Compile the C source ``text`` (e.g. a kernel, sources.c_object_source) into a
     position-independent object file; (its bytes, seconds). Errors as :func:`build` (the log
     named after ``log_as``, e.g. the model's unit that needs the object, when given)."""
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
         source = Path(tmp) / f"{name}.c"
         source.write_text(text)
-        return build(source, log_dir, (), object_only=True, log_as=log_as)
+        return build(source, log_dir, (), object_only=True, log_as=log_as, advice=advice)
 
 
 def build(source: Path, log_dir: Path | None, objects: tuple[Path, ...] = (),
-          object_only: bool = False, log_as: Path | None = None) -> tuple[bytes, float]:
+          object_only: bool = False, log_as: Path | None = None,
+          advice: str = ADVICE) -> tuple[bytes, float]:
     """Compile the translation unit ``source`` into a shared library linked with ``objects``
     (or, ``object_only``, into an object file); (its bytes, seconds).
 
     The library is written in a private temporary folder (the caller stores it). On failure a
     :class:`~porthamiltonian.errors.CompilerError` shows the command and the file holding the
     compiler's output: ``log_dir/<source>.log`` (the cache entry; ``<log_as>.log`` when given),
-    or a kept temporary file when ``log_dir`` is None."""
+    or a kept temporary file when ``log_dir`` is None; then ``advice``."""
     cc = compiler()
     if cc is None:
         raise CompilerError(_NO_COMPILER)
@@ -226,8 +230,7 @@ def build(source: Path, log_dir: Path | None, objects: tuple[Path, ...] = (),
     what, output = failure
     log = _write_log(log_as or source, log_dir, command, what, output)
     raise CompilerError(f"the C compiler failed ({what}) building {source.name}: "
-                        f"{shlex.join(command)}; its output is in {log}. Set CC to a working C "
-                        "compiler, or choose the numba or python back end")
+                        f"{shlex.join(command)}; its output is in {log}. {advice}")
 
 
 def _write_log(source: Path, log_dir: Path | None, command: list[str], what: str,
@@ -258,7 +261,7 @@ def _vector(value, size: int, what: str) -> np.ndarray:
     read that many)."""
     array = np.ascontiguousarray(value, dtype=np.float64)
     if array.ndim != 1 or array.shape[0] < size:
-        raise ValueError(f"{what} must be a vector of {size} floats, got shape {array.shape}")
+        raise OptionError(f"{what} must be a vector of {size} floats, got shape {array.shape}")
     return array
 
 
@@ -302,21 +305,23 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Funct
         return out
 
     n_guards = shapes["guards"][0]
-    loops = {name: _loop(getattr(lib, f"ph_integrate_{tab.symbol}"), n, n_params, n_guards)
-             for name, tab in TABLEAUS.items()}
-    variational = {name: _loop(getattr(lib, f"ph_integrate_{tab.symbol}_variational"), n,
+    loops = {name: _loop(getattr(lib, f"ph_integrate_{symbol}"), n, n_params, n_guards)
+             for name, symbol in LOOPS.items()}
+    variational = {name: _loop(getattr(lib, f"ph_integrate_{symbol}_variational"), n,
                                n_params, n_guards, variational=True)
-                   for name, tab in TABLEAUS.items()}
+                   for name, symbol in LOOPS.items()}
     matrices = tuple(function(f"matrix_{k}") for k in range(expected[4]))
+    extra = {name: function(name) for name in shapes
+             if name not in (*_NAMES, "initial") and not name.startswith("matrix_")}
     # (ctypes never unloads a library: the functions stay valid)
     return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops,
-                     variational)
+                     variational, extra)
 
 
 def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
     """The Python face of a compiled loop: the calling convention of
-    porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 14-tuple; with
-    ``variational`` the argument phi0 and the 17-tuple). The stored points (times, states,
+    porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 15-tuple; with
+    ``variational`` the argument phi0 and the 18-tuple). The stored points (times, states,
     events, Φ) come in buffers of the thread's, reused by its next call of this loop (a segment
     between two events is short: a fresh 4096-point buffer per call cost more than the
     segment's Python work); the caller copies what it keeps."""
@@ -339,15 +344,15 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         g = directions.shape[0]
         store_cap = int(store_cap)
         if g > n_guards or terminal.shape != (g,) or not -1 <= int(mask_index) < max(g, 1):
-            raise ValueError(f"{g} event directions for {n_guards} guards (terminal flags "
+            raise OptionError(f"{g} event directions for {n_guards} guards (terminal flags "
                              f"{terminal.shape}, mask index {mask_index})")
         if store_cap < 2 or not 0 < int(n_model) <= n:
-            raise ValueError(f"store_cap {store_cap} (at least 2), n_model {n_model} (1..{n})")
+            raise OptionError(f"store_cap {store_cap} (at least 2), n_model {n_model} (1..{n})")
         m = 0
         if variational:
             phi0 = np.ascontiguousarray(phi0, dtype=np.float64)
             if phi0.ndim != 2 or phi0.shape[0] != n:
-                raise ValueError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
+                raise OptionError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
             m = phi0.shape[1]
         buffers = getattr(local, "buffers", None)
         if buffers is None or buffers[0] != (store_cap, m):
@@ -358,7 +363,7 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         _, ts, ys, ev_t, ev_k, phis = buffers
         th = np.empty(2)
         y = np.empty(n)
-        counts = np.empty(6, dtype=np.int64)
+        counts = np.empty(7, dtype=np.int64)
         extra = ()
         if variational:
             phi = np.empty((n, m))
@@ -371,7 +376,7 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
                        _pointer(counts), *extra)
         c = [int(v) for v in counts]
         out = (status, float(th[0]), y, ts, ys, c[0], c[1], c[2], c[3], c[4], ev_t, ev_k, c[5],
-               float(th[1]))
+               float(th[1]), c[6])
         return out + (phi, phis, float(phi_error[0])) if variational else out
 
     return integrate

@@ -71,22 +71,26 @@ def _parse_header(raw: bytes, path: Path) -> dict:
     return header
 
 
+class _BadRow(Exception):
+    """What is wrong with a row (caught by :func:`scan`, which names the file and line)."""
+
+
 def _parse_row(raw: bytes) -> dict:
-    """A row of the file, or ValueError saying what is wrong with it."""
+    """A row of the file, or :class:`_BadRow` saying what is wrong with it."""
     try:
         row = json.loads(raw)
     except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise ValueError(f"not JSON ({err})") from None
+        raise _BadRow(f"not JSON ({err})") from None
     if not isinstance(row, dict):
-        raise ValueError("not a JSON object")  # noqa: TRY004 - "this row is invalid"
+        raise _BadRow("not a JSON object")
     missing = [k for k in _ROW_KEYS if k not in row]
     if missing:
-        raise ValueError(f"missing {', '.join(missing)}")
+        raise _BadRow(f"missing {', '.join(missing)}")
     cid = row["case_id"]
     if not isinstance(cid, int) or isinstance(cid, bool) or cid < 0:
-        raise ValueError(f"case_id {cid!r} is not a case index")
+        raise _BadRow(f"case_id {cid!r} is not a case index")
     if not isinstance(row["case"], dict) or not isinstance(row["status"], str):
-        raise ValueError("case must be an object and status a string")  # noqa: TRY004
+        raise _BadRow("case must be an object and status a string")
     return row
 
 
@@ -117,7 +121,7 @@ def scan(path: Path, data: bytes) -> Scan:
     for number, raw in enumerate(complete[1:], start=2):
         try:
             rows.append((number, _parse_row(raw)))
-        except ValueError as err:
+        except _BadRow as err:
             kind = "an empty line" if not raw.strip() else "a corrupt row"
             raise SweepFileError(
                 f"{path}, line {number}: {kind} ({err}) before the end of the file; the file was "
@@ -131,7 +135,7 @@ def scan(path: Path, data: bytes) -> Scan:
             rows.append((len(complete) + 1, _parse_row(tail)))
             missing_newline = True
             offset += len(tail)
-        except ValueError:
+        except _BadRow:
             torn = (len(complete) + 1, tail)
     return Scan(header, rows, offset, torn, missing_newline)
 

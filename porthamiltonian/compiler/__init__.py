@@ -2,16 +2,20 @@
 
 Pipeline: :meth:`Model.freeze` (then ``validate``) -> :func:`structure.build_system` ->
 :func:`structure.solve` (causality, loops, dependent storages) -> :func:`assemble.assemble` (state
-equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and Jacobian together) ->
-:mod:`.printers` (Python and C) -> cache -> back end.
+equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and exact Jacobians together) ->
+:mod:`.printers` (Python and C) -> cache -> back end. :mod:`.phform` derives the explicit
+port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
 """
 from __future__ import annotations
 
 import dataclasses
+import json
 import sys
 import time
 from collections import OrderedDict
+from collections.abc import Sequence
 from types import MappingProxyType
+from typing import Any
 
 import sympy
 
@@ -19,12 +23,15 @@ from .. import backends
 from ..backends import module, native
 from ..errors import CompilerError
 from ..mechanics.sources import c_object_source
+from ..modeling.constraints import Constraint
 from ..modeling.model import Model, ModelDescription
-from ..simulation.compiled import CompiledModel
+from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
+from ..simulation.sampling import DiscreteBlock
 from . import cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
 from .literals import printable
+from .phform import ph_form, ph_functions
 from .printers import c_source, kernels, python_source
 from .structure import Solution, build_system, solve
 
@@ -38,13 +45,15 @@ def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     then structure, assembly. Errors carry the path of what they are about
     (:attr:`~porthamiltonian.errors.ModelError.path`)."""
     description = model.freeze() if isinstance(model, Model) else model
-    return assemble(_solved(description.validate()))
+    sym = assemble(_solved(description.validate()))
+    sym.ph_maker = lambda: ph_form(description, sym, _solved(description))
+    return sym
 
 
 #: the solved structures (:func:`structure.build_system` + :func:`structure.solve`, most of the
 #: symbolic work) of the last models of this process, by everything but their events and model
-#: outputs, which only :func:`assemble` reads: a walker runs the compiler on its model without
-#: them (for the names its description may use), then with its own outputs (walker_library.core)
+#: outputs, which only :func:`assemble` reads: a walker asks for its model's :func:`layout` (for
+#: the names its description may use), then compiles it with its own outputs (walker_library.core)
 _SOLVED: OrderedDict[str, tuple[tuple[type, ...], Solution]] = OrderedDict()
 _SOLVED_KEPT = 4
 
@@ -70,8 +79,65 @@ def _solved(description: ModelDescription) -> Solution:
     return solution
 
 
+@dataclasses.dataclass(frozen=True)
+class Layout:
+    """The names a model compiles to, known after the symbolic stage (no code generated):
+    its parameters, states and outputs (port variables, component outputs, energy parts, model
+    outputs) in the compiled model's order, and the components' constraints on parameter
+    values."""
+
+    name: str
+    param_names: tuple[str, ...]
+    state_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+    constraints: tuple[Constraint, ...] = ()
+
+    def to_json(self) -> dict:
+        """The record as a JSON table (``layout.json`` of a cache entry)."""
+        return {"name": self.name, "param_names": list(self.param_names),
+                "state_names": list(self.state_names), "output_names": list(self.output_names),
+                "constraints": [c.to_dict() for c in self.constraints]}
+
+    @classmethod
+    def from_json(cls, data: dict) -> Layout:
+        """The record of a :meth:`to_json` table; KeyError or TypeError when it is not one."""
+        lists = [tuple(data[k]) for k in ("param_names", "state_names", "output_names")]
+        if not all(isinstance(n, str) for names in lists for n in names):
+            raise TypeError("a name is not a string")
+        constraints = tuple(Constraint.from_dict(c) for c in data["constraints"])
+        return cls(str(data["name"]), *lists, constraints)
+
+
+#: the file of a cache entry holding its model's :class:`Layout`
+_LAYOUT_FILE = "layout.json"
+
+
+def layout(model: Model | ModelDescription, use_cache: bool = True) -> Layout:
+    """The :class:`Layout` of ``model`` (a model, or its frozen description): the symbolic
+    compiler's names without code generation, for checking names against a model before it is
+    compiled (a walker's description). Kept in the model's cache entry (``layout.json``,
+    verified by its sha256 like every cached file), so that a model seen before needs no
+    symbolic work; the solved structure is reused by the compile that usually follows
+    (:func:`_solved`). Raises the model's errors as :func:`symbolic` does."""
+    description = model.freeze() if isinstance(model, Model) else model
+    key = cache.model_key(description)
+    stored = cache.load_verified(key, _LAYOUT_FILE) if use_cache else None
+    if stored is not None:
+        try:
+            return Layout.from_json(json.loads(stored))
+        except (KeyError, TypeError, ValueError, AttributeError):
+            pass                          # another version's file: computed and written again
+    sym = symbolic(description)
+    found = Layout(sym.name, tuple(sym.param_names), tuple(sym.state_names), tuple(sym.outputs),
+                   tuple(sym.constraints))
+    if use_cache:
+        cache.store(key, _LAYOUT_FILE, json.dumps(found.to_json(), indent=1))
+    return found
+
+
 def compile_model(model: Model | ModelDescription, backend: str = "auto",
-                  use_cache: bool = True) -> CompiledModel:
+                  use_cache: bool = True, *, jac_p: Sequence[str] | None = None,
+                  ph: bool = False) -> CompiledModel:
     """Compile ``model`` (a model, or its frozen description) for numeric simulation.
 
     Parameters
@@ -89,42 +155,54 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     ``$PORTHAMILTONIAN_QUIET`` is set). With ``backend="c"``, a missing or failing C compiler
     raises :class:`~porthamiltonian.errors.CompilerError` (the command and the file holding
     its output).
+    jac_p : parameter names: also generate ``jac_p``, the exact ∂ẋ/∂p by those parameters
+        (``CompiledModel.parameter_jacobian``; :func:`.codegen.jacobian_function`).
+    ph : also generate the explicit port-Hamiltonian form (:mod:`.phform`): the matrices and the
+        vector [∇H; z; u] at a point (``CompiledModel.ph_matrices``; a compiled model asks for
+        them itself, once, when they are first needed).
     """
     order = backends.candidates(backend)
     description = model.freeze() if isinstance(model, Model) else model
-    key = cache.model_key(description)
-    hit = cache.read(key) if use_cache else None
+    options = {k: v for k, v in (("jac_p", list(jac_p or [])), ("ph", ph)) if v}
+    key = cache.model_key(description, options)
+    meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
     pending = None
-    if hit is None:
+    if meta is None:
         start = time.perf_counter()
         sym = symbolic(description)
+        form = ph_form(description, sym, _solved(description)) if ph else None
         times["symbolic"] = time.perf_counter() - start
         if order[0] == "c" and not _C_FAILED:       # the loops compile while the code is made
             pending = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
         start = time.perf_counter()
-        prog = program(sym)
+        prog = program(sym, jac_p=list(jac_p or []))
+        if form is not None:
+            prog = dataclasses.replace(prog, functions=(*prog.functions,
+                                                        *ph_functions(prog, sym, form)))
         bodies = {"python": python_source(prog), "c": c_source(prog)}
         times["code"] = time.perf_counter() - start
-        meta = {
-            "name": sym.name, "state_names": sym.state_names, "param_names": sym.param_names,
-            "param_defaults": sym.param_defaults, "param_units": sym.param_units,
-            "output_names": list(sym.outputs),
-            "events": [{"name": ev.name, "direction": ev.direction, "terminal": ev.terminal}
-                       for ev, _ in sym.events],
-            "equations": sym.equations, "hamiltonian": str(sym.hamiltonian),
-            "matrices": list(sym.matrices),
-            "shapes": {fn.name: list(fn.shape) for fn in prog.functions},
-            "autonomous": _autonomous(sym),
-            "energy_parts": sym.energy_parts,
-            "constraints": [c.to_dict() for c in sym.constraints],
-            "units": sym.units,
-            "kernels": kernels(prog),
-        }
+        meta = ModelMeta(
+            name=sym.name, state_names=tuple(sym.state_names), param_names=tuple(sym.param_names),
+            param_defaults=tuple(float(v) for v in sym.param_defaults),
+            param_units=tuple(sym.param_units),
+            output_names=tuple(sym.outputs),
+            events=tuple(EventInfo(ev.name, ev.direction, ev.terminal) for ev, _ in sym.events),
+            equations=tuple(sym.equations), hamiltonian=str(sym.hamiltonian),
+            matrices=tuple(sym.matrices),
+            shapes=MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
+            autonomous=_autonomous(sym), energy_parts=tuple(sym.energy_parts),
+            constraints=tuple(sym.constraints), units=MappingProxyType(dict(sym.units)),
+            input_names=tuple(sym.input_names), input_units=tuple(sym.input_units),
+            state_roles=tuple(sym.state_roles),
+            declared_outputs=tuple(sym.declared_outputs), jac_p=tuple(jac_p or ()),
+            discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states),
+                                         f"update_{j}")
+                           for j, (c, period, states, _) in enumerate(sym.discrete)),
+            ph=form.layout() if form is not None else None,
+            kernels=tuple(kernels(prog)), unavailable=MappingProxyType(dict(prog.unavailable)))
         if use_cache:
-            cache.write(key, meta, bodies)
-    else:
-        meta, bodies = hit
+            cache.write(key, meta.to_json(), bodies)
     try:
         for i, name in enumerate(order):
             try:
@@ -145,12 +223,32 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         parts = [f"{k} {v:.1f} s" for k, v in times.items()]
         size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
         note = " (numba compiles it at the first call)" if name == "numba" else ""
-        backends.report(f"building {printable(meta['name'])}: {', '.join(parts)}, "
+        backends.report(f"building {printable(meta.name)}: {', '.join(parts)}, "
                         f"{size:.0f} kB{note}")
-    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key)
+    def rebuild(**more: Any) -> CompiledModel:
+        """This model compiled again with the options ``more`` added (for CompiledModel)."""
+        merged = {"jac_p": list(jac_p or []), "ph": ph, **more}
+        return compile_model(description, backend=backend, use_cache=use_cache, **merged)
+
+    docs = {par_name: par.doc for par_name, par in description.parameters.items()}
+    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
+                         c_source=bodies["c"],
+                         param_docs=[docs.get(n, "") for n in meta.param_names], rebuild=rebuild)
 
 
-def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bool,
+def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
+    """The cache entry's (metadata, code bodies), or (None, {}) on a miss; an entry whose
+    metadata is not this version's record is a miss (it is rebuilt and written again)."""
+    hit = cache.read(key)
+    if hit is None:
+        return None, {}
+    try:
+        return ModelMeta.from_json(hit[0]), hit[1]
+    except (KeyError, TypeError, ValueError, AttributeError):
+        return None, {}
+
+
+def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
           times: dict[str, float], explicit: bool,
           pending: native.Pending | None = None) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
@@ -160,8 +258,8 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
-        return module.load(path, name, len(meta["matrices"]))
-    shapes = {k: tuple(v) for k, v in meta["shapes"].items()}
+        return module.load(path, name, len(meta.matrices), extra_functions(meta))
+    shapes = dict(meta.shapes)
     lib_name = native.library_name(key)
     path = cache.verified_path(key, lib_name) if use_cache else None
     if path is None:
@@ -169,14 +267,14 @@ def _load(name: str, key: str, meta: dict, bodies: dict[str, str], use_cache: bo
             raise CompilerError(_C_FAILED[0])
         source = cache.store(key, f"m{key}_c.c", bodies["c"], use_cache)
         log_dir = source.parent if cache.kept(source) else None   # failures: the model's log
-        objects = tuple(_kernel_object(name, use_cache, times, log_dir, source)
-                        for name in meta.get("kernels", ()))
+        objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
+                        for kernel in meta.kernels)
         objects += (_loop_object(meta, use_cache, times, pending, log_dir, source),)
         data, seconds = native.build(source, log_dir, objects)
         times["C"] = times.get("C", 0.0) + seconds
         path = cache.store(key, lib_name, data, use_cache)
     try:
-        return native.load(path, shapes, len(meta["param_names"]))
+        return native.load(path, shapes, slot_count(meta))
     except OSError as err:
         raise CompilerError(f"the C library {path} cannot be loaded ({err}); remove it to "
                             "rebuild it, or choose the numba or python back end") from None
@@ -194,12 +292,12 @@ def _start_loop(n: int, n_guards: int, use_cache: bool) -> native.Pending | None
     return native.start_object(text, "loops")
 
 
-def _loop_object(meta: dict, use_cache: bool, times: dict[str, float],
+def _loop_object(meta: ModelMeta, use_cache: bool, times: dict[str, float],
                  pending: native.Pending | None, log_dir, model_source):
     """The integration loops' object for the model's sizes: cached, or the background compile
     ``pending`` waited for, or compiled now (the time waited added to ``times["C"]``); a
     failure is logged as the model's (``log_dir``, named after ``model_source``)."""
-    text = native.loop_source(meta["shapes"]["rhs"][0], meta["shapes"]["guards"][0])
+    text = native.loop_source(meta.shapes["rhs"][0], meta.shapes["guards"][0])
     key = native.object_key(text)
     path = cache.verified_path(key, _loop_name()) if use_cache else None
     if path is None:
@@ -226,6 +324,18 @@ def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_di
         times["C"] = times.get("C", 0.0) + seconds
         path = cache.store(key, name, data, use_cache)
     return path
+def slot_count(meta: ModelMeta) -> int:
+    """The length of the parameter vector of a compiled model's functions: its parameters and
+    two slots per input (:func:`.codegen.input_slots`)."""
+    return len(meta.param_names) + 2 * len(meta.input_names)
+
+
+def extra_functions(meta: ModelMeta) -> list[str]:
+    """The generated functions beyond the standard ones (``jac_u``, ``out_jac``, ``jac_p``,
+    the pH form's), by name, from a compiled model's metadata."""
+    standard = {"rhs", "jac", "energy", "outputs", "guards", "initial"}
+    return [name for name in meta.shapes if name not in standard
+            and not name.startswith("matrix_")]
 
 
 def _autonomous(sym: SymbolicModel) -> bool:
@@ -237,4 +347,4 @@ def _autonomous(sym: SymbolicModel) -> bool:
     return not any(TIME in sympy.sympify(e).free_symbols for e in exprs)
 
 
-__all__ = ["SymbolicModel", "compile_model", "power_balance", "symbolic"]
+__all__ = ["Layout", "SymbolicModel", "compile_model", "layout", "power_balance", "symbolic"]

@@ -25,6 +25,7 @@ The residual r(t) = H(t) − H(0) + E_diss(t) − E_in(t) is then zero up to int
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import sympy as sp
 
@@ -66,6 +67,29 @@ class SymbolicModel:
     units: dict[str, str] = field(default_factory=dict)
     #: the components' kernel calls by name (:mod:`porthamiltonian.modeling.calls`)
     calls: dict[str, KernelCall] = field(default_factory=dict)
+    #: the model's inputs (signals bound at run time), their names and units
+    inputs: list[sp.Symbol] = field(default_factory=list)
+    input_names: list[str] = field(default_factory=list)
+    input_units: list[str] = field(default_factory=list)
+    #: the role of each state (:data:`porthamiltonian.modeling.component.STATE_ROLES`)
+    state_roles: list[str] = field(default_factory=list)
+    #: the model's declared outputs y (model-level ``outputs``), in order: the rows of the
+    #: linearization's C and D
+    declared_outputs: list[str] = field(default_factory=list)
+    #: the discrete-time blocks: (component, its period output, its discrete states, their
+    #: values at a sampling instant as expressions of the model)
+    discrete: list[tuple[str, str, list[sp.Symbol], list[sp.Expr]]] = field(default_factory=list)
+    #: makes the explicit port-Hamiltonian form (set by :func:`porthamiltonian.compiler.symbolic`)
+    ph_maker: Any = field(default=None, repr=False, compare=False)
+
+    def ph_form(self) -> Any:
+        """The explicit port-Hamiltonian form [ẋ; w; y] = (J − R)[∇H; z; u] of this model, a
+        :class:`porthamiltonian.compiler.phform.PHForm` (symbolic J, R, the dissipators' z(w),
+        the ports' u)."""
+        if self.ph_maker is None:
+            raise ModelError(f"model {self.name!r}: the port-Hamiltonian form is made by "
+                             "porthamiltonian.symbolic(model).ph_form()")
+        return self.ph_maker()
 
     @property
     def ledger_states(self) -> list[sp.Symbol]:
@@ -127,6 +151,7 @@ def assemble(solution: Solution) -> SymbolicModel:
         units.update(b.output_units)
     parts = energy_parts(energies, outputs)
     units.update({name: "J" for name, _ in parts})
+    units.update({name: i.unit for name, i in flat.inputs.items() if i.unit and i.bind is None})
     symbol_table = _symbol_table(system, outputs)
     for oname, text in flat.outputs.items():
         outputs[oname] = _model_expr(text, f"output:{oname}", symbol_table, system,
@@ -150,9 +175,13 @@ def assemble(solution: Solution) -> SymbolicModel:
 
     matrices = {name: m.xreplace(system.aliases).xreplace(values)
                 for b in system.built.values() for name, m in b.matrices.items()}
+    discrete = [(cname, f"{cname}.T", [state for state, _ in updates],
+                 [v.xreplace(system.aliases).xreplace(values) for _, v in updates])
+                for cname, b in system.built.items() for _, updates in b.samples]
     rhs = [xdot[x] for x in states] + [p_diss, p_in]
     used = [*rhs, H, *outputs.values(), *(g for _, g in events), *matrices.values(),
-            *(e for _, A, b in system.blocks for e in (*A, *b)), *initial]
+            *(e for _, A, b in system.blocks for e in (*A, *b)), *initial,
+            *(v for *_, new in discrete for v in new)]
     return SymbolicModel(
         name=flat.name, states=states, state_names=[str(s) for s in states],
         params=list(system.params.values()), param_names=list(system.params),
@@ -167,6 +196,11 @@ def assemble(solution: Solution) -> SymbolicModel:
         constraints=[c for b in system.built.values() for c in b.constraints],
         units=units,
         calls={name: call for b in system.built.values() for name, call in b.calls.items()},
+        inputs=list(system.inputs.values()), input_names=list(system.inputs),
+        input_units=[i.unit for i in flat.inputs.values() if i.bind is None],
+        state_roles=[s.role for b in system.built.values() for s in b.states],
+        declared_outputs=list(flat.outputs),
+        discrete=discrete,
     )
 
 
@@ -262,7 +296,7 @@ def _model_expr(text: str, key: str, table: dict[str, sp.Symbol], system, where:
     prefix = flat.scopes[key]
     try:
         return parse(text, flat.scope_names(prefix), f"model {flat.name!r} {where}",
-                     lambda ref: table.get(prefix + ref))
+                     lambda ref: table.get(prefix + ref)).xreplace(system.bound)
     except ModelError as err:
         suffix = ("guard",) if key.startswith("event:") else ()
         raise err.within(*flat.paths[key], *suffix) from None

@@ -84,6 +84,7 @@ from typing import Any
 
 import sympy
 
+from ..errors import OptionError
 from ..modeling.model import Model, ModelDescription
 from .codegen import CODEGEN_VERSION
 
@@ -183,17 +184,20 @@ def _base(persistent: bool) -> Path:
 
 
 # --- the key ---------------------------------------------------------------------------------------
-def model_key(model: Model | ModelDescription) -> str:
+def model_key(model: Model | ModelDescription, options: dict | None = None) -> str:
     """A hash of everything that determines the generated code: the model's canonical
     description (:meth:`~porthamiltonian.modeling.model.ModelDescription.canonical`), the source of every
     package module the model's component classes depend on (their modules and, transitively, the
-    package modules those import), the compiler and back-end sources, and the versions of sympy
-    and of the code generator."""
+    package modules those import), the compiler and back-end sources, the versions of sympy
+    and of the code generator, and the compiler's ``options`` (JSON-able; e.g. the parameters
+    of a generated ``jac_p``), when given."""
     description = model.freeze() if isinstance(model, Model) else model
     modules = {type(c).__module__ for c in description.components.values()}
-    blob = json.dumps({"model": description.canonical(),
-                       "classes": _sources_hash(frozenset(modules)),
-                       "sympy": sympy.__version__, "codegen": CODEGEN_VERSION}, sort_keys=True)
+    content = {"model": description.canonical(), "classes": _sources_hash(frozenset(modules)),
+               "sympy": sympy.__version__, "codegen": CODEGEN_VERSION}
+    if options:
+        content["options"] = options
+    blob = json.dumps(content, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
@@ -275,7 +279,7 @@ def write_atomic(path: Path, data: str | bytes) -> None:
 
 def _check_file_name(name: str) -> None:
     if not (isinstance(name, str) and _NAME.fullmatch(name)) or name in (_MANIFEST, _LOCK):
-        raise ValueError(f"cache file name {name!r}: letters, digits, '_', '.', '-' only, not "
+        raise OptionError(f"cache file name {name!r}: letters, digits, '_', '.', '-' only, not "
                          f"{_MANIFEST}")
 
 
@@ -301,7 +305,7 @@ def _manifest(entry: Path) -> dict[str, str] | None:
         files = data["files"]
         if data.get("key") != entry.name or not isinstance(files, dict) or not all(
                 isinstance(k, str) and isinstance(v, str) for k, v in files.items()):
-            raise ValueError("unexpected contents")
+            raise TypeError("unexpected contents")
     except FileNotFoundError:
         if entry.exists():
             _warn(f"compiled-model cache: {path} is missing; the entry is rebuilt")

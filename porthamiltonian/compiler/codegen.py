@@ -14,6 +14,19 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 ``guards(t, x, p)``   the model's event guards
 ``initial(p)``        the initial model states (n) from the parameters
 ``matrix_<k>(t, x, p)`` the named matrices (e.g. mass matrices), in the order of the metadata
+``jac_u(t, x, p)``    ∂ẋ/∂u by the model's inputs, (n + 2) x m (models with inputs)
+``out_jac(t, x, p)``  ∂y/∂[x, u] of the declared outputs y by the model states and inputs
+``jac_p(t, x, p)``    ∂ẋ/∂p by the parameters asked for (``program(model, jac_p=[...])``)
+``update_<j>(t, x, p)`` the new discrete states of discrete-time block j at a sampling instant
+
+The parameter vector ``p`` holds the parameters, then two slots per input (:func:`input_slots`):
+input k of m is ``u_k(t) = p[P + k] + p[P + m + k] t``, so that the compiled functions and loops
+see a bound input (a constant, a held sample, a piece of a linear interpolation) as parameters.
+
+Every Jacobian comes from one algorithm, :func:`jacobian_function`: the derivatives of any
+expressions of the model by any of its symbols (states, inputs, parameters), exact, through the
+intermediates by the forward chain rule and through the implicit blocks by implicit
+differentiation. A new derivative (e.g. ∂ẋ/∂p for parameter sensitivities) is one call of it.
 
 Implicit blocks ``A(t, x, p) v = b(t, x, p)`` (e.g. M(q) q̇ = p of a multibody) are solved
 numerically at the top of every function that needs ``v``; in the Jacobian, v's derivative is
@@ -47,7 +60,7 @@ from .assemble import SymbolicModel
 
 #: Bumped whenever generated code changes meaning; part of the cache key (with a hash of the
 #: kernels' templates, which generated modules include or link).
-CODEGEN_VERSION = "7." + kernel_digest()
+CODEGEN_VERSION = "8." + kernel_digest()
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -158,9 +171,10 @@ class Call:
 @dataclass(frozen=True)
 class CallTangent:
     """A kernel call with tangents, in the Jacobian: the directions of its inputs are the rows
-    ``rows[j]`` — ``("x", i)`` the unit row of state i, ``(array, m)`` row m of the array (``Dw``
-    or ``R``), None a zero row —, each ``ncols`` long; the derivatives of output k go to row m of
-    ``array`` for every ``(k, array, m)`` of ``into`` (the other fields as in :class:`Call`)."""
+    ``rows[j]`` — ``("x", i)`` the unit row of variable i (the Jacobian's column i),
+    ``(array, m)`` row m of the array (``Dw`` or ``R``), None a zero row —, each ``ncols`` long;
+    the derivatives of output k go to row m of ``array`` for every ``(k, array, m)`` of ``into``
+    (the other fields as in :class:`Call`)."""
 
     label: str
     kernel: str
@@ -193,7 +207,9 @@ class Function:
 @dataclass(frozen=True)
 class Program:
     """A model's generated functions and its layout (``n`` integration states, ``n_params``,
-    ``n_guards`` guard slots, ``n_outputs`` output slots; ``header``: raw lines)."""
+    ``n_guards`` guard slots, ``n_outputs`` output slots; ``header``: raw lines;
+    ``unavailable``: (function, why) of the derivatives the model cannot have, e.g. ``out_jac``
+    when a declared output reads a kernel output without tangents)."""
 
     model_name: str
     header: tuple[str, ...]
@@ -202,6 +218,7 @@ class Program:
     n_params: int
     n_guards: int
     n_outputs: int
+    unavailable: tuple[tuple[str, str], ...] = ()
 
 
 # --- building ------------------------------------------------------------------------------------
@@ -209,7 +226,7 @@ def _names(exprs) -> set[str]:
     return {str(s) for e in exprs for s in e.free_symbols}
 
 
-class _Builder:
+class FunctionBuilder:
     """Builds the functions. The intermediates and block solves (the prologue) are cse'd once and
     shared; each function cse's its own results, then takes in dependency order only the prologue
     nodes it needs, then its result."""
@@ -325,7 +342,7 @@ class _Builder:
 
 
 def _expressions(group: tuple) -> list:
-    """The expressions of a group of :meth:`_Builder.function`, in the order of its statements."""
+    """The expressions of a group of :meth:`FunctionBuilder.function`, in the order of its statements."""
     if group[0] in ("statement", "call"):
         return []
     if group[0] == "array":
@@ -340,7 +357,7 @@ def _float(expr: sp.Expr) -> sp.Expr:
 
 def _call_groups(model: SymbolicModel) -> dict[str, tuple[tuple, list]]:
     """Each kernel call of the model's intermediates: name -> (its inputs, [(output index,
-    symbol)]) in the order of the intermediates (see :func:`_gathered`)."""
+    symbol)]) in the order of the intermediates (see :func:`gathered`)."""
     out: dict[str, tuple[tuple, list]] = {}
     for w, e in model.intermediates:
         if isinstance(e, KernelOutput):
@@ -348,10 +365,12 @@ def _call_groups(model: SymbolicModel) -> dict[str, tuple[tuple, list]]:
     return out
 
 
-def _gathered(model: SymbolicModel) -> SymbolicModel:
+def gathered(model: SymbolicModel) -> SymbolicModel:
     """The model with every kernel call's outputs moved to the place of its first output (they
     all read the same inputs, which come before it) and each input that is not a symbol or a
-    number made an intermediate of its own just before them (so that it has a Jacobian row)."""
+    number made an intermediate of its own just before them (so that it has a Jacobian row); the
+    model itself when it has no kernel calls. Idempotent. :func:`symbol_map`,
+    :class:`FunctionBuilder` and :func:`jacobian_function` take a model in this form."""
     if not model.calls:
         return model
     groups: dict[str, list] = {}
@@ -382,18 +401,46 @@ def _gathered(model: SymbolicModel) -> SymbolicModel:
     return dataclasses.replace(model, intermediates=out)
 
 
-def _rhs_reads(model: SymbolicModel) -> set[sp.Symbol]:
-    """The intermediates (and other symbols) the state equations read, directly or through
-    intermediates and implicit blocks."""
+def _reads(model: SymbolicModel, exprs: list) -> set[sp.Symbol]:
+    """The intermediates (and other symbols) ``exprs`` read, directly or through intermediates
+    and the implicit blocks whose unknowns they read."""
     wanted: set[sp.Symbol] = set()
-    for e in model.rhs:
+    for e in exprs:
         wanted |= sp.sympify(e).free_symbols
-    for _, A, b in model.blocks:
-        wanted |= A.free_symbols | b.free_symbols
-    for w, e in reversed(model.intermediates):
-        if w in wanted:
-            wanted |= e.free_symbols
-    return wanted
+    blocks = list(model.blocks)
+    while True:
+        for w, e in reversed(model.intermediates):
+            if w in wanted:
+                wanted |= e.free_symbols
+        read = [blk for blk in blocks if set(blk[0]) & wanted]
+        if not read:
+            return wanted
+        blocks = [blk for blk in blocks if not set(blk[0]) & wanted]
+        for _, A, b in read:
+            wanted |= A.free_symbols | b.free_symbols
+
+
+def _check_call(model: SymbolicModel, name: str, call_name: str, w: sp.Symbol,
+                variables: list[sp.Symbol]) -> None:
+    """The Jacobian ``name`` reads ``w``, an output of the kernel call ``call_name``: a
+    CompilerError when the call has no tangents or a variable is in its table (see
+    :func:`jacobian_function`)."""
+    call = model.calls[call_name]
+    what = f"the kernel call {call_name} ({call.kernel}.{call.entry})"
+    if not call.tangents:
+        raise CompilerError(
+            f"the derivative {name} of model {model.name!r} needs the derivatives of {w}, an "
+            f"output of {what}, which has none: such outputs (e.g. a body's pose) may feed "
+            "outputs, guards and matrices only")
+    in_table = set().union(*(sp.sympify(c).free_symbols for c in call.constants)) \
+        & set(variables)
+    if in_table:
+        names = ", ".join(sorted(str(v) for v in in_table))
+        raise CompilerError(
+            f"the derivative {name} of model {model.name!r} by {names} is not available: "
+            f"{names} enter(s) the numeric tables of {what} (masses, inertias, joint origins, "
+            "points, gravity), through which the kernel has no derivatives; set the "
+            "component's formulation = 'symbolic' to differentiate by them")
 
 
 def derivative(expr: sp.Expr, v: sp.Symbol) -> sp.Expr:
@@ -439,15 +486,21 @@ def _listing(title: str, names: list[str]) -> list[str]:
     return [title] + [f"  [{i}] {name}" for i, name in enumerate(names)]
 
 
-def program(model: SymbolicModel) -> Program:
-    """The model's numeric functions as one intermediate program (see the module docstring)."""
-    model = _gathered(model)
+def symbol_map(model: SymbolicModel) -> dict[sp.Symbol, sp.Expr]:
+    """The model's symbols as generated code names them: states and ledger states ``x[i]``,
+    parameters ``p[j]``, input k ``p[P + k] + p[P + m + k]·t`` (:func:`input_slots`), time
+    ``t``, intermediates ``w<i>``, the outputs of kernel call i ``kern<i>o[k]`` (read from the
+    call's array) and the implicit blocks' unknowns ``v<i>``. ``model``: as :func:`gathered`
+    returns it."""
     x = sp.IndexedBase("x")
     p = sp.IndexedBase("p")
     all_states = [*model.states, *model.ledger_states]
     mapping: dict[sp.Symbol, sp.Expr] = {s: x[i] for i, s in enumerate(all_states)}
     mapping.update({s: p[j] for j, s in enumerate(model.params)})
     mapping[TIME] = sp.Symbol("t")
+    n_par, n_in = len(model.params), len(model.inputs)
+    mapping.update({u: p[n_par + k] + p[n_par + n_in + k] * mapping[TIME]
+                    for k, u in enumerate(model.inputs)})
     ws = [w for w, _ in model.intermediates]
     vs = [s for syms, _, _ in model.blocks for s in syms]
     mapping.update({w: sp.Symbol(f"w{i}") for i, w in enumerate(ws)})
@@ -455,10 +508,28 @@ def program(model: SymbolicModel) -> Program:
     for i, (_, outs) in enumerate(_call_groups(model).values()):   # read from the call's array
         array = sp.IndexedBase(f"kern{i}o")
         mapping.update({w: array[k] for k, w in outs})
-    builder = _Builder(mapping, model)
+    return mapping
+
+
+def input_slots(names: list[str]) -> list[str]:
+    """The names of the parameter-vector slots of the inputs ``names``: input k of m reads
+    u_k(t) = p[P + k] + p[P + m + k] · t (P parameters before them), so that a constant, a
+    held sample or one piece of a linear interpolation is bound by setting two numbers
+    (:mod:`porthamiltonian.simulation.inputs`)."""
+    return [f"{n} (input, at t = 0)" for n in names] + [f"{n} (input, rate)" for n in names]
+
+
+def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
+    """The model's numeric functions as one intermediate program (see the module docstring).
+
+    ``jac_p``: parameter names whose Jacobian ``jac_p`` (∂ẋ/∂p over those parameters, in that
+    order) is generated too, by the chain rule of ``jac``."""
+    model = gathered(model)
+    all_states = [*model.states, *model.ledger_states]
+    builder = FunctionBuilder(symbol_map(model), model)
     n = len(all_states)
     state_names = [str(s) for s in all_states]
-    param_names = [str(s) for s in model.params]
+    param_names = [str(s) for s in model.params] + input_slots(model.input_names)
     args_doc = (_listing(f"x: the state ({n}):", state_names)
                 + _listing(f"p: the parameters ({len(param_names)}):", param_names))
     outputs = list(model.outputs)
@@ -475,7 +546,7 @@ def program(model: SymbolicModel) -> Program:
     functions = [
         builder.function("rhs", doc(f"dx/dt of model {model.name!r}: out[i] = d(x[i])/dt.", []),
                          [("array", "out", model.rhs, (n,))], (n,)),
-        _jacobian_function(builder, model, all_states, ws, vs, doc(
+        jacobian_function(builder, model, "jac", model.rhs, all_states, doc(
             f"The Jacobian of rhs of model {model.name!r}: out[i, j] = d(rhs[i])/d(x[j]), "
             f"{n} x {n}, row-major.", [])),
         builder.function("energy", doc(f"The energy ledger's rates of model {model.name!r}.",
@@ -499,10 +570,76 @@ def program(model: SymbolicModel) -> Program:
             f"matrix_{k}", doc(f"The matrix {name!r} of model {model.name!r}, "
                                f"{matrix.shape[0]} x {matrix.shape[1]}, row-major.", []),
             [("array", "out", list(matrix), matrix.shape)], tuple(matrix.shape)))
+    unavailable: dict[str, str] = {}
+    functions += _derivative_functions(builder, model, jac_p or [], doc, unavailable)
     header = (f"Generated by porthamiltonian for model {model.name!r}. Do not edit.",
               *_listing("State layout x:", state_names),
               *_listing("Parameter layout p:", param_names))
-    return Program(model.name, header, tuple(functions), n, len(param_names), n_guards, n_out)
+    return Program(model.name, header, tuple(functions), n, len(param_names), n_guards, n_out,
+                   tuple(unavailable.items()))
+
+
+def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p: list[str],
+                          doc, unavailable: dict[str, str]) -> list[Function]:
+    """The exact Jacobians beside ``jac``, each by :func:`jacobian_function`: ``jac_u``
+    (∂ẋ/∂u, when the model has inputs), ``out_jac`` (∂y/∂[x, u] of the declared outputs y,
+    when it declares some; not generated, and why in ``unavailable``, when one of them reads a
+    kernel output without tangents, e.g. a kernel multibody's body pose) and ``jac_p`` (∂ẋ/∂p
+    over the parameters ``jac_p``)."""
+    out: list[Function] = []
+    n = len(model.rhs)
+    states = list(model.states)
+    if model.inputs:
+        out.append(jacobian_function(builder, model, "jac_u", model.rhs, model.inputs, doc(
+            f"The Jacobian of rhs of model {model.name!r} by its inputs: out[i, k] = "
+            f"d(rhs[i])/d(u[k]), {n} x {len(model.inputs)}, row-major.",
+            _listing("inputs u:", model.input_names))))
+    blocked = _without_tangents(model, [model.outputs[y] for y in model.declared_outputs])
+    if blocked:
+        unavailable["out_jac"] = (
+            f"model {model.name!r}: the declared output(s) "
+            f"{', '.join(repr(model.declared_outputs[i]) for i in blocked)} read values that "
+            "its kernel evaluates without derivatives (a multibody's body pose), so C and D of "
+            "a linearization are not available; declare a point's position "
+            "('<multibody>.<point>.x') instead, or set the multibody's formulation = "
+            "'symbolic'")
+    elif model.declared_outputs:
+        ys = [model.outputs[name] for name in model.declared_outputs]
+        out.append(jacobian_function(builder, model, "out_jac", ys, states + model.inputs, doc(
+            f"The Jacobian of the declared outputs y of model {model.name!r} by the model "
+            f"states and the inputs: out[i, j] = d(y[i])/d([x, u][j]), {len(ys)} x "
+            f"{len(states) + len(model.inputs)}, row-major.",
+            _listing("outputs y:", model.declared_outputs))))
+    for j, (component, _, states_j, values) in enumerate(model.discrete):
+        out.append(builder.function(f"update_{j}", doc(
+            f"The sampling of the discrete-time block {component!r} of model {model.name!r}: "
+            "the new values of its discrete states from the state just before the instant.",
+            _listing(f"out ({len(values)}):", [str(s) for s in states_j])),
+            [("array", "out", values, (len(values),))], (len(values),)))
+    if jac_p:
+        index = {str(s): s for s in model.params}
+        unknown = [name for name in jac_p if name not in index]
+        if unknown:
+            from ..errors import UnknownParameterError
+            raise UnknownParameterError(
+                f"model {model.name!r} has no parameter(s) {', '.join(unknown)} for jac_p; "
+                f"parameters: {', '.join(index) or 'none'}")
+        out.append(jacobian_function(builder, model, "jac_p", model.rhs,
+                                     [index[name] for name in jac_p], doc(
+            f"The Jacobian of rhs of model {model.name!r} by parameters: out[i, k] = "
+            f"d(rhs[i])/d(p[k]), {n} x {len(jac_p)}, row-major.",
+            _listing("parameters:", list(jac_p)))))
+    return out
+
+
+def _without_tangents(model: SymbolicModel, exprs: list) -> list[int]:
+    """The indices of ``exprs`` that read (through intermediates) an output of a kernel call
+    without tangents."""
+    if not model.calls:
+        return []
+    blocked = {w for w, e in model.intermediates
+               if isinstance(e, KernelOutput) and not model.calls[e.call].tangents}
+    return [i for i, e in enumerate(exprs) if _reads(model, [e]) & blocked]
 
 
 def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
@@ -518,7 +655,7 @@ def _position_level(model: SymbolicModel, vs: list[sp.Symbol]) -> int:
 
 class _Columns:
     """Which columns (states) each row of the Jacobian's work arrays can be nonzero in, followed
-    through the statements of :func:`_jacobian_function` in their order (bit j: column j)."""
+    through the statements of :func:`jacobian_function` in their order (bit j: column j)."""
 
     def __init__(self, rows: int):
         self.masks = [0] * rows
@@ -542,66 +679,74 @@ def _span(mask: int) -> tuple[int, int]:
     return ((mask & -mask).bit_length() - 1, mask.bit_length()) if mask else (0, 0)
 
 
-def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc) -> Function:
-    """∂ẋ/∂x through intermediates w, implicit blocks A v = b (A and b read states and
-    position-level intermediates only) and kernel calls, with only the nonzero partials:
+def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str, exprs: list,
+                      variables: list[sp.Symbol], doc: list[str]) -> Function:
+    """The function ``name``: the exact Jacobian ∂exprs/∂variables, ``len(exprs)`` x
+    ``len(variables)``, of expressions of the model (its right-hand side, its outputs) by any of
+    its symbols — states, inputs, parameters — through intermediates w, implicit blocks A v = b
+    (A and b read states and position-level intermediates only) and kernel calls, with only the
+    nonzero partials. One algorithm for ``jac`` (by the states), ``jac_u`` (by the inputs),
+    ``out_jac`` and ``jac_p`` (by parameters): with z the variables,
 
-    Dw = ∂w/∂x; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows,
+    Dw = ∂w/∂z; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows,
     in segments between the kernel calls, each of which sets its outputs' rows from its inputs'
-    (:class:`CallTangent`); R = A⁻¹ (∂r/∂x + ∂r/∂w · Dw) = ∂v/∂x with r = b − A v at fixed v
-    (implicit differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
-    velocity-level rows (and calls); out = ∂ẋ/∂x + ∂ẋ/∂w · Dw + ∂ẋ/∂v · R. In a model with kernel
-    calls only the intermediates the state equations read get rows (``ws`` is not used: Dw's rows
-    are those). Each row
-    operation is told the columns its source row can be nonzero in (a position-level row: the
-    coordinates it reads; no row: the ledger quadratures).
+    (:class:`CallTangent`: a variable among the call's inputs is a unit row, another symbol a
+    zero row); R = A⁻¹ (∂r/∂z + ∂r/∂w · Dw) = ∂v/∂z with r = b − A v at fixed v (implicit
+    differentiation); Dw[velocity-level rows] += ∂w/∂v · R; the chain rule over the
+    velocity-level rows (and calls); out = ∂e/∂z + ∂e/∂w · Dw + ∂e/∂v · R. In a model with
+    kernel calls only the intermediates ``exprs`` read get rows. Each row operation is told the
+    columns its source row can be nonzero in (a position-level row: the variables it reads; no
+    row: e.g. the ledger quadratures).
+
+    The kernel's tangents are by its inputs (states, port efforts), not by its table of
+    constants: a variable in a table (a parameter that is a body's mass, a joint's origin, ...)
+    raises a CompilerError naming it, as does an output without tangents (a body's pose) that
+    ``exprs`` read. ``model``: as :func:`gathered` returns it.
     """
-    # with kernel calls (many outputs read by outputs and matrices only), rows only for what the
-    # state equations read; without, every intermediate (the walkers' code kept as it was)
-    reads = _rhs_reads(model) if model.calls else {w for w, _ in model.intermediates}
+    vs = [s for syms, _, _ in model.blocks for s in syms]
+    # with kernel calls (many outputs read by outputs and matrices only), rows only for what
+    # exprs read; without, every intermediate (the walkers' code kept as it was)
+    reads = _reads(model, exprs) if model.calls else {w for w, _ in model.intermediates}
     npos = sum(1 for w, _ in model.intermediates[:_position_level(model, vs)] if w in reads)
     rows = [(w, e) for w, e in model.intermediates if w in reads]     # the rows of Dw
     ws = [w for w, _ in rows]
-    n, nw, nv = len(xs), len(ws), len(vs)
-    rhs = list(model.rhs)
+    nrows, ncols, nw, nv = len(exprs), len(variables), len(ws), len(vs)
     row_of = {w: m for m, w in enumerate(ws)}
     calls = {w: e for w, e in rows if isinstance(e, KernelOutput)}
     defs = [sp.S.Zero if w in calls else e for w, e in rows]
     barriers: dict[int, str] = {}            # row of a call's first output -> the call
     for m, (w, e) in enumerate(rows):
         if w in calls and e.call not in barriers.values():
-            if not model.calls[e.call].tangents:
-                raise CompilerError(
-                    f"the state equations read {w}, an output of the kernel call {e.call} "
-                    f"({model.calls[e.call].kernel}.{model.calls[e.call].entry}), which has no "
-                    "derivatives: such outputs (e.g. a body's orientation quaternion) may feed "
-                    "outputs, guards and matrices only")
+            _check_call(model, name, e.call, w, variables)
             barriers[m] = e.call
-    groups: list[tuple] = [("entries", "out", jacobian(rhs, xs), (n, n))]
+    groups: list[tuple] = [("entries", "out", jacobian(exprs, variables), (nrows, ncols))]
     chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
     chain_rows = [m for m, _, _ in chain]
     dw, r = _Columns(nw), _Columns(nv)
     chain_ranges: list[tuple[int, int]] = []
-    x_index = {x: i for i, x in enumerate(xs)}
+    z_index = {z: i for i, z in enumerate(variables)}
     v_index = {v: i for i, v in enumerate(vs)}
 
     def chain_rule(start: int, stop: int) -> list[tuple]:
         for m, j, _ in chain[start:stop]:
             chain_ranges.append(_span(dw.masks[j]))
             dw.masks[m] |= dw.masks[j]
-        return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, n, "glo", "ghi"))] \
-            if stop > start else []
+        return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, ncols, "glo",
+                                        "ghi"))] if stop > start else []
 
-    def tangent(name: str) -> tuple:
-        label, constants, inputs, outs = builder.calls[name]
-        call = model.calls[name]
-        source = _call_groups(model)[name][0]
+    def tangent(call_name: str) -> list[tuple]:
+        """The call with tangents (none when no input depends on the variables: its outputs'
+        rows stay zero, e.g. the state equations' kernel call in ∂/∂u of a model whose input
+        reaches no site)."""
+        label, constants, inputs, outs = builder.calls[call_name]
+        call = model.calls[call_name]
+        source = _call_groups(model)[call_name][0]
         rows: list[tuple[str, int] | None] = []
         mask = 0
         for u in source:
-            if u in x_index:
-                rows.append(("x", x_index[u]))
-                mask |= 1 << x_index[u]
+            if u in z_index:
+                rows.append(("x", z_index[u]))
+                mask |= 1 << z_index[u]
             elif u in row_of:
                 rows.append(("Dw", row_of[u]))
                 mask |= dw.masks[row_of[u]]
@@ -610,11 +755,13 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
                 mask |= r.masks[v_index[u]]
             else:
                 rows.append(None)
+        if not mask:
+            return []
         into = tuple((i, "Dw", row_of[w]) for i, w in outs if w in row_of)
         for _, _, m in into:
             dw.masks[m] = mask
-        return ("call", CallTangent(f"t{label}", call.kernel, call.entry, call.table, constants,
-                                    inputs, call.n_outputs, n, tuple(rows), into))
+        return [("call", CallTangent(f"t{label}", call.kernel, call.entry, call.table, constants,
+                                     inputs, call.n_outputs, ncols, tuple(rows), into))]
 
     def segments(first: int, last: int, cursor: int) -> tuple[list[tuple], int]:
         """The chain rule over the rows first .. last - 1 (from chain entry ``cursor``) with the
@@ -623,23 +770,23 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
         for m0 in sorted(b for b in barriers if first <= b < last):
             stop = bisect.bisect_left(chain_rows, m0)
             out += chain_rule(cursor, stop)
-            out.append(tangent(barriers[m0]))
+            out += tangent(barriers[m0])
             cursor = stop
         stop = bisect.bisect_left(chain_rows, last)
         return out + chain_rule(cursor, stop), stop
 
     cursor = 0
     if nw:
-        entries = jacobian(defs, xs)
+        entries = jacobian(defs, variables)
         dw.set(entries)
-        groups.append(("entries", "Dw", entries, (nw, n)))
+        groups.append(("entries", "Dw", entries, (nw, ncols)))
         more, cursor = segments(0, npos, 0)
         groups += more
     if nv:
         A = sp.diag(*[blk[1] for blk in model.blocks])
         b = sp.Matrix.vstack(*[blk[2] for blk in model.blocks])
         res = list(b - A * sp.Matrix(vs))
-        entries, product = jacobian(res, xs), jacobian(res, ws)
+        entries, product = jacobian(res, variables), jacobian(res, ws)
         r.set(entries)
         dw_ranges = dw.ranges()
         dw.add(r, product)
@@ -648,26 +795,27 @@ def _jacobian_function(builder: _Builder, model: SymbolicModel, xs, ws, vs, doc)
             union |= m
         r.masks = [union] * nv                  # the solve mixes the rows
         velocity = [(npos + i, j, e) for i, j, e in jacobian(defs[npos:], vs)]
-        groups += [("entries", "R", entries, (nv, n)),
+        groups += [("entries", "R", entries, (nv, ncols)),
                    ("array", "Ab", list(A), (nv, nv)),
-                   ("product", "R", product, (nv, nw), "Dw", n, dw_ranges),
-                   ("statement", SolveRows("Ab", "R", nv, n)),
-                   ("product", "Dw", velocity, (nw, nv), "R", n, r.ranges())]
+                   ("product", "R", product, (nv, nw), "Dw", ncols, dw_ranges),
+                   ("statement", SolveRows("Ab", "R", nv, ncols)),
+                   ("product", "Dw", velocity, (nw, nv), "R", ncols, r.ranges())]
         r.add(dw, velocity)
     if nw:
         more, cursor = segments(npos, nw, cursor)
         groups += more
-    groups += [("product", "out", jacobian(rhs, ws), (n, nw), "Dw", n, dw.ranges()),
-               ("product", "out", jacobian(rhs, vs), (n, nv), "R", n, r.ranges())]
+    groups += [("product", "out", jacobian(exprs, ws), (nrows, nw), "Dw", ncols, dw.ranges()),
+               ("product", "out", jacobian(exprs, vs), (nrows, nv), "R", ncols, r.ranges())]
     if chain:
         groups[1:1] = [("array", "g", [e for _, _, e in chain], (len(chain),)),
                        ("statement", IndexTable("gr", tuple(m for m, _, _ in chain))),
                        ("statement", IndexTable("gc", tuple(j for _, j, _ in chain))),
                        ("statement", IndexTable("glo", tuple(lo for lo, _ in chain_ranges))),
                        ("statement", IndexTable("ghi", tuple(hi for _, hi in chain_ranges)))]
-    return builder.function("jac", doc, groups, (n, n))
+    return builder.function(name, doc, groups, (nrows, ncols))
 
 
-__all__ = ["CODEGEN_VERSION", "Array", "Call", "CallTangent", "ChainRule", "Function", "IndexTable",
-           "Let", "Program", "Solve", "SolveRows", "SparseProduct", "Statement", "Store",
-           "derivative", "jacobian", "program"]
+__all__ = ["CODEGEN_VERSION", "Array", "Call", "CallTangent", "ChainRule", "Function",
+           "IndexTable", "Let", "Program", "Solve", "SolveRows", "SparseProduct", "Statement",
+           "Store", "derivative", "gathered", "input_slots", "jacobian", "jacobian_function",
+           "program", "symbol_map"]

@@ -323,10 +323,13 @@ _C_PRELUDE = """\
 #include <stdlib.h>
 #include <string.h>
 
+/* the entry points' linkage; a translation unit that embeds the model (an FMU) defines it first */
+#ifndef PH_EXPORT
 #if defined(_WIN32)
 #define PH_EXPORT __declspec(dllexport)
 #else
 #define PH_EXPORT __attribute__((visibility("default")))
+#endif
 #endif
 #if defined(__GNUC__) && !defined(PH_HIDDEN)
 #define PH_HIDDEN __attribute__((visibility("hidden")))

@@ -37,9 +37,9 @@ from ..errors import (
     StructureError,
     UnknownParameterError,
 )
-from ..modeling.component import Builder, Built, Component
+from ..modeling.component import Builder, Built, Component, PHCut
 from ..modeling.elements import _Junction
-from ..modeling.expressions import TIME
+from ..modeling.expressions import TIME, parse
 from ..modeling.model import ModelDescription
 
 
@@ -62,6 +62,9 @@ class System:
     states: list[sp.Symbol]
     derivatives: dict[sp.Symbol, sp.Symbol]        # derivative symbol -> state symbol
     aliases: dict[sp.Symbol, sp.Symbol]             # head port symbol -> tail port symbol
+    inputs: dict[str, sp.Symbol] = field(default_factory=dict)   # the model's input signals
+    #: the inputs bound in the model: symbol -> expression (signals resolved)
+    bound: dict[sp.Symbol, sp.Expr] = field(default_factory=dict)
     owner: dict[sp.Symbol, str] = field(default_factory=dict)   # unknown -> component
     blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]] = field(default_factory=list)
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
@@ -78,11 +81,15 @@ class Solution:
     order: list[tuple[sp.Symbol, sp.Expr, Equation]]
 
 
-def build_system(flat: ModelDescription) -> System:
+def build_system(flat: ModelDescription, ph: PHCut | None = None) -> System:
     """Run every component's ``build`` and collect the equations, unknowns and states. A model
     error raised by a component carries the component's path (and the argument's, where the
-    component knows it)."""
+    component knows it). Inputs bound in the model (``Input.bind``) are replaced by their
+    expressions, like component outputs read as signals. ``ph``: run the port-Hamiltonian
+    form's cut build instead (:mod:`.phform`), recording its symbols there."""
     params = {name: sp.Symbol(name, real=True) for name in flat.parameters}
+    inputs = {name: sp.Symbol(name, real=True) for name, i in flat.inputs.items()
+              if i.bind is None}
     built: dict[str, Built] = {}
     equations: list[Equation] = []
     orientation: dict[tuple[str, str], str] = {}
@@ -97,7 +104,9 @@ def build_system(flat: ModelDescription) -> System:
             return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
 
         own = {port: o for (c, port), o in orientation.items() if c == name}
-        b = Builder(name, list(flat.ports[name]), flat.scope_names(prefix), dotted, own)
+        b = Builder(name, list(flat.ports[name]), flat.scope_names(prefix), dotted, own,
+                    inputs.values())
+        b.ph = ph
         if not isinstance(comp, _Junction):
             try:
                 comp.build(b, **comp.parsed_args(b))
@@ -110,7 +119,7 @@ def build_system(flat: ModelDescription) -> System:
                 equations += [Equation(e, name, f"unconnected port {pname}: zero effort")
                               for e in _flat(pv.e)]
 
-    _resolve_signals(built, equations)
+    bound = _resolve_signals(built, equations, _bound_inputs(flat), ph)
 
     aliases: dict[sp.Symbol, sp.Symbol] = {}
     for (tc, tp), (hc, hp) in flat.bonds:
@@ -132,7 +141,7 @@ def build_system(flat: ModelDescription) -> System:
         for s in b.states:
             owner[s.derivative] = cname
     unknowns = list(dict.fromkeys([*(u for u in owner if u not in derivatives), *derivatives]))
-    known = {*params.values(), *states, TIME}
+    known = {*params.values(), *inputs.values(), *states, TIME, *(ph.symbols if ph else ())}
     for b in built.values():
         b.intermediates = [(s, e.xreplace(aliases)) for s, e in b.intermediates]
     port_variables = set(unknowns) - set(derivatives)
@@ -157,8 +166,8 @@ def build_system(flat: ModelDescription) -> System:
                 f"component {eq.component!r} refers to {', '.join(sorted(map(str, stray)))}, which "
                 "is not a parameter, state or port variable of the model"
             )
-    return System(flat, built, params, equations, unknowns, states, derivatives, aliases, owner,
-                  blocks, intermediates, port_level)
+    return System(flat, built, params, equations, unknowns, states, derivatives, aliases, inputs,
+                  bound, owner, blocks, intermediates, port_level)
 
 
 def _reaching(intermediates: list[tuple[sp.Symbol, sp.Expr]], leaves: set[sp.Symbol]
@@ -228,13 +237,39 @@ def _order(defs: dict[sp.Symbol, sp.Expr], owner: dict[sp.Symbol, str],
     return [(s, defs[s]) for s in ordered], velocity
 
 
-def _resolve_signals(built: dict[str, Built], equations: list[Equation]) -> None:
+def _bound_inputs(flat: ModelDescription) -> dict[sp.Symbol, sp.Expr]:
+    """The inputs bound in the model, symbol -> their expression (in the model's symbols;
+    dotted names left as symbols for :func:`_resolve_signals`)."""
+    bound: dict[sp.Symbol, sp.Expr] = {}
+    for name, signal in flat.inputs.items():
+        if signal.bind is None:
+            continue
+        key = f"input:{name}"
+        prefix = flat.scopes[key]
+        in_scope = flat.in_scope(prefix)
+
+        def dotted(ref: str, prefix: str = prefix, in_scope: set[str] = in_scope):
+            return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
+
+        try:
+            bound[sp.Symbol(name, real=True)] = parse(
+                signal.bind, flat.scope_names(prefix), f"input {name!r} binding", dotted)
+        except ModelError as err:
+            raise err.within(*flat.paths[key], "bind") from None
+    return bound
+
+
+def _resolve_signals(built: dict[str, Built], equations: list[Equation],
+                     bound: dict[sp.Symbol, sp.Expr] | None = None, ph: PHCut | None = None
+                     ) -> dict[sp.Symbol, sp.Expr]:
     """Replace dotted references to other components' outputs (signals, e.g. ``walker.foot1.z``)
-    by the outputs' expressions, everywhere a component may have used them."""
+    and the inputs bound in the model (``bound``) by their expressions, everywhere a component
+    may have used them; returns the bound inputs' expressions so resolved."""
     outputs = {sp.Symbol(name, real=True): expr for b in built.values()
                for name, expr in b.outputs.items()}
+    outputs.update(bound or {})
     if not outputs:
-        return
+        return {}
     for _ in range(8):  # outputs may read outputs; resolve a few levels
         changed = False
         for sym, expr in list(outputs.items()):
@@ -255,6 +290,15 @@ def _resolve_signals(built: dict[str, Built], equations: list[Equation]) -> None
         b.intermediates = [(s, sub(e)) for s, e in b.intermediates]
         b.blocks = [(syms, A.applyfunc(sub), r.applyfunc(sub)) for syms, A, r in b.blocks]
         b.matrices = {n: m.applyfunc(sub) for n, m in b.matrices.items()}
+        b.samples = [(sub(T), [(s, sub(v)) for s, v in updates]) for T, updates in b.samples]
+    if ph is not None:              # the cut build's records read signals too
+        for d in ph.dissipators:
+            d.z, d.w = [sub(e) for e in d.z], [sub(e) for e in d.w]
+            if d.coefficient is not None:
+                d.coefficient = d.coefficient.applyfunc(sub)
+        for source in ph.sources:
+            source.value, source.conjugate = sub(source.value), sub(source.conjugate)
+    return {sym: outputs[sym] for sym in bound or {}}
 
 
 def _flat(x) -> list[sp.Symbol]:

@@ -2,45 +2,65 @@
 
 ``rosenbrock_loop.py`` and ``rosenbrock_loop.c`` are source templates of one step loop (stages,
 LU, error control, dense output, event location) for the Rosenbrock methods of
-:mod:`.tableaus` (Rodas4, Rodas5P). The back ends append a template and each method's tables and
-entry point to every generated model module (Python for the ``python`` and ``numba`` back ends,
-one C translation unit for ``c``), where the loop calls that module's ``rhs``, ``jac`` and
-``guards`` directly: under numba and C the whole step loop is machine code, under the python
-back end the same algorithm runs as a reference.
+:mod:`.tableaus` (Rodas4, Rodas5P); ``bdf_loop.py`` and ``bdf_loop.c`` the loop of QBDF
+(:mod:`.bdf`: variable-order BDF reusing its Jacobian and LU over steps), which uses the
+Rosenbrock template's LU, dense output, event location and sensitivity step. The back ends
+append the templates and each method's entry point to every generated model module (Python for
+the ``python`` and ``numba`` back ends, one C translation unit for ``c``), where the loops call
+that module's ``rhs``, ``jac`` and ``guards`` directly: under numba and C the whole step loop is
+machine code, under the python back end the same algorithm runs as a reference.
 
 Every entry point takes ``(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal,
 mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step)`` and returns the
-14-tuple documented in ``rosenbrock_loop.py`` (``_rosenbrock``); the variational entry points
+15-tuple documented in ``rosenbrock_loop.py`` (``_rosenbrock``); the variational entry points
 ``integrate_<method>_variational`` take the initial sensitivities ``phi0`` (n x m) as one more
-argument and return the 17-tuple (Φ at the end, at the stored points, its error estimate).
+argument and return the 18-tuple (Φ at the end, at the stored points, its error estimate).
 """
 from pathlib import Path
 
+from . import bdf
 from .tableaus import TABLEAUS, Tableau, c_entry, python_entry
 
 _HERE = Path(__file__).parent
 
+#: Every compiled method: its name in ``simulate(method=...)`` -> its symbol in generated code
+#: (entry points ``integrate_<symbol>`` in Python, ``ph_integrate_<symbol>`` in C, each with a
+#: ``_variational`` twin).
+LOOPS: dict[str, str] = {**{name: tab.symbol for name, tab in TABLEAUS.items()},
+                         bdf.NAME: bdf.SYMBOL}
+#: The names of the compiled methods.
+COMPILED_METHODS: tuple[str, ...] = tuple(LOOPS)
+
+
+def _plain(text: str, loop: str) -> str:
+    """A copy of the function ``loop`` (the last one of ``text``) named ``<loop>_plain``, with
+    the Φ step replaced by the no-op ``_no_variational``."""
+    body = text[text.index(f"@_jit\ndef {loop}("):]
+    return (body.replace(f"def {loop}(", f"def {loop}_plain(", 1)
+            .replace("_variational_step(", "_no_variational("))
+
 
 def python_loops() -> str:
-    """The Python loop template, a copy of its loop for runs without sensitivities, and every
+    """The Python loop templates, a copy of each loop for runs without sensitivities, and every
     method's tables and entry point.
 
-    The copy, ``_rosenbrock_plain``, is ``_rosenbrock`` (the template's last function) with the
-    Φ step replaced by the no-op ``_no_variational``: numba compiles a function with everything
-    it calls, so the plain entry points would otherwise compile the variational code too
-    (measured, CPU time of the pendulum's first numba run: 23 s without the copy, 16 s with it,
-    15.5 s before sensitivities existed)."""
-    text = (_HERE / "rosenbrock_loop.py").read_text()
-    loop = text[text.index("@_jit\ndef _rosenbrock("):]
-    plain = (loop.replace("def _rosenbrock(", "def _rosenbrock_plain(", 1)
-             .replace("_variational_step(", "_no_variational("))
-    return "\n\n".join([text, plain, *(python_entry(tab) for tab in TABLEAUS.values())])
+    The copies, ``_rosenbrock_plain`` and ``_bdf_plain``, are the loops (each template's last
+    function) with the Φ step replaced by the no-op ``_no_variational``: numba compiles a
+    function with everything it calls, so the plain entry points would otherwise compile the
+    variational code too (measured, CPU time of the pendulum's first numba run: 23 s without
+    the copy, 16 s with it, 15.5 s before sensitivities existed)."""
+    rosenbrock = (_HERE / "rosenbrock_loop.py").read_text()
+    multistep = (_HERE / "bdf_loop.py").read_text()
+    return "\n\n".join([rosenbrock, _plain(rosenbrock, "_rosenbrock"),
+                        *(python_entry(tab) for tab in TABLEAUS.values()),
+                        multistep, _plain(multistep, "_bdf"), bdf.python_entry()])
 
 
 def c_loops() -> str:
-    """The C loop template followed by every method's tables and exported entry point."""
-    text = (_HERE / "rosenbrock_loop.c").read_text()
-    return "\n".join([text, *(c_entry(tab) for tab in TABLEAUS.values())])
+    """The C loop templates followed by every method's tables and exported entry point."""
+    return "\n".join([(_HERE / "rosenbrock_loop.c").read_text(),
+                      *(c_entry(tab) for tab in TABLEAUS.values()),
+                      (_HERE / "bdf_loop.c").read_text(), bdf.c_entry()])
 
 
-__all__ = ["TABLEAUS", "Tableau", "c_loops", "python_loops"]
+__all__ = ["COMPILED_METHODS", "LOOPS", "TABLEAUS", "Tableau", "c_loops", "python_loops"]

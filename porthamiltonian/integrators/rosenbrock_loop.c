@@ -8,8 +8,8 @@
  * Entry points: int ph_integrate_<method>(PH_LOOP_PARAMS) returns the status (0 reached t_end,
  * 1 terminal event, 2 step-size underflow or singular W, 3 divergence, 4 max_steps, 5 store
  * buffers full) and writes out_th = {t, h}, out_y = y (PH_N values), counts = {n_store, nfev,
- * njev, nsteps, event_index, n_ev}, the accepted steps into ts (store_cap) / ys (store_cap x PH_N,
- * row-major) and the non-terminal events into ev_t / ev_k (store_cap).
+ * njev, nsteps, event_index, n_ev, nlu}, the accepted steps into ts (store_cap) / ys
+ * (store_cap x PH_N, row-major) and the non-terminal events into ev_t / ev_k (store_cap).
  * int ph_integrate_<method>_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS) does the same and
  * integrates the sensitivities Phi from phi0 (PH_N x m, row-major; column c the initial
  * perturbation of direction c) as rosenbrock_loop.py does (see its header): Phi at the end into
@@ -236,16 +236,18 @@ static void ph_lu_solve_rows(const double *A, const int *piv, int nf, double *B,
 
 /* One sub-step of Phi from t + th_a h to t + th_b h (_phi_substep of rosenbrock_loop.py): KP
  * (s x N m) and P1 from P, with the LU of W = I/(eta gamma) - Ja and D = A'; A at t + th_b h
- * into A_end. work: N x N + 2 m N + N. Returns the jac evaluations made. */
+ * into A_end; the step's dense output y, y1, E (nd rows). work: N x N + 2 m N + N. Returns the
+ * jac evaluations made. */
 static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, double t, double h,
-                          const double *y, const double *y1, const double *p, const double *E,
+                          const double *y, const double *y1, const double *p, int nd,
+                          const double *E,
                           const double *Ja, const double *D, const double *W, const int *piv,
                           int nf, int64_t n_model, int64_t m, const double *P, double *KP,
                           double *P1,
                           double *A_end, double *work)
 {
     enum { N = PH_N };
-    const int s = tab->s, nd = tab->m;
+    const int s = tab->s;
     const int64_t nm = m * N;
     const double ds = th_b - th_a, eta = ds * h;
     double *Js = work, *UP = Js + N * N, *DP = UP + nm, *xi = DP + nm;
@@ -308,21 +310,22 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
                                  * _PHI_TOLERANCE in rosenbrock_loop.py) */
 
 /* Carry Phi (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
- * error control, the first *eta long (_variational_step of rosenbrock_loop.py); A at the end into
- * J_end (the next step's J when th_end = 1), the evaluations into counts[0] (jac), counts[1]
- * (rhs), the largest error estimate accepted into *worst, the next sub-step's length into *eta.
- * work: (s + 3) m N + 7 N x N + 6 N. */
+ * error control, the first *eta long (_variational_step of rosenbrock_loop.py: with the step's LU
+ * W, piv for a whole step when nf > 0; nf = 0: none given); the step's dense output y, y1, E (nd
+ * rows); A at the end into J_end (the next step's J when th_end = 1), the evaluations into
+ * counts[0] (jac), counts[1] (rhs), counts[2] (LU), the largest error estimate accepted into
+ * *worst, the next sub-step's length into *eta. work: (s + 3) m N + 7 N x N + 6 N. */
 static void ph_variational_step(const ph_tableau *tab, double t, double h, double th_end,
                                 const double *y, const double *y1, const double *p,
                                 const double *J, const double *f0, const double *W,
-                                const int *piv, int nf, const double *E, double rtol,
+                                const int *piv, int nf, int nd, const double *E, double rtol,
                                 const double *atol,
                                 int64_t n_model, double expo, int64_t m, double *P,
                                 double *J_end, int64_t *counts, double *worst, double *eta,
                                 double *work)
 {
     enum { N = PH_N };
-    const int s = tab->s, nd = tab->m;
+    const int s = tab->s;
     const int64_t nm = m * N;
     double *KP = work, *P1 = KP + s * nm, *D = P1 + nm, *Ws = D + N * N, *Ja = Ws + N * N;
     double *Jb = Ja + N * N, *sc = Jb + N * N, *xa = sc + N, *fa = xa + N, *sub = fa + N;
@@ -343,8 +346,9 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
         const double *Wu = W;
         const int *pu = piv;
         int nfu = nf;
-        if (!(th_a == 0.0 && th_b == 1.0)) {
+        if (!(th_a == 0.0 && th_b == 1.0 && nf > 0)) {
             nfu = ph_w_factor(Ja, eta * tab->gamma, n_model, Ws, pivs);
+            counts[2] += 1;
             if (!nfu) {
                 ds = 0.5 * (th_b - th_a);
                 continue;
@@ -352,7 +356,7 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
             Wu = Ws;
             pu = pivs;
         }
-        counts[0] += ph_phi_substep(tab, th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, nfu,
+        counts[0] += ph_phi_substep(tab, th_a, th_b, t, h, y, y1, p, nd, E, Ja, D, Wu, pu, nfu,
                                     n_model, m, P, KP, P1, Jb, sub);
         double num = 0.0, den = 0.0;
         for (int64_t i = 0; i < n_model; ++i)
@@ -385,15 +389,93 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
     *eta = ds * h;
 }
 
+/* Events on (t, t + h] of the step from y to y1 with the dense output E (nd rows): the guards
+ * at the step's end (into g_new) and at PH_SAMPLES interior points (g_old: at the step's start),
+ * a sign change in a guard's direction located by the Illinois method on the dense output
+ * (_locate_events of rosenbrock_loop.py). Non-terminal events are appended to ev_t / ev_k (*n_ev
+ * of them so far, at most store_cap - 1). Returns the earliest terminal event's index or -1, its
+ * time into *t_hit (t + h when none); yi: work (PH_N). */
+static int64_t ph_locate_events(int nd, double t, double h, const double *y, const double *y1,
+                                const double *E, const double *p, const double *g_old,
+                                double *g_new, const int64_t *directions, const uint8_t *terminal,
+                                int64_t g_count, int64_t store_cap, double *ev_t, int64_t *ev_k,
+                                int64_t *n_ev, double *t_hit, double *yi)
+{
+    enum { N = PH_N, NG = PH_NG };
+    double g_a[PH_NG], g_b[PH_NG];
+    int64_t hit = -1;
+    const double t_new = t + h;
+    *t_hit = t_new;
+    guards(t_new, y1, p, g_new);
+    memcpy(g_a, g_old, sizeof(double) * NG);
+    double th_a = 0.0;
+    for (int s_i = 1; s_i <= PH_SAMPLES + 1; ++s_i) {
+        const double th_b = s_i / (PH_SAMPLES + 1.0);
+        if (s_i <= PH_SAMPLES) {
+            ph_dense(nd, N, th_b, y, y1, E, yi);
+            guards(t + th_b * h, yi, p, g_b);
+        } else {
+            memcpy(g_b, g_new, sizeof(double) * NG);
+        }
+        for (int64_t k = 0; k < g_count; ++k) {
+            const double a = g_a[k], b = g_b[k];
+            const int up = a <= 0.0 && b >= 0.0, down = a >= 0.0 && b <= 0.0;
+            const int64_t dk = directions[k];
+            if (a == b || !((up && dk > 0) || (down && dk < 0) || ((up || down) && dk == 0)))
+                continue;
+            /* Illinois on theta in [th_a, th_b] */
+            double lo = th_a, hi = th_b, glo = a, ghi = b, th = hi, gk[PH_NG];
+            int side = 0;
+            for (int it = 0; it < 100; ++it) {
+                th = (lo * ghi - hi * glo) / (ghi - glo);
+                ph_dense(nd, N, th, y, y1, E, yi);
+                guards(t + th * h, yi, p, gk);
+                const double gm = gk[k];
+                if (gm == 0.0 || (hi - lo) * h < 4e-16 * fmax(fabs(t), 1.0))
+                    break;
+                if ((gm > 0.0) == (ghi > 0.0)) {
+                    hi = th;
+                    ghi = gm;
+                    if (side == 1)
+                        glo *= 0.5;
+                    side = 1;
+                } else {
+                    lo = th;
+                    glo = gm;
+                    if (side == -1)
+                        ghi *= 0.5;
+                    side = -1;
+                }
+            }
+            const double t_root = t + th * h;
+            if (terminal[k]) {
+                if (hit < 0 || t_root < *t_hit) {
+                    hit = k;
+                    *t_hit = t_root;
+                }
+            } else if (*n_ev < store_cap - 1) {
+                ev_t[*n_ev] = t_root;
+                ev_k[*n_ev] = k;
+                *n_ev += 1;
+            }
+        }
+        if (hit >= 0)
+            break;
+        memcpy(g_a, g_b, sizeof(double) * NG);
+        th_a = th_b;
+    }
+    return hit;
+}
+
 static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
 {
     enum { N = PH_N, NG = PH_NG };
     const int s = tab->s, nd = tab->m;
     const double gam = tab->gamma, expo = tab->expo;
-    int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nsteps = 0, hit = -1;
+    int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nlu = 0, nsteps = 0, hit = -1;
     int status = 0, nf = 0, piv[PH_N];
     double t = t0, h = h0, err = 0.0;
-    double g_old[PH_NG], g_new[PH_NG], g_a[PH_NG], g_b[PH_NG];
+    double g_old[PH_NG], g_new[PH_NG];
     /* the work arrays, on the heap (large models would overflow a thread's stack) */
     double *work = malloc(sizeof(double) * (size_t)N * (2 * N + 2 * s + nd + 7));
     if (work == NULL)
@@ -406,7 +488,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     const int64_t nm = m * N;
     double *pwork = NULL, *P = NULL, *J_next = NULL, *vwork = NULL;
     int have_next = 0;
-    int64_t vcounts[2] = {0, 0};
+    int64_t vcounts[3] = {0, 0, 0};
     double eta_phi = 1e300;     /* the length of Phi's next sub-step (s): the whole step */
     if (m > 0) {
         pwork = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N));
@@ -480,6 +562,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             if (t + h > t_end)
                 h = t_end - t;
             nf = ph_w_factor(J, h * gam, n_model, W, piv);
+            nlu += 1;
             if (!nf) {
                 h *= 0.5;
                 continue;
@@ -533,7 +616,9 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         }
         /* accepted step t -> t + h */
         nsteps += 1;
-        const double t_new = t + h;
+        /* a step that ends within the smallest step size of t_end ends at t_end exactly (a
+         * breakpoint: a sampling instant, an input sample; else the remainder would fail) */
+        const double t_new = (t_end - (t + h) < 1e-14 * fmax(fabs(t_end), 1.0)) ? t_end : t + h;
         for (int r = 0; r < nd; ++r)
             for (int i = 0; i < N; ++i) {
                 double acc = 0.0;
@@ -548,75 +633,18 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             status = 3;
             break;
         }
-        /* events on (t, t_new]: guards at the step ends and at PH_SAMPLES interior points of
-         * the dense output */
+        /* events on (t, t_new] */
         double t_hit = t_new;
         hit = -1;
         if (g_count > 0) {
-            guards(t_new, y1, p, g_new);
-            memcpy(g_a, g_old, sizeof(double) * NG);
-            double th_a = 0.0;
-            for (int s_i = 1; s_i <= PH_SAMPLES + 1; ++s_i) {
-                const double th_b = s_i / (PH_SAMPLES + 1.0);
-                if (s_i <= PH_SAMPLES) {
-                    ph_dense(nd, N, th_b, y, y1, E, yi);
-                    guards(t + th_b * h, yi, p, g_b);
-                } else {
-                    memcpy(g_b, g_new, sizeof(double) * NG);
-                }
-                for (int64_t k = 0; k < g_count; ++k) {
-                    const double a = g_a[k], b = g_b[k];
-                    const int up = a <= 0.0 && b >= 0.0, down = a >= 0.0 && b <= 0.0;
-                    const int64_t dk = directions[k];
-                    if (a == b || !((up && dk > 0) || (down && dk < 0) || ((up || down) && dk == 0)))
-                        continue;
-                    /* Illinois on theta in [th_a, th_b] */
-                    double lo = th_a, hi = th_b, glo = a, ghi = b, th = hi, gk[PH_NG];
-                    int side = 0;
-                    for (int it = 0; it < 100; ++it) {
-                        th = (lo * ghi - hi * glo) / (ghi - glo);
-                        ph_dense(nd, N, th, y, y1, E, yi);
-                        guards(t + th * h, yi, p, gk);
-                        const double gm = gk[k];
-                        if (gm == 0.0 || (hi - lo) * h < 4e-16 * fmax(fabs(t), 1.0))
-                            break;
-                        if ((gm > 0.0) == (ghi > 0.0)) {
-                            hi = th;
-                            ghi = gm;
-                            if (side == 1)
-                                glo *= 0.5;
-                            side = 1;
-                        } else {
-                            lo = th;
-                            glo = gm;
-                            if (side == -1)
-                                ghi *= 0.5;
-                            side = -1;
-                        }
-                    }
-                    const double t_root = t + th * h;
-                    if (terminal[k]) {
-                        if (hit < 0 || t_root < t_hit) {
-                            hit = k;
-                            t_hit = t_root;
-                        }
-                    } else if (n_ev < store_cap - 1) {
-                        ev_t[n_ev] = t_root;
-                        ev_k[n_ev] = k;
-                        n_ev += 1;
-                    }
-                }
-                if (hit >= 0)
-                    break;
-                memcpy(g_a, g_b, sizeof(double) * NG);
-                th_a = th_b;
-            }
+            hit = ph_locate_events(nd, t, h, y, y1, E, p, g_old, g_new, directions, terminal,
+                                   g_count, store_cap, ev_t, ev_k, &n_ev, &t_hit, yi);
             if (hit >= 0) {
                 ph_dense(nd, N, (t_hit - t) / h, y, y1, E, yi);
                 if (m > 0) {
                     double worst = 0.0;
                     ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nf,
-                                        E, rtol, atol, n_model, expo, m, P, J_next, vcounts,
+                                        nd, E, rtol, atol, n_model, expo, m, P, J_next, vcounts,
                                         &worst, &eta_phi, vwork);
                     phi_error[0] = fmax(phi_error[0], worst);
                     memcpy(phis + n_store * nm, P, sizeof(double) * nm);
@@ -633,7 +661,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         }
         if (m > 0) {       /* Phi over the step; its last A is the next step's J */
             double worst = 0.0;
-            ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, nf, E, rtol, atol,
+            ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, nf, nd, E, rtol, atol,
                                 n_model, expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork);
             phi_error[0] = fmax(phi_error[0], worst);
             have_next = 1;
@@ -661,6 +689,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     counts[3] = nsteps;
     counts[4] = status == 1 ? hit : -1;
     counts[5] = n_ev;
+    counts[6] = nlu + vcounts[2];
     if (m > 0)
         memcpy(phi_out, P, sizeof(double) * nm);
     free(pwork);

@@ -272,15 +272,92 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
 
 
 @_jit
+def _locate_events(t, h, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi):
+    """Events on (t, t + h] of the step from y to y1 with the dense output E (_dense): the
+    guards at the step's end and at _SAMPLES interior points (so that a guard crossing twice
+    within one step, e.g. a ball's whole flight, is not missed; g_old: at the step's start); a
+    sign change in a guard's direction is located by the Illinois (regula falsi) method on the
+    dense output. Non-terminal events are appended to ev_t, ev_k (n_ev of them so far, at most
+    their length - 1); yi is work space. Returns (the earliest terminal event's index or -1, its
+    time (t + h when none), n_ev, the guards at the step's end)."""
+    g_count = directions.shape[0]
+    store_cap = ev_t.shape[0]
+    t_new = t + h
+    hit = -1
+    t_hit = t_new
+    g_new = guards(t_new, y1, p)[:g_count].copy()
+    g_a = g_old.copy()
+    th_a = 0.0
+    for s_i in range(1, _SAMPLES + 2):
+        th_b = s_i / (_SAMPLES + 1.0)
+        if s_i <= _SAMPLES:
+            _dense(th_b, y, y1, E, yi)
+            g_b = guards(t + th_b * h, yi, p)[:g_count].copy()
+        else:
+            g_b = g_new
+        for k in range(g_count):
+            a = g_a[k]
+            b = g_b[k]
+            up = a <= 0.0 and b >= 0.0
+            down = a >= 0.0 and b <= 0.0
+            dk = directions[k]
+            if a == b or not ((up and dk > 0) or (down and dk < 0)
+                              or ((up or down) and dk == 0)):
+                continue
+            # Illinois on theta in [th_a, th_b]
+            lo = th_a
+            hi = th_b
+            glo = a
+            ghi = b
+            side = 0
+            th = hi
+            for _ in range(100):
+                th = (lo * ghi - hi * glo) / (ghi - glo)
+                _dense(th, y, y1, E, yi)
+                gm = guards(t + th * h, yi, p)[k]
+                if gm == 0.0 or (hi - lo) * h < 4e-16 * max(abs(t), 1.0):
+                    break
+                if (gm > 0.0) == (ghi > 0.0):
+                    hi = th
+                    ghi = gm
+                    if side == 1:
+                        glo *= 0.5
+                    side = 1
+                else:
+                    lo = th
+                    glo = gm
+                    if side == -1:
+                        ghi *= 0.5
+                    side = -1
+            t_root = t + th * h
+            if terminal[k]:
+                if hit < 0 or t_root < t_hit:
+                    hit = k
+                    t_hit = t_root
+            elif n_ev < store_cap - 1:
+                ev_t[n_ev] = t_root
+                ev_k[n_ev] = k
+                n_ev += 1
+        if hit >= 0:
+            break
+        g_a = g_b
+        th_a = th_b
+    return hit, t_hit, n_ev, g_new
+
+
+@_jit
 def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
                       rtol, atol, n_model, P, eta0):
     """Carry Φ (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
     error control (see the header), the first eta0 long (s; the whole step when eta0 >= th_end h,
-    with the step's LU W, piv when th_end = 1); a sub-step is accepted when its error estimate
+    with the step's LU W, piv when th_end = 1 and nb > 0; nb = 0: no LU of the step is given, as
+    for a multistep method's step); ``E`` and ``y``, ``y1``: the step's dense output (_dense),
+    from which A is taken at the nodes; a sub-step is accepted when its error estimate
     ‖KΦ_s‖ / ‖Φ1‖ (norm weighted by 1/sc, sc_i = max(|y_i|, atol_i / rtol), over the model
     states) is at most _PHI_TOLERANCE rtol, or when it is _THETA_MIN of the step, or the
-    _SUBSTEPS-th. Returns (jac evaluations, rhs evaluations, A at the end (the next step's J when
-    th_end = 1), the largest error estimate accepted, the next sub-step's length proposed)."""
+    _SUBSTEPS-th. Returns (jac evaluations, rhs evaluations, LU factorizations, A at the end (the
+    next step's J when th_end = 1), the largest error estimate accepted, the next sub-step's length
+    proposed)."""
     n = y.shape[0]
     s = TN.shape[0]
     nm = P.shape[0]
@@ -301,6 +378,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
     ds = min(th_end, max(eta0 / h, _THETA_MIN))
     nj = 0
     nf = 0
+    nlu = 0
     worst = 0.0
     count = 0
     while th_a < th_end:
@@ -308,12 +386,13 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
         th_b = th_end if last else th_a + ds
         eta = (th_b - th_a) * h
         nj += _jac_rate(t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D)
-        if th_a == 0.0 and th_b == 1.0:
+        if th_a == 0.0 and th_b == 1.0 and nb > 0:
             Wu = W
             pu = piv
             nbu = nb
         else:
             nbu = _w_factor(Ja, eta * gam, n_model, Ws, pivs)
+            nlu += 1
             if nbu == 0:
                 ds = 0.5 * (th_b - th_a)
                 continue
@@ -344,7 +423,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
             ds = max(ds * fac, _THETA_MIN)
         else:
             ds = max((th_b - th_a) * max(0.2, 0.9 * (tol / err) ** expo), _THETA_MIN)
-    return nj, nf, Ja, worst, ds * h
+    return nj, nf, nlu, Ja, worst, ds * h
 
 
 @_jit
@@ -352,7 +431,7 @@ def _no_variational(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD
                     rtol, atol, n_model, P, eta0):
     """_variational_step in the copy of _rosenbrock for runs without sensitivities (never
     called there: m = 0; see porthamiltonian/integrators/__init__.py)."""
-    return 0, 0, J, 0.0, eta0
+    return 0, 0, 0, J, 0.0, eta0
 
 
 @_jit
@@ -363,10 +442,11 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     tables TA, TC, TN, TD, TH, γ = gam, step-size exponent expo (see tableaus.py).
 
     Returns (status, t, y, ts, ys, n_store, nfev, njev, nsteps, event_index, ev_t, ev_k, n_ev, h,
-    phi, phis, phi_err): status 0 reached t_end, 1 terminal event ``event_index``, 2 step-size
+    nlu, phi, phis, phi_err): status 0 reached t_end, 1 terminal event ``event_index``, 2 step-size
     underflow or singular W, 3 divergence (max|x| > bound or non-finite), 4 max_steps, 5 store
     buffer full (call again from the returned t, y with the returned h). ``ts``/``ys`` hold the accepted
-    steps, ``ev_t``/``ev_k`` the non-terminal events found. ``phi0`` (n x m, column c the
+    steps, ``ev_t``/``ev_k`` the non-terminal events found, ``nlu`` counts the LU factorizations
+    (of W, one per attempted step, and of Φ's sub-steps). ``phi0`` (n x m, column c the
     initial perturbation of direction c; m = 0: no sensitivities) gives the sensitivities Φ (see
     the header): ``phi`` (n x m) at the returned t, ``phis`` (store_cap x n x m) at the stored
     points, ``phi_err`` the largest relative error estimate of Φ over its accepted sub-steps
@@ -383,6 +463,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     n_store = 0
     nfev = 0
     njev = 0
+    nlu = 0
     nsteps = 0
     t = t0
     y = y0.copy()
@@ -454,6 +535,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             if t + h > t_end:
                 h = t_end - t
             nb = _w_factor(J, h * gam, n_model, W, piv)
+            nlu += 1
             if nb == 0:
                 h *= 0.5
                 continue
@@ -498,7 +580,9 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             break
         # accepted step t -> t + h
         nsteps += 1
-        t_new = t + h
+        # a step that ends within the smallest step size of t_end ends at t_end exactly (a
+        # breakpoint: a sampling instant, an input sample; else the remainder would fail)
+        t_new = t_end if t_end - (t + h) < 1e-14 * max(abs(t_end), 1.0) else t + h
         for r in range(TH.shape[0]):
             for i in range(n):
                 acc = 0.0
@@ -511,77 +595,21 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         if not (big <= bound):
             status = 3
             break
-        # events on (t, t_new]: guards at the step ends and at _SAMPLES interior points of the
-        # dense output, so that a guard crossing twice within one step (e.g. a ball's whole
-        # flight) is not missed
+        # events on (t, t_new]
         hit = -1
         t_hit = t_new
         if g_count > 0:
-            g_new = guards(t_new, y1, p)[:g_count].copy()
-            g_a = g_old.copy()
-            th_a = 0.0
-            for s_i in range(1, _SAMPLES + 2):
-                th_b = s_i / (_SAMPLES + 1.0)
-                if s_i <= _SAMPLES:
-                    _dense(th_b, y, y1, E, yi)
-                    g_b = guards(t + th_b * h, yi, p)[:g_count].copy()
-                else:
-                    g_b = g_new
-                for k in range(g_count):
-                    a = g_a[k]
-                    b = g_b[k]
-                    up = a <= 0.0 and b >= 0.0
-                    down = a >= 0.0 and b <= 0.0
-                    dk = directions[k]
-                    if a == b or not ((up and dk > 0) or (down and dk < 0)
-                                      or ((up or down) and dk == 0)):
-                        continue
-                    # Illinois on theta in [th_a, th_b]
-                    lo = th_a
-                    hi = th_b
-                    glo = a
-                    ghi = b
-                    side = 0
-                    th = hi
-                    for _ in range(100):
-                        th = (lo * ghi - hi * glo) / (ghi - glo)
-                        _dense(th, y, y1, E, yi)
-                        gm = guards(t + th * h, yi, p)[k]
-                        if gm == 0.0 or (hi - lo) * h < 4e-16 * max(abs(t), 1.0):
-                            break
-                        if (gm > 0.0) == (ghi > 0.0):
-                            hi = th
-                            ghi = gm
-                            if side == 1:
-                                glo *= 0.5
-                            side = 1
-                        else:
-                            lo = th
-                            glo = gm
-                            if side == -1:
-                                ghi *= 0.5
-                            side = -1
-                    t_root = t + th * h
-                    if terminal[k]:
-                        if hit < 0 or t_root < t_hit:
-                            hit = k
-                            t_hit = t_root
-                    elif n_ev < store_cap - 1:
-                        ev_t[n_ev] = t_root
-                        ev_k[n_ev] = k
-                        n_ev += 1
-                if hit >= 0:
-                    break
-                g_a = g_b
-                th_a = th_b
+            hit, t_hit, n_ev, g_new = _locate_events(t, h, y, y1, E, p, g_old, directions,
+                                                     terminal, ev_t, ev_k, n_ev, yi)
             if hit >= 0:
                 _dense((t_hit - t) / h, y, y1, E, yi)
                 if m > 0:
-                    nj, nf, J_next, worst, eta_phi = _variational_step(
+                    nj, nf, nl, J_next, worst, eta_phi = _variational_step(
                         t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD,
                         gam, expo, rtol, atol, n_model, P, eta_phi)
                     njev += nj
                     nfev += nf
+                    nlu += nl
                     phi_err = max(phi_err, worst)
                     phis[n_store, :] = P
                 ts[n_store] = t_hit
@@ -593,11 +621,12 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 break
             g_old = g_new
         if m > 0:       # Φ over the step; its last A is the next step's J
-            nj, nf, J_next, worst, eta_phi = _variational_step(
+            nj, nf, nl, J_next, worst, eta_phi = _variational_step(
                 t, h, 1.0, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo, rtol,
                 atol, n_model, P, eta_phi)
             njev += nj
             nfev += nf
+            nlu += nl
             phi_err = max(phi_err, worst)
             have_next = True
         t = t_new
@@ -614,4 +643,4 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             fac = min(fac, 1.0)
         h = min(h * fac, hmax)
     return (status, t, y, ts, ys, n_store, nfev, njev, nsteps, hit if status == 1 else -1, ev_t,
-            ev_k, n_ev, h, P.reshape(n, m), phis.reshape(store_cap, n, m), phi_err)
+            ev_k, n_ev, h, nlu, P.reshape(n, m), phis.reshape(store_cap, n, m), phi_err)

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..errors import OptionError
+
 
 @dataclass(frozen=True)
 class Tableau:
@@ -48,19 +50,24 @@ class Tableau:
         return len(self.nodes)
 
     def check(self) -> None:
-        """Shapes and the structure every loop relies on (raises AssertionError)."""
+        """Shapes and the structure every loop relies on; OptionError naming what is wrong."""
         s = self.stages
-        assert len(self.a) == len(self.c) == len(self.d) == s
-        assert all(len(row) == s for table in (self.a, self.c, self.dense) for row in table)
-        assert all(self.a[i][j] == 0 == self.c[i][j] for i in range(s) for j in range(i, s))
-        assert self.nodes[0] == 0.0 and self.d[0] == self.gamma
+        broken = []
+        if not (len(self.a) == len(self.c) == len(self.d) == s and all(
+                len(row) == s for table in (self.a, self.c, self.dense) for row in table)):
+            broken.append("a, c, d and the rows of a, c and dense need one entry per stage")
+        elif not all(self.a[i][j] == 0 == self.c[i][j] for i in range(s) for j in range(i, s)):
+            broken.append("a and c must be strictly lower triangular")
+        if not (self.nodes[0] == 0.0 and self.d and self.d[0] == self.gamma):
+            broken.append("the first node must be 0 and d[0] gamma")
+        if broken:
+            raise OptionError(f"tableau {self.name!r} is malformed: {'; '.join(broken)}")
 
 
 def _lower(rows: list[list[float]], s: int) -> tuple[tuple[float, ...], ...]:
     """Rows i = 1..s-1 of a strictly lower-triangular table, given without their zeros."""
     out = [tuple(0.0 for _ in range(s))]
     for i, row in enumerate(rows, start=1):
-        assert len(row) == i
         out.append(tuple(row) + tuple(0.0 for _ in range(s - i)))
     return tuple(out)
 
@@ -159,7 +166,7 @@ def python_entry(tab: Tableau) -> str:
         f"def integrate_{tab.symbol}({_ARGS}):",
         f'    """{tab.name}: the step loop _rosenbrock (its copy without Φ) with its tables."""',
         (f"    return _rosenbrock_plain({p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
-         f"{1.0 / tab.error_order!r}, {_ARGS}, np.empty((y0.shape[0], 0)))[:14]"),
+         f"{1.0 / tab.error_order!r}, {_ARGS}, np.empty((y0.shape[0], 0)))[:15]"),
         "", "",
         "@_jit",
         f"def integrate_{tab.symbol}_variational({_ARGS}, phi0):",

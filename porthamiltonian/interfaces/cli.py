@@ -1,11 +1,14 @@
 """Command line ``porthamiltonian``: simulate, show, check-energy and sweep model files.
 
     porthamiltonian simulate MODEL [--set NAME=VALUE ...] [--t-end T] [--json] [--csv FILE]
-    porthamiltonian show MODEL [--code [--backend c|numba|python]]
+    porthamiltonian show MODEL [--code [--backend c|numba|python]] [--ph]
+    porthamiltonian linearize MODEL [--set NAME=VALUE ...] [--at NAME=VALUE ...] [--trim|--no-trim]
+                          [--json]
     porthamiltonian check-energy [MODEL ...]
     porthamiltonian view MODEL [--set NAME=VALUE ...] [--t-end T] [--out DIR] [--rate R]
     porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
                           [--settle NAME [--band B]] [--workers N | --serial | --scheduler ADDR]
+    porthamiltonian export-fmu MODEL --out FILE [--fmi 2|3] [--kind me|cs|both] [--set NAME=VALUE]
 
 MODEL is a name from ``models/`` or a path to a ``.toml`` model file. Every option may be given
 anywhere after its command (``--backend`` also before it). Exit status: 0 on success, 1 when a
@@ -37,8 +40,10 @@ from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor
 from ..batch.progress import MODES
 from ..batch.table import write_csv
 from ..errors import ModelError
-from . import io
-from .sweeps import SimulationModel, prepare_simulation, simulate_case
+from ..fmu import export_fmu
+from ..integrators import TABLEAUS
+from . import io, linearization
+from .sweeps import SimulationModel, prepare_simulation, simulate_case, simulation_settings
 
 
 # --- options shared by the commands (argparse parent parsers) ------------------------------------
@@ -112,17 +117,18 @@ def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
                     "interrupted (rerun to resume).")
 
 
-def parse_assignments(pairs: Sequence[str]) -> dict[str, float]:
-    """``["k=9", "slope=0.01"]`` (the ``--set`` options) -> ``{"k": 9.0, "slope": 0.01}``."""
+def parse_assignments(pairs: Sequence[str], option: str = "--set") -> dict[str, float]:
+    """``["k=9", "slope=0.01"]`` (the ``--set`` options, or those of ``option``) ->
+    ``{"k": 9.0, "slope": 0.01}``."""
     out = {}
     for pair in pairs:
         name, sep, value = pair.partition("=")
         if not sep or not name.strip():
-            raise ModelError(f"--set takes NAME=VALUE, got {pair!r}")
+            raise ModelError(f"{option} takes NAME=VALUE, got {pair!r}")
         try:
             out[name.strip()] = float(value)
         except ValueError:
-            raise ModelError(f"--set {name}: {value!r} is not a number") from None
+            raise ModelError(f"{option} {name}: {value!r} is not a number") from None
     return out
 
 
@@ -277,6 +283,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     """``porthamiltonian show``: components, bonds, parameters and the state equations (with
     ``--code``: the generated source of the chosen back end)."""
     from ..compiler import compile_model, symbolic
+    from ..compiler.phform import ph_text
 
     record = io.read(args.model)
     model = record.model
@@ -289,6 +296,9 @@ def cmd_show(args: argparse.Namespace) -> int:
     with record.located():
         flat = model.validate()
         sym = symbolic(flat)
+        if args.ph:
+            print(ph_text(sym.ph_form()), end="")
+            return 0
     print(f"model {model.name}: {record.description}")
     print("components:")
     for name, comp in flat.components.items():
@@ -309,6 +319,13 @@ def cmd_show(args: argparse.Namespace) -> int:
     print(f"P_diss = {sym.p_diss}")
     print(f"P_in   = {sym.p_in}")
     return 0
+
+
+def cmd_linearize(args: argparse.Namespace) -> int:
+    """``porthamiltonian linearize``: A, B, C, D and eigenvalues at the operating point
+    (:mod:`porthamiltonian.interfaces.linearization`)."""
+    return linearization.run_linearize(args, parse_assignments(args.at, "--at"),
+                                       parse_assignments(args.set))
 
 
 def cmd_check_energy(args: argparse.Namespace) -> int:
@@ -333,6 +350,30 @@ def cmd_check_energy(args: argparse.Namespace) -> int:
         print(f"energy check failed for: {', '.join(failed)}")
         return 1
     print(f"energy balance closed for all {len(names)} models")
+    return 0
+
+
+def cmd_export_fmu(args: argparse.Namespace) -> int:
+    """``porthamiltonian export-fmu``: the model as an FMU (docs/fmu.md)."""
+    record = io.read(args.model)
+    settings = simulation_settings(record.simulation)
+    with record.located():
+        compiled = record.compile(backend=args.backend)
+    method = settings["method"] if settings["method"] in TABLEAUS else "Rodas5P"
+    t_end = args.t_end if args.t_end is not None else settings.get("t_end")
+    path = export_fmu(compiled, args.out, fmi=args.fmi, kind=args.kind,
+                      params=parse_assignments(args.set), method=method, rtol=settings["rtol"],
+                      atol=settings["atol"], max_step=settings.get("max_step", float("inf")),
+                      stop_time=t_end, description=record.description)
+    kinds = {"me": "model exchange", "cs": "co-simulation",
+             "both": "model exchange and co-simulation"}[args.kind]
+    print(f"wrote {path}: FMI {args.fmi}.0 ({kinds}), {compiled.n_states} + 2 states (the ledger's "
+          f"E_diss, E_in), {len(compiled.events)} event indicator(s), "
+          f"{len(compiled.param_names)} parameters, {len(compiled.output_names)} outputs")
+    if "walker" in record.sections:
+        print(f"note: {args.model} is a walker file: this FMU is its model with the modes fixed "
+              "at their values (as `porthamiltonian simulate` runs it); `walker export-fmu` "
+              "exports the walker with its mode machine", file=sys.stderr)
     return 0
 
 
@@ -370,7 +411,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--code", action="store_true",
                    help="print the generated source the back end compiles (--backend: c, "
                         "numba or python; default auto, the back end in use)")
+    p.add_argument("--ph", action="store_true",
+                   help="print the explicit port-Hamiltonian form: J, R, the dissipators' "
+                        "z(w) and the ports' u")
     p.set_defaults(func=cmd_show)
+    p = linearization.add_linearize_parser(sub, [BACKEND_OPTION, SET_OPTION, JSON_OPTION],
+                                           model_help)
+    p.set_defaults(func=cmd_linearize)
     p = sub.add_parser("check-energy", parents=[BACKEND_OPTION],
                        help="simulate models and check their energy residual")
     p.add_argument("models", nargs="*", metavar="MODEL",
@@ -393,6 +440,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="settling band as a fraction of the largest deviation from the final "
                         "value (default: 0.02, the 2%% settling time)")
     p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION],
+                       help="write the model as an FMU (FMI 2.0 or 3.0, model exchange and/or "
+                            "co-simulation) for other tools; docs/fmu.md")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--out", required=True, metavar="FILE", help="the FMU to write (model.fmu)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="FMI version: 2 (2.0, default) or 3 (3.0)")
+    p.add_argument("--kind", choices=("me", "cs", "both"), default="both",
+                   help="model exchange (me), co-simulation (cs) or both (default)")
+    p.add_argument("--t-end", type=float, default=None, metavar="T",
+                   help="the FMU's default stop time (s; default: the model file's [simulation] "
+                        "t_end)")
+    p.set_defaults(func=cmd_export_fmu)
     return parser
 
 

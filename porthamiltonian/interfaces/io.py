@@ -33,8 +33,16 @@ docs/model-files.md)::
     [outputs]
     position = "spring.q"
 
+    [inputs]                    # signals bound at run time (docs/control.md)
+    F = { unit = "N", doc = "applied force" }      # bind = "pid.y": bound in the model
+
     [simulation]                # defaults for the command line and check-energy
     t_end = 10.0; method = "Radau"; rtol = 1e-9; atol = 1e-12; energy_tolerance = 1e-6
+    inputs = { F = 0.0 }        # constant inputs of those runs
+
+    [linearize]                 # the operating point of `porthamiltonian linearize`
+    trim = true                 # an equilibrium found from the states below (false: as given)
+    states = { "arm.q.pivot" = 3.14159 }; inputs = { F = 0.0 }; free_inputs = []
 
 Loading by name looks in ``$PORTHAMILTONIAN_MODELS`` (if set), then in the ``models/`` folder of the
 source tree. Every problem of a file is reported at once, in one
@@ -64,7 +72,7 @@ import tomli_w
 from ..compiler import compile_model
 from ..errors import ModelError, ModelFileError, OptionError
 from ..modeling.component import REGISTRY, Component, component_class
-from ..modeling.model import Model
+from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel
 from ..simulation.options import check_rtol
 
@@ -72,8 +80,8 @@ from ..simulation.options import check_rtol
 #: (``Model.sections``, written back on save): the walker library's ``[walker]`` table
 PASSED_THROUGH = ("walker",)
 #: a model's own tables (a sub-model has these)
-_MODEL_TABLES = {"bonds", "model", "parameters", "components", "events", "outputs"}
-_CORE_SECTIONS = _MODEL_TABLES | {"simulation"}
+_MODEL_TABLES = {"bonds", "model", "parameters", "components", "events", "outputs", "inputs"}
+_CORE_SECTIONS = _MODEL_TABLES | {"simulation", "linearize"}
 _SECTIONS = _CORE_SECTIONS | set(PASSED_THROUGH)
 #: the ``type`` of a sub-model's table
 SUB_MODEL = "model"
@@ -271,6 +279,10 @@ class ModelFile:
     meta : further keys and tables under ``[model]``, kept on save.
     sections : the tables passed through for other libraries (:data:`PASSED_THROUGH`, e.g. the
         walker library's ``[walker]``), kept on save.
+    frozen : the model's frozen description as the reader checked it (None for a model file
+        built in Python): what later stages compile, without freezing the model again.
+    linearize : the ``[linearize]`` operating point (``states``, ``inputs``, ``trim``,
+        ``free_inputs``, ``t``) of ``porthamiltonian linearize``.
     """
 
     model: Model
@@ -280,6 +292,8 @@ class ModelFile:
     simulation: Mapping[str, Any] = field(default_factory=dict)
     meta: Mapping[str, Any] = field(default_factory=dict)
     sections: Mapping[str, Any] = field(default_factory=dict)
+    frozen: ModelDescription | None = field(default=None, repr=False, compare=False)
+    linearize: Mapping[str, Any] = field(default_factory=dict)
 
     def line(self, path: Sequence[str | int]) -> int | None:
         """The line of the key path ``path`` (or of its longest known prefix) in the text."""
@@ -436,11 +450,15 @@ def file_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = "")
               f"{', '.join(sorted(_CORE_SECTIONS))} (see docs/model-files.md)", name)
     name, description, meta = _read_head(data, source, r)
     model = _read_model(name, data, r, ())
+    frozen = model.freeze()                    # the whole file (its sub-models are inside)
+    for problem in frozen.problems(missing=r.missing if r else None):
+        r.add(str(problem), *problem.path, kind=problem)
     simulation = _read_simulation(data, r)
+    linearize = _read_linearize(data, r)
     if r:
         raise r.error()
     return ModelFile(model, source, text, description, simulation, meta,
-                     {k: data[k] for k in PASSED_THROUGH if k in data})
+                     {k: data[k] for k in PASSED_THROUGH if k in data}, frozen, linearize)
 
 
 def _read_head(data: dict[str, Any], source: str, r: _Reader) -> tuple[str, str, dict[str, Any]]:
@@ -465,19 +483,18 @@ def _read_head(data: dict[str, Any], source: str, r: _Reader) -> tuple[str, str,
 
 def _read_model(name: str, data: dict[str, Any], r: _Reader, at: tuple) -> Model:
     """A model's own tables (at key path ``at``: ``()`` for the file, ``("components", "sub",
-    "model")`` for a sub-model): parameters, components, bonds, events, outputs, then the checks
-    of the whole (:meth:`~porthamiltonian.modeling.model.ModelDescription.problems`)."""
+    "model")`` for a sub-model): parameters, components, bonds, events, outputs (the checks of
+    the whole, :meth:`~porthamiltonian.modeling.model.ModelDescription.problems`, follow in
+    :func:`file_from_dict`)."""
     model = Model(name)
     prefix = "".join(f"{part}." for part in at[1::3])     # the sub-model's flattened prefix
     r.missing |= {prefix + n for n in _read_parameters(model, data.get("parameters", {}), r, at)}
+    r.missing |= {prefix + n for n in _read_inputs(model, data.get("inputs", {}), r, at)}
     failed = _read_components(model, data.get("components", {}), r, at)
     r.missing |= {prefix + n for n in failed}
     _read_bonds(model, data.get("bonds", []), failed, r, at)
     _read_events(model, data.get("events", []), r, at)
     _read_outputs(model, data.get("outputs", {}), r, at)
-    if not at:                                 # the whole file (its sub-models are inside)
-        for problem in model.freeze().problems(missing=r.missing if r else None):
-            r.add(str(problem), *problem.path, kind=problem)
     return model
 
 
@@ -518,6 +535,37 @@ def _read_parameters(model: Model, params: Any, r: _Reader, at: tuple) -> set[st
             failed.discard(name)
         except ModelError as err:
             r.add(str(err), *where, kind=err)
+    return failed
+
+
+_INPUT_KEYS = ("unit", "doc", "bind")
+
+
+def _read_inputs(model: Model, inputs: Any, r: _Reader, at: tuple) -> set[str]:
+    """``[inputs]``: ``name = { unit, doc, bind }`` (each key optional); the names of those
+    that could not be read."""
+    if not isinstance(inputs, dict):
+        r.add(f"[inputs] must be a table of name = {{ unit = \"...\", doc = \"...\" }}, got "
+              f"{_type_name(inputs)}", *at, "inputs")
+        return set()
+    failed = set()
+    for name, spec in inputs.items():
+        where = (*at, "inputs", name)
+        extra = sorted(set(spec) - set(_INPUT_KEYS)) if isinstance(spec, dict) else []
+        bad = next((k for k in ("unit", "doc", "bind") if isinstance(spec, dict) and k in spec
+                    and not isinstance(spec[k], str)), None)
+        if not isinstance(spec, dict) or extra or bad:
+            what = (f"unknown key {extra[0]!r}{_suggest(extra[0], _INPUT_KEYS)}" if extra else
+                    f"{bad} must be a string" if bad else f"got {_type_name(spec)}")
+            r.add(f"input {name!r}: {what}; write {name} = {{ unit = \"...\", doc = \"...\" }} "
+                  "(bind = \"expression\" binds it in the model)", *where)
+            failed.add(name)
+            continue
+        try:
+            model.input(name, spec.get("unit", ""), spec.get("doc", ""), spec.get("bind"))
+        except ModelError as err:
+            r.add(str(err), *where, kind=err)
+            failed.add(name)
     return failed
 
 
@@ -706,7 +754,8 @@ def _read_outputs(model: Model, outputs: Any, r: _Reader, at: tuple) -> None:
 
 
 _SIM_TYPES = {"t_end": "number", "rtol": "number", "atol": "number", "max_step": "number",
-              "energy_tolerance": "number", "method": "string", "initial": "table"}
+              "energy_tolerance": "number", "method": "string", "initial": "table",
+              "inputs": "table"}
 
 
 def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
@@ -736,6 +785,36 @@ def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
             except OptionError as err:
                 r.add(f"[simulation] {err}", "simulation", key)
     return dict(sim)
+
+
+_LINEARIZE_KEYS = {"states": "a table of state = number", "inputs": "a table of input = number",
+                   "trim": "true or false", "free_inputs": "an array of input names",
+                   "t": "a number"}
+
+
+def _read_linearize(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
+    """``[linearize]``: the operating point of ``porthamiltonian linearize`` (keys checked for
+    their types; names are checked against the compiled model when it is linearized)."""
+    table = data.get("linearize", {})
+    if not isinstance(table, dict):
+        r.add(f"[linearize] must be a table, got {_type_name(table)}", "linearize")
+        return {}
+    for key, value in table.items():
+        if key not in _LINEARIZE_KEYS:
+            r.add(f"[linearize] has no key {key!r}{_suggest(key, _LINEARIZE_KEYS)}; it takes "
+                  f"{', '.join(sorted(_LINEARIZE_KEYS))}", "linearize", key)
+            continue
+        ok = {"states": lambda v: isinstance(v, dict) and all(
+                  _is_number(x) and math.isfinite(x) for x in v.values()),
+              "inputs": lambda v: isinstance(v, dict) and all(
+                  _is_number(x) and math.isfinite(x) for x in v.values()),
+              "trim": lambda v: isinstance(v, bool),
+              "free_inputs": lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
+              "t": lambda v: _is_number(v) and math.isfinite(v)}[key](value)
+        if not ok:
+            r.add(f"[linearize] {key} must be {_LINEARIZE_KEYS[key]}, got {_type_name(value)} "
+                  f"{value!r}", "linearize", key)
+    return dict(table)
 
 
 def _is_number(value: Any) -> bool:
@@ -805,8 +884,14 @@ def model_to_dict(model: Model | ModelFile) -> dict[str, Any]:
                            "terminal": e.terminal} for e in model.events]
     if model.outputs:
         data["outputs"] = dict(model.outputs)
+    if model.inputs:
+        data["inputs"] = {n: {k: v for k, v in (("unit", i.unit), ("doc", i.doc),
+                                                ("bind", i.bind)) if v}
+                          for n, i in model.inputs.items()}
     if record.simulation:
         data["simulation"] = dict(record.simulation)
+    if record.linearize:
+        data["linearize"] = dict(record.linearize)
     data.update(record.sections)
     return data
 

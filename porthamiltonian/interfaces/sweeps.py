@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ModelError
-from ..integrators import TABLEAUS
+from ..errors import ModelError, OptionError
+from ..integrators import COMPILED_METHODS
 
 if TYPE_CHECKING:
     from ..modeling.model import Model
@@ -70,14 +70,17 @@ class SimulationModel:
     def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
                  dense_output: bool = False) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
-        method, rtol, atol and max_step (with ``dense_output``, a file's compiled method,
-        Rodas4 or Rodas5P, becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is known."""
+        method, rtol, atol, max_step and constant ``inputs`` (with ``dense_output``, a file's
+        compiled method, Rodas4, Rodas5P or QBDF, becomes "auto": Radau); a
+        :class:`~porthamiltonian.errors.ModelError` when no end is known."""
         t_end = self.t_end(t_end)
         sim = self.settings
         options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
         method = sim["method"]
-        if dense_output and method in TABLEAUS:
+        if dense_output and method in COMPILED_METHODS:
             method = "auto"              # the compiled loop has no dense output: Radau instead
+        if self.compiled.input_names:
+            options["inputs"] = sim.get("inputs")     # the file's constant inputs
         return self.compiled.simulate(t_end, params=params, method=method, rtol=sim["rtol"],
                                       atol=sim["atol"], dense_output=dense_output, **options)
 
@@ -162,7 +165,8 @@ def _signal_of_t(traj, name: str) -> Callable[[float], float]:
         for seg in traj.segments:
             if seg.t[0] <= s <= seg.t[-1]:
                 return model.output(name, s, traj.sol(s), seg.p)
-        raise ValueError(f"t = {s} is outside the run")
+        raise OptionError(f"t = {s} is outside the run ({traj.segments[0].t[0]:g} to "
+                          f"{traj.t_final:g} s)")
     return value
 
 

@@ -86,6 +86,8 @@ negative).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import sympy as sp
 
 from ..errors import ParameterValueError
@@ -148,6 +150,24 @@ def kelvin_voigt(pen: sp.Expr, rate: sp.Expr, K: sp.Expr, B: sp.Expr, clip: bool
     return force, active * K * z_pos**2 / 2, dissipation
 
 
+def split_law(b: Builder, law: Callable[[sp.Expr, sp.Expr], Law], pen: sp.Expr, rate: sp.Expr
+              ) -> tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]:
+    """A contact ``law`` (:func:`hunt_crossley`, :func:`kelvin_voigt`) at the penetration ``pen``
+    and its rate: (normal force, the normal force as the builder takes it, energy, dissipated
+    power). The latter is the force, or in the port-Hamiltonian form's cut build its elastic
+    part ∂E/∂z (stored
+    through the body's coordinates, :meth:`Builder.stored_via_ports`) plus the rest, a
+    dissipator of the penetration rate ż (λ zⁿ ż, or −K zⁿ while the force is clipped: its
+    power is the law's dissipated power)."""
+    force, energy, dissipation = law(pen, rate)
+    if b.ph is None:
+        return force, force, energy, dissipation
+    z = sp.Dummy("z", real=True)                    # ∂E/∂z of the law's energy at z = pen
+    elastic = sp.diff(law(z, rate)[1], z).xreplace({z: pen})
+    pushed = b.stored_via_ports(elastic) + b.resistive(force - elastic, rate, "normal")
+    return force, pushed, energy, dissipation
+
+
 class _Contact(Component):
     """Shared part of the normal contact laws (port, surface, kinematics, outputs)."""
 
@@ -173,10 +193,11 @@ class _Contact(Component):
             b.output(name, expr, unit)
         return surf, pen, rate
 
-    def _finish(self, b: Builder, surf: Surface, force: sp.Expr, energy: sp.Expr,
-                dissipation: sp.Expr) -> None:
+    def _finish(self, b: Builder, surf: Surface, law: Callable[[sp.Expr, sp.Expr], Law],
+                pen: sp.Expr, rate: sp.Expr) -> None:
         nx, nz = surf.normal
-        b.equation(b.port("p").e, sp.Matrix([-force * nx, -force * nz]),
+        force, pushed, energy, dissipation = split_law(b, law, pen, rate)
+        b.equation(b.port("p").e, sp.Matrix([-pushed * nx, -pushed * nz]),
                    "e = -Fn n (reaction of the normal force on the body)")
         b.energy(energy, via_ports=True)
         b.dissipate(dissipation)
@@ -208,7 +229,8 @@ class HuntCrossley(_Contact):
               step_x: sp.Expr, active: sp.Expr | None) -> None:
         surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
                                            stiffness, damping, active)
-        self._finish(b, surf, *hunt_crossley(pen, rate, stiffness, damping, exponent, active))
+        self._finish(b, surf, lambda z, zdot: hunt_crossley(z, zdot, stiffness, damping,
+                                                            exponent, active), pen, rate)
 
 
 @register
@@ -237,7 +259,8 @@ class KelvinVoigt(_Contact):
                                       f"false, got {clip!r}")
         surf, pen, rate = self._kinematics(b, x, z, surface, slope, height, step_height, step_x,
                                            stiffness, damping, active)
-        self._finish(b, surf, *kelvin_voigt(pen, rate, stiffness, damping, clip, active))
+        self._finish(b, surf, lambda z, zdot: kelvin_voigt(z, zdot, stiffness, damping, clip,
+                                                           active), pen, rate)
 
 
-__all__ = ["HuntCrossley", "KelvinVoigt", "hunt_crossley", "kelvin_voigt"]
+__all__ = ["HuntCrossley", "KelvinVoigt", "hunt_crossley", "kelvin_voigt", "split_law"]

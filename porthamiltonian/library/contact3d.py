@@ -65,6 +65,7 @@ from .contact import (
     Law,
     hunt_crossley,
     kelvin_voigt,
+    split_law,
 )
 from .surfaces import make_surface, surface_arguments
 
@@ -122,8 +123,8 @@ class _Contact3D(Component):
         px, py, pz = (c - radius * ni for c, ni in zip((x, y, z), n))
         pen = surf.penetration(px, pz)
         rate = surf.penetration_rate(v[0], v[2])
-        force, energy, dissipation = law(pen, rate)
-        b.equation(port.e, wrench([0, 0, 0], [-force * ni for ni in n], plane),
+        force, pushed, energy, dissipation = split_law(b, law, pen, rate)
+        b.equation(port.e, wrench([0, 0, 0], [-pushed * ni for ni in n], plane),
                    "e = (0, -Fn n): reaction of the normal force, through the centre")
         b.energy(energy, via_ports=True)
         b.dissipate(dissipation)

@@ -123,7 +123,8 @@ class SCVSFriction(Component):
         v = tx * port.f[0] + tz * port.f[1]
         mu = scvs_coefficient(v, mu_st, mu_c, mu_v, slope, v_st)
         fn = sp.Piecewise((normal_force, normal_force > 0), (0, True))
-        b.equation(port.e, sp.Matrix([fn * mu * tx, fn * mu * tz]),
+        b.equation(port.e, b.resistive(sp.Matrix([fn * mu * tx, fn * mu * tz]), port.f,
+                                       "friction"),
                    "e = -Ft t (reaction of the SCVS friction force on the body)")
         b.dissipate(fn * mu * v)
         b.output("Ft", -fn * mu, "N")

@@ -138,7 +138,8 @@ class SCVSFriction3D(Component):
         roll = sp.tanh(angular_slope * rate) / rate
         torque = [c - fn * rolling * roll * w - fn * spin * sp.tanh(angular_slope * wn) * ni
                   for c, w, ni in zip(_cross(lever, force), wt, n)]
-        b.equation(port.e, wrench([-t for t in torque], [-f for f in force], plane),
+        b.equation(port.e, b.resistive(wrench([-t for t in torque], [-f for f in force], plane),
+                                       port.f, "friction"),
                    "e = -(wrench of the friction on the body about the centre)")
         b.dissipate(fn * (g * _dot(slip, slip) + rolling * roll * _dot(wt, wt)
                           + spin * sp.tanh(angular_slope * wn) * wn))

@@ -1,4 +1,5 @@
-"""Spring–dampers on a one-dimensional port: linear, and with a variable (modulated) stiffness.
+"""Spring–dampers on a one-dimensional port: linear, with a variable (modulated) stiffness, and
+with an actuated stiffness (a state with its own power port, :class:`ActuatedSpringDamper`).
 
 Both components have one power port ``p`` (default domain translation, dimension 1, orientation
 ``"in"``) and one state ``q``, the spring's length (m; rad in the rotation domain), which
@@ -107,7 +108,7 @@ class _SpringDamper(Component):
             z = length - rest_length
             energy = stiffness * z**2 / 2
             b.energy(energy, via_ports=True)
-            force = stiffness * z
+            force = b.stored_via_ports(stiffness * z)
         else:
             q = b.state("q", unit=dom.displacement_unit,
                         initial=rest_length if q0 is None else q0)
@@ -115,10 +116,11 @@ class _SpringDamper(Component):
             energy = stiffness * z**2 / 2
             b.energy(energy)
             b.equation(b.der(q), port.f, "dq/dt = f")
-            force = sp.diff(energy, q)
+            force = b.coenergy(q, sp.diff(energy, q))
         if damping is None:
             damping = 2 * alpha * sp.sqrt(mass * stiffness) if alpha is not None else sp.Integer(0)
-        b.equation(port.e, force + damping * port.f, "e = dH/dq + D f")
+        b.equation(port.e, force + b.resistive(damping * port.f, port.f, "damper"),
+                   "e = dH/dq + D f")
         b.built.storage_ports.append("p")
         b.dissipate(damping * port.f**2)
         b.output("z", z, dom.displacement_unit)
@@ -156,4 +158,56 @@ class VariableSpringDamper(_SpringDamper):
                                   rule=">="), **_COMMON}
 
 
-__all__ = ["SpringDamper", "VariableSpringDamper"]
+@register
+class ActuatedSpringDamper(Component):
+    """Spring–damper whose stiffness K is a state, changed through its own power port ``k`` (a
+    variable-stiffness actuator): H = ½ K z², e_p = K z + D ż, and on ``k`` (stiffness domain)
+    flow K̇, effort ∂H/∂K = ½ z², so that whatever drives ``k`` (an Actuator imposing K̇) pays the
+    power ½ z² K̇ the stiffening takes from it — the energy a VSA's motor spends, booked per
+    actuator (:class:`porthamiltonian.library.signals.Actuator`) instead of as a modulation.
+
+    Ports: ``p`` (in; the spring's length port), ``k`` (in; stiffness domain). States: ``q``
+    length (m), ``K`` stiffness (N/m; initial ``stiffness0``). Damper: ``damping`` D, or
+    ``alpha``/``mass`` for D = 2 α √(m K) following the state K. Energy ½ K z²; dissipation D ż².
+    """
+
+    kind = "ActuatedSpringDamper"
+    arguments = {"stiffness0": Arg("initial stiffness K(0)", "N/m", rule=">="),
+                 **{k: v for k, v in _COMMON.items() if k != "length"}}
+
+    def ports(self) -> list[Port]:
+        return [Port("p", self.value("domain"), orientation="in"),
+                Port("k", "stiffness", orientation="in",
+                     description="stiffness port: flow dK/dt, effort z^2/2")]
+
+    def build(self, b: Builder, stiffness0: sp.Expr, damping: sp.Expr | None,
+              alpha: sp.Expr | None, mass: sp.Expr | None, rest_length: sp.Expr,
+              q0: sp.Expr | None, domain: str) -> None:
+        where = f"{self.kind} {b.name!r}"
+        if damping is not None and (alpha is not None or mass is not None):
+            raise ParameterValueError(f"{where}: give either 'damping' or 'alpha' and 'mass'")
+        if (alpha is None) != (mass is None):
+            raise ParameterValueError(f"{where}: the damper rule D = 2 alpha sqrt(mass K) needs "
+                                      "both 'alpha' and 'mass'")
+        dom = DOMAINS[domain]
+        port, kport = b.port("p"), b.port("k")
+        q = b.state("q", unit=dom.displacement_unit, initial=rest_length if q0 is None else q0)
+        K = b.state("K", unit=f"{dom.effort_unit}/{dom.displacement_unit}", initial=stiffness0)
+        z = q - rest_length
+        energy = K * z**2 / 2
+        b.energy(energy)
+        if damping is None:         # (K >= 0 physically; max(K, 0) keeps the root real anywhere)
+            damping = (2 * alpha * sp.sqrt(mass * sp.Max(K, 0)) if alpha is not None
+                       else sp.Integer(0))
+        b.equation(b.der(q), port.f, "dq/dt = f")
+        b.equation(b.der(K), kport.f, "dK/dt = f_k")
+        b.equation(port.e, b.coenergy(q, sp.diff(energy, q))
+                   + b.resistive(damping * port.f, port.f, "damper"), "e = dH/dq + D f")
+        b.equation(kport.e, b.coenergy(K, sp.diff(energy, K)), "e_k = dH/dK = z^2/2")
+        b.built.storage_ports += ["p", "k"]
+        b.dissipate(damping * port.f**2)
+        b.output("z", z, dom.displacement_unit)
+        b.output("D", damping, f"{dom.effort_unit}*s/{dom.displacement_unit}")
+
+
+__all__ = ["ActuatedSpringDamper", "SpringDamper", "VariableSpringDamper"]

@@ -237,12 +237,18 @@ class FreeBody(Component):
         q = sp.Matrix([b.state(f"q.{a}", "1", q0[i]) for i, a in enumerate(_WXYZ)])
 
         P = sp.Matrix(L + p)
-        T = sp.Matrix(b.implicit("T", inertia6, P))                # 𝕀 T = P, solved numerically
+        if b.ph is None:
+            T = sp.Matrix(b.implicit("T", inertia6, P))            # 𝕀 T = P, solved numerically
+        else:                       # the pH form's cut build: T = ∂H/∂P
+            T = sp.Matrix([b.ph.eta(state) for state in L + p])
         omega, v = T[:3, :], T[3:, :]
         R = sp.Matrix(quaternion_rotation(q, written_out, "R").rows)  # R_W_B, of q/|q|
 
         f_g = R.T * (mass * g)                                      # weight, B's axes
         W_g = sp.Matrix.vstack(c.cross(f_g), f_g)                   # at the CoM, about B's origin
+        if b.ph is not None:        # −Kᵀ ∂H/∂(r, q): ṙ = R v and q̇ = ½ q ⊗ (0, ω) transposed
+            K = sp.Matrix([*(R * v), *quaternion_rate(q, omega)]).jacobian(T)
+            W_g = -K.T * sp.Matrix([b.ph.eta(state) for state in [*r, *q]])
         port = b.port("body")
         s = b.sign("body")
         b.equation(port.f, T, "port flow = body twist")

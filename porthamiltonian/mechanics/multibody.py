@@ -72,7 +72,10 @@ When the bond points into the multibody, the effort is the force applied to it; 
 out, the effort is the force the multibody exerts on the element (so an element can be connected
 directly: ``connect("walker.foot", "contact.p")``).
 
-Outputs: ``<name>.<point>.x|y|z`` (world position of each point and world frame, m), ``<name>.T`` and
+Outputs: ``<name>.v.<velocity>`` (each velocity v = ∂H/∂p, rad/s or m/s; its rate, the
+acceleration ``<name>.a.<velocity>`` of a revolute, prismatic, translational or universal joint,
+is evaluated exactly by the compiled model: ``CompiledModel.accelerations``, ``traj[...]``),
+``<name>.<point>.x|y|z`` (world position of each point and world frame, m), ``<name>.T`` and
 ``<name>.V`` (kinetic and potential energy, J), ``<name>.<joint>.q_norm`` (|q| of each quaternion
 joint), and each body's pose (for :mod:`porthamiltonian.interfaces.viewer`): ``<name>.<body>.pose.x|y|z``
 (the origin of its frame, world coordinates, m) and ``<name>.<body>.pose.qw|qx|qy|qz`` (the unit
@@ -99,6 +102,7 @@ from .bodies import as_tables, expression_fields
 from .joints import Joint, joint, quaternion_slice, units
 from .kernel_tables import FRAME, POINT, WORLD_FRAME, KernelTree, Site
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
+from .poisson import poisson_rates
 from .tree import COORDINATES, DOFS, Link, Tree, coordinate_rates, quaternion_rotation
 
 #: the largest number of links (one per joint velocity; spherical and free joints count one)
@@ -316,8 +320,8 @@ class Multibody(Component):
             self._build_kernel(b, bodies, plane, quaternion_gain, specs, q0, v0, links,
                                placement, g, static_first, sites)
         else:
-            self._build_symbolic(b, bodies, plane, quaternion_gain, specs, q0, v0, links,
-                                 placement, g, static_first)
+            self._build_symbolic(b, bodies, joints, plane, quaternion_gain, specs, q0, v0,
+                                 links, placement, g, static_first)
 
     def _states(self, b: Builder, specs: list[Joint], q0: list, p0: list) -> tuple[list, list]:
         """The states: the coordinates q (initial q0) and momenta p (initial p0)."""
@@ -345,8 +349,11 @@ class Multibody(Component):
 
     def _kernel(self, b: Builder, formulation: str, links: list[Link], g: list,
                 static_first: list, sites: dict[str, tuple]) -> bool:
-        """Whether the tree is evaluated by the kernel (see the module docstring)."""
-        if formulation == "symbolic":
+        """Whether the tree is evaluated by the kernel (see the module docstring). The
+        port-Hamiltonian form's cut build (``b.ph``) writes the Poisson structure out
+        symbolically in either formulation: it needs the kinematics only (v = ∂H/∂p stands for
+        the kernel's M⁻¹p), and ∇H comes from the kernel's tangents."""
+        if formulation == "symbolic" or b.ph is not None:
             return False
         tables = [*g, *static_first, *(c for _, local, _ in sites.values() for c in local)]
         for link in links:
@@ -445,11 +452,13 @@ class Multibody(Component):
         rates = coordinate_rates(links, q, v, quaternion_gain, rotation)
         self._finish(b, specs, q, p, v, Q, rates, potential, tree.mass_matrix(q))
 
-    def _build_symbolic(self, b: Builder, bodies: dict[str, Any], plane: str | None,
-                        quaternion_gain: sp.Expr, specs: list[Joint], q0: list, v0: list,
-                        links: list[Link], placement: dict, g: list,
+    def _build_symbolic(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
+                        plane: str | None, quaternion_gain: sp.Expr, specs: list[Joint],
+                        q0: list, v0: list, links: list[Link], placement: dict, g: list,
                         static_first: list) -> None:
-        """The tree's recursion written out as compiler intermediates (:mod:`.tree`)."""
+        """The tree's recursion written out as compiler intermediates (:mod:`.tree`); in the
+        port-Hamiltonian form's cut build (``b.ph``), its Poisson structure
+        (:mod:`.poisson`)."""
         n = sum(len(spec.velocities) for spec in specs)
         # initial momenta p0 = M(q0) v0, as S_kᵀ Π_k of the same recursion written out
         p0 = [sp.Integer(0)] * n
@@ -472,10 +481,17 @@ class Multibody(Component):
         tree.world()
         tree.composites()
         M = tree.mass_matrix()
-        v = b.implicit("v", M, sp.Matrix(p))
+        if b.ph is None:
+            v = b.implicit("v", M, sp.Matrix(p))
+        else:                       # the pH form's cut build: v = ∂H/∂p (mechanics/poisson.py)
+            v = [b.ph.eta(pk) for pk in p]
         tree.velocities(v)
         tree.gravity(g)
-        Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces())]
+        if b.ph is None:
+            Q = [a + c for a, c in zip(tree.velocity_forces(), tree.gravity_forces())]
+        else:
+            Q = poisson_rates(specs, joints, tree.coordinate_rates(q, v, 0), q, p,
+                              [b.ph.eta(qk) for qk in q], v, f"Multibody {b.name!r}")
         first = list(static_first)                  # Σ m c over all bodies, world frame
         for root in (link for link in links if link.parent is None):
             P = tree.pos[root]
@@ -556,13 +572,13 @@ class Multibody(Component):
                         force[i - 3] = e
                 for k, value in tree.load(link, x, torque, force):
                     Q[k] = Q[k] + s * value
-        rates = tree.coordinate_rates(q, v, quaternion_gain)
+        rates = tree.coordinate_rates(q, v, quaternion_gain if b.ph is None else 0)
         self._finish(b, specs, q, p, v, Q, rates, potential, M)
 
     def _finish(self, b: Builder, specs: list[Joint], q: list, p: list, v: list, Q: list,
                 rates: list, potential: Any, M: sp.Matrix) -> None:
-        """The joint ports, the state equations, the energy and its parts, the quaternion norms
-        and the mass matrix (both formulations)."""
+        """The joint ports, the state equations, the velocities as outputs, the energy and its
+        parts, the quaternion norms and the mass matrix (both formulations)."""
         Q = list(Q)
         start_index = 0
         for spec in specs:
@@ -580,6 +596,11 @@ class Multibody(Component):
             b.equation(b.der(q[k]), rates[k], "dq/dt from the joint velocities, M(q) v = p")
         for k in range(len(p)):
             b.equation(b.der(p[k]), Q[k], "dp/dt = Π'ad_T S - dV/dq + Q")
+        rate_units = {"N*m*s": "rad/s", "N*s": "m/s"}
+        velocities = [label for spec in specs for label in spec.velocities]
+        p_units = [u for spec in specs for u in units(spec)[1]]
+        for label, unit, vk in zip(velocities, p_units, v):
+            b.output(f"v.{label}", vk, rate_units.get(unit, ""))
         kinetic = (sp.Matrix(p).T * sp.Matrix(v))[0, 0] / 2
         b.energy(kinetic + potential)
         b.output("T", kinetic, "J")

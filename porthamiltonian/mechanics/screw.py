@@ -68,6 +68,7 @@ from typing import Any, ClassVar
 import numpy as np
 import sympy as sp
 
+from ..errors import FrameError, OptionError, ParameterValueError
 from ..modeling.expressions import as_expr
 
 __all__ = [
@@ -130,14 +131,14 @@ class _NumpyBackend:
     def vector(x: Any, n: int) -> np.ndarray:
         a = np.array(x, dtype=float)
         if a.shape not in ((n,), (n, 1), (1, n)):
-            raise ValueError(f"expected a {n}-vector, got an array of shape {a.shape}")
+            raise OptionError(f"expected a {n}-vector, got an array of shape {a.shape}")
         return a.reshape(n)
 
     @staticmethod
     def matrix(x: Any, n: int, m: int) -> np.ndarray:
         a = np.array(x, dtype=float)
         if a.shape != (n, m):
-            raise ValueError(f"expected a {n}x{m} matrix, got an array of shape {a.shape}")
+            raise OptionError(f"expected a {n}x{m} matrix, got an array of shape {a.shape}")
         return a
 
     @staticmethod
@@ -193,14 +194,14 @@ class _SympyBackend:
     def vector(x: Any, n: int) -> sp.Matrix:
         m = sp.Matrix(_no_text(x))
         if m.shape not in ((n, 1), (1, n)):
-            raise ValueError(f"expected a {n}-vector, got a matrix of shape {m.shape}")
+            raise OptionError(f"expected a {n}-vector, got a matrix of shape {m.shape}")
         return m.reshape(n, 1)
 
     @staticmethod
     def matrix(x: Any, n: int, m: int) -> sp.Matrix:
         a = sp.Matrix(_no_text(x))
         if a.shape != (n, m):
-            raise ValueError(f"expected a {n}x{m} matrix, got a matrix of shape {a.shape}")
+            raise OptionError(f"expected a {n}x{m} matrix, got a matrix of shape {a.shape}")
         return a
 
     @staticmethod
@@ -275,7 +276,7 @@ def _require_numeric(x: Any, name: str) -> None:
 def _check_rotation(R: np.ndarray) -> None:
     error = np.abs(R.T @ R - np.eye(3)).max()
     if not (error <= _ROTATION_TOL and np.linalg.det(R) > 0):
-        raise ValueError(
+        raise FrameError(
             f"not a rotation matrix (max |RᵀR - 1| = {error:.3g}, det R = {np.linalg.det(R):.6g}): "
             f"{R.tolist()}"
         )
@@ -283,7 +284,7 @@ def _check_rotation(R: np.ndarray) -> None:
 
 def _check_pose(H: np.ndarray) -> None:
     if np.abs(H[3] - [0.0, 0.0, 0.0, 1.0]).max() > _ROTATION_TOL:
-        raise ValueError(f"the bottom row of a pose must be [0, 0, 0, 1], got {H[3].tolist()}")
+        raise FrameError(f"the bottom row of a pose must be [0, 0, 0, 1], got {H[3].tolist()}")
     _check_rotation(H[:3, :3])
 
 
@@ -610,15 +611,15 @@ def _check_inertia(mass: Scalar, I_com: Array) -> None:
     """Validate mass and rotational inertia where they are numeric (symbolic ones pass)."""
     m, I_c = _as_float_array(mass), _as_float_array(I_com)
     if m is not None and not m > 0:
-        raise ValueError(f"mass must be positive, got {mass}")
+        raise ParameterValueError(f"mass must be positive, got {mass}")
     if I_c is None:
         return
     message = "rotational inertia must be symmetric positive definite, got"
     if np.abs(I_c - I_c.T).max() > _SYMMETRY_RTOL * np.abs(I_c).max():
-        raise ValueError(f"{message} the non-symmetric matrix {I_c.tolist()}")
+        raise ParameterValueError(f"{message} the non-symmetric matrix {I_c.tolist()}")
     eigenvalues = np.linalg.eigvalsh(I_c)
     if not eigenvalues.min() > 0:
-        raise ValueError(f"{message} eigenvalues {eigenvalues.tolist()}")
+        raise ParameterValueError(f"{message} eigenvalues {eigenvalues.tolist()}")
 
 
 def spatial_inertia(mass: Scalar, com: ArrayLike, I_com: ArrayLike) -> Array:
@@ -742,7 +743,7 @@ class Pose:
         if not isinstance(other, Pose):
             return NotImplemented
         if self._child != other._parent:
-            raise ValueError(
+            raise FrameError(
                 f"cannot compose {self!r} @ {other!r}: inner frames {self._child!r} and "
                 f"{other._parent!r} differ"
             )
@@ -763,7 +764,7 @@ class Pose:
         if not isinstance(x, _Screw):
             raise TypeError(f"a Pose acts on a Twist or a Wrench, got {type(x).__name__}")
         if x.frame != self._child:
-            raise ValueError(
+            raise FrameError(
                 f"{self!r} acts on twists/wrenches expressed in frame {self._child!r}, got a "
                 f"{type(x).__name__} expressed in frame {x.frame!r}"
             )
@@ -813,7 +814,7 @@ class _Screw:
                 "wrenches are dual quantities; pair them with power()"
             )
         if other._frame != self._frame:
-            raise ValueError(
+            raise FrameError(
                 f"cannot {verb} a {type(self).__name__} expressed in frame {self._frame!r} and one "
                 f"expressed in frame {other._frame!r}; change frame first with Pose.act"
             )
@@ -857,7 +858,7 @@ class _Screw:
                 f"got {type(other).__name__}"
             )
         if other._frame != self._frame:
-            raise ValueError(
+            raise FrameError(
                 f"cannot pair a {type(self).__name__} expressed in frame {self._frame!r} with a "
                 f"{type(other).__name__} expressed in frame {other._frame!r}; change frame first "
                 "with Pose.act"

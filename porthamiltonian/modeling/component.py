@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, ClassVar
@@ -85,12 +85,20 @@ class PortVars:
         return (self.e.T * self.f)[0, 0]
 
 
+#: the roles of a state (:meth:`Builder.state`)
+STATE_ROLES = ("storage", "signal", "quadrature", "discrete")
+
+
 @dataclass
 class StateDecl:
+    """A declared state: its symbol, the symbol of its time derivative, unit, initial value and
+    role (one of :data:`STATE_ROLES`)."""
+
     symbol: sp.Symbol
     derivative: sp.Symbol
     unit: str
     initial: sp.Expr
+    role: str = "storage"
 
 
 @dataclass
@@ -117,6 +125,63 @@ class Built:
     constraints: list[Constraint] = field(default_factory=list)
     #: kernel calls by qualified name (see :meth:`Builder.call`)
     calls: dict[str, KernelCall] = field(default_factory=dict)
+    #: a discrete-time block's sampling (:meth:`Builder.sample`): (period, [(state, value)])
+    samples: list[tuple[sp.Expr, list[tuple[sp.Symbol, sp.Expr]]]] = field(default_factory=list)
+
+
+@dataclass
+class Dissipator:
+    """A dissipative law of a component, as the port-Hamiltonian form's cut build records it
+    (:meth:`Builder.resistive`): the law's effort-like output ``z`` and flow-like input ``w``
+    (expressions over the component's port variables, states, parameters; scalars as 1-vectors),
+    the symbols ``zeta`` that stand for z in the cut build, and ``coefficient`` C when the law is
+    linear, z = C(x) w (a linear dissipator: it goes into R = G C Gᵀ), else None."""
+
+    component: str
+    name: str
+    z: list[sp.Expr]
+    w: list[sp.Expr]
+    zeta: list[sp.Symbol]
+    coefficient: sp.Matrix | None
+
+
+@dataclass
+class Source:
+    """A port imposed from outside (an effort or flow source, an actuator, an open port) as the
+    cut build records it (:meth:`Builder.source`): its imposed ``value`` (the input u), the
+    ``conjugate`` port variable (supplied power u·conjugate) and the symbol ``upsilon`` standing
+    for u in the cut build."""
+
+    component: str
+    name: str
+    value: sp.Expr
+    conjugate: sp.Expr
+    upsilon: sp.Symbol
+
+
+@dataclass
+class PHCut:
+    """The records of the port-Hamiltonian form's cut build (:mod:`porthamiltonian.compiler.
+    phform`): there every constitutive law is replaced by a symbol — a storage's co-energy
+    ∂H/∂x by η(x), a dissipator's output by ζ, a source's value by υ — so that the solved
+    junction structure (junctions, transformers, gyrators, a multibody's kinematics) is linear
+    in them with the matrix M₀(x) of [ẋ; w; y] = M₀ [∇H; z; u]."""
+
+    coenergies: dict[sp.Symbol, sp.Symbol] = field(default_factory=dict)
+    dissipators: list[Dissipator] = field(default_factory=list)
+    sources: list[Source] = field(default_factory=list)
+
+    def eta(self, state: sp.Symbol) -> sp.Symbol:
+        """η(x): the symbol of ∂H/∂x for the state ``x``."""
+        if state not in self.coenergies:
+            self.coenergies[state] = sp.Symbol(f"dH/d({state})", real=True)
+        return self.coenergies[state]
+
+    @property
+    def symbols(self) -> set[sp.Symbol]:
+        """Every symbol of the cut (η, ζ, υ)."""
+        return ({*self.coenergies.values()} | {z for d in self.dissipators for z in d.zeta}
+                | {s.upsilon for s in self.sources})
 
 
 class Builder:
@@ -128,11 +193,16 @@ class Builder:
 
     def __init__(self, name: str, ports: list[Port], names: Mapping[str, sp.Expr],
                  dotted: Callable[[str], sp.Expr | None] | None = None,
-                 orientation: Mapping[str, str] | None = None):
+                 orientation: Mapping[str, str] | None = None,
+                 inputs: Collection[sp.Expr] = ()):
         self.name = name
         self._names = names
         self._dotted = dotted
         self._orientation = dict(orientation or {})
+        #: the symbols of the model's inputs among ``names`` (signals, not parameters)
+        self._inputs = frozenset(inputs)
+        #: None, or the records of the port-Hamiltonian form's cut build (:class:`PHCut`)
+        self.ph: PHCut | None = None
         self.built = Built(name)
         for port in ports:
             self.built.ports[port.name] = self._port_vars(port)
@@ -166,9 +236,9 @@ class Builder:
         return 1 if orientation == "in" else -1
 
     def parametric(self, expr: Any) -> bool:
-        """True when ``expr`` depends on the model's parameters only (no time, state or signal
-        of another component)."""
-        return as_expr(expr).free_symbols <= set(self._names.values())
+        """True when ``expr`` depends on the model's parameters only (no time, state, model
+        input or signal of another component)."""
+        return as_expr(expr).free_symbols <= set(self._names.values()) - self._inputs
 
     def connected(self, name: str) -> bool:
         """True when a bond ends on port ``name`` (an unconnected optional port has zero
@@ -222,7 +292,7 @@ class Builder:
             raise ModelError(f"component {self.name!r} declares call {name!r} twice")
         constants = [as_expr(c) for c in constants]
         for value in constants:
-            stray = value.free_symbols - set(self._names.values())
+            stray = value.free_symbols - (set(self._names.values()) - self._inputs)
             if stray:
                 raise ModelError(f"component {self.name!r}: call {name!r} constants may depend on "
                                  f"parameters only, not on {', '.join(sorted(map(str, stray)))}")
@@ -236,16 +306,51 @@ class Builder:
         """A named matrix ``component.name`` available numerically (e.g. a mass matrix)."""
         self.built.matrices[self._qualified(name)] = sp.Matrix(value)
 
-    def state(self, name: str, unit: str = "", initial: Any = 0) -> sp.Symbol:
-        """Declare a state ``component.name`` with an initial value (expression in parameters)."""
+    def state(self, name: str, unit: str = "", initial: Any = 0, role: str = "storage"
+              ) -> sp.Symbol:
+        """Declare a state ``component.name`` with an initial value (expression in parameters).
+
+        ``role``: ``"storage"`` (an energy storage's state, the default), ``"signal"`` (a signal
+        block's continuous state: a controller's integrator, a filter; it joins the model's
+        states but not its Hamiltonian), ``"quadrature"`` (an integral read by no rate, e.g. an
+        actuator's work; left out of linearizations) or ``"discrete"`` (a value held between the
+        sampling instants of a discrete-time block: zero rate, updated by
+        :meth:`sample`)."""
+        if role not in STATE_ROLES:
+            raise ModelError(f"component {self.name!r}: state role must be one of "
+                             f"{', '.join(STATE_ROLES)}, got {role!r}")
         symbol = sp.Symbol(self._qualified(name), real=True)
         if any(s.symbol == symbol for s in self.built.states):
             raise ModelError(f"component {self.name!r} declares state {name!r} twice")
         init = initial if isinstance(initial, sp.Basic) else self.parse(
             initial, f"initial value of state {name!r}")
         self.built.states.append(StateDecl(symbol, sp.Symbol(f"d({self.name}.{name})/dt", real=True),
-                                           unit, init))
+                                           unit, init, role))
         return symbol
+
+    def sample(self, period: Any, updates: list[tuple[sp.Symbol, Any]]) -> None:
+        """Make this component a discrete-time block sampled every ``period`` seconds (an
+        expression in parameters, output as ``<component>.T``): at each sampling instant
+        t_k = t₀ + k·period the states of ``updates`` (declared with ``role="discrete"``) take
+        their new values (expressions in the model's variables just before t_k: states, port
+        variables, outputs, inputs) and hold them until the next one (their rate is zero). See
+        :mod:`porthamiltonian.simulation.sampling`."""
+        if self.built.samples:
+            raise ModelError(f"component {self.name!r} declares its sampling twice")
+        period = as_expr(period)
+        if period.free_symbols - (set(self._names.values()) - self._inputs):
+            raise ModelError(f"component {self.name!r}: the sample period must depend on "
+                             f"parameters only, got {period}")
+        roles = {s.symbol: s.role for s in self.built.states}
+        for state, _ in updates:
+            if roles.get(state) != "discrete":
+                raise ModelError(f"component {self.name!r}: {state} is not one of its discrete "
+                                 "states (declare it with role='discrete')")
+        self.built.samples.append((period, [(state, as_expr(v)) for state, v in updates]))
+        self.output("T", period, "s")
+        self.require(period, ">", "sample period")
+        for state, _ in updates:
+            self.equation(self.der(state), 0, "held between samples")
 
     def der(self, state: sp.Symbol) -> sp.Symbol:
         """The time-derivative symbol of one of this component's states."""
@@ -298,11 +403,64 @@ class Builder:
                 decl.unit = dom.displacement_unit if causality == "C" else dom.momentum_unit
         if causality == "C":
             self.equation(self.der(state), port.f, "dq/dt = f")
-            self.equation(port.e, gradient, "e = dH/dq")
+            self.equation(port.e, self.coenergy(state, gradient), "e = dH/dq")
         else:
             self.equation(self.der(state), port.e, "dp/dt = e")
-            self.equation(port.f, gradient, "f = dH/dp")
+            self.equation(port.f, self.coenergy(state, gradient), "f = dH/dp")
         self.built.storage_ports.append(port.port.name)
+
+    # --- the explicit port-Hamiltonian form (porthamiltonian/compiler/phform.py) ---------------
+    # In an ordinary build these return their expression. In the cut build of the pH form
+    # (``self.ph`` set) they return symbols standing for the laws, so that the solved junction
+    # structure is linear in them; a component whose laws pass through these declares its
+    # port-Hamiltonian structure with no further code.
+    def coenergy(self, state: sp.Symbol, gradient: Any) -> Any:
+        """A storage law's output, the co-energy ∂H/∂``state`` (``gradient``): as given, or η in
+        the cut build."""
+        return gradient if self.ph is None else self.ph.eta(state)
+
+    def stored_via_ports(self, effort: Any) -> Any:
+        """An elastic effort whose energy is stored as a function of other components' states
+        and paid through this component's ports (``energy(..., via_ports=True)``, e.g. a contact
+        spring on a body point): as given; zero in the cut build, where the owner of those
+        states carries it as part of their ∇H."""
+        return effort if self.ph is None else 0 * effort
+
+    def resistive(self, effort: Any, flow: Any, name: str = "R") -> Any:
+        """A dissipative law's output ``effort`` (scalar or vector: z) of its input ``flow``
+        (w), with z·w >= 0 its dissipated power: as given, or the symbols ζ in the cut build
+        (which records the law and, when it is linear, z = C w with C free of port variables,
+        its coefficient C)."""
+        if self.ph is None:
+            return effort
+        z = _entries(effort)
+        w = _entries(flow)
+        ports = {v for pv in self.built.ports.values() for v in _entries(pv.e) + _entries(pv.f)}
+        linear = (all(isinstance(wj, sp.Symbol) for wj in w)   # (a law of a port's flow)
+                  and all(zi.is_polynomial(*w) for zi in z))
+        if linear:
+            C = sp.Matrix(len(z), len(w), lambda i, j: sp.diff(z[i], w[j]))
+            linear = (not (C.free_symbols & (ports | set(w)))
+                      and all(sp.expand(zi - sum(C[i, j] * w[j] for j in range(len(w)))) == 0
+                              for i, zi in enumerate(z)))
+        index = len(self.ph.dissipators)
+        zeta = [sp.Symbol(f"z{index}[{self.name}.{name}{'' if len(z) == 1 else i}]", real=True)
+                for i in range(len(z))]
+        self.ph.dissipators.append(Dissipator(self.name, name, z, w, zeta,
+                                              C if linear else None))
+        return zeta[0] if isinstance(effort, sp.Basic) and not isinstance(
+            effort, sp.MatrixBase) else sp.Matrix(zeta)
+
+    def source(self, value: Any, conjugate: Any, name: str = "p") -> Any:
+        """An imposed port variable ``value`` (a source's effort or flow: the input u) whose
+        ``conjugate`` port variable makes the supplied power u·conjugate: as given, or the
+        symbol υ in the cut build."""
+        if self.ph is None:
+            return value
+        upsilon = sp.Symbol(f"u{len(self.ph.sources)}[{self.name}.{name}]", real=True)
+        self.ph.sources.append(Source(self.name, name, as_expr(value), as_expr(conjugate),
+                                      upsilon))
+        return upsilon
 
     def dissipate(self, power: sp.Expr) -> None:
         """Add ``power`` (W, >= 0) to the dissipated power."""
@@ -333,7 +491,7 @@ class Builder:
         (ParameterValueError), recorded for the run-time parameter check when they depend on
         parameters only, skipped when they depend on states or time."""
         value, bound = as_expr(value), as_expr(bound)
-        params = set(self._names.values())
+        params = set(self._names.values()) - self._inputs
         if not (value.free_symbols | bound.free_symbols) <= params:
             return
         constraint = Constraint(self.name, what, to_text(value), rule, to_text(bound), bound_name)
@@ -349,6 +507,15 @@ class Builder:
         checked to be a name (these reach generated code and its layout)."""
         check_name(name, f"component {self.name!r}: state, output or matrix name", dotted=True)
         return f"{self.name}.{name}"
+
+
+def _entries(value: Any) -> list[sp.Expr]:
+    """A scalar or a vector (matrix, list) as a list of expressions."""
+    if isinstance(value, sp.MatrixBase):
+        return list(value)
+    if isinstance(value, (list, tuple)):
+        return [as_expr(v) for v in value]
+    return [as_expr(value)]
 
 
 class _Frozen(type):
@@ -507,5 +674,5 @@ def component_class(kind: str) -> type[Component]:
         ) from None
 
 
-__all__ = ["REGISTRY", "TIME", "Arg", "Builder", "Component", "PortVars", "component_class",
-           "register"]
+__all__ = ["REGISTRY", "STATE_ROLES", "TIME", "Arg", "Builder", "Component", "Dissipator",
+           "PHCut", "PortVars", "Source", "component_class", "register"]

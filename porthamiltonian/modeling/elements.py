@@ -131,11 +131,13 @@ class R(_OnePortIn):
             raise ModelError("R: a vector port (dim > 1) takes a linear 'resistance' only")
         port = b.port("p")
         if chosen == "resistance":
-            b.equation(port.e, resistance * port.f, "e = R f")
+            b.equation(port.e, b.resistive(resistance * port.f, port.f), "e = R f")
         elif chosen == "effort":
-            b.equation(port.e, effort.xreplace({sp.Symbol("f", real=True): port.f}), "e = law(f)")
+            law = effort.xreplace({sp.Symbol("f", real=True): port.f})
+            b.equation(port.e, b.resistive(law, port.f), "e = law(f)")
         else:
-            b.equation(port.f, flow.xreplace({sp.Symbol("e", real=True): port.e}), "f = law(e)")
+            law = flow.xreplace({sp.Symbol("e", real=True): port.e})
+            b.equation(port.f, b.resistive(law, port.e), "f = law(e)")
         b.dissipate(port.power)
 
 
@@ -156,7 +158,7 @@ class Se(_Source):
 
     def build(self, b: Builder, domain: str, effort: sp.Expr) -> None:
         port = b.port("p")
-        b.equation(port.e, effort, "e = source")
+        b.equation(port.e, b.source(effort, port.f), "e = source")
         b.supply(port.power)
 
 
@@ -172,7 +174,7 @@ class Sf(_Source):
 
     def build(self, b: Builder, domain: str, flow: sp.Expr) -> None:
         port = b.port("p")
-        b.equation(port.f, flow, "f = source")
+        b.equation(port.f, b.source(flow, port.e), "f = source")
         b.supply(port.power)
 
 

@@ -24,7 +24,7 @@ import dataclasses
 import json
 import math
 from collections.abc import Collection, Iterator, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -65,6 +65,28 @@ class Parameter:
         if not math.isfinite(self.value):
             raise ParameterValueError(f"parameter value must be finite, got {self.value!r}")
         object.__setattr__(self, "value", float(self.value))
+
+
+@dataclass(frozen=True)
+class Input:
+    """A model input: a signal of time declared by the model (``[inputs]`` in a model file,
+    :meth:`Model.input`), usable in every expression like a parameter, and bound when the model
+    is simulated (:mod:`porthamiltonian.simulation.inputs`: a constant, samples held or
+    interpolated, a Python callable, or a controller compiled into the model). ``unit``: its SI
+    unit; ``doc``: one line."""
+
+    unit: str = ""
+    doc: str = ""
+    #: an expression (e.g. a controller's output ``"pid.y"``) the input is bound to in the
+    #: model: then it is compiled with the model and is no longer an input of the compiled model
+    bind: str | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("unit", "doc"):
+            if not isinstance(getattr(self, name), str):
+                raise ModelError(f"input {name} must be a string, got {getattr(self, name)!r}")
+        if self.bind is not None and not isinstance(self.bind, (str, int, float)):
+            raise ModelError(f"input bind must be an expression (text), got {self.bind!r}")
 
 
 @dataclass(frozen=True)
@@ -109,6 +131,7 @@ class ModelDescription:
     bonds : ``((tail component, port), (head component, port))``, full names.
     parameters : full parameter name -> :class:`Parameter`.
     events, outputs : the model events (full names) and outputs (full name -> expression).
+    inputs : full input name -> :class:`Input` (signals bound at run time).
     scopes : full component name, ``"event:<name>"`` or ``"output:<name>"`` -> the prefix of the
         (sub-)model it was declared in (``""`` or ``"sub."``); names in its expressions are local
         to that scope.
@@ -124,16 +147,36 @@ class ModelDescription:
     outputs: Mapping[str, str]
     scopes: Mapping[str, str]
     paths: Mapping[str, Path]
+    inputs: Mapping[str, Input] = field(default_factory=lambda: MappingProxyType({}))
 
     def scope_names(self, prefix: str) -> dict[str, sp.Symbol]:
-        """The parameters visible in the scope ``prefix``, by their local names (the symbols
-        carry the full names)."""
-        return {full[len(prefix):]: sp.Symbol(full, real=True) for full in self.parameters
+        """The parameters and inputs visible in the scope ``prefix``, by their local names (the
+        symbols carry the full names)."""
+        return {full[len(prefix):]: sp.Symbol(full, real=True)
+                for full in (*self.parameters, *self.inputs)
                 if full.startswith(prefix) and "." not in full[len(prefix):]}
+
+    def input_symbols(self) -> set[sp.Symbol]:
+        """The symbols of the model's inputs (full names)."""
+        return {sp.Symbol(name, real=True) for name in self.inputs}
 
     def in_scope(self, prefix: str) -> set[str]:
         """The local names of the components (and sub-models) of the scope ``prefix``."""
         return {n[len(prefix):].split(".")[0] for n in self.components if n.startswith(prefix)}
+
+    def with_outputs(self, outputs: Mapping[str, str]) -> ModelDescription:
+        """This description with more model outputs, declared at its top level (as
+        :meth:`Model.output` then :meth:`Model.freeze` would give, without freezing again): each
+        an expression over the model's parameters, states, port variables and outputs."""
+        for name in outputs:
+            check_name(name, f"model {self.name!r}: output name")
+            if name in self.outputs:
+                raise DuplicateNameError(f"model {self.name!r}: output {name!r} declared twice")
+        new = dict(outputs)
+        return dataclasses.replace(
+            self, outputs=MappingProxyType({**self.outputs, **new}),
+            scopes=MappingProxyType({**self.scopes, **{f"output:{n}": "" for n in new}}),
+            paths=MappingProxyType({**self.paths, **{f"output:{n}": ("outputs", n) for n in new}}))
 
     # --- canonical form ----------------------------------------------------------------------
     def canonical(self) -> str:
@@ -153,6 +196,8 @@ class ModelDescription:
             "outputs": list(self.outputs.items()),
             "scopes": sorted(self.scopes.items()),
         }
+        if self.inputs:
+            data["inputs"] = [[n, i.unit, i.bind] for n, i in self.inputs.items()]
         return json.dumps(data, sort_keys=True, default=_jsonable, separators=(",", ":"))
 
     # --- validation --------------------------------------------------------------------------
@@ -180,6 +225,11 @@ class ModelDescription:
             key = f"output:{name}"
             found += self._parse_problem(text, f"output {name!r}", key, (), self.paths[key],
                                          missing or ())
+        for name, signal in self.inputs.items():
+            if signal.bind is not None:
+                key = f"input:{name}"
+                found += self._parse_problem(signal.bind, f"input {name!r} binding", key, (),
+                                             (*self.paths[key], "bind"), missing or ())
         return found
 
     def _structure_problems(self) -> list[ModelError]:
@@ -250,20 +300,49 @@ class Model:
         self.exposed: dict[str, tuple[str, str]] = {}
         self.events: list[EventSpec] = []
         self.outputs: dict[str, str] = {}
+        self.inputs: dict[str, Input] = {}
+        #: exposed port -> "effort" or "flow": what the environment imposes there when it is
+        #: left open (see :meth:`expose`)
+        self._open_causality: dict[str, str] = {}
 
     # --- construction ---------------------------------------------------------------------------
+    def _check_value_name(self, name: str, what: str) -> None:
+        """A parameter's or input's name: a plain name, not reserved, not taken by either."""
+        if name in _RESERVED:
+            raise ModelError(f"model {self.name!r}: {name!r} is not a valid {what} name (it "
+                             "means the time or a constant in expressions)")
+        check_name(name, f"model {self.name!r}: {what} name")
+        if name in self.parameters or name in self.inputs:
+            taken = "parameter" if name in self.parameters else "input"
+            raise DuplicateNameError(f"model {self.name!r}: {name!r} is declared twice (already "
+                                     f"a {taken})")
+
     def parameter(self, name: str, value: float, unit: str = "", doc: str = "") -> None:
         """Declare a parameter with its default value (SI units)."""
-        if name in _RESERVED:
-            raise ModelError(f"model {self.name!r}: {name!r} is not a valid parameter name (it "
-                             "means the time or a constant in expressions)")
-        check_name(name, f"model {self.name!r}: parameter name")
-        if name in self.parameters:
-            raise DuplicateNameError(f"model {self.name!r}: parameter {name!r} declared twice")
+        self._check_value_name(name, "parameter")
         try:
             self.parameters[name] = Parameter(value, unit, doc)
         except ParameterValueError as err:
             raise ParameterValueError(f"model {self.name!r} parameter {name!r}: {err}") from None
+
+    def input(self, name: str, unit: str = "", doc: str = "", bind: str | None = None) -> None:
+        """Declare an input ``name`` (SI ``unit``): a signal of time that every expression may
+        read like a parameter (e.g. ``Se(effort="F")``), bound when the model is simulated
+        (``simulate(..., inputs={"F": ...})``: a constant, samples, a callable; see
+        :mod:`porthamiltonian.simulation.inputs`) and a column of the linearization's B and D.
+        ``bind``: an expression to bind it to in the model instead (:meth:`bind_input`)."""
+        self._check_value_name(name, "input")
+        self.inputs[name] = Input(unit, doc, bind)
+
+    def bind_input(self, name: str, expression: str | None) -> None:
+        """Bind the input ``name`` to ``expression`` in the model — typically a controller's
+        output (``"pid.y"``) or any signal (``"2*sin(t)"``): the binding is compiled with the
+        model (the compiled model no longer has that input); None unbinds it. Swapping the
+        controller is :meth:`replace`."""
+        if name not in self.inputs:
+            raise ModelError(f"model {self.name!r} has no input {name!r}; inputs: "
+                             f"{', '.join(self.inputs) or 'none'}")
+        self.inputs[name] = replace(self.inputs[name], bind=expression)
 
     def add(self, name: str, component: Component | Model) -> Component | Model:
         """Add a component (or a sub-model) under ``name``; return it. The component is a value:
@@ -402,8 +481,18 @@ class Model:
         return any((u == comp and d["tail"] == port) or (v == comp and d["head"] == port)
                    for u, v, d in self.graph.edges(data=True))
 
-    def expose(self, name: str, target: str) -> None:
-        """Expose the port ``target`` (``component.port``) of this model as its port ``name``."""
+    def expose(self, name: str, target: str, causality: str | None = None) -> None:
+        """Expose the port ``target`` (``component.port``) of this model as its port ``name``.
+
+        A port this model exposes and leaves unconnected when it is compiled on its own is an
+        open power port at the model's boundary: an input/output pair. The environment imposes
+        the port's effort (``causality="effort"``, the default) or flow (``"flow"``) as the input
+        ``name`` (its unit the domain's), the conjugate variable is the declared output
+        ``<name>.y``, and the power input × output goes to the ledger as supplied (an effort or
+        flow source named ``name`` stands at the port)."""
+        if causality not in (None, "effort", "flow"):
+            raise ModelError(f"model {self.name!r}: exposed port {name!r}: causality must be "
+                             f"'effort' or 'flow', got {causality!r}")
         comp_name, port_name, spec = self._resolve(target)
         new: list[tuple[str, Port]] = []
         if spec is None:
@@ -419,6 +508,7 @@ class Model:
         for comp, port in new:
             self.graph.nodes[comp]["bond_ports"][port.name] = port
         self.exposed[name] = (comp_name, port_name)
+        self._open_causality[name] = causality or "effort"
 
     def event(self, name: str, guard: str, direction: int = 0, terminal: bool = False) -> None:
         """Declare a named event guard (an expression in t, parameters, states and port variables)."""
@@ -441,12 +531,53 @@ class Model:
         """The frozen, flattened :class:`ModelDescription` of this model as it is now (later
         changes to the model do not reach it). Not checked: see :meth:`validate`."""
         parts: dict[str, dict] = {key: {} for key in (
-            "components", "ports", "parameters", "outputs", "scopes", "paths")}
+            "components", "ports", "parameters", "outputs", "scopes", "paths", "inputs")}
         bonds: list = []
         events: list[EventSpec] = []
-        self._flatten_into(parts, bonds, events, "")
+        ends = self._flatten_into(parts, bonds, events, "")
+        self._open_ports(parts, bonds, ends)
         frozen = {key: MappingProxyType(value) for key, value in parts.items()}
         return ModelDescription(self.name, bonds=tuple(bonds), events=tuple(events), **frozen)
+
+    def _open_ports(self, parts: dict[str, dict], bonds: list,
+                    ends: dict[tuple[str, str], tuple[str, str]]) -> None:
+        """The exposed ports of this (top-level) model left unconnected: each an effort (or flow)
+        source named as the port, driven by the input of that name, its conjugate the declared
+        output ``<name>.y`` (see :meth:`expose`)."""
+        from .elements import Se, Sf
+        from .ports import domain
+
+        bonded = {end for bond in bonds for end in bond}
+        for name, (comp, port) in self.exposed.items():
+            end = ends[(comp, port)]
+            if end in bonded:
+                continue
+            spec = self._resolve(f"{comp}.{port}")[2]
+            if spec.dim != 1 or spec.orientation == "out":
+                raise ModelError(f"model {self.name!r}: exposed port {name!r} ({comp}.{port}) is "
+                                 "left open, but only a one-dimensional port that takes power "
+                                 "in can be an input/output pair; connect it (e.g. to a source)")
+            if name in parts["components"] or name in parts["inputs"] or name in parts["parameters"]:
+                raise DuplicateNameError(f"model {self.name!r}: the open port {name!r} needs the "
+                                         "name for its source and input; rename the port")
+            dom = domain(spec.domain)
+            effort = self._open_causality.get(name, "effort") == "effort"
+            source = (Se(effort=name, domain=spec.domain) if effort
+                      else Sf(flow=name, domain=spec.domain))
+            parts["components"][name] = source
+            parts["ports"][name] = tuple(source.ports())
+            parts["scopes"][name] = ""
+            parts["paths"][name] = ("exposed", name)
+            parts["inputs"][name] = Input(dom.effort_unit if effort else dom.flow_unit,
+                                          f"open port {name}: the {'effort' if effort else 'flow'}"
+                                          " the environment imposes")
+            parts["scopes"][f"input:{name}"] = ""
+            parts["paths"][f"input:{name}"] = ("exposed", name)
+            output = f"{name}.y"
+            parts["outputs"][output] = f"{name}.p.{'f' if effort else 'e'}"
+            parts["scopes"][f"output:{output}"] = ""
+            parts["paths"][f"output:{output}"] = ("exposed", name)
+            bonds.append(((name, "p"), end))
 
     def validate(self) -> ModelDescription:
         """The frozen description, checked: every problem at once (see
@@ -458,6 +589,10 @@ class Model:
         here = _scope_path(prefix)
         for pname, par in self.parameters.items():
             parts["parameters"][prefix + pname] = par
+        for iname, signal in self.inputs.items():
+            parts["inputs"][prefix + iname] = signal
+            parts["scopes"].setdefault(f"input:{prefix}{iname}", prefix)
+            parts["paths"].setdefault(f"input:{prefix}{iname}", (*here, "inputs", iname))
         ends: dict[tuple[str, str], tuple[str, str]] = {}  # (local comp, port) -> (full comp, port)
         for name, comp in self.components():
             if isinstance(comp, Model):

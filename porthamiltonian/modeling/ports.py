@@ -72,6 +72,8 @@ DOMAINS: dict[str, Domain] = {
         Domain("thermal", "temperature", "entropy flow", "K", "W/K"),
         Domain("screw", "wrench (torque, force)", "twist (angular, linear velocity)",
                "N*m | N", "rad/s | m/s"),
+        Domain("stiffness", "z^2/2 (dH/dK of a spring's energy K z^2/2)",
+               "stiffness rate dK/dt", "m^2", "N/(m*s)"),
     )
 }
 
@@ -135,13 +137,29 @@ def check_bond(tail_name: str, tail: Port, head_name: str, head: Port) -> None:
             f"cannot connect {tail_name} (dimension {tail.dim}) to {head_name} "
             f"(dimension {head.dim}): dimensions differ"
         )
+    if tail.orientation == "in" or head.orientation == "out":
+        raise OrientationError(_orientation_message(tail_name, tail, head_name, head))
+
+
+def _orientation_message(tail_name: str, tail: Port, head_name: str, head: Port) -> str:
+    """Why a bond from ``tail`` to ``head`` contradicts a port's orientation, and the fix: the
+    reversed bond when it is admissible, else a junction between the two (two ports that both
+    take power in, or both give it out, cannot share a bond in either direction)."""
     if tail.orientation == "in":
-        raise OrientationError(
-            f"cannot draw a bond out of {tail_name}: its power is defined positive into its "
-            f"component; use connect({head_name!r}, {tail_name!r}) or a junction"
-        )
-    if head.orientation == "out":
-        raise OrientationError(
-            f"cannot draw a bond into {head_name}: its power is defined positive out of its "
-            f"component; use connect({head_name!r}, {tail_name!r}) or a junction"
-        )
+        problem = (f"cannot draw a bond out of {tail_name}: its power is defined positive into "
+                   "its component")
+    else:
+        problem = (f"cannot draw a bond into {head_name}: its power is defined positive out of "
+                   "its component")
+    if tail.orientation != "out" and head.orientation != "in":
+        return f"{problem}; use connect({head_name!r}, {tail_name!r})"
+    if tail.orientation == "in":
+        other, ends = head_name, f"connect('j', {tail_name!r}) and connect('j', {head_name!r})"
+        both = "into"
+    else:
+        other, ends = tail_name, f"connect({tail_name!r}, 'j') and connect({head_name!r}, 'j')"
+        both = "out of"
+    return (f"{problem}, and so is {other}'s: both ports take power {both} their components, so "
+            "no bond joins them in either direction; join them through a junction: add one, "
+            "model.add('j', OneJunction()) for a common flow (a mass and a spring moving "
+            f"together) or ZeroJunction() for a common effort, then {ends}")

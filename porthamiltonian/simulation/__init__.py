@@ -4,7 +4,10 @@ Takes a compiled model's layouts and numeric functions (from :mod:`porthamiltoni
 :mod:`porthamiltonian.backends`); never calls sympy. Gives :mod:`.compiled`
 (:class:`~.compiled.CompiledModel`: layouts, parameters, values at a point), :mod:`.simulate`
 (:func:`~.simulate.simulate` and the Simulator: events, modes, reset maps, the ledger across
-jumps), :mod:`.options` (the rules of the numerical options), :mod:`.saltation` (sensitivities of
+jumps), :mod:`.inputs` (binding inputs), :mod:`.sampling` (input samples and discrete-time
+sampling instants), :mod:`.linearize` (derivative, exact Jacobians, linearization, trim),
+:mod:`.phmatrices` (the port-Hamiltonian form at a point), :mod:`.options` (the rules of the
+numerical options), :mod:`.saltation` (sensitivities of
 a run: saltation matrices at events), :mod:`.differences` (central differences with an error
 estimate), :mod:`.trajectory` (:class:`~.trajectory.Trajectory`, the immutable result) and its
 views: :mod:`.frames` (pandas data frames with units) and :mod:`.display` (notebook tables and

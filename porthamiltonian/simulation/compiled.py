@@ -3,34 +3,153 @@
 Values live apart from the description (as in Drake's System/Context): a compiled model is
 simulated with any parameter values without recompiling; ``params()`` builds the parameter vector
 from defaults and overrides by name; :meth:`~CompiledModel.outputs`, :meth:`~CompiledModel.output`,
-:meth:`~CompiledModel.energy` and :meth:`~CompiledModel.guards` evaluate the model at one point.
+:meth:`~CompiledModel.energy` and :meth:`~CompiledModel.guards` evaluate the model at one point,
+as do :meth:`~CompiledModel.derivative`, the exact Jacobians, :meth:`~CompiledModel.linearize`,
+:meth:`~CompiledModel.trim` (:mod:`.linearize`) and :meth:`~CompiledModel.ph_matrices`
+(:mod:`.phmatrices`).
 
 ``CompiledModel.simulate`` *is* :func:`porthamiltonian.simulation.simulate.simulate` (the same function,
 bound as a method: one signature, documented once). The simulator sits below this module in the
 import graph: it needs only the layout and the numeric functions of the model it is handed (it
 imports this module for type checking only), so that the compiled model can offer the call users
-expect (``compile_model(m).simulate(10.0)``) without an import cycle.
+expect (``compile_model(m).simulate(10.0)``) without an import cycle. ``export_fmu`` is
+:func:`porthamiltonian.fmu.export_fmu` bound the same way (the FMU exporter sits in the back-end
+stage).
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, fields
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
 from ..backends import Functions
-from ..errors import OptionError, ParameterValueError, StateError, UnknownParameterError
-from ..modeling.constraints import ConstraintChecker
+from ..errors import (
+    ModelError,
+    OptionError,
+    ParameterValueError,
+    StateError,
+    UnknownParameterError,
+)
+from ..fmu import export_fmu as _export_fmu
+from ..modeling.constraints import Constraint, ConstraintChecker
+from . import linearize as _linearize
+from .phmatrices import PHMatrices, ph_matrices
+from .sampling import DiscreteBlock
 from .simulate import simulate as _simulate
 
 
 @dataclass(frozen=True)
 class EventInfo:
+    """A model event as the simulator sees it: its name, the direction of the guard's zero
+    crossing that triggers it (+1 rising, -1 falling, 0 both) and whether it ends the run."""
+
     name: str
     direction: int
     terminal: bool
+
+
+@dataclass(frozen=True)
+class ModelMeta:
+    """What the compiler hands a :class:`CompiledModel` besides its numeric functions: the
+    layouts and the equations for display (``meta.json`` of a cache entry, :meth:`to_json`).
+
+    name : the model's name. state_names, param_names, param_defaults (SI), param_units,
+    output_names : the layouts. events : the model events. equations, hamiltonian : text for
+    display. matrices : the named matrices (``walker.M``); shapes : the shape of every generated
+    function's result by function name. autonomous : the state equations do not read time.
+    energy_parts : ``(output, kind)`` of the outputs that split H. constraints : the components'
+    constraints on parameter values. units : SI unit by state or port-variable name.
+    input_names, input_units : the declared inputs (two parameter-vector slots each).
+    state_roles : per state "storage", "signal", "quadrature" or "discrete". declared_outputs :
+    the model's outputs y. jac_p : the parameters of the generated ∂ẋ/∂p. discrete : the
+    discrete-time blocks. ph : the port-Hamiltonian form's layout (compiled with ``ph=True``).
+    kernels : the compiled kernels the generated code calls (the C library links their
+    objects; an FMU embeds their source). unavailable : why a derivative function was not
+    generated, by its name (e.g. ``out_jac`` of outputs read from a kernel's value-only entry).
+    """
+
+    name: str
+    state_names: tuple[str, ...]
+    param_names: tuple[str, ...]
+    param_defaults: tuple[float, ...]
+    param_units: tuple[str, ...]
+    output_names: tuple[str, ...]
+    events: tuple[EventInfo, ...]
+    equations: tuple[str, ...]
+    hamiltonian: str
+    matrices: tuple[str, ...]
+    shapes: Mapping[str, tuple[int, ...]]
+    autonomous: bool
+    energy_parts: tuple[tuple[str, str], ...] = ()
+    constraints: tuple[Constraint, ...] = ()
+    units: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    input_names: tuple[str, ...] = ()
+    input_units: tuple[str, ...] = ()
+    state_roles: tuple[str, ...] = ()
+    declared_outputs: tuple[str, ...] = ()
+    jac_p: tuple[str, ...] = ()
+    discrete: tuple[DiscreteBlock, ...] = ()
+    ph: Mapping[str, Any] | None = None
+    kernels: tuple[str, ...] = ()
+    unavailable: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+
+    def to_json(self) -> dict[str, Any]:
+        """The record as the JSON table of ``meta.json`` (the cache's format: lists, tables)."""
+        out: dict[str, Any] = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(events=[{"name": e.name, "direction": e.direction, "terminal": e.terminal}
+                           for e in self.events],
+                   shapes={k: list(v) for k, v in self.shapes.items()},
+                   energy_parts=[list(e) for e in self.energy_parts],
+                   constraints=[c.to_dict() for c in self.constraints], units=dict(self.units),
+                   unavailable=dict(self.unavailable),
+                   discrete=[{"component": d.component, "period": d.period,
+                              "states": list(d.states), "update": d.update}
+                             for d in self.discrete])
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in out.items()}
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> ModelMeta:
+        """The record of a :meth:`to_json` table; KeyError, TypeError or ValueError when it is
+        not one (a cache entry written by another version, or damaged)."""
+        return cls(
+            name=str(data["name"]), state_names=_strings(data["state_names"]),
+            param_names=_strings(data["param_names"]),
+            param_defaults=tuple(float(v) for v in data["param_defaults"]),
+            param_units=_strings(data["param_units"]),
+            output_names=_strings(data["output_names"]),
+            events=tuple(EventInfo(str(e["name"]), int(e["direction"]), bool(e["terminal"]))
+                         for e in data["events"]),
+            equations=_strings(data["equations"]), hamiltonian=str(data["hamiltonian"]),
+            matrices=_strings(data["matrices"]),
+            shapes=MappingProxyType({str(k): tuple(int(n) for n in v)
+                                     for k, v in dict(data["shapes"]).items()}),
+            autonomous=bool(data["autonomous"]),
+            energy_parts=tuple((str(a), str(b)) for a, b in data.get("energy_parts", [])),
+            constraints=tuple(Constraint.from_dict(c) for c in data.get("constraints", [])),
+            units=MappingProxyType({str(k): str(v)
+                                    for k, v in dict(data.get("units", {})).items()}),
+            input_names=_strings(data.get("input_names", [])),
+            input_units=_strings(data.get("input_units", [])),
+            state_roles=_strings(data.get("state_roles", [])),
+            declared_outputs=_strings(data.get("declared_outputs", [])),
+            jac_p=_strings(data.get("jac_p", [])),
+            discrete=tuple(DiscreteBlock(str(d["component"]), str(d["period"]),
+                                         _strings(d["states"]), str(d["update"]))
+                           for d in data.get("discrete", [])),
+            ph=dict(data["ph"]) if data.get("ph") is not None else None,
+            kernels=_strings(data.get("kernels", [])),
+            unavailable=MappingProxyType({str(k): str(v)
+                                          for k, v in dict(data.get("unavailable", {})).items()}))
+
+
+def _strings(values: Any) -> tuple[str, ...]:
+    if isinstance(values, str) or not all(isinstance(v, str) for v in values):
+        raise TypeError(f"expected a list of strings, got {values!r}")
+    return tuple(values)
 
 
 class CompiledModel:
@@ -48,28 +167,55 @@ class CompiledModel:
     constraints : the components' constraints on parameter values, checked by :meth:`params`.
     units : SI unit by name of the states and port variables whose unit is known
         (``"spring.q": "m"``, ``"mass.p.e": "N"``).
-    events : the model's event guards.
+    events : the model's event guards (:class:`EventInfo`).
+    meta : the compiler's :class:`ModelMeta` these layouts come from.
+    input_names, input_units : the inputs (bound at run time, :mod:`.inputs`); the parameter
+        vector the functions take has two slots per input after the parameters (:attr:`n_slots`).
+    state_roles : per state "storage", "signal", "quadrature" or "discrete" (a linearization
+        keeps the first two).
+    declared_outputs : the model's outputs y (rows of the linearization's C and D).
+    discrete : the discrete-time blocks (:class:`~.sampling.DiscreteBlock`).
+    ph_layout : the port-Hamiltonian form's layout when compiled with ``ph=True``, else None.
     functions : the back end's numeric functions (see :mod:`porthamiltonian.backends`).
+    source : the generated source the back end runs (C or Python); c_source : the generated C
+        body (what the C back end compiles, also under the other back ends: an FMU embeds it).
+    param_docs : the parameters' descriptions, in the order of :attr:`param_names`.
     """
 
-    def __init__(self, meta: Mapping[str, Any], functions: Functions, source: str, key: str):
-        self.name: str = meta["name"]
-        self.state_names: list[str] = meta["state_names"]
-        self.param_names: list[str] = meta["param_names"]
-        self.param_defaults = np.array(meta["param_defaults"], dtype=float)
-        self.param_units: list[str] = meta["param_units"]
-        self.output_names: list[str] = meta["output_names"]
-        self.events = [EventInfo(**e) for e in meta["events"]]
-        self.equations: list[str] = meta["equations"]
-        self.hamiltonian: str = meta["hamiltonian"]
-        self.matrix_names: list[str] = meta["matrices"]
-        self.autonomous: bool = meta["autonomous"]
-        self.energy_parts: list[tuple[str, str]] = [tuple(e) for e in meta.get("energy_parts", [])]
-        self.constraints = ConstraintChecker(self.name, meta.get("constraints", []))
-        self.units: dict[str, str] = dict(meta.get("units", {}))
+    def __init__(self, meta: ModelMeta, functions: Functions, source: str, key: str, *,
+                 c_source: str = "", param_docs: Sequence[str] = (),
+                 rebuild: Callable[..., CompiledModel] | None = None):
+        self.meta = meta
+        self.name: str = meta.name
+        self.state_names: list[str] = list(meta.state_names)
+        self.param_names: list[str] = list(meta.param_names)
+        self.param_defaults = np.array(meta.param_defaults, dtype=float)
+        self.param_units: list[str] = list(meta.param_units)
+        self.output_names: list[str] = list(meta.output_names)
+        self.events = list(meta.events)
+        self.equations: list[str] = list(meta.equations)
+        self.hamiltonian: str = meta.hamiltonian
+        self.matrix_names: list[str] = list(meta.matrices)
+        self.autonomous: bool = meta.autonomous
+        self.energy_parts: list[tuple[str, str]] = list(meta.energy_parts)
+        self.constraints = ConstraintChecker(self.name, [c.to_dict() for c in meta.constraints])
+        self.units: dict[str, str] = dict(meta.units)
+        self.input_names: list[str] = list(meta.input_names)
+        self.input_units: list[str] = list(meta.input_units)
+        self.state_roles: list[str] = list(meta.state_roles or ["storage"] * len(self.state_names))
+        self.declared_outputs: list[str] = list(meta.declared_outputs)
+        self.jac_p_names: list[str] = list(meta.jac_p)
+        self.discrete: list[DiscreteBlock] = list(meta.discrete)
+        self.ph_layout: Mapping[str, Any] | None = meta.ph
         self.functions = functions
         self.source = source
+        self.c_source = c_source
+        self.param_docs: list[str] = list(param_docs) or [""] * len(self.param_names)
         self.key = key
+        #: compiles this model again with more generated functions (``ph=True``, ``jac_p=``):
+        #: set by the compiler; None for a model made otherwise
+        self._rebuild = rebuild
+        self._extended: dict[str, CompiledModel] = {}
         self._state_index = {n: i for i, n in enumerate(self.state_names)}
         self._param_index = {n: i for i, n in enumerate(self.param_names)}
         self._output_index = {n: i for i, n in enumerate(self.output_names)}
@@ -91,7 +237,7 @@ class CompiledModel:
         if values is not None and not isinstance(values, Mapping):
             raise OptionError(f"params must be a mapping {{name: value}} (e.g. {{'k': 9.0}}), got "
                               f"{type(values).__name__}")
-        p = self.param_defaults.copy()
+        p = self._padded(self.param_defaults)
         for name, value in {**(values or {}), **more}.items():
             p[self._param_index_of(name)] = self._param_value(name, value)
         self.constraints.check(dict(zip(self.param_names, p.tolist())))
@@ -113,7 +259,17 @@ class CompiledModel:
             self.constraints.check(dict(zip(self.param_names, p.tolist())), changed)
         return p
 
+    def _padded(self, p: np.ndarray) -> np.ndarray:
+        """Parameter values followed by the input slots (zero where ``p`` has none)."""
+        out = np.zeros(len(self.param_names) + 2 * len(self.input_names))
+        out[:len(p)] = p
+        return out
+
     def _param_index_of(self, name: str) -> int:
+        if name in self.input_names:
+            raise UnknownParameterError(
+                f"{name!r} is an input of model {self.name!r}, not a parameter: bind it with "
+                f"inputs={{{name!r}: ...}} (simulate) or u= (derivative, linearize)")
         if name not in self._param_index:
             raise UnknownParameterError(
                 f"model {self.name!r} has no parameter {name!r}; parameters: "
@@ -137,13 +293,16 @@ class CompiledModel:
         return value
 
     def native_params(self, p: np.ndarray) -> list[float] | np.ndarray:
-        """The parameter vector in the form the back end's functions take."""
+        """The parameter vector in the form the back end's functions take (a vector of the
+        parameters alone gets its input slots appended, zero)."""
+        if len(p) < self.n_slots:
+            p = self._padded(p)
         return p.tolist() if self.backend == "python" else np.ascontiguousarray(p, dtype=float)
 
     def initial_state(self, p: np.ndarray | None = None,
                       values: Mapping[str, float] | None = None) -> np.ndarray:
         """Initial model state from the components' initial values, overridden by name."""
-        p = self.param_defaults if p is None else p
+        p = self._padded(self.param_defaults if p is None else p)
         x = np.array(self.functions.initial(self.native_params(p)), dtype=float)[: self.n_states]
         for name, value in (values or {}).items():
             x[self.state_index(name)] = value
@@ -227,11 +386,99 @@ class CompiledModel:
         _, p_diss, p_in = self.functions.energy(t, y, pn)
         return float(dH - p_in + p_diss)
 
+    @property
+    def n_slots(self) -> int:
+        """The length of the parameter vector the functions take: the parameters, then two
+        slots per input (:mod:`porthamiltonian.simulation.inputs`)."""
+        return len(self.param_names) + 2 * len(self.input_names)
+
+    # --- the model at a point: derivative, Jacobians, linearization, trim -----------------------
+    def derivative(self, t: float = 0.0, x: Any = None, u: Any = None,
+                   params: Any = None) -> np.ndarray:
+        """ẋ = f(t, x, u, p) of the model states at one point: ``x`` the model state (array or
+        ``{state: value}`` over the initial values), ``u`` the inputs (array or ``{input:
+        value}``), ``params`` parameter values by name (see
+        :mod:`porthamiltonian.simulation.linearize`)."""
+        return _linearize.derivative(self, t, x, u, params)
+
+    def jacobian(self, t: float = 0.0, x: Any = None, u: Any = None,
+                 params: Any = None) -> np.ndarray:
+        """∂ẋ/∂x (n x n) at one point, exact (the generated chain rule); arguments as
+        :meth:`derivative`."""
+        return _linearize.jacobian(self, t, x, u, params)
+
+    def input_jacobian(self, t: float = 0.0, x: Any = None, u: Any = None,
+                       params: Any = None) -> np.ndarray:
+        """∂ẋ/∂u (n x m) at one point, exact; arguments as :meth:`derivative`."""
+        return _linearize.input_jacobian(self, t, x, u, params)
+
+    def accelerations(self, t: float = 0.0, x: Any = None, u: Any = None,
+                      params: Any = None) -> dict[str, float]:
+        """A multibody's accelerations v̇ at one point, ``{"<mb>.a.<velocity>": value}``
+        (rad/s², m/s²), exact: the rate of the velocity output ``<mb>.v.<velocity>`` of each
+        revolute, prismatic, translational and universal joint; arguments as
+        :meth:`derivative`. A trajectory gives them by name too (``traj["arm.a.pivot"]``)."""
+        return _linearize.accelerations(self, t, x, u, params)
+
+    def linearize(self, x: Any = None, u: Any = None, params: Any = None,
+                  t: float = 0.0) -> _linearize.LinearModel:
+        """(A, B, C, D) at (t, x, u, params) from the exact Jacobians, as a
+        :class:`~porthamiltonian.simulation.linearize.LinearModel` (``.to_control()``: a
+        python-control StateSpace). States: the dynamic ones (storages, continuous signal
+        blocks); outputs: the declared outputs (else the states)."""
+        return _linearize.linearize(self, x, u, params, t)
+
+    def trim(self, x: Any = None, u: Any = None, params: Any = None, t: float = 0.0,
+             free_states: Any = None, free_inputs: Any = (), tol: float = 1e-12,
+             max_iter: int = 50) -> _linearize.TrimResult:
+        """An equilibrium ẋ = 0 by Newton's method with the exact Jacobians, from the point
+        (x, u): the free states (default: all dynamic ones) and free inputs (default: none) are
+        solved for (see :func:`porthamiltonian.simulation.linearize.trim`)."""
+        return _linearize.trim(self, x, u, params, t, free_states, free_inputs, tol, max_iter)
+
+    def to_control(self, x: Any = None, u: Any = None, params: Any = None,
+                   t: float = 0.0) -> Any:
+        """The linearization at (t, x, u, params) as a python-control ``StateSpace``
+        (:meth:`linearize` then ``to_control``)."""
+        return self.linearize(x, u, params, t).to_control()
+
+    def parameter_jacobian(self, names: Any, t: float = 0.0, x: Any = None, u: Any = None,
+                           params: Any = None) -> np.ndarray:
+        """∂ẋ/∂p (n x len(names)) by the parameters ``names`` at one point, exact: the generated
+        ``jac_p`` (this model compiles itself again with it, once, when it lacks it)."""
+        names = [names] if isinstance(names, str) else list(names)
+        model = self if self.jac_p_names == names else self.extended(jac_p=names)
+        pt = _linearize.point(model, t, x, u, params)
+        out = model.functions.extra["jac_p"](pt.t, pt.y, model.native_params(pt.p))
+        return np.asarray(out, dtype=float)[:self.n_states]
+
+    def ph_matrices(self, x: Any = None, params: Any = None, t: float = 0.0,
+                    u: Any = None) -> PHMatrices:
+        """The explicit port-Hamiltonian form [ẋ; w; y] = (J − R)[∇H; z; u] at one point
+        (arguments as :meth:`derivative`): J, R, ∇H, z, u and the checks
+        (:mod:`porthamiltonian.simulation.phmatrices`; this model compiles itself again with
+        the form's functions, once, when it lacks them)."""
+        model = self if self.ph_layout is not None else self.extended(ph=True)
+        pt = _linearize.point(model, t, x, u, params)
+        return ph_matrices(model, pt.t, pt.y, pt.p)
+
+    def extended(self, **options: Any) -> CompiledModel:
+        """This model compiled again with more generated functions (``ph=True``: the
+        port-Hamiltonian form; ``jac_p=[...]``: ∂ẋ/∂p), kept for later calls."""
+        key = repr(sorted(options.items()))
+        if key not in self._extended:
+            if self._rebuild is None:
+                raise ModelError(f"model {self.name!r} was not made by compile_model: compile it "
+                                 f"with {', '.join(f'{k}={v!r}' for k, v in options.items())}")
+            self._extended[key] = self._rebuild(**options)
+        return self._extended[key]
+
     def _repr_html_(self) -> str:
         from .display import model_html
         return model_html(self)
 
     simulate = _simulate
+    export_fmu = _export_fmu
 
     def __repr__(self) -> str:
         return (f"CompiledModel({self.name!r}, {self.n_states} states, {len(self.param_names)} "

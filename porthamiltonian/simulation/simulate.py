@@ -19,7 +19,8 @@ status in the :class:`Trajectory`, never with an exception from inside scipy.
 integration state (as Drake's Simulator owns a Context beside the System): the current time,
 state and parameters, the next step size of the compiled loop, the side a guard that has just
 fired is kept on, the counters; the :class:`Trajectory` it returns is an immutable result. The
-compiled loop (Rodas5P or Rodas4, ``Functions.loops``) is called in one place, :meth:`Simulator._compiled_segment`.
+compiled loop (Rodas5P, Rodas4 or QBDF, ``Functions.loops``) is called in one place,
+:meth:`Simulator._compiled_segment`.
 """
 from __future__ import annotations
 
@@ -30,18 +31,21 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from ..errors import ModelError, StateError
+from ..errors import InputError, ModelError, StateError
+from ..integrators import COMPILED_METHODS
 from .differences import Derivative, gradient
+from .inputs import InputPlan, plan_inputs
 from .options import check_simulation
 from .saltation import Crossing, Sensitivity, saltation_matrix
+from .sampling import Breakpoints, sample
 from .trajectory import Segment, Status, Trajectory
 
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
     from .compiled import CompiledModel
 
-METHODS = ("Rodas4", "Rodas5P", "Radau", "BDF", "LSODA", "RK45", "DOP853")
+METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 #: the methods whose whole step loop is compiled with the model (Functions.loops)
-_COMPILED = ("Rodas4", "Rodas5P")
+_COMPILED = COMPILED_METHODS
 _STIFF = ("Radau", "BDF", "LSODA")
 _EPS = np.finfo(float).eps
 
@@ -89,7 +93,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
              t_eval: np.ndarray | None = None, dense_output: bool = False,
              max_events: int = 100_000, max_steps: int = 10_000_000,
              divergence_bound: float = 1e12,
-             sensitivity: bool | np.ndarray = False) -> Trajectory:
+             sensitivity: bool | np.ndarray = False, inputs: Any = None) -> Trajectory:
     """Simulate ``model`` from ``t_start`` to ``t_end`` (also ``model.simulate(t_end, ...)``).
 
     Parameters
@@ -97,15 +101,22 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     x0 : initial model state: an array (length n), a mapping ``{state name: value}`` overriding
         the components' initial values, or None for those values.
     params : parameter values by name (defaults for the others).
+    inputs : the binding of every input of the model (``model.input_names``), by name: a
+        number, :class:`~porthamiltonian.simulation.inputs.Samples` (held or interpolated), or a
+        callable ``u(t, x)`` (scipy methods only: ``"auto"`` picks Radau); or one callable for
+        all. See :mod:`porthamiltonian.simulation.inputs`; a model without inputs takes None.
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
-    method : ``"auto"`` (default: Rodas5P, or Radau when Python events, ``t_eval`` or dense
-        output are asked for), ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable Rosenbrock methods
-        of order 5 and 4 whose whole step loop is compiled with the model: the fast path with
-        the C or numba back end; model events only, no ``t_eval`` or dense output; Rodas5P
-        takes fewer steps at the same accuracy, benchmarks/RESULTS.md), or a scipy method:
-        Radau, BDF, LSODA (stiff, given the analytic Jacobian unless ``jacobian=False``), RK45,
-        DOP853.
+    method : ``"auto"`` (default: Radau when Python events, ``t_eval`` or dense output are
+        asked for, else :func:`auto_method`: QBDF for a multibody of two or more coordinates,
+        Rodas5P otherwise), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
+        Rosenbrock methods of order 5 and 4: a Jacobian and an LU at every step; Rodas5P takes
+        fewer steps at the same accuracy), ``"QBDF"`` (variable-order BDF, orders 1-5, reusing
+        its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
+        below: compare them at equal accuracy, benchmarks/RESULTS.md) — whose whole step loop
+        is compiled with the model (the fast path with the C or numba back end; model events
+        only, no ``t_eval`` or dense output), or a scipy method: Radau, BDF, LSODA (stiff, given
+        the analytic Jacobian unless ``jacobian=False``), RK45, DOP853.
     max_step, first_step : bounds on the step size (s); ``first_step`` for the scipy methods.
     jacobian : give the stiff scipy methods the analytic Jacobian.
     actions : event name -> action (model events or ``events``). An event without action is
@@ -119,7 +130,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         Φ(t) = ∂x(t)/∂x₀ · V, with saltation matrices at the events (``traj.sensitivity``, a
         :class:`~porthamiltonian.simulation.saltation.Sensitivity`: Φ at every point and where the run
         ended, the events' saltation matrices): True for V = I (all model states), or the
-        directions V (n x m). Compiled methods only (``"auto"``: Rodas5P); the trajectory is
+        directions V (n x m). Compiled methods only (``"auto"``: as without); the trajectory is
         the same, bit for bit, as without; an action that moves the state gives its Jacobian
         (``Reset(jacobian=...)``). See :mod:`porthamiltonian.simulation.saltation`.
 
@@ -135,12 +146,17 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         events=events, t_eval=t_eval, dense_output=dense_output, max_events=max_events,
         max_steps=max_steps, divergence_bound=divergence_bound, sensitivity=sensitivity)
     t_start, t_end, t_eval = checked["t_start"], checked["t_end"], checked["t_eval"]
+    plan = plan_inputs(model.input_names, len(model.param_names), inputs, t_start, t_end)
+    calls = plan is not None and plan.has_callable
     requested = method
     if method == "auto":
-        method = "Radau" if (events or t_eval is not None or dense_output) else "Rodas5P"
+        method = ("Radau" if (events or t_eval is not None or dense_output or calls) else
+                  auto_method(model))
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
     p = model.params(params)
+    if plan is not None:
+        p = plan.slots(p, t_start)
     if x0 is None or isinstance(x0, Mapping):
         x = model.initial_state(p, x0)
     else:
@@ -158,6 +174,10 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     if method in _COMPILED and (py_events or t_eval is not None or dense_output):
         raise ModelError(f"method {method!r} (a compiled loop) takes model events only and no "
                          "t_eval or dense_output; use a scipy method (e.g. Radau) for those")
+    if method in _COMPILED and calls:
+        raise InputError(f"method {method!r} (a compiled loop) cannot call Python inputs "
+                         "u(t, x); bind them to numbers or Samples, compile the controller "
+                         "into the model, or use a scipy method (e.g. Radau)")
     if checked["sensitivity"] is not None and method not in _COMPILED:
         raise ModelError(f"sensitivity needs a compiled method ({', '.join(_COMPILED)}), whose "
                          f"loop integrates the variational equation; got method {method!r}"
@@ -166,11 +186,32 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     settings = Settings(
         method=method, rtol=checked["rtol"], atol=_ledger_atol(checked["atol"], model.n_states),
         max_step=checked["max_step"], first_step=checked["first_step"],
-        jacobian=checked["jacobian"] and method in _STIFF, actions=actions, events=py_events,
+        jacobian=checked["jacobian"] and method in _STIFF and not calls, actions=actions,
+        events=py_events,
         t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
-        sensitivity=checked["sensitivity"])
+        sensitivity=checked["sensitivity"], inputs=plan)
     return Simulator(model, settings).run(t_start, y, p, t_end)
+
+
+def auto_method(model: CompiledModel) -> str:
+    """The compiled method ``method="auto"`` runs ``model`` with (no Python events, ``t_eval``
+    or dense output): QBDF for a model with a multibody of two or more coordinates (a named
+    mass matrix ``<component>.M`` and states ``<component>.q.*``: its Jacobian, the chain rule
+    through the mass-matrix solve, costs several right-hand sides, which QBDF evaluates once in
+    tens of steps), else Rodas5P. Measured at equal accuracy (benchmarks/RESULTS.md, "Jacobian
+    reuse"): QBDF takes 0.1-0.3x Rodas5P's time on a sphere rolling in 3-D contact, 0.3-0.5x on
+    the compass and compliant-leg walkers, 0.7x on the double pendulum, 0.8-1.0x on the bouncing
+    ball (two coordinates, a constant mass matrix); 1.1-3x on the models without such a
+    multibody (a stiff spring chain, the dc motor, the mass-spring-damper, a one-coordinate
+    pendulum, the free rigid body), whose Jacobian is cheap and where Rodas5P's error is far
+    below its tolerance."""
+    for name in model.matrix_names:
+        if name.endswith(".M"):
+            prefix = name[:-1] + "q."
+            if sum(1 for s in model.state_names if s.startswith(prefix)) >= 2:
+                return "QBDF"
+    return "Rodas5P"
 
 
 def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
@@ -205,9 +246,10 @@ class Settings:
     max_steps: int
     divergence_bound: float
     sensitivity: np.ndarray | None = None
+    inputs: InputPlan | None = None
 
 
-#: The compiled loop's return codes (porthamiltonian/integrators/rodas_loop.py), but 5: its
+#: The compiled loops' return codes (porthamiltonian/integrators/rosenbrock_loop.py), but 5: its
 #: store buffer is full, call again
 _LOOP_STATUS = {0: Status.FINISHED, 1: Status.EVENT, 2: Status.FAILED, 3: Status.DIVERGED,
                 4: Status.FAILED}
@@ -254,10 +296,18 @@ class Simulator:
             seeds = settings.sensitivity
             self.phi = np.vstack([seeds, np.zeros((2, seeds.shape[1]))])
         h0 = float(model.energy(t_start, y, p)[0])
+        breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p)
+        if breaks:
+            self._break(breaks, t_start)            # the first samples (k = 0) at the start
         fired, n_events = None, 0
         while True:
             t_restart = self.t
-            status, message, k = self._segment(t_end, fired)
+            t_stop = breaks.next(self.t) if breaks else t_end
+            status, message, k = self._segment(t_stop, fired)
+            if status == Status.FINISHED and t_stop < t_end:
+                self._break(breaks, t_stop)
+                fired = None
+                continue
             if status != Status.EVENT:
                 return self._result(status, message, h0)
             t, name = self.t, self.names[k]
@@ -298,7 +348,8 @@ class Simulator:
             if self.phi is not None:
                 phi = self._cross(k, t, y_minus, p_minus, y, p, reset.jacobian,
                                   stop=bool(reset.stop), moved=moved)[None]
-            self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None, phi))
+            self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None, phi,
+                                          inputs=self._binder()))
             if reset.stop:
                 return self._result(Status.EVENT, f"stopped by the action of event {name!r} at "
                                     f"t = {t:.6g}", h0)
@@ -310,6 +361,30 @@ class Simulator:
             # a segment, guards are taken as they are (a state put back onto a guard and pushed
             # across it again fires again: a chattering contact, caught by max_events)
             fired = None if (moved or t == t_restart) else k
+
+    def _break(self, breaks: Breakpoints, t: float) -> None:
+        """At the breakpoint ``t`` (:mod:`.sampling`): the next input piece's slots, the
+        sampling of the discrete blocks due; a sampling that changes the state is recorded as
+        a point of its own (the state before it ends the previous segment)."""
+        self.t = t
+        starts, blocks = breaks.due(t)
+        if starts:
+            self.p = self.settings.inputs.slots(self.p, t)
+        if blocks:
+            if self.phi is not None:
+                raise ModelError("sensitivities of runs with discrete-time blocks are not "
+                                 "derived (their sampling is a reset of the state); simulate "
+                                 "without sensitivity")
+            y = sample(self.model, blocks, t, self.y, self.p)
+            if not np.array_equal(y, self.y):
+                self.y = y
+                self._segments.append(Segment(np.array([t]), y[:, None].copy(), self.p.copy(),
+                                              None, inputs=self._binder()))
+
+    def _binder(self) -> Any:
+        """The run's callable inputs as a segment records them (None without)."""
+        plan = self.settings.inputs
+        return plan.at if plan is not None and plan.has_callable else None
 
     def _result(self, status: Status, message: str, h0: float) -> Trajectory:
         sensitivity = None
@@ -406,16 +481,21 @@ class Simulator:
         t0, y0, p = self.t, self.y, self.p
         pn = model.native_params(p)
         rhs, jacf = model.functions.rhs, model.functions.jac
+        binder = self._binder()
+
+        def params_at(t: float, y: np.ndarray) -> Any:
+            """The parameters at (t, y): p with the callable inputs' values."""
+            return pn if binder is None else model.native_params(binder(t, y[:n], p))
 
         def fun(t, y):
-            return rhs(t, y, pn)
+            return rhs(t, y, params_at(t, y))
 
         options: dict[str, Any] = {"rtol": settings.rtol, "atol": settings.atol,
                                    "max_step": settings.max_step}
         if settings.first_step is not None:
             options["first_step"] = settings.first_step
         if settings.jacobian:
-            options["jac"] = lambda t, y: jacf(t, y, pn)
+            options["jac"] = lambda t, y: jacf(t, y, params_at(t, y))
         solver = getattr(si, settings.method)(fun, t0, y0, t_end, **options)
         t_eval = settings.t_eval
         ts, ys, interpolants = [t0], [y0], []
@@ -423,7 +503,7 @@ class Simulator:
             ts, ys = [], []
             self._eval_at(ts, ys, None, t0, t0, y0, include_start=True)
         has_events = len(self.direction) > 0
-        g_old = self._guards(t0, y0, pn, p) if has_events else None
+        g_old = self._guards(t0, y0, params_at(t0, y0), p) if has_events else None
         if fired is not None:  # keep a guard that just fired on its new side at the restart
             g_old[fired] = self._fired_side(fired) * max(abs(g_old[fired]), 1e-300)
 
@@ -432,7 +512,7 @@ class Simulator:
             sol = (si.OdeSolution([s.t_old for s in interpolants] + [interpolants[-1].t],
                                interpolants) if (settings.dense_output and interpolants) else None)
             self._segments.append(Segment(np.array(ts), np.array(ys).T if ys else
-                                          np.empty((n + 2, 0)), p.copy(), sol))
+                                          np.empty((n + 2, 0)), p.copy(), sol, inputs=binder))
             for key in self._counts:
                 self._counts[key] += getattr(solver, key)
             self.t = t_last
@@ -463,14 +543,15 @@ class Simulator:
                 if settings.dense_output:
                     interpolants.append(step_sol)
             if has_events:
-                g_new = self._guards(t_new, y_new, pn, p)
+                g_new = self._guards(t_new, y_new, params_at(t_new, y_new), p)
                 active = _active(g_old, g_new, self.direction)
                 if len(active):
                     step_sol = step_sol or solver.dense_output()
                     roots = []
                     for k in active:
                         def gk(t, k=k, sol=step_sol):
-                            return self._guards(t, sol(t), pn, p)[k]
+                            y_t = sol(t)
+                            return self._guards(t, y_t, params_at(t, y_t), p)[k]
                         roots.append((brentq(gk, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS), k))
                     roots.sort()
                     for t_root, k in roots:
@@ -504,33 +585,35 @@ class Simulator:
         mask_index, mask_sign = -1, 0.0
         if fired is not None:
             mask_index, mask_sign = fired, self._fired_side(fired)
-        tgrad = 0.0 if model.autonomous else 1e-7 * max(1.0, abs(t0))
+        slopes = p[len(model.param_names) + len(model.input_names):]
+        tgrad = 0.0 if model.autonomous and not np.any(slopes) else 1e-7 * max(1.0, abs(t0))
         t, y, h = t0, np.ascontiguousarray(self.y, dtype=float), self.h_next
         ts, ys = [np.array([t0])], [y[None, :].copy()]
         atol = np.ascontiguousarray(np.broadcast_to(settings.atol, (n + 2,)), dtype=float)
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
         sensitive = self.phi is not None
-        if sensitive:       # the variational loop: Φ too (17-tuple)
+        if sensitive:       # the variational loop: Φ too (18-tuple)
             variational = model.functions.variational[settings.method]
             phis = [self.phi[None, :n].copy()]
 
             def loop(*args):
                 out = variational(*args, np.ascontiguousarray(self.phi))
-                self.phi = out[14]
-                phis.append(out[15][:out[5], :n].copy())
-                self.phi_error = max(self.phi_error, out[16] / settings.rtol)
-                return out[:14]
+                self.phi = out[15]
+                phis.append(out[16][:out[5], :n].copy())
+                self.phi_error = max(self.phi_error, out[17] / settings.rtol)
+                return out[:15]
         else:
             loop = model.functions.loops[settings.method]
         while True:
             with np.errstate(all="ignore"):
                 (code, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
-                 h) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
+                 h, nlu) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
                            self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
                            settings.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
             self._counts["nfev"] += nfev
             self._counts["njev"] += njev
+            self._counts["nlu"] += nlu
             ts.append(t_store[:n_store].copy())
             ys.append(y_store[:n_store].copy())
             for j in range(n_ev):

@@ -2,8 +2,9 @@
 
 Shaped like scipy's ``OdeResult`` (``t``, ``status``, ``message``, ``success``, ``nfev``) plus:
 
-* ``traj["mass.p"]`` — a state, any named output (``"spring.p.e"``: the spring force) or a
-  parameter (its value in force at each point: modes change at events), over ``t``;
+* ``traj["mass.p"]`` — a state, any named output (``"spring.p.e"``: the spring force), a
+  parameter (its value in force at each point: modes change at events), an input, or a
+  multibody's acceleration (``"arm.a.pivot"``), over ``t``;
 * ``traj.p`` — the parameter values in force at each point;
 * ``traj.H``, ``traj.E_diss``, ``traj.E_in``, ``traj.residual`` — the energy ledger
   (r = H − H(0) + E_diss − E_in), ``traj.energy_scale`` (the energy that moved during the run,
@@ -28,6 +29,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from ..errors import OptionError
+from .linearize import acceleration_rows, acceleration_values
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
@@ -58,6 +62,8 @@ class Segment:
     p: np.ndarray
     sol: Any                 # scipy OdeSolution or None
     phi: np.ndarray | None = None   # (len(t), n, m): the sensitivities, when asked for
+    #: callable inputs (scipy path): (t, x, p) -> p with their slots set, else None
+    inputs: Any = None
 
     def __post_init__(self) -> None:
         for array in (self.t, self.y, self.p, self.phi):
@@ -168,10 +174,13 @@ class Trajectory:
         every point."""
         if key not in self._cache:
             rows = []
+            n = self.model.n_states
             for s in self.segments:
                 pn = self.model.native_params(s.p)
-                rows += [np.asarray(fn(s.t[k], np.ascontiguousarray(s.y[:, k]), pn))
-                         for k in range(len(s.t))]
+                for k in range(len(s.t)):
+                    if s.inputs is not None:
+                        pn = self.model.native_params(s.inputs(s.t[k], s.y[:n, k], s.p))
+                    rows.append(np.asarray(fn(s.t[k], np.ascontiguousarray(s.y[:, k]), pn)))
             self._cache[key] = _frozen(np.array(rows))
         return self._cache[key]
 
@@ -190,7 +199,28 @@ class Trajectory:
             return ledger[name]
         if name in self.model.param_names and name not in self.model.output_names:
             return self.p[:, self.model.param_names.index(name)]
+        if name in self.model.input_names and name not in self.model.output_names:
+            return self.inputs[:, self.model.input_names.index(name)]
+        rows = acceleration_rows(self.model)
+        if name in rows and name not in self.model.output_names:
+            values = self._per_point("accelerations", lambda t, y, pn: acceleration_values(
+                self.model, t, y, pn))
+            return values[:, list(rows).index(name)]
         return self.outputs[:, self.model.output_index(name)]
+
+    @property
+    def inputs(self) -> np.ndarray:
+        """The inputs' values at each point, shape (len(t), m); names in
+        ``model.input_names``."""
+        if "inputs" not in self._cache:
+            n, m, P = self.model.n_states, len(self.model.input_names), len(self.model.param_names)
+            rows = []
+            for s in self.segments:
+                for k in range(len(s.t)):
+                    p = s.inputs(s.t[k], s.y[:n, k], s.p) if s.inputs is not None else s.p
+                    rows.append(p[P:P + m] + p[P + m:P + 2 * m] * s.t[k])
+            self._cache["inputs"] = _frozen(np.array(rows).reshape(len(rows), m))
+        return self._cache["inputs"]
 
     def sol(self, t: float | np.ndarray) -> np.ndarray:
         """Dense output: model states at time(s) ``t`` (shape (n,) or (n, len(t)))."""
@@ -202,8 +232,8 @@ class Trajectory:
                     out[:, k] = s.sol(tk)[: self.model.n_states]
                     break
             else:
-                raise ValueError(f"t = {tk} is outside the simulated interval, or the run was made "
-                                 "without dense_output=True")
+                raise OptionError(f"t = {tk} is outside the simulated interval, or the run was "
+                                  "made without dense_output=True")
         return out[:, 0] if np.ndim(t) == 0 else out
 
     # --- energy ledger --------------------------------------------------------------------------
@@ -265,12 +295,22 @@ class Trajectory:
         ``energy_tolerance``."""
         return float(np.max(np.abs(self.residual)) / self.energy_scale)
 
-    def ledger(self) -> dict[str, float]:
-        """The final ledger: H(0), H(T), dissipated, supplied, residual, relative residual."""
-        return {"H0": self.h0, "HT": float(self.H[-1]), "dissipated": float(self.E_diss[-1]),
-                "supplied": float(self.E_in[-1]), "residual": float(self.residual[-1]),
-                "max_abs_residual": float(np.max(np.abs(self.residual))),
-                "relative_residual": self.relative_residual}
+    def ledger(self) -> dict[str, Any]:
+        """The final ledger: H(0), H(T), dissipated, supplied, residual, relative residual, and
+        (models with actuators, :class:`porthamiltonian.library.signals.Actuator`) the energy
+        each actuator supplied, ``actuators`` = {name: J} (part of ``supplied``)."""
+        out: dict[str, Any] = {
+            "H0": self.h0, "HT": float(self.H[-1]), "dissipated": float(self.E_diss[-1]),
+            "supplied": float(self.E_in[-1]), "residual": float(self.residual[-1]),
+            "max_abs_residual": float(np.max(np.abs(self.residual))),
+            "relative_residual": self.relative_residual}
+        works = {name[:-len(".work")]: float(self.x[-1, i] - self.x[0, i])
+                 for i, (name, role) in enumerate(zip(self.model.state_names,
+                                                      self.model.state_roles))
+                 if role == "quadrature" and name.endswith(".work")}
+        if works:
+            out["actuators"] = works
+        return out
 
     # --- export ---------------------------------------------------------------------------------
     def columns(self, outputs: bool = False) -> dict[str, np.ndarray]:

@@ -78,6 +78,74 @@ def test_orientation_error_names_the_port_and_the_fix():
     assert "force.p" in str(info.value) and "j." in str(info.value)
 
 
+def _c_and_i() -> ph.Model:
+    m = ph.Model("x")
+    m.add("spring", ph.C(stiffness=4.0))
+    m.add("mass", ph.I(inertance=1.0))
+    return m
+
+
+@pytest.mark.parametrize("tail,head", [("spring.p", "mass.p"), ("mass.p", "spring.p")])
+def test_two_power_in_ports_are_told_to_meet_at_a_junction_not_to_swap(tail, head):
+    """A C and an I both take power in: no bond joins them in either direction, so the message
+    suggests no swap (it used to suggest one whose error suggested swapping back) but a
+    junction, and doing what it says gives a model that compiles and oscillates."""
+    m = _c_and_i()
+    with pytest.raises(errors.OrientationError) as info:
+        m.connect(tail, head)
+    msg = str(info.value)
+    assert tail in msg and head in msg and "junction" in msg
+    assert f"connect({head!r}, {tail!r})" not in msg
+    with pytest.raises(errors.OrientationError) as swapped:
+        m.connect(head, tail)                    # the swap fails too, with the same advice
+    assert "junction" in str(swapped.value)
+    assert f"connect('j', {tail!r}) and connect('j', {head!r})" in msg
+    m.add("j", ph.OneJunction())
+    m.connect("j", tail)
+    m.connect("j", head)
+    traj = compile_model(m, backend="python").simulate(
+        math.pi, x0={"spring.q": 1.0}, method="Radau", rtol=1e-10, atol=1e-12)
+    assert traj.status == "finished"
+    assert traj["spring.q"][-1] == pytest.approx(math.cos(2.0 * math.pi), abs=1e-6)
+
+
+def test_two_sources_are_told_to_meet_at_a_junction_and_a_possible_swap_is_suggested():
+    """Two power-out ports (an effort and a flow source) get the junction, a power-in tail on
+    a power-out head gets the reversed bond, which then works."""
+    m = ph.Model("x")
+    m.add("force", ph.Se(effort=1.0))
+    m.add("speed", ph.Sf(flow=2.0))
+    m.add("damper", ph.R(resistance=3.0))
+    with pytest.raises(errors.OrientationError) as info:
+        m.connect("force.p", "speed.p")
+    msg = str(info.value)
+    assert "junction" in msg and "connect('force.p', 'j') and connect('speed.p', 'j')" in msg
+    with pytest.raises(errors.OrientationError) as info:
+        m.connect("damper.p", "force.p")
+    assert "use connect('force.p', 'damper.p')" in str(info.value)
+    m.connect("force.p", "damper.p")             # the suggested bond is admissible
+
+
+def test_no_bare_value_error_runtime_error_or_assert_in_the_packages():
+    """User-facing paths raise the typed errors of porthamiltonian.errors: no ``raise
+    ValueError``, ``raise RuntimeError`` or ``assert`` statement in either package (an assert
+    vanishes under ``python -O``; a bare ValueError names no part)."""
+    import ast
+    from pathlib import Path
+
+    root = Path(ph.__file__).resolve().parents[1]
+    found = []
+    for package in ("porthamiltonian", "walker_library"):
+        for path in sorted((root / package).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                raised = node.exc if isinstance(node, ast.Raise) else None
+                name = raised.func if isinstance(raised, ast.Call) else raised
+                if isinstance(node, ast.Assert) or (
+                        isinstance(name, ast.Name) and name.id in ("ValueError", "RuntimeError")):
+                    found.append(f"{path.relative_to(root)}:{node.lineno}")
+    assert found == []
+
+
 def test_dangling_port_names_component_and_port():
     m = ph.Model("x")
     m.add("j", ph.OneJunction())

@@ -86,6 +86,42 @@ def test_no_framework_module_imports_the_walker_library():
     assert {m: t for m, t in offenders.items() if t} == {}
 
 
+def _compiler_internals(tree: ast.AST, framework: set[str]) -> list[str]:
+    """What ``tree`` imports from inside ``porthamiltonian.compiler``: a submodule (``cache``,
+    ``structure``, ...) or a private name. Absolute imports only (relative ones stay inside
+    their own package)."""
+    found = []
+    for node in _imports(tree):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names if a.name.startswith("porthamiltonian.compiler.")]
+        elif node.level == 0 and node.module:
+            if node.module.startswith("porthamiltonian.compiler."):
+                found.append(node.module)
+            elif node.module == "porthamiltonian.compiler":
+                found += [f"{node.module}.{a.name}" for a in node.names
+                          if a.name.startswith("_") or f"{node.module}.{a.name}" in framework]
+    return found
+
+
+def test_the_walker_library_uses_the_compiler_only_through_its_package():
+    """walker_library imports ``porthamiltonian.compiler``'s public names (compile_model,
+    layout, Layout) and nothing inside it: not the cache, the structure, the code generator or
+    the printers, and no private name. (The walker once wrote into the compiler's cache.)"""
+    framework = set(import_graph()[0])
+    offenders = {}
+    for path in sorted((ROOT / "walker_library").rglob("*.py")):
+        found = _compiler_internals(ast.parse(path.read_text(), str(path)), framework)
+        if found:
+            offenders[_module_name(path)] = found
+    assert offenders == {}
+    planted = ast.parse("from porthamiltonian.compiler import cache, layout\n"
+                        "import porthamiltonian.compiler.structure\n"
+                        "def f():\n    from porthamiltonian.compiler import _solved\n")
+    assert sorted(_compiler_internals(planted, framework)) == [
+        "porthamiltonian.compiler._solved", "porthamiltonian.compiler.cache",
+        "porthamiltonian.compiler.structure"]
+
+
 def test_the_walk_sees_lazy_imports_and_skips_type_checking_ones(tmp_path):
     """The detector itself: a function-level import is an edge, a TYPE_CHECKING one is not."""
     tree = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import a\n"
@@ -98,15 +134,13 @@ def test_the_walk_sees_lazy_imports_and_skips_type_checking_ones(tmp_path):
 #: builds the CompiledModel, so it imports that class; the simulation never imports the compiler.)
 STAGES = {
     "porthamiltonian": [("errors", "version"), ("modeling",), ("library", "mechanics"),
-                        ("integrators",), ("backends",), ("simulation",), ("compiler",),
+                        ("integrators",), ("backends", "fmu"), ("simulation",), ("compiler",),
                         ("batch",), ("interfaces",), ("__init__", "__main__")],
     "walker_library": [("core",), ("analyses",), ("report",), ("cli", "__init__", "__main__")],
 }
-#: lazy imports that still reach a later stage (a result's notebook hooks); to go
-KNOWN_UPWARD = {
-    ("walker_library.analyses.gait", "walker_library.report.display"),
-    ("walker_library.analyses.continuation", "walker_library.report.figures"),
-}
+#: imports that reach a later stage (none: a result's notebook views are registered by the
+#: report, walker_library.analyses.results.register_view)
+KNOWN_UPWARD: set[tuple[str, str]] = set()
 
 
 def _stage(package: str, module: str) -> int:

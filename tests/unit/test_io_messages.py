@@ -79,7 +79,7 @@ def test_unknown_section_suggests_the_right_one(tmp_path):
     text = MSD + "\n[output]\nx = \"spring.q\"\n"
     msg, path = message(text, tmp_path)
     check(msg, f"{path}, line {line_of(text, '[output]')}", "unknown section 'output'",
-          "bonds, components, events, model, outputs, parameters, simulation",
+          "bonds, components, events, inputs, linearize, model, outputs, parameters, simulation",
           hint="did you mean 'outputs'?")
 
 
@@ -118,7 +118,7 @@ def test_unknown_component_kind_suggests_the_closest(tmp_path):
     msg, path = message(text, tmp_path)
     n = line_of(text, 'type = "HuntCrossly", x =')
     check(msg, f"{path}, line {n}", "component 'floor'",
-          "unknown component type 'HuntCrossly'", "known types: 0, 1, C,",
+          "unknown component type 'HuntCrossly'", "known types: 0, 1, ActuatedSpringDamper, Actuator, C,",
           hint="did you mean 'HuntCrossley'?")
 
 
@@ -133,7 +133,7 @@ def test_component_without_type_or_not_a_table(tmp_path):
     text = edit(MSD, 'type = "R"\n', "")
     msg, path = message(text, tmp_path)
     check(msg, f"{path}, line {line_of(text, '[components.damper]')}", "component 'damper'",
-          "types: 0, 1, C,", hint="needs a 'type' (e.g. type = \"C\")")
+          "types: 0, 1, ActuatedSpringDamper, Actuator, C,", hint="needs a 'type' (e.g. type = \"C\")")
     msg, path = message("[components]\nwheel = 3\n", tmp_path)
     check(msg, f"{path}, line 2", "component 'wheel'", "an integer",
           hint='must be a table ([components.wheel] with type = "KIND" and its arguments)')
@@ -181,7 +181,7 @@ def test_unknown_domain_points_at_the_domain_line(tmp_path):
     msg, path = message(text, tmp_path)
     check(msg, f"{path}, line {line_of(text, 'domain = ')}", "component 'damper'",
           "unknown domain 'fluid'",
-          hint="known domains: electric, hydraulic, magnetic, rotation, screw, thermal, translation")
+          hint="known domains: electric, hydraulic, magnetic, rotation, screw, stiffness, thermal, translation")
 
 
 def test_multibody_error_points_at_the_nested_key(tmp_path):
@@ -302,7 +302,7 @@ def test_bad_outputs(tmp_path):
 
 @pytest.mark.parametrize("old, new, needle, names, hint", [
     ("t_end = 20.0", "tend = 20.0", "tend", ["[simulation]", "no key 'tend'",
-                                             "atol, energy_tolerance, initial, max_step, method"],
+                                             "atol, energy_tolerance, initial, inputs, max_step, method"],
      "did you mean 't_end'?"),
     ("t_end = 20.0", 't_end = "long"', "t_end", ["[simulation] t_end", "'long'"],
      "must be a positive number"),

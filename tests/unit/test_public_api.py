@@ -12,16 +12,18 @@ import pytest
 #: walker_library modules checked; the others (cli, analyses.gait, analyses.poincare,
 #: analyses.robustness, report.studies) are being reworked and join this list when they are
 WALKER_MODULES = ("analyses.cases", "analyses.calibration", "core.walker", "analyses.dissipation",
-                  "core.hybrid", "core.machine", "analyses.metrics", "core.names", "core.protocol",
+                  "core.hybrid", "core.machine", "analyses.metrics", "core.plan", "core.problems",
+                  "core.protocol", "core.reading",
                   "report.writer", "core.resets", "analyses.results", "analyses.series",
-                  "analyses.standing", "core.strides", "core.files")
+                  "analyses.standing", "core.strides", "core.files", "core.fmu")
 
 
 def _modules(package: str):
     root = importlib.import_module(package)
     yield root
     for info in pkgutil.walk_packages(root.__path__, f"{package}."):
-        if info.name.endswith(("rodas_loop", "rosenbrock_loop", "mechanics.kernel")):  # templates
+        if info.name.endswith(("rodas_loop", "rosenbrock_loop", "bdf_loop",
+                               "mechanics.kernel")):   # source templates
             continue
         yield importlib.import_module(info.name)
 

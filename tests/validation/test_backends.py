@@ -140,7 +140,7 @@ def test_energy_ledger_closes_on_the_c_back_end(name, model_settings):
     residual is within the file's energy tolerance (what `porthamiltonian check-energy` does)."""
     sim = model_settings(name)
     model = compile_model(io.load(name), backend="c")
-    options = {k: sim[k] for k in ("method", "rtol", "atol", "max_step") if k in sim}
+    options = {k: sim[k] for k in ("method", "rtol", "atol", "max_step", "inputs") if k in sim}
     traj = model.simulate(float(sim["t_end"]), **options)
     assert traj.success, traj.message
     assert traj.relative_residual <= float(sim["energy_tolerance"])

@@ -61,6 +61,21 @@ def test_legs_inertia_of_compass_walker_against_hand_written_lagrange():
     assert np.max(np.abs(a - c)) > 1e-4
 
 
+def test_the_legs_stay_uniform_rods_when_the_leg_length_changes():
+    """compass_walker's legs are uniform rods, their inertia the expression m_leg l²/12 (not a
+    number): with l = 0.65 the stride is the hand-written walker's with I_leg = m_leg 0.65²/12
+    to 1e-8, and differs by more than 1e-5 from the one whose legs kept the inertia of the
+    0.7 m rod (what a number in the file gave)."""
+    from walker_library import compass_walker
+    fw = compass_walker(l=0.65)
+    z = fw.initial_guess()
+    a = fw.stride(z).z_next
+    b = hw.CompassWalkerHand(l=0.65, I_leg=0.01 * 0.65**2 / 12).walk(z, 1)[0].z_next
+    assert np.max(np.abs(a - b)) < 1e-8
+    c = hw.CompassWalkerHand(l=0.65, I_leg=0.01 * 0.7**2 / 12).walk(z, 1)[0].z_next
+    assert np.max(np.abs(a - c)) > 1e-5
+
+
 def test_friction_point_of_compass_walker_against_hand_written_lagrange():
     """The friction's point: compass_walker puts it on the rolling arc's material contact point
     (checked above, slip ẋ − (l cos a + R) ȧ), compass_walker_sole_friction on the sole point R

@@ -16,7 +16,9 @@ Models: the spatial tree of multibody_cases (translational root, revolute joints
 a prismatic joint along a skew axis, welds, point, frame and joint ports loaded by dampers) and
 a floating tree with every other joint type (a free base, a spherical shoulder, a universal wrist
 about a skew axis, a prismatic slide, a translational x-z branch; points, frames and world frames
-loaded by dampers; skew gravity).
+loaded by dampers; skew gravity). And an open model (the cart-pole with its input, a damper of a
+parameter and declared outputs): its derivatives by inputs and parameters and its linearization
+through the kernel's tangents.
 """
 from __future__ import annotations
 
@@ -25,7 +27,8 @@ import pytest
 from multibody_cases import random_states, tree3d_model, with_formulation
 
 import porthamiltonian as ph
-from porthamiltonian.errors import ModelError
+from porthamiltonian import io
+from porthamiltonian.errors import CompilerError, ModelError
 from porthamiltonian.mechanics import Multibody
 
 RTOL = 1e-12
@@ -196,3 +199,73 @@ def test_formulation_is_checked():
         Multibody(bodies={"b": {"mass": 1}}, joints={"j": {"type": "revolute", "parent": "world",
                                                            "child": "b", "axis": "y"}},
                   formulation="fast")
+
+
+def open_cart_pole(formulation: str, pose: bool = False) -> ph.Model:
+    """models/cart_pole.toml (the input force F on the cart) with a semi-active damper at the
+    rod's top (a 2-D point port, a kernel site): resistance c (1 + d), c a parameter outside the
+    kernel's tables and d a second input, so that both reach the kernel's load entry through
+    the point's force; declared outputs x, θ, the top's height (a kernel site) and the pivot's
+    velocity; ``pose``: also the rod's orientation (a kernel output without tangents)."""
+    data = io.model_to_dict(io.load("cart_pole"))
+    data["parameters"]["c"] = {"value": 0.3, "unit": "N*s/m", "doc": "damping at the top"}
+    data["inputs"]["d"] = {"unit": "", "doc": "the damper's command"}
+    data["components"]["damper"] = {"type": "R", "domain": "translation", "dim": 2,
+                                    "resistance": "c*(1 + d)"}
+    data["bonds"].append("cart_pole.top -> damper.p")
+    data["outputs"].update({"top_z": "cart_pole.top.z", "omega": "cart_pole.v.pivot"})
+    if pose:
+        data["outputs"]["rod_qw"] = "cart_pole.rod.pose.qw"
+    data["components"]["cart_pole"]["formulation"] = formulation
+    data["model"]["name"] = f"open_cart_pole_{formulation}{'_pose' if pose else ''}"
+    return io.model_from_dict(data)
+
+
+@pytest.fixture(scope="module")
+def open_pair(isolated_cache):
+    return tuple(ph.compile_model(open_cart_pole(f), backend="c", jac_p=["c"])
+                 for f in ("kernel", "symbolic"))
+
+
+def test_derivatives_of_an_open_kernel_model_are_those_of_the_symbolic_formulation(open_pair):
+    """Through the kernel's tangents (d and c reach its load entry by the damper's force, the
+    outputs read its site and its velocities): ∂ẋ/∂u, ∂ẋ/∂c, the linearization (A, B, C, D)
+    and the exact accelerations equal the symbolic formulation's to 1e-12; ∂ẋ/∂d and ∂ẋ/∂c
+    are not zero (they do pass through the kernel)."""
+    kernel, symbolic = open_pair
+    assert kernel.meta.kernels == ("multibody",) and symbolic.meta.kernels == ()
+    for k, x in enumerate(random_states(symbolic, 5, 3)):
+        u = [0.7 - 0.4 * k, 0.2 * k]
+        B = kernel.input_jacobian(x=x, u=u)
+        P = kernel.parameter_jacobian(["c"], x=x, u=u)
+        assert np.max(np.abs(B[:, 1])) > 1e-3 and np.max(np.abs(P)) > 1e-3
+        close(B, symbolic.input_jacobian(x=x, u=u), f"jac_u #{k}")
+        close(P, symbolic.parameter_jacobian(["c"], x=x, u=u), f"jac_p #{k}")
+        lin_k, lin_s = kernel.linearize(x=x, u=u), symbolic.linearize(x=x, u=u)
+        for name in "ABCD":
+            close(getattr(lin_k, name), getattr(lin_s, name), f"{name} #{k}")
+        acc_k, acc_s = kernel.accelerations(x=x, u=u), symbolic.accelerations(x=x, u=u)
+        assert acc_k.keys() == acc_s.keys() == {"cart_pole.a.slider", "cart_pole.a.pivot"}
+        close(list(acc_k.values()), list(acc_s.values()), f"accelerations #{k}")
+
+
+def test_a_derivative_by_a_kernel_table_entry_is_refused_naming_it(open_pair):
+    """The kernel's tangents are by its inputs, not its tables: ∂ẋ/∂l (a length in the rod's
+    table) is refused naming l and the way out; the symbolic formulation has it."""
+    kernel, symbolic = open_pair
+    with pytest.raises(CompilerError, match=r"by l is not available.*formulation = 'symbolic'"):
+        kernel.parameter_jacobian(["l"], u=[0.0, 0.0])
+    assert np.all(np.isfinite(symbolic.parameter_jacobian(["l"], u=[0.0, 0.0])))
+
+
+def test_a_declared_pose_of_a_kernel_model_simulates_but_does_not_linearize(isolated_cache):
+    """A body's pose comes from a kernel entry without tangents: the model compiles and runs,
+    its linearization says which output has no derivative (the symbolic formulation's does)."""
+    kernel = ph.compile_model(open_cart_pole("kernel", pose=True), backend="python")
+    assert "out_jac" in kernel.meta.unavailable
+    traj = kernel.simulate(0.2, inputs={"F": 0.5, "d": 0.0})
+    assert traj.status == "finished" and np.all(np.abs(traj["rod_qw"]) <= 1.0)
+    with pytest.raises(ModelError, match="'rod_qw'.*formulation = 'symbolic'"):
+        kernel.linearize(u=[0.0, 0.0])
+    symbolic = ph.compile_model(open_cart_pole("symbolic", pose=True), backend="python")
+    assert symbolic.linearize(u=[0.0, 0.0]).C.shape == (5, 4)

@@ -173,7 +173,7 @@ def _fixed_step_phi(model, method: str, t_end: float, h: float) -> np.ndarray:
         np.zeros(0, dtype=bool), -1, 0.0, model.n_states, 1e12, 10**6, 10**5,
         0.0 if model.autonomous else 1e-7, np.eye(n)[:, : model.n_states].copy())
     assert out[0] == 0
-    return out[14][: model.n_states]
+    return out[15][: model.n_states]
 
 
 @pytest.mark.parametrize("name, method, order, h", [

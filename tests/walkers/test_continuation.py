@@ -23,6 +23,7 @@ import json
 import math
 import sys
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 import pytest
@@ -277,10 +278,14 @@ class _SyntheticMap:
     iteration), so the continuation's branch logic is checked against closed forms in
     milliseconds."""
 
+    name = "synthetic"
     legged = False
     section = thesis_section = ("x", "y")
     gait_tolerance = 1e-12
-    weight = 1.0
+    weight = leg_length = 1.0
+    specs = MappingProxyType({})
+    mode_names = ()
+    run_time_parameters = ("mu",)
 
     def __init__(self, mu: float):
         self.parameters = {"mu": float(mu)}
@@ -312,6 +317,12 @@ class _SyntheticMap:
         return np.asarray(z, dtype=float)
 
     from_thesis = to_thesis
+
+    def initial_guess(self):
+        return np.zeros(2)
+
+    def basin_state(self, z_star, theta, theta_dot):
+        return None
 
 
 class _Bubbles(_SyntheticMap):

@@ -176,7 +176,7 @@ def test_simplest_walker_impact_matches_garcia_limit_law():
     angles to 1e-9: the strike happens at the guard's 1e-10 margin below the surface)."""
     w = simplest_walker()
     x, p = _pre_impact(w)
-    theta, theta_dot = -x[w._iq][0], -w.velocities(x, p)[0]
+    theta, theta_dot = -x[list(w.compiled.coordinates)][0], -w.velocities(x, p)[0]
     x_new, p_new, info = _heel_strike(w).apply(0.0, x, p, w.outputs(0.0, x, p))
     z = w.project(x_new, p_new)
     s = w.section_state(z)

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from porthamiltonian import io
+from porthamiltonian.errors import ModelFileError
 from walker_library import analyze_gait, available_walkers, load_walker
 from walker_library.cli import main
 
@@ -126,7 +127,11 @@ def test_walker_file_parameters_overrides_and_edited_components(tmp_path):
     assert load_walker(path, {"slope": 0.01}).parameters["slope"] == pytest.approx(0.01)
     original = (MODELS / "compass_gait.toml").read_text()
     edited = tmp_path / "heavy_hip.toml"
-    edited.write_text(original.replace('mass = "m_H"', 'mass = "2*m_H"', 1))
+    heavier = original.replace('mass = "m_H"', 'mass = "2*m_H"', 1)
+    edited.write_text(heavier)
+    with pytest.raises(ModelFileError, match=r"\[walker\] mass gives 20 kg .* weigh 30 kg"):
+        load_walker(edited)                # the walker's weight must follow the bodies'
+    edited.write_text(heavier.replace('mass = "m_H + 2*m"', 'mass = "2*m_H + 2*m"', 1))
     a, b = analyze_gait(load_walker("compass_gait")), analyze_gait(load_walker(edited))
     assert a.status == b.status == "periodic"
     assert abs(a.fixed_point["theta"] - b.fixed_point["theta"]) > 1e-3

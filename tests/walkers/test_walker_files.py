@@ -28,6 +28,7 @@ from walker_library import (
     Terrain,
     WalkerSpec,
     analyze_gait,
+    build_walker,
     compass_walker,
     load_walker,
     read_walker,
@@ -35,7 +36,8 @@ from walker_library import (
     simplest_walker,
 )
 from walker_library.core.files import SHIPPED
-from walker_library.core.hybrid import Integration, walker_spec
+from walker_library.core.hybrid import Integration
+from walker_library.core.reading import walker_spec
 
 MODELS = Path(io.__file__).resolve().parents[2] / "models"
 
@@ -110,7 +112,7 @@ def python_simplest_walker() -> HybridWalker:
         integration=Integration(backend="python", method="DOP853", rtol=1e-12, atol=1e-24,
                                 max_step=0.25, max_step_time=20.0),
         mass="M*(1 + 2*beta)", leg_length="l", hip="walker.hip_centre")
-    return HybridWalker(spec)
+    return build_walker(spec)
 
 
 def test_python_built_walker_walks_the_file_walkers_gait():
@@ -162,7 +164,6 @@ def no_compilation(monkeypatch):
     def refuse(*a, **k):
         raise AssertionError("a model was compiled before the description was checked")
     monkeypatch.setattr(core, "compile_model", refuse)
-    monkeypatch.setattr(core, "_COMPILED", {})
 
 
 @pytest.mark.parametrize("name,old,new,needle,part", [
@@ -245,31 +246,90 @@ def test_transitions_expose_guard_reset_and_jacobian():
                         w.output("walker.swing_foot.x", fired.x_minus, fired.p_minus))
 
 
-def test_a_built_walker_loads_without_symbolic_work_and_a_damaged_names_file_is_rebuilt(
+def test_a_built_walker_loads_without_symbolic_work_and_a_damaged_layout_is_rebuilt(
         tmp_path, monkeypatch):
-    """The names a description is checked against are computed once per model and kept in its
-    cache entry (verified by sha256): a second load in a fresh process (the in-process memo
-    cleared) runs no symbolic compiler; a damaged names file is detected (one warning), the
-    names computed again, and the walker is the same."""
-    import copy
-
+    """The names a description is checked against (the model's layout) are computed once per
+    model and kept by the compiler in the model's cache entry (verified by sha256): a second
+    load runs no symbolic compiler; a damaged layout file is detected (one warning), the layout
+    computed again, and the walker is the same."""
+    from porthamiltonian import compiler
     from porthamiltonian.compiler import cache
-    from walker_library.core import walker as core
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setattr(core, "_CHECKED", {})
     calls = []
-    real = core.symbolic
-    monkeypatch.setattr(core, "symbolic", lambda m: calls.append(1) or real(m))
-    spec, text = read_walker("simplest_walker")
-    first = core._checked(spec, text)
-    assert calls == [1]
-    core._CHECKED.clear()
-    assert core._checked(spec, text) == first and calls == [1]
-    bare = copy.deepcopy(spec.model)
-    bare.events, bare.outputs = [], {}
-    path = cache.verified_path(cache.model_key(bare), "names.json")
+    real = compiler.symbolic
+    monkeypatch.setattr(compiler, "symbolic", lambda m: calls.append(1) or real(m))
+    first = load_walker("simplest_walker", backend="python")
+    assert len(calls) == 3      # the layout; the walker's model; the impact's floating model
+    again = load_walker("simplest_walker", backend="python")
+    assert len(calls) == 3 and again.plan.outputs == first.plan.outputs
+    path = cache.verified_path(cache.model_key(first.spec.frozen), "layout.json")
     path.write_text(path.read_text().replace("slope", "slope_"))
-    core._CHECKED.clear()
-    with pytest.warns(UserWarning, match="names.json"):
-        assert core._checked(spec, text) == first
-    assert calls == [1, 1]
+    with pytest.warns(UserWarning, match="layout.json"):
+        damaged = load_walker("simplest_walker", backend="python")
+    assert len(calls) == 4
+    assert damaged.plan.names == first.plan.names
+    np.testing.assert_array_equal(damaged.initial_guess(), first.initial_guess())
+
+
+# --- one warm load: each product built once ----------------------------------------------------------
+def _walker_expressions(table: dict) -> int:
+    """How many expressions a [walker] table holds (each a place in the file): start values,
+    conditions (two sides each), set values, relabelling, angles, guess and its helpers, range
+    bounds (two each), completions (a value, or the sides of an equation that are not section
+    coordinates), thesis coordinates, the labelling (two sides), mass and leg length."""
+    section = table["section"]
+    coords = set(section["coordinates"])
+    completions = 0
+    for entry in section.get("complete", {}).values():
+        if isinstance(entry, dict) and "such_that" in entry:
+            completions += sum(side.strip() not in coords
+                               for side in entry["such_that"].split("="))
+        else:
+            completions += 1
+    guess = table.get("guess", {})
+    return (len(table.get("modes", {}))
+            + sum(2 * len(r.get("if", [])) + len(r.get("set", {})) for r in table["rules"])
+            + len(table.get("relabel", {})) + len(table.get("angles", {}))
+            + len([k for k in guess if k != "where"]) + len(guess.get("where", {}))
+            + sum(b.strip(" []()").lower().lstrip("+-") != "inf"
+                  for r in table.get("ranges", {}).values()
+                  for b in r.removesuffix("integer").strip().split(","))
+            + completions + len(section.get("thesis", {}))
+            + 2 * ("labelling" in section) + 2)
+
+
+def test_a_warm_load_freezes_the_model_once_and_parses_each_expression_once(monkeypatch):
+    """One warm ``load_walker("compliant_leg_walker")`` (its layout and compiled model cached)
+    freezes the model once and parses no expression twice: at most one parse per expression of
+    the file (the model's: every expression field of its components, its events' guards and its
+    outputs; the walker table's: counted from the TOML table). It used to freeze the model 5
+    times and parse 289 expressions (each of the 16 condition strings 3 times)."""
+    import sys
+
+    from porthamiltonian.modeling import expressions
+    from porthamiltonian.modeling.model import Model as ModelClass
+    load_walker("compliant_leg_walker")                  # warm the cache
+    record = io.read("compliant_leg_walker")
+    frozen = record.frozen
+    in_model = (sum(len(list(c.expression_fields())) for c in frozen.components.values())
+                + len(frozen.events) + len(frozen.outputs))
+    in_table = _walker_expressions(record.sections["walker"])
+    parses, freezes = [], []
+    real_parse, real_freeze = expressions.parse, ModelClass.freeze
+
+    def parse(text, *args, **kwargs):
+        parses.append(text)
+        return real_parse(text, *args, **kwargs)
+
+    def freeze(self):
+        freezes.append(self.name)
+        return real_freeze(self)
+
+    for module in list(sys.modules.values()):
+        if getattr(module, "parse", None) is real_parse:
+            monkeypatch.setattr(module, "parse", parse)
+    monkeypatch.setattr(ModelClass, "freeze", freeze)
+    walker = load_walker("compliant_leg_walker")
+    assert freezes == ["compliant_leg_walker"]
+    assert 0 < len(parses) <= in_model + in_table, (len(parses), in_model, in_table)
+    assert walker.initial_guess().shape == (10,)

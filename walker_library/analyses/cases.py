@@ -24,9 +24,17 @@ from porthamiltonian.batch.values import canonical
 from porthamiltonian.errors import ParameterValueError
 
 from ..core.protocol import Walker
-from .gait import GaitResult, analyze_gait
+from .gait import GaitResult, GaitStatus, analyze_gait
 from .results import to_jsonable
-from .robustness import basin_state, fixed_points, recovers, recovery_steps, step_down
+from .robustness import (
+    AnalysisStatus,
+    RecoveryStatus,
+    basin_state,
+    fixed_points,
+    recovers,
+    recovery_steps,
+    step_down,
+)
 
 __all__ = ["ANALYSES", "WalkerCache", "basin_case", "gait_case", "gait_summary", "get_analysis",
            "prepare_basin", "prepare_walker", "step_down_case", "walker_cache"]
@@ -154,8 +162,8 @@ def basin_case(case: Mapping[str, Any], *, model: str, backend: str | None = Non
         walker, gait = walker_cache().gait(model, backend, params)
     else:
         walker = walker_cache().walker(model, backend, params)
-    if gait.status != "periodic":
-        return {"status": "no_gait", "steps": 0, "message": gait.message}
+    if gait.status != GaitStatus.PERIODIC:
+        return {"status": AnalysisStatus.NO_GAIT, "steps": 0, "message": gait.message}
     fps = fixed_points(walker, gait)
     n = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
     try:
@@ -172,19 +180,16 @@ def prepare_walker(cases: Sequence[Mapping[str, Any]], *, model: str,
     """Build the walker once (forked workers inherit it) and check every case's parameter names
     and values against the walker's specs, so a typo fails before the sweep starts."""
     walker = walker_cache().walker(model, backend)
-    specs = getattr(walker, "specs", None)
+    specs = walker.specs
     for index, case in enumerate(cases):
         try:
-            if specs is not None:
-                unknown = sorted(set(case) - set(specs))
-                if unknown:
-                    raise ParameterValueError(
-                        f"unknown parameter(s) {', '.join(unknown)} of {walker.name}; "
-                        f"parameters: {', '.join(specs)}")
-                for name, value in case.items():
-                    specs[name].check(value)
-            elif index == 0:
-                walker.with_parameters(**case)
+            unknown = sorted(set(case) - set(specs))
+            if unknown:
+                raise ParameterValueError(
+                    f"unknown parameter(s) {', '.join(unknown)} of {walker.name}; "
+                    f"parameters: {', '.join(specs)}")
+            for name, value in case.items():
+                specs[name].check(value)
         except ParameterValueError as err:
             raise ParameterValueError(f"case {index} {canonical(dict(case))}: {err}") from None
 
@@ -206,7 +211,7 @@ def prepare_basin(cases: Sequence[Mapping[str, Any]], *, model: str, backend: st
 ANALYSES: dict[str, Analysis] = {a.name: a for a in (
     Analysis("gait", gait_case,
              "gait of the walker for each case: fixed point, Floquet multipliers, metrics",
-             prepare=prepare_walker, ok_statuses=("periodic",),
+             prepare=prepare_walker, ok_statuses=(GaitStatus.PERIODIC,),
              columns=("period_steps", "stable", "max_multiplier", "step_length", "speed")),
     Analysis("step-down", step_down_case,
              "gait and step-down test for each case: max_step_down (m), contiguous, speed, "
@@ -215,7 +220,8 @@ ANALYSES: dict[str, Analysis] = {a.name: a for a in (
     Analysis("basin", basin_case,
              "one basin-of-attraction point per case (theta, theta_dot; walker parameters in "
              "--option params={...}): converged, fell or wandered",
-             prepare=prepare_basin, ok_statuses=("converged",), columns=("steps", "distance")),
+             prepare=prepare_basin, ok_statuses=(RecoveryStatus.CONVERGED,),
+             columns=("steps", "distance")),
 )}
 
 

@@ -58,7 +58,7 @@ import numpy as np
 
 from porthamiltonian.errors import ModelError, ParameterValueError
 
-from ..core.protocol import Stride, Walker
+from ..core.protocol import Stride, StrideStatus, Walker
 from .monodromy import (
     JACOBIAN_METHODS,
     StrideJacobian,
@@ -67,27 +67,19 @@ from .monodromy import (
     stride_jacobian,
 )
 from .poincare import WalkerFell, find_fixed_point
-from .results import JSONResult, to_jsonable
+from .results import JSONResult, to_jsonable, view
 
 __all__ = ["Bifurcation", "Branch", "BranchPoint", "ContinuationResult", "ParameterPath",
            "check_parameter", "continue_gait", "parse_range"]
 
 
 # --- the parameter ---------------------------------------------------------------------------------
-def _modes(walker: Walker) -> set[str]:
-    spec = getattr(walker, "spec", None)
-    if spec is None:
-        return set()
-    return set(spec.mode_names) | {spec.terrain.drop}
-
-
 def check_parameter(walker: Walker, name: str) -> None:
     """Raise a :class:`~porthamiltonian.errors.ModelError` unless ``name`` is a parameter the
     stride map can be continued in: a parameter of the walker, bound at run time, continuous
     (not a whole number such as a count of spokes), and not a mode of the hybrid description
     (set by its rules) — named, with what to do."""
-    specs = getattr(walker, "specs", None) or {}
-    if name in _modes(walker):
+    if name in walker.mode_names:
         raise ModelError(f"{walker.name}: {name!r} is a mode of the walker's hybrid description "
                          "(its rules set it during a walk), not a parameter to continue in")
     if name not in walker.parameters:
@@ -95,13 +87,12 @@ def check_parameter(walker: Walker, name: str) -> None:
         hint = f" (did you mean {close[0]}?)" if close else ""
         raise ModelError(f"{walker.name}: no parameter {name!r} to continue in{hint}; its "
                          f"parameters: {', '.join(walker.parameters)}")
-    spec = specs.get(name)
+    spec = walker.specs.get(name)
     if spec is not None and spec.integer:
         raise ModelError(f"{walker.name}: parameter {name!r} is structural (a whole number: it "
                          "changes the walker's make-up, not a value bound at run time); "
                          "continuation needs a continuous parameter")
-    model = getattr(walker, "model", None)
-    if model is not None and name not in model.param_names:
+    if name not in walker.run_time_parameters:
         raise ModelError(f"{walker.name}: parameter {name!r} is structural (not bound at run "
                          "time: the compiled model does not take it); continuation needs a "
                          "run-time parameter")
@@ -149,7 +140,7 @@ class ParameterPath:
         check_parameter(walker, name)
         for value in (start, stop):
             walker.with_parameters(**{name: value})          # out of range raises, naming it
-        spec = getattr(walker, "specs", {}).get(name)
+        spec = walker.specs.get(name)
         return cls(name, spec.unit if spec is not None else "", float(start), float(stop),
                    (name,))
 
@@ -303,9 +294,9 @@ class ContinuationResult(JSONResult):
             "seconds": self.seconds, "message": self.message})
 
     def figure(self, path: str | Path) -> bytes:
-        """The bifurcation diagram as a PNG at ``path`` (:func:`.figures.fig_bifurcation`)."""
-        from ..report.figures import fig_bifurcation
-        return fig_bifurcation(self, Path(path))
+        """The bifurcation diagram as a PNG at ``path`` (the report's view,
+        :func:`walker_library.report.figures.fig_bifurcation`)."""
+        return view(self, "figure")(self, Path(path))
 
 
 # --- the map in scaled coordinates -------------------------------------------------------------------
@@ -700,7 +691,7 @@ class _Continuer:
                 xp = a.x + s * a.t
                 res = self._correct(m, xp, a.t, a.A, float(a.t @ xp), max_iter=30)
                 if res is None:
-                    raise WalkerFell(xp[:-1] * m.s, Stride("fell", None, 0.0, reason="locate"))
+                    raise WalkerFell(xp[:-1] * m.s, Stride(StrideStatus.FELL, None, 0.0, reason="locate"))
                 cache[s] = self._state(m, res[0], res[1], a.t, a.sj)
             return cache[s]
 
@@ -848,9 +839,7 @@ def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float |
         if start is None or stop is None:
             raise ModelError(f"continue_gait({parameter!r}): give start and stop")
         path = ParameterPath.single(walker, parameter, start, stop)
-    if jacobian == "variational" and not callable(getattr(walker, "stride_sensitivity", None)):
-        stride_jacobian(walker, walker.initial_guess(), method="variational")   # raises, named
-    tol = float(getattr(walker, "gait_tolerance", 1e-10)) if tol is None else float(tol)
+    tol = float(walker.gait_tolerance) if tol is None else float(tol)
     w0 = walker.with_parameters(**path.values(path.start))
     fp = find_fixed_point(w0, guess, period=period, tol=tol)
     if not fp.converged:

@@ -39,6 +39,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
 
 import numpy as np
 
@@ -49,14 +51,12 @@ from .continuation import ParameterPath, continue_gait
 from .metrics import GaitMetrics, gait_metrics
 from .monodromy import FloquetResult, floquet
 from .poincare import WalkerFell, detect_period, find_fixed_point
-from .results import JSONResult, to_jsonable
+from .results import JSONResult, to_jsonable, view
 
-__all__ = ["GaitResult", "Orbit", "WalkResult", "analyze_gait", "gait_start", "section_guess",
-           "walk"]
+__all__ = ["GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult", "analyze_gait",
+           "gait_start", "section_guess", "walk"]
 
 _LEGGED_KEYS = ("theta", "theta_dot", "phi", "phi_dot")
-_STATUS = {"stable_gait": "periodic", "unstable_orbits_only": "periodic", "fell": "fell",
-           "no_periodic_orbit": "no_fixed_point"}
 
 
 @dataclass
@@ -74,12 +74,31 @@ class Orbit:
         return self.floquet.stable
 
 
+class GaitStatus(StrEnum):
+    """The gait search's answer in the interface's three values (``walker gait --json``'s
+    ``status``). A ``str``: ``gait.status == "periodic"`` holds."""
+
+    PERIODIC = "periodic"              #: a periodic orbit was found (stable or not)
+    FELL = "fell"                      #: no orbit, and the walker falls from the guess
+    NO_FIXED_POINT = "no_fixed_point"  #: no orbit from this guess, and no fall
+
+
+class GaitOutcome(StrEnum):
+    """The gait search's answer in detail (``outcome``; module docstring)."""
+
+    STABLE_GAIT = "stable_gait"                    #: status periodic, stable
+    UNSTABLE_ORBITS_ONLY = "unstable_orbits_only"  #: status periodic, none stable
+    FELL = "fell"                                  #: status fell
+    NO_PERIODIC_ORBIT = "no_periodic_orbit"        #: status no_fixed_point
+
+
 @dataclass
 class GaitResult(JSONResult):
     """A walker's gait (see :func:`analyze_gait`). SI units; angles in rad.
 
-    status : "periodic", "fell" or "no_fixed_point"; outcome : "stable_gait",
-        "unstable_orbits_only", "fell" or "no_periodic_orbit" (module docstring).
+    status : :class:`GaitStatus` "periodic", "fell" or "no_fixed_point"; outcome :
+        :class:`GaitOutcome` "stable_gait", "unstable_orbits_only", "fell" or
+        "no_periodic_orbit" (module docstring).
     period_steps : k of the reported period-k orbit (0 if none).
     stable : all its Floquet multipliers inside the unit circle (None without an orbit);
         stability_certain : their error bounds cannot change that verdict.
@@ -99,8 +118,8 @@ class GaitResult(JSONResult):
     """
 
     model: str
-    status: str
-    outcome: str
+    status: GaitStatus
+    outcome: GaitOutcome
     period_steps: int
     stable: bool | None
     stability_certain: bool | None
@@ -142,15 +161,13 @@ class GaitResult(JSONResult):
                   "search": self.search, "parameters": self.parameters, "message": self.message})
         return to_jsonable(d)
 
-    def plot(self, walker: Walker | None = None, *, steps: int = 2):
-        """Limit cycle and Floquet multipliers, a quick look (see
+    def plot(self, walker: Walker | None = None, *, steps: int = 2) -> Any:
+        """Limit cycle and Floquet multipliers, a quick look (the report's view,
         :func:`walker_library.report.display.plot_gait`); returns the Axes."""
-        from ..report.display import plot_gait
-        return plot_gait(self, walker, steps=steps)
+        return view(self, "plot")(self, walker, steps=steps)
 
     def _repr_html_(self) -> str:
-        from ..report.display import gait_html
-        return gait_html(self)
+        return view(self, "html")(self)
 
 
 def _named(walker: Walker, z) -> dict:
@@ -281,8 +298,7 @@ class _Search:
 
 
 def _defaults(walker: Walker) -> dict[str, float]:
-    specs = getattr(walker, "specs", None) or {}
-    return {k: s.value for k, s in specs.items()}
+    return {k: s.value for k, s in walker.specs.items()}
 
 
 def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max_period: int,
@@ -375,7 +391,7 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
         parameters when no stable orbit is found otherwise.
     """
     if tol is None:
-        tol = float(getattr(walker, "gait_tolerance", 1e-10))
+        tol = float(walker.gait_tolerance)
     base = {"model": walker.name, "section": list(walker.section),
             "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     search = _Search(walker, fd_step, jacobian, tol)
@@ -404,7 +420,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
                   fall_reason=pr.iteration.fall_reason if fell else "", **base)
     if gait is not None or search.orbits:
         orbit = gait or min(search.orbits, key=lambda o: (o.floquet.max_modulus, o.period))
-        outcome = "stable_gait" if gait is not None else "unstable_orbits_only"
+        outcome = (GaitOutcome.STABLE_GAIT if gait is not None
+                   else GaitOutcome.UNSTABLE_ORBITS_ONLY)
         if gait is not None:
             message = f"stable period-{orbit.period} gait ({orbit.found_by})"
         else:
@@ -414,7 +431,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
         return _periodic(walker, orbit, outcome, message, common)
     if fell:
         it = pr.iteration
-        return GaitResult(status="fell", outcome="fell", period_steps=0, stable=None,
+        return GaitResult(status=GaitStatus.FELL, outcome=GaitOutcome.FELL, period_steps=0,
+                          stable=None,
                           stability_certain=None, fixed_point=_empty_point(walker),
                           fixed_points=[], floquet_multipliers=[], multiplier_errors=[],
                           multiplier_error=math.nan, metrics=_nan_metrics(),
@@ -424,7 +442,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
                                   f"{pr.fell_at_step} ({it.fall_reason}) iterating from the guess",
                           **common)
     last = pr.iteration.states[-1] if pr is not None else fp.z
-    return GaitResult(status="no_fixed_point", outcome="no_periodic_orbit", period_steps=0,
+    return GaitResult(status=GaitStatus.NO_FIXED_POINT, outcome=GaitOutcome.NO_PERIODIC_ORBIT,
+                      period_steps=0,
                       stable=None, stability_certain=None, fixed_point=_empty_point(walker),
                       fixed_points=[], floquet_multipliers=[], multiplier_errors=[],
                       multiplier_error=math.nan, metrics=_nan_metrics(), steps=[],
@@ -433,11 +452,12 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
                               f"guess ({'; '.join(search.tried)})", **common)
 
 
-def _periodic(walker: Walker, orbit: Orbit, outcome: str, message: str, common: dict) -> GaitResult:
+def _periodic(walker: Walker, orbit: Orbit, outcome: GaitOutcome, message: str,
+              common: dict) -> GaitResult:
     strides = walker.walk(orbit.z, orbit.period, details=True)
     points = [_named(walker, orbit.z)] + [_named(walker, s.z_next) for s in strides[:-1]]
     fl = orbit.floquet
-    return GaitResult(status="periodic", outcome=outcome, period_steps=orbit.period,
+    return GaitResult(status=GaitStatus.PERIODIC, outcome=outcome, period_steps=orbit.period,
                       stable=fl.stable, stability_certain=fl.certain, fixed_point=points[0],
                       fixed_points=points,
                       floquet_multipliers=[complex(m) for m in fl.multipliers],
@@ -456,11 +476,11 @@ def gait_start(walker: Walker, parameter: str, start: float, guess=None,
     no orbit."""
     w = walker.with_parameters(**{parameter: start})
     if guess is not None:
-        fp = find_fixed_point(w, guess, tol=float(getattr(w, "gait_tolerance", 1e-10)))
+        fp = find_fixed_point(w, guess, tol=float(w.gait_tolerance))
         if fp.converged:
             return fp.z, 1
     g = analyze_gait(w, guess, **options)
-    if g.status != "periodic":
+    if g.status != GaitStatus.PERIODIC:
         raise ModelError(f"{walker.name}: no gait at the start of the range ({parameter} = "
                          f"{start:g}): {g.message}; start the range where the walker has a gait "
                          "(e.g. at the file's value) or give a guess")

@@ -40,7 +40,7 @@ import numpy as np
 
 from porthamiltonian.errors import ModelError
 
-from ..core.protocol import Stride, Walker
+from ..core.protocol import Stride, StrideStatus, Walker
 from .poincare import WalkerFell, advance
 
 __all__ = ["JACOBIAN_METHODS", "FloquetResult", "StrideJacobian", "eigen_errors", "floquet",
@@ -178,15 +178,10 @@ def stride_jacobian(walker: Walker, z, *, period: int = 1, method: str = "variat
 
 def _variational(walker: Walker, z: np.ndarray, period: int) -> StrideJacobian:
     """The exact Jacobian and its error estimate (module docstring)."""
-    sens = getattr(walker, "stride_sensitivity", None)
-    if not callable(sens):
-        raise ModelError(f"{walker.name}: jacobian='variational' needs the walker's "
-                         "stride_sensitivity (the stride with its variational equations), which "
-                         "it does not provide; use jacobian='fd'")
-    runs = [sens(z, period), sens(z, period, factor=10.0)]
+    runs = [walker.stride_sensitivity(z, period), walker.stride_sensitivity(z, period, factor=10.0)]
     for run in runs:
         if run.fell:
-            raise WalkerFell(z, Stride("fell", None, 0.0, reason=run.fell))
+            raise WalkerFell(z, Stride(StrideStatus.FELL, None, 0.0, reason=run.fell))
     J, bound, coarse = runs[0].jacobian, runs[0].difference_error, runs[1].jacobian
     E = np.abs(J - coarse) + bound
     return StrideJacobian(J, E, np.full(len(z), np.nan), "variational", period,

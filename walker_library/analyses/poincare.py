@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from porthamiltonian.batch.progress import tick
+from porthamiltonian.errors import OptionError
 
 from ..core.protocol import Stride, Walker
 
@@ -57,7 +58,7 @@ def _to_model(walker: Walker, z, coordinates: str) -> np.ndarray:
         return z
     if coordinates == "thesis":
         return np.asarray(walker.from_thesis(z), dtype=float)
-    raise ValueError(f"coordinates must be 'model' or 'thesis', got {coordinates!r}")
+    raise OptionError(f"coordinates must be 'model' or 'thesis', got {coordinates!r}")
 
 
 def _from_model(walker: Walker, z, coordinates: str) -> np.ndarray:
@@ -128,7 +129,7 @@ def jacobian(walker: Walker, z, *, period: int = 1, step: float = 1e-3,
             e[j] = step
             J[:, j] = (S(z + e) - S(z - e)) / (2 * step)
     else:
-        raise ValueError(f"scheme must be 'central' or 'forward', got {scheme!r}")
+        raise OptionError(f"scheme must be 'central' or 'forward', got {scheme!r}")
     return J
 
 

@@ -41,6 +41,7 @@ import math
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
@@ -48,12 +49,14 @@ from porthamiltonian.batch.progress import tick
 from porthamiltonian.errors import ParameterValueError
 
 from ..core.protocol import Walker
-from .gait import GaitResult, analyze_gait
+from .gait import GaitResult, GaitStatus, analyze_gait
 from .results import JSONResult
 
 __all__ = [
+    "AnalysisStatus",
     "BasinResult",
     "GSNResult",
+    "RecoveryStatus",
     "StepDownResult",
     "basin",
     "basin_state",
@@ -84,18 +87,36 @@ def recovery_steps(gait: GaitResult, tol: float) -> int:
     return int(math.ceil(n / k) * k)
 
 
+class RecoveryStatus(StrEnum):
+    """How one disturbed walk ended (:func:`recovers`; a basin grid point's outcome). A ``str``:
+    ``recovery.status == "fell"`` holds."""
+
+    CONVERGED = "converged"  #: back within the tolerance of a fixed point of the gait
+    FELL = "fell"            #: the walker fell
+    WANDERED = "wandered"    #: neither, within the steps allowed (a slow transient, another attractor)
+
+
+class AnalysisStatus(StrEnum):
+    """Whether a robustness analysis (step-down, basin, Gait Sensitivity Norm) ran. A ``str``."""
+
+    OK = "ok"                #: it ran (its numbers are the result)
+    NO_GAIT = "no_gait"      #: the walker has no periodic gait to disturb
+    FELL = "fell"            #: the walker fell in a walk the analysis needed (GSN)
+
+
 @dataclass
 class Recovery:
-    """Outcome of one disturbed walk: ``status`` "converged", "fell" or "wandered"."""
+    """Outcome of one disturbed walk: ``status`` :class:`RecoveryStatus` "converged", "fell" or
+    "wandered"."""
 
-    status: str
+    status: RecoveryStatus
     steps: int
     distance: float
     reason: str = ""
 
     @property
     def survived(self) -> bool:
-        return self.status == "converged"
+        return self.status == RecoveryStatus.CONVERGED
 
 
 def recovers(walker: Walker, z0, fixed_points: np.ndarray, *, n_steps: int, tol: float,
@@ -111,12 +132,12 @@ def recovers(walker: Walker, z0, fixed_points: np.ndarray, *, n_steps: int, tol:
         total += len(strides)
         last = strides[-1]
         if last.fell:
-            return Recovery("fell", total, math.nan, last.reason)
+            return Recovery(RecoveryStatus.FELL, total, math.nan, last.reason)
         z = last.z_next
         d = float(np.min(np.max(np.abs(fixed_points - z[None, :]), axis=1)))
         if d <= tol:
-            return Recovery("converged", total, d)
-    return Recovery("wandered", total, d)
+            return Recovery(RecoveryStatus.CONVERGED, total, d)
+    return Recovery(RecoveryStatus.WANDERED, total, d)
 
 
 def _gait_or_raise(walker: Walker, gait: GaitResult | None) -> GaitResult:
@@ -128,7 +149,8 @@ def _gait_or_raise(walker: Walker, gait: GaitResult | None) -> GaitResult:
 class StepDownResult(JSONResult):
     """Result of :func:`step_down` (heights in m).
 
-    status : "ok", or "no_gait" when the walker has no periodic gait to disturb.
+    status : :class:`AnalysisStatus` "ok", or "no_gait" when the walker has no periodic gait to
+    disturb.
     max_step_down : largest drop survived (0.0 when even the first failed; None without a gait).
     contiguous : every drop below max_step_down survived. contiguous_limit : the largest drop
     with every smaller one survived. survived_intervals : the survived set, ``[low, high]``
@@ -140,7 +162,7 @@ class StepDownResult(JSONResult):
     """
 
     model: str
-    status: str
+    status: AnalysisStatus
     max_step_down: float | None
     contiguous: bool
     contiguous_limit: float | None
@@ -187,15 +209,15 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
     base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol}
-    if gait.status != "periodic":
-        return StepDownResult(status="no_gait", max_step_down=None, contiguous=False,
+    if gait.status != GaitStatus.PERIODIC:
+        return StepDownResult(status=AnalysisStatus.NO_GAIT, max_step_down=None, contiguous=False,
                               contiguous_limit=None, survived_intervals=[],
                               resolution=math.nan, boundary_tol=boundary_tol, window=0.0,
                               first_failure=None, holes=[], n_steps=0,
                               cases=[], fixed_point=gait.fixed_point,
                               seconds=time.perf_counter() - t0,
                               message=f"no periodic gait to disturb: {gait.message}", **base)
-    leg = float(getattr(walker, "leg_length", 1.0))
+    leg = float(walker.leg_length)
     resolution = 2e-4 * leg if resolution is None else float(resolution)
     h_max = 0.1 * leg if h_max is None else float(h_max)
     if not (resolution > 0 and h_max > 0 and boundary_tol >= 0):
@@ -264,7 +286,7 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
                   "no drop survived" if not survived else
                   f"contiguous up to {limit * 1e3:.3f} mm, then survived "
                   + ", ".join(f"{a * 1e3:.3f}–{b * 1e3:.3f} mm" for a, b in beyond)))
-    return StepDownResult(status="ok", max_step_down=best, contiguous=contiguous,
+    return StepDownResult(status=AnalysisStatus.OK, max_step_down=best, contiguous=contiguous,
                           contiguous_limit=limit, survived_intervals=survived_intervals,
                           resolution=resolution, boundary_tol=boundary_tol, window=window,
                           first_failure=min(failed) if failed else None,
@@ -277,9 +299,9 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
 def basin_state(walker: Walker, z_star, theta: float, theta_dot: float) -> np.ndarray:
     """Section state with thesis θ, θ̇ set and the rest taken from the fixed point ``z_star``
     (φ keeps its offset from 2θ). A walker's own ``basin_state`` method takes precedence."""
-    own = getattr(walker, "basin_state", None)
-    if callable(own):
-        return np.asarray(own(z_star, theta, theta_dot), dtype=float)
+    own = walker.basin_state(z_star, theta, theta_dot)
+    if own is not None:
+        return np.asarray(own, dtype=float)
     names = list(walker.thesis_section)
     w = np.array(walker.to_thesis(np.asarray(z_star, dtype=float)), dtype=float)
     named = walker.section_state(z_star)
@@ -304,7 +326,7 @@ class BasinResult(JSONResult):
     within r of the fixed point converged (the thesis's "biggest circle" measure, §2.6)."""
 
     model: str
-    status: str
+    status: AnalysisStatus
     theta: list[float]
     theta_dot: list[float]
     theta_scale: float
@@ -333,8 +355,8 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
     gait = _gait_or_raise(walker, gait)
     base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol,
                 "theta_scale": theta_scale, "theta_dot_scale": theta_dot_scale}
-    if gait.status != "periodic":
-        return BasinResult(status="no_gait", theta=[], theta_dot=[], fixed_point=gait.fixed_point,
+    if gait.status != GaitStatus.PERIODIC:
+        return BasinResult(status=AnalysisStatus.NO_GAIT, theta=[], theta_dot=[], fixed_point=gait.fixed_point,
                            outcome=[], steps=[], fraction=math.nan, radius=math.nan, n_steps=0,
                            seconds=time.perf_counter() - t0,
                            message=f"no periodic gait: {gait.message}", **base)
@@ -361,12 +383,12 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
             outcome[i][j], steps[i][j] = r.status, r.steps
             if progress is not None:
                 progress({"theta": float(th), "theta_dot": float(thd), "status": r.status})
-    ok = np.array([[o == "converged" for o in row] for row in outcome])
+    ok = np.array([[o == RecoveryStatus.CONVERGED for o in row] for row in outcome])
     S1, S2 = np.meshgrid(span_th * s, span_thd * s, indexing="ij")
     dist = np.hypot(S1, S2)
     bad = dist[~ok]
     radius = float(bad.min()) if bad.size else float(dist.max())
-    return BasinResult(status="ok", theta=thetas.tolist(), theta_dot=rates.tolist(),
+    return BasinResult(status=AnalysisStatus.OK, theta=thetas.tolist(), theta_dot=rates.tolist(),
                        fixed_point=fp, outcome=outcome, steps=steps,
                        fraction=float(ok.mean()), radius=radius, n_steps=n_steps,
                        seconds=time.perf_counter() - t0,
@@ -385,7 +407,7 @@ class GSNResult(JSONResult):
     """
 
     model: str
-    status: str
+    status: AnalysisStatus
     gsn: float
     by_indicator: dict
     response: dict
@@ -403,34 +425,37 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
     finite differences at h and h/2 (module docstring)."""
     gait = _gait_or_raise(walker, gait)
     base = {"model": walker.name, "parameters": dict(walker.parameters)}
-    if gait.status != "periodic":
-        return GSNResult(status="no_gait", gsn=math.nan, by_indicator={}, response={},
+    if gait.status != GaitStatus.PERIODIC:
+        return GSNResult(status=AnalysisStatus.NO_GAIT, gsn=math.nan, by_indicator={}, response={},
                          error=math.nan, h=math.nan, n_steps=0,
                          message=f"no periodic gait: {gait.message}", **base)
-    leg = float(getattr(walker, "leg_length", 1.0))
+    leg = float(walker.leg_length)
     h = 1e-5 * leg if h is None else float(h)
     n_steps = recovery_steps(gait, 1e-8) if n_steps is None else int(n_steps)
     z0 = fixed_points(walker, gait)[0]
     attr = {"step_period": "duration", "step_length": "step_length"}
 
-    def series(drop: float) -> dict:
+    def series(drop: float) -> dict | None:
         strides = walker.walk(z0, n_steps, ground_drop=drop)
         tick("stride", len(strides))
         if strides[-1].fell:
-            raise RuntimeError(f"the walker fell after a drop of {drop:g} m")
+            return None
         return {k: np.array([getattr(s, attr[k]) for s in strides]) for k in indicators}
 
-    try:
-        s0, s1, s2 = series(0.0), series(h), series(h / 2)
-    except RuntimeError as err:
-        return GSNResult(status="fell", gsn=math.nan, by_indicator={}, response={},
-                         error=math.nan, h=h, n_steps=n_steps, message=str(err), **base)
+    runs = []
+    for drop in (0.0, h, h / 2):
+        runs.append(series(drop))
+        if runs[-1] is None:
+            return GSNResult(status=AnalysisStatus.FELL, gsn=math.nan, by_indicator={}, response={},
+                             error=math.nan, h=h, n_steps=n_steps,
+                             message=f"the walker fell after a drop of {drop:g} m", **base)
+    s0, s1, s2 = runs
     g1 = {k: (s1[k] - s0[k]) / h for k in indicators}
     g2 = {k: (s2[k] - s0[k]) / (h / 2) for k in indicators}
     by = {k: float(np.linalg.norm(g2[k])) for k in indicators}
     total = float(math.sqrt(sum(v * v for v in by.values())))
     total1 = float(math.sqrt(sum(float(np.linalg.norm(g1[k])) ** 2 for k in indicators)))
-    return GSNResult(status="ok", gsn=total, by_indicator=by,
+    return GSNResult(status=AnalysisStatus.OK, gsn=total, by_indicator=by,
                      response={k: g2[k].tolist() for k in indicators}, error=abs(total - total1),
                      h=h, n_steps=n_steps,
                      message=f"GSN {total:.6g} (indicators {', '.join(indicators)})", **base)

@@ -75,16 +75,16 @@ def walk_series(walker: HybridWalker, z: np.ndarray, n_steps: int, *, ground_dro
     hip = np.empty((N, 2))
     feet = np.empty((N, len(walker.feet), 2))
     Y = traj.outputs
-    col = walker._out
+    col = walker.model.output_index
     for i in range(N):
         x = traj.y[:n, i]
         xc, v, _ = walker.canonical(x, P[i])
         for k, value in walker.angles(xc, v).items():
             angles[k][i] = value
     if walker.hip:
-        hip[:] = Y[:, [col[f"{walker.hip}.x"], col[f"{walker.hip}.z"]]]
+        hip[:] = Y[:, [col(f"{walker.hip}.x"), col(f"{walker.hip}.z")]]
     for j, point in enumerate(walker.feet):
-        feet[:, j] = Y[:, [col[f"{point}.x"], col[f"{point}.z"]]]
+        feet[:, j] = Y[:, [col(f"{point}.x"), col(f"{point}.z")]]
     mb = walker.multibody
     return GaitSeries(t=t, step=step, H=traj.H, V=np.asarray(traj[f"{mb}.V"]),
                       T=np.asarray(traj[f"{mb}.T"]), E_diss=traj.E_diss, E_in=traj.E_in,

@@ -3,7 +3,7 @@
 A walker file (``models/<name>.toml``) is an ordinary porthamiltonian model file — its
 components, bonds, parameters and events are the walker's mechanism, so ``porthamiltonian show``
 and ``check-energy`` work on it — plus a ``[walker]`` table, the hybrid description
-(:mod:`walker_library.hybrid`; docs/walkers.md). The file is the walker: :func:`load_walker`
+(:mod:`.hybrid`, read by :mod:`.reading`; docs/walkers.md). The file is the walker: :func:`load_walker`
 builds it from the file alone, so editing a component (a contact law, a friction, a spring, a
 foot radius) changes the walker that every ``walker`` command analyses.
 
@@ -22,8 +22,9 @@ import tomli_w
 from porthamiltonian import io as ph_io
 from porthamiltonian.errors import ModelFileError, ParameterValueError
 
-from .hybrid import Integration, WalkerSpec, walker_spec
-from .walker import HybridWalker
+from .hybrid import Integration, WalkerSpec
+from .reading import walker_spec
+from .walker import HybridWalker, build_walker
 
 __all__ = ["SHIPPED", "available_walkers", "compass_gait", "compass_walker",
            "compliant_leg_walker", "load_walker", "read_walker", "rigid_compass_walker",
@@ -53,8 +54,8 @@ def read_walker(name_or_path: str | Path) -> tuple[WalkerSpec, str]:
         raise ModelFileError(f"{path}: not a walker file: it has no [walker] table (a walker is a "
                              "model plus its hybrid description; see docs/walkers.md)")
     return walker_spec(record.model, table, source=str(path), text=text,
-                       description=record.description,
-                       units=str(record.meta.get("units", ""))), text
+                       description=record.description, units=str(record.meta.get("units", "")),
+                       frozen=record.frozen), text
 
 
 def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None = None, *,
@@ -68,7 +69,7 @@ def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None 
     """
     spec, text = read_walker(name_or_path)
     try:
-        return HybridWalker(spec, backend=backend, options=options, values=overrides, text=text)
+        return build_walker(spec, backend=backend, options=options, values=overrides, text=text)
     except ParameterValueError as err:
         raise ParameterValueError(f"{spec.source}: {err}") from None
 

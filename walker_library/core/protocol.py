@@ -25,21 +25,27 @@ stance foot ahead of the hip), θ̇ < 0 while walking downhill, and φ = 2θ at 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from enum import StrEnum
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
 from porthamiltonian.errors import ParameterValueError
 
-__all__ = ["ParameterSpec", "Stride", "Walker", "check_parameters"]
+if TYPE_CHECKING:
+    from .variational import StrideSensitivity
+
+__all__ = ["ParameterSpec", "Stride", "StrideStatus", "Walker", "check_parameters"]
 
 
 @dataclass(frozen=True)
 class ParameterSpec:
     """A walker parameter: default value (SI), unit, meaning and source, and its valid range
     ``low < value < high`` (``<=`` at an end that is ``*_inclusive``; a whole number if
-    ``integer``)."""
+    ``integer``); ``limits``: the components' constraints the range comes from, if any (e.g.
+    "component 'walker' body 'leg1' mass must be > 0")."""
 
     name: str
     value: float
@@ -51,6 +57,7 @@ class ParameterSpec:
     low_inclusive: bool = False
     high_inclusive: bool = False
     integer: bool = False
+    limits: str = ""
 
     def check(self, value: float) -> float:
         """``value`` as a float if it is in range, else ParameterValueError naming the range."""
@@ -64,14 +71,16 @@ class ParameterSpec:
             lo, hi = "[" if self.low_inclusive else "(", "]" if self.high_inclusive else ")"
             raise ParameterValueError(
                 f"parameter {self.name!r} = {value:g} is out of range: it must lie in "
-                f"{lo}{self.low:g}, {self.high:g}{hi} {self.unit} ({self.doc})")
+                f"{lo}{self.low:g}, {self.high:g}{hi} {self.unit} ({self.doc}"
+                f"{f'; {self.limits}' if self.limits else ''})")
         if self.integer and value != round(value):
             raise ParameterValueError(f"parameter {self.name!r} = {value:g} must be a whole number "
                                       f"({self.doc})")
         return value
 
 
-def check_parameters(specs: dict[str, ParameterSpec], values: dict[str, float]) -> dict[str, float]:
+def check_parameters(specs: Mapping[str, ParameterSpec],
+                     values: Mapping[str, float]) -> dict[str, float]:
     """Validated values by name (defaults for the others); unknown names raise."""
     unknown = set(values) - set(specs)
     if unknown:
@@ -83,11 +92,19 @@ def check_parameters(specs: dict[str, ParameterSpec], values: dict[str, float]) 
     return out
 
 
+class StrideStatus(StrEnum):
+    """How a stride ended. A ``str``: ``stride.status == "fell"`` holds, and the value is what
+    the JSON results show."""
+
+    STEP = "step"      #: a heel strike ended the step (the state is on the section again)
+    FELL = "fell"      #: the walker fell (the stride's ``reason`` says how)
+
+
 @dataclass
 class Stride:
     """One step of a walker from a section state to the next (SI units).
 
-    status : ``"step"`` (a heel strike ended the step) or ``"fell"``.
+    status : :class:`StrideStatus` ``"step"`` (a heel strike ended the step) or ``"fell"``.
     z_next : section coordinates just after the heel strike that ended the step (None if fell).
     duration : step period (s). step_length : distance along the slope between the successive
         stance feet (m). energy_dissipated : energy booked as dissipated in the ledger during the
@@ -98,7 +115,7 @@ class Stride:
     info : walker-specific extras (e.g. the impact impulse, the trailing foot's velocity).
     """
 
-    status: str
+    status: StrideStatus
     z_next: np.ndarray | None
     duration: float
     step_length: float = math.nan
@@ -113,28 +130,44 @@ class Stride:
     @property
     def fell(self) -> bool:
         """True when the stride ended in a fall (status other than "step")."""
-        return self.status != "step"
+        return self.status != StrideStatus.STEP
 
 
 @runtime_checkable
 class Walker(Protocol):
-    """What the gait analyses need from a walker model.
+    """What the gait analyses need from a walker model (every member is used by some analysis;
+    an analysis reads nothing else).
 
     Attributes
     ----------
     name : model name. legged : True when θ, φ (and rates) are defined.
     section : names of the independent coordinates of the Poincaré section just after heel
         strike, in the model's own terms (joint angles and rates, SI).
+    thesis_section : names of the thesis's section coordinates (:meth:`to_thesis`).
     parameters : current parameter values by name (SI).
+    specs : the :class:`ParameterSpec` (unit, meaning, range, default) of every parameter the
+        user may set.
+    mode_names : parameters the walker sets itself during a walk (not to be set or continued).
+    run_time_parameters : parameters bound at run time (a continuation moves only those).
+    gait_tolerance : the Newton tolerance of the gait search (section units).
+    leg_length : the length scale of the step-down grids (m). weight : total weight m g (N),
+        for the cost of transport.
     """
 
     name: str
     legged: bool
     section: tuple[str, ...]
-    parameters: dict[str, float]
+    thesis_section: tuple[str, ...]
+    parameters: Mapping[str, float]
+    specs: Mapping[str, ParameterSpec]
+    mode_names: tuple[str, ...]
+    run_time_parameters: tuple[str, ...]
+    gait_tolerance: float
+    leg_length: float
+    weight: float
 
     def with_parameters(self, **values: float) -> Walker:
-        """A copy with some parameters changed (validated: out of range raises)."""
+        """A walker with some parameters changed (validated: out of range raises)."""
 
     def initial_guess(self) -> np.ndarray:
         """A rough section state to start the limit-cycle search from."""
@@ -152,6 +185,11 @@ class Walker(Protocol):
         lowered surface. The section coordinates are translation-invariant, so the strides after
         the drop are comparable with the gait's fixed point."""
 
+    def stride_sensitivity(self, z: np.ndarray, period: int = 1, *,
+                           factor: float = 1.0) -> StrideSensitivity:
+        """The exact Jacobian of the stride map S^period at ``z`` (the strides integrated with
+        their variational equations at the walker's tolerances times ``factor``)."""
+
     def section_state(self, z: np.ndarray) -> dict[str, float]:
         """The section state by name (SI), with theta, theta_dot, phi, phi_dot if legged."""
 
@@ -161,10 +199,6 @@ class Walker(Protocol):
     def from_thesis(self, w: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`to_thesis`."""
 
-    @property
-    def thesis_section(self) -> tuple[str, ...]:
-        """Names of the thesis's section coordinates, e.g. ("theta_dot", "phi", "phi_dot")."""
-
-    @property
-    def weight(self) -> float:
-        """Total weight m_total g (N), for the cost of transport."""
+    def basin_state(self, z_star: np.ndarray, theta: float, theta_dot: float) -> np.ndarray | None:
+        """The walker's own basin grid point for thesis θ, θ̇ near the fixed point ``z_star``,
+        or None: the analyses keep the fixed point's other coordinates."""

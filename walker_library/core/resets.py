@@ -16,6 +16,7 @@ Both maps are functions of the state with a Jacobian (:meth:`Relabel.matrix`, ex
 """
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,7 @@ import sympy as sp
 
 from porthamiltonian import Model, Multibody
 from porthamiltonian.modeling.expressions import parse
+from porthamiltonian.modeling.model import ModelDescription
 from porthamiltonian.simulation.compiled import CompiledModel
 from porthamiltonian.simulation.impact import model_impact
 
@@ -61,14 +63,13 @@ class Relabel:
     c_outputs: tuple[tuple[int, int], ...] = ()
 
     @classmethod
-    def build(cls, space: list[str], A: list[list[float]], b: list[float | int | str],
-              state_names: list[str],
-              param_names: list[str], coordinates: list[str],
-              output_of: dict[str, int] | None = None) -> Relabel:
-        """From :func:`~.hybrid.check_names`'s ``relabel`` (names of the map's space, its matrix
-        and offsets) and the compiled model's layout; ``coordinates``: the multibody's
-        coordinate states in order; ``output_of``: the output index of each offset that is an
-        expression."""
+    def build(cls, space: Sequence[str], A: Sequence[Sequence[float]],
+              b: Sequence[float | str], state_names: Sequence[str], param_names: Sequence[str],
+              coordinates: Sequence[str], output_of: Mapping[str, int]) -> Relabel:
+        """From a plan's :class:`~.plan.RelabelMap` (names of the map's space, its rows and
+        offsets: numbers, or the names of the outputs that evaluate them) and the compiled
+        model's layout; ``coordinates``: the multibody's coordinate states in order;
+        ``output_of``: the index of each output."""
         A = np.asarray(A, dtype=float)
         pos = [i for i, n in enumerate(space) if n in state_names]
         mod = [i for i, n in enumerate(space) if n not in state_names]
@@ -143,8 +144,10 @@ def _offset(joints: dict, bodies: dict, point: str, root_body: str) -> list | No
 
 
 def _is_zero(vector, params) -> bool:
+    """Whether a joint origin (numbers, or expressions in ``params``) is zero."""
     names = {n: sp.Symbol(n, real=True) for n in params}
-    return all(parse(v, names, "joint origin") == 0 for v in vector)
+    return all(v == 0 if isinstance(v, (int, float)) else parse(v, names, "joint origin") == 0
+               for v in vector)
 
 
 @dataclass(frozen=True)
@@ -157,8 +160,9 @@ class Floating:
     rehung: tuple[str, ...]
 
 
-def floating_model(model: Model, multibody: str, root: str, about: str) -> Floating:
-    """The multibody of ``model`` (alone, same parameters) with its pinned root joint ``root``
+def floating_model(model: ModelDescription, multibody: str, root: str, about: str) -> Floating:
+    """The multibody of ``model`` (a frozen description; the multibody alone, same parameters)
+    with its pinned root joint ``root``
     (a revolute joint from the world) released, for the impact map.
 
     A massless base body on a translational x/z joint :data:`PIN` carries the root body at the
@@ -173,7 +177,7 @@ def floating_model(model: Model, multibody: str, root: str, about: str) -> Float
     legs (Garcia's mass ratio 1e-9) the angular momentum of the trailing leg about the hip is then
     one coordinate's momentum, which the impact leaves exactly unchanged, instead of a difference
     of large numbers that loses nine digits."""
-    comp = model.component(multibody)
+    comp = model.components[multibody]
     bodies = {k: dict(v) for k, v in comp.value("bodies").items()}
     joints = {k: dict(v) for k, v in comp.value("joints").items()}
     root_body = joints[root]["child"]

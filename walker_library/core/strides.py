@@ -25,7 +25,7 @@ import numpy as np
 from porthamiltonian import Trajectory
 
 from .machine import WalkLog
-from .protocol import Stride
+from .protocol import Stride, StrideStatus
 
 if TYPE_CHECKING:
     from .walker import HybridWalker
@@ -49,11 +49,12 @@ def _maxima(walker: HybridWalker, traj: Trajectory, X: np.ndarray, i0: int, i1: 
     if not t1 > t0:
         return math.nan, math.nan
     n = walker.model.n_states
-    flip = walker.relabelled(X[:n, i0], p)
+    relabel = walker.compiled.relabel
+    flip = relabel is not None and walker.relabelled(X[:n, i0], p)
     y0 = walker.outputs(0.0, X[:n, i0], p) if flip else None
 
     def thph(x: np.ndarray) -> tuple[float, float]:
-        a = walker.angles(walker._relabel.state(x[:n], y0) if flip else x[:n])
+        a = walker.angles(relabel.state(x[:n], y0) if relabel is not None and flip else x[:n])
         return a.get("theta", math.nan), a.get("phi", math.nan)
 
     if not any(seg.sol is not None for seg in traj.segments):
@@ -88,7 +89,7 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
     """The Strides of one walk (see the module docstring)."""
     t, Y = traj.t, traj.y
     n = walker.model.n_states
-    iV = walker._out[f"{walker.multibody}.V"]
+    iV = walker.model.output_index(f"{walker.multibody}.V")
 
     def at(i: int) -> tuple[float, float, float, float]:
         """(H, V, E_diss, E_in) at stored point i."""
@@ -117,7 +118,7 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
         info = {"t_end": hs.t, "foot": hs.transition.foot, "energy_supplied": now[3] - prev[3],
                 "x_minus": hs.x_minus, "p_minus": hs.p_minus, "x_plus": hs.x_plus,
                 "p_plus": hs.p_plus, "fired": [*during, hs], **hs.info}
-        s = Stride("step", walker.project(hs.x_plus, hs.p_plus), hs.t - t_prev,
+        s = Stride(StrideStatus.STEP, walker.project(hs.x_plus, hs.p_plus), hs.t - t_prev,
                    step_length=x_new - foot_x, energy_dissipated=now[2] - prev[2],
                    potential_released=prev[1] - now[1],
                    energy_residual=(now[0] - prev[0]) + (now[2] - prev[2]) - (now[3] - prev[3]),
@@ -127,7 +128,7 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
         strides.append(s)
         t_prev, i_prev, prev, p_step, foot_x = hs.t, idx, now, hs.p_plus, x_new
     if len(strides) < log.target:
-        fell = Stride("fell", None, float(traj.t_final - t_prev), reason=_fall_reason(traj),
+        fell = Stride(StrideStatus.FELL, None, float(traj.t_final - t_prev), reason=_fall_reason(traj),
                       info={"message": traj.message, "status": traj.status})
         if details and traj.t_final > t_prev:
             fell.max_theta, fell.max_phi = _maxima(walker, traj, Y, i_prev, len(t) - 1, t_prev,

@@ -24,7 +24,7 @@ R_x inside Φ_final, each in error by ρ relative at most). A period-k orbit's J
 its own run, from the section state the previous one reached), so that parameters a heel strike
 sets from the state (a rigid walker's stance-foot position) never enter a differentiated flow.
 
-The run uses the walker's compiled Rosenbrock method, or Rodas5P when its file integrates with a
+The run uses the walker's compiled method, or Rodas5P when its file integrates with a
 scipy method (the rigid walkers' DOP853), at the walker's tolerances; the flow of the run is the
 same as a stride's (to that tolerance), so its z' agrees with :meth:`HybridWalker.walk`'s.
 """
@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from porthamiltonian import Reset
-from porthamiltonian.integrators import TABLEAUS
+from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.simulation.differences import jacobian
 from porthamiltonian.simulation.saltation import section_jacobian
 
@@ -117,7 +117,7 @@ def stride_sensitivity(walker, z, period: int = 1, *, factor: float = 1.0) -> St
     at the walker's tolerances times ``factor`` (rtol at least 3e-14). A fall is a result
     (``fell``)."""
     o = walker.options
-    method = o.method if o.method in TABLEAUS else "Rodas5P"
+    method = o.method if o.method in COMPILED_METHODS else "Rodas5P"
     factor = max(float(factor), 3e-14 / o.rtol)
     rtol, atol = o.rtol * factor, np.asarray(o.atol, dtype=float) * factor
     z = np.asarray(z, dtype=float)

@@ -1,20 +1,28 @@
-"""One walker class for every walker: a model plus its hybrid description, run as a Walker.
+"""One walker class for every walker: a plan, its compiled model and its run values.
 
-:class:`HybridWalker` takes a :class:`~.hybrid.WalkerSpec` (from a model file's ``[walker]``
-table or built in Python) and implements the :class:`~.protocol.Walker` protocol the analyses
-use. Rigid-impact walkers (a swing phase pinned at the stance foot, a plastic impact at heel
-strike) and compliant-contact walkers (one floating-base model, contacts switched by the
-scuffing rule) are configurations of it, not subclasses.
+The walker front end is a pipeline of typed products, each built once:
 
-Compilation. The walker compiles a copy of its model (components, bonds, parameters, events and
-outputs; not the file's descriptions, so editing text does not recompile) with one extra output
-per expression of the description that is evaluated during a walk: the rules' conditions and
-parameter values, the modes' start values, the section's completions, the initial guess, the
-total mass and the leg length. They go through the same compiler and back end as the model's
-equations, so a walk evaluates no Python expression from a file. Before that, every name of the
-description is checked against the model's names (:func:`~.names.check_names`, on
-:func:`porthamiltonian.symbolic`); a rule with an ``impact`` also compiles the floating version
-of the multibody (:func:`~.resets.floating_model`, python back end: only its matrices are used).
+1. :func:`~.reading.walker_spec` — the ``[walker]`` table read against the model's frozen
+   description: a :class:`~.hybrid.WalkerSpec` with its expressions parsed;
+2. :func:`~.plan.walker_plan` — the spec checked against the model's
+   :func:`~porthamiltonian.compiler.layout` (the names its compiled form will have): a
+   :class:`~.plan.WalkerPlan` of frozen records, and the model's description with one output per
+   expression a walk evaluates;
+3. :func:`compile_walker` — that description compiled (:func:`porthamiltonian.compile_model`,
+   cached on disk by the description's hash: the one place a compile is remembered) and the
+   plan's records bound to its layout: a :class:`CompiledWalker` (output indices, the mode
+   machine, the relabelling and impact maps);
+4. :class:`HybridWalker` ``(plan, compiled)`` — the :class:`~.protocol.Walker` the analyses use,
+   its run values (parameters, the parameter vector, the initial state, the integrator
+   settings) in an immutable :class:`RunValues` that :meth:`~HybridWalker.with_parameters` and
+   :meth:`~HybridWalker.with_options` replace; the plan and the compiled walker are shared.
+
+:func:`build_walker` runs the pipeline for a spec; :func:`~.files.load_walker` for a file.
+Rigid-impact walkers (a swing phase pinned at the stance foot, a plastic impact at heel strike)
+and compliant-contact walkers (one floating-base model, contacts switched by the scuffing rule)
+are configurations of it, not subclasses; a rule with an ``impact`` also compiles the floating
+version of the multibody (:func:`~.resets.floating_model`, python back end: only its matrices
+are used).
 
 A walk (:meth:`HybridWalker.walk`): the section state z is lifted to a model state
 (:meth:`~HybridWalker.lift`: the section coordinates, then the completions in order, then the
@@ -27,303 +35,311 @@ labelling when its ``labelling`` condition does not hold).
 """
 from __future__ import annotations
 
-import copy
-import json
 import math
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
-from porthamiltonian import Model, compile_model, symbolic
-from porthamiltonian.compiler import cache
-from porthamiltonian.errors import ModelError, ParameterValueError
-from porthamiltonian.integrators import TABLEAUS as COMPILED_METHODS
+from porthamiltonian import compile_model
+from porthamiltonian.compiler import layout
+from porthamiltonian.errors import ModelError, ParameterValueError, StateError
+from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.interfaces.io import ModelFile
 from porthamiltonian.simulation.compiled import CompiledModel
 
-from .hybrid import Integration, WalkerSpec, expand, parse_condition, parse_equation, parse_interval
+from .hybrid import Integration, WalkerSpec
 from .machine import Change, Condition, ModeMachine, Transition, WalkLog
-from .names import ModelNames, check_names
-from .protocol import ParameterSpec, Stride, check_parameters
-from .resets import ImpactMap, Relabel, floating_model
+from .plan import BodiesMass, SetState, WalkerPlan, walker_plan
+from .protocol import ParameterSpec, Stride, StrideStatus, check_parameters
+from .reading import walker_spec
+from .resets import ImpactMap, Relabel
 from .strides import cut_strides
 from .variational import StrideSensitivity, stride_sensitivity
 
-__all__ = ["HybridWalker", "compiled"]
-
-_COMPILED: dict[tuple[str, str], CompiledModel] = {}
-_CHECKED: dict[str, tuple[ModelNames, dict]] = {}
-#: prefix of the outputs the walker adds to its model (one per evaluated expression)
-PREFIX = "hybrid"
+__all__ = ["CompiledWalker", "HybridWalker", "RunValues", "build_walker", "compile_walker"]
 
 
-def compiled(model: Model, backend: str) -> CompiledModel:
-    """``compile_model(model, backend)``, memoized in this process by the model's cache key."""
-    key = (cache.model_key(model), backend)
-    if key not in _COMPILED:
-        _COMPILED[key] = compile_model(model, backend=backend)
-    return _COMPILED[key]
-
-
-def _checked(spec: WalkerSpec, text: str) -> tuple[ModelNames, dict]:
-    """The model's names (:func:`_model_names`) and the description's linear maps, after
-    :func:`~.names.check_names` (memoized by model and spec)."""
-    key = cache.model_key(spec.model) + repr(spec)
-    if key not in _CHECKED:
-        names = _model_names(spec, text)
-        _CHECKED[key] = (names, check_names(spec, names, text))
-    return _CHECKED[key]
-
-
-def _model_names(spec: WalkerSpec, text: str) -> ModelNames:
-    """The names of the walker's model: parameters, states and outputs of its symbolic form
-    without its events and model outputs (whose expressions :func:`~.names.check_names` checks
-    with their lines). The symbolic compiler is run once per model: the three name lists are
-    kept in the model's cache entry (``names.json``, verified by its sha256 like every cached
-    file), so a walker that is already built loads without symbolic work."""
-    bare = copy.deepcopy(spec.model)
-    bare.events, bare.outputs = [], {}
-    key = cache.model_key(bare)
-    stored = cache.load_verified(key, _NAMES_FILE)
-    try:
-        lists = json.loads(stored) if stored is not None else None
-        lists = lists if isinstance(lists, dict) and all(
-            isinstance(lists.get(k), list) and all(isinstance(n, str) for n in lists[k])
-            for k in ("params", "states", "outputs")) else None
-    except ValueError:
-        lists = None
-    if lists is None:
-        with ModelFile(bare, spec.source, text).located():
-            sym = symbolic(bare)
-        lists = {"params": list(sym.param_names), "states": list(sym.state_names),
-                 "outputs": list(sym.outputs)}
-        cache.store(key, _NAMES_FILE, json.dumps(lists))
-    return ModelNames.of(spec.model, lists["params"], lists["states"], lists["outputs"])
-
-
-#: the file of a model's cache entry holding the names a walker checks its description against
-_NAMES_FILE = "names.json"
-
-
-class _Outputs:
-    """The expressions a walker evaluates, as extra outputs of its model (see the module
-    docstring): ``add(text)`` gives the output's name (one per distinct expression)."""
-
-    def __init__(self):
-        self.exprs: dict[str, str] = {}
-
-    def add(self, text: Any) -> str:
-        """The name of the output that evaluates ``text`` (added if new)."""
-        text = str(text)
-        for name, expr in self.exprs.items():
-            if expr == text:
-                return name
-        name = f"{PREFIX}_e{len(self.exprs)}"
-        self.exprs[name] = text
-        return name
-
-
-def _number(value: Any) -> float | None:
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return float(value)
-    return None
-
-
-def _specs(spec: WalkerSpec) -> dict[str, ParameterSpec]:
-    """The user-settable parameters (the model's, less the modes), with their ranges."""
-    ranges = dict(spec.ranges)
-    out = {}
-    modes = set(spec.mode_names)
-    for name, par in spec.model.parameters.items():
-        if name in modes:
-            continue
-        low, high, low_closed, high_closed, integer = (
-            parse_interval(ranges[name]) if name in ranges else
-            (-math.inf, math.inf, False, False, False))
-        out[name] = ParameterSpec(name, par.value, par.unit, par.doc, "", low, high, low_closed,
-                                  high_closed, integer)
+def _frozen(a: Any) -> np.ndarray:
+    out = np.array(a, dtype=float)
+    out.flags.writeable = False
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class CompiledWalker:
+    """A :class:`~.plan.WalkerPlan` bound to its compiled model (see the module docstring).
+
+    model : the compiled model (the walker's expressions among its outputs); floating : the
+    compiled floating-base multibody of a rigid walker's impact (None without one). out : output
+    index by name. coordinates, momenta : state indices of the multibody's coordinates q and
+    momenta p; rates : index into the joint rates v by rate name (``walker.v.leg1``). relabel :
+    the relabelling (None without one). angles : θ, φ coefficients over q. to_thesis,
+    from_thesis : the section's thesis map and its inverse. labelling : the section's labelling
+    condition. start : the modes' start values; guess : the initial guess per section
+    coordinate (:class:`~.machine.Change`: a number or an output). mass, leg_length : output
+    indices; drop : the drop parameter's index. machine : the mode machine. bodies : the
+    bodies' masses ``[walker] mass`` is checked against.
+    """
+
+    model: CompiledModel
+    floating: CompiledModel | None
+    out: Mapping[str, int]
+    coordinates: tuple[int, ...]
+    momenta: tuple[int, ...]
+    rates: Mapping[str, int]
+    relabel: Relabel | None
+    angles: Mapping[str, np.ndarray]
+    to_thesis: np.ndarray
+    from_thesis: np.ndarray
+    labelling: Condition | None
+    start: tuple[Change, ...]
+    guess: tuple[Change, ...]
+    mass: int
+    leg_length: int
+    drop: int
+    machine: ModeMachine
+    bodies: BodiesMass
+
+
+def compile_walker(plan: WalkerPlan, backend: str | None = None, text: str = "") -> CompiledWalker:
+    """Compile ``plan``'s model description (back end ``backend``, default the spec's) and bind
+    the plan to it (module docstring). ``text``: the file's TOML, for lines in errors."""
+    spec = plan.spec
+    with ModelFile(spec.model, spec.source, text).located():
+        m = compile_model(plan.description, backend=backend or spec.integration.backend)
+    floating = (compile_model(plan.floating.model, backend="python")
+                if plan.floating is not None else None)
+    out = MappingProxyType({n: i for i, n in enumerate(m.output_names)})
+    mb = plan.names.multibody
+    iq = tuple(i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.q."))
+    relabel = (Relabel.build(plan.relabel.space, plan.relabel.A, plan.relabel.b, m.state_names,
+                             m.param_names, [m.state_names[i] for i in iq], out)
+               if plan.relabel is not None else None)
+    sec = plan.section
+    labelling = (Condition(sec.labelling.text, out[sec.labelling.output], sec.labelling.op)
+                 if sec.labelling is not None else None)
+    return CompiledWalker(
+        model=m, floating=floating, out=out, coordinates=iq,
+        momenta=tuple(i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.p.")),
+        rates=MappingProxyType({f"{mb}.v.{m.state_names[i][len(mb) + 3:]}": k
+                                for k, i in enumerate(iq)}),
+        relabel=relabel,
+        angles=MappingProxyType({k: _frozen(v) for k, v in sec.angles.items()}),
+        to_thesis=_frozen(sec.to_thesis), from_thesis=_frozen(sec.from_thesis),
+        labelling=labelling,
+        start=tuple(Change(c.name, m.param_names.index(c.name), c.constant,
+                           None if c.output is None else out[c.output]) for c in plan.start),
+        guess=tuple(Change(c.name, k, c.constant, None if c.output is None else out[c.output])
+                    for k, c in enumerate(plan.guess)),
+        mass=out[plan.mass], leg_length=out[plan.leg_length],
+        drop=m.param_names.index(plan.drop),
+        machine=ModeMachine(m, _transitions(plan, m, floating, relabel, out)),
+        bodies=plan.bodies)
+
+
+def _transitions(plan: WalkerPlan, m: CompiledModel, floating: CompiledModel | None,
+                 relabel: Relabel | None, out: Mapping[str, int]) -> tuple[Transition, ...]:
+    """The plan's transitions bound to the compiled model (with their impact maps)."""
+    events = [e.name for e in m.events]
+    result = []
+    for t in plan.transitions:
+        impact = None
+        if t.impact is not None and plan.floating is not None and floating is not None:
+            impact = ImpactMap(m, floating, plan.names.multibody, t.impact, plan.spec.hip,
+                               relabel, plan.floating.root, plan.floating.rehung)
+        k = events.index(t.event) if t.event != "start" else -1
+        result.append(Transition(
+            t.name, t.event, k, m.events[k].direction if k >= 0 else 0,
+            tuple(Condition(c.text, out[c.output], c.op) for c in t.conditions),
+            tuple(Change(c.name, m.param_names.index(c.name), c.constant,
+                         None if c.output is None else out[c.output]) for c in t.changes),
+            impact, t.heel_strike, t.fall, t.energy, t.foot))
+    return tuple(result)
+
+
+@dataclass(frozen=True, eq=False)
+class RunValues:
+    """A walker's run values (SI): its parameters by name, the parameter vector ``p`` and the
+    initial state ``x_init`` of the compiled model (read-only arrays), the total mass (kg) and
+    leg length (m) at these parameters, and the integrator settings. Immutable: a walker with
+    other values holds another record (``dataclasses.replace``)."""
+
+    parameters: Mapping[str, float]
+    p: np.ndarray
+    x_init: np.ndarray
+    total_mass: float
+    leg_length: float
+    options: Integration
+
+    @classmethod
+    def of(cls, compiled: CompiledWalker, parameters: Mapping[str, float],
+           options: Integration) -> RunValues:
+        """The run values of ``compiled`` at ``parameters`` (validated already) and
+        ``options``."""
+        m = compiled.model
+        p = m.params({k: v for k, v in parameters.items() if k in m.param_names})
+        x = m.initial_state(p)
+        y = m.outputs(0.0, x, p)
+        mass = float(y[compiled.mass])
+        compiled.bodies.check(mass, {**parameters, **dict(zip(m.param_names, p.tolist()))})
+        return cls(MappingProxyType(dict(parameters)), _frozen(p), _frozen(x), mass,
+                   float(y[compiled.leg_length]), options)
+
+    def with_parameters(self, compiled: CompiledWalker, parameters: Mapping[str, float]) -> RunValues:
+        """These run values with other parameters (validated already)."""
+        new = RunValues.of(compiled, parameters, self.options)
+        return replace(self, parameters=new.parameters, p=new.p, x_init=new.x_init,
+                       total_mass=new.total_mass, leg_length=new.leg_length)
+
+
+def build_walker(spec: WalkerSpec, *, backend: str | None = None,
+                 options: Integration | None = None, values: Mapping[str, float] | None = None,
+                 text: str = "") -> HybridWalker:
+    """The walker of ``spec`` (module docstring: read if it was built in Python, planned against
+    its model's layout, compiled, bound). ``backend``: default the spec's
+    ``integration.backend`` (``"auto"``: the framework's choice); ``options``: integrator
+    settings replacing the spec's; ``values``: parameter values by name (validated against the
+    ranges); ``text``: the file's TOML, for lines in errors. Raises ModelFileError for a bad
+    description (before anything is compiled) and ParameterValueError for bad values."""
+    if spec.parsed is None or spec.frozen is None:
+        spec = walker_spec(spec.model, spec.to_table(), source=spec.source, text=text,
+                           description=spec.description, units=spec.units)
+    with ModelFile(spec.model, spec.source, text).located():
+        names = layout(spec.frozen)
+    plan = walker_plan(spec, names, text)
+    options = options or spec.integration
+    compiled = compile_walker(plan, backend or options.backend, text)
+    return HybridWalker(plan, compiled, values=values, options=options)
+
+
 class HybridWalker:
-    """A walker from its :class:`~.hybrid.WalkerSpec` (see the module docstring).
+    """A walker: its :class:`~.plan.WalkerPlan`, its :class:`CompiledWalker` and its
+    :class:`RunValues` (see the module docstring; :func:`build_walker` and
+    :func:`~.files.load_walker` make one).
 
     Parameters
     ----------
-    spec : the model and its hybrid description.
-    backend : the back end (default: the description's ``integration.backend``; ``"auto"`` is
-        the framework's choice).
-    options : integrator settings (default: the description's :class:`~.hybrid.Integration`).
-    values : parameter values by name (validated against the ranges; the file's by default).
-    text : the model file's TOML text, for line numbers in errors.
+    plan, compiled : the plan and the compiled walker (shared by every copy).
+    run : the run values; default: ``values`` (parameter values by name, validated against the
+        ranges; the spec's defaults for the others) and ``options`` (integrator settings; default
+        the spec's).
 
     Attributes
     ----------
-    name, doc, spec; model : the compiled model; backend : its back end (resolved);
-    multibody : its multibody's name;
-    parameters : the current values (SI);
-    specs : :class:`~.protocol.ParameterSpec` per parameter; section, thesis_section : names of
-    the section's coordinates (model's, thesis's); legged : θ and φ are defined; options.
+    name, doc, spec; model : the compiled model; backend : its back end; multibody : its
+    multibody's name; parameters : the current values (SI); specs : the
+    :class:`~.protocol.ParameterSpec` per parameter; section, thesis_section : names of the
+    section's coordinates (model's, thesis's); legged : θ and φ are defined; options : the
+    integrator settings; machine : the mode machine.
     """
 
-    def __init__(self, spec: WalkerSpec, *, backend: str | None = None,
-                 options: Integration | None = None, values: Mapping[str, float] | None = None,
-                 text: str = ""):
-        names, maps = _checked(spec, text)
-        self.spec = spec
-        self.name = spec.name
-        self.doc = spec.description
-        self.options = options or spec.integration
-        self.backend = backend or self.options.backend
-        self.specs = _specs(spec)
-        self.parameters = check_parameters(self.specs, dict(values or {}))
-        self._names = names
-        mb = names.multibody
-        self.section = spec.section.coordinates
-        self.thesis_section = tuple(k for k, _ in spec.section.thesis) or self.section
-        self._T = (np.array(maps["thesis"], dtype=float) if spec.section.thesis
-                   else np.eye(len(self.section)))
-        self._T_inv = (np.array(maps["thesis_inverse"], dtype=float) if spec.section.thesis
-                       else np.eye(len(self.section)))
-        self.legged = all(k in dict(spec.angles) for k in ("theta", "phi"))
+    def __init__(self, plan: WalkerPlan, compiled: CompiledWalker, run: RunValues | None = None,
+                 *, values: Mapping[str, float] | None = None,
+                 options: Integration | None = None):
+        self.plan = plan
+        self.compiled = compiled
+        self.run = run if run is not None else RunValues.of(
+            compiled, check_parameters(plan.parameters, dict(values or {})),
+            options or plan.spec.integration)
 
-        # the compiled model: the file's model with the walker's expressions as outputs
-        ex = _Outputs()
-        plan = self._plan(spec, ex)
-        offsets = {}
-        if spec.relabel:
-            offsets = {b: ex.add(b) for b in maps["relabel"][2] if isinstance(b, str)}
-        model = copy.deepcopy(spec.model)
-        for name, text_ in ex.exprs.items():
-            model.output(name, text_)
-        with ModelFile(model, spec.source, text).located():
-            self.model = compiled(model, self.backend)
-        self.backend = self.model.backend          # "auto" resolved: the back end in use
-        m = self.model
-        out = {n: i for i, n in enumerate(m.output_names)}
-        self._out = out
-        self.multibody = mb
-        self._iq = [i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.q.")]
-        self._ip = [i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.p.")]
-        self._rate = {f"{mb}.v.{s[len(mb) + 3:]}": k
-                      for k, s in enumerate(m.state_names[i] for i in self._iq)}
-        self._relabel = (Relabel.build(*maps["relabel"], m.state_names, m.param_names,
-                                       [m.state_names[i] for i in self._iq],
-                                       {b: out[o] for b, o in offsets.items()})
-                         if spec.relabel else None)
-        self._angles = {k: np.array(v[0]) for k, v in maps["angles"].items() if v is not None}
-        self._plan_lift = [(kind, target, out.get(o) if o else None, extra)
-                           for kind, target, o, extra in plan["lift"]]
-        self._plan_project = [(kind, target, out.get(o) if o else None)
-                              for kind, target, o in plan["project"]]
-        self._labelling = (Condition(spec.section.labelling, out[plan["labelling"][0]],
-                                     plan["labelling"][1]) if spec.section.labelling else None)
-        self._guess = [out[o] if o else c for o, c in plan["guess"]]
-        self._start = [(m.param_names.index(k), c if o is None else out[o])
-                       for k, o, c in plan["start"]]
-        self._mass, self._leg = out[plan["mass"]], out[plan["leg_length"]]
-        self._drop = m.param_names.index(spec.terrain.drop)
-        self.machine = ModeMachine(m, tuple(self._transitions(spec, plan, names)))
-        self.basin_state = self._basin_from_guess if spec.section.basin == "guess" else None
-        self._setup()
+    # --- what the walker is --------------------------------------------------------------------
+    @property
+    def spec(self) -> WalkerSpec:
+        """The walker's description (its table, read)."""
+        return self.plan.spec
 
-    # --- construction -------------------------------------------------------------------------
-    @staticmethod
-    def _plan(spec: WalkerSpec, ex: _Outputs) -> dict[str, Any]:
-        """Which output evaluates which expression (names, resolved after compilation)."""
-        plan: dict[str, Any] = {"rules": [], "lift": [], "project": []}
-        for r in spec.rules:
-            conds = []
-            for c in r.when:
-                lhs, op, rhs = parse_condition(c)
-                conds.append((c, ex.add(f"({lhs}) - ({rhs})"), op))
-            sets = [(k, None if _number(v) is not None else ex.add(v), _number(v))
-                    for k, v in r.set]
-            plan["rules"].append((conds, sets))
-        plan["start"] = [(k, None if _number(v) is not None else ex.add(v), _number(v))
-                         for k, v in spec.modes]
-        coords = spec.section.coordinates
-        defined = {}
-        for c in spec.section.complete:
-            if c.such_that is None:
-                const = _number(c.value)
-                plan["lift"].append(("value", c.coordinate,
-                                     None if const is not None else ex.add(c.value), const))
-                continue
-            lhs, rhs = parse_equation(c.such_that)
-            if rhs in coords or lhs in coords:
-                given, expr = (rhs, lhs) if rhs in coords else (lhs, rhs)
-                o = ex.add(expr)
-                defined[given] = o
-                plan["lift"].append(("solve", c.coordinate, o, given))
-            else:
-                plan["lift"].append(("solve", c.coordinate, ex.add(f"({lhs}) - ({rhs})"), None))
-        for name in coords:
-            plan["project"].append(("defined", name, defined[name]) if name in defined else
-                                   ("coordinate", name, None))
-        if spec.section.labelling:
-            lhs, op, rhs = parse_condition(spec.section.labelling)
-            plan["labelling"] = (ex.add(f"({lhs}) - ({rhs})"), op)
-        guess = dict(spec.guess)
-        plan["guess"] = [(None, _number(guess[n])) if _number(guess.get(n)) is not None
-                         else (ex.add(expand(guess.get(n, 0), spec.guess_where,
-                                             spec.model.parameters)), None) for n in coords]
-        plan["mass"], plan["leg_length"] = ex.add(spec.mass), ex.add(spec.leg_length)
-        return plan
+    @property
+    def name(self) -> str:
+        """The walker's name: its model's."""
+        return self.plan.spec.name
 
-    def _transitions(self, spec: WalkerSpec, plan: dict, names: ModelNames) -> list[Transition]:
-        m, out = self.model, self._out
-        events = [e.name for e in m.events]
-        floating = None
-        result = []
-        for i, (r, (conds, sets)) in enumerate(zip(spec.rules, plan["rules"])):
-            impact = None
-            if r.impact is not None:
-                if floating is None:
-                    floating = floating_model(spec.model, names.multibody, names.root_joint,
-                                              spec.hip.split(".", 1)[1])
-                impact = ImpactMap(m, compiled(floating.model, "python"), names.multibody,
-                                   r.impact, spec.hip, self._relabel, floating.root,
-                                   floating.rehung)
-            k = events.index(r.on) if r.on != "start" else -1
-            result.append(Transition(
-                f"{r.on}#{i + 1}", r.on, k, m.events[k].direction if k >= 0 else 0,
-                tuple(Condition(c, out[o], op) for c, o, op in conds),
-                tuple(Change(name, m.param_names.index(name), const,
-                             None if o is None else out[o]) for name, o, const in sets),
-                impact, r.heel_strike, r.fall, r.energy, r.foot))
-        return result
+    @property
+    def doc(self) -> str:
+        """The model file's ``[model] description``."""
+        return self.plan.spec.description
 
-    def _setup(self) -> None:
-        m = self.model
-        self._p = m.params({k: v for k, v in self.parameters.items() if k in m.param_names})
-        self._x_init = m.initial_state(self._p)
-        y = m.outputs(0.0, self._x_init, self._p)
-        self.total_mass = float(y[self._mass])
-        self.leg_length = float(y[self._leg])
+    @property
+    def model(self) -> CompiledModel:
+        """The compiled model (the walker's expressions among its outputs)."""
+        return self.compiled.model
 
-    def with_parameters(self, **values: float) -> HybridWalker:
-        """A copy with some parameters changed (validated; the compiled models are shared)."""
-        new = object.__new__(type(self))
-        new.__dict__.update(self.__dict__)
-        new.parameters = check_parameters(self.specs, {**self.parameters, **values})
-        new._setup()
-        if new.basin_state is not None:
-            new.basin_state = new._basin_from_guess
-        return new
+    @property
+    def backend(self) -> str:
+        """The back end in use (``"auto"`` resolved)."""
+        return self.compiled.model.backend
 
-    # --- properties -----------------------------------------------------------------------------
+    @property
+    def multibody(self) -> str:
+        """The name of the model's multibody."""
+        return self.plan.names.multibody
+
+    @property
+    def machine(self) -> ModeMachine:
+        """The mode machine (the rules as transitions)."""
+        return self.compiled.machine
+
+    @property
+    def section(self) -> tuple[str, ...]:
+        """Names of the section's coordinates (the model's)."""
+        return self.plan.section.coordinates
+
+    @property
+    def thesis_section(self) -> tuple[str, ...]:
+        """Names of the thesis's section coordinates (the section's own without a thesis)."""
+        return self.plan.section.thesis_names
+
+    @property
+    def legged(self) -> bool:
+        """True when the thesis's θ and φ are defined."""
+        return self.plan.legged
+
+    @property
+    def specs(self) -> Mapping[str, ParameterSpec]:
+        """The user-settable parameters with their ranges (the modes are the walker's own)."""
+        return self.plan.parameters
+
+    @property
+    def mode_names(self) -> tuple[str, ...]:
+        """Parameters the walker sets itself (its modes and the drop): not the user's."""
+        return self.plan.spec.mode_names
+
+    @property
+    def run_time_parameters(self) -> tuple[str, ...]:
+        """The parameters the compiled model takes at run time."""
+        return tuple(self.compiled.model.param_names)
+
+    @property
+    def parameters(self) -> Mapping[str, float]:
+        """The current parameter values by name (SI)."""
+        return self.run.parameters
+
+    @property
+    def options(self) -> Integration:
+        """The integrator settings."""
+        return self.run.options
+
+    @property
+    def total_mass(self) -> float:
+        """Total mass m_total (kg) at the current parameters (``[walker] mass``)."""
+        return self.run.total_mass
+
+    @property
+    def leg_length(self) -> float:
+        """The leg length (m) at the current parameters (``[walker] leg_length``)."""
+        return self.run.leg_length
+
     @property
     def weight(self) -> float:
         """Total weight m_total g (N); g is the model's parameter ``g``."""
-        return self.total_mass * self.parameters["g"]
+        return self.run.total_mass * self.run.parameters["g"]
 
     @property
     def gait_tolerance(self) -> float:
         """Newton tolerance of the gait search (section units)."""
-        return self.options.gait_tolerance
+        return self.run.options.gait_tolerance
 
     @property
     def feet(self) -> tuple[str, ...]:
@@ -335,6 +351,18 @@ class HybridWalker:
         """The multibody point reported as the hip (``[walker] hip``)."""
         return self.spec.hip
 
+    # --- other values --------------------------------------------------------------------------
+    def with_parameters(self, **values: float) -> HybridWalker:
+        """A walker with some parameters changed (validated; plan and compiled model shared)."""
+        parameters = check_parameters(self.plan.parameters, {**self.parameters, **values})
+        return HybridWalker(self.plan, self.compiled,
+                            self.run.with_parameters(self.compiled, parameters))
+
+    def with_options(self, **changes: Any) -> HybridWalker:
+        """A walker with some integrator settings changed (e.g. ``max_step``)."""
+        return HybridWalker(self.plan, self.compiled,
+                            replace(self.run, options=replace(self.run.options, **changes)))
+
     # --- numeric helpers ----------------------------------------------------------------------------
     def outputs(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """All outputs of the compiled model at state ``x`` and parameters ``p``."""
@@ -343,21 +371,23 @@ class HybridWalker:
     def output(self, name: str, x: np.ndarray, p: np.ndarray | None = None,
                t: float = 0.0) -> float:
         """One named output at state ``x`` (parameters ``p``, default the walker's)."""
-        return float(self.outputs(t, x, self._p if p is None else p)[self._out[name]])
+        p = self.run.p if p is None else p
+        return float(self.outputs(t, x, p)[self.compiled.model.output_index(name)])
 
     def velocities(self, x: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """Joint rates v of the multibody: M(q) v = p (solved, not inverted)."""
-        M = self.model.matrix(f"{self.multibody}.M", 0.0, x, self._p if p is None else p)
-        return np.linalg.solve(M, np.asarray(x)[self._ip])
+        M = self.model.matrix(f"{self.multibody}.M", 0.0, x, self.run.p if p is None else p)
+        return np.linalg.solve(M, np.asarray(x)[list(self.compiled.momenta)])
 
     def start_params(self, ground_drop: float = 0.0) -> np.ndarray:
         """The parameter vector at the start of a walk: the drop set to ``ground_drop``, the modes
         at their start values (before the ``start`` rules, which need the state)."""
-        p = self._p.copy()
-        p[self._drop] = float(ground_drop)
-        y = self.model.outputs(0.0, self._x_init, p)
-        for index, value in self._start:
-            p[index] = value if isinstance(value, float) else y[value]
+        c = self.compiled
+        p = self.run.p.copy()
+        p[c.drop] = float(ground_drop)
+        y = self.model.outputs(0.0, self.run.x_init, p)
+        for change in c.start:
+            p[change.index] = change.value(y)
         return p
 
     # --- the section ----------------------------------------------------------------------------
@@ -366,27 +396,29 @@ class HybridWalker:
         p = self.start_params() if p is None else p
         z = np.asarray(z, dtype=float)
         if z.shape != (len(self.section),):
-            raise ValueError(f"{self.name}: a section state has {len(self.section)} coordinates "
+            raise StateError(f"{self.name}: a section state has {len(self.section)} coordinates "
                              f"({', '.join(self.section)}), got {z.shape}")
-        m = self.model
+        m, c = self.model, self.compiled
         x = np.zeros(m.n_states)
-        v = np.zeros(len(self._iq))
+        v = np.zeros(len(c.coordinates))
         given = dict(zip(self.section, z))
         for name, value in given.items():
-            if name in self._rate:
-                v[self._rate[name]] = value
+            if name in c.rates:
+                v[c.rates[name]] = value
             elif name in m.state_names:
                 x[m.state_index(name)] = value
-        for kind, target, o, extra in self._plan_lift:
-            if kind == "value":
-                value = extra if o is None else self.outputs(0.0, x, p)[o]
+        for step in self.plan.section.lift:
+            if isinstance(step, SetState):
+                value = (step.constant if step.output is None
+                         else self.outputs(0.0, x, p)[c.out[step.output]])
             else:
-                value = self._solve(x, p, target, o, 0.0 if extra is None else given[extra])
-            if target in self._rate:
-                v[self._rate[target]] = value
+                value = self._solve(x, p, step.target, c.out[step.output],
+                                    0.0 if step.given is None else given[step.given])
+            if step.target in c.rates:
+                v[c.rates[step.target]] = value
             else:
-                x[m.state_index(target)] = value
-        x[self._ip] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
+                x[m.state_index(step.target)] = value
+        x[list(c.momenta)] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
         return x
 
     def _solve(self, x: np.ndarray, p: np.ndarray, target: str, o: int, value: float) -> float:
@@ -404,8 +436,8 @@ class HybridWalker:
         for _ in range(30):
             g1 = g(c0 + h)
             if g1 == g0:
-                raise ValueError(f"{self.name}: cannot complete {target!r}: the equation does "
-                                 "not depend on it")
+                raise StateError(f"{self.name}: cannot complete {target!r}: the equation does "
+                                 "not depend on it (see [walker.section.complete])")
             step = -g0 * h / (g1 - g0)
             c0 += step
             g0 = g(c0)
@@ -418,51 +450,55 @@ class HybridWalker:
     def relabelled(self, x: np.ndarray, p: np.ndarray) -> bool:
         """True when the state ``x`` with parameters ``p`` is not in the section's labelling
         (its ``labelling`` condition does not hold), so :meth:`project` relabels it."""
-        return self._labelling is not None and not self._labelling.holds(self.outputs(0.0, x, p))
+        labelling = self.compiled.labelling
+        return labelling is not None and not labelling.holds(self.outputs(0.0, x, p))
 
     def canonical(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(state, joint rates, parameters) of state ``x`` in the section's labelling: relabelled
         when the section's ``labelling`` condition does not hold (a compliant walker with foot 2
         leading), else as they are."""
         v = self.velocities(x, p)
-        if self.relabelled(x, p):
+        relabel = self.compiled.relabel
+        if relabel is not None and self.relabelled(x, p):
             y = self.outputs(0.0, x, p)
-            x = self._relabel.state(x, y)
-            v = self._relabel.rates(v)
-            p = self._relabel.params(p, y)
-            x[self._ip] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
+            x = relabel.state(x, y)
+            v = relabel.rates(v)
+            p = relabel.params(p, y)
+            x[list(self.compiled.momenta)] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
         return x, v, p
 
     def project(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """Model state (on the section) -> section coordinates, in the section's labelling."""
         x, v, p = self.canonical(np.asarray(x, dtype=float), p)
+        c = self.compiled
         y = None
         z = []
-        for kind, name, o in self._plan_project:
-            if kind == "defined":
+        for entry in self.plan.section.project:
+            if entry.output is not None:
                 y = self.outputs(0.0, x, p) if y is None else y
-                z.append(float(y[o]))
-            elif name in self._rate:
-                z.append(float(v[self._rate[name]]))
+                z.append(float(y[c.out[entry.output]]))
+            elif entry.name in c.rates:
+                z.append(float(v[c.rates[entry.name]]))
             else:
-                z.append(float(x[self.model.state_index(name)]))
+                z.append(float(x[self.model.state_index(entry.name)]))
         return np.array(z)
 
     def to_thesis(self, z: np.ndarray) -> np.ndarray:
         """Section coordinates in the thesis's terms (:attr:`thesis_section`)."""
-        return self._T @ np.asarray(z, dtype=float)
+        return self.compiled.to_thesis @ np.asarray(z, dtype=float)
 
     def from_thesis(self, w: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`to_thesis`."""
-        return self._T_inv @ np.asarray(w, dtype=float)
+        return self.compiled.from_thesis @ np.asarray(w, dtype=float)
 
     def angles(self, x: np.ndarray, v: np.ndarray | None = None) -> dict[str, float]:
         """The thesis's θ, φ (rad) of a state in the section's labelling, and their rates when
         the joint rates ``v`` are given."""
-        q = np.asarray(x)[self._iq]
-        out = {k: float(a @ q) for k, a in self._angles.items()}
+        angles = self.compiled.angles
+        q = np.asarray(x)[list(self.compiled.coordinates)]
+        out = {k: float(a @ q) for k, a in angles.items()}
         if v is not None:
-            out.update({f"{k}_dot": float(a @ v) for k, a in self._angles.items()})
+            out.update({f"{k}_dot": float(a @ v) for k, a in angles.items()})
         return out
 
     def section_state(self, z: np.ndarray) -> dict[str, float]:
@@ -474,8 +510,9 @@ class HybridWalker:
         p = self.start_params()
         v = self.velocities(x, p)
         d = dict(zip(self.section, (float(a) for a in z)))
+        rates = self.compiled.rates
         for c in self.spec.section.complete:
-            d[c.coordinate] = float(v[self._rate[c.coordinate]] if c.coordinate in self._rate
+            d[c.coordinate] = float(v[rates[c.coordinate]] if c.coordinate in rates
                                     else x[self.model.state_index(c.coordinate)])
         d.update(zip(self.thesis_section, (float(a) for a in self.to_thesis(z))))
         d.update(self.angles(x, v))
@@ -486,12 +523,17 @@ class HybridWalker:
 
     def initial_guess(self) -> np.ndarray:
         """The description's rough section state (its ``guess``, from the parameters)."""
-        y = self.model.outputs(0.0, self._x_init, self._p)
-        return np.array([g if isinstance(g, float) else float(y[g]) for g in self._guess])
+        y = self.model.outputs(0.0, self.run.x_init, self.run.p)
+        return np.array([g.value(y) for g in self.compiled.guess])
 
-    def _basin_from_guess(self, z_star, theta: float, theta_dot: float) -> np.ndarray:
-        """A basin grid point made like the initial guess: theta0 = θ, theta_dot0 = θ̇, phi_dot0
-        the fixed point ``z_star``'s φ̇ (``basin = "guess"`` in the section)."""
+    def basin_state(self, z_star: np.ndarray, theta: float,
+                    theta_dot: float) -> np.ndarray | None:
+        """A basin grid point of the section's own making, or None (``basin = "fixed_point"``:
+        the analyses keep the fixed point's other coordinates). With ``basin = "guess"``: made
+        like the initial guess, theta0 = θ, theta_dot0 = θ̇, phi_dot0 the fixed point
+        ``z_star``'s φ̇."""
+        if self.spec.section.basin != "guess":
+            return None
         phi_dot = float(self.to_thesis(np.asarray(z_star, dtype=float))[
             list(self.thesis_section).index("phi_dot")])
         return self.with_parameters(theta0=theta, theta_dot0=theta_dot,
@@ -516,9 +558,9 @@ class HybridWalker:
         try:
             x0 = self.lift(z, p0)
         except (np.linalg.LinAlgError, ModelError, ValueError) as err:
-            return [Stride("fell", None, 0.0, reason=f"invalid_state: {err}")]
+            return [Stride(StrideStatus.FELL, None, 0.0, reason=f"invalid_state: {err}")]
         if not np.all(np.isfinite(x0)):
-            return [Stride("fell", None, 0.0, reason="invalid_state")]
+            return [Stride(StrideStatus.FELL, None, 0.0, reason="invalid_state")]
         p0 = self.machine.start(x0, p0)
         log = WalkLog(int(n_steps))
         o = self.options
@@ -535,13 +577,6 @@ class HybridWalker:
         integrated with their variational equations at the walker's tolerances times
         ``factor`` (:func:`.variational.stride_sensitivity`)."""
         return stride_sensitivity(self, z, period, factor=factor)
-
-    def with_options(self, **changes: Any) -> HybridWalker:
-        """A copy with some integrator settings changed (e.g. ``max_step``)."""
-        new = object.__new__(type(self))
-        new.__dict__.update(self.__dict__)
-        new.options = replace(self.options, **changes)
-        return new
 
     def __repr__(self) -> str:
         return f"HybridWalker({self.name!r}, section={self.section}, backend={self.backend!r})"

@@ -1,4 +1,6 @@
-"""Quick looks at a gait in a notebook: ``GaitResult._repr_html_`` and ``GaitResult.plot()``.
+"""Quick looks at a gait in a notebook: ``GaitResult._repr_html_`` and ``GaitResult.plot()``
+(and ``ContinuationResult.figure``), registered as the results' views when this module is
+imported (:func:`walker_library.analyses.results.register_view`; the package imports it).
 
 :func:`gait_html` is a compact summary — the status, the gait metrics and the fixed point with
 readable labels and units, the Floquet multipliers to the digits their error estimate supports
@@ -14,7 +16,11 @@ from typing import Any
 
 import numpy as np
 
+from ..analyses.continuation import ContinuationResult
+from ..analyses.gait import GaitResult
+from ..analyses.results import register_view
 from . import page as P
+from .figures import fig_bifurcation
 from .labels import METRICS, describe, is_nondimensional, shown_unit
 
 __all__ = ["gait_html", "plot_gait"]
@@ -85,3 +91,8 @@ def plot_gait(gait: Any, walker: Any = None, *, steps: int = 2) -> Any:
         axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
         fig.suptitle(f"{gait.model}: {gait.message}", fontsize=10)
     return axes
+
+
+register_view(GaitResult, "html", gait_html)
+register_view(GaitResult, "plot", plot_gait)
+register_view(ContinuationResult, "figure", fig_bifurcation)

@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...errors import SceneError
+
 if TYPE_CHECKING:
     from .scene import Scene
 
@@ -51,8 +53,9 @@ def _import_map() -> str:
     core = base.joinpath("three.core.min.js").read_text(encoding="utf-8")
     module = base.joinpath("three.module.min.js").read_text(encoding="utf-8")
     if _CORE_IMPORT not in module:
-        raise RuntimeError("vendor/three/three.module.min.js does not import "
-                           f"{_CORE_IMPORT}: the vendored build changed (see its README)")
+        raise SceneError("the viewer's vendor/three/three.module.min.js does not import "
+                         f"{_CORE_IMPORT}: the vendored build changed (see its README); "
+                         "reinstall porthamiltonian")
     module = module.replace(_CORE_IMPORT, '"three/core"')
 
     def url(source: str) -> str:

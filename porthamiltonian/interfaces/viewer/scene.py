@@ -239,7 +239,8 @@ class Scene:
                       margin: float) -> tuple[tuple[float, float], tuple[float, float]]:
         """Slope-coordinate ranges (downhill u, lateral w) of the ground under the box
         ``lo``–``hi``, widened by ``margin``."""
-        assert self.ground is not None
+        if self.ground is None:
+            raise SceneError("the scene has no ground: give it one to ask for its region")
         d, lat, _ = self.ground.frame(self.up)
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])
@@ -279,7 +280,8 @@ class Scene:
     def _ground_data(self, lo: np.ndarray, hi: np.ndarray, size: float,
                      decimals: int) -> dict[str, Any]:
         """The ground under the whole run: its polygons and grid lines (world points)."""
-        assert self.ground is not None
+        if self.ground is None:
+            raise SceneError("the scene has no ground to draw")
         d, lat, n = self.ground.frame(self.up)
         u, w = self.ground_region(lo, hi, 0.6 * size)
         spacing = 10.0 ** math.floor(math.log10(size / 2))

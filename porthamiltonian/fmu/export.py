@@ -1,0 +1,267 @@
+"""``export_fmu``: a compiled model as a Functional Mock-up Unit (FMI 2.0 or 3.0).
+
+Steps: check the arguments (Python-level events and actions are refused, the event program is
+checked against the model), build the variable table, write the C sources (``model.c`` and the
+runtime templates), compile them with the C back end's compiler into the platform's shared
+library (a compiler failure raises :class:`~porthamiltonian.errors.CompilerError` naming the file
+that holds the compiler's output), write ``modelDescription.xml``, the documentation and, for
+FMI 3.0, ``sources/buildDescription.xml``, and zip everything into the FMU (written next to its
+destination and renamed into place: an existing file is replaced only by a complete FMU).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import platform
+import re
+import sys
+import tempfile
+import time
+import uuid
+import zipfile
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..backends import native
+from ..errors import ExportError, OptionError
+from ..integrators import TABLEAUS
+from ..version import __version__
+from .csource import ENTRY, TEMPLATES, entry_source, model_source, template
+from .description import Experiment, Interface, build_description, model_description
+from .documentation import Page, index_html
+from .program import EventProgram, check_actions
+from .variables import Variable, variable_table
+
+if TYPE_CHECKING:
+    from ..simulation.compiled import CompiledModel
+
+__all__ = ["FMI_VERSIONS", "KINDS", "export_fmu", "platform_folder"]
+
+#: the FMI versions written
+FMI_VERSIONS = (2, 3)
+#: what an FMU offers: model exchange, co-simulation, or both
+KINDS = {"me": ("me",), "cs": ("cs",), "both": ("me", "cs")}
+_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+def platform_folder(fmi: int) -> tuple[str, str]:
+    """(the binaries/ folder of this platform for FMI ``fmi``, the shared library's suffix)."""
+    machine = platform.machine().lower()
+    arch = {"amd64": "x86_64", "x64": "x86_64", "arm64": "aarch64"}.get(machine, machine)
+    bits = "64" if sys.maxsize > 2**32 else "32"
+    if sys.platform.startswith("win"):
+        return ("win" + bits if fmi == 2 else f"{arch}-windows"), ".dll"
+    if sys.platform == "darwin":
+        return ("darwin" + bits if fmi == 2 else f"{arch}-darwin"), ".dylib"
+    return ("linux" + bits if fmi == 2 else f"{arch}-linux"), ".so"
+
+
+def _identifier(name: str, given: str | None) -> str:
+    if given is not None:
+        if not isinstance(given, str) or not _IDENTIFIER.match(given):
+            raise ExportError(f"model_identifier {given!r} must be a C identifier (letters, "
+                              "digits, _; not starting with a digit): it names the FMU's "
+                              "shared library")
+        return given
+    ident = re.sub(r"\W", "_", name, flags=re.ASCII) or "model"
+    return f"_{ident}" if ident[0].isdigit() else ident
+
+
+def _positive(name: str, value: Any, allow_inf: bool = False) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise OptionError(f"{name} must be a number, got {value!r}") from None
+    if not (value > 0.0 and (math.isfinite(value) or (allow_inf and value == math.inf))):
+        raise OptionError(f"{name} must be a positive{'' if allow_inf else ', finite'} number, "
+                          f"got {value!r}")
+    return value
+
+
+def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int | str = 2,
+               kind: str = "both", program: EventProgram | None = None,
+               events: Sequence[Any] = (), actions: Mapping[str, Callable] | None = None,
+               x0: Mapping[str, float] | np.ndarray | None = None,
+               params: Mapping[str, float] | None = None, outputs: Sequence[str] | None = None,
+               method: str = "Rodas5P", rtol: float = 1e-8, atol: float = 1e-10,
+               max_step: float = math.inf, start_time: float = 0.0,
+               stop_time: float | None = None, step_size: float | None = None,
+               description: str = "", model_identifier: str | None = None) -> Path:
+    """Write ``model`` as an FMU at ``path`` (also ``compiled.export_fmu(path, ...)``).
+
+    Parameters
+    ----------
+    fmi : 2 or 3 (FMI 2.0 or 3.0; ``"2.0"``, ``"3.0"`` too).
+    kind : ``"me"`` (model exchange: the importer integrates the states and handles the events
+        through the event indicators), ``"cs"`` (co-simulation: the FMU integrates with its own
+        compiled Rosenbrock loop between communication points) or ``"both"``.
+    program : what the model's events do, as data (:class:`~.program.EventProgram`: mode
+        switches, the ledger's booking of their energy jumps, counters, the end of the run);
+        default: nothing (events are counted; a terminal event ends the simulation).
+    events, actions : Python-level events and actions (the arguments of
+        :func:`porthamiltonian.simulate`) cannot run inside an FMU: given, they raise an
+        :class:`~porthamiltonian.errors.ExportError` that says why.
+    x0 : start values of the model states (an array or ``{state: value}`` over the initial
+        state); default: the FMU computes the initial state from its parameters at
+        initialization, as the model does (a state set before initialization keeps its value).
+    params : parameter start values by name (defaults for the others).
+    outputs : the named outputs that are FMI outputs (default: all of them); the others are local
+        variables. The ledger (``ledger.H``, ``ledger.E_diss``, ``ledger.E_in``,
+        ``ledger.residual``) and the events' counts and times are outputs always.
+    method, rtol, atol, max_step : the co-simulation integrator (a compiled method:
+        ``"Rodas5P"`` or ``"Rodas4"``) and its settings (``solver.*`` parameters of the FMU).
+    start_time, stop_time, step_size, rtol : the FMU's DefaultExperiment.
+    description : the model's description (``modelDescription.xml`` and the documentation).
+    model_identifier : the name of the shared library (default: the model's name as a C
+        identifier).
+
+    Returns the path written. Building needs a C compiler (the one the C back end uses, see
+    :mod:`porthamiltonian.backends.native`); its failure raises
+    :class:`~porthamiltonian.errors.CompilerError` with the path of the compiler's log. The
+    variables, events and the co-simulation step are described in docs/fmu.md.
+    """
+    check_actions(model, events, actions)
+    path = _destination(Path(path))
+    version = _fmi_version(fmi)
+    if kind not in KINDS:
+        raise OptionError(f"kind must be 'me', 'cs' or 'both', got {kind!r}")
+    kinds = KINDS[kind]
+    program = EventProgram() if program is None else program
+    if not isinstance(program, EventProgram):
+        raise OptionError(f"program must be an EventProgram (porthamiltonian.fmu), got "
+                          f"{type(program).__name__}")
+    program.check(model)
+    inputs = getattr(model, "input_names", None)
+    if inputs:
+        raise ExportError(f"model {model.name!r} has inputs ({', '.join(inputs)}): "
+                          "FMUs of models with inputs are not written yet (they will be FMI "
+                          "input variables)")
+    if not model.c_source:
+        raise ExportError(f"model {model.name!r} carries no generated C code (a CompiledModel "
+                          "made outside compile_model): compile it with compile_model")
+    if method not in TABLEAUS:
+        raise OptionError(f"method {method!r}: the co-simulation integrator is a compiled "
+                          f"method, one of {', '.join(TABLEAUS)}")
+    rtol = _positive("rtol", rtol)
+    if rtol >= 1.0:
+        raise OptionError(f"rtol must be below 1, got {rtol!r}")
+    solver = (rtol, _positive("atol", atol), _positive("max_step", max_step, allow_inf=True))
+    start_time = float(start_time)
+    if not math.isfinite(start_time):
+        raise OptionError(f"start_time must be finite, got {start_time!r}")
+    if stop_time is not None and not (float(stop_time) > start_time and
+                                      math.isfinite(float(stop_time))):
+        raise OptionError(f"stop_time must be a finite time after start_time, got {stop_time!r}")
+    if step_size is not None:
+        step_size = _positive("step_size", step_size)
+    p = model.params(params)
+    states_from_parameters = x0 is None
+    if x0 is None or isinstance(x0, Mapping):
+        x_start = model.initial_state(p, x0)
+    else:
+        x_start = np.array(x0, dtype=float)
+        if x_start.shape != (model.n_states,) or not np.all(np.isfinite(x_start)):
+            raise OptionError(f"x0 must be {model.n_states} finite values "
+                              f"({', '.join(model.state_names)}), got shape {x_start.shape}")
+    chosen = list(model.output_names) if outputs is None else list(outputs)
+    unknown = sorted(set(chosen) - set(model.output_names))
+    if unknown:
+        raise OptionError(f"outputs: model {model.name!r} has no output(s) {', '.join(unknown)}")
+    identifier = _identifier(model.name, model_identifier)
+    hmax = solver[2] if math.isfinite(solver[2]) else 1e300
+    variables = variable_table(model, program=program, param_start=p, x_start=x_start,
+                               states_from_parameters=states_from_parameters, outputs=chosen, solver=(solver[0], solver[1], hmax),
+                               cosimulation="cs" in kinds, method=method)
+    token = _token(model, variables, version, kinds, program, method, identifier)
+    folder, suffix = platform_folder(version)
+    files = {name: template(name) for name in TEMPLATES if name in ("ph_fmu.h", "runtime.c",
+                                                                    f"fmi{version}.c")}
+    files["model.c"] = model_source(
+        model, variables, program=program, param_start=p, x_start=x_start,
+        states_from_parameters=states_from_parameters, method=method,
+        solver=(solver[0], solver[1], hmax), token=token, model_exchange="me" in kinds,
+        co_simulation="cs" in kinds)
+    files[ENTRY] = entry_source(version)
+    library = _build(files)
+    tool = f"porthamiltonian {__version__}"
+    date = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    xml = model_description(
+        version, variables, model_name=model.name, token=token, description=description,
+        interface=Interface(identifier, "me" in kinds, "cs" in kinds, (ENTRY,)),
+        n_event_indicators=len(model.events),
+        experiment=Experiment(start_time, None if stop_time is None else float(stop_time),
+                              rtol, step_size),
+        tool=tool, date=date)
+    page = index_html(model, variables, program, Page(version, kinds, identifier, method, solver,
+                                                      tool, date, folder, description))
+    members: dict[str, bytes] = {"modelDescription.xml": xml,
+                                 f"binaries/{folder}/{identifier}{suffix}": library,
+                                 "documentation/index.html": page.encode()}
+    if version == 3:
+        members["documentation/licenses/license.txt"] = (
+            b"The runtime and integration loop in sources/ are part of porthamiltonian, "
+            b"distributed under the BSD-3-Clause license.\nThe model is its author's.\n")
+        members["sources/buildDescription.xml"] = build_description(identifier, ENTRY)
+    members.update({f"sources/{name}": text.encode() for name, text in files.items()})
+    return _write_zip(path, members)
+
+
+def _fmi_version(fmi: int | str) -> int:
+    text = str(fmi).strip()
+    version = {"2": 2, "2.0": 2, "3": 3, "3.0": 3}.get(text)
+    if version is None:
+        raise OptionError(f"fmi must be 2 or 3 (FMI 2.0 or 3.0), got {fmi!r}")
+    return version
+
+
+def _token(model: CompiledModel, variables: Sequence[Variable], version: int,
+           kinds: Sequence[str], program: EventProgram, method: str, identifier: str) -> str:
+    """The FMU's GUID / instantiation token: a hash of what makes its interface and behaviour."""
+    blob = json.dumps({"key": model.key, "variables": [repr(v) for v in variables],
+                       "fmi": version, "kinds": list(kinds), "program": repr(program),
+                       "method": method, "identifier": identifier,
+                       "source": hashlib.sha256(model.c_source.encode()).hexdigest()},
+                      sort_keys=True)
+    return "{" + str(uuid.UUID(hashlib.sha256(blob.encode()).hexdigest()[:32])) + "}"
+
+
+def _build(files: Mapping[str, str]) -> bytes:
+    """The shared library compiled from ``files`` (in a private temporary folder)."""
+    with tempfile.TemporaryDirectory(prefix="porthamiltonian-fmu-") as tmp:
+        for name, text in files.items():
+            (Path(tmp) / name).write_text(text)
+        data, _ = native.build(Path(tmp) / ENTRY, None, advice=(
+            "Set CC to a working C compiler: an FMU's binary is compiled C whatever back end "
+            "the model was compiled with"))
+    return data
+
+
+def _destination(path: Path) -> Path:
+    """``path``, checked before any work: a file name in a folder that exists."""
+    if path.is_dir():
+        raise ExportError(f"{path} is a folder: give the FMU's file name (e.g. model.fmu)")
+    if not path.parent.is_dir():
+        raise ExportError(f"cannot write {path}: the folder {path.parent} does not exist")
+    return path
+
+
+def _write_zip(path: Path, members: Mapping[str, bytes]) -> Path:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh, zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as zf:
+            for name, data in members.items():
+                info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+                info.compress_type = zipfile.ZIP_DEFLATED
+                info.external_attr = 0o644 << 16
+                zf.writestr(info, data)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
