@@ -131,6 +131,11 @@ class PassivityError(ModelError):
 
 
 
+class CostError(ModelError):
+    """Work that would exceed a bound — memory, generated code, the cases of a sweep — is
+    refused before it starts; the message gives the estimate, the bound and how to raise it."""
+
+
 class CompilerError(ModelError):
     """The C back end cannot build a model: no C compiler was found, or it failed. The message
     shows the command and the path of a file holding the compiler's output, and what to do."""

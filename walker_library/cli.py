@@ -13,7 +13,7 @@
     walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
     walker reproduce [STUDY ...] [--out DIR] [--quick] [--workers N | --serial | --scheduler ADDR]
     walker list
-    walker export MODEL PATH [--set NAME=VALUE ...]
+    walker export MODEL PATH [--set NAME=VALUE ...] [--force]
     walker export-fmu MODEL --out FILE [--fmi 2|3] [--kind me|cs|both] [--steps N] [--set ...]
 
 MODEL is a walker name from ``models/`` (a walker file: a model file with a ``[walker]`` table, see
@@ -38,25 +38,29 @@ from typing import Any
 from porthamiltonian import io as ph_io
 from porthamiltonian.batch import SweepError, open_executor
 from porthamiltonian.batch.progress import activity
-from porthamiltonian.errors import ModelError, ModelFileError
+from porthamiltonian.errors import ModelFileError
 from porthamiltonian.interfaces.cli import (
     BACKEND_OPTION,
     JSON_OPTION,
     QUIET_OPTION,
     SET_OPTION,
     add_sweep_parser,
+    at_least,
     backend_option,
+    not_negative,
     parse_assignments,
+    positive,
+    rules,
     run,
     run_sweep,
 )
 
 from .analyses.cases import ANALYSES, get_analysis
 from .analyses.continuation import ParameterPath, continue_gait, parse_range
-from .analyses.gait import analyze_gait, gait_start, section_guess, walk
+from .analyses.gait import TIME_LIMIT, analyze_gait, gait_start, section_guess, walk
 from .analyses.results import to_json
 from .analyses.robustness import basin, gait_sensitivity_norm, step_down
-from .core.files import available_walkers, load_walker, save_walker
+from .core.files import available_walkers, check_target, load_walker, save_walker
 from .core.fmu import export_walker_fmu
 from .report.labels import describe, is_nondimensional, shown_unit
 from .report.page import multiplier_cells
@@ -74,7 +78,7 @@ def check_walker_name(model: str) -> str:
     """``model`` if it can name a walker: a path, a walker file of models/, or a model of models/
     (whose loading then says it is not a walker file); else a ModelFileError listing the walker
     models, with the closest one suggested."""
-    if Path(model).suffix == ".toml" or Path(model).exists():
+    if ph_io.is_path(model):
         return model
     walkers = available_walkers()
     if model in walkers or model in ph_io.available_models():
@@ -114,6 +118,7 @@ def _walker_and_guess(args):
     """The walker with the ``--set`` parameter values, and the section state that the ``--set``
     section coordinates and ``--guess`` file make (None if neither is given)."""
     values = parse_assignments(args.set)
+    previous = _read_guess(args.guess) if getattr(args, "guess", None) else None
     walker = load_walker(check_walker_name(args.model), None, backend=args.backend)
     coords = (set(walker.section) | set(walker.thesis_section)) - set(walker.parameters)
     unknown = [k for k in values if k not in coords and k not in walker.parameters]
@@ -126,8 +131,11 @@ def _walker_and_guess(args):
     params = {k: v for k, v in values.items() if k not in coords}
     named = {k: v for k, v in values.items() if k in coords}
     walker = walker.with_parameters(**params) if params else walker
-    previous = _read_guess(args.guess) if getattr(args, "guess", None) else None
     return walker, section_guess(walker, previous, named)
+
+
+#: the default time limit of `walker continue` and `walker report --continuation` (s)
+CONTINUATION_TIME_LIMIT = 3600.0
 
 
 def _with_unit(walker, key: str, value: Any) -> str:
@@ -140,10 +148,12 @@ def _with_unit(walker, key: str, value: Any) -> str:
 
 def cmd_gait(args) -> int:
     walker, guess = _walker_and_guess(args)
-    with activity(f"gait {walker.name}", enabled=not args.quiet):
+    with activity(f"gait {walker.name}", enabled=not args.quiet) as shown:
         result = analyze_gait(walker, guess, max_period=args.max_period, fd_step=args.fd_step,
                               n_iterate=args.iterate, jacobian=args.jacobian,
-                              continuation=not args.no_continuation)
+                              continuation=not args.no_continuation,
+                              log=None if args.quiet else shown.write,
+                              time_limit=args.time_limit or None)
     if args.json:
         print(result.to_json())
         return 0
@@ -180,23 +190,24 @@ def cmd_gait(args) -> int:
 
 
 def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: int = 400,
-                  jacobian: str = "variational", log=None):
+                  jacobian: str = "variational", log=None, time_limit: float | None = None):
     """Continue the gait in ``text`` (NAME=START:STOP): the range and parameter are checked
-    before any work, the gait at the start found by the full gait search."""
+    before any work, the gait at the start found by the full gait search; ``time_limit``
+    (s) bounds the continuation."""
     name, start, stop = parse_range(text)
     path = ParameterPath.single(walker, name, start, stop)
-    z0, period = gait_start(walker, name, start, guess, jacobian=jacobian)
+    z0, period = gait_start(walker, name, start, guess, jacobian=jacobian, log=log)
     return continue_gait(walker, path, guess=z0, period=period, jacobian=jacobian,
-                         doublings=doublings, max_points=max_points, log=log)
+                         doublings=doublings, max_points=max_points, log=log,
+                         time_limit=time_limit)
 
 
 def cmd_continue(args) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    if args.doublings < 0 or args.max_points < 2:
-        raise ModelError("--doublings must be >= 0 and --max-points >= 2")
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
-                           max_points=args.max_points, jacobian=args.jacobian, log=log)
+                           max_points=args.max_points, jacobian=args.jacobian, log=log,
+                           time_limit=args.time_limit or None)
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
@@ -316,7 +327,8 @@ def cmd_report(args) -> int:
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     continuation = None
     if args.continuation:
-        continuation = _continuation(walker, args.continuation, None, log=log)
+        continuation = _continuation(walker, args.continuation, None, log=log,
+                                     time_limit=args.time_limit or None)
     result = write_report(walker, args.out, n_steps=args.steps, with_basin=args.basin,
                           with_step_down=not args.no_step_down, forces=args.forces,
                           view3d=args.view3d, continuation=continuation, log=log)
@@ -374,9 +386,10 @@ def cmd_list(args) -> int:
 
 
 def cmd_export(args) -> int:
-    walker = load_walker(args.model, parse_assignments(args.set))
+    check_target(args.path, overwrite=args.force)             # before any work
+    walker = load_walker(check_walker_name(args.model), parse_assignments(args.set))
     path = save_walker(walker, args.path, f"Walker file written by `walker export {args.model}` "
-                       "(docs/walkers.md).")
+                       "(docs/walkers.md).", overwrite=args.force)
     print(f"wrote {path}")
     return 0
 
@@ -422,6 +435,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-continuation", action="store_true",
                    help="do not continue the model file's nominal gait to these parameters when "
                         "the guess finds no stable gait")
+    p.add_argument("--time-limit", type=float, default=TIME_LIMIT, metavar="S",
+                   help=f"stop the search after S seconds with what it found (default "
+                        f"{TIME_LIMIT:g}; 0: no limit)")
+    rules(p, max_period=at_least(1), fd_step=positive, iterate=at_least(1),
+          time_limit=not_negative)
     p.set_defaults(func=cmd_gait)
 
     p = sub.add_parser("continue", parents=analysis,
@@ -436,7 +454,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="points per branch at most (default: 400)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="write continuation.json and bifurcation_diagram.png there")
+    p.add_argument("--time-limit", type=float, default=CONTINUATION_TIME_LIMIT, metavar="S",
+                   help=f"start no new point after S seconds (default "
+                        f"{CONTINUATION_TIME_LIMIT:g}; 0: no limit)")
     _guess_options(p)
+    rules(p, doublings=at_least(0), max_points=at_least(2), time_limit=not_negative)
     p.set_defaults(func=cmd_continue)
 
     p = sub.add_parser("walk", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION],
@@ -445,6 +467,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("model", help=model_help)
     p.add_argument("--steps", type=int, default=20, metavar="N",
                    help="steps to walk (default: 20)")
+    rules(p, steps=at_least(1))
     p.set_defaults(func=cmd_walk)
 
     p = sub.add_parser("step-down", parents=analysis,
@@ -455,6 +478,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="height grid (m; default: 2e-4 of the leg length)")
     p.add_argument("--h-max", type=float, default=None, metavar="H",
                    help="largest height tried (m; default: 0.1 of the leg length)")
+    rules(p, resolution=positive, h_max=positive)
     p.set_defaults(func=cmd_step_down)
 
     p = sub.add_parser("basin", parents=analysis,
@@ -464,6 +488,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--span", type=float, default=0.1,
                    help="half-width of the grid in scaled units (theta/0.4 rad, "
                         "theta_dot/0.8 rad/s; default: 0.1)")
+    rules(p, n=at_least(2), span=positive)
     p.set_defaults(func=cmd_basin)
 
     p = sub.add_parser("gsn", parents=analysis,
@@ -483,6 +508,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
     p.add_argument("--continuation", default=None, metavar="NAME=START:STOP",
                    help="also the bifurcation diagram over a parameter's range (walker continue)")
+    p.add_argument("--time-limit", type=float, default=CONTINUATION_TIME_LIMIT, metavar="S",
+                   help=f"with --continuation: start no new point after S seconds (default "
+                        f"{CONTINUATION_TIME_LIMIT:g}; 0: no limit)")
     p.add_argument("--forces", action="store_true",
                    help="draw the contact-force arrows in walk.gif (the page's player has a "
                         "switch for them either way)")
@@ -492,6 +520,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "walker always has one), with its still image view3d.png")
     view.add_argument("--no-view3d", dest="view3d", action="store_false",
                       help="no 3D view, not even for a 3D walker")
+    rules(p, steps=at_least(1), time_limit=not_negative)
     p.set_defaults(func=cmd_report)
 
     p = add_sweep_parser(
@@ -522,6 +551,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="a dask.distributed scheduler address, or 'local' for a local cluster")
     p.add_argument("--list", action="store_true", help="list the studies and exit")
+    rules(p, workers=at_least(1))
     p.set_defaults(func=cmd_reproduce)
 
     p = sub.add_parser("list", parents=[JSON_OPTION], help="the walker model files")
@@ -531,6 +561,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="write a walker's model file (with the --set values)")
     p.add_argument("model", help=model_help)
     p.add_argument("path", help="the model file to write (.toml)")
+    p.add_argument("--force", action="store_true",
+                   help="replace what is at PATH already (a link is replaced, not written "
+                        "through)")
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION],

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import importlib.util
 import sys
-from collections.abc import Sequence
+import types
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,15 +32,29 @@ def module_text(body: str, backend: str) -> str:
     return _HEADERS[backend] + "\n\n" + body + "\n\n" + python_loops()
 
 
-def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = ()) -> Functions:
-    """Import the generated module at ``path`` and wrap its functions for ``backend``
-    (``extra``: the names of its further generated functions, e.g. ``jac_u``)."""
+def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (), *,
+         source: str | None = None, attach: Callable[[Any], None] | None = None) -> Functions:
+    """Import the generated module at ``path`` and wrap its functions for ``backend``.
+
+    ``extra``: the names of its further generated functions (e.g. ``jac_u``). ``source``: the
+    module's text, already verified by the caller: it is compiled as it is (the file is not read
+    again, and no bytecode is written or read). ``attach``: called with each numba dispatcher of
+    the module before any is called (e.g. to give it a verified on-disk cache)."""
     module_name = f"_porthamiltonian_generated_{path.stem}"
     module = sys.modules.get(module_name)
     if module is None:
-        spec = importlib.util.spec_from_file_location(module_name, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        if source is None:
+            spec = importlib.util.spec_from_file_location(module_name, path)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+        else:
+            module = types.ModuleType(module_name)
+            module.__file__ = str(path)
+            exec(compile(source, str(path), "exec"), module.__dict__)  # noqa: S102 - our code
+        if attach is not None:
+            for value in list(vars(module).values()):
+                if hasattr(value, "py_func") and hasattr(value, "_cache"):
+                    attach(value)
         sys.modules[module_name] = module
     f = {name: getattr(module, name) for name in _NAMES}
     matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]

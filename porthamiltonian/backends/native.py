@@ -14,9 +14,13 @@ are checked first (the C code trusts them); ctypes releases the GIL during the c
 """
 from __future__ import annotations
 
+import atexit
 import ctypes
+import functools
 import hashlib
 import importlib.util
+import json
+import math
 import os
 import platform
 import shlex
@@ -56,18 +60,62 @@ _NAMES = ("rhs", "jac", "energy", "outputs", "guards")
 _SIZES = ("states", "parameters", "guards", "outputs", "matrices")
 
 
-def library_name(key: str) -> str:
-    """The cache file name of a model's library (with the platform: a cache folder may be
-    shared by machines of different kinds)."""
+def library_prefix(key: str) -> str:
+    """The start of the cache file names of a model's libraries on this kind of machine (a
+    cache folder may be shared by machines of different kinds)."""
     machine = platform.machine().lower() or "unknown"
-    return f"m{key}_c_{sys.platform}_{machine}{_SUFFIX}"
+    return f"m{key}_c_{sys.platform}_{machine}_"
 
 
-def translation_unit(body: str, loop_pragma: bool = True) -> str:
-    """The full C source: the generated body followed by the integration loops (after
-    :data:`LOOP_PRAGMA` unless ``loop_pragma`` is false), for one unit (e.g. to measure
-    optimisation levels); :func:`loop_source` is the loops as a unit of their own."""
-    return body + "\n" + (LOOP_PRAGMA if loop_pragma else "") + c_loops()
+def library_name(key: str, identity: str | None = None) -> str:
+    """The cache file name of a model's library built by the compiler ``identity``
+    (:func:`compiler_identity`; default: the current one, ``none`` without a compiler): a
+    library is never reused by another compiler, another version or other flags."""
+    if identity is None:
+        identity = compiler_identity() or "none"
+    return f"{library_prefix(key)}{identity}{_SUFFIX}"
+
+
+#: appended to every translation unit: the library's self-check and its model key
+_SELF_CHECK = r"""
+#include <fenv.h>
+
+/* The library's self-check (porthamiltonian.backends.native.load): the IEEE arithmetic the
+   integrator relies on (NaN unequal to itself, overflow to infinity, no reassociation); flags
+   such as -ffast-math break it. */
+PH_EXPORT int ph_selftest(double nan_in, double one)
+{
+    int ok = 1;
+    volatile double x = nan_in, a = 1e16 * one, big = 1e308 * one;
+    double y = x, b = a, c = big;
+    if (y == y || !isnan(y)) ok = 0;
+    if ((b + one) - b != 0.0) ok = 0;
+    if (!isinf(c * 10.0)) ok = 0;
+    return ok;
+}
+
+/* The default floating-point environment again (a library linked with -ffast-math turns off
+   subnormal numbers in the whole process when it is loaded). */
+PH_EXPORT void ph_fp_default(void) { fesetenv(FE_DFL_ENV); }
+
+PH_EXPORT const char *ph_model_key(void) { return "%s"; }
+"""
+
+
+def model_unit(body: str, key: str = "") -> str:
+    """A model's own translation unit for the C back end: the generated body, the self-check
+    and ``ph_model_key`` returning ``key`` (the model's cache key: letters and digits); the
+    integration loops are an object of their own (:func:`loop_source`) linked with it."""
+    if not key.isalnum() and key:
+        raise ValueError(f"model key {key!r}: letters and digits only")
+    return body + "\n" + _SELF_CHECK.replace("%s", key)
+
+
+def translation_unit(body: str, loop_pragma: bool = True, key: str = "") -> str:
+    """The full C source as one unit (an FMU's sources; measuring optimisation levels): the
+    generated body followed by the integration loops (after :data:`LOOP_PRAGMA` unless
+    ``loop_pragma`` is false), the self-check and ``ph_model_key`` (:func:`model_unit`)."""
+    return model_unit(body + "\n" + (LOOP_PRAGMA if loop_pragma else "") + c_loops(), key)
 
 
 _LOOP_HEADER = """\
@@ -170,6 +218,34 @@ def compiler() -> list[str] | None:
     return None
 
 
+def compiler_identity() -> str | None:
+    """A short hash of what the C compiler is: the resolved path of its executable (and its
+    size and time stamp), its ``--version`` output, the flags in ``$CC`` and :data:`FLAGS`;
+    None when there is no compiler. Part of a library's cache name, so that a library is
+    rebuilt when the compiler, its version or its flags change."""
+    cc = compiler()
+    return None if cc is None else _identity(tuple(cc))
+
+
+@functools.cache
+def _identity(cc: tuple[str, ...]) -> str:
+    found = shutil.which(cc[0])
+    real = os.path.realpath(found) if found else cc[0]
+    try:
+        info = os.stat(real)
+        stamp = f"{info.st_size}:{info.st_mtime_ns}"
+    except OSError:
+        stamp = "missing"
+    try:
+        run = subprocess.run([*cc, "--version"], capture_output=True, text=True, errors="replace",
+                             stdin=subprocess.DEVNULL, timeout=60, check=False)
+        version = f"{run.returncode}\n{run.stdout}{run.stderr}"[:4000]
+    except (OSError, subprocess.SubprocessError) as err:
+        version = f"unknown ({type(err).__name__})"
+    blob = json.dumps([real, stamp, version, list(cc[1:]), list(FLAGS)])
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
 _NO_COMPILER = ("no C compiler found: $CC is not set, none of cc, gcc, clang is on PATH and the "
                 "ziglang package is not installed. Install a C compiler (e.g. apt-get install gcc, "
                 "xcode-select --install), or pip install 'porthamiltonian[c]' (a compiler from the "
@@ -182,8 +258,9 @@ ADVICE = "Set CC to a working C compiler, or choose the numba or python back end
 
 def object_key(text: str) -> str:
     """The cache key of an object compiled from ``text`` (by :func:`compile_object`): a hash of
-    the text, the compiler command, its flags and the platform."""
-    blob = "\0".join([*(compiler() or ["none"]), *FLAGS, sys.platform, platform.machine(), text])
+    the text, the compiler's identity (:func:`compiler_identity`: its executable, version and
+    flags) and the platform, so that an object is never linked by another compiler."""
+    blob = "\0".join([compiler_identity() or "none", sys.platform, platform.machine(), text])
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
@@ -265,10 +342,73 @@ def _vector(value, size: int, what: str) -> np.ndarray:
     return array
 
 
-def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int) -> Functions:
+def _subnormals() -> bool:
+    """True while the process computes with subnormal numbers (no flush-to-zero)."""
+    return sys.float_info.min / 2 > 0.0
+
+
+#: the libraries this process loaded: path -> (device, inode) of the file then
+_LOADED: dict[str, tuple[int, int]] = {}
+
+
+def _fresh_path(path: Path) -> Path:
+    """``path``, or, when this process loaded another file by that path before (a library
+    replaced since: rebuilt after failing its check), a private copy under a new name: the
+    dynamic loader would otherwise hand back the library it loaded first."""
+    info = path.stat()
+    ident = (info.st_dev, info.st_ino)
+    before = _LOADED.setdefault(str(path), ident)
+    if before == ident:
+        return path
+    folder = Path(tempfile.mkdtemp(prefix="porthamiltonian-lib-"))
+    atexit.register(shutil.rmtree, folder, True)
+    copy = folder / path.name
+    shutil.copyfile(path, copy)
+    return copy
+
+
+def _check(lib: ctypes.CDLL, path: Path, key: str | None, subnormals: bool) -> None:
+    """The self-check of a loaded library (see :func:`load`); CompilerError on failure, after
+    restoring the floating-point environment when loading it changed it."""
+    try:
+        selftest, reset, model_key = lib.ph_selftest, lib.ph_fp_default, lib.ph_model_key
+    except AttributeError as err:
+        raise CompilerError(f"{path}: not a library of this project's C back end (it lacks "
+                            f"{str(err).split(':')[-1].strip()})") from None
+    selftest.restype, selftest.argtypes = ctypes.c_int, (ctypes.c_double, ctypes.c_double)
+    reset.restype, reset.argtypes = None, ()
+    model_key.restype, model_key.argtypes = ctypes.c_char_p, ()
+    flushed = subnormals and not _subnormals()
+    if flushed:
+        reset()
+    if flushed or selftest(math.nan, 1.0) != 1:
+        what = ("it turned off subnormal numbers in the whole process when loaded; " if flushed
+                else "")
+        raise CompilerError(f"{path}: built with floating-point flags that break IEEE arithmetic "
+                            f"({what}NaN, overflow or rounding behave otherwise: -ffast-math or "
+                            "similar); remove such flags from CC")
+    if key is not None and model_key() != key.encode():
+        raise CompilerError(f"{path}: the library is that of another model "
+                            f"({model_key().decode(errors='replace')!r}, not {key!r})")
+
+
+def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
+         key: str | None = None) -> Functions:
     """Load the library at ``path`` (verified by the caller) and wrap its functions.
-    ``shapes``: the result shape of each function (``rhs``, ``jac``, ..., ``matrix_<k>``)."""
-    lib = ctypes.CDLL(str(path))
+    ``shapes``: the result shape of each function (``rhs``, ``jac``, ..., ``matrix_<k>``).
+
+    The library checks itself first; a :class:`~porthamiltonian.errors.CompilerError` says why
+    it cannot be used: not a loadable library, not one of this back end, built with flags that
+    break IEEE arithmetic (``ph_selftest``; and a library whose loading turned off subnormal
+    numbers for the whole process, as ``-ffast-math`` does, gets the default floating-point
+    environment restored), the library of another model (``key``: the model's cache key), or a
+    layout that is not the model's."""
+    subnormals = _subnormals()
+    try:
+        lib = ctypes.CDLL(str(_fresh_path(Path(path))))
+    except OSError as err:
+        raise CompilerError(f"{path}: not a loadable shared library ({err})") from None
+    _check(lib, path, key, subnormals)
     layout = (ctypes.c_int64 * 5)()
     lib.ph_layout(layout)
     n = shapes["rhs"][0]
@@ -382,5 +522,6 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
     return integrate
 
 
-__all__ = ["FLAGS", "Pending", "build", "compile_object", "compiler", "library_name", "load",
-           "loop_source", "object_key", "start_object", "translation_unit"]
+__all__ = ["FLAGS", "Pending", "build", "compile_object", "compiler", "compiler_identity",
+           "library_name", "library_prefix", "load", "loop_source", "model_unit", "object_key",
+           "start_object", "translation_unit"]

@@ -37,9 +37,10 @@ try:  # advisory locking (POSIX)
 except ImportError:  # pragma: no cover - Windows
     fcntl = None
 
+from ..userfiles import path_problem
 from .errors import SweepFileError
 
-__all__ = ["FORMAT", "VERSION", "ResultsFile", "load_results", "read_header", "scan"]
+__all__ = ["FORMAT", "VERSION", "ResultsFile", "load_results", "read_file", "read_header", "scan"]
 
 FORMAT = "porthamiltonian-sweep"
 VERSION = 1
@@ -140,10 +141,17 @@ def scan(path: Path, data: bytes) -> Scan:
     return Scan(header, rows, offset, torn, missing_newline)
 
 
-def _read(path: Path) -> bytes:
+def read_file(path: Path) -> bytes:
+    """The bytes of the results file ``path``; SweepFileError for a directory, a device, a
+    pipe or a socket (by type: nothing is read from them) or a file that cannot be read."""
     if path.is_dir():
         raise SweepFileError(f"{path} is a directory; name a results file (e.g. "
                              f"{path / 'sweep.jsonl'})")
+    problem = path_problem(path)
+    if problem is None and not path.is_file():
+        problem = "is a pipe, not a file"
+    if problem is not None:
+        raise SweepFileError(f"{path} {problem}; name a sweep results file")
     try:
         return path.read_bytes()
     except OSError as err:
@@ -153,7 +161,7 @@ def _read(path: Path) -> bytes:
 def read_header(path: str | Path) -> dict:
     """The header (first line) of a sweep results file; SweepFileError if it has none."""
     path = Path(path)
-    data = _read(path)
+    data = read_file(path)
     return _parse_header(data.split(b"\n", 1)[0], path)
 
 
@@ -163,7 +171,7 @@ def load_results(path: str | Path) -> list[dict]:
     an ``"error"`` row, message, error_type and traceback. A torn last line is left out with a
     warning (the file is not modified: the next run of the sweep truncates it)."""
     path = Path(path)
-    found = scan(path, _read(path))
+    found = scan(path, read_file(path))
     if found.torn:
         warnings.warn(f"{path}, line {found.torn[0]}: torn last line (an interrupted write) "
                       "left out", stacklevel=2)
@@ -273,8 +281,18 @@ class ResultsFile:
         if path.is_dir():
             raise SweepFileError(f"{path} is a directory; name a results file (e.g. "
                                  f"{path / 'sweep.jsonl'})")
+        if os.path.lexists(path) or path.exists():
+            problem = path_problem(path)
+            if problem is None and not path.is_file():
+                problem = "is a pipe, not a file (rows must be kept and read back to resume)"
+            if problem is not None:
+                raise SweepFileError(f"{path} {problem}; name a results file")
         if not path.exists():
-            _create(path, header_line)
+            try:
+                _create(path, header_line)
+            except OSError as err:
+                raise SweepFileError(f"{path}: cannot create the results file "
+                                     f"({err.strerror or err})") from None
         try:
             fh = open(path, "r+b")  # noqa: SIM115 - kept open (and locked) for the run
         except OSError as err:
@@ -308,14 +326,26 @@ class ResultsFile:
         os.fsync(self._fh.fileno())
 
     def append(self, row: dict) -> None:
-        """Write one row (one line) and make it durable before returning."""
+        """Write one row (one line) and make it durable before returning; a write that fails (a
+        full disk, a file system gone read-only) is a SweepFileError saying that the rows
+        written before are kept and the sweep resumes."""
         line = (json.dumps(row, allow_nan=False, separators=(", ", ": ")) + "\n").encode()
-        self._fh.write(line)
-        self._sync()
+        try:
+            self._fh.write(line)
+            self._sync()
+        except OSError as err:
+            raise SweepFileError(
+                f"{self.path}: cannot write the results file ({err.strerror or err}); the sweep "
+                "stopped there, and every row written before is kept (a partly written last "
+                "line is removed when the sweep resumes): make room (or make the file system "
+                "writable) and run the same command again to resume") from None
 
     def close(self) -> None:
         """Close the file, releasing its lock."""
         if not self._fh.closed:
             with _HELD_GUARD:
                 _HELD.discard(self._fh.fileno())
-            self._fh.close()
+            try:
+                self._fh.close()
+            except OSError:          # the rest of a row that could not be written (reported)
+                pass

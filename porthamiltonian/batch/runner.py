@@ -62,7 +62,7 @@ from . import progress as _progress
 from .errors import SweepError, SweepFileError
 from .executors import executor_width
 from .grids import cases_sha256, normalize_case
-from .resultsfile import FORMAT, VERSION, ResultsFile, Scan, scan
+from .resultsfile import FORMAT, VERSION, ResultsFile, Scan, read_file, scan
 from .table import table, to_dataframe, write_csv
 
 if TYPE_CHECKING:  # pandas is optional (the frames extra)
@@ -440,12 +440,9 @@ class Sweep:
         """The rows in the file (file order), after checking it belongs to this sweep; [] when
         there is no file yet. Refuses (:class:`SweepFileError`) a directory or a file it could
         not resume, so calling it first checks ``path`` before any work is done."""
-        if self.path.is_dir():
-            raise SweepFileError(f"{self.path} is a directory; name a results file (e.g. "
-                                 f"{self.path / 'sweep.jsonl'})")
-        if not self.path.exists():
+        if not os.path.lexists(self.path):
             return []
-        found = scan(self.path, self.path.read_bytes())
+        found = scan(self.path, read_file(self.path))
         self._check_identity(found.header)
         return list(self._check_rows(found.rows).values())
 

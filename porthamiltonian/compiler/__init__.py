@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shlex
 import sys
 import time
+import warnings
 from collections import OrderedDict
 from collections.abc import Sequence
 from types import MappingProxyType
@@ -21,13 +23,13 @@ import sympy
 
 from .. import backends
 from ..backends import module, native
-from ..errors import CompilerError
+from ..errors import CompilerError, ModelError
 from ..mechanics.sources import c_object_source
 from ..modeling.constraints import Constraint
 from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from ..simulation.sampling import DiscreteBlock
-from . import cache
+from . import cache, estimate, numba_cache
 from .assemble import SymbolicModel, assemble, power_balance
 from .codegen import program
 from .literals import printable
@@ -161,6 +163,11 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         vector [∇H; z; u] at a point (``CompiledModel.ph_matrices``; a compiled model asks for
         them itself, once, when they are first needed).
     """
+    if not isinstance(model, (Model, ModelDescription)):
+        hint = (f"; to compile a model file, read it first: compile_model(io.load({model!r}))"
+                if isinstance(model, str) else "")
+        raise ModelError(f"compile_model takes a Model (or its ModelDescription), got "
+                         f"{type(model).__name__} {model!r:.80}{hint}")
     order = backends.candidates(backend)
     description = model.freeze() if isinstance(model, Model) else model
     options = {k: v for k, v in (("jac_p", list(jac_p or [])), ("ph", ph)) if v}
@@ -169,6 +176,7 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     times: dict[str, float] = {}
     pending = None
     if meta is None:
+        estimate.check(description, backends.report)      # refused, or announced, before work
         start = time.perf_counter()
         sym = symbolic(description)
         form = ph_form(description, sym, _solved(description)) if ph else None
@@ -233,7 +241,12 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     docs = {par_name: par.doc for par_name, par in description.parameters.items()}
     return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
                          c_source=bodies["c"],
-                         param_docs=[docs.get(n, "") for n in meta.param_names], rebuild=rebuild)
+                         param_docs=[docs.get(n, "") for n in meta.param_names],
+                         input_docs=[description.inputs[n].doc for n in meta.input_names],
+                         output_expressions={n: description.outputs[n]
+                                             for n in meta.declared_outputs
+                                             if n in description.outputs},
+                         rebuild=rebuild)
 
 
 def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
@@ -258,26 +271,64 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
-        return module.load(path, name, len(meta.matrices), extra_functions(meta))
+        attach = numba_cache.verified_caches(path.parent) if name == "numba" else None
+        return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text,
+                           attach=attach)
     shapes = dict(meta.shapes)
-    lib_name = native.library_name(key)
+    n_params = slot_count(meta)
+    identity = native.compiler_identity()
+    lib_name = native.library_name(key, identity or "none")
     path = cache.verified_path(key, lib_name) if use_cache else None
-    if path is None:
-        if _C_FAILED and not explicit:
-            raise CompilerError(_C_FAILED[0])
-        source = cache.store(key, f"m{key}_c.c", bodies["c"], use_cache)
-        log_dir = source.parent if cache.kept(source) else None   # failures: the model's log
+    if path is not None:
+        try:
+            return native.load(path, shapes, n_params, key)
+        except CompilerError as err:
+            cache.warn(f"compiled-model cache: {err}; the library is removed and rebuilt")
+            cache.discard(key, path.name)
+    if _C_FAILED and not explicit:
+        raise CompilerError(_C_FAILED[0])
+    source = cache.store(key, f"m{key}_c.c", native.model_unit(bodies["c"], key=key), use_cache)
+    log_dir = source.parent if cache.kept(source) else None     # failures: the model's log
+    try:
         objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
                         for kernel in meta.kernels)
         objects += (_loop_object(meta, use_cache, times, pending, log_dir, source),)
         data, seconds = native.build(source, log_dir, objects)
-        times["C"] = times.get("C", 0.0) + seconds
-        path = cache.store(key, lib_name, data, use_cache)
+    except CompilerError as err:
+        # no working compiler now: this model's library built by another compiler will do,
+        # after its self-check (a cached library needs no compiler)
+        earlier = _earlier_library(key, shapes, n_params) if use_cache else None
+        if earlier is None:
+            raise
+        if identity is not None:        # a compiler that fails (none at all: nothing to say)
+            warnings.warn(f"{err}; using this model's C library built earlier by another "
+                          "compiler (it passed its self-check)", backends.BackendWarning,
+                          stacklevel=4)
+        return earlier
+    times["C"] = times.get("C", 0.0) + seconds
+    path = cache.store(key, lib_name, data, use_cache)
     try:
-        return native.load(path, shapes, slot_count(meta))
-    except OSError as err:
-        raise CompilerError(f"the C library {path} cannot be loaded ({err}); remove it to "
-                            "rebuild it, or choose the numba or python back end") from None
+        return native.load(path, shapes, n_params, key)
+    except CompilerError as err:
+        cache.discard(key, lib_name)
+        raise CompilerError(f"the C compiler ({shlex.join(native.compiler() or ['?'])}) built a "
+                            f"library that fails its self-check: {err}. Set CC to a working C "
+                            "compiler, or choose the numba or python back end") from None
+
+
+def _earlier_library(key: str, shapes: dict, n_params: int) -> backends.Functions | None:
+    """A library of model ``key`` for this machine that another compiler built, loaded after
+    its self-check (one that fails it is removed); None when there is none."""
+    for name in cache.recorded(key, native.library_prefix(key)):
+        path = cache.verified_path(key, name)
+        if path is None:
+            continue
+        try:
+            return native.load(path, shapes, n_params, key)
+        except CompilerError as err:
+            cache.warn(f"compiled-model cache: {err}; the library is removed")
+            cache.discard(key, name)
+    return None
 
 
 def _loop_name() -> str:
@@ -324,6 +375,8 @@ def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_di
         times["C"] = times.get("C", 0.0) + seconds
         path = cache.store(key, name, data, use_cache)
     return path
+
+
 def slot_count(meta: ModelMeta) -> int:
     """The length of the parameter vector of a compiled model's functions: its parameters and
     two slots per input (:func:`.codegen.input_slots`)."""

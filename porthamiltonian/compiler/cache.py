@@ -23,12 +23,13 @@ folder per entry, ``<cache>/<key>/``:
                          compiler's output when it failed (never read back, not recorded)
 other files              artifacts a back end stores with :func:`store`
 ``manifest.json``        ``{"key": ..., "files": {name: sha256}}``: every file above
-``__pycache__/``         written by Python (bytecode) and numba (compiled functions) when a module
-                         is imported and first called; they validate these files against the
-                         module's size and time stamp themselves, and numba may rewrite them (two
-                         processes compiling one function), so they are protected by the folder's
-                         permissions rather than by hashes, and removed whenever the module is
-                         written again or the entry is found damaged
+``__pycache__/``         numba's compiled functions (an index and a data file per function),
+                         written when a function is first called: recorded in the manifest too
+                         (``__pycache__/<file>``) as numba writes them, and verified before numba
+                         unpickles them (:mod:`.numba_cache`); removed whenever the module is
+                         written again or the entry is found damaged. Python's own bytecode is
+                         never written or read: a generated module is compiled from its verified
+                         text
 
 An entry is created complete in a temporary folder and renamed into place, so concurrent sweep
 workers can share one cache; files added later are written atomically (write, then rename) and
@@ -43,7 +44,9 @@ Integrity and trust (the rules a native back end follows too, through :func:`sto
   rebuilt, or, for a back end's file, that file is stored again.
 * The cache folder is used only when it is owned by the user and not writable by group or
   others, and every folder above it is owned by the user or root and not writable by everyone
-  unless sticky (``/tmp``). Otherwise, or when it cannot be written (read-only), this process
+  unless sticky (``/tmp``); so is every folder that anything is loaded from (an entry, its
+  ``__pycache__``): an entry that fails the rule gives one warning and is removed and rebuilt
+  (or, when it is not the user's to remove, built in the private temporary folder). Otherwise, or when it cannot be written (read-only), this process
   warns once, saying how to fix it (``chmod 700 DIR``, or another ``PORTHAMILTONIAN_CACHE``),
   reads nothing from it, and builds in a private temporary folder removed at exit (chosen over
   refusing to compile: the work goes on, only nothing is kept). Nothing is imported or unpickled
@@ -77,8 +80,9 @@ import shutil
 import stat
 import sys
 import tempfile
+import threading
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -105,6 +109,11 @@ class CacheWarning(UserWarning):
 
 
 def _warn(message: str) -> None:
+    warnings.warn(message, CacheWarning, stacklevel=3)
+
+
+def warn(message: str) -> None:
+    """One :class:`CacheWarning` (for the back ends' checks of what they load from the cache)."""
     warnings.warn(message, CacheWarning, stacklevel=3)
 
 
@@ -171,6 +180,44 @@ def _untrusted(path: Path) -> str | None:
         if pinfo.st_mode & stat.S_IWOTH and not pinfo.st_mode & stat.S_ISVTX:
             return f"the folder above it, {parent}, is writable by other users"
     return None
+
+
+def private_problem(folder: Path) -> str | None:
+    """Why files in ``folder`` (an entry of the cache, or a folder in it such as
+    ``__pycache__``) cannot be loaded, or None: it must belong to the user and not be writable
+    by group or others, like the cache folder itself (otherwise someone else could have put or
+    changed files there, hashes and manifest included)."""
+    try:
+        info = folder.lstat()
+    except OSError as err:
+        return f"it cannot be examined ({err.strerror})"
+    if stat.S_ISLNK(info.st_mode) or not stat.S_ISDIR(info.st_mode):
+        return "it is not a folder (a link or a file is in its place)"
+    uid = os.getuid() if hasattr(os, "getuid") else None
+    if uid is not None and info.st_uid != uid:
+        return f"it belongs to another user (uid {info.st_uid})"
+    if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return "it is writable by other users"
+    return None
+
+
+def _in_private_dir(path: Path) -> bool:
+    return "dir" in _private and _private["dir"] in path.parents
+
+
+def _usable(entry: Path) -> bool:
+    """True when the entry folder may be read (:func:`private_problem`); otherwise one warning,
+    and the entry is removed (it is rebuilt) when it is ours to remove. (This process's private
+    folder is its own: made by it, mode 0700.)"""
+    if _in_private_dir(entry):
+        return True
+    problem = private_problem(entry)
+    if problem is None:
+        return True
+    _warn(f"compiled-model cache: {entry}: {problem}; nothing is loaded from it, and it is "
+          "removed and rebuilt")
+    _remove(entry)
+    return False
 
 
 def _base(persistent: bool) -> Path:
@@ -283,17 +330,23 @@ def _check_file_name(name: str) -> None:
                          f"{_MANIFEST}")
 
 
+_HELD = threading.local()
+
+
 @contextlib.contextmanager
 def _locked(entry: Path) -> Iterator[None]:
-    """Hold the entry's lock (manifest read-modify-write)."""
-    if fcntl is None:  # pragma: no cover
+    """Hold the entry's lock (manifest read-modify-write); reentrant within a thread."""
+    held = _HELD.__dict__.setdefault("entries", set())
+    if fcntl is None or str(entry) in held:  # pragma: no cover - (Windows)
         yield
         return
     fd = os.open(entry / _LOCK, os.O_RDWR | os.O_CREAT, 0o600)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
+        held.add(str(entry))
         yield
     finally:
+        held.discard(str(entry))
         os.close(fd)
 
 
@@ -317,14 +370,17 @@ def _manifest(entry: Path) -> dict[str, str] | None:
 
 
 def _record(entry: Path, updates: dict[str, str | None]) -> None:
-    """Set (hash) or drop (None) files in the entry's manifest, under its lock."""
+    """Set (hash) or drop (None) files in the entry's manifest, under its lock; a name ending
+    in ``/`` drops every file under that folder."""
     with _locked(entry):
         try:
             files = json.loads((entry / _MANIFEST).read_bytes())["files"]
         except (OSError, ValueError, KeyError):
             files = {}
         for name, digest in updates.items():
-            if digest is None:
+            if name.endswith("/"):
+                files = {k: v for k, v in files.items() if not k.startswith(name)}
+            elif digest is None:
                 files.pop(name, None)
             else:
                 files[name] = digest
@@ -364,7 +420,7 @@ def read(key: str) -> tuple[dict[str, Any], dict[str, str]] | None:
     reported in one warning naming the file and removed (the caller rebuilds it). When the cache
     folder is not usable, this process's private folder serves instead."""
     entry = _base(True) / key
-    if not entry.is_dir():
+    if not entry.is_dir() or not _usable(entry):
         return None
     files = _manifest(entry)
     raw = None
@@ -423,6 +479,8 @@ def write(key: str, meta: dict[str, Any], bodies: dict[str, str]) -> None:
 def _entry(key: str, persistent: bool) -> Path:
     """The entry folder of ``key`` (created in the private folder, or in the cache if missing)."""
     entry = _base(persistent) / key
+    if entry.is_dir() and not _usable(entry) and os.path.lexists(entry):
+        entry = _base(False) / key           # not ours to remove: build beside this process
     if not entry.is_dir():
         entry.mkdir(mode=0o700, exist_ok=True)
         _record(entry, {})
@@ -460,7 +518,7 @@ def verified_path(key: str, name: str) -> Path | None:
     damaged (warned; the file is removed and dropped from the manifest)."""
     _check_file_name(name)
     entry = _base(True) / key
-    if not (entry / name).is_file():
+    if not (entry / name).is_file() or not _usable(entry):
         return None
     files = _manifest(entry)
     if files is None:
@@ -476,6 +534,26 @@ def verified_path(key: str, name: str) -> Path | None:
     return entry / name
 
 
+def discard(key: str, name: str) -> None:
+    """Remove file ``name`` of entry ``key`` and its record (a library that failed its
+    self-check: the next build replaces it)."""
+    _check_file_name(name)
+    entry = _base(True) / key
+    with contextlib.suppress(OSError):
+        (entry / name).unlink()
+    if (entry / _MANIFEST).exists():
+        _record(entry, {name: None})
+
+
+def recorded(key: str, prefix: str = "") -> list[str]:
+    """The names of the files recorded in entry ``key`` that start with ``prefix`` (none when
+    the entry is absent or cannot be used)."""
+    entry = _base(True) / key
+    if not entry.is_dir() or not _usable(entry):
+        return []
+    return sorted(n for n in (_manifest(entry) or {}) if n.startswith(prefix) and "/" not in n)
+
+
 def kept(path: Path) -> bool:
     """True when ``path`` lies in the cache folder (kept after this process ends)."""
     base = cache_dir()
@@ -489,9 +567,107 @@ def backend_module(key: str, backend: str, text: str, persistent: bool = True) -
     path = verified_path(key, name) if persistent else None
     if path is None or path.read_bytes() != text.encode():
         path = store(key, name, text, persistent)
-        shutil.rmtree(path.parent / _PYCACHE, ignore_errors=True)
+        drop_pycache(path.parent)
     return path
 
 
-__all__ = ["CacheWarning", "backend_module", "cache_dir", "configured_dir", "kept", "load_verified",
-           "model_key", "private_dir", "read", "store", "verified_path", "write", "write_atomic"]
+def drop_pycache(entry: Path) -> None:
+    """Remove the entry's ``__pycache__`` (numba's compiled functions) and its records."""
+    shutil.rmtree(entry / _PYCACHE, ignore_errors=True)
+    if (entry / _MANIFEST).exists():
+        _record(entry, {f"{_PYCACHE}/": None})
+
+
+def read_recorded(entry: Path, path: Path) -> bytes | None:
+    """The bytes of ``path``, a file the back end wrote in the entry's ``__pycache__`` and
+    recorded (:func:`record_written`), when they match their record; None when it is absent.
+    A file that is not recorded or does not match (damaged, or put there by someone else) is
+    removed, with one warning, and None returned: the caller builds it again. Read under the
+    entry's lock, so a concurrent writer's file is seen with its record."""
+    name = Path(os.path.relpath(path, entry)).as_posix()
+    with _locked(entry):
+        try:
+            data = path.read_bytes()
+        except FileNotFoundError:
+            return None
+        except OSError as err:
+            _warn(f"compiled-model cache: {path} cannot be read ({err.strerror}); it is rebuilt")
+            return None
+        files = _manifest(entry) or {}
+        if files.get(name) == _sha256(data):
+            return data
+        why = ("is not recorded in the manifest (left by an interrupted build, or put there by "
+               "someone else)" if name not in files else
+               "does not match its recorded sha256 (damaged or edited)")
+        _warn(f"compiled-model cache: {path} {why}; it is removed and rebuilt")
+        with contextlib.suppress(OSError):
+            path.unlink()
+        _record(entry, {name: None})
+    return None
+
+
+def pycache_usable(entry: Path) -> bool:
+    """Check the entry's ``__pycache__`` before a back end loads anything from it: True when it
+    is absent, or private (:func:`private_problem`) with every file in it recorded and intact
+    (the others are removed, one warning each: :func:`read_recorded`); a folder that is not
+    private gives one warning and is removed (True when it is gone)."""
+    folder = entry / _PYCACHE
+    if not os.path.lexists(folder):
+        return True
+    problem = None if _in_private_dir(folder) else private_problem(folder)
+    if problem is None:
+        with _locked(entry):
+            for path in sorted(folder.iterdir()):
+                if path.is_dir() and not path.is_symlink():
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    read_recorded(entry, path)
+        return True
+    _warn(f"compiled-model cache: {folder}: {problem}; nothing is loaded from it, and it is "
+          "removed")
+    with contextlib.suppress(OSError):
+        if folder.is_symlink():
+            folder.unlink()
+    drop_pycache(entry)
+    return not os.path.lexists(folder)
+
+
+@contextlib.contextmanager
+def record_written(entry: Path, paths: Callable[[], Iterable[Path]]) -> Iterator[None]:
+    """Hold the entry's lock while the back end writes files of its ``__pycache__``, then
+    record the sha256 of the files ``paths()`` names (those that exist) in the manifest."""
+    with _locked(entry):
+        yield
+        updates: dict[str, str | None] = {}
+        for path in paths():
+            name = Path(os.path.relpath(path, entry)).as_posix()
+            try:
+                updates[name] = _sha256(Path(path).read_bytes())
+            except OSError:
+                updates[name] = None
+        _record(entry, updates)
+
+
+__all__ = [
+    "CacheWarning",
+    "backend_module",
+    "cache_dir",
+    "configured_dir",
+    "discard",
+    "drop_pycache",
+    "kept",
+    "load_verified",
+    "model_key",
+    "private_dir",
+    "private_problem",
+    "pycache_usable",
+    "read",
+    "read_recorded",
+    "record_written",
+    "recorded",
+    "store",
+    "verified_path",
+    "warn",
+    "write",
+    "write_atomic",
+]

@@ -426,6 +426,17 @@ def _report_singular(system: System, appears: list[set[sp.Symbol]], matched: dic
             "not independent, one would need derivative causality. Merge them into one storage, or "
             "put a compliance (C) or a dissipator (R) between them"
         )
+    kinds = {c: getattr(system.flat.components.get(c), "kind", "") for c in comps}
+    sources = [c for c in comps if kinds[c] in ("Se", "Sf")]
+    if len(storages) == 1 and sources:
+        imposed = "flow" if kinds[sources[0]] == "Sf" else "effort"
+        ports = ", ".join(f"{storages[0]}.{p}" for p in system.built[storages[0]].storage_ports)
+        raise DerivativeCausalityError(
+            f"source {sources[0]!r} ({kinds[sources[0]]}) imposes the {imposed} of storage "
+            f"{storages[0]!r} (port {ports}): the storage's state would be dictated by the source "
+            "(derivative causality) instead of integrated. Put a compliance (C) or a dissipator "
+            f"(R) between them, or drive the storage with {'an effort' if imposed == 'flow' else 'a flow'}"
+            " source")
     detail = []
     if comps:
         detail.append(f"over-determined laws in {', '.join(comps)}")

@@ -15,6 +15,7 @@ they are.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -22,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..backends.native import translation_unit
+from ..errors import ExportError
 from ..integrators import TABLEAUS
 from ..mechanics.sources import c_object_source
 from .program import OPERATORS, EventProgram
@@ -72,6 +74,7 @@ def model_source(model: CompiledModel, variables: Sequence[Variable], *, program
                  co_simulation: bool) -> str:
     """The text of ``model.c`` (see the module docstring)."""
     n, n_par, n_out = model.n_states, len(model.param_names), len(model.output_names)
+    n_in, n_slots, blocks = len(model.input_names), model.n_slots, model.discrete
     n_ev, rules = len(model.events), program.rules
     counters = [name for name, _ in program.counters]
     actions = set(program.actions())
@@ -92,7 +95,11 @@ def model_source(model: CompiledModel, variables: Sequence[Variable], *, program
     var_rows = [f"{{{kinds[v.kind]}, {v.index}, {int(v.type == 'Integer')}, {_ACCESS[v.access]}}}"
                 f"  /* {v.vr} */" for v in variables]
     y_start = [*(float(x) for x in x_start), 0.0, 0.0]
+    block_states = [model.state_index(name) for block in blocks for name in block.states]
+    firsts = np.cumsum([0, *(len(block.states) for block in blocks)])[:-1]
     sizes = {"PH_NX": n, "PH_NX1": max(n, 1), "PH_NP": n_par, "PH_NP1": max(n_par, 1),
+             "PH_NU": n_in, "PH_NU1": max(n_in, 1), "PH_NS": n_slots, "PH_NS1": max(n_slots, 1),
+             "PH_ND": len(blocks), "PH_ND1": max(len(blocks), 1),
              "PH_NO": n_out, "PH_NO1": max(n_out, 1), "PH_NE": n_ev, "PH_NE1": max(n_ev, 1),
              "PH_NC": len(counters), "PH_NC1": max(len(counters), 1), "PH_NR": len(rules),
              "PH_NR1": max(len(rules), 1), "PH_NVARS": len(variables),
@@ -113,7 +120,7 @@ def model_source(model: CompiledModel, variables: Sequence[Variable], *, program
         f"static const char PH_TOKEN[] = {c_string(token)};",
         f"static const char PH_MODEL_NAME[] = {c_string(model.name)};",
         _array("ph_variable", "ph_variables", var_rows, "PH_NVARS"),
-        _array("double", "ph_param_start", [_double(v) for v in param_start], "PH_NP1"),
+        _array("double", "ph_param_start", [_double(v) for v in param_start], "PH_NS1"),
         _array("double", "ph_state_start", [_double(v) for v in y_start], "PH_N"),
         _array("double", "ph_solver_defaults", [_double(v) for v in solver], "3"),
         _array("int64_t", "ph_event_directions", [str(int(e.direction)) for e in model.events],
@@ -130,8 +137,27 @@ def model_source(model: CompiledModel, variables: Sequence[Variable], *, program
         _array("ph_change", "ph_changes", changes or ["{0, -1, 0.0}"],
                str(max(len(changes), 1))),
         _array("ph_rule", "ph_rules", rule_rows or ["{-2, 0, 0, 0, 0, 0, 0, -1}"], "PH_NR1"),
+        "/* the discrete-time blocks: their period (an output), their states, their update */",
+        _array("int", "ph_block_period", [str(model.output_index(b.period)) for b in blocks],
+               "PH_ND1"),
+        _array("int", "ph_block_first", [str(int(f)) for f in firsts], "PH_ND1"),
+        _array("int", "ph_block_count", [str(len(b.states)) for b in blocks], "PH_ND1"),
+        _array("int", "ph_block_states", [str(i) for i in block_states],
+               str(max(len(block_states), 1))),
+        _array("char *const", "ph_block_names", [c_string(b.component) for b in blocks],
+               "PH_ND1"),
+        _array("ph_update_fn", "ph_block_update", [_update_name(b.update) for b in blocks],
+               "PH_ND1"),
     ]
     return "\n\n".join(parts) + "\n"
+
+
+def _update_name(name: str) -> str:
+    """A discrete block's generated update function (``update_<j>``), checked before it is
+    written into C."""
+    if not re.fullmatch(r"update_[0-9]+", name):
+        raise ExportError(f"discrete block update function {name!r} is not a generated one")
+    return name
 
 
 def c_comment_safe(text: str) -> str:

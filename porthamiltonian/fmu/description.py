@@ -141,7 +141,10 @@ def _fmi2(root: ET.Element, variables: Sequence[Variable], interface: Interface,
     if interface.model_exchange:
         kinds.append(("ModelExchange", {}))
     if interface.co_simulation:
-        kinds.append(("CoSimulation", {"canHandleVariableCommunicationStepSize": "true"}))
+        extra = {"canHandleVariableCommunicationStepSize": "true"}
+        if any(v.causality == "input" for v in variables):
+            extra["canInterpolateInputs"] = "true"      # fmi2SetRealInputDerivatives, order 1
+        kinds.append(("CoSimulation", extra))
     for tag, extra in kinds:
         el = ET.SubElement(root, tag, {"modelIdentifier": common["modelIdentifier"], **extra,
                                        **{k: v for k, v in common.items()

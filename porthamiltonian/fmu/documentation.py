@@ -26,7 +26,8 @@ _STYLE = ("body{font-family:sans-serif;max-width:70em;margin:2em auto;line-heigh
 @dataclass(frozen=True)
 class Page:
     """What the page says besides the model: the FMI version, the kinds, the model identifier,
-    the co-simulation method and settings, the tool and date, the platform folder."""
+    the co-simulation method and settings, the tool and date, the platform folder, the
+    description, the discrete-time blocks' sample periods at the start values (s)."""
 
     fmi: int
     kinds: tuple[str, ...]
@@ -37,6 +38,7 @@ class Page:
     date: str
     platform: str
     description: str
+    periods: tuple[float, ...] = ()
 
 
 def _e(value: object) -> str:
@@ -71,6 +73,28 @@ def index_html(model: CompiledModel, variables: Sequence[Variable], program: Eve
         f"<p>H = <code>{_e(model.hamiltonian)}</code></p>",
         "<h3>State equations</h3><pre>" + _e("\n".join(model.equations)) + "</pre>",
     ]
+    if model.input_names:
+        parts += [("<h2>Inputs and outputs</h2><p>Each model input is an FMI input "
+                   "(continuous): the importer sets it, and it is held until set again. FMI 2.0 "
+                   "co-simulation: with its first derivative "
+                   "(<code>fmi2SetRealInputDerivatives</code>) it is extrapolated linearly from "
+                   "the communication point it was set at. In co-simulation a changed input "
+                   "restarts the integration at the communication point. The FMI outputs are "
+                   "the model's declared outputs (when it declares some) and the ledger.</p>"),
+                  _table(("input", "unit", "description"),
+                         list(zip(model.input_names, model.input_units, model.input_docs)))]
+    if model.discrete:
+        blocks = [(b.component, f"{period:g}" if period else "", ", ".join(b.states))
+                  for b, period in zip(model.discrete, page.periods or [0.0] * len(model.discrete))]
+        parts += [("<h2>Discrete-time blocks</h2><p>Sampled at t<sub>k</sub> = t<sub>0</sub> + "
+                   "k T (t<sub>0</sub> the start time; T read at initialization): each block's "
+                   "new discrete states come from the state just before t<sub>k</sub> and the "
+                   "inputs set for t<sub>k</sub>, and are held until the next sample. Model "
+                   "exchange: time events (<code>nextEventTime</code>). Co-simulation: inside "
+                   "<code>doStep</code>, the integration stopping on each t<sub>k</sub>; a sample "
+                   "on a communication point is taken by the step that starts there (the values "
+                   "at that point are those before it).</p>"),
+                  _table(("block", "period T (s)", "held states"), blocks)]
     if model.events:
         events: list[tuple[object, ...]] = [
             (k, e.name, {1: "rising", -1: "falling", 0: "either"}.get(e.direction, ""),
@@ -112,7 +136,8 @@ def index_html(model: CompiledModel, variables: Sequence[Variable], program: Eve
             "<code>doStep</code>. Its steps do not depend on the communication points: the "
             "trajectory is the one porthamiltonian computes with the same settings; values at a "
             "communication point inside a step are integrated to it from the step's start. "
-            "A tunable parameter set between steps restarts the integration there.</p>")
+            "A tunable parameter or an input set to a new value between steps restarts the "
+            "integration there (as porthamiltonian stops at an input's sample time).</p>")
     rows = [(v.vr, v.name, v.type, v.causality, v.variability, "" if v.start is None else v.start,
              v.unit, v.description) for v in variables]
     parts += [

@@ -87,7 +87,8 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
                kind: str = "both", program: EventProgram | None = None,
                events: Sequence[Any] = (), actions: Mapping[str, Callable] | None = None,
                x0: Mapping[str, float] | np.ndarray | None = None,
-               params: Mapping[str, float] | None = None, outputs: Sequence[str] | None = None,
+               params: Mapping[str, float] | None = None,
+               inputs: Mapping[str, float] | None = None, outputs: Sequence[str] | None = None,
                method: str = "Rodas5P", rtol: float = 1e-8, atol: float = 1e-10,
                max_step: float = math.inf, start_time: float = 0.0,
                stop_time: float | None = None, step_size: float | None = None,
@@ -110,7 +111,12 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
         state); default: the FMU computes the initial state from its parameters at
         initialization, as the model does (a state set before initialization keeps its value).
     params : parameter start values by name (defaults for the others).
-    outputs : the named outputs that are FMI outputs (default: all of them); the others are local
+    inputs : start values of the model's inputs by name (default 0): the FMI input variables
+        (``[inputs]``, ``Model.input``), which the importer sets. In co-simulation an input is
+        held over the communication step (FMI 2.0: extrapolated linearly when the importer gives
+        its derivative, ``fmi2SetRealInputDerivatives``).
+    outputs : the named outputs that are FMI outputs (default: the model's declared outputs,
+        ``[outputs]``, or all named outputs when it declares none); the others are local
         variables. The ledger (``ledger.H``, ``ledger.E_diss``, ``ledger.E_in``,
         ``ledger.residual``) and the events' counts and times are outputs always.
     method, rtol, atol, max_step : the co-simulation integrator (a compiled method:
@@ -136,11 +142,6 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
         raise OptionError(f"program must be an EventProgram (porthamiltonian.fmu), got "
                           f"{type(program).__name__}")
     program.check(model)
-    inputs = getattr(model, "input_names", None)
-    if inputs:
-        raise ExportError(f"model {model.name!r} has inputs ({', '.join(inputs)}): "
-                          "FMUs of models with inputs are not written yet (they will be FMI "
-                          "input variables)")
     if not model.c_source:
         raise ExportError(f"model {model.name!r} carries no generated C code (a CompiledModel "
                           "made outside compile_model): compile it with compile_model")
@@ -159,7 +160,7 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
         raise OptionError(f"stop_time must be a finite time after start_time, got {stop_time!r}")
     if step_size is not None:
         step_size = _positive("step_size", step_size)
-    p = model.params(params)
+    p = _input_starts(model, model.params(params), inputs)
     states_from_parameters = x0 is None
     if x0 is None or isinstance(x0, Mapping):
         x_start = model.initial_state(p, x0)
@@ -168,11 +169,17 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
         if x_start.shape != (model.n_states,) or not np.all(np.isfinite(x_start)):
             raise OptionError(f"x0 must be {model.n_states} finite values "
                               f"({', '.join(model.state_names)}), got shape {x_start.shape}")
-    chosen = list(model.output_names) if outputs is None else list(outputs)
+    if outputs is None:
+        chosen = list(model.declared_outputs or model.output_names)
+    else:
+        chosen = list(outputs)
     unknown = sorted(set(chosen) - set(model.output_names))
     if unknown:
         raise OptionError(f"outputs: model {model.name!r} has no output(s) {', '.join(unknown)}")
     identifier = _identifier(model.name, model_identifier)
+    periods = _sample_periods(model, start_time, x_start, p)
+    if step_size is None and periods:
+        step_size = min(periods)
     hmax = solver[2] if math.isfinite(solver[2]) else 1e300
     variables = variable_table(model, program=program, param_start=p, x_start=x_start,
                                states_from_parameters=states_from_parameters, outputs=chosen, solver=(solver[0], solver[1], hmax),
@@ -198,7 +205,8 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
                               rtol, step_size),
         tool=tool, date=date)
     page = index_html(model, variables, program, Page(version, kinds, identifier, method, solver,
-                                                      tool, date, folder, description))
+                                                      tool, date, folder, description,
+                                                      tuple(periods)))
     members: dict[str, bytes] = {"modelDescription.xml": xml,
                                  f"binaries/{folder}/{identifier}{suffix}": library,
                                  "documentation/index.html": page.encode()}
@@ -209,6 +217,46 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
         members["sources/buildDescription.xml"] = build_description(identifier, ENTRY)
     members.update({f"sources/{name}": text.encode() for name, text in files.items()})
     return _write_zip(path, members)
+
+
+def _input_starts(model: CompiledModel, p: np.ndarray,
+                  inputs: Mapping[str, float] | None) -> np.ndarray:
+    """``p`` with the input slots of the inputs' start values (constants: u = a, rate 0)."""
+    if inputs is None:
+        return p
+    if not isinstance(inputs, Mapping):
+        raise OptionError(f"inputs must be a mapping {{input: start value}}, got "
+                          f"{type(inputs).__name__}")
+    unknown = sorted(set(inputs) - set(model.input_names))
+    if unknown:
+        raise OptionError(f"inputs: model {model.name!r} has no input(s) {', '.join(unknown)}; "
+                          f"inputs: {', '.join(model.input_names) or 'none'}")
+    p = np.array(p, dtype=float)
+    for name, value in inputs.items():
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            value = math.nan
+        if not math.isfinite(value):
+            raise OptionError(f"inputs: the start value of input {name!r} must be a finite "
+                              f"number, got {inputs[name]!r}")
+        p[len(model.param_names) + model.input_names.index(name)] = value
+    return p
+
+
+def _sample_periods(model: CompiledModel, t0: float, x: np.ndarray, p: np.ndarray) -> list[float]:
+    """The sample periods T (s) of the model's discrete-time blocks at the start (the FMU reads
+    them again at its initialization, from the parameters it is given); an
+    :class:`~porthamiltonian.errors.ExportError` names a block whose period is not > 0."""
+    periods = []
+    for block in model.discrete:
+        period = float(model.output(block.period, t0, x, p))
+        if not (math.isfinite(period) and period > 0.0):
+            raise ExportError(f"model {model.name!r}: discrete block {block.component!r} has the "
+                              f"sample period {block.period} = {period!r}: it must be a finite "
+                              "number > 0")
+        periods.append(period)
+    return periods
 
 
 def _fmi_version(fmi: int | str) -> int:

@@ -11,12 +11,14 @@ variables                          causality / variability     notes
 =================================  ==========================  ===================================
 ``time``                           independent                 value reference 0
 parameters                         parameter / tunable, fixed  fixed: read by the initial state only
+inputs (``[inputs]``)              input / continuous          start: ``inputs=`` of the export
 modes (set by event rules)         local / discrete            start value settable before init
 states, then ``ledger.E_diss``,    local (ledger: output) /    start: the model's initial state
 ``ledger.E_in``                    continuous                  (or ``x0``)
 ``der(<state>)``                   local / continuous          calculated
 named outputs                      output (or local) /         ``outputs=`` chooses which are FMI
-                                   continuous                  outputs
+                                   continuous                  outputs (default: the declared
+                                                               outputs, else all)
 ``ledger.H``, ``ledger.residual``  output / continuous         H, and H − H(t0) + E_diss − E_in
 ``events.<e>.indicator``           local / continuous          the guard (FMI 3.0 event indicator)
 ``events.<e>.count``, ``.time``    output / discrete           Integer, Real
@@ -24,8 +26,9 @@ named outputs                      output (or local) /         ``outputs=`` choo
 ``solver.rtol|atol|max_step``      parameter / fixed           co-simulation FMUs
 =================================  ==========================  ===================================
 
-Model inputs (declared ``[inputs]``) slot in as ``causality="input"`` rows of kind ``"input"``
-when the compiled model carries them.
+An input reads two slots of the parameter vector, u = a + b·t (the compiled model's input
+slots): the runtime writes them from the value the importer sets (and, FMI 2.0 co-simulation, its
+time derivative).
 """
 from __future__ import annotations
 
@@ -47,7 +50,7 @@ __all__ = ["Variable", "dynamic_parameters", "variable_table"]
 
 #: the C runtime's kinds (ph_fmu.h), by name
 KINDS = ("time", "param", "state", "rate", "output", "energy", "residual", "indicator",
-         "event_time", "event_count", "counter_time", "counter_count", "solver")
+         "event_time", "event_count", "counter_time", "counter_count", "solver", "input")
 _FUNCTION = re.compile(r"^static void (\w+)\(", re.MULTILINE)
 _PARAM = re.compile(r"\bp\[(\d+)\]")
 _DIRECTIONS = {1: "rises through 0", -1: "falls through 0", 0: "crosses 0"}
@@ -86,7 +89,9 @@ def dynamic_parameters(c_source: str, n_params: int) -> set[int]:
     return {i for i in used if i < n_params}
 
 
-def _output_description(name: str) -> str:
+def _output_description(name: str, expression: str | None) -> str:
+    if expression is not None:
+        return f"declared output of the model: {expression}"
     parts = name.split(".")
     if len(parts) >= 3 and parts[-1] in ("e", "f"):
         port = ".".join(parts[:-1])
@@ -100,7 +105,8 @@ def variable_table(model: CompiledModel, *, program: EventProgram, param_start: 
     """The FMU's variables (see the module docstring) of ``model``.
 
     program : the event rules (its modes become discrete variables, its counters outputs).
-    param_start, x_start : start values of the parameters and of the model states;
+    param_start, x_start : start values of the parameters, then of the inputs (their slots: the
+        value at t = 0 and the rate; the rate is 0 here), and of the model states;
         ``states_from_parameters``: the FMU computes the initial state from the parameters
         (else the states start at ``x_start``).
     outputs : the named outputs that are FMI outputs (the others are local variables).
@@ -136,14 +142,21 @@ def variable_table(model: CompiledModel, *, program: EventProgram, param_start: 
                     "start values of their own")
             add(name, "Real", "parameter", "fixed", "exact", value, unit,
                 f"{doc}{' ' if doc else ''}({role})", "param", i, access="before_init")
+    n_par = len(model.param_names)
+    for k, name in enumerate(model.input_names):
+        add(name, "Real", "input", "continuous", None, float(param_start[n_par + k]),
+            model.input_units[k], model.input_docs[k] or f"input {name} of the model", "input",
+            k, access="tunable")
     n = model.n_states
     ledger = (("ledger.E_diss", "energy dissipated since the start (the ledger's E_diss)"),
               ("ledger.E_in", "energy supplied since the start (the ledger's E_in)"))
     states = []
+    discrete = {s: block.component for block in model.discrete for s in block.states}
     for i, name in enumerate(model.state_names):
+        doc = (f"held value of the discrete-time block {discrete[name]} (changes at its "
+               "sampling instants only)" if name in discrete else "model state")
         states.append(add(name, "Real", "local", "continuous", "exact", float(x_start[i]),
-                          model.units.get(name, ""), "model state", "state", i,
-                          access="before_init"))
+                          model.units.get(name, ""), doc, "state", i, access="before_init"))
     for j, (name, doc) in enumerate(ledger):
         states.append(add(name, "Real", "output", "continuous", "exact", 0.0, "J", doc,
                           "state", n + j))
@@ -155,9 +168,12 @@ def variable_table(model: CompiledModel, *, program: EventProgram, param_start: 
         add(f"der({state.name})", "Real", "local", "continuous", "calculated", None, unit, doc,
             "rate", i, derivative_of=vr)
     chosen = set(outputs)
+    expressions = model.output_expressions
     for i, name in enumerate(model.output_names):
+        expression = expressions.get(name)
+        unit = model.units.get(name) or model.units.get((expression or "").strip(), "")
         add(name, "Real", "output" if name in chosen else "local", "continuous", "calculated",
-            None, model.units.get(name, ""), _output_description(name), "output", i)
+            None, unit, _output_description(name, expression), "output", i)
     add("ledger.H", "Real", "output", "continuous", "calculated", None, "J",
         "stored energy: the Hamiltonian H (its expression: documentation/index.html)",
         "energy", 0)

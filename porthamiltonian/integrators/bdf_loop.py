@@ -251,7 +251,7 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
             sc[i] = atol[i] + rtol * abs(y[i])
         underflow = False
         while True:
-            if h < 1e-14 * max(abs(t), 1.0):
+            if h < 1e-14 * max(abs(t), 1.0) and h < t_end - t:   # unless it is all that is left
                 underflow = True
                 break
             t_new = t_end if last else t + h

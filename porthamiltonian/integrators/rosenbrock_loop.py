@@ -529,7 +529,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         rejected = False
         underflow = False
         while True:
-            if h < 1e-14 * max(abs(t), 1.0):
+            # too small a step, unless it is the whole of what is left (t_end - t itself tiny)
+            if h < 1e-14 * max(abs(t), 1.0) and h < t_end - t:
                 underflow = True
                 break
             if t + h > t_end:

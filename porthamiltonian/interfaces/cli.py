@@ -27,19 +27,23 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import os
 import sys
+import time
 import traceback
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
-from .. import backends
+from .. import backends, userfiles
 from ..backends import module, native
 from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
+from ..batch.grids import MAX_CASES
 from ..batch.progress import MODES
 from ..batch.table import write_csv
-from ..errors import ModelError
+from ..compiler.estimate import duration_text
+from ..errors import ModelError, OptionError
 from ..fmu import export_fmu
 from ..integrators import TABLEAUS
 from . import io, linearization
@@ -47,6 +51,40 @@ from .sweeps import SimulationModel, prepare_simulation, simulate_case, simulati
 
 
 # --- options shared by the commands (argparse parent parsers) ------------------------------------
+def at_least(minimum: int) -> Callable[[str, Any], None]:
+    """A rule of an option (see :func:`rules`): a whole number >= ``minimum``."""
+    def check(option: str, value: Any) -> None:
+        if value < minimum:
+            raise OptionError(f"{option} must be at least {minimum}, got {value}")
+    return check
+
+
+def positive(option: str, value: float) -> None:
+    """A rule of an option (see :func:`rules`): a finite number > 0."""
+    if not (math.isfinite(value) and value > 0):
+        raise OptionError(f"{option} must be a finite number > 0, got {value:g}")
+
+
+def not_negative(option: str, value: float) -> None:
+    """A rule of an option (see :func:`rules`): a finite number >= 0 (0 often means "none")."""
+    if not (math.isfinite(value) and value >= 0):
+        raise OptionError(f"{option} must be a finite number >= 0, got {value:g}")
+
+
+def rules(parser: argparse.ArgumentParser, **checks: Callable[[str, Any], None]) -> None:
+    """Give the options of a command's ``parser`` their rules (``steps=at_least(1)``,
+    ``rate=positive``): :func:`run` applies them before the command runs, so a bad value is
+    an ``error: --steps must be at least 1, got 0`` (status 2) and never reaches the work."""
+    parser.set_defaults(option_rules={**(parser.get_default("option_rules") or {}), **checks})
+
+
+def _check_rules(args: argparse.Namespace) -> None:
+    for dest, check in (getattr(args, "option_rules", None) or {}).items():
+        value = getattr(args, dest, None)
+        if value is not None:
+            check(f"--{dest.replace('_', '-')}", value)
+
+
 def _parent() -> argparse.ArgumentParser:
     return argparse.ArgumentParser(add_help=False)
 
@@ -96,6 +134,9 @@ SWEEP_OPTIONS.add_argument("--serial", action="store_true",
 SWEEP_OPTIONS.add_argument("--scheduler", default=None, metavar="ADDRESS",
                            help="run on a dask.distributed cluster: a scheduler address "
                                 "(tcp://host:8786), or 'local' for a local cluster")
+SWEEP_OPTIONS.add_argument("--max-cases", type=int, default=MAX_CASES, metavar="N",
+                           help=f"refuse a grid of more cases than this (default {MAX_CASES}: a "
+                                "case list takes about 0.5 kB of memory per case); 0: no limit")
 SWEEP_OPTIONS.add_argument("--csv", default=None, metavar="FILE",
                            help="also write the table as CSV")
 SWEEP_OPTIONS.add_argument("--progress", choices=MODES, default=None,
@@ -109,12 +150,14 @@ def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
                      description: str) -> argparse.ArgumentParser:
     """Add a ``sweep`` command to ``subparsers``: ``--backend``, :data:`SWEEP_OPTIONS` and
     ``--json``, and the resume and exit-status rules after ``description``."""
-    return subparsers.add_parser(
+    parser = subparsers.add_parser(
         "sweep", parents=[BACKEND_OPTION, SWEEP_OPTIONS, JSON_OPTION], help=help,
         description=f"{description} Rerunning the same command resumes the sweep where it "
                     "stopped (also after the command was killed). Exit status: 0 all cases "
                     "done, 1 some lost (rerun), 2 bad input or a refused file, 130/143 "
                     "interrupted (rerun to resume).")
+    rules(parser, workers=at_least(1), progress_interval=not_negative, max_cases=at_least(0))
+    return parser
 
 
 def parse_assignments(pairs: Sequence[str], option: str = "--set") -> dict[str, float]:
@@ -138,9 +181,13 @@ def _model_file_meta(model: str) -> dict[str, str]:
     resumed sweep whose file changed warns); {} for a name that is no file (a builder)."""
     try:
         path = io.model_path(model)
-        return {"model_file": str(path), "model_file_sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
-    except (ModelError, OSError):
+    except ModelError:
         return {}
+    if userfiles.is_pipe(path):
+        raise SweepError(f"{model}: a sweep reads its model file again in every worker process, "
+                         "and a pipe can be read once only; save the model to a file")
+    data = userfiles.read_bytes(path, limit=io.MAX_FILE_SIZE, label=str(path), kind="model file")
+    return {"model_file": str(path), "model_file_sha256": hashlib.sha256(data).hexdigest()}
 
 
 def _fmt(value: Any) -> str:
@@ -171,9 +218,7 @@ def run_sweep(args: argparse.Namespace, analysis: Analysis, fixed: dict[str, Any
     (the analysis's ``prepare``) the cases themselves. Exit status: 0 when every case is in the
     file (failed cases included), 1 when some were lost by the executor (rerun to resume),
     128 + the signal's number when interrupted."""
-    cases = parse_grid(args.grid)
-    if args.workers is not None and args.workers < 1:
-        raise SweepError(f"--workers must be at least 1, got {args.workers}")
+    cases = parse_grid(args.grid, args.max_cases or None)
     meta = {"analysis": analysis.name, "grid": list(args.grid),
             **_model_file_meta(str(fixed.get("model", "")))}
     sweep = Sweep(analysis.resolve(), cases, args.out, fixed=fixed, meta=meta,
@@ -229,11 +274,45 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 # --- simulate, show, check-energy -------------------------------------------------------------------
+class RunProgress:
+    """Lines on stderr during a long run (``simulate``, ``view``): the simulated time reached
+    and, at the pace so far, how long to the end, or where the run will stop at ``max_steps``
+    (the first line after 5 s, then every 30 s: a ``t_end = 1e12`` does not run silently).
+    Called with the simulated time and the steps taken
+    (:func:`~porthamiltonian.simulation.simulate.simulate`'s ``progress``)."""
+
+    def __init__(self, name: str, t_end: float, t_start: float = 0.0,
+                 max_steps: int = 10_000_000, clock: Callable[[], float] = time.monotonic):
+        self.name, self.t_end, self.t_start, self.max_steps = name, t_end, t_start, max_steps
+        self.clock = clock
+        self.start = clock()
+        self.next = 5.0
+
+    def __call__(self, t: float, steps: int) -> None:
+        """Report where the run is, if it is time for a line."""
+        elapsed = self.clock() - self.start
+        if elapsed < self.next or t <= self.t_start:
+            return
+        self.next = elapsed + 30.0
+        done = (t - self.t_start) / (self.t_end - self.t_start)
+        line = (f"{self.name}: t = {t:.4g} s of {self.t_end:g} s ({100 * done:.3g} %) after "
+                f"{elapsed:.0f} s, {steps} steps")
+        if steps / done > self.max_steps:
+            stop = self.t_start + (t - self.t_start) * self.max_steps / max(steps, 1)
+            line += (f"; at this pace the run needs about {steps / done:.2g} steps and will stop "
+                     f"at the limit of {self.max_steps} steps near t = {stop:.3g} s, in about "
+                     f"{duration_text(elapsed * (self.max_steps / max(steps, 1) - 1))}")
+        else:
+            line += f"; about {duration_text(elapsed * (1 / done - 1))} to go at this pace"
+        backends.report(line + " (Ctrl-C stops the run)")
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``porthamiltonian simulate``: one run, its final state and ledger (text or JSON)."""
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
-    traj = entry.simulate(args.t_end, parse_assignments(args.set))
+    traj = entry.simulate(args.t_end, parse_assignments(args.set),
+                          progress=RunProgress(model.name, entry.t_end(args.t_end)))
     result = {"model": model.name, "status": traj.status, "message": traj.message,
               "t_end": traj.t_final,
               "final_state": dict(zip(compiled.state_names, traj.x_final.tolist())),
@@ -259,15 +338,12 @@ def cmd_view(args: argparse.Namespace) -> int:
     """``porthamiltonian view``: simulate a model and write its 3D view and still image."""
     from pathlib import Path
 
-    from ..errors import OptionError
     from .viewer import scene_from_trajectory
 
-    if not (args.rate > 0 and args.rate < float("inf")):
-        raise OptionError(f"--rate: frames per second of simulated time must be a positive "
-                          f"number, got {args.rate:g}")
     record = io.read(args.model)
-    entry = SimulationModel.load(args.model, args.backend)
-    traj = entry.simulate(args.t_end, parse_assignments(args.set))
+    entry = SimulationModel.from_file(record, args.backend)
+    traj = entry.simulate(args.t_end, parse_assignments(args.set),
+                          progress=RunProgress(entry.model.name, entry.t_end(args.t_end)))
     scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
                                   title=entry.model.name)
     out = Path(args.out)
@@ -364,17 +440,27 @@ def cmd_export_fmu(args: argparse.Namespace) -> int:
     path = export_fmu(compiled, args.out, fmi=args.fmi, kind=args.kind,
                       params=parse_assignments(args.set), method=method, rtol=settings["rtol"],
                       atol=settings["atol"], max_step=settings.get("max_step", float("inf")),
-                      stop_time=t_end, description=record.description)
+                      stop_time=t_end, description=record.description,
+                      inputs=_constant_inputs(settings.get("inputs")))
     kinds = {"me": "model exchange", "cs": "co-simulation",
              "both": "model exchange and co-simulation"}[args.kind]
     print(f"wrote {path}: FMI {args.fmi}.0 ({kinds}), {compiled.n_states} + 2 states (the ledger's "
           f"E_diss, E_in), {len(compiled.events)} event indicator(s), "
-          f"{len(compiled.param_names)} parameters, {len(compiled.output_names)} outputs")
+          f"{len(compiled.param_names)} parameters, {len(compiled.input_names)} input(s), "
+          f"{len(compiled.output_names)} outputs")
     if "walker" in record.sections:
         print(f"note: {args.model} is a walker file: this FMU is its model with the modes fixed "
               "at their values (as `porthamiltonian simulate` runs it); `walker export-fmu` "
               "exports the walker with its mode machine", file=sys.stderr)
     return 0
+
+
+def _constant_inputs(inputs: Any) -> dict[str, float] | None:
+    """The numbers of a model file's ``[simulation] inputs`` (the FMU's input start values)."""
+    if not isinstance(inputs, dict):
+        return None
+    return {k: v for k, v in inputs.items() if isinstance(v, (int, float))
+            and not isinstance(v, bool)}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -403,6 +489,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate", type=float, default=30.0, metavar="R",
                    help="frames per second of simulated time (default: 30; at most 900 "
                         "frames)")
+    rules(p, rate=positive)
     p.set_defaults(func=cmd_view)
     p = sub.add_parser("show", parents=[BACKEND_OPTION],
                        help="components, ports, bonds, states, parameters and equations, or "
@@ -477,6 +564,7 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
     """
     args = parser.parse_args(argv)
     try:
+        _check_rules(args)
         with warnings.catch_warnings(), backends.quiet(getattr(args, "quiet", False)):
             warnings.showwarning = _show_warning
             status = args.func(args)

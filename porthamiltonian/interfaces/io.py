@@ -69,6 +69,7 @@ from typing import Any
 
 import tomli_w
 
+from .. import userfiles
 from ..compiler import compile_model
 from ..errors import ModelError, ModelFileError, OptionError
 from ..modeling.component import REGISTRY, Component, component_class
@@ -103,18 +104,35 @@ def available_models() -> list[str]:
     return list(names)
 
 
+def is_path(name_or_path: str | Path) -> bool:
+    """True when ``name_or_path`` names a file rather than a model of :func:`models_dirs`: it
+    ends in ``.toml``, holds a folder separator, or something other than a folder is there (a
+    file, a pipe such as ``<(cat m.toml)``, a device, a broken link)."""
+    text = os.fspath(name_or_path)
+    if Path(text).suffix == ".toml" or os.sep in text or (os.altsep and os.altsep in text):
+        return True
+    return os.path.lexists(text) and not os.path.isdir(text)
+
+
 def model_path(name_or_path: str | Path) -> Path:
-    """Resolve a model name (file name without ``.toml``) or a path to an existing file."""
+    """Resolve a model name (file name without ``.toml``) or a path to a file that can be read
+    (:func:`is_path`); a path that is a folder, a device, a loop of links or missing is refused
+    with its own message (:func:`porthamiltonian.userfiles.path_problem`)."""
     path = Path(name_or_path)
-    if path.suffix == ".toml" or path.exists():
-        if not path.is_file():
-            raise ModelFileError(f"model file {path} does not exist")
+    if is_path(name_or_path):
+        problem = userfiles.path_problem(path)
+        if problem is not None:
+            raise ModelFileError(f"model file {os.fspath(name_or_path)} {problem}")
         return path
     for d in models_dirs():
         candidate = d / f"{name_or_path}.toml"
         if candidate.is_file():
             return candidate
     known = available_models()
+    if path.is_dir():
+        raise ModelFileError(f"{path} is a directory, not a model file, and no model is called "
+                             f"{str(name_or_path)!r}{_suggest(name_or_path, known)}; available: "
+                             f"{', '.join(known) or 'none'}")
     raise ModelFileError(f"no model called {name_or_path!r}{_suggest(name_or_path, known)}; "
                          f"available: {', '.join(known) or 'none'} (or give a path to a .toml "
                          "file)")
@@ -376,19 +394,11 @@ class _Reader:
 
 def read_text(path: Path, *, limit: int, label: str, kind: str, language: str) -> str:
     """The UTF-8 text of a file that a user names (a model file, a previous result), at most
-    ``limit`` bytes; else a :class:`ModelFileError` starting with ``label`` (how the user named
-    it) and saying what a ``kind`` is (``language`` text, at most ``limit`` bytes)."""
-    try:
-        size = path.stat().st_size
-        if size > limit:
-            raise ModelFileError(f"{label}: the file is {size} bytes long; a {kind} is at most "
-                                 f"{limit} bytes (is it a {kind}?)")
-        return path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as err:
-        raise ModelFileError(f"{label}: not a UTF-8 text file (byte {err.start}: {err.reason}); "
-                             f"a {kind} is {language} text") from None
-    except OSError as err:
-        raise ModelFileError(f"{label}: cannot read it ({err.strerror or err})") from None
+    ``limit`` bytes whatever its size claims (:func:`porthamiltonian.userfiles.read_text`: a
+    folder, a device, a socket or a loop of links refused by type, a pipe read within the same
+    bound); else a :class:`ModelFileError` starting with ``label`` (how the user named it) and
+    saying what a ``kind`` is (``language`` text, at most ``limit`` bytes)."""
+    return userfiles.read_text(path, limit=limit, label=label, kind=kind, language=language)
 
 
 def read(name_or_path: str | Path) -> ModelFile:
@@ -403,6 +413,7 @@ def reads(text: str, source: str = "<string>") -> ModelFile:
     """Read a model from TOML text; ``source`` names it in error messages."""
     if not isinstance(text, str):
         raise ModelFileError(f"{source}: a model file is TOML text, got {_type_name(text)}")
+    text = text.removeprefix("\ufeff")          # a byte-order mark (Windows editors write one)
     if len(text) > MAX_FILE_SIZE:
         raise ModelFileError(f"{source}: the text is {len(text)} characters long; a model file "
                              f"is at most {MAX_FILE_SIZE}")

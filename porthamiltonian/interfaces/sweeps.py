@@ -36,6 +36,7 @@ if TYPE_CHECKING:
     from ..modeling.model import Model
     from ..simulation.compiled import CompiledModel
     from ..simulation.trajectory import Trajectory
+    from .io import ModelFile
 
 __all__ = ["ModelCache", "SimulationModel", "model_cache", "prepare_simulation",
            "settling_time", "simulate_case", "simulation_settings"]
@@ -63,16 +64,23 @@ class SimulationModel:
         """Load ``model`` (a name from ``models/`` or a path) and compile it with ``backend``
         (None: "auto")."""
         from . import io
-        record = io.read(model)
+        return cls.from_file(io.read(model), backend)
+
+    @classmethod
+    def from_file(cls, record: ModelFile, backend: str | None = None) -> SimulationModel:
+        """The model of a model file already read (``record``), compiled with ``backend``
+        (None: "auto"): a file that can be read once only (a pipe) is read once."""
         return cls(record.model, record.compile(backend=backend or "auto"),
                    simulation_settings(record.simulation))
 
     def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
-                 dense_output: bool = False) -> Trajectory:
+                 dense_output: bool = False,
+                 progress: Callable[[float, int], None] | None = None) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
         method, rtol, atol, max_step and constant ``inputs`` (with ``dense_output``, a file's
         compiled method, Rodas4, Rodas5P or QBDF, becomes "auto": Radau); a
-        :class:`~porthamiltonian.errors.ModelError` when no end is known."""
+        :class:`~porthamiltonian.errors.ModelError` when no end is known.
+        ``progress``: see :func:`~porthamiltonian.simulation.simulate.simulate`."""
         t_end = self.t_end(t_end)
         sim = self.settings
         options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
@@ -82,7 +90,8 @@ class SimulationModel:
         if self.compiled.input_names:
             options["inputs"] = sim.get("inputs")     # the file's constant inputs
         return self.compiled.simulate(t_end, params=params, method=method, rtol=sim["rtol"],
-                                      atol=sim["atol"], dense_output=dense_output, **options)
+                                      atol=sim["atol"], dense_output=dense_output,
+                                      progress=progress, **options)
 
     def t_end(self, t_end: float | None) -> float:
         """``t_end`` (s), else the file's; ModelError when neither is given."""

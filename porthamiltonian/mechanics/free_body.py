@@ -38,6 +38,7 @@ import sympy as sp
 from ..errors import ModelError
 from ..modeling.component import Arg, Builder, Component, register
 from ..modeling.ports import Port
+from .inertia import numeric_problem, require_consistent
 from .kinematics import written_out
 from .screw import ad_star, spatial_inertia
 from .tree import quaternion_rate, quaternion_rotation
@@ -69,12 +70,9 @@ def _inertia_rows(value: Any) -> list[list]:
         numeric = np.array(value, dtype=float)
     except (TypeError, ValueError):
         return [list(r) for r in value]          # symbolic entries: bound at run time, unchecked
-    if not np.allclose(numeric, numeric.T, rtol=1e-12, atol=0.0):
-        raise ModelError(f"FreeBody inertia must be symmetric, got {numeric.tolist()}")
-    eig = np.linalg.eigvalsh(numeric)
-    if not eig.min() > 0:
-        raise ModelError(f"FreeBody inertia must be positive definite, got eigenvalues "
-                         f"{eig.tolist()}")
+    problem = numeric_problem(numeric, definite=True)
+    if problem is not None:
+        raise ModelError(f"FreeBody {problem}")
     return [list(r) for r in value]
 
 
@@ -222,6 +220,7 @@ class FreeBody(Component):
 
         I_c = sp.Matrix([[b.parse(v, "argument 'inertia'") for v in row]
                          for row in _inertia_rows(inertia)])
+        require_consistent(b, I_c.tolist(), "argument 'inertia'", definite=True)
         c = vec(com, 3, "com", [0, 0, 0])
         g = vec(gravity, 3, "gravity", [0, 0, "-9.81"])
         r0 = vec(position0, 3, "position0", [0, 0, 0])
@@ -230,6 +229,8 @@ class FreeBody(Component):
         inertia6 = sp.Matrix(spatial_inertia(mass, c, I_c))         # 𝕀 about B's origin, in B
 
         P0 = inertia6 * T0                                          # a product, no inversion
+        b.require((q0.T * q0)[0, 0], ">", "argument 'quaternion0' (its squared norm; identity: "
+                  "[1, 0, 0, 0])")
         q0 = q0 / sp.sqrt((q0.T * q0)[0, 0])
         L = [b.state(f"L.{a}", "N*m*s", P0[i]) for i, a in enumerate(_XYZ)]
         p = [b.state(f"p.{a}", "N*s", P0[3 + i]) for i, a in enumerate(_XYZ)]

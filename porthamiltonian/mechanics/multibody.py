@@ -99,6 +99,7 @@ from ..errors import ModelError, UnknownComponentError
 from ..modeling.component import Arg, Builder, Component, register
 from ..modeling.ports import Port
 from .bodies import as_tables, expression_fields
+from .inertia import numeric_problem, require_consistent
 from .joints import Joint, joint, quaternion_slice, units
 from .kernel_tables import FRAME, POINT, WORLD_FRAME, KernelTree, Site
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
@@ -171,6 +172,10 @@ class Multibody(Component):
         if not isinstance(joints, Mapping) or not joints:
             raise ModelError("Multibody needs 'joints': a table name -> {type, parent, child, ...}",
                              path=("joints",))
+        if "world" in bodies:
+            raise ModelError("Multibody body 'world': 'world' is the fixed frame that joints hang "
+                             "from (parent = \"world\"), so no body may be called that; rename "
+                             "the body", path=("bodies", "world"))
         for name, body in bodies.items():
             where = f"Multibody body {name!r}"
             extra = set(body) - {"mass", "com", "inertia", "points", "frames", "world_frames"}
@@ -184,7 +189,8 @@ class Multibody(Component):
             if isinstance(mass, (int, float)) and not mass > 0:
                 raise ModelError(f"{where}: mass must be positive, got {mass}",
                                  path=("bodies", name, "mass"))
-            self._inertia(body.get("inertia", 0), where, ("bodies", name, "inertia"))
+            self._inertia(body.get("inertia", 0), where, ("bodies", name, "inertia"),
+                          planar=self.value("plane") == "xz")
             _vector3(body.get("com"), f"{where} com", ("bodies", name, "com"))
             for key in ("points", "frames", "world_frames"):
                 for point, pos in (body.get(key) or {}).items():
@@ -238,8 +244,9 @@ class Multibody(Component):
         self._parent_of = parent_of
 
     @staticmethod
-    def _inertia(value: Any, where: str, path: tuple = ()) -> Any:
-        """Inertia as a 3x3 nested list (point mass: 0), validated where numeric."""
+    def _inertia(value: Any, where: str, path: tuple = (), planar: bool = False) -> Any:
+        """Inertia as a 3x3 nested list (point mass: 0), checked where numeric
+        (:func:`.inertia.numeric_problem`: physically consistent; in the x-z plane I_yy >= 0)."""
         if isinstance(value, (int, float)) and value == 0:
             return 0
         if isinstance(value, (list, tuple)) and len(value) == 3 and not isinstance(value[0], (list, tuple)):
@@ -252,10 +259,9 @@ class Multibody(Component):
             numeric = np.array(value, dtype=float)
         except (TypeError, ValueError):
             return value
-        if not np.allclose(numeric, numeric.T) or np.linalg.eigvalsh(numeric).min() <= 0:
-            raise ModelError(f"{where}: rotational inertia must be symmetric positive definite (or 0 "
-                             f"for a point mass), got eigenvalues {np.linalg.eigvalsh(numeric).round(12).tolist()}",
-                             path=path)
+        problem = numeric_problem(numeric, planar=planar)
+        if problem is not None:
+            raise ModelError(f"{where}: {problem} (or 0 for a point mass)", path=path)
         return value
 
     def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
@@ -307,9 +313,11 @@ class Multibody(Component):
             if mass != 0:               # > 0, or written as 0 (a massless body, e.g. "0*m")
                 b.require(mass, ">", f"{where} mass")
             com = [b.parse(v, f"{where} com") for v in _vector3(body.get("com"), "com")]
-            inertia = self._inertia(body.get("inertia", 0), where)
+            inertia = self._inertia(body.get("inertia", 0), where, planar=plane == "xz")
             I_c = None if inertia == 0 else [[b.parse(v, f"{where} inertia") for v in row]
                                              for row in inertia]
+            if I_c is not None:
+                require_consistent(b, I_c, f"{where} inertia", planar=plane == "xz")
             link, offset = placement[name]
             if link is None:
                 static_first = add(static_first, scale(mass, add(offset, com)))
@@ -640,6 +648,8 @@ class Multibody(Component):
                         raise ModelError(f"Multibody joint {spec.name!r}: the quaternion in q0 must "
                                          "not be zero (identity: [1, 0, 0, 0])",
                                          path=("joints", spec.name, key))
+                    b.require(norm**2, ">", f"joint {spec.name!r} q0 (the squared norm of its "
+                              "quaternion; identity: [1, 0, 0, 0])")
                     parsed[where] = [x / norm for x in quat]
                 column += parsed
         return out

@@ -33,7 +33,13 @@ from typing import Any, ClassVar
 
 import sympy as sp
 
-from ..errors import ModelError, ParameterValueError, UnknownComponentError, UnknownPortError
+from ..errors import (
+    DuplicateNameError,
+    ModelError,
+    ParameterValueError,
+    UnknownComponentError,
+    UnknownPortError,
+)
 from .calls import KERNELS, KernelCall
 from .calls import outputs as call_outputs
 from .constraints import RULES, Constraint, violation
@@ -204,8 +210,12 @@ class Builder:
         #: None, or the records of the port-Hamiltonian form's cut build (:class:`PHCut`)
         self.ph: PHCut | None = None
         self.built = Built(name)
+        self._claimed: dict[str, str] = {}
         for port in ports:
-            self.built.ports[port.name] = self._port_vars(port)
+            variables = self._port_vars(port)
+            self.built.ports[port.name] = variables
+            for symbol in (*sp.Matrix([variables.e]), *sp.Matrix([variables.f])):
+                self._claimed[symbol.name] = f"port {port.name!r} variable"
 
     def _port_vars(self, port: Port) -> PortVars:
         base = f"{self.name}.{port.name}"
@@ -258,7 +268,7 @@ class Builder:
         expr = as_expr(expr)
         if expr.is_number:
             return expr
-        symbol = sp.Symbol(self._qualified(name), real=True)
+        symbol = sp.Symbol(self._claim(name, "intermediate"), real=True)
         self.built.intermediates.append((symbol, expr))
         return symbol
 
@@ -273,7 +283,8 @@ class Builder:
         if A.shape != (rhs.shape[0], rhs.shape[0]) or rhs.shape[1] != 1:
             raise ModelError(f"component {self.name!r}: implicit block {name!r} needs a square A "
                              f"and a column rhs, got {A.shape} and {rhs.shape}")
-        symbols = [sp.Symbol(self._qualified(f"{name}{i}"), real=True) for i in range(rhs.shape[0])]
+        symbols = [sp.Symbol(self._claim(f"{name}{i}", "implicit unknown"), real=True)
+                   for i in range(rhs.shape[0])]
         self.built.blocks.append((symbols, A, rhs))
         return symbols
 
@@ -304,7 +315,7 @@ class Builder:
 
     def matrix(self, name: str, value: sp.Matrix) -> None:
         """A named matrix ``component.name`` available numerically (e.g. a mass matrix)."""
-        self.built.matrices[self._qualified(name)] = sp.Matrix(value)
+        self.built.matrices[self._claim(name, "matrix")] = sp.Matrix(value)
 
     def state(self, name: str, unit: str = "", initial: Any = 0, role: str = "storage"
               ) -> sp.Symbol:
@@ -322,6 +333,7 @@ class Builder:
         symbol = sp.Symbol(self._qualified(name), real=True)
         if any(s.symbol == symbol for s in self.built.states):
             raise ModelError(f"component {self.name!r} declares state {name!r} twice")
+        self._claim(name, "state")
         init = initial if isinstance(initial, sp.Basic) else self.parse(
             initial, f"initial value of state {name!r}")
         self.built.states.append(StateDecl(symbol, sp.Symbol(f"d({self.name}.{name})/dt", real=True),
@@ -474,14 +486,24 @@ class Builder:
         """A named output ``component.name`` (any expression in the model's variables), in SI
         ``unit`` if given. Other components may read it as a signal by its dotted name (e.g.
         ``walker.foot1.z``)."""
-        self.built.outputs[self._qualified(name)] = as_expr(expr)
+        expr = as_expr(expr)
+        same = sp.Symbol(self._qualified(name), real=True)
+        if expr == same and self._claimed.get(same.name) == "intermediate":
+            self.built.outputs[same.name] = expr      # an intermediate shown as an output
+        else:
+            self.built.outputs[self._claim(name, "output")] = expr
         if unit:
             self.built.output_units[self._qualified(name)] = unit
 
     def parse(self, text: Any, what: str, local: Mapping[str, sp.Expr] | None = None) -> sp.Expr:
-        """Parse an expression of this component (model names plus ``local`` names)."""
+        """Parse an expression of this component (model names plus ``local`` names). An
+        expression in parameters that is undefined for some values (``sqrt(k)``, ``1/k``,
+        ``log(x)``) is required to be a finite real number whenever parameters are bound."""
         names = {**self._names, **(local or {})}
-        return parse(text, names, f"component {self.name!r} {what}", self._dotted)
+        expr = parse(text, names, f"component {self.name!r} {what}", self._dotted)
+        if _may_be_undefined(expr):
+            self.require(expr, "real", what)
+        return expr
 
     def require(self, value: sp.Expr, rule: str, what: str, bound: Any = 0,
                 bound_name: str = "") -> None:
@@ -502,6 +524,22 @@ class Builder:
         else:
             self.built.constraints.append(constraint)
 
+    def _claim(self, name: str, kind: str) -> str:
+        """``component.name`` (:meth:`_qualified`) for a new ``kind`` of name (state, output,
+        intermediate, matrix, implicit unknown): one namespace per component, so a name
+        declared twice (a body point named like a joint's state group, ``q`` beside a joint
+        ``x``: the output ``q.x`` and the state ``q.x``) is refused instead of one shadowing the
+        other."""
+        qualified = self._qualified(name)
+        other = self._claimed.get(qualified)
+        if other is not None:
+            raise DuplicateNameError(
+                f"component {self.name!r}: its {kind} {name!r} has the name of its {other} "
+                f"{name!r}; two names of the component collide (e.g. a body point or frame named "
+                "like a joint's state group 'q' or 'p'): rename one of them")
+        self._claimed[qualified] = kind
+        return qualified
+
     def _qualified(self, name: str) -> str:
         """``component.name`` for a state, output, intermediate or matrix, each part of ``name``
         checked to be a name (these reach generated code and its layout)."""
@@ -516,6 +554,16 @@ def _entries(value: Any) -> list[sp.Expr]:
     if isinstance(value, (list, tuple)):
         return [as_expr(v) for v in value]
     return [as_expr(value)]
+
+
+def _may_be_undefined(expr: Any) -> bool:
+    """True when the expression ``expr`` (of finite parameters) may be undefined or infinite:
+    it calls a function or takes a power other than a whole number >= 0 (a root, a division)."""
+    if not isinstance(expr, sp.Expr) or expr.is_number:
+        return False
+    return any(isinstance(node, sp.Function) or (
+        isinstance(node, sp.Pow) and not (node.exp.is_Integer and node.exp >= 0))
+        for node in sp.preorder_traversal(expr))
 
 
 class _Frozen(type):

@@ -22,9 +22,10 @@ from typing import Any
 from ..errors import ParameterValueError
 from .expressions import Expression, parse_text
 
-#: The rules, by the text used in messages and metadata: value ``rule`` bound.
+#: The rules, by the text used in messages and metadata: value ``rule`` bound; ``"real"``: the
+#: value is a finite real number (an expression such as sqrt(k) or 1/k at the values bound).
 RULES = {">": lambda a, b: a > b, ">=": lambda a, b: a >= b, "<=": lambda a, b: a <= b,
-         "!=": lambda a, b: a != b}
+         "!=": lambda a, b: a != b, "real": lambda a, b: True}
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,9 @@ def violation(constraint: Constraint, value: float, bound: float, symbolic: bool
     if math.isfinite(value) and math.isfinite(bound) and RULES[constraint.rule](value, bound):
         return None
     side = f" = {constraint.expression}" if symbolic else ""
+    if constraint.rule == "real":
+        return (f"component {constraint.component!r} {constraint.argument}{side} must be a finite "
+                f"real number, got {value:g}")
     target = (f"{constraint.bound_name} ({bound:g})" if constraint.bound_name
               else f"{bound:g}")
     return (f"component {constraint.component!r} {constraint.argument}{side} must be "

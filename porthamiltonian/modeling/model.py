@@ -32,6 +32,7 @@ import networkx as nx
 import sympy as sp
 
 from ..errors import (
+    ConnectError,
     DanglingPortError,
     DuplicateNameError,
     ExpressionError,
@@ -320,6 +321,7 @@ class Model:
     def parameter(self, name: str, value: float, unit: str = "", doc: str = "") -> None:
         """Declare a parameter with its default value (SI units)."""
         self._check_value_name(name, "parameter")
+        self._unclaimed(name, "parameter")
         try:
             self.parameters[name] = Parameter(value, unit, doc)
         except ParameterValueError as err:
@@ -332,6 +334,7 @@ class Model:
         :mod:`porthamiltonian.simulation.inputs`) and a column of the linearization's B and D.
         ``bind``: an expression to bind it to in the model instead (:meth:`bind_input`)."""
         self._check_value_name(name, "input")
+        self._unclaimed(name, "input")
         self.inputs[name] = Input(unit, doc, bind)
 
     def bind_input(self, name: str, expression: str | None) -> None:
@@ -351,6 +354,7 @@ class Model:
         check_name(name, f"model {self.name!r}: component name")
         if name in self.graph:
             raise DuplicateNameError(f"model {self.name!r}: a component is already called {name!r}")
+        self._unclaimed(name, "component")
         if not isinstance(component, (Component, Model)):
             raise ModelError(f"model {self.name!r}: {name!r} must be a Component or a Model, got "
                              f"{type(component).__name__}")
@@ -435,6 +439,11 @@ class Model:
         domain, dimension and orientation; raises a :class:`~porthamiltonian.errors.ConnectError`
         naming both ports.
         """
+        for end, ref in (("tail", tail), ("head", head)):
+            if not isinstance(ref, str):
+                raise ConnectError(f"model {self.name!r}: connect's {end} must be a string "
+                                   f"\"component.port\" (or a junction's name), got "
+                                   f"{type(ref).__name__} {ref!r}")
         t_comp, t_port, t_spec = self._resolve(tail)
         h_comp, h_port, h_spec = self._resolve(head)
         new: list[tuple[str, Port]] = []     # junction ports this bond makes (kept if it is made)
@@ -524,7 +533,21 @@ class Model:
         check_name(name, f"model {self.name!r}: output name")
         if name in self.outputs:
             raise DuplicateNameError(f"model {self.name!r}: output {name!r} declared twice")
+        self._unclaimed(name, "output")
         self.outputs[name] = expression
+
+    def _unclaimed(self, name: str, kind: str) -> None:
+        """Refuse a new ``kind`` called ``name`` when a parameter, input, component or output of
+        this model already has that name: they share one namespace (``k`` in an expression, or in
+        ``trajectory["k"]``, must mean one thing)."""
+        for other, taken in (("parameter", name in self.parameters),
+                             ("input", name in self.inputs),
+                             ("component", name in self.graph),
+                             ("output", name in self.outputs)):
+            if taken and other != kind:
+                raise DuplicateNameError(f"model {self.name!r}: the {kind} {name!r} has the name "
+                                         f"of its {other} {name!r}; parameters, inputs, components "
+                                         "and outputs share one namespace: rename one of them")
 
     # --- the frozen description ------------------------------------------------------------------
     def freeze(self) -> ModelDescription:

@@ -180,10 +180,14 @@ class CompiledModel:
     source : the generated source the back end runs (C or Python); c_source : the generated C
         body (what the C back end compiles, also under the other back ends: an FMU embeds it).
     param_docs : the parameters' descriptions, in the order of :attr:`param_names`.
+    input_docs : the inputs' descriptions, in the order of :attr:`input_names`.
+    output_expressions : the declared outputs' expressions as the model states them
+        (``{"x": "cart_pole.q.slider"}``), for documentation (an FMU's variables).
     """
 
     def __init__(self, meta: ModelMeta, functions: Functions, source: str, key: str, *,
                  c_source: str = "", param_docs: Sequence[str] = (),
+                 input_docs: Sequence[str] = (), output_expressions: Mapping[str, str] | None = None,
                  rebuild: Callable[..., CompiledModel] | None = None):
         self.meta = meta
         self.name: str = meta.name
@@ -211,6 +215,8 @@ class CompiledModel:
         self.source = source
         self.c_source = c_source
         self.param_docs: list[str] = list(param_docs) or [""] * len(self.param_names)
+        self.input_docs: list[str] = list(input_docs) or [""] * len(self.input_names)
+        self.output_expressions: dict[str, str] = dict(output_expressions or {})
         self.key = key
         #: compiles this model again with more generated functions (``ph=True``, ``jac_p=``):
         #: set by the compiler; None for a model made otherwise
@@ -305,9 +311,16 @@ class CompiledModel:
         p = self._padded(self.param_defaults if p is None else p)
         x = np.array(self.functions.initial(self.native_params(p)), dtype=float)[: self.n_states]
         for name, value in (values or {}).items():
-            x[self.state_index(name)] = value
+            index = self.state_index(name)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+                raise StateError(f"model {self.name!r}: the initial value of state {name!r} must "
+                                 f"be a number, got {type(value).__name__} {value!r}")
+            x[index] = value
         if not np.all(np.isfinite(x)):
-            raise StateError(f"model {self.name!r}: initial state is not finite: {x}")
+            bad = ", ".join(f"{n} = {v}" for n, v in zip(self.state_names, x) if not np.isfinite(v))
+            raise StateError(f"model {self.name!r}: initial state is not finite: {bad} (from the "
+                             "initial values the components compute from the parameters; check "
+                             "the parameters they read)")
         return x
 
     def state_index(self, name: str) -> int:

@@ -145,6 +145,13 @@ def plot_trajectory(traj: Any, *names: str, ax: Any = None, events: bool = True)
     """Plot states, outputs or ledger terms (``"H"``, ``"E_diss"``, ``"E_in"``,
     ``"residual"``) over time; default: every state. Lines break at events (a reset is not part
     of the flow); ``events`` draws the event times as dotted lines. Returns the Axes."""
+    from ..escaping import plain_text
+
+    with plain_text():                  # names and the title are model text: never mathtext
+        return _plot(traj, names, ax, events)
+
+
+def _plot(traj: Any, names: tuple[str, ...], ax: Any, events: bool) -> Any:
     import matplotlib.pyplot as plt
 
     from .frames import LEDGER_UNITS

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from ..errors import InputError, ModelError, StateError
+from ..errors import InputError, ModelError, OptionError, StateError
 from ..integrators import COMPILED_METHODS
 from .differences import Derivative, gradient
 from .inputs import InputPlan, plan_inputs
@@ -93,7 +93,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
              t_eval: np.ndarray | None = None, dense_output: bool = False,
              max_events: int = 100_000, max_steps: int = 10_000_000,
              divergence_bound: float = 1e12,
-             sensitivity: bool | np.ndarray = False, inputs: Any = None) -> Trajectory:
+             sensitivity: bool | np.ndarray = False, inputs: Any = None,
+             progress: Callable[[float, int], None] | None = None) -> Trajectory:
     """Simulate ``model`` from ``t_start`` to ``t_end`` (also ``model.simulate(t_end, ...)``).
 
     Parameters
@@ -133,6 +134,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         directions V (n x m). Compiled methods only (``"auto"``: as without); the trajectory is
         the same, bit for bit, as without; an action that moves the state gives its Jacobian
         (``Reset(jacobian=...)``). See :mod:`porthamiltonian.simulation.saltation`.
+    progress : called with the simulated time and the steps taken so far, now and then during
+        the run (after each batch of up to 4096 steps of a compiled loop, every 1000 steps of a
+        scipy method): for a progress display of a long run (the command line's).
 
     Returns the :class:`Trajectory`; its ``status`` (a :class:`Status`) says how the run ended.
 
@@ -148,6 +152,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     t_start, t_end, t_eval = checked["t_start"], checked["t_end"], checked["t_eval"]
     plan = plan_inputs(model.input_names, len(model.param_names), inputs, t_start, t_end)
     calls = plan is not None and plan.has_callable
+    if progress is not None and not callable(progress):
+        raise OptionError(f"progress must be a function of the time and steps, or None, got "
+                          f"{type(progress).__name__}")
     requested = method
     if method == "auto":
         method = ("Radau" if (events or t_eval is not None or dense_output or calls) else
@@ -190,7 +197,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         events=py_events,
         t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
-        sensitivity=checked["sensitivity"], inputs=plan)
+        sensitivity=checked["sensitivity"], inputs=plan, progress=progress)
     return Simulator(model, settings).run(t_start, y, p, t_end)
 
 
@@ -247,6 +254,7 @@ class Settings:
     divergence_bound: float
     sensitivity: np.ndarray | None = None
     inputs: InputPlan | None = None
+    progress: Callable[[float, int], None] | None = None
 
 
 #: The compiled loops' return codes (porthamiltonian/integrators/rosenbrock_loop.py), but 5: its
@@ -533,6 +541,8 @@ class Simulator:
                 return close(Status.FAILED, f"{settings.method} failed at t = {t_old:.6g}: "
                              f"{message}", t_old, None)
             t_new, y_new = solver.t, solver.y
+            if settings.progress is not None and self.steps % 1000 == 0:
+                settings.progress(float(t_new), self.steps)
             bound = settings.divergence_bound
             if not np.all(np.isfinite(y_new)) or np.max(np.abs(y_new[:n])) > bound:
                 return close(Status.DIVERGED, f"max|x| exceeded {bound:g} (or "
@@ -611,6 +621,8 @@ class Simulator:
                            self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
                            settings.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
+            if settings.progress is not None:
+                settings.progress(float(t), self.steps)
             self._counts["nfev"] += nfev
             self._counts["njev"] += njev
             self._counts["nlu"] += nlu

@@ -1,5 +1,13 @@
 """Shared helpers of the reliability tests (issue 10: model files are data, the cache is trusted
-only when intact, every bad input gets a clear answer).
+only when intact, every bad input gets a clear answer; issue 21: no bad input costs a user their
+memory, their time, their page or their numbers).
+
+``within(cpu, wall)`` bounds a block (issue 21): it fails when the block has not answered after
+``wall`` seconds of wall-clock time (SIGALRM: a hang, a read that blocks) or used more than
+``cpu`` seconds of processor time, its own and its children's (work; processor time, unlike the
+wall clock, does not grow when other programs share the machine). ``capped(argv, memory)`` runs
+a Python command line in a subprocess whose address space is capped (``resource.setrlimit``), for
+the inputs whose cost is memory.
 
 ``audit`` records, through a Python audit hook (PEP 578), every event that would mean that data
 ran as code or touched the system while a block runs: ``exec``/``compile`` of code, a process
@@ -10,7 +18,11 @@ from __future__ import annotations
 
 import contextlib
 import os
+import resource
+import signal
+import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import ClassVar
@@ -67,3 +79,50 @@ def audit():
 def model_text():
     """``model_text(name)``: the text of ``models/<name>.toml``."""
     return lambda name: (MODELS_DIR / f"{name}.toml").read_text()
+
+
+#: the bound of a refusal (issue 21): processor seconds, and a wall-clock guard against hangs
+REFUSAL_CPU, HANG_WALL = 5.0, 120.0
+
+
+def _cpu() -> float:
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+@contextlib.contextmanager
+def _within(cpu: float = REFUSAL_CPU, wall: float = HANG_WALL) -> Iterator[None]:
+    def hung(signum, frame):
+        raise AssertionError(f"no answer within {wall:g} s (wall clock): the input hangs")
+
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.setitimer(signal.ITIMER_REAL, wall)
+    start, t0 = _cpu(), time.monotonic()
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    used = _cpu() - start
+    assert used <= cpu, (f"the answer took {used:.1f} s of processor time (bound {cpu:g} s; "
+                         f"{time.monotonic() - t0:.1f} s of wall-clock time)")
+
+
+@pytest.fixture
+def within():
+    """``with within(cpu=5, wall=120): ...`` (module docstring)."""
+    return _within
+
+
+def capped(argv: list[str], memory: int, *, timeout: float = HANG_WALL,
+           env: dict | None = None, cwd: str | None = None) -> subprocess.CompletedProcess:
+    """Run ``python argv...`` in a subprocess whose address space is capped at ``memory`` bytes
+    (RLIMIT_AS, inherited by what it starts), with this process's import path."""
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+
+    environment = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), **(env or {}))
+    return subprocess.run([sys.executable, *argv], capture_output=True, text=True,
+                          timeout=timeout, preexec_fn=limit, env=environment, cwd=cwd,
+                          check=False)

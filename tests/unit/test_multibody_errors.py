@@ -47,14 +47,18 @@ def test_missing_mass_names_the_body_and_the_unit():
 @pytest.mark.parametrize("inertia, eigenvalues", [
     ([1.0, -1.0, 1.0], "-1.0"),                                  # principal moments
     ([[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]], "-1.0"),  # indefinite 3x3
-    ([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], "0.0"),   # singular 3x3
+    ([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 2.0]], "2.0"),   # 0 + 1 < 2: no such body
+    ([1.0, 1.0, 3.0], "3.0"),                                    # the triangle inequality
 ])
-def test_non_positive_definite_inertia_names_the_body_and_the_eigenvalues(inertia, eigenvalues):
+def test_inconsistent_inertia_names_the_body_and_the_eigenvalues(inertia, eigenvalues):
+    """A rotational inertia no mass distribution has (negative, indefinite, or moments that
+    break the triangle inequality I1 + I2 >= I3) is refused; a thin rod ([I, I, 0]) is not."""
     with pytest.raises(errors.ModelError) as info:
         build({"thigh": rod(inertia=inertia)}, {"hip": revolute("world", "thigh")})
     msg = str(info.value)
-    assert "'thigh'" in msg and "positive definite" in msg
+    assert "'thigh'" in msg and "physically consistent" in msg and "triangle inequality" in msg
     assert "eigenvalues" in msg and eigenvalues in msg
+    build({"thigh": rod(inertia=[0.0, 1.0, 1.0])}, {"hip": revolute("world", "thigh")})
 
 
 def test_non_symmetric_inertia_is_rejected():

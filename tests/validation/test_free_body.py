@@ -45,7 +45,8 @@ XYZ = ("x", "y", "z")
 
 # body with an offset centre of mass and a full (non-principal) inertia matrix, for the tests
 # where the body-frame origin is not the centre of mass
-I_FULL = np.array([[0.9, 0.1, -0.05], [0.1, 1.7, 0.2], [-0.05, 0.2, 2.6]])   # kg m^2, SPD
+# kg m^2: SPD, and a body's (principal moments 0.884, 1.663, 2.453 obey the triangle inequality)
+I_FULL = np.array([[0.9, 0.1, -0.05], [0.1, 1.7, 0.2], [-0.05, 0.2, 2.4]])
 COM = np.array([0.1, -0.05, 0.2])                                             # m, body frame
 QUAT0 = np.array([0.9, 0.2, -0.3, 0.25]) / np.linalg.norm([0.9, 0.2, -0.3, 0.25])  # (w, x, y, z)
 

@@ -28,6 +28,14 @@ from porthamiltonian import io
 TOP = {"m": 1.0, "l": 0.1, "A_c": 0.004, "C": 0.006, "g": 9.81, "theta0": 0.5}
 
 
+
+def _body_inertia(A: np.ndarray) -> list:
+    """A random inertia that a body can have: tr(S) 1 − S of the second moment S = A Aᵀ +
+    0.005·1 of a mass distribution (positive definite, its principal moments obeying the
+    triangle inequality; a random symmetric positive definite matrix need not)."""
+    S = A @ A.T + 0.005 * np.eye(3)
+    return (np.trace(S) * np.eye(3) - S).tolist()
+
 def axis_of(quaternion: np.ndarray) -> np.ndarray:
     """World direction of body z for quaternions (w, x, y, z) along the last axis (normalised)."""
     w, x, y, z = (quaternion / np.linalg.norm(quaternion, axis=-1, keepdims=True)).T
@@ -150,7 +158,7 @@ def floating_tree(gravity=(0, 0, 0), bodies: int = 2, gain: float = 1.0) -> ph.M
                        "q0": [0.3, -0.2, 1.0, 0.9, 0.1, -0.3, 0.2],
                        "v0": [0.4, -0.7, 1.3, 0.5, 0.2, -0.1]}}
     if bodies == 2:
-        body["arm"] = {"mass": 0.7, "com": [0, 0, -0.25], "inertia": [0.02, 0.03, 0.004],
+        body["arm"] = {"mass": 0.7, "com": [0, 0, -0.25], "inertia": [0.03, 0.03, 0.004],
                        "points": {"arm_tip": [0, 0, -0.5]}}
         joint["shoulder"] = {"type": "spherical", "parent": "base", "child": "arm",
                              "origin": [0.2, -0.1, 0.3], "q0": [0.8, 0.3, 0.5, 0.1],
@@ -285,7 +293,7 @@ def _floating_specs(seed: int):
     def body():
         A = rng.normal(size=(3, 3)) * 0.1
         return {"mass": float(rng.uniform(0.5, 2.0)), "com": rng.uniform(-0.2, 0.2, 3).tolist(),
-                "inertia": (A @ A.T + 0.01 * np.eye(3)).tolist()}
+                "inertia": _body_inertia(A)}
 
     base, arm, head = body(), body(), body()
     a1, a2 = (tuple(v / np.linalg.norm(v)) for v in rng.normal(size=(2, 3)))

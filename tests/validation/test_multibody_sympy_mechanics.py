@@ -1,7 +1,7 @@
 """The recursive Multibody against an independent derivation with sympy.physics.mechanics.
 
 For random mechanisms (masses U(0.5, 2) kg, link lengths U(0.3, 0.8) m, off-axis centres of
-mass, random symmetric positive definite inertia matrices, random joint offsets and gravity) the
+mass, random inertia matrices a body can have, random joint offsets and gravity) the
 same tree is written once as a Multibody and once with sympy.physics.mechanics (reference frames
 oriented about the joint axes, points located from the joint origins, their velocities by
 v2pt/v1pt theory, rigid bodies, the potential −Σ m gᵀ r_c; see mechanics_reference.Reference). From the
@@ -26,6 +26,13 @@ from mechanics_reference import Reference
 import porthamiltonian as ph
 
 
+def _body_inertia(A: np.ndarray) -> list:
+    """A random inertia that a body can have: tr(S) 1 − S of the second moment S = A Aᵀ +
+    0.005·1 of a mass distribution (positive definite, its principal moments obeying the
+    triangle inequality; a random symmetric positive definite matrix need not)."""
+    S = A @ A.T + 0.005 * np.eye(3)
+    return (np.trace(S) * np.eye(3) - S).tolist()
+
 def random_spec(kind: str, seed: int) -> dict:
     """Joints (parents first) of a random mechanism: name -> {type, parent, axis, origin, body}."""
     rng = np.random.default_rng(seed)
@@ -43,7 +50,7 @@ def random_spec(kind: str, seed: int) -> dict:
         length = float(rng.uniform(0.3, 0.8))
         return {"mass": float(rng.uniform(0.5, 2.0)), "length": length,
                 "com": [float(rng.uniform(-0.1, 0.1)), float(rng.uniform(-0.1, 0.1)), -length / 2],
-                "inertia": (A @ A.T + 0.01 * np.eye(3)).tolist()}
+                "inertia": _body_inertia(A)}
 
     def add(name, jtype, parent, axis):
         origin = [0.0, 0.0, 0.0] if parent == "world" else [

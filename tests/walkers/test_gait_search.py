@@ -87,7 +87,7 @@ def test_bad_guess_files_are_refused(tmp_path, capsys, content, message):
 @pytest.mark.parametrize("args,message", [
     (["--set", "wobble=1"], "neither a parameter nor a section coordinate"),
     (["--set", "phi=0.4", "--set", "walker.v.hip=0"], "not both"),
-    (["--guess", "/nonexistent/gait.json"], "cannot read it"),
+    (["--guess", "/nonexistent/gait.json"], "/nonexistent/gait.json does not exist"),
 ])
 def test_bad_guess_options_are_refused(capsys, args, message):
     assert main(["gait", "simplest_walker", *args]) == 2

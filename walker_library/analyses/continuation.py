@@ -262,13 +262,16 @@ class ContinuationResult(JSONResult):
     jacobian: str
     seconds: float
     walker: Walker = field(repr=False)
+    #: why the continuation stopped before following everything ("" when it did not): its
+    #: time limit
+    stopped: str = ""
 
     @property
     def message(self) -> str:
         kinds = ", ".join(f"{b.kind} at {self.path.label} = {b.mu:.10g} (period {b.period})"
                           for b in self.bifurcations) or "none"
         return (f"{len(self.branches)} branch(es), {sum(len(b.points) for b in self.branches)} "
-                f"points; bifurcations: {kinds}")
+                f"points; bifurcations: {kinds}" + (f"; {self.stopped}" if self.stopped else ""))
 
     def table(self) -> list[dict]:
         """One row per point: branch, period, μ, the fixed point by name, max |λ|, stability."""
@@ -291,7 +294,7 @@ class ContinuationResult(JSONResult):
             "branches": [{"period_steps": b.period, "origin": b.origin, "end": b.end,
                           "points": [p.to_dict(w) for p in b.points]} for b in self.branches],
             "bifurcations": [b.to_dict(w) for b in self.bifurcations],
-            "seconds": self.seconds, "message": self.message})
+            "seconds": self.seconds, "stopped": self.stopped, "message": self.message})
 
     def figure(self, path: str | Path) -> bytes:
         """The bifurcation diagram as a PNG at ``path`` (the report's view,
@@ -410,12 +413,15 @@ class _Continuer:
     def __init__(self, walker: Walker, path: ParameterPath, *, method: str, ds: float,
                  ds_min: float, ds_max: float, max_points: int, tol: float, locate_tol: float,
                  doublings: int, max_branches: int, locate: bool,
-                 log: Callable[[str], None] | None):
+                 log: Callable[[str], None] | None, deadline: float = math.inf,
+                 time_limit: float | None = None):
         self.walker, self.path, self.method = walker, path, method
         self.ds0, self.ds_min, self.ds_max = ds, ds_min, ds_max
         self.max_points, self.tol, self.locate_tol = max_points, tol, locate_tol
         self.doublings, self.max_branches, self.locate = doublings, max_branches, locate
         self.log = log or (lambda msg: None)
+        self.deadline, self.time_limit = deadline, time_limit
+        self.stopped = ""
         self.refresh = 10          # the full finite-difference ladder every 10 points
         self.branches: list[Branch] = []
         self.bifurcations: list[Bifurcation] = []
@@ -513,6 +519,9 @@ class _Continuer:
         while True:
             if len(branch.points) >= self.max_points:
                 branch.end = f"{self.max_points} points (max_points)"
+                return
+            if self._out_of_time(cur.point.mu):
+                branch.end = self.stopped
                 return
             xp = cur.x + ds * direction
             landing = next((b for b in (0.0, 1.0)
@@ -791,9 +800,18 @@ class _Continuer:
         self.branches.append(Branch(period))
         self._pending: list[tuple[Bifurcation, _State, _Map]] = []
         self.follow(m, st, self.branches[0], 0)
-        while self._pending:
+        while self._pending and not self.stopped:
             bif, state, mm = self._pending.pop(0)
             self.switch(bif, state, mm)
+
+    def _out_of_time(self, mu: float) -> bool:
+        """True (and :attr:`stopped` set, once) when the time limit has passed."""
+        if not self.stopped and time.perf_counter() > self.deadline:
+            self.stopped = (f"stopped at the time limit ({self.time_limit:.3g} s) at "
+                            f"{self.path.label} = {mu:.10g}; a larger time limit follows it "
+                            "further")
+            self.log(f"  {self.stopped}")
+        return bool(self.stopped)
 
 
 def _halves(point: BranchPoint, half: int, scale: np.ndarray) -> np.ndarray:
@@ -811,8 +829,8 @@ def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float |
                   jacobian: str = "variational", ds: float = 0.05, ds_min: float = 1e-6,
                   ds_max: float = 0.3, max_points: int = 400, tol: float | None = None,
                   locate: bool = True, locate_tol: float = 1e-10, doublings: int = 2,
-                  max_branches: int = 8,
-                  log: Callable[[str], None] | None = None) -> ContinuationResult:
+                  max_branches: int = 8, log: Callable[[str], None] | None = None,
+                  time_limit: float | None = None) -> ContinuationResult:
     """Continue the walker's gait in ``parameter`` from ``start`` to ``stop`` (module docstring).
 
     parameter : a parameter's name (then ``start``, ``stop`` its range, in its unit) or a
@@ -823,6 +841,9 @@ def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float |
         units (the range of μ is 1). tol : Newton tolerance (default: the walker's
         ``gait_tolerance``). locate : detect and locate bifurcations (to ``locate_tol`` of
         arclength). doublings : period doublings to follow (2: period 1 → 2 → 4).
+        time_limit : seconds after which no new point is started (None: no limit); the result
+        then says where it stopped (``stopped``, and each branch's ``end``). log : progress
+        lines (one per point, bifurcation, branch).
 
     Bad input — an unknown, structural or mode parameter, a range out of the parameter's range,
     an unknown Jacobian method — raises :class:`~porthamiltonian.errors.ModelError` before any
@@ -830,6 +851,8 @@ def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float |
     verdict.
     """
     t0 = time.perf_counter()
+    if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
+        raise ModelError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
     if jacobian not in JACOBIAN_METHODS:
         raise ModelError(f"jacobian must be one of {', '.join(JACOBIAN_METHODS)}, got "
                          f"{jacobian!r}")
@@ -851,7 +874,8 @@ def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float |
     z0 = fp.z
     c = _Continuer(walker, path, method=jacobian, ds=ds, ds_min=ds_min, ds_max=ds_max,
                    max_points=max_points, tol=tol, locate_tol=locate_tol, doublings=doublings,
-                   max_branches=max_branches, locate=locate, log=log)
+                   max_branches=max_branches, locate=locate, log=log, time_limit=time_limit,
+                   deadline=math.inf if time_limit is None else t0 + time_limit)
     c.run(z0, period)
     return ContinuationResult(walker.name, path, c.branches, c.bifurcations, list(walker.section),
-                              jacobian, time.perf_counter() - t0, walker)
+                              jacobian, time.perf_counter() - t0, walker, c.stopped)

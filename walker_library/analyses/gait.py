@@ -37,6 +37,7 @@ residual (:class:`WalkResult`).
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -53,10 +54,13 @@ from .monodromy import FloquetResult, floquet
 from .poincare import WalkerFell, detect_period, find_fixed_point
 from .results import JSONResult, to_jsonable, view
 
-__all__ = ["GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult", "analyze_gait",
-           "gait_start", "section_guess", "walk"]
+__all__ = ["TIME_LIMIT", "GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult",
+           "analyze_gait", "gait_start", "section_guess", "walk"]
 
 _LEGGED_KEYS = ("theta", "theta_dot", "phi", "phi_dot")
+#: the default time limit of a gait search (s): its continuation from the nominal gait stops
+#: there (a stiffness of 1e15 would otherwise be followed for hours)
+TIME_LIMIT = 600.0
 
 
 @dataclass
@@ -259,6 +263,14 @@ class _Search:
         self.tried: list[str] = []
         self.newton = None      # the period-1 Newton search from the guess
         self.period = None      # the period detection from the guess (None: not needed)
+        self.stopped = ""       # why the search stopped at its time limit ("" if it did not)
+        self.time_limit: float | None = None
+
+    def out_of_time(self, where: str) -> None:
+        """Record that the search stopped at its time limit, ``where``."""
+        self.stopped = (f"the search stopped at its time limit ({self.time_limit:g} s; "
+                        f"--time-limit) {where}")
+        self.tried.append(self.stopped)
 
     def add(self, z: np.ndarray, period: int, found_by: str,
             fl: FloquetResult | None = None) -> Orbit | None:
@@ -302,8 +314,9 @@ def _defaults(walker: Walker) -> dict[str, float]:
 
 
 def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max_period: int,
-              log: Callable[[str], None] | None) -> None:
-    """Continue the model file's nominal gait to the walker's parameters (module docstring)."""
+              log: Callable[[str], None] | None, deadline: float) -> None:
+    """Continue the model file's nominal gait to the walker's parameters (module docstring),
+    until the search's ``deadline`` (time.perf_counter())."""
     nominal_values = _defaults(walker)
     changed = {k: v for k, v in walker.parameters.items()
                if k in nominal_values and nominal_values[k] != v}
@@ -318,14 +331,25 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
         search.add(start.z, start.period, "the model file's nominal gait", start.floquet)
         return
     names = ", ".join(f"{k} {nominal_values[k]:g} -> {v:g}" for k, v in changed.items())
+    left = deadline - time.perf_counter()
+    if left <= 0:
+        search.out_of_time(f"before the continuation from the nominal gait ({names})")
+        return
+    if log is not None:
+        log(f"continuing the model file's nominal gait: {names}")
     try:
         path = ParameterPath.homotopy(walker, nominal_values, walker.parameters)
         result = continue_gait(nominal, path, guess=start.z, period=start.period,
                                jacobian=search.jacobian, tol=tol, locate_tol=1e-4,
-                               doublings=2, max_points=100, log=log)
+                               doublings=2, max_points=100, log=log,
+                               time_limit=None if math.isinf(left) else left)
     except ModelError as err:
         search.tried.append(f"continuation from the nominal gait ({names}): {err}")
         return
+    if result.stopped:
+        reached = max((p.mu for br in result.branches for p in br.points), default=0.0)
+        search.out_of_time(f"while continuing the model file's nominal gait ({names}), "
+                           f"{100 * reached:.3g} % of the way")
     ends = 0
     for i, br in enumerate(result.branches):
         last = br.points[-1] if br.points else None
@@ -342,7 +366,8 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
 
 
 def _direct(walker: Walker, guess, *, tol: float, max_iter: int, max_period: int,
-            search: _Search, n_iterate: int = 200, period_tol: float = 1e-7):
+            search: _Search, n_iterate: int = 200, period_tol: float = 1e-7,
+            deadline: float = math.inf):
     """Steps 1–2 of the search from ``guess``: the stable orbit found, or None. Returns the
     Newton result and the period detection through ``search.last``."""
     z0 = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
@@ -354,6 +379,9 @@ def _direct(walker: Walker, guess, *, tol: float, max_iter: int, max_period: int
         if orbit is not None and orbit.stable:
             search.period = None
             return orbit
+    if time.perf_counter() > deadline:
+        search.out_of_time("after Newton from the guess")
+        return search.stable()
     pr = detect_period(walker, z0, max_period=max_period, n_steps=n_iterate, tol=period_tol)
     search.period = pr
     if pr.fell_at_step is not None:
@@ -376,7 +404,8 @@ def _direct(walker: Walker, guess, *, tol: float, max_iter: int, max_period: int
 def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
                  fd_step: float | None = None, tol: float | None = None, n_iterate: int = 200,
                  period_tol: float = 1e-7, max_iter: int = 30, continuation: bool = True,
-                 jacobian: str = "variational", log: Callable[[str], None] | None = None) -> GaitResult:
+                 jacobian: str = "variational", log: Callable[[str], None] | None = None,
+                 time_limit: float | None = TIME_LIMIT) -> GaitResult:
     """Find and describe the gait of ``walker`` starting from ``guess`` (default: the walker's own
     initial guess). See the module docstring for the search and :class:`GaitResult` for the
     fields.
@@ -388,18 +417,27 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
         bounds. tol : Newton tolerance on |S^k(z) − z|_∞ (default: the walker's
         ``gait_tolerance`` if it has one, else 1e-10). n_iterate, period_tol, max_period :
         period detection. continuation : continue the model file's nominal gait to these
-        parameters when no stable orbit is found otherwise.
+        parameters when no stable orbit is found otherwise. time_limit : seconds after which
+        the search starts nothing new (default :data:`TIME_LIMIT`; None: no limit); what it
+        found by then is the result, and ``search`` and the message say where it stopped.
+        log : progress lines of the homotopy (where it goes, each point): the part of the
+        search that can take long.
     """
+    if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
+        raise ModelError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
+    deadline = math.inf if time_limit is None else time.perf_counter() + time_limit
     if tol is None:
         tol = float(walker.gait_tolerance)
     base = {"model": walker.name, "section": list(walker.section),
             "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     search = _Search(walker, fd_step, jacobian, tol)
+    search.time_limit = time_limit
     gait = _direct(walker, guess, tol=tol, max_iter=max_iter, max_period=max_period,
-                   search=search, n_iterate=n_iterate, period_tol=period_tol)
+                   search=search, n_iterate=n_iterate, period_tol=period_tol, deadline=deadline)
     fp, pr = search.newton, search.period
-    if gait is None and continuation:
-        _homotopy(search, walker, tol=tol, max_iter=max_iter, max_period=max_period, log=log)
+    if gait is None and continuation and not search.stopped:
+        _homotopy(search, walker, tol=tol, max_iter=max_iter, max_period=max_period, log=log,
+                  deadline=deadline)
         gait = search.stable()
     newton = _newton_dict(walker, fp)
     unstable = None
@@ -428,6 +466,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
             message = (f"only unstable orbits found ({len(search.orbits)}: periods "
                        f"{', '.join(str(o.period) for o in search.orbits)}); reported: the least "
                        f"unstable, period {orbit.period} ({orbit.found_by})")
+        if search.stopped:
+            message += f"; {search.stopped}"
         return _periodic(walker, orbit, outcome, message, common)
     if fell:
         it = pr.iteration
@@ -439,7 +479,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
                           steps=[_step_record(walker, s) for s in it.strides],
                           last_iterate=_named(walker, it.states[-1]),
                           message=f"no periodic orbit found, and the walker fell during step "
-                                  f"{pr.fell_at_step} ({it.fall_reason}) iterating from the guess",
+                                  f"{pr.fell_at_step} ({it.fall_reason}) iterating from the guess"
+                                  + (f"; {search.stopped}" if search.stopped else ""),
                           **common)
     last = pr.iteration.states[-1] if pr is not None else fp.z
     return GaitResult(status=GaitStatus.NO_FIXED_POINT, outcome=GaitOutcome.NO_PERIODIC_ORBIT,

@@ -13,6 +13,9 @@ The functions named after the shipped walkers (:func:`simplest_walker`, :func:`c
 """
 from __future__ import annotations
 
+import contextlib
+import os
+import tempfile
 import tomllib
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -26,7 +29,7 @@ from .hybrid import Integration, WalkerSpec
 from .reading import walker_spec
 from .walker import HybridWalker, build_walker
 
-__all__ = ["SHIPPED", "available_walkers", "compass_gait", "compass_walker",
+__all__ = ["SHIPPED", "available_walkers", "check_target", "compass_gait", "compass_walker",
            "compliant_leg_walker", "load_walker", "read_walker", "rigid_compass_walker",
            "rimless_wheel", "save_walker", "simplest_walker", "variable_stiffness_walker"]
 
@@ -43,12 +46,8 @@ def read_walker(name_or_path: str | Path) -> tuple[WalkerSpec, str]:
     """The :class:`~.hybrid.WalkerSpec` of a walker file (by name in models/ or by path) and
     the file's text. Raises ModelFileError (file, line, part) for a file that is not a walker
     file or whose ``[walker]`` table is wrong."""
-    path = ph_io.model_path(name_or_path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise ModelFileError(f"{path}: cannot read the walker file ({err})") from None
-    record = ph_io.reads(text, source=str(path))
+    record = ph_io.read(name_or_path)
+    path, text = record.source, record.text
     table = record.sections.get("walker")
     if table is None:
         raise ModelFileError(f"{path}: not a walker file: it has no [walker] table (a walker is a "
@@ -74,10 +73,16 @@ def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None 
         raise ParameterValueError(f"{spec.source}: {err}") from None
 
 
-def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str = "") -> Path:
+def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str = "", *,
+                overwrite: bool = True) -> Path:
     """Write a walker file: the model and its ``[walker]`` table (a walker's current parameter
     values as the defaults). ``header``: comment lines put at the top. Loading the file gives the
-    same description, model and gait."""
+    same description, model and gait.
+
+    The file is written whole or not at all (a temporary file beside it, then renamed), and a
+    symbolic link at ``path`` is replaced by the file, never written through. ``overwrite=False``
+    refuses (ModelFileError) when anything is at ``path`` already (``walker export`` without
+    ``--force``)."""
     spec = walker.spec if isinstance(walker, HybridWalker) else walker
     data = ph_io.model_to_dict(ph_io.ModelFile(
         spec.model, description=spec.description, meta={"units": spec.units} if spec.units else {}))
@@ -92,8 +97,33 @@ def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str
     text = tomli_w.dumps(data)
     if header:
         text = "".join(f"# {line}".rstrip() + "\n" for line in header.splitlines()) + "\n" + text
+    path = check_target(path, overwrite=overwrite)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        umask = os.umask(0o022)
+        os.umask(umask)
+        os.fchmod(fd, 0o666 & ~umask)             # as a plain write would (mkstemp gives 0600)
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def check_target(path: str | Path, *, overwrite: bool) -> Path:
+    """``path`` as a Path if a walker file may be written there: not a directory, and, unless
+    ``overwrite``, nothing there yet (a file, a link, even a broken one); else a ModelFileError
+    saying what is there and what to do."""
     path = Path(path)
-    path.write_text(text, encoding="utf-8")
+    if os.path.isdir(path):
+        raise ModelFileError(f"{path} is a directory; give the path of the walker file to write")
+    if not overwrite and os.path.lexists(path):
+        kind = "a symbolic link" if os.path.islink(path) else "a file"
+        raise ModelFileError(f"{path}: {kind} is there already; give --force to replace it (a "
+                             "link is replaced, not written through), or another path")
     return path
 
 
@@ -103,8 +133,10 @@ def available_walkers() -> list[str]:
     out = []
     for name in ph_io.available_models():
         try:
-            data = tomllib.loads(ph_io.model_path(name).read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, ModelFileError):
+            path = ph_io.model_path(name)
+            data = tomllib.loads(ph_io.read_text(path, limit=ph_io.MAX_FILE_SIZE, label=str(path),
+                                                 kind="model file", language="TOML"))
+        except (tomllib.TOMLDecodeError, RecursionError, ModelFileError):
             continue
         if isinstance(data.get("walker"), dict):
             out.append(name)

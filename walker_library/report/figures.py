@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from porthamiltonian.escaping import PLAIN_TEXT
 from porthamiltonian.simulation.display import event_split
 
 from ..analyses.series import GaitSeries
@@ -33,9 +34,10 @@ __all__ = ["DPI", "STYLE", "draw_multipliers", "draw_phase", "event_split", "fig
            "save_figure"]
 
 DPI = 110
-#: matplotlib settings of the report's figures
+#: matplotlib settings of the report's figures (no mathtext: names and units from model files
+#: are plain text; the figures' own mathematical labels ask for it, porthamiltonian.escaping)
 STYLE = {"font.size": 9, "axes.titlesize": 10, "legend.fontsize": 8, "axes.spines.top": False,
-         "axes.spines.right": False}
+         "axes.spines.right": False, **PLAIN_TEXT}
 _JUMP = {"ls": (0, (3, 2)), "lw": 0.9, "alpha": 0.8}
 _HEEL = {"color": "0.35", "ls": ":", "lw": 0.9}
 
@@ -174,8 +176,9 @@ def draw_phase(ax, s: GaitSeries, angle: str, nondimensional: bool = False,
                 label="just after heel strike" if labels else None)
     if labels:
         ax.plot([], [], color="0.3", **_JUMP, label="heel-strike reset (jump, not flow)")
-    ax.set_xlabel(f"${symbol}$ (rad)")
-    ax.set_ylabel(f"$\\dot{{{symbol}}}$ ({'nondim.' if nondimensional else 'rad/s'})")
+    ax.set_xlabel(f"${symbol}$ (rad)", parse_math=True)       # our own mathtext: asked for
+    ax.set_ylabel(f"$\\dot{{{symbol}}}$ ({'nondim.' if nondimensional else 'rad/s'})",
+                  parse_math=True)
     ax.set_title(title)
 
 
@@ -308,8 +311,8 @@ def fig_basin(r: Any, path: Path | None) -> bytes:
     ax.plot(A[~ok], B[~ok], ".", color="0.5", ms=5, label="falls or wanders")
     ax.plot(r.fixed_point["theta"] / r.theta_scale, r.fixed_point["theta_dot"] / r.theta_dot_scale,
             "*", color="C3", ms=13, label="fixed point")
-    ax.set_xlabel(f"$\\theta$ / {r.theta_scale:g} rad")
-    ax.set_ylabel(f"$\\dot{{\\theta}}$ / {r.theta_dot_scale:g} rad/s")
+    ax.set_xlabel(f"$\\theta$ / {r.theta_scale:g} rad", parse_math=True)
+    ax.set_ylabel(f"$\\dot{{\\theta}}$ / {r.theta_dot_scale:g} rad/s", parse_math=True)
     fig.legend(loc="outside lower center", ncols=3, frameon=False)
     return save_figure(fig, path)
 

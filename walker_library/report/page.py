@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import base64
 import html
-import json
 import math
 from collections.abc import Iterable, Sequence
 from typing import Any
+
+from porthamiltonian.escaping import script_json
 
 __all__ = ["Html", "Note", "figure", "multiplier_cells", "named", "number", "page", "player", "table",
            "text"]
@@ -206,8 +207,7 @@ def player(data: dict, *, time_unit: str, time_scale: float, caption: str) -> Ht
     :func:`walker_library.animation.player_data`) with play/pause, a scrub slider, speed and,
     when the data has forces, a contact-force toggle. ``time_scale``: real seconds per unit of
     simulated time at speed 1."""
-    payload = json.dumps({**data, "timeUnit": time_unit, "timeScale": time_scale},
-                         separators=(",", ":")).replace("</", "<\\/")
+    payload = script_json({**data, "timeUnit": time_unit, "timeScale": time_scale})
     n = len(data["t"])
     force = ('<label><input id="player-forces" type="checkbox"> contact forces</label>'
              if "force" in data else "")

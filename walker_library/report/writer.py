@@ -36,6 +36,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import shlex
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -43,6 +44,9 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
+
+from porthamiltonian import io as ph_io
+from porthamiltonian.errors import ModelError
 
 from ..analyses.continuation import ContinuationResult
 from ..analyses.gait import GaitResult, analyze_gait
@@ -499,10 +503,21 @@ def _parameters_html(walker: Walker, nondim: bool) -> str:
 
 
 def _command(walker: Walker) -> str:
+    """The command that writes this report again (shell-quoted): the walker by its name when
+    that name finds its file, else by the file's path; every parameter that differs from the
+    file's value, exactly (repr)."""
     specs = getattr(walker, "specs", {})
-    sets = " ".join(f"--set {k}={v:g}" for k, v in walker.parameters.items()
-                    if k in specs and v != specs[k].value)
-    return f"walker report {walker.name} {sets}".strip()
+    source = str(getattr(getattr(walker, "spec", None), "source", "") or "")
+    target = walker.name
+    if source:
+        try:
+            by_name = ph_io.model_path(walker.name).resolve() == Path(source).resolve()
+        except (ModelError, OSError):
+            by_name = False
+        target = walker.name if by_name else source
+    sets = [f"--set={k}={float(v)!r}" for k, v in walker.parameters.items()
+            if k in specs and v != specs[k].value]
+    return shlex.join(["walker", "report", target, *sets])
 
 
 def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc, images,

@@ -269,14 +269,15 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2EnterEventMode)(fmi2Component c)
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2NewDiscreteStates)(fmi2Component c, fmi2EventInfo *info)
 {
     PH_CHECK(c);
-    int terminate = 0, moved = 0;
-    const int status = ph_update_discrete(PH_C, &terminate, &moved);
+    int terminate = 0, moved = 0, next_defined = 0;
+    double next_time = 0.0;
+    const int status = ph_update_discrete(PH_C, &terminate, &moved, &next_defined, &next_time);
     info->newDiscreteStatesNeeded = fmi2False;
     info->terminateSimulation = terminate;
     info->nominalsOfContinuousStatesChanged = fmi2False;
     info->valuesOfContinuousStatesChanged = moved;
-    info->nextEventTimeDefined = fmi2False;
-    info->nextEventTime = 0.0;
+    info->nextEventTimeDefined = next_defined;
+    info->nextEventTime = next_time;
     PH_RETURN(status);
 }
 
@@ -362,6 +363,36 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetNominalsOfContinuousStates)(fmi2Componen
     return fmi2OK;
 }
 
+/* fmi2SetRealInputDerivatives (co-simulation): the derivative of order `order` of input vr, set
+ * at the current communication point; the first derivative extrapolates the input linearly over
+ * the steps that follow (until it is set again), higher ones are ignored (a warning) */
+static int ph_set_input_derivative(ph_instance *c, unsigned int vr, int order, double value)
+{
+    const ph_variable *var = ph_find(c, vr, 0);
+    if (var == NULL)
+        return PH_ERROR;
+    if (!c->cosimulation)
+        return PH_FAIL(c, "%s: input derivatives are for co-simulation", c->name);
+    if (var->kind != PH_INPUT)
+        return PH_FAIL(c, "%s: variable %u is not an input", c->name, vr);
+    if (order < 1 || !isfinite(value))
+        return PH_FAIL(c, "%s: input derivative of order %d = %g: the order must be >= 1 and the "
+                       "value finite", c->name, order, value);
+    if (order > 1) {
+        ph_logf(c, PH_WARNING, "logStatusError", "%s: input derivatives of order %d are ignored: "
+                "the FMU extrapolates its inputs linearly", c->name, order);
+        return PH_WARNING;
+    }
+    /* the line keeps its value at the current time */
+    const int k = var->index;
+    c->v.u[k] += c->v.du[k] * (c->v.now.t - c->v.u_time[k]);
+    c->v.u_time[k] = c->v.now.t;
+    c->v.du[k] = value;
+    ph_input_slots(&c->v, &c->v.now);
+    ph_changed(c);
+    return PH_OK;
+}
+
 /* --- co-simulation ---------------------------------------------------------------------------- */
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetRealInputDerivatives)(fmi2Component c,
                                                               const fmi2ValueReference vr[],
@@ -370,10 +401,14 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetRealInputDerivatives)(fmi2Component c,
                                                               const fmi2Real value[])
 {
     PH_CHECK(c);
-    (void)vr; (void)order; (void)value;
-    if (nvr == 0)
-        return fmi2OK;
-    PH_RETURN(PH_FAIL(PH_C, "%s: the FMU does not interpolate inputs", PH_C->name));
+    int worst = PH_OK;
+    for (size_t i = 0; i < nvr; ++i) {
+        const int status = ph_set_input_derivative(PH_C, vr[i], order[i], value[i]);
+        if (status == PH_ERROR)
+            return fmi2Error;
+        worst = status > worst ? status : worst;
+    }
+    PH_RETURN(worst);
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetRealOutputDerivatives)(fmi2Component c,

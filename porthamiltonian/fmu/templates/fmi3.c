@@ -465,14 +465,15 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3UpdateDiscreteStates)(
     fmi3Float64 *nextEventTime)
 {
     PH_CHECK3;
-    int terminate = 0, moved = 0;
-    const int status = ph_update_discrete(PH_I, &terminate, &moved);
+    int terminate = 0, moved = 0, next_defined = 0;
+    double next_time = 0.0;
+    const int status = ph_update_discrete(PH_I, &terminate, &moved, &next_defined, &next_time);
     *discreteStatesNeedUpdate = 0;
     *terminateSimulation = terminate;
     *nominalsOfContinuousStatesChanged = 0;
     *valuesOfContinuousStatesChanged = moved;
-    *nextEventTimeDefined = 0;
-    *nextEventTime = 0.0;
+    *nextEventTimeDefined = next_defined;
+    *nextEventTime = next_time;
     PH_RETURN3(status);
 }
 

@@ -136,7 +136,9 @@ enum {
     PH_EVENT_COUNT,     /* how often event [index] fired */
     PH_COUNTER_TIME,    /* the time a rule counting under counter [index] last fired */
     PH_COUNTER_COUNT,   /* how often such rules fired */
-    PH_SOLVER           /* co-simulation settings: [rtol, atol, max_step][index] */
+    PH_SOLVER,          /* co-simulation settings: [rtol, atol, max_step][index] */
+    PH_INPUT            /* model input [index]: the slots p[PH_NP + index] + p[PH_NP + PH_NU +
+                           index] t */
 };
 
 /* who may set a variable (ph_variable.access) */
@@ -148,6 +150,9 @@ typedef struct {
     int integer;        /* 1: an Integer (Int32) variable, 0: a Real (Float64) */
     int access;
 } ph_variable;
+
+/* a discrete-time block's generated update: its new discrete states from (t, y, p) */
+typedef void (*ph_update_fn)(double t, const double *y, const double *p, double *out);
 
 /* a rule's condition: output [output] compared with 0 by op */
 enum { PH_LT, PH_LE, PH_GT, PH_GE, PH_EQ, PH_NE };

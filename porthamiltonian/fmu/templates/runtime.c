@@ -17,7 +17,20 @@
  * a communication point inside a step come from an integration of their own from the step's
  * start (same loop, error-controlled, guards off); the events found in that step count from
  * their own times. A tunable parameter set between steps restarts the integration from the
- * communication point. */
+ * communication point.
+ *
+ * Inputs. Input k reads the two slots p[PH_NP + k] + p[PH_NP + PH_NU + k] t of the parameter
+ * vector (the compiled model's input slots): the runtime writes them from the value the importer
+ * sets, held, or (FMI 2.0 co-simulation, fmi2SetRealInputDerivatives) extrapolated linearly from
+ * the time it was set. In co-simulation an input that changed restarts the integration at the
+ * communication point, as the framework's run stops at a sample time of its inputs.
+ *
+ * Discrete-time blocks are sampled at t_k = t_start + k T (computed, never accumulated): each
+ * block's generated update gives its new discrete states from the state just before t_k (with
+ * the inputs set for the time from t_k on). Model exchange: time events (nextEventTime), the
+ * samples taken in the event update. Co-simulation: the integration stops exactly on t_k and
+ * samples when it goes on from there (a sampling instant on a communication point is taken in
+ * the doStep that starts there, after the importer set its inputs). */
 
 #define PH_STORE 64                 /* stored points and events of one loop call */
 #define PH_SIDE_STEPS 100000        /* the steps of one integration to a communication point */
@@ -25,7 +38,8 @@
 typedef struct {
     double t;
     double y[PH_N];                 /* model states, E_diss, E_in */
-    double p[PH_NP1];
+    double p[PH_NS1];               /* parameters, then the inputs' slots (a: PH_NU, b: PH_NU) */
+    int64_t sample_k[PH_ND1];       /* the next sample of each discrete-time block */
     int64_t ev_count[PH_NE1];
     double ev_time[PH_NE1];
     int64_t ctr_count[PH_NC1];
@@ -46,10 +60,18 @@ typedef struct {
     double solver[3];               /* rtol, atol, max_step */
     double t_start, t_stop;
     int stop_defined;
+    /* inputs as the importer set them: the value u at time u_time, the derivative du */
+    double u[PH_NU1], u_time[PH_NU1], du[PH_NU1];
+    double period[PH_ND1];          /* the discrete blocks' sample periods (read at init) */
     /* co-simulation */
     ph_point main, prev;            /* the integration's point; the point before its last step */
-    int have_prev, restart;
+    ph_point cross;                 /* the first point of this doStep whose next step would
+                                       cross the communication point (porthamiltonian.simulate
+                                       would shorten that step to end on it: a breakpoint) */
+    double cross_h;                 /* the step size proposed there */
+    int have_prev, restart, have_cross;
     double h_next, t_segment;
+    double h_now;                   /* the step size to go on with from v.now (a restart) */
     int64_t mask_index;
     double mask_sign;
     int n_last;                     /* the non-terminal events of the last step */
@@ -101,6 +123,25 @@ static void ph_changed(ph_instance *c)
     c->have_rates = c->have_outputs = c->have_energy = c->have_guards = 0;
 }
 
+/* the input slots of pt: u_k(t) = u_k + du_k (t - u_time_k), as the importer set them */
+static void ph_input_slots(const ph_values *v, ph_point *pt)
+{
+    for (int k = 0; k < PH_NU; ++k) {
+        pt->p[PH_NP + k] = v->u[k] - v->du[k] * v->u_time[k];
+        pt->p[PH_NP + PH_NU + k] = v->du[k];
+    }
+}
+
+/* tgrad of the compiled loop (the step of its difference in t): 0 for a model autonomous with
+ * inputs that are constant on the step, as porthamiltonian.simulate takes it */
+static double ph_tgrad(const ph_values *v, const double *p)
+{
+    int moving = 0;
+    for (int k = 0; k < PH_NU; ++k)
+        moving |= p[PH_NP + PH_NU + k] != 0.0;
+    return (PH_AUTONOMOUS && !moving) ? 0.0 : 1e-7 * fmax(1.0, fabs(v->t_segment));
+}
+
 static const double *ph_now_rates(ph_instance *c)
 {
     if (!c->have_rates) {
@@ -146,6 +187,8 @@ static void ph_defaults(ph_instance *c)
     memcpy(v->now.p, ph_param_start, sizeof v->now.p);
     memcpy(v->now.y, ph_state_start, sizeof v->now.y);
     memcpy(v->solver, ph_solver_defaults, sizeof v->solver);
+    for (int k = 0; k < PH_NU; ++k)
+        v->u[k] = ph_param_start[PH_NP + k];
     v->mask_index = -1;
     ph_changed(c);
 }
@@ -226,6 +269,7 @@ static int ph_get_real(ph_instance *c, unsigned int vr, double *value)
     case PH_EVENT_TIME: *value = now->ev_time[i]; break;
     case PH_COUNTER_TIME: *value = now->ctr_time[i]; break;
     case PH_SOLVER: *value = c->v.solver[i]; break;
+    case PH_INPUT: *value = c->v.u[i]; break;
     default: return PH_FAIL(c, "%s: value reference %u is not a Real", c->name, vr);
     }
     return PH_OK;
@@ -264,6 +308,11 @@ static int ph_set_real(ph_instance *c, unsigned int vr, double value)
     case PH_STATE:
         c->v.now.y[var->index] = value;
         c->v.state_set[var->index] = 1;
+        break;
+    case PH_INPUT:
+        c->v.u[var->index] = value;
+        c->v.u_time[var->index] = c->v.now.t;
+        ph_input_slots(&c->v, &c->v.now);
         break;
     case PH_SOLVER:
         if (!(value > 0.0))
@@ -363,6 +412,41 @@ static int ph_crossed(double a, double b, int64_t d)
     return a != b && ((up && d > 0) || (down && d < 0) || ((up || down) && d == 0));
 }
 
+/* --- discrete-time blocks ---------------------------------------------------------------------- */
+/* the next sampling instant of pt (t_start + k T over the blocks), INFINITY without blocks */
+static double ph_next_sample(const ph_values *v, const ph_point *pt)
+{
+    double next = INFINITY;
+    for (int j = 0; j < PH_ND; ++j)
+        next = fmin(next, v->t_start + (double)pt->sample_k[j] * v->period[j]);
+    return next;
+}
+
+/* The samples due at pt->t (instants up to pt->t + tol): each block due takes its new discrete
+ * states from its update at the state before the instant (all from the same state, in the order
+ * of the blocks); a block's instants up to pt->t + tol are passed. PH_ERROR for a non-finite
+ * result. */
+static int ph_sample(ph_instance *c, ph_point *pt, double tol)
+{
+    const ph_values *v = &c->v;
+    double before[PH_N], out[PH_NX1];
+    memcpy(before, pt->y, sizeof before);
+    for (int j = 0; j < PH_ND; ++j) {
+        if (v->t_start + (double)pt->sample_k[j] * v->period[j] > pt->t + tol)
+            continue;
+        ph_block_update[j](pt->t, before, pt->p, out);
+        for (int i = 0; i < ph_block_count[j]; ++i) {
+            if (!isfinite(out[i]))
+                return PH_FAIL(c, "%s: the sampling of discrete block %s at t = %.17g gave a "
+                               "non-finite state", c->name, ph_block_names[j], pt->t);
+            pt->y[ph_block_states[ph_block_first[j] + i]] = out[i];
+        }
+        while (v->t_start + (double)pt->sample_k[j] * v->period[j] <= pt->t + tol)
+            pt->sample_k[j] += 1;
+    }
+    return PH_OK;
+}
+
 /* --- initialization --------------------------------------------------------------------------- */
 static int ph_enter_initialization(ph_instance *c, int tol_defined, double tol, double t_start,
                                    int stop_defined, double t_stop)
@@ -406,12 +490,23 @@ static int ph_exit_initialization(ph_instance *c)
     if (r >= 0)
         ph_change_modes(r, &v->now, out);
     ph_changed(c);
+    if (PH_ND > 0) {            /* the sample periods, read at the start (outputs <block>.T) */
+        const double *o = ph_now_outputs(c);
+        for (int j = 0; j < PH_ND; ++j) {
+            v->period[j] = o[ph_block_period[j]];
+            v->now.sample_k[j] = 0;
+            if (!(isfinite(v->period[j]) && v->period[j] > 0.0))
+                return PH_FAIL(c, "%s: discrete block %s: its sample period must be a finite "
+                               "number > 0, got %g", c->name, ph_block_names[j], v->period[j]);
+        }
+    }
     v->h_start = ph_now_energy(c)[0];
     memcpy(v->g_prev, ph_now_guards(c), sizeof(double) * PH_NE);
     for (int i = 0; i < PH_N; ++i)
         c->atol[i] = v->solver[1];
     v->main = v->now;
     v->h_next = 0.0;
+    v->h_now = 0.0;
     v->t_segment = v->now.t;
     v->mask_index = -1;
     v->last_successful = v->now.t;
@@ -421,9 +516,11 @@ static int ph_exit_initialization(ph_instance *c)
 
 /* --- model exchange --------------------------------------------------------------------------- */
 /* the event update of model exchange: every guard that crossed in its direction since the last
- * event fires (in the order of the events); *terminate when the run ends, *moved when the ledger
- * states changed */
-static int ph_update_discrete(ph_instance *c, int *terminate, int *moved)
+ * event fires (in the order of the events), then the discrete blocks due sample (a time event);
+ * *terminate when the run ends, *moved when states changed (the ledger's, the blocks'),
+ * *next_time the next sampling instant (*next_defined: there is one) */
+static int ph_update_discrete(ph_instance *c, int *terminate, int *moved, int *next_defined,
+                              double *next_time)
 {
     ph_values *v = &c->v;
     double g_old[PH_NE1], out[PH_NO1], before[PH_N];
@@ -434,6 +531,19 @@ static int ph_update_discrete(ph_instance *c, int *terminate, int *moved)
         fired[k] = ph_crossed(v->g_prev[k], g_old[k], ph_event_directions[k]);
         if (fired[k])
             ph_fire(c, &v->now, k, out);
+    }
+    *next_defined = 0;
+    *next_time = 0.0;
+    if (PH_ND > 0) {
+        const double t_k = ph_next_sample(v, &v->now);
+        const double tol = 1e-10 * fmax(1.0, fabs(t_k));
+        if (v->now.t >= t_k - tol && ph_sample(c, &v->now, tol) != PH_OK)
+            return PH_ERROR;
+        *next_time = ph_next_sample(v, &v->now);
+        *next_defined = isfinite(*next_time) &&
+                        !(v->stop_defined && *next_time >= v->t_stop);
+        if (!*next_defined)
+            *next_time = 0.0;
     }
     ph_changed(c);
     const double *g = ph_now_guards(c);
@@ -478,17 +588,18 @@ static double ph_value_at(ph_instance *c, unsigned int vr, const double *y, cons
     return value;
 }
 
-/* sensitivity = d(unknowns)/d(knowns) . seed. The state derivatives by the states: the compiled
- * Jacobian (exact); any other pair (outputs, H, guards; parameters as knowns): central
- * differences along the seed. */
+/* sensitivity = d(unknowns)/d(knowns) . seed. The state derivatives by the states and inputs:
+ * the compiled Jacobians (jac, jac_u: exact); any other pair (outputs, H, guards; parameters as
+ * knowns): central differences along the seed (an input moves its slot a: u + eps at any t). */
 static int ph_directional(ph_instance *c, const unsigned int *unknowns, size_t n_unknowns,
                           const unsigned int *knowns, size_t n_knowns, const double *seed,
                           double *sensitivity)
 {
-    double dy[PH_N], dp[PH_NP1];
-    int only_states = 1;
+    double dy[PH_N], dp[PH_NS1], du[PH_NU1];
+    int exact = 1, by_inputs = 0;
     memset(dy, 0, sizeof dy);
     memset(dp, 0, sizeof dp);
+    memset(du, 0, sizeof du);
     for (size_t j = 0; j < n_knowns; ++j) {
         const ph_variable *var = ph_find(c, knowns[j], 0);
         if (var == NULL)
@@ -497,20 +608,24 @@ static int ph_directional(ph_instance *c, const unsigned int *unknowns, size_t n
             dy[var->index] += seed[j];
         } else if (var->kind == PH_PARAM) {
             dp[var->index] += seed[j];
-            only_states = 0;
+            exact = 0;
+        } else if (var->kind == PH_INPUT) {
+            dp[PH_NP + var->index] += seed[j];
+            du[var->index] += seed[j];
+            by_inputs = 1;
         } else {
-            return PH_FAIL(c, "%s: directional derivatives by variable %u: only states and "
-                           "parameters are knowns", c->name, knowns[j]);
+            return PH_FAIL(c, "%s: directional derivatives by variable %u: only states, inputs "
+                           "and parameters are knowns", c->name, knowns[j]);
         }
     }
     double *J = NULL;
-    double yp[PH_N], ym[PH_N], pp[PH_NP1], pm[PH_NP1];
+    double yp[PH_N], ym[PH_N], pp[PH_NS1], pm[PH_NS1];
     double scale = 0.0, size = 0.0;
     for (int i = 0; i < PH_N; ++i) {
         scale = fmax(scale, fabs(c->v.now.y[i]));
         size = fmax(size, fabs(dy[i]));
     }
-    for (int i = 0; i < PH_NP; ++i) {
+    for (int i = 0; i < PH_NP + PH_NU; ++i) {
         scale = fmax(scale, fabs(c->v.now.p[i]));
         size = fmax(size, fabs(dp[i]));
     }
@@ -519,7 +634,7 @@ static int ph_directional(ph_instance *c, const unsigned int *unknowns, size_t n
         yp[i] = c->v.now.y[i] + eps * dy[i];
         ym[i] = c->v.now.y[i] - eps * dy[i];
     }
-    for (int i = 0; i < PH_NP1; ++i) {
+    for (int i = 0; i < PH_NS1; ++i) {
         pp[i] = c->v.now.p[i] + eps * dp[i];
         pm[i] = c->v.now.p[i] - eps * dp[i];
     }
@@ -529,16 +644,22 @@ static int ph_directional(ph_instance *c, const unsigned int *unknowns, size_t n
             free(J);
             return PH_ERROR;
         }
-        if (var->kind == PH_RATE && only_states) {
+        if (var->kind == PH_RATE && exact) {
             if (J == NULL) {
-                J = malloc(sizeof(double) * PH_N * PH_N);
+                J = malloc(sizeof(double) * PH_N * (PH_N + PH_NU));
                 if (J == NULL)
                     return PH_FAIL(c, "%s: out of memory", c->name);
                 jac(c->v.now.t, c->v.now.y, c->v.now.p, J);
+#if PH_NU > 0
+                if (by_inputs)
+                    jac_u(c->v.now.t, c->v.now.y, c->v.now.p, J + PH_N * PH_N);
+#endif
             }
             double acc = 0.0;
             for (int j = 0; j < PH_N; ++j)
                 acc += J[var->index * PH_N + j] * dy[j];
+            for (int k = 0; k < PH_NU && by_inputs; ++k)
+                acc += J[PH_N * PH_N + var->index * PH_NU + k] * du[k];
             sensitivity[u] = acc;
         } else if (eps == 0.0) {
             sensitivity[u] = 0.0;
@@ -612,15 +733,32 @@ static int ph_deserialize(ph_instance *c, const void *bytes, size_t size, void *
 
 /* --- co-simulation ---------------------------------------------------------------------------- */
 /* One accepted step of v->main (the loop returns after it: max_steps = 1), with its events and
- * rules; the point before it in v->prev. 0 on success (also at the stop time or a terminal
- * event), else the loop's failure status. */
-static int ph_main_step(ph_instance *c)
+ * rules; the point before it in v->prev. The discrete blocks due at v->main sample first; the
+ * step ends on the next sampling instant at the latest. The first point whose step would cross
+ * the communication point `target` is kept (v->cross). 0 on success (also at the stop time or
+ * a terminal event), else the loop's failure status (-1: a sampling failed). */
+static int ph_main_step(ph_instance *c, double target)
 {
     ph_values *v = &c->v;
     ph_point *m = &v->main;
-    const double t_end = v->stop_defined ? v->t_stop : 1e300;
+    double t_end = v->stop_defined ? v->t_stop : 1e300;
     const double hmax = isfinite(v->solver[2]) ? v->solver[2] : 1e300;
-    const double tgrad = PH_AUTONOMOUS ? 0.0 : 1e-7 * fmax(1.0, fabs(v->t_segment));
+    if (PH_ND > 0) {
+        if (ph_next_sample(v, m) <= m->t) {     /* a breakpoint, as in porthamiltonian.simulate */
+            if (ph_sample(c, m, 0.0) != PH_OK)
+                return -1;
+            v->mask_index = -1;
+            v->t_segment = m->t;
+        }
+        t_end = fmin(t_end, ph_next_sample(v, m));
+    }
+    const double tgrad = ph_tgrad(v, m->p);
+    if (!v->have_cross && v->h_next > 0.0 && m->t < target && target < t_end &&
+        m->t + v->h_next > target) {
+        v->cross = *m;
+        v->cross_h = v->h_next;
+        v->have_cross = 1;
+    }
     v->prev = *m;
     v->have_prev = 1;
     const int status = PH_INTEGRATE(m->t, m->y, t_end, m->p, v->solver[0], c->atol, v->h_next,
@@ -646,6 +784,8 @@ static int ph_main_step(ph_instance *c)
     }
     if (status == 1) {
         const int k = (int)c->counts[4];
+        if (c->th[0] <= target)     /* the integration goes on from the event */
+            v->have_cross = 0;
         const double t_restart = v->t_segment;
         ph_fire(c, m, k, out);
         /* as porthamiltonian.simulate: a guard that fired after some integration (its state
@@ -659,18 +799,21 @@ static int ph_main_step(ph_instance *c)
     return 0;
 }
 
-/* y at time t (prev.t < t < main.t) by an integration of its own from v->prev (guards off) */
-static int ph_values_at(ph_instance *c, double t, double *y)
+/* y at time t (prev.t < t < main.t) by an integration of its own (guards off) from v->cross, the
+ * point where porthamiltonian.simulate with a breakpoint at t would shorten its step (else from
+ * v->prev): the steps it takes from there; *h_out the step size it goes on with */
+static int ph_values_at(ph_instance *c, double t, double *y, double *h_out)
 {
     ph_values *v = &c->v;
-    const ph_point *a = &v->prev;
+    const ph_point *a = v->have_cross ? &v->cross : &v->prev;
     const double hmax = isfinite(v->solver[2]) ? v->solver[2] : 1e300;
-    const double tgrad = PH_AUTONOMOUS ? 0.0 : 1e-7 * fmax(1.0, fabs(v->t_segment));
+    const double tgrad = ph_tgrad(v, a->p);
+    *h_out = v->h_next;
     if (t - a->t <= 1e-13 * fmax(1.0, fabs(t))) {
         memcpy(y, a->y, sizeof(double) * PH_N);
         return 0;
     }
-    double tt = a->t, h = t - a->t, yy[PH_N];
+    double tt = a->t, h = v->have_cross ? v->cross_h : t - a->t, yy[PH_N];
     memcpy(yy, a->y, sizeof yy);
     for (;;) {
         const int status = PH_INTEGRATE(tt, yy, t, a->p, v->solver[0], c->atol, h, hmax,
@@ -687,6 +830,7 @@ static int ph_values_at(ph_instance *c, double t, double *y)
             return status;
     }
     memcpy(y, yy, sizeof(double) * PH_N);
+    *h_out = h;
     return 0;
 }
 
@@ -711,12 +855,17 @@ static int ph_do_step(ph_instance *c, double t_c, double h, int *terminated)
     if (fabs(t_c - v->now.t) > 1e-9 * fmax(1.0, fabs(t_c)))
         return PH_FAIL(c, "%s: doStep from t = %.17g but the FMU is at t = %.17g", c->name, t_c,
                        v->now.t);
-    const double target = v->now.t + h;
-    if (v->restart) {               /* a tunable parameter changed: restart from here */
+    const double target = t_c + h;     /* the importer's clock (t_c + (t_next - t_c) = t_next) */
+    v->have_cross = 0;
+    int inputs_changed = 0;
+    for (int i = PH_NP; i < PH_NS; ++i)
+        inputs_changed |= v->now.p[i] != v->main.p[i];
+    if (v->restart || inputs_changed) {  /* a tunable parameter or an input changed: restart */
         v->main = v->now;
         v->have_prev = 0;
         v->mask_index = -1;
         v->t_segment = v->now.t;
+        v->h_next = v->h_now;
         v->restart = 0;
     }
     while (!v->main.stop && v->main.t < target) {
@@ -726,7 +875,11 @@ static int ph_do_step(ph_instance *c, double t_c, double h, int *terminated)
                                c->name, target, v->t_stop);
             break;
         }
-        const int status = ph_main_step(c);
+        const int status = ph_main_step(c, target);
+        if (status < 0) {
+            v->mode = PH_FAILED;
+            return PH_ERROR;
+        }
         if (status != 0) {
             v->mode = PH_FAILED;
             return PH_FAIL(c, "%s: the integration failed at t = %.17g: %s", c->name, v->main.t,
@@ -741,9 +894,10 @@ static int ph_do_step(ph_instance *c, double t_c, double h, int *terminated)
     } else if (v->main.t <= target || !v->have_prev) {
         v->now = v->main;
         v->now.t = target;
+        v->h_now = v->h_next;
     } else {                        /* inside the last step: from the point before it */
         double y[PH_N];
-        const int status = ph_values_at(c, target, y);
+        const int status = ph_values_at(c, target, y, &v->h_now);
         if (status != 0) {
             v->mode = PH_FAILED;
             return PH_FAIL(c, "%s: the integration to the communication point t = %.17g "

@@ -25,7 +25,6 @@ from __future__ import annotations
 import base64
 import functools
 import html
-import json
 import tempfile
 from importlib import resources
 from pathlib import Path
@@ -34,6 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import SceneError
+from ...escaping import script_json
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -61,7 +61,7 @@ def _import_map() -> str:
     def url(source: str) -> str:
         return "data:text/javascript;base64," + base64.b64encode(source.encode()).decode()
     imports = {"three": url(module), "three/core": url(core)}
-    return f'<script type="importmap">{json.dumps({"imports": imports})}</script>'
+    return f'<script type="importmap">{script_json({"imports": imports})}</script>'
 
 
 _CSS = """.ph-viewer{margin:1em 0 1.6em}
@@ -235,7 +235,7 @@ def block(scene: Scene, *, element_id: str = "viewer", caption: str = "",
           still: bytes | None = None, label: str = "3D view of the motion") -> str:
     """One view of ``scene`` (the page needs :func:`assets` once). ``still``: PNG bytes shown
     where WebGL or scripts are missing. ``caption``: text under the view (escaped here)."""
-    data = json.dumps(scene.to_dict(), separators=(",", ":")).replace("</", "<\\/")
+    data = script_json(scene.to_dict())
     n = len(scene.t)
     speeds = "".join(f'<option value="{s}"{" selected" if s == "1" else ""}>{s}×</option>'
                      for s in ("0.1", "0.25", "0.5", "1", "2"))

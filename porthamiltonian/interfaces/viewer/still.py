@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...escaping import plain_text
 from .quaternions import AXES, rotate
 
 if TYPE_CHECKING:
@@ -37,7 +38,14 @@ def still_frames(scene: Scene, times: Sequence[float] | None = None) -> list[int
 
 def write_png(scene: Scene, path: Path, *, times: Sequence[float] | None = None,
               elevation: float = 18.0, azimuth: float = -70.0, dpi: int = 110) -> Path:
-    """Draw the still image of ``scene`` into ``path`` (see :meth:`Scene.to_png`)."""
+    """Draw the still image of ``scene`` into ``path`` (see :meth:`Scene.to_png`); its text (the
+    scene's title: a model's name) is plain text, never mathtext."""
+    with plain_text():
+        return _draw(scene, path, times=times, elevation=elevation, azimuth=azimuth, dpi=dpi)
+
+
+def _draw(scene: Scene, path: Path, *, times: Sequence[float] | None, elevation: float,
+          azimuth: float, dpi: int) -> Path:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.ticker import MaxNLocator

@@ -1,0 +1,233 @@
+"""Impossible physics and colliding names are refused, whatever way the values arrive (issue 21):
+the physical constraints are checked on the values that parameters take when they are bound
+(porthamiltonian/modeling/constraints.py, mechanics/inertia.py), and every name a model
+defines lives in one namespace (modeling/component.py, modeling/model.py).
+
+Before: a negative or indefinite inertia given through an expression or ``--set`` ran as
+"finished" (``simulate heavy_top --set C=-0.006``: H(0) = −9.94 J), only literals were checked;
+inertias that break the triangle inequality ran silently; a zero quaternion reached through
+parameters said "initial state is not finite" without naming the joint; ``sqrt(k)`` with k < 0
+failed deep in the integrator; a body named ``world`` was accepted; a body point named like a
+joint's state group (``q`` beside a joint ``x``) silently shadowed the state.
+
+Each case answers a typed error naming the component, the argument and the parameter values,
+within :data:`conftest.REFUSAL_CPU` seconds of processor time; the good values beside them
+still run, and their numbers are unchanged.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import MODELS_DIR
+
+import porthamiltonian as ph
+from porthamiltonian import compile_model, io
+from porthamiltonian.errors import DuplicateNameError, ModelError, ParameterValueError
+from porthamiltonian.interfaces import cli
+from porthamiltonian.mechanics import FreeBody
+
+
+def _text(name: str) -> str:
+    return (MODELS_DIR / f"{name}.toml").read_text()
+
+
+@pytest.fixture(scope="module")
+def heavy_top(isolated_cache):
+    return compile_model(io.load("heavy_top"), backend="python")
+
+
+#: heavy_top: inertia ["A_c", "A_c", "C"] about the centre of mass (A_c = 0.004, C = 0.006)
+TOP = [
+    ({"C": -0.006}, ["I_xx + I_zz (triangle inequality)", "C = -0.006", "got -0.002"]),
+    ({"C": 0.01}, ["I_xx + I_yy (triangle inequality)", "must be >= I_zz (0.01)", "got 0.008"]),
+    ({"A_c": -0.004}, ["I_xx + I_yy", "A_c = -0.004"]),
+    ({"A_c": 0.0, "C": 0.0}, []),                      # a point mass: allowed
+    ({"A_c": 0.001, "C": 0.002}, []),                  # a thin disc, I_zz = I_xx + I_yy: allowed
+    ({"m": -1.0}, ["body 'body' mass", "must be > 0"]),
+    ({"m": 0.0}, ["body 'body' mass"]),
+]
+
+
+@pytest.mark.parametrize("values, words", TOP, ids=[str(v) for v, _ in TOP])
+def test_inertia_bound_at_run_time_gets_the_literal_rule(heavy_top, values, words, within):
+    with within():
+        if not words:
+            heavy_top.params(values)
+            return
+        with pytest.raises(ParameterValueError) as info:
+            heavy_top.simulate(0.01, params=values)
+    message = str(info.value)
+    assert "model 'heavy_top': component 'top'" in message
+    for word in words:
+        assert word in message, message
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["simulate", "heavy_top", "--set", "C=-0.006"], ["component 'top' body 'body' inertia"]),
+    (["simulate", "heavy_top", "--set", "A_c=0.001", "--set", "C=0.01"], ["triangle"]),
+    (["simulate", "pendulum", "--set", "r_g=nan"], ["'r_g'", "finite"]),
+])
+def test_the_command_line_refuses_impossible_bodies(argv, words, capsys, within):
+    with within():
+        status = cli.main(["--backend", "python", *argv, "--t-end", "0.01"])
+    err = capsys.readouterr().err
+    assert status == 2 and err.startswith("error: ") and "Traceback" not in err, err
+    for word in words:
+        assert word in err, err
+
+
+@pytest.mark.parametrize("inertia, words", [
+    ('["0.004*2", "0.004", "0.02"]', ["I_xx + I_yy (triangle inequality)", "got 0.012"]),
+    ('[1, 1, 3]', ["eigenvalues [1.0, 1.0, 3.0]"]),
+    ('[[1, 0.9, 0], [0.9, 1, 0], [0, 0, 1]]', ["triangle inequality"]),
+    ('[[1, 2, 0], [2, 1, 0], [0, 0, 1]]', ["eigenvalues [-1.0"]),
+])
+def test_a_literal_inconsistent_inertia_is_refused_in_the_file(inertia, words, tmp_path, within):
+    text = _text("heavy_top").replace('inertia = ["A_c", "A_c", "C"]', f"inertia = {inertia}")
+    assert text != _text("heavy_top")
+    with within(), pytest.raises(ModelError) as info:
+        io.reads(text, source="top.toml").compile(backend="python", use_cache=False)
+    assert str(info.value).startswith("top.toml, line ")
+    for word in words + ["body 'body'"]:
+        assert word in str(info.value), str(info.value)
+
+
+def test_an_expression_inertia_that_is_not_symmetric_is_refused():
+    text = _text("heavy_top").replace('inertia = ["A_c", "A_c", "C"]',
+                                      'inertia = [["A_c", "C", 0], ["A_c", "A_c", 0], [0, 0, "C"]]')
+    with pytest.raises(ModelError, match="must be symmetric: I_xy = C but I_yx = A_c"):
+        compile_model(io.loads(text), backend="python", use_cache=False)
+
+
+def test_a_planar_body_needs_only_its_moment_about_the_normal(compile_named):
+    """In the x-z plane only I_yy enters: [0, I, 0] (the walkers' legs) is a body; I < 0 is
+    not."""
+    pendulum = compile_named("pendulum")
+    pendulum.params({"r_g": 0.1})
+    text = _text("pendulum").replace('inertia = ["m*r_g**2", "m*r_g**2", "m*r_g**2"]',
+                                     'inertia = [0, "J", 0]').replace("[parameters]",
+                                                                      "[parameters]\nJ = 0.01")
+    model = compile_model(io.loads(text), backend="python", use_cache=False)
+    assert model.simulate(0.1).success
+    with pytest.raises(ParameterValueError, match=r"body 'bob' inertia I_yy = J must be >= 0"):
+        model.params({"J": -0.01})
+
+
+#: a quaternion q0 that parameters can make zero: heavy_top's joint, a FreeBody's quaternion0
+def _quaternion_top():
+    text = _text("heavy_top").replace('q0 = ["cos(theta0/2)", "sin(theta0/2)", 0, 0]',
+                                      'q0 = ["a*cos(theta0/2)", "a*sin(theta0/2)", 0, 0]')
+    return text.replace("[parameters]", "[parameters]\na = 1.0")
+
+
+def _free_body():
+    m = ph.Model("tumbler")
+    m.parameter("w", 1.0)
+    m.parameter("x", 0.0)
+    m.parameter("I3", 3.0)
+    m.add("body", FreeBody(mass=1.0, inertia=[1.0, 2.0, "I3"], gravity=[0, 0, 0],
+                           quaternion0=["w", "x", 0, 0]))
+    return m
+
+
+def test_a_zero_quaternion_through_parameters_names_the_joint(within):
+    top = compile_model(io.loads(_quaternion_top()), backend="python", use_cache=False)
+    assert top.simulate(0.01, params={"a": 2.0}).success          # any non-zero multiple
+    with within(), pytest.raises(ParameterValueError) as info:
+        top.simulate(0.01, params={"a": 0.0})
+    assert "joint 'tip' q0 (the squared norm of its quaternion" in str(info.value)
+    assert "a = 0" in str(info.value)
+    body = compile_model(_free_body(), backend="python", use_cache=False)
+    assert body.simulate(0.1).success
+    with pytest.raises(ParameterValueError, match="argument 'quaternion0' .* must be > 0"):
+        body.params({"w": 0.0})
+    with pytest.raises(ParameterValueError, match="inertia' I_xx \\+ I_yy .* must be >= I_zz"):
+        body.params({"I3": 3.5})
+
+
+@pytest.mark.parametrize("law, values, words", [
+    ("sqrt(k)", {"k": -1.0}, ["argument 'stiffness' = (k ** (1/2)) cannot be evaluated"]),
+    ("1/k", {"k": 0.0}, ["argument 'stiffness'", "cannot be evaluated"]),
+    ("log(k)", {"k": -2.0}, ["argument 'stiffness' = log(k)"]),
+    ("exp(k)", {"k": 1000.0}, ["argument 'stiffness'"]),
+    ("sqrt(k)", {"k": 4.0}, []),
+])
+def test_an_expression_undefined_at_the_bound_values_is_refused(law, values, words, within):
+    """Before: sqrt(k) with k < 0 ended as "step size too small" (or an integrator's NaN)."""
+    model = compile_model(io.loads(_text("mass_spring_damper").replace('stiffness = "k"',
+                                                                         f'stiffness = "{law}"')),
+                          backend="python", use_cache=False)
+    with within():
+        if not words:
+            assert model.simulate(1.0, params=values).success
+            return
+        with pytest.raises(ParameterValueError) as info:
+            model.simulate(1.0, params=values)
+    for word in words + ["component 'spring'"]:
+        assert word in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize("method", ["Rodas5P", "Rodas4", "Radau"])
+def test_a_tiny_end_time_finishes(method):
+    """t_end = 1e-300 finishes (before: the Rodas loops said "step size too small" at t = 0:
+    the whole span was below their smallest step); the state moved by ẋ t_end: the momentum
+    by −k x0 t_end = −4e-301 N s."""
+    model = compile_model(io.load("mass_spring_damper"), backend="python")
+    traj = model.simulate(1e-300, method=method)
+    assert traj.success and traj.t_final == 1e-300, traj.message
+    assert traj.x_final[0] == pytest.approx(-4e-301, rel=1e-12)
+    assert traj.x_final[1] == 0.1
+
+
+# --- one namespace ------------------------------------------------------------------------------------
+def _pendulum(points: str = "", joint: str = "pivot", body: str = "bob") -> str:
+    text = _text("pendulum").replace("[components.pendulum.joints.pivot]",
+                                     f"[components.pendulum.joints.{joint}]")
+    text = text.replace("[components.pendulum.bodies.bob]", f"[components.pendulum.bodies.{body}]")
+    text = text.replace('child = "bob"', f'child = "{body}"')
+    return text.replace('points = { tip = [0, 0, "-l"] }', f'points = {{ tip = [0, 0, "-l"]{points} }}')
+
+
+NAMES = [
+    (_pendulum(', q = [0, 0, "-l"]', joint="x"), "its output 'q.x' has the name of its state 'q.x'"),
+    (_pendulum(', p = [0, 0, "-l"]', joint="z"), "its output 'p.z' has the name of its state 'p.z'"),
+    (_pendulum(joint="e0").replace('points = {', 'frames = { q = [0, 0, 0] }\npoints = {'),
+     "its state 'q.e0' has the name of its port 'q' variable 'q.e0'"),
+    (_pendulum(', q = [0, 0, "-l"]', joint="f1"), "state 'q.f1' has the name of its port 'q'"),
+    (_pendulum(body="world"), "'world' is the fixed frame"),
+    (_text("mass_spring_damper") + '\n[outputs]\nk = "spring.q"\n',
+     "the output 'k' has the name of its parameter 'k'"),
+    (_text("mass_spring_damper") + '\n[outputs]\nspring = "mass.p"\n',
+     "the output 'spring' has the name of its component 'spring'"),
+    (_text("mass_spring_damper").replace("[parameters]", "[parameters]\ndamper = 1.0"),
+     "the component 'damper' has the name of its parameter 'damper'"),
+]
+
+
+@pytest.mark.parametrize("text, words", NAMES, ids=range(len(NAMES)))
+def test_colliding_names_are_refused(text, words, within):
+    """Before: the point q beside the joint x shadowed the state q.x (the pendulum never moved
+    and the run "finished")."""
+    with within(), pytest.raises(ModelError) as info:
+        io.reads(text, source="names.toml").compile(backend="python", use_cache=False)
+    assert words in str(info.value) and str(info.value).startswith("names.toml"), str(info.value)
+
+
+def test_names_collide_in_python_too():
+    m = ph.Model("m")
+    m.parameter("k", 1.0)
+    with pytest.raises(DuplicateNameError, match="component 'k' has the name of its parameter"):
+        m.add("k", ph.C(stiffness=1.0))
+    m.add("spring", ph.C(stiffness="k"))
+    with pytest.raises(DuplicateNameError, match="output 'spring'"):
+        m.output("spring", "spring.q")
+
+
+def test_a_point_with_another_name_still_runs(compile_named):
+    """The same pendulum with a point beside its tip: unchanged numbers (regression)."""
+    model = compile_model(io.loads(_pendulum(', knee = [0, 0, "-l/2"]')), backend="python",
+                          use_cache=False)
+    reference = compile_named("pendulum")
+    a = model.simulate(1.0, method="Radau", rtol=1e-10, atol=1e-12)
+    b = reference.simulate(1.0, method="Radau", rtol=1e-10, atol=1e-12)
+    assert np.array_equal(a.x_final, b.x_final)

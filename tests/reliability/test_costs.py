@@ -1,0 +1,265 @@
+"""Work that would cost a user their memory or their time is estimated before it starts, and
+refused, bounded or shown (issue 21; porthamiltonian/compiler/estimate.py, batch/grids.py, the
+gait search's and the continuation's time limits, simulate's progress).
+
+Before: a 1000-link chain grew to 24 GB and was killed by the kernel after 8 minutes of silence
+(a 60-link one took 5 minutes without a word); ``walker sweep`` with a 10⁹-case grid allocated
+until MemoryError; ``walker gait compass_walker --set K=1e15`` printed nothing for over 10
+minutes (the homotopy from K = 1e6 to 1e15 had no bound); ``t_end = 1e12`` ran silently.
+
+The size cases run in subprocesses capped at 1 GB of address space (RLIMIT_AS) and must refuse
+within 5 s of processor time (plus the interpreter's start); the time cases must answer with
+their own message.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from conftest import capped
+
+from porthamiltonian import io
+from porthamiltonian.batch import grid, parse_grid
+from porthamiltonian.compiler import estimate, symbolic
+from porthamiltonian.compiler.codegen import program
+from porthamiltonian.compiler.printers import c_source
+from porthamiltonian.errors import CostError
+from porthamiltonian.interfaces.cli import RunProgress
+from walker_library.analyses.continuation import continue_gait
+from walker_library.core.files import load_walker
+
+GIGABYTE = 1 << 30
+#: processor seconds of a refusal in a fresh interpreter: 5 s and the interpreter's start
+SUBPROCESS_CPU = 12.0
+
+
+def chain_text(n: int) -> str:
+    """An n-link planar pendulum chain as a model file (uniform rods on revolute joints)."""
+    lines = ["[model]", f'name = "chain{n}"', "[parameters]", "m = 1.0", "l = 0.1", "g = 9.81",
+             "[components.arm]", 'type = "Multibody"', 'plane = "xz"', 'gravity = [0, 0, "-g"]']
+    for i in range(n):
+        lines += [f"[components.arm.bodies.b{i}]", 'mass = "m"', 'com = [0, 0, "-l/2"]',
+                  'inertia = ["m*l**2/12", "m*l**2/12", "m*l**2/12"]']
+    for i in range(n):
+        lines += [f"[components.arm.joints.j{i}]", 'type = "revolute"',
+                  f'parent = "{"world" if i == 0 else f"b{i - 1}"}"', f'child = "b{i}"',
+                  'axis = "y"', "q0 = 0.1"] + ([] if i == 0 else ['origin = [0, 0, "-l"]'])
+    return "\n".join([*lines, "[simulation]", "t_end = 0.1"]) + "\n"
+
+
+def _cpu_of(proc_run) -> tuple[subprocess.CompletedProcess, float]:
+    import resource
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    proc = proc_run()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return proc, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+# --- the size of a model's code ---------------------------------------------------------------------
+@pytest.mark.parametrize("n", [6, 12])
+def test_the_estimate_matches_the_generated_code(n):
+    """The estimate of a chain's C code against the code generated (within 30 %), so that a
+    refusal is about the real cost."""
+    description = io.loads(chain_text(n)).freeze()
+    cost = estimate.estimate(description)
+    size = len(c_source(program(symbolic(description))).encode())
+    assert cost.bodies == n and cost.terms == n * (n + 1) // 2
+    assert 0.7 < cost.code_bytes / size < 1.3, (cost.code_bytes, size)
+
+
+def tree_text(joints: list[tuple[str, str, str]]) -> str:
+    """A 3D multibody of rods hung by ``(type, parent, child)`` joints (a model file)."""
+    lines = ["[components.arm]", 'type = "Multibody"']
+    for _, _, child in joints:
+        lines += [f"[components.arm.bodies.{child}]", "mass = 1.0", "com = [0, 0, -0.1]",
+                  "inertia = [0.01, 0.01, 0.01]"]
+    for kind, parent, child in joints:
+        axis = ['axis = "y"'] if kind == "revolute" else []
+        lines += [f"[components.arm.joints.to_{child}]", f'type = "{kind}"',
+                  f'parent = "{parent}"', f'child = "{child}"', *axis]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("joints, terms", [
+    ([("revolute", "world", "a"), ("revolute", "world", "b"), ("revolute", "world", "c")], 3),
+    ([("revolute", "world", "a"), ("revolute", "a", "b"), ("revolute", "a", "c")], 5),
+    ([("spherical", "world", "a"), ("revolute", "a", "b")], 3 + 4),
+    ([("revolute", "world", "a"), ("weld", "a", "b")], 2),
+])
+def test_the_estimate_counts_the_recursion_terms(joints, terms):
+    """Σ over bodies of the joint coordinates between the body and the world: a star of N
+    bodies costs N, a chain N(N+1)/2, a spherical joint 3, a weld 0."""
+    cost = estimate.estimate(io.loads(tree_text(joints)).freeze())
+    assert (cost.bodies, cost.terms) == (len(joints), terms)
+
+
+def test_a_walker_and_a_top_are_small():
+    for name, bodies in (("compass_walker_3d", 6), ("heavy_top", 1), ("mass_spring_damper", 0)):
+        cost = estimate.estimate(io.load(name).freeze())
+        assert cost.bodies == bodies and cost.code_bytes < 100e3, (name, cost)
+
+
+@pytest.mark.parametrize("n, argv", [
+    (1000, ["-m", "porthamiltonian", "simulate"]),
+    (1000, ["-m", "porthamiltonian", "show", "--code"]),
+    (200, ["-m", "porthamiltonian", "simulate"]),
+])
+def test_a_huge_chain_is_refused_before_any_work(n, argv, tmp_path):
+    """Under a 1 GB cap: refused with the estimate and the override, in seconds (before: 24 GB
+    and the kernel's kill after 8 minutes)."""
+    path = tmp_path / f"chain{n}.toml"
+    path.write_text(chain_text(n))
+    proc, cpu = _cpu_of(lambda: capped([*argv, str(path)], GIGABYTE))
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    err = proc.stderr
+    assert err.startswith("error: ") and f"{n} bodies" in err and "refused before any work" in err
+    assert "PORTHAMILTONIAN_MAX_CODE_MB" in err and "MemoryError" not in err
+    assert cpu < SUBPROCESS_CPU, cpu
+
+
+def test_the_memory_available_bounds_the_build(tmp_path):
+    """A 60-link chain (2.4 MB of C: under the 8 MB limit, but about 1.1 GB for the C compiler)
+    in a process capped at 1 GB: refused, naming the memory available."""
+    path = tmp_path / "chain60.toml"
+    path.write_text(chain_text(60))
+    proc = capped(["-m", "porthamiltonian", "show", "--code", str(path)], GIGABYTE)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "60 bodies" in proc.stderr and "the memory available (1.1 GB)" in proc.stderr
+
+
+def test_the_override_and_the_progress_line(monkeypatch):
+    """$PORTHAMILTONIAN_MAX_CODE_MB raises the limit (0: none); a build estimated to take more
+    than 20 s is announced before it starts."""
+    description = io.loads(chain_text(60)).freeze()
+    monkeypatch.delenv(estimate.LIMIT_VARIABLE, raising=False)
+    lines: list[str] = []
+    cost = estimate.check(description, lines.append)
+    assert len(lines) == 1 and lines[0].startswith("building chain60: 60 bodies, about 2.")
+    assert "MB of code" in lines[0] and "to build)" in lines[0]
+    assert cost.seconds > 20
+    monkeypatch.setenv(estimate.LIMIT_VARIABLE, "1")
+    with pytest.raises(CostError, match=r"more than \$PORTHAMILTONIAN_MAX_CODE_MB = 1 allows"):
+        estimate.check(description, lines.append)
+    monkeypatch.setenv(estimate.LIMIT_VARIABLE, "0")
+    assert estimate.limit()[0] == math.inf
+    monkeypatch.setenv(estimate.LIMIT_VARIABLE, "lots")
+    with pytest.raises(CostError, match="must be a number of MB"):
+        estimate.limit()
+
+
+# --- the cases of a sweep ----------------------------------------------------------------------------
+@pytest.mark.parametrize("argv", [
+    ["-m", "walker_library", "sweep", "simplest_walker", "--grid", "slope=0.001:0.01:1000",
+     "--grid", "gamma=1:2:1000", "--grid", "x=1:2:1000"],
+    ["-m", "porthamiltonian", "sweep", "mass_spring_damper", "--grid", "k=1:2:1000000000"],
+    ["-m", "porthamiltonian", "sweep", "mass_spring_damper", "--grid", "k=1:2:100000",
+     "--grid", "c=0.1,0.2"],
+])
+def test_a_huge_grid_is_refused_before_any_case_is_made(argv, tmp_path):
+    out = tmp_path / "s.jsonl"
+    proc, cpu = _cpu_of(lambda: capped([*argv, "--out", str(out)], GIGABYTE))
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "refused before any case is made" in proc.stderr and "--max-cases" in proc.stderr
+    assert not out.exists() and cpu < SUBPROCESS_CPU
+
+
+def test_grid_limits_in_python_and_the_override():
+    with pytest.raises(CostError, match=r"12 cases \(3 \(a\) x 4 \(b\)\)"):
+        grid(max_cases=10, a=[1, 2, 3], b=[1, 2, 3, 4])
+    assert len(grid(max_cases=12, a=[1, 2, 3], b=[1, 2, 3, 4])) == 12
+    assert len(grid(max_cases=None, a=range(300), b=range(400))) == 120_000
+    with pytest.raises(CostError, match="1,000,000,000 cases"):
+        parse_grid(["k=0:1:1000000000"])
+    assert len(parse_grid(["k=0:1:11", "c=1,2"], max_cases=22)) == 22
+
+
+# --- time: the gait search and the continuation -------------------------------------------------------
+def test_a_gait_search_that_would_run_for_hours_stops_at_its_time_limit(capsys, within):
+    """K = 1e15 (a contact 1e9 times stiffer than the file's): the search continues the file's
+    nominal gait towards it, shows its progress, and stops at --time-limit with its own
+    message (before: over 10 minutes without a word)."""
+    from walker_library.cli import main
+
+    with within(cpu=120):
+        status = main(["gait", "compass_walker", "--set", "K=1e15", "--time-limit", "8"])
+    out, err = capsys.readouterr()
+    assert status == 0, err
+    assert "the search stopped at its time limit (8 s; --time-limit)" in out
+    if "(K 1e+06 -> 1e+15)" in out:           # it got as far as the homotopy (not under load)
+        assert "continuing the model file's nominal gait: K 1e+06 -> 1e+15" in err  # progress
+
+
+def test_a_continuation_stops_at_its_time_limit_and_says_where():
+    walker = load_walker("simplest_walker")
+    t0 = time.perf_counter()
+    result = continue_gait(walker, "slope", 0.004, 0.0185, time_limit=0.5, max_points=400)
+    assert time.perf_counter() - t0 < 60
+    assert result.stopped.startswith("stopped at the time limit (0.5 s) at slope = ")
+    assert result.branches[0].end == result.stopped and result.stopped in result.message
+    assert result.to_dict()["stopped"] == result.stopped
+    with pytest.raises(Exception, match="time_limit must be a number of seconds > 0"):
+        continue_gait(walker, "slope", 0.004, 0.0185, time_limit=0.0)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["gait", "simplest_walker", "--time-limit", "-1"], "--time-limit must be a finite number >= 0"),
+    (["continue", "simplest_walker", "--param", "slope=0.01:0.02", "--time-limit", "nan"],
+     "--time-limit must be a finite number >= 0"),
+])
+def test_bad_time_limits_are_refused(argv, words, capsys):
+    from walker_library.cli import main
+
+    assert main(argv) == 2
+    assert words in capsys.readouterr().err
+
+
+# --- time: long runs -------------------------------------------------------------------------------
+def test_the_progress_of_a_run_estimates_what_is_left(monkeypatch, capsys):
+    clock = iter([0.0, 6.0, 7.0, 40.0])
+    monkeypatch.delenv("PORTHAMILTONIAN_QUIET", raising=False)
+    progress = RunProgress("pendulum", 1e12, max_steps=10_000_000, clock=lambda: next(clock))
+    progress(600.0, 6000)                        # 6 s: a line (1e13 steps needed)
+    progress(700.0, 7000)                        # 7 s: not yet (every 30 s)
+    progress(4000.0, 40_000)
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2, lines
+    assert lines[0].startswith("pendulum: t = 600 s of 1e+12 s") and "6000 steps" in lines[0]
+    assert "will stop at the limit of 10000000 steps near t = 1e+06 s" in lines[0]
+    clock2 = iter([0.0, 10.0])
+    RunProgress("pendulum", 100.0, clock=lambda: next(clock2))(50.0, 100)
+    assert "about 10 s to go at this pace" in capsys.readouterr().err
+
+
+def test_simulate_reports_its_progress(compile_named):
+    seen: list[tuple[float, int]] = []
+    compile_named("pendulum").simulate(50.0, method="Radau", progress=lambda t, n: seen.append((t, n)))
+    assert seen and np.all(np.diff([t for t, _ in seen]) > 0) and seen[-1][1] >= 1000
+    with pytest.raises(Exception, match="progress must be a function"):
+        compile_named("pendulum").simulate(1.0, progress=3)
+
+
+def test_t_end_1e12_is_not_silent(isolated_cache):
+    """``simulate pendulum --t-end 1e12``: within a minute a line says where the run is and that
+    max_steps will end it (the run is then stopped)."""
+    import os
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    env.pop("PORTHAMILTONIAN_QUIET", None)
+    proc = subprocess.Popen([sys.executable, "-m", "porthamiltonian", "simulate", "pendulum",
+                             "--t-end", "1e12"], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                            text=True, env=env)
+    try:
+        deadline = time.monotonic() + 240
+        line = ""
+        while time.monotonic() < deadline:
+            line = proc.stderr.readline()
+            if line.startswith("pendulum: t = "):
+                break
+    finally:
+        proc.kill()
+        proc.wait()
+    assert "of 1e+12 s" in line and "will stop at the limit of 10000000 steps" in line, line
+    assert line.rstrip().endswith("(Ctrl-C stops the run)")

@@ -1,0 +1,197 @@
+"""One clear message for each input that got a misleading one, a raw traceback or silence
+(issue 21, the "Poor" list): a typed error (status 2 with ``error: ...`` on the command line)
+naming what is wrong, within :data:`conftest.REFUSAL_CPU` seconds of processor time.
+
+Before: a flow source on a mass got the dissipator's causality hint; ``--steps 0`` spoke of
+t_end; ``compile_model("msd")``, ``connect(1, 2)`` and ``x0={'spring.q': 'abc'}`` raised bare
+Python errors; a full disk during a sweep was an OSError reported as a bug (no data was lost);
+``walker export`` overwrote any file, through symbolic links too.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+import porthamiltonian as ph
+from porthamiltonian import compile_model, io
+from porthamiltonian.errors import (
+    ConnectError,
+    DerivativeCausalityError,
+    ModelError,
+    StateError,
+)
+from porthamiltonian.interfaces import cli
+from walker_library import cli as walker_cli
+
+
+@pytest.mark.parametrize("source, storage, words", [
+    (("Sf", "flow"), ("I", "inertance"), ["source 'src' (Sf) imposes the flow of storage 'st'",
+                                          "drive the storage with an effort source"]),
+    (("Se", "effort"), ("C", "stiffness"), ["source 'src' (Se) imposes the effort of storage",
+                                            "drive the storage with a flow source"]),
+])
+def test_a_source_on_a_storage_gets_the_causality_message(source, storage, words, within):
+    m = ph.Model("driven")
+    m.add("src", getattr(ph, source[0])(**{source[1]: 1.0}))
+    m.add("st", getattr(ph, storage[0])(**{storage[1]: 2.0}))
+    m.connect("src.p", "st.p")
+    with within(), pytest.raises(DerivativeCausalityError) as info:
+        compile_model(m, backend="python", use_cache=False)
+    message = str(info.value)
+    for word in words + ["derivative causality"]:
+        assert word in message, message
+    assert "nonlinear law" not in message
+
+
+@pytest.mark.parametrize("call, error, words", [
+    (lambda: compile_model("msd"), ModelError,
+     ["compile_model takes a Model", "compile_model(io.load('msd'))"]),
+    (lambda: compile_model(42), ModelError, ["got int 42"]),
+    (lambda: ph.Model("m").connect(1, 2), ConnectError, ["tail must be a string", "got int 1"]),
+    (lambda: ph.Model("m").connect("a.p", None), ModelError, []),
+])
+def test_python_api_misuse_is_a_typed_error(call, error, words, within):
+    with within(), pytest.raises(error) as info:
+        call()
+    for word in words:
+        assert word in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize("x0, words", [
+    ({"spring.q": "abc"}, ["initial value of state 'spring.q' must be a number", "str 'abc'"]),
+    ({"spring.q": None}, ["must be a number, got NoneType"]),
+    ({"spring.q": [1.0]}, ["must be a number, got list"]),
+    ({"spring.q": True}, ["must be a number, got bool"]),
+    ({"spring.q": float("nan")}, ["initial state is not finite: spring.q = nan"]),
+    ({"spring.x": 1.0}, ["no state 'spring.x'"]),
+])
+def test_a_bad_initial_value_names_the_state(compile_named, x0, words, within):
+    model = compile_named("mass_spring_damper")
+    with within(), pytest.raises(StateError) as info:
+        model.simulate(1.0, x0=x0)
+    for word in words:
+        assert word in str(info.value), str(info.value)
+
+
+WALKER_OPTIONS = [
+    (["walk", "compass_walker", "--steps", "0"], "--steps must be at least 1, got 0"),
+    (["report", "compass_walker", "--steps", "-1"], "--steps must be at least 1, got -1"),
+    (["basin", "simplest_walker", "--n", "1"], "--n must be at least 2, got 1"),
+    (["basin", "simplest_walker", "--span", "0"], "--span must be a finite number > 0, got 0"),
+    (["step-down", "simplest_walker", "--resolution", "nan"], "--resolution must be a finite"),
+    (["step-down", "simplest_walker", "--h-max", "-1"], "--h-max must be a finite number > 0"),
+    (["gait", "simplest_walker", "--max-period", "0"], "--max-period must be at least 1"),
+    (["gait", "simplest_walker", "--iterate", "0"], "--iterate must be at least 1"),
+    (["gait", "simplest_walker", "--fd-step", "inf"], "--fd-step must be a finite number > 0"),
+    (["continue", "simplest_walker", "--param", "slope=0.01:0.02", "--doublings", "-1"],
+     "--doublings must be at least 0"),
+    (["continue", "simplest_walker", "--param", "slope=0.01:0.02", "--max-points", "1"],
+     "--max-points must be at least 2"),
+    (["sweep", "simplest_walker", "--grid", "slope=0.01", "--out", "x.jsonl", "--workers", "0"],
+     "--workers must be at least 1, got 0"),
+    (["sweep", "simplest_walker", "--grid", "slope=0.01", "--out", "x.jsonl", "--max-cases",
+      "-1"], "--max-cases must be at least 0"),
+    (["reproduce", "--workers", "0"], "--workers must be at least 1"),
+]
+
+
+@pytest.mark.parametrize("argv, words", WALKER_OPTIONS, ids=[" ".join(a) for a, _ in WALKER_OPTIONS])
+def test_a_bad_option_gets_its_own_message_before_any_work(argv, words, capsys, tmp_path,
+                                                          monkeypatch, within):
+    """Before: ``--steps 0`` spoke of t_end (after the gait search had run)."""
+    monkeypatch.chdir(tmp_path)
+    with within():
+        status = walker_cli.main(argv)
+    err = capsys.readouterr().err
+    assert status == 2 and err == f"error: {err[7:]}" and words in err, err
+    assert not (tmp_path / "x.jsonl").exists()
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["view", "free_rigid_body", "--rate", "inf"], "--rate must be a finite number > 0, got inf"),
+    (["sweep", "mass_spring_damper", "--grid", "k=1", "--out", "x.jsonl",
+      "--progress-interval", "-1"], "--progress-interval must be a finite number >= 0"),
+])
+def test_porthamiltonian_options_too(argv, words, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(argv) == 2
+    assert words in capsys.readouterr().err
+
+
+# --- walker export ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("target", ["file", "link to a file", "broken link", "directory"])
+def test_export_never_overwrites_without_force(target, tmp_path, capsys, within):
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep me")
+    path = tmp_path / "out.toml"
+    if target == "file":
+        path.write_text("mine")
+    elif target == "link to a file":
+        path.symlink_to(precious)
+    elif target == "broken link":
+        path.symlink_to(tmp_path / "nowhere")
+    else:
+        path.mkdir()
+    with within():
+        status = walker_cli.main(["export", "simplest_walker", str(path)])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert ("is a directory" if target == "directory" else "give --force to replace it") in err
+    assert precious.read_text() == "keep me"
+    if target == "file":
+        assert path.read_text() == "mine"
+
+
+def test_export_with_force_replaces_the_link_not_its_target(tmp_path, capsys):
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep me")
+    path = tmp_path / "out.toml"
+    path.symlink_to(precious)
+    assert walker_cli.main(["export", "simplest_walker", str(path), "--force",
+                            "--set", "slope=0.01"]) == 0
+    assert precious.read_text() == "keep me" and not path.is_symlink()
+    assert io.read(path).model.parameters["slope"].value == 0.01
+    assert oct(path.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+# --- a full disk during a sweep ---------------------------------------------------------------------
+_FULL = """
+import resource, signal, sys
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (3000, 3000))   # the header and a few rows fit
+from porthamiltonian.interfaces import cli
+sys.exit(cli.main(["--backend", "python", "sweep", "mass_spring_damper", "--grid", "k=1:2:12",
+                   "--out", sys.argv[1], "--serial", "--t-end", "1"]))
+"""
+
+
+def test_a_full_disk_stops_a_sweep_with_a_message_and_loses_nothing(tmp_path):
+    """The results file cannot grow (RLIMIT_FSIZE: writes fail with EFBIG, as with a full
+    disk): the sweep stops with status 2 and says the rows are kept; rerun, it finishes the
+    cases without repeating those done."""
+    out = tmp_path / "s.jsonl"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.run([sys.executable, "-c", _FULL, str(out)], capture_output=True,
+                          text=True, env=env, timeout=300, check=False)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "cannot write the results file" in proc.stderr and "is kept" in proc.stderr
+    assert "Traceback" not in proc.stderr and "bug" not in proc.stderr
+    done = len(out.read_bytes().split(b"\n")) - 2      # the header, a torn last line
+    assert done >= 1
+    again = subprocess.run([sys.executable, "-m", "porthamiltonian", "--backend", "python",
+                            "sweep", "mass_spring_damper", "--grid", "k=1:2:12", "--out",
+                            str(out), "--serial", "--t-end", "1", "--json"],
+                           capture_output=True, text=True, env=env, timeout=300, check=False)
+    assert again.returncode == 0, again.stderr[-2000:]
+    import json
+    report = json.loads(again.stdout)["report"]
+    assert report["n_done"] == 12 and report["n_previously_done"] == done
