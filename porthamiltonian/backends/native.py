@@ -107,7 +107,7 @@ def model_unit(body: str, key: str = "") -> str:
     and ``ph_model_key`` returning ``key`` (the model's cache key: letters and digits); the
     integration loops are an object of their own (:func:`loop_source`) linked with it."""
     if not key.isalnum() and key:
-        raise ValueError(f"model key {key!r}: letters and digits only")
+        raise CompilerError(f"model key {key!r}: letters and digits only")
     return body + "\n" + _SELF_CHECK.replace("%s", key)
 
 

@@ -53,7 +53,7 @@ def all_joints_model() -> ph.Model:
     bodies = {
         "base": {"mass": 2.0, "com": [0.1, -0.05, 0.2],
                  "inertia": [[0.3, 0.01, -0.02], [0.01, 0.5, 0.03], [-0.02, 0.03, 0.7]]},
-        "arm": {"mass": "m_arm", "com": [0, 0.01, "-l/2"], "inertia": [0.02, 0.03, 0.004],
+        "arm": {"mass": "m_arm", "com": [0, 0.01, "-l/2"], "inertia": [0.03, 0.03, 0.004],
                 "points": {"elbow": [0, 0, "-l"]}},
         "hand": {"mass": 0.3, "com": [0.02, 0, -0.05], "inertia": [0.002, 0.001, 0.0015],
                  "world_frames": {"palm": [0.01, 0.02, -0.1]}},
