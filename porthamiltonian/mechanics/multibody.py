@@ -113,6 +113,15 @@ KERNEL_LINKS = 9
 FORMULATIONS = ("auto", "kernel", "symbolic")
 
 
+def auto_kernel(axes: list, parametric: bool) -> bool:
+    """What ``formulation = "auto"`` picks for a tree of elementary links with these ``axes``
+    (None for a link without one): the kernel when its tables depend on parameters only
+    (``parametric``) and an axis is not along a coordinate axis (±) or there are more than
+    :data:`KERNEL_LINKS` links."""
+    generic = any(axis is not None and sum(1 for a in axis if a != 0) > 1 for axis in axes)
+    return parametric and (generic or len(axes) > KERNEL_LINKS)
+
+
 def _formulation(value: Any) -> None:
     if value not in FORMULATIONS:
         raise ModelError(f"Multibody formulation must be one of {', '.join(FORMULATIONS)}, got "
@@ -374,9 +383,7 @@ class Multibody(Component):
                                  f"not {stray[0]}; use formulation = 'symbolic'",
                                  path=("formulation",))
             return True
-        generic = any(link.axis is not None and sum(1 for a in link.axis if a != 0) > 1
-                      for link in links)       # an axis not along a coordinate axis (±)
-        return not stray and (generic or len(links) > KERNEL_LINKS)
+        return auto_kernel([link.axis for link in links], parametric=not stray)
 
     def _build_kernel(self, b: Builder, bodies: dict[str, Any], plane: str | None,
                       quaternion_gain: sp.Expr, specs: list[Joint], q0: list, v0: list,

@@ -118,7 +118,8 @@ def generic_chain_model(n: int, seed: int = 1) -> ph.Model:
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         A = rng.normal(size=(3, 3)) * 0.1
-        inertia = A @ A.T + 0.01 * np.eye(3)
+        second = A @ A.T + 0.01 * np.eye(3)         # a random second moment of mass
+        inertia = np.trace(second) * np.eye(3) - second     # the inertia of such a body
         previous, length = length, float(rng.uniform(0.3, 0.6))
         bodies[f"link{i}"] = {"mass": float(rng.uniform(0.5, 2.0)),
                               "com": [float(v) for v in rng.uniform(-0.05, 0.05, 2)] + [-length / 2],
