@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import shlex
+import sys
 import time
 import warnings
 from collections import OrderedDict
@@ -21,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 from .. import backends
 from ..backends import module, native
 from ..errors import CompilerError, ModelError
+from ..mechanics.sources import c_object_source
 from ..modeling.constraints import Constraint
 from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from ..simulation.sampling import DiscreteBlock
@@ -197,16 +199,19 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     key = cache.model_key(description, options)
     meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
+    pending = None
     if meta is None:
         from .codegen import program
         from .phform import ph_form, ph_functions
-        from .printers import c_source, python_source
+        from .printers import c_source, kernels, python_source
 
         estimate.check(description, backends.report)      # refused, or announced, before work
         start = time.perf_counter()
         sym = symbolic(description)
         form = ph_form(description, sym, _solved(description)) if ph else None
         times["symbolic"] = time.perf_counter() - start
+        if order[0] == "c" and not _C_FAILED:       # the loops compile while the code is made
+            pending = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
         start = time.perf_counter()
         prog = program(sym, jac_p=list(jac_p or []))
         if form is not None:
@@ -231,20 +236,26 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states),
                                          f"update_{j}")
                            for j, (c, period, states, _) in enumerate(sym.discrete)),
-            ph=form.layout() if form is not None else None)
+            ph=form.layout() if form is not None else None,
+            kernels=tuple(kernels(prog)), unavailable=MappingProxyType(dict(prog.unavailable)))
         if use_cache:
             cache.write(key, meta.to_json(), bodies)
-    for i, name in enumerate(order):
-        try:
-            functions = _load(name, key, meta, bodies, use_cache, times, explicit=len(order) == 1)
-        except CompilerError as err:
-            if len(order) == 1:
-                raise
-            if not _C_FAILED:
-                _C_FAILED.append(str(err))
-                backends.fell_back(str(err), order[i + 1])
-            continue
-        break
+    try:
+        for i, name in enumerate(order):
+            try:
+                functions = _load(name, key, meta, bodies, use_cache, times,
+                                  explicit=len(order) == 1, pending=pending)
+            except CompilerError as err:
+                if len(order) == 1:
+                    raise
+                if not _C_FAILED:
+                    _C_FAILED.append(str(err))
+                    backends.fell_back(str(err), order[i + 1])
+                continue
+            break
+    finally:
+        if pending is not None:
+            pending.close()
     if times:
         parts = [f"{k} {v:.1f} s" for k, v in times.items()]
         size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
@@ -331,9 +342,12 @@ def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
 
 
 def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
-          times: dict[str, float], explicit: bool) -> backends.Functions:
+          times: dict[str, float], explicit: bool,
+          pending: native.Pending | None = None) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
-    compile time goes into ``times``."""
+    compile time (the time waited for it) goes into ``times``. The C library links the model's
+    unit with the integration loops' object (:func:`native.loop_source`, by the model's sizes)
+    and the objects of the kernels it calls, each compiled once and cached."""
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
@@ -353,10 +367,13 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
             cache.discard(key, cached.name)
     if _C_FAILED and not explicit:
         raise CompilerError(_C_FAILED[0])
-    source = cache.store(key, f"m{key}_c.c", native.translation_unit(bodies["c"], key=key),
-                         use_cache)
+    source = cache.store(key, f"m{key}_c.c", native.model_unit(bodies["c"], key=key), use_cache)
+    log_dir = source.parent if cache.kept(source) else None     # failures: the model's log
     try:
-        data, seconds = native.build(source, source.parent if cache.kept(source) else None)
+        objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
+                        for kernel in meta.kernels)
+        objects += (_loop_object(meta, use_cache, times, pending, log_dir, source),)
+        data, seconds = native.build(source, log_dir, objects)
     except CompilerError as err:
         # no working compiler now: this model's library built by another compiler will do,
         # after its self-check (a cached library needs no compiler)
@@ -368,7 +385,7 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
                           "compiler (it passed its self-check)", backends.BackendWarning,
                           stacklevel=4)
         return earlier
-    times["C"] = seconds
+    times["C"] = times.get("C", 0.0) + seconds
     path = cache.store(key, lib_name, data, use_cache)
     try:
         return native.load(path, shapes, n_params, key)
@@ -393,6 +410,52 @@ def _earlier_library(key: str, shapes: dict[str, tuple[int, ...]], n_params: int
             cache.warn(f"compiled-model cache: {err}; the library is removed")
             cache.discard(key, name)
     return None
+
+
+def _loop_name() -> str:
+    return f"loops_{sys.platform}.o"
+
+
+def _start_loop(n: int, n_guards: int, use_cache: bool) -> native.Pending | None:
+    """Start compiling the loops' object for these sizes unless it is cached."""
+    text = native.loop_source(n, n_guards)
+    if use_cache and cache.verified_path(native.object_key(text), _loop_name()) is not None:
+        return None
+    return native.start_object(text, "loops")
+
+
+def _loop_object(meta: ModelMeta, use_cache: bool, times: dict[str, float],
+                 pending: native.Pending | None, log_dir, model_source):
+    """The integration loops' object for the model's sizes: cached, or the background compile
+    ``pending`` waited for, or compiled now (the time waited added to ``times["C"]``); a
+    failure is logged as the model's (``log_dir``, named after ``model_source``)."""
+    text = native.loop_source(meta.shapes["rhs"][0], meta.shapes["guards"][0])
+    key = native.object_key(text)
+    path = cache.verified_path(key, _loop_name()) if use_cache else None
+    if path is None:
+        start = time.perf_counter()
+        data = (pending.result(log_dir, model_source)[0] if pending is not None
+                else native.compile_object(text, "loops", log_dir, model_source)[0])
+        times["C"] = times.get("C", 0.0) + time.perf_counter() - start
+        path = cache.store(key, _loop_name(), data, use_cache)
+    return path
+
+
+def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_dir,
+                   model_source):
+    """The compiled object of ``kernel`` (:mod:`porthamiltonian.mechanics.sources`), from the
+    cache (an entry of its own, keyed by its source and the compiler) or compiled now (its time
+    added to ``times["C"]``; a failure logged as the model's): one compile serves every model
+    that calls the kernel."""
+    text = c_object_source(kernel)
+    key = native.object_key(text)
+    name = f"{kernel}_{sys.platform}.o"
+    path = cache.verified_path(key, name) if use_cache else None
+    if path is None:
+        data, seconds = native.compile_object(text, kernel, log_dir, model_source)
+        times["C"] = times.get("C", 0.0) + seconds
+        path = cache.store(key, name, data, use_cache)
+    return path
 
 
 def slot_count(meta: ModelMeta) -> int:

@@ -3,11 +3,14 @@
 ``model.c`` is the compiled model's C body (:attr:`CompiledModel.c_source
 <porthamiltonian.simulation.compiled.CompiledModel>`, what the C back end compiles) with its
 entry points made static (``PH_EXPORT``), the integration loops
-(:func:`porthamiltonian.backends.native.translation_unit`), and the tables the runtime reads: the
-variables by value reference, the start values, the events' directions and flags, the rules of
-the :class:`~.program.EventProgram`, the co-simulation settings. Strings from the model (names)
-are written as C string literals with every byte outside ``[A-Za-z0-9_ .]`` escaped in octal.
-The templates (``templates/``) are package data, copied as they are.
+(:func:`porthamiltonian.backends.native.translation_unit`), the compiled kernels the model calls
+(a kernel multibody's recursion, :func:`porthamiltonian.mechanics.sources.c_object_source`: the
+C back end links them as objects of their own, an FMU's one unit holds them), and the tables
+the runtime reads: the variables by value reference, the start values, the events' directions
+and flags, the rules of the :class:`~.program.EventProgram`, the co-simulation settings.
+Strings from the model (names) are written as C string literals with every byte outside
+``[A-Za-z0-9_ .]`` escaped in octal. The templates (``templates/``) are package data, copied as
+they are.
 """
 from __future__ import annotations
 
@@ -22,6 +25,7 @@ import numpy as np
 from ..backends.native import translation_unit
 from ..errors import ExportError
 from ..integrators import TABLEAUS
+from ..mechanics.sources import c_object_source
 from .program import OPERATORS, EventProgram
 from .variables import KINDS, Variable
 
@@ -108,6 +112,7 @@ def model_source(model: CompiledModel, variables: Sequence[Variable], *, program
          "static. */"),
         "#define PH_EXPORT static",
         translation_unit(model.c_source),
+        *(c_object_source(kernel) for kernel in model.meta.kernels),
         "/* --- the FMU's tables ---------------------------------------------------------- */",
         "\n".join(f"#define {k} {v}" for k, v in sizes.items()),
         f"#define PH_INTEGRATE ph_integrate_{TABLEAUS[method].symbol}",

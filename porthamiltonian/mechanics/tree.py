@@ -157,6 +157,24 @@ def quaternion_rate(quaternion: Sequence, omega: Sequence, gain: Any = 0) -> Vec
     return [-dot(u, omega) / 2 + radial * w] + [vector[i] / 2 + radial * u[i] for i in range(3)]
 
 
+def coordinate_rates(links: Sequence[Link], q: Sequence, v: Sequence, gain: Any,
+                     rotation: Any) -> list:
+    """q̇ of every coordinate from the velocities: v itself for a revolute or prismatic joint;
+    the quaternion rate (with the normalising ``gain``) and ṙ = Rᵏ v_lin for the others, where
+    ``rotation(link)`` gives a free link's :class:`Rotation` Rᵏ."""
+    out = []
+    for link in links:
+        c, k = link.coordinate, link.index
+        if link.kind in ("rotation", "translation"):
+            out.append(v[k])
+        elif link.kind == "spherical":
+            out += quaternion_rate(q[c:c + 4], v[k:k + 3], gain)
+        else:
+            out += rotation(link).apply(v[k + 3:k + 6])
+            out += quaternion_rate(q[c + 3:c + 7], v[k:k + 3], gain)
+    return out
+
+
 def _shift_inertia(mass: Any, first: Sequence, inertia: Sequence[Sequence], R: Rotation,
                    p: Sequence) -> tuple[Vec, list]:
     """First moment and rotational inertia (upper triangle) of a body given in a frame rotated
@@ -239,19 +257,8 @@ class Tree:
             self.pos[link] = _Pos(R, p)
 
     def coordinate_rates(self, q: Sequence, v: Sequence, gain: Any) -> list:
-        """q̇ of every coordinate from the velocities: v itself for a revolute or prismatic joint;
-        the quaternion rate (with the normalising ``gain``) and ṙ = Rᵏ v_lin for the others."""
-        out = []
-        for link in self.links:
-            c, k = link.coordinate, link.index
-            if link.kind in ("rotation", "translation"):
-                out.append(v[k])
-            elif link.kind == "spherical":
-                out += quaternion_rate(q[c:c + 4], v[k:k + 3], gain)
-            else:
-                out += self.pos[link].R.apply(v[k + 3:k + 6])
-                out += quaternion_rate(q[c + 3:c + 7], v[k:k + 3], gain)
-        return out
+        """q̇ of every coordinate from the velocities (:func:`coordinate_rates`)."""
+        return coordinate_rates(self.links, q, v, gain, lambda link: self.pos[link].R)
 
     def carry(self, link: Link, torque: Sequence, force: Sequence) -> tuple[Vec, Vec]:
         """X_k W: the wrench (torque about link k's origin, force; k's frame) in the parent's

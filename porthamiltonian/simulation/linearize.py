@@ -151,7 +151,11 @@ def _jac_u(model: CompiledModel, pt: Point) -> np.ndarray:
 
 
 def _out_jac(model: CompiledModel, pt: Point) -> np.ndarray:
-    """∂y/∂[x, u] of the declared outputs (n_y x (n + m))."""
+    """∂y/∂[x, u] of the declared outputs (n_y x (n + m)); ModelError (saying why) when the
+    model could not have it generated."""
+    if "out_jac" not in model.functions.extra:
+        raise ModelError(model.meta.unavailable.get(
+            "out_jac", f"model {model.name!r} has no generated output Jacobian"))
     out = model.functions.extra["out_jac"](pt.t, pt.y, model.native_params(pt.p))
     return np.asarray(out, dtype=float)
 
