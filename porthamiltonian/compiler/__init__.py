@@ -22,7 +22,6 @@ from typing import TYPE_CHECKING, Any
 from .. import backends
 from ..backends import module, native
 from ..errors import CompilerError, ModelError
-from ..mechanics.sources import c_object_source
 from ..modeling.constraints import Constraint
 from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from ..simulation.sampling import DiscreteBlock
@@ -447,6 +446,8 @@ def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_di
     cache (an entry of its own, keyed by its source and the compiler) or compiled now (its time
     added to ``times["C"]``; a failure logged as the model's): one compile serves every model
     that calls the kernel."""
+    from ..mechanics.sources import c_object_source  # (the mechanics import sympy)
+
     text = c_object_source(kernel)
     key = native.object_key(text)
     name = f"{kernel}_{sys.platform}.o"

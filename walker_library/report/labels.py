@@ -20,8 +20,6 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
-from porthamiltonian import Component
-
 if TYPE_CHECKING:
     from ..core.hybrid import Foot, WalkerSpec
     from ..core.protocol import Walker
@@ -144,6 +142,8 @@ def _joint(walker: Described | None, name: str) -> tuple[str, str, str] | None:
 
 def _joint_type(walker: Described, joint: str) -> str:
     comp = walker.spec.model.component(walker.multibody)
+    from porthamiltonian.modeling.component import Component  # (on use: sympy)
+
     if not isinstance(comp, Component):         # a sub-model has no joints
         return ""
     try:
@@ -226,6 +226,8 @@ def foot_radius(walker: Described, foot: Foot, values: dict[str, float]) -> floa
         return 0.0
     try:
         contact = walker.spec.model.component(foot.contact)
+        from porthamiltonian.modeling.component import Component  # (on use: sympy)
+
         if not isinstance(contact, Component):  # a sub-model is no contact
             return 0.0
         args = contact.args
