@@ -6,7 +6,10 @@ Cases:
   which checks the description and compiles the model), then the first finished stride from the
   walker's initial guess;
 * ``chainN`` (N = 2, 5, 10, 20, 40 by default): N uniform rods on revolute joints
-  (bench_mechanics.chain_model), ``compile_model`` then 1 s of simulation (method "auto").
+  (bench_mechanics.chain_model), ``compile_model`` then 1 s of simulation (method "auto");
+* ``gchainN``: N links on revolute joints about random 3D axes (generic_chain_model of
+  tests/validation/multibody_cases.py), the same; ``chainN:symbolic``, ``gchainN:kernel``…: with
+  the Multibody's formulation set (default "auto": the kernel for generic axes and long chains).
 
 Each case runs in fresh subprocesses: **cold** with an empty ``$PORTHAMILTONIAN_CACHE`` (the
 phases from the build line the library prints — symbolic, code generation, native compile —
@@ -90,10 +93,10 @@ def child(case: str, backend: str) -> None:
         stride = walker.stride(walker.initial_guess())
         status, used = stride.status, walker.backend
     else:
-        from bench_mechanics import chain_model
+        from bench_mechanics import build
 
         from porthamiltonian import compile_model
-        model = compile_model(chain_model(int(case[len("chain"):])), backend=backend)
+        model = compile_model(build(case), backend=backend)
         t_build = time.perf_counter() - t0
         t0 = time.perf_counter()
         status, used = model.simulate(1.0).status, model.backend
@@ -220,7 +223,7 @@ def build_cases(args) -> None:
               f"{f(warm, 'first')} | {f(warm, 'total')} | {min(loads):.1f}-{max(loads):.1f} | "
               f"{size.get('c_bytes', 0) / 1e3:.0f} | {size.get('py_bytes', 0) / 1e3:.0f} | "
               f"{size.get('ops', 0)} |")
-        if case.startswith("chain") and size and tree == "this":
+        if case.startswith("chain") and ":" not in case and size and tree == "this":
             chains.append((int(case[5:]), size))
     big = sorted((n, s) for n, s in chains if n >= 10)
     if len(big) >= 2:

@@ -99,12 +99,32 @@ def chain_model(n: int):
     return model(n)
 
 
+def generic_chain_model(n: int):
+    """The N-link chain about random 3D axes of tests/validation/multibody_cases.py."""
+    sys.path.insert(0, str(ROOT / "tests" / "validation"))
+    from multibody_cases import generic_chain_model as model
+
+    return model(n)
+
+
 def build(spec: str):
-    if spec == "walker4":
-        return walker4_model()
-    if spec == "walker6":
-        return walker6_model()
-    return chain_model(int(spec.removeprefix("chain")))
+    """A benchmark model by name: walker4, walker6, chainN (planar), gchainN (generic axes);
+    ``:kernel`` or ``:symbolic`` after the name sets the Multibody's formulation."""
+    name, _, formulation = spec.partition(":")
+    if name == "walker4":
+        model = walker4_model()
+    elif name == "walker6":
+        model = walker6_model()
+    elif name.startswith("gchain"):
+        model = generic_chain_model(int(name.removeprefix("gchain")))
+    else:
+        model = chain_model(int(name.removeprefix("chain")))
+    if formulation:
+        sys.path.insert(0, str(ROOT / "tests" / "validation"))
+        from multibody_cases import with_formulation
+
+        model = with_formulation(model, formulation)
+    return model
 
 
 # ------------------------------------------------------------------------------------------------

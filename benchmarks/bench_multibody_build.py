@@ -5,7 +5,11 @@ tests/validation/multibody_cases.py: the time of ``porthamiltonian.compiler.symb
 state equations, the multibody's build included) and of code generation (``codegen.program``:
 cse, Jacobian, printed by ``printers.python_source``; ``codegen.generate`` in older trees), and
 the generated Python module's size in operations (arithmetic, unary, call and
-augmented-assignment nodes of its syntax tree) and bytes. Every measurement runs
+augmented-assignment nodes of its syntax tree) and bytes. ``gchainN`` are the chains about
+random 3D axes; ``:kernel`` / ``:symbolic`` after a chain's name sets its Multibody's formulation.
+(The code generator's entry point is ``codegen.program`` printed by ``printers.python_source``;
+trees from before the printers, whose ``codegen.generate`` did both, are no longer supported as
+baselines.) Every measurement runs
 in a fresh interpreter (no sympy cache carried over; imports not timed); when a baseline tree is
 given, its runs and this tree's alternate (interleaved), and the table gives medians and the
 ratio baseline / this. The load average is printed before and after: the machine is shared.
@@ -44,15 +48,18 @@ sys.path.insert(0, {cases!r})
 from multibody_cases import chain_model
 from porthamiltonian import io
 from porthamiltonian.compiler import symbolic
-try:
-    from porthamiltonian.compiler.codegen import program
-    from porthamiltonian.compiler.printers import python_source
-    def generate(sym):
-        return python_source(program(sym))
-except ImportError:                       # a baseline tree from before the printers
-    from porthamiltonian.compiler.codegen import generate
+from porthamiltonian.compiler.codegen import program
+from porthamiltonian.compiler.printers import python_source
+def generate(sym):
+    return python_source(program(sym))
 spec = {spec!r}
-model = chain_model(int(spec[5:])) if spec.startswith("chain") else io.load(spec)
+if spec.startswith(("chain", "gchain")):
+    from multibody_cases import generic_chain_model, with_formulation
+    name, _, formulation = spec.partition(":")
+    model = (generic_chain_model if name.startswith("g") else chain_model)(int(name.lstrip("gchain")))
+    model = with_formulation(model, formulation) if formulation else model
+else:
+    model = io.load(spec)
 t0 = time.perf_counter()
 sym = symbolic(model)
 t1 = time.perf_counter()
@@ -108,7 +115,8 @@ def main() -> None:
             row.append(f"ratio baseline/this {base / this:.2f}")
         print(f"{spec:22s} " + " | ".join(row), flush=True)
     for name in trees:
-        chains = sorted((int(s[5:]), r[0]) for s, r in results[name].items() if s.startswith("chain"))
+        chains = sorted((int(s[5:]), r[0]) for s, r in results[name].items()
+                        if s.startswith("chain") and ":" not in s)
         for (n1, r1), (n2, r2) in itertools.pairwise(chains):
             e_ops = math.log(r2["ops"] / r1["ops"]) / math.log(n2 / n1)
             e_bytes = math.log(r2["bytes"] / r1["bytes"]) / math.log(n2 / n1)

@@ -116,6 +116,12 @@ class ModelFileError(ModelError):
     """A model file is malformed; the message names the file and, where known, the line."""
 
 
+class DataError(ModelError):
+    """Measured data for a fit is malformed or does not match the model: a file that is not a
+    table of numbers, a column that names no output, an output without samples; the message
+    names the file, line and column where known, and says what is expected."""
+
+
 class StateError(ModelError):
     """An initial state or a state name is wrong (unknown name, wrong length, non-finite)."""
 

@@ -22,7 +22,10 @@ from __future__ import annotations
 import contextlib
 import json
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType
 
 __all__ = ["PLAIN_TEXT", "plain_text", "script_json"]
 
@@ -31,7 +34,7 @@ _SCRIPT_ESCAPES = {"<": "\\u003c", ">": "\\u003e", "&": "\\u0026", "\u2028": "\\
 _TABLE = str.maketrans(_SCRIPT_ESCAPES)
 
 #: matplotlib rc settings under which text is never read as mathtext
-PLAIN_TEXT = {"text.parse_math": False}
+PLAIN_TEXT: dict[RcKeyType, Any] = {"text.parse_math": False}
 
 
 def script_json(data: Any, **options: Any) -> str:

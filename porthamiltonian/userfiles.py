@@ -91,7 +91,8 @@ def _too_large(label: str, kind: str, limit: int, size: str) -> ModelFileError:
 def _read_pipe(fd: int, limit: int, label: str, kind: str) -> bytes:
     """At most ``limit`` bytes of the pipe ``fd`` (opened non-blocking), waiting at most
     :data:`PIPE_SECONDS` for each chunk; a pipe that nothing writes to gives no data at once."""
-    chunks, total = [], 0
+    chunks: list[bytes] = []
+    total = 0
     while True:
         try:
             chunk = os.read(fd, _CHUNK)

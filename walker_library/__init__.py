@@ -16,45 +16,81 @@ The package follows its data flow, one sub-package per stage:
   animations, the 3D scene, the thesis's studies (``walker reproduce``);
 * :mod:`.cli` — the ``walker`` command.
 """
-from .analyses.continuation import ContinuationResult, ParameterPath, continue_gait
-from .analyses.gait import GaitResult, WalkResult, analyze_gait, walk
-from .analyses.metrics import GaitMetrics, gait_metrics
-from .analyses.monodromy import FloquetResult, floquet, stride_jacobian
-from .analyses.poincare import (
-                       FixedPointResult,
-                       PeriodResult,
-                       detect_period,
-                       find_fixed_point,
-                       iterate,
-                       jacobian,
-                       stride_map,
-)
-from .core.files import (
-                       available_walkers,
-                       compass_gait,
-                       compass_walker,
-                       compliant_leg_walker,
-                       load_walker,
-                       read_walker,
-                       rigid_compass_walker,
-                       rimless_wheel,
-                       save_walker,
-                       simplest_walker,
-                       variable_stiffness_walker,
-)
-from .core.hybrid import (
-                       Completion,
-                       Foot,
-                       Integration,
-                       Rule,
-                       Section,
-                       Terrain,
-                       WalkerSpec,
-)
-from .core.protocol import ParameterSpec, Stride, Walker
-from .core.reading import walker_spec
-from .core.walker import HybridWalker, build_walker
-from .report import display as _display  # noqa: F401 - registers the results' notebook views
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+#: where each public name lives: imported when first used, so that ``import walker_library``
+#: (and the ``walker`` command) loads only what it needs (a warm ``walker gait`` needs neither
+#: sympy nor networkx)
+_NAMES = {
+    **{n: "analyses.continuation" for n in ("ContinuationResult", "ParameterPath",
+                                            "continue_gait")},
+    **{n: "analyses.gait" for n in ("GaitResult", "WalkResult", "analyze_gait", "walk")},
+    **{n: "analyses.metrics" for n in ("GaitMetrics", "gait_metrics")},
+    **{n: "analyses.monodromy" for n in ("FloquetResult", "floquet", "stride_jacobian")},
+    **{n: "analyses.poincare" for n in ("FixedPointResult", "PeriodResult", "detect_period",
+                                        "find_fixed_point", "iterate", "jacobian",
+                                        "stride_map")},
+    **{n: "core.files" for n in ("available_walkers", "compass_gait", "compass_walker",
+                                 "compliant_leg_walker", "load_walker", "read_walker",
+                                 "rigid_compass_walker", "rimless_wheel", "save_walker",
+                                 "simplest_walker", "variable_stiffness_walker")},
+    **{n: "core.hybrid" for n in ("Completion", "Foot", "Integration", "Rule", "Section",
+                                  "Terrain", "WalkerSpec")},
+    **{n: "core.protocol" for n in ("ParameterSpec", "Stride", "Walker")},
+    "walker_spec": "core.reading",
+    **{n: "core.walker" for n in ("HybridWalker", "build_walker")},
+}
+
+
+def __getattr__(name: str) -> Any:
+    """The public name ``name``, imported on first use (with :mod:`.report.display`, which
+    registers the results' notebook views)."""
+    if name not in _NAMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    importlib.import_module(".report.display", __name__)
+    value = getattr(importlib.import_module(f".{_NAMES[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_NAMES})
+
+
+if TYPE_CHECKING:
+    from .analyses.continuation import ContinuationResult, ParameterPath, continue_gait
+    from .analyses.gait import GaitResult, WalkResult, analyze_gait, walk
+    from .analyses.metrics import GaitMetrics, gait_metrics
+    from .analyses.monodromy import FloquetResult, floquet, stride_jacobian
+    from .analyses.poincare import (
+        FixedPointResult,
+        PeriodResult,
+        detect_period,
+        find_fixed_point,
+        iterate,
+        jacobian,
+        stride_map,
+    )
+    from .core.files import (
+        available_walkers,
+        compass_gait,
+        compass_walker,
+        compliant_leg_walker,
+        load_walker,
+        read_walker,
+        rigid_compass_walker,
+        rimless_wheel,
+        save_walker,
+        simplest_walker,
+        variable_stiffness_walker,
+    )
+    from .core.hybrid import Completion, Foot, Integration, Rule, Section, Terrain, WalkerSpec
+    from .core.protocol import ParameterSpec, Stride, Walker
+    from .core.reading import walker_spec
+    from .core.walker import HybridWalker, build_walker
 
 __all__ = [
     "Completion", "ContinuationResult", "FixedPointResult", "FloquetResult", "Foot", "GaitMetrics", "GaitResult",

@@ -1,7 +1,7 @@
 """Command line ``walker``: gait analyses of the walker models.
 
     walker gait MODEL [--set NAME=VALUE ...] [--guess FILE] [--max-period K]
-                [--jacobian variational|fd] [--fd-step H] [--json]
+                [--jacobian variational|fd] [--fd-step H] [--gradient NAMES] [--json]
     walker continue MODEL --param NAME=START:STOP [--set NAME=VALUE ...] [--guess FILE]
                     [--doublings N] [--jacobian variational|fd] [--json] [--out DIR]
     walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--json]
@@ -15,6 +15,9 @@
     walker list
     walker export MODEL PATH [--set NAME=VALUE ...] [--force]
     walker export-fmu MODEL --out FILE [--fmi 2|3] [--kind me|cs|both] [--steps N] [--set ...]
+    walker optimize MODEL --vary NAMES --objective QUANTITY [--maximize] [--constraint C ...]
+                    [--bounds NAME=LOW:HIGH ...] [--method SLSQP|trust-constr] [--record FILE]
+                    [--step-down none|ends|path] [--max-evaluations N] [--set ...] [--json]
 
 MODEL is a walker name from ``models/`` (a walker file: a model file with a ``[walker]`` table, see
 docs/walkers.md; ``walker list`` names them) or a path to such a file; ``export`` writes the
@@ -31,14 +34,16 @@ import argparse
 import difflib
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from porthamiltonian import io as ph_io
 from porthamiltonian.batch import SweepError, open_executor
 from porthamiltonian.batch.progress import activity
-from porthamiltonian.errors import ModelFileError
+from porthamiltonian.errors import ModelError, ModelFileError
 from porthamiltonian.interfaces.cli import (
     BACKEND_OPTION,
     JSON_OPTION,
@@ -56,17 +61,21 @@ from porthamiltonian.interfaces.cli import (
 )
 
 from .analyses.cases import ANALYSES, get_analysis
-from .analyses.continuation import ParameterPath, continue_gait, parse_range
+from .analyses.continuation import ContinuationResult, ParameterPath, continue_gait, parse_range
 from .analyses.gait import TIME_LIMIT, analyze_gait, gait_start, section_guess, walk
+from .analyses.gradients import GAIT_QUANTITIES, gait_gradient
+from .analyses.optimize import optimize_gait, parse_constraint
 from .analyses.results import to_json
 from .analyses.robustness import basin, gait_sensitivity_norm, step_down
 from .core.files import available_walkers, check_target, load_walker, save_walker
 from .core.fmu import export_walker_fmu
+from .core.gradients import check_names
+from .core.walker import HybridWalker
 from .report.labels import describe, is_nondimensional, shown_unit
 from .report.page import multiplier_cells
 
 
-def _fmt(value) -> str:
+def _fmt(value: Any) -> str:
     if value is None:
         return "-"
     if isinstance(value, float):
@@ -78,18 +87,16 @@ def check_walker_name(model: str) -> str:
     """``model`` if it can name a walker: a path, a walker file of models/, or a model of models/
     (whose loading then says it is not a walker file); else a ModelFileError listing the walker
     models, with the closest one suggested."""
-    if ph_io.is_path(model):
-        return model
+    if ph_io.is_path(model) or model in ph_io.available_models():
+        return model                   # (loading a model that is no walker file says so)
     walkers = available_walkers()
-    if model in walkers or model in ph_io.available_models():
-        return model
     close = difflib.get_close_matches(model, walkers, n=1, cutoff=0.6)
     hint = f" (did you mean {close[0]}?)" if close else ""
     raise ModelFileError(f"no walker model called {model!r}{hint}; walker models: "
                          f"{', '.join(walkers) or 'none'}; or give the path to a walker file")
 
 
-def _walker(args):
+def _walker(args: argparse.Namespace) -> HybridWalker:
     """The walker named by ``args.model`` with the ``--set`` values and ``--backend``."""
     return load_walker(check_walker_name(args.model), parse_assignments(args.set),
                        backend=args.backend)
@@ -114,7 +121,7 @@ def _read_guess(path: str) -> dict:
     return data
 
 
-def _walker_and_guess(args):
+def _walker_and_guess(args: argparse.Namespace) -> tuple[HybridWalker, np.ndarray | None]:
     """The walker with the ``--set`` parameter values, and the section state that the ``--set``
     section coordinates and ``--guess`` file make (None if neither is given)."""
     values = parse_assignments(args.set)
@@ -138,7 +145,7 @@ def _walker_and_guess(args):
 CONTINUATION_TIME_LIMIT = 3600.0
 
 
-def _with_unit(walker, key: str, value: Any) -> str:
+def _with_unit(walker: HybridWalker, key: str, value: Any) -> str:
     """``value`` and the unit of quantity ``key`` of ``walker`` ("nondim." in a nondimensional
     model; nothing for a ratio)."""
     unit = describe(walker, key).unit
@@ -146,14 +153,21 @@ def _with_unit(walker, key: str, value: Any) -> str:
     return f"{_fmt(value)} {shown}".rstrip()
 
 
-def cmd_gait(args) -> int:
+def cmd_gait(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
+    names = check_names(walker, _names(args.gradient)) if args.gradient else None
     with activity(f"gait {walker.name}", enabled=not args.quiet) as shown:
         result = analyze_gait(walker, guess, max_period=args.max_period, fd_step=args.fd_step,
                               n_iterate=args.iterate, jacobian=args.jacobian,
                               continuation=not args.no_continuation,
                               log=None if args.quiet else shown.write,
                               time_limit=args.time_limit or None)
+        if names and result.status == "periodic":
+            z = np.array([result.fixed_point[k] for k in walker.section], dtype=float)
+            grad = gait_gradient(walker, z, names, result.period_steps)
+            if not grad.fell:
+                result.gradients, result.gradient_errors = grad.gradients, grad.errors
+                result.fixed_point_gradient = grad.fixed_point_gradient
     if args.json:
         print(result.to_json())
         return 0
@@ -186,11 +200,67 @@ def cmd_gait(args) -> int:
         for key in ("step_period", "step_length", "speed", "energy_dissipated_per_step",
                     "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
             print(f"  {key:30s} {_with_unit(walker, key, d[key])}")
+    if result.gradients:
+        print("  gradients (exact; the multiplier's ± its error bound):")
+        for key, row in result.gradients.items():
+            cells = [f"d/d{n} = {v:.8g}" + (f" ± {result.gradient_errors[key][n]:.1g}"
+                                           if result.gradient_errors[key][n] else "")
+                     for n, v in row.items()]
+            print(f"    {key:28s} " + ", ".join(cells))
+    elif names:
+        print("  no gradients: no periodic orbit, or a stride of it fell")
     return 0
 
 
-def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: int = 400,
-                  jacobian: str = "variational", log=None, time_limit: float | None = None):
+def cmd_optimize(args) -> int:
+    walker, guess = _walker_and_guess(args)
+    vary = check_names(walker, _names(args.vary))
+    constraints = [parse_constraint(c) for c in args.constraint]
+    bounds = {}
+    for item in args.bounds:
+        name, sep, text = item.partition("=")
+        low, sep2, high = text.partition(":")
+        try:
+            bounds[name.strip()] = (float(low), float(high))
+        except ValueError:
+            sep2 = ""
+        if not (sep and sep2):
+            raise ModelError(f"--bounds {item!r}: expected NAME=LOW:HIGH (numbers, inf allowed)")
+    log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    result = optimize_gait(walker, vary, args.objective, maximize=args.maximize,
+                           constraints=constraints, bounds=bounds, method=args.method,
+                           max_evaluations=args.max_evaluations, tol=args.tol,
+                           record=args.record, step_down=args.step_down, guess=guess, log=log)
+    if args.json:
+        print(result.to_json())
+        return 0
+    sense = "max" if args.maximize else "min"
+    print(f"{walker.name}: {sense} {args.objective} over {', '.join(vary)}"
+          + (f" subject to {'; '.join(result.constraints)}" if result.constraints else "")
+          + f": {result.message} ({result.iterations} iterations, {result.evaluations} gait "
+            f"evaluations, {result.reused} read back, {result.seconds:.0f} s)")
+    for n in vary:
+        print(f"  {n:20s} {result.start[n]:.8g} -> {result.optimum.get(n, float('nan')):.8g}")
+    for key, value in result.values.items():
+        print(f"  {key:28s} {_with_unit(walker, key, value)}")
+    if result.kkt:
+        print(f"  first-order conditions: |grad L| = {result.kkt['gradient_of_lagrangian']:.2g} "
+              f"(|grad f| = {result.kkt['gradient']:.2g}, scaled units); active: "
+              f"{', '.join(result.kkt['active']) or 'none'}")
+    for key, value in result.step_down.items():
+        print(f"  max step-down at the {key:8s} {_fmt(value)} m")
+    return 0 if result.success else 1
+
+
+def _names(text: str) -> list[str]:
+    """Comma-separated parameter names (``--gradient K1,K2``)."""
+    return [n.strip() for n in text.split(",") if n.strip()]
+
+
+def _continuation(walker: HybridWalker, text: str, guess: np.ndarray | None, *,
+                  doublings: int = 2, max_points: int = 400, jacobian: str = "variational",
+                  log: Callable[[str], None] | None = None,
+                  time_limit: float | None = None) -> ContinuationResult:
     """Continue the gait in ``text`` (NAME=START:STOP): the range and parameter are checked
     before any work, the gait at the start found by the full gait search; ``time_limit``
     (s) bounds the continuation."""
@@ -202,7 +272,7 @@ def _continuation(walker, text: str, guess, *, doublings: int = 2, max_points: i
                          time_limit=time_limit)
 
 
-def cmd_continue(args) -> int:
+def cmd_continue(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
@@ -240,7 +310,7 @@ def cmd_continue(args) -> int:
     return 0
 
 
-def cmd_walk(args) -> int:
+def cmd_walk(args: argparse.Namespace) -> int:
     walker = _walker(args)
     result = walk(walker, None, args.steps)
     if args.json:
@@ -257,7 +327,8 @@ def cmd_walk(args) -> int:
     return 0
 
 
-def _case_lines(args, label: str, shown):
+def _case_lines(args: argparse.Namespace, label: str,
+                shown: Any) -> Callable[[dict], None] | None:
     """A per-case line on stderr (stdout keeps the JSON document clean), through ``shown``
     (the activity display); None with --quiet."""
     if args.quiet:
@@ -272,7 +343,7 @@ def _case_lines(args, label: str, shown):
     return report
 
 
-def cmd_step_down(args) -> int:
+def cmd_step_down(args: argparse.Namespace) -> int:
     walker = _walker(args)
     with activity(f"step-down {walker.name}", enabled=not args.quiet) as shown:
         result = step_down(walker, resolution=args.resolution, h_max=args.h_max,
@@ -287,7 +358,7 @@ def cmd_step_down(args) -> int:
     return 0
 
 
-def cmd_basin(args) -> int:
+def cmd_basin(args: argparse.Namespace) -> int:
     walker = _walker(args)
     with activity(f"basin {walker.name}", enabled=not args.quiet) as shown:
         result = basin(walker, n=args.n, span=args.span,
@@ -306,7 +377,7 @@ def cmd_basin(args) -> int:
     return 0
 
 
-def cmd_gsn(args) -> int:
+def cmd_gsn(args: argparse.Namespace) -> int:
     walker = _walker(args)
     with activity(f"gsn {walker.name}", enabled=not args.quiet):
         result = gait_sensitivity_norm(walker)
@@ -321,7 +392,7 @@ def cmd_gsn(args) -> int:
     return 0
 
 
-def cmd_report(args) -> int:
+def cmd_report(args: argparse.Namespace) -> int:
     from .report.writer import write_report
     walker = _walker(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
@@ -347,13 +418,13 @@ def _option(pair: str) -> tuple[str, Any]:
     return name.strip(), parsed
 
 
-def cmd_sweep(args) -> int:
+def cmd_sweep(args: argparse.Namespace) -> int:
     analysis = get_analysis(args.analysis)
     options = dict(_option(p) for p in args.option)
     return run_sweep(args, analysis, {"model": args.model, "backend": args.backend, **options})
 
 
-def cmd_reproduce(args) -> int:
+def cmd_reproduce(args: argparse.Namespace) -> int:
     from .report.studies import STUDIES, run_studies
     if args.list:
         for study in STUDIES.values():
@@ -376,7 +447,7 @@ def cmd_reproduce(args) -> int:
     return 0
 
 
-def cmd_list(args) -> int:
+def cmd_list(args: argparse.Namespace) -> int:
     names = available_walkers()
     if args.json:
         print(json.dumps({"models": names}))
@@ -385,7 +456,7 @@ def cmd_list(args) -> int:
     return 0
 
 
-def cmd_export(args) -> int:
+def cmd_export(args: argparse.Namespace) -> int:
     check_target(args.path, overwrite=args.force)             # before any work
     walker = load_walker(check_walker_name(args.model), parse_assignments(args.set))
     path = save_walker(walker, args.path, f"Walker file written by `walker export {args.model}` "
@@ -394,7 +465,7 @@ def cmd_export(args) -> int:
     return 0
 
 
-def cmd_export_fmu(args) -> int:
+def cmd_export_fmu(args: argparse.Namespace) -> int:
     walker = _walker(args)
     path = export_walker_fmu(walker, args.out, fmi=args.fmi, kind=args.kind, steps=args.steps)
     print(f"wrote {path}: walker {walker.name} as an FMI {args.fmi}.0 FMU ({args.kind}); its "
@@ -435,12 +506,47 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-continuation", action="store_true",
                    help="do not continue the model file's nominal gait to these parameters when "
                         "the guess finds no stable gait")
+    p.add_argument("--gradient", default=None, metavar="NAMES",
+                   help="also the exact derivatives of the gait's quantities by these "
+                        "parameters, comma-separated (e.g. K_leg,slope; JSON: \"gradients\")")
     p.add_argument("--time-limit", type=float, default=TIME_LIMIT, metavar="S",
                    help=f"stop the search after S seconds with what it found (default "
                         f"{TIME_LIMIT:g}; 0: no limit)")
     rules(p, max_period=at_least(1), fd_step=positive, iterate=at_least(1),
           time_limit=not_negative)
     p.set_defaults(func=cmd_gait)
+
+    p = sub.add_parser("optimize", parents=analysis,
+                       help="tune parameters for a gait quantity with exact gradients (SLSQP), "
+                            "under constraints on others; every gait evaluation recorded")
+    p.add_argument("model", help=model_help)
+    p.add_argument("--vary", required=True, metavar="NAMES",
+                   help="the parameters to tune, comma-separated (they start from the file's "
+                        "or --set values)")
+    p.add_argument("--objective", required=True, choices=GAIT_QUANTITIES,
+                   help="the gait quantity to minimise (--maximize: maximise)")
+    p.add_argument("--maximize", action="store_true", help="maximise the objective")
+    p.add_argument("--constraint", action="append", default=[], metavar="QUANTITY<=VALUE",
+                   help="an inequality on a gait quantity, e.g. "
+                        "'max_multiplier_modulus<=0.6' (repeatable)")
+    p.add_argument("--bounds", action="append", default=[], metavar="NAME=LOW:HIGH",
+                   help="bounds of a varied parameter (repeatable)")
+    p.add_argument("--method", choices=("SLSQP", "trust-constr"), default="SLSQP",
+                   help="scipy's optimizer (default: SLSQP)")
+    p.add_argument("--max-evaluations", type=int, default=30, metavar="N",
+                   help="the optimizer's iteration limit (default: 30)")
+    p.add_argument("--tol", type=float, default=1e-6,
+                   help="relative tolerance of the optimizer (default: 1e-6)")
+    p.add_argument("--record", default=None, metavar="FILE",
+                   help="record every gait evaluation in this JSON Lines file (run again: "
+                        "evaluations in it are read back, not simulated)")
+    p.add_argument("--step-down", choices=("none", "ends", "path"), default="ends",
+                   help="the step-down test (not differentiated) at the start and the optimum "
+                        "(ends, default), also at every accepted iterate (path), or never")
+    p.add_argument("--guess", default=None, metavar="FILE",
+                   help="start from the fixed point of a `walker gait --json` result")
+    rules(p, max_evaluations=at_least(1), tol=positive)
+    p.set_defaults(func=cmd_optimize)
 
     p = sub.add_parser("continue", parents=analysis,
                        help="continuation of the gait in a parameter: branches, stability, "

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import CompilerError
 from ..integrators import LOOPS, python_loops
 from . import Functions
 
@@ -26,10 +27,18 @@ _HEADERS = {
 _NAMES = ("rhs", "jac", "energy", "outputs", "guards", "initial")
 
 
+#: The loops' forcing of parameter sensitivities calls ``jac_p``; a model compiled without it
+#: has this stub (no parameter columns)
+JAC_P_STUB = ('@_jit\ndef jac_p(t, x, p):\n    """No parameter Jacobian generated '
+              '(compile_model(..., jac_p=[...])): no columns."""\n'
+              '    return np.zeros((x.shape[0], 0))\n')
+
+
 def module_text(body: str, backend: str) -> str:
-    """The module of ``backend``: its header, the generated body and the integration loops
-    (which call the body's functions directly)."""
-    return _HEADERS[backend] + "\n\n" + body + "\n\n" + python_loops()
+    """The module of ``backend``: its header, the generated body (and :data:`JAC_P_STUB` when it
+    has no ``jac_p``) and the integration loops (which call the body's functions directly)."""
+    stub = "" if "def jac_p(" in body else JAC_P_STUB
+    return _HEADERS[backend] + "\n\n" + body + "\n\n" + stub + "\n\n" + python_loops()
 
 
 def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (), *,
@@ -45,6 +54,8 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
     if module is None:
         if source is None:
             spec = importlib.util.spec_from_file_location(module_name, path)
+            if spec is None or spec.loader is None:
+                raise CompilerError(f"{path}: not a Python module")
             module = importlib.util.module_from_spec(spec)
             spec.loader.exec_module(module)
         else:
@@ -64,10 +75,12 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
     if backend == "python":
         # plain CPython is fastest on Python floats: hand the generated code lists (the caller
         # passes p as a list too, see CompiledModel.native_params)
-        def wrap(fn):
+        def wrap(fn: Callable[..., Any]) -> Callable[..., Any]:
             return lambda t, x, p: fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
-        return Functions("python", *(wrap(f[n]) for n in _NAMES[:5]), f["initial"],
+        rhs, jac, energy, outputs, guards = (wrap(f[n]) for n in _NAMES[:5])
+        return Functions("python", rhs, jac, energy, outputs, guards, f["initial"],
                          tuple(wrap(m) for m in matrices), loops, variational,
                          {name: wrap(getattr(module, name)) for name in extra})
-    return Functions("numba", *(f[n] for n in _NAMES), tuple(matrices), loops, variational,
-                     {name: getattr(module, name) for name in extra})
+    rhs, jac, energy, outputs, guards, initial = (f[n] for n in _NAMES)
+    return Functions("numba", rhs, jac, energy, outputs, guards, initial, tuple(matrices), loops,
+                     variational, {name: getattr(module, name) for name in extra})

@@ -32,6 +32,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -47,9 +48,11 @@ from . import Functions
 #: nests of the generated functions (the Jacobian's row operations, the small solves) at -O3 by a
 #: pragma in the generated prelude (compiler/printers.py: -18 % per compass-walker step, no
 #: measurable build time).
-#: -fno-math-errno lets sqrt() compile to one instruction; nothing changes results (no
-#: -ffast-math), and nothing is machine-specific (a cache folder may be shared by machines).
-FLAGS = ("-O1", "-fno-math-errno", "-std=c99", "-shared", "-fPIC")
+#: -fno-math-errno lets sqrt() compile to one instruction; -fno-tree-dse skips GCC's dead-store
+#: elimination, superlinear on the long runs of stores of generated code (the 40-link chain's
+#: unit: 4.4 -> 2.6 s of CPU) and of no use there; nothing changes results (no -ffast-math),
+#: and nothing is machine-specific (a cache folder may be shared by machines).
+FLAGS = ("-O1", "-fno-math-errno", "-fno-tree-dse", "-std=c99", "-shared", "-fPIC")
 #: Put before the loop template: GCC optimises the functions that follow at -O2.
 LOOP_PRAGMA = ('#if defined(__GNUC__) && !defined(__clang__)\n#pragma GCC optimize ("O2")\n'
                '#endif\n')
@@ -72,6 +75,17 @@ def library_name(key: str, identity: str | None = None) -> str:
     if identity is None:
         identity = compiler_identity() or "none"
     return f"{library_prefix(key)}{identity}{_SUFFIX}"
+
+
+#: the generated functions the integration loops call: external (hidden, not exported), since
+#: the loops are compiled as a unit of their own (:func:`loop_source`)
+LOOP_FUNCTIONS = ("rhs", "jac", "guards", "jac_p")
+
+#: The loops' forcing of parameter sensitivities calls ``jac_p``; a model compiled without it
+#: has this stub (the loops call it with no parameter columns, so it is never reached)
+JAC_P_STUB = ("/* no parameter Jacobian generated (compile_model(..., jac_p=[...])) */\n"
+              "PH_HIDDEN void jac_p(double t, const double *x, const double *p, double *out)\n"
+              "{\n    (void)t; (void)x; (void)p; (void)out;\n}\n")
 
 
 #: appended to every translation unit: the library's self-check and its model key
@@ -100,14 +114,113 @@ PH_EXPORT const char *ph_model_key(void) { return "%s"; }
 """
 
 
-def translation_unit(body: str, loop_pragma: bool = True, key: str = "") -> str:
-    """The full C source: the generated body followed by the integration loops (after
-    :data:`LOOP_PRAGMA` unless ``loop_pragma`` is false), the self-check and ``ph_model_key``
-    returning ``key`` (the model's cache key: letters and digits)."""
+def model_unit(body: str, key: str = "") -> str:
+    """A model's own translation unit for the C back end: the generated body (and
+    :data:`JAC_P_STUB` when it has no ``jac_p``), the self-check
+    and ``ph_model_key`` returning ``key`` (the model's cache key: letters and digits); the
+    integration loops are an object of their own (:func:`loop_source`) linked with it."""
     if not key.isalnum() and key:
-        raise ValueError(f"model key {key!r}: letters and digits only")
-    return (body + "\n" + (LOOP_PRAGMA if loop_pragma else "") + c_loops()
-            + _SELF_CHECK.replace("%s", key))
+        raise CompilerError(f"model key {key!r}: letters and digits only")
+    return _with_jac_p(body) + "\n" + _SELF_CHECK.replace("%s", key)
+
+
+def _with_jac_p(body: str) -> str:
+    """``body``, followed by :data:`JAC_P_STUB` when it defines no ``jac_p``."""
+    return body if "void jac_p(" in body else body + "\n" + JAC_P_STUB
+
+
+def translation_unit(body: str, loop_pragma: bool = True, key: str = "") -> str:
+    """The full C source as one unit (an FMU's sources; measuring optimisation levels): the
+    generated body (and :data:`JAC_P_STUB` when it has no ``jac_p``) followed by the
+    integration loops (after :data:`LOOP_PRAGMA` unless
+    ``loop_pragma`` is false), the self-check and ``ph_model_key`` (:func:`model_unit`)."""
+    return model_unit(_with_jac_p(body) + "\n" + (LOOP_PRAGMA if loop_pragma else "")
+                      + c_loops(), key)
+
+
+_LOOP_HEADER = """\
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#if defined(_WIN32)
+#define PH_EXPORT __declspec(dllexport)
+#else
+#define PH_EXPORT __attribute__((visibility("default")))
+#endif
+#if defined(__GNUC__)
+#define PH_HIDDEN __attribute__((visibility("hidden")))
+#else
+#define PH_HIDDEN
+#endif
+"""
+
+
+def loop_source(n: int, n_guards: int) -> str:
+    """The integration loops as a translation unit of their own, for a model of ``n`` states
+    (with the ledger) and ``n_guards`` guard slots, calling the model's ``rhs``, ``jac``,
+    ``guards`` and ``jac_p`` (hidden external functions of its generated unit): it depends on the model only
+    through the two sizes, so its object is compiled once per sizes (and compiler) and cached,
+    and it compiles in parallel with the model's code generation (compiler.compile_model)."""
+    declarations = "".join(f"PH_HIDDEN void {name}(double t, const double *x, const double *p, "
+                           "double *out);\n" for name in LOOP_FUNCTIONS)
+    return (_LOOP_HEADER + f"#define PH_N {n}\n#define PH_NG {n_guards}\n" + declarations
+            + LOOP_PRAGMA + c_loops())
+
+
+class Pending:
+    """A compile running in the background (:func:`start_object`); :meth:`result` waits for it:
+    (the object's bytes, seconds of wall time), errors as :func:`build`."""
+
+    def __init__(self, text: str, name: str):
+        self._tmp = tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-")
+        folder = Path(self._tmp.name)
+        self.source = folder / f"{name}.c"
+        self.source.write_text(text)
+        self.out = folder / f"{name}.o"
+        self.log = folder / f"{name}.log"
+        cc = compiler()
+        self.command = [*(cc or ["cc"]), *(f for f in FLAGS if f != "-shared"), "-c", "-o",
+                        str(self.out), str(self.source)]
+        self.start = time.perf_counter()
+        self.process = None
+        if cc is not None:
+            try:
+                with open(self.log, "w") as log:
+                    self.process = subprocess.Popen(self.command, stdout=log, stderr=log,
+                                                    stdin=subprocess.DEVNULL)
+            except OSError:
+                self.process = None
+
+    def close(self) -> None:
+        """Wait for the compiler (if running) and remove the temporary folder."""
+        if self.process is not None and self.process.poll() is None:
+            self.process.wait()
+        self._tmp.cleanup()
+
+    def result(self, log_dir: Path | None, log_as: Path | None = None) -> tuple[bytes, float]:
+        """Wait for the compile: (the object's bytes, seconds since it started); a failure
+        raises CompilerError with its command and log (in ``log_dir``, named after ``log_as``
+        when given, or a kept temporary file)."""
+        try:
+            if self.process is None:        # no compiler, or it could not start: say why
+                return build(self.source, log_dir, (), object_only=True, log_as=log_as)
+            status = self.process.wait()
+            seconds = time.perf_counter() - self.start
+            if status == 0 and self.out.is_file():
+                return self.out.read_bytes(), seconds
+            log = _write_log(log_as or self.source, log_dir, self.command,
+                             f"exit status {status}", self.log.read_text(errors="replace"))
+            raise CompilerError(f"the C compiler failed (exit status {status}) building "
+                                f"{self.source.name}: {shlex.join(self.command)}; its output is "
+                                f"in {log}. {ADVICE}")
+        finally:
+            self._tmp.cleanup()
+
+
+def start_object(text: str, name: str) -> Pending:
+    """Start compiling the C source ``text`` into an object file in the background."""
+    return Pending(text, name)
 
 
 def compiler() -> list[str] | None:
@@ -163,19 +276,43 @@ _NO_COMPILER = ("no C compiler found: $CC is not set, none of cc, gcc, clang is 
 ADVICE = "Set CC to a working C compiler, or choose the numba or python back end"
 
 
-def build(source: Path, log_dir: Path | None, advice: str = ADVICE) -> tuple[bytes, float]:
-    """Compile the translation unit ``source`` into a shared library; (its bytes, seconds).
+def object_key(text: str) -> str:
+    """The cache key of an object compiled from ``text`` (by :func:`compile_object`): a hash of
+    the text, the compiler's identity (:func:`compiler_identity`: its executable, version and
+    flags) and the platform, so that an object is never linked by another compiler."""
+    blob = "\0".join([compiler_identity() or "none", sys.platform, platform.machine(), text])
+    return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+def compile_object(text: str, name: str, log_dir: Path | None = None,
+                   log_as: Path | None = None, advice: str = ADVICE) -> tuple[bytes, float]:
+    """Compile the C source ``text`` (e.g. a kernel, sources.c_object_source) into a
+    position-independent object file; (its bytes, seconds). Errors as :func:`build` (the log
+    named after ``log_as``, e.g. the model's unit that needs the object, when given)."""
+    with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
+        source = Path(tmp) / f"{name}.c"
+        source.write_text(text)
+        return build(source, log_dir, (), object_only=True, log_as=log_as, advice=advice)
+
+
+def build(source: Path, log_dir: Path | None, objects: tuple[Path, ...] = (),
+          object_only: bool = False, log_as: Path | None = None,
+          advice: str = ADVICE) -> tuple[bytes, float]:
+    """Compile the translation unit ``source`` into a shared library linked with ``objects``
+    (or, ``object_only``, into an object file); (its bytes, seconds).
 
     The library is written in a private temporary folder (the caller stores it). On failure a
     :class:`~porthamiltonian.errors.CompilerError` shows the command and the file holding the
-    compiler's output: ``log_dir/<source>.log`` (the cache entry), or a kept temporary file when
-    ``log_dir`` is None; then ``advice``."""
+    compiler's output: ``log_dir/<source>.log`` (the cache entry; ``<log_as>.log`` when given),
+    or a kept temporary file when ``log_dir`` is None; then ``advice``."""
     cc = compiler()
     if cc is None:
         raise CompilerError(_NO_COMPILER)
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
-        out = Path(tmp) / f"{source.stem}{_SUFFIX}"
-        command = [*cc, *FLAGS, "-o", str(out), str(source), "-lm"]
+        out = Path(tmp) / f"{source.stem}{'.o' if object_only else _SUFFIX}"
+        flags = [f for f in FLAGS if f != "-shared"] + ["-c"] if object_only else list(FLAGS)
+        command = [*cc, *flags, "-o", str(out), str(source),
+                   *(() if object_only else (*map(str, objects), "-lm"))]
         start = time.perf_counter()
         try:
             run = subprocess.run(command, capture_output=True, text=True, errors="replace",
@@ -188,7 +325,7 @@ def build(source: Path, log_dir: Path | None, advice: str = ADVICE) -> tuple[byt
         if failure is None:
             return out.read_bytes(), seconds
     what, output = failure
-    log = _write_log(source, log_dir, command, what, output)
+    log = _write_log(log_as or source, log_dir, command, what, output)
     raise CompilerError(f"the C compiler failed ({what}) building {source.name}: "
                         f"{shlex.join(command)}; its output is in {log}. {advice}")
 
@@ -216,7 +353,7 @@ def _pointer(array: np.ndarray) -> int:
     return array.ctypes.data
 
 
-def _vector(value, size: int, what: str) -> np.ndarray:
+def _vector(value: Any, size: int, what: str) -> np.ndarray:
     """``value`` as a contiguous float64 vector of at least ``size`` entries (the C functions
     read that many)."""
     array = np.ascontiguousarray(value, dtype=np.float64)
@@ -302,26 +439,13 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
                             f"model's ({dict(zip(_SIZES, expected))})")
 
     def function(name: str) -> Callable:
-        fn = getattr(lib, f"ph_{name}")
-        fn.restype = None
-        fn.argtypes = (ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
-        shape = shapes[name]
-
-        def call(t, x, p):
-            x = _vector(x, n, "x")
-            p = _vector(p, n_params, "p")
-            out = np.empty(shape)
-            fn(t, _pointer(x), _pointer(p), _pointer(out))
-            return out
-
-        call.__name__ = name
-        return call
+        return _function(getattr(lib, f"ph_{name}"), name, shapes[name], n, n_params)
 
     initial_fn = lib.ph_initial
     initial_fn.restype = None
     initial_fn.argtypes = (ctypes.c_void_p, ctypes.c_void_p)
 
-    def initial(p):
+    def initial(p: Any) -> np.ndarray:
         p = _vector(p, n_params, "p")
         out = np.empty(shapes["initial"])
         initial_fn(_pointer(p), _pointer(out))
@@ -330,21 +454,69 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     n_guards = shapes["guards"][0]
     loops = {name: _loop(getattr(lib, f"ph_integrate_{symbol}"), n, n_params, n_guards)
              for name, symbol in LOOPS.items()}
+    n_gain = shapes["jac_p"][1] if "jac_p" in shapes else 0
     variational = {name: _loop(getattr(lib, f"ph_integrate_{symbol}_variational"), n,
-                               n_params, n_guards, variational=True)
+                               n_params, n_guards, variational=True, n_gain=n_gain)
                    for name, symbol in LOOPS.items()}
     matrices = tuple(function(f"matrix_{k}") for k in range(expected[4]))
     extra = {name: function(name) for name in shapes
              if name not in (*_NAMES, "initial") and not name.startswith("matrix_")}
     # (ctypes never unloads a library: the functions stay valid)
-    return Functions("c", *(function(name) for name in _NAMES), initial, matrices, loops,
+    rhs, jac, energy, outputs, guards = (function(name) for name in _NAMES)
+    return Functions("c", rhs, jac, energy, outputs, guards, initial, matrices, loops,
                      variational, extra)
 
 
-def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False) -> Callable:
+def _function(fn, name: str, shape: tuple[int, ...], n: int, n_params: int) -> Callable:
+    """The Python face of a generated function ``fn(t, x, p, out)``: ``call(t, x, p)`` returns
+    a new array of ``shape``.
+
+    A call's cost is mostly Python's (8 µs per right-hand side of a 2-state model when every
+    call asked numpy for its arrays' addresses and ctypes released the GIL around a function
+    that runs for nanoseconds). The fast path: ``x`` and ``p`` that are float64 vectors of
+    exactly the lengths the function reads are copied into buffers whose addresses were taken
+    once (a memoryview copy, which refuses any other format or shape), the function is called
+    through a prototype that keeps the GIL (it returns within microseconds), and a copy of the
+    output buffer is returned. Anything else (lists, longer vectors, other dtypes), and a call
+    while another thread holds the buffers, takes the general path, which converts and checks
+    (OptionError for what is not a vector of at least that many floats)."""
+    fn.restype = None
+    fn.argtypes = (ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+    fast = ctypes.PYFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p,
+                             ctypes.c_void_p)(ctypes.cast(fn, ctypes.c_void_p).value)
+    bx, bp, out = np.zeros(n), np.zeros(n_params), np.zeros(shape)
+    mx, mp = memoryview(bx), memoryview(bp)
+    px, pp, po = (ctypes.c_void_p(a.ctypes.data) for a in (bx, bp, out))
+    lock = threading.Lock()
+
+    def call(t, x, p):
+        if lock.acquire(False):
+            try:
+                mx[:] = x
+                mp[:] = p
+            except (TypeError, ValueError):
+                pass                            # not such vectors: the general path
+            else:
+                fast(t, px, pp, po)
+                return out.copy()
+            finally:
+                lock.release()
+        x = _vector(x, n, "x")
+        p = _vector(p, n_params, "p")
+        result = np.empty(shape)
+        fn(t, _pointer(x), _pointer(p), _pointer(result))
+        return result
+
+    call.__name__ = name
+    return call
+
+
+def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False,
+          n_gain: int = 0) -> Callable:
     """The Python face of a compiled loop: the calling convention of
     porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 15-tuple; with
-    ``variational`` the argument phi0 and the 18-tuple). The stored points (times, states,
+    ``variational`` the arguments phi0 and gain (its rows: none, or one per column of the
+    library's ``jac_p``, ``n_gain``) and the 18-tuple). The stored points (times, states,
     events, Φ) come in buffers of the thread's, reused by its next call of this loop (a segment
     between two events is short: a fresh 4096-point buffer per call cost more than the
     segment's Python work); the caller copies what it keeps."""
@@ -354,11 +526,12 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
     entry.argtypes = (c_double, c_void_p, c_double, c_void_p, c_double, c_void_p, c_double,
                       c_double, c_void_p, c_void_p, c_int64, c_int64, c_double, c_int64, c_double,
                       c_int64, c_int64, c_double, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p,
-                      c_void_p, c_void_p) + ((c_int64, c_void_p, c_void_p, c_void_p, c_void_p)
-                                             if variational else ())
+                      c_void_p, c_void_p) + ((c_int64, c_void_p, c_int64, c_void_p, c_void_p,
+                                              c_void_p, c_void_p) if variational else ())
 
     def integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_index,
-                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0=None):
+                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0=None,
+                  gain=None):
         y0 = _vector(y0, n, "y0")
         p = _vector(p, n_params, "p")
         atol = _vector(atol, n, "atol")
@@ -377,6 +550,10 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
             if phi0.ndim != 2 or phi0.shape[0] != n:
                 raise OptionError(f"phi0 must have shape ({n}, m), got {phi0.shape}")
             m = phi0.shape[1]
+            gain = np.ascontiguousarray(np.zeros((0, m)) if gain is None else gain,
+                                        dtype=np.float64)
+            if gain.ndim != 2 or gain.shape[1] != m or gain.shape[0] not in (0, n_gain):
+                raise OptionError(f"gain must have shape (0 or {n_gain}, {m}), got {gain.shape}")
         buffers = getattr(local, "buffers", None)
         if buffers is None or buffers[0] != (store_cap, m):
             buffers = ((store_cap, m), np.empty(store_cap), np.empty((store_cap, n)),
@@ -387,11 +564,12 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
         th = np.empty(2)
         y = np.empty(n)
         counts = np.empty(7, dtype=np.int64)
-        extra = ()
+        extra: tuple[Any, ...] = ()
         if variational:
             phi = np.empty((n, m))
             phi_error = np.zeros(1)
-            extra = (m, _pointer(phi0), _pointer(phis), _pointer(phi), _pointer(phi_error))
+            extra = (m, _pointer(phi0), gain.shape[0], _pointer(gain), _pointer(phis),
+                     _pointer(phi), _pointer(phi_error))
         status = entry(t0, _pointer(y0), t_end, _pointer(p), rtol, _pointer(atol), h0, hmax,
                        _pointer(directions), _pointer(terminal), g, int(mask_index), mask_sign,
                        int(n_model), bound, int(max_steps), store_cap, tgrad_step, _pointer(ts),
@@ -405,5 +583,6 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
     return integrate
 
 
-__all__ = ["FLAGS", "build", "compiler", "compiler_identity", "library_name", "library_prefix",
-           "load", "translation_unit"]
+__all__ = ["FLAGS", "Pending", "build", "compile_object", "compiler", "compiler_identity",
+           "library_name", "library_prefix", "load", "loop_source", "model_unit", "object_key",
+           "start_object", "translation_unit"]

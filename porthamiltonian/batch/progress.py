@@ -91,7 +91,7 @@ class TickChannel:
 
 
 class _WorkerSink:
-    def __init__(self, writer, interval: float):
+    def __init__(self, writer: Any, interval: float):
         self.writer, self.interval = writer, interval
         self.pending: Counter = Counter()
         self.last = time.monotonic()
@@ -130,7 +130,7 @@ def _duration(seconds: float) -> str:
     return f"{h}h{m:02d}m{s:02d}s" if h else (f"{m}m{s:02d}s" if m else f"{s}s")
 
 
-def _tqdm():
+def _tqdm() -> Any:
     try:
         from tqdm import tqdm
     except ImportError:

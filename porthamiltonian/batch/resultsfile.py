@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import threading
 import warnings
 from collections.abc import Callable
@@ -32,10 +33,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-try:  # advisory locking (POSIX)
+if sys.platform != "win32":  # advisory locking (POSIX)
     import fcntl
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None
 
 from ..userfiles import path_problem
 from .errors import SweepFileError
@@ -206,7 +205,7 @@ if hasattr(os, "register_at_fork"):
 
 
 def _lock(fh: IO[bytes], path: Path) -> None:
-    if fcntl is None:  # pragma: no cover
+    if sys.platform == "win32":  # pragma: no cover
         return
     try:
         fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -275,7 +274,7 @@ class ResultsFile:
 
     @classmethod
     def open(cls, path: Path, header_line: bytes,
-             check: Callable[[Scan], Any]) -> tuple[ResultsFile, Any]:
+             check: Callable[[Scan | None], Any]) -> tuple[ResultsFile, Any]:
         """The open file and what ``check(scan)`` returned for it (``check`` raises to refuse
         the file; None is passed for a file that was empty), before anything is written."""
         if path.is_dir():

@@ -56,7 +56,7 @@ from concurrent.futures import (
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, Self
 
 from . import progress as _progress
 from .errors import SweepError, SweepFileError
@@ -209,7 +209,7 @@ def _exit_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, name="sweep-parent-watch", daemon=True).start()
 
 
-def _worker_init(parent_pid: int, tick_writer, shared: Mapping[str, Any]) -> None:
+def _worker_init(parent_pid: int, tick_writer: Any, shared: Mapping[str, Any]) -> None:
     """Initializer of the sweep's own pool processes. Ctrl-C in a terminal reaches the whole
     process group and only the parent handles it (it terminates the workers); SIGTERM kills."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -233,18 +233,18 @@ class _SignalGuard:
     """SIGINT and SIGTERM handlers for the duration of a run (main thread only). While a row is
     being written (``critical``), a signal is deferred until the write is complete."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.previous: dict[int, Any] = {}
         self.pending: int | None = None
         self.critical = False
 
-    def _handler(self, signum, frame):
+    def _handler(self, signum: int, frame: Any) -> None:
         if self.critical:
             self.pending = signum
         else:
             raise _Stop(signum)
 
-    def __enter__(self):
+    def __enter__(self) -> Self:
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
                 try:
@@ -253,7 +253,7 @@ class _SignalGuard:
                     pass
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> Literal[False]:
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
         self.previous.clear()
@@ -305,7 +305,7 @@ class SweepInterrupted(KeyboardInterrupt):
 
 
 # --- the sweep -----------------------------------------------------------------------------------
-def _terminate(pool: ProcessPoolExecutor) -> None:
+def _terminate(pool: Executor) -> None:
     """Stop a process pool now: cancel what is queued, terminate the workers (the cases they are
     running are lost), and wait for its threads."""
     for process in list((getattr(pool, "_processes", None) or {}).values()):
@@ -548,7 +548,9 @@ class Sweep:
             raise SweepError(f"the case function {self.function_name} and its arguments must be "
                              f"picklable to reach worker processes: {err}") from None
 
-    def _run_parallel(self, executor, workers, todo, record, prog, max_in_flight, mp_context) -> int:
+    def _run_parallel(self, executor: Executor | None, workers: int | None, todo: list[int],
+                      record: Callable[..., Any], prog: Any, max_in_flight: int | None,
+                      mp_context: Any) -> int:
         """Run ``todo`` through an executor; returns the number of cases lost (not recorded)."""
         owned = executor is None
         context = mp_context or multiprocessing.get_context()
@@ -557,24 +559,25 @@ class Sweep:
         def new_pool(n: int) -> ProcessPoolExecutor:
             return ProcessPoolExecutor(max_workers=n, mp_context=context,
                                        initializer=_worker_init,
-                                       initargs=(os.getpid(), channel.writer, self.shared))
+                                       initargs=(os.getpid(), channel and channel.writer,
+                                                 self.shared))
 
-        def submit_case(pool: Executor, cid: int) -> Future:
+        def submit_case(pool: Executor, cid: int) -> Future[Any]:
             # the own pool's workers hold the shared arguments already
             return pool.submit(run_case, self.function, self.fixed, cid, self.cases[cid],
                                None if owned else self.shared)
 
         n_workers = min(workers or os.cpu_count() or 1, len(todo))
-        if owned:
-            executor = new_pool(n_workers)
-        window = max_in_flight or max(2, 2 * executor_width(executor))
-        queue, pending = deque(todo), {}
+        active = new_pool(n_workers) if executor is None else executor
+        window = max_in_flight or max(2, 2 * executor_width(active))
+        queue: deque[int] = deque(todo)
+        pending: dict[Future[Any], int] = {}
         lost = 0
 
         def submit() -> None:
             while queue and len(pending) < window:
                 cid = queue.popleft()
-                pending[submit_case(executor, cid)] = cid
+                pending[submit_case(active, cid)] = cid
 
         try:
             submit()
@@ -598,16 +601,16 @@ class Sweep:
                     # one at a time in a fresh one-process pool, then go on with a new pool
                     suspects = sorted(broken + list(pending.values()))
                     pending.clear()
-                    _terminate(executor)
+                    _terminate(active)
                     for cid in suspects:
-                        executor = new_pool(1)
-                        row = self._outcome(submit_case(executor, cid), cid, owned, isolated=True)
-                        executor.shutdown(wait=True)
+                        active = new_pool(1)
+                        row = self._outcome(submit_case(active, cid), cid, owned, isolated=True)
+                        active.shutdown(wait=True)
                         if isinstance(row, dict):
                             record(row)
                         else:
                             lost += 1
-                    executor = new_pool(n_workers)
+                    active = new_pool(n_workers)
                 prog.refresh()
                 submit()
             if channel is not None:                 # ticks sent after the last row arrived
@@ -617,15 +620,16 @@ class Sweep:
             for fut in pending:
                 fut.cancel()
             if owned:
-                _terminate(executor)
+                _terminate(active)
             raise
         finally:
             if owned:
-                executor.shutdown(wait=True)
+                active.shutdown(wait=True)
+            if channel is not None:             # (the own pool's)
                 channel.close()
         return lost
 
-    def _outcome(self, fut: Future, cid: int, owned: bool, isolated: bool = False):
+    def _outcome(self, fut: Future[Any], cid: int, owned: bool, isolated: bool = False) -> Any:
         """A finished future: its row, "broken" (the process pool died), or "lost"."""
         try:
             return fut.result()

@@ -45,22 +45,22 @@ def _flat_row(row: dict) -> dict:
     return out
 
 
-def table(rows: Iterable[dict], cases: Sequence[Mapping[str, Any]] | None = None, *,
+def table(rows: Iterable[dict[str, Any]], cases: Sequence[Mapping[str, Any]] | None = None, *,
           pending: bool = False) -> list[dict]:
     """One flat dict per case, in case order: ``case_id``, the case's values, ``status``, the
     result's fields (nested dicts flattened as ``a.b``; a field named like a case value becomes
     ``result.NAME``), ``message`` (the result's, or the error's) and ``seconds``. With ``cases``
     and ``pending=True``, cases with no row appear with status ``"pending"``. The first row of a
     case counts."""
-    by_id: dict[int, dict] = {}
+    by_id: dict[int, dict[str, Any]] = {}
     for row in rows:
         by_id.setdefault(row["case_id"], row)
     ids = range(len(cases)) if cases is not None else sorted(by_id)
     out = []
     for cid in ids:
-        row = by_id.get(cid)
-        if row is not None:
-            out.append(_flat_row(row))
+        first = by_id.get(cid)
+        if first is not None:
+            out.append(_flat_row(first))
         elif pending and cases is not None:
             out.append({"case_id": cid, **cases[cid], "status": "pending"})
     return out

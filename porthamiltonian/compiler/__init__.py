@@ -11,29 +11,47 @@ from __future__ import annotations
 import dataclasses
 import json
 import shlex
+import sys
 import time
 import warnings
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
-from typing import Any
-
-import sympy
+from typing import TYPE_CHECKING, Any
 
 from .. import backends
 from ..backends import module, native
 from ..errors import CompilerError, ModelError
 from ..modeling.constraints import Constraint
-from ..modeling.model import Model, ModelDescription
 from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from ..simulation.sampling import DiscreteBlock
 from . import cache, estimate, numba_cache
-from .assemble import SymbolicModel, assemble, power_balance
-from .codegen import program
 from .literals import printable
-from .phform import ph_form, ph_functions
-from .printers import c_source, python_source
-from .structure import Solution, build_system, solve
+from .snapshots import recall, remember, snapshot_key
+
+if TYPE_CHECKING:
+    from ..modeling.model import Model, ModelDescription
+    from .assemble import SymbolicModel
+    from .structure import Solution
+
+# The symbolic stages (sympy) and the model builder (networkx) are imported by the functions
+# that run them: a compiled model reopened from the cache (:func:`reopen`) needs neither.
+
+
+def __getattr__(name: str) -> Any:
+    """``power_balance`` and ``SymbolicModel`` (of :mod:`.assemble`), imported on first use."""
+    if name in ("power_balance", "SymbolicModel"):
+        from . import assemble
+
+        return getattr(assemble, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _frozen(model: Model | ModelDescription) -> ModelDescription:
+    """The frozen description of ``model`` (a model, or its description already)."""
+    from ..modeling.model import Model
+
+    return model.freeze() if isinstance(model, Model) else model
 
 #: why the C back end failed in this process (``"auto"`` does not try to build again)
 _C_FAILED: list[str] = []
@@ -44,7 +62,10 @@ def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     description (every problem at once, :meth:`~porthamiltonian.modeling.model.ModelDescription.validate`),
     then structure, assembly. Errors carry the path of what they are about
     (:attr:`~porthamiltonian.errors.ModelError.path`)."""
-    description = model.freeze() if isinstance(model, Model) else model
+    from .assemble import assemble
+    from .phform import ph_form
+
+    description = _frozen(model)
     sym = assemble(_solved(description.validate()))
     sym.ph_maker = lambda: ph_form(description, sym, _solved(description))
     return sym
@@ -61,6 +82,8 @@ _SOLVED_KEPT = 4
 def _solved(description: ModelDescription) -> Solution:
     """``solve(build_system(description))``, reused from :data:`_SOLVED` when only the events
     or the model outputs differ (the component classes themselves must be the same objects)."""
+    from .structure import Solution, build_system, solve
+
     bare = dataclasses.replace(description, events=(), outputs=MappingProxyType({}), scopes=(
         MappingProxyType({k: v for k, v in description.scopes.items()
                           if not k.startswith(("event:", "output:"))})))
@@ -92,20 +115,21 @@ class Layout:
     output_names: tuple[str, ...]
     constraints: tuple[Constraint, ...] = ()
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         """The record as a JSON table (``layout.json`` of a cache entry)."""
         return {"name": self.name, "param_names": list(self.param_names),
                 "state_names": list(self.state_names), "output_names": list(self.output_names),
                 "constraints": [c.to_dict() for c in self.constraints]}
 
     @classmethod
-    def from_json(cls, data: dict) -> Layout:
+    def from_json(cls, data: dict[str, Any]) -> Layout:
         """The record of a :meth:`to_json` table; KeyError or TypeError when it is not one."""
-        lists = [tuple(data[k]) for k in ("param_names", "state_names", "output_names")]
-        if not all(isinstance(n, str) for names in lists for n in names):
+        params, states, outputs = (tuple(data[k]) for k in
+                                   ("param_names", "state_names", "output_names"))
+        if not all(isinstance(n, str) for names in (params, states, outputs) for n in names):
             raise TypeError("a name is not a string")
         constraints = tuple(Constraint.from_dict(c) for c in data["constraints"])
-        return cls(str(data["name"]), *lists, constraints)
+        return cls(str(data["name"]), params, states, outputs, constraints)
 
 
 #: the file of a cache entry holding its model's :class:`Layout`
@@ -119,7 +143,7 @@ def layout(model: Model | ModelDescription, use_cache: bool = True) -> Layout:
     verified by its sha256 like every cached file), so that a model seen before needs no
     symbolic work; the solved structure is reused by the compile that usually follows
     (:func:`_solved`). Raises the model's errors as :func:`symbolic` does."""
-    description = model.freeze() if isinstance(model, Model) else model
+    description = _frozen(model)
     key = cache.model_key(description)
     stored = cache.load_verified(key, _LAYOUT_FILE) if use_cache else None
     if stored is not None:
@@ -161,23 +185,32 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         vector [∇H; z; u] at a point (``CompiledModel.ph_matrices``; a compiled model asks for
         them itself, once, when they are first needed).
     """
+    from ..modeling.model import Model, ModelDescription
+
     if not isinstance(model, (Model, ModelDescription)):
         hint = (f"; to compile a model file, read it first: compile_model(io.load({model!r}))"
                 if isinstance(model, str) else "")
         raise ModelError(f"compile_model takes a Model (or its ModelDescription), got "
                          f"{type(model).__name__} {model!r:.80}{hint}")
     order = backends.candidates(backend)
-    description = model.freeze() if isinstance(model, Model) else model
+    description = _frozen(model)
     options = {k: v for k, v in (("jac_p", list(jac_p or [])), ("ph", ph)) if v}
     key = cache.model_key(description, options)
     meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
+    pending = None
     if meta is None:
+        from .codegen import program
+        from .phform import ph_form, ph_functions
+        from .printers import c_source, kernels, python_source
+
         estimate.check(description, backends.report)      # refused, or announced, before work
         start = time.perf_counter()
         sym = symbolic(description)
         form = ph_form(description, sym, _solved(description)) if ph else None
         times["symbolic"] = time.perf_counter() - start
+        if order[0] == "c" and not _C_FAILED:       # the loops compile while the code is made
+            pending = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
         start = time.perf_counter()
         prog = program(sym, jac_p=list(jac_p or []))
         if form is not None:
@@ -202,20 +235,26 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states),
                                          f"update_{j}")
                            for j, (c, period, states, _) in enumerate(sym.discrete)),
-            ph=form.layout() if form is not None else None)
+            ph=form.layout() if form is not None else None,
+            kernels=tuple(kernels(prog)), unavailable=MappingProxyType(dict(prog.unavailable)))
         if use_cache:
             cache.write(key, meta.to_json(), bodies)
-    for i, name in enumerate(order):
-        try:
-            functions = _load(name, key, meta, bodies, use_cache, times, explicit=len(order) == 1)
-        except CompilerError as err:
-            if len(order) == 1:
-                raise
-            if not _C_FAILED:
-                _C_FAILED.append(str(err))
-                backends.fell_back(str(err), order[i + 1])
-            continue
-        break
+    try:
+        for i, name in enumerate(order):
+            try:
+                functions = _load(name, key, meta, bodies, use_cache, times,
+                                  explicit=len(order) == 1, pending=pending)
+            except CompilerError as err:
+                if len(order) == 1:
+                    raise
+                if not _C_FAILED:
+                    _C_FAILED.append(str(err))
+                    backends.fell_back(str(err), order[i + 1])
+                continue
+            break
+    finally:
+        if pending is not None:
+            pending.close()
     if times:
         parts = [f"{k} {v:.1f} s" for k, v in times.items()]
         size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
@@ -238,6 +277,57 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                          rebuild=rebuild)
 
 
+def compiled_record(compiled: CompiledModel) -> dict[str, Any]:
+    """What :func:`reopen` needs to open ``compiled`` again from the cache, as plain data: its
+    cache key, back end and generated extras, and the parameters', inputs' and outputs' texts
+    that come from its description (for a snapshot, :mod:`.snapshots`)."""
+    return {"key": compiled.key, "backend": compiled.backend,
+            "jac_p": list(compiled.jac_p_names), "ph": compiled.ph_layout is not None,
+            "param_docs": list(compiled.param_docs), "input_docs": list(compiled.input_docs),
+            "output_expressions": dict(compiled.output_expressions)}
+
+
+def reopen(record: Mapping[str, Any],
+           description: Callable[[], ModelDescription]) -> CompiledModel | None:
+    """The compiled model of ``record`` (:func:`compiled_record`) from the cache, without the
+    symbolic compiler (no sympy, no networkx): its metadata and code verified as
+    :func:`compile_model` verifies them, its library loaded (built when only the library is
+    missing). None when the entry is gone or damaged, or the back end cannot load it: the caller
+    compiles the model as usual. ``description`` gives the model's description when it is
+    needed after all (a compiled model extended with ``ph=True`` or ``jac_p``)."""
+    try:
+        key, name = str(record["key"]), str(record["backend"])
+        jac_p = [str(n) for n in record["jac_p"]]
+        ph = bool(record["ph"])
+        docs = {k: [str(d) for d in record[k]] for k in ("param_docs", "input_docs")}
+        outputs = {str(k): str(v) for k, v in dict(record["output_expressions"]).items()}
+    except (KeyError, TypeError, ValueError):
+        return None
+    if name not in backends.BACKENDS or not cache.model_key_form(key):
+        return None
+    meta, bodies = _cached(key)
+    if meta is None or list(meta.jac_p) != jac_p or (meta.ph is not None) != ph:
+        return None
+    times: dict[str, float] = {}
+    try:
+        functions = _load(name, key, meta, bodies, True, times, explicit=True)
+    except CompilerError:
+        return None
+    if times:
+        backends.report(f"building {printable(meta.name)}: "
+                        f"{', '.join(f'{k} {v:.1f} s' for k, v in times.items())}")
+
+    def rebuild(**more: Any) -> CompiledModel:
+        """This model compiled again with the options ``more`` added (for CompiledModel)."""
+        merged = {"jac_p": jac_p, "ph": ph, **more}
+        return compile_model(description(), backend=name, **merged)
+
+    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
+                         c_source=bodies["c"], param_docs=docs["param_docs"],
+                         input_docs=docs["input_docs"], output_expressions=outputs,
+                         rebuild=rebuild)
+
+
 def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
     """The cache entry's (metadata, code bodies), or (None, {}) on a miss; an entry whose
     metadata is not this version's record is a miss (it is rebuilt and written again)."""
@@ -251,9 +341,12 @@ def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
 
 
 def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
-          times: dict[str, float], explicit: bool) -> backends.Functions:
+          times: dict[str, float], explicit: bool,
+          pending: native.Pending | None = None) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
-    compile time goes into ``times``."""
+    compile time (the time waited for it) goes into ``times``. The C library links the model's
+    unit with the integration loops' object (:func:`native.loop_source`, by the model's sizes)
+    and the objects of the kernels it calls, each compiled once and cached."""
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
@@ -264,19 +357,22 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
     n_params = slot_count(meta)
     identity = native.compiler_identity()
     lib_name = native.library_name(key, identity or "none")
-    path = cache.verified_path(key, lib_name) if use_cache else None
-    if path is not None:
+    cached = cache.verified_path(key, lib_name) if use_cache else None
+    if cached is not None:
         try:
-            return native.load(path, shapes, n_params, key)
+            return native.load(cached, shapes, n_params, key)
         except CompilerError as err:
             cache.warn(f"compiled-model cache: {err}; the library is removed and rebuilt")
-            cache.discard(key, path.name)
+            cache.discard(key, cached.name)
     if _C_FAILED and not explicit:
         raise CompilerError(_C_FAILED[0])
-    source = cache.store(key, f"m{key}_c.c", native.translation_unit(bodies["c"], key=key),
-                         use_cache)
+    source = cache.store(key, f"m{key}_c.c", native.model_unit(bodies["c"], key=key), use_cache)
+    log_dir = source.parent if cache.kept(source) else None     # failures: the model's log
     try:
-        data, seconds = native.build(source, source.parent if cache.kept(source) else None)
+        objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
+                        for kernel in meta.kernels)
+        objects += (_loop_object(meta, use_cache, times, pending, log_dir, source),)
+        data, seconds = native.build(source, log_dir, objects)
     except CompilerError as err:
         # no working compiler now: this model's library built by another compiler will do,
         # after its self-check (a cached library needs no compiler)
@@ -288,7 +384,7 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
                           "compiler (it passed its self-check)", backends.BackendWarning,
                           stacklevel=4)
         return earlier
-    times["C"] = seconds
+    times["C"] = times.get("C", 0.0) + seconds
     path = cache.store(key, lib_name, data, use_cache)
     try:
         return native.load(path, shapes, n_params, key)
@@ -299,7 +395,8 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
                             "compiler, or choose the numba or python back end") from None
 
 
-def _earlier_library(key: str, shapes: dict, n_params: int) -> backends.Functions | None:
+def _earlier_library(key: str, shapes: dict[str, tuple[int, ...]], n_params: int
+                     ) -> backends.Functions | None:
     """A library of model ``key`` for this machine that another compiler built, loaded after
     its self-check (one that fails it is removed); None when there is none."""
     for name in cache.recorded(key, native.library_prefix(key)):
@@ -312,6 +409,54 @@ def _earlier_library(key: str, shapes: dict, n_params: int) -> backends.Function
             cache.warn(f"compiled-model cache: {err}; the library is removed")
             cache.discard(key, name)
     return None
+
+
+def _loop_name() -> str:
+    return f"loops_{sys.platform}.o"
+
+
+def _start_loop(n: int, n_guards: int, use_cache: bool) -> native.Pending | None:
+    """Start compiling the loops' object for these sizes unless it is cached."""
+    text = native.loop_source(n, n_guards)
+    if use_cache and cache.verified_path(native.object_key(text), _loop_name()) is not None:
+        return None
+    return native.start_object(text, "loops")
+
+
+def _loop_object(meta: ModelMeta, use_cache: bool, times: dict[str, float],
+                 pending: native.Pending | None, log_dir, model_source):
+    """The integration loops' object for the model's sizes: cached, or the background compile
+    ``pending`` waited for, or compiled now (the time waited added to ``times["C"]``); a
+    failure is logged as the model's (``log_dir``, named after ``model_source``)."""
+    text = native.loop_source(meta.shapes["rhs"][0], meta.shapes["guards"][0])
+    key = native.object_key(text)
+    path = cache.verified_path(key, _loop_name()) if use_cache else None
+    if path is None:
+        start = time.perf_counter()
+        data = (pending.result(log_dir, model_source)[0] if pending is not None
+                else native.compile_object(text, "loops", log_dir, model_source)[0])
+        times["C"] = times.get("C", 0.0) + time.perf_counter() - start
+        path = cache.store(key, _loop_name(), data, use_cache)
+    return path
+
+
+def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_dir,
+                   model_source):
+    """The compiled object of ``kernel`` (:mod:`porthamiltonian.mechanics.sources`), from the
+    cache (an entry of its own, keyed by its source and the compiler) or compiled now (its time
+    added to ``times["C"]``; a failure logged as the model's): one compile serves every model
+    that calls the kernel."""
+    from ..mechanics.sources import c_object_source  # (the mechanics import sympy)
+
+    text = c_object_source(kernel)
+    key = native.object_key(text)
+    name = f"{kernel}_{sys.platform}.o"
+    path = cache.verified_path(key, name) if use_cache else None
+    if path is None:
+        data, seconds = native.compile_object(text, kernel, log_dir, model_source)
+        times["C"] = times.get("C", 0.0) + seconds
+        path = cache.store(key, name, data, use_cache)
+    return path
 
 
 def slot_count(meta: ModelMeta) -> int:
@@ -330,6 +475,8 @@ def extra_functions(meta: ModelMeta) -> list[str]:
 
 def _autonomous(sym: SymbolicModel) -> bool:
     """True when the state equations do not depend on time explicitly."""
+    import sympy
+
     from ..modeling.expressions import TIME
 
     exprs = [*sym.rhs, *(e for _, e in sym.intermediates)]
@@ -337,4 +484,5 @@ def _autonomous(sym: SymbolicModel) -> bool:
     return not any(TIME in sympy.sympify(e).free_symbols for e in exprs)
 
 
-__all__ = ["Layout", "SymbolicModel", "compile_model", "layout", "power_balance", "symbolic"]
+__all__ = ["Layout", "SymbolicModel", "compile_model", "compiled_record", "layout",
+           "power_balance", "recall", "remember", "reopen", "snapshot_key", "symbolic"]

@@ -24,17 +24,19 @@ The residual r(t) = H(t) − H(0) + E_diss(t) − E_in(t) is then zero up to int
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import sympy as sp
 
 from ..errors import ModelError, StateError
+from ..modeling.calls import KernelCall
 from ..modeling.constraints import Constraint
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import EventSpec
 from ..modeling.ports import domain
-from .structure import Solution, _flat
+from .structure import Solution, System, _flat
 
 
 @dataclass
@@ -64,6 +66,8 @@ class SymbolicModel:
     constraints: list[Constraint] = field(default_factory=list)
     #: SI unit by name of the states and port variables whose unit is known
     units: dict[str, str] = field(default_factory=dict)
+    #: the components' kernel calls by name (:mod:`porthamiltonian.modeling.calls`)
+    calls: dict[str, KernelCall] = field(default_factory=dict)
     #: the model's inputs (signals bound at run time), their names and units
     inputs: list[sp.Symbol] = field(default_factory=list)
     input_names: list[str] = field(default_factory=list)
@@ -158,9 +162,15 @@ def assemble(solution: Solution) -> SymbolicModel:
 
     initial = []
     param_set = set(system.params.values())
+    # intermediates of the parameters alone (e.g. a kernel's initial momenta) may give initial
+    # values (the intermediates are ordered: one pass)
+    constant: set[sp.Symbol] = set()
+    for w, expr in system.intermediates:
+        if expr.free_symbols <= param_set | constant:
+            constant.add(w)
     for b in system.built.values():
         for s in b.states:
-            if not s.initial.free_symbols <= param_set | {TIME}:
+            if not s.initial.free_symbols <= param_set | {TIME} | constant:
                 raise StateError(f"initial value of {s.symbol} must depend on parameters only")
             initial.append(s.initial.subs(TIME, 0))
 
@@ -171,7 +181,7 @@ def assemble(solution: Solution) -> SymbolicModel:
                 for cname, b in system.built.items() for _, updates in b.samples]
     rhs = [xdot[x] for x in states] + [p_diss, p_in]
     used = [*rhs, H, *outputs.values(), *(g for _, g in events), *matrices.values(),
-            *(e for _, A, b in system.blocks for e in (*A, *b)),
+            *(e for _, A, b in system.blocks for e in (*A, *b)), *initial,
             *(v for *_, new in discrete for v in new)]
     return SymbolicModel(
         name=flat.name, states=states, state_names=[str(s) for s in states],
@@ -186,6 +196,7 @@ def assemble(solution: Solution) -> SymbolicModel:
         energy_parts=parts,
         constraints=[c for b in system.built.values() for c in b.constraints],
         units=units,
+        calls={name: call for b in system.built.values() for name, call in b.calls.items()},
         inputs=list(system.inputs.values()), input_names=list(system.inputs),
         input_units=[i.unit for i in flat.inputs.values() if i.bind is None],
         state_roles=[s.role for b in system.built.values() for s in b.states],
@@ -219,7 +230,7 @@ def energy_parts(energies: dict[str, sp.Expr],
 
 
 def _needed(intermediates: list[tuple[sp.Symbol, sp.Expr]],
-            exprs: list) -> list[tuple[sp.Symbol, sp.Expr]]:
+            exprs: list[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
     """The intermediates that ``exprs`` use, directly or through other intermediates (in their
     order): a component may declare more than a model uses (e.g. a multibody's inertia entries
     that a planar motion never reads)."""
@@ -266,7 +277,7 @@ def _port_names(comp: str, port: str, dim: int) -> list[str]:
     return [f"{comp}.{port}.e{i}" for i in range(dim)] + [f"{comp}.{port}.f{i}" for i in range(dim)]
 
 
-def _symbol_table(system, outputs) -> dict[str, sp.Expr]:
+def _symbol_table(system: System, outputs: Mapping[str, sp.Expr]) -> dict[str, sp.Expr]:
     """Names a model-level expression (event guard, output) may use: states, port variables and
     every component output (e.g. a body point's height ``walker.foot1.z``)."""
     table: dict[str, sp.Expr] = {str(s): s for s in system.states}
@@ -279,7 +290,8 @@ def _symbol_table(system, outputs) -> dict[str, sp.Expr]:
     return table
 
 
-def _model_expr(text: str, key: str, table: dict[str, sp.Symbol], system, where: str) -> sp.Expr:
+def _model_expr(text: str, key: str, table: dict[str, sp.Symbol], system: System,
+                where: str) -> sp.Expr:
     """A model output's or event guard's expression (``key``: ``"output:<name>"`` or
     ``"event:<name>"``) in its scope; an error carries its path."""
     flat = system.flat
@@ -298,9 +310,10 @@ def power_balance(model: SymbolicModel) -> sp.Expr:
     Symbolic, so only for models without implicit blocks; for those use
     :meth:`porthamiltonian.simulation.compiled.CompiledModel.power_balance` (numeric).
     """
-    if model.blocks:
-        raise ModelError(f"model {model.name!r} has implicit blocks (e.g. a mass matrix solved "
-                         "numerically): check its power balance with CompiledModel.power_balance")
+    if model.blocks or model.calls:
+        raise ModelError(f"model {model.name!r} has implicit blocks or kernel calls (e.g. a mass "
+                         "matrix solved numerically): check its power balance with "
+                         "CompiledModel.power_balance")
     n = len(model.states)
     if model.intermediates:
         return power_balance(_inlined(model))

@@ -84,18 +84,17 @@ import threading
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
-from typing import Any
-
-import sympy
+from typing import TYPE_CHECKING, Any
 
 from ..errors import OptionError
-from ..modeling.model import Model, ModelDescription
-from .codegen import CODEGEN_VERSION
 
-try:  # POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record,
-    import fcntl  # which only costs a rebuild of that file)
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None
+if TYPE_CHECKING:
+    from ..modeling.model import Model, ModelDescription
+
+# POSIX file locks for manifest updates (elsewhere, concurrent updates may lose a record, which
+# only costs a rebuild of that file)
+if sys.platform != "win32":
+    import fcntl
 
 _MANIFEST = "manifest.json"
 _LOCK = ".lock"
@@ -231,13 +230,19 @@ def _base(persistent: bool) -> Path:
 
 
 # --- the key ---------------------------------------------------------------------------------------
-def model_key(model: Model | ModelDescription, options: dict | None = None) -> str:
+def model_key(model: Model | ModelDescription, options: dict[str, Any] | None = None) -> str:
     """A hash of everything that determines the generated code: the model's canonical
     description (:meth:`~porthamiltonian.modeling.model.ModelDescription.canonical`), the source of every
     package module the model's component classes depend on (their modules and, transitively, the
     package modules those import), the compiler and back-end sources, the versions of sympy
     and of the code generator, and the compiler's ``options`` (JSON-able; e.g. the parameters
-    of a generated ``jac_p``), when given."""
+    of a generated ``jac_p``), when given. (The files of an entry are read and written without
+    sympy: only the key needs it.)"""
+    import sympy
+
+    from ..modeling.model import Model
+    from .codegen import CODEGEN_VERSION
+
     description = model.freeze() if isinstance(model, Model) else model
     modules = {type(c).__module__ for c in description.components.values()}
     content = {"model": description.canonical(), "classes": _sources_hash(frozenset(modules)),
@@ -246,6 +251,15 @@ def model_key(model: Model | ModelDescription, options: dict | None = None) -> s
         content["options"] = options
     blob = json.dumps(content, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+_KEY = re.compile(r"[0-9a-f]{32}")
+
+
+def model_key_form(key: str) -> bool:
+    """True when ``key`` has the form of a :func:`model_key` (32 hexadecimal digits): a key read
+    from a file names a folder of the cache only then."""
+    return isinstance(key, str) and _KEY.fullmatch(key) is not None
 
 
 _PACKAGE = Path(__file__).resolve().parent.parent
@@ -337,7 +351,7 @@ _HELD = threading.local()
 def _locked(entry: Path) -> Iterator[None]:
     """Hold the entry's lock (manifest read-modify-write); reentrant within a thread."""
     held = _HELD.__dict__.setdefault("entries", set())
-    if fcntl is None or str(entry) in held:  # pragma: no cover - (Windows)
+    if sys.platform == "win32" or str(entry) in held:  # pragma: no cover - (Windows)
         yield
         return
     fd = os.open(entry / _LOCK, os.O_RDWR | os.O_CREAT, 0o600)
@@ -423,13 +437,14 @@ def read(key: str) -> tuple[dict[str, Any], dict[str, str]] | None:
     if not entry.is_dir() or not _usable(entry):
         return None
     files = _manifest(entry)
-    raw = None
+    raw: dict[str, bytes] | None = None
     names = ("meta.json", *_BODIES.values())
     if files is not None and not set(names) & set(files):
         return None                     # only back-end files stored so far: a miss
     if files is not None:
-        raw = {name: _verified(entry, name, files) for name in names}
-        if any(v is None for v in raw.values()):
+        found = {name: _verified(entry, name, files) for name in names}
+        raw = {name: data for name, data in found.items() if data is not None}
+        if len(raw) < len(found):
             raw = None
     if raw is not None:
         try:
@@ -658,6 +673,7 @@ __all__ = [
     "kept",
     "load_verified",
     "model_key",
+    "model_key_form",
     "private_dir",
     "private_problem",
     "pycache_usable",

@@ -17,6 +17,8 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 ``jac_u(t, x, p)``    ∂ẋ/∂u by the model's inputs, (n + 2) x m (models with inputs)
 ``out_jac(t, x, p)``  ∂y/∂[x, u] of the declared outputs y by the model states and inputs
 ``jac_p(t, x, p)``    ∂ẋ/∂p by the parameters asked for (``program(model, jac_p=[...])``)
+``energy_jac(t, x, p)`` ∂H/∂[x, p] by the states and those parameters (with ``jac_p``: the
+                      parameter sensitivities' energy ledger at events)
 ``update_<j>(t, x, p)`` the new discrete states of discrete-time block j at a sampling instant
 
 The parameter vector ``p`` holds the parameters, then two slots per input (:func:`input_slots`):
@@ -35,23 +37,36 @@ Intermediates may read the blocks' unknowns (velocity-level intermediates, e.g. 
 of a multibody, and the port-level ones of :mod:`.structure` once their port variables are
 solved); the chain rule then adds ∂w/∂v · ∂v/∂x to their rows. Every function's
 documentation lists the order of its arguments' and its result's entries by name.
+
+Kernel calls (:mod:`porthamiltonian.modeling.calls`, e.g. a multibody's recursion) are evaluated
+once where their outputs are first needed (:class:`Call`); in the Jacobian their outputs' rows
+come from the kernel's own tangents (:class:`CallTangent`: the rows of the inputs in, the rows of
+the outputs out), between the chain rule's segments before and after them; in such a model only
+the intermediates the state equations read get Jacobian rows.
 """
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import graphlib
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import sympy as sp
+from sympy.core.symbol import Str
 
 from ..errors import CompilerError
+from ..mechanics.sources import digest as kernel_digest
+from ..modeling.calls import KernelOutput
 from ..modeling.differentiation import derivative
 from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
 from .structure import stages
 
-#: Bumped whenever generated code changes meaning; part of the cache key.
-CODEGEN_VERSION = "7"
+#: Bumped whenever generated code changes meaning; part of the cache key (with a hash of the
+#: kernels' templates, which generated modules include or link).
+CODEGEN_VERSION = "8." + kernel_digest()
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -144,7 +159,43 @@ class SolveRows:
     ncols: int
 
 
-Statement = Let | Array | Store | Solve | IndexTable | ChainRule | SparseProduct | SolveRows
+@dataclass(frozen=True)
+class Call:
+    """A kernel call (:mod:`porthamiltonian.modeling.calls`): the routine ``entry`` of ``kernel``
+    on the integer ``table``, the ``constants`` and ``inputs`` (expressions), writing its
+    ``n_outputs`` outputs into the local array ``<label>o``, which expressions index."""
+
+    label: str
+    kernel: str
+    entry: str
+    table: tuple[int, ...]
+    constants: tuple[sp.Expr, ...]
+    inputs: tuple[sp.Expr, ...]
+    n_outputs: int
+
+
+@dataclass(frozen=True)
+class CallTangent:
+    """A kernel call with tangents, in the Jacobian: the directions of its inputs are the rows
+    ``rows[j]`` — ``("x", i)`` the unit row of variable i (the Jacobian's column i),
+    ``(array, m)`` row m of the array (``Dw`` or ``R``), None a zero row —, each ``ncols`` long;
+    the derivatives of output k go to row m of ``array`` for every ``(k, array, m)`` of ``into``
+    (the other fields as in :class:`Call`)."""
+
+    label: str
+    kernel: str
+    entry: str
+    table: tuple[int, ...]
+    constants: tuple[sp.Expr, ...]
+    inputs: tuple[sp.Expr, ...]
+    n_outputs: int
+    ncols: int
+    rows: tuple[tuple[str, int] | None, ...]
+    into: tuple[tuple[int, str, int], ...]
+
+
+Statement = (Let | Array | Store | Solve | IndexTable | ChainRule | SparseProduct | SolveRows | Call
+             | CallTangent)
 
 
 @dataclass(frozen=True)
@@ -162,7 +213,9 @@ class Function:
 @dataclass(frozen=True)
 class Program:
     """A model's generated functions and its layout (``n`` integration states, ``n_params``,
-    ``n_guards`` guard slots, ``n_outputs`` output slots; ``header``: raw lines)."""
+    ``n_guards`` guard slots, ``n_outputs`` output slots; ``header``: raw lines;
+    ``unavailable``: (function, why) of the derivatives the model cannot have, e.g. ``out_jac``
+    when a declared output reads a kernel output without tangents)."""
 
     model_name: str
     header: tuple[str, ...]
@@ -171,10 +224,11 @@ class Program:
     n_params: int
     n_guards: int
     n_outputs: int
+    unavailable: tuple[tuple[str, str], ...] = ()
 
 
 # --- building ------------------------------------------------------------------------------------
-def _names(exprs) -> set[str]:
+def _names(exprs: Iterable[sp.Expr]) -> set[str]:
     return {str(s) for e in exprs for s in e.free_symbols}
 
 
@@ -185,7 +239,8 @@ class FunctionBuilder:
 
     def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel):
         self.mapping = mapping
-        pre: list[sp.Expr] = [expr for _, expr in model.intermediates]
+        regular = [(w, e) for w, e in model.intermediates if not isinstance(e, KernelOutput)]
+        pre: list[sp.Expr] = [expr for _, expr in regular]
         for _, A, b in model.blocks:
             pre += list(A) + list(b)
         pre = [sp.sympify(e).xreplace(mapping) for e in pre]
@@ -194,10 +249,22 @@ class FunctionBuilder:
         self.nodes: list[tuple[list[str], set[str], list[Statement]]] = [
             ([str(sym)], _names([expr]), [Let(str(sym), expr)]) for sym, expr in replacements]
         k = 0
-        for symbol, _ in model.intermediates:
+        for symbol, _ in regular:
             target = str(mapping[symbol])
             self.nodes.append(([target], _names([reduced[k]]), [Let(target, reduced[k])]))
             k += 1
+        #: the kernel calls: name -> (label, mapped constants, mapped inputs, [(index, symbol)])
+        self.calls: dict[str, tuple[str, tuple, tuple, list]] = {}
+        for name, (inputs, outs) in _call_groups(model).items():
+            call = model.calls[name]
+            label = f"kern{len(self.calls)}"        # its outputs: kern<i>o[k] (see program)
+            constants = tuple(_float(sp.sympify(c).xreplace(mapping)) for c in call.constants)
+            args = tuple(_float(sp.sympify(u).xreplace(mapping)) for u in inputs)
+            self.calls[name] = (label, constants, args, outs)
+            stmt = Call(label, call.kernel, call.entry, call.table, constants, args,
+                        call.n_outputs)
+            self.nodes.append(([str(mapping[w]) for _, w in outs], _names(constants + args),
+                               [stmt]))
         for index, (syms, A, b) in enumerate(model.blocks):
             n = len(syms)
             an, bn = f"A{index}", f"b{index}"
@@ -226,12 +293,13 @@ class FunctionBuilder:
                 continue
             wanted.add(i)
             stack += [self.owner[d] for d in self.nodes[i][1] if d in self.owner]
-        order = graphlib.TopologicalSorter()
+        order: graphlib.TopologicalSorter[int] = graphlib.TopologicalSorter()
         for i in sorted(wanted):
             order.add(i, *sorted({self.owner[d] for d in self.nodes[i][1] if d in self.owner}))
         return [st for i in order.static_order() for st in self.nodes[i][2]]
 
-    def function(self, name: str, doc: list[str], groups: list[tuple], shape: tuple[int, ...],
+    def function(self, name: str, doc: list[str], groups: list[tuple[Any, ...]],
+                 shape: tuple[int, ...],
                  args: tuple[str, ...] = ("t", "x", "p")) -> Function:
         """``groups``, in the order of their statements: ("array", array, expressions, shape) (a
         matrix's zero entries are not stored), ("entries", array, nonzero entries (i, j, expr),
@@ -248,6 +316,9 @@ class FunctionBuilder:
             kind = group[0]
             if kind == "statement":
                 body.append(group[1])
+            elif kind == "call":
+                body.append(group[1])
+                needed |= _names(group[1].constants + group[1].inputs)
             elif kind == "array":
                 _, array, exprs, ashape = group
                 sparse = len(ashape) == 2
@@ -273,26 +344,119 @@ class FunctionBuilder:
                 elif kept:
                     _, dst, _, fshape, src, ncols, ranges = group
                     body.append(SparseProduct(dst, tuple(kept), fshape, src, ncols, ranges))
-        pre = self.prologue(needed) if "x" in args else []
+        pre = self.prologue(needed)       # (initial(p) needs only nodes of the parameters)
         return Function(name, args, tuple(doc), tuple(pre + body), shape)
 
 
-def _expressions(group: tuple) -> list:
+def _expressions(group: tuple[Any, ...]) -> list[sp.Expr]:
     """The expressions of a group of :meth:`FunctionBuilder.function`, in the order of its statements."""
-    if group[0] == "statement":
+    if group[0] in ("statement", "call"):
         return []
     if group[0] == "array":
         return list(group[2])
     return [e for _, _, e in group[2]]
 
 
-def jacobian(exprs: list, variables: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]]:
+def _float(expr: sp.Expr) -> sp.Expr:
+    """Numbers as floats (the arrays a kernel call is handed are of doubles)."""
+    return sp.Float(float(expr)) if expr.is_number else expr
+
+
+def _call_groups(model: SymbolicModel) -> dict[str, tuple[tuple, list]]:
+    """Each kernel call of the model's intermediates: name -> (its inputs, [(output index,
+    symbol)]) in the order of the intermediates (see :func:`gathered`)."""
+    out: dict[str, tuple[tuple, list]] = {}
+    for w, e in model.intermediates:
+        if isinstance(e, KernelOutput):
+            out.setdefault(e.call, (e.inputs, []))[1].append((e.index, w))
+    return out
+
+
+def gathered(model: SymbolicModel) -> SymbolicModel:
+    """The model with every kernel call's outputs moved to the place of its first output (they
+    all read the same inputs, which come before it) and each input that is not a symbol or a
+    number made an intermediate of its own just before them (so that it has a Jacobian row); the
+    model itself when it has no kernel calls. Idempotent. :func:`symbol_map`,
+    :class:`FunctionBuilder` and :func:`jacobian_function` take a model in this form."""
+    if not model.calls:
+        return model
+    groups: dict[str, list] = {}
+    for w, e in model.intermediates:
+        if isinstance(e, KernelOutput):
+            groups.setdefault(e.call, []).append((w, e))
+    out: list[tuple[sp.Symbol, sp.Expr]] = []
+    placed: set[str] = set()
+    for w, e in model.intermediates:
+        if not isinstance(e, KernelOutput):
+            out.append((w, e))
+            continue
+        if e.call in placed:
+            continue
+        placed.add(e.call)
+        if any(other.inputs != e.inputs for _, other in groups[e.call]):
+            raise CompilerError(f"kernel call {e.call}: its outputs read different inputs")
+        inputs = []
+        for j, u in enumerate(e.inputs):
+            if u.is_Symbol or u.is_number:
+                inputs.append(u)
+            else:
+                symbol = sp.Symbol(f"{e.call}.in{j}", real=True)
+                out.append((symbol, u))
+                inputs.append(symbol)
+        out += [(o, KernelOutput(Str(e.call), sp.Integer(other.index), *inputs))
+                for o, other in groups[e.call]]
+    return dataclasses.replace(model, intermediates=out)
+
+
+def _reads(model: SymbolicModel, exprs: list) -> set[sp.Symbol]:
+    """The intermediates (and other symbols) ``exprs`` read, directly or through intermediates
+    and the implicit blocks whose unknowns they read."""
+    wanted: set[sp.Symbol] = set()
+    for e in exprs:
+        wanted |= sp.sympify(e).free_symbols
+    blocks = list(model.blocks)
+    while True:
+        for w, e in reversed(model.intermediates):
+            if w in wanted:
+                wanted |= e.free_symbols
+        read = [blk for blk in blocks if set(blk[0]) & wanted]
+        if not read:
+            return wanted
+        blocks = [blk for blk in blocks if not set(blk[0]) & wanted]
+        for _, A, b in read:
+            wanted |= A.free_symbols | b.free_symbols
+
+
+def _check_call(model: SymbolicModel, name: str, call_name: str, w: sp.Symbol,
+                variables: list[sp.Symbol]) -> None:
+    """The Jacobian ``name`` reads ``w``, an output of the kernel call ``call_name``: a
+    CompilerError when the call has no tangents or a variable is in its table (see
+    :func:`jacobian_function`)."""
+    call = model.calls[call_name]
+    what = f"the kernel call {call_name} ({call.kernel}.{call.entry})"
+    if not call.tangents:
+        raise CompilerError(
+            f"the derivative {name} of model {model.name!r} needs the derivatives of {w}, an "
+            f"output of {what}, which has none: such outputs (e.g. a body's pose) may feed "
+            "outputs, guards and matrices only")
+    in_table = set().union(*(sp.sympify(c).free_symbols for c in call.constants)) \
+        & set(variables)
+    if in_table:
+        names = ", ".join(sorted(str(v) for v in in_table))
+        raise CompilerError(
+            f"the derivative {name} of model {model.name!r} by {names} is not available: "
+            f"{names} enter(s) the numeric tables of {what} (masses, inertias, joint origins, "
+            "points, gravity), through which the kernel has no derivatives; set the "
+            "component's formulation = 'symbolic' to differentiate by them")
+
+
+def jacobian(exprs: list[sp.Expr], variables: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]]:
     """The nonzero entries (i, j, ∂exprs[i]/∂variables[j]), row by row and in column order
     within a row, each expression differentiated only by the variables it contains."""
     index = {v: j for j, v in enumerate(variables)}
     out = []
     for i, expr in enumerate(exprs):
-        for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.get):
+        for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.__getitem__):
             d = derivative(expr, v)
             if d != 0:
                 out.append((i, index[v], d))
@@ -310,7 +474,9 @@ def _listing(title: str, names: list[str]) -> list[str]:
 def symbol_map(model: SymbolicModel) -> dict[sp.Symbol, sp.Expr]:
     """The model's symbols as generated code names them: states and ledger states ``x[i]``,
     parameters ``p[j]``, input k ``p[P + k] + p[P + m + k]·t`` (:func:`input_slots`), time
-    ``t``, intermediates ``w<i>`` and the implicit blocks' unknowns ``v<i>``."""
+    ``t``, intermediates ``w<i>``, the outputs of kernel call i ``kern<i>o[k]`` (read from the
+    call's array) and the implicit blocks' unknowns ``v<i>``. ``model``: as :func:`gathered`
+    returns it."""
     x = sp.IndexedBase("x")
     p = sp.IndexedBase("p")
     all_states = [*model.states, *model.ledger_states]
@@ -324,6 +490,9 @@ def symbol_map(model: SymbolicModel) -> dict[sp.Symbol, sp.Expr]:
     vs = [s for syms, _, _ in model.blocks for s in syms]
     mapping.update({w: sp.Symbol(f"w{i}") for i, w in enumerate(ws)})
     mapping.update({v: sp.Symbol(f"v{i}") for i, v in enumerate(vs)})
+    for i, (_, outs) in enumerate(_call_groups(model).values()):   # read from the call's array
+        array = sp.IndexedBase(f"kern{i}o")
+        mapping.update({w: array[k] for k, w in outs})
     return mapping
 
 
@@ -340,6 +509,7 @@ def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
 
     ``jac_p``: parameter names whose Jacobian ``jac_p`` (∂ẋ/∂p over those parameters, in that
     order) is generated too, by the chain rule of ``jac``."""
+    model = gathered(model)
     all_states = [*model.states, *model.ledger_states]
     builder = FunctionBuilder(symbol_map(model), model)
     n = len(all_states)
@@ -385,18 +555,24 @@ def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
             f"matrix_{k}", doc(f"The matrix {name!r} of model {model.name!r}, "
                                f"{matrix.shape[0]} x {matrix.shape[1]}, row-major.", []),
             [("array", "out", list(matrix), matrix.shape)], tuple(matrix.shape)))
-    functions += _derivative_functions(builder, model, jac_p or [], doc)
+    unavailable: dict[str, str] = {}
+    functions += _derivative_functions(builder, model, jac_p or [], doc, unavailable)
     header = (f"Generated by porthamiltonian for model {model.name!r}. Do not edit.",
               *_listing("State layout x:", state_names),
               *_listing("Parameter layout p:", param_names))
-    return Program(model.name, header, tuple(functions), n, len(param_names), n_guards, n_out)
+    return Program(model.name, header, tuple(functions), n, len(param_names), n_guards, n_out,
+                   tuple(unavailable.items()))
 
 
 def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p: list[str],
-                          doc) -> list[Function]:
+                          doc: Callable[[str, list[str]], list[str]],
+                          unavailable: dict[str, str]) -> list[Function]:
     """The exact Jacobians beside ``jac``, each by :func:`jacobian_function`: ``jac_u``
     (∂ẋ/∂u, when the model has inputs), ``out_jac`` (∂y/∂[x, u] of the declared outputs y,
-    when it declares some) and ``jac_p`` (∂ẋ/∂p over the parameters ``jac_p``)."""
+    when it declares some; not generated, and why in ``unavailable``, when one of them reads a
+    kernel output without tangents, e.g. a kernel multibody's body pose), ``jac_p`` (∂ẋ/∂p
+    over the parameters ``jac_p``) and with it ``energy_jac`` (∂H/∂[x, p] over the states, the
+    ledger's included, and those parameters)."""
     out: list[Function] = []
     n = len(model.rhs)
     states = list(model.states)
@@ -405,7 +581,16 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             f"The Jacobian of rhs of model {model.name!r} by its inputs: out[i, k] = "
             f"d(rhs[i])/d(u[k]), {n} x {len(model.inputs)}, row-major.",
             _listing("inputs u:", model.input_names))))
-    if model.declared_outputs:
+    blocked = _without_tangents(model, [model.outputs[y] for y in model.declared_outputs])
+    if blocked:
+        unavailable["out_jac"] = (
+            f"model {model.name!r}: the declared output(s) "
+            f"{', '.join(repr(model.declared_outputs[i]) for i in blocked)} read values that "
+            "its kernel evaluates without derivatives (a multibody's body pose), so C and D of "
+            "a linearization are not available; declare a point's position "
+            "('<multibody>.<point>.x') instead, or set the multibody's formulation = "
+            "'symbolic'")
+    elif model.declared_outputs:
         ys = [model.outputs[name] for name in model.declared_outputs]
         out.append(jacobian_function(builder, model, "out_jac", ys, states + model.inputs, doc(
             f"The Jacobian of the declared outputs y of model {model.name!r} by the model "
@@ -431,25 +616,52 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             f"The Jacobian of rhs of model {model.name!r} by parameters: out[i, k] = "
             f"d(rhs[i])/d(p[k]), {n} x {len(jac_p)}, row-major.",
             _listing("parameters:", list(jac_p)))))
+        all_states = [*model.states, *model.ledger_states]
+        out.append(jacobian_function(builder, model, "energy_jac", [model.hamiltonian],
+                                     all_states + [index[name] for name in jac_p], doc(
+            f"The gradient of the Hamiltonian H of model {model.name!r} by the states and "
+            f"parameters: out[0, j] = dH/d([x, p][j]), 1 x {n + len(jac_p)}.",
+            _listing("parameters (after the states):", list(jac_p)))))
     return out
 
 
-def _stage_layout(model: SymbolicModel) -> tuple[list[int], list[int]]:
-    """The stage of each implicit block and the end of each stage's run of intermediates
-    (:func:`.structure.stages`; the compiler orders the intermediates by stage): ``ends[s]`` is
-    one past the last intermediate of stage s, for s = 0 .. the highest block stage."""
+def _without_tangents(model: SymbolicModel, exprs: list) -> list[int]:
+    """The indices of ``exprs`` that read (through intermediates) an output of a kernel call
+    without tangents."""
+    if not model.calls:
+        return []
+    blocked = {w for w, e in model.intermediates
+               if isinstance(e, KernelOutput) and not model.calls[e.call].tangents}
+    return [i for i, e in enumerate(exprs) if _reads(model, [e]) & blocked]
+
+
+def _stage_layout(model: SymbolicModel, rows: list[sp.Symbol]) -> tuple[list[int], list[int]]:
+    """The stage of each implicit block and where each stage's run of the Jacobian's ``rows``
+    (intermediates of the model, in its order) ends (:func:`.structure.stages`; the compiler
+    orders the intermediates by stage): ``ends[s]`` is one past the last row of stage s, for
+    s = 0 .. the highest block stage. A row of a lower stage after rows of a higher one (a kernel
+    call's input that :func:`gathered` placed beside the call's outputs) is taken in the higher
+    stage (its chain rule then comes later, still after everything it reads); a block that reads
+    such a row would be solved before it, and raises a CompilerError."""
     defs = dict(model.intermediates)
     _, stage, block_stages = stages(defs, model.blocks)
     top = max(block_stages, default=0)
-    ends, s = [], 0
-    for k, (w, _) in enumerate(model.intermediates):
-        if stage[w] < s:
-            raise CompilerError(f"model {model.name!r}: intermediate {w} (stage {stage[w]}) comes "
-                                f"after intermediates of stage {s}")
+    ends: list[int] = []
+    s = 0
+    placed: dict[sp.Symbol, int] = {}
+    for k, w in enumerate(rows):
         while stage[w] > s:
             ends.append(k)
             s += 1
-    ends += [len(model.intermediates)] * (top + 1 - len(ends))
+        placed[w] = s
+    ends += [len(rows)] * (top + 1 - len(ends))
+    for (symbols, A, b), block_stage in zip(model.blocks, block_stages):
+        late = sorted((str(w) for w in A.free_symbols | b.free_symbols
+                       if placed.get(w, 0) >= block_stage), key=str)
+        if late:
+            raise CompilerError(f"model {model.name!r}: the implicit block {symbols[0]}.. (stage "
+                                f"{block_stage}) reads {', '.join(late)}, placed among the "
+                                "intermediates of its own or a later stage")
     return block_stages, ends
 
 
@@ -460,11 +672,11 @@ class _Columns:
     def __init__(self, rows: int):
         self.masks = [0] * rows
 
-    def set(self, entries) -> None:
+    def set(self, entries: Iterable[tuple[int, int, sp.Expr]]) -> None:
         for i, j, _ in entries:
             self.masks[i] |= 1 << j
 
-    def add(self, dst: _Columns, entries) -> None:
+    def add(self, dst: _Columns, entries: Iterable[tuple[int, int, sp.Expr]]) -> None:
         """dst rows += F @ self for F's entries."""
         for i, j, _ in entries:
             dst.masks[i] |= self.masks[j]
@@ -479,47 +691,110 @@ def _span(mask: int) -> tuple[int, int]:
     return ((mask & -mask).bit_length() - 1, mask.bit_length()) if mask else (0, 0)
 
 
-def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str, exprs: list,
+def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
+                      exprs: list[sp.Expr],
                       variables: list[sp.Symbol], doc: list[str]) -> Function:
     """The function ``name``: the exact Jacobian ∂exprs/∂variables, ``len(exprs)`` x
     ``len(variables)``, of expressions of the model (its right-hand side, its outputs) by any of
-    its symbols — states, inputs, parameters — through intermediates w and implicit blocks
-    A v = b, with only the nonzero partials. One algorithm for ``jac`` (by the states), ``jac_u``
-    (by the inputs), ``out_jac`` and ``jac_p`` (by parameters): with z the variables,
+    its symbols — states, inputs, parameters — through intermediates w, implicit blocks A v = b
+    and kernel calls, with only the nonzero partials. One algorithm for ``jac`` (by the states),
+    ``jac_u`` (by the inputs), ``out_jac`` and ``jac_p`` (by parameters): with z the variables,
 
-    Dw = ∂w/∂z; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows;
-    then stage by stage (:func:`_stage_layout`: the blocks of stage s read intermediates and
-    unknowns of the stages below): R_s = A_s⁻¹ (∂r_s/∂z + ∂r_s/∂w · Dw + Σ_{t<s} ∂r_s/∂v_t · R_t)
-    = ∂v_s/∂z with r_s = b_s − A_s v_s at fixed v_s (implicit differentiation); Dw[stage-s
-    rows] += ∂w/∂v_t · R_t (t <= s); the chain rule over the stage-s rows; finally
-    out = ∂e/∂z + ∂e/∂w · Dw + Σ_s ∂e/∂v_s · R_s. Each row operation is told the columns its
-    source row can be nonzero in (a position-level row: the variables it reads; no row: e.g.
-    the ledger quadratures). A model whose blocks are all of stage 1 (a multibody's M(q) v = p)
-    has one R; closed kinematic loops add a stage-2 block (their accelerations and multipliers).
+    Dw = ∂w/∂z; the chain rule Dw[m] += ∂w_m/∂w_j · Dw[j] (j < m) over the position-level rows,
+    in segments between the kernel calls, each of which sets its outputs' rows from its inputs'
+    (:class:`CallTangent`: a variable among the call's inputs is a unit row, another symbol a
+    zero row); then stage by stage (:func:`_stage_layout`: the blocks of stage s read
+    intermediates and unknowns of the stages below): R_s = A_s⁻¹ (∂r_s/∂z + ∂r_s/∂w · Dw
+    + Σ_{t<s} ∂r_s/∂v_t · R_t) = ∂v_s/∂z with r_s = b_s − A_s v_s at fixed v_s (implicit
+    differentiation); Dw[stage-s rows] += ∂w/∂v_t · R_t (t <= s); the chain rule over the
+    stage-s rows (and calls); finally out = ∂e/∂z + ∂e/∂w · Dw + Σ_s ∂e/∂v_s · R_s. A model
+    whose blocks are all of stage 1 (a multibody's M(q) v = p) has one R; closed kinematic loops
+    add a stage-2 block (their accelerations and multipliers). In a model with kernel calls only
+    the intermediates ``exprs`` read get rows. Each row operation is told the columns its source
+    row can be nonzero in (a position-level row: the variables it reads; no row: e.g. the ledger
+    quadratures).
+
+    The kernel's tangents are by its inputs (states, port efforts), not by its table of
+    constants: a variable in a table (a parameter that is a body's mass, a joint's origin, ...)
+    raises a CompilerError naming it, as does an output without tangents (a body's pose) that
+    ``exprs`` read. ``model``: as :func:`gathered` returns it.
     """
-    ws = [w for w, _ in model.intermediates]
-    rows, ncols, nw = len(exprs), len(variables), len(ws)
-    defs = [expr for _, expr in model.intermediates]
-    block_stages, ends = _stage_layout(model)
-    groups: list[tuple] = [("entries", "out", jacobian(exprs, variables), (rows, ncols))]
+    # with kernel calls (many outputs read by outputs and matrices only), rows only for what
+    # exprs read; without, every intermediate (the walkers' code kept as it was)
+    reads = _reads(model, exprs) if model.calls else {w for w, _ in model.intermediates}
+    rows = [(w, e) for w, e in model.intermediates if w in reads]     # the rows of Dw
+    ws = [w for w, _ in rows]
+    nrows, ncols, nw = len(exprs), len(variables), len(ws)
+    block_stages, ends = _stage_layout(model, ws)
+    row_of = {w: m for m, w in enumerate(ws)}
+    calls = {w: e for w, e in rows if isinstance(e, KernelOutput)}
+    defs = [sp.S.Zero if w in calls else e for w, e in rows]
+    barriers: dict[int, str] = {}            # row of a call's first output -> the call
+    for m, (w, e) in enumerate(rows):
+        if w in calls and e.call not in barriers.values():
+            _check_call(model, name, e.call, w, variables)
+            barriers[m] = e.call
+    groups: list[tuple[Any, ...]] = [("entries", "out", jacobian(exprs, variables), (nrows, ncols))]
     chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
     chain_rows = [m for m, _, _ in chain]
     dw = _Columns(nw)
     chain_ranges: list[tuple[int, int]] = []
+    z_index = {z: i for i, z in enumerate(variables)}
+    #: a solved block unknown -> (its stage's array, its row there, that array's columns)
+    unknown_at: dict[sp.Symbol, tuple[str, int, _Columns]] = {}
 
-    def chain_rule(start: int, stop: int) -> list[tuple]:
+    def chain_rule(start: int, stop: int) -> list[tuple[Any, ...]]:
         for m, j, _ in chain[start:stop]:
             chain_ranges.append(_span(dw.masks[j]))
             dw.masks[m] |= dw.masks[j]
         return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, ncols, "glo",
                                         "ghi"))] if stop > start else []
 
-    cursor = 0
+    def tangent(call_name: str) -> list[tuple]:
+        """The call with tangents (none when no input depends on the variables: its outputs'
+        rows stay zero, e.g. the state equations' kernel call in ∂/∂u of a model whose input
+        reaches no site)."""
+        label, constants, inputs, outs = builder.calls[call_name]
+        call = model.calls[call_name]
+        source = _call_groups(model)[call_name][0]
+        rows: list[tuple[str, int] | None] = []
+        mask = 0
+        for u in source:
+            if u in z_index:
+                rows.append(("x", z_index[u]))
+                mask |= 1 << z_index[u]
+            elif u in row_of:
+                rows.append(("Dw", row_of[u]))
+                mask |= dw.masks[row_of[u]]
+            elif u in unknown_at:
+                array, i, columns = unknown_at[u]
+                rows.append((array, i))
+                mask |= columns.masks[i]
+            else:
+                rows.append(None)
+        if not mask:
+            return []
+        into = tuple((i, "Dw", row_of[w]) for i, w in outs if w in row_of)
+        for _, _, m in into:
+            dw.masks[m] = mask
+        return [("call", CallTangent(f"t{label}", call.kernel, call.entry, call.table, constants,
+                                     inputs, call.n_outputs, ncols, tuple(rows), into))]
+
+    cursor = done = 0
 
     def rows_upto(end: int) -> list[tuple]:
-        nonlocal cursor
+        """The chain rule over the rows not yet done below ``end``, with the kernel calls among
+        them in place."""
+        nonlocal cursor, done
+        out = []
+        for m0 in sorted(b for b in barriers if done <= b < end):
+            stop = bisect.bisect_left(chain_rows, m0)
+            out += chain_rule(cursor, stop)
+            out += tangent(barriers[m0])
+            cursor = stop
         stop = bisect.bisect_left(chain_rows, end)
-        out, cursor = chain_rule(cursor, stop), stop
+        out += chain_rule(cursor, stop)
+        cursor, done = stop, max(done, end)
         return out
 
     if nw:
@@ -557,6 +832,7 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
                        for array, part, prior, prior_cols in earlier]
             groups.append(("statement", SolveRows(Ab, R, nv, ncols)))
             solved.append((R, vs, r))
+            unknown_at.update((v, (R, i, r)) for i, v in enumerate(vs))
         lo, hi = ends[s - 1], ends[s]
         for array, vs_t, r_t in solved:
             velocity = [(lo + i, j, e) for i, j, e in jacobian(defs[lo:hi], vs_t)]
@@ -565,8 +841,8 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
             r_t.add(dw, velocity)
         groups += rows_upto(hi)
     groups += rows_upto(nw)
-    groups.append(("product", "out", jacobian(exprs, ws), (rows, nw), "Dw", ncols, dw.ranges()))
-    groups += [("product", "out", jacobian(exprs, vs_t), (rows, len(vs_t)), array, ncols,
+    groups.append(("product", "out", jacobian(exprs, ws), (nrows, nw), "Dw", ncols, dw.ranges()))
+    groups += [("product", "out", jacobian(exprs, vs_t), (nrows, len(vs_t)), array, ncols,
                 r_t.ranges()) for array, vs_t, r_t in solved]
     if chain:
         groups[1:1] = [("array", "g", [e for _, _, e in chain], (len(chain),)),
@@ -574,9 +850,10 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
                        ("statement", IndexTable("gc", tuple(j for _, j, _ in chain))),
                        ("statement", IndexTable("glo", tuple(lo for lo, _ in chain_ranges))),
                        ("statement", IndexTable("ghi", tuple(hi for _, hi in chain_ranges)))]
-    return builder.function(name, doc, groups, (rows, ncols))
+    return builder.function(name, doc, groups, (nrows, ncols))
 
 
-__all__ = ["CODEGEN_VERSION", "Array", "ChainRule", "Function", "IndexTable", "Let", "Program",
-           "Solve", "SolveRows", "SparseProduct", "Statement", "Store", "derivative",
-           "input_slots", "jacobian", "jacobian_function", "program", "symbol_map"]
+__all__ = ["CODEGEN_VERSION", "Array", "Call", "CallTangent", "ChainRule", "Function",
+           "IndexTable", "Let", "Program", "Solve", "SolveRows", "SparseProduct", "Statement",
+           "Store", "derivative", "gathered", "input_slots", "jacobian", "jacobian_function",
+           "program", "symbol_map"]

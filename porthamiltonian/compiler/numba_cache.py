@@ -41,7 +41,7 @@ def verified_caches(entry: Path) -> Callable[[Any], None]:
     class VerifiedIndex(IndexDataCacheFile):
         """numba's index and data files, verified against the entry's manifest."""
 
-        def _load_index(self) -> dict:
+        def _load_index(self) -> dict[Any, Any]:
             data = cache.read_recorded(entry, Path(self._index_path))
             if data is None:
                 return {}

@@ -50,7 +50,7 @@ from ..errors import PassivityError
 from ..modeling.component import Dissipator, PHCut, Source
 from ..modeling.model import ModelDescription
 from .assemble import SymbolicModel, _needed
-from .codegen import FunctionBuilder, Program, jacobian_function, symbol_map
+from .codegen import Function, FunctionBuilder, Program, gathered, jacobian_function, symbol_map
 from .structure import Solution, build_system, solve
 
 
@@ -72,7 +72,7 @@ class PHForm:
     dissipators: list[Dissipator]
     sources: list[Source]
     intermediates: list[tuple[sp.Symbol, sp.Expr]]
-    blocks: list
+    blocks: list[tuple[list[sp.Symbol], sp.Matrix, sp.Matrix]]
     rows: list[sp.Expr] = field(default_factory=list, repr=False)
     columns: list[sp.Symbol] = field(default_factory=list, repr=False)
     energies: list[tuple[str, sp.Expr, list[int]]] = field(default_factory=list, repr=False)
@@ -220,8 +220,14 @@ def ph_form(description: ModelDescription, sym: SymbolicModel, normal: Solution)
             + [evaluated(s.value) for s in cut.sources]
             + [evaluated(c) for d in cut.dissipators if d.coefficient is not None
                for c in d.coefficient])
+    # the values may read intermediates of the cut build the model's own lacks (a contact's
+    # height from a multibody whose tree the model evaluates by its kernel, the cut build
+    # symbolically): of the positions, they hold in the model too
+    known = {w for w, _ in normal.system.intermediates}
+    extra = [(w, e) for w, e in _needed(system.intermediates, vals) if w not in known]
     return PHForm(sym.name, states, cut.dissipators, cut.sources, intermediates,
-                  system.blocks, rows, columns, energies, vals, normal.system.intermediates)
+                  system.blocks, rows, columns, energies, vals,
+                  extra + list(normal.system.intermediates))
 
 
 def ph_text(form: PHForm) -> str:
@@ -255,7 +261,7 @@ def ph_text(form: PHForm) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _short(exprs: list) -> str:
+def _short(exprs: list[sp.Expr]) -> str:
     text = ", ".join(str(e) for e in exprs)
     return f"[{text}]" if len(exprs) > 1 else text
 
@@ -289,10 +295,12 @@ def _matrix(rows: list[sp.Expr], columns: list[sp.Symbol],
     return sp.Matrix(len(full), len(columns), lambda i, j: sp.diff(full[i], columns[j]))
 
 
-def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list:
+def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list[Function]:
     """The generated functions of the form (see the module docstring): ``ph_M0``, ``ph_grad``,
     ``ph_values``, built with the same program machinery as the model's own functions."""
-    cut_model = dataclasses.replace(sym, intermediates=form.intermediates, blocks=form.blocks)
+    # the cut build calls no kernel (a multibody writes its Poisson structure out symbolically)
+    cut_model = dataclasses.replace(sym, intermediates=form.intermediates, blocks=form.blocks,
+                                    calls={})
     mapping = symbol_map(cut_model)
     mapping.update({c: sp.Integer(0) for c in form.columns})
     cut_builder = FunctionBuilder(mapping, cut_model)
@@ -303,8 +311,8 @@ def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list:
                                            "[dx/dt; w; y], columns [dH/dx; z; u].")])]
     extra = [e for _, e, _ in form.energies] + list(form.values)
     used = [*extra, *sym.rhs, *(e for _, A, b in sym.blocks for e in (*A, *b))]
-    normal_model = dataclasses.replace(sym, intermediates=_needed(form.normal_intermediates,
-                                                                 used))
+    normal_model = gathered(dataclasses.replace(
+        sym, intermediates=_needed(form.normal_intermediates, used)))
     builder = FunctionBuilder(symbol_map(normal_model), normal_model)
     energies = [e for _, e, _ in form.energies] or [sp.Integer(0)]
     functions.append(jacobian_function(builder, normal_model, "ph_grad", energies, form.states,

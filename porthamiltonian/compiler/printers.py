@@ -19,13 +19,19 @@ escaped by :mod:`.literals`. The C translation unit uses only C99 and ``<math.h>
 from __future__ import annotations
 
 import math
+import re
+from collections.abc import Callable
 
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
+from ..backends.native import LOOP_FUNCTIONS
+from ..mechanics.sources import c_declarations, python_template
 from .codegen import (
     Array,
+    Call,
+    CallTangent,
     ChainRule,
     Function,
     IndexTable,
@@ -53,51 +59,55 @@ def _float(value: float) -> str:
 class PythonPrinter(PythonCodePrinter):
     """sympy -> Python expressions (``math`` functions, ``np`` only for arrays)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         super().__init__({"standard": "python3", "fully_qualified_modules": True, "order": "none"})
 
-    def _print_Float(self, expr):
+    def _print_Float(self, expr: sp.Basic) -> str:
         return repr(float(expr))
 
-    def _print_Heaviside(self, expr):
+    def _print_Heaviside(self, expr: sp.Basic) -> str:
         x = self._print(expr.args[0])
         h0 = self._print(sp.Float(expr.args[1] if len(expr.args) > 1 else 0.5))
         return f"(1.0 if {x} > 0 else ({h0} if {x} == 0 else 0.0))"
 
-    def _print_DiracDelta(self, expr):
+    def _print_DiracDelta(self, expr: sp.Basic) -> str:
         return "0.0"
+
+    def _print_ITE(self, expr):
+        c, a, b = (self._print(x) for x in expr.args)
+        return f"(({a}) if ({c}) else ({b}))"
 
 
 class CPrinter(C99CodePrinter):
     """sympy -> C99 expressions with the Python printer's meaning (see the module docstring)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         super().__init__({"strict": True, "order": "none"})
 
-    def _print_Indexed(self, expr):
+    def _print_Indexed(self, expr: sp.Basic) -> str:
         return f"{expr.base}[{int(expr.indices[0])}]"
 
-    def _print_Float(self, expr):
+    def _print_Float(self, expr: sp.Basic) -> str:
         return _float(float(expr))
 
-    def _print_Integer(self, expr):
+    def _print_Integer(self, expr: sp.Basic) -> str:
         return f"{int(expr)}.0" if expr >= 0 else f"({int(expr)}.0)"
 
     _print_Zero = _print_One = _print_NegativeOne = _print_Integer
 
-    def _print_Pi(self, expr):
+    def _print_Pi(self, expr: sp.Basic) -> str:
         return repr(math.pi)
 
-    def _print_Exp1(self, expr):
+    def _print_Exp1(self, expr: sp.Basic) -> str:
         return repr(math.e)
 
-    def _print_BooleanTrue(self, expr):
+    def _print_BooleanTrue(self, expr: sp.Basic) -> str:
         return "1"
 
-    def _print_BooleanFalse(self, expr):
+    def _print_BooleanFalse(self, expr: sp.Basic) -> str:
         return "0"
 
-    def _print_Pow(self, expr):
+    def _print_Pow(self, expr: sp.Basic) -> str:
         base, e = expr.args
         if e.is_Integer and 2 <= abs(int(e)) <= 4:          # exact products, no pow() call
             b = self.parenthesize(base, 1000)       # atoms only, anything else bracketed
@@ -111,34 +121,34 @@ class CPrinter(C99CodePrinter):
             return f"(1.0/sqrt({self._print(base)}))"
         return f"pow({self._print(base)}, {self._print(e)})"
 
-    def _print_Heaviside(self, expr):
+    def _print_Heaviside(self, expr: sp.Basic) -> str:
         x = self._print(expr.args[0])
         h0 = _float(float(expr.args[1])) if len(expr.args) > 1 else "0.5"
         return f"(({x}) > 0 ? 1.0 : (({x}) == 0 ? {h0} : 0.0))"
 
-    def _print_DiracDelta(self, expr):
+    def _print_DiracDelta(self, expr: sp.Basic) -> str:
         return "0.0"
 
-    def _print_sign(self, expr):
+    def _print_sign(self, expr: sp.Basic) -> str:
         x = self._print(expr.args[0])
         return f"(({x}) == 0 ? 0.0 : copysign(1.0, {x}))"
 
-    def _fold(self, name, args):
-        out = self._print(args[0])
+    def _fold(self, name: str, args: tuple[sp.Basic, ...]) -> str:
+        out: str = self._print(args[0])
         for arg in args[1:]:
             out = f"{name}({out}, {self._print(arg)})"
         return out
 
-    def _print_Min(self, expr):
+    def _print_Min(self, expr: sp.Basic) -> str:
         return self._fold("ph_min", expr.args)
 
-    def _print_Max(self, expr):
+    def _print_Max(self, expr: sp.Basic) -> str:
         return self._fold("ph_max", expr.args)
 
-    def _print_Mod(self, expr):
+    def _print_Mod(self, expr: sp.Basic) -> str:
         return f"ph_mod({self._print(expr.args[0])}, {self._print(expr.args[1])})"
 
-    def _print_Piecewise(self, expr):
+    def _print_Piecewise(self, expr: sp.Basic) -> str:
         out = "NAN"
         for value, cond in reversed(expr.args):
             if cond == sp.true:
@@ -147,11 +157,17 @@ class CPrinter(C99CodePrinter):
                 out = f"(({self._print(cond)}) ? ({self._print(value)}) : ({out}))"
         return out
 
-    def _print_Relational(self, expr):
+    def _print_Relational(self, expr: sp.Basic) -> str:
         return f"({self._print(expr.lhs)} {expr.rel_op} {self._print(expr.rhs)})"
 
+    def _print_ITE(self, expr):
+        """if-then-else directly (sympy's rewrite as a Piecewise sorts the conditions, which
+        took minutes on conditions reading a kernel's output array)."""
+        c, a, b = (self._print(x) for x in expr.args)
+        return f"(({c}) ? ({a}) : ({b}))"
 
-def _closed_form(st: Solve, entry) -> list[tuple[str, str]]:
+
+def _closed_form(st: Solve, entry: Callable[[int, int], str]) -> list[tuple[str, str]]:
     """(name, value) assignments solving a 1 x 1 or 2 x 2 system ``st`` by Cramer's rule;
     ``entry(i, j)`` prints A's entry in the language."""
     b, v = st.b, st.targets
@@ -163,12 +179,18 @@ def _closed_form(st: Solve, entry) -> list[tuple[str, str]]:
             (v[1], f"({entry(0, 0)} * {b}[1] - {b}[0] * {entry(1, 0)}) / {det}")]
 
 
+def _c_entry(array: str, n: int) -> Callable[[int, int], str]:
+    """Prints entry (i, j) of the row-major n x n C ``array``."""
+    return lambda i, j: f"{array}[{i * n + j}]"
+
+
 # --- Python ---------------------------------------------------------------------------------------
 def _python_index(index: tuple[int, ...]) -> str:
     return ", ".join(str(i) for i in index)
 
 
-def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> None:
+def _python_statement(st: Statement, pr: Callable[[sp.Basic], str], lines: list[str],
+                      count: list[int]) -> None:
     if isinstance(st, Let):
         lines.append(f"    {st.name} = {pr(st.expr)}")
     elif isinstance(st, Array):
@@ -199,8 +221,62 @@ def _python_statement(st: Statement, pr, lines: list[str], count: list[int]) -> 
         lines.append(f"    {st.dst} += {f} @ {st.src}")
     elif isinstance(st, SolveRows):
         lines.append(f"    {st.R} = np.linalg.solve({st.A}, {st.R})")
+    elif isinstance(st, Call):
+        lines.append(f"    {st.label}o = {st.entry}({_table_name(st.table)}, "
+                     f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
+                     f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
+                     "np.zeros((1, 0)))[0]")
+    elif isinstance(st, CallTangent):
+        d = f"{st.label}d"
+        lines.append(f"    {d} = np.zeros(({len(st.inputs)}, {st.ncols}))")
+        for j, row in enumerate(st.rows):
+            if row is not None:
+                lines.append(f"    {d}[{j}, {row[1]}] = 1.0" if row[0] == "x" else
+                             f"    {d}[{j}, :] = {row[0]}[{row[1]}, :]")
+        lines.append(f"    {st.label}e = {st.entry}({_table_name(st.table)}, "
+                     f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
+                     f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
+                     f"{d})[1]")
+        lines += [f"    {array}[{m}, :] = {st.label}e[{k}, :]" for k, array, m in st.into]
     else:  # pragma: no cover
         raise TypeError(st)
+
+
+_KERNEL_ARRAY = re.compile(r"kern\d+o$")
+
+
+def _copy_run(body: tuple, start: int, flat) -> tuple[int, int, str, int] | None:
+    """A run of at least 4 statements from ``body[start]`` that copy consecutive entries of a
+    kernel call's output array into consecutive entries of one array (``flat(array, index)``:
+    the flat position): (count, first destination, source array, first source); else None."""
+    first = body[start]
+    if not (isinstance(first, Store) and isinstance(first.expr, sp.Indexed)
+            and _KERNEL_ARRAY.match(str(first.expr.base))):
+        return None
+    base, dst0, src0 = str(first.expr.base), flat(first.array, first.index), int(first.expr.indices[0])
+    count = 1
+    while start + count < len(body):
+        st = body[start + count]
+        if not (isinstance(st, Store) and st.array == first.array and isinstance(st.expr, sp.Indexed)
+                and str(st.expr.base) == base and flat(st.array, st.index) == dst0 + count
+                and int(st.expr.indices[0]) == src0 + count):
+            break
+        count += 1
+    return (count, dst0, base, src0) if count >= 4 else None
+
+
+def _table_name(table: tuple[int, ...]) -> str:
+    """The module-level name of a kernel call's integer table (one per distinct table)."""
+    return f"_KT{abs(hash(table)) % 10**12:012d}"
+
+
+def _kernel_calls(prog: Program) -> list[Call | CallTangent]:
+    return [st for fn in prog.functions for st in fn.body if isinstance(st, (Call, CallTangent))]
+
+
+def kernels(prog: Program) -> list[str]:
+    """The kernels the program calls (the C back end links their objects)."""
+    return sorted({st.kernel for st in _kernel_calls(prog)})
 
 
 def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
@@ -211,17 +287,39 @@ def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
                     for i, line in enumerate(fn.doc))
     lines = ["@_jit", f"def {fn.name}({', '.join(fn.args)}):", f'    """{doc}\n    """']
     count = [0]
-    for st in fn.body:
+    ncols: dict[str, int] = {"out": fn.shape[1] if len(fn.shape) == 2 else 0}
+    position = 0
+    while position < len(fn.body):
+        st = fn.body[position]
+        if isinstance(st, Array):
+            ncols[st.name] = st.shape[1] if len(st.shape) == 2 else 0
+        run = _copy_run(fn.body, position,
+                        lambda a, i: i[0] * ncols[a] + i[1] if len(i) == 2 else i[0])
+        if run is not None:              # a block of a kernel's outputs: one slice copy
+            n, dst, src, first = run
+            target = st.array if not ncols[st.array] else f"{st.array}.reshape(-1)"
+            lines.append(f"    {target}[{dst}:{dst + n}] = {src}[{first}:{first + n}]")
+            position += n
+            continue
         _python_statement(st, pr, lines, count)
+        position += 1
     lines.append("    return out")
     return "\n".join(lines)
 
 
 def python_source(prog: Program) -> str:
-    """The program as the body of a Python module (no imports: see porthamiltonian.backends)."""
+    """The program as the body of a Python module (no imports: see porthamiltonian.backends);
+    with kernel calls, the kernels' templates and the calls' integer tables first."""
     printer = PythonPrinter()
     header = "\n".join(python_docstring(line) for line in prog.header)
     parts = [f'"""{header}\n"""']
+    calls = _kernel_calls(prog)
+    for kernel in sorted({st.kernel for st in calls}):
+        parts.append(python_template(kernel))
+    if calls:
+        tables = {st.table: None for st in calls}
+        parts.append("\n".join(f"{_table_name(t)} = np.array({list(t)}, dtype=np.int64)"
+                               for t in tables))
     parts += [python_function(fn, printer) for fn in prog.functions]
     return "\n\n\n".join(parts) + "\n"
 
@@ -240,6 +338,11 @@ _C_PRELUDE = """\
 #else
 #define PH_EXPORT __attribute__((visibility("default")))
 #endif
+#endif
+#if defined(__GNUC__) && !defined(PH_HIDDEN)
+#define PH_HIDDEN __attribute__((visibility("hidden")))
+#elif !defined(PH_HIDDEN)
+#define PH_HIDDEN
 #endif
 
 /* min/max as Python's: b if b < a (b > a) else a */
@@ -347,17 +450,30 @@ def _c_flat(index: tuple[int, ...], shape: tuple[int, ...]) -> int:
     return index[0] * shape[1] + index[1] if len(index) == 2 else index[0]
 
 
+
+
 def c_function(fn: Function, printer: CPrinter | None = None) -> str:
-    """One function as a ``static void`` C function writing its result into ``out``."""
+    """One function as a ``static void`` C function writing its result into ``out`` (hidden
+    external for :data:`LOOP_FUNCTIONS`)."""
     pr = (printer or CPrinter()).doprint
     shapes: dict[str, tuple[int, ...]] = {"out": fn.shape}
     heap: list[str] = []
     comment = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
                         enumerate(fn.doc))
     params = "const double *p" if fn.args == ("p",) else "double t, const double *x, const double *p"
-    lines = [f"{comment}\n */", f"static void {fn.name}({params}, double *out)", "{",
+    linkage = "PH_HIDDEN" if fn.name in LOOP_FUNCTIONS else "static"
+    lines = [f"{comment}\n */", f"{linkage} void {fn.name}({params}, double *out)", "{",
              "    " + " ".join(f"(void){arg};" for arg in fn.args)]
-    for st in fn.body:
+    position = 0
+    while position < len(fn.body):
+        st = fn.body[position]
+        run = _copy_run(fn.body, position, lambda a, i: _c_flat(i, shapes[a]))
+        position += 1
+        if run is not None:              # a block of a kernel's outputs: one copy
+            n, dst, src, first = run
+            lines.append(f"    memcpy({st.array} + {dst}, {src} + {first}, sizeof(double) * {n});")
+            position += n - 1
+            continue
         if isinstance(st, Let):
             lines.append(f"    const double {st.name} = {pr(st.expr)};")
         elif isinstance(st, Array):
@@ -377,7 +493,7 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
             n = len(st.targets)
             if n <= 2:
                 lines += [f"    const double {name} = {value};" for name, value in
-                          _closed_form(st, lambda i, j, n=n, a=st.A: f"{a}[{i * n + j}]")]
+                          _closed_form(st, _c_entry(st.A, n))]
             else:
                 lines.append(f"    ph_solve_rows({n}, 1, {st.A}, {st.b});")
                 lines += [f"    const double {t} = {st.b}[{i}];" for i, t in enumerate(st.targets)]
@@ -406,11 +522,44 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
                           "    }"]
         elif isinstance(st, SolveRows):
             lines.append(f"    ph_solve_rows({st.n}, {st.ncols}, {st.A}, {st.R});")
+        elif isinstance(st, Call):
+            lines += _c_call_arrays(st, pr)
+            lines.append(f"    double {st.label}o[{max(st.n_outputs, 1)}];")
+            lines.append(f"    ph_{st.entry}({st.label}s, {st.label}c, {st.label}i, {st.label}o, 0, "
+                         "NULL, NULL);")
+        elif isinstance(st, CallTangent):
+            n, label = st.ncols, st.label
+            lines.append("    {")
+            lines += ["    " + line for line in _c_call_arrays(st, pr)]
+            lines += [f"        double {label}o[{max(st.n_outputs, 1)}];",
+                      f"        double *{label}d = ph_alloc({max(len(st.inputs), 1) * n});",
+                      f"        double *{label}e = ph_alloc({max(st.n_outputs, 1) * n});"]
+            for j, row in enumerate(st.rows):
+                if row is not None:
+                    lines.append(f"        {label}d[{j * n + row[1]}] = 1.0;" if row[0] == "x" else
+                                 f"        memcpy({label}d + {j * n}, {row[0]} + {row[1] * n}, "
+                                 f"sizeof(double) * {n});")
+            lines.append(f"        ph_{st.entry}({label}s, {label}c, {label}i, {label}o, {n}, "
+                         f"{label}d, {label}e);")
+            lines += [f"        memcpy({array} + {m * n}, {label}e + {k * n}, sizeof(double) * {n});"
+                      for k, array, m in st.into]
+            lines += [f"        free({label}d);", f"        free({label}e);", "    }"]
         else:  # pragma: no cover
             raise TypeError(st)
     lines += [f"    free({name});" for name in heap]
     lines.append("}")
     return "\n".join(lines)
+
+
+def _c_call_arrays(st: Call | CallTangent, pr) -> list[str]:
+    """The integer table, constants and inputs of a kernel call as local C arrays."""
+    def values(exprs) -> str:
+        return ", ".join(pr(e) for e in exprs) or "0.0"
+
+    table = ", ".join(map(str, st.table))
+    return [f"    static const int {st.label}s[{len(st.table)}] = {{{table}}};",
+            f"    const double {st.label}c[{max(len(st.constants), 1)}] = {{{values(st.constants)}}};",
+            f"    const double {st.label}i[{max(len(st.inputs), 1)}] = {{{values(st.inputs)}}};"]
 
 
 def c_source(prog: Program) -> str:
@@ -419,8 +568,9 @@ def c_source(prog: Program) -> str:
     printer = CPrinter()
     header = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
                        enumerate(prog.header))
-    parts = [f"{header}\n */", _C_PRELUDE,
-             f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}"]
+    parts = [f"{header}\n */", _C_PRELUDE]
+    parts += [c_declarations(kernel) for kernel in kernels(prog)]
+    parts.append(f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}")
     parts += [c_function(fn, printer) for fn in prog.functions]
     for fn in prog.functions:
         if fn.args == ("p",):
@@ -437,5 +587,5 @@ def c_source(prog: Program) -> str:
     return "\n\n".join(parts) + "\n"
 
 
-__all__ = ["CPrinter", "PythonPrinter", "c_function", "c_source", "python_function",
-           "python_source"]
+__all__ = ["LOOP_FUNCTIONS", "CPrinter", "PythonPrinter", "c_function", "c_source", "kernels",
+           "python_function", "python_source"]

@@ -33,6 +33,7 @@ velocity products — is stage 2. The code generator differentiates stage by sta
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, NoReturn
 
 import networkx as nx
 import sympy as sp
@@ -44,7 +45,7 @@ from ..errors import (
     StructureError,
     UnknownParameterError,
 )
-from ..modeling.component import Builder, Built, Component, PHCut
+from ..modeling.component import Builder, Built, PHCut, PortVars
 from ..modeling.elements import _Junction
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import ModelDescription
@@ -111,17 +112,17 @@ def build_system(flat: ModelDescription, ph: PHCut | None = None) -> System:
             return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
 
         own = {port: o for (c, port), o in orientation.items() if c == name}
-        b = Builder(name, list(flat.ports[name]), flat.scope_names(prefix), dotted, own,
-                    inputs.values())
-        b.ph = ph
+        builder = Builder(name, list(flat.ports[name]), flat.scope_names(prefix), dotted, own,
+                          inputs.values())
+        builder.ph = ph
         if not isinstance(comp, _Junction):
             try:
-                comp.build(b, **comp.parsed_args(b))
+                comp.build(builder, **comp.parsed_args(builder))
             except ModelError as err:
                 raise err.within(*flat.paths[name]) from None
-        built[name] = b.built
-        equations += [Equation(r, name, doc) for r, doc in b.built.equations]
-        for pname, pv in b.built.ports.items():
+        built[name] = builder.built
+        equations += [Equation(r, name, doc) for r, doc in builder.built.equations]
+        for pname, pv in builder.built.ports.items():
             if (name, pname) not in orientation:  # an unconnected optional port: no effort
                 equations += [Equation(e, name, f"unconnected port {pname}: zero effort")
                               for e in _flat(pv.e)]
@@ -297,7 +298,8 @@ def _bound_inputs(flat: ModelDescription) -> dict[sp.Symbol, sp.Expr]:
         prefix = flat.scopes[key]
         in_scope = flat.in_scope(prefix)
 
-        def dotted(ref: str, prefix: str = prefix, in_scope: set[str] = in_scope):
+        def dotted(ref: str, prefix: str = prefix, in_scope: set[str] = in_scope
+                   ) -> sp.Symbol | None:
             return sp.Symbol(prefix + ref, real=True) if ref.split(".")[0] in in_scope else None
 
         try:
@@ -328,7 +330,7 @@ def _resolve_signals(built: dict[str, Built], equations: list[Equation],
         if not changed:
             break
 
-    def sub(e):
+    def sub(e: sp.Expr) -> sp.Expr:
         return e.xreplace(outputs)
 
     for eq in equations:
@@ -350,15 +352,15 @@ def _resolve_signals(built: dict[str, Built], equations: list[Equation],
     return {sym: outputs[sym] for sym in bound or {}}
 
 
-def _flat(x) -> list[sp.Symbol]:
+def _flat(x: Any) -> list[sp.Symbol]:
     return list(x) if isinstance(x, sp.MatrixBase) else [x]
 
 
-def _pairs(a, b):
+def _pairs(a: PortVars, b: PortVars) -> list[tuple[sp.Symbol, sp.Symbol]]:
     return list(zip(_flat(a.e) + _flat(a.f), _flat(b.e) + _flat(b.f)))
 
 
-def _junction_equations(name: str, comp: Component, built: Built,
+def _junction_equations(name: str, comp: _Junction, built: Built,
                         orientation: dict[tuple[str, str], str]) -> list[Equation]:
     ports = list(built.ports.values())
     if not ports:
@@ -386,7 +388,7 @@ def solve(system: System) -> Solution:
     """Assign causality (matching), check structure, order and solve the equations explicitly."""
     eqs, unknowns = system.equations, system.unknowns
     uset = set(unknowns)
-    graph = nx.Graph()
+    graph: nx.Graph[tuple[str, Any]] = nx.Graph()
     eq_nodes = [("eq", i) for i in range(len(eqs))]
     graph.add_nodes_from(eq_nodes)
     graph.add_nodes_from(("u", u) for u in unknowns)
@@ -403,7 +405,7 @@ def solve(system: System) -> Solution:
         _report_singular(system, appears, matched)
 
     by_unknown = {u: i for i, u in matched.items()}
-    deps = nx.DiGraph()
+    deps: nx.DiGraph[int] = nx.DiGraph()
     deps.add_nodes_from(range(len(eqs)))
     for i, present in enumerate(appears):
         for u in present:
@@ -452,7 +454,8 @@ def _port_level(system: System, values: dict[sp.Symbol, sp.Expr]
     return ordered
 
 
-def _report_singular(system: System, appears: list[set[sp.Symbol]], matched: dict[int, sp.Symbol]):
+def _report_singular(system: System, appears: list[set[sp.Symbol]],
+                     matched: dict[int, sp.Symbol]) -> NoReturn:
     eqs = system.equations
     by_unknown = {u: i for i, u in matched.items()}
     unmatched_eqs = [i for i in range(len(eqs)) if i not in matched]
@@ -478,10 +481,10 @@ def _report_singular(system: System, appears: list[set[sp.Symbol]], matched: dic
     sources = [c for c in comps if kinds[c] in ("Se", "Sf")]
     if len(storages) == 1 and sources:
         imposed = "flow" if kinds[sources[0]] == "Sf" else "effort"
-        ports = ", ".join(f"{storages[0]}.{p}" for p in system.built[storages[0]].storage_ports)
+        named = ", ".join(f"{storages[0]}.{p}" for p in system.built[storages[0]].storage_ports)
         raise DerivativeCausalityError(
             f"source {sources[0]!r} ({kinds[sources[0]]}) imposes the {imposed} of storage "
-            f"{storages[0]!r} (port {ports}): the storage's state would be dictated by the source "
+            f"{storages[0]!r} (port {named}): the storage's state would be dictated by the source "
             "(derivative causality) instead of integrated. Put a compliance (C) or a dissipator "
             f"(R) between them, or drive the storage with {'an effort' if imposed == 'flow' else 'a flow'}"
             " source")

@@ -25,12 +25,13 @@ def python_entry() -> str:
         "@_jit",
         f"def integrate_{SYMBOL}({_ARGS}):",
         f'    """{NAME}: the step loop _bdf (its copy without Φ)."""',
-        (f"    return _bdf_plain({phi}, {_ARGS}, np.empty((y0.shape[0], 0)))[:15]"),
+        (f"    return _bdf_plain({phi}, {_ARGS}, np.empty((y0.shape[0], 0)), "
+         "np.empty((0, 0)))[:15]"),
         "", "",
         "@_jit",
-        f"def integrate_{SYMBOL}_variational({_ARGS}, phi0):",
+        f"def integrate_{SYMBOL}_variational({_ARGS}, phi0, gain):",
         f'    """{NAME} with sensitivities (the variational equations, by {PHI_METHOD}) from phi0."""',
-        f"    return _bdf({phi}, {_ARGS}, phi0)", ""])
+        f"    return _bdf({phi}, {_ARGS}, phi0, gain)", ""])
 
 
 def c_entry() -> str:
@@ -39,7 +40,7 @@ def c_entry() -> str:
     tab = f"&{TABLEAUS[PHI_METHOD].symbol}_tableau"
     return (f"/* {NAME} (see the loop above) */\n"
             f"PH_EXPORT int ph_integrate_{SYMBOL}(PH_LOOP_PARAMS)\n"
-            f"{{\n    return bdf({tab}, PH_LOOP_ARGS, 0, NULL, NULL, NULL, NULL);\n}}\n"
+            f"{{\n    return bdf({tab}, PH_LOOP_ARGS, 0, NULL, 0, NULL, NULL, NULL, NULL);\n}}\n"
             f"/* {NAME} with sensitivities */\n"
             f"PH_EXPORT int ph_integrate_{SYMBOL}_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS)\n"
-            f"{{\n    return bdf({tab}, PH_LOOP_ARGS, m, phi0, phis, phi_out, phi_error);\n}}\n")
+            f"{{\n    return bdf({tab}, PH_LOOP_ARGS, PH_PHI_ARGS);\n}}\n")

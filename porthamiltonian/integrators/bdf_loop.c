@@ -140,7 +140,8 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     int64_t vcounts[3] = {0, 0, 0};
     double eta_phi = 1e300;
     if (m > 0) {
-        pwork = malloc(sizeof(double) * (size_t)(nm * (phi_tab->s + 4) + 8 * N * N + 7 * N));
+        pwork = malloc(sizeof(double) * (size_t)(nm * (phi_tab->s + 4) + 8 * N * N + 7 * N
+                                                 + PH_FORCING_WORK(nm, n_gain)));
         if (pwork == NULL) {
             free(work);
             return 2;
@@ -148,7 +149,7 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         P = pwork;
         J_phi = P + nm;
         f_phi = J_phi + N * N;
-        vwork = f_phi + N;      /* (s + 3) m N + 7 N x N + 6 N: ph_variational_step's */
+        vwork = f_phi + N;      /* ph_variational_step's work */
         memcpy(P, phi0, sizeof(double) * nm);
         phi_error[0] = 0.0;
     }
@@ -343,7 +344,8 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
                     double worst = 0.0;
                     ph_variational_step(phi_tab, t, hh, (t_hit - t) / hh, y, yk, p, J_phi, f_phi,
                                         W, piv, 0, ND, E, rtol, atol, n_model, phi_tab->expo, m,
-                                        P, J_phi, vcounts, &worst, &eta_phi, vwork);
+                                        P, J_phi, vcounts, &worst, &eta_phi, vwork, n_gain,
+                                        gain);
                     phi_error[0] = fmax(phi_error[0], worst);
                     memcpy(phis + n_store * nm, P, sizeof(double) * nm);
                 }
@@ -361,7 +363,7 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             double worst = 0.0;
             ph_variational_step(phi_tab, t, hh, 1.0, y, yk, p, J_phi, f_phi, W, piv, 0, ND, E,
                                 rtol, atol, n_model, phi_tab->expo, m, P, J_phi, vcounts, &worst,
-                                &eta_phi, vwork);
+                                &eta_phi, vwork, n_gain, gain);
             phi_error[0] = fmax(phi_error[0], worst);
             have_phi_jac = 1;
         }

@@ -162,11 +162,12 @@ def _bdf_first_step(t, y, f0, p, rtol, atol, h0, hmax, t_end):
 
 @_jit
 def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, directions,
-         terminal, mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0):
+         terminal, mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0,
+         gain):
     """Integrate from (t0, y0) to t_end or the first terminal event with QBDF (see the header);
     TA, TC, TN, TD, gam, expo: the Rosenbrock method that carries the sensitivities.
 
-    Arguments and results as _rosenbrock's (``tgrad_step`` is not used: the BDFs need no ∂f/∂t):
+    Arguments (``gain``: the forcing of parameter columns) and results as _rosenbrock's (``tgrad_step`` is not used: the BDFs need no ∂f/∂t):
     (status, t, y, ts, ys, n_store, nfev, njev, nsteps, event_index, ev_t, ev_k, n_ev, h, nlu,
     phi, phis, phi_err); ``h`` is the step size in force at the end (the next call starts at
     order 1 with at most it), ``nlu`` counts the factorizations of I − c J (and of Φ's
@@ -376,7 +377,7 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
                 if m > 0:
                     nj, nf, nl, J_phi, worst, eta_phi = _variational_step(
                         t, hh, (t_hit - t) / hh, y, yk, p, J_phi, f_phi, W, piv, 0, E, TA, TC,
-                        TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi)
+                        TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain)
                     njev += nj
                     nfev += nf
                     nlu += nl
@@ -393,7 +394,7 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
         if m > 0:       # Φ over the step; its last A is J at the next step's start
             nj, nf, nl, J_phi, worst, eta_phi = _variational_step(
                 t, hh, 1.0, y, yk, p, J_phi, f_phi, W, piv, 0, E, TA, TC, TN, TD, gam, expo,
-                rtol, atol, n_model, P, eta_phi)
+                rtol, atol, n_model, P, eta_phi, gain)
             njev += nj
             nfev += nf
             nlu += nl

@@ -14,7 +14,10 @@
  * integrates the sensitivities Phi from phi0 (PH_N x m, row-major; column c the initial
  * perturbation of direction c) as rosenbrock_loop.py does (see its header): Phi at the end into
  * phi_out (PH_N x m), at the stored points into phis (store_cap x PH_N x m), the largest relative
- * error estimate of Phi over its accepted sub-steps into phi_error[0]. */
+ * error estimate of Phi over its accepted sub-steps into phi_error[0]. With parameter
+ * sensitivities (n_gain > 0: the gain G, n_gain x m row-major, of the header of
+ * rosenbrock_loop.py) Phi' = A Phi + jac_p G, jac_p the model's generated dxdot/dp (N x n_gain;
+ * a model compiled without it has a stub and is called with n_gain = 0). */
 
 typedef struct {
     int s;              /* stages */
@@ -39,8 +42,9 @@ typedef struct {
 #define PH_LOOP_ARGS t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, g_count, \
     mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, ts, ys, ev_t, ev_k, \
     out_th, out_y, counts
-#define PH_PHI_PARAMS int64_t m, const double *phi0, double *phis, double *phi_out, \
-    double *phi_error
+#define PH_PHI_PARAMS int64_t m, const double *phi0, int64_t n_gain, const double *gain, \
+    double *phis, double *phi_out, double *phi_error
+#define PH_PHI_ARGS m, phi0, n_gain, gain, phis, phi_out, phi_error
 #define PH_CBRT_EPS 6.0554544523933395e-06   /* the relative step of the central differences */
 
 /* The leading nf x nf block of the PH_N x PH_N row-major A: PA = LU in place (partial pivoting,
@@ -153,6 +157,68 @@ static void ph_dense(int m, int64_t len, double theta, const double *y0, const d
     }
 }
 
+/* The step of the differences along (1, f) (_rate_step of rosenbrock_loop.py) */
+static double ph_rate_step(double h, const double *f, const double *sc, int64_t n_model)
+{
+    double nu = 1.0 / h;
+    for (int64_t i = 0; i < n_model; ++i)
+        nu = fmax(nu, fabs(f[i]) / sc[i]);
+    return PH_CBRT_EPS / nu;
+}
+
+/* out = jac_p(t, y, p) G (N x m row-major; G = gain, n_gain x m): the forcing of the parameter
+ * sensitivities (_forcing of rosenbrock_loop.py); Fp: work (N x n_gain) */
+static void ph_forcing(double t, const double *y, const double *p, int64_t n_gain,
+                       const double *gain, int64_t m, double *Fp, double *out)
+{
+    enum { N = PH_N };
+    jac_p(t, y, p, Fp);
+    memset(out, 0, sizeof(double) * N * m);
+    for (int i = 0; i < N; ++i)
+        for (int64_t k = 0; k < n_gain; ++k) {
+            const double a = Fp[i * n_gain + k];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    out[i * m + c] += a * gain[k * m + c];
+        }
+}
+
+/* DF = d/dt F(t, x(t)) of the forcing F (its value at (t, y)) by the differences of ph_jac_rate
+ * (_forcing_rate of rosenbrock_loop.py); work: 2 N m + 2 N + N n_gain. Returns the jac_p
+ * evaluations made (2). */
+static int ph_forcing_rate(double t, double h, const double *y, const double *p, int64_t n_gain,
+                           const double *gain, int64_t m, const double *F, const double *f,
+                           const double *sc, int64_t n_model, double *DF, double *work)
+{
+    enum { N = PH_N };
+    const int64_t nm = N * m;
+    const double eps = ph_rate_step(h, f, sc, n_model);
+    double *Fp = work, *Fm = Fp + nm, *yp = Fm + nm, *ym = yp + N, *Jp = ym + N;
+    for (int i = 0; i < N; ++i) {
+        yp[i] = y[i] + eps * f[i];
+        ym[i] = y[i] - eps * f[i];
+    }
+    ph_forcing(t + eps, yp, p, n_gain, gain, m, Jp, Fp);
+    ph_forcing(t - eps, ym, p, n_gain, gain, m, Jp, Fm);
+    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
+    for (int64_t q = 0; q < nm; ++q) {
+        up = fmax(up, fabs(Fp[q] - F[q]));
+        down = fmax(down, fabs(F[q] - Fm[q]));
+        second = fmax(second, fabs(Fp[q] - 2.0 * F[q] + Fm[q]));
+        central = fmax(central, fabs(Fp[q] - Fm[q]));
+    }
+    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
+    for (int64_t q = 0; q < nm; ++q) {
+        if (!kink)
+            DF[q] = (Fp[q] - Fm[q]) / (2.0 * eps);
+        else if (up <= down)
+            DF[q] = (Fp[q] - F[q]) / eps;
+        else
+            DF[q] = (F[q] - Fm[q]) / eps;
+    }
+    return 2;
+}
+
 /* D = d/dt J(t, x(t)) = d_x J[f] + d_t J by differences along (1, f) (_jac_rate of
  * rosenbrock_loop.py: central, or the one-sided difference without a kink of J); work: 2 N x N +
  * 2 N. Returns the jac evaluations made (2). */
@@ -161,10 +227,7 @@ static int ph_jac_rate(double t, double h, const double *y, const double *p, con
                        double *work)
 {
     enum { N = PH_N };
-    double nu = 1.0 / h;
-    for (int64_t i = 0; i < n_model; ++i)
-        nu = fmax(nu, fabs(f[i]) / sc[i]);
-    const double eps = PH_CBRT_EPS / nu;
+    const double eps = ph_rate_step(h, f, sc, n_model);
     double *Jp = work, *Jm = Jp + N * N, *yp = Jm + N * N, *ym = yp + N;
     for (int i = 0; i < N; ++i) {
         yp[i] = y[i] + eps * f[i];
@@ -236,30 +299,37 @@ static void ph_lu_solve_rows(const double *A, const int *piv, int nf, double *B,
 
 /* One sub-step of Phi from t + th_a h to t + th_b h (_phi_substep of rosenbrock_loop.py): KP
  * (s x N m) and P1 from P, with the LU of W = I/(eta gamma) - Ja and D = A'; A at t + th_b h
- * into A_end; the step's dense output y, y1, E (nd rows). work: N x N + 2 m N + N. Returns the
- * jac evaluations made. */
+ * into A_end; the step's dense output y, y1, E (nd rows); with parameters (n_gain > 0) the
+ * forcing Fa at the start, its rate DF, F at the end into F_end (Fp: N x n_gain work). work:
+ * N x N + 2 m N + N. Returns the jac and jac_p evaluations made. */
 static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, double t, double h,
                           const double *y, const double *y1, const double *p, int nd,
                           const double *E,
                           const double *Ja, const double *D, const double *W, const int *piv,
                           int nf, int64_t n_model, int64_t m, const double *P, double *KP,
                           double *P1,
-                          double *A_end, double *work)
+                          double *A_end, double *work, int64_t n_gain, const double *gain,
+                          const double *Fa, const double *DF, double *F_end, double *Fp)
 {
     enum { N = PH_N };
     const int s = tab->s;
     const int64_t nm = m * N;
     const double ds = th_b - th_a, eta = ds * h;
     double *Js = work, *UP = Js + N * N, *DP = UP + nm, *xi = DP + nm;
+    const int forced = n_gain > 0;
     int nj = 0;
     memset(DP, 0, sizeof(double) * nm);
-    for (int i = 0; i < N; ++i)             /* DP = A' Phi0 */
+    for (int i = 0; i < N; ++i)             /* DP = A' Phi0 (+ F') */
         for (int64_t j = 0; j < n_model; ++j) {
             const double a = D[i * N + j];
             if (a != 0.0)
                 for (int64_t c = 0; c < m; ++c)
                     DP[i * m + c] += a * P[j * m + c];
         }
+    if (forced)
+        for (int64_t q = 0; q < nm; ++q)
+            DP[q] += DF[q];
+    const double *F = Fa;
     const double *A = Ja;
     for (int st = 0; st < s; ++st) {
         double *KPs = KP + st * nm;
@@ -274,18 +344,25 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
             double *out = tab->nodes[st] == 1.0 ? A_end : Js;
             if (th == 1.0) {
                 jac(t + h, y1, p, out);
+                if (forced)
+                    ph_forcing(t + h, y1, p, n_gain, gain, m, Fp, F_end);
             } else {
                 ph_dense(nd, N, th, y, y1, E, xi);
                 jac(t + th * h, xi, p, out);
+                if (forced)
+                    ph_forcing(t + th * h, xi, p, n_gain, gain, m, Fp, F_end);
             }
             A = out;
-            nj += 1;
+            F = F_end;
+            nj += forced ? 2 : 1;
         }
         const double hd = eta * tab->d[st];
         for (int64_t q = 0; q < nm; ++q) {
             double acc = hd * DP[q];
             for (int j = 0; j < st; ++j)
                 acc += tab->c[st * s + j] * KP[j * nm + q] / eta;
+            if (forced)
+                acc += F[q];
             KPs[q] = acc;
         }
         for (int i = 0; i < N; ++i)
@@ -314,7 +391,9 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
  * W, piv for a whole step when nf > 0; nf = 0: none given); the step's dense output y, y1, E (nd
  * rows); A at the end into J_end (the next step's J when th_end = 1), the evaluations into
  * counts[0] (jac), counts[1] (rhs), counts[2] (LU), the largest error estimate accepted into
- * *worst, the next sub-step's length into *eta. work: (s + 3) m N + 7 N x N + 6 N. */
+ * *worst, the next sub-step's length into *eta; n_gain, gain: the forcing of parameter columns
+ * (jac_p evaluations counted with jac's). work: (s + 3) m N + 7 N x N + 6 N + PH_FORCING_WORK. */
+#define PH_FORCING_WORK(nm, n_gain) (5 * (nm) + 2 * PH_N + PH_N * (n_gain))
 static void ph_variational_step(const ph_tableau *tab, double t, double h, double th_end,
                                 const double *y, const double *y1, const double *p,
                                 const double *J, const double *f0, const double *W,
@@ -322,7 +401,7 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
                                 const double *atol,
                                 int64_t n_model, double expo, int64_t m, double *P,
                                 double *J_end, int64_t *counts, double *worst, double *eta,
-                                double *work)
+                                double *work, int64_t n_gain, const double *gain)
 {
     enum { N = PH_N };
     const int s = tab->s;
@@ -330,6 +409,11 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
     double *KP = work, *P1 = KP + s * nm, *D = P1 + nm, *Ws = D + N * N, *Ja = Ws + N * N;
     double *Jb = Ja + N * N, *sc = Jb + N * N, *xa = sc + N, *fa = xa + N, *sub = fa + N;
     double *rate_work = sub + N * N + 2 * nm + N;
+    /* the forcing: at the sub-step's start and end, its rate, work of ph_forcing_rate (whose
+     * last N x n_gain serve ph_phi_substep's jac_p too) */
+    double *Fa = rate_work + 2 * N * N + 2 * N, *Fb = Fa + nm, *DF = Fb + nm, *fwork = DF + nm;
+    double *Fp = fwork + 2 * nm + 2 * N;
+    const int forced = n_gain > 0;
     int pivs[PH_N];
     for (int i = 0; i < N; ++i)
         sc[i] = fmax(fabs(y[i]), atol[i] / rtol);
@@ -339,10 +423,17 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
     double th_a = 0.0, ds = fmin(th_end, fmax(*eta / h, PH_THETA_MIN));
     int count = 0;
     *worst = 0.0;
+    if (forced) {
+        ph_forcing(t, y, p, n_gain, gain, m, Fp, Fa);
+        counts[0] += 1;
+    }
     while (th_a < th_end) {
         const int last = ds >= th_end - th_a;
         const double th_b = last ? th_end : th_a + ds, eta = (th_b - th_a) * h;
         counts[0] += ph_jac_rate(t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D, rate_work);
+        if (forced)
+            counts[0] += ph_forcing_rate(t + th_a * h, eta, xa, p, n_gain, gain, m, Fa, fa, sc,
+                                         n_model, DF, fwork);
         const double *Wu = W;
         const int *pu = piv;
         int nfu = nf;
@@ -357,7 +448,8 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
             pu = pivs;
         }
         counts[0] += ph_phi_substep(tab, th_a, th_b, t, h, y, y1, p, nd, E, Ja, D, Wu, pu, nfu,
-                                    n_model, m, P, KP, P1, Jb, sub);
+                                    n_model, m, P, KP, P1, Jb, sub, n_gain, gain, Fa, DF, Fb,
+                                    Fp);
         double num = 0.0, den = 0.0;
         for (int64_t i = 0; i < n_model; ++i)
             for (int64_t c = 0; c < m; ++c) {
@@ -373,6 +465,9 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
             double *tmp = Ja;       /* A at the end of the sub-step: the next one's start */
             Ja = Jb;
             Jb = tmp;
+            tmp = Fa;               /* the forcing too */
+            Fa = Fb;
+            Fb = tmp;
             th_a = th_b;
             if (th_a < th_end) {
                 ph_dense(nd, N, th_a, y, y1, E, xa);
@@ -491,14 +586,15 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     int64_t vcounts[3] = {0, 0, 0};
     double eta_phi = 1e300;     /* the length of Phi's next sub-step (s): the whole step */
     if (m > 0) {
-        pwork = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N));
+        pwork = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N
+                                                 + PH_FORCING_WORK(nm, n_gain)));
         if (pwork == NULL) {
             free(work);
             return 2;
         }
         P = pwork;
         J_next = P + nm;
-        vwork = J_next + N * N;      /* (s + 3) m N + 7 N x N + 6 N: ph_variational_step's */
+        vwork = J_next + N * N;      /* ph_variational_step's work */
         memcpy(P, phi0, sizeof(double) * nm);
         phi_error[0] = 0.0;
     }
@@ -646,7 +742,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
                     double worst = 0.0;
                     ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nf,
                                         nd, E, rtol, atol, n_model, expo, m, P, J_next, vcounts,
-                                        &worst, &eta_phi, vwork);
+                                        &worst, &eta_phi, vwork, n_gain, gain);
                     phi_error[0] = fmax(phi_error[0], worst);
                     memcpy(phis + n_store * nm, P, sizeof(double) * nm);
                 }
@@ -663,7 +759,8 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         if (m > 0) {       /* Phi over the step; its last A is the next step's J */
             double worst = 0.0;
             ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, nf, nd, E, rtol, atol,
-                                n_model, expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork);
+                                n_model, expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork,
+                                n_gain, gain);
             phi_error[0] = fmax(phi_error[0], worst);
             have_next = 1;
         }

@@ -29,6 +29,15 @@
 # order of the local error) enters A. Φ (n x m) is held flattened, P[i * m + c] = Φ[i, c], so that
 # products and solves run along rows of m independent values; J's last two columns (the ledger
 # states, which no rate depends on) are zero and skipped.
+#
+# Parameter sensitivities (columns of Φ seeded with ∂x₀/∂p; ``gain`` G, L x m, not empty): the
+# variational equation has the forcing term F(t) = jac_p(t, x(t), p) G (jac_p: the model's
+# generated ∂ẋ/∂p over its L parameters, G = ∂p/∂(seed) of each column: a unit column for
+# ∂x/∂p_l, zero for a state direction), Φ' = A Φ + F, whose sub-steps are
+#     W KΦ_i = A(τ + c_i η) UΦ_i + F(τ + c_i η) + η d_i (A'(τ) Φ0 + F'(τ)) + (Σ_j C_ij KΦ_j) / η,
+# F at the same nodes as A (one jac_p per distinct node), F'(τ) by the same difference along
+# (1, f) as A' (_rate_step, _forcing_rate). Without parameters (L = 0 rows of G) nothing of it
+# runs.
 
 _SAMPLES = 3  # interior guard samples per step
 _CBRT_EPS = 6.0554544523933395e-06  # ε^(1/3): the relative step of the central differences
@@ -137,19 +146,80 @@ def _dense(theta, y0, y1, E, out):
 
 
 @_jit
+def _rate_step(h, f, sc, n_model):
+    """The step ε = ε_mach^(1/3) / ν, ν = max(max_i |f_i| / sc_i, 1 / h), of the differences
+    along (1, f) (_jac_rate, _forcing_rate)."""
+    nu = 1.0 / h
+    for i in range(n_model):
+        nu = max(nu, abs(f[i]) / sc[i])
+    return _CBRT_EPS / nu
+
+
+@_jit
+def _forcing(t, y, p, gain, out):
+    """out = jac_p(t, y, p) G (n x m, flattened by rows; G = ``gain``, L x m): the forcing of
+    the parameter sensitivities (see the header)."""
+    n = y.shape[0]
+    L = gain.shape[0]
+    m = gain.shape[1]
+    Fp = jac_p(t, y, p)
+    for q in range(n * m):
+        out[q] = 0.0
+    for i in range(n):
+        for k in range(L):
+            a = Fp[i, k]
+            if a != 0.0:
+                for c in range(m):
+                    out[i * m + c] += a * gain[k, c]
+
+
+@_jit
+def _forcing_rate(t, h, y, p, gain, F, f, sc, n_model, DF):
+    """DF = d/dt F(t, x(t)) of the forcing F = jac_p G at (t, y) (F: its value there), by the
+    differences of _jac_rate (the same step, the same choice between the central and the
+    one-sided differences). Returns the jac_p evaluations made (2)."""
+    n = y.shape[0]
+    nm = F.shape[0]
+    eps = _rate_step(h, f, sc, n_model)
+    yp = y.copy()
+    ym = y.copy()
+    for i in range(n):
+        yp[i] += eps * f[i]
+        ym[i] -= eps * f[i]
+    Fp = np.empty(nm)
+    Fm = np.empty(nm)
+    _forcing(t + eps, yp, p, gain, Fp)
+    _forcing(t - eps, ym, p, gain, Fm)
+    up = 0.0
+    down = 0.0
+    second = 0.0
+    central = 0.0
+    for q in range(nm):
+        up = max(up, abs(Fp[q] - F[q]))
+        down = max(down, abs(F[q] - Fm[q]))
+        second = max(second, abs(Fp[q] - 2.0 * F[q] + Fm[q]))
+        central = max(central, abs(Fp[q] - Fm[q]))
+    kink = second > 0.5 * central and second > 1e-12 * (up + down + 1e-300)
+    for q in range(nm):
+        if not kink:
+            DF[q] = (Fp[q] - Fm[q]) / (2.0 * eps)
+        elif up <= down:
+            DF[q] = (Fp[q] - F[q]) / eps
+        else:
+            DF[q] = (F[q] - Fm[q]) / eps
+    return 2
+
+
+@_jit
 def _jac_rate(t, h, y, p, J, f, sc, n_model, D):
     """D = d/dt J(t, x(t)) = ∂_x J[f] + ∂_t J at (t, y), f = ẋ, by a difference of J along
-    (1, f) with the step ε = ε_mach^(1/3) / ν, ν = max(max_i |f_i| / sc_i, 1 / h) (model states
-    i: every state moves by at most ε_mach^(1/3) of its scale sc_i, the time by at most that part
-    of the step): central, (J(t + ε, y + εf) − J(t − ε, y − εf)) / 2ε, unless J has a kink in
+    (1, f) with the step ε of _rate_step (model states i: every state moves by at most
+    ε_mach^(1/3) of its scale sc_i, the time by at most that part of the step): central, (J(t + ε, y + εf) − J(t − ε, y − εf)) / 2ε, unless J has a kink in
     between (a Piecewise law, e.g. a contact's max(z, 0)): then the two one-sided differences
     disagree by O(1) instead of O(ε), and the smaller one, from the side without the kink, is
     used. Returns the jac evaluations made (2)."""
     n = y.shape[0]
-    nu = 1.0 / h
-    for i in range(n_model):
-        nu = max(nu, abs(f[i]) / sc[i])
-    eps = _CBRT_EPS / nu
+    eps = _rate_step(h, f, sc, n_model)
     yp = y.copy()
     ym = y.copy()
     for i in range(n):
@@ -219,24 +289,30 @@ def _lu_solve_rows(A, piv, nb, B, m):
 
 @_jit
 def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, TD, n_model, P,
-                 KP, P1, xi):
+                 KP, P1, xi, gain, Fa, DF, F_end):
     """One sub-step of Φ from τ = t + th_a h to t + th_b h (η = (th_b − th_a) h; see the header):
-    KP and P1 from P, with the LU of W = I/(ηγ) − Ja and D = A'(τ). Returns (jac evaluations
-    made, A at t + th_b h)."""
+    KP and P1 from P, with the LU of W = I/(ηγ) − Ja and D = A'(τ); with parameters (``gain``
+    not empty) the forcing Fa at τ, its rate DF, and F at t + th_b h into F_end. Returns (jac
+    and jac_p evaluations made, A at t + th_b h)."""
     n = y.shape[0]
     s = TN.shape[0]
     nm = P.shape[0]
     m = nm // n
+    forced = gain.shape[0] > 0
     ds = th_b - th_a
     eta = ds * h
     UP = np.empty(nm)
     DP = np.zeros(nm)
-    for i in range(n):                      # DP = A'(τ) Φ0
+    for i in range(n):                      # DP = A'(τ) Φ0 (+ F'(τ))
         for j in range(n_model):
             a = D[i, j]
             if a != 0.0:
                 for c in range(m):
                     DP[i * m + c] += a * P[j * m + c]
+    F = Fa
+    if forced:
+        for q in range(nm):
+            DP[q] += DF[q]
     nj = 0
     A = Ja
     for st in range(s):
@@ -249,15 +325,23 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
             th = th_b if TN[st] == 1.0 else th_a + TN[st] * ds
             if th == 1.0:
                 A = jac(t + h, y1, p)
+                if forced:
+                    F = F_end
+                    _forcing(t + h, y1, p, gain, F)
             else:
                 _dense(th, y, y1, E, xi)
                 A = jac(t + th * h, xi, p)
-            nj += 1
+                if forced:
+                    F = F_end
+                    _forcing(t + th * h, xi, p, gain, F)
+            nj += 2 if forced else 1
         hd = eta * TD[st]
         for q in range(nm):
             acc = hd * DP[q]
             for j in range(st):
                 acc += TC[st, j] * KP[j, q] / eta
+            if forced:
+                acc += F[q]
             KP[st, q] = acc
         for i in range(n):
             for j in range(n_model):
@@ -347,7 +431,7 @@ def _locate_events(t, h, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n
 
 @_jit
 def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
-                      rtol, atol, n_model, P, eta0):
+                      rtol, atol, n_model, P, eta0, gain):
     """Carry Φ (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
     error control (see the header), the first eta0 long (s; the whole step when eta0 >= th_end h,
     with the step's LU W, piv when th_end = 1 and nb > 0; nb = 0: no LU of the step is given, as
@@ -355,7 +439,8 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
     from which A is taken at the nodes; a sub-step is accepted when its error estimate
     ‖KΦ_s‖ / ‖Φ1‖ (norm weighted by 1/sc, sc_i = max(|y_i|, atol_i / rtol), over the model
     states) is at most _PHI_TOLERANCE rtol, or when it is _THETA_MIN of the step, or the
-    _SUBSTEPS-th. Returns (jac evaluations, rhs evaluations, LU factorizations, A at the end (the
+    _SUBSTEPS-th; ``gain`` (L x m): the forcing of the parameter columns (none when L = 0; see
+    the header; its jac_p evaluations are counted with jac's). Returns (jac evaluations, rhs evaluations, LU factorizations, A at the end (the
     next step's J when th_end = 1), the largest error estimate accepted, the next sub-step's length
     proposed)."""
     n = y.shape[0]
@@ -381,11 +466,20 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
     nlu = 0
     worst = 0.0
     count = 0
+    forced = gain.shape[0] > 0
+    Fa = np.zeros(nm)
+    Fb = np.zeros(nm)
+    DF = np.zeros(nm)
+    if forced:
+        _forcing(t, y, p, gain, Fa)
+        nj += 1
     while th_a < th_end:
         last = ds >= th_end - th_a
         th_b = th_end if last else th_a + ds
         eta = (th_b - th_a) * h
         nj += _jac_rate(t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D)
+        if forced:
+            nj += _forcing_rate(t + th_a * h, eta, xa, p, gain, Fa, fa, sc, n_model, DF)
         if th_a == 0.0 and th_b == 1.0 and nb > 0:
             Wu = W
             pu = piv
@@ -399,7 +493,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
             Wu = Ws
             pu = pivs
         nj_s, A_end = _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, nbu, TA, TC, TN,
-                                   TD, n_model, P, KP, P1, xi)
+                                   TD, n_model, P, KP, P1, xi, gain, Fa, DF, Fb)
         nj += nj_s
         num = 0.0
         den = 0.0
@@ -414,6 +508,8 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
             P[:] = P1
             worst = max(worst, err)
             Ja = A_end
+            if forced:
+                Fa, Fb = Fb, Fa
             th_a = th_b
             if th_a < th_end:
                 _dense(th_a, y, y1, E, xa)
@@ -428,7 +524,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
 
 @_jit
 def _no_variational(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
-                    rtol, atol, n_model, P, eta0):
+                    rtol, atol, n_model, P, eta0, gain):
     """_variational_step in the copy of _rosenbrock for runs without sensitivities (never
     called there: m = 0; see porthamiltonian/integrators/__init__.py)."""
     return 0, 0, 0, J, 0.0, eta0
@@ -437,7 +533,7 @@ def _no_variational(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD
 @_jit
 def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax,
                 directions, terminal, mask_index, mask_sign, n_model, bound, max_steps, store_cap,
-                tgrad_step, phi0):
+                tgrad_step, phi0, gain):
     """Integrate from (t0, y0) to t_end or the first terminal event with the method of the
     tables TA, TC, TN, TD, TH, γ = gam, step-size exponent expo (see tableaus.py).
 
@@ -448,7 +544,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     steps, ``ev_t``/``ev_k`` the non-terminal events found, ``nlu`` counts the LU factorizations
     (of W, one per attempted step, and of Φ's sub-steps). ``phi0`` (n x m, column c the
     initial perturbation of direction c; m = 0: no sensitivities) gives the sensitivities Φ (see
-    the header): ``phi`` (n x m) at the returned t, ``phis`` (store_cap x n x m) at the stored
+    the header; ``gain``, L x m: the forcing of parameter columns, see there): ``phi`` (n x m)
+    at the returned t, ``phis`` (store_cap x n x m) at the stored
     points, ``phi_err`` the largest relative error estimate of Φ over its accepted sub-steps
     (_variational_step; at most _PHI_TOLERANCE rtol unless a sub-step limit was reached).
     """
@@ -607,7 +704,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
                 if m > 0:
                     nj, nf, nl, J_next, worst, eta_phi = _variational_step(
                         t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD,
-                        gam, expo, rtol, atol, n_model, P, eta_phi)
+                        gam, expo, rtol, atol, n_model, P, eta_phi, gain)
                     njev += nj
                     nfev += nf
                     nlu += nl
@@ -624,7 +721,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         if m > 0:       # Φ over the step; its last A is the next step's J
             nj, nf, nl, J_next, worst, eta_phi = _variational_step(
                 t, h, 1.0, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo, rtol,
-                atol, n_model, P, eta_phi)
+                atol, n_model, P, eta_phi, gain)
             njev += nj
             nfev += nf
             nlu += nl

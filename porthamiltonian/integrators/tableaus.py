@@ -16,6 +16,7 @@ prints them as literals into each model's module (:func:`python_literals`, :func
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from ..errors import OptionError
@@ -143,7 +144,7 @@ for _t in TABLEAUS.values():
     _t.check()
 
 
-def _flat(table) -> list[float]:
+def _flat(table: Iterable[Iterable[float]]) -> list[float]:
     return [float(v) for row in table for v in row]
 
 
@@ -166,19 +167,20 @@ def python_entry(tab: Tableau) -> str:
         f"def integrate_{tab.symbol}({_ARGS}):",
         f'    """{tab.name}: the step loop _rosenbrock (its copy without Φ) with its tables."""',
         (f"    return _rosenbrock_plain({p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
-         f"{1.0 / tab.error_order!r}, {_ARGS}, np.empty((y0.shape[0], 0)))[:15]"),
+         f"{1.0 / tab.error_order!r}, {_ARGS}, np.empty((y0.shape[0], 0)), "
+         "np.empty((0, 0)))[:15]"),
         "", "",
         "@_jit",
-        f"def integrate_{tab.symbol}_variational({_ARGS}, phi0):",
+        f"def integrate_{tab.symbol}_variational({_ARGS}, phi0, gain):",
         f'    """{tab.name} with sensitivities (the variational equations) from phi0."""',
         (f"    return _rosenbrock({p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
-         f"{1.0 / tab.error_order!r}, {_ARGS}, phi0)"), ""])
+         f"{1.0 / tab.error_order!r}, {_ARGS}, phi0, gain)"), ""])
 
 
 def c_entry(tab: Tableau) -> str:
     """The tables of ``tab`` as a ``static const ph_tableau`` and its exported entry point
     ``ph_integrate_<symbol>`` (the C loop template's ``rosenbrock`` with them)."""
-    def arr(values) -> str:
+    def arr(values: Iterable[float]) -> str:
         return "{" + ", ".join(repr(float(v)) for v in values) + "}"
 
     p = tab.symbol
@@ -191,7 +193,7 @@ def c_entry(tab: Tableau) -> str:
             f"{tab.gamma!r}, {1.0 / tab.error_order!r}, {p}_a, {p}_c, {p}_nodes, {p}_d, {p}_h}};\n"
             f"/* {tab.name} (see the loop above) */\n"
             f"PH_EXPORT int ph_integrate_{p}(PH_LOOP_PARAMS)\n"
-            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, 0, NULL, NULL, NULL, NULL);\n}}\n"
+            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, 0, NULL, 0, NULL, NULL, NULL, NULL);\n}}\n"
             f"/* {tab.name} with sensitivities */\n"
             f"PH_EXPORT int ph_integrate_{p}_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS)\n"
-            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, m, phi0, phis, phi_out, phi_error);\n}}\n")
+            f"{{\n    return rosenbrock(&{p}_tableau, PH_LOOP_ARGS, PH_PHI_ARGS);\n}}\n")

@@ -9,6 +9,8 @@
     porthamiltonian sweep MODEL --grid NAME=SPEC ... --out FILE [--t-end T] [--output NAME ...]
                           [--settle NAME [--band B]] [--workers N | --serial | --scheduler ADDR]
     porthamiltonian export-fmu MODEL --out FILE [--fmi 2|3] [--kind me|cs|both] [--set NAME=VALUE]
+    porthamiltonian fit MODEL DATA.csv --param NAMES [--set NAME=VALUE ...] [--bounds NAME=LO:HI]
+                          [--weight NAME=W] [--absolute-sigma] [--t-end T] [--json]
 
 MODEL is a name from ``models/`` or a path to a ``.toml`` model file. Every option may be given
 anywhere after its command (``--backend`` also before it). Exit status: 0 on success, 1 when a
@@ -46,7 +48,7 @@ from ..compiler.estimate import duration_text
 from ..errors import ModelError, OptionError
 from ..fmu import export_fmu
 from ..integrators import TABLEAUS
-from . import io, linearization
+from . import fitting, io, linearization
 from .sweeps import SimulationModel, prepare_simulation, simulate_case, simulation_settings
 
 
@@ -313,7 +315,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
                           progress=RunProgress(model.name, entry.t_end(args.t_end)))
-    result = {"model": model.name, "status": traj.status, "message": traj.message,
+    result: dict[str, Any] = {"model": model.name, "status": traj.status, "message": traj.message,
               "t_end": traj.t_final,
               "final_state": dict(zip(compiled.state_names, traj.x_final.tolist())),
               "energy": traj.ledger(), "nfev": traj.nfev, "events": traj.events}
@@ -402,6 +404,14 @@ def cmd_linearize(args: argparse.Namespace) -> int:
     (:mod:`porthamiltonian.interfaces.linearization`)."""
     return linearization.run_linearize(args, parse_assignments(args.at, "--at"),
                                        parse_assignments(args.set))
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    """``porthamiltonian fit``: parameters fitted to a data file
+    (:mod:`porthamiltonian.interfaces.fitting`)."""
+    entry = SimulationModel.load(args.model, args.backend)
+    return fitting.run_fit(args, entry.compiled, parse_assignments(args.set),
+                           entry.settings["atol"])
 
 
 def cmd_check_energy(args: argparse.Namespace) -> int:
@@ -527,6 +537,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="settling band as a fraction of the largest deviation from the final "
                         "value (default: 0.02, the 2%% settling time)")
     p.set_defaults(func=cmd_sweep)
+    p = fitting.add_fit_parser(sub, [BACKEND_OPTION, SET_OPTION, JSON_OPTION], model_help)
+    p.set_defaults(func=cmd_fit)
     p = sub.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION],
                        help="write the model as an FMU (FMI 2.0 or 3.0, model exchange and/or "
                             "co-simulation) for other tools; docs/fmu.md")
@@ -588,7 +600,8 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
         return _report_bug()
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: Any = None, line: str | None = None) -> None:
     print(f"warning: {message}", file=sys.stderr)
 
 

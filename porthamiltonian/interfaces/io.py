@@ -61,21 +61,26 @@ import math
 import os
 import re
 import tomllib
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import tomli_w
 
 from .. import userfiles
-from ..compiler import compile_model
 from ..errors import ModelError, ModelFileError, OptionError
-from ..modeling.component import REGISTRY, Component, component_class
-from ..modeling.model import Model, ModelDescription
-from ..simulation.compiled import CompiledModel
 from ..simulation.options import check_rtol
+
+if TYPE_CHECKING:
+    from ..modeling.component import Component
+    from ..modeling.model import Model, ModelDescription
+    from ..simulation.compiled import CompiledModel
+
+# The model layers (sympy, networkx) and the compiler are imported where a model is read, built
+# or written, not with this module: finding and reading a file's text (:func:`model_path`,
+# :func:`read_text`, :func:`locate`) stays light, for the warm start of a cached model.
 
 #: top-level tables that the loader keeps as they are, for the libraries that read them
 #: (``Model.sections``, written back on save): the walker library's ``[walker]`` table
@@ -208,9 +213,9 @@ class _Locator:
 
     def __init__(self, text: str):
         self.lines = text.splitlines()
-        self.where: dict[tuple, int] = {}
-        table: tuple = ()
-        arrays: dict[tuple, int] = {}
+        self.where: dict[tuple[str | int, ...], int] = {}
+        table: tuple[str | int, ...] = ()
+        arrays: dict[tuple[str | int, ...], int] = {}
         depth = 0                     # open [ / { of a value continued on the next lines
         multiline = ""                # inside a multi-line string
         for number, line in enumerate(self.lines, 1):
@@ -224,7 +229,7 @@ class _Locator:
                 continue
             header = _HEADER_RE.match(line)
             if header:
-                path = _key_parts(header.group(2))
+                path: tuple[str | int, ...] = _key_parts(header.group(2))
                 if header.group(1) == "[[":
                     index = arrays.get(path, -1) + 1
                     arrays[path] = index
@@ -248,7 +253,7 @@ class _Locator:
                     self.where.setdefault((*path, *_key_parts(inner.group(1))), number)
             depth = max(depth, 0)
 
-    def line(self, *path) -> int | None:
+    def line(self, *path: str | int) -> int | None:
         """The line of ``path``, or of its longest prefix that is known."""
         path = tuple(path)
         while path:
@@ -273,7 +278,7 @@ def locate(text: str, *path: str | int) -> int | None:
     return _Locator(text).line(*path)
 
 
-def _suggest(name: str, known) -> str:
+def _suggest(name: str | os.PathLike[str], known: Iterable[str]) -> str:
     close = difflib.get_close_matches(str(name), [str(k) for k in known], n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
@@ -340,6 +345,8 @@ class ModelFile:
     def compile(self, backend: str = "auto", use_cache: bool = True) -> CompiledModel:
         """:func:`~porthamiltonian.compiler.compile_model` of the model, its errors naming this
         file and line."""
+        from ..compiler import compile_model
+
         with self.located():
             return compile_model(self.model, backend=backend, use_cache=use_cache)
 
@@ -448,6 +455,8 @@ def file_from_dict(data: dict[str, Any], source: str = "<dict>", text: str = "")
     when the TOML ``text`` is given); a bond naming a component that could not be read is not
     reported again, and unconnected ports are reported only when every component and bond
     was read."""
+    from .. import library, mechanics  # noqa: F401 - register their component types
+
     r = _Reader(source, text)
     if not isinstance(data, dict):
         raise r.fail("a model file must be a TOML table")
@@ -487,9 +496,10 @@ def _read_head(data: dict[str, Any], source: str, r: _Reader) -> tuple[str, str,
                    else _text_problem(value, name=key == "name"))
         if problem:
             r.add(f"[model] {key} {problem}", "model", key)
-    name = head.get("name") if isinstance(head.get("name"), str) else Path(source).stem
-    description = head.get("description") if isinstance(head.get("description"), str) else ""
-    return name, description, {k: v for k, v in head.items() if k not in ("name", "description")}
+    name, description = head.get("name"), head.get("description")
+    return (name if isinstance(name, str) else Path(source).stem,
+            description if isinstance(description, str) else "",
+            {k: v for k, v in head.items() if k not in ("name", "description")})
 
 
 def _read_model(name: str, data: dict[str, Any], r: _Reader, at: tuple) -> Model:
@@ -497,6 +507,8 @@ def _read_model(name: str, data: dict[str, Any], r: _Reader, at: tuple) -> Model
     "model")`` for a sub-model): parameters, components, bonds, events, outputs (the checks of
     the whole, :meth:`~porthamiltonian.modeling.model.ModelDescription.problems`, follow in
     :func:`file_from_dict`)."""
+    from ..modeling.model import Model
+
     model = Model(name)
     prefix = "".join(f"{part}." for part in at[1::3])     # the sub-model's flattened prefix
     r.missing |= {prefix + n for n in _read_parameters(model, data.get("parameters", {}), r, at)}
@@ -604,6 +616,8 @@ def _read_components(model: Model, comps: Any, r: _Reader, at: tuple) -> set[str
 
 def _read_component(name: str, spec: Any, r: _Reader, where: tuple) -> Component | Model | None:
     """One component (or sub-model) table, or None after recording its problem."""
+    from ..modeling.component import REGISTRY, component_class
+
     kinds = ", ".join(sorted(REGISTRY))
     if not isinstance(spec, dict):
         r.add(f"component {name!r} must be a table ([components.{name}] with type = "
@@ -854,10 +868,10 @@ def _text_problem(text: str, name: bool) -> str | None:
     return None
 
 
-def _too_deep(data: Any) -> tuple | None:
+def _too_deep(data: Any) -> tuple[str | int, ...] | None:
     """The key path of a value nested more than MAX_NESTING levels deep, or None (iterative:
     no recursion on hostile input)."""
-    stack = [((), data)]
+    stack: list[tuple[tuple[str | int, ...], Any]] = [((), data)]
     while stack:
         path, value = stack.pop()
         if len(path) > MAX_NESTING:
@@ -873,6 +887,8 @@ def model_to_dict(model: Model | ModelFile) -> dict[str, Any]:
     """The TOML structure of a model or model file (sub-models as ``type = "model"`` tables
     with their own tables under ``model`` and their ``exposed`` ports; a model file's
     description, ``[model]`` keys, ``[simulation]`` and passed-through tables too)."""
+    from ..modeling.model import Model
+
     record = model if isinstance(model, ModelFile) else ModelFile(model)
     model = record.model
     data: dict[str, Any] = {"model": {"name": model.name}}

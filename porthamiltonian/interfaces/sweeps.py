@@ -162,7 +162,7 @@ def settling_time(t: np.ndarray, y: np.ndarray, band: float = 0.02,
     return float(t[i] + (t[i + 1] - t[i]) * d0 / (d0 - d1))
 
 
-def _signal_of_t(traj, name: str) -> Callable[[float], float]:
+def _signal_of_t(traj: Trajectory, name: str) -> Callable[[float], float]:
     """``name`` (a state or output) at any time of a dense-output run."""
     model = traj.model
     if name in model.state_names:
@@ -179,7 +179,7 @@ def _signal_of_t(traj, name: str) -> Callable[[float], float]:
     return value
 
 
-def _check_names(compiled, names: Sequence[str]) -> None:
+def _check_names(compiled: CompiledModel, names: Sequence[str]) -> None:
     known = set(compiled.state_names) | set(compiled.output_names)
     unknown = [n for n in names if n not in known]
     if unknown:

@@ -175,8 +175,9 @@ class _Contact(Component):
         return [Port("p", "translation", 2, "in", "world",
                      "contact point: effort = force of the body on the contact, flow = velocity")]
 
-    def _kinematics(self, b: Builder, x, z, surface, slope, height, step_height, step_x,
-                    stiffness, damping, active) -> tuple[Surface, sp.Expr, sp.Expr]:
+    def _kinematics(self, b: Builder, x: sp.Expr, z: sp.Expr, surface: str, slope: sp.Expr,
+                    height: sp.Expr, step_height: sp.Expr, step_x: sp.Expr, stiffness: sp.Expr,
+                    damping: sp.Expr, active: sp.Expr) -> tuple[Surface, sp.Expr, sp.Expr]:
         where = f"{self.kind} {b.name!r}"
         surf = make_surface(surface, where, slope=slope, height=height, step_height=step_height,
                             step_x=step_x)

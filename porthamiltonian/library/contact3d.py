@@ -51,6 +51,7 @@ a stiffness, damping, radius or ``active`` < 0, an exponent ≤ 0, an unknown su
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import sympy as sp
@@ -110,8 +111,9 @@ class _Contact3D(Component):
                      "sphere centre: effort = wrench (τ, f) of the body on the contact, flow = "
                      "twist (ω, v), world axes")]
 
-    def _contact(self, b: Builder, x, y, z, radius, surface, slope, height, step_height, step_x,
-                 plane, law: Law) -> None:
+    def _contact(self, b: Builder, x: sp.Expr, y: sp.Expr, z: sp.Expr, radius: sp.Expr,
+                 surface: str, slope: sp.Expr, height: sp.Expr, step_height: sp.Expr,
+                 step_x: sp.Expr, plane: Any, law: Callable[[sp.Expr, sp.Expr], Law]) -> None:
         where = f"{self.kind} {b.name!r}"
         check_plane(plane, where)
         surf = make_surface(surface, where, slope=slope, height=height, step_height=step_height,

@@ -67,9 +67,10 @@ def scvs_coefficient(v: sp.Expr, mu_st: sp.Expr, mu_c: sp.Expr, mu_v: sp.Expr, s
     return mu_st * sp.tanh(slope * v) * E + mu_c * sign * (1 - E) + mu_v * v
 
 
-def normal_force_source(component: Component, where: str, normal_force: sp.Expr | None) -> str:
-    """The name of the one contact whose ``Fn`` output the friction's ``normal_force`` reads
-    (``where`` names the friction in messages)."""
+def normal_force_source(component: Component, where: str, normal_force: sp.Expr | None
+                        ) -> tuple[str, sp.Expr]:
+    """The name of the one contact whose ``Fn`` output the friction's ``normal_force`` reads,
+    and that normal force (``where`` names the friction in messages)."""
     if normal_force is None:
         raise DanglingPortError(
             f"{where} has no normal-force source: give normal_force = \"<contact>.Fn\", the Fn "
@@ -85,7 +86,7 @@ def normal_force_source(component: Component, where: str, normal_force: sp.Expr 
         raise ParameterValueError(
             f"{where} argument 'normal_force' reads the normal forces of several contacts "
             f"({', '.join(sources)}); use one friction element per contact")
-    return sources[0]
+    return sources[0], normal_force
 
 
 @register
@@ -116,7 +117,8 @@ class SCVSFriction(Component):
 
     def build(self, b: Builder, normal_force: sp.Expr | None, mu_st: sp.Expr, mu_c: sp.Expr,
               mu_v: sp.Expr, slope: sp.Expr, v_st: sp.Expr) -> None:
-        contact = normal_force_source(self, f"SCVSFriction {b.name!r}", normal_force)
+        contact, normal_force = normal_force_source(self, f"SCVSFriction {b.name!r}",
+                                                    normal_force)
         tx = sp.Symbol(f"{contact}.tx", real=True)     # the contact's tangent (signals)
         tz = sp.Symbol(f"{contact}.tz", real=True)
         port = b.port("p")

@@ -56,6 +56,7 @@ or ``angular_slope`` < 0.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import sympy as sp
@@ -74,11 +75,11 @@ def _speed(squared: sp.Expr) -> sp.Expr:
     return sp.sqrt(squared + _EPSILON2)
 
 
-def _dot(a, b) -> sp.Expr:
+def _dot(a: Sequence[Any], b: Sequence[Any]) -> sp.Expr:
     return sum(x * y for x, y in zip(a, b))
 
 
-def _cross(a, b) -> list:
+def _cross(a: Sequence[Any], b: Sequence[Any]) -> list[Any]:
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
@@ -117,7 +118,7 @@ class SCVSFriction3D(Component):
               spin: sp.Expr, angular_slope: sp.Expr, plane: Any) -> None:
         where = f"SCVSFriction3D {b.name!r}"
         check_plane(plane, where)
-        contact = normal_force_source(self, where, normal_force)
+        contact, normal_force = normal_force_source(self, where, normal_force)
         n = [sp.Symbol(f"{contact}.n{axis}", real=True) for axis in "xyz"]
         port = b.port("p")
         omega, v = twist(port.f, plane)

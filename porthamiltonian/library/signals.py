@@ -363,12 +363,12 @@ class Actuator(Component):
 
     def build(self, b: Builder, domain: str, effort: sp.Expr | None,
               flow: sp.Expr | None) -> None:
-        chosen = _exactly_one("Actuator", {"effort": effort, "flow": flow})
+        chosen, command = _exactly_one("Actuator", {"effort": effort, "flow": flow})
         port = b.port("p")
         if chosen == "effort":
-            b.equation(port.e, b.source(effort, port.f), "e = command")
+            b.equation(port.e, b.source(command, port.f), "e = command")
         else:
-            b.equation(port.f, b.source(flow, port.e), "f = command")
+            b.equation(port.f, b.source(command, port.e), "f = command")
         work = b.state("work", "J", role="quadrature")
         b.equation(b.der(work), port.power, "d(work)/dt = e f")
         b.supply(port.power)

@@ -166,7 +166,8 @@ def expression_fields(bodies: Any, joints: Any, gravity: Any) -> Iterator[tuple[
     the component's table (for the line of a model file), ``what`` as the compiler names the field
     in messages (``"body 'b' mass"``). Tables of the wrong shape are skipped (Multibody's checks
     report them)."""
-    def leaves(path: tuple, value: Any, what: str):
+    def leaves(path: tuple[Any, ...], value: Any, what: str
+               ) -> Iterator[tuple[tuple[Any, ...], Any, str]]:
         if isinstance(value, list):
             for i, item in enumerate(value):
                 yield from leaves((*path, i), item, what)

@@ -214,7 +214,7 @@ class FreeBody(Component):
     def build(self, b: Builder, mass: sp.Expr, inertia: list, com: list | None,
               gravity: list | None, position0: list | None, quaternion0: list | None,
               omega0: list | None, v0: list | None) -> None:
-        def vec(value, n, what, default):
+        def vec(value: Any, n: int, what: str, default: Any) -> sp.Matrix:
             return sp.Matrix([b.parse(v, f"argument {what!r}")
                               for v in _vector(value, n, what, default)])
 

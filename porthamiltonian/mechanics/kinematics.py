@@ -16,7 +16,7 @@ chain rule.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,7 +52,7 @@ def scale(s: Any, a: Sequence) -> Vec:
     return [s * x if _nonzero(x) else sp.S.Zero for x in a]
 
 
-def _products(pairs) -> Any:
+def _products(pairs: Iterable[tuple[Any, Any]]) -> Any:
     return sp.Add(*[x * y for x, y in pairs if _nonzero(x) and _nonzero(y)])
 
 

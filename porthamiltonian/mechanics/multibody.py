@@ -15,12 +15,24 @@ from the ports. For a revolute or prismatic joint Π_kᵀ ad_{T_k} S_k is ∂T/�
 (= ½ vᵀ ∂M/∂q_k v); for the rotations of a quaternion joint it also holds the gyroscopic term of
 the quasi-velocities (Euler's L̇ = L × ω for one body); for a free joint from the world the rows are
 the Lie–Poisson equation Ṗ = ad_Tᵀ P + W of the whole tree's momentum in the base's frame, as in
-:mod:`.free_body`. Everything is formed recursively over the tree as compiler intermediates
-(:mod:`.tree`): the links' relative poses, the composite (subtree) inertias and M(q) by the
-composite-rigid-body recursion; with v solved, the body twists T_k (root to tip) and the subtree
-momenta Π_k (tip to root); gravity from the subtree masses and first moments. The generated code
-grows as about N² along an N-link chain (never by differentiating M's entries), and the Jacobian
-of the state equations follows by the chain rule through the intermediates.
+:mod:`.free_body`. Everything is formed recursively over the tree: the links' relative poses,
+the composite (subtree) inertias and M(q) by the composite-rigid-body recursion; with v solved,
+the body twists T_k (root to tip) and the subtree momenta Π_k (tip to root); gravity from the
+subtree masses and first moments (never by differentiating M's entries). Two formulations give
+the same numbers (docs/multibody.md):
+
+* ``formulation = "kernel"``: one compiled recursive kernel (:mod:`.kernel`, ``kernel.c``) over
+  the tree's numeric tables (:mod:`.kernel_tables`): axes, offsets, masses and inertias are
+  run-time parameters, the generated code holds a table entry per link whatever the axes, and
+  the Jacobian passes through the kernel by its forward-mode tangents;
+* ``formulation = "symbolic"``: the recursion written out as compiler intermediates
+  (:mod:`.tree`): exact zeros fold (a planar walker's code is small and fast), the code grows as
+  about N² along an N-link chain, and much faster with axes that are not coordinate axes; the
+  Jacobian follows by the chain rule through the intermediates;
+* ``"auto"`` (default): the kernel when an axis is not along a coordinate axis or the tree has
+  more than :data:`KERNEL_LINKS` links (and its tables depend on parameters only), else
+  symbolic. A tree with ``loops`` or ``constraints`` is always symbolic (``"kernel"`` refuses
+  them).
 
 Frames and conventions
 ----------------------
@@ -87,7 +99,7 @@ Limits: bodies are given by their inertial data, not by shapes.
 """
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -100,9 +112,31 @@ from . import closure, constrained
 from .bodies import as_tables, expression_fields
 from .inertia import numeric_problem, require_consistent
 from .joints import Joint, joint, quaternion_slice, units
+from .kernel_tables import FRAME, POINT, WORLD_FRAME, KernelTree, Site
 from .kinematics import ZERO3, add, cross, dot, named, scale, written_out
 from .poisson import poisson_rates
-from .tree import COORDINATES, DOFS, Link, Tree
+from .tree import COORDINATES, DOFS, Link, Tree, coordinate_rates, quaternion_rotation
+
+#: the largest number of links (one per joint velocity; spherical and free joints count one)
+#: that ``formulation = "auto"`` writes out as symbolic code when every axis is a coordinate axis
+#: (every shipped model: compliant_leg_walker_3d has 9)
+KERNEL_LINKS = 9
+FORMULATIONS = ("auto", "kernel", "symbolic")
+
+
+def auto_kernel(axes: list, parametric: bool, closed: bool = False) -> bool:
+    """What ``formulation = "auto"`` picks for a tree of elementary links with these ``axes``
+    (None for a link without one): the kernel when its tables depend on parameters only
+    (``parametric``), it has no loops or constraints (``closed``) and an axis is not along a
+    coordinate axis (±) or there are more than :data:`KERNEL_LINKS` links."""
+    generic = any(axis is not None and sum(1 for a in axis if a != 0) > 1 for axis in axes)
+    return parametric and not closed and (generic or len(axes) > KERNEL_LINKS)
+
+
+def _formulation(value: Any) -> None:
+    if value not in FORMULATIONS:
+        raise ModelError(f"Multibody formulation must be one of {', '.join(FORMULATIONS)}, got "
+                         f"{value!r}")
 
 
 def _vector3(value: Any, where: str, path: tuple = ()) -> list:
@@ -126,6 +160,7 @@ class Multibody(Component):
         q0, v0}; ``q0``/``v0`` are the initial coordinate(s) and velocity(ies).
     gravity : [gx, gy, gz] in m/s², default [0, 0, "-9.81"].
     plane : "xz" for planar models: point ports carry (x, z) components only.
+    formulation : "kernel", "symbolic" or "auto" (default; see the module docstring).
     """
 
     kind = "Multibody"
@@ -143,6 +178,9 @@ class Multibody(Component):
                            "points, joints and the ground", symbolic=False, default=None),
         "constraint_gain": Arg("rate at which a constraint's drift (position and velocity "
                                "error) decays", "1/s", default=10, rule=">="),
+        "formulation": Arg("'kernel' (the compiled recursion over the tree's tables), 'symbolic' "
+                           "(the recursion written out as code) or 'auto'", symbolic=False,
+                           default="auto", check=_formulation),
     }
 
     def __init__(self, **args: Any):
@@ -280,7 +318,7 @@ class Multibody(Component):
     def ports(self) -> list[Port]:
         ports = []
         for spec in self._joints():
-            if spec.velocities:
+            if spec.velocities and spec.domain is not None:    # (a fixed joint has neither)
                 ports.append(Port(spec.name, spec.domain, len(spec.velocities), None, "joint",
                                   f"joint {spec.name}", optional=True))
         for body_name, body in self.value("bodies").items():
@@ -300,11 +338,9 @@ class Multibody(Component):
     # --- equations --------------------------------------------------------------------------------
     def build(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
               gravity: list | None, plane: str | None, quaternion_gain: sp.Expr,
-              loops: dict | None, constraints: dict | None, constraint_gain: sp.Expr) -> None:
+              loops: dict | None, constraints: dict | None, constraint_gain: sp.Expr,
+              formulation: str) -> None:
         specs = self._joints()
-        velocities = [label for spec in specs for label in spec.velocities]
-        coordinates = [label for spec in specs for label in spec.coordinates]
-        n = len(velocities)
         q0, v0 = self._initial(b, joints, specs)
         links, placement = self._links(b, joints, specs)
         g = [b.parse(v, "gravity") for v in (gravity or [0, 0, "-9.81"])]
@@ -325,7 +361,156 @@ class Multibody(Component):
                 static_first = add(static_first, scale(mass, add(offset, com)))
             else:
                 link.add_body(mass, add(offset, com), I_c)
+        sites = self._sites(b, bodies, placement)
+        if self._kernel(b, formulation, links, g, static_first, sites,
+                        closed=bool(loops or constraints)):
+            self._build_kernel(b, bodies, plane, quaternion_gain, specs, q0, v0, links,
+                               placement, g, static_first, sites)
+        else:
+            self._build_symbolic(b, bodies, joints, plane, quaternion_gain, specs, q0, v0,
+                                 links, placement, g, static_first, constraint_gain)
 
+    def _states(self, b: Builder, specs: list[Joint], q0: list, p0: list) -> tuple[list, list]:
+        """The states: the coordinates q (initial q0) and momenta p (initial p0)."""
+        coordinates = [label for spec in specs for label in spec.coordinates]
+        velocities = [label for spec in specs for label in spec.velocities]
+        q_units = [u for spec in specs for u in units(spec)[0]]
+        p_units = [u for spec in specs for u in units(spec)[1]]
+        q = [b.state(f"q.{label}", unit, value)
+             for label, unit, value in zip(coordinates, q_units, q0)]
+        p = [b.state(f"p.{label}", unit, value)
+             for label, unit, value in zip(velocities, p_units, p0)]
+        return q, p
+
+    def _sites(self, b: Builder, bodies: dict[str, Any], placement: dict) -> dict[str, tuple]:
+        """Every point and frame: name -> (link or None, position in the link's frame, kind)."""
+        out = {}
+        for body_name, body in bodies.items():
+            link, offset = placement[body_name]
+            for key, kind in (("points", POINT), ("frames", FRAME), ("world_frames", WORLD_FRAME)):
+                what = "point" if key == "points" else "frame"
+                for name, pos in (body.get(key) or {}).items():
+                    local = add(offset, [b.parse(c, f"{what} {name!r}") for c in _vector3(pos, name)])
+                    out[name] = (link, local, kind)
+        return out
+
+    def _kernel(self, b: Builder, formulation: str, links: list[Link], g: list,
+                static_first: list, sites: dict[str, tuple], closed: bool) -> bool:
+        """Whether the tree is evaluated by the kernel (see the module docstring). The
+        port-Hamiltonian form's cut build (``b.ph``) writes the Poisson structure out
+        symbolically in either formulation: it needs the kinematics only (v = ∂H/∂p stands for
+        the kernel's M⁻¹p), and ∇H comes from the kernel's tangents. A tree with loops or
+        constraints (``closed``) is written out symbolically: the kernel does not solve the
+        constrained equations."""
+        if formulation == "kernel" and closed:
+            raise ModelError("Multibody formulation 'kernel' does not take 'loops' or "
+                             "'constraints' (the kernel solves the tree's equations only); use "
+                             "formulation = 'symbolic' or 'auto'", path=("formulation",))
+        if formulation == "symbolic" or b.ph is not None:
+            return False
+        tables = [*g, *static_first, *(c for _, local, _ in sites.values() for c in local)]
+        for link in links:
+            tables += [*link.offset, link.mass, *link.first, *(e for row in link.inertia for e in row)]
+        stray = [e for e in tables if not b.parametric(e)]
+        if formulation == "kernel":
+            if stray:
+                raise ModelError(f"Multibody formulation 'kernel': the tree's masses, inertias, "
+                                 f"offsets, points and gravity must depend on parameters only, "
+                                 f"not {stray[0]}; use formulation = 'symbolic'",
+                                 path=("formulation",))
+            return True
+        return auto_kernel([link.axis for link in links], parametric=not stray, closed=closed)
+
+    def _build_kernel(self, b: Builder, bodies: dict[str, Any], plane: str | None,
+                      quaternion_gain: sp.Expr, specs: list[Joint], q0: list, v0: list,
+                      links: list[Link], placement: dict, g: list, static_first: list,
+                      sites: dict[str, tuple]) -> None:
+        """The tree evaluated by the recursive kernel over its numeric tables
+        (:mod:`.kernel_tables`); the ports, outputs and rates around it as in the symbolic
+        formulation."""
+        nq = sum(len(spec.coordinates) for spec in specs)
+        tree = KernelTree(b, links, g, static_first, nq)
+        n = tree.nv
+        p0 = tree.momenta(q0, v0) if any(value != 0 for value in v0) else [sp.Integer(0)] * n
+        q, p = self._states(b, specs, q0, p0)
+        moving = {name: Site(link, tuple(local), kind)
+                  for name, (link, local, kind) in sites.items() if link is not None}
+        v, Q, potential, per_site = tree.state(q, p, list(moving.values()))
+        at = dict(zip(moving, per_site))
+        Q = list(Q)
+
+        posed = [name for name in bodies if placement[name][0] is not None]
+        poses = dict(zip(posed, tree.poses(q, [Site(placement[name][0], tuple(placement[name][1]))
+                                              for name in posed]))) if posed else {}
+        for body_name in bodies:                    # poses, for the 3D viewer
+            origin, quaternion = poses.get(body_name, (placement[body_name][1], [1, 0, 0, 0]))
+            for axis, value in zip("xyz", origin):
+                b.output(f"{body_name}.pose.{axis}", value, "m")
+            for label, value in zip(("qw", "qx", "qy", "qz"), quaternion):
+                b.output(f"{body_name}.pose.{label}", value, "1")
+
+        dims = [i for i, axis in enumerate("xyz") if axis in self._point_dims()]
+        rotations = [1] if plane == "xz" else [0, 1, 2]
+        points = [name for name, (_, _, kind) in sites.items() if kind == POINT]
+        jacobians = dict(zip([x for x in points if x in moving],
+                             tree.jacobians(q, [moving[x] for x in points if x in moving])
+                             if any(x in moving for x in points) else []))
+        loads: list[tuple[Site, list, list]] = []
+        for name, (link, local, kind) in sites.items():
+            pv, s = b.port(name), b.sign(name)
+            efforts = list(pv.e) if pv.port.dim > 1 else [pv.e]
+            if kind == FRAME:
+                b.equation(sp.Matrix(pv.f), sp.Matrix(at[name][:6]) if link is not None
+                           else sp.zeros(6, 1), "frame twist (ω, v), frame axes")
+                if link is not None and b.connected(name):
+                    loads.append((moving[name], [s * e for e in efforts[:3]],
+                                  [s * e for e in efforts[3:]]))
+                continue
+            if link is None:
+                x, omega, velocity = local, list(ZERO3), list(ZERO3)
+            else:
+                x = at[name][:3]
+                omega, velocity = (at[name][3:6], at[name][6:9]) if kind == WORLD_FRAME else (
+                    list(ZERO3), at[name][3:6])
+            for i, axis in enumerate("xyz"):
+                b.output(f"{name}.{axis}", x[i], "m")
+            torque, force = [sp.S.Zero] * 3, [sp.S.Zero] * 3
+            if kind == POINT:
+                b.matrix(f"J.{name}", jacobians[name][dims, :] if link is not None
+                         else sp.zeros(len(dims), n))
+                b.equation(sp.Matrix(pv.f if pv.port.dim > 1 else [pv.f]),
+                           sp.Matrix([velocity[i] for i in dims]), "point velocity (world)")
+                for i, e in zip(dims, efforts):
+                    force[i] = s * e
+            else:
+                b.equation(sp.Matrix(pv.f), sp.Matrix([omega[i] for i in rotations]
+                                                      + [velocity[i] for i in dims]),
+                           "world-aligned frame twist (ω, v), world axes")
+                for i, e in zip(rotations + [3 + i for i in dims], efforts):
+                    if i < 3:
+                        torque[i] = s * e
+                    else:
+                        force[i - 3] = s * e
+            if link is not None and b.connected(name):
+                loads.append((moving[name], torque, force))
+        if loads:
+            Q = [a + c for a, c in zip(Q, tree.load(q, loads))]
+
+        def rotation(link: Link) -> Any:
+            c = link.coordinate
+            return quaternion_rotation(q[c + 3:c + 7], b.intermediate, f"mb.{link.name}.rot")
+
+        rates = coordinate_rates(links, q, v, quaternion_gain, rotation)
+        self._finish(b, specs, q, p, v, Q, rates, potential, tree.mass_matrix(q))
+
+    def _build_symbolic(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
+                        plane: str | None, quaternion_gain: sp.Expr, specs: list[Joint],
+                        q0: list, v0: list, links: list[Link], placement: dict, g: list,
+                        static_first: list, constraint_gain: sp.Expr) -> None:
+        """The tree's recursion written out as compiler intermediates (:mod:`.tree`); in the
+        port-Hamiltonian form's cut build (``b.ph``), its Poisson structure
+        (:mod:`.poisson`); the loops and constraints enforced (:mod:`.constrained`)."""
+        n = sum(len(spec.velocities) for spec in specs)
         # initial momenta p0 = M(q0) v0, as S_kᵀ Π_k of the same recursion written out
         p0 = [sp.Integer(0)] * n
         if any(value != 0 for value in v0):
@@ -333,12 +518,7 @@ class Multibody(Component):
             start.positions(q0)
             start.velocities(v0)
             p0 = start.generalized_momenta()
-        q_units = [u for spec in specs for u in units(spec)[0]]
-        p_units = [u for spec in specs for u in units(spec)[1]]
-        q = [b.state(f"q.{label}", unit, value)
-             for label, unit, value in zip(coordinates, q_units, q0)]
-        p = [b.state(f"p.{label}", unit, value)
-             for label, unit, value in zip(velocities, p_units, p0)]
+        q, p = self._states(b, specs, q0, p0)
 
         def make(name: str, expr: Any) -> Any:
             expr = sp.sympify(expr)
@@ -443,6 +623,22 @@ class Multibody(Component):
                         force[i - 3] = e
                 for k, value in tree.load(link, x, torque, force):
                     Q[k] = Q[k] + s * value
+        rates = tree.coordinate_rates(q, v, quaternion_gain if b.ph is None else 0)
+        close = None
+        if self.value("loops") or self.value("constraints"):
+            def close(Q: list, rates: list) -> tuple[list, list]:
+                return self._closed(b, tree, placement, make, specs, q, v, M, Q, rates,
+                                    constraint_gain)
+        self._finish(b, specs, q, p, v, Q, rates, potential, M, close)
+
+    def _finish(self, b: Builder, specs: list[Joint], q: list, p: list, v: list, Q: list,
+                rates: list, potential: Any, M: sp.Matrix,
+                close: Callable[[list, list], tuple[list, list]] | None = None) -> None:
+        """The joint ports, the state equations, the velocities as outputs, the energy and its
+        parts, the quaternion norms and the mass matrix (both formulations); ``close`` maps the
+        generalized forces (joint ports' efforts included) and coordinate rates to those with
+        the loops and constraints enforced."""
+        Q = list(Q)
         start_index = 0
         for spec in specs:
             indices = range(start_index, start_index + len(spec.velocities))
@@ -455,26 +651,27 @@ class Multibody(Component):
             for k, e, f in zip(indices, efforts, flows):
                 b.equation(f, v[k], "joint velocity")
                 Q[k] = Q[k] + s * e
-        rates = tree.coordinate_rates(q, v, quaternion_gain if b.ph is None else 0)
-        if loops or constraints:
-            rates, Q = self._closed(b, tree, placement, make, specs, q, v, M, Q, rates,
-                                    constraint_gain)
+        if close is not None:
+            rates, Q = close(Q, rates)
         for k in range(len(q)):
             b.equation(b.der(q[k]), rates[k], "dq/dt from the joint velocities, M(q) v = p")
-        for k in range(n):
+        for k in range(len(p)):
             b.equation(b.der(p[k]), Q[k], "dp/dt = Π'ad_T S - dV/dq + Q")
         rate_units = {"N*m*s": "rad/s", "N*s": "m/s"}
+        velocities = [label for spec in specs for label in spec.velocities]
+        p_units = [u for spec in specs for u in units(spec)[1]]
         for label, unit, vk in zip(velocities, p_units, v):
             b.output(f"v.{label}", vk, rate_units.get(unit, ""))
         kinetic = (sp.Matrix(p).T * sp.Matrix(v))[0, 0] / 2
         b.energy(kinetic + potential)
         b.output("T", kinetic, "J")
         b.output("V", potential, "J")
+        coordinates = [label for spec in specs for label in spec.coordinates]
         for spec in specs:
-            where = quaternion_slice(spec)
-            if where is not None:
+            span = quaternion_slice(spec)
+            if span is not None:
                 c = coordinates.index(spec.coordinates[0])
-                quat = q[c + where.start:c + where.stop]
+                quat = q[c + span.start:c + span.stop]
                 b.output(f"{spec.name}.q_norm", sp.sqrt(dot(quat[1:], quat[1:]) + quat[0] ** 2),
                          "1")
         b.matrix("M", M)
@@ -497,7 +694,8 @@ class Multibody(Component):
                                      lambda w: tree.coordinate_rates(q, w, 0), gain,
                                      f"Multibody {b.name!r}")
 
-    def _initial(self, b: Builder, joints, specs: list[Joint]) -> tuple[list, list]:
+    def _initial(self, b: Builder, joints: dict[str, Any], specs: list[Joint]
+                 ) -> tuple[list[Any], list[Any]]:
         """q0 and v0 per coordinate and velocity (expressions in the parameters); a quaternion
         is normalised."""
         out: tuple[list, list] = ([], [])
@@ -528,7 +726,8 @@ class Multibody(Component):
                 column += parsed
         return out
 
-    def _links(self, b: Builder, joints, specs: list[Joint]) -> tuple[list[Link], dict]:
+    def _links(self, b: Builder, joints: dict[str, Any], specs: list[Joint]
+               ) -> tuple[list[Link], dict[str, tuple[Link | None, list[Any]]]]:
         """The elementary links (parents first) and the placement of every body: (its link,
         or None for the world, and its origin in the link's frame)."""
         first: dict[str, tuple[int, int]] = {}
@@ -560,7 +759,8 @@ class Multibody(Component):
 
     def _tree_order(self) -> list[str]:
         joints = self.value("joints")
-        order, placed = [], {"world"}
+        order: list[str] = []
+        placed = {"world"}
         while len(order) < len(joints):
             for name, table in joints.items():
                 if name not in order and table["parent"] in placed:

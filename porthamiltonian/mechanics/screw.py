@@ -63,7 +63,7 @@ from __future__ import annotations
 
 import numbers
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeAlias
 
 import numpy as np
 import sympy as sp
@@ -94,11 +94,11 @@ __all__ = [
 ]
 
 #: Inputs: numpy arrays, nested sequences of numbers, or sympy matrices/expressions.
-ArrayLike = np.ndarray | sp.MatrixBase | Sequence[Any]
+ArrayLike: TypeAlias = np.ndarray | sp.MatrixBase | Sequence[Any]
 #: Outputs: a float numpy array or a ``sympy.Matrix``.
-Array = np.ndarray | sp.Matrix
+Array: TypeAlias = np.ndarray | sp.Matrix
 #: A scalar: a float or a sympy expression.
-Scalar = float | sp.Expr
+Scalar: TypeAlias = float | sp.Expr
 
 #: Below this rotation angle [rad] the Rodrigues coefficients are evaluated by their Taylor
 #: series (relative truncation error at most 2e-16); above it the cancellation error of the closed
@@ -441,7 +441,7 @@ def _rodrigues_coefficients(ns: _Backend, phi: Scalar) -> tuple[Scalar, Scalar, 
     if ns is _NUMPY and abs(phi) < _TAYLOR_ANGLE:
         q = phi * phi
         return 1 - q / 6 + q * q / 120, 1 / 2 - q / 24 + q * q / 720, 1 / 6 - q / 120 + q * q / 5040
-    if ns is _SYMPY and phi.is_zero:  # an identically zero rotation (ω = 0)
+    if ns is _SYMPY and isinstance(phi, sp.Expr) and phi.is_zero:  # a zero rotation (ω = 0)
         return sp.Integer(1), sp.Rational(1, 2), sp.Rational(1, 6)
     return ns.sin(phi) / phi, (1 - ns.cos(phi)) / phi**2, (phi - ns.sin(phi)) / phi**3
 

@@ -51,6 +51,7 @@ from typing import Any
 
 import sympy as sp
 
+from ..errors import ModelError
 from .kinematics import ZERO3, Make, Rotation, add, cross, dot, named, scale, sub
 
 Vec = list
@@ -81,7 +82,7 @@ class Link:
     parent: Link | None
     offset: Vec
     kind: str
-    axis: tuple | None
+    axis: tuple[Any, ...] | None
     index: int
     coordinate: int
     mass: Any = 0
@@ -94,9 +95,16 @@ class Link:
         """The joint's unit twists S (link frame): rotations about / translations along axes
         through the link origin, one per velocity."""
         if self.kind in ("rotation", "translation"):
-            return [(self.kind, self.axis)]
+            return [(self.kind, self.joint_axis)]
         turns = [("rotation", e) for e in _UNIT]
         return turns if self.kind == "spherical" else turns + [("translation", e) for e in _UNIT]
+
+    @property
+    def joint_axis(self) -> tuple[Any, ...]:
+        """The ``axis`` of a rotation or translation joint."""
+        if self.axis is None:
+            raise ModelError(f"link {self.name!r}: its {self.kind} joint has no axis")
+        return self.axis
 
     def add_body(self, mass: Any, com: Sequence, inertia: Sequence[Sequence] | None) -> None:
         """Add a body of ``mass`` with centre of mass ``com`` (link frame) and rotational inertia
@@ -119,7 +127,8 @@ class Link:
 
     def path(self) -> list[Link]:
         """This link and its ancestors, from this link to the root."""
-        out, link = [], self
+        out: list[Link] = []
+        link: Link | None = self
         while link is not None:
             out.append(link)
             link = link.parent
@@ -148,6 +157,24 @@ def quaternion_rate(quaternion: Sequence, omega: Sequence, gain: Any = 0) -> Vec
     return [-dot(u, omega) / 2 + radial * w] + [vector[i] / 2 + radial * u[i] for i in range(3)]
 
 
+def coordinate_rates(links: Sequence[Link], q: Sequence, v: Sequence, gain: Any,
+                     rotation: Any) -> list:
+    """q̇ of every coordinate from the velocities: v itself for a revolute or prismatic joint;
+    the quaternion rate (with the normalising ``gain``) and ṙ = Rᵏ v_lin for the others, where
+    ``rotation(link)`` gives a free link's :class:`Rotation` Rᵏ."""
+    out = []
+    for link in links:
+        c, k = link.coordinate, link.index
+        if link.kind in ("rotation", "translation"):
+            out.append(v[k])
+        elif link.kind == "spherical":
+            out += quaternion_rate(q[c:c + 4], v[k:k + 3], gain)
+        else:
+            out += rotation(link).apply(v[k + 3:k + 6])
+            out += quaternion_rate(q[c + 3:c + 7], v[k:k + 3], gain)
+    return out
+
+
 def _shift_inertia(mass: Any, first: Sequence, inertia: Sequence[Sequence], R: Rotation,
                    p: Sequence) -> tuple[Vec, list]:
     """First moment and rotational inertia (upper triangle) of a body given in a frame rotated
@@ -171,17 +198,18 @@ def _symmetric(upper: list) -> list:
 
 @dataclass
 class _Pos:
-    """Position-level quantities of a link (its own frame unless said otherwise)."""
+    """Position-level quantities of a link (its own frame unless said otherwise); those after
+    ``p`` are set by the passes of :class:`Tree` that compute them (unset before)."""
 
     R: Rotation                   # Rᵏ, relative to the parent
     p: Vec                        # pᵏ, origin in the parent's frame
-    g: Vec | None = None          # gravity
+    g: Vec = field(init=False)    # gravity
     cmass: Any = None             # composite mass, first moment, inertia about the origin
-    cfirst: Vec | None = None
-    cinertia: list | None = None
-    world_R: Rotation | None = None
-    world_p: Vec | None = None
-    world_q: Vec | None = None    # unit quaternion (w, x, y, z) of world_R
+    cfirst: Vec = field(init=False)
+    cinertia: list[list[Any]] = field(init=False)
+    world_R: Rotation = field(init=False)
+    world_p: Vec = field(init=False)
+    world_q: Vec = field(init=False)    # unit quaternion (w, x, y, z) of world_R
 
 
 def _product(a: Sequence, b: Sequence) -> Vec:
@@ -218,9 +246,9 @@ class Tree:
         for link in self.links:
             c = link.coordinate
             if link.kind == "rotation":
-                R, p = Rotation.turn(link.axis, q[c], self.make, link.name), list(link.offset)
+                R, p = Rotation.turn(link.joint_axis, q[c], self.make, link.name), list(link.offset)
             elif link.kind == "translation":
-                R, p = Rotation(), add(link.offset, scale(q[c], link.axis))
+                R, p = Rotation(), add(link.offset, scale(q[c], link.joint_axis))
             elif link.kind == "spherical":
                 R, p = quaternion_rotation(q[c:c + 4], self.make, link.name), list(link.offset)
             else:
@@ -229,19 +257,8 @@ class Tree:
             self.pos[link] = _Pos(R, p)
 
     def coordinate_rates(self, q: Sequence, v: Sequence, gain: Any) -> list:
-        """q̇ of every coordinate from the velocities: v itself for a revolute or prismatic joint;
-        the quaternion rate (with the normalising ``gain``) and ṙ = Rᵏ v_lin for the others."""
-        out = []
-        for link in self.links:
-            c, k = link.coordinate, link.index
-            if link.kind in ("rotation", "translation"):
-                out.append(v[k])
-            elif link.kind == "spherical":
-                out += quaternion_rate(q[c:c + 4], v[k:k + 3], gain)
-            else:
-                out += self.pos[link].R.apply(v[k + 3:k + 6])
-                out += quaternion_rate(q[c + 3:c + 7], v[k:k + 3], gain)
-        return out
+        """q̇ of every coordinate from the velocities (:func:`coordinate_rates`)."""
+        return coordinate_rates(self.links, q, v, gain, lambda link: self.pos[link].R)
 
     def carry(self, link: Link, torque: Sequence, force: Sequence) -> tuple[Vec, Vec]:
         """X_k W: the wrench (torque about link k's origin, force; k's frame) in the parent's
@@ -359,7 +376,7 @@ class Tree:
                 if link.kind == "rotation":
                     half = self.pos[link].R.angle / 2
                     step = [make(f"{link.name}.hc", sp.cos(half)),
-                            *scale(make(f"{link.name}.hs", sp.sin(half)), link.axis)]
+                            *scale(make(f"{link.name}.hs", sp.sin(half)), link.joint_axis)]
                 else:
                     c = link.coordinate + (3 if link.kind == "free" else 0)
                     quaternion = self.coordinates[c:c + 4]

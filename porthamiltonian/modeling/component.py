@@ -40,6 +40,8 @@ from ..errors import (
     UnknownComponentError,
     UnknownPortError,
 )
+from .calls import KERNELS, KernelCall
+from .calls import outputs as call_outputs
 from .constraints import RULES, Constraint, violation
 from .expressions import TIME, as_expr, check_name, parse, to_text
 from .ports import Port, domain
@@ -127,6 +129,8 @@ class Built:
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
     #: constraints on parameter values, checked when they are bound (see :meth:`Builder.require`)
     constraints: list[Constraint] = field(default_factory=list)
+    #: kernel calls by qualified name (see :meth:`Builder.call`)
+    calls: dict[str, KernelCall] = field(default_factory=dict)
     #: a discrete-time block's sampling (:meth:`Builder.sample`): (period, [(state, value)])
     samples: list[tuple[sp.Expr, list[tuple[sp.Symbol, sp.Expr]]]] = field(default_factory=list)
 
@@ -241,6 +245,17 @@ class Builder:
         orientation = port.orientation or self._orientation.get(name, "in")
         return 1 if orientation == "in" else -1
 
+    def parametric(self, expr: Any) -> bool:
+        """True when ``expr`` depends on the model's parameters only (no time, state, model
+        input or signal of another component)."""
+        return as_expr(expr).free_symbols <= set(self._names.values()) - self._inputs
+
+    def connected(self, name: str) -> bool:
+        """True when a bond ends on port ``name`` (an unconnected optional port has zero
+        effort)."""
+        self.port(name)
+        return name in self._orientation
+
     def intermediate(self, name: str, expr: sp.Expr) -> sp.Expr:
         """A named intermediate ``component.name = expr`` (expr in states, parameters, time,
         earlier intermediates, the unknowns of implicit blocks and port variables). The generated
@@ -272,6 +287,31 @@ class Builder:
                    for i in range(rhs.shape[0])]
         self.built.blocks.append((symbols, A, rhs))
         return symbols
+
+    def call(self, name: str, kernel: str, entry: str, table: list[int], constants: list,
+             inputs: list, n_outputs: int) -> list[sp.Symbol]:
+        """Outputs computed by a compiled kernel (:mod:`porthamiltonian.modeling.calls`): the
+        routine ``entry`` of ``kernel`` with the integer ``table``, the ``constants``
+        (expressions in the parameters only) and the ``inputs`` (expressions in states, port
+        variables, intermediates). Returns the intermediates ``component.name.<k>`` of its
+        ``n_outputs`` outputs; the compiler differentiates through the call by the kernel's own
+        tangents (entries that have none may not reach the state equations)."""
+        if kernel not in KERNELS or entry not in KERNELS[kernel][0] | KERNELS[kernel][1]:
+            raise ModelError(f"component {self.name!r}: unknown kernel entry {kernel}.{entry}")
+        qualified = self._qualified(name)
+        if qualified in self.built.calls:
+            raise ModelError(f"component {self.name!r} declares call {name!r} twice")
+        constants = [as_expr(c) for c in constants]
+        for value in constants:
+            stray = value.free_symbols - (set(self._names.values()) - self._inputs)
+            if stray:
+                raise ModelError(f"component {self.name!r}: call {name!r} constants may depend on "
+                                 f"parameters only, not on {', '.join(sorted(map(str, stray)))}")
+        self.built.calls[qualified] = KernelCall(
+            qualified, kernel, entry, tuple(int(v) for v in table), tuple(constants), len(inputs),
+            n_outputs, entry in KERNELS[kernel][0])
+        return [self.intermediate(f"{name}.{k}", expr)
+                for k, expr in enumerate(call_outputs(qualified, list(inputs), n_outputs))]
 
     def matrix(self, name: str, value: sp.Matrix) -> None:
         """A named matrix ``component.name`` available numerically (e.g. a mass matrix)."""
@@ -526,6 +566,11 @@ def _may_be_undefined(expr: Any) -> bool:
         for node in sp.preorder_traversal(expr))
 
 
+#: an expression among a component's arguments, as :meth:`Component.expression_fields` yields
+#: it: ``(key path, value, what, local names)``
+ExpressionField = tuple[tuple[str | int, ...], Any, str, tuple[str, ...]]
+
+
 class _Frozen(type):
     """Metaclass of :class:`Component`: an instance is frozen once its whole ``__init__`` chain
     has run (subclasses may set private attributes while they are constructed)."""
@@ -587,10 +632,10 @@ class Component(metaclass=_Frozen):
     def __copy__(self) -> Component:
         return self
 
-    def __deepcopy__(self, memo: dict) -> Component:
+    def __deepcopy__(self, memo: dict[int, Any]) -> Component:
         return self
 
-    def __reduce__(self) -> tuple:
+    def __reduce__(self) -> tuple[Any, ...]:
         return _rebuild, (type(self), dict(self.args))
 
     def value(self, name: str) -> Any:
@@ -601,13 +646,16 @@ class Component(metaclass=_Frozen):
         """The power ports this component declares."""
         return []
 
-    def build(self, b: Builder, **args: Any) -> None:  # pragma: no cover - abstract
+    def build(self, b: Builder, *args: Any, **kwargs: Any) -> None:  # pragma: no cover - abstract
         """Declare the component's states, laws, energy, dissipation and outputs with the
-        builder ``b``; ``args`` are the arguments by name, symbolic ones parsed
-        (:meth:`parsed_args`)."""
+        builder ``b``; the arguments come by name, symbolic ones parsed (:meth:`parsed_args`).
+
+        Each subclass lists its own :attr:`arguments` as keyword parameters (``def build(self,
+        b, domain, stiffness, ...)``); this signature is the one every such override matches
+        (a type checker holds ``b`` to :class:`Builder` and leaves the rest to the subclass)."""
         raise NotImplementedError
 
-    def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
+    def expression_fields(self) -> Iterator[ExpressionField]:
         """Every expression among the arguments as ``(key path, value, what, local names)``, for
         the model-file loader to parse and locate: the symbolic arguments, and the entries of the
         :attr:`vector_arguments`. ``what`` is how the compiler names the field in messages
@@ -619,7 +667,8 @@ class Component(metaclass=_Frozen):
             if arg.symbolic:
                 yield (name,), value, f"argument {name!r}", arg.local
             elif name in self.vector_arguments and isinstance(value, list):
-                stack = [((name, i), item) for i, item in enumerate(value)]
+                stack: list[tuple[tuple[str | int, ...], Any]] = [
+                    ((name, i), item) for i, item in enumerate(value)]
                 while stack:
                     path, item = stack.pop(0)
                     if isinstance(item, list):
@@ -683,4 +732,4 @@ def component_class(kind: str) -> type[Component]:
 
 
 __all__ = ["REGISTRY", "STATE_ROLES", "TIME", "Arg", "Builder", "Component", "Dissipator",
-           "PHCut", "PortVars", "Source", "component_class", "register"]
+           "ExpressionField", "PHCut", "PortVars", "Source", "component_class", "register"]

@@ -14,7 +14,7 @@ number.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -24,7 +24,7 @@ from .expressions import Expression, parse_text
 
 #: The rules, by the text used in messages and metadata: value ``rule`` bound; ``"real"``: the
 #: value is a finite real number (an expression such as sqrt(k) or 1/k at the values bound).
-RULES = {">": lambda a, b: a > b, ">=": lambda a, b: a >= b, "<=": lambda a, b: a <= b,
+RULES: dict[str, Callable[[float, float], bool]] = {">": lambda a, b: a > b, ">=": lambda a, b: a >= b, "<=": lambda a, b: a <= b,
          "!=": lambda a, b: a != b, "real": lambda a, b: True}
 
 

@@ -10,12 +10,12 @@ the modulation as supplied.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any
+from typing import Any, ClassVar, TypeVar
 
 import sympy as sp
 
 from ..errors import ModelError
-from .component import Arg, Builder, Component, register
+from .component import Arg, Builder, Component, ExpressionField, register
 from .ports import DOMAINS, Port, domain
 
 
@@ -36,10 +36,15 @@ _DOMAIN = Arg("energy domain of the port(s)", symbolic=False, default="translati
               check=_check_domain)
 
 
-def _exactly_one(kind: str, given: dict[str, object]) -> str:
-    chosen = [k for k, v in given.items() if v is not None]
+T = TypeVar("T")
+
+
+def _exactly_one(kind: str, given: dict[str, T | None]) -> tuple[str, T]:
+    """The one argument of ``given`` that is set: ``(name, value)``."""
+    chosen = [(k, v) for k, v in given.items() if v is not None]
     if len(chosen) != 1:
-        raise ModelError(f"{kind} needs exactly one of {', '.join(given)}; got {chosen or 'none'}")
+        raise ModelError(f"{kind} needs exactly one of {', '.join(given)}; got "
+                         f"{[k for k, _ in chosen] or 'none'}")
     return chosen[0]
 
 
@@ -68,11 +73,11 @@ class C(_OnePortIn):
 
     def build(self, b: Builder, domain: str, stiffness: sp.Expr | None, compliance: sp.Expr | None,
               energy: sp.Expr | None, q0: sp.Expr) -> None:
-        chosen = _exactly_one("C", {"stiffness": stiffness, "compliance": compliance,
-                                    "energy": energy})
+        chosen, law = _exactly_one("C", {"stiffness": stiffness, "compliance": compliance,
+                                         "energy": energy})
         q = b.state("q", initial=q0)
-        H = {"stiffness": lambda: stiffness * q**2 / 2, "compliance": lambda: q**2 / (2 * compliance),
-             "energy": lambda: energy.xreplace({sp.Symbol("q", real=True): q})}[chosen]()
+        H = {"stiffness": lambda: law * q**2 / 2, "compliance": lambda: q**2 / (2 * law),
+             "energy": lambda: law.xreplace({sp.Symbol("q", real=True): q})}[chosen]()
         b.storage(q, H, b.port("p"), "C")
 
 
@@ -95,9 +100,9 @@ class I(_OnePortIn):
 
     def build(self, b: Builder, domain: str, inertance: sp.Expr | None, energy: sp.Expr | None,
               p0: sp.Expr) -> None:
-        chosen = _exactly_one("I", {"inertance": inertance, "energy": energy})
+        chosen, law = _exactly_one("I", {"inertance": inertance, "energy": energy})
         p = b.state("p", initial=p0)
-        H = p**2 / (2 * inertance) if chosen == "inertance" else energy.xreplace(
+        H = p**2 / (2 * law) if chosen == "inertance" else law.xreplace(
             {sp.Symbol("p", real=True): p})
         b.storage(p, H, b.port("p"), "I")
 
@@ -126,18 +131,18 @@ class R(_OnePortIn):
 
     def build(self, b: Builder, domain: str, resistance: sp.Expr | None, effort: sp.Expr | None,
               flow: sp.Expr | None, dim: int) -> None:
-        chosen = _exactly_one("R", {"resistance": resistance, "effort": effort, "flow": flow})
+        chosen, law = _exactly_one("R", {"resistance": resistance, "effort": effort, "flow": flow})
         if dim != 1 and chosen != "resistance":
             raise ModelError("R: a vector port (dim > 1) takes a linear 'resistance' only")
         port = b.port("p")
         if chosen == "resistance":
-            b.equation(port.e, b.resistive(resistance * port.f, port.f), "e = R f")
+            b.equation(port.e, b.resistive(law * port.f, port.f), "e = R f")
         elif chosen == "effort":
-            law = effort.xreplace({sp.Symbol("f", real=True): port.f})
-            b.equation(port.e, b.resistive(law, port.f), "e = law(f)")
+            b.equation(port.e, b.resistive(law.xreplace({sp.Symbol("f", real=True): port.f}),
+                                           port.f), "e = law(f)")
         else:
-            law = flow.xreplace({sp.Symbol("e", real=True): port.e})
-            b.equation(port.f, b.resistive(law, port.e), "f = law(e)")
+            b.equation(port.f, b.resistive(law.xreplace({sp.Symbol("e", real=True): port.e}),
+                                           port.e), "f = law(e)")
         b.dissipate(port.power)
 
 
@@ -224,6 +229,8 @@ class GY(_TwoPort):
 
 class _Junction(Component):
     free_ports = True
+    #: the variable all ports share: "e" (0-junction) or "f" (1-junction)
+    common: ClassVar[str]
     arguments = {"domain": Arg("energy domain (default: that of the first bond)", symbolic=False,
                                default=None, check=_check_domain)}
 
@@ -276,7 +283,7 @@ class Storage(Component):
         return [Port(s, dom[s] if isinstance(dom, dict) else dom, orientation="in")
                 for s in self.value("states")]
 
-    def expression_fields(self) -> Iterator[tuple[tuple, Any, str, tuple[str, ...]]]:
+    def expression_fields(self) -> Iterator[ExpressionField]:
         """The energy (in the state names) and the initial values (see
         :meth:`Component.expression_fields`)."""
         states = self.value("states")

@@ -35,15 +35,14 @@ component and argument, never a silent new symbol or a sympy constant (``E``, ``
 """
 from __future__ import annotations
 
+import functools
 import keyword
 import math
 import re
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from numbers import Integral, Real
-from typing import Any
-
-import sympy as sp
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ExpressionError, ModelError, UnknownParameterError
 
@@ -57,7 +56,27 @@ MAX_DEPTH = 50
 MAX_TERMS = 1_000
 
 #: The time symbol shared by every model.
-TIME = sp.Symbol("t", real=True)
+if TYPE_CHECKING:
+    import sympy as sp
+
+    TIME: sp.Symbol
+
+
+def _sympy() -> Any:
+    """The sympy module, imported on first use: parsing and numeric evaluation
+    (:func:`parse_text`, :meth:`Expression.evaluate`) need none of it, so that a compiled model
+    checks its parameter values without loading sympy."""
+    import sympy
+
+    return sympy
+
+
+def __getattr__(name: str) -> Any:
+    """``TIME``, the time symbol ``t``, is made when first asked for (with sympy)."""
+    if name == "TIME":
+        value = globals()["TIME"] = _sympy().Symbol("t", real=True)
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _sign(x: float) -> float:
@@ -74,39 +93,46 @@ def _log(x: float, base: float | None = None) -> float:
 
 @dataclass(frozen=True)
 class Function:
-    """A function of the language: its sympy counterpart, its float version and its arity."""
+    """A function of the language: the name of its sympy counterpart, its float version and its
+    arity."""
 
-    symbolic: Callable[..., sp.Expr]
+    sympy_name: str
     numeric: Callable[..., float]
     arity: tuple[int, int | None]           # (fewest, most; None: any number) arguments
+
+    @property
+    def symbolic(self) -> Callable[..., sp.Expr]:
+        """The sympy counterpart (sympy imported now)."""
+        return getattr(_sympy(), self.sympy_name)
 
 
 #: Functions available in expressions, by the name used in text (``where`` and ``Piecewise`` are
 #: the conditionals, handled by the parser).
 FUNCTIONS: dict[str, Function] = {
-    "sin": Function(sp.sin, math.sin, (1, 1)), "cos": Function(sp.cos, math.cos, (1, 1)),
-    "tan": Function(sp.tan, math.tan, (1, 1)), "asin": Function(sp.asin, math.asin, (1, 1)),
-    "acos": Function(sp.acos, math.acos, (1, 1)), "atan": Function(sp.atan, math.atan, (1, 1)),
-    "atan2": Function(sp.atan2, math.atan2, (2, 2)),
-    "sinh": Function(sp.sinh, math.sinh, (1, 1)), "cosh": Function(sp.cosh, math.cosh, (1, 1)),
-    "tanh": Function(sp.tanh, math.tanh, (1, 1)), "exp": Function(sp.exp, math.exp, (1, 1)),
-    "log": Function(sp.log, _log, (1, 2)), "sqrt": Function(sp.sqrt, math.sqrt, (1, 1)),
-    "abs": Function(sp.Abs, abs, (1, 1)), "Abs": Function(sp.Abs, abs, (1, 1)),
-    "sign": Function(sp.sign, _sign, (1, 1)),
-    "min": Function(sp.Min, lambda *a: min(a), (1, None)),
-    "max": Function(sp.Max, lambda *a: max(a), (1, None)),
-    "Min": Function(sp.Min, lambda *a: min(a), (1, None)),
-    "Max": Function(sp.Max, lambda *a: max(a), (1, None)),
-    "Heaviside": Function(sp.Heaviside, _heaviside, (1, 1)),
+    "sin": Function("sin", math.sin, (1, 1)), "cos": Function("cos", math.cos, (1, 1)),
+    "tan": Function("tan", math.tan, (1, 1)), "asin": Function("asin", math.asin, (1, 1)),
+    "acos": Function("acos", math.acos, (1, 1)), "atan": Function("atan", math.atan, (1, 1)),
+    "atan2": Function("atan2", math.atan2, (2, 2)),
+    "sinh": Function("sinh", math.sinh, (1, 1)), "cosh": Function("cosh", math.cosh, (1, 1)),
+    "tanh": Function("tanh", math.tanh, (1, 1)), "exp": Function("exp", math.exp, (1, 1)),
+    "log": Function("log", _log, (1, 2)), "sqrt": Function("sqrt", math.sqrt, (1, 1)),
+    "abs": Function("Abs", abs, (1, 1)), "Abs": Function("Abs", abs, (1, 1)),
+    "sign": Function("sign", _sign, (1, 1)),
+    "min": Function("Min", lambda *a: min(a), (1, None)),
+    "max": Function("Max", lambda *a: max(a), (1, None)),
+    "Min": Function("Min", lambda *a: min(a), (1, None)),
+    "Max": Function("Max", lambda *a: max(a), (1, None)),
+    "Heaviside": Function("Heaviside", _heaviside, (1, 1)),
 }
-#: Named constants.
-CONSTANTS: dict[str, tuple[sp.Expr, float]] = {"pi": (sp.pi, math.pi)}
+#: Named constants: the name of the sympy constant, the value.
+CONSTANTS: dict[str, tuple[str, float]] = {"pi": ("pi", math.pi)}
 _CONDITIONALS = ("where", "Piecewise")
 
-_COMPARE: dict[str, tuple[Callable, Callable]] = {
-    "<": (sp.Lt, lambda a, b: a < b), "<=": (sp.Le, lambda a, b: a <= b),
-    ">": (sp.Gt, lambda a, b: a > b), ">=": (sp.Ge, lambda a, b: a >= b),
-    "==": (sp.Eq, lambda a, b: a == b), "!=": (sp.Ne, lambda a, b: a != b),
+#: comparisons: the name of the sympy relation, the float version
+_COMPARE: dict[str, tuple[str, Callable]] = {
+    "<": ("Lt", lambda a, b: a < b), "<=": ("Le", lambda a, b: a <= b),
+    ">": ("Gt", lambda a, b: a > b), ">=": ("Ge", lambda a, b: a >= b),
+    "==": ("Eq", lambda a, b: a == b), "!=": ("Ne", lambda a, b: a != b),
 }
 
 # --- tokens ---------------------------------------------------------------------------------------
@@ -145,7 +171,7 @@ def _tokens(text: str) -> list[Token]:
             ch = text[pos]
             hint = _HINTS.get(ch, "not part of the expression language")
             raise _Syntax(f"unexpected character {ch!r} at column {pos + 1} ({hint})")
-        kind = match.lastgroup
+        kind = match.lastgroup or ""      # every alternative of _TOKEN is a named group
         token = match.group()
         if kind == "name":
             _check_name(token, pos + 1)
@@ -184,6 +210,7 @@ class _Syntax(Exception):
 # | ("add", [("+" or "-", term), ...]) | ("mul", [("*" or "/", factor), ...]) | ("pow", base, exp)
 # | ("call", function, [args], column) | ("cmp", op, a, b) | ("true",) | ("piece", [(value, cond)])
 # (sums and products are flat lists, so a long sum is a shallow tree)
+Node = tuple[Any, ...]
 
 
 class _Parser:
@@ -213,7 +240,7 @@ class _Parser:
         token = self.token
         return "at the end" if token.kind == "end" else f"at {token.text!r} (column {token.column})"
 
-    def node(self, value: tuple) -> tuple:
+    def node(self, value: Node) -> Node:
         self.nodes += 1
         if self.nodes > MAX_NODES:
             raise _Syntax(f"more than {MAX_NODES} operations and operands (the limit of an "
@@ -225,7 +252,7 @@ class _Parser:
         if self.depth > MAX_DEPTH:
             raise _Syntax(f"nested more than {MAX_DEPTH} levels deep {self.where()}")
 
-    def whole(self) -> tuple:
+    def whole(self) -> Node:
         if self.token.kind == "end":
             raise _Syntax("the expression is empty")
         tree = self.sum()
@@ -238,7 +265,7 @@ class _Parser:
             raise _Syntax(f"expected an operator or the end {self.where()}")
         return tree
 
-    def sum(self) -> tuple:
+    def sum(self) -> Node:
         self.enter()
         items = [("+", self.term())]
         while self.token.kind == "op" and self.token.text in "+-":
@@ -247,14 +274,14 @@ class _Parser:
         self.depth -= 1
         return items[0][1] if len(items) == 1 else self.node(("add", items))
 
-    def term(self) -> tuple:
+    def term(self) -> Node:
         items = [("*", self.unary())]
         while self.token.kind == "op" and self.token.text in ("*", "/"):
             op = self.take().text
             items.append((op, self.unary()))
         return items[0][1] if len(items) == 1 else self.node(("mul", items))
 
-    def unary(self) -> tuple:
+    def unary(self) -> Node:
         if self.token.kind == "op" and self.token.text in "+-":
             op = self.take().text
             self.enter()
@@ -263,7 +290,7 @@ class _Parser:
             return operand if op == "+" else self.node(("neg", operand))
         return self.power()
 
-    def power(self) -> tuple:
+    def power(self) -> Node:
         base = self.atom()
         if self.token.kind == "op" and self.token.text == "**":
             self.take()
@@ -273,7 +300,7 @@ class _Parser:
             return self.node(("pow", base, exponent))
         return base
 
-    def atom(self) -> tuple:
+    def atom(self) -> Node:
         token = self.token
         if token.kind == "number":
             self.take()
@@ -300,7 +327,7 @@ class _Parser:
             raise _Syntax("the expression ends too early: expected a number, a name or '('")
         raise _Syntax(f"expected a number, a name or '(' {self.where()}")
 
-    def call(self, name: Token) -> tuple:
+    def call(self, name: Token) -> Node:
         if name.text not in FUNCTIONS and name.text not in _CONDITIONALS:
             known = ", ".join([*FUNCTIONS, *_CONDITIONALS])
             raise _Syntax(f"unknown function {name.text!r} (column {name.column}); functions: "
@@ -332,7 +359,7 @@ class _Parser:
         self.expect(")")
         return tree
 
-    def piecewise(self, name: Token) -> tuple:
+    def piecewise(self, name: Token) -> Node:
         pairs = []
         while True:
             self.expect("(")
@@ -348,7 +375,7 @@ class _Parser:
                           "value where no condition holds")
         return self.node(("piece", pairs))
 
-    def condition(self) -> tuple:
+    def condition(self) -> Node:
         if self.token.kind == "name" and self.token.text == "True":
             self.take()
             return ("true",)
@@ -359,7 +386,7 @@ class _Parser:
         return self.node(("cmp", op, left, self.sum()))
 
 
-def _walk(tree: tuple) -> Iterator[tuple]:
+def _walk(tree: Node) -> Iterator[Node]:
     stack = [tree]
     while stack:
         node = stack.pop()
@@ -380,7 +407,7 @@ def _walk(tree: tuple) -> Iterator[tuple]:
                 stack += [value, cond]
 
 
-def _literal(node: tuple) -> float | None:
+def _literal(node: Node) -> float | None:
     """The value of a number or a negated number node, else None."""
     if node[0] == "num":
         return float(node[1])
@@ -389,7 +416,7 @@ def _literal(node: tuple) -> float | None:
     return None
 
 
-def _terms(node: tuple) -> int:
+def _terms(node: Node) -> int:
     """An upper bound of the number of terms of ``node`` multiplied out (for MAX_TERMS)."""
     kind = node[0]
     if kind == "neg":
@@ -421,7 +448,7 @@ class Expression:
     """A parsed expression: ``text`` and its tree. Build with :func:`parse_text`."""
 
     text: str
-    tree: tuple
+    tree: Node
 
     @property
     def names(self) -> set[str]:
@@ -431,16 +458,17 @@ class Expression:
     def to_sympy(self, resolve: Callable[[str], sp.Expr | None]) -> tuple[sp.Expr, list[str]]:
         """The sympy expression, names bound by ``resolve`` (None: unknown), and the unknown
         names. Powers of numbers are computed only within the float64 range."""
+        sp = _sympy()
         unknown: list[str] = []
 
-        def build(node: tuple) -> Any:
+        def build(node: Node) -> Any:
             kind = node[0]
             if kind == "num":
                 return _number(node[1])
             if kind == "name":
                 value = resolve(node[1])
                 if value is None and node[1] in CONSTANTS:
-                    value = CONSTANTS[node[1]][0]
+                    value = getattr(sp, CONSTANTS[node[1]][0])
                 if value is None:
                     unknown.append(node[1])
                     return sp.Symbol(node[1], real=True)
@@ -473,7 +501,7 @@ class Expression:
                     return _steep(node[1], float(args[0]))
                 return FUNCTIONS[node[1]].symbolic(*args)
             if kind == "cmp":
-                return _COMPARE[node[1]][0](build(node[2]), build(node[3]))
+                return getattr(sp, _COMPARE[node[1]][0])(build(node[2]), build(node[3]))
             if kind == "true":
                 return sp.true
             return sp.Piecewise(*((build(value), build(cond)) for value, cond in node[1]))
@@ -486,10 +514,10 @@ class Expression:
         ArithmeticError/ValueError where the arithmetic fails (0 ** -1, log(-1), overflow).
         Zeros carry no sign (as in sympy), so that atan2 and divisions see what sympy sees."""
 
-        def value(node: tuple) -> float:
+        def value(node: Node) -> float:
             return raw(node) + 0.0             # -0.0 + 0.0 is 0.0
 
-        def raw(node: tuple) -> float:
+        def raw(node: Node) -> float:
             kind = node[0]
             if kind == "num":
                 return float(node[1])
@@ -531,6 +559,7 @@ _STEEP = ("exp", "sinh", "cosh")
 def _steep(name: str, x: float) -> sp.Float:
     """exp, sinh or cosh of a number far out (|x| > 1e4), in float64 (sympy's arbitrary precision
     takes long there): 0 where it underflows, refused where it overflows."""
+    sp = _sympy()
     try:
         return sp.Float(FUNCTIONS[name].numeric(x))
     except OverflowError:
@@ -538,6 +567,7 @@ def _steep(name: str, x: float) -> sp.Float:
 
 
 def _number(text: str) -> sp.Number:
+    sp = _sympy()
     number = sp.Integer(text) if text.isdigit() else sp.Float(text)
     if not math.isfinite(float(text)):
         raise _Syntax(f"the number {text} is outside the float64 range")
@@ -547,6 +577,7 @@ def _number(text: str) -> sp.Number:
 def _check_power(base: Any, exponent: Any) -> None:
     """Refuse a power of numbers whose value is outside the float64 range (before computing it:
     ``9**387420489`` would take minutes and gigabytes)."""
+    sp = _sympy()
     if not (isinstance(base, sp.Number) and isinstance(exponent, sp.Number)):
         return
     b, e = abs(float(base)), float(exponent)
@@ -609,7 +640,8 @@ def parse(text: str | float | sp.Expr, names: Mapping[str, sp.Expr], where: str,
     ExpressionError : the text is not a valid expression (or exceeds a bound).
     UnknownParameterError : the expression uses a name not in ``names``.
     """
-    local = {"t": TIME, **names}
+    sp = _sympy()
+    local = {"t": sp.Symbol("t", real=True), **names}
 
     def resolve(name: str) -> sp.Expr | None:
         if name in local:
@@ -658,6 +690,7 @@ def _rebind(expr: sp.Basic, resolve: Callable[[str], sp.Expr | None]) -> tuple[s
 
 def _check_result(expr: sp.Basic) -> None:
     """Every number of a parsed expression is a finite float64; no division by zero."""
+    sp = _sympy()
     if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
         raise _Syntax("division by zero or an infinite value")
     if expr.has(sp.I):
@@ -672,13 +705,18 @@ def _check_result(expr: sp.Basic) -> None:
 
 
 # --- back to text ---------------------------------------------------------------------------------
-_NAMES_OF: dict[type, str] = {sp.Abs: "abs", sp.Min: "min", sp.Max: "max", sp.sign: "sign",
+@functools.cache
+def _written() -> tuple[dict[type, str], dict[type, str]]:
+    """(the language's name of each sympy function class, the operator of each relation)."""
+    sp = _sympy()
+    names: dict[type, str] = {sp.Abs: "abs", sp.Min: "min", sp.Max: "max", sp.sign: "sign",
                               sp.Heaviside: "Heaviside", sp.atan2: "atan2", sp.exp: "exp",
                               sp.log: "log"}
-_NAMES_OF.update({getattr(sp, n): n for n in ("sin", "cos", "tan", "asin", "acos", "atan",
+    names.update({getattr(sp, n): n for n in ("sin", "cos", "tan", "asin", "acos", "atan",
                                               "sinh", "cosh", "tanh")})
-_OPS_OF = {sp.StrictLessThan: "<", sp.LessThan: "<=", sp.StrictGreaterThan: ">",
+    ops = {sp.StrictLessThan: "<", sp.LessThan: "<=", sp.StrictGreaterThan: ">",
            sp.GreaterThan: ">=", sp.Equality: "==", sp.Unequality: "!="}
+    return names, ops
 
 
 def to_text(expr: sp.Basic) -> str:
@@ -690,10 +728,12 @@ def to_text(expr: sp.Basic) -> str:
     ExpressionError : ``expr`` holds something the language cannot write (e.g. an unevaluated
         integral).
     """
+    sp = _sympy()
+    names_of, ops_of = _written()
     if expr is sp.true:
         return "True"
     if isinstance(expr, sp.Symbol):
-        return expr.name
+        return str(expr.name)
     if isinstance(expr, sp.Integer):
         return str(int(expr)) if expr >= 0 else f"(-{-int(expr)})"
     if isinstance(expr, sp.Rational):
@@ -713,10 +753,10 @@ def to_text(expr: sp.Basic) -> str:
     if isinstance(expr, sp.Piecewise):
         inner = ", ".join(f"({to_text(v)}, {to_text(c)})" for v, c in expr.args)
         return f"Piecewise({inner})"
-    if type(expr) in _OPS_OF:
-        return f"{to_text(expr.lhs)} {_OPS_OF[type(expr)]} {to_text(expr.rhs)}"
-    if type(expr) in _NAMES_OF:
-        return f"{_NAMES_OF[type(expr)]}({', '.join(to_text(a) for a in expr.args)})"
+    if type(expr) in ops_of:
+        return f"{to_text(expr.lhs)} {ops_of[type(expr)]} {to_text(expr.rhs)}"
+    if type(expr) in names_of:
+        return f"{names_of[type(expr)]}({', '.join(to_text(a) for a in expr.args)})"
     raise ExpressionError(f"{expr} ({type(expr).__name__}) cannot be written in the expression "
                           "language")
 
@@ -750,7 +790,7 @@ def as_expr(value: Any) -> sp.Basic:
     if isinstance(value, str):
         raise TypeError(f"expected a sympy expression or a number, got the text {value!r}; "
                         "text goes through porthamiltonian.modeling.expressions.parse")
-    return sp.sympify(value, strict=True)
+    return _sympy().sympify(value, strict=True)
 
 
 __all__ = [

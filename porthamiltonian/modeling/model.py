@@ -43,6 +43,7 @@ from ..errors import (
     ValidationError,
 )
 from .component import Component
+from .elements import _Junction
 from .expressions import CONSTANTS, check_name, parse
 from .ports import Port, check_bond
 
@@ -120,6 +121,10 @@ def _jsonable(value: Any) -> Any:
     return str(value)
 
 
+#: a bond: ``((tail component, port), (head component, port))``
+Bond = tuple[tuple[str, str], tuple[str, str]]
+
+
 @dataclass(frozen=True)
 class ModelDescription:
     """A model, flattened and frozen: what the compiler reads.
@@ -142,7 +147,7 @@ class ModelDescription:
     name: str
     components: Mapping[str, Component]
     ports: Mapping[str, tuple[Port, ...]]
-    bonds: tuple[tuple[tuple[str, str], tuple[str, str]], ...]
+    bonds: tuple[Bond, ...]
     parameters: Mapping[str, Parameter]
     events: tuple[EventSpec, ...]
     outputs: Mapping[str, str]
@@ -296,7 +301,7 @@ class Model:
 
     def __init__(self, name: str = "model"):
         self.name = name
-        self.graph = nx.MultiDiGraph()
+        self.graph: nx.MultiDiGraph[str] = nx.MultiDiGraph()
         self.parameters: dict[str, Parameter] = {}
         self.exposed: dict[str, tuple[str, str]] = {}
         self.events: list[EventSpec] = []
@@ -388,12 +393,30 @@ class Model:
     def component(self, name: str) -> Component | Model:
         """The component (or sub-model) called ``name``."""
         try:
-            return self.graph.nodes[name]["component"]
+            comp: Component | Model = self.graph.nodes[name]["component"]
         except KeyError:
             raise UnknownComponentError(
                 f"model {self.name!r} has no component {name!r}; components: "
                 f"{', '.join(self.graph.nodes) or 'none'}"
             ) from None
+        return comp
+
+    def _junction(self, name: str) -> _Junction:
+        """The junction called ``name``: a component whose bonds make its ports (for which
+        :meth:`_resolve` gives no port spec until the bond is made)."""
+        comp = self.component(name)
+        if not isinstance(comp, _Junction):
+            raise ModelError(f"model {self.name!r}: component {name!r} declares free ports but is "
+                             "no junction; only junctions make ports as they are bonded")
+        return comp
+
+    def _existing(self, ref: str) -> Port:
+        """The spec of the existing port ``ref`` (``component.port``)."""
+        comp_name, port_name, spec = self._resolve(ref)
+        if spec is None:
+            raise UnknownPortError(f"model {self.name!r}: junction {comp_name!r} has no port "
+                                   f"{port_name!r}")
+        return spec
 
     def components(self) -> Iterator[tuple[str, Component | Model]]:
         """``(name, component or sub-model)`` in the order they were added."""
@@ -430,7 +453,7 @@ class Model:
     def port_spec(self, exposed_name: str) -> Port:
         """The port spec behind an exposed port of this (sub-)model."""
         comp_name, port_name = self.exposed[exposed_name]
-        return self._resolve(f"{comp_name}.{port_name}")[2]
+        return self._existing(f"{comp_name}.{port_name}")
 
     def connect(self, tail: str, head: str) -> None:
         """Bond from ``tail`` to ``head`` (power positive from tail to head).
@@ -450,7 +473,7 @@ class Model:
         if t_spec is None:
             like = h_spec
             if like is None:
-                declared = [self.component(c).value("domain") for c in (t_comp, h_comp)]
+                declared = [self._junction(c).value("domain") for c in (t_comp, h_comp)]
                 domain = next((d for d in declared if d is not None), None)
                 if domain is None:
                     raise ModelError(f"cannot connect two new junction ports ({tail} -> {head}): "
@@ -466,8 +489,8 @@ class Model:
             if self._bonded(comp, port):
                 raise ModelError(f"port {comp}.{port} is already connected; a port takes one bond "
                                  "(use a junction to join more)")
-        for comp, port in new:
-            self.graph.nodes[comp]["bond_ports"][port.name] = port
+        for comp, made in new:
+            self.graph.nodes[comp]["bond_ports"][made.name] = made
         self.graph.add_edge(t_comp, h_comp, tail=t_port, head=h_port)
 
     def _junction_port(self, comp_name: str, port_name: str, like: Port,
@@ -475,7 +498,7 @@ class Model:
         """A new port of the junction ``comp_name`` matching ``like`` (domain, dimension, frame),
         named ``port_name`` or ``p<k>``, appended to ``pending``: the caller keeps the pending
         ports on this model's graph once the bond is made (the junction itself never changes)."""
-        junction = self.component(comp_name)
+        junction = self._junction(comp_name)
         junction.check_domain(like)
         made = self.graph.nodes[comp_name]["bond_ports"]
         name = port_name or f"p{len(made) + 1 + sum(c == comp_name for c, _ in pending)}"
@@ -505,7 +528,7 @@ class Model:
         comp_name, port_name, spec = self._resolve(target)
         new: list[tuple[str, Port]] = []
         if spec is None:
-            junction = self.component(comp_name)
+            junction = self._junction(comp_name)
             if junction.value("domain") is None:
                 raise ModelError(f"model {self.name!r}: give junction {comp_name!r} a domain to "
                                  "expose one of its ports")
@@ -553,16 +576,16 @@ class Model:
     def freeze(self) -> ModelDescription:
         """The frozen, flattened :class:`ModelDescription` of this model as it is now (later
         changes to the model do not reach it). Not checked: see :meth:`validate`."""
-        parts: dict[str, dict] = {key: {} for key in (
+        parts: dict[str, dict[str, Any]] = {key: {} for key in (
             "components", "ports", "parameters", "outputs", "scopes", "paths", "inputs")}
-        bonds: list = []
+        bonds: list[Bond] = []
         events: list[EventSpec] = []
         ends = self._flatten_into(parts, bonds, events, "")
         self._open_ports(parts, bonds, ends)
         frozen = {key: MappingProxyType(value) for key, value in parts.items()}
         return ModelDescription(self.name, bonds=tuple(bonds), events=tuple(events), **frozen)
 
-    def _open_ports(self, parts: dict[str, dict], bonds: list,
+    def _open_ports(self, parts: dict[str, dict[str, Any]], bonds: list[Bond],
                     ends: dict[tuple[str, str], tuple[str, str]]) -> None:
         """The exposed ports of this (top-level) model left unconnected: each an effort (or flow)
         source named as the port, driven by the input of that name, its conjugate the declared
@@ -575,7 +598,7 @@ class Model:
             end = ends[(comp, port)]
             if end in bonded:
                 continue
-            spec = self._resolve(f"{comp}.{port}")[2]
+            spec = self._existing(f"{comp}.{port}")
             if spec.dim != 1 or spec.orientation == "out":
                 raise ModelError(f"model {self.name!r}: exposed port {name!r} ({comp}.{port}) is "
                                  "left open, but only a one-dimensional port that takes power "
@@ -607,7 +630,8 @@ class Model:
         :meth:`ModelDescription.validate`)."""
         return self.freeze().validate()
 
-    def _flatten_into(self, parts: dict[str, dict], bonds: list, events: list[EventSpec],
+    def _flatten_into(self, parts: dict[str, dict[str, Any]], bonds: list[Bond],
+                      events: list[EventSpec],
                       prefix: str) -> dict[tuple[str, str], tuple[str, str]]:
         here = _scope_path(prefix)
         for pname, par in self.parameters.items():

@@ -8,7 +8,8 @@ jumps), :mod:`.inputs` (binding inputs), :mod:`.sampling` (input samples and dis
 sampling instants), :mod:`.linearize` (derivative, exact Jacobians, linearization, trim),
 :mod:`.phmatrices` (the port-Hamiltonian form at a point), :mod:`.options` (the rules of the
 numerical options), :mod:`.saltation` (sensitivities of
-a run: saltation matrices at events), :mod:`.differences` (central differences with an error
+a run: saltation matrices at events), :mod:`.psensitivity` (their parameter columns),
+:mod:`.fitting` (parameters fitted to data with the exact Jacobian), :mod:`.differences` (central differences with an error
 estimate), :mod:`.trajectory` (:class:`~.trajectory.Trajectory`, the immutable result) and its
 views: :mod:`.frames` (pandas data frames with units) and :mod:`.display` (notebook tables and
 quick plots).

@@ -67,6 +67,9 @@ class ModelMeta:
     state_roles : per state "storage", "signal", "quadrature" or "discrete". declared_outputs :
     the model's outputs y. jac_p : the parameters of the generated ∂ẋ/∂p. discrete : the
     discrete-time blocks. ph : the port-Hamiltonian form's layout (compiled with ``ph=True``).
+    kernels : the compiled kernels the generated code calls (the C library links their
+    objects; an FMU embeds their source). unavailable : why a derivative function was not
+    generated, by its name (e.g. ``out_jac`` of outputs read from a kernel's value-only entry).
     """
 
     name: str
@@ -91,6 +94,8 @@ class ModelMeta:
     jac_p: tuple[str, ...] = ()
     discrete: tuple[DiscreteBlock, ...] = ()
     ph: Mapping[str, Any] | None = None
+    kernels: tuple[str, ...] = ()
+    unavailable: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
 
     def to_json(self) -> dict[str, Any]:
         """The record as the JSON table of ``meta.json`` (the cache's format: lists, tables)."""
@@ -100,6 +105,7 @@ class ModelMeta:
                    shapes={k: list(v) for k, v in self.shapes.items()},
                    energy_parts=[list(e) for e in self.energy_parts],
                    constraints=[c.to_dict() for c in self.constraints], units=dict(self.units),
+                   unavailable=dict(self.unavailable),
                    discrete=[{"component": d.component, "period": d.period,
                               "states": list(d.states), "update": d.update}
                              for d in self.discrete])
@@ -134,7 +140,10 @@ class ModelMeta:
             discrete=tuple(DiscreteBlock(str(d["component"]), str(d["period"]),
                                          _strings(d["states"]), str(d["update"]))
                            for d in data.get("discrete", [])),
-            ph=dict(data["ph"]) if data.get("ph") is not None else None)
+            ph=dict(data["ph"]) if data.get("ph") is not None else None,
+            kernels=_strings(data.get("kernels", [])),
+            unavailable=MappingProxyType({str(k): str(v)
+                                          for k, v in dict(data.get("unavailable", {})).items()}))
 
 
 def _strings(values: Any) -> tuple[str, ...]:
@@ -280,14 +289,14 @@ class CompiledModel:
             raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
                                       f"number, got {value!r}")
         try:
-            value = float(value)
+            number = float(value)
         except (TypeError, ValueError):
             raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
                                       f"number, got {value!r}") from None
-        if not math.isfinite(value):
+        if not math.isfinite(number):
             raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be "
-                                      f"finite, got {value!r}")
-        return value
+                                      f"finite, got {number!r}")
+        return number
 
     def native_params(self, p: np.ndarray) -> list[float] | np.ndarray:
         """The parameter vector in the form the back end's functions take (a vector of the

@@ -112,7 +112,7 @@ class InputPlan:
     names: tuple[str, ...]
     n_params: int
     bindings: tuple[Any, ...]          # per input: float, Samples or callable
-    joint: Callable | None = None      # one callable for all inputs
+    joint: Callable[..., Any] | None = None      # one callable for all inputs
 
     @property
     def m(self) -> int:
@@ -167,7 +167,8 @@ class InputPlan:
         return np.asarray(p[P:P + m]) + np.asarray(p[P + m:P + 2 * m]) * t
 
 
-def _call(fn: Callable, t: float, x: np.ndarray, shape: tuple[int, ...], what: str) -> np.ndarray:
+def _call(fn: Callable[..., Any], t: float, x: np.ndarray, shape: tuple[int, ...],
+          what: str) -> np.ndarray:
     """``fn(t, x)`` as a float array of ``shape``; InputError naming ``what`` otherwise."""
     value = fn(t, np.array(x, dtype=float))
     try:

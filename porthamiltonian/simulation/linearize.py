@@ -152,7 +152,11 @@ def _jac_u(model: CompiledModel, pt: Point) -> np.ndarray:
 
 
 def _out_jac(model: CompiledModel, pt: Point) -> np.ndarray:
-    """∂y/∂[x, u] of the declared outputs (n_y x (n + m))."""
+    """∂y/∂[x, u] of the declared outputs (n_y x (n + m)); ModelError (saying why) when the
+    model could not have it generated."""
+    if "out_jac" not in model.functions.extra:
+        raise ModelError(model.meta.unavailable.get(
+            "out_jac", f"model {model.name!r} has no generated output Jacobian"))
     out = model.functions.extra["out_jac"](pt.t, pt.y, model.native_params(pt.p))
     return np.asarray(out, dtype=float)
 
@@ -185,7 +189,8 @@ def acceleration_values(model: CompiledModel, t: float, y: np.ndarray, pn: Any) 
     rows = list(acceleration_rows(model).values())
     f = np.asarray(model.functions.rhs(t, y, pn), dtype=float)
     J = np.asarray(model.functions.jac(t, y, pn), dtype=float)
-    return J[rows] @ f
+    values: np.ndarray = J[rows] @ f
+    return values
 
 
 def accelerations(model: CompiledModel, t: float = 0.0, x: Any = None, u: Any = None,

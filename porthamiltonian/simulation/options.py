@@ -14,7 +14,9 @@ Rules
 * ``t_eval``: finite, non-decreasing times inside [t_start, t_end].
 * ``max_events``, ``max_steps``: integers >= 1; ``divergence_bound``: a number > 0.
 * ``jacobian``, ``dense_output``: booleans; ``method``: a string.
-* ``sensitivity``: False, True (every model state) or finite seed directions, n x m (m >= 1).
+* ``sensitivity``: False, True (every model state), finite seed directions (n x m, m >= 1),
+  parameter names (every model state and those parameters), or a
+  :class:`~porthamiltonian.simulation.saltation.Seeds`.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import OptionError
+from .saltation import Seeds
 
 #: The smallest relative tolerance accepted (100 float64 epsilons).
 RTOL_MIN = 100 * float(np.finfo(float).eps)
@@ -115,11 +118,48 @@ def check_t_eval(value: Any, t_start: float, t_end: float) -> np.ndarray:
     return times
 
 
-def check_sensitivity(value: Any, n_states: int) -> np.ndarray | None:
-    """The seed directions of the sensitivities: None for False, the identity (n x n) for True,
-    else the given n x m array of finite numbers (a vector: one direction)."""
+def check_sensitivity(value: Any, n_states: int) -> Seeds | None:
+    """What the sensitivities differentiate, as :class:`~.saltation.Seeds` with the state
+    directions an n x m0 array: None for False; the identity (n x n) for True; the given n x m
+    array of finite numbers (a vector: one direction); for parameter names (strings), the
+    identity and those parameters; a ``Seeds`` checked likewise (its ``initial``: n x k)."""
+    if isinstance(value, Seeds):
+        states = (np.eye(n_states) if value.states is True else np.zeros((n_states, 0))
+                  if value.states is False else _directions(value.states, n_states))
+        names = _parameter_names(value.parameters)
+        if states.shape[1] + len(names) == 0:
+            raise OptionError("sensitivity: Seeds with no state directions and no parameters "
+                              "differentiates nothing")
+        initial = None
+        if value.initial is not None:
+            initial = np.array(value.initial, dtype=float)
+            if initial.ndim == 1 and len(names) == 1:
+                initial = initial[:, None]
+            if initial.shape != (n_states, len(names)) or not np.all(np.isfinite(initial)):
+                raise OptionError(f"sensitivity: Seeds.initial must be finite, {n_states} x "
+                                  f"{len(names)} (dx0/dp, one column per parameter), got "
+                                  f"shape {np.shape(value.initial)}")
+        return Seeds(states, names, initial)
     if isinstance(value, (bool, np.bool_)):
-        return np.eye(n_states) if value else None
+        return Seeds(np.eye(n_states)) if value else None
+    if isinstance(value, (list, tuple)) and value and all(isinstance(v, str) for v in value):
+        return Seeds(np.eye(n_states), _parameter_names(value))
+    return Seeds(_directions(value, n_states))
+
+
+def _parameter_names(names: Any) -> tuple[str, ...]:
+    """The differentiated parameters' names: distinct strings."""
+    if isinstance(names, str) or not all(isinstance(v, str) for v in names):
+        raise OptionError(f"sensitivity parameters must be a list of parameter names, got "
+                          f"{names!r}")
+    names = tuple(names)
+    if len(set(names)) != len(names):
+        raise OptionError(f"sensitivity parameters must be distinct, got {list(names)}")
+    return names
+
+
+def _directions(value: Any, n_states: int) -> np.ndarray:
+    """Seed directions: an n x m array of finite numbers (a vector: one direction)."""
     try:
         seeds = np.array(value, dtype=float)
     except (TypeError, ValueError):

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import PassivityError
+from ..errors import ModelError, PassivityError
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
@@ -99,6 +99,9 @@ def ph_matrices(model: CompiledModel, t: float, y: np.ndarray, p: np.ndarray) ->
     """The form of ``model`` (compiled with ``ph=True``) at (t, y, p): y the integration state,
     p the parameter vector with its input slots."""
     layout = model.ph_layout
+    if layout is None:
+        raise ModelError(f"model {model.name!r} was compiled without its port-Hamiltonian form: "
+                         "compile it with ph=True, or call model.ph_matrices(...)")
     pn = model.native_params(p)
     extra = model.functions.extra
     M0 = np.asarray(extra["ph_M0"](t, y, pn), dtype=float)

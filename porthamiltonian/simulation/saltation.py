@@ -38,22 +38,42 @@ is parametrized by all states but one, which is solved from g). Its eigenvalues 
 multipliers of the periodic orbit through a fixed point; the full n × n monodromy Φ(T) has one
 more, 1 (the flow direction), which the projection replaces by 0.
 
-Limits: the derivative is at fixed parameters — where an action sets a parameter from the state
-(p⁺ = P(x⁻)) and that parameter enters the flow after the event, ∂p⁺/∂x⁻ is not included; at a
-grazing crossing (g_t + g_x·f⁻ = 0) the derivative does not exist and Φ becomes NaN; the ledger
-states E_diss, E_in are not differentiated (their reset books H⁺ − H⁻, whose gradient a contact's
-H, only C¹ on the very surfaces where its events fire, would not give reliably).
+Parameter sensitivities (``sensitivity=[names]`` or :class:`Seeds` with ``parameters``):
+columns S = ∂x/∂p beside Φ, seeded with ∂x₀/∂p, integrated by the same loops with the forcing
+f_p (Φ' = f_x Φ + f_p Π, the model's generated ``jac_p``), where Π = ∂p(t)/∂(column) is the
+dependence of the parameter vector in force on the differentiated quantities: a unit column
+for p itself, zero for a state direction, changed by actions that set parameters. At an event
+the state, the ledger and the parameters jump together: with the augmented state
+w = (x, E_diss, E_in, p) (flow (f, P_diss, P_in, 0)), guard g(t, x, p), reset
+w⁺ = (R(x⁻, p), E ± (H(x⁺, p⁺) − H(x⁻, p)), P(x⁻, p)) and its Jacobian M,
+
+    S_w = M + (f_w⁺ − M f_w⁻) [g_x, 0, g_p]ᵀ / (g_t + g_x · f⁻),      Ψ⁺ = S_w Ψ⁻,
+
+the formula above in more coordinates (Hiskens & Pai 2000; Galán, Feehery & Barton 1999): the
+parameter terms are the columns of g_p (a guard that reads p), of R_p (a reset that reads p:
+``Reset(jacobian_p=...)``) and of P (a mode set from the state or from p:
+``Reset(params_jacobian=...)``); the event's time moves by τ = −(g_x Φ⁻ + g_p Π⁻) / (g_t + g_x
+f⁻) per column (:attr:`Crossing.time_sensitivity`). The ledger is differentiated too, through
+the generated ∂H/∂[x, p] (``energy_jac``) at the events' booking of H⁺ − H⁻.
+
+Limits: in runs without parameters the ledger states are not differentiated (their rows are
+restarted at each event), and where an action sets a parameter from the state (p⁺ = P(x⁻)) and
+that parameter enters the flow after the event, ∂p⁺/∂x⁻ is not included (with parameters it
+is, when the action gives it); at a grazing crossing (g_t + g_x·f⁻ = 0) the derivative does not
+exist and Φ becomes NaN.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
 from ..errors import StateError
 
-__all__ = ["Crossing", "Sensitivity", "compose", "saltation_matrix", "section_jacobian",
+__all__ = ["Crossing", "Seeds", "Sensitivity", "compose", "saltation_matrix", "section_jacobian",
            "section_projection", "surface_lift"]
 
 #: |g_t + g_x·f⁻| below this fraction of |g_t| + |g_x||f⁻|: a grazing crossing
@@ -134,8 +154,24 @@ def section_jacobian(final: np.ndarray, project: np.ndarray,
     """∂z'/∂z = Z · final · X of a Poincaré map in section coordinates (module docstring):
     ``final`` the run's final Φ (n x k when the run was seeded with X = ``lift``, else n x n and
     ``lift`` is applied here), ``project`` Z = ∂z/∂x (k x n) at the final state."""
-    out = np.asarray(project, dtype=float) @ np.asarray(final, dtype=float)
+    out: np.ndarray = np.asarray(project, dtype=float) @ np.asarray(final, dtype=float)
     return out if lift is None else out @ np.asarray(lift, dtype=float)
+
+
+@dataclass(frozen=True)
+class Seeds:
+    """What ``simulate(..., sensitivity=Seeds(...))`` differentiates the run by.
+
+    states : the directions V in the initial model state (n x m0), True for all of them (the
+        identity), False for none.
+    parameters : parameter names: one column ∂x/∂p each after the state directions.
+    initial : ∂x₀/∂p (n x len(parameters)), the initial state's dependence on the parameters;
+        None: that of the model's initial values (when ``x0`` is None or a mapping), else zero.
+    """
+
+    states: Any = True
+    parameters: Sequence[str] = ()
+    initial: Any = None
 
 
 @dataclass(frozen=True)
@@ -148,7 +184,14 @@ class Crossing:
     guard_gradient, guard_rate : g_x and g_t (g_t = 0 for an autonomous guard); guard_error : an
     estimate of the largest error of the difference g_x (:mod:`porthamiltonian.simulation.differences`);
     reset_jacobian : R_x; saltation : S; stop : the run stopped here; phi_minus, phi_plus : the
-    sensitivities (n x m) before and after (phi_plus = saltation @ phi_minus).
+    sensitivities (n x m, the parameter columns after the state directions) before and after
+    (phi_plus = saltation @ phi_minus without parameters).
+    time_sensitivity : how the event's time moves per column (m), −(g_x Φ⁻ + g_p Π⁻) / (g_t +
+        g_x · f⁻) (NaN when the guard gradient was not needed: no sensitivities of the time).
+    augmented : with parameters, S_w over (x, E_diss, E_in, p) (module docstring), else None.
+    guard_parameters : with parameters, g_p by parameter name (those differentiated).
+    params_minus : with parameters, Π⁻ = ∂p/∂(columns) of the parameters in force before the
+        event (len(param_names) x m), else None.
     """
 
     t: float
@@ -165,6 +208,10 @@ class Crossing:
     stop: bool
     phi_minus: np.ndarray
     phi_plus: np.ndarray
+    time_sensitivity: np.ndarray | None = None
+    augmented: np.ndarray | None = None
+    guard_parameters: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    params_minus: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -182,6 +229,16 @@ class Sensitivity:
         sub-steps' tolerance, unless a limit of the sub-stepping was reached (a sub-step of
         1e-9 of a step, 400 sub-steps in one step); Φ is then less accurate there. (Φ has its
         own error control, in sub-steps of the steps chosen for x, which stay as they are.)
+
+    With parameters (module docstring): parameter_names : the differentiated parameters;
+    parameters : ∂x/∂p by name at every stored point (len(t) x n, the state order of the
+    trajectory); final_parameters : ∂x/∂p where the run ended (n x k; on the event's surface
+    at a stop, as ``final``); ledger : ∂(E_diss, E_in) at every stored point (len(t) x 2 x
+    (m + k): the state directions' columns, then the parameters'); final_ledger : the same where
+    the run ended (2 x (m + k)); final_params : ∂p/∂(columns) of the parameter vector in force
+    where the run ended (len(param_names) x (m + k): unit rows for the differentiated
+    parameters, and the modes an action set from the state or from them). Without parameters
+    these are empty or None.
     """
 
     seeds: np.ndarray
@@ -189,7 +246,16 @@ class Sensitivity:
     crossings: tuple[Crossing, ...]
     final: np.ndarray
     error: float
+    parameter_names: tuple[str, ...] = ()
+    parameters: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
+    final_parameters: np.ndarray | None = None
+    ledger: np.ndarray | None = None
+    final_ledger: np.ndarray | None = None
+    final_params: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for array in (self.seeds, self.phi, self.final):
-            array.flags.writeable = False
+        for array in (self.seeds, self.phi, self.final, self.final_parameters, self.ledger,
+                      self.final_ledger, self.final_params, *self.parameters.values()):
+            if array is not None:
+                array.flags.writeable = False
+        object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))

@@ -1,4 +1,5 @@
-"""Breakpoints of a run: input samples and the sampling instants of discrete-time blocks.
+"""Breakpoints of a run: input samples, the sampling instants of discrete-time blocks, and the
+times a compiled loop stores its solution at (``simulate(..., t_eval=...)``).
 
 The simulator integrates from one breakpoint to the next, the compiled loop (or scipy's solver)
 stopping exactly on it (its ``t_end``), then acts and goes on:
@@ -47,9 +48,16 @@ class Breakpoints:
     """The breakpoints of one run from ``t_start`` to ``t_end`` (see the module docstring)."""
 
     def __init__(self, model: CompiledModel, plan: InputPlan | None, t_start: float,
-                 t_end: float, y: np.ndarray, p: np.ndarray):
+                 t_end: float, y: np.ndarray, p: np.ndarray, stops: np.ndarray | None = None):
         self.model, self.plan = model, plan
         self.input_times = plan.breakpoints(t_start, t_end) if plan is not None else np.empty(0)
+        if stops is not None:           # a compiled loop's t_eval: it stops on them, no action
+            inside = np.asarray(stops, dtype=float)
+            inside = inside[(inside > t_start) & (inside < t_end)]
+            self.input_times = np.unique(np.concatenate([self.input_times, inside]))
+            self.input_starts = set(plan.breakpoints(t_start, t_end).tolist()) if plan else set()
+        else:
+            self.input_starts = None
         self._next_input = 0
         self.t0, self.t_end = t_start, t_end
         self.periods: list[float] = []
@@ -88,6 +96,8 @@ class Breakpoints:
                   and self.input_times[self._next_input] == t)
         if starts:
             self._next_input += 1
+            if self.input_starts is not None:
+                starts = t in self.input_starts
         blocks = [j for j in range(len(self.periods)) if self._sample_time(j) == t]
         for j in blocks:
             self._k[j] += 1

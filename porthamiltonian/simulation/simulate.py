@@ -25,7 +25,7 @@ compiled loop (Rodas5P, Rodas4 or QBDF, ``Functions.loops``) is called in one pl
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -34,15 +34,16 @@ import numpy as np
 from ..errors import InputError, ModelError, OptionError, StateError
 from ..integrators import COMPILED_METHODS
 from .assembly import consistent
-from .differences import Derivative, gradient
+from .differences import Derivative, gradient, jacobian
 from .inputs import InputPlan, plan_inputs
 from .options import check_simulation
-from .saltation import Crossing, Sensitivity, saltation_matrix
+from .psensitivity import ParameterColumns, parameter_jump
+from .saltation import Crossing, Seeds, Sensitivity, saltation_matrix
 from .sampling import Breakpoints, sample
 from .trajectory import Segment, Status, Trajectory
 
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
-    from .compiled import CompiledModel
+    from .compiled import CompiledModel, EventInfo
 
 METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 #: the methods whose whole step loop is compiled with the model (Functions.loops)
@@ -63,6 +64,13 @@ class Reset:
     jacobian : ∂x⁺/∂x⁻ (n x n) of the state map, for runs with sensitivities (its saltation
         matrix, :mod:`porthamiltonian.simulation.saltation`); needed when ``x`` moves the state, else the
         identity.
+    jacobian_p : ∂x⁺/∂p by parameter name (a vector of n each), for runs with parameter
+        sensitivities: needed when ``x`` moves the state, for every differentiated parameter (a
+        name left out: the map does not read it).
+    params_jacobian : for a parameter that ``params`` sets from the state or from other
+        parameters, the gradient of its new value by [x⁻, p] (a vector of n + len(param_names):
+        the model states, then every parameter in the model's order), for runs with parameter
+        sensitivities; a parameter not in it is set to a constant.
     """
 
     x: np.ndarray | None = None
@@ -70,6 +78,8 @@ class Reset:
     stop: bool = False
     energy: Literal["dissipated", "supplied"] = "dissipated"
     jacobian: np.ndarray | None = None
+    jacobian_p: Mapping[str, np.ndarray] | None = None
+    params_jacobian: Mapping[str, np.ndarray] | None = None
 
 
 #: An event action: (t, model state x, parameter vector p) -> Reset.
@@ -94,7 +104,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
              t_eval: np.ndarray | None = None, dense_output: bool = False,
              max_events: int = 100_000, max_steps: int = 10_000_000,
              divergence_bound: float = 1e12,
-             sensitivity: bool | np.ndarray = False, inputs: Any = None,
+             sensitivity: bool | np.ndarray | Sequence[str] | Seeds = False,
+             inputs: Any = None,
              progress: Callable[[float, int], None] | None = None) -> Trajectory:
     """Simulate ``model`` from ``t_start`` to ``t_end`` (also ``model.simulate(t_end, ...)``).
 
@@ -109,7 +120,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         all. See :mod:`porthamiltonian.simulation.inputs`; a model without inputs takes None.
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
-    method : ``"auto"`` (default: Radau when Python events, ``t_eval`` or dense output are
+    method : ``"auto"`` (default: Radau when Python events, ``t_eval`` (without
+        ``sensitivity``) or dense output are
         asked for, else :func:`auto_method`: QBDF for a multibody of two or more coordinates,
         Rodas5P otherwise), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
         Rosenbrock methods of order 5 and 4: a Jacobian and an LU at every step; Rodas5P takes
@@ -117,14 +129,17 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
         below: compare them at equal accuracy, benchmarks/RESULTS.md) — whose whole step loop
         is compiled with the model (the fast path with the C or numba back end; model events
-        only, no ``t_eval`` or dense output), or a scipy method: Radau, BDF, LSODA (stiff, given
+        only, no dense output; ``t_eval``: the steps end exactly on its times), or a scipy
+        method: Radau, BDF, LSODA (stiff, given
         the analytic Jacobian unless ``jacobian=False``), RK45, DOP853.
     max_step, first_step : bounds on the step size (s); ``first_step`` for the scipy methods.
     jacobian : give the stiff scipy methods the analytic Jacobian.
     actions : event name -> action (model events or ``events``). An event without action is
         recorded; if it is terminal, the simulation stops there.
     events : extra Python-level events.
-    t_eval : times at which to store the solution (default: every accepted step).
+    t_eval : times at which to store the solution (default: every accepted step); a compiled
+        loop stops exactly on each (a breakpoint), so that the values (and sensitivities) there
+        are the integration's own, not interpolated.
     dense_output : keep the interpolants, for :meth:`Trajectory.sol` (costs time).
     max_events, max_steps : bounds (a chattering guard ends the run with status "failed").
     divergence_bound : the run ends with status "diverged" when max|x| exceeds it.
@@ -134,7 +149,12 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         ended, the events' saltation matrices): True for V = I (all model states), or the
         directions V (n x m). Compiled methods only (``"auto"``: as without); the trajectory is
         the same, bit for bit, as without; an action that moves the state gives its Jacobian
-        (``Reset(jacobian=...)``). See :mod:`porthamiltonian.simulation.saltation`.
+        (``Reset(jacobian=...)``). Parameter names (``["k", "c"]``) add the columns ∂x(t)/∂p
+        (``traj.sensitivity.parameters[name]``, from ∂x₀/∂p of the model's initial values),
+        integrated with the generated ∂ẋ/∂p (the model compiles itself again with it, once),
+        through events whose guard, reset or mode change reads p; a
+        :class:`~porthamiltonian.simulation.saltation.Seeds` gives both the directions and the
+        parameters (and ∂x₀/∂p). See :mod:`porthamiltonian.simulation.saltation`.
     progress : called with the simulated time and the steps taken so far, now and then during
         the run (after each batch of up to 4096 steps of a compiled loop, every 1000 steps of a
         scipy method): for a progress display of a long run (the command line's).
@@ -158,7 +178,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
                           f"{type(progress).__name__}")
     requested = method
     if method == "auto":
-        method = ("Radau" if (events or t_eval is not None or dense_output or calls) else
+        evaluated = t_eval is not None and checked["sensitivity"] is None
+        method = ("Radau" if (events or evaluated or dense_output or calls) else
                   auto_method(model))
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
@@ -174,6 +195,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         y[:model.n_states] = consistent(model, y[:model.n_states], p, t_start)
     if not np.all(np.isfinite(y)):
         raise StateError(f"model {model.name!r}: initial state is not finite: {x}")
+    seeds = checked["sensitivity"]
+    if seeds is not None and seeds.parameters:
+        seeds = _parameter_seeds(model, seeds, p, x0)
     py_events = tuple(events or ())
     names = [e.name for e in model.events] + [e.name for e in py_events]
     actions = dict(actions or {})
@@ -181,14 +205,14 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     if unknown:
         raise ModelError(f"actions for unknown event(s) {', '.join(sorted(unknown))}; events: "
                          f"{', '.join(names) or 'none'}")
-    if method in _COMPILED and (py_events or t_eval is not None or dense_output):
+    if method in _COMPILED and (py_events or dense_output):
         raise ModelError(f"method {method!r} (a compiled loop) takes model events only and no "
-                         "t_eval or dense_output; use a scipy method (e.g. Radau) for those")
+                         "dense_output; use a scipy method (e.g. Radau) for those")
     if method in _COMPILED and calls:
         raise InputError(f"method {method!r} (a compiled loop) cannot call Python inputs "
                          "u(t, x); bind them to numbers or Samples, compile the controller "
                          "into the model, or use a scipy method (e.g. Radau)")
-    if checked["sensitivity"] is not None and method not in _COMPILED:
+    if seeds is not None and method not in _COMPILED:
         raise ModelError(f"sensitivity needs a compiled method ({', '.join(_COMPILED)}), whose "
                          f"loop integrates the variational equation; got method {method!r}"
                          + (" (chosen by 'auto' for Python events, t_eval or dense_output)"
@@ -200,8 +224,32 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         events=py_events,
         t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
-        sensitivity=checked["sensitivity"], inputs=plan, progress=progress)
+        sensitivity=seeds, inputs=plan, progress=progress)
     return Simulator(model, settings).run(t_start, y, p, t_end)
+
+
+def _parameter_seeds(model: CompiledModel, seeds: Seeds, p: np.ndarray, x0: Any) -> Seeds:
+    """``seeds`` with its parameters checked and ∂x₀/∂p filled in: given, else that of the
+    model's initial values (x0 None or a mapping: the states it names are fixed) by central
+    differences (:mod:`.differences`; the initial values are the parameters' expressions,
+    smooth), else zero (x0 given as an array)."""
+    names = list(seeds.parameters)
+    for name in names:
+        model._param_index_of(name)         # UnknownParameterError naming the parameters
+    if seeds.initial is not None:
+        return seeds
+    n = model.n_states
+    if x0 is not None and not isinstance(x0, Mapping):
+        return Seeds(seeds.states, seeds.parameters, np.zeros((n, len(names))))
+    index = [model.param_names.index(name) for name in names]
+
+    def initial(values: np.ndarray) -> np.ndarray:
+        q = p.copy()
+        q[index] = values
+        return model.initial_state(q, x0)
+
+    d = jacobian(initial, p[index], 1.0)
+    return Seeds(seeds.states, seeds.parameters, d.value)
 
 
 def auto_method(model: CompiledModel) -> str:
@@ -240,7 +288,8 @@ def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
 class Settings:
     """The checked settings of one simulation (the arguments of :func:`simulate`, which
     documents them; ``atol`` extended to the ledger states, ``jacobian`` only for stiff scipy
-    methods, ``sensitivity`` the seed directions V, n x m, or None)."""
+    methods, ``sensitivity`` the :class:`~.saltation.Seeds` (directions V, n x m, parameters
+    and ∂x₀/∂p filled in) or None)."""
 
     method: str
     rtol: float
@@ -255,7 +304,7 @@ class Settings:
     max_events: int
     max_steps: int
     divergence_bound: float
-    sensitivity: np.ndarray | None = None
+    sensitivity: Seeds | None = None
     inputs: InputPlan | None = None
     progress: Callable[[float, int], None] | None = None
 
@@ -279,11 +328,11 @@ class Simulator:
 
     def __init__(self, model: CompiledModel, settings: Settings):
         self.model, self.settings = model, settings
-        events = [*model.events, *settings.events]
+        events: list[EventInfo | Event] = [*model.events, *settings.events]
         self.names = [e.name for e in events]
         self.direction = np.array([e.direction for e in events])
         self.terminal = np.array([e.terminal or e.name in settings.actions for e in events],
-                                 dtype=bool)
+                                 dtype=np.bool_)
         self.n_model_events = len(model.events)
         # the integration state
         self.t, self.y, self.p = 0.0, np.empty(0), np.empty(0)
@@ -297,17 +346,23 @@ class Simulator:
         self.phi: np.ndarray | None = None     # the sensitivities (n + 2 x m), when asked for
         self.phi_error = 0.0                    # their largest error estimate (in rtol)
         self._crossings: list[Crossing] = []
+        self.columns: ParameterColumns | None = None    # with parameters: Π and the build
 
     def run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
         """Integrate from (t_start, y) with parameters p to t_end (or until a terminal event
         without action, a stopping action, a failure); the result."""
         model, settings, n = self.model, self.settings, self.model.n_states
         self.t, self.y, self.p = t_start, y, p
-        if settings.sensitivity is not None:
-            seeds = settings.sensitivity
-            self.phi = np.vstack([seeds, np.zeros((2, seeds.shape[1]))])
+        seeds = settings.sensitivity
+        if seeds is not None:
+            columns = seeds.states
+            if seeds.parameters:
+                columns = np.hstack([columns, seeds.initial])
+                self.columns = ParameterColumns(model, seeds.parameters, columns.shape[1])
+            self.phi = np.vstack([columns, np.zeros((2, columns.shape[1]))])
         h0 = float(model.energy(t_start, y, p)[0])
-        breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p)
+        stops = settings.t_eval if settings.method in _COMPILED else None
+        breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p, stops)
         if breaks:
             self._break(breaks, t_start)            # the first samples (k = 0) at the start
         fired, n_events = None, 0
@@ -331,7 +386,7 @@ class Simulator:
             action = settings.actions.get(name)
             if action is None:
                 if self.phi is not None:
-                    self._cross(k, t, self.y, self.p, self.y, self.p, None, stop=True,
+                    self._cross(k, t, self.y, self.p, self.y, self.p, Reset(stop=True),
                                 moved=False)
                 return self._result(Status.EVENT, f"terminal event {name!r} at t = {t:.6g}", h0)
             y, p = self.y, self.p
@@ -357,8 +412,8 @@ class Simulator:
             self._jumps.append((t, name, jump))
             phi = None
             if self.phi is not None:
-                phi = self._cross(k, t, y_minus, p_minus, y, p, reset.jacobian,
-                                  stop=bool(reset.stop), moved=moved)[None]
+                self._cross(k, t, y_minus, p_minus, y, p, reset, moved=moved)
+                phi = self.phi[None].copy()
             self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None, phi,
                                           inputs=self._binder()))
             if reset.stop:
@@ -379,7 +434,7 @@ class Simulator:
         a point of its own (the state before it ends the previous segment)."""
         self.t = t
         starts, blocks = breaks.due(t)
-        if starts:
+        if starts and self.settings.inputs is not None:     # (starts come from the inputs)
             self.p = self.settings.inputs.slots(self.p, t)
         if blocks:
             if self.phi is not None:
@@ -399,23 +454,37 @@ class Simulator:
 
     def _result(self, status: Status, message: str, h0: float) -> Trajectory:
         sensitivity = None
-        if self.phi is not None:
+        seeds = self.settings.sensitivity
+        if self.phi is not None and seeds is not None:      # (phi is set from the seeds)
             n = self.model.n_states
-            sensitivity = Sensitivity(self.settings.sensitivity.copy(),
-                                      np.concatenate([s.phi for s in self._segments]),
-                                      tuple(self._crossings), self.phi[:n].copy(), self.phi_error)
+            seeds = self.settings.sensitivity
+            m0 = seeds.states.shape[1]
+            phi = np.concatenate([s.phi for s in self._segments])
+            extra = {}
+            if self.columns is not None:
+                names = seeds.parameters
+                extra = {"parameter_names": names,
+                         "parameters": {name: phi[:, :n, m0 + j].copy()
+                                        for j, name in enumerate(names)},
+                         "final_parameters": self.phi[:n, m0:].copy(),
+                         "ledger": phi[:, n:, :].copy(), "final_ledger": self.phi[n:].copy(),
+                         "final_params": self.columns.pi.copy()}
+            sensitivity = Sensitivity(seeds.states.copy(), phi[:, :n, :m0].copy(),
+                                      tuple(self._crossings), self.phi[:n, :m0].copy(),
+                                      self.phi_error, **extra)
         return Trajectory(self.model, self._segments, self._events, self._jumps, status, message,
                           h0=h0, sensitivity=sensitivity, **self._counts)
 
     def _cross(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
-               y_plus: np.ndarray, p_plus: np.ndarray, jacobian: np.ndarray | None, *,
-               stop: bool, moved: bool) -> np.ndarray:
+               y_plus: np.ndarray, p_plus: np.ndarray, reset: Reset, *,
+               moved: bool) -> np.ndarray:
         """Apply the saltation matrix of event ``k`` at time t (from y_minus, p_minus to y_plus,
-        p_plus; ``jacobian`` the reset's, ``stop``: the run ends on the event's surface) to the
-        sensitivities and record the :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺
-        (model states)."""
+        p_plus by the action's ``reset``: its Jacobians; its ``stop``: the run ends on the
+        event's surface) to the sensitivities and record the
+        :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺ (model states)."""
         model, n = self.model, self.model.n_states
         name = self.names[k]
+        jacobian, stop = reset.jacobian, bool(reset.stop)
         if jacobian is None:
             if moved:
                 raise ModelError(f"the action of event {name!r} moved the state at t = {t:.6g} "
@@ -427,22 +496,69 @@ class Simulator:
             if R.shape != (n, n) or not np.all(np.isfinite(R)):
                 raise StateError(f"the action of event {name!r} returned a reset Jacobian of "
                                  f"shape {R.shape} (must be {n} x {n} and finite)")
+        if self.columns is not None:
+            return self._cross_parameters(k, t, y_minus, p_minus, y_plus, p_plus, reset, R,
+                                          moved)
         f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
         f_plus = (np.zeros(n) if stop else
                   np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
         phi_minus = self.phi[:n].copy()
         if not stop and jacobian is None and np.array_equal(f_plus, f_minus):
             S, g_x, g_t, error = np.eye(n), np.full(n, np.nan), float("nan"), float("nan")
+            tau = np.full(phi_minus.shape[1], np.nan)
         else:
             grad = self._guard_gradient(k, t, y_minus, p_minus)
             g_t, g_x, error = float(grad.value[0]), grad.value[1:], grad.max_error
             S = saltation_matrix(f_minus, f_plus, g_x, R, g_t)
+            tau = -(g_x @ phi_minus) / (g_t + g_x @ f_minus)
         phi_plus = S @ phi_minus
         self.phi = np.vstack([phi_plus, np.zeros((2, phi_plus.shape[1]))])
         self._crossings.append(Crossing(t, name, y_minus[:n].copy(), y_plus[:n].copy(), f_minus,
                                         f_plus, g_x, g_t, error, R, S, stop, phi_minus,
-                                        phi_plus))
+                                        phi_plus, tau))
         return phi_plus
+
+    def _cross_parameters(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
+                          y_plus: np.ndarray, p_plus: np.ndarray, reset: Reset, R: np.ndarray,
+                          moved: bool) -> np.ndarray:
+        """:meth:`_cross` of a run with parameter sensitivities: the augmented saltation
+        matrix over (x, E_diss, E_in, p) (:func:`.psensitivity.parameter_jump`)."""
+        model, settings, n = self.model, self.settings, self.model.n_states
+        columns, stop = self.columns, bool(reset.stop)
+        if k < self.n_model_events:
+            def guard(t: float, x: np.ndarray, p: np.ndarray) -> float:
+                yz = y_minus.copy()
+                yz[:n] = x
+                return float(model.functions.guards(t, yz, model.native_params(p))[k])
+        else:
+            guard = settings.events[k - self.n_model_events].guard
+        given = dict(reset.params_jacobian or {})
+        unknown = set(given) - set(reset.params or {})
+        if unknown:
+            raise ModelError(f"the action of event {self.names[k]!r} gave params_jacobian for "
+                             f"{', '.join(sorted(unknown))}, which it does not set")
+        changed = {name: given.get(name) for name in (reset.params or {})}
+        typical = np.broadcast_to(np.asarray(settings.atol, dtype=float), (n + 2,))[:n]
+        scale = np.concatenate([[1.0], typical / settings.rtol])
+        phi_minus, pi_minus = self.phi[:n].copy(), columns.pi.copy()
+        out = parameter_jump(columns, self.phi, t, y_minus, p_minus, y_plus, p_plus, R,
+                             reset.jacobian_p, changed, reset.energy, stop, moved, guard, scale,
+                             self.names[k])
+        self.phi, columns.pi = out.phi, out.pi
+        if not stop:
+            columns.follow()
+        N = n + 2
+        names = model.param_names
+        S = out.augmented[:n, :n]
+        f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
+        f_plus = (np.zeros(n) if stop else
+                  np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
+        self._crossings.append(Crossing(
+            t, self.names[k], y_minus[:n].copy(), y_plus[:n].copy(), f_minus, f_plus, out.g_x,
+            out.g_t, out.guard_error, R, S, stop, phi_minus, out.phi[:n].copy(),
+            out.time_sensitivity, out.augmented[:N + len(names), :N + len(names)],
+            {names[i]: v for i, v in out.g_p.items()}, pi_minus))
+        return out.phi[:n]
 
     def _guard_gradient(self, k: int, t: float, y: np.ndarray, p: np.ndarray) -> Derivative:
         """(∂g/∂t, ∂g/∂x) of guard ``k`` at (t, y) by central differences, each state stepped
@@ -498,7 +614,7 @@ class Simulator:
             """The parameters at (t, y): p with the callable inputs' values."""
             return pn if binder is None else model.native_params(binder(t, y[:n], p))
 
-        def fun(t, y):
+        def fun(t: float, y: np.ndarray) -> Any:
             return rhs(t, y, params_at(t, y))
 
         options: dict[str, Any] = {"rtol": settings.rtol, "atol": settings.atol,
@@ -509,12 +625,12 @@ class Simulator:
             options["jac"] = lambda t, y: jacf(t, y, params_at(t, y))
         solver = getattr(si, settings.method)(fun, t0, y0, t_end, **options)
         t_eval = settings.t_eval
-        ts, ys, interpolants = [t0], [y0], []
+        ts, ys, interpolants = [t0], [y0], list[Any]()
         if t_eval is not None:
             ts, ys = [], []
             self._eval_at(ts, ys, None, t0, t0, y0, include_start=True)
         has_events = len(self.direction) > 0
-        g_old = self._guards(t0, y0, params_at(t0, y0), p) if has_events else None
+        g_old = self._guards(t0, y0, params_at(t0, y0), p) if has_events else np.empty(0)
         if fired is not None:  # keep a guard that just fired on its new side at the restart
             g_old[fired] = self._fired_side(fired) * max(abs(g_old[fired]), 1e-300)
 
@@ -562,9 +678,9 @@ class Simulator:
                     step_sol = step_sol or solver.dense_output()
                     roots = []
                     for k in active:
-                        def gk(t, k=k, sol=step_sol):
+                        def gk(t: float, k: int = k, sol: Any = step_sol) -> float:
                             y_t = sol(t)
-                            return self._guards(t, y_t, params_at(t, y_t), p)[k]
+                            return float(self._guards(t, y_t, params_at(t, y_t), p)[k])
                         roots.append((brentq(gk, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS), k))
                     roots.sort()
                     for t_root, k in roots:
@@ -606,13 +722,16 @@ class Simulator:
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
         sensitive = self.phi is not None
         if sensitive:       # the variational loop: Φ too (18-tuple)
-            variational = model.functions.variational[settings.method]
-            phis = [self.phi[None, :n].copy()]
+            build = model if self.columns is None else self.columns.build
+            variational = build.functions.variational[settings.method]
+            gain = (np.zeros((0, self.phi.shape[1])) if self.columns is None
+                    else self.columns.gain())
+            phis = [self.phi[None].copy()]
 
             def loop(*args):
-                out = variational(*args, np.ascontiguousarray(self.phi))
+                out = variational(*args, np.ascontiguousarray(self.phi), gain)
                 self.phi = out[15]
-                phis.append(out[16][:out[5], :n].copy())
+                phis.append(out[16][:out[5]].copy())
                 self.phi_error = max(self.phi_error, out[17] / settings.rtol)
                 return out[:15]
         else:
@@ -637,8 +756,15 @@ class Simulator:
             if code != _LOOP_BUFFER_FULL:
                 break
         self.h_next = h
-        self._segments.append(Segment(np.concatenate(ts), np.concatenate(ys).T, p.copy(), None,
-                                      np.concatenate(phis) if sensitive else None))
+        t_all, y_all = np.concatenate(ts), np.concatenate(ys)
+        phi_all = np.concatenate(phis) if sensitive else None
+        if settings.t_eval is not None:     # the points asked for (the loop stopped on them)
+            te = settings.t_eval
+            keep = np.isin(t_all, te[np.searchsorted(te, t0):np.searchsorted(te, t, "right")])
+            keep[0] &= not self._segments
+            t_all, y_all = t_all[keep], y_all[keep]
+            phi_all = phi_all[keep] if sensitive else None
+        self._segments.append(Segment(t_all, y_all.T, p.copy(), None, phi_all))
         self.t, self.y = float(t), y.copy()
         status = _LOOP_STATUS.get(int(code), Status.FAILED)
         if status == Status.EVENT:
@@ -651,7 +777,7 @@ class Simulator:
                                                      f"(t = {t:.6g})")
         return status, message, -1
 
-    def _eval_at(self, ts: list, ys: list, step_sol: Any, t_old: float, t_new: float,
+    def _eval_at(self, ts: list[Any], ys: list[Any], step_sol: Any, t_old: float, t_new: float,
                  y_new: np.ndarray, include_start: bool = False) -> None:
         """Append the points of ``t_eval`` in (t_old, t_new] (or [t_old, ...]) to ts, ys."""
         te = self.settings.t_eval
@@ -666,14 +792,14 @@ class Simulator:
 class _Clipped:
     """A step interpolant whose step ended early at a terminal event."""
 
-    def __init__(self, inner, t_end):
+    def __init__(self, inner: Any, t_end: float) -> None:
         self.inner, self.t_old, self.t = inner, inner.t_old, t_end
 
-    def __call__(self, t):
+    def __call__(self, t: float) -> Any:
         return self.inner(t)
 
 
-def _active(g, g_new, direction):
+def _active(g: np.ndarray, g_new: np.ndarray, direction: np.ndarray) -> np.ndarray:
     up = (g <= 0) & (g_new >= 0)
     down = (g >= 0) & (g_new <= 0)
     either = up | down

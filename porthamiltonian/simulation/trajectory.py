@@ -61,7 +61,7 @@ class Segment:
     y: np.ndarray            # (n + 2, len(t)): model states and ledger states
     p: np.ndarray
     sol: Any                 # scipy OdeSolution or None
-    phi: np.ndarray | None = None   # (len(t), n, m): the sensitivities, when asked for
+    phi: np.ndarray | None = None   # (len(t), n + 2, m): the sensitivities, when asked for
     #: callable inputs (scipy path): (t, x, p) -> p with their slots set, else None
     inputs: Any = None
 
@@ -88,6 +88,18 @@ class Trajectory:
 
     __slots__ = ("_cache", "_events", "_jumps", "h0", "message", "model", "nfev", "njev", "nlu",
                  "segments", "sensitivity", "status")
+    model: CompiledModel
+    segments: tuple[Segment, ...]
+    status: Status
+    message: str
+    nfev: int
+    njev: int
+    nlu: int
+    h0: float
+    sensitivity: Sensitivity | None
+    _events: tuple[tuple[float, str], ...]
+    _jumps: tuple[tuple[float, str, float], ...]
+    _cache: dict[str, np.ndarray]
 
     def __init__(self, model: CompiledModel, segments: Sequence[Segment],
                  events: Sequence[tuple[float, str]], jumps: Sequence[tuple[float, str, float]],
@@ -250,17 +262,18 @@ class Trajectory:
     @property
     def E_diss(self) -> np.ndarray:
         """The energy dissipated since the start (J), at each point."""
-        return self.y[self.model.n_states]
+        return self.y[self.model.n_states, :]
 
     @property
     def E_in(self) -> np.ndarray:
         """The energy supplied since the start (J), at each point."""
-        return self.y[self.model.n_states + 1]
+        return self.y[self.model.n_states + 1, :]
 
     @property
     def residual(self) -> np.ndarray:
         """r(t) = H(t) − H(0) + E_diss(t) − E_in(t) (J); zero up to integration error."""
-        return self.H - self.h0 + self.E_diss - self.E_in
+        r: np.ndarray = self.H - self.h0 + self.E_diss - self.E_in
+        return r
 
     @property
     def energy_scale(self) -> float:
@@ -334,7 +347,9 @@ class Trajectory:
 
     def to_npz(self, path: str | Path, outputs: bool = False) -> None:
         """Write named arrays (t, states, ledger[, outputs]) plus status and message to ``.npz``."""
-        np.savez(path, status=self.status, message=self.message, **self.columns(outputs))
+        arrays: dict[str, Any] = {"status": self.status, "message": self.message,
+                                  **self.columns(outputs)}
+        np.savez(path, **arrays)
 
     def to_dataframe(self, outputs: bool | list[str] = True) -> Any:
         """A pandas DataFrame indexed by t (s): states, ledger, outputs (all, none or those

@@ -155,7 +155,7 @@ def test_show_prints_states_and_equations(runs):
 
 
 @pytest.mark.parametrize("backend, marks", [
-    ("c", ["static void rhs(double t, const double *x, const double *p, double *out)",
+    ("c", ["PH_HIDDEN void rhs(double t, const double *x, const double *p, double *out)",
            " *   [1] spring.q", "PH_EXPORT int ph_integrate_rodas5p("]),
     ("python", ["def rhs(t, x, p):", "      [1] spring.q", "def integrate_rodas4("])])
 def test_show_code_prints_the_generated_source(backend, marks, capsys):

@@ -396,3 +396,19 @@ def test_a_configuration_that_cannot_be_assembled_is_refused_with_the_residual(i
         compiled.simulate(0.1)
     msg = str(info.value)
     assert "cannot be assembled" in msg and "residual 2" in msg and "pin.x" in msg
+
+
+def test_kernel_formulation_with_loops_or_constraints_is_refused_and_auto_writes_them_out():
+    """The kernel evaluates the tree's equations only: ``formulation = "kernel"`` with a
+    constraint is a ModelError at the key; ``"auto"`` on a tree it would otherwise give the
+    kernel (an axis off the coordinate axes) builds the symbolic code (no kernel call)."""
+    joined = {"type": "point", "point": "tip_a", "to": "tip_b", "axes": ["x"]}
+    with pytest.raises(errors.ModelError) as info:
+        compile_symbolic(build(TWO_RODS, TWO_PIVOTS, constraints={"P": joined},
+                               formulation="kernel"))
+    assert tuple(info.value.path)[-1] == "formulation"
+    assert "'loops' or 'constraints'" in str(info.value) and "'symbolic'" in str(info.value)
+    tilted = {"j1": revolute("world", "a", axis=[0.6, 0, 0.8]),
+              "j2": revolute("world", "b", origin=[1, 0, 0])}
+    assert compile_symbolic(build(TWO_RODS, tilted)).calls            # auto: the kernel
+    assert not compile_symbolic(build(TWO_RODS, tilted, constraints={"P": joined})).calls

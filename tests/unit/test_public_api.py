@@ -15,14 +15,16 @@ WALKER_MODULES = ("analyses.cases", "analyses.calibration", "core.walker", "anal
                   "core.hybrid", "core.machine", "analyses.metrics", "core.plan", "core.problems",
                   "core.protocol", "core.reading",
                   "report.writer", "core.resets", "analyses.results", "analyses.series",
-                  "analyses.standing", "core.strides", "core.files", "core.fmu")
+                  "analyses.standing", "core.strides", "core.files", "core.fmu",
+                  "core.gradients", "analyses.gradients", "analyses.optimize")
 
 
 def _modules(package: str):
     root = importlib.import_module(package)
     yield root
     for info in pkgutil.walk_packages(root.__path__, f"{package}."):
-        if info.name.endswith(("rosenbrock_loop", "bdf_loop")):   # source templates
+        if info.name.endswith(("rodas_loop", "rosenbrock_loop", "bdf_loop",
+                               "mechanics.kernel")):   # source templates
             continue
         yield importlib.import_module(info.name)
 

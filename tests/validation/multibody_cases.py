@@ -6,6 +6,8 @@
   a skew axis, welds with offsets, full inertia matrices, point and frame ports loaded by linear
   dampers, a joint port), under a skew gravity;
 * :func:`chain_model`: the planar N-link pendulum chain of benchmarks/bench_mechanics.py;
+* :func:`generic_chain_model`: an N-link chain on revolute joints about random 3D axes;
+* :func:`with_formulation`: a model with its Multibody's formulation (kernel, symbolic) set;
 * :func:`random_states`: reproducible random states around a model's initial state.
 
 Used by record_multibody_reference.py (which wrote data/multibody_reference.json with the
@@ -101,6 +103,42 @@ def chain_model(n: int) -> ph.Model:
     model.parameter("g", 9.81, "m/s^2")
     model.add("chain", Multibody(bodies=bodies, joints=joints, gravity=[0, 0, "-g"], plane="xz"))
     return model
+
+
+def generic_chain_model(n: int, seed: int = 1) -> ph.Model:
+    """N links hanging from each other on revolute joints about random unit axes (3D, seeded),
+    each a body of mass U(0.5, 2) kg with an off-axis centre of mass and a random full inertia,
+    joint offsets (0.02, −0.01, −l) with l = U(0.3, 0.6) m; gravity (0, 0, −g); all joints at
+    0.1 rad. The case whose symbolic build exploded (no zero folds), for the kernel."""
+    rng = np.random.default_rng(seed)
+    model = ph.Model(f"gchain{n}")
+    model.parameter("g", 9.81, "m/s^2")
+    bodies, joints, length = {}, {}, 0.0
+    for i in range(n):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        A = rng.normal(size=(3, 3)) * 0.1
+        second = A @ A.T + 0.01 * np.eye(3)         # a random second moment of mass
+        inertia = np.trace(second) * np.eye(3) - second     # the inertia of such a body
+        previous, length = length, float(rng.uniform(0.3, 0.6))
+        bodies[f"link{i}"] = {"mass": float(rng.uniform(0.5, 2.0)),
+                              "com": [float(v) for v in rng.uniform(-0.05, 0.05, 2)] + [-length / 2],
+                              "inertia": inertia.tolist()}
+        joints[f"q{i}"] = {"type": "revolute", "parent": "world" if i == 0 else f"link{i - 1}",
+                           "child": f"link{i}", "axis": axis.tolist(),
+                           "origin": [0, 0, 0] if i == 0 else [0.02, -0.01, -previous], "q0": 0.1}
+    model.add("chain", Multibody(bodies=bodies, joints=joints, gravity=[0, 0, "-g"]))
+    return model
+
+
+def with_formulation(model: ph.Model, formulation: str) -> ph.Model:
+    """The model with its Multibody components' ``formulation`` set (through its tables)."""
+    data = io.model_to_dict(model)
+    for comp in data["components"].values():
+        if comp.get("type") == "Multibody":
+            comp["formulation"] = formulation
+    data.setdefault("model", {})["name"] = f"{model.name}_{formulation}"
+    return io.model_from_dict(data)
 
 
 def python_cases() -> dict[str, ph.Model]:

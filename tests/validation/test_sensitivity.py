@@ -171,7 +171,8 @@ def _fixed_step_phi(model, method: str, t_end: float, h: float) -> np.ndarray:
     out = model.functions.variational[method](
         0.0, y0, t_end, p, 0.5, np.full(n, 1e10), h, h, np.zeros(0, dtype=np.int64),
         np.zeros(0, dtype=bool), -1, 0.0, model.n_states, 1e12, 10**6, 10**5,
-        0.0 if model.autonomous else 1e-7, np.eye(n)[:, : model.n_states].copy())
+        0.0 if model.autonomous else 1e-7, np.eye(n)[:, : model.n_states].copy(),
+        np.zeros((0, model.n_states)))
     assert out[0] == 0
     return out[15][: model.n_states]
 

@@ -70,8 +70,8 @@ def test_actuated_stiffness_leg_books_its_energy():
     instantaneous rule (0.3365 m/s, ±5e-4); its stiffness actuators' work per step equals the
     dissipated energy minus the potential energy released per step (the ledger on the periodic
     gait, H repeating) to 1e-5 relative (measured 1.4e-6: 3e-8 J of H ≈ 22 J, the gait's
-    periodicity at the walker's gait tolerance 1e-8), and is positive: stiffening the loaded leg
-    costs energy (REPRODUCTION.md, Table 3.1: 0.0201 J per step for 6000 -> 8000 N/m)."""
+    periodicity at the file's gait tolerance 1e-6 on a section holding K ≈ 8000 N/m), and is
+    positive: stiffening the loaded leg costs energy (REPRODUCTION.md, Table 3.1: 0.0201 J per step for 6000 -> 8000 N/m)."""
     walker = load_walker("actuated_stiffness_walker")
     result = analyze_gait(walker)
     assert result.status == "periodic" and result.period_steps == 1 and result.stable

@@ -251,21 +251,27 @@ def test_a_built_walker_loads_without_symbolic_work_and_a_damaged_layout_is_rebu
     """The names a description is checked against (the model's layout) are computed once per
     model and kept by the compiler in the model's cache entry (verified by sha256): a second
     load runs no symbolic compiler; a damaged layout file is detected (one warning), the layout
-    computed again, and the walker is the same."""
+    computed again, and the walker is the same. (The loads after the first read the file in
+    full, as a load without a walker snapshot does: test_warm_start.py tests the snapshot.)"""
     from porthamiltonian import compiler
     from porthamiltonian.compiler import cache
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
     calls = []
     real = compiler.symbolic
     monkeypatch.setattr(compiler, "symbolic", lambda m: calls.append(1) or real(m))
+
+    def full_read():
+        spec, text = read_walker("simplest_walker")
+        return build_walker(spec, backend="python", text=text)
+
     first = load_walker("simplest_walker", backend="python")
     assert len(calls) == 3      # the layout; the walker's model; the impact's floating model
-    again = load_walker("simplest_walker", backend="python")
+    again = full_read()
     assert len(calls) == 3 and again.plan.outputs == first.plan.outputs
     path = cache.verified_path(cache.model_key(first.spec.frozen), "layout.json")
     path.write_text(path.read_text().replace("slope", "slope_"))
     with pytest.warns(UserWarning, match="layout.json"):
-        damaged = load_walker("simplest_walker", backend="python")
+        damaged = full_read()
     assert len(calls) == 4
     assert damaged.plan.names == first.plan.names
     np.testing.assert_array_equal(damaged.initial_guess(), first.initial_guess())
@@ -299,11 +305,12 @@ def _walker_expressions(table: dict) -> int:
 
 
 def test_a_warm_load_freezes_the_model_once_and_parses_each_expression_once(monkeypatch):
-    """One warm ``load_walker("compliant_leg_walker")`` (its layout and compiled model cached)
-    freezes the model once and parses no expression twice: at most one parse per expression of
-    the file (the model's: every expression field of its components, its events' guards and its
-    outputs; the walker table's: counted from the TOML table). It used to freeze the model 5
-    times and parse 289 expressions (each of the 16 condition strings 3 times)."""
+    """One warm load of "compliant_leg_walker" read in full (its layout and compiled model
+    cached, no walker snapshot: test_warm_start.py tests that one) freezes the model once and
+    parses no expression twice: at most one parse per expression of the file (the model's: every
+    expression field of its components, its events' guards and its outputs; the walker table's:
+    counted from the TOML table). It used to freeze the model 5 times and parse 289 expressions
+    (each of the 16 condition strings 3 times)."""
     import sys
 
     from porthamiltonian.modeling import expressions
@@ -329,7 +336,8 @@ def test_a_warm_load_freezes_the_model_once_and_parses_each_expression_once(monk
         if getattr(module, "parse", None) is real_parse:
             monkeypatch.setattr(module, "parse", parse)
     monkeypatch.setattr(ModelClass, "freeze", freeze)
-    walker = load_walker("compliant_leg_walker")
+    spec, text = read_walker("compliant_leg_walker")
+    walker = build_walker(spec, text=text)
     assert freezes == ["compliant_leg_walker"]
     assert 0 < len(parses) <= in_model + in_table, (len(parses), in_model, in_table)
     assert walker.initial_guess().shape == (10,)

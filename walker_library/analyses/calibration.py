@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from porthamiltonian import Component
+
 from ..core.walker import HybridWalker
 from .results import JSONResult
 
@@ -47,7 +49,8 @@ class DampingCalibration(JSONResult):
 def _damping_parameter(walker: HybridWalker) -> str:
     """The parameter named by the first foot's contact component as its damping."""
     foot = next(f for f in walker.spec.feet if f.contact)
-    value = walker.spec.model.component(foot.contact).args.get("damping")
+    contact = walker.spec.model.component(str(foot.contact))
+    value = contact.args.get("damping") if isinstance(contact, Component) else None
     return str(value) if isinstance(value, str) else "lam"
 
 

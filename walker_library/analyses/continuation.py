@@ -354,9 +354,10 @@ class _Map:
                 m, w = mu, self.walker(mu)
             strides = w.walk(z, self.k)
             self.strides += len(strides)
-            if len(strides) < self.k or strides[-1].fell:
+            z_next = strides[-1].z_next if len(strides) == self.k else None
+            if z_next is None or strides[-1].fell:
                 raise WalkerFell(z, strides[-1])
-            ends.append((m, strides[-1].z_next))
+            ends.append((m, z_next))
         (m1, s1), (m2, s2) = ends
         self._w = None
         dS = (s1 - s2) / (m1 - m2) * self.width
@@ -451,7 +452,8 @@ class _Continuer:
         return st
 
     def _correct(self, m: _Map, xp: np.ndarray, row: np.ndarray, A: np.ndarray,
-                 target: float = 0.0, max_iter: int = 10):
+                 target: float = 0.0,
+                 max_iter: int = 10) -> tuple[np.ndarray, list[Stride], int] | None:
         """Newton on [F(x); row·x − target] from xp with the Jacobian A of a nearby point,
         improved by Broyden's rank-one updates after each iteration (a finite-difference
         Jacobian is good to its error estimate only; the updates make the convergence
@@ -588,7 +590,8 @@ class _Continuer:
             direction = secant
             cur = new
 
-    def _land(self, m: _Map, cur: _State, d: np.ndarray, bound: float):
+    def _land(self, m: _Map, cur: _State, d: np.ndarray,
+              bound: float) -> tuple[np.ndarray, list[Stride], int] | None:
         """The corrected point at the end ``bound`` of the range (scaled μ: 0 or 1), from where
         the line cur.x + τ d crosses it (:meth:`_correct`'s result)."""
         e = np.zeros(len(cur.x))
@@ -689,7 +692,7 @@ class _Continuer:
                     len(self.branches) < self.max_branches):
                 self._pending.append((bif, state, m))
 
-    def _locate(self, m: _Map, a: _State, b: _State, kind: str):
+    def _locate(self, m: _Map, a: _State, b: _State, kind: str) -> tuple[_State, float] | None:
         """The sign change of test ``kind`` between a and b, located on the arclength from a
         (corrected points on hyperplanes normal to a's tangent). (state, μ error) or None."""
         d_total = float(a.t @ (b.x - a.x))
@@ -825,7 +828,7 @@ def _half_gap(point: BranchPoint, half: int, scale: np.ndarray) -> float:
 
 
 def continue_gait(walker: Walker, parameter: str | ParameterPath, start: float | None = None,
-                  stop: float | None = None, *, guess=None, period: int = 1,
+                  stop: float | None = None, *, guess: np.ndarray | None = None, period: int = 1,
                   jacobian: str = "variational", ds: float = 0.05, ds_min: float = 1e-6,
                   ds_max: float = 0.3, max_points: int = 400, tol: float | None = None,
                   locate: bool = True, locate_tol: float = 1e-10, doublings: int = 2,

@@ -51,7 +51,13 @@ from ..core.protocol import Stride, Walker
 from .continuation import ParameterPath, continue_gait
 from .metrics import GaitMetrics, gait_metrics
 from .monodromy import FloquetResult, floquet
-from .poincare import WalkerFell, detect_period, find_fixed_point
+from .poincare import (
+    FixedPointResult,
+    PeriodResult,
+    WalkerFell,
+    detect_period,
+    find_fixed_point,
+)
 from .results import JSONResult, to_jsonable, view
 
 __all__ = ["TIME_LIMIT", "GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult",
@@ -119,6 +125,11 @@ class GaitResult(JSONResult):
         found (by name). newton : the period-1 Newton search from the guess.
     unstable_fixed_point : the unstable period-1 orbit Newton found from the guess, if any.
     search : what was tried, in order.
+    gradients : with ``walker gait --gradient``: {quantity: {parameter: derivative}} of the
+        reported orbit (:mod:`.gradients`: step_period, speed, step_length,
+        energy_dissipated_per_step, cost_of_transport, max_multiplier_modulus); gradient_errors
+        the same layout (the multiplier's error bound); fixed_point_gradient {coordinate:
+        {parameter: dz*/dp}}. None without.
     """
 
     model: str
@@ -145,6 +156,9 @@ class GaitResult(JSONResult):
     search: list[str]
     parameters: dict
     message: str
+    gradients: dict | None = None
+    gradient_errors: dict | None = None
+    fixed_point_gradient: dict | None = None
 
     def to_dict(self) -> dict:
         d = {
@@ -163,6 +177,9 @@ class GaitResult(JSONResult):
                   "fall_reason": self.fall_reason, "last_iterate": self.last_iterate,
                   "newton": self.newton, "unstable_fixed_point": self.unstable_fixed_point,
                   "search": self.search, "parameters": self.parameters, "message": self.message})
+        if self.gradients is not None:
+            d.update({"gradients": self.gradients, "gradient_errors": self.gradient_errors,
+                      "fixed_point_gradient": self.fixed_point_gradient})
         return to_jsonable(d)
 
     def plot(self, walker: Walker | None = None, *, steps: int = 2) -> Any:
@@ -174,7 +191,7 @@ class GaitResult(JSONResult):
         return view(self, "html")(self)
 
 
-def _named(walker: Walker, z) -> dict:
+def _named(walker: Walker, z: np.ndarray) -> dict:
     return {k: float(v) for k, v in walker.section_state(np.asarray(z, dtype=float)).items()}
 
 
@@ -193,7 +210,7 @@ def _step_record(walker: Walker, s: Stride) -> dict:
             "state_after": _named(walker, s.z_next) if s.z_next is not None else None}
 
 
-def _newton_dict(walker: Walker, fp) -> dict:
+def _newton_dict(walker: Walker, fp: FixedPointResult) -> dict:
     return {"converged": fp.converged, "residual": fp.residual, "iterations": fp.iterations,
             "period": fp.period, "message": fp.message, "last_iterate": _named(walker, fp.z)}
 
@@ -247,7 +264,7 @@ def section_guess(walker: Walker, previous: Mapping | None = None,
     return z
 
 
-def _finite(value, name: str) -> float:
+def _finite(value: Any, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ModelError(f"guess: {name} must be a finite number, got {value!r}")
     return float(value)
@@ -261,8 +278,7 @@ class _Search:
         self.walker, self.fd_step, self.jacobian, self.tol = walker, fd_step, jacobian, tol
         self.orbits: list[Orbit] = []
         self.tried: list[str] = []
-        self.newton = None      # the period-1 Newton search from the guess
-        self.period = None      # the period detection from the guess (None: not needed)
+        self.period: PeriodResult | None = None     # the period detection from the guess
         self.stopped = ""       # why the search stopped at its time limit ("" if it did not)
         self.time_limit: float | None = None
 
@@ -321,7 +337,7 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
     changed = {k: v for k, v in walker.parameters.items()
                if k in nominal_values and nominal_values[k] != v}
     nominal = walker.with_parameters(**nominal_values)
-    start = _direct(nominal, None, tol=tol, max_iter=max_iter, max_period=max_period,
+    start, _ = _direct(nominal, None, tol=tol, max_iter=max_iter, max_period=max_period,
                     search=_Search(nominal, search.fd_step, search.jacobian, tol))
     if start is None:
         search.tried.append("the model file's nominal gait: no stable orbit from its own guess "
@@ -365,23 +381,22 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
                             "at the requested values")
 
 
-def _direct(walker: Walker, guess, *, tol: float, max_iter: int, max_period: int,
-            search: _Search, n_iterate: int = 200, period_tol: float = 1e-7,
-            deadline: float = math.inf):
-    """Steps 1–2 of the search from ``guess``: the stable orbit found, or None. Returns the
-    Newton result and the period detection through ``search.last``."""
+def _direct(walker: Walker, guess: np.ndarray | None, *, tol: float, max_iter: int,
+            max_period: int, search: _Search, n_iterate: int = 200, period_tol: float = 1e-7,
+            deadline: float = math.inf) -> tuple[Orbit | None, FixedPointResult]:
+    """Steps 1–2 of the search from ``guess``: (the stable orbit found, or None; the period-1
+    Newton search from the guess). The period detection is left in ``search.period``."""
     z0 = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
     fp = find_fixed_point(walker, z0, period=1, tol=tol, max_iter=max_iter)
-    search.newton = fp
     search.tried.append(f"Newton (period 1) from the guess: {fp.message}")
     if fp.converged:
         orbit = search.add(fp.z, 1, "Newton from the guess")
         if orbit is not None and orbit.stable:
             search.period = None
-            return orbit
+            return orbit, fp
     if time.perf_counter() > deadline:
         search.out_of_time("after Newton from the guess")
-        return search.stable()
+        return search.stable(), fp
     pr = detect_period(walker, z0, max_period=max_period, n_steps=n_iterate, tol=period_tol)
     search.period = pr
     if pr.fell_at_step is not None:
@@ -398,10 +413,10 @@ def _direct(walker: Walker, guess, *, tol: float, max_iter: int, max_period: int
         search.tried.append(f"iterating from the guess: {len(pr.iteration.strides)} steps, no "
                             f"period <= {max_period} (closest relative distance "
                             f"{pr.distance:.2e})")
-    return search.stable()
+    return search.stable(), fp
 
 
-def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
+def analyze_gait(walker: Walker, guess: np.ndarray | None = None, *, max_period: int = 8,
                  fd_step: float | None = None, tol: float | None = None, n_iterate: int = 200,
                  period_tol: float = 1e-7, max_iter: int = 30, continuation: bool = True,
                  jacobian: str = "variational", log: Callable[[str], None] | None = None,
@@ -428,13 +443,14 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
     deadline = math.inf if time_limit is None else time.perf_counter() + time_limit
     if tol is None:
         tol = float(walker.gait_tolerance)
-    base = {"model": walker.name, "section": list(walker.section),
-            "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
+    base: dict[str, Any] = {"model": walker.name, "section": list(walker.section),
+                            "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     search = _Search(walker, fd_step, jacobian, tol)
     search.time_limit = time_limit
-    gait = _direct(walker, guess, tol=tol, max_iter=max_iter, max_period=max_period,
-                   search=search, n_iterate=n_iterate, period_tol=period_tol, deadline=deadline)
-    fp, pr = search.newton, search.period
+    gait, fp = _direct(walker, guess, tol=tol, max_iter=max_iter, max_period=max_period,
+                       search=search, n_iterate=n_iterate, period_tol=period_tol,
+                       deadline=deadline)
+    pr = search.period
     if gait is None and continuation and not search.stopped:
         _homotopy(search, walker, tol=tol, max_iter=max_iter, max_period=max_period, log=log,
                   deadline=deadline)
@@ -452,10 +468,11 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
                "floquet_multipliers": [complex(m) for m in o.floquet.multipliers],
                "multiplier_errors": o.floquet.errors.tolist(), "found_by": o.found_by}
               for o in search.orbits]
-    fell = pr is not None and pr.fell_at_step is not None
-    common = dict(orbits=orbits, newton=newton, unstable_fixed_point=unstable,
-                  search=list(search.tried), fell_at_step=pr.fell_at_step if fell else None,
-                  fall_reason=pr.iteration.fall_reason if fell else "", **base)
+    fell = pr if pr is not None and pr.fell_at_step is not None else None
+    common: dict[str, Any] = dict(
+        orbits=orbits, newton=newton, unstable_fixed_point=unstable, search=list(search.tried),
+        fell_at_step=fell.fell_at_step if fell is not None else None,
+        fall_reason=fell.iteration.fall_reason if fell is not None else "", **base)
     if gait is not None or search.orbits:
         orbit = gait or min(search.orbits, key=lambda o: (o.floquet.max_modulus, o.period))
         outcome = (GaitOutcome.STABLE_GAIT if gait is not None
@@ -469,8 +486,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
         if search.stopped:
             message += f"; {search.stopped}"
         return _periodic(walker, orbit, outcome, message, common)
-    if fell:
-        it = pr.iteration
+    if fell is not None:
+        it = fell.iteration
         return GaitResult(status=GaitStatus.FELL, outcome=GaitOutcome.FELL, period_steps=0,
                           stable=None,
                           stability_certain=None, fixed_point=_empty_point(walker),
@@ -479,7 +496,7 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
                           steps=[_step_record(walker, s) for s in it.strides],
                           last_iterate=_named(walker, it.states[-1]),
                           message=f"no periodic orbit found, and the walker fell during step "
-                                  f"{pr.fell_at_step} ({it.fall_reason}) iterating from the guess"
+                                  f"{fell.fell_at_step} ({it.fall_reason}) iterating from the guess"
                                   + (f"; {search.stopped}" if search.stopped else ""),
                           **common)
     last = pr.iteration.states[-1] if pr is not None else fp.z
@@ -496,7 +513,8 @@ def analyze_gait(walker: Walker, guess=None, *, max_period: int = 8,
 def _periodic(walker: Walker, orbit: Orbit, outcome: GaitOutcome, message: str,
               common: dict) -> GaitResult:
     strides = walker.walk(orbit.z, orbit.period, details=True)
-    points = [_named(walker, orbit.z)] + [_named(walker, s.z_next) for s in strides[:-1]]
+    points = [_named(walker, orbit.z)] + [_named(walker, s.z_next) for s in strides[:-1]
+                                          if s.z_next is not None]
     fl = orbit.floquet
     return GaitResult(status=GaitStatus.PERIODIC, outcome=outcome, period_steps=orbit.period,
                       stable=fl.stable, stability_certain=fl.certain, fixed_point=points[0],
@@ -508,8 +526,8 @@ def _periodic(walker: Walker, orbit: Orbit, outcome: GaitOutcome, message: str,
                       message=message, **common)
 
 
-def gait_start(walker: Walker, parameter: str, start: float, guess=None,
-               **options) -> tuple[np.ndarray, int]:
+def gait_start(walker: Walker, parameter: str, start: float, guess: np.ndarray | None = None,
+               **options: Any) -> tuple[np.ndarray, int]:
     """The fixed point and period of the walker's gait at ``parameter`` = ``start`` (the start
     of a continuation): the period-1 orbit Newton reaches from a given ``guess`` (stable or not:
     an unstable orbit, Garcia's short-period gait say, is followed as given), else the orbit
@@ -544,7 +562,7 @@ class WalkResult(JSONResult):
     parameters: dict = field(default_factory=dict)
 
 
-def walk(walker: Walker, z0=None, n_steps: int = 20) -> WalkResult:
+def walk(walker: Walker, z0: np.ndarray | None = None, n_steps: int = 20) -> WalkResult:
     """Walk ``n_steps`` from ``z0`` (default: the initial guess) in one simulation and report the
     energy ledger: its residual H − H(0) + E_diss − E_in, absolute and relative to the energy scale."""
     z0 = np.asarray(walker.initial_guess() if z0 is None else z0, dtype=float)

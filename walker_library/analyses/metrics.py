@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
 
 from ..core.protocol import Stride
@@ -36,7 +37,7 @@ class GaitMetrics:
         return asdict(self)
 
 
-def _nanmax(values) -> float:
+def _nanmax(values: Iterable[float | None]) -> float:
     vals = [v for v in values if v is not None and math.isfinite(v)]
     return max(vals) if vals else math.nan
 

@@ -139,7 +139,7 @@ def _one_rung(walker: Walker, z: np.ndarray, j: int, h: float,
     return _central(walker, z, j, h, period), np.full(len(z), np.nan), h, 2
 
 
-def stride_jacobian(walker: Walker, z, *, period: int = 1, method: str = "variational",
+def stride_jacobian(walker: Walker, z: np.ndarray, *, period: int = 1, method: str = "variational",
                     first_step: float | None = None, steps: np.ndarray | None = None,
                     error: np.ndarray | None = None) -> StrideJacobian:
     """The Jacobian of S^period at the section state ``z`` (model coordinates) by ``method``
@@ -179,10 +179,10 @@ def stride_jacobian(walker: Walker, z, *, period: int = 1, method: str = "variat
 def _variational(walker: Walker, z: np.ndarray, period: int) -> StrideJacobian:
     """The exact Jacobian and its error estimate (module docstring)."""
     runs = [walker.stride_sensitivity(z, period), walker.stride_sensitivity(z, period, factor=10.0)]
-    for run in runs:
-        if run.fell:
-            raise WalkerFell(z, Stride(StrideStatus.FELL, None, 0.0, reason=run.fell))
+    fell = next((run.fell for run in runs if run.fell), "")
     J, bound, coarse = runs[0].jacobian, runs[0].difference_error, runs[1].jacobian
+    if fell or J is None or bound is None or coarse is None:    # a run that fell has no J
+        raise WalkerFell(z, Stride(StrideStatus.FELL, None, 0.0, reason=fell))
     E = np.abs(J - coarse) + bound
     return StrideJacobian(J, E, np.full(len(z), np.nan), "variational", period,
                           period * len(runs), coarse, bound)
@@ -215,7 +215,7 @@ def multipliers(sj: StrideJacobian) -> tuple[np.ndarray, np.ndarray]:
     (:func:`eigen_errors`). The elementwise route over-estimates the multipliers' errors of a
     stiff walker 100–1000 times: its Jacobian has large entries in directions the multipliers
     do not feel."""
-    if sj.coarse is None:
+    if sj.coarse is None or sj.bound is None:
         return eigen_errors(sj.matrix, sj.error)
     lam, err = eigen_errors(sj.matrix, sj.bound)
     other = np.linalg.eigvals(sj.coarse)
@@ -245,7 +245,7 @@ class FloquetResult:
     steps: np.ndarray
     period: int
     method: str = "variational"
-    jacobian_error: np.ndarray = field(default=None, repr=False)
+    jacobian_error: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def error(self) -> float:
@@ -275,7 +275,7 @@ def floquet_of(walker: Walker, sj: StrideJacobian) -> FloquetResult:
     return FloquetResult(lam, err, sj.matrix, JT, sj.steps, sj.period, sj.method, sj.error)
 
 
-def floquet(walker: Walker, z, *, period: int = 1, step: float | None = None,
+def floquet(walker: Walker, z: np.ndarray, *, period: int = 1, step: float | None = None,
             jacobian: str = "variational") -> FloquetResult:
     """Floquet multipliers at a fixed point z of S^period with error bounds (module docstring).
     ``jacobian``: "variational" (exact) or "fd"; ``step`` only sets where the finite-difference

@@ -40,19 +40,19 @@ __all__ = [
 class WalkerFell(RuntimeError):
     """Raised inside the analyses when a stride needed for a derivative falls."""
 
-    def __init__(self, z, stride: Stride):
+    def __init__(self, z: np.ndarray, stride: Stride) -> None:
         super().__init__(f"the walker fell ({stride.reason}) from section state {np.asarray(z).tolist()}")
         self.z, self.stride = z, stride
 
 
-def _walk(walker: Walker, z, n_steps: int) -> list[Stride]:
+def _walk(walker: Walker, z: np.ndarray, n_steps: int) -> list[Stride]:
     """``walker.walk``, counting the strides as progress (``porthamiltonian.batch.progress``)."""
     strides = walker.walk(z, n_steps)
     tick("stride", len(strides))
     return strides
 
 
-def _to_model(walker: Walker, z, coordinates: str) -> np.ndarray:
+def _to_model(walker: Walker, z: np.ndarray, coordinates: str) -> np.ndarray:
     z = np.asarray(z, dtype=float)
     if coordinates == "model":
         return z
@@ -61,24 +61,27 @@ def _to_model(walker: Walker, z, coordinates: str) -> np.ndarray:
     raise OptionError(f"coordinates must be 'model' or 'thesis', got {coordinates!r}")
 
 
-def _from_model(walker: Walker, z, coordinates: str) -> np.ndarray:
+def _from_model(walker: Walker, z: np.ndarray, coordinates: str) -> np.ndarray:
     return np.asarray(z if coordinates == "model" else walker.to_thesis(z), dtype=float)
 
 
-def stride_map(walker: Walker, z, period: int = 1, coordinates: str = "model") -> np.ndarray | None:
+def stride_map(walker: Walker, z: np.ndarray, period: int = 1,
+               coordinates: str = "model") -> np.ndarray | None:
     """S^period(z) on the section (``coordinates``: "model" or "thesis"); None if the walker falls."""
     strides = _walk(walker, _to_model(walker, z, coordinates), period)
-    if len(strides) < period or strides[-1].fell:
+    z_next = strides[-1].z_next if len(strides) == period else None
+    if z_next is None or strides[-1].fell:
         return None
-    return _from_model(walker, strides[-1].z_next, coordinates)
+    return _from_model(walker, z_next, coordinates)
 
 
 def advance(walker: Walker, z: np.ndarray, period: int) -> np.ndarray:
     """S^period(z) in model coordinates; raises :class:`WalkerFell` when the walker falls."""
     strides = _walk(walker, z, period)
-    if len(strides) < period or strides[-1].fell:
+    z_next = strides[-1].z_next if len(strides) == period else None
+    if z_next is None or strides[-1].fell:
         raise WalkerFell(z, strides[-1])
-    return strides[-1].z_next
+    return z_next
 
 
 @dataclass
@@ -92,7 +95,7 @@ class IterationResult:
     fall_reason: str = ""
 
 
-def iterate(walker: Walker, z0, n_steps: int, chunk: int = 50) -> IterationResult:
+def iterate(walker: Walker, z0: np.ndarray, n_steps: int, chunk: int = 50) -> IterationResult:
     """Walk ``n_steps`` steps from ``z0`` (in chunks of one simulation each)."""
     states = [np.asarray(z0, dtype=float)]
     strides: list[Stride] = []
@@ -100,20 +103,21 @@ def iterate(walker: Walker, z0, n_steps: int, chunk: int = 50) -> IterationResul
         batch = _walk(walker, states[-1], min(chunk, n_steps - len(strides)))
         for s in batch:
             strides.append(s)
-            if s.fell:
+            if s.fell or s.z_next is None:
                 return IterationResult(states, strides, len(strides), s.reason)
             states.append(s.z_next)
     return IterationResult(states, strides)
 
 
-def jacobian(walker: Walker, z, *, period: int = 1, step: float = 1e-3,
-             scheme: str = "central", coordinates: str = "model", base=None) -> np.ndarray:
+def jacobian(walker: Walker, z: np.ndarray, *, period: int = 1, step: float = 1e-3,
+             scheme: str = "central", coordinates: str = "model",
+             base: np.ndarray | None = None) -> np.ndarray:
     """Finite-difference Jacobian of S^period at z (raises :class:`WalkerFell` when a perturbed
     stride falls). ``step`` is absolute, in the units of the chosen section coordinates."""
     z = np.asarray(z, dtype=float)
     n = len(z)
 
-    def S(w):
+    def S(w: np.ndarray) -> np.ndarray:
         return _from_model(walker, advance(walker, _to_model(walker, w, coordinates), period), coordinates)
 
     J = np.empty((n, n))
@@ -152,7 +156,7 @@ class FixedPointResult:
     history: list[tuple[list[float], float]] = field(default_factory=list)
 
 
-def find_fixed_point(walker: Walker, guess=None, *, period: int = 1, tol: float = 1e-10,
+def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period: int = 1, tol: float = 1e-10,
                      max_iter: int = 30, fd_step: float = 1e-6) -> FixedPointResult:
     """Newton's method on S^period(z) − z from ``guess`` (default: the walker's initial guess),
     with a forward-difference Jacobian (perturbation ``fd_step``) and step halving when a step
@@ -220,7 +224,7 @@ class PeriodResult:
         return self.iteration.fell_at_step
 
 
-def detect_period(walker: Walker, z0, *, max_period: int = 8, n_steps: int = 200,
+def detect_period(walker: Walker, z0: np.ndarray, *, max_period: int = 8, n_steps: int = 200,
                   tol: float = 1e-7, chunk: int = 25) -> PeriodResult:
     """Iterate the stride map from ``z0`` (at most ``n_steps`` steps, checked every ``chunk``
     steps) and return the smallest period k ≤ ``max_period`` with |z_N − z_{N−k}|_∞ <

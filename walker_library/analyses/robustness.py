@@ -42,6 +42,7 @@ import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Any
 
 import numpy as np
 
@@ -119,7 +120,7 @@ class Recovery:
         return self.status == RecoveryStatus.CONVERGED
 
 
-def recovers(walker: Walker, z0, fixed_points: np.ndarray, *, n_steps: int, tol: float,
+def recovers(walker: Walker, z0: np.ndarray, fixed_points: np.ndarray, *, n_steps: int, tol: float,
              ground_drop: float = 0.0, max_chunks: int = 5) -> Recovery:
     """Walk from ``z0`` (after a drop of ``ground_drop``) and classify the outcome: walks
     ``n_steps`` at a time, at most ``max_chunks`` times, until the state is within ``tol`` of a
@@ -131,7 +132,7 @@ def recovers(walker: Walker, z0, fixed_points: np.ndarray, *, n_steps: int, tol:
         tick("stride", len(strides))
         total += len(strides)
         last = strides[-1]
-        if last.fell:
+        if last.fell or last.z_next is None:
             return Recovery(RecoveryStatus.FELL, total, math.nan, last.reason)
         z = last.z_next
         d = float(np.min(np.max(np.abs(fixed_points - z[None, :]), axis=1)))
@@ -208,7 +209,8 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
     ``boundary_tol`` is 0). ``progress`` is called with each case record as it finishes."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
-    base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol}
+    base: dict[str, Any] = {"model": walker.name, "parameters": dict(walker.parameters),
+                            "tol": tol}
     if gait.status != GaitStatus.PERIODIC:
         return StepDownResult(status=AnalysisStatus.NO_GAIT, max_step_down=None, contiguous=False,
                               contiguous_limit=None, survived_intervals=[],
@@ -296,7 +298,7 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
 
 
 # --- basin of attraction -------------------------------------------------------------------------
-def basin_state(walker: Walker, z_star, theta: float, theta_dot: float) -> np.ndarray:
+def basin_state(walker: Walker, z_star: np.ndarray, theta: float, theta_dot: float) -> np.ndarray:
     """Section state with thesis θ, θ̇ set and the rest taken from the fixed point ``z_star``
     (φ keeps its offset from 2θ). A walker's own ``basin_state`` method takes precedence."""
     own = walker.basin_state(z_star, theta, theta_dot)
@@ -353,14 +355,16 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
     over section states (:func:`walker_library.analyses.basin_case`). ``progress`` is called per grid point."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
-    base = {"model": walker.name, "parameters": dict(walker.parameters), "tol": tol,
-                "theta_scale": theta_scale, "theta_dot_scale": theta_dot_scale}
+    base: dict[str, Any] = {"model": walker.name, "parameters": dict(walker.parameters),
+                            "tol": tol, "theta_scale": theta_scale,
+                            "theta_dot_scale": theta_dot_scale}
     if gait.status != GaitStatus.PERIODIC:
         return BasinResult(status=AnalysisStatus.NO_GAIT, theta=[], theta_dot=[], fixed_point=gait.fixed_point,
                            outcome=[], steps=[], fraction=math.nan, radius=math.nan, n_steps=0,
                            seconds=time.perf_counter() - t0,
                            message=f"no periodic gait: {gait.message}", **base)
-    span_th, span_thd = (span, span) if np.isscalar(span) else (float(span[0]), float(span[1]))
+    span_th, span_thd = ((float(span), float(span)) if isinstance(span, (int, float, np.number))
+                         else (float(span[0]), float(span[1])))
     if n < 2 or not (span_th > 0 and span_thd > 0):
         raise ParameterValueError(f"basin: n ({n}) must be >= 2 and span ({span}) > 0")
     n_steps = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
@@ -424,7 +428,7 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
     """GSN of the gait for a single step-down of size h (default 1e-5 of the leg length), by
     finite differences at h and h/2 (module docstring)."""
     gait = _gait_or_raise(walker, gait)
-    base = {"model": walker.name, "parameters": dict(walker.parameters)}
+    base: dict[str, Any] = {"model": walker.name, "parameters": dict(walker.parameters)}
     if gait.status != GaitStatus.PERIODIC:
         return GSNResult(status=AnalysisStatus.NO_GAIT, gsn=math.nan, by_indicator={}, response={},
                          error=math.nan, h=math.nan, n_steps=0,
@@ -444,11 +448,12 @@ def gait_sensitivity_norm(walker: Walker, gait: GaitResult | None = None, *, h: 
 
     runs = []
     for drop in (0.0, h, h / 2):
-        runs.append(series(drop))
-        if runs[-1] is None:
+        run = series(drop)
+        if run is None:
             return GSNResult(status=AnalysisStatus.FELL, gsn=math.nan, by_indicator={}, response={},
                              error=math.nan, h=h, n_steps=n_steps,
                              message=f"the walker fell after a drop of {drop:g} m", **base)
+        runs.append(run)
     s0, s1, s2 = runs
     g1 = {k: (s1[k] - s0[k]) / h for k in indicators}
     g2 = {k: (s2[k] - s0[k]) / (h / 2) for k in indicators}

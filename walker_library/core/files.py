@@ -25,8 +25,9 @@ import tomli_w
 from porthamiltonian import io as ph_io
 from porthamiltonian.errors import ModelFileError, ParameterValueError
 
+from . import warm
 from .hybrid import Integration, WalkerSpec
-from .reading import walker_spec
+from .reading import file_spec
 from .walker import HybridWalker, build_walker
 
 __all__ = ["SHIPPED", "available_walkers", "check_target", "compass_gait", "compass_walker",
@@ -46,15 +47,16 @@ def read_walker(name_or_path: str | Path) -> tuple[WalkerSpec, str]:
     """The :class:`~.hybrid.WalkerSpec` of a walker file (by name in models/ or by path) and
     the file's text. Raises ModelFileError (file, line, part) for a file that is not a walker
     file or whose ``[walker]`` table is wrong."""
-    record = ph_io.read(name_or_path)
-    path, text = record.source, record.text
-    table = record.sections.get("walker")
-    if table is None:
-        raise ModelFileError(f"{path}: not a walker file: it has no [walker] table (a walker is a "
-                             "model plus its hybrid description; see docs/walkers.md)")
-    return walker_spec(record.model, table, source=str(path), text=text,
-                       description=record.description, units=str(record.meta.get("units", "")),
-                       frozen=record.frozen), text
+    record = ph_io.reads(*reversed(_file_text(name_or_path)))
+    return file_spec(record), record.text
+
+
+def _file_text(name_or_path: str | Path) -> tuple[str, str]:
+    """(the path, the text) of a model file by name or path, as :func:`porthamiltonian.io.read`
+    finds and reads it."""
+    path = ph_io.model_path(name_or_path)
+    return str(path), ph_io.read_text(path, limit=ph_io.MAX_FILE_SIZE, label=str(path),
+                                      kind="model file", language="TOML")
 
 
 def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None = None, *,
@@ -65,12 +67,23 @@ def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None 
     ``backend``: None for the file's own (``[walker.integration] backend``); ``options``:
     integrator settings replacing the file's. Raises ModelFileError for a bad file (before
     anything is compiled) and ParameterValueError for unknown or out-of-range parameters.
+
+    A walker loaded before from the same text (and package, compiler and back end) starts from
+    its snapshot (:mod:`.warm`: no sympy, no networkx); a walker loaded in full leaves one.
     """
-    spec, text = read_walker(name_or_path)
+    source, text = _file_text(name_or_path)
+    asked = backend or (options.backend if options is not None else None)
     try:
-        return build_walker(spec, backend=backend, options=options, values=overrides, text=text)
+        walker = warm.restore(source, text, asked, values=overrides, options=options)
+        if walker is not None:
+            return walker
+        record = ph_io.reads(text, source)
+        walker = build_walker(file_spec(record), backend=backend, options=options,
+                              values=overrides, text=record.text)
     except ParameterValueError as err:
-        raise ParameterValueError(f"{spec.source}: {err}") from None
+        raise ParameterValueError(f"{source}: {err}") from None
+    warm.keep(walker, source, text, asked)
+    return walker
 
 
 def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str = "", *,

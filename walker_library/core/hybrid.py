@@ -23,20 +23,23 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
-import sympy as sp
-
-from porthamiltonian import Model
 from porthamiltonian.errors import ModelError
 from porthamiltonian.modeling.expressions import parse
-from porthamiltonian.modeling.model import ModelDescription
+
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from porthamiltonian.modeling.model import Model, ModelDescription
 
 __all__ = ["Comparison", "Completion", "Expr", "Foot", "Integration", "Interval", "Parsed",
            "Rule", "Section", "Terrain", "WalkerSpec", "parse_condition", "parse_equation",
            "parse_interval"]
 
 Value = str | float
+#: where a jump of H at an event is booked (:class:`porthamiltonian.Reset`)
+Booking = Literal["dissipated", "supplied"]
 
 #: the comparison operators of a rule's conditions
 COMPARISONS = ("<=", ">=", "==", "!=", "<", ">")
@@ -91,7 +94,7 @@ class Rule:
     impact: str | None = None
     heel_strike: bool = False
     fall: bool = False
-    energy: str = "dissipated"
+    energy: Booking = "dissipated"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "when", tuple(self.when))
@@ -202,7 +205,7 @@ class WalkerSpec:
     section: Section
     angles: tuple[tuple[str, str], ...]
     terrain: Terrain
-    relabel: tuple[tuple[str, str], ...] = ()
+    relabel: tuple[tuple[str, Value], ...] = ()
     guess: tuple[tuple[str, Value], ...] = ()
     guess_where: tuple[tuple[str, str], ...] = ()
     ranges: tuple[tuple[str, str], ...] = ()

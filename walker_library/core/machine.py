@@ -13,18 +13,32 @@ rules to the initial modes and gives :func:`porthamiltonian.simulate` one action
 (:meth:`ModeMachine.actions`); every transition that fires is recorded in the walk's
 :class:`WalkLog` (:class:`Fired`: time, transition, state and parameters before and after), and
 the walk stops after the requested number of heel strikes or at a fall.
+
+For runs with sensitivities (:mod:`.variational`) the actions also give the derivatives of
+what they do (:meth:`ModeMachine.actions` with ``derivatives``): the state map's Jacobian
+``Reset.jacobian`` = ∂x⁺/∂x⁻ and, by the differentiated parameters, ``Reset.jacobian_p`` =
+∂x⁺/∂p (the impact and the relabelling read masses, lengths, the new stance foot), and for each
+mode set from an output (a stance foot's position) the gradient of its value by [x⁻, p]
+(``Reset.params_jacobian``); modes set to constants (contact flags) have none. All by central
+differences of the composite map (x, p) ↦ (x⁺, p⁺) (:mod:`porthamiltonian.simulation.
+differences`; the maps are smooth and cheap), their error estimates relative to each Jacobian's
+largest entry recorded in the :class:`Fired` record (``info["jacobian_error"]``).
 """
 from __future__ import annotations
 
 import functools
 import operator
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
 from porthamiltonian import Reset
 from porthamiltonian.simulation.compiled import CompiledModel
+from porthamiltonian.simulation.differences import Derivative, jacobian
 
+from .hybrid import Booking
 from .resets import ImpactMap
 
 __all__ = ["Change", "Condition", "Fired", "ModeMachine", "Transition", "WalkLog"]
@@ -58,7 +72,9 @@ class Change:
 
     def value(self, y: np.ndarray) -> float:
         """The new value, for the outputs ``y`` just before the event."""
-        return float(self.constant if self.output is None else y[self.output])
+        if self.output is not None:
+            return float(y[self.output])
+        return float(cast(float, self.constant))    # the plan sets one of the two
 
 
 @dataclass(frozen=True)
@@ -75,7 +91,7 @@ class Transition:
     impact: ImpactMap | None = None
     heel_strike: bool = False
     fall: bool = False
-    energy: str = "dissipated"
+    energy: Booking = "dissipated"
     foot: str | None = None
 
     def guard(self, model: CompiledModel, t: float, x: np.ndarray, p: np.ndarray) -> float:
@@ -108,10 +124,8 @@ class Transition:
         """∂x⁺/∂x⁻ of the state map (the identity when the transition has no reset)."""
         if self.impact is None:
             return np.eye(len(x))
-        return self.impact.jacobian(t, x, p, self.params_after(p, self._outputs(t, x, p)))
-
-    def _outputs(self, t, x, p):
-        return self.impact.model.outputs(t, x, p)
+        y = self.impact.model.outputs(t, x, p)
+        return self.impact.jacobian(t, x, p, self.params_after(p, y))
 
 
 @dataclass(frozen=True)
@@ -166,21 +180,79 @@ class ModeMachine:
         tr = self.first("start", y)
         return p if tr is None else tr.params_after(p, y)
 
-    def fire(self, event: str, log: WalkLog, t: float, x: np.ndarray, p: np.ndarray) -> Reset:
-        """The action of ``event``: the first transition that applies, recorded in ``log``."""
+    def fire(self, event: str, log: WalkLog, t: float, x: np.ndarray, p: np.ndarray,
+             derivatives: Sequence[str] | None = None) -> Reset:
+        """The action of ``event``: the first transition that applies, recorded in ``log``;
+        with ``derivatives`` (parameter names, possibly none) also the derivatives of what it
+        does (module docstring)."""
         y = self.model.outputs(t, x, p)
         tr = self.first(event, y)
         if tr is None:
             return Reset()
         x_after, p_after, info = tr.apply(t, x, p, y)
+        extra: dict = {}
+        if derivatives is not None:
+            extra, info["jacobian_error"] = self._derivatives(tr, t, x, p, derivatives)
         log.fired.append(Fired(t, tr, np.array(x, dtype=float), np.array(p, dtype=float),
                                x_after, p_after, info))
         stop = tr.fall or (tr.heel_strike and len(log.heel_strikes) >= log.target)
         names = self.model.param_names
         params = {names[c.index]: p_after[c.index] for c in tr.changes}
         return Reset(x=x_after if tr.impact is not None else None, params=params or None,
-                     stop=stop, energy=tr.energy)
+                     stop=stop, energy=tr.energy, **extra)
 
-    def actions(self, log: WalkLog) -> dict:
-        """One action per event that has transitions, for :func:`porthamiltonian.simulate`."""
-        return {event: functools.partial(self.fire, event, log) for event in self.events}
+    def _derivatives(self, tr: Transition, t: float, x: np.ndarray, p: np.ndarray,
+                     names: Sequence[str]) -> tuple[dict, float]:
+        """The Reset fields of ``tr``'s derivatives at (t, x, p) by the parameters ``names``
+        and the modes any transition sets from an output (module docstring), and the largest
+        relative error estimate of the differences."""
+        model = self.model
+        x = np.asarray(x, dtype=float)
+        p = np.asarray(p, dtype=float)
+        n = len(x)
+        wanted = sorted({model.param_names.index(name) for name in names}
+                        | {c.index for t_ in self.transitions for c in t_.changes
+                           if c.output is not None})
+        errors: list[float] = []
+
+        def relative(d: Derivative) -> np.ndarray:
+            size = float(np.max(np.abs(d.value))) if d.value.size else 0.0
+            errors.append(d.max_error / size if size > 0 else 0.0)
+            return d.value
+
+        def at(values: np.ndarray) -> np.ndarray:
+            q = p.copy()
+            q[wanted] = values
+            return q
+
+        out: dict = {}
+        if tr.impact is not None:
+            def state(xx: np.ndarray, q: np.ndarray) -> np.ndarray:
+                return tr.apply(t, xx, q, model.outputs(t, xx, q))[0]
+            out["jacobian"] = relative(jacobian(lambda xx: state(xx, p), x, 1.0))
+            if not names:
+                return out, max(errors, default=0.0)
+            R_p = relative(jacobian(lambda v: state(x, at(v)), p[wanted], 1.0))
+            out["jacobian_p"] = {model.param_names[i]: R_p[:, k] for k, i in enumerate(wanted)}
+        if not names:
+            return out, max(errors, default=0.0)
+        rows = {}
+        for c in tr.changes:
+            if c.output is None:
+                continue
+            row = np.zeros(n + len(p))
+            row[:n] = relative(jacobian(lambda xx, o=c.output: model.outputs(t, xx, p)[o:o + 1],
+                                        x, 1.0))[0]
+            row[n + np.array(wanted, dtype=int)] = relative(jacobian(
+                lambda v, o=c.output: model.outputs(t, x, at(v))[o:o + 1], p[wanted], 1.0))[0]
+            rows[model.param_names[c.index]] = row
+        if rows:
+            out["params_jacobian"] = rows
+        return out, max(errors, default=0.0)
+
+    def actions(self, log: WalkLog, derivatives: Sequence[str] | None = None) -> dict:
+        """One action per event that has transitions, for :func:`porthamiltonian.simulate`;
+        with ``derivatives`` (parameter names; empty: the state's only) each gives the
+        derivatives of what it does (module docstring)."""
+        return {event: functools.partial(self.fire, event, log, derivatives=derivatives)
+                for event in self.events}

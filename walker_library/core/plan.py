@@ -31,23 +31,28 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sympy as sp
 
-from porthamiltonian import Multibody
 from porthamiltonian.compiler import Layout
 from porthamiltonian.errors import ModelFileError
 from porthamiltonian.interfaces.io import locate
 from porthamiltonian.modeling.constraints import Constraint
 from porthamiltonian.modeling.expressions import Expression, parse_text
-from porthamiltonian.modeling.model import ModelDescription
 
-from .hybrid import Expr, Interval, Parsed, WalkerSpec, parse_equation
+from .hybrid import Booking, Expr, Interval, Parsed, WalkerSpec, parse_equation
 from .problems import Problems, suggestion
 from .protocol import ParameterSpec
 from .resets import Floating, floating_model
+
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from porthamiltonian.modeling.model import ModelDescription
+
+# The records import no sympy (a walker restored from its snapshot uses them); the checks that
+# need it (linear maps, the thesis's inverse) import it when they run.
 
 __all__ = ["BodiesMass", "ChangePlan", "ConditionPlan", "ModelNames", "Projected", "RelabelMap", "SectionMap",
            "SetState", "SolveState", "TransitionPlan", "WalkerPlan", "walker_plan"]
@@ -76,6 +81,8 @@ class ModelNames:
     @classmethod
     def of(cls, frozen: ModelDescription, layout: Layout) -> ModelNames:
         """The names of the model ``frozen`` whose compiled form has ``layout``."""
+        from porthamiltonian.mechanics import Multibody
+
         mbs = [name for name, c in frozen.components.items() if isinstance(c, Multibody)]
         mb = mbs[0] if len(mbs) == 1 else ""
         states = layout.state_names
@@ -139,7 +146,7 @@ class TransitionPlan:
     impact: str | None
     heel_strike: bool
     fall: bool
-    energy: str
+    energy: Booking
     foot: str | None
 
 
@@ -306,7 +313,7 @@ def walker_plan(spec: WalkerSpec, layout: Layout, text: str = "") -> WalkerPlan:
     to_thesis, from_thesis = _thesis(bad, spec, parsed, names)
     angles = _angles(bad, parsed, names)
     relabel = _relabel(bad, spec, parsed, names)
-    parameters = _parameters(bad, spec, parsed.ranges, layout.constraints)
+    parameters = _parameters(bad, spec, spec.frozen, parsed.ranges, layout.constraints)
     bad.raise_if_any()
 
     ex = _Outputs()
@@ -332,12 +339,11 @@ def walker_plan(spec: WalkerSpec, layout: Layout, text: str = "") -> WalkerPlan:
     return WalkerPlan(spec, names, spec.frozen.with_outputs(ex.exprs),
                       MappingProxyType(dict(ex.exprs)), section, relabel, transitions, start, guess,
                       mass, leg, spec.terrain.drop, MappingProxyType(parameters), floating,
-                      _bodies(spec, names.multibody, text))
+                      _bodies(spec, spec.frozen, names.multibody, text))
 
 
-def _bodies(spec: WalkerSpec, mb: str, text: str) -> BodiesMass:
+def _bodies(spec: WalkerSpec, frozen: ModelDescription, mb: str, text: str) -> BodiesMass:
     """The multibody's bodies' masses, for the check of ``[walker] mass``."""
-    frozen = spec.frozen
     bodies = frozen.components[mb].value("bodies")
     masses = tuple(parse_text(str(b.get("mass", 0)), f"body {name!r} mass")
                    for name, b in bodies.items())
@@ -482,6 +488,8 @@ def _linear(expr: sp.Expr, variables: list[sp.Symbol],
     """(coefficients, constant) of an expression that is affine in ``variables`` with numeric
     coefficients, else None. The constant is a number, or (when it depends on the symbols
     ``constants``, e.g. parameters) the text of its expression."""
+    import sympy as sp
+
     coeffs = []
     for v in variables:
         d = sp.diff(expr, v)
@@ -495,6 +503,8 @@ def _linear(expr: sp.Expr, variables: list[sp.Symbol],
 
 
 def _symbols(names: Iterable[str]) -> list[sp.Symbol]:
+    import sympy as sp
+
     return [sp.Symbol(n, real=True) for n in names]
 
 
@@ -516,6 +526,8 @@ def _thesis(bad: Problems, spec: WalkerSpec, parsed: Parsed, names: ModelNames) 
             bad.add(f"thesis coordinate {k!r} = {expr.text!r} must be {_NONLINEAR} of the "
                     "section coordinates without a constant", "section", "thesis")
         rows.append(lin[0] if lin else [0.0] * len(zsyms))
+    import sympy as sp
+
     T = sp.Matrix([[sp.nsimplify(c) for c in row] for row in rows])
     if len(rows) != len(zsyms) or T.det() == 0:
         if len(rows) == len(zsyms):
@@ -656,7 +668,8 @@ def _interval_text(interval: Interval) -> str:
             + (" integer" if interval.integer else ""))
 
 
-def _parameters(bad: Problems, spec: WalkerSpec, ranges: Sequence[tuple[str, Interval]],
+def _parameters(bad: Problems, spec: WalkerSpec, frozen: ModelDescription,
+                ranges: Sequence[tuple[str, Interval]],
                 constraints: Sequence[Constraint]) -> dict[str, ParameterSpec]:
     """The user-settable parameters (the model's, less the modes) with their ranges: one
     parameter system. A ``[walker.ranges]`` entry must not admit a value a component's
@@ -666,13 +679,14 @@ def _parameters(bad: Problems, spec: WalkerSpec, ranges: Sequence[tuple[str, Int
     given = dict(ranges)
     texts = dict(spec.ranges)
     modes = set(spec.mode_names)
-    bounds = _constraint_bounds(constraints, spec.frozen.parameters)
+    bounds = _constraint_bounds(constraints, frozen.parameters)
     out = {}
-    for name, par in spec.frozen.parameters.items():
+    for name, par in frozen.parameters.items():
         if name in modes:
             continue
         interval = given.get(name, Interval(-math.inf, math.inf, False, False, False))
-        allowed, limits, refusals = interval, [], {}
+        allowed, limits = interval, []
+        refusals: dict[str, list[str]] = {}
         for c, bound in bounds.get(name, ()):
             rule = f"component {c.component!r} {c.argument} must be {c.rule} {bound:g}"
             refused = _refused(interval, c.rule, bound) if name in given else None

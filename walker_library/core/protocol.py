@@ -136,35 +136,53 @@ class Stride:
 @runtime_checkable
 class Walker(Protocol):
     """What the gait analyses need from a walker model (every member is used by some analysis;
-    an analysis reads nothing else).
+    an analysis reads nothing else). Its data members are read-only properties."""
 
-    Attributes
-    ----------
-    name : model name. legged : True when θ, φ (and rates) are defined.
-    section : names of the independent coordinates of the Poincaré section just after heel
-        strike, in the model's own terms (joint angles and rates, SI).
-    thesis_section : names of the thesis's section coordinates (:meth:`to_thesis`).
-    parameters : current parameter values by name (SI).
-    specs : the :class:`ParameterSpec` (unit, meaning, range, default) of every parameter the
-        user may set.
-    mode_names : parameters the walker sets itself during a walk (not to be set or continued).
-    run_time_parameters : parameters bound at run time (a continuation moves only those).
-    gait_tolerance : the Newton tolerance of the gait search (section units).
-    leg_length : the length scale of the step-down grids (m). weight : total weight m g (N),
-        for the cost of transport.
-    """
+    @property
+    def name(self) -> str:
+        """The model name."""
 
-    name: str
-    legged: bool
-    section: tuple[str, ...]
-    thesis_section: tuple[str, ...]
-    parameters: Mapping[str, float]
-    specs: Mapping[str, ParameterSpec]
-    mode_names: tuple[str, ...]
-    run_time_parameters: tuple[str, ...]
-    gait_tolerance: float
-    leg_length: float
-    weight: float
+    @property
+    def legged(self) -> bool:
+        """True when θ, φ (and their rates) are defined."""
+
+    @property
+    def section(self) -> tuple[str, ...]:
+        """Names of the independent coordinates of the Poincaré section just after heel strike,
+        in the model's own terms (joint angles and rates, SI)."""
+
+    @property
+    def thesis_section(self) -> tuple[str, ...]:
+        """Names of the thesis's section coordinates (:meth:`to_thesis`)."""
+
+    @property
+    def parameters(self) -> Mapping[str, float]:
+        """Current parameter values by name (SI)."""
+
+    @property
+    def specs(self) -> Mapping[str, ParameterSpec]:
+        """The :class:`ParameterSpec` (unit, meaning, range, default) of every parameter the user
+        may set."""
+
+    @property
+    def mode_names(self) -> tuple[str, ...]:
+        """Parameters the walker sets itself during a walk (not to be set or continued)."""
+
+    @property
+    def run_time_parameters(self) -> tuple[str, ...]:
+        """Parameters bound at run time (a continuation moves only those)."""
+
+    @property
+    def gait_tolerance(self) -> float:
+        """The Newton tolerance of the gait search (section units)."""
+
+    @property
+    def leg_length(self) -> float:
+        """The length scale of the step-down grids (m)."""
+
+    @property
+    def weight(self) -> float:
+        """Total weight m g (N), for the cost of transport."""
 
     def with_parameters(self, **values: float) -> Walker:
         """A walker with some parameters changed (validated: out of range raises)."""

@@ -18,14 +18,10 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import sympy as sp
-
-from porthamiltonian import Model
-from porthamiltonian.errors import ModelError
+from porthamiltonian.errors import ModelError, ModelFileError
 from porthamiltonian.modeling.expressions import parse
-from porthamiltonian.modeling.model import ModelDescription
 
 from .hybrid import (
     Comparison,
@@ -46,7 +42,13 @@ from .hybrid import (
 )
 from .problems import Problems, suggestion
 
-__all__ = ["walker_spec"]
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from porthamiltonian.interfaces.io import ModelFile
+    from porthamiltonian.modeling.model import Model, ModelDescription
+
+__all__ = ["file_spec", "walker_spec"]
 
 _TOP = ("mass", "leg_length", "hip", "integration", "feet", "modes", "terrain", "rules",
         "relabel", "section", "angles", "guess", "ranges")
@@ -73,13 +75,16 @@ class _Reading:
     evaluated: list[Expr] = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        import sympy as sp  # the table's expressions are parsed into sympy
+
+        self._symbol = sp.Symbol
         self.symbols = {p: sp.Symbol(p, real=True) for p in self.frozen.parameters}
         self.scope = self.frozen.in_scope("")
         self.components = set(self.frozen.components)
 
     def dotted(self, ref: str) -> sp.Symbol | None:
         """A dotted name of one of the model's components, as its symbol (checked later)."""
-        return sp.Symbol(ref, real=True) if ref.split(".")[0] in self.scope else None
+        return self._symbol(ref, real=True) if ref.split(".")[0] in self.scope else None
 
     def expr(self, value: Value, where: str, *path: str | int, extra: Mapping | None = None,
              dotted: bool = True, evaluated: bool = False) -> Expr | None:
@@ -120,8 +125,23 @@ class _Reading:
         except ModelError as err:
             self.bad.add(f"{where}: {err}", *path)
             return None
-        sides = [self.expr(side, f"{where} {text!r}", *path, evaluated=True) for side in (lhs, rhs)]
-        return None if None in sides else Comparison(text, sides[0], op, sides[1])
+        left, right = (self.expr(side, f"{where} {text!r}", *path, evaluated=True)
+                       for side in (lhs, rhs))
+        return None if left is None or right is None else Comparison(text, left, op, right)
+
+
+def file_spec(record: ModelFile) -> WalkerSpec:
+    """The :class:`WalkerSpec` of a model file read by :func:`porthamiltonian.io.reads`: its
+    ``[walker]`` table read against its model. Raises ModelFileError (file, line, part) for a
+    file that is not a walker file or whose ``[walker]`` table is wrong."""
+    table = record.sections.get("walker")
+    if table is None:
+        raise ModelFileError(f"{record.source}: not a walker file: it has no [walker] table (a "
+                             "walker is a model plus its hybrid description; see "
+                             "docs/walkers.md)")
+    return walker_spec(record.model, table, source=record.source, text=record.text,
+                       description=record.description, units=str(record.meta.get("units", "")),
+                       frozen=record.frozen)
 
 
 def walker_spec(model: Model, table: Mapping[str, Any], *, source: str = "<python>",
@@ -155,7 +175,7 @@ def walker_spec(model: Model, table: Mapping[str, Any], *, source: str = "<pytho
     parsed = Parsed(tuple(r.evaluated), conditions, labelling, guessed, thesis, angles, relabel,
                     intervals)
     return WalkerSpec(model, tuple(feet), tuple(modes), tuple(rules), section,
-                      tuple((k, e.text) for k, e in angles), terrain,
+                      tuple((k, str(e.text)) for k, e in angles), terrain,
                       tuple((k, e.text) for k, e in relabel), guess, where, ranges, integration,
                       mass, leg, hip, source, description, units, r.frozen, parsed)
 
@@ -307,7 +327,7 @@ def _read_rule(r: _Reading, i: int, entry: Mapping, feet: set[str],
         r.bad.add(f"{where}: energy must be \"dissipated\" or \"supplied\", got {energy!r}",
                   "rules", i, "energy")
         energy = "dissipated"
-    rule = Rule(on, tuple(when), sets, foot, impact, flags["heel_strike"], flags["fall"], energy)
+    rule = Rule(on, tuple(when), tuple(sets.items()), foot, impact, flags["heel_strike"], flags["fall"], energy)
     return rule, tuple(c for c in conds if c is not None)
 
 
@@ -437,7 +457,7 @@ def _read_section(r: _Reading, feet: list[Foot], relabel: tuple) -> tuple[
     if basin not in ("fixed_point", "guess"):
         r.bad.add(f"[walker.section] basin must be \"fixed_point\" or \"guess\", got {basin!r}",
                   "section", "basin")
-    section = Section(tuple(coords), tuple(complete), thesis, stance, labelling, basin)
+    section = Section(tuple(coords), tuple(complete), tuple(thesis.items()), stance, labelling, basin)
     return section, parsed_thesis, parsed_labelling
 
 
@@ -485,7 +505,7 @@ def _read_thesis(r: _Reading, thesis: Any, coords: list[str]) -> tuple[
         r.bad.add(f"[walker.section] thesis has {len(thesis)} coordinates for a section of "
                   f"{len(coords)}: the thesis's coordinates are an invertible map of the "
                   "section's", "section", "thesis")
-    plain = {n: sp.Symbol(n, real=True) for n in coords if "." not in n}
+    plain = {n: r._symbol(n, real=True) for n in coords if "." not in n}
     parsed = []
     for k, v in thesis.items():
         expr = r.expr(v, f"thesis coordinate {k!r}", "section", "thesis", extra=plain)

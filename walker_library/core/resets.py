@@ -16,17 +16,18 @@ Both maps are functions of the state with a Jacobian (:meth:`Relabel.matrix`, ex
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sympy as sp
 
-from porthamiltonian import Model, Multibody
 from porthamiltonian.modeling.expressions import parse
-from porthamiltonian.modeling.model import ModelDescription
 from porthamiltonian.simulation.compiled import CompiledModel
 from porthamiltonian.simulation.impact import model_impact
+
+if TYPE_CHECKING:
+    from porthamiltonian.modeling.model import Model, ModelDescription
 
 __all__ = ["PIN", "Floating", "ImpactMap", "Relabel", "floating_model"]
 
@@ -34,7 +35,7 @@ __all__ = ["PIN", "Floating", "ImpactMap", "Relabel", "floating_model"]
 PIN = "pin"
 
 
-def _frozen(a) -> np.ndarray:
+def _frozen(a: Any) -> np.ndarray:
     a = np.array(a, dtype=float)
     a.flags.writeable = False
     return a
@@ -70,7 +71,7 @@ class Relabel:
         offsets: numbers, or the names of the outputs that evaluate them) and the compiled
         model's layout; ``coordinates``: the multibody's coordinate states in order;
         ``output_of``: the index of each output."""
-        A = np.asarray(A, dtype=float)
+        a = np.asarray(A, dtype=float)
         pos = [i for i, n in enumerate(space) if n in state_names]
         mod = [i for i, n in enumerate(space) if n not in state_names]
         where = {space[i]: k for k, i in enumerate(pos)}
@@ -78,22 +79,24 @@ class Relabel:
         def split(rows: list[int]) -> tuple[np.ndarray, tuple[tuple[int, int], ...]]:
             """Numeric offsets of ``rows`` (0 where an expression) and the expressions' outputs."""
             const = [0.0 if isinstance(b[i], str) else float(b[i]) for i in rows]
-            outs = tuple((k, output_of[b[i]]) for k, i in enumerate(rows) if isinstance(b[i], str))
+            outs = tuple((k, output_of[v]) for k, v in enumerate(b[i] for i in rows)
+                         if isinstance(v, str))
             return _frozen(const), outs
 
         b_pos, b_out = split(pos)
         c_mod, c_out = split(mod)
-        return cls(tuple(state_names.index(space[i]) for i in pos), _frozen(A[np.ix_(pos, pos)]),
+        return cls(tuple(state_names.index(space[i]) for i in pos), _frozen(a[np.ix_(pos, pos)]),
                    b_pos, tuple(where[c] for c in coordinates),
                    tuple(param_names.index(space[i]) for i in mod),
-                   _frozen(A[np.ix_(mod, mod)]), c_mod, b_out, c_out)
+                   _frozen(a[np.ix_(mod, mod)]), c_mod, b_out, c_out)
 
     def matrix(self) -> np.ndarray:
         """A (the Jacobian of the map on the position coordinates)."""
         return self.A
 
     @staticmethod
-    def _offsets(const: np.ndarray, outs, y) -> np.ndarray:
+    def _offsets(const: np.ndarray, outs: tuple[tuple[int, int], ...],
+                 y: np.ndarray) -> np.ndarray:
         b = const.copy()
         for k, o in outs:
             b[k] += y[o]
@@ -121,7 +124,7 @@ class Relabel:
         return out
 
 
-def _shifted(value, by) -> list:
+def _shifted(value: Sequence[Any], by: Sequence[Any]) -> list:
     """A 3-vector of numbers/expressions minus ``by`` (component-wise, as expressions)."""
     return [v if b == 0 else f"({v}) - ({b})" for v, b in zip(value, by)]
 
@@ -143,8 +146,10 @@ def _offset(joints: dict, bodies: dict, point: str, root_body: str) -> list | No
     return total
 
 
-def _is_zero(vector, params) -> bool:
+def _is_zero(vector: Sequence[Any], params: Iterable[str]) -> bool:
     """Whether a joint origin (numbers, or expressions in ``params``) is zero."""
+    import sympy as sp
+
     names = {n: sp.Symbol(n, real=True) for n in params}
     return all(v == 0 if isinstance(v, (int, float)) else parse(v, names, "joint origin") == 0
                for v in vector)
@@ -206,6 +211,8 @@ def floating_model(model: ModelDescription, multibody: str, root: str, about: st
     joints = {**free, **{k: ({**v, "parent": base, "origin": [0, 0, 0]} if k == root else v)
                          for k, v in joints.items()}}
     args = {k: v for k, v in comp.args.items() if k not in ("bodies", "joints")}
+    from porthamiltonian import Model, Multibody
+
     out = Model(f"{model.name}_floating")          # the model with its pin at the root released
     for name, par in model.parameters.items():
         out.parameter(name, par.value, par.unit, par.doc)
@@ -231,6 +238,8 @@ class ImpactMap:
     relabel: Relabel
     root: str
     rehung: tuple[str, ...]
+    #: the index arrays and matrices of the floating model (set by ``__post_init__``)
+    _layout: dict[str, Any] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         mb, m, f = self.multibody, self.model, self.floating
@@ -275,14 +284,14 @@ class ImpactMap:
         imp = model_impact(self.floating, xf, pf, [f"{mb}.J.{self.point.split('.', 1)[1]}"],
                            f"{mb}.M", t=t, v_minus=vf)
         pin_v = self.floating.matrix(f"{mb}.J.{PIN}_point", t, imp.x_plus, pf) @ imp.impact.v_plus
-        imp = imp.impact
+        impact = imp.impact
         y = self.model.outputs(t, x, p)
-        v_new = self.relabel.rates(lay["F_inv"] @ imp.v_plus[lay["fv"]])
+        v_new = self.relabel.rates(lay["F_inv"] @ impact.v_plus[lay["fv"]])
         x_new = self.relabel.state(x, y)
         x_new[lay["p"]] = self.model.matrix(f"{mb}.M", t, x_new, p_after) @ v_new
-        info = {"impact_energy_lost": imp.energy_lost, "impulse": imp.impulse.tolist(),
+        info = {"impact_energy_lost": impact.energy_lost, "impulse": impact.impulse.tolist(),
                 "trailing_foot_normal_velocity": float(pin_v[1]),
-                "constraint_velocity": float(np.max(np.abs(imp.constraint_velocity)))}
+                "constraint_velocity": float(np.max(np.abs(impact.constraint_velocity)))}
         return x_new, info
 
     def jacobian(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,

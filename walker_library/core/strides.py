@@ -18,7 +18,7 @@ Stride with status ``"fell"`` and the reason: ``"time_limit"``, the event that e
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -54,13 +54,15 @@ def _maxima(walker: HybridWalker, traj: Trajectory, X: np.ndarray, i0: int, i1: 
     y0 = walker.outputs(0.0, X[:n, i0], p) if flip else None
 
     def thph(x: np.ndarray) -> tuple[float, float]:
-        a = walker.angles(relabel.state(x[:n], y0) if relabel is not None and flip else x[:n])
+        a = walker.angles(relabel.state(x[:n], y0) if relabel is not None and y0 is not None
+                          else x[:n])
         return a.get("theta", math.nan), a.get("phi", math.nan)
 
     if not any(seg.sol is not None for seg in traj.segments):
         values = np.array([thph(X[:, i]) for i in range(i0, i1 + 1)])
-        return tuple(float(np.max(np.abs(values[:, j]))) if np.all(np.isfinite(values[:, j]))
-                     else math.nan for j in range(2))
+        theta, phi = (float(np.max(np.abs(values[:, j]))) if np.all(np.isfinite(values[:, j]))
+                      else math.nan for j in range(2))
+        return theta, phi
     grid = np.linspace(t0, t1, 401)
     eps = 1e-12 * max(1.0, t1)
     grid[0], grid[-1] = t0 + eps, t1 - eps
@@ -113,7 +115,8 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
         pending = next(fired, None)
         idx = int(np.nonzero(t == hs.t)[0][-1])
         now = at(idx)
-        x_new = walker.output(f"{walker.spec.foot(hs.transition.foot).point}.x", hs.x_minus,
+        foot = walker.spec.foot(cast(str, hs.transition.foot))   # a heel strike names its foot
+        x_new = walker.output(f"{foot.point}.x", hs.x_minus,
                               hs.p_minus, hs.t)
         info = {"t_end": hs.t, "foot": hs.transition.foot, "energy_supplied": now[3] - prev[3],
                 "x_minus": hs.x_minus, "p_minus": hs.p_minus, "x_plus": hs.x_plus,

@@ -30,16 +30,22 @@ same as a stride's (to that tolerance), so its z' agrees with :meth:`HybridWalke
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
-from porthamiltonian import Reset
 from porthamiltonian.integrators import COMPILED_METHODS
-from porthamiltonian.simulation.differences import jacobian
-from porthamiltonian.simulation.saltation import section_jacobian
+from porthamiltonian.simulation.differences import Derivative, jacobian
+from porthamiltonian.simulation.saltation import Sensitivity, section_jacobian
 
 from .machine import WalkLog
+
+if TYPE_CHECKING:
+    from .walker import HybridWalker
+
+#: one stride's (z', ∂z'/∂z, Φ error, difference-error bound)
+_Step = tuple[np.ndarray, np.ndarray, float, np.ndarray]
 
 __all__ = ["StrideSensitivity", "stride_sensitivity"]
 
@@ -64,55 +70,40 @@ class StrideSensitivity:
     fell: str = ""
 
 
-def _actions(walker, log: WalkLog, errors: list[float]) -> dict:
-    """The mode machine's actions, each that moves the state returning its map's Jacobian."""
-    def wrap(action):
-        def act(t: float, x: np.ndarray, p: np.ndarray) -> Reset:
-            reset = action(t, x, p)
-            if reset.x is None:
-                return reset
-            fired = log.fired[-1]
-            impact = fired.transition.impact
-            d = jacobian(lambda xx: impact(t, xx, p, fired.p_plus)[0], x, 1.0)
-            errors.append(_relative(d))
-            return replace(reset, jacobian=d.value)
-        return act
-
-    return {event: wrap(action) for event, action in walker.machine.actions(log).items()}
-
-
-def _relative(d) -> float:
+def _relative(d: Derivative) -> float:
     """A difference Jacobian's largest error relative to its largest entry."""
     size = float(np.max(np.abs(d.value))) if d.value.size else 0.0
     return d.max_error / size if size > 0 else 0.0
 
 
-def _one(walker, z: np.ndarray, method: str, rtol: float, atol) -> tuple:
+def _one(walker: HybridWalker, z: np.ndarray, method: str, rtol: float,
+         atol: np.ndarray) -> _Step | str:
     """(z', ∂z'/∂z, Φ error, difference-error bound) of one stride, or a fall reason (str)."""
     p0 = walker.start_params()
     lift = jacobian(lambda w: walker.lift(w, p0), z, 1.0)
     x0 = walker.lift(z, p0)
     p0 = walker.machine.start(x0, p0)
     log = WalkLog(1)
-    errors = [_relative(lift)]
     o = walker.options
     traj = walker.model.simulate(
         o.max_step_time, x0=x0, params=dict(zip(walker.model.param_names, p0)), method=method,
-        rtol=rtol, atol=atol, max_step=o.max_step, actions=_actions(walker, log, errors),
+        rtol=rtol, atol=atol, max_step=o.max_step, actions=walker.machine.actions(log, ()),
         max_events=200, sensitivity=lift.value)
     strikes = log.heel_strikes
     if not strikes or any(f.transition.fall for f in log.fired):
         return f"no heel strike ({traj.message})"
     last = strikes[-1]
     project = jacobian(lambda x: walker.project(x, last.p_plus), last.x_plus, 1.0)
-    errors.append(_relative(project))
-    final = traj.sensitivity.final
-    J = section_jacobian(final, project.value)
-    bound = 3.0 * max(errors) * (np.abs(project.value) @ np.abs(final))
-    return walker.project(last.x_plus, last.p_plus), J, traj.sensitivity.error, bound
+    errors = [_relative(lift), _relative(project),
+              *(f.info.get("jacobian_error", 0.0) for f in log.fired)]
+    sens = cast(Sensitivity, traj.sensitivity)      # a run given sensitivity= records it
+    J = section_jacobian(sens.final, project.value)
+    bound = 3.0 * max(errors) * (np.abs(project.value) @ np.abs(sens.final))
+    return walker.project(last.x_plus, last.p_plus), J, sens.error, bound
 
 
-def stride_sensitivity(walker, z, period: int = 1, *, factor: float = 1.0) -> StrideSensitivity:
+def stride_sensitivity(walker: HybridWalker, z: np.ndarray, period: int = 1, *,
+                       factor: float = 1.0) -> StrideSensitivity:
     """The exact Jacobian of the stride map S^period at section state ``z`` (module docstring)
     at the walker's tolerances times ``factor`` (rtol at least 3e-14). A fall is a result
     (``fell``)."""

@@ -43,8 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from porthamiltonian import compile_model
-from porthamiltonian.compiler import layout
+from porthamiltonian.compiler import compile_model, layout
 from porthamiltonian.errors import ModelError, ParameterValueError, StateError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.interfaces.io import ModelFile
@@ -59,7 +58,8 @@ from .resets import ImpactMap, Relabel
 from .strides import cut_strides
 from .variational import StrideSensitivity, stride_sensitivity
 
-__all__ = ["CompiledWalker", "HybridWalker", "RunValues", "build_walker", "compile_walker"]
+__all__ = ["CompiledWalker", "HybridWalker", "RunValues", "bind_walker", "build_walker",
+           "compile_walker", "plan_walker"]
 
 
 def _frozen(a: Any) -> np.ndarray:
@@ -112,6 +112,13 @@ def compile_walker(plan: WalkerPlan, backend: str | None = None, text: str = "")
         m = compile_model(plan.description, backend=backend or spec.integration.backend)
     floating = (compile_model(plan.floating.model, backend="python")
                 if plan.floating is not None else None)
+    return bind_walker(plan, m, floating)
+
+
+def bind_walker(plan: WalkerPlan, m: CompiledModel, floating: CompiledModel | None) -> CompiledWalker:
+    """Bind ``plan`` to its compiled model ``m`` (and ``floating``, the compiled floating
+    multibody of its impacts, if it has any): what :func:`compile_walker` does once compiled,
+    and a warm start (:mod:`.warm`) with the models reopened from the cache."""
     out = MappingProxyType({n: i for i, n in enumerate(m.output_names)})
     mb = plan.names.multibody
     iq = tuple(i for i, s in enumerate(m.state_names) if s.startswith(f"{mb}.q."))
@@ -147,7 +154,8 @@ def _transitions(plan: WalkerPlan, m: CompiledModel, floating: CompiledModel | N
     result = []
     for t in plan.transitions:
         impact = None
-        if t.impact is not None and plan.floating is not None and floating is not None:
+        if (t.impact is not None and plan.floating is not None and floating is not None
+                and relabel is not None):       # the reader asks for a relabel with an impact
             impact = ImpactMap(m, floating, plan.names.multibody, t.impact, plan.spec.hip,
                                relabel, plan.floating.root, plan.floating.rehung)
         k = events.index(t.event) if t.event != "start" else -1
@@ -204,15 +212,22 @@ def build_walker(spec: WalkerSpec, *, backend: str | None = None,
     settings replacing the spec's; ``values``: parameter values by name (validated against the
     ranges); ``text``: the file's TOML, for lines in errors. Raises ModelFileError for a bad
     description (before anything is compiled) and ParameterValueError for bad values."""
+    plan = plan_walker(spec, text)
+    options = options or plan.spec.integration
+    compiled = compile_walker(plan, backend or options.backend, text)
+    return HybridWalker(plan, compiled, values=values, options=options)
+
+
+def plan_walker(spec: WalkerSpec, text: str = "") -> WalkerPlan:
+    """The plan of ``spec`` (read first if it was built in Python) against its model's layout
+    (the steps of :func:`build_walker` before the compile). ``text``: the file's TOML, for lines
+    in errors."""
     if spec.parsed is None or spec.frozen is None:
         spec = walker_spec(spec.model, spec.to_table(), source=spec.source, text=text,
                            description=spec.description, units=spec.units)
     with ModelFile(spec.model, spec.source, text).located():
         names = layout(spec.frozen)
-    plan = walker_plan(spec, names, text)
-    options = options or spec.integration
-    compiled = compile_walker(plan, backend or options.backend, text)
-    return HybridWalker(plan, compiled, values=values, options=options)
+    return walker_plan(spec, names, text)
 
 
 class HybridWalker:

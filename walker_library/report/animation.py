@@ -25,9 +25,11 @@ from typing import Any
 
 import numpy as np
 
+from porthamiltonian import Component
 from porthamiltonian.interfaces.viewer.sampling import resample
 
 from ..analyses.series import GaitSeries
+from ..core.walker import HybridWalker
 from .figures import new_figure, styled
 from .labels import foot_radius
 
@@ -74,11 +76,14 @@ def _world(slope: float, xz: np.ndarray) -> np.ndarray:
     return np.stack([x * c + z * s, -x * s + z * c], axis=-1)
 
 
-def _body_points(walker: Any) -> dict[str, list[str]]:
+def _body_points(walker: HybridWalker) -> dict[str, list[str]]:
     """The multibody's points and world-aligned frames by body (names ``<mb>.<point>``)."""
     mb = walker.multibody
     try:
-        bodies = walker.spec.model.component(mb).value("bodies")
+        comp = walker.spec.model.component(mb)
+        if not isinstance(comp, Component):     # a sub-model has no bodies
+            return {}
+        bodies = comp.value("bodies")
     except (AttributeError, KeyError, ValueError):
         return {}
     return {b: [f"{mb}.{p}" for key in ("points", "world_frames") for p in (d.get(key) or {})]
@@ -89,7 +94,7 @@ def _body_points(walker: Any) -> dict[str, list[str]]:
 _FORCE_XZ = {2: (0, 1), 3: (1, 2), 6: (3, 5)}
 
 
-def contact_forces(walker: Any, traj: Any) -> np.ndarray | None:
+def contact_forces(walker: HybridWalker, traj: Any) -> np.ndarray | None:
     """Force (N, slope frame) on each foot over the points of ``traj``, shape (N, K, 2): the sum
     of the efforts of the components bonded to any point of the foot's body (power flows from
     the walker into them, so the force on the walker is minus their effort); None when no foot
@@ -135,7 +140,7 @@ def _identities(feet: np.ndarray) -> np.ndarray:
     return ident
 
 
-def scene(walker: Any, s: GaitSeries, *, rate: float = 30.0, max_frames: int = 600) -> Scene:
+def scene(walker: HybridWalker, s: GaitSeries, *, rate: float = 30.0, max_frames: int = 600) -> Scene:
     """The :class:`Scene` of a recorded walk at ``rate`` frames per second of simulated time
     (fewer when that would exceed ``max_frames``)."""
     duration = float(s.t[-1] - s.t[0])
@@ -155,7 +160,7 @@ def scene(walker: Any, s: GaitSeries, *, rate: float = 30.0, max_frames: int = 6
     if raw_force is not None:
         force = _world(slope, resample(s.t, raw_force, times))
     step = np.round(resample(s.t, s.step.astype(float), times)).astype(int)
-    leg = float(getattr(walker, "leg_length", 1.0))
+    leg = float(walker.leg_length)
     pts = np.concatenate([hip[:, None, :], feet, contact], axis=1).reshape(-1, 2)
     pad = 0.12 * leg
     x0, x1 = float(pts[:, 0].min() - pad), float(pts[:, 0].max() + pad)
@@ -166,7 +171,7 @@ def scene(walker: Any, s: GaitSeries, *, rate: float = 30.0, max_frames: int = 6
     return Scene(t=times, step=step, hip=hip, feet=feet, colour=_identities(feet), radius=radius,
                  force=force, contact=contact, slope=slope, ground=ground,
                  bounds=(x0, x1, z0, z1), leg_length=leg,
-                 weight=float(getattr(walker, "weight", 1.0)), n_steps=steps)
+                 weight=float(walker.weight), n_steps=steps)
 
 
 def _arc(centre: np.ndarray, towards: np.ndarray, radius: float) -> np.ndarray:
@@ -230,7 +235,7 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
     pace = ("" if nondimensional else " · real time" if abs(speedup - 1) < 0.05
             else f" · {speedup:.2g}× real time")
 
-    def draw(k: int):
+    def draw(k: int) -> list[Any]:
         f = frames[k]
         h = sc.hip[f]
         for j in range(K):

@@ -72,7 +72,7 @@ class Reference:
     @property
     def rounding(self) -> float:
         """Half a unit of the printed value's last digit."""
-        return 0.5 * 10.0 ** Decimal(self.printed).as_tuple().exponent
+        return 0.5 * 10.0 ** int(Decimal(self.printed).as_tuple().exponent)
 
 
 @dataclass(frozen=True)

@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import io
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import numpy as np
 
@@ -28,6 +29,10 @@ from porthamiltonian.simulation.display import event_split
 from ..analyses.series import GaitSeries
 from .labels import shown_unit
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
 __all__ = ["DPI", "STYLE", "draw_multipliers", "draw_phase", "event_split", "fig_angles", "fig_basin",
            "fig_bifurcation", "fig_energy", "fig_energy_per_step",
            "fig_floquet", "fig_limit_cycle", "fig_step_down", "heel_strike_points", "pyplot",
@@ -36,13 +41,15 @@ __all__ = ["DPI", "STYLE", "draw_multipliers", "draw_phase", "event_split", "fig
 DPI = 110
 #: matplotlib settings of the report's figures (no mathtext: names and units from model files
 #: are plain text; the figures' own mathematical labels ask for it, porthamiltonian.escaping)
-STYLE = {"font.size": 9, "axes.titlesize": 10, "legend.fontsize": 8, "axes.spines.top": False,
-         "axes.spines.right": False, **PLAIN_TEXT}
-_JUMP = {"ls": (0, (3, 2)), "lw": 0.9, "alpha": 0.8}
-_HEEL = {"color": "0.35", "ls": ":", "lw": 0.9}
+STYLE: dict[Any, Any] = {"font.size": 9, "axes.titlesize": 10, "legend.fontsize": 8,
+                         "axes.spines.top": False, "axes.spines.right": False, **PLAIN_TEXT}
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+_JUMP: dict[str, Any] = {"ls": (0, (3, 2)), "lw": 0.9, "alpha": 0.8}
+_HEEL: dict[str, Any] = {"color": "0.35", "ls": ":", "lw": 0.9}
 
 
-def pyplot():
+def pyplot() -> ModuleType:
     """matplotlib.pyplot on the Agg back end (no window), with the report's style (for scripts
     that draw with pyplot, e.g. the reproduction studies)."""
     import matplotlib
@@ -52,26 +59,26 @@ def pyplot():
     return plt
 
 
-def new_figure(**kw: Any):
+def new_figure(**kw: Any) -> Figure:
     """A :class:`matplotlib.figure.Figure` in the report's style, constrained layout, no pyplot
     (``kw``: Figure's arguments, e.g. ``figsize``). Draw inside :func:`styled`."""
     from matplotlib.figure import Figure
     return Figure(layout=kw.pop("layout", "constrained"), **kw)
 
 
-def styled(fn):
+def styled(fn: Callable[_P, _R]) -> Callable[_P, _R]:
     """Run a figure function inside the report's matplotlib style (:data:`STYLE`)."""
     import functools
 
     @functools.wraps(fn)
-    def wrapper(*args, **kwargs):
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
         import matplotlib
         with matplotlib.rc_context(STYLE):
             return fn(*args, **kwargs)
     return wrapper
 
 
-def save_figure(fig, path: Path | None) -> bytes:
+def save_figure(fig: Figure, path: Path | None) -> bytes:
     """The figure as PNG bytes (written to ``path`` if given); a pyplot figure is closed."""
     import sys
     buf = io.BytesIO()
@@ -101,8 +108,8 @@ def _other_events(s: GaitSeries) -> list[tuple[float, str]]:
             if not np.any(np.abs(strikes - t) <= 1e-12 * max(1.0, abs(t)))]
 
 
-def _flow(ax, x: np.ndarray, y: np.ndarray, pieces: Sequence[slice], color: str, label: str,
-          lw: float = 1.3) -> None:
+def _flow(ax: Axes, x: np.ndarray, y: np.ndarray, pieces: Sequence[slice], color: str,
+          label: str | None, lw: float = 1.3) -> None:
     """Draw ``y(x)`` piece by piece, each reset between pieces dashed when it jumps."""
     for k, piece in enumerate(pieces):
         ax.plot(x[piece], y[piece], color=color, lw=lw, label=label if k == 0 else None)
@@ -112,7 +119,7 @@ def _flow(ax, x: np.ndarray, y: np.ndarray, pieces: Sequence[slice], color: str,
                 ax.plot([x[a], x[b]], [y[a], y[b]], color=color, **_JUMP)
 
 
-def _mark_events(ax, s: GaitSeries, with_labels: bool = True) -> None:
+def _mark_events(ax: Axes, s: GaitSeries, with_labels: bool = True) -> None:
     for k, te in enumerate(s.step_times):
         ax.axvline(te, **_HEEL, label="heel strike" if with_labels and k == 0 else None)
     others = _other_events(s)
@@ -123,7 +130,7 @@ def _mark_events(ax, s: GaitSeries, with_labels: bool = True) -> None:
                 label=f"events that end no step ({names})" if with_labels else None)
 
 
-def _jump_legend_entry(ax) -> None:
+def _jump_legend_entry(ax: Axes) -> None:
     ax.plot([], [], color="0.3", **_JUMP, label="reset at heel strike (a jump, not flow)")
 
 
@@ -157,7 +164,7 @@ def fig_limit_cycle(s: GaitSeries, path: Path | None, nondimensional: bool = Fal
     return save_figure(fig, path)
 
 
-def draw_phase(ax, s: GaitSeries, angle: str, nondimensional: bool = False,
+def draw_phase(ax: Axes, s: GaitSeries, angle: str, nondimensional: bool = False,
                labels: bool = False) -> None:
     """One phase portrait (``angle`` "theta" or "phi") on ``ax``: the flow solid, the
     heel-strike resets dashed, the states just before (open) and after (filled) marked;
@@ -246,7 +253,7 @@ def fig_floquet(multipliers: Sequence[complex], error: float, path: Path | None)
     return save_figure(fig, path)
 
 
-def draw_multipliers(ax, multipliers: Sequence[complex], error: float) -> None:
+def draw_multipliers(ax: Axes, multipliers: Sequence[complex], error: float) -> None:
     """The multipliers on ``ax`` (see :func:`fig_floquet`), with legend labels."""
     from matplotlib.patches import Circle
     m = np.asarray(multipliers, dtype=complex)

@@ -18,9 +18,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
-__all__ = ["METRICS", "SECTION", "Quantity", "describe", "foot_radius", "is_nondimensional",
+if TYPE_CHECKING:
+    from ..core.hybrid import Foot, WalkerSpec
+    from ..core.protocol import Walker
+
+__all__ = ["METRICS", "SECTION", "Described", "Quantity", "describe", "foot_radius", "is_nondimensional",
            "parameter", "pretty_unit", "shown_unit", "unit_of"]
 
 
@@ -85,9 +89,24 @@ _JOINT_UNITS = {"revolute": ("rad", "rad/s", "angle"), "prismatic": ("m", "m/s",
 _SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 
-def is_nondimensional(walker: Any) -> bool:
+class Described(Protocol):
+    """What the labels read of a walker: its file's description and the name of its multibody
+    component (``""``: none). A :class:`~walker_library.core.HybridWalker` is one; so is a
+    stand-in made from the file alone (no compilation). Where a function takes
+    ``Described | None``, None gives the file-independent labels."""
+
+    @property
+    def spec(self) -> WalkerSpec:
+        """The walker file's description (its model, feet, section, units)."""
+
+    @property
+    def multibody(self) -> str:
+        """The name of the model's multibody component (``""``: none)."""
+
+
+def is_nondimensional(walker: Described | None) -> bool:
     """True when the walker's model file declares ``units = "nondimensional"`` in ``[model]``."""
-    return getattr(getattr(walker, "spec", None), "units", "") == "nondimensional"
+    return walker is not None and walker.spec.units == "nondimensional"
 
 
 def pretty_unit(unit: str) -> str:
@@ -110,9 +129,9 @@ def shown_unit(unit: str, nondimensional: bool = False) -> str:
     return pretty_unit(unit)
 
 
-def _joint(walker: Any, name: str) -> tuple[str, str, str] | None:
+def _joint(walker: Described | None, name: str) -> tuple[str, str, str] | None:
     """(kind "q"/"v", joint, axis) of a multibody coordinate or rate name, else None."""
-    mb = getattr(walker, "multibody", "")
+    mb = walker.multibody if walker is not None else ""
     for kind in ("q", "v"):
         prefix = f"{mb}.{kind}."
         if mb and name.startswith(prefix):
@@ -121,17 +140,21 @@ def _joint(walker: Any, name: str) -> tuple[str, str, str] | None:
     return None
 
 
-def _joint_type(walker: Any, joint: str) -> str:
+def _joint_type(walker: Described, joint: str) -> str:
+    comp = walker.spec.model.component(walker.multibody)
+    from porthamiltonian.modeling.component import Component  # (on use: sympy)
+
+    if not isinstance(comp, Component):         # a sub-model has no joints
+        return ""
     try:
-        joints = walker.spec.model.component(walker.multibody).value("joints")
-        return str(joints[joint].get("type", ""))
+        return str(comp.value("joints")[joint].get("type", ""))
     except (AttributeError, KeyError, TypeError):
         return ""
 
 
-def _coordinate(walker: Any, name: str) -> Quantity | None:
+def _coordinate(walker: Described | None, name: str) -> Quantity | None:
     parsed = _joint(walker, name)
-    if parsed is None:
+    if parsed is None or walker is None:
         return None
     kind, joint, axis = parsed
     jtype = _joint_type(walker, joint)
@@ -143,7 +166,7 @@ def _coordinate(walker: Any, name: str) -> Quantity | None:
     return Quantity(f"{joint} {rate}{along}", v_unit, f"{jtype or 'joint'} {joint}")
 
 
-def unit_of(walker: Any, name: str) -> str:
+def unit_of(walker: Described | None, name: str) -> str:
     """The SI unit of a section coordinate or derived quantity (``""`` when unknown): a
     multibody coordinate's from its joint, a thesis coordinate's from the first model coordinate
     of its defining expression (``ankle_lead = "walker.q.ankle1"``: the ankle joint's)."""
@@ -155,8 +178,7 @@ def unit_of(walker: Any, name: str) -> str:
         return known.unit
     from porthamiltonian.errors import ExpressionError
     from porthamiltonian.modeling.expressions import parse_text
-    for thesis_name, text in getattr(getattr(getattr(walker, "spec", None), "section", None),
-                                     "thesis", ()) or ():
+    for thesis_name, text in walker.spec.section.thesis if walker is not None else ():
         if thesis_name != name:
             continue
         try:
@@ -170,7 +192,7 @@ def unit_of(walker: Any, name: str) -> str:
     return ""
 
 
-def describe(walker: Any, name: str) -> Quantity:
+def describe(walker: Described | None, name: str) -> Quantity:
     """The :class:`Quantity` of a name an analysis reports for ``walker`` (module docstring);
     an unknown name gets itself as label and an empty unit."""
     if name in METRICS:
@@ -184,15 +206,15 @@ def describe(walker: Any, name: str) -> Quantity:
     return Quantity(name.replace("_", " "), unit_of(walker, name), "")
 
 
-def parameter(walker: Any, name: str) -> Quantity:
+def parameter(walker: Walker, name: str) -> Quantity:
     """A parameter's :class:`Quantity` from the model file (label: its name)."""
-    spec = getattr(walker, "specs", {}).get(name)
+    spec = walker.specs.get(name)
     if spec is None:
         return Quantity(name, "", "")
     return Quantity(name, spec.unit, spec.doc)
 
 
-def foot_radius(walker: Any, foot: Any, values: dict[str, float]) -> float:
+def foot_radius(walker: Described, foot: Foot, values: dict[str, float]) -> float:
     """The radius (m) of an arc foot: how far below its point the foot's contact reads the
     surface (a contact ``z = "<point>.z - R"`` -> R; a contact with a ``radius``, the circle or
     sphere of the 3D contacts about the frame its ``z`` reads, which the walker files put at the
@@ -200,10 +222,15 @@ def foot_radius(walker: Any, foot: Any, values: dict[str, float]) -> float:
     height is not a point's height minus a constant)."""
     from porthamiltonian.errors import ExpressionError, ModelError
     from porthamiltonian.modeling.expressions import parse_text
-    if not getattr(foot, "contact", None):
+    if not foot.contact:
         return 0.0
     try:
-        args = walker.spec.model.component(foot.contact).args
+        contact = walker.spec.model.component(foot.contact)
+        from porthamiltonian.modeling.component import Component  # (on use: sympy)
+
+        if not isinstance(contact, Component):  # a sub-model is no contact
+            return 0.0
+        args = contact.args
         if "radius" in args:
             radius = parse_text(str(args["radius"]), f"contact {foot.contact!r} radius")
             value = radius.evaluate(values)

@@ -46,10 +46,11 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -57,7 +58,7 @@ from porthamiltonian.batch import Sweep
 from porthamiltonian.errors import ModelError
 
 from ..analyses.cases import basin_case, step_down_case, walker_cache
-from ..analyses.continuation import continue_gait
+from ..analyses.continuation import ContinuationResult, continue_gait
 from ..analyses.gait import analyze_gait, gait_start
 from ..analyses.monodromy import floquet
 from ..analyses.poincare import find_fixed_point
@@ -72,6 +73,9 @@ from .figures import (
     pyplot,
     save_figure,
 )
+
+if TYPE_CHECKING:
+    from ..core.walker import HybridWalker
 
 __all__ = ["STUDIES", "Study", "StudyContext", "run_studies"]
 
@@ -93,7 +97,7 @@ class StudyContext:
     log: Callable[[str], None] = print
 
     def sweep(self, name: str, function: Callable, cases: list[dict], *, study: str | None = None,
-              shared: dict | None = None, **fixed) -> list[dict]:
+              shared: dict | None = None, **fixed: Any) -> list[dict]:
         """Run (or resume) a sweep into ``<study dir>/<name>.jsonl`` (``study``: another
         study's directory, to share its sweep; ``shared``: the sweep's shared arguments, see
         :class:`porthamiltonian.batch.Sweep`); rows in case order."""
@@ -104,6 +108,7 @@ class StudyContext:
         return sw.table()
 
     def path(self, name: str) -> Path:
+        """The file ``name`` in the study's directory."""
         return self.out / name
 
 
@@ -119,7 +124,7 @@ class Study:
     models: tuple[str, ...] = field(default_factory=tuple)
 
 
-def _row(quantity: str, ours, thesis, unit: str, note: str = "") -> dict:
+def _row(quantity: str, ours: Any, thesis: Any, unit: str, note: str = "") -> dict:
     dev = None
     if isinstance(ours, (int, float)) and isinstance(thesis, (int, float)) and thesis:
         dev = (float(ours) - thesis) / abs(thesis)
@@ -137,12 +142,12 @@ def _at_nominal_slope(rows: list[dict]) -> dict:
     return next((r for r in rows if abs(r["slope"] - 0.009) < 1e-12), {})
 
 
-def _walker(name: str, **params):
+def _walker(name: str, **params: float) -> HybridWalker:
     from ..core.files import load_walker
     return load_walker(name, params or None, backend=None)
 
 
-def _plot_xy(path: Path, xs, series: dict[str, list], xlabel: str, ylabel: str, title: str,
+def _plot_xy(path: Path, xs: Sequence[float], series: dict[str, list], xlabel: str, ylabel: str, title: str,
              hlines: dict[str, float] | None = None) -> None:
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 3.6))
@@ -230,14 +235,14 @@ def _slopes(ctx: StudyContext) -> list[float]:
     return [0.004, 0.009, 0.014, 0.017] if ctx.quick else list(RIGID_SLOPES) + [0.018, 0.019, 0.020]
 
 
-def _branch_rows(result, label: str) -> list[dict]:
+def _branch_rows(result: ContinuationResult, label: str) -> list[dict]:
     """The continuation's points as table rows (no section coordinates)."""
     keep = ("branch", "period_steps", label, "max_multiplier", "stable", "step_period")
     return [{k: r[k] for k in keep} for r in result.table()]
 
 
 def _default_guess_gaits(ctx: StudyContext, model: str, key: str, values: list[float],
-                         result) -> list[dict]:
+                         result: ContinuationResult) -> list[dict]:
     """``walker gait`` from the default guess at each value (its full search: guess, iteration,
     continuation from the file's nominal gait), beside what the continuation found there: a
     stable orbit on some branch (and its period)."""
@@ -257,7 +262,7 @@ def _default_guess_gaits(ctx: StudyContext, model: str, key: str, values: list[f
     return rows
 
 
-def _stable_on_branches(result, value: float) -> list[int]:
+def _stable_on_branches(result: ContinuationResult, value: float) -> list[int]:
     """Periods of the branches with a stable orbit at ``value`` (interpolated between two
     stable neighbouring points)."""
     periods = set()
@@ -314,7 +319,8 @@ def run_rigid_bifurcations(ctx: StudyContext) -> dict:
     """The simplest walker (Garcia et al. 1998) and the compass gait (Goswami et al. 1998)
     continued over the slope: flips located, the period-2 and period-4 branches (the compass
     gait's on to period 8), the unstable short-period gait."""
-    rows, out = [], {}
+    rows: list[dict] = []
+    out: dict[str, Any] = {}
     for label, model, (lo, hi), guess, doublings, published, source in RIGID_CONTINUATIONS:
         if ctx.quick:
             if guess is not None:
@@ -374,7 +380,7 @@ def run_step_down_slope(ctx: StudyContext) -> dict:
 # --- Figs. 2.21, 2.23 ----------------------------------------------------------------------------
 def run_basin(ctx: StudyContext) -> dict:
     n, span = (5, (0.025, 0.1)) if ctx.quick else (11, (0.025, 0.1))   # scaled θ, θ̇ half-widths
-    out = {"rows": [], "basins": {}}
+    out: dict[str, Any] = {"rows": [], "basins": {}}
     for slope in (0.007, 0.012):
         w = _walker(NOMINAL, slope=slope)
         gait = analyze_gait(w)
@@ -537,9 +543,9 @@ def _stiffness_continuation(ctx: StudyContext, Ks: list[float]) -> dict:
 
 
 def run_variable_stiffness(ctx: StudyContext) -> dict:
-    constant = [{"K_leg": 6000.0, "alpha": 0.15}, {"K_leg": 8000.0, "alpha": 0.15},
+    constant: list[dict[str, Any]] = [{"K_leg": 6000.0, "alpha": 0.15}, {"K_leg": 8000.0, "alpha": 0.15},
                 {"K_leg": 12000.0, "alpha": 0.15}]
-    variable = [{"K1": 6000.0, "K2": 8000.0, "alpha": 0.2},
+    variable: list[dict[str, Any]] = [{"K1": 6000.0, "K2": 8000.0, "alpha": 0.2},
                 {"K1": 6000.0, "K2": 12000.0, "alpha": 0.3},
                 {"K1": 8000.0, "K2": 12000.0, "alpha": 0.2}]
     if ctx.quick:
@@ -615,7 +621,6 @@ def run_recommendations(ctx: StudyContext) -> dict:
     (hip_and_leg_spring_walker: the compliant-leg walker with a hip spring) and the ankle
     stiffness (ankle_stiffness_walker), against the rigid-leg walker's: compass_walker itself,
     the foot radius sweep's R = 5 cm case."""
-    from ..analyses.robustness import step_down_case
     res = 2e-4 if ctx.quick else 1e-4
     results = {}
     for key, model, full, quick, _, _ in RECOMMENDED:
@@ -726,7 +731,7 @@ def run_compliance_3d(ctx: StudyContext) -> dict:
     file's 6000 N/m, neighbour by neighbour; the rigid legs (compass_walker_3d) as the reference
     row."""
     Ks = [6000.0] if ctx.quick else [3000.0, 4500.0, 6000.0, 7500.0, 9000.0]
-    grid = ({"h_resolution": 5e-4, "push_resolution": 1e-3, "horizon": 2} if ctx.quick else {})
+    grid: dict[str, Any] = ({"h_resolution": 5e-4, "push_resolution": 1e-3, "horizon": 2} if ctx.quick else {})
     base = _walker(COMPLIANT_3D)
     start = Ks.index(base.parameters["K_leg"])
     guesses: dict[float, list[float]] = {}
@@ -795,7 +800,7 @@ STUDIES: dict[str, Study] = {s.name: s for s in [
 ]}
 
 
-def run_studies(names: list[str] | None, out: str | Path, **options) -> dict:
+def run_studies(names: list[str] | None, out: str | Path, **options: Any) -> dict:
     """Run the named studies (default: all) into ``out``; return {name: summary}. Options are
     :class:`StudyContext` fields (quick, workers, serial, executor, progress, log)."""
     names = list(names or STUDIES)

@@ -18,7 +18,8 @@ at its angle γ as the ground, and mark the start of every recorded step as a st
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -39,15 +40,32 @@ from porthamiltonian.interfaces.viewer.quaternions import about_axis
 from ..analyses.series import GaitSeries
 from .animation import ARC_HALF_ANGLE, LEG_COLOURS, arrow_scale
 from .animation import Scene as Scene2D
-from .labels import foot_radius, is_nondimensional
+from .labels import Described, foot_radius, is_nondimensional
 
-__all__ = ["is_3d", "planar_scene", "walker_scene"]
+__all__ = ["Drawn", "is_3d", "planar_scene", "walker_scene"]
 
 #: sideways offset of each leg of a planar biped in the 3D view (leg lengths)
 LEG_SPREAD = 0.05
 
 
-def _units(walker: Any, step_period: float) -> dict[str, Any]:
+class Drawn(Described, Protocol):
+    """What the 3D view reads of a walker besides its file (:class:`~.labels.Described`): its
+    name, its parameter values (SI) and its leg length (m, the scale of the feet's markers)."""
+
+    @property
+    def name(self) -> str:
+        """The model name (the scene's title)."""
+
+    @property
+    def parameters(self) -> Mapping[str, float]:
+        """Parameter values by name (SI)."""
+
+    @property
+    def leg_length(self) -> float:
+        """The leg length (m)."""
+
+
+def _units(walker: Described, step_period: float) -> dict[str, Any]:
     """The scene's units and time scale (real seconds per unit: one step per second for a
     nondimensional model, as the 2D player does)."""
     if is_nondimensional(walker):
@@ -57,7 +75,7 @@ def _units(walker: Any, step_period: float) -> dict[str, Any]:
     return {"time_unit": "s", "time_scale": 1.0, "length_unit": "m"}
 
 
-def _planar(walker: Any) -> bool:
+def _planar(walker: Described) -> bool:
     try:
         comp = walker.spec.model.freeze().components[walker.multibody]
     except (AttributeError, KeyError):
@@ -65,7 +83,7 @@ def _planar(walker: Any) -> bool:
     return comp.value("plane") == "xz"
 
 
-def is_3d(walker: Any, series: GaitSeries) -> bool:
+def is_3d(walker: Described, series: GaitSeries) -> bool:
     """Whether ``walker`` is a 3D walker whose recorded walk gives its bodies' poses."""
     traj = series.strides[-1].info.get("trajectory") if series.strides else None
     if traj is None or _planar(walker):
@@ -79,7 +97,7 @@ def _stride_starts(series: GaitSeries) -> list[float]:
     return [float(series.t[0]), *(float(series.t[0] + e) for e in ends[:-1])]
 
 
-def walker_scene(walker: Any, series: GaitSeries, sc2d: Scene2D, *,
+def walker_scene(walker: Drawn, series: GaitSeries, sc2d: Scene2D, *,
                  step_period: float = math.nan) -> Scene:
     """The 3D scene of a recorded walk (module docstring): from the bodies' poses for a 3D
     walker, else from the stick figure ``sc2d`` of the same walk."""
@@ -91,7 +109,7 @@ def walker_scene(walker: Any, series: GaitSeries, sc2d: Scene2D, *,
     bodies = [b for b in pose_sources([*traj.model.state_names, *traj.model.output_names])
               if b.startswith(f"{mb}.")]
     values = {**{k: float(v.value) for k, v in model.parameters.items()}, **walker.parameters}
-    leg = float(getattr(walker, "leg_length", 1.0))
+    leg = float(walker.leg_length)
     extra: dict[str, list] = {}
     points = {b: body_points(traj, model, b) for b in bodies}
     for foot in walker.spec.feet:
@@ -118,7 +136,7 @@ def _leg_quaternions(d: np.ndarray) -> np.ndarray:
     return about_axis([0.0, 1.0, 0.0], np.arctan2(-d[:, 0], -d[:, 1]))
 
 
-def planar_scene(walker: Any, sc: Scene2D, *, step_period: float = math.nan) -> Scene:
+def planar_scene(walker: Drawn, sc: Scene2D, *, step_period: float = math.nan) -> Scene:
     """The stick figure ``sc`` of a planar walker as a 3D scene (module docstring)."""
     F, K = sc.feet.shape[:2]
     L = sc.leg_length

@@ -42,6 +42,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -53,6 +54,7 @@ from ..analyses.gait import GaitResult, analyze_gait
 from ..analyses.results import to_json
 from ..analyses.robustness import (
     BasinResult,
+    GSNResult,
     StepDownResult,
     basin,
     gait_sensitivity_norm,
@@ -60,9 +62,10 @@ from ..analyses.robustness import (
 )
 from ..analyses.series import GaitSeries, walk_series
 from ..core.protocol import Walker
+from ..core.walker import HybridWalker
 from . import page as P
-from .animation import player_data, scene, write_gif
-from .comparison import REFERENCES, compare, differing_conditions, doc_link
+from .animation import Scene, player_data, scene, write_gif
+from .comparison import REFERENCES, ComparisonRow, compare, differing_conditions, doc_link
 from .figures import (
     fig_angles,
     fig_basin,
@@ -74,6 +77,9 @@ from .figures import (
 )
 from .labels import METRICS, describe, is_nondimensional, parameter, shown_unit
 from .view3d import is_3d, walker_scene
+
+if TYPE_CHECKING:
+    from porthamiltonian.interfaces.viewer import Scene as Scene3D
 
 __all__ = ["EXTRA_FIGURES", "ExtraFigure", "ReportResult", "load_summary", "write_report"]
 
@@ -109,7 +115,7 @@ class ReportResult:
     seconds: float
 
 
-def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step_down: bool = True,
+def write_report(walker: HybridWalker, out: str | Path, *, n_steps: int = 6, with_step_down: bool = True,
                  with_basin: bool = False, basin_n: int = 9, step_down_resolution: float | None = None,
                  forces: bool = False, extra: Sequence[ExtraFigure] | None = None,
                  view3d: bool | None = None, continuation: ContinuationResult | None = None,
@@ -135,7 +141,7 @@ def write_report(walker: Walker, out: str | Path, *, n_steps: int = 6, with_step
         files.append(name)
         images[name] = (mime, data)
 
-    def dump(name: str, obj) -> None:
+    def dump(name: str, obj: Any) -> None:
         (out / name).write_text(to_json(obj) + "\n")
         files.append(name)
 
@@ -215,7 +221,7 @@ def _u(unit: str, nondim: bool) -> str:
     return shown_unit(unit, nondim) or "—"
 
 
-def _header(walker: Walker, gait: GaitResult, sd: StepDownResult | None, nondim: bool) -> str:
+def _header(walker: HybridWalker, gait: GaitResult, sd: StepDownResult | None, nondim: bool) -> str:
     badges = []
     if gait.status == "periodic":
         kind = "stable" if gait.stable else "unstable"
@@ -240,9 +246,8 @@ def _header(walker: Walker, gait: GaitResult, sd: StepDownResult | None, nondim:
         cells.append(("largest step-down survived", _length(sd.max_step_down, nondim)))
     card_html = "".join(f'<div class="card"><div class="k">{html.escape(k)}</div>'
                         f'<div class="v">{html.escape(v)}</div></div>' for k, v in cells)
-    doc = getattr(walker, "doc", "") or ""
     return (f"<header><h1>Walker report: {html.escape(walker.name)}</h1>"
-            f'<p class="lead">{html.escape(doc)}</p><div class="badges">{b}</div>'
+            f'<p class="lead">{html.escape(walker.doc)}</p><div class="badges">{b}</div>'
             + ("" if gait.status == "periodic" else
                f"<p>{html.escape(gait.message[:1].upper() + gait.message[1:])}.</p>")
             + f'<div class="cards">{card_html}</div></header>')
@@ -257,7 +262,7 @@ def _length(value: float, nondim: bool) -> str:
     return f"{value:.3g} (nondim.)" if nondim else f"{value * 1e3:.3g} mm"
 
 
-def _comparison_html(walker: Walker, rows: list, out: Path) -> str:
+def _comparison_html(walker: HybridWalker, rows: list, out: Path) -> str:
     ref = REFERENCES.get(walker.name)
     if ref is None:
         return ""
@@ -269,7 +274,7 @@ def _comparison_html(walker: Walker, rows: list, out: Path) -> str:
                          for k, (ours, theirs) in differ.items())
         return head + (f"<p>Not compared: the published numbers hold for other parameter values "
                        f"than this run's: {html.escape(what)}.</p>")
-    cells = []
+    cells: list[Any] = []
     for k, r in enumerate(rows):
         if r.agrees is None:
             verdict = P.Html("—")
@@ -309,11 +314,11 @@ def _to_tolerance(value: float | None, tolerance: float | None) -> str:
     return shown if len(shown.strip("-0.")) >= 6 else P.number(value)
 
 
-def _gait_tables(walker: Walker, gait: GaitResult, nondim: bool) -> str:
+def _gait_tables(walker: HybridWalker, gait: GaitResult, nondim: bool) -> str:
     m = gait.metrics.to_dict()
     rows = [[P.named(q.label, k), m[k], _u(q.unit, nondim), q.doc]
             for k, q in METRICS.items() if k in m]
-    parts = [P.table(["gait metric", "value", "unit", "meaning"], rows, numeric=(1,))]
+    parts: list[str] = [P.table(["gait metric", "value", "unit", "meaning"], rows, numeric=(1,))]
     fp = gait.fixed_point or {}
     if gait.status == "periodic" and fp:
         thesis = [k for k in walker.thesis_section if k in fp]
@@ -323,7 +328,7 @@ def _gait_tables(walker: Walker, gait: GaitResult, nondim: bool) -> str:
         label = ("Fixed point on the Poincaré section (the state at heel strike that the gait "
                  "returns to every period), in the thesis's coordinates")
 
-        def rows_of(keys):
+        def rows_of(keys: list[str]) -> list[list[Any]]:
             return [[P.named(describe(walker, k).label, k), fp[k],
                      _u(describe(walker, k).unit, nondim), describe(walker, k).doc] for k in keys]
         parts.append(f"<h3>{html.escape(label)}</h3>")
@@ -362,7 +367,7 @@ def _floquet_html(gait: GaitResult, images: dict) -> str:
             f"</div><div>{fig}</div></div>")
 
 
-def _view3d_html(walker: Walker, scene3d, three_d: bool, images: dict) -> str:
+def _view3d_html(walker: HybridWalker, scene3d: Scene3D, three_d: bool, images: dict) -> str:
     """The interactive 3D view (its still image inside, for browsers without WebGL)."""
     from porthamiltonian.interfaces.viewer.page import block
     gamma = scene3d.ground.slope if scene3d.ground is not None else 0.0
@@ -375,7 +380,7 @@ def _view3d_html(walker: Walker, scene3d, three_d: bool, images: dict) -> str:
                  label=f"3D view of {walker.name} walking")
 
 
-def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
+def _walk_html(walker: HybridWalker, gait: GaitResult, ledger: dict, sc: Scene, images: dict,
                nondim: bool, view: tuple) -> str:
     J = _u("J", nondim)
     tunit = "nondimensional time" if nondim else "s"
@@ -388,14 +393,14 @@ def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
            + ("; the contact forces switch on arrows (the weight is drawn 0.35 leg lengths long)"
               if sc.force is not None else "") + ".")
     scene3d, three_d = view
-    player = P.player(player_data(sc), time_unit=tunit, time_scale=scale, caption=cap)
+    player: str = P.player(player_data(sc), time_unit=tunit, time_scale=scale, caption=cap)
     if scene3d is not None:
         shown = _view3d_html(walker, scene3d, three_d, images)
         player = shown if three_d else (player + "<h3>In three dimensions</h3>" + shown)
     gif = P.figure(images, "walk.gif", "animation of the walk (GIF)",
                    "The same walk as an animated GIF (walk.gif beside this page), for slides.")
     start = "the fixed point" if gait.status == "periodic" else "the initial guess"
-    legged = bool(getattr(walker, "legged", True))
+    legged = walker.legged
     steps = ledger["steps"]
     fell = " until it fell" if gait.status == "fell" else ""
     return (f'<h2 id="motion">The walk</h2><p>{steps} step{"" if steps == 1 else "s"} from '
@@ -424,7 +429,8 @@ def _walk_html(walker: Walker, gait: GaitResult, ledger: dict, sc, images: dict,
                        "periodic gait."))
 
 
-def _robustness_html(walker: Walker, sd, gsn, bas, images: dict, nondim: bool) -> str:
+def _robustness_html(walker: HybridWalker, sd: StepDownResult | None, gsn: GSNResult | None,
+                     bas: BasinResult | None, images: dict, nondim: bool) -> str:
     parts = []
     if sd is not None and sd.status == "ok":
         grid = _length(sd.resolution, nondim) if math.isfinite(sd.resolution) else "given heights"
@@ -489,11 +495,12 @@ def _continuation_html(c: ContinuationResult | None, images: dict) -> str:
             + f"<details><summary>The branches ({len(rows)} points)</summary>{branch}</details>")
 
 
-def _parameters_html(walker: Walker, nondim: bool) -> str:
+def _parameters_html(walker: HybridWalker, nondim: bool) -> str:
     rows = []
     for k, v in walker.parameters.items():
         q = parameter(walker, k)
-        default = getattr(getattr(walker, "specs", {}).get(k), "value", v)
+        spec = walker.specs.get(k)
+        default = v if spec is None else spec.value
         mark = "" if v == default else f" (file: {default:g})"
         rows.append([P.Html(f"<code>{html.escape(k)}</code>"), v, _u(q.unit, nondim),
                      q.doc + mark])
@@ -502,12 +509,12 @@ def _parameters_html(walker: Walker, nondim: bool) -> str:
                       numeric=(1,)))
 
 
-def _command(walker: Walker) -> str:
+def _command(walker: HybridWalker) -> str:
     """The command that writes this report again (shell-quoted): the walker by its name when
     that name finds its file, else by the file's path; every parameter that differs from the
     file's value, exactly (repr)."""
-    specs = getattr(walker, "specs", {})
-    source = str(getattr(getattr(walker, "spec", None), "source", "") or "")
+    specs = walker.specs
+    source = walker.spec.source
     target = walker.name
     if source:
         try:
@@ -520,8 +527,11 @@ def _command(walker: Walker) -> str:
     return shlex.join(["walker", "report", target, *sets])
 
 
-def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc, images,
-          extras, out: Path, view: tuple, continuation: ContinuationResult | None = None) -> str:
+def _body(walker: HybridWalker, gait: GaitResult, sd: StepDownResult | None,
+          gsn: GSNResult | None, bas: BasinResult | None, comparison: list[ComparisonRow],
+          ledger: dict, series: GaitSeries, sc: Scene, images: dict,
+          extras: list[tuple[ExtraFigure, str]], out: Path, view: tuple,
+          continuation: ContinuationResult | None = None) -> str:
     nondim = is_nondimensional(walker)
     sections = [_header(walker, gait, sd, nondim)]
     toc = [("comparison", "comparison", walker.name in REFERENCES),
@@ -552,13 +562,13 @@ def _body(walker, gait, sd, gsn, bas, comparison, ledger, series: GaitSeries, sc
                                        "continuation.json", "report.json")
                            if (out / f).exists())
     sections.append(f"<footer><p>Made {made} by <code>{html.escape(_command(walker))}</code> "
-                    f"(back end {html.escape(str(getattr(walker, 'backend', '')))}). The results "
+                    f"(back end {html.escape(walker.backend)}). The results "
                     f"as JSON beside this page: {html.escape(json_files)}; the figures as PNG.</p>"
                     "</footer>")
     return "\n".join(s for s in sections if s)
 
 
-def _section_words(walker: Walker) -> str:
+def _section_words(walker: HybridWalker) -> str:
     names = [describe(walker, k).label for k in walker.thesis_section]
     return "the state at every heel strike, by " + ", ".join(names)
 

@@ -182,8 +182,8 @@ def scene_from_trajectory(traj: Any, *, model: Any = None, bodies: Sequence[str]
     for b in chosen:
         if points[b]:
             cloud += list(raw[b][0, :3] + rotate(normalise(raw[b][0, 3:]), np.array(points[b])))
-    cloud = np.array(cloud)
-    size = float(np.linalg.norm(cloud.max(axis=0) - cloud.min(axis=0))) or 1.0
+    corners = np.array(cloud)
+    size = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0))) or 1.0
     out = []
     for k, b in enumerate(chosen):
         tint = PALETTE[k % len(PALETTE)]

@@ -71,5 +71,5 @@ def from_matrix(R: np.ndarray) -> np.ndarray:
         q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, s / 4, (R[1, 2] + R[2, 1]) / s]
     else:
         q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, s / 4]
-    q = np.array(q)
-    return q if q[0] >= 0 else -q
+    out = np.array(q)
+    return out if out[0] >= 0 else -out

@@ -150,7 +150,7 @@ class Scene:
     bodies: list[Body]
     ground: Ground | None = None
     arrows: list[Arrow] = field(default_factory=list)
-    strides: Sequence[float] = ()
+    strides: Sequence[float] | np.ndarray = ()
     up: str = "z"
     title: str = ""
     time_unit: str = "s"

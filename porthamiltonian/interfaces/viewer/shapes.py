@@ -165,10 +165,11 @@ class Cylinder(Capsule):
     def surfaces(self, n: int = 12) -> list[Grid]:
         a, b = np.array(self.a), np.array(self.b)
         tube = _tube_grid(a, b, self.radius, n)
-        caps = []
+        caps: list[Grid] = []
         for row, end in ((0, a), (1, b)):          # a disc: the end's centre and its ring
-            caps.append(tuple(np.stack([np.full_like(g[row], end[i]), g[row]])
-                              for i, g in enumerate(tube)))
+            x, y, z = (np.stack([np.full_like(g[row], end[i]), g[row]])
+                       for i, g in enumerate(tube))
+            caps.append((x, y, z))
         return [tube, *caps]
 
 

@@ -1,0 +1,191 @@
+"""Benchmark of starting at once (issue 26, item 4): a warm ``walker gait``, and the Python
+overhead of one right-hand side call.
+
+**Warm start.** ``walker gait WALKER --json`` end to end in fresh processes, on a private cache
+that a first (cold) run filled, two variants interleaved round by round:
+
+* ``warm``  — as a user's second run: the walker restored from its snapshot
+  (walker_library/core/warm.py), neither sympy nor networkx imported;
+* ``full``  — the same command after the snapshot file is removed: the walker file read in full
+  (model built, expressions parsed with sympy, graph built with networkx, plan checked), the
+  compiled model still from the cache: what every warm run did before snapshots (and the run
+  stores the snapshot again).
+
+Each run records its wall time, its CPU time (user + system, from ``getrusage`` of the child) and
+the 1-minute load average at its start; medians over ``--rounds`` and the ratio warm / full of
+the medians (same run, same load). The machine is shared: the CPU times move much less with the
+load than the wall times. ``--breakdown`` adds one in-process split of a warm run (import, load,
+analysis; CPU seconds).
+
+**Call overhead.** One right-hand side of ``mass_spring_damper`` (2 states) on the C back end
+from Python, ``compiled.functions.rhs(t, y, p)`` (the fast path of
+porthamiltonian.backends.native: buffers with addresses taken once, a GIL-keeping prototype),
+against the same call made as it was before (each call converting its arguments with numpy,
+asking for the three arrays' addresses and releasing the GIL around the C function), interleaved
+in blocks of ``--calls`` calls; medians of µs per call and their ratio.
+
+Run::
+
+    python benchmarks/bench_warm_start.py                    # both parts (about a minute)
+    python benchmarks/bench_warm_start.py --rounds 9 --walker compliant_leg_walker --breakdown
+"""
+from __future__ import annotations
+
+import argparse
+import ctypes
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.machine import machine_info
+
+
+def _env(cache: Path) -> dict:
+    return {**os.environ, "PORTHAMILTONIAN_CACHE": str(cache), "PORTHAMILTONIAN_QUIET": "1",
+            "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+
+
+def _timed(command: list[str], env: dict) -> tuple[float, float, float]:
+    """(wall s, CPU s of the child, load average at the start) of one run of ``command``."""
+    load = os.getloadavg()[0]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    subprocess.run(command, env=env, cwd=ROOT, check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, load
+
+
+def warm_start(walker: str, rounds: int, breakdown: bool) -> None:
+    cache = Path(tempfile.mkdtemp(prefix="bench-warm-"))
+    os.chmod(cache, 0o700)
+    env = _env(cache)
+    command = [sys.executable, "-m", "walker_library", "gait", walker, "--json"]
+    try:
+        wall, cpu, load = _timed(command, env)
+        print(f"cold run (build, cache filled): {wall:.2f} s wall, {cpu:.2f} s CPU, load {load:.2f}")
+        snapshots = list(cache.glob("s*/snapshot.json"))
+        if len(snapshots) != 1:
+            raise SystemExit(f"expected one walker snapshot in {cache}, found {len(snapshots)}")
+        results: dict[str, list[tuple[float, float, float]]] = {"full": [], "warm": []}
+        for _ in range(rounds):
+            snapshots[0].unlink()
+            results["full"].append(_timed(command, env))
+            if not snapshots[0].is_file():
+                raise SystemExit("the full read did not store the snapshot again")
+            results["warm"].append(_timed(command, env))
+        print(f"\nwalker gait {walker} --json, end to end ({rounds} interleaved rounds; medians)")
+        print(f"{'variant':8s} {'wall s':>8s} {'CPU s':>8s}  load (min-max)   all wall times")
+        med = {}
+        for name, rows in results.items():
+            walls, cpus, loads = zip(*rows)
+            med[name] = (statistics.median(walls), statistics.median(cpus))
+            print(f"{name:8s} {med[name][0]:8.3f} {med[name][1]:8.3f}  {min(loads):.2f}-"
+                  f"{max(loads):.2f}  {' '.join(f'{w:.2f}' for w in walls)}")
+        print(f"ratio warm/full: wall {med['warm'][0] / med['full'][0]:.2f}, "
+              f"CPU {med['warm'][1] / med['full'][1]:.2f}")
+        if breakdown:
+            code = (
+                "import time, sys, json\nt0 = time.process_time()\n"
+                "import walker_library.cli\n"
+                "from walker_library.core.files import load_walker\n"
+                "from walker_library.analyses.gait import analyze_gait\n"
+                "t1 = time.process_time()\n"
+                f"w = load_walker({walker!r})\nt2 = time.process_time()\n"
+                "r = analyze_gait(w, None)\nr.to_json()\nt3 = time.process_time()\n"
+                "print(json.dumps([t1 - t0, t2 - t1, t3 - t2, "
+                "[m for m in ('sympy', 'networkx', 'matplotlib') if m in sys.modules]]))\n")
+            out = subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, check=True,
+                                 capture_output=True, text=True).stdout
+            imp, load_s, analysis, heavy = eval_json(out)
+            print(f"warm run in-process (CPU s): imports {imp:.3f}, load_walker {load_s:.3f}, "
+                  f"gait analysis {analysis:.3f}; symbolic libraries imported: {heavy or 'none'}")
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+
+
+def eval_json(text: str):
+    import json
+
+    return json.loads(text.strip().splitlines()[-1])
+
+
+def call_overhead(calls: int, blocks: int) -> None:
+    cache = Path(tempfile.mkdtemp(prefix="bench-call-"))
+    os.chmod(cache, 0o700)
+    os.environ["PORTHAMILTONIAN_CACHE"] = str(cache)
+    os.environ["PORTHAMILTONIAN_QUIET"] = "1"
+    try:
+        import numpy as np
+
+        from porthamiltonian import io
+        from porthamiltonian.backends import native
+        from porthamiltonian.compiler import cache as ph_cache
+
+        m = io.read("mass_spring_damper").compile(backend="c")
+        p = m.params()
+        y = m.augment(m.initial_state(p)) + 0.25
+        pn = m.native_params(p)
+        fast = m.functions.rhs
+        path = ph_cache.verified_path(m.key, native.library_name(m.key, native.compiler_identity()))
+        fn = ctypes.CDLL(str(path)).ph_rhs
+        fn.restype = None
+        fn.argtypes = (ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+        n, n_p, shape = len(y), len(pn), (len(y),)
+
+        def before(t, x, q):
+            """The call as the C back end made it before the fast path."""
+            x = native._vector(x, n, "x")
+            q = native._vector(q, n_p, "p")
+            out = np.empty(shape)
+            fn(t, native._pointer(x), native._pointer(q), native._pointer(out))
+            return out
+
+        assert np.array_equal(before(0.1, y, pn), fast(0.1, y, pn))
+        times: dict[str, list[float]] = {"before": [], "fast": []}
+        for _ in range(blocks):
+            for name, f in (("before", before), ("fast", fast)):
+                start = time.perf_counter()
+                for _ in range(calls):
+                    f(0.1, y, pn)
+                times[name].append((time.perf_counter() - start) / calls * 1e6)
+        med = {k: statistics.median(v) for k, v in times.items()}
+        print(f"\nPython call of one right-hand side, mass_spring_damper ({m.n_states} states, "
+              f"C back end), {blocks} interleaved blocks of {calls} calls; medians, load "
+              f"{os.getloadavg()[0]:.2f}")
+        for k, v in med.items():
+            print(f"{k:8s} {v:7.2f} µs per call   (min {min(times[k]):.2f})")
+        print(f"ratio fast/before: {med['fast'] / med['before']:.2f}")
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--walker", default="compass_walker")
+    ap.add_argument("--rounds", type=int, default=7)
+    ap.add_argument("--calls", type=int, default=20000)
+    ap.add_argument("--blocks", type=int, default=15)
+    ap.add_argument("--breakdown", action="store_true")
+    ap.add_argument("--only", choices=("warm", "calls"), default=None)
+    args = ap.parse_args()
+    print(machine_info())
+    if args.only != "calls":
+        warm_start(args.walker, args.rounds, args.breakdown)
+    if args.only != "warm":
+        call_overhead(args.calls, args.blocks)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,828 @@
+# Template: appended by porthamiltonian.compiler.printers to the generated Python module of every
+# model with a kernel-formulated Multibody (where ``np``, ``math`` and ``_jit`` are defined: numba's
+# njit or the identity); importable on its own as well (then ``_jit`` is the identity), which the
+# tests use. kernel.c is the same algorithm in C, line by line: a change here is made there too
+# (tests/validation/test_multibody_kernel.py runs both). Numeric code only, no sympy.
+"""The recursive multibody kernel: one code for every tree, driven by numeric tables.
+
+The dynamics of :mod:`porthamiltonian.mechanics.tree` (the recursive joint-space Hamiltonian in
+the links' own frames, twists (ω, v) and wrenches (τ, f)) evaluated numerically: the links'
+relative poses ``(R_k, p_k)`` (x_parent = R_k x_k + p_k) and world poses, the composite (subtree)
+mass, first moment and rotational inertia, the mass matrix by the composite-rigid-body recursion
+and its L^T D L factorisation without fill-in outside the ancestors (Featherstone, *Rigid Body
+Dynamics Algorithms*, 2008, §6.2, §6.5), the velocities v = M⁻¹ p, the body twists (root to tip)
+and subtree momenta Π_k = (L, P) (tip to root), the momentum rates
+``Π_kᵀ ad_{T_k} S + Sᵀ (hᶜ_k × g_k, mᶜ_k g_k)`` of every unit twist S, the potential
+``V = −g · (first moment)`` and the kinematics of sites (points and frames fixed to links).
+
+Tangents (forward mode). Every entry takes tangent directions of its inputs ``din`` (r × K) and
+returns ``dout = ∂out/∂in · din`` (m × K): each quantity is held as 1 + K numbers, its value then
+its K derivatives, and every operation applies the product rule (``K = 0``: values only). The
+velocities are differentiated implicitly, ``dv = M⁻¹ (dp − d(M v)|_v)``, where ``d(M v)|_v`` is
+the tangent of the momenta ``Sᵀ Π`` at fixed v; the Jacobian of a model through the kernel is
+therefore exact (no differences) and costs about K evaluations of the recursion.
+
+Tables. ``s`` (integers): ``[nl, nv, nq, ns]``, then per link ``parent`` (−1: the world),
+``kind`` (0 revolute, 1 prismatic, 2 spherical, 3 free), its first velocity and first coordinate
+(links are ordered parents first), then per site its link and ``kind``. ``c`` (numbers, the
+tree's run-time parameters): per link (16 numbers) its unit axis (revolute, prismatic), the joint's
+origin in the parent's frame (m), mass (kg), first moment Σ m c (kg m) and rotational inertia
+about the link origin (kg m²: xx, yy, zz, xy, xz, yz), all in the link's frame; then gravity
+(world, m/s²), the first moment of the bodies welded to the world (kg m), and per site its
+position in its link's frame (m). A spherical link's coordinates are a quaternion (w, x, y, z),
+its velocities the relative angular velocity in its axes; a free link's are the position (parent
+axes) and a quaternion, its velocities the relative twist (ω, v) in its axes.
+
+Entries (``in``, ``out``): ``mb_state`` — in (q, p); out (v, the momentum rates without port loads,
+V, then per site: kind 0 (point) world position and velocity (6), kind 1 (frame) its twist
+(ω, v) in its link's axes (6), kind 2 (world frame) world position, angular velocity and
+velocity in world axes (9)). ``mb_load`` — in (q, per site a wrench (τ, f) about the site, in world
+axes, or the link's axes for kind 1); out the generalized forces Sᵀ W (nv). Without tangents:
+``mb_mass`` (in q; out M, nv × nv row-major), ``mb_jacobians`` (in q; per site the world Jacobian of
+its velocity, 3 × nv), ``mb_poses`` (in q; per site its world position and the unit quaternion of
+its link's axes, 7), ``mb_momenta`` (in (q, v); out M(q) v).
+"""
+try:
+    _jit  # noqa: B018 - defined by the generated module's header
+except NameError:
+    def _jit(f):
+        return f
+
+import math
+
+import numpy as np
+
+_MB_ROT, _MB_TRANS, _MB_SPH, _MB_FREE = 0, 1, 2, 3
+_MB_LINK = 16
+
+
+@_jit
+def _mb_dofs(kind):
+    return 3 if kind == _MB_SPH else (6 if kind == _MB_FREE else 1)
+
+
+@_jit
+def _mb_screw(s, c, k, r, a, u):
+    """The unit twist (a, u) of velocity r of link k, in the link's frame."""
+    kind = s[4 + 4 * k + 1]
+    base = _MB_LINK * k
+    for i in range(3):
+        a[i] = 0.0
+        u[i] = 0.0
+    if kind == _MB_ROT:
+        for i in range(3):
+            a[i] = c[base + i]
+    elif kind == _MB_TRANS:
+        for i in range(3):
+            u[i] = c[base + i]
+    elif r < 3:
+        a[r] = 1.0
+    else:
+        u[r - 3] = 1.0
+
+
+# --- duals: a value and D - 1 derivatives at x[i:i + D] -------------------------------------------
+@_jit
+def _mb_set(D, x, i, value):
+    x[i] = value
+    for j in range(1, D):
+        x[i + j] = 0.0
+
+
+@_jit
+def _mb_axpy(D, alpha, x, ix, out, io):
+    """out += alpha x (alpha a number)."""
+    for j in range(D):
+        out[io + j] += alpha * x[ix + j]
+
+
+@_jit
+def _mb_fma(D, a, ia, b, ib, out, io):
+    """out += a b."""
+    a0, b0 = a[ia], b[ib]
+    for j in range(1, D):
+        out[io + j] += a0 * b[ib + j] + a[ia + j] * b0
+    out[io] += a0 * b0
+
+
+@_jit
+def _mb_fms(D, a, ia, b, ib, out, io):
+    """out -= a b."""
+    a0, b0 = a[ia], b[ib]
+    for j in range(1, D):
+        out[io + j] -= a0 * b[ib + j] + a[ia + j] * b0
+    out[io] -= a0 * b0
+
+
+@_jit
+def _mb_div(D, a, ia, b, ib, out, io):
+    """out = a / b."""
+    r, inv = a[ia] / b[ib], 1.0 / b[ib]
+    for j in range(1, D):
+        out[io + j] = (a[ia + j] - r * b[ib + j]) * inv
+    out[io] = r
+
+
+@_jit
+def _mb_zero(x, i, n):
+    for j in range(n):
+        x[i + j] = 0.0
+
+
+@_jit
+def _mb_copy(x, i, y, iy, n):
+    for j in range(n):
+        x[i + j] = y[iy + j]
+
+
+@_jit
+def _mb_rot(D, R, iR, v, iv, out, io):
+    """out += R v (3x3 and 3-vectors of duals)."""
+    for i in range(3):
+        for k in range(3):
+            _mb_fma(D, R, iR + (3 * i + k) * D, v, iv + k * D, out, io + i * D)
+
+
+@_jit
+def _mb_rot_t(D, R, iR, v, iv, out, io):
+    """out += Rᵀ v."""
+    for i in range(3):
+        for k in range(3):
+            _mb_fma(D, R, iR + (3 * k + i) * D, v, iv + k * D, out, io + i * D)
+
+
+@_jit
+def _mb_rot_c(D, R, iR, v, iv, out, io):
+    """out += R v for a constant v (numbers at v[iv:iv + 3])."""
+    for i in range(3):
+        for k in range(3):
+            _mb_axpy(D, v[iv + k], R, iR + (3 * i + k) * D, out, io + i * D)
+
+
+@_jit
+def _mb_rot_t_c(D, R, iR, v, iv, out, io):
+    """out += Rᵀ v for a constant v."""
+    for i in range(3):
+        for k in range(3):
+            _mb_axpy(D, v[iv + k], R, iR + (3 * k + i) * D, out, io + i * D)
+
+
+@_jit
+def _mb_cross(D, a, ia, b, ib, out, io):
+    """out += a × b."""
+    for i in range(3):
+        i1, i2 = (i + 1) % 3, (i + 2) % 3
+        _mb_fma(D, a, ia + i1 * D, b, ib + i2 * D, out, io + i * D)
+        _mb_fms(D, a, ia + i2 * D, b, ib + i1 * D, out, io + i * D)
+
+
+@_jit
+def _mb_cross_c(D, a, ia, sign, b, ib, out, io):
+    """out += sign (a × b) for a constant a (numbers at a[ia:ia + 3])."""
+    for i in range(3):
+        i1, i2 = (i + 1) % 3, (i + 2) % 3
+        _mb_axpy(D, sign * a[ia + i1], b, ib + i2 * D, out, io + i * D)
+        _mb_axpy(D, -sign * a[ia + i2], b, ib + i1 * D, out, io + i * D)
+
+
+@_jit
+def _mb_dot(D, a, ia, b, ib, out, io):
+    """out += a · b."""
+    for i in range(3):
+        _mb_fma(D, a, ia + i * D, b, ib + i * D, out, io)
+
+
+@_jit
+def _mb_dot_c(D, a, ia, b, ib, out, io):
+    """out += a · b for a constant a."""
+    for i in range(3):
+        _mb_axpy(D, a[ia + i], b, ib + i * D, out, io)
+
+
+@_jit
+def _mb_mat_mul(D, A, iA, B, iB, out, io):
+    """out = A B (3x3 duals)."""
+    _mb_zero(out, io, 9 * D)
+    for i in range(3):
+        for k in range(3):
+            for m in range(3):
+                _mb_fma(D, A, iA + (3 * i + m) * D, B, iB + (3 * m + k) * D, out, io + (3 * i + k) * D)
+
+
+# --- positions ------------------------------------------------------------------------------------
+@_jit
+def _mb_quaternion(D, q, iq, R, iR):
+    """The rotation of q / |q| (Hamilton, w x y z; duals at q[iq:]) into R."""
+    n2 = np.zeros(D)
+    e = np.zeros(D)
+    for m in range(4):
+        _mb_fma(D, q, iq + m * D, q, iq + m * D, n2, 0)
+    w = iq
+    for i in range(3):               # diagonal: w² + a_i² − the other two squared
+        _mb_set(D, e, 0, 0.0)
+        _mb_fma(D, q, w, q, w, e, 0)
+        for a in range(3):
+            if a == i:
+                _mb_fma(D, q, iq + (a + 1) * D, q, iq + (a + 1) * D, e, 0)
+            else:
+                _mb_fms(D, q, iq + (a + 1) * D, q, iq + (a + 1) * D, e, 0)
+        _mb_div(D, e, 0, n2, 0, R, iR + 4 * i * D)
+    for i in range(3):               # off-diagonal: 2 (a_i a_j ∓ w a_k), minus when j follows i
+        for j in range(3):
+            if i == j:
+                continue
+            k = 3 - i - j
+            _mb_set(D, e, 0, 0.0)
+            _mb_fma(D, q, iq + (i + 1) * D, q, iq + (j + 1) * D, e, 0)
+            if (j - i + 3) % 3 == 1:
+                _mb_fms(D, q, w, q, iq + (k + 1) * D, e, 0)
+            else:
+                _mb_fma(D, q, w, q, iq + (k + 1) * D, e, 0)
+            for m in range(D):
+                e[m] *= 2.0
+            _mb_div(D, e, 0, n2, 0, R, iR + (3 * i + j) * D)
+
+
+@_jit
+def _mb_positions(D, s, c, q, R, p, R0, p0):
+    """Relative poses (R, p) and world poses (R0, p0) of the links, root to tip; q: the
+    coordinates as duals (nq x D)."""
+    nl = s[0]
+    cs = np.zeros(D)
+    sn = np.zeros(D)
+    for k in range(nl):
+        parent, kind, co = s[4 + 4 * k], s[4 + 4 * k + 1], s[4 + 4 * k + 3]
+        base = _MB_LINK * k
+        iR, ip = 9 * D * k, 3 * D * k
+        for i in range(3):
+            _mb_set(D, p, ip + i * D, c[base + 3 + i])
+        if kind == _MB_ROT:
+            iq = co * D
+            c0, s0 = math.cos(q[iq]), math.sin(q[iq])
+            cs[0], sn[0] = c0, s0
+            for j in range(1, D):
+                cs[j] = -s0 * q[iq + j]
+                sn[j] = c0 * q[iq + j]
+            ax, ay, az = c[base], c[base + 1], c[base + 2]
+            skew = (0.0, -az, ay, az, 0.0, -ax, -ay, ax, 0.0)
+            for i in range(3):
+                for m in range(3):
+                    e = iR + (3 * i + m) * D
+                    aa = c[base + i] * c[base + m]
+                    diag = (1.0 if i == m else 0.0) - aa
+                    for j in range(D):
+                        R[e + j] = diag * cs[j] + skew[3 * i + m] * sn[j]
+                    R[e] += aa
+        elif kind == _MB_TRANS:
+            for i in range(9):
+                _mb_set(D, R, iR + i * D, 1.0 if i % 4 == 0 else 0.0)
+            for i in range(3):
+                _mb_axpy(D, c[base + i], q, co * D, p, ip + i * D)
+        elif kind == _MB_SPH:
+            _mb_quaternion(D, q, co * D, R, iR)
+        else:
+            _mb_quaternion(D, q, (co + 3) * D, R, iR)
+            for i in range(3):
+                _mb_axpy(D, 1.0, q, (co + i) * D, p, ip + i * D)
+        if parent < 0:
+            _mb_copy(R0, iR, R, iR, 9 * D)
+            _mb_copy(p0, ip, p, ip, 3 * D)
+        else:
+            _mb_mat_mul(D, R0, 9 * D * parent, R, iR, R0, iR)
+            _mb_copy(p0, ip, p0, 3 * D * parent, 3 * D)
+            _mb_rot(D, R0, 9 * D * parent, p, ip, p0, ip)
+
+
+@_jit
+def _mb_composites(D, s, c, R, p, mc, hc, Jc):
+    """Composite mass mc, first moment hc (duals) and rotational inertia Jc (values, 3x3, about
+    the link origin) of every link's subtree, tip to root."""
+    nl = s[0]
+    Rh = np.zeros(3 * D)
+    for k in range(nl):
+        base = _MB_LINK * k
+        mc[k] = c[base + 6]
+        for i in range(3):
+            _mb_set(D, hc, 3 * D * k + i * D, c[base + 7 + i])
+        J = base + 10
+        Jc[9 * k], Jc[9 * k + 4], Jc[9 * k + 8] = c[J], c[J + 1], c[J + 2]
+        Jc[9 * k + 1] = Jc[9 * k + 3] = c[J + 3]
+        Jc[9 * k + 2] = Jc[9 * k + 6] = c[J + 4]
+        Jc[9 * k + 5] = Jc[9 * k + 7] = c[J + 5]
+    RJ = np.zeros(9)
+    P = np.zeros(3)
+    H = np.zeros(3)
+    for k in range(nl - 1, -1, -1):
+        parent = s[4 + 4 * k]
+        if parent < 0:
+            continue
+        iR, ip, m = 9 * D * k, 3 * D * k, mc[k]
+        _mb_zero(Rh, 0, 3 * D)
+        _mb_rot(D, R, iR, hc, 3 * D * k, Rh, 0)
+        mc[parent] += m
+        for i in range(3):
+            _mb_axpy(D, 1.0, Rh, i * D, hc, 3 * D * parent + i * D)
+            _mb_axpy(D, m, p, ip + i * D, hc, 3 * D * parent + i * D)
+        # R J Rᵀ + m (|p|² 1 − p pᵀ) + 2 (p · Rh) 1 − p Rhᵀ − Rh pᵀ (values)
+        for i in range(3):
+            P[i] = p[ip + i * D]
+            H[i] = Rh[i * D]
+        for i in range(3):
+            for a in range(3):
+                acc = 0.0
+                for b in range(3):
+                    acc += R[iR + (3 * i + b) * D] * Jc[9 * k + 3 * b + a]
+                RJ[3 * i + a] = acc
+        p2 = P[0] * P[0] + P[1] * P[1] + P[2] * P[2]
+        ph = 2.0 * (P[0] * H[0] + P[1] * H[1] + P[2] * H[2])
+        for i in range(3):
+            for a in range(3):
+                acc = 0.0
+                for b in range(3):
+                    acc += RJ[3 * i + b] * R[iR + (3 * a + b) * D]
+                eye = 1.0 if i == a else 0.0
+                Jc[9 * parent + 3 * i + a] += (acc + m * (eye * p2 - P[i] * P[a]) + eye * ph
+                                              - P[i] * H[a] - H[i] * P[a])
+
+
+@_jit
+def _mb_lambda(s):
+    """The dof-level parent of every velocity (the previous velocity of a multi-velocity joint,
+    else the last velocity of the parent link; −1 at the root) and the first of the contiguous
+    ancestors of each (run[i] = j: lam[m] = m − 1 for j < m ≤ i): (lam, run)."""
+    nl, nv = s[0], s[1]
+    lam = np.empty(nv, dtype=np.int64)
+    run = np.empty(nv, dtype=np.int64)
+    for k in range(nl):
+        parent, i0, n = s[4 + 4 * k], s[4 + 4 * k + 2], _mb_dofs(s[4 + 4 * k + 1])
+        lam[i0] = -1 if parent < 0 else s[4 + 4 * parent + 2] + _mb_dofs(s[4 + 4 * parent + 1]) - 1
+        for r in range(1, n):
+            lam[i0 + r] = i0 + r - 1
+    for i in range(nv):
+        run[i] = run[i - 1] if (i > 0 and lam[i] == i - 1) else i
+    return lam, run
+
+
+@_jit
+def _mb_mass(D, s, c, R0, p0, mc, hc, Jc, M):
+    """M (nv x nv, row-major) by the composite-rigid-body recursion, from the values of the dual
+    arrays R0, p0, hc: within a joint M = Sᵀ Iᶜ S in its link's frame; for an ancestor's unit
+    twist (a, u) at its origin o, a⁰ · (τ⁰ + (p⁰_k − o) × f⁰) + u⁰ · f⁰ with the wrench F = Iᶜ S
+    (torque about p⁰_k) and the twist in world axes."""
+    nl, nv = s[0], s[1]
+    a, u, b, w = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3)
+    tau, f, tw, fw, h, pk, d, cc = (np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
+                                    np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
+    S0 = np.zeros(6 * nv)
+    for i in range(nv * nv):                     # zero where two velocities share no path
+        M[i] = 0.0
+    for k in range(nl):                          # the unit twists in world axes (a0, u0)
+        i0, iR = s[4 + 4 * k + 2], 9 * D * k
+        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+            _mb_screw(s, c, k, r, a, u)
+            for i in range(3):
+                S0[6 * (i0 + r) + i] = (R0[iR + 3 * i * D] * a[0] + R0[iR + (3 * i + 1) * D] * a[1]
+                                        + R0[iR + (3 * i + 2) * D] * a[2])
+                S0[6 * (i0 + r) + 3 + i] = (R0[iR + 3 * i * D] * u[0] + R0[iR + (3 * i + 1) * D] * u[1]
+                                            + R0[iR + (3 * i + 2) * D] * u[2])
+    for k in range(nl):
+        kind, i0 = s[4 + 4 * k + 1], s[4 + 4 * k + 2]
+        J, m, iR = 9 * k, mc[k], 9 * D * k
+        for i in range(3):
+            h[i] = hc[3 * D * k + i * D]
+            pk[i] = p0[3 * D * k + i * D]
+        for r in range(_mb_dofs(kind)):
+            _mb_screw(s, c, k, r, a, u)
+            for i in range(3):
+                i1, i2 = (i + 1) % 3, (i + 2) % 3
+                tau[i] = (Jc[J + 3 * i] * a[0] + Jc[J + 3 * i + 1] * a[1] + Jc[J + 3 * i + 2] * a[2]
+                          + h[i1] * u[i2] - h[i2] * u[i1])
+                f[i] = m * u[i] + a[i1] * h[i2] - a[i2] * h[i1]
+            for t in range(r + 1):
+                _mb_screw(s, c, k, t, b, w)
+                e = (b[0] * tau[0] + b[1] * tau[1] + b[2] * tau[2]
+                     + w[0] * f[0] + w[1] * f[1] + w[2] * f[2])
+                M[(i0 + t) * nv + i0 + r] = e
+                M[(i0 + r) * nv + i0 + t] = e
+            if s[4 + 4 * k] < 0:
+                continue
+            for i in range(3):
+                tw[i] = (R0[iR + 3 * i * D] * tau[0] + R0[iR + (3 * i + 1) * D] * tau[1]
+                         + R0[iR + (3 * i + 2) * D] * tau[2])
+                fw[i] = (R0[iR + 3 * i * D] * f[0] + R0[iR + (3 * i + 1) * D] * f[1]
+                         + R0[iR + (3 * i + 2) * D] * f[2])
+            j = s[4 + 4 * k]
+            while j >= 0:
+                j0 = s[4 + 4 * j + 2]
+                for i in range(3):
+                    d[i] = pk[i] - p0[3 * D * j + i * D]
+                for i in range(3):
+                    i1, i2 = (i + 1) % 3, (i + 2) % 3
+                    cc[i] = tw[i] + d[i1] * fw[i2] - d[i2] * fw[i1]
+                for t in range(_mb_dofs(s[4 + 4 * j + 1])):
+                    S = 6 * (j0 + t)
+                    e = (S0[S] * cc[0] + S0[S + 1] * cc[1] + S0[S + 2] * cc[2]
+                         + S0[S + 3] * fw[0] + S0[S + 4] * fw[1] + S0[S + 5] * fw[2])
+                    M[(j0 + t) * nv + i0 + r] = e
+                    M[(i0 + r) * nv + j0 + t] = e
+                j = s[4 + 4 * j]
+
+
+@_jit
+def _mb_ltdl(n, lam, run, H):
+    """M = Lᵀ D L in place (Featherstone's LTDL: no fill-in outside the ancestors)."""
+    for k in range(n - 1, -1, -1):
+        i = lam[k]
+        while i >= 0:
+            a = H[k * n + i] / H[k * n + k]
+            j = i
+            while j >= 0:
+                for m in range(j, run[j] - 1, -1):
+                    H[i * n + m] -= a * H[k * n + m]
+                j = lam[run[j]]
+            H[k * n + i] = a
+            i = lam[i]
+
+
+@_jit
+def _mb_solve(D, j0, n, lam, run, H, x):
+    """x = M⁻¹ x for the columns j0 .. D − 1 of x (n x D) with the factors of _mb_ltdl."""
+    for i in range(n - 1, -1, -1):                      # Lᵀ y = x
+        j = lam[i]
+        while j >= 0:
+            for m in range(j, run[j] - 1, -1):
+                a = H[i * n + m]
+                for col in range(j0, D):
+                    x[m * D + col] -= a * x[i * D + col]
+            j = lam[run[j]]
+    for i in range(n):                                  # D z = y, then L x = z
+        r = 1.0 / H[i * n + i]
+        for col in range(j0, D):
+            x[i * D + col] *= r
+    for i in range(n):
+        j = lam[i]
+        while j >= 0:
+            for m in range(j, run[j] - 1, -1):
+                a = H[i * n + m]
+                for col in range(j0, D):
+                    x[i * D + col] -= a * x[m * D + col]
+            j = lam[run[j]]
+
+
+# --- velocities -----------------------------------------------------------------------------------
+@_jit
+def _mb_velocities(D, s, c, R, p, v, w, lin, L, P):
+    """Body twists (w, lin) root to tip and subtree momenta (L, P) tip to root from the
+    velocities v (duals, nv x D)."""
+    nl = s[0]
+    a, u = np.zeros(3), np.zeros(3)
+    tmp = np.zeros(3 * D)
+    Jm = np.zeros(9)
+    for k in range(nl):
+        parent, kind, i0 = s[4 + 4 * k], s[4 + 4 * k + 1], s[4 + 4 * k + 2]
+        iw = 3 * D * k
+        _mb_zero(w, iw, 3 * D)
+        _mb_zero(lin, iw, 3 * D)
+        if parent >= 0:
+            _mb_copy(tmp, 0, lin, 3 * D * parent, 3 * D)
+            _mb_cross(D, w, 3 * D * parent, p, iw, tmp, 0)
+            _mb_rot_t(D, R, 9 * D * k, w, 3 * D * parent, w, iw)
+            _mb_rot_t(D, R, 9 * D * k, tmp, 0, lin, iw)
+        for r in range(_mb_dofs(kind)):
+            _mb_screw(s, c, k, r, a, u)
+            for i in range(3):
+                _mb_axpy(D, a[i], v, (i0 + r) * D, w, iw + i * D)
+                _mb_axpy(D, u[i], v, (i0 + r) * D, lin, iw + i * D)
+    for k in range(nl):                                 # each link's own momentum
+        base = _MB_LINK * k
+        J, m = base + 10, c[base + 6]
+        Jm[0], Jm[4], Jm[8] = c[J], c[J + 1], c[J + 2]
+        Jm[1] = Jm[3] = c[J + 3]
+        Jm[2] = Jm[6] = c[J + 4]
+        Jm[5] = Jm[7] = c[J + 5]
+        iw = 3 * D * k
+        _mb_zero(L, iw, 3 * D)
+        _mb_zero(P, iw, 3 * D)
+        for i in range(3):
+            for b in range(3):
+                _mb_axpy(D, Jm[3 * i + b], w, iw + b * D, L, iw + i * D)
+        _mb_cross_c(D, c, base + 7, 1.0, lin, iw, L, iw)          # h × lin
+        for i in range(3):
+            _mb_axpy(D, m, lin, iw + i * D, P, iw + i * D)
+        _mb_cross_c(D, c, base + 7, -1.0, w, iw, P, iw)           # w × h = −h × w
+    RP = np.zeros(3 * D)
+    for k in range(nl - 1, -1, -1):                     # carried to the parents
+        parent = s[4 + 4 * k]
+        if parent < 0:
+            continue
+        iw = 3 * D * k
+        _mb_zero(RP, 0, 3 * D)
+        _mb_rot(D, R, 9 * D * k, P, iw, RP, 0)
+        _mb_rot(D, R, 9 * D * k, L, iw, L, 3 * D * parent)
+        _mb_cross(D, p, iw, RP, 0, L, 3 * D * parent)
+        for i in range(3 * D):
+            P[3 * D * parent + i] += RP[i]
+
+
+# --- entry points ---------------------------------------------------------------------------------
+@_jit
+def _mb_seed(D, n, values, din, x):
+    """The duals x (n x D) from values[:n] and tangents din (n x K)."""
+    for i in range(n):
+        x[i * D] = values[i]
+        for j in range(1, D):
+            x[i * D + j] = din[i, j - 1]
+
+
+@_jit
+def _mb_emit(D, x, ix, out, dout, i):
+    out[i] = x[ix]
+    for j in range(1, D):
+        dout[i, j - 1] = x[ix + j]
+
+
+@_jit
+def _mb_state_outputs(s):
+    nv, ns = s[1], s[3]
+    count = 2 * nv + 1
+    for i in range(ns):
+        count += 9 if s[4 + 4 * s[0] + 2 * i + 1] == 2 else 6
+    return count
+
+
+@_jit
+def mb_state(s, c, values, din):
+    """The state entry (see the module docstring): (out, dout)."""
+    nl, nv, nq, ns = s[0], s[1], s[2], s[3]
+    K = din.shape[1]
+    D = 1 + K
+    out = np.zeros(_mb_state_outputs(s))
+    dout = np.zeros((out.shape[0], K))
+    R, p = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
+    R0, p0 = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
+    g, hc = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
+    w, lin = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
+    L, P = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
+    mc, Jc, M = np.zeros(nl), np.zeros(9 * nl), np.zeros(nv * nv)
+    x = np.zeros((nq + nv) * D)
+    v = np.zeros(nv * D)
+    a, u = np.zeros(3), np.zeros(3)
+    e = np.zeros(D)
+    _mb_seed(D, nq + nv, values, din, x)
+    _mb_positions(D, s, c, x, R, p, R0, p0)
+    _mb_composites(D, s, c, R, p, mc, hc, Jc)
+    _mb_mass(D, s, c, R0, p0, mc, hc, Jc, M)
+    lam, run = _mb_lambda(s)
+    _mb_ltdl(nv, lam, run, M)
+    for i in range(nv):
+        _mb_set(D, v, i * D, values[nq + i])
+    _mb_solve(D, 0, nv, lam, run, M, v)
+    if K > 0:      # dv = M⁻¹ (dp − d(M v)|_v): the momenta's tangents at fixed v first
+        _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+        for k in range(nl):
+            i0 = s[4 + 4 * k + 2]
+            for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+                _mb_screw(s, c, k, r, a, u)
+                _mb_set(D, e, 0, 0.0)
+                _mb_dot_c(D, a, 0, L, 3 * D * k, e, 0)
+                _mb_dot_c(D, u, 0, P, 3 * D * k, e, 0)
+                for j in range(1, D):
+                    v[(i0 + r) * D + j] = x[(nq + i0 + r) * D + j] - e[j]
+        _mb_solve(D, 1, nv, lam, run, M, v)
+    _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+    G = _MB_LINK * nl
+    for k in range(nl):                                 # gravity in each link's frame
+        parent = s[4 + 4 * k]
+        _mb_zero(g, 3 * D * k, 3 * D)
+        if parent < 0:
+            _mb_rot_t_c(D, R, 9 * D * k, c, G, g, 3 * D * k)
+        else:
+            _mb_rot_t(D, R, 9 * D * k, g, 3 * D * parent, g, 3 * D * k)
+    for i in range(nv):
+        _mb_emit(D, v, i * D, out, dout, i)
+    o = nv
+    hg = np.zeros(3 * D)
+    wa = np.zeros(3 * D)
+    ug = np.zeros(D)
+    for k in range(nl):                  # Πᵀ ad_T S + Sᵀ (hc × g, mc g)
+        i0, iw = s[4 + 4 * k + 2], 3 * D * k
+        _mb_zero(hg, 0, 3 * D)
+        _mb_cross(D, hc, iw, g, iw, hg, 0)
+        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+            _mb_screw(s, c, k, r, a, u)
+            _mb_set(D, e, 0, 0.0)
+            _mb_zero(wa, 0, 3 * D)
+            _mb_cross_c(D, a, 0, -1.0, w, iw, wa, 0)         # w × a
+            _mb_dot(D, L, iw, wa, 0, e, 0)
+            _mb_zero(wa, 0, 3 * D)
+            _mb_cross_c(D, u, 0, -1.0, w, iw, wa, 0)         # w × u
+            _mb_cross_c(D, a, 0, -1.0, lin, iw, wa, 0)       # lin × a
+            _mb_dot(D, P, iw, wa, 0, e, 0)
+            _mb_dot_c(D, a, 0, hg, 0, e, 0)
+            _mb_set(D, ug, 0, 0.0)
+            _mb_dot_c(D, u, 0, g, iw, ug, 0)
+            _mb_axpy(D, mc[k], ug, 0, e, 0)
+            _mb_emit(D, e, 0, out, dout, o + i0 + r)
+    o += nv
+    # V = −g · (first moment of the bodies welded to the world + of every root's subtree)
+    SF = G + 3
+    V = np.zeros(D)
+    V[0] = -(c[G] * c[SF] + c[G + 1] * c[SF + 1] + c[G + 2] * c[SF + 2])
+    first = np.zeros(3 * D)
+    for k in range(nl):
+        if s[4 + 4 * k] >= 0:
+            continue
+        _mb_zero(first, 0, 3 * D)
+        _mb_rot(D, R0, 9 * D * k, hc, 3 * D * k, first, 0)
+        for i in range(3):
+            _mb_axpy(D, mc[k], p0, 3 * D * k + i * D, first, i * D)
+        for i in range(3):
+            _mb_axpy(D, -c[G + i], first, i * D, V, 0)
+    _mb_emit(D, V, 0, out, dout, o)
+    o += 1
+    vel = np.zeros(3 * D)
+    buf = np.zeros(9 * D)
+    for i in range(ns):                                 # sites
+        k, kind = s[4 + 4 * nl + 2 * i], s[4 + 4 * nl + 2 * i + 1]
+        r, iR, iw = G + 6 + 3 * i, 9 * D * k, 3 * D * k
+        _mb_copy(vel, 0, lin, iw, 3 * D)
+        _mb_cross_c(D, c, r, -1.0, w, iw, vel, 0)         # lin + w × r
+        m = 6
+        if kind != 1:                                   # world position
+            _mb_copy(buf, 0, p0, iw, 3 * D)
+            _mb_rot_c(D, R0, iR, c, r, buf, 0)
+        if kind == 0:                                   # point: velocity, world axes
+            _mb_zero(buf, 3 * D, 3 * D)
+            _mb_rot(D, R0, iR, vel, 0, buf, 3 * D)
+        elif kind == 1:                                 # frame: (w, v), link axes
+            _mb_copy(buf, 0, w, iw, 3 * D)
+            _mb_copy(buf, 3 * D, vel, 0, 3 * D)
+        else:                                           # world frame: (w, v), world axes
+            _mb_zero(buf, 3 * D, 6 * D)
+            _mb_rot(D, R0, iR, w, iw, buf, 3 * D)
+            _mb_rot(D, R0, iR, vel, 0, buf, 6 * D)
+            m = 9
+        for j in range(m):
+            _mb_emit(D, buf, j * D, out, dout, o + j)
+        o += m
+    return out, dout
+
+
+@_jit
+def mb_load(s, c, values, din):
+    """The load entry (see the module docstring): (out, dout)."""
+    nl, nv, nq, ns = s[0], s[1], s[2], s[3]
+    K = din.shape[1]
+    D = 1 + K
+    out = np.zeros(nv)
+    dout = np.zeros((nv, K))
+    R, p = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
+    R0, p0 = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
+    tau, f = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
+    x = np.zeros((nq + 6 * ns) * D)
+    _mb_seed(D, nq + 6 * ns, values, din, x)
+    _mb_positions(D, s, c, x, R, p, R0, p0)
+    G = _MB_LINK * nl
+    tl, fl = np.zeros(3 * D), np.zeros(3 * D)
+    for i in range(ns):          # each site's wrench in its link's frame, about the origin
+        k, kind = s[4 + 4 * nl + 2 * i], s[4 + 4 * nl + 2 * i + 1]
+        it = (nq + 6 * i) * D
+        if kind == 1:
+            _mb_copy(tl, 0, x, it, 3 * D)
+            _mb_copy(fl, 0, x, it + 3 * D, 3 * D)
+        else:
+            _mb_zero(tl, 0, 3 * D)
+            _mb_zero(fl, 0, 3 * D)
+            _mb_rot_t(D, R0, 9 * D * k, x, it, tl, 0)
+            _mb_rot_t(D, R0, 9 * D * k, x, it + 3 * D, fl, 0)
+        _mb_cross_c(D, c, G + 6 + 3 * i, 1.0, fl, 0, tl, 0)
+        for j in range(3 * D):
+            tau[3 * D * k + j] += tl[j]
+            f[3 * D * k + j] += fl[j]
+    a, u = np.zeros(3), np.zeros(3)
+    e = np.zeros(D)
+    Rf = np.zeros(3 * D)
+    for k in range(nl - 1, -1, -1):
+        parent, i0, iw = s[4 + 4 * k], s[4 + 4 * k + 2], 3 * D * k
+        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+            _mb_screw(s, c, k, r, a, u)
+            _mb_set(D, e, 0, 0.0)
+            _mb_dot_c(D, a, 0, tau, iw, e, 0)
+            _mb_dot_c(D, u, 0, f, iw, e, 0)
+            _mb_emit(D, e, 0, out, dout, i0 + r)
+        if parent < 0:
+            continue
+        _mb_zero(Rf, 0, 3 * D)
+        _mb_rot(D, R, 9 * D * k, f, iw, Rf, 0)
+        _mb_rot(D, R, 9 * D * k, tau, iw, tau, 3 * D * parent)
+        _mb_cross(D, p, iw, Rf, 0, tau, 3 * D * parent)
+        for j in range(3 * D):
+            f[3 * D * parent + j] += Rf[j]
+    return out, dout
+
+
+@_jit
+def _mb_position_values(what, s, c, values):
+    """The entries without tangents: what = 0 mass, 1 jacobians, 2 poses, 3 momenta."""
+    nl, nv, nq, ns = s[0], s[1], s[2], s[3]
+    R, p = np.zeros(9 * nl), np.zeros(3 * nl)
+    R0, p0 = np.zeros(9 * nl), np.zeros(3 * nl)
+    mc, hc, Jc = np.zeros(nl), np.zeros(3 * nl), np.zeros(9 * nl)
+    q = np.zeros(nq)
+    for i in range(nq):
+        q[i] = values[i]
+    _mb_positions(1, s, c, q, R, p, R0, p0)
+    G = _MB_LINK * nl
+    if what == 0 or what == 3:
+        M = np.zeros(nv * nv)
+        _mb_composites(1, s, c, R, p, mc, hc, Jc)
+        _mb_mass(1, s, c, R0, p0, mc, hc, Jc, M)
+        if what == 0:
+            return M
+        out = np.zeros(nv)
+        for i in range(nv):
+            acc = 0.0
+            for j in range(nv):
+                acc += M[i * nv + j] * values[nq + j]
+            out[i] = acc
+        return out
+    if what == 1:
+        out = np.zeros(3 * nv * ns)
+        a, u, A, U, x = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3)
+        for i in range(ns):
+            k0, r = s[4 + 4 * nl + 2 * i], G + 6 + 3 * i
+            for e in range(3):
+                x[e] = (p0[3 * k0 + e] + R0[9 * k0 + 3 * e] * c[r] + R0[9 * k0 + 3 * e + 1] * c[r + 1]
+                        + R0[9 * k0 + 3 * e + 2] * c[r + 2])
+            k = k0
+            while k >= 0:
+                i0 = s[4 + 4 * k + 2]
+                for sv in range(_mb_dofs(s[4 + 4 * k + 1])):
+                    _mb_screw(s, c, k, sv, a, u)
+                    for e in range(3):
+                        A[e] = R0[9 * k + 3 * e] * a[0] + R0[9 * k + 3 * e + 1] * a[1] + R0[9 * k + 3 * e + 2] * a[2]
+                        U[e] = R0[9 * k + 3 * e] * u[0] + R0[9 * k + 3 * e + 1] * u[1] + R0[9 * k + 3 * e + 2] * u[2]
+                    for e in range(3):
+                        e1, e2 = (e + 1) % 3, (e + 2) % 3
+                        out[(3 * i + e) * nv + i0 + sv] = (U[e] + A[e1] * (x[e2] - p0[3 * k + e2])
+                                                           - A[e2] * (x[e1] - p0[3 * k + e1]))
+                k = s[4 + 4 * k]
+        return out
+    qw = np.zeros(4 * nl)        # the world quaternion: the parent's times the joint's
+    step, par = np.zeros(4), np.zeros(4)
+    for k in range(nl):
+        parent, kind, co = s[4 + 4 * k], s[4 + 4 * k + 1], s[4 + 4 * k + 3]
+        base = _MB_LINK * k
+        step[0], step[1], step[2], step[3] = 1.0, 0.0, 0.0, 0.0
+        if kind == _MB_ROT:
+            h = 0.5 * values[co]
+            sh = math.sin(h)
+            step[0], step[1], step[2], step[3] = math.cos(h), sh * c[base], sh * c[base + 1], sh * c[base + 2]
+        elif kind == _MB_SPH or kind == _MB_FREE:
+            iq = co + (3 if kind == _MB_FREE else 0)
+            nrm = math.sqrt(values[iq] ** 2 + values[iq + 1] ** 2 + values[iq + 2] ** 2
+                            + values[iq + 3] ** 2)
+            for e in range(4):
+                step[e] = values[iq + e] / nrm
+        if parent < 0:
+            par[0], par[1], par[2], par[3] = 1.0, 0.0, 0.0, 0.0
+        else:
+            for e in range(4):
+                par[e] = qw[4 * parent + e]
+        qw[4 * k] = par[0] * step[0] - par[1] * step[1] - par[2] * step[2] - par[3] * step[3]
+        qw[4 * k + 1] = par[0] * step[1] + step[0] * par[1] + par[2] * step[3] - par[3] * step[2]
+        qw[4 * k + 2] = par[0] * step[2] + step[0] * par[2] + par[3] * step[1] - par[1] * step[3]
+        qw[4 * k + 3] = par[0] * step[3] + step[0] * par[3] + par[1] * step[2] - par[2] * step[1]
+    out = np.zeros(7 * ns)
+    for i in range(ns):
+        k, r = s[4 + 4 * nl + 2 * i], G + 6 + 3 * i
+        for e in range(3):
+            out[7 * i + e] = (p0[3 * k + e] + R0[9 * k + 3 * e] * c[r] + R0[9 * k + 3 * e + 1] * c[r + 1]
+                              + R0[9 * k + 3 * e + 2] * c[r + 2])
+        for e in range(4):
+            out[7 * i + 3 + e] = qw[4 * k + e]
+    return out
+
+
+@_jit
+def mb_mass(s, c, values, din):
+    """The mass matrix M(q) (nv x nv, row-major), no tangents: (out, empty)."""
+    return _mb_position_values(0, s, c, values), np.zeros((0, 0))
+
+
+@_jit
+def mb_jacobians(s, c, values, din):
+    """Per site the world Jacobian of its velocity (3 x nv, row-major): (out, empty)."""
+    return _mb_position_values(1, s, c, values), np.zeros((0, 0))
+
+
+@_jit
+def mb_poses(s, c, values, din):
+    """Per site its world position and its link's unit quaternion (7): (out, empty)."""
+    return _mb_position_values(2, s, c, values), np.zeros((0, 0))
+
+
+@_jit
+def mb_momenta(s, c, values, din):
+    """M(q) v for values (q, v): (out, empty)."""
+    return _mb_position_values(3, s, c, values), np.zeros((0, 0))

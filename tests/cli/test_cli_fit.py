@@ -1,0 +1,65 @@
+"""``porthamiltonian fit MODEL DATA.csv --param ...``: the data file read as hostile input, the
+fit's text and JSON results, errors as ``error: ...`` with status 2."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from porthamiltonian import compile_model, io
+from porthamiltonian.interfaces.cli import main
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory) -> str:
+    """The spring's elongation of mass_spring_damper (k = 4, c = 0.4) at 20 times, 2 mm noise,
+    with a comment line and a gap."""
+    model = compile_model(io.load("mass_spring_damper"), backend="c")
+    t = np.linspace(0.5, 10.0, 20)
+    q = model.simulate(10.0, t_eval=t, rtol=1e-10, atol=1e-12, method="Rodas5P")["spring.q"]
+    q = q + 2e-3 * np.random.default_rng(1).standard_normal(t.size)
+    rows = [f"{a:.9g},{'' if i == 5 else f'{b:.9g}'}" for i, (a, b) in enumerate(zip(t, q))]
+    path = tmp_path_factory.mktemp("fit") / "msd.csv"
+    path.write_text("# elongation (m)\nt,spring.q\n" + "\n".join(rows) + "\n")
+    return str(path)
+
+
+def test_fit_json(data, capsys):
+    """From k = 3: the estimates' 95 % intervals contain the truth (seeded noise), 19 samples
+    (one gap), the JSON names every field."""
+    assert main(["fit", "mass_spring_damper", data, "--param", "k,c", "--set", "k=3",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["converged"] and out["identifiable"] and out["n_data"] == 19
+    for name, truth in (("k", 4.0), ("c", 0.4)):
+        low, high = out["intervals"][name]
+        assert low < truth < high and high - low < 0.1 * truth
+    assert out["initial"]["k"] == 3.0
+
+
+@pytest.mark.parametrize("text, message", [
+    ("t,spring.q\n1,abc\n", "line 2, column 'spring.q'"),
+    ("time,nope\n1,2\n", "nope"),
+    ("x,spring.q\n1,2\n", "first column must be the time"),
+    ("t,spring.q\n1,2,3\n", "line 2: 3 cells for 2 columns"),
+    ("t,spring.q\n1,inf\n", "line 2"),
+    ("# nothing\n", "no header row"),
+])
+def test_bad_data_files(text, message, tmp_path, capsys):
+    """Each problem of the data file is ``error: FILE line N ...`` and status 2."""
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    assert main(["fit", "mass_spring_damper", str(path), "--param", "k"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error:") and message in err and "Traceback" not in err
+
+
+def test_bad_options(data, capsys):
+    """An unknown parameter, malformed bounds, a missing file: ``error: ...``, status 2."""
+    for args in (["--param", "nope"], ["--param", "k", "--bounds", "k=1"],
+                 ["--param", "k", "--weight", "spring.q=x"]):
+        assert main(["fit", "mass_spring_damper", data, *args]) == 2
+        assert capsys.readouterr().err.startswith("error:")
+    assert main(["fit", "mass_spring_damper", data + ".missing", "--param", "k"]) == 2
+    assert capsys.readouterr().err.startswith("error:")

@@ -1,0 +1,132 @@
+"""A walker loaded before starts from its snapshot (walker_library/core/warm.py):
+
+* a second load in a new process imports neither sympy nor networkx (nor matplotlib), and its
+  stride is the first load's, bit for bit; importing the packages and the ``walker`` command
+  loads none of them either;
+* the restored walker is the file's: the same table, plan records and parameters, and its
+  model (read when first used) is the file's model;
+* a snapshot edited in the cache is refused (one CacheWarning naming it), the walker is loaded
+  in full (with the file's values, not the edited ones) and a new snapshot is stored.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from porthamiltonian.compiler.cache import CacheWarning, configured_dir
+from walker_library.core import warm
+from walker_library.core.files import _file_text, load_walker
+
+ROOT = Path(__file__).resolve().parents[2]
+#: a rigid walker: its impact also reopens the floating multibody (python back end)
+NAME = "compass_gait"
+HEAVY = ("sympy", "networkx", "matplotlib")
+
+
+def _run(code: str) -> dict:
+    """Run ``code`` in a new interpreter (this checkout, this test's cache); its last line of
+    output as JSON."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), *sys.path[1:]])}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         cwd=ROOT, timeout=600, check=False)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def cold():
+    """The walker loaded once (in full, or from a snapshot another test left: the next load is
+    warm either way) and its stride from the initial guess."""
+    walker = load_walker(NAME)
+    return walker, walker.stride(walker.initial_guess())
+
+
+def _snapshot_path() -> Path:
+    source, text = _file_text(NAME)
+    return configured_dir() / warm._key(source, text, None) / "snapshot.json"
+
+
+def test_a_warm_load_imports_neither_sympy_nor_networkx(cold):
+    _, stride = cold
+    assert _snapshot_path().is_file()
+    found = _run(
+        "import json, sys\n"
+        "from walker_library.core.files import load_walker\n"
+        f"w = load_walker({NAME!r})\n"
+        "s = w.stride(w.initial_guess())\n"
+        f"print(json.dumps({{'heavy': [m for m in {HEAVY!r} if m in sys.modules],\n"
+        "                    'z': s.z_next.tolist(), 'time': s.duration,\n"
+        "                    'deferred': type(w.spec.model).__name__}))\n")
+    assert found["heavy"] == []
+    assert found["deferred"] == "_Deferred"                     # it came from the snapshot
+    assert found["z"] == stride.z_next.tolist()                 # bit for bit
+    assert found["time"] == stride.duration
+
+
+def test_the_packages_and_the_walker_command_import_no_symbolic_library():
+    found = _run("import json, sys\nimport porthamiltonian, walker_library, walker_library.cli\n"
+                 f"print(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))\n")
+    assert found == []
+
+
+def test_the_restored_walker_is_the_files(cold):
+    walker, _ = cold
+    restored = load_walker(NAME)
+    assert type(restored.spec.model).__name__ == "_Deferred"
+    assert restored.spec == walker.spec                          # the table as read
+    for name in warm._PLAN_FIELDS:
+        assert getattr(restored.plan, name) == getattr(walker.plan, name), name
+    assert [m.text for m in restored.plan.bodies.masses] == \
+        [m.text for m in walker.plan.bodies.masses]
+    assert dict(restored.parameters) == dict(walker.parameters)
+    np.testing.assert_array_equal(restored.run.p, walker.run.p)
+    assert restored.model.key == walker.model.key
+    # the parts read when first used: the file's model and description
+    assert restored.spec.model.freeze().canonical() == walker.spec.model.freeze().canonical()
+    assert restored.plan.description.canonical() == walker.plan.description.canonical()
+    assert restored.name == walker.name == NAME
+
+
+def test_a_tampered_snapshot_is_refused_and_rebuilt(cold):
+    walker, _ = cold
+    path = _snapshot_path()
+    original = path.read_bytes()
+    document = json.loads(original)
+    slope = document["data"]["plan"]["parameters"]["@m"]["slope"]["f"]
+    slope["value"] = 0.5                                     # an edited default
+    path.write_text(json.dumps(document))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        again = load_walker(NAME)
+    messages = [str(w.message) for w in caught if issubclass(w.category, CacheWarning)]
+    assert len(messages) == 1 and "snapshot.json" in messages[0]
+    assert "does not match its recorded sha256" in messages[0]
+    assert type(again.spec.model).__name__ != "_Deferred"      # loaded in full
+    assert again.parameters["slope"] == walker.parameters["slope"] != 0.5
+    assert path.read_bytes() == original                         # stored again, as it was
+    restored = load_walker(NAME)                                 # and used again
+    assert type(restored.spec.model).__name__ == "_Deferred"
+    assert restored.parameters["slope"] == walker.parameters["slope"]
+
+
+def test_a_snapshot_of_another_form_is_ignored(cold):
+    """A document that is intact but not what this version writes (an unknown record class)
+    is not used: the walker is loaded in full."""
+    from porthamiltonian.compiler import recall, remember
+
+    source, text = _file_text(NAME)
+    key = warm._key(source, text, None)
+    data = recall(key, warm.KIND)
+    assert data is not None
+    data["plan"]["section"]["@"] = "Popen"
+    remember(key, warm.KIND, data)
+    assert warm.restore(source, text, None) is None
+    assert type(load_walker(NAME).spec.model).__name__ != "_Deferred"
+    assert warm.restore(source, text, None) is not None          # a new snapshot was stored
