@@ -238,7 +238,7 @@ def parameter_jump(columns: ParameterColumns, phi: np.ndarray, t: float, y_minus
 
 
 def output_gradient(model: CompiledModel, o: int, t: float, x: np.ndarray, p: np.ndarray,
-                    rows: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+                    rows: Sequence[int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(∂y_o/∂x, ∂y_o/∂p) of output ``o`` at (t, x, p) by central differences
     (:mod:`.differences`); ∂y_o/∂p over every parameter of the model, by those of ``rows``
     (the parameters whose row of Π is not zero) and 0 by the others, which are not perturbed
