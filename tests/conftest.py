@@ -9,10 +9,17 @@
   more with ``PORTHAMILTONIAN_BACKEND=numba`` so that the numba fallback stays tested.
 * ``compile_named(name)`` compiles a model of ``models/`` with the fast-to-build ``python`` back
   end (memoized for the session), for tests where the back end does not matter.
+* ``energy_check`` is the session's one ``porthamiltonian --backend python check-energy`` over
+  every shipped model (a fresh interpreter): the command-line test and the per-model energy tests
+  read its report instead of simulating every model again (about a minute of CPU each time).
 """
 from __future__ import annotations
 
+import re
+import subprocess
+import sys
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import pytest
 
@@ -79,3 +86,49 @@ def model_run(compile_named, model_settings) -> Callable:
         return runs[name]
 
     return _run
+
+
+#: a line of ``check-energy``'s report (porthamiltonian.interfaces.cli.cmd_check_energy)
+_CHECK_LINE = re.compile(r"(?P<ok>ok  |FAIL) (?P<name>[\w.-]+): status (?P<status>\w+), max "
+                         r"\|residual\| / energy scale = (?P<rel>\S+) \(tolerance (?P<tol>\S+)\)")
+
+
+@dataclass
+class EnergyCheck:
+    """The session's ``check-energy`` run, started at once and collected on first use."""
+
+    proc: subprocess.Popen
+    _done: subprocess.CompletedProcess | None = field(default=None, init=False)
+
+    @property
+    def run(self) -> subprocess.CompletedProcess:
+        """The finished run (stdout, stderr, returncode)."""
+        if self._done is None:
+            out, err = self.proc.communicate(timeout=900)
+            self._done = subprocess.CompletedProcess(self.proc.args, self.proc.returncode, out,
+                                                     err)
+        return self._done
+
+    def line(self, name: str) -> dict:
+        """Model ``name``'s report: ok (bool), status, rel (the residual over the energy scale,
+        as printed: 3 digits) and tol (its energy_tolerance); AssertionError when absent."""
+        for match in _CHECK_LINE.finditer(self.run.stdout):
+            if match["name"] == name:
+                return {"ok": match["ok"] == "ok  ", "status": match["status"],
+                        "rel": float(match["rel"]), "tol": float(match["tol"]),
+                        "text": match.group(0)}
+        raise AssertionError(f"check-energy printed no line for {name}:\n{self.run.stdout}"
+                             f"{self.run.stderr}")
+
+
+@pytest.fixture(scope="session")
+def energy_check(isolated_cache) -> EnergyCheck:
+    """``porthamiltonian --backend python check-energy`` over every shipped model, in a fresh
+    interpreter (the session's cache), each with its file's [simulation] settings."""
+    started = EnergyCheck(subprocess.Popen(
+        [sys.executable, "-m", "porthamiltonian", "--backend", "python", "check-energy"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+    yield started
+    if started.proc.poll() is None:
+        started.proc.kill()
+        started.proc.communicate()

@@ -36,7 +36,7 @@ import json
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -201,10 +201,10 @@ def cmd_gait(args: argparse.Namespace) -> int:
                     "potential_released_per_step", "max_theta", "max_phi", "cost_of_transport"):
             print(f"  {key:30s} {_with_unit(walker, key, d[key])}")
     if result.gradients:
+        errors = cast(dict, result.gradient_errors)     # set with the gradients
         print("  gradients (exact; the multiplier's ± its error bound):")
         for key, row in result.gradients.items():
-            cells = [f"d/d{n} = {v:.8g}" + (f" ± {result.gradient_errors[key][n]:.1g}"
-                                           if result.gradient_errors[key][n] else "")
+            cells = [f"d/d{n} = {v:.8g}" + (f" ± {errors[key][n]:.1g}" if errors[key][n] else "")
                      for n, v in row.items()]
             print(f"    {key:28s} " + ", ".join(cells))
     elif names:
@@ -212,7 +212,7 @@ def cmd_gait(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_optimize(args) -> int:
+def cmd_optimize(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     vary = check_names(walker, _names(args.vary))
     constraints = [parse_constraint(c) for c in args.constraint]
@@ -247,8 +247,8 @@ def cmd_optimize(args) -> int:
         print(f"  first-order conditions: |grad L| = {result.kkt['gradient_of_lagrangian']:.2g} "
               f"(|grad f| = {result.kkt['gradient']:.2g}, scaled units); active: "
               f"{', '.join(result.kkt['active']) or 'none'}")
-    for key, value in result.step_down.items():
-        print(f"  max step-down at the {key:8s} {_fmt(value)} m")
+    for key, drop in result.step_down.items():
+        print(f"  max step-down at the {key:8s} {_fmt(drop)} m")
     return 0 if result.success else 1
 
 

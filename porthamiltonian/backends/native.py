@@ -467,7 +467,7 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
                      variational, extra)
 
 
-def _function(fn, name: str, shape: tuple[int, ...], n: int, n_params: int) -> Callable:
+def _function(fn: Any, name: str, shape: tuple[int, ...], n: int, n_params: int) -> Callable:
     """The Python face of a generated function ``fn(t, x, p, out)``: ``call(t, x, p)`` returns
     a new array of ``shape``.
 
@@ -482,14 +482,17 @@ def _function(fn, name: str, shape: tuple[int, ...], n: int, n_params: int) -> C
     (OptionError for what is not a vector of at least that many floats)."""
     fn.restype = None
     fn.argtypes = (ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+    address = ctypes.cast(fn, ctypes.c_void_p).value
+    if address is None:
+        raise CompilerError(f"the library's function {name!r} is a null pointer")
     fast = ctypes.PYFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p,
-                             ctypes.c_void_p)(ctypes.cast(fn, ctypes.c_void_p).value)
+                             ctypes.c_void_p)(address)
     bx, bp, out = np.zeros(n), np.zeros(n_params), np.zeros(shape)
-    mx, mp = memoryview(bx), memoryview(bp)
+    mx, mp = bx.data, bp.data                   # memoryviews of the buffers
     px, pp, po = (ctypes.c_void_p(a.ctypes.data) for a in (bx, bp, out))
     lock = threading.Lock()
 
-    def call(t, x, p):
+    def call(t: float, x: Any, p: Any) -> np.ndarray:
         if lock.acquire(False):
             try:
                 mx[:] = x
@@ -511,7 +514,7 @@ def _function(fn, name: str, shape: tuple[int, ...], n: int, n_params: int) -> C
     return call
 
 
-def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False,
+def _loop(entry: Any, n: int, n_params: int, n_guards: int, variational: bool = False,
           n_gain: int = 0) -> Callable:
     """The Python face of a compiled loop: the calling convention of
     porthamiltonian/integrators/rosenbrock_loop.py (same arguments, same 15-tuple; with
@@ -529,9 +532,10 @@ def _loop(entry, n: int, n_params: int, n_guards: int, variational: bool = False
                       c_void_p, c_void_p) + ((c_int64, c_void_p, c_int64, c_void_p, c_void_p,
                                               c_void_p, c_void_p) if variational else ())
 
-    def integrate(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_index,
-                  mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0=None,
-                  gain=None):
+    def integrate(t0: float, y0: Any, t_end: float, p: Any, rtol: float, atol: Any, h0: float,
+                  hmax: float, directions: Any, terminal: Any, mask_index: int, mask_sign: float,
+                  n_model: int, bound: float, max_steps: int, store_cap: int, tgrad_step: float,
+                  phi0: Any = None, gain: Any = None) -> tuple[Any, ...]:
         y0 = _vector(y0, n, "y0")
         p = _vector(p, n_params, "p")
         atol = _vector(atol, n, "atol")

@@ -97,4 +97,5 @@ def recall(key: str, kind: str) -> dict[str, Any] | None:
             or document.get("kind") != kind or document.get("key") != key
             or not isinstance(document.get("data"), dict)):
         return None
-    return document["data"]
+    data: dict[str, Any] = document["data"]
+    return data

@@ -57,7 +57,9 @@ MAX_TERMS = 1_000
 
 #: The time symbol shared by every model.
 if TYPE_CHECKING:
+    # SympyExpr: for parse's nested function, where the local ``sp`` (the lazy module) hides ``sp``
     import sympy as sp
+    from sympy import Expr as SympyExpr
 
     TIME: sp.Symbol
 
@@ -103,7 +105,8 @@ class Function:
     @property
     def symbolic(self) -> Callable[..., sp.Expr]:
         """The sympy counterpart (sympy imported now)."""
-        return getattr(_sympy(), self.sympy_name)
+        fn: Callable[..., sp.Expr] = getattr(_sympy(), self.sympy_name)
+        return fn
 
 
 #: Functions available in expressions, by the name used in text (``where`` and ``Piecewise`` are
@@ -129,7 +132,7 @@ CONSTANTS: dict[str, tuple[str, float]] = {"pi": ("pi", math.pi)}
 _CONDITIONALS = ("where", "Piecewise")
 
 #: comparisons: the name of the sympy relation, the float version
-_COMPARE: dict[str, tuple[str, Callable]] = {
+_COMPARE: dict[str, tuple[str, Callable[[Any, Any], bool]]] = {
     "<": ("Lt", lambda a, b: a < b), "<=": ("Le", lambda a, b: a <= b),
     ">": ("Gt", lambda a, b: a > b), ">=": ("Ge", lambda a, b: a >= b),
     "==": ("Eq", lambda a, b: a == b), "!=": ("Ne", lambda a, b: a != b),
@@ -643,7 +646,7 @@ def parse(text: str | float | sp.Expr, names: Mapping[str, sp.Expr], where: str,
     sp = _sympy()
     local = {"t": sp.Symbol("t", real=True), **names}
 
-    def resolve(name: str) -> sp.Expr | None:
+    def resolve(name: str) -> SympyExpr | None:
         if name in local:
             return local[name]
         return dotted(name) if dotted is not None and "." in name else None

@@ -35,13 +35,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from ..errors import DataError, OptionError, ParameterValueError
 from .psensitivity import output_gradient
-from .saltation import Seeds
+from .saltation import Seeds, Sensitivity
 from .simulate import Reset
 
 if TYPE_CHECKING:
@@ -159,7 +159,7 @@ class FitResult:
     events: dict[str, list[list[float]]] = field(default_factory=dict)
     trajectory: Trajectory | None = field(default=None, repr=False)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """Every field but the trajectory (Python numbers, lists and dicts; NaN where a value
         is undefined: the command line writes it as null)."""
         return {k: v for k, v in self.__dict__.items() if k != "trajectory"}
@@ -169,7 +169,7 @@ class _Problem:
     """The residuals and their Jacobian of one fit (module docstring)."""
 
     def __init__(self, model: CompiledModel, series: list[Series], events: list[Series],
-                 params: list[str], fixed: dict[str, float], options: dict):
+                 params: list[str], fixed: dict[str, float], options: dict[str, Any]):
         self.model, self.series, self.events, self.params = model, series, events, params
         self.fixed, self.options = fixed, options
         self.times = np.unique(np.concatenate([s.t for s in series])) if series else None
@@ -206,8 +206,9 @@ class _Problem:
     def evaluate(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(weighted residuals, their Jacobian) at θ."""
         traj = self.run(theta)
+        sens = cast(Sensitivity, traj.sensitivity)      # a run given sensitivity= records it
         model, q = self.model, len(self.params)
-        S = np.stack([traj.sensitivity.parameters[p] for p in self.params], axis=2)   # (i, n, q)
+        S = np.stack([sens.parameters[p] for p in self.params], axis=2)   # (i, n, q)
         index = [model.param_names.index(p) for p in self.params]
         rows, jac = [], []
         t_all = traj.t
@@ -227,7 +228,7 @@ class _Problem:
             rows.append(s.weight * (value - s.y))
             jac.append(s.weight[:, None] * d)
         for e in self.events:
-            crossings = [c for c in traj.sensitivity.crossings if c.event == e.name]
+            crossings = [c for c in sens.crossings if c.event == e.name]
             value, d = np.empty(len(e.y)), np.zeros((len(e.y), q))
             for j in range(len(e.y)):
                 if j < len(crossings):
@@ -259,7 +260,7 @@ def _rank(J: np.ndarray, theta: np.ndarray, params: list[str],
 
 
 def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
-        events: Mapping[str, Sequence[float]] | None = None,
+        events: Mapping[str, Sequence[float] | np.ndarray] | None = None,
         bounds: Mapping[str, tuple[float, float]] | None = None,
         weights: Mapping[str, Any] | None = None, initial: Mapping[str, float] | None = None,
         values: Mapping[str, float] | None = None, x0: Any = None, t_start: float = 0.0,
@@ -292,8 +293,8 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
         raise OptionError(f"confidence must lie in (0, 1), got {confidence!r}")
     series = measurements(data, weights) if data is not None else []
     event_series = []
-    for name, times in (events or {}).items():
-        times = np.asarray(times, dtype=float)
+    for name, given in (events or {}).items():
+        times = np.asarray(given, dtype=float)
         if times.ndim != 1 or not times.size or not np.all(np.isfinite(times)):
             raise DataError(f"event data for {name!r} must be finite times, got {times!r}")
         event_series.append(Series(name, times, times, _weights(weights, name, times.size)))
@@ -336,7 +337,13 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
                                 f"{err}; give bounds that keep the parameters valid") from None
         return cache[key]
 
-    res = least_squares(lambda th: both(th)[0], theta0, jac=lambda th: both(th)[1],
+    def residuals(theta: np.ndarray) -> np.ndarray:
+        return both(theta)[0]
+
+    def jacobian(theta: np.ndarray) -> np.ndarray:
+        return both(theta)[1]
+
+    res = least_squares(residuals, theta0, jac=jacobian,
                         bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev, method="trf")
     r, J = both(res.x)
     sv, rank, bad, directions = _rank(J, res.x, params, tol)
@@ -363,8 +370,9 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
         result.residuals[s_.name] = part.tolist()
         w = np.where(s_.weight > 0, s_.weight, 1.0)
         result.rms[s_.name] = float(np.sqrt(np.mean((part / w) ** 2)))
+    final = cast(Sensitivity, cast("Trajectory", problem.last).sensitivity)  # the last run's
     for e in event_series:
-        crossings = [c.t for c in problem.last.sensitivity.crossings if c.event == e.name]
+        crossings = [c.t for c in final.crossings if c.event == e.name]
         result.events[e.name] = [[float(crossings[j]) if j < len(crossings) else math.nan,
                                   float(t)] for j, t in enumerate(e.y)]
     result.n_data, result.dof, result.sigma = n_data, dof, math.sqrt(s2)

@@ -152,10 +152,10 @@ def _parameter_names(names: Any) -> tuple[str, ...]:
     if isinstance(names, str) or not all(isinstance(v, str) for v in names):
         raise OptionError(f"sensitivity parameters must be a list of parameter names, got "
                           f"{names!r}")
-    names = tuple(names)
-    if len(set(names)) != len(names):
-        raise OptionError(f"sensitivity parameters must be distinct, got {list(names)}")
-    return names
+    checked: tuple[str, ...] = tuple(names)
+    if len(set(checked)) != len(checked):
+        raise OptionError(f"sensitivity parameters must be distinct, got {list(checked)}")
+    return checked
 
 
 def _directions(value: Any, n_states: int) -> np.ndarray:
@@ -203,7 +203,7 @@ def check_simulation(n_states: int, t_end: Any, x0: Any, params: Any, *, t_start
             raise OptionError(f"{name} must be a mapping event name -> callable, got {value!r}")
     if events is not None and not isinstance(events, (list, tuple)):
         raise OptionError(f"events must be a list of Event, got {type(events).__name__}")
-    out = {
+    out: dict[str, Any] = {
         "t_start": t0, "t_end": t1, "rtol": check_rtol(rtol), "atol": check_atol(atol, n_states),
         "max_step": check_number("max_step", max_step, positive=True, finite=False),
         "first_step": None if first_step is None else check_number(

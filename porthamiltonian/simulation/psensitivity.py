@@ -208,9 +208,9 @@ def parameter_jump(columns: ParameterColumns, phi: np.ndarray, t: float, y_minus
     M[:n, :n] = reset_x
     M[:n, N:] = R_p
     M[n:N, n:N] = np.eye(2)
-    row, sign = (n, -1.0) if booking == "dissipated" else (n + 1, 1.0)
-    M[row, :n] += sign * dJ_dx
-    M[row, N:] += sign * dJ_dp
+    ledger, sign = (n, -1.0) if booking == "dissipated" else (n + 1, 1.0)
+    M[ledger, :n] += sign * dJ_dx
+    M[ledger, N:] += sign * dJ_dp
     for i in range(n_p):
         if i in rows:
             M[N + i, :n] = rows[i][:n]
@@ -238,21 +238,21 @@ def parameter_jump(columns: ParameterColumns, phi: np.ndarray, t: float, y_minus
 
 
 def output_gradient(model: CompiledModel, o: int, t: float, x: np.ndarray, p: np.ndarray,
-                    rows: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+                    rows: Sequence[int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(∂y_o/∂x, ∂y_o/∂p) of output ``o`` at (t, x, p) by central differences
     (:mod:`.differences`); ∂y_o/∂p over every parameter of the model, by those of ``rows``
     (the parameters whose row of Π is not zero) and 0 by the others, which are not perturbed
     (a mode or an unrelated parameter). The chain rule with the run's columns gives the
     output's sensitivity: dy = ∂y/∂x S + ∂y/∂p Π."""
-    rows = np.asarray(rows, dtype=int)
+    index = np.asarray(rows, dtype=int)
     dx = jacobian(lambda xx: model.outputs(t, xx, p)[o:o + 1], x, 1.0).value[0]
 
     def by(v: np.ndarray) -> np.ndarray:
         q = p.copy()
-        q[rows] = v
+        q[index] = v
         return model.outputs(t, x, q)[o:o + 1]
 
     dp = np.zeros(len(model.param_names))
-    if len(rows):
-        dp[rows] = jacobian(by, p[rows], 1.0).value[0]
+    if len(index):
+        dp[index] = jacobian(by, p[index], 1.0).value[0]
     return dx, dp

@@ -208,7 +208,7 @@ class Crossing:
     stop: bool
     phi_minus: np.ndarray
     phi_plus: np.ndarray
-    time_sensitivity: np.ndarray | None = None
+    time_sensitivity: np.ndarray
     augmented: np.ndarray | None = None
     guard_parameters: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     params_minus: np.ndarray | None = None

@@ -55,7 +55,7 @@ class Breakpoints:
             inside = np.asarray(stops, dtype=float)
             inside = inside[(inside > t_start) & (inside < t_end)]
             self.input_times = np.unique(np.concatenate([self.input_times, inside]))
-            self.input_starts = set(plan.breakpoints(t_start, t_end).tolist()) if plan else set()
+            self.input_starts: set[float] | None = set(plan.breakpoints(t_start, t_end).tolist()) if plan else set()
         else:
             self.input_starts = None
         self._next_input = 0

@@ -386,7 +386,7 @@ class Simulator:
             action = settings.actions.get(name)
             if action is None:
                 if self.phi is not None:
-                    self._cross(k, t, self.y, self.p, self.y, self.p, Reset(stop=True),
+                    self._cross(self.phi, k, t, self.y, self.p, self.y, self.p, Reset(stop=True),
                                 moved=False)
                 return self._result(Status.EVENT, f"terminal event {name!r} at t = {t:.6g}", h0)
             y, p = self.y, self.p
@@ -412,7 +412,7 @@ class Simulator:
             self._jumps.append((t, name, jump))
             phi = None
             if self.phi is not None:
-                self._cross(k, t, y_minus, p_minus, y, p, reset, moved=moved)
+                self._cross(self.phi, k, t, y_minus, p_minus, y, p, reset, moved=moved)
                 phi = self.phi[None].copy()
             self._segments.append(Segment(np.array([t]), y[:, None].copy(), p.copy(), None, phi,
                                           inputs=self._binder()))
@@ -457,10 +457,9 @@ class Simulator:
         seeds = self.settings.sensitivity
         if self.phi is not None and seeds is not None:      # (phi is set from the seeds)
             n = self.model.n_states
-            seeds = self.settings.sensitivity
             m0 = seeds.states.shape[1]
             phi = np.concatenate([s.phi for s in self._segments])
-            extra = {}
+            extra: dict[str, Any] = {}
             if self.columns is not None:
                 names = seeds.parameters
                 extra = {"parameter_names": names,
@@ -475,13 +474,14 @@ class Simulator:
         return Trajectory(self.model, self._segments, self._events, self._jumps, status, message,
                           h0=h0, sensitivity=sensitivity, **self._counts)
 
-    def _cross(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
-               y_plus: np.ndarray, p_plus: np.ndarray, reset: Reset, *,
+    def _cross(self, phi: np.ndarray, k: int, t: float, y_minus: np.ndarray,
+               p_minus: np.ndarray, y_plus: np.ndarray, p_plus: np.ndarray, reset: Reset, *,
                moved: bool) -> np.ndarray:
         """Apply the saltation matrix of event ``k`` at time t (from y_minus, p_minus to y_plus,
         p_plus by the action's ``reset``: its Jacobians; its ``stop``: the run ends on the
         event's surface) to the sensitivities and record the
-        :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺ (model states)."""
+        :class:`~porthamiltonian.simulation.saltation.Crossing`; returns Φ⁺ (model states).
+        ``phi``: the run's Φ before the event (``self.phi``)."""
         model, n = self.model, self.model.n_states
         name = self.names[k]
         jacobian, stop = reset.jacobian, bool(reset.stop)
@@ -497,12 +497,12 @@ class Simulator:
                 raise StateError(f"the action of event {name!r} returned a reset Jacobian of "
                                  f"shape {R.shape} (must be {n} x {n} and finite)")
         if self.columns is not None:
-            return self._cross_parameters(k, t, y_minus, p_minus, y_plus, p_plus, reset, R,
-                                          moved)
+            return self._cross_parameters(phi, self.columns, k, t, y_minus, p_minus, y_plus,
+                                          p_plus, reset, R, moved)
         f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:n]
         f_plus = (np.zeros(n) if stop else
                   np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:n])
-        phi_minus = self.phi[:n].copy()
+        phi_minus = phi[:n].copy()
         if not stop and jacobian is None and np.array_equal(f_plus, f_minus):
             S, g_x, g_t, error = np.eye(n), np.full(n, np.nan), float("nan"), float("nan")
             tau = np.full(phi_minus.shape[1], np.nan)
@@ -511,25 +511,28 @@ class Simulator:
             g_t, g_x, error = float(grad.value[0]), grad.value[1:], grad.max_error
             S = saltation_matrix(f_minus, f_plus, g_x, R, g_t)
             tau = -(g_x @ phi_minus) / (g_t + g_x @ f_minus)
-        phi_plus = S @ phi_minus
+        phi_plus: np.ndarray = S @ phi_minus
         self.phi = np.vstack([phi_plus, np.zeros((2, phi_plus.shape[1]))])
         self._crossings.append(Crossing(t, name, y_minus[:n].copy(), y_plus[:n].copy(), f_minus,
                                         f_plus, g_x, g_t, error, R, S, stop, phi_minus,
                                         phi_plus, tau))
         return phi_plus
 
-    def _cross_parameters(self, k: int, t: float, y_minus: np.ndarray, p_minus: np.ndarray,
-                          y_plus: np.ndarray, p_plus: np.ndarray, reset: Reset, R: np.ndarray,
+    def _cross_parameters(self, phi: np.ndarray, columns: ParameterColumns, k: int, t: float,
+                          y_minus: np.ndarray, p_minus: np.ndarray, y_plus: np.ndarray,
+                          p_plus: np.ndarray, reset: Reset, R: np.ndarray,
                           moved: bool) -> np.ndarray:
         """:meth:`_cross` of a run with parameter sensitivities: the augmented saltation
         matrix over (x, E_diss, E_in, p) (:func:`.psensitivity.parameter_jump`)."""
         model, settings, n = self.model, self.settings, self.model.n_states
-        columns, stop = self.columns, bool(reset.stop)
+        stop = bool(reset.stop)
+        guard: Callable[[float, np.ndarray, np.ndarray], float]
         if k < self.n_model_events:
-            def guard(t: float, x: np.ndarray, p: np.ndarray) -> float:
+            def model_guard(t: float, x: np.ndarray, p: np.ndarray) -> float:
                 yz = y_minus.copy()
                 yz[:n] = x
                 return float(model.functions.guards(t, yz, model.native_params(p))[k])
+            guard = model_guard
         else:
             guard = settings.events[k - self.n_model_events].guard
         given = dict(reset.params_jacobian or {})
@@ -540,8 +543,8 @@ class Simulator:
         changed = {name: given.get(name) for name in (reset.params or {})}
         typical = np.broadcast_to(np.asarray(settings.atol, dtype=float), (n + 2,))[:n]
         scale = np.concatenate([[1.0], typical / settings.rtol])
-        phi_minus, pi_minus = self.phi[:n].copy(), columns.pi.copy()
-        out = parameter_jump(columns, self.phi, t, y_minus, p_minus, y_plus, p_plus, R,
+        phi_minus, pi_minus = phi[:n].copy(), columns.pi.copy()
+        out = parameter_jump(columns, phi, t, y_minus, p_minus, y_plus, p_plus, R,
                              reset.jacobian_p, changed, reset.energy, stop, moved, guard, scale,
                              self.names[k])
         self.phi, columns.pi = out.phi, out.pi
@@ -721,14 +724,14 @@ class Simulator:
         atol = np.ascontiguousarray(np.broadcast_to(settings.atol, (n + 2,)), dtype=float)
         hmax = settings.max_step if math.isfinite(settings.max_step) else 1e300
         sensitive = self.phi is not None
-        if sensitive:       # the variational loop: Φ too (18-tuple)
+        if self.phi is not None:       # the variational loop: Φ too (18-tuple)
             build = model if self.columns is None else self.columns.build
             variational = build.functions.variational[settings.method]
             gain = (np.zeros((0, self.phi.shape[1])) if self.columns is None
                     else self.columns.gain())
             phis = [self.phi[None].copy()]
 
-            def loop(*args):
+            def loop(*args: Any) -> Any:
                 out = variational(*args, np.ascontiguousarray(self.phi), gain)
                 self.phi = out[15]
                 phis.append(out[16][:out[5]].copy())
@@ -763,7 +766,7 @@ class Simulator:
             keep = np.isin(t_all, te[np.searchsorted(te, t0):np.searchsorted(te, t, "right")])
             keep[0] &= not self._segments
             t_all, y_all = t_all[keep], y_all[keep]
-            phi_all = phi_all[keep] if sensitive else None
+            phi_all = phi_all[keep] if phi_all is not None else None
         self._segments.append(Segment(t_all, y_all.T, p.copy(), None, phi_all))
         self.t, self.y = float(t), y.copy()
         status = _LOOP_STATUS.get(int(code), Status.FAILED)

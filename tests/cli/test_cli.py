@@ -49,8 +49,9 @@ class ConcurrentRuns:
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    """Every command-line run of this module, started concurrently."""
+def runs(tmp_path_factory, energy_check):
+    """Every command-line run of this module, started concurrently (with the session's
+    ``check-energy`` over every shipped model, tests/conftest.py)."""
     tmp = tmp_path_factory.mktemp("cli")
     impossible = tmp / "impossible_msd.toml"
     text = MSD_TEXT.replace('name = "mass_spring_damper"', 'name = "impossible_msd"')
@@ -63,7 +64,6 @@ def runs(tmp_path_factory):
         "set": ["simulate", "mass_spring_damper", "--t-end", "1", "--json", "--set", "k=9",
                 "--set", "c=0.6"],
         "show": ["show", "dc_motor"],
-        "check": ["check-energy"],
         "impossible": ["check-energy", str(impossible)],
         "unknown_model": ["simulate", "no_such_model", "--t-end", "1"],
     }
@@ -167,8 +167,8 @@ def test_show_code_prints_the_generated_source(backend, marks, capsys):
         assert mark in out, mark
 
 
-def test_check_energy_passes_on_shipped_models(runs):
-    run = runs["check"]
+def test_check_energy_passes_on_shipped_models(energy_check):
+    run = energy_check.run
     assert run.returncode == 0, run.stdout + run.stderr
     for name in io.available_models():
         assert f"ok   {name}" in run.stdout

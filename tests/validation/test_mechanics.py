@@ -74,15 +74,12 @@ def test_model_files_load_in_a_fresh_process():
     assert run.returncode == 0 and "loaded" in run.stdout, run.stdout + run.stderr
 
 
-def test_check_energy_passes_on_the_mechanics_models():
-    """``porthamiltonian check-energy`` (python back end) closes the energy balance of each
-    mechanics model with its own [simulation] settings and energy_tolerance."""
-    run = subprocess.run([sys.executable, "-m", "porthamiltonian", "--backend", "python",
-                          "check-energy", *MECHANICS_MODELS],
-                         capture_output=True, text=True, timeout=600, check=False)
-    assert run.returncode == 0, run.stdout + run.stderr
+def test_check_energy_passes_on_the_mechanics_models(energy_check):
+    """``porthamiltonian check-energy`` (python back end, a fresh interpreter: the session's run
+    over every shipped model, tests/conftest.py) closes the energy balance of each mechanics
+    model with its own [simulation] settings and energy_tolerance."""
     for name in MECHANICS_MODELS:
-        assert f"ok   {name}" in run.stdout, run.stdout
+        assert f"ok   {name}" in energy_check.run.stdout, energy_check.run.stdout
 
 
 # --------------------------------------------------------------------------------------------

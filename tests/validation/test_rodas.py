@@ -34,7 +34,10 @@ def _msd_exact(t: float) -> float:
 
 @pytest.fixture(scope="module")
 def msd():
-    return compile_model(io.load("mass_spring_damper"), backend="numba")
+    """mass_spring_damper on the C back end (its loops are numba's, statement for statement:
+    test_python_numba_and_c_loops_agree; numba's compilation of a model's loops costs ~15 s of
+    CPU, the C library is shared with test_sensitivity)."""
+    return compile_model(io.load("mass_spring_damper"), backend="c")
 
 
 @pytest.mark.parametrize("method, q", [("Rodas4", 4), ("Rodas5P", 5)])

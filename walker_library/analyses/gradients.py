@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -44,6 +45,9 @@ from porthamiltonian.simulation.differences import gradient
 from ..core.gradients import StrideGradient, check_names, stride_gradient
 from ..core.protocol import Walker
 from .results import JSONResult
+
+if TYPE_CHECKING:
+    from ..core.walker import HybridWalker
 
 __all__ = ["GAIT_QUANTITIES", "MULTIPLIER_STEP", "GaitGradient", "gait_gradient",
            "solve_gait"]
@@ -99,7 +103,7 @@ class _Period:
     fell: str = ""
 
 
-def _chain(walker: Walker, z: np.ndarray, names: Sequence[str], period: int,
+def _chain(walker: HybridWalker, z: np.ndarray, names: Sequence[str], period: int,
            factor: float = 1.0) -> _Period:
     """The strides of one period from z with their derivatives chained (module docstring)."""
     k, q = len(z), len(names)
@@ -115,13 +119,13 @@ def _chain(walker: Walker, z: np.ndarray, names: Sequence[str], period: int,
         for key in totals:
             totals[key] += getattr(g, key)
             rows[key] = rows[key] + getattr(g, f"d_{key}") @ lift
-        dz = g.dz @ lift
+        dz = cast(np.ndarray, g.dz) @ lift          # (a stride that did not fall has them)
         lift = np.vstack([dz, lift[k:]])
-        z = g.z_next
+        z = cast(np.ndarray, g.z_next)
     return _Period(z, dz, totals, rows, period)
 
 
-def solve_gait(walker: Walker, z: ArrayLike, names: Sequence[str], period: int = 1, *,
+def solve_gait(walker: HybridWalker, z: ArrayLike, names: Sequence[str], period: int = 1, *,
                tol: float | None = None, max_iter: int = 12) -> tuple[np.ndarray, _Period, int]:
     """Newton on S^k(z) − z with the exact Jacobian (each iteration one run per stride, which
     also gives the derivatives by ``names``): (z*, the period's values and rows at z*, runs).
@@ -168,7 +172,7 @@ def _weight(walker: Walker, names: Sequence[str]) -> tuple[float, np.ndarray]:
     return walker.weight, gradient(weight, values, 1.0).value
 
 
-def gait_gradient(walker: Walker, z: ArrayLike, names: Sequence[str], period: int = 1, *,
+def gait_gradient(walker: HybridWalker, z: ArrayLike, names: Sequence[str], period: int = 1, *,
                   multiplier: bool = True, solve: bool = True) -> GaitGradient:
     """The gradients of the gait through (or, with ``solve``, Newton-refined from) the section
     state ``z`` of period ``period`` by the parameters ``names`` (module docstring)."""
@@ -221,7 +225,7 @@ def gait_gradient(walker: Walker, z: ArrayLike, names: Sequence[str], period: in
     return out
 
 
-def _multiplier_gradient(walker: Walker, z: np.ndarray, period: int, names: Sequence[str],
+def _multiplier_gradient(walker: HybridWalker, z: np.ndarray, period: int, names: Sequence[str],
                          dzdp: np.ndarray, lam: complex, V: np.ndarray,
                          A: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """(dρ/dp, its error bound, runs made) by the module docstring's scheme."""
@@ -240,12 +244,12 @@ def _multiplier_gradient(walker: Walker, z: np.ndarray, period: int, names: Sequ
     for j, name in enumerate(names):
         p = walker.parameters[name]
         h = MULTIPLIER_STEP * max(abs(p), 1e-3)
-        jac = {}
+        jac: dict[int, np.ndarray] = {}
         for s in (-2, -1, 1, 2):
             shifted = walker.with_parameters(**{name: p + s * h})
             sj = shifted.stride_sensitivity(z + s * h * dzdp[:, j], period)
             runs += period
-            if sj.fell:
+            if sj.fell or sj.jacobian is None:          # (None exactly when it fell)
                 out[j], err[j] = math.nan, math.inf
                 break
             jac[s] = sj.jacobian

@@ -38,13 +38,13 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from porthamiltonian.batch.errors import SweepFileError
-from porthamiltonian.batch.resultsfile import FORMAT, VERSION, ResultsFile
+from porthamiltonian.batch.resultsfile import FORMAT, VERSION, ResultsFile, Scan
 from porthamiltonian.errors import ModelError, OptionError
 
 from ..core.gradients import check_names
@@ -52,6 +52,9 @@ from ..core.protocol import Walker
 from .gait import GaitStatus, analyze_gait
 from .gradients import GAIT_QUANTITIES, GaitGradient, gait_gradient
 from .results import JSONResult
+
+if TYPE_CHECKING:
+    from ..core.walker import HybridWalker
 
 __all__ = ["Constraint", "OptimizationResult", "optimize_gait", "parse_constraint"]
 
@@ -133,7 +136,7 @@ class _Evaluator:
     """The gait evaluations of one optimization, cached by point and recorded (module
     docstring)."""
 
-    def __init__(self, walker: Walker, vary: list[str], scale: np.ndarray, multiplier: bool,
+    def __init__(self, walker: HybridWalker, vary: list[str], scale: np.ndarray, multiplier: bool,
                  record: ResultsFile | None, known: dict[str, dict],
                  log: Callable[[str], None] | None):
         self.walker, self.vary, self.scale, self.multiplier = walker, vary, scale, multiplier
@@ -205,7 +208,9 @@ class _Evaluator:
                 "runs": g.runs, "seconds": time.perf_counter() - t0}
 
 
-def _identity(walker: Walker, vary, objective, maximize, constraints, bounds, method) -> dict:
+def _identity(walker: HybridWalker, vary: Sequence[str], objective: str, maximize: bool,
+              constraints: Sequence[Constraint], bounds: Mapping[str, tuple[float, float]],
+              method: str) -> dict:
     return {"model": walker.name, "parameters": dict(walker.parameters), "vary": list(vary),
             "objective": objective, "maximize": maximize,
             "constraints": [str(c) for c in constraints],
@@ -223,7 +228,7 @@ def _open_record(path: Path, identity: dict) -> tuple[ResultsFile, dict[str, dic
               "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     line = (json.dumps(header) + "\n").encode()
 
-    def check(found) -> dict[str, dict]:
+    def check(found: Scan | None) -> dict[str, dict]:
         if found is None:
             return {}
         theirs = found.header["sweep"].get("fixed")
@@ -235,7 +240,7 @@ def _open_record(path: Path, identity: dict) -> tuple[ResultsFile, dict[str, dic
     return ResultsFile.open(path, line, check)
 
 
-def optimize_gait(walker: Walker, vary: Sequence[str], objective: str, *,
+def optimize_gait(walker: HybridWalker, vary: Sequence[str], objective: str, *,
                   maximize: bool = False, constraints: Sequence[Constraint | str] = (),
                   bounds: Mapping[str, tuple[float, float]] | None = None,
                   method: str = "SLSQP", max_evaluations: int = 30, tol: float = 1e-6,
@@ -272,7 +277,8 @@ def optimize_gait(walker: Walker, vary: Sequence[str], objective: str, *,
         raise OptionError(f"the starting values {dict(zip(vary, p0.tolist()))} lie outside the "
                           "bounds")
     needs = {objective, *(c.quantity for c in cons)}
-    file, known = (None, {})
+    file: ResultsFile | None = None
+    known: dict[str, dict] = {}
     if record is not None:
         file, known = _open_record(Path(record), _identity(walker, vary, objective, maximize,
                                                            cons, bounds, method))
@@ -291,21 +297,21 @@ def optimize_gait(walker: Walker, vary: Sequence[str], objective: str, *,
         g_scale = [max(abs(c.bound), 1e-12) for c in cons]
         state = {"f": 0.0}
 
-        def f(u):
+        def f(u: np.ndarray) -> float:
             out = evaluate(u)
             if not out["feasible"]:
                 return state["f"] + _INFEASIBLE
             state["f"] = sign * out["values"][objective] / f_scale
             return state["f"]
 
-        def df(u):
+        def df(u: np.ndarray) -> np.ndarray:
             out = evaluate(u)
             if not out["feasible"]:
                 return np.zeros(len(vary))
             g = np.array([out["gradients"][objective][n] for n in vary])
             return sign * g * scale / f_scale
 
-        def gvec(u):
+        def gvec(u: np.ndarray) -> np.ndarray:
             out = evaluate(u)
             if not out["feasible"]:
                 return np.full(len(cons), -_INFEASIBLE)
@@ -313,7 +319,7 @@ def optimize_gait(walker: Walker, vary: Sequence[str], objective: str, *,
                               out["values"][c.quantity] - c.bound) / s
                              for c, s in zip(cons, g_scale)])
 
-        def dg(u):
+        def dg(u: np.ndarray) -> np.ndarray:
             out = evaluate(u)
             if not out["feasible"]:
                 return np.zeros((len(cons), len(vary)))
@@ -323,9 +329,9 @@ def optimize_gait(walker: Walker, vary: Sequence[str], objective: str, *,
 
         path: list[dict] = []
 
-        def accepted(u, *args):
-            p = np.asarray(u) * scale
-            out = evaluate(u)
+        def accepted(xk: np.ndarray, *args: Any) -> None:
+            p = np.asarray(xk) * scale
+            out = evaluate(xk)
             entry = {"parameters": dict(zip(vary, p.tolist())),
                      "objective": out["values"][objective] if out["feasible"] else None,
                      "feasible": out["feasible"]}
@@ -336,7 +342,8 @@ def optimize_gait(walker: Walker, vary: Sequence[str], objective: str, *,
         accepted(u0)
         box = Bounds(lo, hi)
         if method == "SLSQP":
-            res = minimize(f, u0, jac=df, method="SLSQP", bounds=box, callback=accepted,
+            # scipy-stubs type a constraint dict's "fun" as scalar-valued; SLSQP takes vectors
+            res = minimize(f, u0, jac=df, method="SLSQP", bounds=box, callback=accepted,  # type: ignore[call-overload]
                            constraints=[{"type": "ineq", "fun": gvec, "jac": dg}] if cons else [],
                            options={"maxiter": max_evaluations, "ftol": tol})
         else:

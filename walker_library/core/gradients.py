@@ -32,18 +32,21 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from porthamiltonian.errors import ModelError
 from porthamiltonian.integrators import COMPILED_METHODS
-from porthamiltonian.simulation.differences import jacobian
+from porthamiltonian.simulation.differences import Derivative, jacobian
 from porthamiltonian.simulation.psensitivity import output_gradient
-from porthamiltonian.simulation.saltation import Seeds
+from porthamiltonian.simulation.saltation import Seeds, Sensitivity
 
 from .machine import WalkLog
-from .protocol import Walker
+
+if TYPE_CHECKING:
+    from .walker import HybridWalker
 
 __all__ = ["StrideGradient", "stride_gradient"]
 
@@ -80,20 +83,28 @@ class StrideGradient:
     @property
     def jacobian(self) -> np.ndarray:
         """∂z'/∂z (k x k)."""
-        return self.dz[:, :len(self.dz)]
+        dz = self._derivatives()
+        return dz[:, :len(dz)]
 
     @property
     def parameters(self) -> np.ndarray:
         """∂z'/∂p (k x q)."""
-        return self.dz[:, len(self.dz):]
+        dz = self._derivatives()
+        return dz[:, len(dz):]
+
+    def _derivatives(self) -> np.ndarray:
+        if self.dz is None:
+            raise ModelError(f"the stride fell ({self.fell}): it has no derivatives")
+        return self.dz
 
 
-def _relative(d) -> float:
+def _relative(d: Derivative) -> float:
     size = float(np.max(np.abs(d.value))) if d.value.size else 0.0
     return d.max_error / size if size > 0 else 0.0
 
 
-def _start(walker, z: np.ndarray, names: Sequence[str], values: np.ndarray | None):
+def _start(walker: HybridWalker, z: np.ndarray, names: Sequence[str],
+           values: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """(x₀, p₀) of a stride from z (p₀ after the start rules), at the parameters ``names`` =
     ``values`` (None: the walker's)."""
     w = walker if values is None else walker.with_parameters(
@@ -103,7 +114,7 @@ def _start(walker, z: np.ndarray, names: Sequence[str], values: np.ndarray | Non
     return x0, w.machine.start(x0, p0)
 
 
-def check_names(walker: Walker, names: Sequence[str]) -> tuple[str, ...]:
+def check_names(walker: HybridWalker, names: Sequence[str]) -> tuple[str, ...]:
     """``names`` if each is a parameter of the walker's model the user sets (not a mode);
     else a ModelError naming them."""
     names = tuple(names)
@@ -117,7 +128,7 @@ def check_names(walker: Walker, names: Sequence[str]) -> tuple[str, ...]:
     return names
 
 
-def stride_gradient(walker: Walker, z: ArrayLike, names: Sequence[str], *,
+def stride_gradient(walker: HybridWalker, z: ArrayLike, names: Sequence[str], *,
                     factor: float = 1.0) -> StrideGradient:
     """One stride from section state ``z`` with its derivatives by z and by the parameters
     ``names`` (module docstring), at the walker's tolerances times ``factor``. A fall is a
@@ -150,13 +161,19 @@ def stride_gradient(walker: Walker, z: ArrayLike, names: Sequence[str], *,
         rtol=rtol, atol=atol, max_step=o.max_step, actions=walker.machine.actions(log, names),
         max_events=200, sensitivity=Seeds(lift.value, names, x0_p))
     strikes = log.heel_strikes
+    s = cast(Sensitivity, traj.sensitivity)         # a run given sensitivity= records it
     if not strikes or any(f.transition.fall for f in log.fired):
-        return StrideGradient(names, *([None] * 10), traj.sensitivity.error, 0.0, rtol, method,
-                              fell=f"no heel strike ({traj.message})")
+        return StrideGradient(
+            names, z_next=None, dz=None, duration=None, d_duration=None, step_length=None,
+            d_step_length=None, energy_dissipated=None, d_energy_dissipated=None,
+            energy_supplied=None, d_energy_supplied=None, phi_error=s.error,
+            difference_error=0.0, rtol=rtol, method=method,
+            fell=f"no heel strike ({traj.message})")
     last = strikes[-1]
-    s = traj.sensitivity
-    final = np.hstack([s.final, s.final_parameters])
-    pi = s.final_params
+    # (a run with parameter sensitivities records these)
+    final_parameters, pi, ledger = (cast(np.ndarray, a) for a in
+                                    (s.final_parameters, s.final_params, s.final_ledger))
+    final = np.hstack([s.final, final_parameters])
     live = np.flatnonzero(np.any(pi != 0.0, axis=1))
 
     def project_p(v: np.ndarray) -> np.ndarray:
@@ -168,16 +185,17 @@ def stride_gradient(walker: Walker, z: ArrayLike, names: Sequence[str], *,
     project_params = jacobian(project_p, last.p_plus[live], 1.0)
     dz = project.value @ final + project_params.value @ pi[live]
     crossing = s.crossings[-1]
+    params_minus = cast(np.ndarray, crossing.params_minus)     # (likewise)
     # the step length: the striking foot just before the heel strike, the stance foot at start
-    foot = walker.spec.foot(last.transition.foot).point
+    foot = walker.spec.foot(cast(str, last.transition.foot)).point   # a heel strike names it
     stance = walker.spec.foot(walker.spec.section.stance).point
     o_foot, o_stance = model.output_index(f"{foot}.x"), model.output_index(f"{stance}.x")
     on_surface = crossing.phi_minus + np.outer(crossing.f_minus, crossing.time_sensitivity)
-    rows = np.flatnonzero(np.any(crossing.params_minus != 0.0, axis=1) | np.any(unit, axis=1))
+    rows = np.flatnonzero(np.any(params_minus != 0.0, axis=1) | np.any(unit, axis=1))
     foot_x = output_gradient(model, o_foot, last.t, last.x_minus, last.p_minus, rows)
     stance_x = output_gradient(model, o_stance, 0.0, x0, p0, rows)
     pi0 = np.hstack([np.zeros((len(unit), k)), unit])
-    d_length = (foot_x[0] @ on_surface + foot_x[1] @ crossing.params_minus
+    d_length = (foot_x[0] @ on_surface + foot_x[1] @ params_minus
                 - stance_x[0] @ np.hstack([lift.value, x0_p]) - stance_x[1] @ pi0)
     length = (model.outputs(last.t, last.x_minus, last.p_minus)[o_foot]
               - model.outputs(0.0, x0, p0)[o_stance])
@@ -187,6 +205,6 @@ def stride_gradient(walker: Walker, z: ArrayLike, names: Sequence[str], *,
     return StrideGradient(
         names, walker.project(last.x_plus, last.p_plus), dz, float(last.t),
         crossing.time_sensitivity.copy(), float(length), d_length, float(y_end[n]),
-        s.final_ledger[0].copy(), float(y_end[n + 1]), s.final_ledger[1].copy(), s.error,
+        ledger[0].copy(), float(y_end[n + 1]), ledger[1].copy(), s.error,
         max(errors), rtol, method)
 

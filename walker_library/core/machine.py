@@ -241,10 +241,15 @@ class ModeMachine:
             if c.output is None:
                 continue
             row = np.zeros(n + len(p))
-            row[:n] = relative(jacobian(lambda xx, o=c.output: model.outputs(t, xx, p)[o:o + 1],
-                                        x, 1.0))[0]
-            row[n + np.array(wanted, dtype=int)] = relative(jacobian(
-                lambda v, o=c.output: model.outputs(t, x, at(v))[o:o + 1], p[wanted], 1.0))[0]
+
+            def by_x(xx: np.ndarray, o: int = c.output) -> np.ndarray:
+                return model.outputs(t, xx, p)[o:o + 1]
+
+            def by_p(v: np.ndarray, o: int = c.output) -> np.ndarray:
+                return model.outputs(t, x, at(v))[o:o + 1]
+
+            row[:n] = relative(jacobian(by_x, x, 1.0))[0]
+            row[n + np.array(wanted, dtype=int)] = relative(jacobian(by_p, p[wanted], 1.0))[0]
             rows[model.param_names[c.index]] = row
         if rows:
             out["params_jacobian"] = rows

@@ -226,7 +226,7 @@ def plan_walker(spec: WalkerSpec, text: str = "") -> WalkerPlan:
         spec = walker_spec(spec.model, spec.to_table(), source=spec.source, text=text,
                            description=spec.description, units=spec.units)
     with ModelFile(spec.model, spec.source, text).located():
-        names = layout(spec.frozen)
+        names = layout(spec.frozen if spec.frozen is not None else spec.model)
     return walker_plan(spec, names, text)
 
 

@@ -33,7 +33,7 @@ import functools
 import numbers
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
-from typing import Any
+from typing import Any, TypeVar, cast
 
 from porthamiltonian.backends import candidates
 from porthamiltonian.compiler import compiled_record, recall, remember, reopen, snapshot_key
@@ -141,6 +141,15 @@ class _Deferred:
         return f"<{self._known.get('name', 'part')} of the walker file, read when first used>"
 
 
+_T = TypeVar("_T")
+
+
+def _deferred(load: Callable[[], _T], **known: Any) -> _T:
+    """A :class:`_Deferred` for ``load()``'s result, typed as that result (it answers the
+    attributes read of it)."""
+    return cast(_T, _Deferred(load, **known))
+
+
 def _full_read(text: str, source: str) -> Callable[[], WalkerPlan]:
     """A function giving the plan of the walker file ``text`` (read from ``source``) read in
     full, once, when first called."""
@@ -218,19 +227,20 @@ def restore(source: str, text: str, backend: str | None, *,
         bodies = BodiesMass(_decode(data["bodies"]["masses"]), str(data["bodies"]["prefix"]),
                             str(data["bodies"]["where"]))
         name = str(data["name"])
-        spec = WalkerSpec(model=_Deferred(lambda: full().spec.model, name=name), **spec_fields)
+        spec = WalkerSpec(model=_deferred(lambda: full().spec.model, name=name), **spec_fields)
         floating = None
-        if data["floating"] is not None:
-            floating = Floating(_Deferred(lambda: full().floating.model),
+        if data["floating"] is not None:     # (then the file's full read has one too)
+            floating = Floating(_deferred(lambda: cast(Floating, full().floating).model),
                                 str(data["floating"]["root"]),
                                 tuple(str(j) for j in data["floating"]["rehung"]))
-        plan = WalkerPlan(spec=spec, description=_Deferred(lambda: full().description),
+        plan = WalkerPlan(spec=spec, description=_deferred(lambda: full().description),
                           floating=floating, bodies=bodies, **plan_fields)
     except (_Unfit, KeyError, TypeError, ValueError, ModelError):
         return None
     model = reopen(data["model"], lambda: full().description)
     floating_model = (None if data["floating_model"] is None
-                      else reopen(data["floating_model"], lambda: full().floating.model.freeze()))
+                      else reopen(data["floating_model"],
+                                  lambda: cast(Floating, full().floating).model.freeze()))
     if model is None or (data["floating_model"] is not None) != (floating_model is not None):
         return None
     return HybridWalker(plan, bind_walker(plan, model, floating_model), values=values,
