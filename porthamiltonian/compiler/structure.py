@@ -32,6 +32,7 @@ velocity products — is stage 2. The code generator differentiates stage by sta
 """
 from __future__ import annotations
 
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from typing import Any, NoReturn
 
@@ -220,7 +221,7 @@ def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol],
     return _order(defs, owner, port_variables, blocks)
 
 
-def stages(defs: dict[sp.Symbol, sp.Expr], blocks: list[Block], unknowns: set[sp.Symbol] = frozenset(),
+def stages(defs: dict[sp.Symbol, sp.Expr], blocks: list[Block], unknowns: AbstractSet[sp.Symbol] = frozenset(),
            owner: dict[sp.Symbol, str] | None = None
            ) -> tuple[list[sp.Symbol], dict[sp.Symbol, int], list[int]]:
     """The stage of every intermediate (``defs``) and block (see the module docstring): a

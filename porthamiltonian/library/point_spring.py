@@ -101,7 +101,7 @@ class PointSpringDamper(Component):
         other = position_b if position_b is not None else anchor
         xa = [b.parse(v, "argument 'position_a'") for v in position_a]
         xb = [b.parse(v, f"argument {'position_b' if position_b is not None else 'anchor'!r}")
-              for v in other]
+              for v in other or []]
         pa = b.port("a")
         va = list(pa.f)
         vb = list(b.port("b").f) if position_b is not None else [0] * len(dims)

@@ -48,7 +48,7 @@ from typing import Any
 import sympy as sp
 
 from ..errors import ModelError
-from ..modeling.component import Builder
+from ..modeling.component import Builder, PHCut
 from ..modeling.differentiation import Rates
 from .closure import Row
 
@@ -86,7 +86,7 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
     A = _saddle(M, G, active)
     holonomic = any(r.holonomic for r in rows)
     if b.ph is not None:
-        return _cut_build(b, rows, G, Q, rates, kinematics, gain, holonomic)
+        return _cut_build(b, b.ph, rows, G, Q, rates, kinematics, gain, holonomic)
     if holonomic and gain != 0:
         phi = [0] * n + [-s * r.phi if r.holonomic else 0 for s, r in zip(active, rows)]
         dv = b.implicit("correction", A, sp.Matrix(phi))[:n]
@@ -109,7 +109,7 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
     return rates, Q
 
 
-def _cut_build(b: Builder, rows: Sequence[Row], G: sp.Matrix, Q: list, rates: list,
+def _cut_build(b: Builder, cut: PHCut, rows: Sequence[Row], G: sp.Matrix, Q: list, rates: list,
                kinematics: Callable[[Sequence], list], gain: Any,
                holonomic: bool) -> tuple[list, list]:
     """The port-Hamiltonian form's cut build: the multipliers are imposed efforts (sources)
@@ -117,8 +117,8 @@ def _cut_build(b: Builder, rows: Sequence[Row], G: sp.Matrix, Q: list, rates: li
     supply no power); the position correction γ K Δv is an imposed coordinate rate whose
     conjugate is Kᵀ η_q."""
     n, m = len(Q), len(rows)
-    eta = [b.ph.eta(s) for s in _states(b, "p.")]
-    eta_q = [b.ph.eta(s) for s in _states(b, "q.")]
+    eta = [cut.eta(s) for s in _states(b, "p.")]
+    eta_q = [cut.eta(s) for s in _states(b, "q.")]
     Q = list(Q)
     lam = []
     for i, row in enumerate(rows):

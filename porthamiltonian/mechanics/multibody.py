@@ -676,7 +676,8 @@ class Multibody(Component):
                          "1")
         b.matrix("M", M)
 
-    def _closed(self, b: Builder, tree: Tree, placement: dict, make, specs: list[Joint],
+    def _closed(self, b: Builder, tree: Tree, placement: dict, make: Callable[[str, Any], Any],
+                specs: list[Joint],
                 q: list, v: list, M: sp.Matrix, Q: list, rates: list, gain: sp.Expr
                 ) -> tuple[list, list]:
         """The coordinate and momentum rates with the loops and constraints enforced

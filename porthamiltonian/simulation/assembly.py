@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -67,7 +67,7 @@ class ConstraintRows:
     active: tuple[int, ...]
     q: tuple[int, ...]
     p: tuple[int, ...]
-    steps: tuple[tuple, ...]
+    steps: tuple[tuple[Any, ...], ...]
 
 
 def constraint_rows(model: CompiledModel) -> list[ConstraintRows]:
@@ -78,8 +78,8 @@ def constraint_rows(model: CompiledModel) -> list[ConstraintRows]:
             continue
         name = matrix[:-2]
         prefix = f"{name}.reaction."
-        rows = [tuple(o[len(prefix):].split(".", 1)) for o in model.output_names
-                if o.startswith(prefix)]
+        rows = [(c, r) for c, _, r in (o[len(prefix):].partition(".") for o in model.output_names
+                                         if o.startswith(prefix))]
         index = model._output_index
         phi = tuple(index.get(f"{name}.phi.{c}.{r}", -1) for c, r in rows)
         active = tuple(index[f"{name}.active.{c}"] for c, _ in rows)
@@ -90,9 +90,10 @@ def constraint_rows(model: CompiledModel) -> list[ConstraintRows]:
     return out
 
 
-def _steps(model: CompiledModel, name: str, q: list[int], p: list[int]) -> tuple[tuple, ...]:
+def _steps(model: CompiledModel, name: str, q: list[int], p: list[int]
+           ) -> tuple[tuple[Any, ...], ...]:
     coords = {model.state_names[i][len(name) + 3:]: i for i in q}
-    steps = []
+    steps: list[tuple[Any, ...]] = []
     for i in p:
         label = model.state_names[i][len(name) + 3:]
         if label in coords:
@@ -119,8 +120,8 @@ def _moved(x: np.ndarray, rows: ConstraintRows, dv: np.ndarray) -> np.ndarray:
     """x with the coordinates moved by the velocities ``dv`` (K(q) Δv, see the module
     docstring)."""
     out = x.copy()
-    turns: dict[tuple, np.ndarray] = {}
-    shifts: dict[tuple, tuple[tuple, np.ndarray]] = {}
+    turns: dict[tuple[int, ...], np.ndarray] = {}
+    shifts: dict[tuple[int, ...], tuple[tuple[int, ...], np.ndarray]] = {}
     for step, d in zip(rows.steps, dv):
         if step[0] == "same":
             out[step[1]] += d

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ModelError
-from .assembly import constraint_rows
+from .assembly import ConstraintRows, constraint_rows
 from .impact import plastic_impact
 from .simulate import Reset
 
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
 __all__ = ["engage", "release"]
 
 
-def _rows(model: CompiledModel, multibody: str, constraint: str):
+def _rows(model: CompiledModel, multibody: str, constraint: str) -> ConstraintRows:
     for rows in constraint_rows(model):
         if rows.name == multibody:
             if not any(c == constraint for c, _ in rows.rows):
