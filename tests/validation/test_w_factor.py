@@ -64,6 +64,8 @@ static void jac(double t, const double *x, const double *p, double *out)
 { (void)t; (void)x; (void)p; (void)out; }
 static void guards(double t, const double *x, const double *p, double *out)
 { (void)t; (void)x; (void)p; (void)out; }
+static void jac_p(double t, const double *x, const double *p, double *out)
+{ (void)t; (void)x; (void)p; (void)out; }
 """
 _DRIVER = """
 PH_EXPORT int ph_test_w(const double *J, double hgam, int64_t n_model, double *b, double *B,
