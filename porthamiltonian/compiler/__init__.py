@@ -30,6 +30,8 @@ from .literals import printable
 from .snapshots import recall, remember, snapshot_key
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from ..modeling.model import Model, ModelDescription
     from .assemble import SymbolicModel
     from .structure import Solution
@@ -424,7 +426,7 @@ def _start_loop(n: int, n_guards: int, use_cache: bool) -> native.Pending | None
 
 
 def _loop_object(meta: ModelMeta, use_cache: bool, times: dict[str, float],
-                 pending: native.Pending | None, log_dir, model_source):
+                 pending: native.Pending | None, log_dir: Path | None, model_source: Path) -> Path:
     """The integration loops' object for the model's sizes: cached, or the background compile
     ``pending`` waited for, or compiled now (the time waited added to ``times["C"]``); a
     failure is logged as the model's (``log_dir``, named after ``model_source``)."""
@@ -440,8 +442,8 @@ def _loop_object(meta: ModelMeta, use_cache: bool, times: dict[str, float],
     return path
 
 
-def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_dir,
-                   model_source):
+def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_dir: Path | None,
+                   model_source: Path) -> Path:
     """The compiled object of ``kernel`` (:mod:`porthamiltonian.mechanics.sources`), from the
     cache (an entry of its own, keyed by its source and the compiler) or compiled now (its time
     added to ``times["C"]``; a failure logged as the model's): one compile serves every model

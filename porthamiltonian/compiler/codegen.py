@@ -252,7 +252,8 @@ class FunctionBuilder:
             self.nodes.append(([target], _names([reduced[k]]), [Let(target, reduced[k])]))
             k += 1
         #: the kernel calls: name -> (label, mapped constants, mapped inputs, [(index, symbol)])
-        self.calls: dict[str, tuple[str, tuple, tuple, list]] = {}
+        self.calls: dict[str, tuple[str, tuple[sp.Expr, ...], tuple[sp.Expr, ...],
+                                    list[tuple[int, sp.Symbol]]]] = {}
         for name, (inputs, outs) in _call_groups(model).items():
             call = model.calls[name]
             label = f"kern{len(self.calls)}"        # its outputs: kern<i>o[k] (see program)
@@ -360,10 +361,11 @@ def _float(expr: sp.Expr) -> sp.Expr:
     return sp.Float(float(expr)) if expr.is_number else expr
 
 
-def _call_groups(model: SymbolicModel) -> dict[str, tuple[tuple, list]]:
+def _call_groups(model: SymbolicModel
+                 ) -> dict[str, tuple[tuple[sp.Expr, ...], list[tuple[int, sp.Symbol]]]]:
     """Each kernel call of the model's intermediates: name -> (its inputs, [(output index,
     symbol)]) in the order of the intermediates (see :func:`gathered`)."""
-    out: dict[str, tuple[tuple, list]] = {}
+    out: dict[str, tuple[tuple[sp.Expr, ...], list[tuple[int, sp.Symbol]]]] = {}
     for w, e in model.intermediates:
         if isinstance(e, KernelOutput):
             out.setdefault(e.call, (e.inputs, []))[1].append((e.index, w))
@@ -378,7 +380,7 @@ def gathered(model: SymbolicModel) -> SymbolicModel:
     :class:`FunctionBuilder` and :func:`jacobian_function` take a model in this form."""
     if not model.calls:
         return model
-    groups: dict[str, list] = {}
+    groups: dict[str, list[tuple[sp.Symbol, KernelOutput]]] = {}
     for w, e in model.intermediates:
         if isinstance(e, KernelOutput):
             groups.setdefault(e.call, []).append((w, e))
@@ -406,7 +408,7 @@ def gathered(model: SymbolicModel) -> SymbolicModel:
     return dataclasses.replace(model, intermediates=out)
 
 
-def _reads(model: SymbolicModel, exprs: list) -> set[sp.Symbol]:
+def _reads(model: SymbolicModel, exprs: list[sp.Expr]) -> set[sp.Symbol]:
     """The intermediates (and other symbols) ``exprs`` read, directly or through intermediates
     and the implicit blocks whose unknowns they read."""
     wanted: set[sp.Symbol] = set()
@@ -645,7 +647,7 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
     return out
 
 
-def _without_tangents(model: SymbolicModel, exprs: list) -> list[int]:
+def _without_tangents(model: SymbolicModel, exprs: list[sp.Expr]) -> list[int]:
     """The indices of ``exprs`` that read (through intermediates) an output of a kernel call
     without tangents."""
     if not model.calls:
@@ -748,7 +750,7 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
         return [("statement", ChainRule("Dw", "g", "gr", "gc", start, stop, ncols, "glo",
                                         "ghi"))] if stop > start else []
 
-    def tangent(call_name: str) -> list[tuple]:
+    def tangent(call_name: str) -> list[tuple[Any, ...]]:
         """The call with tangents (none when no input depends on the variables: its outputs'
         rows stay zero, e.g. the state equations' kernel call in ∂/∂u of a model whose input
         reaches no site)."""
@@ -777,7 +779,7 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
         return [("call", CallTangent(f"t{label}", call.kernel, call.entry, call.table, constants,
                                      inputs, call.n_outputs, ncols, tuple(rows), into))]
 
-    def segments(first: int, last: int, cursor: int) -> tuple[list[tuple], int]:
+    def segments(first: int, last: int, cursor: int) -> tuple[list[tuple[Any, ...]], int]:
         """The chain rule over the rows first .. last - 1 (from chain entry ``cursor``) with the
         calls among them in place; returns the groups and the next chain entry."""
         out = []

@@ -29,6 +29,7 @@ import math
 import os
 import resource
 from collections.abc import Callable
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -164,7 +165,7 @@ def _parametric(component: Any, parameters: set[str]) -> bool:
     return all(_names(v) <= parameters for v in values)
 
 
-def _names(value: Any) -> set[str]:
+def _names(value: Any) -> AbstractSet[str]:
     if isinstance(value, dict):
         return set().union(*map(_names, value.values())) if value else set()
     if isinstance(value, (list, tuple)):

@@ -73,7 +73,7 @@ class PythonPrinter(PythonCodePrinter):
     def _print_DiracDelta(self, expr: sp.Basic) -> str:
         return "0.0"
 
-    def _print_ITE(self, expr):
+    def _print_ITE(self, expr: sp.Basic) -> str:
         c, a, b = (self._print(x) for x in expr.args)
         return f"(({a}) if ({c}) else ({b}))"
 
@@ -160,7 +160,7 @@ class CPrinter(C99CodePrinter):
     def _print_Relational(self, expr: sp.Basic) -> str:
         return f"({self._print(expr.lhs)} {expr.rel_op} {self._print(expr.rhs)})"
 
-    def _print_ITE(self, expr):
+    def _print_ITE(self, expr: sp.Basic) -> str:
         """if-then-else directly (sympy's rewrite as a Piecewise sorts the conditions, which
         took minutes on conditions reading a kernel's output array)."""
         c, a, b = (self._print(x) for x in expr.args)
@@ -245,10 +245,12 @@ def _python_statement(st: Statement, pr: Callable[[sp.Basic], str], lines: list[
 _KERNEL_ARRAY = re.compile(r"kern\d+o$")
 
 
-def _copy_run(body: tuple, start: int, flat) -> tuple[int, int, str, int] | None:
+def _copy_run(body: tuple[Statement, ...], start: int, flat: Callable[[str, tuple[int, ...]], int]
+              ) -> tuple[int, str, int, str, int] | None:
     """A run of at least 4 statements from ``body[start]`` that copy consecutive entries of a
     kernel call's output array into consecutive entries of one array (``flat(array, index)``:
-    the flat position): (count, first destination, source array, first source); else None."""
+    the flat position): (count, destination array, first destination, source array, first
+    source); else None."""
     first = body[start]
     if not (isinstance(first, Store) and isinstance(first.expr, sp.Indexed)
             and _KERNEL_ARRAY.match(str(first.expr.base))):
@@ -262,7 +264,7 @@ def _copy_run(body: tuple, start: int, flat) -> tuple[int, int, str, int] | None
                 and int(st.expr.indices[0]) == src0 + count):
             break
         count += 1
-    return (count, dst0, base, src0) if count >= 4 else None
+    return (count, first.array, dst0, base, src0) if count >= 4 else None
 
 
 def _table_name(table: tuple[int, ...]) -> str:
@@ -296,8 +298,8 @@ def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
         run = _copy_run(fn.body, position,
                         lambda a, i: i[0] * ncols[a] + i[1] if len(i) == 2 else i[0])
         if run is not None:              # a block of a kernel's outputs: one slice copy
-            n, dst, src, first = run
-            target = st.array if not ncols[st.array] else f"{st.array}.reshape(-1)"
+            n, array, dst, src, first = run
+            target = array if not ncols[array] else f"{array}.reshape(-1)"
             lines.append(f"    {target}[{dst}:{dst + n}] = {src}[{first}:{first + n}]")
             position += n
             continue
@@ -470,8 +472,8 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
         run = _copy_run(fn.body, position, lambda a, i: _c_flat(i, shapes[a]))
         position += 1
         if run is not None:              # a block of a kernel's outputs: one copy
-            n, dst, src, first = run
-            lines.append(f"    memcpy({st.array} + {dst}, {src} + {first}, sizeof(double) * {n});")
+            n, array, dst, src, first = run
+            lines.append(f"    memcpy({array} + {dst}, {src} + {first}, sizeof(double) * {n});")
             position += n - 1
             continue
         if isinstance(st, Let):
@@ -551,9 +553,9 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
     return "\n".join(lines)
 
 
-def _c_call_arrays(st: Call | CallTangent, pr) -> list[str]:
+def _c_call_arrays(st: Call | CallTangent, pr: Callable[[sp.Basic], str]) -> list[str]:
     """The integer table, constants and inputs of a kernel call as local C arrays."""
-    def values(exprs) -> str:
+    def values(exprs: tuple[sp.Basic, ...]) -> str:
         return ", ".join(pr(e) for e in exprs) or "0.0"
 
     table = ", ".join(map(str, st.table))

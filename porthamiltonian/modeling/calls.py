@@ -18,6 +18,7 @@ differentiates a ``KernelOutput`` symbolically.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import sympy as sp
 from sympy.core.symbol import Str
@@ -37,7 +38,7 @@ class KernelOutput(sp.Function):
     @property
     def call(self) -> str:
         """The qualified name of the call."""
-        return self.args[0].name
+        return str(self.args[0].name)
 
     @property
     def index(self) -> int:
@@ -45,9 +46,9 @@ class KernelOutput(sp.Function):
         return int(self.args[1])
 
     @property
-    def inputs(self) -> tuple:
+    def inputs(self) -> tuple[sp.Expr, ...]:
         """The call's input expressions."""
-        return self.args[2:]
+        return tuple(self.args[2:])
 
 
 @dataclass(frozen=True)
@@ -70,7 +71,7 @@ class KernelCall:
     tangents: bool
 
 
-def outputs(call: str, inputs: list, n_outputs: int) -> list[sp.Expr]:
+def outputs(call: str, inputs: list[Any], n_outputs: int) -> list[sp.Expr]:
     """The output expressions ``KernelOutput(Str(call), k, *inputs)`` of a call."""
     tag = Str(call)
     args = [sp.sympify(x) for x in inputs]

@@ -248,7 +248,7 @@ class Builder:
     def parametric(self, expr: Any) -> bool:
         """True when ``expr`` depends on the model's parameters only (no time, state, model
         input or signal of another component)."""
-        return as_expr(expr).free_symbols <= set(self._names.values()) - self._inputs
+        return bool(as_expr(expr).free_symbols <= set(self._names.values()) - self._inputs)
 
     def connected(self, name: str) -> bool:
         """True when a bond ends on port ``name`` (an unconnected optional port has zero
@@ -288,8 +288,8 @@ class Builder:
         self.built.blocks.append((symbols, A, rhs))
         return symbols
 
-    def call(self, name: str, kernel: str, entry: str, table: list[int], constants: list,
-             inputs: list, n_outputs: int) -> list[sp.Symbol]:
+    def call(self, name: str, kernel: str, entry: str, table: list[int], constants: list[Any],
+             inputs: list[Any], n_outputs: int) -> list[sp.Symbol]:
         """Outputs computed by a compiled kernel (:mod:`porthamiltonian.modeling.calls`): the
         routine ``entry`` of ``kernel`` with the integer ``table``, the ``constants``
         (expressions in the parameters only) and the ``inputs`` (expressions in states, port
