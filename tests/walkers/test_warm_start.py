@@ -41,9 +41,19 @@ def _run(code: str) -> dict:
 
 
 @pytest.fixture(scope="module")
-def cold():
-    """The walker loaded once (in full, or from a snapshot another test left: the next load is
-    warm either way) and its stride from the initial guess."""
+def own_cache(tmp_path_factory: pytest.TempPathFactory):
+    """A cache folder of this module's own (the snapshots it checks are the ones it makes, not
+    whatever the session's earlier tests left in the shared cache)."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path_factory.mktemp("warm_start_cache")))
+    yield
+    mp.undo()
+
+
+@pytest.fixture(scope="module")
+def cold(own_cache):
+    """The walker loaded once, in full (a fresh cache), and its stride from the initial guess;
+    the next load is warm."""
     walker = load_walker(NAME)
     return walker, walker.stride(walker.initial_guess())
 
