@@ -25,13 +25,13 @@ import numpy as np
 
 from ..errors import ModelError
 from .assembly import ConstraintRows, constraint_rows
-from .impact import plastic_impact
+from .impact import ImpactResult, plastic_impact
 from .simulate import Reset
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
 
-__all__ = ["engage", "release"]
+__all__ = ["engage", "impact_onto", "release"]
 
 
 def _rows(model: CompiledModel, multibody: str, constraint: str) -> ConstraintRows:
@@ -52,16 +52,17 @@ def _parameter(model: CompiledModel, name: str) -> None:
                          "switch must be a parameter its 'active' expression reads)")
 
 
-def engage(model: CompiledModel, multibody: str, constraint: str,
-           switch: str) -> Callable[[float, np.ndarray, np.ndarray], Reset]:
-    """The action that impacts plastically onto ``constraint`` of ``multibody`` and sets the
-    parameter ``switch`` to 1 (see the module docstring)."""
+def impact_onto(model: CompiledModel, multibody: str, constraint: str
+                ) -> Callable[[float, np.ndarray, np.ndarray], tuple[np.ndarray, ImpactResult]]:
+    """The plastic impact onto ``constraint`` of ``multibody`` as a map (t, x, p) -> (state
+    just after, :class:`~porthamiltonian.simulation.impact.ImpactResult`): the rows of the
+    constraint and every row already active at ``p`` (see the module docstring); the
+    configuration is unchanged, the multibody's momenta jump."""
     rows = _rows(model, multibody, constraint)
-    _parameter(model, switch)
     own = [i for i, (c, _) in enumerate(rows.rows) if c == constraint]
     pidx = list(rows.p)
 
-    def action(t: float, x: np.ndarray, p: np.ndarray) -> Reset:
+    def onto(t: float, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, ImpactResult]:
         y = model.outputs(t, x, p)
         on = sorted({i for i, k in enumerate(rows.active) if y[k] > 0.5} | set(own))
         G = model.matrix(f"{multibody}.G", t, x, p)[on]
@@ -69,7 +70,20 @@ def engage(model: CompiledModel, multibody: str, constraint: str,
         result = plastic_impact(M, G, np.linalg.solve(M, x[pidx]))
         x_plus = np.array(x, dtype=float)
         x_plus[pidx] = result.p_plus
-        return Reset(x=x_plus, params={switch: 1.0}, energy="dissipated")
+        return x_plus, result
+
+    return onto
+
+
+def engage(model: CompiledModel, multibody: str, constraint: str,
+           switch: str) -> Callable[[float, np.ndarray, np.ndarray], Reset]:
+    """The action that impacts plastically onto ``constraint`` of ``multibody`` and sets the
+    parameter ``switch`` to 1 (see the module docstring)."""
+    onto = impact_onto(model, multibody, constraint)
+    _parameter(model, switch)
+
+    def action(t: float, x: np.ndarray, p: np.ndarray) -> Reset:
+        return Reset(x=onto(t, x, p)[0], params={switch: 1.0}, energy="dissipated")
 
     return action
 

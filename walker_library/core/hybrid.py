@@ -81,7 +81,12 @@ class Rule:
     foot : the foot that strikes (heel-strike rules): its point gives the step length.
     impact : a plastic impact at this multibody point (rigid walkers): the point stops, the
         multibody's pinned root joint is released, and :attr:`WalkerSpec.relabel` re-pins the
-        model at the point (the swing leg becomes the stance leg).
+        model at the point (the swing leg becomes the stance leg). Constraints of the multibody
+        that are active (a locked knee) stay satisfied through it: their rows join the impact.
+    engage : a plastic impact onto the multibody's constraint (or loop) of this name,
+        ``"<multibody>.<constraint>"`` (a knee strike onto its lock): the generic impact map with
+        the constraint's rows and those already active; the constraint's switch (its ``active``
+        mode parameter) is set to 1. No relabelling.
     heel_strike : the rule ends a step; the state just after it lies on the Poincaré section.
     fall : the rule ends the walk as a fall (reason: the event's name).
     energy : where a jump of H at the event is booked (``"dissipated"`` or ``"supplied"``).
@@ -95,6 +100,7 @@ class Rule:
     heel_strike: bool = False
     fall: bool = False
     energy: Booking = "dissipated"
+    engage: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "when", tuple(self.when))
@@ -257,7 +263,7 @@ class WalkerSpec:
                 d["if"] = list(r.when)
             if r.set:
                 d["set"] = dict(r.set)
-            for key in ("foot", "impact"):
+            for key in ("foot", "impact", "engage"):
                 if getattr(r, key):
                     d[key] = getattr(r, key)
             for key in ("heel_strike", "fall"):

@@ -4,7 +4,7 @@
 model: the event it acts on (its guard ``g(t, x, p)`` is the model's compiled guard, crossed in
 its ``direction``), its conditions (compiled outputs compared with 0), the mode parameters it
 sets (constants or compiled outputs, evaluated just before the event), and an optional reset map
-of the state (:class:`~.resets.ImpactMap`). :meth:`Transition.apply` gives the state and the
+of the state (:class:`~.resets.ImpactMap`, :class:`~.resets.ConstraintImpact`). :meth:`Transition.apply` gives the state and the
 parameters after it; :meth:`Transition.reset_jacobian` the Jacobian of the state map (the
 identity without a reset), so that saltation matrices can be formed at every event.
 
@@ -39,7 +39,7 @@ from porthamiltonian.simulation.compiled import CompiledModel
 from porthamiltonian.simulation.differences import Derivative, jacobian
 
 from .hybrid import Booking
-from .resets import ImpactMap
+from .resets import ConstraintImpact, ImpactMap
 
 __all__ = ["Change", "Condition", "Fired", "ModeMachine", "Transition", "WalkLog"]
 
@@ -88,7 +88,7 @@ class Transition:
     direction: int
     conditions: tuple[Condition, ...]
     changes: tuple[Change, ...]
-    impact: ImpactMap | None = None
+    impact: ImpactMap | ConstraintImpact | None = None
     heel_strike: bool = False
     fall: bool = False
     energy: Booking = "dissipated"

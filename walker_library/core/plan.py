@@ -44,6 +44,7 @@ from porthamiltonian.modeling.expressions import Expression, parse_text
 from .hybrid import Booking, Expr, Interval, Parsed, WalkerSpec, parse_equation
 from .problems import Problems, suggestion
 from .protocol import ParameterSpec
+from .reading import engaged
 from .resets import Floating, floating_model
 
 if TYPE_CHECKING:
@@ -136,8 +137,9 @@ class ChangePlan:
 @dataclass(frozen=True)
 class TransitionPlan:
     """One rule: the event it acts on (``"start"``: once at the start of a walk), its conditions,
-    the modes it sets, the multibody point of its plastic impact (rigid walkers), and whether it
-    ends a step or the walk (see :class:`~.hybrid.Rule`)."""
+    the modes it sets, the multibody point of its plastic impact (rigid walkers) or the
+    multibody's constraint it engages (a knee strike: the impact onto the constraint, its switch
+    among the changes), and whether it ends a step or the walk (see :class:`~.hybrid.Rule`)."""
 
     name: str
     event: str
@@ -148,6 +150,7 @@ class TransitionPlan:
     fall: bool
     energy: Booking
     foot: str | None
+    engage: str | None = None
 
 
 @dataclass(frozen=True)
@@ -373,8 +376,15 @@ def _transitions(spec: WalkerSpec, parsed: Parsed, ex: _Outputs) -> tuple[Transi
     for i, (rule, conds) in enumerate(zip(spec.rules, parsed.conditions)):
         conditions = tuple(ConditionPlan(c.text, ex.add(c.difference), c.op) for c in conds)
         changes = tuple(ex.value(k, v) for k, v in rule.set)
+        engage = None
+        if rule.engage:
+            found = engaged(spec.frozen, rule.engage) if spec.frozen is not None else None
+            if found is not None:         # the reader checked it: a constraint with a mode switch
+                engage = found[1]
+                changes += (ChangePlan(str(found[2]["active"]).strip(), 1.0),)
         out.append(TransitionPlan(f"{rule.on}#{i + 1}", rule.on, conditions, changes,
-                                  rule.impact, rule.heel_strike, rule.fall, rule.energy, rule.foot))
+                                  rule.impact, rule.heel_strike, rule.fall, rule.energy, rule.foot,
+                                  engage))
     return tuple(out)
 
 
@@ -446,6 +456,37 @@ def _check_points(bad: Problems, spec: WalkerSpec, names: ModelNames) -> None:
         if names.root_joint is None:
             bad.add(f"{where}: an impact releases the pinned root joint: the multibody needs "
                     "one revolute joint from 'world'", "rules", i, "impact")
+        else:
+            _check_floating_constraints(bad, spec, names, where, i)
+    for i, r in enumerate(spec.rules):
+        if r.engage and r.engage.partition(".")[0] != mb:
+            bad.add(f"[[walker.rules]] #{i + 1}: engage {r.engage!r} is not a constraint of the "
+                    f"walker's multibody {mb!r}", "rules", i, "engage")
+
+
+def _check_floating_constraints(bad: Problems, spec: WalkerSpec, names: ModelNames, where: str,
+                                i: int) -> None:
+    """An impact rule's multibody may have loops and constraints (their active rows join the
+    impact) only away from the pinned root body and the joints on it: the impact releases the
+    root, re-hangs those joints from a free base at the hip and moves the root body's frame
+    there (:func:`~.resets.floating_model`), so a loop or lock written in those frames would
+    change meaning."""
+    if spec.frozen is None:           # walker_plan refuses a spec without it
+        return
+    comp = spec.frozen.components[names.multibody]
+    joints = comp.value("joints")
+    root_body = joints[names.root_joint]["child"]
+    on_root = {j for j, d in joints.items() if d.get("parent") == root_body} | {names.root_joint}
+    for table in ("constraints", "loops"):
+        for name, entry in (comp.value(table) or {}).items():
+            touches = ({entry.get("parent"), entry.get("child"), entry.get("body")} & {root_body}
+                       or entry.get("joint") in on_root)
+            if touches:
+                bad.add(f"{where}: the impact releases the pinned root joint "
+                        f"{names.root_joint!r}, but {table[:-1]} {name!r} is written on the root "
+                        f"body {root_body!r} or a joint on it; attach it to other bodies (the "
+                        "swing leg's) or make the rule's impact a plain point impact without it",
+                        "rules", i, "impact")
 
 
 def _check_section(bad: Problems, spec: WalkerSpec, names: ModelNames) -> None:

@@ -48,11 +48,11 @@ if TYPE_CHECKING:
     from porthamiltonian.interfaces.io import ModelFile
     from porthamiltonian.modeling.model import Model, ModelDescription
 
-__all__ = ["file_spec", "walker_spec"]
+__all__ = ["engaged", "file_spec", "walker_spec"]
 
 _TOP = ("mass", "leg_length", "hip", "integration", "feet", "modes", "terrain", "rules",
         "relabel", "section", "angles", "guess", "ranges")
-_RULE_KEYS = ("on", "if", "set", "foot", "impact", "heel_strike", "fall", "energy")
+_RULE_KEYS = ("on", "if", "set", "foot", "impact", "engage", "heel_strike", "fall", "energy")
 _SECTION_KEYS = ("stance", "coordinates", "complete", "thesis", "labelling", "basin")
 _ENERGY = ("dissipated", "supplied")
 #: what the expression parser says of an unknown name, and what a walker table says instead
@@ -322,13 +322,70 @@ def _read_rule(r: _Reading, i: int, entry: Mapping, feet: set[str],
     impact = entry.get("impact")
     if impact is not None:
         impact = r.string(impact, f"{where} impact", "rules", i, "impact")
+    engage = entry.get("engage")
+    if engage is not None:
+        engage = r.string(engage, f"{where} engage", "rules", i, "engage")
+        _check_engage(r, where, i, engage, impact, sets, modes)
     energy = entry.get("energy", "dissipated")
     if energy not in _ENERGY:
         r.bad.add(f"{where}: energy must be \"dissipated\" or \"supplied\", got {energy!r}",
                   "rules", i, "energy")
         energy = "dissipated"
-    rule = Rule(on, tuple(when), tuple(sets.items()), foot, impact, flags["heel_strike"], flags["fall"], energy)
+    rule = Rule(on, tuple(when), tuple(sets.items()), foot, impact, flags["heel_strike"],
+                flags["fall"], energy, engage or None)
     return rule, tuple(c for c in conds if c is not None)
+
+
+def engaged(frozen: ModelDescription, target: str) -> tuple[str, str, Mapping] | None:
+    """(multibody, name, entry) of the loop or constraint ``target`` (``"<multibody>.<name>"``)
+    of the model ``frozen``, or None."""
+    from porthamiltonian.mechanics import Multibody
+
+    mb, _, name = target.partition(".")
+    comp = frozen.components.get(mb)
+    if not isinstance(comp, Multibody):
+        return None
+    for table in ("constraints", "loops"):
+        entry = (comp.value(table) or {}).get(name)
+        if isinstance(entry, Mapping):
+            return mb, name, entry
+    return None
+
+
+def _check_engage(r: _Reading, where: str, i: int, target: str, impact: Any,
+                  sets: Mapping[str, Value], modes: set[str]) -> None:
+    """A rule's ``engage``: a loop or constraint of a multibody, switched by a mode (its
+    ``active`` a mode parameter, which the rule sets to 1 itself); never with ``impact``."""
+    if not target:
+        return
+    path = ("rules", i, "engage")
+    if impact is not None:
+        r.bad.add(f"{where}: a rule applies one impact: at a point (impact) or onto a constraint "
+                  "(engage), not both; write two rules on two events", *path)
+    found = engaged(r.frozen, target)
+    if found is None:
+        known = _switchable(r.frozen)
+        r.bad.add(f"{where}: engage {target!r} is not a loop or constraint of a multibody"
+                  f"{suggestion(target, known)}; write \"<multibody>.<constraint>\" "
+                  f"(known: {', '.join(known) or 'none'})", *path)
+        return
+    switch = found[2].get("active", 1)
+    if not (isinstance(switch, str) and switch.strip() in modes):
+        r.bad.add(f"{where}: engage {target!r}: its 'active' is {switch!r}, not a mode; a "
+                  "switched constraint reads a mode parameter (active = \"knee_locked\", "
+                  "declared under [walker.modes]) that the rule sets to 1", *path)
+    elif switch.strip() in sets:
+        r.bad.add(f"{where}: engage {target!r} sets its switch {switch.strip()!r} to 1 itself: "
+                  "remove it from 'set'", *path)
+
+
+def _switchable(frozen: ModelDescription) -> list[str]:
+    """``<multibody>.<name>`` of every loop and constraint of the model."""
+    from porthamiltonian.mechanics import Multibody
+
+    return [f"{mb}.{name}" for mb, comp in frozen.components.items()
+            if isinstance(comp, Multibody)
+            for table in ("constraints", "loops") for name in (comp.value(table) or {})]
 
 
 def _read_sets(r: _Reading, where: str, i: int, sets: Any, modes: set[str]) -> dict[str, Value]:

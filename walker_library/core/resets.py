@@ -8,11 +8,15 @@
   x/z joint between the world and the root joint, so that the root can move.
 * :class:`ImpactMap` — the plastic impact of a rigid walker at heel strike
   (:func:`porthamiltonian.simulation.impact.model_impact` on the floating model: the striking
-  point stops, the old pin is free), followed by the relabelling that re-pins the model at the
-  striking point. The state is mapped, the mode parameters are the rule's business.
+  point stops, the old pin is free; the multibody's active constraints, a locked knee, stay
+  satisfied: their rows join the impact), followed by the relabelling that re-pins the model at
+  the striking point. The state is mapped, the mode parameters are the rule's business.
+* :class:`ConstraintImpact` — the plastic impact onto a constraint of the walker's multibody
+  (a knee strike onto the knee's lock: :func:`porthamiltonian.simulation.switching.impact_onto`),
+  no relabelling; the rule sets the constraint's switch.
 
-Both maps are functions of the state with a Jacobian (:meth:`Relabel.matrix`, exact;
-:meth:`ImpactMap.jacobian`, central differences) for saltation-matrix computations.
+The maps are functions of the state with a Jacobian (:meth:`Relabel.matrix`, exact;
+:meth:`ImpactMap.jacobian`, :meth:`ConstraintImpact.jacobian`: central differences) for saltation-matrix computations.
 """
 from __future__ import annotations
 
@@ -24,12 +28,14 @@ import numpy as np
 
 from porthamiltonian.modeling.expressions import parse
 from porthamiltonian.simulation.compiled import CompiledModel
+from porthamiltonian.simulation.assembly import constraint_rows
 from porthamiltonian.simulation.impact import model_impact
+from porthamiltonian.simulation.switching import impact_onto
 
 if TYPE_CHECKING:
     from porthamiltonian.modeling.model import Model, ModelDescription
 
-__all__ = ["PIN", "Floating", "ImpactMap", "Relabel", "floating_model"]
+__all__ = ["PIN", "ConstraintImpact", "Floating", "ImpactMap", "Relabel", "floating_model"]
 
 #: name of the translational joint (and its base body) that :func:`floating_model` inserts
 PIN = "pin"
@@ -257,7 +263,8 @@ class ImpactMap:
                   "pin_states": [f.state_index(f"{mb}.q.{PIN}.{a}") for a in "xz"],
                   "about": [m.output_index(f"{self.about}.{a}") for a in "xz"],
                   "params": [f.param_names.index(n) for n in m.param_names if n in f.param_names],
-                  "mine": [i for i, n in enumerate(m.param_names) if n in f.param_names]}
+                  "mine": [i for i, n in enumerate(m.param_names) if n in f.param_names],
+                  "switched": _switches(f, mb)}
         object.__setattr__(self, "_layout", layout)
 
     def floating_state(self, t: float, x: np.ndarray,
@@ -281,8 +288,11 @@ class ImpactMap:
                  p_after: np.ndarray) -> tuple[np.ndarray, dict]:
         mb, lay = self.multibody, self._layout
         xf, vf, pf = self.floating_state(t, x, p)
-        imp = model_impact(self.floating, xf, pf, [f"{mb}.J.{self.point.split('.', 1)[1]}"],
-                           f"{mb}.M", t=t, v_minus=vf)
+        yf = self.floating.outputs(t, xf, pf) if lay["switched"] else None
+        held = [f"{mb}.G.{c}" for c, k in lay["switched"] if yf is not None and yf[k] > 0.5]
+        imp = model_impact(self.floating, xf, pf,
+                           [f"{mb}.J.{self.point.split('.', 1)[1]}", *held], f"{mb}.M", t=t,
+                           v_minus=vf)
         pin_v = self.floating.matrix(f"{mb}.J.{PIN}_point", t, imp.x_plus, pf) @ imp.impact.v_plus
         impact = imp.impact
         y = self.model.outputs(t, x, p)
@@ -297,11 +307,56 @@ class ImpactMap:
     def jacobian(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
                  step: float = 1e-7) -> np.ndarray:
         """∂x⁺/∂x⁻ by central differences (step relative to max(1, |x_j|))."""
-        n = len(x)
-        J = np.empty((n, n))
-        for j in range(n):
-            h = step * max(1.0, abs(x[j]))
-            e = np.zeros(n)
-            e[j] = h
-            J[:, j] = (self(t, x + e, p, p_after)[0] - self(t, x - e, p, p_after)[0]) / (2 * h)
-        return J
+        return _central(lambda z: self(t, z, p, p_after)[0], x, step)
+
+
+def _central(f: Any, x: np.ndarray, step: float) -> np.ndarray:
+    """∂f/∂x by central differences (step relative to max(1, |x_j|))."""
+    n = len(x)
+    J = np.empty((n, n))
+    for j in range(n):
+        h = step * max(1.0, abs(x[j]))
+        e = np.zeros(n)
+        e[j] = h
+        J[:, j] = (f(x + e) - f(x - e)) / (2 * h)
+    return J
+
+
+def _switches(model: CompiledModel, multibody: str) -> list[tuple[str, int]]:
+    """(constraint, index of its ``active`` output) of every loop and constraint of
+    ``multibody`` in ``model``."""
+    out: dict[str, int] = {}
+    for rows in constraint_rows(model):
+        if rows.name == multibody:
+            for (c, _), k in zip(rows.rows, rows.active):
+                out.setdefault(c, k)
+    return list(out.items())
+
+
+@dataclass(frozen=True)
+class ConstraintImpact:
+    """The plastic impact onto ``constraint`` of the walker's multibody ``multibody`` (a knee
+    strike onto the knee's lock; module docstring). ``__call__(t, x, p, p_after)`` returns the
+    state just after it (the configuration unchanged, the momenta jumped; the constraint's rows
+    and those active at ``p`` hold) and its record; ``p_after`` (the switch set) is not read."""
+
+    model: CompiledModel
+    multibody: str
+    constraint: str
+    _onto: Any = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_onto", impact_onto(self.model, self.multibody,
+                                                      self.constraint))
+
+    def __call__(self, t: float, x: np.ndarray, p: np.ndarray,
+                 p_after: np.ndarray) -> tuple[np.ndarray, dict]:
+        x_new, impact = self._onto(t, x, p)
+        info = {"impact_energy_lost": impact.energy_lost, "impulse": impact.impulse.tolist(),
+                "constraint_velocity": float(np.max(np.abs(impact.constraint_velocity)))}
+        return x_new, info
+
+    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
+                 step: float = 1e-7) -> np.ndarray:
+        """∂x⁺/∂x⁻ by central differences (step relative to max(1, |x_j|))."""
+        return _central(lambda z: self(t, z, p, p_after)[0], x, step)

@@ -54,7 +54,7 @@ from .machine import Change, Condition, ModeMachine, Transition, WalkLog
 from .plan import BodiesMass, SetState, WalkerPlan, walker_plan
 from .protocol import ParameterSpec, Stride, StrideStatus, check_parameters
 from .reading import walker_spec
-from .resets import ImpactMap, Relabel
+from .resets import ConstraintImpact, ImpactMap, Relabel
 from .strides import cut_strides
 from .variational import StrideSensitivity, stride_sensitivity
 
@@ -158,6 +158,8 @@ def _transitions(plan: WalkerPlan, m: CompiledModel, floating: CompiledModel | N
                 and relabel is not None):       # the reader asks for a relabel with an impact
             impact = ImpactMap(m, floating, plan.names.multibody, t.impact, plan.spec.hip,
                                relabel, plan.floating.root, plan.floating.rehung)
+        elif t.engage is not None:
+            impact = ConstraintImpact(m, plan.names.multibody, t.engage)
         k = events.index(t.event) if t.event != "start" else -1
         result.append(Transition(
             t.name, t.event, k, m.events[k].direction if k >= 0 else 0,
