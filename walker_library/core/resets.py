@@ -16,7 +16,8 @@
   no relabelling; the rule sets the constraint's switch.
 
 The maps are functions of the state with a Jacobian (:meth:`Relabel.matrix`, exact;
-:meth:`ImpactMap.jacobian`, :meth:`ConstraintImpact.jacobian`: central differences) for saltation-matrix computations.
+:meth:`ImpactMap.jacobian`, :meth:`ConstraintImpact.jacobian`: central differences) for
+saltation-matrix computations.
 """
 from __future__ import annotations
 
@@ -27,8 +28,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from porthamiltonian.modeling.expressions import parse
-from porthamiltonian.simulation.compiled import CompiledModel
 from porthamiltonian.simulation.assembly import constraint_rows
+from porthamiltonian.simulation.compiled import CompiledModel
 from porthamiltonian.simulation.impact import model_impact
 from porthamiltonian.simulation.switching import impact_onto
 

@@ -153,7 +153,7 @@ def _transitions(plan: WalkerPlan, m: CompiledModel, floating: CompiledModel | N
     events = [e.name for e in m.events]
     result = []
     for t in plan.transitions:
-        impact = None
+        impact: ImpactMap | ConstraintImpact | None = None
         if (t.impact is not None and plan.floating is not None and floating is not None
                 and relabel is not None):       # the reader asks for a relabel with an impact
             impact = ImpactMap(m, floating, plan.names.multibody, t.impact, plan.spec.hip,
