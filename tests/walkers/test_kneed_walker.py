@@ -15,9 +15,12 @@ the five point masses from hand-written planar kinematics of the coordinates and
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from porthamiltonian.errors import ModelFileError
 from walker_library import analyze_gait, load_walker
 
 GAMMA = 0.0504
@@ -182,3 +185,36 @@ def test_the_ledger_books_both_impacts(two_steps):
         assert abs(s.energy_residual) < 1e-9 * s.energy_dissipated
     knee = [f.info["impact_energy_lost"] for f in _fired(two_steps, "knee_strike")]
     assert 0.01 < knee[0] < 0.03          # 0.0164 J of the 0.374 J a step dissipates
+
+
+# --- bad entries --------------------------------------------------------------------------------
+ENGAGE = 'engage = "walker.knee_lock"'
+
+
+@pytest.mark.parametrize("old,new,needle,message", [
+    (ENGAGE, 'engage = "walker.knee_lok"', "knee_lok",
+     ("[[walker.rules]] #1: engage 'walker.knee_lok' is not a loop or constraint of a multibody "
+     "(did you mean 'walker.knee_lock'?)")),
+    (ENGAGE, ENGAGE + '\nimpact = "walker.swing_foot"', ENGAGE,
+     "[[walker.rules]] #1: a rule applies one impact: at a point (impact) or onto a constraint"),
+    (ENGAGE, ENGAGE + "\nset = { knee_locked = 1 }", ENGAGE,
+     "engage 'walker.knee_lock' sets its switch 'knee_locked' to 1 itself"),
+    ('active = "knee_locked"', 'active = "1"', ENGAGE,
+     "engage 'walker.knee_lock': its 'active' is '1', not a mode"),
+    ('joint = "knee"', 'joint = "hip"', 'impact = "walker.swing_foot"',
+     ("[[walker.rules]] #2: the impact releases the pinned root joint 'stance', but constraint "
+     "'knee_lock' is written on the root body 'stance_leg' or a joint on it")),
+])
+def test_a_bad_engage_names_file_line_and_rule(old, new, needle, message, tmp_path):
+    """Every bad entry of the constraint rules is a ModelFileError naming the file, the line of
+    the rule's key and the rule."""
+    text = (Path(__file__).parents[2] / "models" / "kneed_walker.toml").read_text()
+    assert old in text
+    bad = tmp_path / "bad_kneed_walker.toml"
+    bad.write_text(text.replace(old, new, 1))
+    with pytest.raises(ModelFileError) as err:
+        load_walker(bad)
+    msg = str(err.value)
+    line = next(i for i, ln in enumerate(bad.read_text().splitlines(), 1) if needle in ln)
+    assert msg.startswith(f"{bad}, line {line}:"), msg
+    assert message in msg, msg
