@@ -86,6 +86,22 @@ def test_the_multipliers(gait):
     assert gait.metrics.step_period == pytest.approx(0.56432817, abs=1e-6)
 
 
+def test_the_multipliers_by_differences_of_strides(walker, gait):
+    """The multipliers come from the variational equations with the saltation at the knee strike
+    (the impact onto the constraint) and the heel strike; central differences of whole strides
+    (h = 1e-5, truncation error ~1e-10, the strides' error ~1e-12 / h) give the same to 1e-7."""
+    z = np.array([gait.fixed_point[n] for n in walker.section])
+
+    def stride(z):
+        return walker.stride(z).z_next
+
+    h = 1e-5
+    J = np.column_stack([(stride(z + h * e) - stride(z - h * e)) / (2 * h) for e in np.eye(3)])
+    fd = sorted(np.linalg.eigvals(J), key=lambda m: (abs(m), m.imag))
+    exact = sorted(gait.floquet_multipliers, key=lambda m: (abs(m), m.imag))
+    assert np.max(np.abs(np.array(fd) - np.array(exact))) < 1e-7
+
+
 # --- the angular momenta, from the point masses --------------------------------------------------
 def _masses(walker, x, p):
     """(mass, position, velocity) of the five point masses (slope frame x, z) and the points
