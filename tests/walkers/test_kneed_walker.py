@@ -234,3 +234,14 @@ def test_a_bad_engage_names_file_line_and_rule(old, new, needle, message, tmp_pa
     line = next(i for i, ln in enumerate(bad.read_text().splitlines(), 1) if needle in ln)
     assert msg.startswith(f"{bad}, line {line}:"), msg
     assert message in msg, msg
+
+
+def test_a_heel_strike_with_the_knee_bent_is_a_fall(walker):
+    """Launched with a fast stance leg (theta_dot = -1.6 rad/s), the swing foot reaches the slope in
+    front of the stance foot before its knee has straightened: the thesis's rule makes that a fall
+    (a result, reason the event), not a step and not an error."""
+    s = walker.walk(np.array([-0.2386, 1.6, -0.2]), 1, record=True)[-1]
+    assert s.status.value == "fell" and s.reason == "heel_strike"
+    x = s.info["trajectory"].x[-1]
+    assert x[walker.model.state_index("walker.q.knee")] > 0.3   # flexed 0.343 rad
+    assert walker.output("walker.swing_foot.x", x) > 0.05   # in front of the stance foot (at 0)
