@@ -71,12 +71,14 @@ def _saddle(M: sp.Matrix, G: sp.Matrix, active: Sequence) -> sp.Matrix:
 
 
 def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.Matrix,
-              Mv: Sequence, Q: list, rates: list, kinematics: Callable[[Sequence], list],
-              gain: Any, where: str) -> tuple[list, list]:
+              products: Callable[[], Sequence], Q: list, rates: list,
+              kinematics: Callable[[Sequence], list], gain: Any,
+              where: str) -> tuple[list, list]:
     """The constrained coordinate rates and momentum rates (see the module docstring) of a
-    multibody with coordinates ``q``, velocities ``v``, mass matrix ``M``, velocity products
-    ``Mv`` (Ṁ v, :meth:`.tree.Tree.velocity_products`), momentum rates ``Q`` (with the ports'
-    loads) and coordinate rates ``rates``; ``kinematics(w)`` is K(q) w. Declares
+    multibody with coordinates ``q``, velocities ``v``, mass matrix ``M``, momentum rates ``Q``
+    (with the ports' loads) and coordinate rates ``rates``; ``products()`` forms the velocity
+    products Ṁ v (:meth:`.tree.Tree.velocity_products`; not needed by the port-Hamiltonian
+    form's cut build) and ``kinematics(w)`` is K(q) w. Declares
     the blocks, the outputs ``reaction.<constraint>.<row>`` (the multipliers: N, N m),
     ``phi.<constraint>.<row>`` (the holonomic residuals), ``active.<constraint>`` and the
     matrices ``G`` (all rows) and ``G.<constraint>`` (for impacts). ``where`` names the
@@ -102,6 +104,7 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
     Gdot_v = [sp.Add(*[rate(G[i, k]) * v[k] for k in range(n) if G[i, k] != 0])
               for i in range(m)]
     Gv = [sp.Add(*[G[i, k] * v[k] for k in range(n) if G[i, k] != 0]) for i in range(m)]
+    Mv = products()
     f = [b.intermediate(f"mb.f{k}", Q[k]) for k in range(n)]
     rhs = [f[k] - Mv[k] for k in range(n)]
     rhs += [-s * (gd + gain * gv) for s, gd, gv in zip(active, Gdot_v, Gv)]
