@@ -20,7 +20,9 @@ Run::
 
     python benchmarks/bench_closed_loops.py [--repeats 3] [--only andrews,drift,ladder]
 
-The load average is printed before and after: the machine is shared.
+Build times are given as wall time and as CPU time (this process's and its children's: the C
+compiler), the latter the figure to compare on a shared machine; builds of compared models are
+interleaved. The load average is printed before and after: the machine is shared.
 """
 from __future__ import annotations
 
@@ -49,6 +51,28 @@ ANDREWS_Y0 = np.array([-0.0617138900142764496358948458001, 0.0,
                        0.455279819163070380255912382449, 0.222668390165885884674473185609,
                        0.487364979543842550225598953530, -0.222668390165885884674473185609,
                        1.23054744454982119249735015568])
+
+
+#: the cold build of a model in a fresh interpreter (its text on stdin, or a shipped model's name
+#: as argv[1]): prints the wall time and the CPU time (self + children: the C compiler), s
+BUILD = ("import resource, sys, time, porthamiltonian as ph; from porthamiltonian import io; "
+         "m = io.load(sys.argv[1]) if len(sys.argv) > 1 else io.loads(sys.stdin.read(), 'l.toml'); "
+         "c = resource.getrusage(resource.RUSAGE_CHILDREN); c0 = c.ru_utime + c.ru_stime; "
+         "t, w = time.process_time(), time.perf_counter(); ph.compile_model(m, backend='c'); "
+         "c = resource.getrusage(resource.RUSAGE_CHILDREN); "
+         "print(time.perf_counter() - w, time.process_time() - t + c.ru_utime + c.ru_stime - c0)")
+
+
+def cold_build(text: str | None = None, name: str | None = None) -> tuple[float, float]:
+    """(wall, CPU) seconds of one cold build (empty cache, fresh interpreter) of a model given by
+    its ``text`` or a shipped model's ``name``."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "PORTHAMILTONIAN_CACHE": cache, "PORTHAMILTONIAN_QUIET": "1"}
+        done = subprocess.run([sys.executable, "-c", BUILD, *([name] if name else [])],
+                              input=text or "", env=env, capture_output=True, text=True,
+                              check=True, cwd=ROOT)
+    wall, cpu = (float(x) for x in done.stdout.split()[-2:])
+    return wall, cpu
 
 
 def andrews_rhs():
@@ -134,31 +158,26 @@ def bench_andrews(repeats: int) -> dict:
     import porthamiltonian as ph
     from porthamiltonian import io
 
-    out: dict = {"build_s": [], "ours_s": [], "radau_s": []}
-    code = ("import time, porthamiltonian as ph; from porthamiltonian import io; "
-            "t = time.perf_counter(); ph.compile_model(io.load('andrews_squeezer'), "
-            "backend='c'); print(time.perf_counter() - t)")
+    out: dict = {"build_s": [], "build_cpu_s": [], "ours_s": [], "radau_s": []}
     model = ph.compile_model(io.load("andrews_squeezer"), backend="c")
     rhs = andrews_rhs()
     y0 = np.concatenate([ANDREWS_Y0, np.zeros(7)])
     for _ in range(repeats):
-        with tempfile.TemporaryDirectory() as cache:
-            env = {**os.environ, "PORTHAMILTONIAN_CACHE": cache, "PORTHAMILTONIAN_QUIET": "1"}
-            done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                                  text=True, check=True, cwd=ROOT)
-            out["build_s"].append(float(done.stdout.split()[-1]))
-        t = time.perf_counter()
+        wall, cpu = cold_build(name="andrews_squeezer")
+        out["build_s"].append(wall)
+        out["build_cpu_s"].append(cpu)
+        t = time.process_time()
         traj = model.simulate(0.03, method="Rodas5P", rtol=1e-8, atol=1e-10)
-        out["ours_s"].append(time.perf_counter() - t)
-        t = time.perf_counter()
+        out["ours_s"].append(time.process_time() - t)
+        t = time.process_time()
         sol = solve_ivp(rhs, (0, 0.03), y0, method="Radau", rtol=1e-7, atol=1e-9)
-        out["radau_s"].append(time.perf_counter() - t)
+        out["radau_s"].append(time.process_time() - t)
     ours = np.array([traj[k][-1] for k in ANDREWS_OUT])
     out["ours_rel_error"] = float(np.max(np.abs(ours - ANDREWS_REF) / np.abs(ANDREWS_REF)))
     out["radau_rel_error"] = float(np.max(np.abs(sol.y[:7, -1] - ANDREWS_REF)
                                           / np.abs(ANDREWS_REF)))
     out["ours_steps"], out["radau_nfev"] = len(traj.t) - 1, int(sol.nfev)
-    for key in ("build_s", "ours_s", "radau_s"):
+    for key in ("build_s", "build_cpu_s", "ours_s", "radau_s"):
         out[key] = statistics.median(out[key])
     out["radau_over_ours"] = out["radau_s"] / out["ours_s"]
     return out
@@ -217,29 +236,23 @@ def bench_ladder(repeats: int) -> dict:
     import porthamiltonian as ph
     from porthamiltonian import io
 
-    code = ("import sys, time, porthamiltonian as ph; from porthamiltonian import io; "
-            "t = time.perf_counter(); ph.compile_model(io.loads(sys.stdin.read(), 'l.toml'), "
-            "backend='c'); print(time.perf_counter() - t)")
-    out: dict = {}
-    models = {}
-    for name, loops in (("ladder", True), ("tree", False)):
-        text = ladder_text(loops)
-        builds = []
-        for _ in range(repeats):
-            with tempfile.TemporaryDirectory() as cache:
-                env = {**os.environ, "PORTHAMILTONIAN_CACHE": cache, "PORTHAMILTONIAN_QUIET": "1"}
-                done = subprocess.run([sys.executable, "-c", code], input=text, env=env,
-                                      capture_output=True, text=True, check=True, cwd=ROOT)
-                builds.append(float(done.stdout.split()[-1]))
-        out[f"{name}_build_s"] = statistics.median(builds)
-        models[name] = ph.compile_model(io.loads(text, f"{name}.toml"), backend="c")
+    texts = {"ladder": ladder_text(True), "tree": ladder_text(False)}
+    builds: dict = {f"{name}_{kind}": [] for name in texts for kind in ("build_s", "build_cpu_s")}
+    for _ in range(repeats):                        # interleaved: ladder, tree, ladder, ...
+        for name, text in texts.items():
+            wall, cpu = cold_build(text)
+            builds[f"{name}_build_s"].append(wall)
+            builds[f"{name}_build_cpu_s"].append(cpu)
+    out: dict = {key: statistics.median(values) for key, values in builds.items()}
+    models = {name: ph.compile_model(io.loads(text, f"{name}.toml"), backend="c")
+              for name, text in texts.items()}
     per_step: dict = {"ladder": [], "tree": []}
     per_f: dict = {"ladder": [], "tree": []}
     for _ in range(repeats):
         for name, model in models.items():
-            t = time.perf_counter()
+            t = time.process_time()
             traj = model.simulate(2.0, method="Rodas5P", rtol=1e-8, atol=1e-10)
-            elapsed = time.perf_counter() - t
+            elapsed = time.process_time() - t
             per_step[name].append(elapsed / (len(traj.t) - 1))
             per_f[name].append(elapsed / (traj.nfev + traj.njev))
             out[f"{name}_steps"] = len(traj.t) - 1

@@ -649,7 +649,8 @@ def _read_component(name: str, spec: Any, r: _Reader, where: tuple) -> Component
         component = cls(**args)
         component.ports()             # declared ports: checks the port tables
     except ModelError as err:
-        r.add(f"component {name!r}: {err}", *where, *err.path, kind=err)
+        for problem in err.problems or (err,):     # each with its own line
+            r.add(f"component {name!r}: {problem}", *where, *problem.path, kind=problem)
         return None
     except Exception as err:  # noqa: BLE001 - wrong value types reaching a component's checks
         r.add(f"component {name!r} ({kind}): invalid arguments: {type(err).__name__}: {err}; "

@@ -58,7 +58,7 @@ from typing import Any
 
 import sympy as sp
 
-from ..errors import ModelError, UnknownComponentError
+from ..errors import ModelError, UnknownComponentError, ValidationError
 from .joints import AXES, TYPES, axis
 from .kinematics import ZERO3, Rotation, add, cross, dot, named, scale, sub
 
@@ -105,25 +105,40 @@ def _vector(value: Any, where: str, path: tuple) -> list:
 def validate(loops: Any, constraints: Any, bodies: Mapping, joints: Mapping,
              points: Mapping[str, str]) -> None:
     """Check the ``loops`` and ``constraints`` tables against the tree (``points``: point name ->
-    its body); ModelError naming the entry and field."""
+    its body). Every problem is found before any is raised, each a typed error naming its entry
+    and field (its key path): one problem is raised as itself, several as a ValidationError
+    listing them (:attr:`~porthamiltonian.errors.ModelError.problems`)."""
+    found: list[ModelError] = []
     taken = set(joints) | set(points)
     for key, table in (("loops", loops), ("constraints", constraints)):
         if table is None:
             continue
         if not isinstance(table, Mapping):
-            raise ModelError(f"Multibody {key} must be a table name -> {{type, ...}}", path=(key,))
+            found.append(ModelError(f"Multibody {key} must be a table name -> {{type, ...}}",
+                                    path=(key,)))
+            continue
         for name, entry in table.items():
             where = f"Multibody {key[:-1]} {name!r}"
             if not isinstance(entry, Mapping):
-                raise ModelError(f"{where}: expected a table {{type, ...}}", path=(key, name))
+                found.append(ModelError(f"{where}: expected a table {{type, ...}}",
+                                        path=(key, name)))
+                continue
             if name in taken:
-                raise ModelError(f"{where}: the name is already used by a joint, point or "
-                                 "another loop or constraint", path=(key, name))
+                found.append(ModelError(f"{where}: the name is already used by a joint, point "
+                                        "or another loop or constraint", path=(key, name)))
             taken.add(name)
-            if key == "loops":
-                _validate_loop(name, entry, bodies, where)
-            else:
-                _validate_constraint(name, entry, bodies, joints, points, where)
+            checks = (_loop_checks(name, entry, bodies, where) if key == "loops" else
+                      _constraint_checks(name, entry, bodies, joints, points, where))
+            for check in checks:
+                try:
+                    check()
+                except ModelError as err:
+                    found.append(err)
+    if len(found) == 1:
+        raise found[0]
+    if found:
+        raise ValidationError(f"Multibody loops and constraints: {len(found)} problems:\n"
+                              + "\n".join(f"  {err}" for err in found), problems=found)
 
 
 def _body(value: Any, bodies: Mapping, where: str, path: tuple, world: bool = True) -> None:
@@ -134,50 +149,85 @@ def _body(value: Any, bodies: Mapping, where: str, path: tuple, world: bool = Tr
                                     f"{', '.join(bodies)}{', world' if world else ''})", path=path)
 
 
-def _validate_loop(name: str, entry: Mapping, bodies: Mapping, where: str) -> None:
+def _loop_checks(name: str, entry: Mapping, bodies: Mapping,
+                 where: str) -> list[Callable[[], None]]:
+    """The independent checks of one loop entry (each raises its problem; see
+    :func:`validate`)."""
     path = ("loops", name)
-    extra = set(entry) - set(_LOOP_FIELDS)
-    if extra:
-        raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: "
-                         f"{', '.join(_LOOP_FIELDS)}", path=(*path, min(extra)))
     kind = entry.get("type")
-    if kind not in LOOP_TYPES:
-        raise ModelError(f"{where}: type must be one of {', '.join(LOOP_TYPES)}, got {kind!r}",
-                         path=(*path, "type"))
-    for side in ("parent", "child"):
-        _body(entry.get(side), bodies, where, (*path, side))
-    if entry.get("parent") == entry.get("child"):
-        raise ModelError(f"{where}: parent and child are the same body", path=(*path, "child"))
-    for field in ("origin", "child_origin"):
-        _vector(entry.get(field), f"{where} {field}", (*path, field))
-    if kind in ("revolute", "prismatic"):
-        axis(entry.get("axis"), where, (*path, "axis"))
-    if kind in ("universal", "translational"):
-        axes = entry.get("axes")
-        count = 2 if kind == "universal" else None
-        if not isinstance(axes, list) or not axes or (count and len(axes) != count) or \
-                len(axes) > 3:
-            raise ModelError(f"{where}: a {kind} loop needs axes, e.g. "
-                             f"{['x', 'y'] if count else ['x', 'z']}", path=(*path, "axes"))
-        vectors = [axis(a, where, (*path, "axes", i)) for i, a in enumerate(axes)]
-        if kind == "universal" and abs(float(sum(x * y for x, y in zip(*vectors)))) > 1e-12:
-            raise ModelError(f"{where}: the pins of a universal loop (axes[0] in the parent, "
-                             "axes[1] in the child) must be perpendicular at zero joint motion",
-                             path=(*path, "axes"))
+
+    def fields() -> None:
+        extra = set(entry) - set(_LOOP_FIELDS)
+        if extra:
+            raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: "
+                             f"{', '.join(_LOOP_FIELDS)}", path=(*path, min(extra)))
+
+    def type_() -> None:
+        if kind not in LOOP_TYPES:
+            raise ModelError(f"{where}: type must be one of {', '.join(LOOP_TYPES)}, got "
+                             f"{kind!r}", path=(*path, "type"))
+
+    def sides() -> None:
+        if entry.get("parent") == entry.get("child"):
+            raise ModelError(f"{where}: parent and child are the same body",
+                             path=(*path, "child"))
+
+    def axes() -> None:
+        if kind in ("revolute", "prismatic"):
+            axis(entry.get("axis"), where, (*path, "axis"))
+        if kind in ("universal", "translational"):
+            given = entry.get("axes")
+            count = 2 if kind == "universal" else None
+            if not isinstance(given, list) or not given or (count and len(given) != count) or \
+                    len(given) > 3:
+                raise ModelError(f"{where}: a {kind} loop needs axes, e.g. "
+                                 f"{['x', 'y'] if count else ['x', 'z']}", path=(*path, "axes"))
+            vectors = [axis(a, where, (*path, "axes", i)) for i, a in enumerate(given)]
+            if kind == "universal" and abs(float(sum(x * y for x, y in zip(*vectors)))) > 1e-12:
+                raise ModelError(f"{where}: the pins of a universal loop (axes[0] in the parent, "
+                                 "axes[1] in the child) must be perpendicular at zero joint "
+                                 "motion", path=(*path, "axes"))
+
+    def body(side: str) -> Callable[[], None]:
+        return lambda: _body(entry.get(side), bodies, where, (*path, side))
+
+    def vector(field: str) -> Callable[[], None]:
+        def check() -> None:
+            _vector(entry.get(field), f"{where} {field}", (*path, field))
+        return check
+
+    return [fields, type_, body("parent"), body("child"), sides, vector("origin"),
+            vector("child_origin"), axes]
 
 
-def _validate_constraint(name: str, entry: Mapping, bodies: Mapping, joints: Mapping,
-                         points: Mapping[str, str], where: str) -> None:
+def _constraint_checks(name: str, entry: Mapping, bodies: Mapping, joints: Mapping,
+                       points: Mapping[str, str], where: str) -> list[Callable[[], None]]:
+    """The checks of one constraint entry (see :func:`validate`): its type and fields, then
+    (for a known type) its values."""
     path = ("constraints", name)
     kind = entry.get("type")
     if kind not in CONSTRAINT_FIELDS:
-        raise ModelError(f"{where}: type must be one of {', '.join(CONSTRAINT_FIELDS)}, got "
-                         f"{kind!r}", path=(*path, "type"))
+        def type_() -> None:
+            raise ModelError(f"{where}: type must be one of {', '.join(CONSTRAINT_FIELDS)}, "
+                             f"got {kind!r}", path=(*path, "type"))
+        return [type_]
     allowed = ("type", "active", *CONSTRAINT_FIELDS[kind])
-    extra = set(entry) - set(allowed)
-    if extra:
-        raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; a {kind} "
-                         f"constraint takes {', '.join(allowed)}", path=(*path, min(extra)))
+
+    def fields() -> None:
+        extra = set(entry) - set(allowed)
+        if extra:
+            raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; a {kind} "
+                             f"constraint takes {', '.join(allowed)}", path=(*path, min(extra)))
+
+    def values() -> None:
+        _constraint_values(kind, entry, bodies, joints, points, where, path)
+
+    return [fields, values]
+
+
+def _constraint_values(kind: str, entry: Mapping, bodies: Mapping, joints: Mapping,
+                       points: Mapping[str, str], where: str, path: tuple) -> None:
+    """The values of a constraint entry of a known ``kind`` (its first problem raised)."""
     if kind == "point":
         for field in ("point", "to"):
             value = entry.get(field)

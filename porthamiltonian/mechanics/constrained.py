@@ -16,10 +16,14 @@ symbolically):
     [ M    GᵀS ] [ a ]   [ f − Ṁ v            ]
     [ S G  1−S ] [ ν ] = [ −S (Ġ v + γ G v)   ],   λ = −ν.
 
-Ṁ v and Ġ v are the velocity products: the time derivatives of M's and G's entries along
-q̇ = K(q) v (:class:`porthamiltonian.modeling.differentiation.Rates`, forward mode through the
-tree's intermediates), times v. An inactive row reads ν_i = 0 and drops out, so the matrix stays
-regular when a walker's rule switches a constraint off.
+Ṁ v and Ġ v are the velocity products: the time derivatives of M and G along q̇ = K(q) v,
+times v. Ṁ v comes from one recursive pass over the tree (Newton–Euler's velocity-product
+forces, :meth:`.tree.Tree.velocity_products`: O(N) code, where differentiating M's N² entries
+grew the code of a long chain by about as much again as the tree's own); Ġ v, a few rows per
+constraint, by forward-mode differentiation of G's entries
+(:class:`porthamiltonian.modeling.differentiation.Rates`, through the tree's intermediates). An
+inactive row reads ν_i = 0 and drops out, so the matrix stays regular when a walker's rule
+switches a constraint off.
 
 Drift. An integrator keeps G v = 0 and φ = 0 only to its tolerance, and the errors add up over a
 long run. The manifold {φ = 0, G v = 0} is made attracting, with the flow on it unchanged
@@ -67,11 +71,14 @@ def _saddle(M: sp.Matrix, G: sp.Matrix, active: Sequence) -> sp.Matrix:
 
 
 def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.Matrix,
-              Q: list, rates: list, kinematics: Callable[[Sequence], list], gain: Any,
+              products: Callable[[], Sequence], Q: list, rates: list,
+              kinematics: Callable[[Sequence], list], gain: Any,
               where: str) -> tuple[list, list]:
     """The constrained coordinate rates and momentum rates (see the module docstring) of a
     multibody with coordinates ``q``, velocities ``v``, mass matrix ``M``, momentum rates ``Q``
-    (with the ports' loads) and coordinate rates ``rates``; ``kinematics(w)`` is K(q) w. Declares
+    (with the ports' loads) and coordinate rates ``rates``; ``products()`` forms the velocity
+    products Ṁ v (:meth:`.tree.Tree.velocity_products`; not needed by the port-Hamiltonian
+    form's cut build) and ``kinematics(w)`` is K(q) w. Declares
     the blocks, the outputs ``reaction.<constraint>.<row>`` (the multipliers: N, N m),
     ``phi.<constraint>.<row>`` (the holonomic residuals), ``active.<constraint>`` and the
     matrices ``G`` (all rows) and ``G.<constraint>`` (for impacts). ``where`` names the
@@ -94,10 +101,10 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
     direction = dict(zip(q, kinematics(v)))
     rate = Rates(direction, b.built.intermediates, b.intermediate,
                  lambda w: str(w)[len(b.name) + 1:])
-    Mv = [sp.Add(*[rate(M[k, j]) * v[j] for j in range(n) if M[k, j] != 0]) for k in range(n)]
     Gdot_v = [sp.Add(*[rate(G[i, k]) * v[k] for k in range(n) if G[i, k] != 0])
               for i in range(m)]
     Gv = [sp.Add(*[G[i, k] * v[k] for k in range(n) if G[i, k] != 0]) for i in range(m)]
+    Mv = products()
     f = [b.intermediate(f"mb.f{k}", Q[k]) for k in range(n)]
     rhs = [f[k] - Mv[k] for k in range(n)]
     rhs += [-s * (gd + gain * gv) for s, gd, gv in zip(active, Gdot_v, Gv)]

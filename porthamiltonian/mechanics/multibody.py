@@ -691,7 +691,7 @@ class Multibody(Component):
         closures = closure.Closures(tree, placement, make, b.parse, velocity_index, coordinate,
                                     points)
         rows = closures.rows(self.value("loops"), self.value("constraints"))
-        return constrained.constrain(b, rows, q, v, M, Q, rates,
+        return constrained.constrain(b, rows, q, v, M, tree.velocity_products, Q, rates,
                                      lambda w: tree.coordinate_rates(q, w, 0), gain,
                                      f"Multibody {b.name!r}")
 

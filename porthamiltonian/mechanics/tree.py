@@ -218,6 +218,13 @@ def _product(a: Sequence, b: Sequence) -> Vec:
     return [a[0] * b[0] - dot(a[1:], b[1:]), *vector]
 
 
+def _spatial_inertia(link: Link, w: Sequence, lin: Sequence) -> tuple[Vec, Vec]:
+    """𝕀_k (ω, v) = (J ω + h × v, m v + ω × h) of the link's own bodies (h = m c, J about the
+    origin, link frame): its momentum for a twist, its wrench of inertia for an acceleration."""
+    return (add([dot(link.inertia[i], w) for i in range(3)], cross(link.first, lin)),
+            add(scale(link.mass, lin), cross(w, link.first)))
+
+
 def _twist(screw: tuple[str, tuple]) -> tuple[Vec, Vec]:
     """A unit twist as (angular, linear) 3-vectors."""
     kind, axis = screw
@@ -238,6 +245,7 @@ class Tree:
         self.twist: dict[Link, tuple[Vec, Vec]] = {}
         self.momentum: dict[Link, tuple[Vec, Vec]] = {}
         self.coordinates: list = []
+        self._v: list = []                  # the velocities of the last :meth:`velocities`
 
     # --- position level -------------------------------------------------------------------------
     def positions(self, q: Sequence) -> None:
@@ -412,6 +420,7 @@ class Tree:
     def velocities(self, v: Sequence) -> None:
         """Body twists T_k root to tip and subtree momenta Π_k tip to root."""
         make = self.make
+        self._v = list(v)
         for link in self.links:
             P = self.pos[link]
             if link.parent is None:
@@ -424,8 +433,7 @@ class Tree:
             self.twist[link] = (named(make, f"{link.name}.w", w), named(make, f"{link.name}.v", lin))
         for link in reversed(self.links):
             w, lin = self.twist[link]
-            L = add([dot(link.inertia[i], w) for i in range(3)], cross(link.first, lin))
-            p = add(scale(link.mass, lin), cross(w, link.first))
+            L, p = _spatial_inertia(link, w, lin)
             for child in link.children:
                 Lc, pc = self.carry(child, *self.momentum[child])
                 L, p = add(L, Lc), add(p, pc)
@@ -443,6 +451,49 @@ class Tree:
             L, p = self.momentum[link]
             for s, (a, u) in enumerate(map(_twist, link.screws)):
                 out[link.index + s] = dot(L, cross(w, a)) + dot(p, add(cross(w, u), cross(lin, a)))
+        return out
+
+    def velocity_products(self) -> list:
+        """Ṁ(q) v, the time derivative of M along q̇ = K(q) v times v, by one more pass over
+        the tree (after :meth:`velocities`), not by differentiating M's entries: with
+        Newton–Euler's M v̇ = ṗ − Ṁ v = Q − C(q, v) (Q the applied and gravity forces, C the
+        velocity-product forces of the recursive Newton–Euler algorithm at zero joint
+        accelerations and zero gravity; Featherstone, *Rigid Body Dynamics Algorithms*, 2008,
+        §5.3) and Hamilton's ṗ = Π_kᵀ ad_{T_k} S + Q, Ṁ v = Π_kᵀ ad_{T_k} S + C. C root to tip:
+        the spatial accelerations ``A_k = X_kᵀ A_λ + T_k × S v`` (the motion cross product
+        ``(ω, v) × (a, u) = (ω × a, ω × u + v × a)``; every S is constant in its link's frame),
+        the wrenches ``F_k = 𝕀_k A_k + T_k ×* 𝕀_k T_k`` (``(ω, v) ×* (τ, f) = (ω × τ + v × f,
+        ω × f)``), carried tip to root, and ``C = Sᵀ F_k``; units of p / s (N m, N)."""
+        make = self.make
+        accel: dict[Link, tuple[Vec, Vec]] = {}
+        wrench: dict[Link, tuple[Vec, Vec]] = {}
+        for link in self.links:
+            P = self.pos[link]
+            w, lin = self.twist[link]
+            if link.parent is None:
+                alpha, acc = list(ZERO3), list(ZERO3)
+            else:
+                a0, c0 = accel[link.parent]
+                alpha, acc = P.R.apply_T(a0), P.R.apply_T(add(c0, cross(a0, P.p)))
+            for s, (a, u) in enumerate(map(_twist, link.screws)):
+                vs = self._v[link.index + s]
+                alpha = add(alpha, scale(vs, cross(w, a)))
+                acc = add(acc, scale(vs, add(cross(w, u), cross(lin, a))))
+            accel[link] = (named(make, f"{link.name}.A", alpha), named(make, f"{link.name}.Av", acc))
+        for link in reversed(self.links):
+            w, lin = self.twist[link]
+            L, p = _spatial_inertia(link, w, lin)
+            tau, f = _spatial_inertia(link, *accel[link])
+            tau, f = add(tau, cross(w, L), cross(lin, p)), add(f, cross(w, p))
+            for child in link.children:
+                tc, fc = self.carry(child, *wrench[child])
+                tau, f = add(tau, tc), add(f, fc)
+            wrench[link] = (named(make, f"{link.name}.Ft", tau), named(make, f"{link.name}.Ff", f))
+        out = self.velocity_forces()
+        for link in self.links:
+            tau, f = wrench[link]
+            for s, (a, u) in enumerate(map(_twist, link.screws)):
+                out[link.index + s] = out[link.index + s] + dot(a, tau) + dot(u, f)
         return out
 
     def generalized_momenta(self) -> list:

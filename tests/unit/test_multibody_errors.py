@@ -4,11 +4,15 @@ and, where there is one, the fix. Checked at construction (``Multibody(...)``), 
 (``Model.connect``), at compilation (``symbolic``) and from a model file (``io.loads``)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 import porthamiltonian as ph
 from porthamiltonian import errors, io, symbolic
 from porthamiltonian.mechanics import Multibody
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def revolute(parent: str, child: str, **more) -> dict:
@@ -359,6 +363,42 @@ def test_bad_loop_or_constraint_names_the_entry_and_field(more, kind, path, word
     assert tuple(info.value.path) == path
     for word in words:
         assert word in str(info.value)
+
+
+def test_every_bad_loop_and_constraint_entry_is_reported_at_once():
+    """Five problems in three entries (an unknown field and an unknown child in one loop, an
+    unknown type and a body closed on itself in another, a lock on an unknown joint): one
+    ValidationError listing all five, each a typed error with its key path, in table order."""
+    more = {"loops": {"L": {"type": "revolute", "parent": "a", "child": "c", "axis": "y",
+                            "orign": [0, 0, 0]},
+                      "M": {"type": "hinge", "parent": "b", "child": "b"}},
+            "constraints": {"P": {"type": "lock", "joint": "j9"}}}
+    with pytest.raises(errors.ValidationError) as info:
+        build(TWO_RODS, TWO_PIVOTS, **more)
+    found = [(type(e), tuple(e.path)) for e in info.value.problems]
+    assert found == [(errors.ModelError, ("loops", "L", "orign")),
+                     (errors.UnknownComponentError, ("loops", "L", "child")),
+                     (errors.ModelError, ("loops", "M", "type")),
+                     (errors.ModelError, ("loops", "M", "child")),
+                     (errors.UnknownComponentError, ("constraints", "P", "joint"))]
+    assert "5 problems" in str(info.value) and "loop 'M'" in str(info.value)
+
+
+def test_bad_loop_entries_in_a_model_file_are_each_given_their_line():
+    """The same collection read from a model file: one ModelFileError, one line per problem."""
+    text = (ROOT / "models" / "four_bar.toml").read_text()
+    text = text.replace('child = "rocker"\norigin = ["b", 0, 0]',
+                        'child = "rockr"\norign = ["b", 0, 0]')
+    assert "rockr" in text
+    text += ('\n[components.linkage.constraints.E]\ntype = "lock"\njoint = "nope"\n')
+    with pytest.raises(errors.ModelFileError) as info:
+        io.loads(text, "bad_four_bar.toml")
+    lines = str(info.value).splitlines()
+    assert lines[0] == "bad_four_bar.toml: 3 problems:"
+    numbers = [int(line.split(":")[0].split()[-1]) for line in lines[1:]]
+    where = text.splitlines()
+    assert [where[n - 1].split("=")[0].strip() for n in numbers] == ["orign", "child", "joint"]
+    assert all("component 'linkage'" in line for line in lines[1:])
 
 
 def test_more_constraint_rows_than_velocities_is_refused_when_compiling():
