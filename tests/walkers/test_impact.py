@@ -235,8 +235,8 @@ def test_impact_tangents_against_extrapolated_differences(name, compass):
     m = w.model
     names = [n for n in w.parameters if n in m.param_names and n not in w.mode_names]
     out, error = w.machine._derivatives(tr, 0.0, x, p, names)
-    cols = sorted({m.param_names.index(n) for n in names} | set(
-        i for i in range(len(p)) if m.param_names[i] in out.get("params_jacobian", {})))
+    cols = sorted({m.param_names.index(n) for n in names} | {
+        i for i in range(len(p)) if m.param_names[i] in out.get("params_jacobian", {})})
     exact = np.hstack([out["jacobian"],
                        np.stack([out["jacobian_p"][m.param_names[i]] for i in cols], axis=1)])
 
@@ -250,5 +250,5 @@ def test_impact_tangents_against_extrapolated_differences(name, compass):
     assert error < 1e-10
     if name == "rimless_wheel":
         alpha = math.pi / 8
-        omega = [i for i, s in enumerate(m.state_names) if s.startswith(f"{w.multibody}.p.")][0]
+        omega = next(i for i, s in enumerate(m.state_names) if s.startswith(f"{w.multibody}.p."))
         assert out["jacobian"][omega, omega] == pytest.approx(math.cos(2 * alpha), rel=1e-12)
