@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import json
 import math
+import os
 
 import numpy as np
 import pytest
 from test_variational_stride import COMPASS_FIXED_POINT
 
+from porthamiltonian.backends import BACKEND_VARIABLE
 from walker_library.analyses.gradients import GAIT_QUANTITIES, gait_gradient
 from walker_library.analyses.monodromy import stride_jacobian
 from walker_library.analyses.poincare import find_fixed_point
@@ -51,8 +53,13 @@ STRIDE_CASES = [
 def test_stride_gradient_against_extrapolated_differences(name, tolerances, step, rtol):
     """One stride from the gait's section state: the exact columns (z', duration, step length,
     energy dissipated by each parameter) against Richardson-extrapolated central differences of
-    strides (relative step ``step``; the compliant walker's at rtol 1e-12)."""
+    strides (relative step ``step``; the compliant walker's at rtol 1e-12). The walkers' back
+    end is "auto": C here, numba in the CI's numba pass (``PORTHAMILTONIAN_BACKEND=numba``,
+    asserted), whose loops then integrate the parameter columns (compass_gait measured there:
+    the same tolerances pass)."""
     walker = load_walker(name)
+    forced = os.environ.get(BACKEND_VARIABLE)
+    assert forced not in ("c", "numba") or walker.model.backend == forced
     z = (np.array(COMPASS_FIXED_POINT) if name == "compass_walker"
          else find_fixed_point(walker, walker.initial_guess(), tol=1e-12).z)
     names = list(tolerances)
