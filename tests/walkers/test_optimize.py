@@ -41,9 +41,9 @@ def _run(capsys, record) -> dict:
 def test_first_order_conditions_and_the_grid(optimum, capsys):
     """SLSQP converges in ≤ 12 gait evaluations (measured 6; 9 before the impact's forward
     derivative) to γ* ≈ 0.00766 with the constraint active (ρ = 0.6 to 1e-6), its multiplier
-    positive and the gradient of the Lagrangian zero to 1e-6 (scaled units); the grid γ*(1 ± 2e-3): below, ρ > 0.6 (ρ from the
-    exact stride Jacobian at a fixed point found to 1e-12, independent of the optimizer's
-    gradients); above, the cost of transport is larger."""
+    positive and the gradient of the Lagrangian zero to 1e-6 (scaled units); the grid
+    γ*(1 ± 2e-3): below, ρ > 0.6 (ρ from the exact stride Jacobian at a fixed point found to
+    1e-12, independent of the optimizer's gradients); above, the cost of transport is larger."""
     capsys.readouterr()
     res = _run(capsys, optimum)        # again: every evaluation read back from the record
     assert res["success"] and res["evaluations"] <= 12
