@@ -15,9 +15,10 @@
 
 2. A walker optimization: the gait evaluations a gradient method needs, against a grid
    (``--optimize``): the simplest walker's most efficient gait with ρ ≤ 0.6 (1 parameter,
-   tests/walkers/test_optimize.py), and with ``--optimize-vsw`` the thesis's variable-stiffness
-   walker over K1, K2, α (minimise the largest multiplier with the cost of transport ≤ 0.0095;
-   ~30 s per gait evaluation at load 8 on 2 cores: minutes).
+   tests/walkers/test_optimize.py), its least ρ over the slope (a kink at the optimum: the
+   epigraph formulation against ρ itself), and with ``--optimize-vsw`` the thesis's
+   variable-stiffness walker over K1, K2, α (minimise the largest multiplier with the cost of
+   transport ≤ 0.0095, epigraph; ~30 s per gait evaluation at load 14 on 2 cores: ~10 min).
 
 Run::
 
@@ -75,16 +76,20 @@ def bench_stride(name: str, rounds: int) -> None:
 
 def bench_optimize(vsw: bool) -> None:
     problems = [("simplest_walker", ["slope"], "cost_of_transport",
-                 ["max_multiplier_modulus <= 0.6"], {"slope": (0.001, 0.012)})]
+                 ["max_multiplier_modulus <= 0.6"], {"slope": (0.001, 0.012)}, "auto"),
+                *(("simplest_walker", ["slope"], "max_multiplier_modulus", [],
+                   {"slope": (0.008, 0.0145)}, form) for form in ("epigraph", "direct"))]
     if vsw:
         problems.append(("variable_stiffness_walker", ["K1", "K2", "alpha"],
                          "max_multiplier_modulus", ["cost_of_transport <= 0.0095"],
-                         {"K1": (1500, 12000), "K2": (1500, 16000), "alpha": (0.1, 0.35)}))
-    for name, vary, objective, cons, bounds in problems:
+                         {"K1": (1500, 12000), "K2": (1500, 16000), "alpha": (0.1, 0.35)},
+                         "auto"))
+    for name, vary, objective, cons, bounds, form in problems:
         t0 = time.perf_counter()
         r = optimize_gait(load_walker(name, backend="c"), vary, objective, constraints=cons,
-                          bounds=bounds, step_down="none")
-        print(f"optimize {name} over {', '.join(vary)}: {objective} -> "
+                          bounds=bounds, step_down="none", formulation=form,
+                          max_evaluations=60)
+        print(f"optimize {name} over {', '.join(vary)} ({r.formulation}): {objective} -> "
               f"{r.values.get(objective, float('nan')):.6g} at {r.optimum}; {r.message}; "
               f"{r.evaluations} gait evaluations, {r.iterations} iterations "
               f"({time.perf_counter() - t0:.0f} s; target <= 30 evaluations; a grid of 10 "

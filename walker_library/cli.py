@@ -17,7 +17,8 @@
     walker export-fmu MODEL --out FILE [--fmi 2|3] [--kind me|cs|both] [--steps N] [--set ...]
     walker optimize MODEL --vary NAMES --objective QUANTITY [--maximize] [--constraint C ...]
                     [--bounds NAME=LOW:HIGH ...] [--method SLSQP|trust-constr] [--record FILE]
-                    [--step-down none|ends|path] [--max-evaluations N] [--set ...] [--json]
+                    [--step-down none|ends|path] [--max-evaluations N] [--formulation F]
+                    [--set ...] [--json]
 
 MODEL is a walker name from ``models/`` (a walker file: a model file with a ``[walker]`` table, see
 docs/walkers.md; ``walker list`` names them) or a path to such a file; ``export`` writes the
@@ -230,7 +231,8 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     result = optimize_gait(walker, vary, args.objective, maximize=args.maximize,
                            constraints=constraints, bounds=bounds, method=args.method,
                            max_evaluations=args.max_evaluations, tol=args.tol,
-                           record=args.record, step_down=args.step_down, guess=guess, log=log)
+                           record=args.record, step_down=args.step_down, guess=guess, log=log,
+                           formulation=args.formulation)
     if args.json:
         print(result.to_json())
         return 0
@@ -244,7 +246,8 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     for key, value in result.values.items():
         print(f"  {key:28s} {_with_unit(walker, key, value)}")
     if result.kkt:
-        print(f"  first-order conditions: |grad L| = {result.kkt['gradient_of_lagrangian']:.2g} "
+        print(f"  first-order conditions ({result.formulation} problem): |grad L| = "
+              f"{result.kkt['gradient_of_lagrangian']:.2g} "
               f"(|grad f| = {result.kkt['gradient']:.2g}, scaled units); active: "
               f"{', '.join(result.kkt['active']) or 'none'}")
     for key, drop in result.step_down.items():
@@ -545,6 +548,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "(ends, default), also at every accepted iterate (path), or never")
     p.add_argument("--guess", default=None, metavar="FILE",
                    help="start from the fixed point of a `walker gait --json` result")
+    p.add_argument("--formulation", choices=("auto", "epigraph", "direct"), default="auto",
+                   help="minimising max_multiplier_modulus: the smooth epigraph problem "
+                        "(auto, default) or the largest modulus itself (direct), which is "
+                        "not differentiable where two multipliers meet")
     rules(p, max_evaluations=at_least(1), tol=positive)
     p.set_defaults(func=cmd_optimize)
 

@@ -11,6 +11,12 @@ scale for a smooth function), and the central differences at h and 2h give the e
 
 to which the round-off bound 2 ε max|f| / h is added. The value returned is D(h). A function that
 is not smooth within ±2h of x (a kink of a Piecewise law) shows as a large error estimate.
+
+:func:`directional` gives derivatives along given directions (the tangents of a forward-mode
+chain rule whose linear algebra is differentiated exactly, e.g. a reset map's linear solves)
+to fourth order: Richardson's extrapolation R(h) = (4 D(h) − D(2h)) / 3 of central differences,
+error O(h⁴), estimated from R(2h), the largest relative perturbation of a coordinate 1e-3
+(≈ ε^(1/5), where truncation and round-off balance: ~1e-12 of the function's scale).
 """
 from __future__ import annotations
 
@@ -19,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CBRT_EPS", "Derivative", "gradient", "jacobian"]
+__all__ = ["CBRT_EPS", "Derivative", "directional", "gradient", "jacobian"]
 
 #: ε^(1/3): the default relative step of the central differences
 CBRT_EPS = float(np.finfo(float).eps) ** (1.0 / 3.0)
@@ -72,3 +78,45 @@ def gradient(fun: Callable[[np.ndarray], float], x: np.ndarray,
     """The gradient of the scalar function ``fun`` at ``x`` (see :func:`jacobian`); shape (n,)."""
     d = jacobian(lambda z: np.array([float(fun(z))]), x, scale, step)
     return Derivative(d.value[0], d.error[0])
+
+
+def directional(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray, directions: np.ndarray,
+                scale: float | np.ndarray = 1.0, step: float = 1e-3) -> Derivative:
+    """The derivatives of ``fun`` (n values -> k values) at ``x`` along the columns of
+    ``directions`` (n x K): (k, K), fourth order (module docstring). Along column d the step h
+    moves no coordinate by more than ``step · max(|x_i|, scale_i)``; a zero column gives 0, and
+    so does a column along which fun(x ± h d) equals fun(x) bit for bit (fun does not read
+    those coordinates, e.g. a mass matrix along a momentum: two evaluations instead of six)."""
+    x = np.asarray(x, dtype=float)
+    directions = np.asarray(directions, dtype=float).reshape(len(x), -1)
+    sizes = np.maximum(np.abs(x), np.broadcast_to(np.asarray(scale, dtype=float), x.shape))
+    columns: list[np.ndarray | None] = []
+    errors: list[np.ndarray | None] = []
+    base = np.atleast_1d(np.asarray(fun(x), dtype=float))
+    k = len(base)
+    for d in directions.T:
+        moved = d != 0.0
+        if not np.any(moved):
+            columns.append(None)
+            errors.append(None)
+            continue
+        h = step * float(np.min(sizes[moved] / np.abs(d[moved])))
+        values = {s: np.atleast_1d(np.asarray(fun(x + s * h * d), dtype=float))
+                  for s in (1.0, -1.0)}
+        if np.array_equal(values[1.0], base) and np.array_equal(values[-1.0], base):
+            columns.append(None)
+            errors.append(None)
+            continue
+        values.update({s: np.atleast_1d(np.asarray(fun(x + s * h * d), dtype=float))
+                       for s in (2.0, -2.0, 4.0, -4.0)})
+        central = [(values[s] - values[-s]) / (2.0 * s * h) for s in (1.0, 2.0, 4.0)]
+        fine, coarse = (4.0 * central[0] - central[1]) / 3.0, (4.0 * central[1] - central[2]) / 3.0
+        roundoff = 2.0 * np.finfo(float).eps * np.max(np.abs(list(values.values())), axis=0) / h
+        columns.append(fine)
+        errors.append(np.abs(coarse - fine) / 15.0 + roundoff)
+    value = np.zeros((k, len(columns)))
+    error = np.zeros((k, len(columns)))
+    for j, (c, e) in enumerate(zip(columns, errors)):
+        if c is not None:
+            value[:, j], error[:, j] = c, e
+    return Derivative(value, error)

@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import json
 import math
+import os
 
 import numpy as np
 import pytest
 from test_variational_stride import COMPASS_FIXED_POINT
 
+from porthamiltonian.backends import BACKEND_VARIABLE
 from walker_library.analyses.gradients import GAIT_QUANTITIES, gait_gradient
 from walker_library.analyses.monodromy import stride_jacobian
 from walker_library.analyses.poincare import find_fixed_point
@@ -51,8 +53,13 @@ STRIDE_CASES = [
 def test_stride_gradient_against_extrapolated_differences(name, tolerances, step, rtol):
     """One stride from the gait's section state: the exact columns (z', duration, step length,
     energy dissipated by each parameter) against Richardson-extrapolated central differences of
-    strides (relative step ``step``; the compliant walker's at rtol 1e-12)."""
+    strides (relative step ``step``; the compliant walker's at rtol 1e-12). The walkers' back
+    end is "auto": C here, numba in the CI's numba pass (``PORTHAMILTONIAN_BACKEND=numba``,
+    asserted), whose loops then integrate the parameter columns (compass_gait measured there:
+    the same tolerances pass)."""
     walker = load_walker(name)
+    forced = os.environ.get(BACKEND_VARIABLE)
+    assert forced not in ("c", "numba") or walker.model.backend == forced
     z = (np.array(COMPASS_FIXED_POINT) if name == "compass_walker"
          else find_fixed_point(walker, walker.initial_guess(), tol=1e-12).z)
     names = list(tolerances)
@@ -167,3 +174,42 @@ def test_gait_gradient_cli(capsys):
         assert walker_main(["gait", "simplest_walker", "--gradient", bad, "--quiet"]) == 2
         err = capsys.readouterr().err
         assert err.startswith("error:") and bad in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_spectrum_cluster_derivatives(seed):
+    """The smooth description of ρ (gradients._spectrum) on A(p) = A₀ + p D: the cluster's sum
+    and product and the rest's largest modulus and their derivatives against central
+    differences (step 1e-6) of the eigenvalues of A₀ ± εD, to 1e-8 (measured ≤ 4e-10),
+    random A₀ of sizes 2 to 4; and at a defective double eigenvalue (a Jordan block, where the
+    eigenvectors do not exist and |λ| has a branch point) the sum and product are still
+    differentiated to 1e-8."""
+    from walker_library.analyses.gradients import _spectrum
+
+    def ordered(A):
+        lam, V = np.linalg.eig(A)
+        o = sorted(range(len(lam)), key=lambda i: (-abs(lam[i]), -lam[i].imag))
+        return lam[o], V[:, o]
+
+    rng = np.random.default_rng(seed)
+    k = 2 + seed
+    A = rng.normal(size=(k, k)) * 0.3
+    if seed == 3:
+        A = np.array([[0.3, 1.0, 0.1, 0.0], [0.0, 0.3, 0.2, 0.1], [0, 0, 0.05, 0.0],
+                      [0, 0, 0.1, -0.02]])
+        k = 4
+    D = rng.normal(size=(k, k))
+    lam, V = ordered(A)
+    sp = _spectrum(A, lam, V, [(D, D)], ["p"])
+    n = sp["size"]
+    eps = 1e-6
+    (lp, _), (lm, _) = ordered(A + eps * D), ordered(A - eps * D)
+    pair = (lambda l: (l[0] + l[1], l[0] * l[1])) if n == 2 else (lambda l: (2 * l[0], l[0] ** 2))
+    assert sp["cluster_sum"] == pytest.approx(pair(lam)[0].real, abs=1e-12)
+    assert sp["cluster_product"] == pytest.approx(pair(lam)[1].real, abs=1e-12)
+    for key, i in (("cluster_sum", 0), ("cluster_product", 1)):
+        fd = (pair(lp)[i] - pair(lm)[i]).real / (2 * eps)
+        assert sp["gradients"][key]["p"] == pytest.approx(fd, abs=1e-8)
+    if k > n and seed < 3:
+        fd = (abs(lp[n]) - abs(lm[n])) / (2 * eps)
+        assert sp["gradients"]["rest_modulus"]["p"] == pytest.approx(fd, abs=1e-8)

@@ -29,11 +29,25 @@ both (the truncation of D(h) alone is 3/4 of the difference of the two, and the 
 error enters the difference with about the same weight as D): measured against differences of
 multipliers of fixed points found to 1e-12 it holds (tests/walkers/test_gait_gradients.py). It
 costs 4 stride-Jacobian runs per parameter; ``multiplier=False`` skips it.
+
+ρ is not differentiable where two multipliers of the largest modulus meet (a real pair turning
+complex: there |λ| of each has a square-root branch point) — often where ρ is least (Burke,
+Lewis & Overton 2001: optimal spectral radii sit at multiple eigenvalues). The same D_j give the
+smooth description that an epigraph formulation needs (:mod:`.optimize`), in
+:attr:`GaitGradient.spectrum`: the *cluster* of the largest modulus (a complex pair, a real pair,
+or a lone real multiplier), by the sum s and product P of its multipliers, which are smooth
+through the collision — with the real Schur form A = Z T Zᵀ ordered so that the cluster comes
+first (T₁₁, X = Z[:, :2]) and Yᵀ = [I, R] Zᵀ its left invariant subspace (T₁₁R − RT₂₂ = T₁₂,
+YᵀX = I), the cluster's eigenvalues move to first order as those of T₁₁ + Yᵀ D_j X, so
+ds/dp_j = tr(Yᵀ D_j X) and dP/dp_j = tr(adj(T₁₁) Yᵀ D_j X) (a lone real λ: s = 2λ, P = λ²) —
+and the largest modulus r outside the cluster with its eigenvalue-perturbation derivative.
+Both multipliers of the cluster lie in the disc |λ| ≤ t exactly when (Jury's conditions for
+λ² − sλ + P scaled by t) t² − P ≥ 0 and t² + P ∓ s t ≥ 0; with r ≤ t that is ρ ≤ t.
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, cast
 
@@ -85,6 +99,10 @@ class GaitGradient(JSONResult):
     jacobian: list[list[float]] = field(default_factory=list)
     runs: int = 0
     fell: str = ""
+    #: the smooth description of ρ (module docstring; with ``multiplier``): {"cluster_sum",
+    #: "cluster_product", "rest_modulus": value, "gradients": {name: {parameter: d/dp}},
+    #: "errors": the same layout, "size": 1 or 2}
+    spectrum: dict = field(default_factory=dict)
 
     def array(self, quantity: str) -> np.ndarray:
         """The gradient of ``quantity`` as an array in the order of :attr:`names`."""
@@ -211,9 +229,11 @@ def gait_gradient(walker: HybridWalker, z: ArrayLike, names: Sequence[str], peri
     lam, V = lam[order], V[:, order]
     values["max_multiplier_modulus"] = float(abs(lam[0]))
     if multiplier:
-        d, e, extra = _multiplier_gradient(walker, z, period, names, dzdp, lam[0], V, A)
-        grads["max_multiplier_modulus"], errors["max_multiplier_modulus"] = d, e
+        rates, extra = _jacobian_rates(walker, z, period, names, dzdp)
         out.runs += extra
+        d, e = _multiplier_gradient(rates, lam[0], V)
+        grads["max_multiplier_modulus"], errors["max_multiplier_modulus"] = d, e
+        out.spectrum = _spectrum(A, lam, V, rates, names)
     coords = list(walker.section)
     out.values = {key: float(v) for key, v in values.items()}
     out.gradients = {key: dict(zip(names, map(float, g))) for key, g in grads.items()}
@@ -225,22 +245,12 @@ def gait_gradient(walker: HybridWalker, z: ArrayLike, names: Sequence[str], peri
     return out
 
 
-def _multiplier_gradient(walker: HybridWalker, z: np.ndarray, period: int, names: Sequence[str],
-                         dzdp: np.ndarray, lam: complex, V: np.ndarray,
-                         A: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
-    """(dρ/dp, its error bound, runs made) by the module docstring's scheme."""
-    v = V[:, 0]
-    try:
-        w = np.linalg.inv(V).conj().T[:, 0]         # the left eigenvector, wᴴ v = 1
-    except np.linalg.LinAlgError:
-        return np.full(len(names), math.nan), np.full(len(names), math.inf), 0
-    scale = complex(np.vdot(w, v))
-
-    def rho_rate(D: np.ndarray) -> float:
-        dlam = complex(np.vdot(w, D @ v)) / scale
-        return float((np.conj(lam) * dlam).real / abs(lam))
-
-    out, err, runs = np.empty(len(names)), np.empty(len(names)), 0
+def _jacobian_rates(walker: HybridWalker, z: np.ndarray, period: int, names: Sequence[str],
+                    dzdp: np.ndarray) -> tuple[list[tuple[np.ndarray, np.ndarray] | None], int]:
+    """dA/dp_j along the branch by central differences at h and 2h (module docstring): per
+    parameter (D(h), D(2h)), None when a shifted stride fell; and the runs made."""
+    out: list[tuple[np.ndarray, np.ndarray] | None] = []
+    runs = 0
     for j, name in enumerate(names):
         p = walker.parameters[name]
         h = MULTIPLIER_STEP * max(abs(p), 1e-3)
@@ -250,13 +260,93 @@ def _multiplier_gradient(walker: HybridWalker, z: np.ndarray, period: int, names
             sj = shifted.stride_sensitivity(z + s * h * dzdp[:, j], period)
             runs += period
             if sj.fell or sj.jacobian is None:          # (None exactly when it fell)
-                out[j], err[j] = math.nan, math.inf
+                out.append(None)
                 break
             jac[s] = sj.jacobian
         else:
-            D1 = (jac[1] - jac[-1]) / (2 * h)
-            D2 = (jac[2] - jac[-2]) / (4 * h)
-            r1, r2 = rho_rate(D1), rho_rate(D2)
-            out[j] = (4 * r1 - r2) / 3
-            err[j] = abs(r1 - r2)
-    return out, err, runs
+            out.append(((jac[1] - jac[-1]) / (2 * h), (jac[2] - jac[-2]) / (4 * h)))
+    return out, runs
+
+
+def _extrapolated(rates: list[tuple[np.ndarray, np.ndarray] | None],
+                  rate: Callable[[np.ndarray], float]) -> tuple[np.ndarray, np.ndarray]:
+    """A scalar's derivative by each parameter from its rate ``rate(dA)`` at D(h) and D(2h):
+    (4 r(h) − r(2h)) / 3 and the bound |r(h) − r(2h)| (NaN and inf where a stride fell)."""
+    out, err = np.full(len(rates), math.nan), np.full(len(rates), math.inf)
+    for j, pair in enumerate(rates):
+        if pair is not None:
+            r1, r2 = rate(pair[0]), rate(pair[1])
+            out[j], err[j] = (4 * r1 - r2) / 3, abs(r1 - r2)
+    return out, err
+
+
+def _modulus_rate(lam: complex, v: np.ndarray, w: np.ndarray) -> Callable[[np.ndarray], float]:
+    """d|λ| = Re(λ̄ dλ)/|λ| with dλ = wᴴ dA v / (wᴴ v) (a simple eigenvalue)."""
+    scale = complex(np.vdot(w, v))
+
+    def rate(D: np.ndarray) -> float:
+        dlam = complex(np.vdot(w, D @ v)) / scale
+        return float((np.conj(lam) * dlam).real / abs(lam))
+
+    return rate
+
+
+def _multiplier_gradient(rates: list[tuple[np.ndarray, np.ndarray] | None], lam: complex,
+                         V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(dρ/dp, its error bound) by the module docstring's scheme."""
+    try:
+        w = np.linalg.inv(V).conj().T[:, 0]         # the left eigenvector, wᴴ v = 1
+    except np.linalg.LinAlgError:
+        return np.full(len(rates), math.nan), np.full(len(rates), math.inf)
+    return _extrapolated(rates, _modulus_rate(lam, V[:, 0], w))
+
+
+def _spectrum(A: np.ndarray, lam: np.ndarray, V: np.ndarray,
+              rates: list[tuple[np.ndarray, np.ndarray] | None],
+              names: Sequence[str]) -> dict:
+    """The cluster's sum and product and the rest's largest modulus, with their derivatives
+    (module docstring); ``lam``, V: A's eigenvalues, largest modulus first, and eigenvectors."""
+    import scipy.linalg as sl
+
+    k = len(lam)
+    complex_top = abs(lam[0].imag) > 1e-12 * abs(lam[0])
+    size = 2 if k > 1 and (complex_top or abs(lam[1].imag) <= 1e-12 * abs(lam[1])) else 1
+    values: dict[str, float] = {}
+    grads: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    if size == 2:
+        cut = 0.5 * (abs(lam[1]) + abs(lam[2])) if k > 2 else 0.0
+        T, Z, sdim = sl.schur(A, output="real",
+                              sort=lambda re, im: math.hypot(re, im) > cut)
+        if sdim != 2:                       # the cluster cannot be split off: a lone top
+            size = 1
+    if size == 2:
+        T11, X = T[:2, :2], Z[:, :2]
+        R = sl.solve_sylvester(T11, -T[2:, 2:], T[:2, 2:]) if k > 2 else np.zeros((2, 0))
+        Yt = np.hstack([np.eye(2), R]) @ Z.T
+        adj = np.array([[T11[1, 1], -T11[0, 1]], [-T11[1, 0], T11[0, 0]]])
+        values["cluster_sum"] = float(np.trace(T11))
+        values["cluster_product"] = float(np.linalg.det(T11))
+        grads["cluster_sum"] = _extrapolated(rates, lambda D: float(np.trace(Yt @ D @ X)))
+        grads["cluster_product"] = _extrapolated(
+            rates, lambda D: float(np.trace(adj @ (Yt @ D @ X))))
+    else:
+        W = np.linalg.inv(V).conj().T
+        top = float(lam[0].real)
+
+        def real_rate(D: np.ndarray) -> float:
+            return float((np.vdot(W[:, 0], D @ V[:, 0]) / np.vdot(W[:, 0], V[:, 0])).real)
+
+        values["cluster_sum"], values["cluster_product"] = 2 * top, top ** 2
+        grads["cluster_sum"] = _extrapolated(rates, lambda D: 2 * real_rate(D))
+        grads["cluster_product"] = _extrapolated(rates, lambda D: 2 * top * real_rate(D))
+    if k > size:
+        i = size
+        W = np.linalg.inv(V).conj().T
+        values["rest_modulus"] = float(abs(lam[i]))
+        grads["rest_modulus"] = _extrapolated(rates, _modulus_rate(lam[i], V[:, i], W[:, i]))
+    else:
+        values["rest_modulus"] = 0.0
+        grads["rest_modulus"] = (np.zeros(len(names)), np.zeros(len(names)))
+    return {**values, "size": size,
+            "gradients": {key: dict(zip(names, map(float, g[0]))) for key, g in grads.items()},
+            "errors": {key: dict(zip(names, map(float, g[1]))) for key, g in grads.items()}}

@@ -10,6 +10,16 @@ point moved along its exact tangent dz*/dp, so that Newton needs one or two runs
 exact gradients of every quantity (:func:`~.gradients.gait_gradient`; the multiplier's by its
 documented scheme, only when the objective or a constraint needs it).
 
+Minimising the largest multiplier's modulus ρ (``formulation="epigraph"``, the default for that
+objective): ρ is not differentiable where two multipliers of the largest modulus meet, often
+at the optimum, and a smooth method cycles across that kink. The epigraph problem is smooth:
+minimise t over (p, t) subject to ρ(p) ≤ t written with smooth functions —
+Jury's conditions t² − P ≥ 0, t² + P ∓ s t ≥ 0 on the sum s and product P of the cluster of
+the largest modulus, and t ≥ r, the largest modulus outside it (:mod:`.gradients`,
+:attr:`~.gradients.GaitGradient.spectrum`) — so that the optimizer sees both branches of a
+collision at once; t is scaled by the starting ρ. ``formulation="direct"`` differentiates ρ
+itself (the only choice for other objectives).
+
 The variables are the parameters relative to their starting values, u_j = p_j / p_j⁰ (the
 optimizer works in units of order 1); the objective is divided by its starting magnitude and
 each constraint by its bound's, so that the tolerance ``tol`` is relative. A gait evaluation
@@ -63,6 +73,10 @@ _OPS = {"<=": operator.le, ">=": operator.ge}
 _INFEASIBLE = 10.0
 #: significant digits of a point's key: nearer points are one gait evaluation
 _DIGITS = 10
+#: the epigraph variable's bounds (t over the starting ρ)
+_T_BOUNDS = (1e-3, 10.0)
+#: the names of the epigraph's constraints (module docstring)
+_JURY = ("t^2 - P >= 0", "t^2 + P - s t >= 0", "t^2 + P + s t >= 0", "t - r >= 0")
 
 
 @dataclass(frozen=True)
@@ -130,6 +144,8 @@ class OptimizationResult(JSONResult):
     path: list[dict] = field(default_factory=list)
     step_down: dict[str, float | None] = field(default_factory=dict)
     seconds: float = 0.0
+    #: "direct", or "epigraph" (module docstring; then kkt is the epigraph problem's)
+    formulation: str = "direct"
 
 
 class _Evaluator:
@@ -204,15 +220,16 @@ class _Evaluator:
         return {"feasible": True, "fixed_point": g.fixed_point, "period": g.period,
                 "values": g.values, "gradients": g.gradients, "errors": g.errors,
                 "multipliers": [[m.real, m.imag] for m in g.multipliers],
+                "spectrum": g.spectrum,
                 "stable": bool(g.values["max_multiplier_modulus"] < 1.0), "dzdp": dzdp,
                 "runs": g.runs, "seconds": time.perf_counter() - t0}
 
 
 def _identity(walker: HybridWalker, vary: Sequence[str], objective: str, maximize: bool,
               constraints: Sequence[Constraint], bounds: Mapping[str, tuple[float, float]],
-              method: str) -> dict:
+              method: str, formulation: str) -> dict:
     return {"model": walker.name, "parameters": dict(walker.parameters), "vary": list(vary),
-            "objective": objective, "maximize": maximize,
+            "objective": objective, "maximize": maximize, "formulation": formulation,
             "constraints": [str(c) for c in constraints],
             "bounds": {k: list(v) for k, v in bounds.items()}, "method": method,
             "options": {"rtol": walker.options.rtol, "method": walker.options.method}}
@@ -245,14 +262,16 @@ def optimize_gait(walker: HybridWalker, vary: Sequence[str], objective: str, *,
                   bounds: Mapping[str, tuple[float, float]] | None = None,
                   method: str = "SLSQP", max_evaluations: int = 30, tol: float = 1e-6,
                   record: str | Path | None = None, step_down: str = "ends",
-                  guess: ArrayLike | None = None, log: Callable[[str], None] | None = None) -> OptimizationResult:
+                  guess: ArrayLike | None = None, log: Callable[[str], None] | None = None,
+                  formulation: str = "auto") -> OptimizationResult:
     """Optimize ``objective`` (a gait quantity; minimised, or maximised with ``maximize``) over
     the parameters ``vary`` within ``bounds`` ({name: (low, high)}, SI) subject to
     ``constraints`` (:class:`Constraint` or text ``"speed >= 0.33"``) by ``method`` ("SLSQP" or
     "trust-constr") with exact gradients; at most ``max_evaluations`` gait evaluations, relative
     tolerance ``tol``; ``record``: the JSON Lines file of every evaluation (resumable);
     ``step_down``: "none", "ends" or "path" (module docstring); ``guess``: a section state near
-    the starting gait."""
+    the starting gait; ``formulation``: "epigraph", "direct" or "auto" (the epigraph when
+    minimising max_multiplier_modulus; module docstring)."""
     from scipy.optimize import Bounds, NonlinearConstraint, minimize
 
     t0 = time.perf_counter()
@@ -263,6 +282,14 @@ def optimize_gait(walker: HybridWalker, vary: Sequence[str], objective: str, *,
         raise OptionError(f"method {method!r}: SLSQP or trust-constr")
     if step_down not in ("none", "ends", "path"):
         raise OptionError(f"step_down {step_down!r}: none, ends or path")
+    epigraph_ok = objective == "max_multiplier_modulus" and not maximize
+    if formulation == "auto":
+        formulation = "epigraph" if epigraph_ok else "direct"
+    if formulation not in ("epigraph", "direct") or (formulation == "epigraph"
+                                                      and not epigraph_ok):
+        raise OptionError(f"formulation {formulation!r}: direct, auto, or epigraph (which "
+                          "minimises max_multiplier_modulus)")
+    epigraph = formulation == "epigraph"
     cons = [c if isinstance(c, Constraint) else parse_constraint(c) for c in constraints]
     bounds = {k: (float(a), float(b)) for k, (a, b) in (bounds or {}).items()}
     unknown = set(bounds) - set(vary)
@@ -281,7 +308,7 @@ def optimize_gait(walker: HybridWalker, vary: Sequence[str], objective: str, *,
     known: dict[str, dict] = {}
     if record is not None:
         file, known = _open_record(Path(record), _identity(walker, vary, objective, maximize,
-                                                           cons, bounds, method))
+                                                           cons, bounds, method, formulation))
     evaluate = _Evaluator(walker, vary, scale, "max_multiplier_modulus" in needs, file, known,
                           log)
     if guess is not None:
@@ -296,42 +323,58 @@ def optimize_gait(walker: HybridWalker, vary: Sequence[str], objective: str, *,
         f_scale = max(abs(first["values"][objective]), 1e-12)
         g_scale = [max(abs(c.bound), 1e-12) for c in cons]
         state = {"f": 0.0}
+        q = len(vary)
+        n_g = len(cons) + (4 if epigraph else 0)
+        part = (lambda x: np.asarray(x)[:q]) if epigraph else np.asarray
 
-        def f(u: np.ndarray) -> float:
-            out = evaluate(u)
+        def f(x: np.ndarray) -> float:
+            if epigraph:
+                return float(x[-1])
+            out = evaluate(x)
             if not out["feasible"]:
                 return state["f"] + _INFEASIBLE
             state["f"] = sign * out["values"][objective] / f_scale
             return state["f"]
 
-        def df(u: np.ndarray) -> np.ndarray:
-            out = evaluate(u)
+        def df(x: np.ndarray) -> np.ndarray:
+            if epigraph:
+                return np.eye(q + 1)[q]
+            out = evaluate(x)
             if not out["feasible"]:
-                return np.zeros(len(vary))
+                return np.zeros(q)
             g = np.array([out["gradients"][objective][n] for n in vary])
             return sign * g * scale / f_scale
 
-        def gvec(u: np.ndarray) -> np.ndarray:
-            out = evaluate(u)
+        def gvec(x: np.ndarray) -> np.ndarray:
+            out = evaluate(part(x))
             if not out["feasible"]:
-                return np.full(len(cons), -_INFEASIBLE)
-            return np.array([(c.bound - out["values"][c.quantity] if c.op == "<=" else
-                              out["values"][c.quantity] - c.bound) / s
-                             for c, s in zip(cons, g_scale)])
+                return np.full(n_g, -_INFEASIBLE)
+            values = [(c.bound - out["values"][c.quantity] if c.op == "<=" else
+                       out["values"][c.quantity] - c.bound) / s for c, s in zip(cons, g_scale)]
+            if epigraph:
+                values += list(_jury(out, float(x[-1]), f_scale, vary, scale)[0])
+            return np.array(values)
 
-        def dg(u: np.ndarray) -> np.ndarray:
-            out = evaluate(u)
+        def dg(x: np.ndarray) -> np.ndarray:
+            out = evaluate(part(x))
+            width = q + 1 if epigraph else q
             if not out["feasible"]:
-                return np.zeros((len(cons), len(vary)))
+                return np.zeros((n_g, width))
             rows = [np.array([out["gradients"][c.quantity][n] for n in vary]) * scale / s
                     * (-1.0 if c.op == "<=" else 1.0) for c, s in zip(cons, g_scale)]
-            return np.array(rows)
+            if not epigraph:
+                return np.array(rows)
+            _, du, dt = _jury(out, float(x[-1]), f_scale, vary, scale)
+            return np.vstack([np.hstack([np.array(rows).reshape(len(cons), q),
+                                         np.zeros((len(cons), 1))]),
+                              np.hstack([du, dt[:, None]])])
 
         path: list[dict] = []
 
         def accepted(xk: np.ndarray, *args: Any) -> None:
-            p = np.asarray(xk) * scale
-            out = evaluate(xk)
+            u = part(xk)
+            p = u * scale
+            out = evaluate(u)
             entry = {"parameters": dict(zip(vary, p.tolist())),
                      "objective": out["values"][objective] if out["feasible"] else None,
                      "feasible": out["feasible"]}
@@ -340,30 +383,36 @@ def optimize_gait(walker: HybridWalker, vary: Sequence[str], objective: str, *,
             path.append(entry)
 
         accepted(u0)
-        box = Bounds(lo, hi)
+        box = Bounds(np.append(lo, _T_BOUNDS[0]) if epigraph else lo,
+                     np.append(hi, _T_BOUNDS[1]) if epigraph else hi)
+        x0 = np.append(u0, 1.0) if epigraph else u0
         if method == "SLSQP":
             # scipy-stubs type a constraint dict's "fun" as scalar-valued; SLSQP takes vectors
-            res = minimize(f, u0, jac=df, method="SLSQP", bounds=box, callback=accepted,  # type: ignore[call-overload]
-                           constraints=[{"type": "ineq", "fun": gvec, "jac": dg}] if cons else [],
+            res = minimize(f, x0, jac=df, method="SLSQP", bounds=box, callback=accepted,  # type: ignore[call-overload]
+                           constraints=[{"type": "ineq", "fun": gvec, "jac": dg}] if n_g else [],
                            options={"maxiter": max_evaluations, "ftol": tol})
         else:
-            nl = [NonlinearConstraint(gvec, 0.0, np.inf, jac=dg)] if cons else []
-            res = minimize(f, u0, jac=df, method="trust-constr", bounds=box, constraints=nl,
+            nl = [NonlinearConstraint(gvec, 0.0, np.inf, jac=dg)] if n_g else []
+            res = minimize(f, x0, jac=df, method="trust-constr", bounds=box, constraints=nl,
                            callback=lambda xk, *a: accepted(xk),
                            options={"maxiter": max_evaluations, "gtol": tol, "xtol": tol})
-        best = evaluate(res.x)
-        p_best = res.x * scale
+        u_best = part(res.x)
+        best = evaluate(u_best)
+        p_best = u_best * scale
         out = OptimizationResult(
             walker.name, vary, objective, maximize, [str(c) for c in cons],
             {k: list(v) for k, v in bounds.items()}, dict(zip(vary, p0.tolist())),
             optimum=dict(zip(vary, p_best.tolist())), success=bool(res.success),
             message=str(res.message), iterations=int(getattr(res, "nit", 0)),
-            evaluations=evaluate.count, reused=evaluate.reused, path=path)
+            evaluations=evaluate.count, reused=evaluate.reused, path=path,
+            formulation=formulation)
         if best["feasible"]:
             out.values, out.gradients = best["values"], best["gradients"]
             out.multipliers = [complex(a, b) for a, b in best["multipliers"]]
-            out.kkt = _kkt(best, objective, sign / f_scale, cons, vary, scale, g_scale, lo, hi,
-                           res.x, tol)
+            out.kkt = (_kkt_epigraph(best, float(res.x[-1]), f_scale, cons, vary, scale,
+                                     g_scale, lo, hi, u_best, tol) if epigraph else
+                       _kkt(best, objective, sign / f_scale, cons, vary, scale, g_scale, lo, hi,
+                            res.x, tol))
         if step_down != "none":
             out.step_down = {"start": _step_down(walker, vary, p0, first),
                              "optimum": (_step_down(walker, vary, p_best, best)
@@ -384,6 +433,55 @@ def _step_down(walker: Walker, vary: list[str], p: np.ndarray, out: dict) -> flo
     return step_down(w, gait).max_step_down
 
 
+def _jury(out: dict, tau: float, rho0: float, vary: list[str],
+          scale: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The epigraph's constraints (:data:`_JURY`, each ≥ 0; module docstring) at t = τ ρ₀, in
+    units of ρ₀² (the first three) and ρ₀, and their gradients by the scaled parameters u and
+    by τ."""
+    sp = out["spectrum"]
+    grads = sp["gradients"]
+    s, P, r = sp["cluster_sum"], sp["cluster_product"], sp["rest_modulus"]
+    ds, dP, dr = (np.array([grads[key][n] for n in vary]) * scale
+                  for key in ("cluster_sum", "cluster_product", "rest_modulus"))
+    t, r2 = tau * rho0, rho0 ** 2
+    values = np.array([(t * t - P) / r2, (t * t + P - s * t) / r2, (t * t + P + s * t) / r2,
+                       (t - r) / rho0])
+    du = np.array([-dP / r2, (dP - t * ds) / r2, (dP + t * ds) / r2, -dr / rho0])
+    dt = np.array([2 * t / rho0, (2 * t - s) / rho0, (2 * t + s) / rho0, 1.0])
+    return values, du, dt
+
+
+def _bound_rows(vary: list[str], lo: np.ndarray, hi: np.ndarray, u: np.ndarray,
+                tol: float) -> tuple[list[np.ndarray], list[str]]:
+    """The active bounds' gradients (as constraints g(u) ≤ 0) and names."""
+    rows, names = [], []
+    for j, n in enumerate(vary):
+        e = np.zeros(len(vary))
+        if abs(u[j] - lo[j]) <= 1e3 * tol * max(abs(lo[j]), 1.0):
+            e[j] = -1.0
+            rows.append(e)
+            names.append(f"{n} >= lower bound")
+        elif abs(u[j] - hi[j]) <= 1e3 * tol * max(abs(hi[j]), 1.0):
+            e[j] = 1.0
+            rows.append(e)
+            names.append(f"{n} <= upper bound")
+    return rows, names
+
+
+def _lagrangian(grad: np.ndarray, rows: list[np.ndarray], names: list[str]) -> dict[str, Any]:
+    """Multipliers of the active constraints (rows: their gradients as g ≤ 0) by least squares
+    and the gradient of the Lagrangian left."""
+    if rows:
+        A = np.array(rows)
+        mu, *_ = np.linalg.lstsq(A.T, -grad, rcond=None)
+        left = grad + A.T @ mu
+    else:
+        mu, left = np.zeros(0), grad
+    return {"gradient_of_lagrangian": float(np.linalg.norm(left)),
+            "gradient": float(np.linalg.norm(grad)),
+            "multipliers": dict(zip(names, map(float, mu))), "active": names}
+
+
 def _kkt(out: dict, objective: str, sign: float, cons: list[Constraint], vary: list[str],
          scale: np.ndarray, g_scale: list[float], lo: np.ndarray, hi: np.ndarray, u: np.ndarray,
          tol: float) -> dict[str, Any]:
@@ -399,22 +497,31 @@ def _kkt(out: dict, objective: str, sign: float, cons: list[Constraint], vary: l
         if abs(value - c.bound) <= 1e3 * tol * max(abs(c.bound), 1e-12):
             rows.append(g if c.op == "<=" else -g)          # ∇ of the active g(u) <= 0
             names.append(str(c))
-    for j, n in enumerate(vary):
-        e = np.zeros(len(vary))
-        if abs(u[j] - lo[j]) <= 1e3 * tol * max(abs(lo[j]), 1.0):
-            e[j] = -1.0
-            rows.append(e)
-            names.append(f"{n} >= lower bound")
-        elif abs(u[j] - hi[j]) <= 1e3 * tol * max(abs(hi[j]), 1.0):
-            e[j] = 1.0
-            rows.append(e)
-            names.append(f"{n} <= upper bound")
-    if rows:
-        A = np.array(rows)
-        mu, *_ = np.linalg.lstsq(A.T, -grad, rcond=None)
-        left = grad + A.T @ mu
-    else:
-        mu, left = np.zeros(0), grad
-    return {"gradient_of_lagrangian": float(np.linalg.norm(left)),
-            "gradient": float(np.linalg.norm(grad)),
-            "multipliers": dict(zip(names, map(float, mu))), "active": names}
+    more, more_names = _bound_rows(vary, lo, hi, u, tol)
+    return _lagrangian(grad, rows + more, names + more_names)
+
+
+def _kkt_epigraph(out: dict, tau: float, rho0: float, cons: list[Constraint], vary: list[str],
+                  scale: np.ndarray, g_scale: list[float], lo: np.ndarray, hi: np.ndarray,
+                  u: np.ndarray, tol: float) -> dict[str, Any]:
+    """:func:`_kkt` of the epigraph problem over (u, τ): minimise τ subject to the user's
+    constraints and :data:`_JURY` (active where within 1e3 tol of 0)."""
+    q = len(vary)
+    grad = np.eye(q + 1)[q]
+    rows, names = [], []
+    for c, s in zip(cons, g_scale):
+        value = out["values"][c.quantity]
+        g = np.array([out["gradients"][c.quantity][n] for n in vary]) * scale / s
+        if abs(value - c.bound) <= 1e3 * tol * max(abs(c.bound), 1e-12):
+            rows.append(np.append(g if c.op == "<=" else -g, 0.0))
+            names.append(str(c))
+    values, du, dt = _jury(out, tau, rho0, vary, scale)
+    for name, v, a, b in zip(_JURY, values, du, dt):
+        if abs(v) <= 1e3 * tol:
+            rows.append(-np.append(a, b))
+            names.append(name)
+    more, more_names = _bound_rows(vary, lo, hi, u, tol)
+    out_ = _lagrangian(grad, rows + [np.append(r, 0.0) for r in more], names + more_names)
+    out_["t"] = tau * rho0
+    out_["epigraph_constraints"] = dict(zip(_JURY, map(float, values)))
+    return out_

@@ -106,12 +106,14 @@ def _relative(d: Derivative) -> float:
 def _start(walker: HybridWalker, z: np.ndarray, names: Sequence[str],
            values: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """(x₀, p₀) of a stride from z (p₀ after the start rules), at the parameters ``names`` =
-    ``values`` (None: the walker's)."""
-    w = walker if values is None else walker.with_parameters(
-        **{name: float(v) for name, v in zip(names, values)})
-    p0 = w.start_params()
-    x0 = w.lift(z, p0)
-    return x0, w.machine.start(x0, p0)
+    ``values`` (None: the walker's; names are model parameters, :func:`check_names`)."""
+    p = None
+    if values is not None:
+        p = walker.run.p.copy()
+        p[[walker.model.param_names.index(n) for n in names]] = values
+    p0 = walker.start_params(p=p)
+    x0 = walker.lift(z, p0)
+    return x0, walker.machine.start(x0, p0)
 
 
 def check_names(walker: HybridWalker, names: Sequence[str]) -> tuple[str, ...]:

@@ -19,9 +19,11 @@ what they do (:meth:`ModeMachine.actions` with ``derivatives``): the state map's
 ``Reset.jacobian`` = ∂x⁺/∂x⁻ and, by the differentiated parameters, ``Reset.jacobian_p`` =
 ∂x⁺/∂p (the impact and the relabelling read masses, lengths, the new stance foot), and for each
 mode set from an output (a stance foot's position) the gradient of its value by [x⁻, p]
-(``Reset.params_jacobian``); modes set to constants (contact flags) have none. All by central
-differences of the composite map (x, p) ↦ (x⁺, p⁺) (:mod:`porthamiltonian.simulation.
-differences`; the maps are smooth and cheap), their error estimates relative to each Jacobian's
+(``Reset.params_jacobian``); modes set to constants (contact flags) have none. All in one
+forward pass over the columns (the states, then the parameters): the impact by
+:meth:`.resets.ImpactMap.tangents` (its linear solves differentiated exactly), the outputs a
+mode is set from by fourth-order differences along the columns (:func:`porthamiltonian.
+simulation.differences.directional`), their error estimates relative to each Jacobian's
 largest entry recorded in the :class:`Fired` record (``info["jacobian_error"]``).
 """
 from __future__ import annotations
@@ -36,7 +38,7 @@ import numpy as np
 
 from porthamiltonian import Reset
 from porthamiltonian.simulation.compiled import CompiledModel
-from porthamiltonian.simulation.differences import Derivative, jacobian
+from porthamiltonian.simulation.differences import Derivative, directional
 
 from .hybrid import Booking
 from .resets import ConstraintImpact, ImpactMap
@@ -220,36 +222,38 @@ class ModeMachine:
             errors.append(d.max_error / size if size > 0 else 0.0)
             return d.value
 
-        def at(values: np.ndarray) -> np.ndarray:
-            q = p.copy()
-            q[wanted] = values
-            return q
-
         out: dict = {}
+        if not names:
+            wanted = []
+        K = n + len(wanted)                  # the columns: the states, then ``wanted``
+        dx = np.zeros((n, K))
+        dx[:, :n] = np.eye(n)
+        dp = np.zeros((len(p), K))
+        dp[wanted, range(n, K)] = 1.0
+        needed = [c for c in tr.changes if c.output is not None]
+        read = [int(c.output) for c in needed if c.output is not None]
+        dy = np.zeros((len(model.output_names), K))
+        if read and (tr.impact is not None or names):
+            dy[read] = relative(directional(lambda w: model.outputs(t, w[:n], w[n:])[read],
+                                            np.concatenate([x, p]), np.vstack([dx, dp])))
         if tr.impact is not None:
-            def state(xx: np.ndarray, q: np.ndarray) -> np.ndarray:
-                return tr.apply(t, xx, q, model.outputs(t, xx, q))[0]
-            out["jacobian"] = relative(jacobian(lambda xx: state(xx, p), x, 1.0))
-            if not names:
-                return out, max(errors, default=0.0)
-            R_p = relative(jacobian(lambda v: state(x, at(v)), p[wanted], 1.0))
-            out["jacobian_p"] = {model.param_names[i]: R_p[:, k] for k, i in enumerate(wanted)}
+            y = model.outputs(t, x, p)
+            dp_after = dp.copy()
+            for c in tr.changes:
+                dp_after[c.index] = dy[c.output] if c.output is not None else 0.0
+            R, error = tr.impact.tangents(t, x, p, tr.params_after(p, y), dx, dp, dp_after)
+            errors.append(error)
+            out["jacobian"] = R[:, :n]
+            if names:
+                out["jacobian_p"] = {model.param_names[i]: R[:, n + k]
+                                     for k, i in enumerate(wanted)}
         if not names:
             return out, max(errors, default=0.0)
         rows = {}
-        for c in tr.changes:
-            if c.output is None:
-                continue
+        for c in needed:
             row = np.zeros(n + len(p))
-
-            def by_x(xx: np.ndarray, o: int = c.output) -> np.ndarray:
-                return model.outputs(t, xx, p)[o:o + 1]
-
-            def by_p(v: np.ndarray, o: int = c.output) -> np.ndarray:
-                return model.outputs(t, x, at(v))[o:o + 1]
-
-            row[:n] = relative(jacobian(by_x, x, 1.0))[0]
-            row[n + np.array(wanted, dtype=int)] = relative(jacobian(by_p, p[wanted], 1.0))[0]
+            row[:n] = dy[c.output, :n]
+            row[n + np.array(wanted, dtype=int)] = dy[c.output, n:]
             rows[model.param_names[c.index]] = row
         if rows:
             out["params_jacobian"] = rows

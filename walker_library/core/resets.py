@@ -16,8 +16,21 @@
   no relabelling; the rule sets the constraint's switch.
 
 The maps are functions of the state with a Jacobian (:meth:`Relabel.matrix`, exact;
-:meth:`ImpactMap.jacobian`, :meth:`ConstraintImpact.jacobian`: central differences) for
-saltation-matrix computations.
+:meth:`ImpactMap.jacobian`; :meth:`ConstraintImpact.jacobian`: central differences) for saltation-matrix computations. :meth:`ImpactMap.tangents` is the
+impact's forward-mode derivative by the state and the parameters: with v = M⁻¹p, the floating
+state (q_f = F q, the hip's position y_h(q) and velocity J_h(q) v), the saddle-point system
+
+    K(q_f) [v⁺; −Λ] = [M_f v_f; 0],   K = [[M_f, Gᵀ], [G, 0]]  (G: the striking point's rows and those of
+ the active constraints),
+
+and the momenta after the relabelling p' = M(q', p_after) v', the linear solves are
+differentiated exactly (d(K⁻¹b) = K⁻¹(db − dK K⁻¹b): K [dv⁺; −dΛ] = [dM_f (v_f − v⁺) + dGᵀΛ +
+M_f dv_f; −dG v⁺], one factorisation for all columns); the matrices' and outputs' own
+derivatives (dM u, dG u, dy_h, dJ_h v at fixed vectors u, v) by fourth-order differences of the
+compiled functions along each column (:func:`porthamiltonian.simulation.differences.directional`:
+~1e-12 relative; the code generator has no derivatives of named matrices): at most six
+evaluations of each (cheap) matrix function per column, two along what it does not read (the
+momenta, the slope, the stance foot's position), instead of four impacts.
 """
 from __future__ import annotations
 
@@ -30,6 +43,7 @@ import numpy as np
 from porthamiltonian.modeling.expressions import parse
 from porthamiltonian.simulation.assembly import constraint_rows
 from porthamiltonian.simulation.compiled import CompiledModel
+from porthamiltonian.simulation.differences import directional
 from porthamiltonian.simulation.impact import model_impact
 from porthamiltonian.simulation.switching import impact_onto
 
@@ -285,15 +299,23 @@ class ImpactMap:
         vf[lay["pin"]] = self.model.matrix(f"{mb}.J.{self.about.split('.', 1)[1]}", t, x, p) @ v
         return xf, vf, pf
 
+    def _held(self, t: float, xf: np.ndarray, pf: np.ndarray) -> list[str]:
+        """The constraint matrices (``<multibody>.G.<constraint>``) of the floating model's
+        constraints active at (xf, pf): a locked knee stays locked through the heel strike. The
+        set is piecewise constant in the state, so it has no derivative."""
+        lay = self._layout
+        if not lay["switched"]:
+            return []
+        yf = self.floating.outputs(t, xf, pf)
+        return [f"{self.multibody}.G.{c}" for c, k in lay["switched"] if yf[k] > 0.5]
+
     def __call__(self, t: float, x: np.ndarray, p: np.ndarray,
                  p_after: np.ndarray) -> tuple[np.ndarray, dict]:
         mb, lay = self.multibody, self._layout
         xf, vf, pf = self.floating_state(t, x, p)
-        yf = self.floating.outputs(t, xf, pf) if lay["switched"] else None
-        held = [f"{mb}.G.{c}" for c, k in lay["switched"] if yf is not None and yf[k] > 0.5]
         imp = model_impact(self.floating, xf, pf,
-                           [f"{mb}.J.{self.point.split('.', 1)[1]}", *held], f"{mb}.M", t=t,
-                           v_minus=vf)
+                           [f"{mb}.J.{self.point.split('.', 1)[1]}", *self._held(t, xf, pf)],
+                           f"{mb}.M", t=t, v_minus=vf)
         pin_v = self.floating.matrix(f"{mb}.J.{PIN}_point", t, imp.x_plus, pf) @ imp.impact.v_plus
         impact = imp.impact
         y = self.model.outputs(t, x, p)
@@ -305,22 +327,103 @@ class ImpactMap:
                 "constraint_velocity": float(np.max(np.abs(impact.constraint_velocity)))}
         return x_new, info
 
-    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
-                 step: float = 1e-7) -> np.ndarray:
-        """∂x⁺/∂x⁻ by central differences (step relative to max(1, |x_j|))."""
-        return _central(lambda z: self(t, z, p, p_after)[0], x, step)
+    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray,
+                 p_after: np.ndarray) -> np.ndarray:
+        """∂x⁺/∂x⁻ at fixed parameters (:meth:`tangents` by the unit states)."""
+        n = len(x)
+        return self.tangents(t, x, p, p_after, np.eye(n), np.zeros((len(p), n)),
+                             np.zeros((len(p), n)))[0]
 
+    def tangents(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
+                 dx: np.ndarray, dp: np.ndarray, dp_after: np.ndarray
+                 ) -> tuple[np.ndarray, float]:
+        """dx⁺ = ∂x⁺/∂x dx + ∂x⁺/∂p dp + ∂x⁺/∂p_after dp_after for K columns of tangents
+        (dx: n x K, dp and dp_after: parameters x K; dp_after the tangents of the parameters
+        after the heel strike, e.g. the new stance foot's position), and the largest error
+        estimate of the differences relative to the largest value (module docstring)."""
+        mb, lay, m = self.multibody, self._layout, self.model
+        x, p, p_after = (np.asarray(a, dtype=float) for a in (x, p, p_after))
+        n, K = len(x), dx.shape[1]
+        errors: list[float] = []
 
-def _central(f: Any, x: np.ndarray, step: float) -> np.ndarray:
-    """∂f/∂x by central differences (step relative to max(1, |x_j|))."""
-    n = len(x)
-    J = np.empty((n, n))
-    for j in range(n):
-        h = step * max(1.0, abs(x[j]))
-        e = np.zeros(n)
-        e[j] = h
-        J[:, j] = (f(x + e) - f(x - e)) / (2 * h)
-    return J
+        def along(fun: Any, at: np.ndarray, d: np.ndarray) -> np.ndarray:
+            """fun's derivatives along the columns d; its error relative to the larger of the
+            derivatives and fun's values (a derivative that is nearly 0, e.g. of a mass matrix
+            that hardly depends on q, is not a scale)."""
+            r = directional(fun, at, d)
+            size = max(float(np.max(np.abs(r.value), initial=0.0)),
+                       float(np.max(np.abs(fun(at)), initial=0.0)))
+            errors.append(r.max_error / size if size > 0 else 0.0)
+            return r.value
+
+        M = m.matrix(f"{mb}.M", t, x, p)
+        v = np.linalg.solve(M, x[lay["p"]])
+        hip = f"{mb}.J.{self.about.split('.', 1)[1]}"
+        read = sorted({*lay["about"], *(o for _, o in self.relabel.b_outputs)})   # outputs used
+
+        def walker_in(w: np.ndarray) -> np.ndarray:
+            xx, pp = w[:n], w[n:]
+            return np.concatenate([m.matrix(f"{mb}.M", t, xx, pp) @ v,
+                                   m.matrix(hip, t, xx, pp) @ v])
+
+        def positions(w: np.ndarray) -> np.ndarray:
+            return m.outputs(t, w[:n], w[n:])[read]
+
+        at, d = np.concatenate([x, p]), np.vstack([dx, dp])
+        d_in = along(walker_in, at, d)              # (apart: each skips what it does not read)
+        nv = len(v)
+        dv = np.linalg.solve(M, dx[lay["p"]] - d_in[:nv])
+        dy = np.zeros((len(m.output_names), K))
+        dy[read] = along(positions, at, d)
+        xf, vf, pf = self.floating_state(t, x, p)
+        f = self.floating
+        dxf = np.zeros((f.n_states, K))
+        dxf[lay["fq"]] = lay["F"] @ dx[lay["q"]]
+        dxf[lay["pin_states"]] = dy[lay["about"]]
+        dpf = np.zeros((len(pf), K))
+        dpf[lay["params"]] = dp[lay["mine"]]
+        dvf = np.zeros((len(vf), K))
+        dvf[lay["fv"]] = lay["F"] @ dv
+        dvf[lay["pin"]] = d_in[nv:] + m.matrix(hip, t, x, p) @ dv
+        rows = [f"{mb}.J.{self.point.split('.', 1)[1]}", *self._held(t, xf, pf)]
+        imp = model_impact(f, xf, pf, rows, f"{mb}.M", t=t, v_minus=vf).impact
+        v_plus, lam = imp.v_plus, imp.impulse
+        nf = len(vf)
+
+        def floating_in(w: np.ndarray) -> np.ndarray:
+            xx, pp = w[:f.n_states], w[f.n_states:]
+            G = np.vstack([f.matrix(r, t, xx, pp) for r in rows])
+            return np.concatenate([f.matrix(f"{mb}.M", t, xx, pp) @ (vf - v_plus) + G.T @ lam,
+                                   -G @ v_plus])
+
+        rhs = along(floating_in, np.concatenate([xf, pf]), np.vstack([dxf, dpf]))
+        Mf = f.matrix(f"{mb}.M", t, xf, pf)
+        G = np.vstack([f.matrix(r, t, xf, pf) for r in rows])
+        rhs[:nf] += Mf @ dvf
+        diag = np.diag(Mf)                  # the impact's scaling D = diag(M_f)^-1/2
+        s = np.concatenate([np.where(diag > 0, 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0)),
+                                     1.0), np.ones(len(G))])
+        Kf = np.block([[Mf, G.T], [G, np.zeros((len(G), len(G)))]])
+        dv_plus = (s[:, None] * np.linalg.solve(s[:, None] * Kf * s[None, :],
+                                                s[:, None] * rhs))[:nf]
+        dv_new = self.relabel.rates(lay["F_inv"] @ dv_plus[lay["fv"]])
+        y = m.outputs(t, x, p)
+        x_new = self.relabel.state(x, y)
+        v_new = self.relabel.rates(lay["F_inv"] @ v_plus[lay["fv"]])
+        pos = list(self.relabel.positions)
+        dx_new = np.array(dx, dtype=float)
+        dx_new[pos] = self.relabel.A @ dx[pos]
+        for k, o in self.relabel.b_outputs:
+            dx_new[pos[k]] += dy[o]
+        dx_new[lay["p"]] = 0.0
+
+        def walker_out(w: np.ndarray) -> np.ndarray:
+            return m.matrix(f"{mb}.M", t, w[:n], w[n:]) @ v_new
+
+        d_out = along(walker_out, np.concatenate([x_new, p_after]), np.vstack([dx_new, dp_after]))
+        dx_new[lay["p"]] = d_out + m.matrix(f"{mb}.M", t, x_new, p_after) @ dv_new
+        return dx_new, max(errors, default=0.0)
+
 
 
 def _switches(model: CompiledModel, multibody: str) -> list[tuple[str, int]]:
@@ -357,7 +460,23 @@ class ConstraintImpact:
                 "constraint_velocity": float(np.max(np.abs(impact.constraint_velocity)))}
         return x_new, info
 
-    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
-                 step: float = 1e-7) -> np.ndarray:
-        """∂x⁺/∂x⁻ by central differences (step relative to max(1, |x_j|))."""
-        return _central(lambda z: self(t, z, p, p_after)[0], x, step)
+    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray,
+                 p_after: np.ndarray) -> np.ndarray:
+        """∂x⁺/∂x⁻ at fixed parameters (:meth:`tangents` by the unit states)."""
+        n = len(x)
+        return self.tangents(t, x, p, p_after, np.eye(n), np.zeros((len(p), n)),
+                             np.zeros((len(p), n)))[0]
+
+    def tangents(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
+                 dx: np.ndarray, dp: np.ndarray, dp_after: np.ndarray
+                 ) -> tuple[np.ndarray, float]:
+        """dx⁺ = ∂x⁺/∂x dx + ∂x⁺/∂p dp for K columns of tangents (as
+        :meth:`ImpactMap.tangents`; ``p_after`` is not read, so neither is ``dp_after``), by
+        fourth-order differences of the whole impact along each column, and the largest error
+        estimate relative to the largest value."""
+        x, p = np.asarray(x, dtype=float), np.asarray(p, dtype=float)
+        n = len(x)
+        at = np.concatenate([x, p])
+        r = directional(lambda w: self(t, w[:n], w[n:], p_after)[0], at, np.vstack([dx, dp]))
+        size = max(float(np.max(np.abs(r.value), initial=0.0)), float(np.max(np.abs(x))))
+        return r.value, (r.max_error / size if size > 0 else 0.0)

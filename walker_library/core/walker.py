@@ -396,13 +396,16 @@ class HybridWalker:
         M = self.model.matrix(f"{self.multibody}.M", 0.0, x, self.run.p if p is None else p)
         return np.linalg.solve(M, np.asarray(x)[list(self.compiled.momenta)])
 
-    def start_params(self, ground_drop: float = 0.0) -> np.ndarray:
+    def start_params(self, ground_drop: float = 0.0, p: np.ndarray | None = None) -> np.ndarray:
         """The parameter vector at the start of a walk: the drop set to ``ground_drop``, the modes
-        at their start values (before the ``start`` rules, which need the state)."""
+        at their start values (before the ``start`` rules, which need the state); ``p``: from
+        this parameter vector of the model instead of the walker's (its initial state
+        evaluated again; for derivatives by parameters, without a walker per point)."""
         c = self.compiled
-        p = self.run.p.copy()
+        x_init = self.run.x_init if p is None else self.model.initial_state(p)
+        p = (self.run.p if p is None else np.asarray(p, dtype=float)).copy()
         p[c.drop] = float(ground_drop)
-        y = self.model.outputs(0.0, self.run.x_init, p)
+        y = self.model.outputs(0.0, x_init, p)
         for change in c.start:
             p[change.index] = change.value(y)
         return p
