@@ -33,7 +33,7 @@ Measured:
   hand-written restarts solve_ivp at every mode switch), divided by the number of steps;
   ratio = hand / framework (> 1: the framework is faster);
 * fixed point from the walker's initial guess: framework ``find_fixed_point`` (Newton, forward
-  differences 1e-6, tol: the walker's ``gait_tolerance`` or 1e-10) vs the same Newton by hand
+  differences 1e-6 — ``jacobian="fd"``, like for like with the hand-written one —, tol: the walker's ``gait_tolerance`` or 1e-10) vs the same Newton by hand
   (``handwritten_walkers.newton_fixed_point``) on the hand-written stride map; medians of
   ``--fp-rounds``;
 * validation: the hand-written fixed point vs the framework's, and the next section state of
@@ -491,7 +491,7 @@ def bench_walker(name: str, args, report: dict) -> None:
     fp_times, fp = [], None
     for _ in range(args.fp_rounds):
         t0 = time.perf_counter()
-        fp = find_fixed_point(fw, tol=tol)
+        fp = find_fixed_point(fw, tol=tol, jacobian="fd")
         fp_times.append(time.perf_counter() - t0)
     n = args.steps
     if fp.converged:

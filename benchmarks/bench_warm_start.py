@@ -11,6 +11,12 @@ that a first (cold) run filled, two variants interleaved round by round:
   compiled model still from the cache: what every warm run did before snapshots (and the run
   stores the snapshot again).
 
+With ``--baseline DIR`` (another checkout, e.g. ``git archive <commit> | tar -x -C DIR``) a third
+variant, ``baseline``, runs the same warm command from DIR (its own cache, filled by its own cold
+run), interleaved with the others: the before/after of a change. ``--command simulate --model
+NAME`` measures ``porthamiltonian simulate NAME --json`` instead (its snapshot:
+porthamiltonian/interfaces/warm.py).
+
 Each run records its wall time, its CPU time (user + system, from ``getrusage`` of the child) and
 the 1-minute load average at its start; medians over ``--rounds`` and the ratio warm / full of
 the medians (same run, same load). The machine is shared: the CPU times move much less with the
@@ -28,6 +34,8 @@ Run::
 
     python benchmarks/bench_warm_start.py                    # both parts (about a minute)
     python benchmarks/bench_warm_start.py --rounds 9 --walker compliant_leg_walker --breakdown
+    python benchmarks/bench_warm_start.py --only warm --baseline /tmp/before   # before/after
+    python benchmarks/bench_warm_start.py --only warm --command simulate --walker pendulum
 """
 from __future__ import annotations
 
@@ -49,17 +57,17 @@ sys.path.insert(0, str(ROOT))
 from benchmarks.machine import machine_info
 
 
-def _env(cache: Path) -> dict:
+def _env(cache: Path, root: Path = ROOT) -> dict:
     return {**os.environ, "PORTHAMILTONIAN_CACHE": str(cache), "PORTHAMILTONIAN_QUIET": "1",
-            "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+            "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
 
 
-def _timed(command: list[str], env: dict) -> tuple[float, float, float]:
+def _timed(command: list[str], env: dict, root: Path = ROOT) -> tuple[float, float, float]:
     """(wall s, CPU s of the child, load average at the start) of one run of ``command``."""
     load = os.getloadavg()[0]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    subprocess.run(command, env=env, cwd=ROOT, check=True, stdout=subprocess.DEVNULL,
+    subprocess.run(command, env=env, cwd=root, check=True, stdout=subprocess.DEVNULL,
                    stderr=subprocess.DEVNULL)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -67,25 +75,38 @@ def _timed(command: list[str], env: dict) -> tuple[float, float, float]:
     return wall, cpu, load
 
 
-def warm_start(walker: str, rounds: int, breakdown: bool) -> None:
+def _private_cache() -> Path:
     cache = Path(tempfile.mkdtemp(prefix="bench-warm-"))
     os.chmod(cache, 0o700)
+    return cache
+
+
+def warm_start(walker: str, rounds: int, breakdown: bool, baseline: Path | None = None,
+               what: str = "gait") -> None:
+    cache = _private_cache()
+    base_cache = _private_cache()
     env = _env(cache)
-    command = [sys.executable, "-m", "walker_library", "gait", walker, "--json"]
+    command = ([sys.executable, "-m", "walker_library", "gait", walker, "--json"] if what == "gait"
+               else [sys.executable, "-m", "porthamiltonian", "simulate", walker, "--json"])
     try:
         wall, cpu, load = _timed(command, env)
         print(f"cold run (build, cache filled): {wall:.2f} s wall, {cpu:.2f} s CPU, load {load:.2f}")
         snapshots = list(cache.glob("s*/snapshot.json"))
         if len(snapshots) != 1:
-            raise SystemExit(f"expected one walker snapshot in {cache}, found {len(snapshots)}")
+            raise SystemExit(f"expected one snapshot in {cache}, found {len(snapshots)}")
         results: dict[str, list[tuple[float, float, float]]] = {"full": [], "warm": []}
+        if baseline is not None:
+            results["baseline"] = []
+            _timed(command, _env(base_cache, baseline), baseline)   # its cold run
         for _ in range(rounds):
             snapshots[0].unlink()
             results["full"].append(_timed(command, env))
             if not snapshots[0].is_file():
                 raise SystemExit("the full read did not store the snapshot again")
             results["warm"].append(_timed(command, env))
-        print(f"\nwalker gait {walker} --json, end to end ({rounds} interleaved rounds; medians)")
+            if baseline is not None:
+                results["baseline"].append(_timed(command, _env(base_cache, baseline), baseline))
+        print(f"\n{' '.join(command[2:])}, end to end ({rounds} interleaved rounds; medians)")
         print(f"{'variant':8s} {'wall s':>8s} {'CPU s':>8s}  load (min-max)   all wall times")
         med = {}
         for name, rows in results.items():
@@ -95,7 +116,10 @@ def warm_start(walker: str, rounds: int, breakdown: bool) -> None:
                   f"{max(loads):.2f}  {' '.join(f'{w:.2f}' for w in walls)}")
         print(f"ratio warm/full: wall {med['warm'][0] / med['full'][0]:.2f}, "
               f"CPU {med['warm'][1] / med['full'][1]:.2f}")
-        if breakdown:
+        if baseline is not None:
+            print(f"ratio warm/baseline (warm): wall {med['warm'][0] / med['baseline'][0]:.2f}, "
+                  f"CPU {med['warm'][1] / med['baseline'][1]:.2f}")
+        if breakdown and what == "gait":
             code = (
                 "import time, sys, json\nt0 = time.process_time()\n"
                 "import walker_library.cli\n"
@@ -113,6 +137,7 @@ def warm_start(walker: str, rounds: int, breakdown: bool) -> None:
                   f"gait analysis {analysis:.3f}; symbolic libraries imported: {heavy or 'none'}")
     finally:
         shutil.rmtree(cache, ignore_errors=True)
+        shutil.rmtree(base_cache, ignore_errors=True)
 
 
 def eval_json(text: str):
@@ -179,10 +204,14 @@ def main() -> None:
     ap.add_argument("--blocks", type=int, default=15)
     ap.add_argument("--breakdown", action="store_true")
     ap.add_argument("--only", choices=("warm", "calls"), default=None)
+    ap.add_argument("--baseline", type=Path, default=None, metavar="DIR",
+                    help="another checkout whose warm run is interleaved with this one's")
+    ap.add_argument("--command", choices=("gait", "simulate"), default="gait",
+                    help="walker gait WALKER, or porthamiltonian simulate WALKER (any model)")
     args = ap.parse_args()
     print(machine_info())
     if args.only != "calls":
-        warm_start(args.walker, args.rounds, args.breakdown)
+        warm_start(args.walker, args.rounds, args.breakdown, args.baseline, args.command)
     if args.only != "warm":
         call_overhead(args.calls, args.blocks)
 

@@ -27,7 +27,7 @@ from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from ..simulation.sampling import DiscreteBlock
 from . import cache, estimate, numba_cache
 from .literals import printable
-from .snapshots import recall, remember, snapshot_key
+from .snapshots import deferred, package_made, recall, remember, snapshot_key
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -486,5 +486,6 @@ def _autonomous(sym: SymbolicModel) -> bool:
     return not any(TIME in sympy.sympify(e).free_symbols for e in exprs)
 
 
-__all__ = ["Layout", "SymbolicModel", "compile_model", "compiled_record", "layout",
-           "power_balance", "recall", "remember", "reopen", "snapshot_key", "symbolic"]
+__all__ = ["Layout", "SymbolicModel", "compile_model", "compiled_record", "deferred", "layout",
+           "package_made", "power_balance", "recall", "remember", "reopen", "snapshot_key",
+           "symbolic"]

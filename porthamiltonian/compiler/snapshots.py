@@ -31,16 +31,16 @@ import functools
 import hashlib
 import json
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, cast
 
 from .. import backends
 from ..backends import native
 from ..version import __version__
 from . import cache
 
-__all__ = ["FORMAT", "recall", "remember", "snapshot_key"]
+__all__ = ["FORMAT", "deferred", "package_made", "recall", "remember", "snapshot_key"]
 
 #: the snapshot document's format (a reader of another format's document ignores it)
 FORMAT = 1
@@ -99,3 +99,41 @@ def recall(key: str, kind: str) -> dict[str, Any] | None:
         return None
     data: dict[str, Any] = document["data"]
     return data
+
+
+def package_made(components: Iterable[object]) -> bool:
+    """Whether the ``components`` (a description's) are all of this package's classes: only
+    then may a snapshot stand for them (a class defined elsewhere, a user's, could change
+    without the package's sources, and so the key, changing)."""
+    return all(type(c).__module__.split(".")[0] == "porthamiltonian" for c in components)
+
+
+class _Deferred:
+    """Stands for an object of a file's full read that a restored snapshot does without: an
+    attribute is looked up on ``load()``'s result (read once, on first use); the attributes in
+    ``known`` are answered without it."""
+
+    __slots__ = ("_known", "_load")
+
+    def __init__(self, load: Callable[[], Any], **known: Any):
+        self._load = load
+        self._known = known
+
+    def __getattr__(self, name: str) -> Any:
+        if name in self._known:
+            return self._known[name]
+        return getattr(self._load(), name)
+
+    def __repr__(self) -> str:
+        return f"<{self._known.get('name', 'part')} of the file, read when first used>"
+
+
+_T = TypeVar("_T")
+
+
+def deferred(load: Callable[[], _T], **known: Any) -> _T:
+    """A stand-in for ``load()``'s result, typed as that result: the attributes ``known`` (e.g.
+    a model's ``name``) are answered at once, any other is read of ``load()``'s result, called
+    once, on first use (``load`` should cache its result: the full read of the file the snapshot
+    was keyed by)."""
+    return cast(_T, _Deferred(load, **known))

@@ -62,9 +62,20 @@ class SimulationModel:
     @classmethod
     def load(cls, model: str, backend: str | None = None) -> SimulationModel:
         """Load ``model`` (a name from ``models/`` or a path) and compile it with ``backend``
-        (None: "auto")."""
-        from . import io
-        return cls.from_file(io.read(model), backend)
+        (None: "auto"). A file loaded before (the same text, path, back end, package and C
+        compiler) starts from its snapshot (:mod:`.warm`: no sympy, no networkx; the model
+        read in full when first used beyond its name); a file read in full leaves one."""
+        from . import io, warm
+        path = io.model_path(model)
+        source = str(path)
+        text = io.read_text(path, limit=io.MAX_FILE_SIZE, label=source, kind="model file",
+                            language="TOML")
+        kept = warm.restore(source, text, backend, lambda: io.reads(text, source).model)
+        if kept is not None:
+            return cls(*kept)
+        entry = cls.from_file(io.reads(text, source), backend)
+        warm.keep(entry.model, entry.compiled, entry.settings, source, text, backend)
+        return entry
 
     @classmethod
     def from_file(cls, record: ModelFile, backend: str | None = None) -> SimulationModel:

@@ -7,8 +7,9 @@
   the section coordinates' units; the thesis used 0.001, App. C), central or forward: what
   Newton's method uses. The Floquet multipliers use :mod:`.monodromy` (the step chosen per
   coordinate, with error bounds).
-* :func:`find_fixed_point` — Newton on S^k(z) − z with a forward-difference Jacobian and step
-  halving, from a rough guess; returns the last iterate when it does not converge.
+* :func:`find_fixed_point` — Newton on S^k(z) − z with the exact Jacobian (the strides'
+  sensitivities, Broyden-updated between them) or a forward-difference one, and step halving,
+  from a rough guess; returns the last iterate when it does not converge.
 * :func:`detect_period` — iterate the map and find the smallest period k ≤ max_period.
 """
 from __future__ import annotations
@@ -19,11 +20,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from porthamiltonian.batch.progress import tick
-from porthamiltonian.errors import OptionError
+from porthamiltonian.errors import ModelError, OptionError
 
 from ..core.protocol import Stride, Walker
 
 __all__ = [
+    "NEWTON_JACOBIANS",
     "FixedPointResult",
     "IterationResult",
     "PeriodResult",
@@ -156,11 +158,57 @@ class FixedPointResult:
     history: list[tuple[list[float], float]] = field(default_factory=list)
 
 
+#: the Newton matrices of :func:`find_fixed_point`
+NEWTON_JACOBIANS = ("auto", "variational", "fd")
+
+#: the tolerances of the Newton matrix's run, relative to the walker's (its Jacobian then errs
+#: by ~1e-7 to 1e-5 relative on the compass and compliant walkers, at a third of the cost)
+_LOOSE = 10.0
+
+#: Newton gives up when the residual has not halved in this many iterations
+_STALL = 5
+
+#: a Newton step that leaves more than this fraction of the residual gets a fresh exact Jacobian
+#: (Broyden's updates only where Newton converges fast: far from the fixed point they would lead
+#: it elsewhere than the exact matrix, to another fixed point at times)
+_SLOW = 0.1
+
+
+def _exact_jacobian(walker: Walker, z: np.ndarray, period: int) -> np.ndarray | None:
+    """∂S^period/∂z at z from one run of the strides with their sensitivities
+    (``walker.stride_sensitivity``), or None when that run falls or the model's runs cannot
+    carry sensitivities (:class:`~porthamiltonian.errors.ModelError`)."""
+    try:
+        run = walker.stride_sensitivity(z, period, factor=_LOOSE)
+    except ModelError:
+        return None
+    tick("stride", period)
+    return None if run.fell else run.jacobian
+
+
 def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period: int = 1, tol: float = 1e-10,
-                     max_iter: int = 30, fd_step: float = 1e-6) -> FixedPointResult:
+                     max_iter: int = 30, fd_step: float = 1e-6,
+                     jacobian: str = "auto") -> FixedPointResult:
     """Newton's method on S^period(z) − z from ``guess`` (default: the walker's initial guess),
-    with a forward-difference Jacobian (perturbation ``fd_step``) and step halving when a step
-    does not reduce the residual or makes the walker fall."""
+    with step halving when a step does not reduce the residual or makes the walker fall; it
+    stops when the residual |S^period(z) − z|_∞ (absolute, section units) is below ``tol``, when
+    no step reduces it, or when it has not halved in five iterations. The residual is always
+    the walker's own stride map (:meth:`~.protocol.Walker.walk`).
+
+    jacobian : the Newton matrix ∂S/∂z. "variational": exact, from one run of the strides with
+        their sensitivities (:meth:`~.protocol.Walker.stride_sensitivity`: the variational
+        equation, a saltation matrix at every event, the lift and the projection of the
+        section), then updated by Broyden's rank-one rule from the strides Newton takes
+        anyway; recomputed exactly when a step was halved or left more than a tenth of the
+        residual. The run with sensitivities is made at ten times the walker's tolerances (the
+        matrix only steers Newton: the fixed point is that of the walker's own strides).
+        "fd": forward differences of absolute step ``fd_step`` (section units) at every
+        iteration (one stride per section coordinate). "auto" (the default): "variational",
+        falling back to "fd" where the run with sensitivities cannot be made (a model whose
+        runs cannot carry them, e.g. with discrete-time blocks) or falls when the plain stride
+        does not."""
+    if jacobian not in NEWTON_JACOBIANS:
+        raise OptionError(f"jacobian must be one of {', '.join(NEWTON_JACOBIANS)}, got {jacobian!r}")
     z = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
     n = len(z)
     history: list[tuple[list[float], float]] = []
@@ -172,15 +220,26 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
     F = Sz - z
     res = float(np.max(np.abs(F)))
     history.append((z.tolist(), res))
+    exact = jacobian != "fd"
+    J: np.ndarray | None = None     # the Newton matrix's ∂S/∂z, None: to be computed at z
     for it in range(1, max_iter + 1):
         if res < tol:
             return FixedPointResult(True, z, res, it - 1, period, "converged", history=history)
-        try:
-            J = jacobian(walker, z, period=period, step=fd_step, scheme="forward", base=Sz)
-        except WalkerFell as err:
-            return FixedPointResult(False, z, res, it, period, f"a perturbed stride fell "
-                                    f"({err.stride.reason}) at Newton iteration {it}",
-                                    history=history)
+        fresh = J is None
+        if J is None and exact:
+            J = _exact_jacobian(walker, z, period)
+            if J is None and jacobian == "variational":
+                return FixedPointResult(False, z, res, it, period, "the run with sensitivities "
+                                        f"fell or cannot be made at Newton iteration {it}",
+                                        history=history)
+            exact = J is not None       # "auto": finite differences from here on
+        if J is None:
+            try:
+                J = _forward(walker, z, period, fd_step, Sz)
+            except WalkerFell as err:
+                return FixedPointResult(False, z, res, it, period, f"a perturbed stride fell "
+                                        f"({err.stride.reason}) at Newton iteration {it}",
+                                        history=history)
         try:
             dz = -np.linalg.solve(J - np.eye(n), F)
         except np.linalg.LinAlgError:
@@ -197,17 +256,34 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
             F_trial = S_trial - trial
             r_trial = float(np.max(np.abs(F_trial)))
             if r_trial < res or r_trial < tol:
-                z, Sz, F, res, accepted = trial, S_trial, F_trial, r_trial, True
+                accepted = True
                 break
             lam /= 2
+        if accepted and exact:
+            s = trial - z       # Broyden: the secant of this step, S(trial) − S(z) = J s
+            ss = float(s @ s)
+            J = None if lam < 1.0 or r_trial > _SLOW * res or ss == 0.0 else \
+                J + np.outer(S_trial - Sz - J @ s, s) / ss
+        elif accepted or not fresh:
+            J = None            # fd: anew at every iterate; an updated matrix: anew here
+        if accepted:
+            z, Sz, F, res = trial, S_trial, F_trial, r_trial
         history.append((z.tolist(), res))
-        if not accepted:
+        if it >= _STALL and res > 0.5 * history[-1 - _STALL][1] and res >= tol:
+            return FixedPointResult(False, z, res, it, period, f"stalled (the residual did not "
+                                    f"halve in {_STALL} iterations)", history=history)
+        if not accepted and fresh:
             return FixedPointResult(res < tol, z, res, it, period,
                                     "converged" if res < tol else
                                     "no Newton step reduced the residual", history=history)
     return FixedPointResult(res < tol, z, res, max_iter, period,
                             "converged" if res < tol else f"not converged in {max_iter} iterations",
                             history=history)
+
+
+def _forward(walker: Walker, z: np.ndarray, period: int, step: float, Sz: np.ndarray) -> np.ndarray:
+    """The forward-difference ∂S^period/∂z at z (absolute ``step``; ``Sz`` = S^period(z))."""
+    return jacobian(walker, z, period=period, step=step, scheme="forward", base=Sz)
 
 
 @dataclass

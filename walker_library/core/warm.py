@@ -33,10 +33,18 @@ import functools
 import numbers
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
-from typing import Any, TypeVar, cast
+from typing import Any, cast
 
 from porthamiltonian.backends import candidates
-from porthamiltonian.compiler import compiled_record, recall, remember, reopen, snapshot_key
+from porthamiltonian.compiler import (
+    compiled_record,
+    deferred,
+    package_made,
+    recall,
+    remember,
+    reopen,
+    snapshot_key,
+)
 from porthamiltonian.errors import ModelError
 from porthamiltonian.interfaces import io as ph_io
 from porthamiltonian.modeling.expressions import Expression, parse_text
@@ -121,35 +129,6 @@ def _decode(value: Any) -> Any:
 
 
 # --- the parts read when first used ---------------------------------------------------------------
-class _Deferred:
-    """Stands for an object of the walker file's full read (see the module docstring): an
-    attribute is looked up on ``load()``'s result (read once, on first use); the attributes in
-    ``known`` are answered without it."""
-
-    __slots__ = ("_known", "_load")
-
-    def __init__(self, load: Callable[[], Any], **known: Any):
-        self._load = load
-        self._known = known
-
-    def __getattr__(self, name: str) -> Any:
-        if name in self._known:
-            return self._known[name]
-        return getattr(self._load(), name)
-
-    def __repr__(self) -> str:
-        return f"<{self._known.get('name', 'part')} of the walker file, read when first used>"
-
-
-_T = TypeVar("_T")
-
-
-def _deferred(load: Callable[[], _T], **known: Any) -> _T:
-    """A :class:`_Deferred` for ``load()``'s result, typed as that result (it answers the
-    attributes read of it)."""
-    return cast(_T, _Deferred(load, **known))
-
-
 def _full_read(text: str, source: str) -> Callable[[], WalkerPlan]:
     """A function giving the plan of the walker file ``text`` (read from ``source``) read in
     full, once, when first called."""
@@ -179,8 +158,7 @@ def keep(walker: HybridWalker, source: str, text: str, backend: str | None) -> N
             return
     except ModelError:
         return
-    classes = [type(c).__module__ for c in plan.description.components.values()]
-    if not all(m.split(".")[0] == "porthamiltonian" for m in classes):
+    if not package_made(plan.description.components.values()):
         return
     try:
         data = _snapshot(plan, compiled)
@@ -227,13 +205,13 @@ def restore(source: str, text: str, backend: str | None, *,
         bodies = BodiesMass(_decode(data["bodies"]["masses"]), str(data["bodies"]["prefix"]),
                             str(data["bodies"]["where"]))
         name = str(data["name"])
-        spec = WalkerSpec(model=_deferred(lambda: full().spec.model, name=name), **spec_fields)
+        spec = WalkerSpec(model=deferred(lambda: full().spec.model, name=name), **spec_fields)
         floating = None
         if data["floating"] is not None:     # (then the file's full read has one too)
-            floating = Floating(_deferred(lambda: cast(Floating, full().floating).model),
+            floating = Floating(deferred(lambda: cast(Floating, full().floating).model),
                                 str(data["floating"]["root"]),
                                 tuple(str(j) for j in data["floating"]["rehung"]))
-        plan = WalkerPlan(spec=spec, description=_deferred(lambda: full().description),
+        plan = WalkerPlan(spec=spec, description=deferred(lambda: full().description),
                           floating=floating, bodies=bodies, **plan_fields)
     except (_Unfit, KeyError, TypeError, ValueError, ModelError):
         return None
