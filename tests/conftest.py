@@ -7,6 +7,12 @@
 * ``PORTHAMILTONIAN_BACKEND`` (``c``, ``numba``, ``python``), when set by the caller, is what
   back end ``"auto"`` means (porthamiltonian.backends): ``.ci/run`` runs the walker tests once
   more with ``PORTHAMILTONIAN_BACKEND=numba`` so that the numba fallback stays tested.
+* ``--numba-pass`` (that run of ``.ci/run``) selects the walker tests and the tests marked
+  ``numba_loop``: the checks of the numba back end's own compiled loops (each costs a JIT of a
+  model's loops, ~15 s of CPU). Without it, those are deselected: the README's test command
+  checks the same loops as Python source and as C, and ``.ci/run`` checks them on numba.
+* Under pytest-xdist (the README's ``-n auto``) each test file stays on one worker and the
+  workers share one compiled-model cache (see the hooks below).
 * ``compile_named(name)`` compiles a model of ``models/`` with the fast-to-build ``python`` back
   end (memoized for the session), for tests where the back end does not matter.
 * ``energy_check`` is the session's one ``porthamiltonian --backend python check-energy`` over
@@ -15,6 +21,7 @@
 """
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -24,10 +31,49 @@ from dataclasses import dataclass, field
 import pytest
 
 
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--numba-pass", action="store_true",
+                     help="run the walker tests and the numba_loop tests only (.ci/run, with "
+                          "PORTHAMILTONIAN_BACKEND=numba)")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "numba_loop: checks numba's compiled loops (run by "
+                                       "--numba-pass, deselected otherwise)")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """``--numba-pass`` or not (module docstring); under pytest-xdist (``-n auto --dist
+    loadgroup``, the README's command), keep each test file on one worker (its module fixtures
+    run once) and every test that reads the session's ``check-energy`` run on the same worker
+    (that run is made once)."""
+    numba_pass = config.getoption("--numba-pass")
+    keep, drop = [], []
+    for item in items:
+        walker = item.nodeid.startswith("tests/walkers/")
+        marked = item.get_closest_marker("numba_loop") is not None
+        (keep if (walker or marked if numba_pass else not marked) else drop).append(item)
+    if drop:
+        config.hook.pytest_deselected(items=drop)
+        items[:] = keep
+    if not config.pluginmanager.hasplugin("xdist"):
+        return
+    for item in items:
+        group = ("energy_check" if "energy_check" in getattr(item, "fixturenames", ())
+                 else item.nodeid.split("::", 1)[0])
+        item.add_marker(pytest.mark.xdist_group(group))
+
+
 @pytest.fixture(scope="session", autouse=True)
 def isolated_cache(tmp_path_factory: pytest.TempPathFactory):
-    """Point the compiled-model cache at a fresh session folder (never ~/.cache)."""
-    path = tmp_path_factory.mktemp("porthamiltonian_cache")
+    """Point the compiled-model cache at a fresh session folder (never ~/.cache); under
+    pytest-xdist the workers share one folder (the cache is safe for concurrent writers), so a
+    model compiled by one worker is read by the other."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        path = tmp_path_factory.getbasetemp().parent / "porthamiltonian_cache"
+        path.mkdir(mode=0o700, exist_ok=True)
+    else:
+        path = tmp_path_factory.mktemp("porthamiltonian_cache")
     mp = pytest.MonkeyPatch()
     mp.setenv("PORTHAMILTONIAN_CACHE", str(path))
     mp.setenv("PORTHAMILTONIAN_QUIET", "1")

@@ -10,6 +10,7 @@ failure instead of a stuck suite; there is no timing assertion.
 from __future__ import annotations
 
 import math
+import re
 import signal
 
 import numpy as np
@@ -92,7 +93,7 @@ OPTIONS = [
 
 
 @pytest.mark.parametrize("option, value, error, words", OPTIONS,
-                         ids=[f"{o}={v!r}" for o, v, _, _ in OPTIONS])
+                         ids=[f"{o}={re.sub(' at 0x[0-9a-f]+', '', repr(v))}" for o, v, _, _ in OPTIONS])
 def test_bad_option_is_a_typed_error_naming_it(msd, option, value, error, words):
     kwargs = {"t_end": 10.0, "method": "Radau"}
     kwargs[option] = value

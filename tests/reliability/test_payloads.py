@@ -165,8 +165,20 @@ def _load_refused(path, cache_dir, marker, audit) -> str:
     return message
 
 
+@pytest.fixture(scope="module")
+def own_cache(isolated_cache, tmp_path_factory):
+    """A cache folder of this module's own: the tests assert that loading a hostile file adds
+    nothing to the cache, which another process sharing the session's cache could."""
+    path = tmp_path_factory.mktemp("payload_cache")
+    path.chmod(0o700)
+    mp = pytest.MonkeyPatch()
+    mp.setenv("PORTHAMILTONIAN_CACHE", str(path))
+    yield path
+    mp.undo()
+
+
 @pytest.fixture(scope="module", autouse=True)
-def _warm(isolated_cache, model_text, tmp_path_factory):
+def _warm(own_cache, model_text):
     """Load benign files first, so that lazy imports do not count as executed code."""
     for name in ("mass_spring_damper", "pendulum"):
         io.loads(model_text(name))
@@ -174,20 +186,20 @@ def _warm(isolated_cache, model_text, tmp_path_factory):
 
 @pytest.mark.parametrize("what, field, payload", CASES)
 def test_payload_is_refused_without_running_anything(what, field, payload, model_text, tmp_path,
-                                                     isolated_cache, audit):
+                                                     own_cache, audit):
     marker = tmp_path / "PWNED"
     payload = payload.replace(MARK, str(marker))
     doc = (_with_expression(model_text, field, payload) if what == "expression"
            else _named(model_text, field, payload))
     path = tmp_path / "hostile.toml"
     path.write_text(tomli_w.dumps(doc))
-    message = _load_refused(path, isolated_cache, marker, audit)
+    message = _load_refused(path, own_cache, marker, audit)
     if what == "expression" and field in ("component argument", "event guard", "output"):
         assert ", line " in message, message          # the line of the offending key
 
 
 @pytest.mark.parametrize("depth", [40, 5000])
-def test_deeply_nested_arrays_are_a_model_file_error(depth, model_text, tmp_path, isolated_cache,
+def test_deeply_nested_arrays_are_a_model_file_error(depth, model_text, tmp_path, own_cache,
                                                      audit):
     """TOML arrays nested deeper than io.MAX_NESTING (40: tomllib parses it; 5000: tomllib runs
     out of recursion) are refused, as promised: no bare Python error from loading."""
@@ -195,5 +207,5 @@ def test_deeply_nested_arrays_are_a_model_file_error(depth, model_text, tmp_path
         'stiffness = "k"', "stiffness = " + "[" * depth + "1" + "]" * depth)
     path = tmp_path / "nested.toml"
     path.write_text(text)
-    message = _load_refused(path, isolated_cache, tmp_path / "PWNED", audit)
+    message = _load_refused(path, own_cache, tmp_path / "PWNED", audit)
     assert "nested" in message

@@ -62,9 +62,11 @@ def test_python_and_c_agree_on_every_shipped_model(name, compile_named):
         _agree(_all_functions(py, t, x, p), _all_functions(c, t, x, p), name)
 
 
+@pytest.mark.numba_loop
 @pytest.mark.parametrize("name", ["double_pendulum", "free_rigid_body", "bouncing_ball"])
 def test_numba_agrees_with_python_and_c(name, compile_named):
-    """numba (compiled at the first call: a cheap set of models, implicit blocks included)."""
+    """numba (compiled at the first call: a cheap set of models, implicit blocks included; in
+    .ci/run's numba pass)."""
     py = compile_named(name)
     nb = compile_model(io.load(name), backend="numba")
     rng = np.random.default_rng(7)

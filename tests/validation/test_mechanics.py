@@ -224,7 +224,7 @@ def test_double_pendulum_matches_sympy_mechanics(compile_named, double_pendulum_
         assert abs(H - E_ref) <= 1e-12 * max(1.0, abs(E_ref)), (H, E_ref)
 
 
-@pytest.mark.parametrize("backend", ["python", "numba"])
+@pytest.mark.parametrize("backend", ["python", pytest.param("numba", marks=pytest.mark.numba_loop)])
 def test_double_pendulum_conserves_energy_over_20_s(double_pendulum_reference, backend):
     """Released from (1.2, −0.6) rad at rest (chaotic regime), DOP853 at rtol 1e-11 for 20 s:
     the ledger residual |H − H(0)| stays below 1e-8 of the energy scale, and so does the drift of

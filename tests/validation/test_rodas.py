@@ -23,6 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "unit"))
 from test_events import ball_model, bounce_action, bounce_times
 
 METHODS = ("Rodas4", "Rodas5P")
+#: the numba loops run in .ci/run's numba pass (tests/conftest.py: ``numba_loop``)
+NUMBA = pytest.param("numba", marks=pytest.mark.numba_loop)
 
 
 def _msd_exact(t: float) -> float:
@@ -59,7 +61,7 @@ def test_error_falls_with_tolerance_and_steps_grow_as_root_of_order(msd, method,
 
 
 @pytest.mark.parametrize("method", METHODS)
-@pytest.mark.parametrize("backend", ["python", "numba", "c"])
+@pytest.mark.parametrize("backend", ["python", NUMBA, "c"])
 def test_bounce_times_match_closed_form(backend, method):
     """Bounces of a ball with restitution 0.8 (closed form in test_events.py) to 1e-9, with the
     ledger closed across the resets; the whole flight between two bounces may fit in a few steps,
@@ -75,13 +77,14 @@ def test_bounce_times_match_closed_form(backend, method):
 
 
 @pytest.mark.parametrize("method", METHODS)
-def test_python_numba_and_c_loops_agree(method):
+@pytest.mark.parametrize("other", ["c", NUMBA])
+def test_python_numba_and_c_loops_agree(method, other):
     """The same loop as plain Python, as numba machine code and as C: the same steps up to the
     last bits of pow() in the step-size rule and of the generated arithmetic, so the results
     agree to the tolerance (rtol 1e-8)."""
     model = io.load("dc_motor")
     runs = [compile_model(model, backend=b).simulate(0.2, method=method, rtol=1e-8, atol=1e-11)
-            for b in ("python", "numba", "c")]
+            for b in ("python", other)]
     for run in runs[1:]:
         assert abs(len(run.t) - len(runs[0].t)) <= 2
         np.testing.assert_allclose(run.x_final, runs[0].x_final, rtol=1e-7)
@@ -133,7 +136,7 @@ def test_agrees_with_radau(name, method):
     assert a.relative_residual < 1e-7
 
 
-@pytest.mark.parametrize("backend", ["numba", "c"])
+@pytest.mark.parametrize("backend", [NUMBA, "c"])
 def test_divergence_is_a_status(backend):
     m = ph.Model("unstable")
     m.add("j", ph.OneJunction())
