@@ -300,12 +300,31 @@ def kernels(prog: Program) -> list[str]:
     return sorted({st.kernel for st in _kernel_calls(prog)})
 
 
-def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
+def _shared(pr: Callable[[sp.Basic], str], printed: dict[int, str] | None
+            ) -> Callable[[Let], str]:
+    """Prints a Let's expression, once per statement object when ``printed`` is given: the
+    functions of a program share their prologue's statements (the same objects), whose names
+    and aliases are the same in every function, so each prints the same text in each."""
+    if printed is None:
+        return lambda st: pr(st.expr)
+
+    def shared(st: Let) -> str:
+        text = printed.get(id(st))
+        if text is None:
+            text = printed[id(st)] = pr(st.expr)
+        return text
+    return shared
+
+
+def python_function(fn: Function, printer: PythonPrinter | None = None,
+                    printed: dict[int, str] | None = None) -> str:
     """One function as Python source, decorated with ``@_jit`` (the back end's header defines
-    it: numba's ``njit`` or the identity)."""
+    it: numba's ``njit`` or the identity). ``printed``: the texts of the program's statements
+    printed so far (:func:`python_source`; by statement object)."""
     printer = printer or PythonPrinter()
     printer.aliases = dict(fn.aliases)
     pr = printer.doprint
+    let = _shared(pr, printed)
     doc = "\n".join(f"    {python_docstring(line)}" if i else python_docstring(line)
                     for i, line in enumerate(fn.doc))
     lines = ["@_jit", f"def {fn.name}({', '.join(fn.args)}):", f'    """{doc}\n    """']
@@ -326,7 +345,10 @@ def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
             lines.append(f"    {target}[{dst}:{dst + n}] = {src}[{first}:{first + n}]")
             position += n
             continue
-        _python_statement(st, pr, lines, count)
+        if isinstance(st, Let):
+            lines.append(f"    {st.name} = {let(st)}")
+        else:
+            _python_statement(st, pr, lines, count)
         position += 1
     lines.append("    return out")
     return "\n".join(lines)
@@ -345,7 +367,8 @@ def python_source(prog: Program) -> str:
         tables = {st.table: None for st in calls}
         parts.append("\n".join(f"{_table_name(t)} = np.array({list(t)}, dtype=np.int64)"
                                for t in tables))
-    parts += [python_function(fn, printer) for fn in prog.functions]
+    printed: dict[int, str] = {}
+    parts += [python_function(fn, printer, printed) for fn in prog.functions]
     return "\n\n\n".join(parts) + "\n"
 
 
@@ -477,12 +500,14 @@ def _c_flat(index: tuple[int, ...], shape: tuple[int, ...]) -> int:
 
 
 
-def c_function(fn: Function, printer: CPrinter | None = None) -> str:
+def c_function(fn: Function, printer: CPrinter | None = None,
+               printed: dict[int, str] | None = None) -> str:
     """One function as a ``static void`` C function writing its result into ``out`` (hidden
-    external for :data:`LOOP_FUNCTIONS`)."""
+    external for :data:`LOOP_FUNCTIONS`); ``printed`` as for :func:`python_function`."""
     printer = printer or CPrinter()
     printer.aliases = dict(fn.aliases)
     pr = printer.doprint
+    let = _shared(pr, printed)
     shapes: dict[str, tuple[int, ...]] = {"out": fn.shape}
     heap: list[str] = []
     comment = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
@@ -504,7 +529,7 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
             position += n - 1
             continue
         if isinstance(st, Let):
-            lines.append(f"    const double {st.name} = {pr(st.expr)};")
+            lines.append(f"    const double {st.name} = {let(st)};")
         elif isinstance(st, Array):
             shapes[st.name] = st.shape
             size = _size(st.shape)
@@ -603,7 +628,8 @@ def c_source(prog: Program) -> str:
     parts = [f"{header}\n */", _C_PRELUDE]
     parts += [c_declarations(kernel) for kernel in kernels(prog)]
     parts.append(f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}")
-    parts += [c_function(fn, printer) for fn in prog.functions]
+    printed: dict[int, str] = {}
+    parts += [c_function(fn, printer, printed) for fn in prog.functions]
     for fn in prog.functions:
         if fn.args == ("p",):
             parts.append(f"PH_EXPORT void ph_{fn.name}(const double *p, double *out) "
