@@ -22,7 +22,12 @@ that finished. Every run records the 1-minute load average at its start and the 
 (user + system) of the process and its children (the C compiler): on the shared machine the wall
 times move with the load by 2-3x, the CPU times much less. ``--repeats`` interleaves rounds of all
 cases (medians); ``--baseline DIR`` builds the same cases from another source tree (e.g. ``git
-archive main``) interleaved with this one, for before/after comparisons in one run. A case that
+archive main`` or a ``git worktree``) interleaved with this one, for before/after comparisons in
+one run, and prints the ratio of the cold builds' CPU times (medians and round by round).
+``--bytecode``: the children import from bytecode in a shared temporary folder even where
+``$PYTHONDONTWRITEBYTECODE`` is set (an installed package has its bytecode; without it every
+cold run also compiles the package's 300 modules). The size columns include the lines of the C
+and Python bodies. A case that
 exceeds ``--timeout`` seconds is reported as such.
 
 ``--walker-3d`` measures the 3D walker against the 2D one (issue 15): the 3D fixed point found
@@ -110,8 +115,12 @@ def run_child(case: str, backend: str, cache: str, timeout: float, tree: Path = 
     """One build in a fresh subprocess of ``tree``'s code (this tree, or a baseline tree with
     the same script); ``cpu``: user + system seconds of the process and its children (the C
     compiler), which the machine's load changes less than the wall times."""
-    env = dict(os.environ, PORTHAMILTONIAN_CACHE=cache, PYTHONPATH=str(tree))
+    env = dict(os.environ, PORTHAMILTONIAN_CACHE=cache,
+               PYTHONPATH=os.pathsep.join([str(tree), *_EXTRA_PATH]))
     env.pop("PORTHAMILTONIAN_QUIET", None)
+    if _PYCACHE:                    # imports from bytecode, as from an installed package
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = _PYCACHE[0]
     t0 = time.perf_counter()
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
@@ -136,8 +145,16 @@ def run_child(case: str, backend: str, cache: str, timeout: float, tree: Path = 
     return result
 
 
+#: the parent's PYTHONPATH entries, after the tree's (e.g. a folder whose sitecustomize drops
+#: an editable install's finder, so that each tree imports its own package)
+_EXTRA_PATH = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+#: the bytecode folder the children share (``--bytecode``), filled by one untimed build per
+#: tree before the rounds
+_PYCACHE: list[str] = []
+
+
 def generated_size(cache: str) -> dict:
-    """Bytes of the bodies and operations in the C body (of the largest entry)."""
+    """Bytes and lines of the bodies and operations in the C body (of the largest entry)."""
     best: dict = {}
     for entry in Path(cache).iterdir():
         c, py = entry / "body.c", entry / "body.py"
@@ -147,7 +164,8 @@ def generated_size(cache: str) -> dict:
         body = text[text.index("#define PH_N"):]
         ops = len(re.findall(r"(?<![eE])[-+*/](?!=)", body)) + len(re.findall(r"\b[a-z]+\(", body))
         if c.stat().st_size > best.get("c_bytes", 0):
-            best = {"c_bytes": c.stat().st_size, "py_bytes": py.stat().st_size, "ops": ops}
+            best = {"c_bytes": c.stat().st_size, "py_bytes": py.stat().st_size, "ops": ops,
+                    "c_lines": text.count("\n"), "py_lines": py.read_text().count("\n")}
     return best
 
 
@@ -172,6 +190,12 @@ def build_cases(args) -> None:
     variants = [(case, backend, tree) for case in cases for backend in args.backends.split(",")
                 for tree in trees]
     runs: dict = {v: {"cold": [], "warm": [], "size": {}} for v in variants}
+    if args.bytecode:
+        _PYCACHE.append(tempfile.mkdtemp(prefix="phbench_pycache_"))
+        for tree in trees.values():          # one untimed build fills it
+            scratch = tempfile.mkdtemp(prefix="phbench_warmup_")
+            run_child(cases[0], args.backends.split(",")[0], scratch, args.timeout, tree)
+            shutil.rmtree(scratch, ignore_errors=True)
     for rnd in range(args.repeats):
         # this tree and the baseline alternate which goes first
         for case, backend, tree in sorted(variants, key=lambda v: (
@@ -200,8 +224,8 @@ def build_cases(args) -> None:
     print("\n| case | tree | back end | n | cold: symbolic [s] | code [s] | C [s] | build [s] | "
           "first result [s] | import [s] | **total to first result [s]** (min-max) | CPU [s] | "
           "warm: import [s] | build [s] | first result [s] | total [s] | load (1 min) | C body "
-          "[kB] | Python body [kB] | operations (C) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "[kB] | Python body [kB] | operations (C) | lines C / Python |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     chains = []
     for (case, backend, tree), rec in runs.items():
         cold = [r for r in rec["cold"] if "error" not in r]
@@ -222,9 +246,22 @@ def build_cases(args) -> None:
               f"{f(warm, 'build')} | "
               f"{f(warm, 'first')} | {f(warm, 'total')} | {min(loads):.1f}-{max(loads):.1f} | "
               f"{size.get('c_bytes', 0) / 1e3:.0f} | {size.get('py_bytes', 0) / 1e3:.0f} | "
-              f"{size.get('ops', 0)} |")
+              f"{size.get('ops', 0)} | {size.get('c_lines', 0)} / {size.get('py_lines', 0)} |")
         if case.startswith("chain") and ":" not in case and size and tree == "this":
             chains.append((int(case[5:]), size))
+    if args.baseline:
+        print("\n| case | back end | cold CPU [s] this / baseline (medians) | ratio | "
+              "per round (paired) ratios |")
+        print("|---|---|---|---|---|")
+        for case in cases:
+            for backend in args.backends.split(","):
+                a, b = (runs[case, backend, t]["cold"] for t in ("this", "baseline"))
+                ca, cb = _median(a, "cpu"), _median(b, "cpu")
+                if ca is None or cb is None:
+                    continue
+                paired = [x["cpu"] / y["cpu"] for x, y in zip(a, b) if "cpu" in x and "cpu" in y]
+                print(f"| {case} | {backend} | {ca:.2f} / {cb:.2f} | {ca / cb:.2f} | "
+                      f"{', '.join(f'{r:.2f}' for r in paired)} |")
     big = sorted((n, s) for n, s in chains if n >= 10)
     if len(big) >= 2:
         (n0, s0), (n1, s1) = big[0], big[-1]
@@ -331,6 +368,9 @@ def main(argv=None) -> int:
                         help="interleaved rounds of cold + warm builds (medians)")
     parser.add_argument("--baseline", metavar="DIR",
                         help="another source tree (e.g. git archive of main) built interleaved")
+    parser.add_argument("--bytecode", action="store_true",
+                        help="children import from bytecode (a shared temporary folder) even "
+                             "when $PYTHONDONTWRITEBYTECODE is set, as an installed package does")
     parser.add_argument("--once", default="",
                         help="cases built in the first round only (e.g. chain40)")
     parser.add_argument("--walker-3d", action="store_true",
