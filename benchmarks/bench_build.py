@@ -30,6 +30,12 @@ cold run also compiles the package's 300 modules). The size columns include the 
 and Python bodies. A case that
 exceeds ``--timeout`` seconds is reported as such.
 
+``--phases`` measures instead the CPU time of each phase of the two walkers' builds in fresh
+subprocesses (the symbolic model, code generation, printing both languages, the C compiler on the
+model's unit and on the loops' unit), this tree against ``--baseline``'s modules run by this
+script, interleaved over ``--repeats`` rounds: a steadier before/after than the whole cold build
+on a loaded machine (no imports, no scheduling).
+
 ``--walker-3d`` measures the 3D walker against the 2D one (issue 15): the 3D fixed point found
 by Newton from compass_walker_sole_friction's fixed point (its 2D twin: friction at the sole
 point; lateral coordinates 0; the iterations printed) and the time per stride of
@@ -53,6 +59,7 @@ Run::
     python benchmarks/bench_build.py --cases compass_walker,compliant_leg_walker --repeats 5 \\
         --baseline /tmp/main                   # before / after, interleaved
     python benchmarks/bench_build.py --cases compass_walker,compass_walker_3d --walker-3d
+    python benchmarks/bench_build.py --phases --repeats 5 --baseline /tmp/main
 """
 from __future__ import annotations
 
@@ -270,6 +277,84 @@ def build_cases(args) -> None:
             print(f"\ngrowth exponent of the chains' {key}, N = {n0} -> {n1}: {slope:.2f}")
 
 
+# --- the phases of a build, in-process ------------------------------------------------------------
+PHASES = ("symbolic", "program", "print", "cc model", "cc loops")
+
+
+def phase_child(cases: str) -> None:
+    """The CPU seconds of each phase of building each walker of ``cases`` (sympy's cache cleared
+    before each): the symbolic model, ``codegen.program``, printing both languages, the C
+    compiler on the model's unit and on the loops' unit (object files, the library's flags).
+    The package comes from ``$PHBENCH_TREE`` (this script put its own tree first on the path)."""
+    sys.path.insert(0, os.environ.get("PHBENCH_TREE", str(ROOT)))
+    import sympy as sp
+
+    from porthamiltonian.backends import native
+    from porthamiltonian.compiler import symbolic
+    from porthamiltonian.compiler.codegen import program
+    from porthamiltonian.compiler.printers import c_source, python_source
+    from porthamiltonian.interfaces import io
+
+    def cc(text: str) -> float:
+        with tempfile.TemporaryDirectory(prefix="phbench_phase_") as tmp:
+            src = Path(tmp) / "unit.c"
+            src.write_text(text)
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            subprocess.run([*native.compiler(), *(f for f in native.FLAGS if f != "-shared"),
+                            "-c", "-o", str(Path(tmp) / "unit.o"), str(src)], check=True)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+    out = {}
+    for case in cases.split(","):
+        sp.core.cache.clear_cache()
+        t0 = time.process_time()
+        sym = symbolic(io.load(case))
+        t1 = time.process_time()
+        prog = program(sym)
+        t2 = time.process_time()
+        py, c = python_source(prog), c_source(prog)
+        t3 = time.process_time()
+        out[case] = {"symbolic": t1 - t0, "program": t2 - t1, "print": t3 - t2,
+                     "cc model": cc(native.model_unit(c, key="bench")),
+                     "cc loops": cc(native.loop_source(prog.n, prog.n_guards)),
+                     "lines": f"{c.count(chr(10))} / {py.count(chr(10))}"}
+    print(json.dumps(out))
+
+
+def phases(args) -> None:
+    """``--phases``: :func:`phase_child` in fresh subprocesses of this tree and (``--baseline``)
+    the other, interleaved over ``--repeats`` rounds; medians and the ratios this / baseline."""
+    cases = [c for c in args.cases.split(",") if c in WALKERS] or list(WALKERS)
+    trees = {"this": ROOT, **({"baseline": Path(args.baseline).resolve()} if args.baseline
+                              else {})}
+    runs: dict = {t: [] for t in trees}
+    for rnd in range(args.repeats):
+        for tree in (list(trees) if rnd % 2 == 0 else list(trees)[::-1]):
+            env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(trees[tree]), *_EXTRA_PATH]),
+                       PHBENCH_TREE=str(trees[tree]))
+            out = subprocess.run([sys.executable, __file__, "--phase-child", ",".join(cases)],
+                                 env=env, capture_output=True, text=True, check=True)
+            runs[tree].append((_load(), json.loads(out.stdout.strip().splitlines()[-1])))
+    print(f"\n## Phases of a cold build, CPU [s] in-process (medians of {args.repeats} "
+          "interleaved rounds)")
+    print("\n| walker | tree | " + " | ".join(PHASES) + " | sum | lines C / Python | load |")
+    print("|---|---|" + "---|" * (len(PHASES) + 3))
+    for case in cases:
+        sums = {}
+        for tree, rs in runs.items():
+            med = {k: statistics.median(r[case][k] for _, r in rs) for k in PHASES}
+            sums[tree] = med
+            loads = [load for load, _ in rs]
+            print(f"| {case} | {tree} | " + " | ".join(f"{med[k]:.3f}" for k in PHASES)
+                  + f" | {sum(med.values()):.3f} | {rs[0][1][case]['lines']} | "
+                  f"{min(loads):.1f}-{max(loads):.1f} |")
+        if "baseline" in sums:
+            a, b = sums["this"], sums["baseline"]
+            print(f"| {case} | ratio | " + " | ".join(f"{a[k] / b[k]:.2f}" for k in PHASES)
+                  + f" | {sum(a.values()) / sum(b.values()):.2f} | | |")
+
+
 # --- optimisation levels -----------------------------------------------------------------------------
 def opt_levels(args) -> None:
     from porthamiltonian.backends import native
@@ -377,10 +462,18 @@ def main(argv=None) -> int:
                         help="also: Newton iterations and time per stride, 3D vs 2D walker")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--strides", type=int, default=5)
+    parser.add_argument("--phases", action="store_true",
+                        help="instead: the CPU of each phase of the walkers' builds in-process "
+                             "(symbolic, code generation, printing, the C compiler on the "
+                             "model's and the loops' units), this tree against --baseline")
     parser.add_argument("--child", help=argparse.SUPPRESS)
+    parser.add_argument("--phase-child", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
         child(args.child, args.backends)
+        return 0
+    if args.phase_child:
+        phase_child(args.phase_child)
         return 0
     from machine import machine_info
     info = machine_info()
@@ -390,6 +483,8 @@ def main(argv=None) -> int:
           f"{_compiler_version()}", flush=True)
     if args.opt_levels:
         opt_levels(args)
+    elif args.phases:
+        phases(args)
     else:
         build_cases(args)
     if args.walker_3d:
