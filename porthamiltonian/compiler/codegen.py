@@ -315,8 +315,8 @@ class FunctionBuilder:
                  shape: tuple[int, ...],
                  args: tuple[str, ...] = ("t", "x", "p")) -> Function:
         """``groups``, in the order of their statements: ("array", array, expressions, shape[,
-        labels]) (a matrix's zero entries are not stored; ``labels``: each entry's comment), ("entries", array, nonzero entries (i, j, expr),
-        shape) for a matrix that is zero elsewhere, ("product", dst, entries (i, j, expr) of F,
+        labels]) (a matrix's zero entries are not stored; ``labels``: each entry's comment),
+        ("entries", array, nonzero entries (i, j, expr), shape) for a matrix that is zero elsewhere, ("product", dst, entries (i, j, expr) of F,
         shape of F, src, ncols, the column range of each row of src) for ``dst += F @ src``, or ("statement", statement) for a
         statement without expressions; every expression is cse'd together. The result is the
         array ``out``."""
