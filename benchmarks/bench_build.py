@@ -22,8 +22,19 @@ that finished. Every run records the 1-minute load average at its start and the 
 (user + system) of the process and its children (the C compiler): on the shared machine the wall
 times move with the load by 2-3x, the CPU times much less. ``--repeats`` interleaves rounds of all
 cases (medians); ``--baseline DIR`` builds the same cases from another source tree (e.g. ``git
-archive main``) interleaved with this one, for before/after comparisons in one run. A case that
+archive main`` or a ``git worktree``) interleaved with this one, for before/after comparisons in
+one run, and prints the ratio of the cold builds' CPU times (medians and round by round).
+``--bytecode``: the children import from bytecode in a shared temporary folder even where
+``$PYTHONDONTWRITEBYTECODE`` is set (an installed package has its bytecode; without it every
+cold run also compiles the package's 300 modules). The size columns include the lines of the C
+and Python bodies. A case that
 exceeds ``--timeout`` seconds is reported as such.
+
+``--phases`` measures instead the CPU time of each phase of the two walkers' builds in fresh
+subprocesses (the symbolic model, code generation, printing both languages, the C compiler on the
+model's unit and on the loops' unit), this tree against ``--baseline``'s modules run by this
+script, interleaved over ``--repeats`` rounds: a steadier before/after than the whole cold build
+on a loaded machine (no imports, no scheduling).
 
 ``--walker-3d`` measures the 3D walker against the 2D one (issue 15): the 3D fixed point found
 by Newton from compass_walker_sole_friction's fixed point (its 2D twin: friction at the sole
@@ -48,6 +59,7 @@ Run::
     python benchmarks/bench_build.py --cases compass_walker,compliant_leg_walker --repeats 5 \\
         --baseline /tmp/main                   # before / after, interleaved
     python benchmarks/bench_build.py --cases compass_walker,compass_walker_3d --walker-3d
+    python benchmarks/bench_build.py --phases --repeats 5 --baseline /tmp/main
 """
 from __future__ import annotations
 
@@ -110,8 +122,12 @@ def run_child(case: str, backend: str, cache: str, timeout: float, tree: Path = 
     """One build in a fresh subprocess of ``tree``'s code (this tree, or a baseline tree with
     the same script); ``cpu``: user + system seconds of the process and its children (the C
     compiler), which the machine's load changes less than the wall times."""
-    env = dict(os.environ, PORTHAMILTONIAN_CACHE=cache, PYTHONPATH=str(tree))
+    env = dict(os.environ, PORTHAMILTONIAN_CACHE=cache,
+               PYTHONPATH=os.pathsep.join([str(tree), *_EXTRA_PATH]))
     env.pop("PORTHAMILTONIAN_QUIET", None)
+    if _PYCACHE:                    # imports from bytecode, as from an installed package
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = _PYCACHE[0]
     t0 = time.perf_counter()
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
@@ -136,8 +152,16 @@ def run_child(case: str, backend: str, cache: str, timeout: float, tree: Path = 
     return result
 
 
+#: the parent's PYTHONPATH entries, after the tree's (e.g. a folder whose sitecustomize drops
+#: an editable install's finder, so that each tree imports its own package)
+_EXTRA_PATH = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+#: the bytecode folder the children share (``--bytecode``), filled by one untimed build per
+#: tree before the rounds
+_PYCACHE: list[str] = []
+
+
 def generated_size(cache: str) -> dict:
-    """Bytes of the bodies and operations in the C body (of the largest entry)."""
+    """Bytes and lines of the bodies and operations in the C body (of the largest entry)."""
     best: dict = {}
     for entry in Path(cache).iterdir():
         c, py = entry / "body.c", entry / "body.py"
@@ -147,7 +171,8 @@ def generated_size(cache: str) -> dict:
         body = text[text.index("#define PH_N"):]
         ops = len(re.findall(r"(?<![eE])[-+*/](?!=)", body)) + len(re.findall(r"\b[a-z]+\(", body))
         if c.stat().st_size > best.get("c_bytes", 0):
-            best = {"c_bytes": c.stat().st_size, "py_bytes": py.stat().st_size, "ops": ops}
+            best = {"c_bytes": c.stat().st_size, "py_bytes": py.stat().st_size, "ops": ops,
+                    "c_lines": text.count("\n"), "py_lines": py.read_text().count("\n")}
     return best
 
 
@@ -172,6 +197,12 @@ def build_cases(args) -> None:
     variants = [(case, backend, tree) for case in cases for backend in args.backends.split(",")
                 for tree in trees]
     runs: dict = {v: {"cold": [], "warm": [], "size": {}} for v in variants}
+    if args.bytecode:
+        _PYCACHE.append(tempfile.mkdtemp(prefix="phbench_pycache_"))
+        for tree in trees.values():          # one untimed build fills it
+            scratch = tempfile.mkdtemp(prefix="phbench_warmup_")
+            run_child(cases[0], args.backends.split(",")[0], scratch, args.timeout, tree)
+            shutil.rmtree(scratch, ignore_errors=True)
     for rnd in range(args.repeats):
         # this tree and the baseline alternate which goes first
         for case, backend, tree in sorted(variants, key=lambda v: (
@@ -200,8 +231,8 @@ def build_cases(args) -> None:
     print("\n| case | tree | back end | n | cold: symbolic [s] | code [s] | C [s] | build [s] | "
           "first result [s] | import [s] | **total to first result [s]** (min-max) | CPU [s] | "
           "warm: import [s] | build [s] | first result [s] | total [s] | load (1 min) | C body "
-          "[kB] | Python body [kB] | operations (C) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "[kB] | Python body [kB] | operations (C) | lines C / Python |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     chains = []
     for (case, backend, tree), rec in runs.items():
         cold = [r for r in rec["cold"] if "error" not in r]
@@ -222,15 +253,106 @@ def build_cases(args) -> None:
               f"{f(warm, 'build')} | "
               f"{f(warm, 'first')} | {f(warm, 'total')} | {min(loads):.1f}-{max(loads):.1f} | "
               f"{size.get('c_bytes', 0) / 1e3:.0f} | {size.get('py_bytes', 0) / 1e3:.0f} | "
-              f"{size.get('ops', 0)} |")
+              f"{size.get('ops', 0)} | {size.get('c_lines', 0)} / {size.get('py_lines', 0)} |")
         if case.startswith("chain") and ":" not in case and size and tree == "this":
             chains.append((int(case[5:]), size))
+    if args.baseline:
+        print("\n| case | back end | cold CPU [s] this / baseline (medians) | ratio | "
+              "per round (paired) ratios |")
+        print("|---|---|---|---|---|")
+        for case in cases:
+            for backend in args.backends.split(","):
+                a, b = (runs[case, backend, t]["cold"] for t in ("this", "baseline"))
+                ca, cb = _median(a, "cpu"), _median(b, "cpu")
+                if ca is None or cb is None:
+                    continue
+                paired = [x["cpu"] / y["cpu"] for x, y in zip(a, b) if "cpu" in x and "cpu" in y]
+                print(f"| {case} | {backend} | {ca:.2f} / {cb:.2f} | {ca / cb:.2f} | "
+                      f"{', '.join(f'{r:.2f}' for r in paired)} |")
     big = sorted((n, s) for n, s in chains if n >= 10)
     if len(big) >= 2:
         (n0, s0), (n1, s1) = big[0], big[-1]
         for key in ("ops", "c_bytes"):
             slope = math.log(s1[key] / s0[key]) / math.log(n1 / n0)
             print(f"\ngrowth exponent of the chains' {key}, N = {n0} -> {n1}: {slope:.2f}")
+
+
+# --- the phases of a build, in-process ------------------------------------------------------------
+PHASES = ("symbolic", "program", "print", "cc model", "cc loops")
+
+
+def phase_child(cases: str) -> None:
+    """The CPU seconds of each phase of building each walker of ``cases`` (sympy's cache cleared
+    before each): the symbolic model, ``codegen.program``, printing both languages, the C
+    compiler on the model's unit and on the loops' unit (object files, the library's flags).
+    The package comes from ``$PHBENCH_TREE`` (this script put its own tree first on the path)."""
+    sys.path.insert(0, os.environ.get("PHBENCH_TREE", str(ROOT)))
+    import sympy as sp
+
+    from porthamiltonian.backends import native
+    from porthamiltonian.compiler import symbolic
+    from porthamiltonian.compiler.codegen import program
+    from porthamiltonian.compiler.printers import c_source, python_source
+    from porthamiltonian.interfaces import io
+
+    def cc(text: str) -> float:
+        with tempfile.TemporaryDirectory(prefix="phbench_phase_") as tmp:
+            src = Path(tmp) / "unit.c"
+            src.write_text(text)
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            subprocess.run([*native.compiler(), *(f for f in native.FLAGS if f != "-shared"),
+                            "-c", "-o", str(Path(tmp) / "unit.o"), str(src)], check=True)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+    out = {}
+    for case in cases.split(","):
+        sp.core.cache.clear_cache()
+        t0 = time.process_time()
+        sym = symbolic(io.load(case))
+        t1 = time.process_time()
+        prog = program(sym)
+        t2 = time.process_time()
+        py, c = python_source(prog), c_source(prog)
+        t3 = time.process_time()
+        out[case] = {"symbolic": t1 - t0, "program": t2 - t1, "print": t3 - t2,
+                     "cc model": cc(native.model_unit(c, key="bench")),
+                     "cc loops": cc(native.loop_source(prog.n, prog.n_guards)),
+                     "lines": f"{c.count(chr(10))} / {py.count(chr(10))}"}
+    print(json.dumps(out))
+
+
+def phases(args) -> None:
+    """``--phases``: :func:`phase_child` in fresh subprocesses of this tree and (``--baseline``)
+    the other, interleaved over ``--repeats`` rounds; medians and the ratios this / baseline."""
+    cases = [c for c in args.cases.split(",") if c in WALKERS] or list(WALKERS)
+    trees = {"this": ROOT, **({"baseline": Path(args.baseline).resolve()} if args.baseline
+                              else {})}
+    runs: dict = {t: [] for t in trees}
+    for rnd in range(args.repeats):
+        for tree in (list(trees) if rnd % 2 == 0 else list(trees)[::-1]):
+            env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(trees[tree]), *_EXTRA_PATH]),
+                       PHBENCH_TREE=str(trees[tree]))
+            out = subprocess.run([sys.executable, __file__, "--phase-child", ",".join(cases)],
+                                 env=env, capture_output=True, text=True, check=True)
+            runs[tree].append((_load(), json.loads(out.stdout.strip().splitlines()[-1])))
+    print(f"\n## Phases of a cold build, CPU [s] in-process (medians of {args.repeats} "
+          "interleaved rounds)")
+    print("\n| walker | tree | " + " | ".join(PHASES) + " | sum | lines C / Python | load |")
+    print("|---|---|" + "---|" * (len(PHASES) + 3))
+    for case in cases:
+        sums = {}
+        for tree, rs in runs.items():
+            med = {k: statistics.median(r[case][k] for _, r in rs) for k in PHASES}
+            sums[tree] = med
+            loads = [load for load, _ in rs]
+            print(f"| {case} | {tree} | " + " | ".join(f"{med[k]:.3f}" for k in PHASES)
+                  + f" | {sum(med.values()):.3f} | {rs[0][1][case]['lines']} | "
+                  f"{min(loads):.1f}-{max(loads):.1f} |")
+        if "baseline" in sums:
+            a, b = sums["this"], sums["baseline"]
+            print(f"| {case} | ratio | " + " | ".join(f"{a[k] / b[k]:.2f}" for k in PHASES)
+                  + f" | {sum(a.values()) / sum(b.values()):.2f} | | |")
 
 
 # --- optimisation levels -----------------------------------------------------------------------------
@@ -331,16 +453,27 @@ def main(argv=None) -> int:
                         help="interleaved rounds of cold + warm builds (medians)")
     parser.add_argument("--baseline", metavar="DIR",
                         help="another source tree (e.g. git archive of main) built interleaved")
+    parser.add_argument("--bytecode", action="store_true",
+                        help="children import from bytecode (a shared temporary folder) even "
+                             "when $PYTHONDONTWRITEBYTECODE is set, as an installed package does")
     parser.add_argument("--once", default="",
                         help="cases built in the first round only (e.g. chain40)")
     parser.add_argument("--walker-3d", action="store_true",
                         help="also: Newton iterations and time per stride, 3D vs 2D walker")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--strides", type=int, default=5)
+    parser.add_argument("--phases", action="store_true",
+                        help="instead: the CPU of each phase of the walkers' builds in-process "
+                             "(symbolic, code generation, printing, the C compiler on the "
+                             "model's and the loops' units), this tree against --baseline")
     parser.add_argument("--child", help=argparse.SUPPRESS)
+    parser.add_argument("--phase-child", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
         child(args.child, args.backends)
+        return 0
+    if args.phase_child:
+        phase_child(args.phase_child)
         return 0
     from machine import machine_info
     info = machine_info()
@@ -350,6 +483,8 @@ def main(argv=None) -> int:
           f"{_compiler_version()}", flush=True)
     if args.opt_levels:
         opt_levels(args)
+    elif args.phases:
+        phases(args)
     else:
         build_cases(args)
     if args.walker_3d:

@@ -7,6 +7,7 @@
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
 import sys
 import types
@@ -38,7 +39,12 @@ def module_text(body: str, backend: str) -> str:
     """The module of ``backend``: its header, the generated body (and :data:`JAC_P_STUB` when it
     has no ``jac_p``) and the integration loops (which call the body's functions directly)."""
     stub = "" if "def jac_p(" in body else JAC_P_STUB
-    return _HEADERS[backend] + "\n\n" + body + "\n\n" + stub + "\n\n" + python_loops()
+    doc = ""
+    if body.startswith('"""'):          # the module's docstring first, so that it is __doc__
+        end = body.index('\n"""', 3) + 4
+        doc, body = body[:end] + "\n", body[end:].lstrip("\n")
+    return (doc + _HEADERS[backend] + "\n\n" + body + "\n\n" + stub + "\n\n"
+            + python_loops())
 
 
 def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (), *,
@@ -76,7 +82,10 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
         # plain CPython is fastest on Python floats: hand the generated code lists (the caller
         # passes p as a list too, see CompiledModel.native_params)
         def wrap(fn: Callable[..., Any]) -> Callable[..., Any]:
-            return lambda t, x, p: fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
+            @functools.wraps(fn)                   # its name, docstring and __wrapped__
+            def on_lists(t: float, x: Any, p: Any) -> Any:
+                return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
+            return on_lists
         rhs, jac, energy, outputs, guards = (wrap(f[n]) for n in _NAMES[:5])
         return Functions("python", rhs, jac, energy, outputs, guards, f["initial"],
                          tuple(wrap(m) for m in matrices), loops, variational,

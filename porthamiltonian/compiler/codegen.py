@@ -66,7 +66,7 @@ from .structure import stages
 
 #: Bumped whenever generated code changes meaning; part of the cache key (with a hash of the
 #: kernels' templates, which generated modules include or link).
-CODEGEN_VERSION = "8." + kernel_digest()
+CODEGEN_VERSION = "9." + kernel_digest()
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -90,11 +90,13 @@ class Array:
 
 @dataclass(frozen=True)
 class Store:
-    """``array[index] = expr``."""
+    """``array[index] = expr``; ``comment``: what the entry is (raw text, e.g. an output's name;
+    printers escape it), or empty."""
 
     array: str
     index: tuple[int, ...]
     expr: sp.Expr
+    comment: str = ""
 
 
 @dataclass(frozen=True)
@@ -160,10 +162,10 @@ class SolveRows:
 
 
 @dataclass(frozen=True)
-class Call:
-    """A kernel call (:mod:`porthamiltonian.modeling.calls`): the routine ``entry`` of ``kernel``
-    on the integer ``table``, the ``constants`` and ``inputs`` (expressions), writing its
-    ``n_outputs`` outputs into the local array ``<label>o``, which expressions index."""
+class KernelInvocation:
+    """What every kernel call statement holds: the routine ``entry`` of ``kernel`` on the
+    integer ``table``, the ``constants`` and ``inputs`` (expressions), with ``n_outputs``
+    outputs; ``label`` names its local arrays."""
 
     label: str
     kernel: str
@@ -175,20 +177,19 @@ class Call:
 
 
 @dataclass(frozen=True)
-class CallTangent:
+class Call(KernelInvocation):
+    """A kernel call (:mod:`porthamiltonian.modeling.calls`) writing its outputs into the local
+    array ``<label>o``, which expressions index."""
+
+
+@dataclass(frozen=True)
+class CallTangent(KernelInvocation):
     """A kernel call with tangents, in the Jacobian: the directions of its inputs are the rows
     ``rows[j]`` — ``("x", i)`` the unit row of variable i (the Jacobian's column i),
     ``(array, m)`` row m of the array (``Dw`` or ``R``), None a zero row —, each ``ncols`` long;
     the derivatives of output k go to row m of ``array`` for every ``(k, array, m)`` of ``into``
-    (the other fields as in :class:`Call`)."""
+    (the other fields as in :class:`KernelInvocation`)."""
 
-    label: str
-    kernel: str
-    entry: str
-    table: tuple[int, ...]
-    constants: tuple[sp.Expr, ...]
-    inputs: tuple[sp.Expr, ...]
-    n_outputs: int
     ncols: int
     rows: tuple[tuple[str, int] | None, ...]
     into: tuple[tuple[int, str, int], ...]
@@ -201,13 +202,18 @@ Statement = (Let | Array | Store | Solve | IndexTable | ChainRule | SparseProduc
 @dataclass(frozen=True)
 class Function:
     """One generated function: ``name(*args) -> out`` of shape ``shape``; ``doc`` holds raw
-    lines (names from the model: printers escape them for their language)."""
+    lines (names from the model: printers escape them for their language). ``aliases``: (name,
+    symbol or array entry) of the locals folded into what they equal (a cse'd intermediate
+    equal to another local, a state or a parameter): printers print the target wherever the
+    name occurs, in place, so that no expression is rebuilt (the order of every sum and product,
+    hence every rounding, is the one before the folding)."""
 
     name: str
     args: tuple[str, ...]
     doc: tuple[str, ...]
     body: tuple[Statement, ...]
     shape: tuple[int, ...]
+    aliases: tuple[tuple[str, sp.Expr], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -237,13 +243,18 @@ class FunctionBuilder:
     shared; each function cse's its own results, then takes in dependency order only the prologue
     nodes it needs, then its result."""
 
-    def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel):
+    def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel,
+                 fold: bool = True):
         self.mapping = mapping
+        #: ``expr.xreplace(mapping)`` with every subtree mapped once (:class:`_Mapped`)
+        self.mapped = _Mapped(mapping)
+        #: fold the pure aliases of every function (:func:`_aliases_folded`)
+        self.fold = fold
         regular = [(w, e) for w, e in model.intermediates if not isinstance(e, KernelOutput)]
         pre: list[sp.Expr] = [expr for _, expr in regular]
         for _, A, b in model.blocks:
             pre += list(A) + list(b)
-        pre = [sp.sympify(e).xreplace(mapping) for e in pre]
+        pre = [self.mapped(e) for e in pre]
         replacements, reduced = sp.cse(pre, symbols=sp.numbered_symbols("s"), order="none")
         # nodes: (targets, dependencies, statements)
         self.nodes: list[tuple[list[str], set[str], list[Statement]]] = [
@@ -269,12 +280,13 @@ class FunctionBuilder:
         for index, (syms, A, b) in enumerate(model.blocks):
             n = len(syms)
             an, bn = f"A{index}", f"b{index}"
-            stmts: list[Statement] = [Array(an, (n, n), False), Array(bn, (n,), False)]
+            stmts: list[Statement] = [Array(an, (n, n), True), Array(bn, (n,), False)]
             deps: set[str] = set()
             for i in range(n):
                 for j in range(n):
-                    stmts.append(Store(an, (i, j), reduced[k]))
-                    deps |= _names([reduced[k]])
+                    if reduced[k] != 0:
+                        stmts.append(Store(an, (i, j), reduced[k]))
+                        deps |= _names([reduced[k]])
                     k += 1
             for i in range(n):
                 stmts.append(Store(bn, (i,), reduced[k]))
@@ -302,13 +314,13 @@ class FunctionBuilder:
     def function(self, name: str, doc: list[str], groups: list[tuple[Any, ...]],
                  shape: tuple[int, ...],
                  args: tuple[str, ...] = ("t", "x", "p")) -> Function:
-        """``groups``, in the order of their statements: ("array", array, expressions, shape) (a
-        matrix's zero entries are not stored), ("entries", array, nonzero entries (i, j, expr),
-        shape) for a matrix that is zero elsewhere, ("product", dst, entries (i, j, expr) of F,
+        """``groups``, in the order of their statements: ("array", array, expressions, shape[,
+        labels]) (a matrix's zero entries are not stored; ``labels``: each entry's comment),
+        ("entries", array, nonzero entries (i, j, expr), shape) for a matrix that is zero elsewhere, ("product", dst, entries (i, j, expr) of F,
         shape of F, src, ncols, the column range of each row of src) for ``dst += F @ src``, or ("statement", statement) for a
         statement without expressions; every expression is cse'd together. The result is the
         array ``out``."""
-        flat = [sp.sympify(e).xreplace(self.mapping) for g in groups for e in _expressions(g)]
+        flat = [self.mapped(e) for g in groups for e in _expressions(g)]
         replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("c"), order="none")
         body: list[Statement] = [Let(str(sym), expr) for sym, expr in replacements]
         needed = _names(expr for _, expr in replacements)
@@ -321,7 +333,8 @@ class FunctionBuilder:
                 body.append(group[1])
                 needed |= _names(group[1].constants + group[1].inputs)
             elif kind == "array":
-                _, array, exprs, ashape = group
+                _, array, exprs, ashape, *labels = group
+                names = labels[0] if labels else [""] * len(exprs)
                 sparse = len(ashape) == 2
                 body.append(Array(array, ashape, sparse))
                 for index in range(len(exprs)):
@@ -331,7 +344,7 @@ class FunctionBuilder:
                         continue
                     needed |= _names([expr])
                     body.append(Store(array, divmod(index, ashape[1]) if sparse else (index,),
-                                      expr))
+                                      expr, names[index]))
             else:
                 kept = []
                 for i, j, _ in group[2]:
@@ -346,7 +359,54 @@ class FunctionBuilder:
                     _, dst, _, fshape, src, ncols, ranges = group
                     body.append(SparseProduct(dst, tuple(kept), fshape, src, ncols, ranges))
         pre = self.prologue(needed)       # (initial(p) needs only nodes of the parameters)
-        return Function(name, args, tuple(doc), tuple(pre + body), shape)
+        statements, aliases = _aliases_folded(pre + body) if self.fold else (pre + body, {})
+        return Function(name, args, tuple(doc), tuple(statements), shape,
+                        tuple(aliases.items()))
+
+
+class _Mapped:
+    """``expr.xreplace(rule)``, the same result built the same way (``func(*args)`` of the mapped
+    arguments where one changed), with each distinct subtree mapped once over all the calls: the
+    Jacobians' expressions repeat the model's subexpressions many times, which sympy's xreplace
+    walks anew each time."""
+
+    def __init__(self, rule: dict[sp.Symbol, sp.Expr]):
+        self.rule = rule
+        self.done: dict[sp.Basic, tuple[sp.Basic, bool]] = {}
+
+    def __call__(self, expr: Any) -> Any:
+        return self._map(sp.sympify(expr))[0]
+
+    def _map(self, node: sp.Basic) -> tuple[sp.Basic, bool]:
+        """(the mapped node, whether the rule matched in it)."""
+        out = self.done.get(node)
+        if out is None:
+            if node in self.rule:
+                out = (self.rule[node], True)
+            else:
+                mapped = [self._map(a) if isinstance(a, sp.Basic) else (a, False)
+                          for a in node.args]
+                changed = any(hit for _, hit in mapped)
+                out = (node.func(*(a for a, _ in mapped)), True) if changed else (node, False)
+            self.done[node] = out
+        return out
+
+
+def _aliases_folded(body: list[Statement]) -> tuple[list[Statement], dict[str, sp.Expr]]:
+    """``body`` without its pure aliases (``Let(a, b)`` with ``b`` a local, a state, a
+    parameter or an entry of an array), and the name each of them stands for (followed through
+    chains of aliases): :attr:`Function.aliases`."""
+    aliases: dict[str, sp.Expr] = {}
+    kept: list[Statement] = []
+    for st in body:
+        if isinstance(st, Let) and isinstance(st.expr, (sp.Symbol, sp.Indexed)):
+            target = st.expr
+            while isinstance(target, sp.Symbol) and target.name in aliases:
+                target = aliases[target.name]
+            aliases[st.name] = target
+        else:
+            kept.append(st)
+    return kept, aliases
 
 
 def _expressions(group: tuple[Any, ...]) -> list[sp.Expr]:
@@ -498,6 +558,42 @@ def symbol_map(model: SymbolicModel) -> dict[sp.Symbol, sp.Expr]:
     return mapping
 
 
+def zeros_folded(model: SymbolicModel) -> SymbolicModel:
+    """The model without its intermediates that are identically zero (e.g. the out-of-plane
+    velocities of a planar walker's feet), each replaced by 0 wherever it is read — in the
+    intermediates after it (which may vanish in turn), the blocks, the state equations, the
+    energy ledger, the outputs, guards, matrices and discrete updates. Sympy drops the terms
+    ``+ 0`` and the products ``0·y``, which leaves every finite result unchanged (the folded
+    code adds no zero and multiplies nothing by zero, which only a non-finite y or a signed
+    zero could have told apart). Intermediates a kernel call's table reads are kept."""
+    pinned = set().union(*(sp.sympify(c).free_symbols for call in model.calls.values()
+                           for c in call.constants))
+    zero: dict[sp.Basic, sp.Basic] = {}
+    kept: list[tuple[sp.Symbol, sp.Expr]] = []
+    for w, e in model.intermediates:
+        e = e.xreplace(zero) if zero else e
+        if e.is_number and e == 0 and w not in pinned:
+            zero[w] = sp.S.Zero
+        else:
+            kept.append((w, e))
+    if not zero:
+        return model
+
+    def fold(e: Any) -> Any:
+        return sp.sympify(e).xreplace(zero)
+
+    return dataclasses.replace(
+        model, intermediates=kept, rhs=[fold(e) for e in model.rhs],
+        hamiltonian=fold(model.hamiltonian), p_diss=fold(model.p_diss), p_in=fold(model.p_in),
+        outputs={k: fold(e) for k, e in model.outputs.items()},
+        events=[(ev, fold(g)) for ev, g in model.events],
+        initial=[fold(e) for e in model.initial],
+        blocks=[(syms, A.xreplace(zero), b.xreplace(zero)) for syms, A, b in model.blocks],
+        matrices={k: m.xreplace(zero) for k, m in model.matrices.items()},
+        discrete=[(c, period, states, [fold(e) for e in values])
+                  for c, period, states, values in model.discrete])
+
+
 def input_slots(names: list[str]) -> list[str]:
     """The names of the parameter-vector slots of the inputs ``names``: input k of m reads
     u_k(t) = p[P + k] + p[P + m + k] · t (P parameters before them), so that a constant, a
@@ -506,19 +602,24 @@ def input_slots(names: list[str]) -> list[str]:
     return [f"{n} (input, at t = 0)" for n in names] + [f"{n} (input, rate)" for n in names]
 
 
-def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
+def program(model: SymbolicModel, jac_p: list[str] | None = None, fold: bool = True) -> Program:
     """The model's numeric functions as one intermediate program (see the module docstring).
 
     ``jac_p``: parameter names whose Jacobian ``jac_p`` (∂ẋ/∂p over those parameters, in that
-    order) is generated too, by the chain rule of ``jac``."""
+    order) is generated too, by the chain rule of ``jac``. ``fold``: fold the intermediates that
+    are zero (:func:`zeros_folded`) and the pure aliases (:attr:`Function.aliases`); False
+    keeps every assignment as the model and cse give it (to check that folding changes no
+    result)."""
     model = gathered(model)
+    if fold:
+        model = zeros_folded(model)
     all_states = [*model.states, *model.ledger_states]
-    builder = FunctionBuilder(symbol_map(model), model)
+    builder = FunctionBuilder(symbol_map(model), model, fold)
     n = len(all_states)
     state_names = [str(s) for s in all_states]
     param_names = [str(s) for s in model.params] + input_slots(model.input_names)
-    args_doc = (_listing(f"x: the state ({n}):", state_names)
-                + _listing(f"p: the parameters ({len(param_names)}):", param_names))
+    params_doc = f"p: the parameters ({len(param_names)}), in the layout of the module's header."
+    args_doc = [f"x: the state ({n}), {params_doc}"]
     outputs = list(model.outputs)
     events = [ev.name for ev, _ in model.events]
     n_out, n_guards = max(len(outputs), 1), max(len(events), 1)
@@ -527,29 +628,31 @@ def program(model: SymbolicModel, jac_p: list[str] | None = None) -> Program:
         return [summary, *result, *args_doc]
 
     n_init = max(len(model.initial), 1)
-    initial_doc = [f"The initial state of model {model.name!r} from its parameters.",
-                   *_listing(f"out ({n_init}):", state_names[:len(model.initial)]),
-                   *_listing(f"p: the parameters ({len(param_names)}):", param_names)]
+    initial_summary = (f"The initial state of model {model.name!r} from its parameters: out "
+                       f"({n_init}), the model states of x.")
+    initial_doc = [initial_summary, params_doc]
+    rates = [f"d({name})/dt" for name in state_names]
     functions = [
         builder.function("rhs", doc(f"dx/dt of model {model.name!r}: out[i] = d(x[i])/dt.", []),
-                         [("array", "out", model.rhs, (n,))], (n,)),
+                         [("array", "out", model.rhs, (n,), rates)], (n,)),
         jacobian_function(builder, model, "jac", model.rhs, all_states, doc(
             f"The Jacobian of rhs of model {model.name!r}: out[i, j] = d(rhs[i])/d(x[j]), "
             f"{n} x {n}, row-major.", [])),
-        builder.function("energy", doc(f"The energy ledger's rates of model {model.name!r}.",
-                                       _listing("out (3):", ["H", "P_diss", "P_in"])),
-                         [("array", "out", [model.hamiltonian, model.p_diss, model.p_in], (3,))],
-                         (3,)),
-        builder.function("outputs", doc(f"The named outputs of model {model.name!r}.",
-                                        _listing(f"out ({n_out}):", outputs)),
-                         [("array", "out", _padded(list(model.outputs.values())), (n_out,))],
-                         (n_out,)),
-        builder.function("guards", doc(f"The event guards of model {model.name!r}.",
-                                       _listing(f"out ({n_guards}):", events)),
-                         [("array", "out", _padded([g for _, g in model.events]), (n_guards,))],
-                         (n_guards,)),
+        builder.function("energy", doc(f"The energy ledger's rates of model {model.name!r}: "
+                                       "out = [H, P_diss, P_in].", []),
+                         [("array", "out", [model.hamiltonian, model.p_diss, model.p_in], (3,),
+                           ["H", "P_diss", "P_in"])], (3,)),
+        builder.function("outputs", doc(f"The named outputs of model {model.name!r}, in the "
+                                        "order of their comments.", []),
+                         [("array", "out", _padded(list(model.outputs.values())), (n_out,),
+                           outputs or ["(no outputs)"])], (n_out,)),
+        builder.function("guards", doc(f"The event guards of model {model.name!r}, in the order "
+                                       "of their comments.", []),
+                         [("array", "out", _padded([g for _, g in model.events]), (n_guards,),
+                           events or ["(no events)"])], (n_guards,)),
         builder.function("initial", initial_doc,
-                         [("array", "out", _padded(model.initial), (n_init,))], (n_init,),
+                         [("array", "out", _padded(model.initial), (n_init,),
+                           state_names[:len(model.initial)] or ["(no states)"])], (n_init,),
                          args=("p",)),
     ]
     for k, (name, matrix) in enumerate(model.matrices.items()):
@@ -856,6 +959,6 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
 
 
 __all__ = ["CODEGEN_VERSION", "Array", "Call", "CallTangent", "ChainRule", "Function",
-           "IndexTable", "Let", "Program", "Solve", "SolveRows", "SparseProduct", "Statement",
-           "Store", "derivative", "gathered", "input_slots", "jacobian", "jacobian_function",
-           "program", "symbol_map"]
+           "IndexTable", "KernelInvocation", "Let", "Program", "Solve", "SolveRows",
+           "SparseProduct", "Statement", "Store", "derivative", "gathered", "input_slots",
+           "jacobian", "jacobian_function", "program", "symbol_map", "zeros_folded"]

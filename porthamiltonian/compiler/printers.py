@@ -43,7 +43,7 @@ from .codegen import (
     Statement,
     Store,
 )
-from .literals import c_comment, python_docstring
+from .literals import c_comment, printable, python_docstring
 
 _C_STACK_DOUBLES = 16384  # larger local arrays go to the heap (thread stacks are small)
 
@@ -61,6 +61,12 @@ class PythonPrinter(PythonCodePrinter):
 
     def __init__(self) -> None:
         super().__init__({"standard": "python3", "fully_qualified_modules": True, "order": "none"})
+        #: the folded aliases of the function being printed (:attr:`.codegen.Function.aliases`)
+        self.aliases: dict[str, sp.Expr] = {}
+
+    def _print_Symbol(self, expr: sp.Basic) -> str:
+        target = self.aliases.get(expr.name)
+        return str(super()._print_Symbol(expr) if target is None else self._print(target))
 
     def _print_Float(self, expr: sp.Basic) -> str:
         return repr(float(expr))
@@ -83,6 +89,12 @@ class CPrinter(C99CodePrinter):
 
     def __init__(self) -> None:
         super().__init__({"strict": True, "order": "none"})
+        #: the folded aliases of the function being printed (:attr:`.codegen.Function.aliases`)
+        self.aliases: dict[str, sp.Expr] = {}
+
+    def _print_Symbol(self, expr: sp.Basic) -> str:
+        target = self.aliases.get(expr.name)
+        return str(super()._print_Symbol(expr) if target is None else self._print(target))
 
     def _print_Indexed(self, expr: sp.Basic) -> str:
         return f"{expr.base}[{int(expr.indices[0])}]"
@@ -197,14 +209,14 @@ def _python_statement(st: Statement, pr: Callable[[sp.Basic], str], lines: list[
         shape = f"({st.shape[0]}, {st.shape[1]})" if len(st.shape) == 2 else str(st.shape[0])
         lines.append(f"    {st.name} = np.{'zeros' if st.zero else 'empty'}({shape})")
     elif isinstance(st, Store):
-        lines.append(f"    {st.array}[{_python_index(st.index)}] = {pr(st.expr)}")
+        comment = f"  # {printable(st.comment)}" if st.comment else ""
+        lines.append(f"    {st.array}[{_python_index(st.index)}] = {pr(st.expr)}{comment}")
     elif isinstance(st, Solve):
         if len(st.targets) <= 2:   # small systems in closed form: no LAPACK call
             lines += [f"    {name} = {value}" for name, value in
                       _closed_form(st, lambda i, j: f"{st.A}[{i}, {j}]")]
         else:
-            lines.append(f"    {st.b} = np.linalg.solve({st.A}, {st.b})")
-            lines += [f"    {t} = {st.b}[{i}]" for i, t in enumerate(st.targets)]
+            lines.append(f"    {', '.join(st.targets)} = np.linalg.solve({st.A}, {st.b})")
     elif isinstance(st, IndexTable):
         lines.append(f"    {st.name} = np.array({list(st.values)})")
     elif isinstance(st, ChainRule):
@@ -267,6 +279,13 @@ def _copy_run(body: tuple[Statement, ...], start: int, flat: Callable[[str, tupl
     return (count, first.array, dst0, base, src0) if count >= 4 else None
 
 
+def _run_names(stores: tuple[Statement, ...], escape: Callable[[str], str]) -> list[str]:
+    """The names of the entries a run of copies (:func:`_copy_run`) stores, escaped, as one
+    comment's text (none when they have no names)."""
+    names = [escape(st.comment) for st in stores if isinstance(st, Store) and st.comment]
+    return [", ".join(names)] if names else []
+
+
 def _table_name(table: tuple[int, ...]) -> str:
     """The module-level name of a kernel call's integer table (one per distinct table)."""
     return f"_KT{abs(hash(table)) % 10**12:012d}"
@@ -281,10 +300,31 @@ def kernels(prog: Program) -> list[str]:
     return sorted({st.kernel for st in _kernel_calls(prog)})
 
 
-def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
+def _shared(pr: Callable[[sp.Basic], str], printed: dict[int, str] | None
+            ) -> Callable[[Let], str]:
+    """Prints a Let's expression, once per statement object when ``printed`` is given: the
+    functions of a program share their prologue's statements (the same objects), whose names
+    and aliases are the same in every function, so each prints the same text in each."""
+    if printed is None:
+        return lambda st: pr(st.expr)
+
+    def shared(st: Let) -> str:
+        text = printed.get(id(st))
+        if text is None:
+            text = printed[id(st)] = pr(st.expr)
+        return text
+    return shared
+
+
+def python_function(fn: Function, printer: PythonPrinter | None = None,
+                    printed: dict[int, str] | None = None) -> str:
     """One function as Python source, decorated with ``@_jit`` (the back end's header defines
-    it: numba's ``njit`` or the identity)."""
-    pr = (printer or PythonPrinter()).doprint
+    it: numba's ``njit`` or the identity). ``printed``: the texts of the program's statements
+    printed so far (:func:`python_source`; by statement object)."""
+    printer = printer or PythonPrinter()
+    printer.aliases = dict(fn.aliases)
+    pr = printer.doprint
+    let = _shared(pr, printed)
     doc = "\n".join(f"    {python_docstring(line)}" if i else python_docstring(line)
                     for i, line in enumerate(fn.doc))
     lines = ["@_jit", f"def {fn.name}({', '.join(fn.args)}):", f'    """{doc}\n    """']
@@ -300,10 +340,15 @@ def python_function(fn: Function, printer: PythonPrinter | None = None) -> str:
         if run is not None:              # a block of a kernel's outputs: one slice copy
             n, array, dst, src, first = run
             target = array if not ncols[array] else f"{array}.reshape(-1)"
+            lines += [f"    # {text}" for text in _run_names(fn.body[position:position + n],
+                                                            printable)]
             lines.append(f"    {target}[{dst}:{dst + n}] = {src}[{first}:{first + n}]")
             position += n
             continue
-        _python_statement(st, pr, lines, count)
+        if isinstance(st, Let):
+            lines.append(f"    {st.name} = {let(st)}")
+        else:
+            _python_statement(st, pr, lines, count)
         position += 1
     lines.append("    return out")
     return "\n".join(lines)
@@ -322,7 +367,8 @@ def python_source(prog: Program) -> str:
         tables = {st.table: None for st in calls}
         parts.append("\n".join(f"{_table_name(t)} = np.array({list(t)}, dtype=np.int64)"
                                for t in tables))
-    parts += [python_function(fn, printer) for fn in prog.functions]
+    printed: dict[int, str] = {}
+    parts += [python_function(fn, printer, printed) for fn in prog.functions]
     return "\n\n\n".join(parts) + "\n"
 
 
@@ -454,10 +500,14 @@ def _c_flat(index: tuple[int, ...], shape: tuple[int, ...]) -> int:
 
 
 
-def c_function(fn: Function, printer: CPrinter | None = None) -> str:
+def c_function(fn: Function, printer: CPrinter | None = None,
+               printed: dict[int, str] | None = None) -> str:
     """One function as a ``static void`` C function writing its result into ``out`` (hidden
-    external for :data:`LOOP_FUNCTIONS`)."""
-    pr = (printer or CPrinter()).doprint
+    external for :data:`LOOP_FUNCTIONS`); ``printed`` as for :func:`python_function`."""
+    printer = printer or CPrinter()
+    printer.aliases = dict(fn.aliases)
+    pr = printer.doprint
+    let = _shared(pr, printed)
     shapes: dict[str, tuple[int, ...]] = {"out": fn.shape}
     heap: list[str] = []
     comment = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
@@ -473,11 +523,13 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
         position += 1
         if run is not None:              # a block of a kernel's outputs: one copy
             n, array, dst, src, first = run
+            lines += [f"    /* {text} */" for text in
+                      _run_names(fn.body[position - 1:position - 1 + n], c_comment)]
             lines.append(f"    memcpy({array} + {dst}, {src} + {first}, sizeof(double) * {n});")
             position += n - 1
             continue
         if isinstance(st, Let):
-            lines.append(f"    const double {st.name} = {pr(st.expr)};")
+            lines.append(f"    const double {st.name} = {let(st)};")
         elif isinstance(st, Array):
             shapes[st.name] = st.shape
             size = _size(st.shape)
@@ -490,7 +542,9 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
             else:
                 lines.append(f"    double {st.name}[{size}]{' = {0}' if st.zero else ''};")
         elif isinstance(st, Store):
-            lines.append(f"    {st.array}[{_c_flat(st.index, shapes[st.array])}] = {pr(st.expr)};")
+            comment = f" /* {c_comment(st.comment)} */" if st.comment else ""
+            lines.append(f"    {st.array}[{_c_flat(st.index, shapes[st.array])}] = "
+                         f"{pr(st.expr)};{comment}")
         elif isinstance(st, Solve):
             n = len(st.targets)
             if n <= 2:
@@ -498,7 +552,8 @@ def c_function(fn: Function, printer: CPrinter | None = None) -> str:
                           _closed_form(st, _c_entry(st.A, n))]
             else:
                 lines.append(f"    ph_solve_rows({n}, 1, {st.A}, {st.b});")
-                lines += [f"    const double {t} = {st.b}[{i}];" for i, t in enumerate(st.targets)]
+                solution = sp.IndexedBase(st.b)          # the unknowns are read from b in place
+                printer.aliases.update((t, solution[i]) for i, t in enumerate(st.targets))
         elif isinstance(st, IndexTable):
             lines.append(f"    static const int {st.name}[{len(st.values)}] = "
                          f"{{{', '.join(map(str, st.values))}}};")
@@ -573,7 +628,8 @@ def c_source(prog: Program) -> str:
     parts = [f"{header}\n */", _C_PRELUDE]
     parts += [c_declarations(kernel) for kernel in kernels(prog)]
     parts.append(f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}")
-    parts += [c_function(fn, printer) for fn in prog.functions]
+    printed: dict[int, str] = {}
+    parts += [c_function(fn, printer, printed) for fn in prog.functions]
     for fn in prog.functions:
         if fn.args == ("p",):
             parts.append(f"PH_EXPORT void ph_{fn.name}(const double *p, double *out) "

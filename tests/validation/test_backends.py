@@ -13,6 +13,7 @@ numba and the python reference evaluate the same program (porthamiltonian.compil
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -117,9 +118,10 @@ def test_printers_give_the_same_meaning_on_edge_values():
 
 
 def test_generated_functions_list_their_layout_and_hostile_names_stay_in_comments():
-    """Each generated function lists the order of its state, parameter and result entries by
-    name; a model name that would end a C comment or a Python docstring stays inside it (the
-    code compiles, imports and runs)."""
+    """The generated code lists the order of the state and parameter entries by name (once, in
+    its header) and names each output in a comment where it is stored; a model name that would
+    end a C comment or a Python docstring stays inside it (the code compiles, imports and
+    runs)."""
     m = _edge_model()
     m.name = 'x*/ int evil; /* """ ??/'
     c = compile_model(m, backend="c")
@@ -127,7 +129,9 @@ def test_generated_functions_list_their_layout_and_hostile_names_stay_in_comment
     assert c.simulate(0.1).status == py.simulate(0.1).status == "finished"
     for source in (c.source, py.source):
         assert "[1] spring.q" in source and "[0] k" in source
-        assert f"[{c.output_index('heaviside')}] heaviside" in source
+    out = c.output_index("heaviside")
+    assert re.search(rf"^    out\[{out}\] = .*  # heaviside$", py.source, re.MULTILINE)
+    assert re.search(rf"^    out\[{out}\] = .*; /\* heaviside \*/$", c.source, re.MULTILINE)
     assert "x* / int evil; / * " in c.source and "int evil;" not in c.source.replace(
         "x* / int evil;", "")
     for name in ("rhs", "jac", "energy", "outputs", "guards", "initial"):
