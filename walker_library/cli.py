@@ -49,6 +49,7 @@ from porthamiltonian.interfaces.cli import (
     JSON_OPTION,
     QUIET_OPTION,
     SET_OPTION,
+    add_fmu_parser,
     add_sweep_parser,
     at_least,
     backend_option,
@@ -343,14 +344,26 @@ def _case_lines(args: argparse.Namespace, label: str,
     return report
 
 
-def cmd_step_down(args: argparse.Namespace) -> int:
+def _case_study(args: argparse.Namespace, label: str, study: Callable[..., Any],
+                **options: Any) -> tuple[HybridWalker, Any] | None:
+    """``study(walker, progress=..., **options)`` (step_down, basin) on the walker of ``args``,
+    under the activity display with a line per case (_case_lines); with --json its result is
+    printed and None returned, else (walker, result) for the command to print."""
     walker = _walker(args)
-    with activity(f"step-down {walker.name}", enabled=not args.quiet) as shown:
-        result = step_down(walker, resolution=args.resolution, h_max=args.h_max,
-                           progress=_case_lines(args, "step-down", shown))
+    with activity(f"{label} {walker.name}", enabled=not args.quiet) as shown:
+        result = study(walker, progress=_case_lines(args, label, shown), **options)
     if args.json:
         print(result.to_json())
+        return None
+    return walker, result
+
+
+def cmd_step_down(args: argparse.Namespace) -> int:
+    done = _case_study(args, "step-down", step_down, resolution=args.resolution,
+                       h_max=args.h_max)
+    if done is None:
         return 0
+    walker, result = done
     print(f"{walker.name}: {result.message}")
     for c in result.cases:
         print(f"  h = {c['h'] * 1e3:8.3f} mm  {c['status']:9s} after {c['steps']} steps"
@@ -359,13 +372,10 @@ def cmd_step_down(args: argparse.Namespace) -> int:
 
 
 def cmd_basin(args: argparse.Namespace) -> int:
-    walker = _walker(args)
-    with activity(f"basin {walker.name}", enabled=not args.quiet) as shown:
-        result = basin(walker, n=args.n, span=args.span,
-                       progress=_case_lines(args, "basin", shown))
-    if args.json:
-        print(result.to_json())
+    done = _case_study(args, "basin", basin, n=args.n, span=args.span)
+    if done is None:
         return 0
+    walker, result = done
     print(f"{walker.name}: {result.message}; radius {result.radius:.4g} (scaled units: theta/"
           f"{result.theta_scale:g} rad, theta_dot/{result.theta_dot_scale:g} rad/s)")
     if result.status == "ok":
@@ -672,15 +682,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "through)")
     p.set_defaults(func=cmd_export)
 
-    p = sub.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION],
-                       help="write the walker (its model and mode machine) as an FMU, starting "
-                            "from its initial guess; docs/fmu.md")
-    p.add_argument("model", help=model_help)
-    p.add_argument("--out", required=True, metavar="FILE", help="the FMU to write (walker.fmu)")
-    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
-                   help="FMI version: 2 (2.0, default) or 3 (3.0)")
-    p.add_argument("--kind", choices=("me", "cs", "both"), default="cs",
-                   help="co-simulation (cs, default), model exchange (me) or both")
+    p = add_fmu_parser(sub, "write the walker (its model and mode machine) as an FMU, starting "
+                            "from its initial guess; docs/fmu.md", model_help, "walker.fmu", "cs")
     p.add_argument("--steps", type=int, default=5, metavar="N",
                    help="the default stop time is N times the walker's max_step_time (default: 5)")
     p.set_defaults(func=cmd_export_fmu)
