@@ -570,7 +570,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nlu = 0, nsteps = 0, hit = -1;
     int status = 0, nf = 0, piv[PH_N];
     double t = t0, h = h0, err = 0.0;
-    double g_old[PH_NG], g_new[PH_NG];
+    double g_old[PH_NG];
     /* the work arrays, on the heap (large models would overflow a thread's stack) */
     double *work = malloc(sizeof(double) * (size_t)N * (2 * N + 2 * s + nd + 7));
     if (work == NULL)
@@ -600,11 +600,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     }
     memcpy(y, y0, sizeof(double) * N);
     memset(dT, 0, sizeof(double) * N);
-    guards(t, y, p, g_old);
-    if (mask_index >= 0) {
-        double g = fabs(g_old[mask_index]);
-        g_old[mask_index] = mask_sign * (g > 1e-300 ? g : 1e-300);
-    }
+    ph_start_guards(t, y, p, mask_index, mask_sign, g_old);
     rhs(t, y, p, f0);
     nfev += 1;
     if (h <= 0.0) {
@@ -624,18 +620,9 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             h = t_end - t;
     }
     for (;;) {
-        if (t >= t_end) {
-            status = 0;
+        status = ph_stop_status(t, t_end, nsteps, max_steps, n_store, n_ev, store_cap);
+        if (status >= 0)
             break;
-        }
-        if (nsteps >= max_steps) {
-            status = 4;
-            break;
-        }
-        if (n_store >= store_cap - 1 || n_ev >= store_cap - 1) {
-            status = 5;
-            break;
-        }
         if (have_next) {
             memcpy(J, J_next, sizeof(double) * N * N);   /* jac(t, y, p) */
             have_next = 0;
@@ -730,47 +717,17 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             status = 3;
             break;
         }
-        /* events on (t, t_new] */
-        double t_hit = t_new;
-        hit = -1;
-        if (g_count > 0) {
-            hit = ph_locate_events(nd, t, h, y, y1, E, p, g_old, g_new, directions, terminal,
-                                   g_count, store_cap, ev_t, ev_k, &n_ev, &t_hit, yi);
-            if (hit >= 0) {
-                ph_dense(nd, N, (t_hit - t) / h, y, y1, E, yi);
-                if (m > 0) {
-                    double worst = 0.0;
-                    ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nf,
-                                        nd, E, rtol, atol, n_model, expo, m, P, J_next, vcounts,
-                                        &worst, &eta_phi, vwork, n_gain, gain);
-                    phi_error[0] = fmax(phi_error[0], worst);
-                    memcpy(phis + n_store * nm, P, sizeof(double) * nm);
-                }
-                ts[n_store] = t_hit;
-                memcpy(ys + n_store * N, yi, sizeof(double) * N);
-                n_store += 1;
-                t = t_hit;
-                memcpy(y, yi, sizeof(double) * N);
-                status = 1;
-                break;
-            }
-            memcpy(g_old, g_new, sizeof(double) * NG);
-        }
-        if (m > 0) {       /* Phi over the step; its last A is the next step's J */
-            double worst = 0.0;
-            ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, nf, nd, E, rtol, atol,
-                                n_model, expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork,
-                                n_gain, gain);
-            phi_error[0] = fmax(phi_error[0], worst);
-            have_next = 1;
-        }
-        t = t_new;
-        memcpy(y, y1, sizeof(double) * N);
-        ts[n_store] = t;
-        memcpy(ys + n_store * N, y, sizeof(double) * N);
-        if (m > 0)
-            memcpy(phis + n_store * nm, P, sizeof(double) * nm);
+        /* events on (t, t_new], Phi over the step (its last A is the next step's J), the point */
+        hit = ph_finish_step(t, h, t_new, y, y1, nd, E, p, g_old, directions, terminal, g_count,
+                             store_cap, ev_t, ev_k, &n_ev, yi, tab, J, f0, W, piv, nf,
+                             rtol, atol, n_model, m, P, J_next, vcounts, &eta_phi, vwork, n_gain,
+                             gain, phi_error, ts, ys, phis, n_store, &t);
         n_store += 1;
+        if (hit >= 0) {
+            status = 1;
+            break;
+        }
+        have_next = m > 0;
         rhs(t, y, p, f0);
         nfev += 1;
         double fac = err > 0.0 ? fmin(6.0, fmax(0.2, 0.9 * pow(err, -expo))) : 6.0;
@@ -778,19 +735,6 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             fac = fmin(fac, 1.0);
         h = fmin(h * fac, hmax);
     }
-    out_th[0] = t;
-    out_th[1] = h;
-    memcpy(out_y, y, sizeof(double) * N);
-    counts[0] = n_store;
-    counts[1] = nfev + vcounts[1];
-    counts[2] = njev + vcounts[0];
-    counts[3] = nsteps;
-    counts[4] = status == 1 ? hit : -1;
-    counts[5] = n_ev;
-    counts[6] = nlu + vcounts[2];
-    if (m > 0)
-        memcpy(phi_out, P, sizeof(double) * nm);
-    free(pwork);
-    free(work);
-    return status;
+    return ph_loop_end(status, t, h, y, n_store, nfev, njev, nsteps, hit, n_ev, nlu, vcounts, m,
+                       P, out_th, out_y, counts, phi_out, pwork, work);
 }

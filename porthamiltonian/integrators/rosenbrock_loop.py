@@ -1,6 +1,7 @@
 # Template, not imported: appended by porthamiltonian.backends to each generated model module,
 # after the model's functions (``rhs``, ``jac``, ``guards``), where ``np``, ``math`` and ``_jit``
-# are defined; the tables of each method and its entry point ``integrate_<method>`` follow it
+# are defined, and before common_loop.py (its _loop_start, _stop_status and _finish_step, which the
+# loop calls, are shared with the BDF loop); the tables of each method and its entry point ``integrate_<method>`` follow it
 # (porthamiltonian/integrators/tableaus.py). rosenbrock_loop.c is the same loop in C: a change
 # here is made there too (tests/validation/test_rodas.py runs both on the same problems).
 #
@@ -551,19 +552,12 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     """
     n = y0.shape[0]
     s = TN.shape[0]
-    g_count = directions.shape[0]
-    ts = np.empty(store_cap)
-    ys = np.empty((store_cap, n))
-    ev_t = np.empty(store_cap)
-    ev_k = np.empty(store_cap, dtype=np.int64)
-    n_ev = 0
-    n_store = 0
-    nfev = 0
-    njev = 0
-    nlu = 0
-    nsteps = 0
+    m = phi0.shape[1]
     t = t0
     y = y0.copy()
+    ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y, p, directions.shape[0], mask_index,
+                                                     mask_sign, store_cap, phi0)
+    nfev = njev = nlu = nsteps = n_store = n_ev = 0
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
     nb = 0          # the size of W's factored block (_w_factor)
@@ -573,13 +567,6 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     dT = np.zeros(n)
     y1 = np.empty(n)
     yi = np.empty(n)
-    m = phi0.shape[1]
-    nm = n * m
-    P = phi0.copy().reshape(nm)
-    phis = np.empty((store_cap, nm))
-    g_old = guards(t, y, p)[:g_count].copy()
-    if mask_index >= 0:
-        g_old[mask_index] = mask_sign * max(abs(g_old[mask_index]), 1e-300)
     h = h0
     f0 = rhs(t, y, p)
     nfev += 1
@@ -603,14 +590,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     phi_err = 0.0
     eta_phi = 1e300         # the length of Φ's next sub-step (s): the whole step
     while True:
-        if t >= t_end:
-            status = 0
-            break
-        if nsteps >= max_steps:
-            status = 4
-            break
-        if n_store >= store_cap - 1 or n_ev >= store_cap - 1:
-            status = 5
+        status = _stop_status(t, t_end, nsteps, max_steps, n_store, n_ev, store_cap)
+        if status >= 0:
             break
         if have_next:
             J = J_next          # jac(t, y, p), made for the last step's Φ
@@ -693,47 +674,20 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         if not (big <= bound):
             status = 3
             break
-        # events on (t, t_new]
-        hit = -1
-        t_hit = t_new
-        if g_count > 0:
-            hit, t_hit, n_ev, g_new = _locate_events(t, h, y, y1, E, p, g_old, directions,
-                                                     terminal, ev_t, ev_k, n_ev, yi)
-            if hit >= 0:
-                _dense((t_hit - t) / h, y, y1, E, yi)
-                if m > 0:
-                    nj, nf, nl, J_next, worst, eta_phi = _variational_step(
-                        t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD,
-                        gam, expo, rtol, atol, n_model, P, eta_phi, gain)
-                    njev += nj
-                    nfev += nf
-                    nlu += nl
-                    phi_err = max(phi_err, worst)
-                    phis[n_store, :] = P
-                ts[n_store] = t_hit
-                ys[n_store, :] = yi
-                n_store += 1
-                t = t_hit
-                y[:] = yi
-                status = 1
-                break
-            g_old = g_new
-        if m > 0:       # Φ over the step; its last A is the next step's J
-            nj, nf, nl, J_next, worst, eta_phi = _variational_step(
-                t, h, 1.0, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo, rtol,
-                atol, n_model, P, eta_phi, gain)
-            njev += nj
-            nfev += nf
-            nlu += nl
-            phi_err = max(phi_err, worst)
-            have_next = True
-        t = t_new
-        for i in range(n):
-            y[i] = y1[i]
-        ts[n_store] = t
-        ys[n_store, :] = y
-        phis[n_store, :] = P
+        # events on (t, t_new], Φ over the step (its last A is the next step's J), the point
+        hit, t, n_ev, g_old, nj, nf, nl, J_next, worst, eta_phi = _finish_step(
+            t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J, f0,
+            W, piv, nb, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain, ts, ys,
+            phis, n_store)
+        njev += nj
+        nfev += nf
+        nlu += nl
+        phi_err = max(phi_err, worst)
         n_store += 1
+        if hit >= 0:
+            status = 1
+            break
+        have_next = m > 0
         f0 = rhs(t, y, p)
         nfev += 1
         fac = min(6.0, max(0.2, 0.9 * err ** -expo)) if err > 0.0 else 6.0
