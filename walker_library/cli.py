@@ -499,11 +499,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="walker", description=__doc__.splitlines()[0],
                                      parents=[backend_option(None)])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    analysis = [BACKEND_OPTION, SET_OPTION, JSON_OPTION, QUIET_OPTION]
+    model_argument = argparse.ArgumentParser(add_help=False)
+    model_argument.add_argument("model", help=model_help)
+    # the analyses' options and their first argument, the walker model
+    analysis = [BACKEND_OPTION, SET_OPTION, JSON_OPTION, QUIET_OPTION, model_argument]
 
     p = sub.add_parser("gait", parents=analysis,
                        help="find the gait: fixed point, Floquet multipliers, metrics")
-    p.add_argument("model", help=model_help)
     p.add_argument("--max-period", type=int, default=8, metavar="K",
                    help="longest period (steps) looked for when period 1 fails (default: 8)")
     p.add_argument("--fd-step", type=float, default=None, metavar="H",
@@ -529,7 +531,6 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("optimize", parents=analysis,
                        help="tune parameters for a gait quantity with exact gradients (SLSQP), "
                             "under constraints on others; every gait evaluation recorded")
-    p.add_argument("model", help=model_help)
     p.add_argument("--vary", required=True, metavar="NAMES",
                    help="the parameters to tune, comma-separated (they start from the file's "
                         "or --set values)")
@@ -561,7 +562,6 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("continue", parents=analysis,
                        help="continuation of the gait in a parameter: branches, stability, "
                             "bifurcations, period doubling")
-    p.add_argument("model", help=model_help)
     p.add_argument("--param", required=True, metavar="NAME=START:STOP",
                    help="the run-time parameter and its range, e.g. slope=0.002:0.02")
     p.add_argument("--doublings", type=int, default=2, metavar="N",
@@ -589,7 +589,6 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("step-down", parents=analysis,
                        help="largest single drop of the surface survived, scanning upward "
                             "(thesis §2.6)")
-    p.add_argument("model", help=model_help)
     p.add_argument("--resolution", type=float, default=None, metavar="H",
                    help="height grid (m; default: 2e-4 of the leg length)")
     p.add_argument("--h-max", type=float, default=None, metavar="H",
@@ -599,7 +598,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("basin", parents=analysis,
                        help="basin of attraction on a scaled (theta, theta_dot) grid")
-    p.add_argument("model", help=model_help)
     p.add_argument("--n", type=int, default=11, help="grid points per axis (default: 11)")
     p.add_argument("--span", type=float, default=0.1,
                    help="half-width of the grid in scaled units (theta/0.4 rad, "
@@ -609,7 +607,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("gsn", parents=analysis,
                        help="Gait Sensitivity Norm for a step-down disturbance")
-    p.add_argument("model", help=model_help)
     p.set_defaults(func=cmd_gsn)
 
     p = sub.add_parser("report", parents=[BACKEND_OPTION, SET_OPTION, QUIET_OPTION],
