@@ -307,10 +307,7 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetFMUState)(fmi3Instance instance, fmi3FMU
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3FreeFMUState)(fmi3Instance instance, fmi3FMUState *FMUState)
 {
     (void)instance;
-    if (FMUState != NULL) {
-        free(*FMUState);
-        *FMUState = NULL;
-    }
+    ph_free_state(FMUState);
     return fmi3OK;
 }
 
@@ -329,13 +326,7 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SerializeFMUState)(fmi3Instance instance,
                                                         fmi3Byte serializedState[], size_t size)
 {
     PH_CHECK3;
-    if (ph_check_state(PH_I, FMUState) != PH_OK)
-        return fmi3Error;
-    if (size < sizeof(ph_saved))
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu bytes for a serialized FMU state of %zu", PH_I->name,
-                           size, sizeof(ph_saved)));
-    memcpy(serializedState, FMUState, sizeof(ph_saved));
-    return fmi3OK;
+    PH_RETURN3(ph_serialize(PH_I, FMUState, serializedState, size));
 }
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3DeserializeFMUState)(fmi3Instance instance,

@@ -713,6 +713,27 @@ static int ph_set_state(ph_instance *c, const void *state)
     return PH_OK;
 }
 
+/* Free a state of ph_get_state or ph_deserialize (FMI's FreeFMUState); *state becomes NULL */
+static void ph_free_state(void **state)
+{
+    if (state != NULL) {
+        free(*state);
+        *state = NULL;
+    }
+}
+
+/* The state's bytes (FMI's SerializeFMUState) into bytes, size long: sizeof(ph_saved) needed */
+static int ph_serialize(ph_instance *c, const void *state, void *bytes, size_t size)
+{
+    if (ph_check_state(c, (const ph_saved *)state) != PH_OK)
+        return PH_ERROR;
+    if (size < sizeof(ph_saved))
+        return PH_FAIL(c, "%s: %zu bytes for a serialized FMU state of %zu", c->name, size,
+                       sizeof(ph_saved));
+    memcpy(bytes, state, sizeof(ph_saved));
+    return PH_OK;
+}
+
 static int ph_deserialize(ph_instance *c, const void *bytes, size_t size, void **state)
 {
     if (size != sizeof(ph_saved))
