@@ -66,35 +66,34 @@ _SAFETY = 0.9
 
 
 @_jit
+def _product_t(A, B, out):
+    """out = Aᵀ B (out[i, j] = Σ_k A[k, i] B[k, j], k from 0 up)."""
+    for i in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[0]):
+                acc += A[k, i] * B[k, j]
+            out[i, j] = acc
+
+
+@_jit
 def _bdf_rescale(D, order, factor):
     """Change the step size of the history D (rows 0..order) by ``factor``: D ← (R U)ᵀ D with
     R_ij = Π_{1≤r≤i} (r − 1 − factor j) / r and U the same at factor 1 (Shampine & Reichelt,
-    eq. (2.3): the interpolating polynomial on the new grid)."""
+    eq. (2.3): the interpolating polynomial on the new grid); R is built transposed (Rt)."""
     q1 = order + 1
-    R = np.zeros((q1, q1))
+    Rt = np.zeros((q1, q1))
     U = np.zeros((q1, q1))
     for j in range(q1):
-        R[0, j] = 1.0
+        Rt[j, 0] = 1.0
         U[0, j] = 1.0
     for i in range(1, q1):
         for j in range(1, q1):
-            R[i, j] = R[i - 1, j] * (i - 1 - factor * j) / i
+            Rt[j, i] = Rt[j, i - 1] * (i - 1 - factor * j) / i
             U[i, j] = U[i - 1, j] * (i - 1 - j) / i
     RU = np.zeros((q1, q1))
-    for i in range(q1):
-        for j in range(q1):
-            acc = 0.0
-            for k in range(q1):
-                acc += R[i, k] * U[k, j]
-            RU[i, j] = acc
-    n = D.shape[1]
-    old = D[:q1].copy()
-    for j in range(q1):
-        for i in range(n):
-            acc = 0.0
-            for k in range(q1):
-                acc += RU[k, j] * old[k, i]
-            D[j, i] = acc
+    _product_t(Rt, U, RU)
+    _product_t(RU, D[:q1].copy(), D[:q1])
 
 
 @_jit

@@ -183,6 +183,38 @@ static void ph_forcing(double t, const double *y, const double *p, int64_t n_gai
         }
 }
 
+/* out = dX/dt from X at (t, y) and Xp, Xm at t +- eps along (1, f), len values each: central,
+ * or the one-sided difference without a kink of X (_difference_rate of rosenbrock_loop.py) */
+static void ph_difference_rate(const double *Xp, const double *X, const double *Xm, int64_t len,
+                               double eps, double *out)
+{
+    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
+    for (int64_t k = 0; k < len; ++k) {
+        up = fmax(up, fabs(Xp[k] - X[k]));
+        down = fmax(down, fabs(X[k] - Xm[k]));
+        second = fmax(second, fabs(Xp[k] - 2.0 * X[k] + Xm[k]));
+        central = fmax(central, fabs(Xp[k] - Xm[k]));
+    }
+    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
+    for (int64_t k = 0; k < len; ++k) {
+        if (!kink)
+            out[k] = (Xp[k] - Xm[k]) / (2.0 * eps);
+        else if (up <= down)
+            out[k] = (Xp[k] - X[k]) / eps;
+        else
+            out[k] = (X[k] - Xm[k]) / eps;
+    }
+}
+
+/* yp, ym = y +- eps f: the states at t +- eps along (1, f) (_shifted of rosenbrock_loop.py) */
+static void ph_shifted(const double *y, const double *f, double eps, double *yp, double *ym)
+{
+    for (int i = 0; i < PH_N; ++i) {
+        yp[i] = y[i] + eps * f[i];
+        ym[i] = y[i] - eps * f[i];
+    }
+}
+
 /* DF = d/dt F(t, x(t)) of the forcing F (its value at (t, y)) by the differences of ph_jac_rate
  * (_forcing_rate of rosenbrock_loop.py); work: 2 N m + 2 N + N n_gain. Returns the jac_p
  * evaluations made (2). */
@@ -194,28 +226,10 @@ static int ph_forcing_rate(double t, double h, const double *y, const double *p,
     const int64_t nm = N * m;
     const double eps = ph_rate_step(h, f, sc, n_model);
     double *Fp = work, *Fm = Fp + nm, *yp = Fm + nm, *ym = yp + N, *Jp = ym + N;
-    for (int i = 0; i < N; ++i) {
-        yp[i] = y[i] + eps * f[i];
-        ym[i] = y[i] - eps * f[i];
-    }
+    ph_shifted(y, f, eps, yp, ym);
     ph_forcing(t + eps, yp, p, n_gain, gain, m, Jp, Fp);
     ph_forcing(t - eps, ym, p, n_gain, gain, m, Jp, Fm);
-    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
-    for (int64_t q = 0; q < nm; ++q) {
-        up = fmax(up, fabs(Fp[q] - F[q]));
-        down = fmax(down, fabs(F[q] - Fm[q]));
-        second = fmax(second, fabs(Fp[q] - 2.0 * F[q] + Fm[q]));
-        central = fmax(central, fabs(Fp[q] - Fm[q]));
-    }
-    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
-    for (int64_t q = 0; q < nm; ++q) {
-        if (!kink)
-            DF[q] = (Fp[q] - Fm[q]) / (2.0 * eps);
-        else if (up <= down)
-            DF[q] = (Fp[q] - F[q]) / eps;
-        else
-            DF[q] = (F[q] - Fm[q]) / eps;
-    }
+    ph_difference_rate(Fp, F, Fm, nm, eps, DF);
     return 2;
 }
 
@@ -229,28 +243,10 @@ static int ph_jac_rate(double t, double h, const double *y, const double *p, con
     enum { N = PH_N };
     const double eps = ph_rate_step(h, f, sc, n_model);
     double *Jp = work, *Jm = Jp + N * N, *yp = Jm + N * N, *ym = yp + N;
-    for (int i = 0; i < N; ++i) {
-        yp[i] = y[i] + eps * f[i];
-        ym[i] = y[i] - eps * f[i];
-    }
+    ph_shifted(y, f, eps, yp, ym);
     jac(t + eps, yp, p, Jp);
     jac(t - eps, ym, p, Jm);
-    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
-    for (int k = 0; k < N * N; ++k) {
-        up = fmax(up, fabs(Jp[k] - J[k]));
-        down = fmax(down, fabs(J[k] - Jm[k]));
-        second = fmax(second, fabs(Jp[k] - 2.0 * J[k] + Jm[k]));
-        central = fmax(central, fabs(Jp[k] - Jm[k]));
-    }
-    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
-    for (int k = 0; k < N * N; ++k) {
-        if (!kink)
-            D[k] = (Jp[k] - Jm[k]) / (2.0 * eps);
-        else if (up <= down)
-            D[k] = (Jp[k] - J[k]) / eps;
-        else
-            D[k] = (J[k] - Jm[k]) / eps;
-    }
+    ph_difference_rate(Jp, J, Jm, N * N, eps, D);
     return 2;
 }
 

@@ -175,6 +175,44 @@ def _forcing(t, y, p, gain, out):
 
 
 @_jit
+def _shifted(y, f, eps):
+    """y ± ε f: the states at t ± ε along (1, f) (_jac_rate, _forcing_rate)."""
+    yp = y.copy()
+    ym = y.copy()
+    for i in range(y.shape[0]):
+        yp[i] += eps * f[i]
+        ym[i] -= eps * f[i]
+    return yp, ym
+
+
+@_jit
+def _difference_rate(Xp, X, Xm, eps, out):
+    """out = dX/dt from X at (t, y) and Xp, Xm at t ± ε along (1, f) (rows x columns alike):
+    central, (Xp − Xm) / 2ε, unless X has a kink in between (a Piecewise law, e.g. a contact's
+    max(z, 0)): then the two one-sided differences disagree by O(1) instead of O(ε), and the
+    smaller one, from the side without the kink, is used."""
+    up = 0.0
+    down = 0.0
+    second = 0.0
+    central = 0.0
+    for i in range(X.shape[0]):
+        for j in range(X.shape[1]):
+            up = max(up, abs(Xp[i, j] - X[i, j]))
+            down = max(down, abs(X[i, j] - Xm[i, j]))
+            second = max(second, abs(Xp[i, j] - 2.0 * X[i, j] + Xm[i, j]))
+            central = max(central, abs(Xp[i, j] - Xm[i, j]))
+    kink = second > 0.5 * central and second > 1e-12 * (up + down + 1e-300)
+    for i in range(X.shape[0]):
+        for j in range(X.shape[1]):
+            if not kink:
+                out[i, j] = (Xp[i, j] - Xm[i, j]) / (2.0 * eps)
+            elif up <= down:
+                out[i, j] = (Xp[i, j] - X[i, j]) / eps
+            else:
+                out[i, j] = (X[i, j] - Xm[i, j]) / eps
+
+
+@_jit
 def _forcing_rate(t, h, y, p, gain, F, f, sc, n_model, DF):
     """DF = d/dt F(t, x(t)) of the forcing F = jac_p G at (t, y) (F: its value there), by the
     differences of _jac_rate (the same step, the same choice between the central and the
@@ -182,32 +220,13 @@ def _forcing_rate(t, h, y, p, gain, F, f, sc, n_model, DF):
     n = y.shape[0]
     nm = F.shape[0]
     eps = _rate_step(h, f, sc, n_model)
-    yp = y.copy()
-    ym = y.copy()
-    for i in range(n):
-        yp[i] += eps * f[i]
-        ym[i] -= eps * f[i]
+    yp, ym = _shifted(y, f, eps)
     Fp = np.empty(nm)
     Fm = np.empty(nm)
     _forcing(t + eps, yp, p, gain, Fp)
     _forcing(t - eps, ym, p, gain, Fm)
-    up = 0.0
-    down = 0.0
-    second = 0.0
-    central = 0.0
-    for q in range(nm):
-        up = max(up, abs(Fp[q] - F[q]))
-        down = max(down, abs(F[q] - Fm[q]))
-        second = max(second, abs(Fp[q] - 2.0 * F[q] + Fm[q]))
-        central = max(central, abs(Fp[q] - Fm[q]))
-    kink = second > 0.5 * central and second > 1e-12 * (up + down + 1e-300)
-    for q in range(nm):
-        if not kink:
-            DF[q] = (Fp[q] - Fm[q]) / (2.0 * eps)
-        elif up <= down:
-            DF[q] = (Fp[q] - F[q]) / eps
-        else:
-            DF[q] = (F[q] - Fm[q]) / eps
+    m = nm // n
+    _difference_rate(Fp.reshape(n, m), F.reshape(n, m), Fm.reshape(n, m), eps, DF.reshape(n, m))
     return 2
 
 
@@ -215,38 +234,11 @@ def _forcing_rate(t, h, y, p, gain, F, f, sc, n_model, DF):
 def _jac_rate(t, h, y, p, J, f, sc, n_model, D):
     """D = d/dt J(t, x(t)) = ∂_x J[f] + ∂_t J at (t, y), f = ẋ, by a difference of J along
     (1, f) with the step ε of _rate_step (model states i: every state moves by at most
-    ε_mach^(1/3) of its scale sc_i, the time by at most that part of the step): central, (J(t + ε, y + εf) − J(t − ε, y − εf)) / 2ε, unless J has a kink in
-    between (a Piecewise law, e.g. a contact's max(z, 0)): then the two one-sided differences
-    disagree by O(1) instead of O(ε), and the smaller one, from the side without the kink, is
-    used. Returns the jac evaluations made (2)."""
-    n = y.shape[0]
+    ε_mach^(1/3) of its scale sc_i, the time by at most that part of the step), central unless
+    J has a kink in between (_difference_rate). Returns the jac evaluations made (2)."""
     eps = _rate_step(h, f, sc, n_model)
-    yp = y.copy()
-    ym = y.copy()
-    for i in range(n):
-        yp[i] += eps * f[i]
-        ym[i] -= eps * f[i]
-    Jp = jac(t + eps, yp, p)
-    Jm = jac(t - eps, ym, p)
-    up = 0.0
-    down = 0.0
-    second = 0.0
-    central = 0.0
-    for i in range(n):
-        for j in range(n):
-            up = max(up, abs(Jp[i, j] - J[i, j]))
-            down = max(down, abs(J[i, j] - Jm[i, j]))
-            second = max(second, abs(Jp[i, j] - 2.0 * J[i, j] + Jm[i, j]))
-            central = max(central, abs(Jp[i, j] - Jm[i, j]))
-    kink = second > 0.5 * central and second > 1e-12 * (up + down + 1e-300)
-    for i in range(n):
-        for j in range(n):
-            if not kink:
-                D[i, j] = (Jp[i, j] - Jm[i, j]) / (2.0 * eps)
-            elif up <= down:
-                D[i, j] = (Jp[i, j] - J[i, j]) / eps
-            else:
-                D[i, j] = (J[i, j] - Jm[i, j]) / eps
+    yp, ym = _shifted(y, f, eps)
+    _difference_rate(jac(t + eps, yp, p), J, jac(t - eps, ym, p), eps, D)
     return 2
 
 
