@@ -166,21 +166,28 @@ static double ph_rate_step(double h, const double *f, const double *sc, int64_t 
     return PH_CBRT_EPS / nu;
 }
 
+/* out += A[:, :cols] B for the PH_N rows of A (row-major, lda per row) and B (cols x m,
+ * row-major; out PH_N x m), skipping A's zeros (_add_product of rosenbrock_loop.py) */
+static void ph_add_product(const double *A, int64_t lda, int64_t cols, const double *B, int64_t m,
+                           double *out)
+{
+    for (int i = 0; i < PH_N; ++i)
+        for (int64_t j = 0; j < cols; ++j) {
+            const double a = A[i * lda + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    out[i * m + c] += a * B[j * m + c];
+        }
+}
+
 /* out = jac_p(t, y, p) G (N x m row-major; G = gain, n_gain x m): the forcing of the parameter
  * sensitivities (_forcing of rosenbrock_loop.py); Fp: work (N x n_gain) */
 static void ph_forcing(double t, const double *y, const double *p, int64_t n_gain,
                        const double *gain, int64_t m, double *Fp, double *out)
 {
-    enum { N = PH_N };
     jac_p(t, y, p, Fp);
-    memset(out, 0, sizeof(double) * N * m);
-    for (int i = 0; i < N; ++i)
-        for (int64_t k = 0; k < n_gain; ++k) {
-            const double a = Fp[i * n_gain + k];
-            if (a != 0.0)
-                for (int64_t c = 0; c < m; ++c)
-                    out[i * m + c] += a * gain[k * m + c];
-        }
+    memset(out, 0, sizeof(double) * PH_N * m);
+    ph_add_product(Fp, n_gain, n_gain, gain, m, out);
 }
 
 /* out = dX/dt from X at (t, y) and Xp, Xm at t +- eps along (1, f), len values each: central,
@@ -315,13 +322,7 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
     const int forced = n_gain > 0;
     int nj = 0;
     memset(DP, 0, sizeof(double) * nm);
-    for (int i = 0; i < N; ++i)             /* DP = A' Phi0 (+ F') */
-        for (int64_t j = 0; j < n_model; ++j) {
-            const double a = D[i * N + j];
-            if (a != 0.0)
-                for (int64_t c = 0; c < m; ++c)
-                    DP[i * m + c] += a * P[j * m + c];
-        }
+    ph_add_product(D, N, n_model, P, m, DP);       /* DP = A' Phi0 (+ F') */
     if (forced)
         for (int64_t q = 0; q < nm; ++q)
             DP[q] += DF[q];
@@ -361,13 +362,7 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
                 acc += F[q];
             KPs[q] = acc;
         }
-        for (int i = 0; i < N; ++i)
-            for (int64_t j = 0; j < n_model; ++j) {
-                const double a = A[i * N + j];
-                if (a != 0.0)
-                    for (int64_t c = 0; c < m; ++c)
-                        KPs[i * m + c] += a * UP[j * m + c];
-            }
+        ph_add_product(A, N, n_model, UP, m, KPs);
         ph_lu_solve_rows(W, piv, nf, KPs, m);
     }
     if (A != A_end)

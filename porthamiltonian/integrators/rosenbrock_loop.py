@@ -157,21 +157,25 @@ def _rate_step(h, f, sc, n_model):
 
 
 @_jit
+def _add_product(A, cols, B, out):
+    """out += A[:, :cols] B (out: rows of A x columns of B), skipping A's zeros."""
+    for i in range(A.shape[0]):
+        for j in range(cols):
+            a = A[i, j]
+            if a != 0.0:
+                for c in range(B.shape[1]):
+                    out[i, c] += a * B[j, c]
+
+
+@_jit
 def _forcing(t, y, p, gain, out):
     """out = jac_p(t, y, p) G (n x m, flattened by rows; G = ``gain``, L x m): the forcing of
     the parameter sensitivities (see the header)."""
     n = y.shape[0]
-    L = gain.shape[0]
     m = gain.shape[1]
-    Fp = jac_p(t, y, p)
     for q in range(n * m):
         out[q] = 0.0
-    for i in range(n):
-        for k in range(L):
-            a = Fp[i, k]
-            if a != 0.0:
-                for c in range(m):
-                    out[i * m + c] += a * gain[k, c]
+    _add_product(jac_p(t, y, p), gain.shape[0], gain, out.reshape(n, m))
 
 
 @_jit
@@ -296,12 +300,7 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
     eta = ds * h
     UP = np.empty(nm)
     DP = np.zeros(nm)
-    for i in range(n):                      # DP = A'(τ) Φ0 (+ F'(τ))
-        for j in range(n_model):
-            a = D[i, j]
-            if a != 0.0:
-                for c in range(m):
-                    DP[i * m + c] += a * P[j * m + c]
+    _add_product(D, n_model, P.reshape(n, m), DP.reshape(n, m))     # DP = A'(τ) Φ0 (+ F'(τ))
     F = Fa
     if forced:
         for q in range(nm):
@@ -336,12 +335,7 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
             if forced:
                 acc += F[q]
             KP[st, q] = acc
-        for i in range(n):
-            for j in range(n_model):
-                a = A[i, j]
-                if a != 0.0:
-                    for c in range(m):
-                        KP[st, i * m + c] += a * UP[j * m + c]
+        _add_product(A, n_model, UP.reshape(n, m), KP[st].reshape(n, m))
         _lu_solve_rows(W, piv, nb, KP[st], m)
     for q in range(nm):
         P1[q] = UP[q] + KP[s - 1, q]
