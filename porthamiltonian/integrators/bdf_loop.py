@@ -349,15 +349,10 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
             nfev += 1
         # events on (t, t_new], Φ over the step (its last A is J at the next step's start), the
         # point
-        hit, t, n_ev, g_old, nj, nf, nl, J_phi, worst, eta_phi = _finish_step(
+        hit, t, n_ev, n_store, g_old, njev, nfev, nlu, J_phi, phi_err, eta_phi = _finish_step(
             t, hh, t_new, y, yk, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J_phi,
             f_phi, W, piv, 0, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain,
-            ts, ys, phis, n_store)
-        njev += nj
-        nfev += nf
-        nlu += nl
-        phi_err = max(phi_err, worst)
-        n_store += 1
+            ts, ys, phis, n_store, njev, nfev, nlu, phi_err)
         if hit >= 0:
             status = 1
             break

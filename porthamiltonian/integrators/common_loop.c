@@ -37,9 +37,9 @@ static int ph_stop_status(double t, double t_end, int64_t nsteps, int64_t max_st
  * one is hit), then, with m > 0, Phi (P) carried to the earliest terminal event or to the
  * step's end by the method tab (ph_variational_step from A = J and f0 at t, with the step's LU
  * W, piv of nb rows, 0: none; A at its end into J_end, its evaluations added to vcounts, its
- * largest error estimate to phi_error[0]), and the point there stored at n_store of ts, ys,
- * phis and copied into y (_finish_step of common_loop.py). Returns the terminal event's index
- * or -1; the point's time into *t_out; yi: work (PH_N). */
+ * largest error estimate to phi_error[0]), and the point there stored at *n_store (then
+ * counted) of ts, ys, phis and copied into y (_finish_step of common_loop.py). Returns the
+ * terminal event's index or -1; the point's time into *t_out; yi: work (PH_N). */
 static int64_t ph_finish_step(double t, double h, double t_new, double *y, const double *y1,
                               int nd, const double *E, const double *p, double *g_old,
                               const int64_t *directions, const uint8_t *terminal,
@@ -50,7 +50,7 @@ static int64_t ph_finish_step(double t, double h, double t_new, double *y, const
                               double *P, double *J_end, int64_t *vcounts, double *eta_phi,
                               double *vwork, int64_t n_gain, const double *gain,
                               double *phi_error, double *ts, double *ys, double *phis,
-                              int64_t n_store, double *t_out)
+                              int64_t *n_store, double *t_out)
 {
     enum { N = PH_N, NG = PH_NG };
     double g_new[PH_NG], t_hit = t_new, th_end = 1.0;
@@ -73,10 +73,11 @@ static int64_t ph_finish_step(double t, double h, double t_new, double *y, const
                             n_model, tab->expo, m, P, J_end, vcounts, &worst, eta_phi, vwork,
                             n_gain, gain);
         phi_error[0] = fmax(phi_error[0], worst);
-        memcpy(phis + n_store * N * m, P, sizeof(double) * N * m);
+        memcpy(phis + *n_store * N * m, P, sizeof(double) * N * m);
     }
-    ts[n_store] = t_hit;
-    memcpy(ys + n_store * N, y_end, sizeof(double) * N);
+    ts[*n_store] = t_hit;
+    memcpy(ys + *n_store * N, y_end, sizeof(double) * N);
+    *n_store += 1;
     memcpy(y, y_end, sizeof(double) * N);
     *t_out = t_hit;
     return hit;

@@ -42,15 +42,16 @@ def _stop_status(t, t_end, nsteps, max_steps, n_store, n_ev, store_cap):
 @_jit
 def _finish_step(t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J,
                  f0, W, piv, nb, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain,
-                 ts, ys, phis, n_store):
+                 ts, ys, phis, n_store, njev, nfev, nlu, phi_err):
     """The end of the accepted step of length h from (t, y) to (t_new, y1), E its dense output
     (_dense): its events located (_locate_events; non-terminal ones appended to ev_t, ev_k),
     then Φ (P, when it has columns) carried to the earliest terminal event or to the step's end
     by the Rosenbrock method TA..TD, gam, expo (_variational_step, from A = J and f0 at t, with
     the step's LU W, piv of nb rows; nb = 0: none), and the point there stored at n_store of ts,
     ys, phis and copied into y (yi: work space). Returns (the terminal event's index or -1, the
-    point's time, n_ev, the guards at t_new, the jac, rhs evaluations and LU factorizations of
-    Φ's step, A at its end, its largest error estimate, the length of Φ's next sub-step)."""
+    point's time, n_ev, n_store + 1, the guards at t_new, the counters njev, nfev, nlu with Φ's
+    jac, rhs evaluations and LU factorizations added, A at the end of Φ's step, phi_err or Φ's
+    largest error estimate when larger, the length of Φ's next sub-step)."""
     hit = -1
     t_hit = t_new
     g_new = g_old
@@ -76,4 +77,5 @@ def _finish_step(t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev
     ys[n_store, :] = y_end
     phis[n_store, :] = P
     y[:] = y_end
-    return hit, t_hit, n_ev, g_new, nj, nf, nl, J_end, worst, eta_phi
+    return (hit, t_hit, n_ev, n_store + 1, g_new, njev + nj, nfev + nf, nlu + nl, J_end,
+            max(phi_err, worst), eta_phi)

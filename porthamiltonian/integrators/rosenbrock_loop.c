@@ -712,8 +712,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         hit = ph_finish_step(t, h, t_new, y, y1, nd, E, p, g_old, directions, terminal, g_count,
                              store_cap, ev_t, ev_k, &n_ev, yi, tab, J, f0, W, piv, nf,
                              rtol, atol, n_model, m, P, J_next, vcounts, &eta_phi, vwork, n_gain,
-                             gain, phi_error, ts, ys, phis, n_store, &t);
-        n_store += 1;
+                             gain, phi_error, ts, ys, phis, &n_store, &t);
         if (hit >= 0) {
             status = 1;
             break;

@@ -661,15 +661,10 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             status = 3
             break
         # events on (t, t_new], Φ over the step (its last A is the next step's J), the point
-        hit, t, n_ev, g_old, nj, nf, nl, J_next, worst, eta_phi = _finish_step(
+        hit, t, n_ev, n_store, g_old, njev, nfev, nlu, J_next, phi_err, eta_phi = _finish_step(
             t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J, f0,
             W, piv, nb, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain, ts, ys,
-            phis, n_store)
-        njev += nj
-        nfev += nf
-        nlu += nl
-        phi_err = max(phi_err, worst)
-        n_store += 1
+            phis, n_store, njev, nfev, nlu, phi_err)
         if hit >= 0:
             status = 1
             break
