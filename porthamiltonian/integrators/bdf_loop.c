@@ -135,23 +135,15 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     /* the sensitivities' work arrays (m > 0): J_phi, A at the start of the step (the last Phi
      * step's end), f_phi = rhs there */
     const int64_t nm = m * N;
-    double *pwork = NULL, *P = NULL, *J_phi = NULL, *f_phi = NULL, *vwork = NULL;
+    double *P = NULL, *J_phi = NULL, *f_phi = NULL, *vwork = NULL;
     int have_phi_jac = 0;
     int64_t vcounts[3] = {0, 0, 0};
     double eta_phi = 1e300;
     if (m > 0) {
-        pwork = malloc(sizeof(double) * (size_t)(nm * (phi_tab->s + 4) + 8 * N * N + 7 * N
-                                                 + PH_FORCING_WORK(nm, n_gain)));
-        if (pwork == NULL) {
-            free(work);
+        P = ph_phi_start(m, phi0, phi_tab->s, N, n_gain, phi_error, work, &J_phi, &vwork);
+        if (P == NULL)
             return 2;
-        }
-        P = pwork;
-        J_phi = P + nm;
-        f_phi = J_phi + N * N;
-        vwork = f_phi + N;      /* ph_variational_step's work */
-        memcpy(P, phi0, sizeof(double) * nm);
-        phi_error[0] = 0.0;
+        f_phi = J_phi + N * N;      /* the loop's own N */
     }
     gsum[0] = 0.0;
     for (int q = 1; q <= PH_BDF_MAX_ORDER; ++q)
@@ -363,5 +355,5 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         h *= fac;
     }
     return ph_loop_end(status, t, h, y, n_store, nfev, njev, nsteps, hit, n_ev, nlu, vcounts, m,
-                       P, out_th, out_y, counts, phi_out, pwork, work);
+                       P, out_th, out_y, counts, phi_out, P, work);
 }

@@ -175,9 +175,8 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
     n = y0.shape[0]
     m = phi0.shape[1]
     t = t0
-    y = y0.copy()
-    ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y, p, directions.shape[0], mask_index,
-                                                     mask_sign, store_cap, phi0)
+    y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y0, p, directions.shape[0], mask_index,
+                                                        mask_sign, store_cap, phi0)
     nfev = njev = nlu = nsteps = n_store = n_ev = 0
     D = np.zeros((_BDF_MAX_ORDER + 3, n))
     E = np.zeros((_BDF_MAX_ORDER - 1, n))

@@ -18,6 +18,28 @@ static void ph_start_guards(double t, const double *y, const double *p, int64_t 
     }
 }
 
+/* The sensitivities' work of a loop with m > 0 columns, one block (returned; NULL, and the loop's
+ * `work` freed, when out of memory): P (PH_N x m, a copy of phi0), A at the end of Phi's last
+ * step (*J_end, PH_N x PH_N), `extra` doubles of the loop's own, then ph_variational_step's work
+ * (*vwork) for Phi's method of s stages; phi_error[0] reset */
+static double *ph_phi_start(int64_t m, const double *phi0, int s, int extra, int64_t n_gain,
+                            double *phi_error, double *work, double **J_end, double **vwork)
+{
+    enum { N = PH_N };
+    const int64_t nm = m * N;
+    double *P = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N + extra
+                                                 + PH_FORCING_WORK(nm, n_gain)));
+    if (P == NULL) {
+        free(work);
+        return NULL;
+    }
+    *J_end = P + nm;
+    *vwork = *J_end + N * N + extra;
+    memcpy(P, phi0, sizeof(double) * nm);
+    phi_error[0] = 0.0;
+    return P;
+}
+
 /* The status that ends a loop before its next step from t: 0 t_end reached, 4 max_steps steps
  * taken, 5 a buffer full; -1: go on (_stop_status of common_loop.py) */
 static int ph_stop_status(double t, double t_end, int64_t nsteps, int64_t max_steps,
@@ -84,7 +106,8 @@ static int64_t ph_finish_step(double t, double h, double t_new, double *y, const
 }
 
 /* A loop's results at its end (t, h, y; the counters, Phi's own added; hit: the terminal
- * event's index) into out_th, out_y, counts and phi_out, its work arrays freed; returns status */
+ * event's index) into out_th, out_y, counts and phi_out, its work arrays (P's block: pwork)
+ * freed; returns status */
 static int ph_loop_end(int status, double t, double h, const double *y, int64_t n_store,
                        int64_t nfev, int64_t njev, int64_t nsteps, int64_t hit, int64_t n_ev,
                        int64_t nlu, const int64_t *vcounts, int64_t m, const double *P,

@@ -10,18 +10,19 @@
 
 
 @_jit
-def _loop_start(t, y, p, n_guards, mask_index, mask_sign, store_cap, phi0):
-    """A loop's buffers and its guards at the start (t, y): returns (ts, ys, ev_t, ev_k: the
-    stored points and the non-terminal events, store_cap of each; P: Φ flattened by rows, a copy
-    of phi0 (n x m); phis: Φ at the stored points; g_old: the n_guards guards at (t, y), the one
-    of mask_index (>= 0: an event just handled there) given the sign mask_sign, so that it does
-    not fire again at once)."""
+def _loop_start(t, y0, p, n_guards, mask_index, mask_sign, store_cap, phi0):
+    """A loop's state, buffers and guards at the start (t, y0): returns (y: a copy of y0; ts,
+    ys, ev_t, ev_k: the stored points and the non-terminal events, store_cap of each; P: Φ
+    flattened by rows, a copy of phi0 (n x m); phis: Φ at the stored points; g_old: the n_guards
+    guards at (t, y0), the one of mask_index (>= 0: an event just handled there) given the sign
+    mask_sign, so that it does not fire again at once)."""
+    y = y0.copy()
     n = y.shape[0]
     nm = n * phi0.shape[1]
     g_old = guards(t, y, p)[:n_guards].copy()
     if mask_index >= 0:
         g_old[mask_index] = mask_sign * max(abs(g_old[mask_index]), 1e-300)
-    return (np.empty(store_cap), np.empty((store_cap, n)), np.empty(store_cap),
+    return (y, np.empty(store_cap), np.empty((store_cap, n)), np.empty(store_cap),
             np.empty(store_cap, dtype=np.int64), phi0.copy().reshape(nm),
             np.empty((store_cap, nm)), g_old)
 

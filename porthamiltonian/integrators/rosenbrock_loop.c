@@ -572,23 +572,13 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     /* the sensitivities' work arrays (m > 0); J_next: A at the end of the last step, made for
      * its Phi: the next step's J */
     const int64_t nm = m * N;
-    double *pwork = NULL, *P = NULL, *J_next = NULL, *vwork = NULL;
+    double *P = NULL, *J_next = NULL, *vwork = NULL;
     int have_next = 0;
     int64_t vcounts[3] = {0, 0, 0};
     double eta_phi = 1e300;     /* the length of Phi's next sub-step (s): the whole step */
-    if (m > 0) {
-        pwork = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N
-                                                 + PH_FORCING_WORK(nm, n_gain)));
-        if (pwork == NULL) {
-            free(work);
-            return 2;
-        }
-        P = pwork;
-        J_next = P + nm;
-        vwork = J_next + N * N;      /* ph_variational_step's work */
-        memcpy(P, phi0, sizeof(double) * nm);
-        phi_error[0] = 0.0;
-    }
+    if (m > 0 && (P = ph_phi_start(m, phi0, s, 0, n_gain, phi_error, work, &J_next,
+                                   &vwork)) == NULL)
+        return 2;
     memcpy(y, y0, sizeof(double) * N);
     memset(dT, 0, sizeof(double) * N);
     ph_start_guards(t, y, p, mask_index, mask_sign, g_old);
@@ -726,5 +716,5 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         h = fmin(h * fac, hmax);
     }
     return ph_loop_end(status, t, h, y, n_store, nfev, njev, nsteps, hit, n_ev, nlu, vcounts, m,
-                       P, out_th, out_y, counts, phi_out, pwork, work);
+                       P, out_th, out_y, counts, phi_out, P, work);
 }

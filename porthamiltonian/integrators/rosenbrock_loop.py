@@ -540,9 +540,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     s = TN.shape[0]
     m = phi0.shape[1]
     t = t0
-    y = y0.copy()
-    ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y, p, directions.shape[0], mask_index,
-                                                     mask_sign, store_cap, phi0)
+    y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y0, p, directions.shape[0], mask_index,
+                                                        mask_sign, store_cap, phi0)
     nfev = njev = nlu = nsteps = n_store = n_ev = 0
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
