@@ -290,34 +290,22 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetDerivatives)(fmi2Component c, fmi2Real d
                                                      size_t nx)
 {
     PH_CHECK(c);
-    if (nx != PH_N)
-        PH_RETURN(PH_FAIL(PH_C, "%s: %zu derivatives asked for, the FMU has %d states",
-                          PH_C->name, nx, PH_N));
-    memcpy(derivatives, ph_now_rates(PH_C), sizeof(double) * PH_N);
-    return fmi2OK;
+    PH_RETURN(ph_values_out(PH_C, derivatives, nx, PH_N, "derivatives", ph_now_rates));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetEventIndicators)(fmi2Component c,
                                                          fmi2Real eventIndicators[], size_t ni)
 {
     PH_CHECK(c);
-    if (ni != PH_NE)
-        PH_RETURN(PH_FAIL(PH_C, "%s: %zu event indicators asked for, the FMU has %d",
-                          PH_C->name, ni, PH_NE));
-    if (ni > 0)
-        memcpy(eventIndicators, ph_now_guards(PH_C), sizeof(double) * PH_NE);
-    return fmi2OK;
+    PH_RETURN(ph_values_out(PH_C, eventIndicators, ni, PH_NE, "event indicators",
+                            ph_now_guards));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetContinuousStates)(fmi2Component c, fmi2Real x[],
                                                           size_t nx)
 {
     PH_CHECK(c);
-    if (nx != PH_N)
-        PH_RETURN(PH_FAIL(PH_C, "%s: %zu continuous states asked for, the FMU has %d",
-                          PH_C->name, nx, PH_N));
-    memcpy(x, PH_C->v.now.y, sizeof(double) * PH_N);
-    return fmi2OK;
+    PH_RETURN(ph_values_out(PH_C, x, nx, PH_N, "continuous states", ph_now_states));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetNominalsOfContinuousStates)(fmi2Component c,

@@ -513,11 +513,8 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetContinuousStateDerivatives)(fmi3Instance
                                                                     size_t nContinuousStates)
 {
     PH_CHECK3;
-    if (nContinuousStates != PH_N)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu derivatives asked for, the FMU has %d states",
-                           PH_I->name, nContinuousStates, PH_N));
-    memcpy(derivatives, ph_now_rates(PH_I), sizeof(double) * PH_N);
-    return fmi3OK;
+    PH_RETURN3(ph_values_out(PH_I, derivatives, nContinuousStates, PH_N, "derivatives",
+                             ph_now_rates));
 }
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetEventIndicators)(fmi3Instance instance,
@@ -525,12 +522,8 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetEventIndicators)(fmi3Instance instance,
                                                          size_t nEventIndicators)
 {
     PH_CHECK3;
-    if (nEventIndicators != PH_NE)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu event indicators asked for, the FMU has %d",
-                           PH_I->name, nEventIndicators, PH_NE));
-    if (nEventIndicators > 0)
-        memcpy(eventIndicators, ph_now_guards(PH_I), sizeof(double) * PH_NE);
-    return fmi3OK;
+    PH_RETURN3(ph_values_out(PH_I, eventIndicators, nEventIndicators, PH_NE, "event indicators",
+                             ph_now_guards));
 }
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetContinuousStates)(fmi3Instance instance,
@@ -538,11 +531,8 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetContinuousStates)(fmi3Instance instance,
                                                           size_t nContinuousStates)
 {
     PH_CHECK3;
-    if (nContinuousStates != PH_N)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu continuous states asked for, the FMU has %d",
-                           PH_I->name, nContinuousStates, PH_N));
-    memcpy(continuousStates, PH_I->v.now.y, sizeof(double) * PH_N);
-    return fmi3OK;
+    PH_RETURN3(ph_values_out(PH_I, continuousStates, nContinuousStates, PH_N, "continuous states",
+                             ph_now_states));
 }
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetNominalsOfContinuousStates)(fmi3Instance instance,

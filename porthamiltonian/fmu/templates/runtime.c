@@ -178,6 +178,24 @@ static const double *ph_now_guards(ph_instance *c)
     return c->g;
 }
 
+static const double *ph_now_states(ph_instance *c)
+{
+    return c->v.now.y;
+}
+
+/* The `want` values of `values` at v.now copied into `to` (FMI's get derivatives, event
+ * indicators and continuous states); n: how many the caller asked for, an error naming `what`
+ * unless it is `want` */
+static int ph_values_out(ph_instance *c, double *to, size_t n, int want, const char *what,
+                         const double *(*values)(ph_instance *))
+{
+    if (n != (size_t)want)
+        return PH_FAIL(c, "%s: %zu %s asked for, the FMU has %d", c->name, n, what, want);
+    if (n > 0)
+        memcpy(to, values(c), sizeof(double) * n);
+    return PH_OK;
+}
+
 /* --- instance --------------------------------------------------------------------------------- */
 static void ph_defaults(ph_instance *c)
 {
