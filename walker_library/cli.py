@@ -53,6 +53,7 @@ from porthamiltonian.interfaces.cli import (
     add_sweep_parser,
     at_least,
     backend_option,
+    format_value,
     not_negative,
     parse_assignments,
     positive,
@@ -77,11 +78,8 @@ from .report.page import multiplier_cells
 
 
 def _fmt(value: Any) -> str:
-    if value is None:
-        return "-"
-    if isinstance(value, float):
-        return f"{value:.10g}"
-    return str(value)
+    """A value as the walker's tables show it (10 significant digits)."""
+    return format_value(value, 10)
 
 
 def check_walker_name(model: str) -> str:

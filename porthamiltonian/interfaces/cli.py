@@ -207,17 +207,19 @@ def _model_file_meta(model: str) -> dict[str, str]:
     return {"model_file": str(path), "model_file_sha256": hashlib.sha256(data).hexdigest()}
 
 
-def _fmt(value: Any) -> str:
+def format_value(value: Any, digits: int = 6) -> str:
+    """A value as a table shows it: ``-`` for None, a float to ``digits`` significant digits,
+    anything else as ``str`` gives it."""
     if value is None:
         return "-"
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return f"{value:.{digits}g}"
     return str(value)
 
 
 def _print_table(rows: list[dict], names: list[str], columns: Sequence[str]) -> None:
     cols = ["case_id", *names, "status", *columns]
-    cells = [[_fmt(row.get(c)) for c in cols] for row in rows]
+    cells = [[format_value(row.get(c)) for c in cols] for row in rows]
     widths = [max(len(c), *(len(r[i]) for r in cells)) for i, c in enumerate(cols)]
     print("  ".join(c.ljust(w) for c, w in zip(cols, widths)))
     for r in cells:
