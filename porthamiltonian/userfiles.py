@@ -8,6 +8,7 @@ device (``/dev/zero`` would give bytes forever, ``/dev/tty`` would wait for a ke
 socket, a symlink loop, a path that does not exist; and they read a pipe (``simulate <(cat
 m.toml)``, a named FIFO) within the same size bound and a time bound (:data:`PIPE_SECONDS` for the
 first byte and between bytes), so a pipe that never writes cannot hang the command.
+:func:`write_atomic` writes a file whole or not at all.
 
 :func:`path_problem` tells, without reading, what is wrong with a path that is to be read.
 Errors are :class:`~porthamiltonian.errors.ModelFileError` starting with the ``label`` the
@@ -15,15 +16,17 @@ caller gives (how the user named the file: ``"--guess result.json"``, the path).
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import select
 import stat
+import tempfile
 from pathlib import Path
 
 from .errors import ModelFileError
 
-__all__ = ["PIPE_SECONDS", "is_pipe", "path_problem", "read_bytes", "read_text"]
+__all__ = ["PIPE_SECONDS", "is_pipe", "path_problem", "read_bytes", "read_text", "write_atomic"]
 
 #: the longest wait (s) for a pipe's first byte and between its bytes
 PIPE_SECONDS = 30.0
@@ -162,3 +165,24 @@ def read_text(path: str | Path, *, limit: int, label: str, kind: str, language: 
         raise ModelFileError(f"{label}: not a UTF-8 text file (byte {err.start}: {err.reason}); "
                              f"a {kind} is {language} text") from None
     return text.removeprefix("\ufeff")
+
+
+def write_atomic(path: Path, data: str | bytes, *, plain_mode: bool = False) -> None:
+    """Write ``data`` (text as UTF-8) to ``path`` through a temporary file in the same folder,
+    then rename: a reader sees the old file or the new one, never a part; a symbolic link at
+    ``path`` is replaced, not written through. ``plain_mode``: the file gets the permissions a
+    plain write would give it (0666 less the umask) instead of the temporary file's 0600."""
+    raw = data.encode() if isinstance(data, str) else data
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        if plain_mode:
+            umask = os.umask(0o022)
+            os.umask(umask)
+            os.fchmod(fd, 0o666 & ~umask)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(raw)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise

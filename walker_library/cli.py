@@ -50,9 +50,11 @@ from porthamiltonian.interfaces.cli import (
     JSON_OPTION,
     QUIET_OPTION,
     SET_OPTION,
+    add_fmu_parser,
     add_sweep_parser,
     at_least,
     backend_option,
+    format_value,
     not_negative,
     parse_assignments,
     positive,
@@ -77,11 +79,8 @@ from .report.page import multiplier_cells
 
 
 def _fmt(value: Any) -> str:
-    if value is None:
-        return "-"
-    if isinstance(value, float):
-        return f"{value:.10g}"
-    return str(value)
+    """A value as the walker's tables show it (10 significant digits)."""
+    return format_value(value, 10)
 
 
 def check_walker_name(model: str) -> str:
@@ -346,14 +345,26 @@ def _case_lines(args: argparse.Namespace, label: str,
     return report
 
 
-def cmd_step_down(args: argparse.Namespace) -> int:
+def _case_study(args: argparse.Namespace, label: str, study: Callable[..., Any],
+                **options: Any) -> tuple[HybridWalker, Any] | None:
+    """``study(walker, progress=..., **options)`` (step_down, basin) on the walker of ``args``,
+    under the activity display with a line per case (_case_lines); with --json its result is
+    printed and None returned, else (walker, result) for the command to print."""
     walker = _walker(args)
-    with activity(f"step-down {walker.name}", enabled=not args.quiet) as shown:
-        result = step_down(walker, resolution=args.resolution, h_max=args.h_max,
-                           progress=_case_lines(args, "step-down", shown))
+    with activity(f"{label} {walker.name}", enabled=not args.quiet) as shown:
+        result = study(walker, progress=_case_lines(args, label, shown), **options)
     if args.json:
         print(result.to_json())
+        return None
+    return walker, result
+
+
+def cmd_step_down(args: argparse.Namespace) -> int:
+    done = _case_study(args, "step-down", step_down, resolution=args.resolution,
+                       h_max=args.h_max)
+    if done is None:
         return 0
+    walker, result = done
     print(f"{walker.name}: {result.message}")
     for c in result.cases:
         print(f"  h = {c['h'] * 1e3:8.3f} mm  {c['status']:9s} after {c['steps']} steps"
@@ -362,13 +373,10 @@ def cmd_step_down(args: argparse.Namespace) -> int:
 
 
 def cmd_basin(args: argparse.Namespace) -> int:
-    walker = _walker(args)
-    with activity(f"basin {walker.name}", enabled=not args.quiet) as shown:
-        result = basin(walker, n=args.n, span=args.span,
-                       progress=_case_lines(args, "basin", shown))
-    if args.json:
-        print(result.to_json())
+    done = _case_study(args, "basin", basin, n=args.n, span=args.span)
+    if done is None:
         return 0
+    walker, result = done
     print(f"{walker.name}: {result.message}; radius {result.radius:.4g} (scaled units: theta/"
           f"{result.theta_scale:g} rad, theta_dot/{result.theta_dot_scale:g} rad/s)")
     if result.status == "ok":
@@ -492,11 +500,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="walker", description=__doc__.splitlines()[0],
                                      parents=[backend_option(None)])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    analysis = [BACKEND_OPTION, SET_OPTION, JSON_OPTION, QUIET_OPTION]
+    model_argument = argparse.ArgumentParser(add_help=False)
+    model_argument.add_argument("model", help=model_help)
+    # the analyses' options and their first argument, the walker model
+    analysis = [BACKEND_OPTION, SET_OPTION, JSON_OPTION, QUIET_OPTION, model_argument]
 
     p = sub.add_parser("gait", parents=analysis,
                        help="find the gait: fixed point, Floquet multipliers, metrics")
-    p.add_argument("model", help=model_help)
     p.add_argument("--max-period", type=int, default=8, metavar="K",
                    help="longest period (steps) looked for when period 1 fails (default: 8)")
     p.add_argument("--fd-step", type=float, default=None, metavar="H",
@@ -522,7 +532,6 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("optimize", parents=analysis,
                        help="tune parameters for a gait quantity with exact gradients (SLSQP), "
                             "under constraints on others; every gait evaluation recorded")
-    p.add_argument("model", help=model_help)
     p.add_argument("--vary", required=True, metavar="NAMES",
                    help="the parameters to tune, comma-separated (they start from the file's "
                         "or --set values)")
@@ -558,7 +567,6 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("continue", parents=analysis,
                        help="continuation of the gait in a parameter: branches, stability, "
                             "bifurcations, period doubling")
-    p.add_argument("model", help=model_help)
     p.add_argument("--param", required=True, metavar="NAME=START:STOP",
                    help="the run-time parameter and its range, e.g. slope=0.002:0.02")
     p.add_argument("--doublings", type=int, default=2, metavar="N",
@@ -586,7 +594,6 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("step-down", parents=analysis,
                        help="largest single drop of the surface survived, scanning upward "
                             "(thesis §2.6)")
-    p.add_argument("model", help=model_help)
     p.add_argument("--resolution", type=float, default=None, metavar="H",
                    help="height grid (m; default: 2e-4 of the leg length)")
     p.add_argument("--h-max", type=float, default=None, metavar="H",
@@ -596,7 +603,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("basin", parents=analysis,
                        help="basin of attraction on a scaled (theta, theta_dot) grid")
-    p.add_argument("model", help=model_help)
     p.add_argument("--n", type=int, default=11, help="grid points per axis (default: 11)")
     p.add_argument("--span", type=float, default=0.1,
                    help="half-width of the grid in scaled units (theta/0.4 rad, "
@@ -606,7 +612,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("gsn", parents=analysis,
                        help="Gait Sensitivity Norm for a step-down disturbance")
-    p.add_argument("model", help=model_help)
     p.set_defaults(func=cmd_gsn)
 
     p = sub.add_parser("report", parents=[BACKEND_OPTION, SET_OPTION, QUIET_OPTION],
@@ -679,15 +684,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "through)")
     p.set_defaults(func=cmd_export)
 
-    p = sub.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION],
-                       help="write the walker (its model and mode machine) as an FMU, starting "
-                            "from its initial guess; docs/fmu.md")
-    p.add_argument("model", help=model_help)
-    p.add_argument("--out", required=True, metavar="FILE", help="the FMU to write (walker.fmu)")
-    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
-                   help="FMI version: 2 (2.0, default) or 3 (3.0)")
-    p.add_argument("--kind", choices=("me", "cs", "both"), default="cs",
-                   help="co-simulation (cs, default), model exchange (me) or both")
+    p = add_fmu_parser(sub, "write the walker (its model and mode machine) as an FMU, starting "
+                            "from its initial guess; docs/fmu.md", model_help, "walker.fmu", "cs")
     p.add_argument("--steps", type=int, default=5, metavar="N",
                    help="the default stop time is N times the walker's max_step_time (default: 5)")
     p.set_defaults(func=cmd_export_fmu)

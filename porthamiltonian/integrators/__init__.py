@@ -4,7 +4,9 @@
 LU, error control, dense output, event location) for the Rosenbrock methods of
 :mod:`.tableaus` (Rodas4, Rodas5P); ``bdf_loop.py`` and ``bdf_loop.c`` the loop of QBDF
 (:mod:`.bdf`: variable-order BDF reusing its Jacobian and LU over steps), which uses the
-Rosenbrock template's LU, dense output, event location and sensitivity step. The back ends
+Rosenbrock template's LU, dense output, event location and sensitivity step;
+``common_loop.py`` and ``common_loop.c`` hold what both loops do alike (the result buffers, the
+checks before a step, the end of an accepted step: events, Φ, the stored point). The back ends
 append the templates and each method's entry point to every generated model module (Python for
 the ``python`` and ``numba`` back ends, one C translation unit for ``c``), where the loops call
 that module's ``rhs``, ``jac`` and ``guards`` directly: under numba and C the whole step loop is
@@ -34,10 +36,12 @@ COMPILED_METHODS: tuple[str, ...] = tuple(LOOPS)
 
 def _plain(text: str, loop: str) -> str:
     """A copy of the function ``loop`` (the last one of ``text``) named ``<loop>_plain``, with
-    the Φ step replaced by the no-op ``_no_variational``."""
+    the Φ step replaced by the no-op ``_no_variational`` and the end of a step by its copy
+    ``_finish_step_plain``."""
     body = text[text.index(f"@_jit\ndef {loop}("):]
     return (body.replace(f"def {loop}(", f"def {loop}_plain(", 1)
-            .replace("_variational_step(", "_no_variational("))
+            .replace("_variational_step(", "_no_variational(")
+            .replace("_finish_step(", "_finish_step_plain("))
 
 
 def python_loops() -> str:
@@ -45,21 +49,28 @@ def python_loops() -> str:
     method's tables and entry point.
 
     The copies, ``_rosenbrock_plain`` and ``_bdf_plain``, are the loops (each template's last
-    function) with the Φ step replaced by the no-op ``_no_variational``: numba compiles a
-    function with everything it calls, so the plain entry points would otherwise compile the
-    variational code too (measured, CPU time of the pendulum's first numba run: 23 s without
-    the copy, 16 s with it, 15.5 s before sensitivities existed)."""
+    function) calling ``_finish_step_plain``, the copy of the shared end of a step
+    (``common_loop.py``) with the Φ step replaced by the no-op ``_no_variational``: numba
+    compiles a function with everything it calls, so the plain entry points would otherwise
+    compile the variational code too (measured, CPU time of the pendulum's first numba run: 23 s
+    without the copy, 16 s with it, 15.5 s before sensitivities existed)."""
     rosenbrock = (_HERE / "rosenbrock_loop.py").read_text()
+    common = (_HERE / "common_loop.py").read_text()
     multistep = (_HERE / "bdf_loop.py").read_text()
-    return "\n\n".join([rosenbrock, _plain(rosenbrock, "_rosenbrock"),
+    return "\n\n".join([rosenbrock, common, _plain(common, "_finish_step"),
+                        _plain(rosenbrock, "_rosenbrock"),
                         *(python_entry(tab) for tab in TABLEAUS.values()),
                         multistep, _plain(multistep, "_bdf"), bdf.python_entry()])
 
 
 def c_loops() -> str:
-    """The C loop templates followed by every method's tables and exported entry point."""
-    return "\n".join([(_HERE / "rosenbrock_loop.c").read_text(),
-                      *(c_entry(tab) for tab in TABLEAUS.values()),
+    """The C loop templates followed by every method's tables and exported entry point:
+    ``common_loop.c`` (which calls the Rosenbrock template's helpers and is called by both loops)
+    stands between the helpers of ``rosenbrock_loop.c`` and its loop ``rosenbrock``."""
+    rosenbrock = (_HERE / "rosenbrock_loop.c").read_text()
+    cut = rosenbrock.index("static int rosenbrock(")
+    return "\n".join([rosenbrock[:cut], (_HERE / "common_loop.c").read_text(),
+                      rosenbrock[cut:], *(c_entry(tab) for tab in TABLEAUS.values()),
                       (_HERE / "bdf_loop.c").read_text(), bdf.c_entry()])
 
 

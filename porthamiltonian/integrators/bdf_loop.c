@@ -1,6 +1,6 @@
 /* Template, not compiled alone: appended by porthamiltonian.backends after rosenbrock_loop.c
- * (whose ph_w_factor, ph_lu_solve, ph_dense, ph_locate_events and ph_variational_step it calls)
- * and the methods' tables; the exported entry points ph_integrate_qbdf and
+ * (whose ph_w_factor, ph_lu_solve and ph_dense it calls), common_loop.c (the start, the checks,
+ * the end of a step and the results shared with the Rosenbrock loop) and the methods' tables; the exported entry points ph_integrate_qbdf and
  * ph_integrate_qbdf_variational follow it (porthamiltonian/integrators/bdf.py). It is
  * bdf_loop.py in C, step for step (same history, Newton iteration, reuse rules, error test,
  * order and step-size choice, dense output and statuses): a change there is made here too; the
@@ -125,7 +125,7 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     (void)tgrad_step;
     int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nlu = 0, nsteps = 0, hit = -1;
     int status = 0, nb = 0, piv[PH_N];
-    double t = t0, g_old[PH_NG], g_new[PH_NG], gsum[PH_BDF_MAX_ORDER + 1];
+    double t = t0, g_old[PH_NG], gsum[PH_BDF_MAX_ORDER + 1];
     double *work = malloc(sizeof(double) * (size_t)N * (QR + ND + 2 * N + 13));
     if (work == NULL)
         return 2;
@@ -135,34 +135,22 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     /* the sensitivities' work arrays (m > 0): J_phi, A at the start of the step (the last Phi
      * step's end), f_phi = rhs there */
     const int64_t nm = m * N;
-    double *pwork = NULL, *P = NULL, *J_phi = NULL, *f_phi = NULL, *vwork = NULL;
+    double *P = NULL, *J_phi = NULL, *f_phi = NULL, *vwork = NULL;
     int have_phi_jac = 0;
     int64_t vcounts[3] = {0, 0, 0};
     double eta_phi = 1e300;
     if (m > 0) {
-        pwork = malloc(sizeof(double) * (size_t)(nm * (phi_tab->s + 4) + 8 * N * N + 7 * N
-                                                 + PH_FORCING_WORK(nm, n_gain)));
-        if (pwork == NULL) {
-            free(work);
+        P = ph_phi_start(m, phi0, phi_tab->s, N, n_gain, phi_error, work, &J_phi, &vwork);
+        if (P == NULL)
             return 2;
-        }
-        P = pwork;
-        J_phi = P + nm;
-        f_phi = J_phi + N * N;
-        vwork = f_phi + N;      /* ph_variational_step's work */
-        memcpy(P, phi0, sizeof(double) * nm);
-        phi_error[0] = 0.0;
+        f_phi = J_phi + N * N;      /* the loop's own N */
     }
     gsum[0] = 0.0;
     for (int q = 1; q <= PH_BDF_MAX_ORDER; ++q)
         gsum[q] = gsum[q - 1] + 1.0 / q;
     memcpy(y, y0, sizeof(double) * N);
     memset(D, 0, sizeof(double) * QR * N);
-    guards(t, y, p, g_old);
-    if (mask_index >= 0) {
-        double g = fabs(g_old[mask_index]);
-        g_old[mask_index] = mask_sign * (g > 1e-300 ? g : 1e-300);
-    }
+    ph_start_guards(t, y, p, mask_index, mask_sign, g_old);
     rhs(t, y, p, f0);
     nfev += 1;
     double h = ph_bdf_first_step(t, y, f0, p, rtol, atol, h0, hmax, t_end, fwork);
@@ -176,18 +164,9 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     njev += 1;
     double c_lu = 0.0, rate = 1.0, err = 0.0, t_new = t;
     for (;;) {
-        if (t >= t_end) {
-            status = 0;
+        status = ph_stop_status(t, t_end, nsteps, max_steps, n_store, n_ev, store_cap);
+        if (status >= 0)
             break;
-        }
-        if (nsteps >= max_steps) {
-            status = 4;
-            break;
-        }
-        if (n_store >= store_cap - 1 || n_ev >= store_cap - 1) {
-            status = 5;
-            break;
-        }
         int last = t + h >= t_end;
         if (last && t + h != t_end) {
             ph_bdf_rescale(D, order, (t_end - t) / h);
@@ -333,47 +312,16 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             rhs(t, y, p, f_phi);
             nfev += 1;
         }
-        double t_hit = t_new;
-        hit = -1;
-        if (g_count > 0) {
-            hit = ph_locate_events(ND, t, hh, y, yk, E, p, g_old, g_new, directions, terminal,
-                                   g_count, store_cap, ev_t, ev_k, &n_ev, &t_hit, yi);
-            if (hit >= 0) {
-                ph_dense(ND, N, (t_hit - t) / hh, y, yk, E, yi);
-                if (m > 0) {
-                    double worst = 0.0;
-                    ph_variational_step(phi_tab, t, hh, (t_hit - t) / hh, y, yk, p, J_phi, f_phi,
-                                        W, piv, 0, ND, E, rtol, atol, n_model, phi_tab->expo, m,
-                                        P, J_phi, vcounts, &worst, &eta_phi, vwork, n_gain,
-                                        gain);
-                    phi_error[0] = fmax(phi_error[0], worst);
-                    memcpy(phis + n_store * nm, P, sizeof(double) * nm);
-                }
-                ts[n_store] = t_hit;
-                memcpy(ys + n_store * N, yi, sizeof(double) * N);
-                n_store += 1;
-                t = t_hit;
-                memcpy(y, yi, sizeof(double) * N);
-                status = 1;
-                break;
-            }
-            memcpy(g_old, g_new, sizeof(double) * NG);
+        /* events on (t, t_new], Phi over the step (its last A is J at the next step's start), the point */
+        hit = ph_finish_step(t, hh, t_new, y, yk, ND, E, p, g_old, directions, terminal, g_count,
+                             store_cap, ev_t, ev_k, &n_ev, yi, phi_tab, J_phi, f_phi, W, piv, 0,
+                             rtol, atol, n_model, m, P, J_phi, vcounts, &eta_phi, vwork, n_gain,
+                             gain, phi_error, ts, ys, phis, &n_store, &t);
+        if (hit >= 0) {
+            status = 1;
+            break;
         }
-        if (m > 0) {        /* Phi over the step; its last A is J at the next step's start */
-            double worst = 0.0;
-            ph_variational_step(phi_tab, t, hh, 1.0, y, yk, p, J_phi, f_phi, W, piv, 0, ND, E,
-                                rtol, atol, n_model, phi_tab->expo, m, P, J_phi, vcounts, &worst,
-                                &eta_phi, vwork, n_gain, gain);
-            phi_error[0] = fmax(phi_error[0], worst);
-            have_phi_jac = 1;
-        }
-        t = t_new;
-        memcpy(y, yk, sizeof(double) * N);
-        ts[n_store] = t;
-        memcpy(ys + n_store * N, y, sizeof(double) * N);
-        if (m > 0)
-            memcpy(phis + n_store * nm, P, sizeof(double) * nm);
-        n_store += 1;
+        have_phi_jac = m > 0;
         /* the next step's order and size */
         if (n_equal < order + 1)
             continue;
@@ -406,19 +354,6 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         ph_bdf_rescale(D, order, fac);
         h *= fac;
     }
-    out_th[0] = t;
-    out_th[1] = h;
-    memcpy(out_y, y, sizeof(double) * N);
-    counts[0] = n_store;
-    counts[1] = nfev + vcounts[1];
-    counts[2] = njev + vcounts[0];
-    counts[3] = nsteps;
-    counts[4] = status == 1 ? hit : -1;
-    counts[5] = n_ev;
-    counts[6] = nlu + vcounts[2];
-    if (m > 0)
-        memcpy(phi_out, P, sizeof(double) * nm);
-    free(pwork);
-    free(work);
-    return status;
+    return ph_loop_end(status, t, h, y, n_store, nfev, njev, nsteps, hit, n_ev, nlu, vcounts, m,
+                       P, out_th, out_y, counts, phi_out, P, work);
 }

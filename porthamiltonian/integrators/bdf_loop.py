@@ -1,8 +1,9 @@
 # Template, not imported: appended by porthamiltonian.backends to each generated model module after
-# rosenbrock_loop.py (whose _w_factor, _lu_solve, _dense, _locate_events and _variational_step it
-# calls) and the methods' tables; the entry points integrate_qbdf, integrate_qbdf_variational
-# follow it (porthamiltonian/integrators/bdf.py). bdf_loop.c is the same loop in C: a change here
-# is made there too (tests/validation/test_qbdf.py runs both on the same problems).
+# rosenbrock_loop.py (whose _w_factor, _lu_solve and _dense it calls), common_loop.py (_loop_start,
+# _stop_status, _finish_step: the events, Φ and the stored point at the end of a step) and the
+# methods' tables; the entry points integrate_qbdf, integrate_qbdf_variational follow it
+# (porthamiltonian/integrators/bdf.py). bdf_loop.c is the same loop in C: a change here is made
+# there too (tests/validation/test_qbdf.py runs both on the same problems).
 #
 # QBDF: the backward differentiation formulas of orders 1-5 with variable order and a
 # quasi-constant step size (Shampine & Reichelt, "The MATLAB ODE Suite", SIAM J. Sci. Comput. 18,
@@ -65,35 +66,34 @@ _SAFETY = 0.9
 
 
 @_jit
+def _product_t(A, B, out):
+    """out = Aᵀ B (out[i, j] = Σ_k A[k, i] B[k, j], k from 0 up)."""
+    for i in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[0]):
+                acc += A[k, i] * B[k, j]
+            out[i, j] = acc
+
+
+@_jit
 def _bdf_rescale(D, order, factor):
     """Change the step size of the history D (rows 0..order) by ``factor``: D ← (R U)ᵀ D with
     R_ij = Π_{1≤r≤i} (r − 1 − factor j) / r and U the same at factor 1 (Shampine & Reichelt,
-    eq. (2.3): the interpolating polynomial on the new grid)."""
+    eq. (2.3): the interpolating polynomial on the new grid); R is built transposed (Rt)."""
     q1 = order + 1
-    R = np.zeros((q1, q1))
+    Rt = np.zeros((q1, q1))
     U = np.zeros((q1, q1))
     for j in range(q1):
-        R[0, j] = 1.0
+        Rt[j, 0] = 1.0
         U[0, j] = 1.0
     for i in range(1, q1):
         for j in range(1, q1):
-            R[i, j] = R[i - 1, j] * (i - 1 - factor * j) / i
+            Rt[j, i] = Rt[j, i - 1] * (i - 1 - factor * j) / i
             U[i, j] = U[i - 1, j] * (i - 1 - j) / i
     RU = np.zeros((q1, q1))
-    for i in range(q1):
-        for j in range(q1):
-            acc = 0.0
-            for k in range(q1):
-                acc += R[i, k] * U[k, j]
-            RU[i, j] = acc
-    n = D.shape[1]
-    old = D[:q1].copy()
-    for j in range(q1):
-        for i in range(n):
-            acc = 0.0
-            for k in range(q1):
-                acc += RU[k, j] * old[k, i]
-            D[j, i] = acc
+    _product_t(Rt, U, RU)
+    _product_t(RU, D[:q1].copy(), D[:q1])
 
 
 @_jit
@@ -173,19 +173,11 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
     order 1 with at most it), ``nlu`` counts the factorizations of I − c J (and of Φ's
     sub-steps)."""
     n = y0.shape[0]
-    g_count = directions.shape[0]
-    ts = np.empty(store_cap)
-    ys = np.empty((store_cap, n))
-    ev_t = np.empty(store_cap)
-    ev_k = np.empty(store_cap, dtype=np.int64)
-    n_ev = 0
-    n_store = 0
-    nfev = 0
-    njev = 0
-    nlu = 0
-    nsteps = 0
+    m = phi0.shape[1]
     t = t0
-    y = y0.copy()
+    y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y0, p, directions.shape[0], mask_index,
+                                                        mask_sign, store_cap, phi0)
+    nfev = njev = nlu = nsteps = n_store = n_ev = 0
     D = np.zeros((_BDF_MAX_ORDER + 3, n))
     E = np.zeros((_BDF_MAX_ORDER - 1, n))
     W = np.empty((n, n))
@@ -202,17 +194,10 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
     gsum = np.zeros(_BDF_MAX_ORDER + 1)       # γ_q = Σ_{i≤q} 1/i
     for q in range(1, _BDF_MAX_ORDER + 1):
         gsum[q] = gsum[q - 1] + 1.0 / q
-    m = phi0.shape[1]
-    nm = n * m
-    P = phi0.copy().reshape(nm)
-    phis = np.empty((store_cap, nm))
     J_phi = np.empty((n, n))
     have_phi_jac = False
     phi_err = 0.0
     eta_phi = 1e300
-    g_old = guards(t, y, p)[:g_count].copy()
-    if mask_index >= 0:
-        g_old[mask_index] = mask_sign * max(abs(g_old[mask_index]), 1e-300)
     f0 = rhs(t, y, p)
     nfev += 1
     h, nf = _bdf_first_step(t, y, f0, p, rtol, atol, h0, hmax, t_end)
@@ -234,14 +219,8 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
     t_new = t
     f_phi = f0
     while True:
-        if t >= t_end:
-            status = 0
-            break
-        if nsteps >= max_steps:
-            status = 4
-            break
-        if n_store >= store_cap - 1 or n_ev >= store_cap - 1:
-            status = 5
+        status = _stop_status(t, t_end, nsteps, max_steps, n_store, n_ev, store_cap)
+        if status >= 0:
             break
         last = t + h >= t_end
         if last and t + h != t_end:
@@ -367,46 +346,16 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
         if m > 0:
             f_phi = rhs(t, y, p)
             nfev += 1
-        hit = -1
-        t_hit = t_new
-        if g_count > 0:
-            hit, t_hit, n_ev, g_new = _locate_events(t, hh, y, yk, E, p, g_old, directions,
-                                                     terminal, ev_t, ev_k, n_ev, yi)
-            if hit >= 0:
-                _dense((t_hit - t) / hh, y, yk, E, yi)
-                if m > 0:
-                    nj, nf, nl, J_phi, worst, eta_phi = _variational_step(
-                        t, hh, (t_hit - t) / hh, y, yk, p, J_phi, f_phi, W, piv, 0, E, TA, TC,
-                        TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain)
-                    njev += nj
-                    nfev += nf
-                    nlu += nl
-                    phi_err = max(phi_err, worst)
-                    phis[n_store, :] = P
-                ts[n_store] = t_hit
-                ys[n_store, :] = yi
-                n_store += 1
-                t = t_hit
-                y[:] = yi
-                status = 1
-                break
-            g_old = g_new
-        if m > 0:       # Φ over the step; its last A is J at the next step's start
-            nj, nf, nl, J_phi, worst, eta_phi = _variational_step(
-                t, hh, 1.0, y, yk, p, J_phi, f_phi, W, piv, 0, E, TA, TC, TN, TD, gam, expo,
-                rtol, atol, n_model, P, eta_phi, gain)
-            njev += nj
-            nfev += nf
-            nlu += nl
-            phi_err = max(phi_err, worst)
-            have_phi_jac = True
-        t = t_new
-        for i in range(n):
-            y[i] = yk[i]
-        ts[n_store] = t
-        ys[n_store, :] = y
-        phis[n_store, :] = P
-        n_store += 1
+        # events on (t, t_new], Φ over the step (its last A is J at the next step's start), the
+        # point
+        hit, t, n_ev, n_store, g_old, njev, nfev, nlu, J_phi, phi_err, eta_phi = _finish_step(
+            t, hh, t_new, y, yk, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J_phi,
+            f_phi, W, piv, 0, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain,
+            ts, ys, phis, n_store, njev, nfev, nlu, phi_err)
+        if hit >= 0:
+            status = 1
+            break
+        have_phi_jac = m > 0
         # the next step's order and size
         if n_equal < order + 1:
             continue

@@ -166,21 +166,60 @@ static double ph_rate_step(double h, const double *f, const double *sc, int64_t 
     return PH_CBRT_EPS / nu;
 }
 
+/* out += A[:, :cols] B for the PH_N rows of A (row-major, lda per row) and B (cols x m,
+ * row-major; out PH_N x m), skipping A's zeros (_add_product of rosenbrock_loop.py) */
+static void ph_add_product(const double *A, int64_t lda, int64_t cols, const double *B, int64_t m,
+                           double *out)
+{
+    for (int i = 0; i < PH_N; ++i)
+        for (int64_t j = 0; j < cols; ++j) {
+            const double a = A[i * lda + j];
+            if (a != 0.0)
+                for (int64_t c = 0; c < m; ++c)
+                    out[i * m + c] += a * B[j * m + c];
+        }
+}
+
 /* out = jac_p(t, y, p) G (N x m row-major; G = gain, n_gain x m): the forcing of the parameter
  * sensitivities (_forcing of rosenbrock_loop.py); Fp: work (N x n_gain) */
 static void ph_forcing(double t, const double *y, const double *p, int64_t n_gain,
                        const double *gain, int64_t m, double *Fp, double *out)
 {
-    enum { N = PH_N };
     jac_p(t, y, p, Fp);
-    memset(out, 0, sizeof(double) * N * m);
-    for (int i = 0; i < N; ++i)
-        for (int64_t k = 0; k < n_gain; ++k) {
-            const double a = Fp[i * n_gain + k];
-            if (a != 0.0)
-                for (int64_t c = 0; c < m; ++c)
-                    out[i * m + c] += a * gain[k * m + c];
-        }
+    memset(out, 0, sizeof(double) * PH_N * m);
+    ph_add_product(Fp, n_gain, n_gain, gain, m, out);
+}
+
+/* out = dX/dt from X at (t, y) and Xp, Xm at t +- eps along (1, f), len values each: central,
+ * or the one-sided difference without a kink of X (_difference_rate of rosenbrock_loop.py) */
+static void ph_difference_rate(const double *Xp, const double *X, const double *Xm, int64_t len,
+                               double eps, double *out)
+{
+    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
+    for (int64_t k = 0; k < len; ++k) {
+        up = fmax(up, fabs(Xp[k] - X[k]));
+        down = fmax(down, fabs(X[k] - Xm[k]));
+        second = fmax(second, fabs(Xp[k] - 2.0 * X[k] + Xm[k]));
+        central = fmax(central, fabs(Xp[k] - Xm[k]));
+    }
+    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
+    for (int64_t k = 0; k < len; ++k) {
+        if (!kink)
+            out[k] = (Xp[k] - Xm[k]) / (2.0 * eps);
+        else if (up <= down)
+            out[k] = (Xp[k] - X[k]) / eps;
+        else
+            out[k] = (X[k] - Xm[k]) / eps;
+    }
+}
+
+/* yp, ym = y +- eps f: the states at t +- eps along (1, f) (_shifted of rosenbrock_loop.py) */
+static void ph_shifted(const double *y, const double *f, double eps, double *yp, double *ym)
+{
+    for (int i = 0; i < PH_N; ++i) {
+        yp[i] = y[i] + eps * f[i];
+        ym[i] = y[i] - eps * f[i];
+    }
 }
 
 /* DF = d/dt F(t, x(t)) of the forcing F (its value at (t, y)) by the differences of ph_jac_rate
@@ -194,28 +233,10 @@ static int ph_forcing_rate(double t, double h, const double *y, const double *p,
     const int64_t nm = N * m;
     const double eps = ph_rate_step(h, f, sc, n_model);
     double *Fp = work, *Fm = Fp + nm, *yp = Fm + nm, *ym = yp + N, *Jp = ym + N;
-    for (int i = 0; i < N; ++i) {
-        yp[i] = y[i] + eps * f[i];
-        ym[i] = y[i] - eps * f[i];
-    }
+    ph_shifted(y, f, eps, yp, ym);
     ph_forcing(t + eps, yp, p, n_gain, gain, m, Jp, Fp);
     ph_forcing(t - eps, ym, p, n_gain, gain, m, Jp, Fm);
-    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
-    for (int64_t q = 0; q < nm; ++q) {
-        up = fmax(up, fabs(Fp[q] - F[q]));
-        down = fmax(down, fabs(F[q] - Fm[q]));
-        second = fmax(second, fabs(Fp[q] - 2.0 * F[q] + Fm[q]));
-        central = fmax(central, fabs(Fp[q] - Fm[q]));
-    }
-    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
-    for (int64_t q = 0; q < nm; ++q) {
-        if (!kink)
-            DF[q] = (Fp[q] - Fm[q]) / (2.0 * eps);
-        else if (up <= down)
-            DF[q] = (Fp[q] - F[q]) / eps;
-        else
-            DF[q] = (F[q] - Fm[q]) / eps;
-    }
+    ph_difference_rate(Fp, F, Fm, nm, eps, DF);
     return 2;
 }
 
@@ -229,28 +250,10 @@ static int ph_jac_rate(double t, double h, const double *y, const double *p, con
     enum { N = PH_N };
     const double eps = ph_rate_step(h, f, sc, n_model);
     double *Jp = work, *Jm = Jp + N * N, *yp = Jm + N * N, *ym = yp + N;
-    for (int i = 0; i < N; ++i) {
-        yp[i] = y[i] + eps * f[i];
-        ym[i] = y[i] - eps * f[i];
-    }
+    ph_shifted(y, f, eps, yp, ym);
     jac(t + eps, yp, p, Jp);
     jac(t - eps, ym, p, Jm);
-    double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
-    for (int k = 0; k < N * N; ++k) {
-        up = fmax(up, fabs(Jp[k] - J[k]));
-        down = fmax(down, fabs(J[k] - Jm[k]));
-        second = fmax(second, fabs(Jp[k] - 2.0 * J[k] + Jm[k]));
-        central = fmax(central, fabs(Jp[k] - Jm[k]));
-    }
-    const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
-    for (int k = 0; k < N * N; ++k) {
-        if (!kink)
-            D[k] = (Jp[k] - Jm[k]) / (2.0 * eps);
-        else if (up <= down)
-            D[k] = (Jp[k] - J[k]) / eps;
-        else
-            D[k] = (J[k] - Jm[k]) / eps;
-    }
+    ph_difference_rate(Jp, J, Jm, N * N, eps, D);
     return 2;
 }
 
@@ -319,13 +322,7 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
     const int forced = n_gain > 0;
     int nj = 0;
     memset(DP, 0, sizeof(double) * nm);
-    for (int i = 0; i < N; ++i)             /* DP = A' Phi0 (+ F') */
-        for (int64_t j = 0; j < n_model; ++j) {
-            const double a = D[i * N + j];
-            if (a != 0.0)
-                for (int64_t c = 0; c < m; ++c)
-                    DP[i * m + c] += a * P[j * m + c];
-        }
+    ph_add_product(D, N, n_model, P, m, DP);       /* DP = A' Phi0 (+ F') */
     if (forced)
         for (int64_t q = 0; q < nm; ++q)
             DP[q] += DF[q];
@@ -365,13 +362,7 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
                 acc += F[q];
             KPs[q] = acc;
         }
-        for (int i = 0; i < N; ++i)
-            for (int64_t j = 0; j < n_model; ++j) {
-                const double a = A[i * N + j];
-                if (a != 0.0)
-                    for (int64_t c = 0; c < m; ++c)
-                        KPs[i * m + c] += a * UP[j * m + c];
-            }
+        ph_add_product(A, N, n_model, UP, m, KPs);
         ph_lu_solve_rows(W, piv, nf, KPs, m);
     }
     if (A != A_end)
@@ -570,7 +561,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nlu = 0, nsteps = 0, hit = -1;
     int status = 0, nf = 0, piv[PH_N];
     double t = t0, h = h0, err = 0.0;
-    double g_old[PH_NG], g_new[PH_NG];
+    double g_old[PH_NG];
     /* the work arrays, on the heap (large models would overflow a thread's stack) */
     double *work = malloc(sizeof(double) * (size_t)N * (2 * N + 2 * s + nd + 7));
     if (work == NULL)
@@ -581,30 +572,16 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
     /* the sensitivities' work arrays (m > 0); J_next: A at the end of the last step, made for
      * its Phi: the next step's J */
     const int64_t nm = m * N;
-    double *pwork = NULL, *P = NULL, *J_next = NULL, *vwork = NULL;
+    double *P = NULL, *J_next = NULL, *vwork = NULL;
     int have_next = 0;
     int64_t vcounts[3] = {0, 0, 0};
     double eta_phi = 1e300;     /* the length of Phi's next sub-step (s): the whole step */
-    if (m > 0) {
-        pwork = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N
-                                                 + PH_FORCING_WORK(nm, n_gain)));
-        if (pwork == NULL) {
-            free(work);
-            return 2;
-        }
-        P = pwork;
-        J_next = P + nm;
-        vwork = J_next + N * N;      /* ph_variational_step's work */
-        memcpy(P, phi0, sizeof(double) * nm);
-        phi_error[0] = 0.0;
-    }
+    if (m > 0 && (P = ph_phi_start(m, phi0, s, 0, n_gain, phi_error, work, &J_next,
+                                   &vwork)) == NULL)
+        return 2;
     memcpy(y, y0, sizeof(double) * N);
     memset(dT, 0, sizeof(double) * N);
-    guards(t, y, p, g_old);
-    if (mask_index >= 0) {
-        double g = fabs(g_old[mask_index]);
-        g_old[mask_index] = mask_sign * (g > 1e-300 ? g : 1e-300);
-    }
+    ph_start_guards(t, y, p, mask_index, mask_sign, g_old);
     rhs(t, y, p, f0);
     nfev += 1;
     if (h <= 0.0) {
@@ -624,18 +601,9 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             h = t_end - t;
     }
     for (;;) {
-        if (t >= t_end) {
-            status = 0;
+        status = ph_stop_status(t, t_end, nsteps, max_steps, n_store, n_ev, store_cap);
+        if (status >= 0)
             break;
-        }
-        if (nsteps >= max_steps) {
-            status = 4;
-            break;
-        }
-        if (n_store >= store_cap - 1 || n_ev >= store_cap - 1) {
-            status = 5;
-            break;
-        }
         if (have_next) {
             memcpy(J, J_next, sizeof(double) * N * N);   /* jac(t, y, p) */
             have_next = 0;
@@ -730,47 +698,16 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             status = 3;
             break;
         }
-        /* events on (t, t_new] */
-        double t_hit = t_new;
-        hit = -1;
-        if (g_count > 0) {
-            hit = ph_locate_events(nd, t, h, y, y1, E, p, g_old, g_new, directions, terminal,
-                                   g_count, store_cap, ev_t, ev_k, &n_ev, &t_hit, yi);
-            if (hit >= 0) {
-                ph_dense(nd, N, (t_hit - t) / h, y, y1, E, yi);
-                if (m > 0) {
-                    double worst = 0.0;
-                    ph_variational_step(tab, t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nf,
-                                        nd, E, rtol, atol, n_model, expo, m, P, J_next, vcounts,
-                                        &worst, &eta_phi, vwork, n_gain, gain);
-                    phi_error[0] = fmax(phi_error[0], worst);
-                    memcpy(phis + n_store * nm, P, sizeof(double) * nm);
-                }
-                ts[n_store] = t_hit;
-                memcpy(ys + n_store * N, yi, sizeof(double) * N);
-                n_store += 1;
-                t = t_hit;
-                memcpy(y, yi, sizeof(double) * N);
-                status = 1;
-                break;
-            }
-            memcpy(g_old, g_new, sizeof(double) * NG);
+        /* events on (t, t_new], Phi over the step (its last A is the next step's J), the point */
+        hit = ph_finish_step(t, h, t_new, y, y1, nd, E, p, g_old, directions, terminal, g_count,
+                             store_cap, ev_t, ev_k, &n_ev, yi, tab, J, f0, W, piv, nf,
+                             rtol, atol, n_model, m, P, J_next, vcounts, &eta_phi, vwork, n_gain,
+                             gain, phi_error, ts, ys, phis, &n_store, &t);
+        if (hit >= 0) {
+            status = 1;
+            break;
         }
-        if (m > 0) {       /* Phi over the step; its last A is the next step's J */
-            double worst = 0.0;
-            ph_variational_step(tab, t, h, 1.0, y, y1, p, J, f0, W, piv, nf, nd, E, rtol, atol,
-                                n_model, expo, m, P, J_next, vcounts, &worst, &eta_phi, vwork,
-                                n_gain, gain);
-            phi_error[0] = fmax(phi_error[0], worst);
-            have_next = 1;
-        }
-        t = t_new;
-        memcpy(y, y1, sizeof(double) * N);
-        ts[n_store] = t;
-        memcpy(ys + n_store * N, y, sizeof(double) * N);
-        if (m > 0)
-            memcpy(phis + n_store * nm, P, sizeof(double) * nm);
-        n_store += 1;
+        have_next = m > 0;
         rhs(t, y, p, f0);
         nfev += 1;
         double fac = err > 0.0 ? fmin(6.0, fmax(0.2, 0.9 * pow(err, -expo))) : 6.0;
@@ -778,19 +715,6 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             fac = fmin(fac, 1.0);
         h = fmin(h * fac, hmax);
     }
-    out_th[0] = t;
-    out_th[1] = h;
-    memcpy(out_y, y, sizeof(double) * N);
-    counts[0] = n_store;
-    counts[1] = nfev + vcounts[1];
-    counts[2] = njev + vcounts[0];
-    counts[3] = nsteps;
-    counts[4] = status == 1 ? hit : -1;
-    counts[5] = n_ev;
-    counts[6] = nlu + vcounts[2];
-    if (m > 0)
-        memcpy(phi_out, P, sizeof(double) * nm);
-    free(pwork);
-    free(work);
-    return status;
+    return ph_loop_end(status, t, h, y, n_store, nfev, njev, nsteps, hit, n_ev, nlu, vcounts, m,
+                       P, out_th, out_y, counts, phi_out, P, work);
 }

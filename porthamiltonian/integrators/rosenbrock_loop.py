@@ -1,6 +1,7 @@
 # Template, not imported: appended by porthamiltonian.backends to each generated model module,
 # after the model's functions (``rhs``, ``jac``, ``guards``), where ``np``, ``math`` and ``_jit``
-# are defined; the tables of each method and its entry point ``integrate_<method>`` follow it
+# are defined, and before common_loop.py (its _loop_start, _stop_status and _finish_step, which the
+# loop calls, are shared with the BDF loop); the tables of each method and its entry point ``integrate_<method>`` follow it
 # (porthamiltonian/integrators/tableaus.py). rosenbrock_loop.c is the same loop in C: a change
 # here is made there too (tests/validation/test_rodas.py runs both on the same problems).
 #
@@ -156,21 +157,63 @@ def _rate_step(h, f, sc, n_model):
 
 
 @_jit
+def _add_product(A, cols, B, out):
+    """out += A[:, :cols] B (out: rows of A x columns of B), skipping A's zeros."""
+    for i in range(A.shape[0]):
+        for j in range(cols):
+            a = A[i, j]
+            if a != 0.0:
+                for c in range(B.shape[1]):
+                    out[i, c] += a * B[j, c]
+
+
+@_jit
 def _forcing(t, y, p, gain, out):
     """out = jac_p(t, y, p) G (n x m, flattened by rows; G = ``gain``, L x m): the forcing of
     the parameter sensitivities (see the header)."""
     n = y.shape[0]
-    L = gain.shape[0]
     m = gain.shape[1]
-    Fp = jac_p(t, y, p)
     for q in range(n * m):
         out[q] = 0.0
-    for i in range(n):
-        for k in range(L):
-            a = Fp[i, k]
-            if a != 0.0:
-                for c in range(m):
-                    out[i * m + c] += a * gain[k, c]
+    _add_product(jac_p(t, y, p), gain.shape[0], gain, out.reshape(n, m))
+
+
+@_jit
+def _shifted(y, f, eps):
+    """y ± ε f: the states at t ± ε along (1, f) (_jac_rate, _forcing_rate)."""
+    yp = y.copy()
+    ym = y.copy()
+    for i in range(y.shape[0]):
+        yp[i] += eps * f[i]
+        ym[i] -= eps * f[i]
+    return yp, ym
+
+
+@_jit
+def _difference_rate(Xp, X, Xm, eps, out):
+    """out = dX/dt from X at (t, y) and Xp, Xm at t ± ε along (1, f) (rows x columns alike):
+    central, (Xp − Xm) / 2ε, unless X has a kink in between (a Piecewise law, e.g. a contact's
+    max(z, 0)): then the two one-sided differences disagree by O(1) instead of O(ε), and the
+    smaller one, from the side without the kink, is used."""
+    up = 0.0
+    down = 0.0
+    second = 0.0
+    central = 0.0
+    for i in range(X.shape[0]):
+        for j in range(X.shape[1]):
+            up = max(up, abs(Xp[i, j] - X[i, j]))
+            down = max(down, abs(X[i, j] - Xm[i, j]))
+            second = max(second, abs(Xp[i, j] - 2.0 * X[i, j] + Xm[i, j]))
+            central = max(central, abs(Xp[i, j] - Xm[i, j]))
+    kink = second > 0.5 * central and second > 1e-12 * (up + down + 1e-300)
+    for i in range(X.shape[0]):
+        for j in range(X.shape[1]):
+            if not kink:
+                out[i, j] = (Xp[i, j] - Xm[i, j]) / (2.0 * eps)
+            elif up <= down:
+                out[i, j] = (Xp[i, j] - X[i, j]) / eps
+            else:
+                out[i, j] = (X[i, j] - Xm[i, j]) / eps
 
 
 @_jit
@@ -181,32 +224,13 @@ def _forcing_rate(t, h, y, p, gain, F, f, sc, n_model, DF):
     n = y.shape[0]
     nm = F.shape[0]
     eps = _rate_step(h, f, sc, n_model)
-    yp = y.copy()
-    ym = y.copy()
-    for i in range(n):
-        yp[i] += eps * f[i]
-        ym[i] -= eps * f[i]
+    yp, ym = _shifted(y, f, eps)
     Fp = np.empty(nm)
     Fm = np.empty(nm)
     _forcing(t + eps, yp, p, gain, Fp)
     _forcing(t - eps, ym, p, gain, Fm)
-    up = 0.0
-    down = 0.0
-    second = 0.0
-    central = 0.0
-    for q in range(nm):
-        up = max(up, abs(Fp[q] - F[q]))
-        down = max(down, abs(F[q] - Fm[q]))
-        second = max(second, abs(Fp[q] - 2.0 * F[q] + Fm[q]))
-        central = max(central, abs(Fp[q] - Fm[q]))
-    kink = second > 0.5 * central and second > 1e-12 * (up + down + 1e-300)
-    for q in range(nm):
-        if not kink:
-            DF[q] = (Fp[q] - Fm[q]) / (2.0 * eps)
-        elif up <= down:
-            DF[q] = (Fp[q] - F[q]) / eps
-        else:
-            DF[q] = (F[q] - Fm[q]) / eps
+    m = nm // n
+    _difference_rate(Fp.reshape(n, m), F.reshape(n, m), Fm.reshape(n, m), eps, DF.reshape(n, m))
     return 2
 
 
@@ -214,38 +238,11 @@ def _forcing_rate(t, h, y, p, gain, F, f, sc, n_model, DF):
 def _jac_rate(t, h, y, p, J, f, sc, n_model, D):
     """D = d/dt J(t, x(t)) = ∂_x J[f] + ∂_t J at (t, y), f = ẋ, by a difference of J along
     (1, f) with the step ε of _rate_step (model states i: every state moves by at most
-    ε_mach^(1/3) of its scale sc_i, the time by at most that part of the step): central, (J(t + ε, y + εf) − J(t − ε, y − εf)) / 2ε, unless J has a kink in
-    between (a Piecewise law, e.g. a contact's max(z, 0)): then the two one-sided differences
-    disagree by O(1) instead of O(ε), and the smaller one, from the side without the kink, is
-    used. Returns the jac evaluations made (2)."""
-    n = y.shape[0]
+    ε_mach^(1/3) of its scale sc_i, the time by at most that part of the step), central unless
+    J has a kink in between (_difference_rate). Returns the jac evaluations made (2)."""
     eps = _rate_step(h, f, sc, n_model)
-    yp = y.copy()
-    ym = y.copy()
-    for i in range(n):
-        yp[i] += eps * f[i]
-        ym[i] -= eps * f[i]
-    Jp = jac(t + eps, yp, p)
-    Jm = jac(t - eps, ym, p)
-    up = 0.0
-    down = 0.0
-    second = 0.0
-    central = 0.0
-    for i in range(n):
-        for j in range(n):
-            up = max(up, abs(Jp[i, j] - J[i, j]))
-            down = max(down, abs(J[i, j] - Jm[i, j]))
-            second = max(second, abs(Jp[i, j] - 2.0 * J[i, j] + Jm[i, j]))
-            central = max(central, abs(Jp[i, j] - Jm[i, j]))
-    kink = second > 0.5 * central and second > 1e-12 * (up + down + 1e-300)
-    for i in range(n):
-        for j in range(n):
-            if not kink:
-                D[i, j] = (Jp[i, j] - Jm[i, j]) / (2.0 * eps)
-            elif up <= down:
-                D[i, j] = (Jp[i, j] - J[i, j]) / eps
-            else:
-                D[i, j] = (J[i, j] - Jm[i, j]) / eps
+    yp, ym = _shifted(y, f, eps)
+    _difference_rate(jac(t + eps, yp, p), J, jac(t - eps, ym, p), eps, D)
     return 2
 
 
@@ -303,12 +300,7 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
     eta = ds * h
     UP = np.empty(nm)
     DP = np.zeros(nm)
-    for i in range(n):                      # DP = A'(τ) Φ0 (+ F'(τ))
-        for j in range(n_model):
-            a = D[i, j]
-            if a != 0.0:
-                for c in range(m):
-                    DP[i * m + c] += a * P[j * m + c]
+    _add_product(D, n_model, P.reshape(n, m), DP.reshape(n, m))     # DP = A'(τ) Φ0 (+ F'(τ))
     F = Fa
     if forced:
         for q in range(nm):
@@ -343,12 +335,7 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
             if forced:
                 acc += F[q]
             KP[st, q] = acc
-        for i in range(n):
-            for j in range(n_model):
-                a = A[i, j]
-                if a != 0.0:
-                    for c in range(m):
-                        KP[st, i * m + c] += a * UP[j * m + c]
+        _add_product(A, n_model, UP.reshape(n, m), KP[st].reshape(n, m))
         _lu_solve_rows(W, piv, nb, KP[st], m)
     for q in range(nm):
         P1[q] = UP[q] + KP[s - 1, q]
@@ -551,19 +538,11 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     """
     n = y0.shape[0]
     s = TN.shape[0]
-    g_count = directions.shape[0]
-    ts = np.empty(store_cap)
-    ys = np.empty((store_cap, n))
-    ev_t = np.empty(store_cap)
-    ev_k = np.empty(store_cap, dtype=np.int64)
-    n_ev = 0
-    n_store = 0
-    nfev = 0
-    njev = 0
-    nlu = 0
-    nsteps = 0
+    m = phi0.shape[1]
     t = t0
-    y = y0.copy()
+    y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y0, p, directions.shape[0], mask_index,
+                                                        mask_sign, store_cap, phi0)
+    nfev = njev = nlu = nsteps = n_store = n_ev = 0
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
     nb = 0          # the size of W's factored block (_w_factor)
@@ -573,13 +552,6 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     dT = np.zeros(n)
     y1 = np.empty(n)
     yi = np.empty(n)
-    m = phi0.shape[1]
-    nm = n * m
-    P = phi0.copy().reshape(nm)
-    phis = np.empty((store_cap, nm))
-    g_old = guards(t, y, p)[:g_count].copy()
-    if mask_index >= 0:
-        g_old[mask_index] = mask_sign * max(abs(g_old[mask_index]), 1e-300)
     h = h0
     f0 = rhs(t, y, p)
     nfev += 1
@@ -603,14 +575,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     phi_err = 0.0
     eta_phi = 1e300         # the length of Φ's next sub-step (s): the whole step
     while True:
-        if t >= t_end:
-            status = 0
-            break
-        if nsteps >= max_steps:
-            status = 4
-            break
-        if n_store >= store_cap - 1 or n_ev >= store_cap - 1:
-            status = 5
+        status = _stop_status(t, t_end, nsteps, max_steps, n_store, n_ev, store_cap)
+        if status >= 0:
             break
         if have_next:
             J = J_next          # jac(t, y, p), made for the last step's Φ
@@ -693,47 +659,15 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
         if not (big <= bound):
             status = 3
             break
-        # events on (t, t_new]
-        hit = -1
-        t_hit = t_new
-        if g_count > 0:
-            hit, t_hit, n_ev, g_new = _locate_events(t, h, y, y1, E, p, g_old, directions,
-                                                     terminal, ev_t, ev_k, n_ev, yi)
-            if hit >= 0:
-                _dense((t_hit - t) / h, y, y1, E, yi)
-                if m > 0:
-                    nj, nf, nl, J_next, worst, eta_phi = _variational_step(
-                        t, h, (t_hit - t) / h, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD,
-                        gam, expo, rtol, atol, n_model, P, eta_phi, gain)
-                    njev += nj
-                    nfev += nf
-                    nlu += nl
-                    phi_err = max(phi_err, worst)
-                    phis[n_store, :] = P
-                ts[n_store] = t_hit
-                ys[n_store, :] = yi
-                n_store += 1
-                t = t_hit
-                y[:] = yi
-                status = 1
-                break
-            g_old = g_new
-        if m > 0:       # Φ over the step; its last A is the next step's J
-            nj, nf, nl, J_next, worst, eta_phi = _variational_step(
-                t, h, 1.0, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo, rtol,
-                atol, n_model, P, eta_phi, gain)
-            njev += nj
-            nfev += nf
-            nlu += nl
-            phi_err = max(phi_err, worst)
-            have_next = True
-        t = t_new
-        for i in range(n):
-            y[i] = y1[i]
-        ts[n_store] = t
-        ys[n_store, :] = y
-        phis[n_store, :] = P
-        n_store += 1
+        # events on (t, t_new], Φ over the step (its last A is the next step's J), the point
+        hit, t, n_ev, n_store, g_old, njev, nfev, nlu, J_next, phi_err, eta_phi = _finish_step(
+            t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J, f0,
+            W, piv, nb, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain, ts, ys,
+            phis, n_store, njev, nfev, nlu, phi_err)
+        if hit >= 0:
+            status = 1
+            break
+        have_next = m > 0
         f0 = rhs(t, y, p)
         nfev += 1
         fac = min(6.0, max(0.2, 0.9 * err ** -expo)) if err > 0.0 else 6.0

@@ -162,6 +162,21 @@ def add_sweep_parser(subparsers: argparse._SubParsersAction, help: str,
     return parser
 
 
+def add_fmu_parser(subparsers: argparse._SubParsersAction, help: str, model_help: str,
+                   example: str, kind: str) -> argparse.ArgumentParser:
+    """The ``export-fmu`` subcommand's parser with the options every FMU export takes (the model,
+    ``--out``, ``--fmi``, ``--kind``, whose default is ``kind``; ``example``: the FMU's file name
+    shown in ``--out``'s help), for the command to add its own."""
+    p = subparsers.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION], help=help)
+    p.add_argument("model", help=model_help)
+    p.add_argument("--out", required=True, metavar="FILE", help=f"the FMU to write ({example})")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="FMI version: 2 (2.0, default) or 3 (3.0)")
+    p.add_argument("--kind", choices=("me", "cs", "both"), default=kind,
+                   help=f"model exchange (me), co-simulation (cs) or both (default: {kind})")
+    return p
+
+
 def parse_assignments(pairs: Sequence[str], option: str = "--set") -> dict[str, float]:
     """``["k=9", "slope=0.01"]`` (the ``--set`` options, or those of ``option``) ->
     ``{"k": 9.0, "slope": 0.01}``."""
@@ -192,17 +207,19 @@ def _model_file_meta(model: str) -> dict[str, str]:
     return {"model_file": str(path), "model_file_sha256": hashlib.sha256(data).hexdigest()}
 
 
-def _fmt(value: Any) -> str:
+def format_value(value: Any, digits: int = 6) -> str:
+    """A value as a table shows it: ``-`` for None, a float to ``digits`` significant digits,
+    anything else as ``str`` gives it."""
     if value is None:
         return "-"
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return f"{value:.{digits}g}"
     return str(value)
 
 
 def _print_table(rows: list[dict], names: list[str], columns: Sequence[str]) -> None:
     cols = ["case_id", *names, "status", *columns]
-    cells = [[_fmt(row.get(c)) for c in cols] for row in rows]
+    cells = [[format_value(row.get(c)) for c in cols] for row in rows]
     widths = [max(len(c), *(len(r[i]) for r in cells)) for i, c in enumerate(cols)]
     print("  ".join(c.ljust(w) for c, w in zip(cols, widths)))
     for r in cells:
@@ -539,15 +556,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_sweep)
     p = fitting.add_fit_parser(sub, [BACKEND_OPTION, SET_OPTION, JSON_OPTION], model_help)
     p.set_defaults(func=cmd_fit)
-    p = sub.add_parser("export-fmu", parents=[BACKEND_OPTION, SET_OPTION],
-                       help="write the model as an FMU (FMI 2.0 or 3.0, model exchange and/or "
-                            "co-simulation) for other tools; docs/fmu.md")
-    p.add_argument("model", help=model_help)
-    p.add_argument("--out", required=True, metavar="FILE", help="the FMU to write (model.fmu)")
-    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
-                   help="FMI version: 2 (2.0, default) or 3 (3.0)")
-    p.add_argument("--kind", choices=("me", "cs", "both"), default="both",
-                   help="model exchange (me), co-simulation (cs) or both (default)")
+    p = add_fmu_parser(sub, "write the model as an FMU (FMI 2.0 or 3.0, model exchange and/or "
+                            "co-simulation) for other tools; docs/fmu.md", model_help,
+                       "model.fmu", "both")
     p.add_argument("--t-end", type=float, default=None, metavar="T",
                    help="the FMU's default stop time (s; default: the model file's [simulation] "
                         "t_end)")

@@ -784,17 +784,26 @@ _SIM_TYPES = {"t_end": "number", "rtol": "number", "atol": "number", "max_step":
               "inputs": "table"}
 
 
+def _table_entries(data: dict[str, Any], section: str, keys: Mapping[str, str],
+                   r: _Reader) -> Iterator[tuple[str, Any]]:
+    """The (key, value) pairs of the table ``[section]`` of ``data`` whose key is one of
+    ``keys``, in the file's order; a ``[section]`` that is not a table, and every other key (with
+    the nearest known one), are reported to ``r``."""
+    table = data.get(section, {})
+    if not isinstance(table, dict):
+        r.add(f"[{section}] must be a table, got {_type_name(table)}", section)
+        return
+    for key, value in table.items():
+        if key not in keys:
+            r.add(f"[{section}] has no key {key!r}{_suggest(key, keys)}; it takes "
+                  f"{', '.join(sorted(keys))}", section, key)
+            continue
+        yield key, value
+
+
 def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
     """``[simulation]``: the command line's defaults, each key checked for its type."""
-    sim = data.get("simulation", {})
-    if not isinstance(sim, dict):
-        r.add(f"[simulation] must be a table, got {_type_name(sim)}", "simulation")
-        return {}
-    for key, value in sim.items():
-        if key not in _SIM_TYPES:
-            r.add(f"[simulation] has no key {key!r}{_suggest(key, _SIM_TYPES)}; it takes "
-                  f"{', '.join(sorted(_SIM_TYPES))}", "simulation", key)
-            continue
+    for key, value in _table_entries(data, "simulation", _SIM_TYPES, r):
         kind = _SIM_TYPES[key]
         ok = ((kind == "number" and _is_number(value) and math.isfinite(value) and value > 0)
               or (kind == "string" and isinstance(value, str))
@@ -810,7 +819,8 @@ def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
                 check_rtol(value)
             except OptionError as err:
                 r.add(f"[simulation] {err}", "simulation", key)
-    return dict(sim)
+    sim = data.get("simulation", {})
+    return dict(sim) if isinstance(sim, dict) else {}
 
 
 _LINEARIZE_KEYS = {"states": "a table of state = number", "inputs": "a table of input = number",
@@ -821,15 +831,7 @@ _LINEARIZE_KEYS = {"states": "a table of state = number", "inputs": "a table of 
 def _read_linearize(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
     """``[linearize]``: the operating point of ``porthamiltonian linearize`` (keys checked for
     their types; names are checked against the compiled model when it is linearized)."""
-    table = data.get("linearize", {})
-    if not isinstance(table, dict):
-        r.add(f"[linearize] must be a table, got {_type_name(table)}", "linearize")
-        return {}
-    for key, value in table.items():
-        if key not in _LINEARIZE_KEYS:
-            r.add(f"[linearize] has no key {key!r}{_suggest(key, _LINEARIZE_KEYS)}; it takes "
-                  f"{', '.join(sorted(_LINEARIZE_KEYS))}", "linearize", key)
-            continue
+    for key, value in _table_entries(data, "linearize", _LINEARIZE_KEYS, r):
         ok = {"states": lambda v: isinstance(v, dict) and all(
                   _is_number(x) and math.isfinite(x) for x in v.values()),
               "inputs": lambda v: isinstance(v, dict) and all(
@@ -840,7 +842,8 @@ def _read_linearize(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
         if not ok:
             r.add(f"[linearize] {key} must be {_LINEARIZE_KEYS[key]}, got {_type_name(value)} "
                   f"{value!r}", "linearize", key)
-    return dict(table)
+    table = data.get("linearize", {})
+    return dict(table) if isinstance(table, dict) else {}
 
 
 def _is_number(value: Any) -> bool:

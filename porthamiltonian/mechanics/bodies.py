@@ -73,22 +73,26 @@ class _Joint:
 
 
 @dataclass(frozen=True)
-class Revolute(_Joint):
-    """Rotation by q (rad) about ``axis`` ('x', 'y', 'z' or a 3-vector, parent frame)."""
-
-    axis: Any = "y"
-    q0: Any = 0
-    v0: Any = 0
-    kind = "revolute"
-
-
-@dataclass(frozen=True)
-class Prismatic(_Joint):
-    """Translation by q (m) along ``axis``."""
+class _OneAxis(_Joint):
+    """A joint of one coordinate q about or along ``axis``, starting at q0 with rate v0."""
 
     axis: Any = "x"
     q0: Any = 0
     v0: Any = 0
+
+
+@dataclass(frozen=True)
+class Revolute(_OneAxis):
+    """Rotation by q (rad) about ``axis`` ('x', 'y', 'z' or a 3-vector, parent frame)."""
+
+    axis: Any = "y"
+    kind = "revolute"
+
+
+@dataclass(frozen=True)
+class Prismatic(_OneAxis):
+    """Translation by q (m) along ``axis``."""
+
     kind = "prismatic"
 
 

@@ -3,7 +3,9 @@
  * every model library whose generated functions call it (they declare the entries,
  * sources.c_declarations); without MB_ENTRY the entries are static, for inclusion in one unit.
  * kernel.py is the same algorithm in Python (the python and numba back ends) and documents it; a
- * change here is made there too (tests/validation/test_multibody_kernel.py runs both).
+ * change here is made there too (tests/validation/test_multibody_kernel.py runs both). The
+ * entries without tangents (ph_mb_mass, ph_mb_jacobians, ph_mb_poses, ph_mb_momenta) follow it,
+ * generated for both templates from one table (porthamiltonian/mechanics/sources.py).
  *
  * The recursive dynamics of a tree of rigid bodies driven by numeric tables (one compiled code for
  * every tree): the links' relative and world poses, composite inertias, the mass matrix by the
@@ -816,33 +818,6 @@ static void mb_positions_entry(int what, const int *s, const double *c, const do
     free(ws);
 }
 
-MB_ENTRY void ph_mb_mass(const int *s, const double *c, const double *in, double *out, int K,
-                       const double *din, double *dout)
-{
-    (void)K; (void)din; (void)dout;
-    mb_positions_entry(0, s, c, in, out);
-}
-
-MB_ENTRY void ph_mb_jacobians(const int *s, const double *c, const double *in, double *out, int K,
-                            const double *din, double *dout)
-{
-    (void)K; (void)din; (void)dout;
-    mb_positions_entry(1, s, c, in, out);
-}
-
-MB_ENTRY void ph_mb_poses(const int *s, const double *c, const double *in, double *out, int K,
-                        const double *din, double *dout)
-{
-    (void)K; (void)din; (void)dout;
-    mb_positions_entry(2, s, c, in, out);
-}
-
-MB_ENTRY void ph_mb_momenta(const int *s, const double *c, const double *in, double *out, int K,
-                          const double *din, double *dout)
-{
-    (void)K; (void)din; (void)dout;
-    mb_positions_entry(3, s, c, in, out);
-}
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC pop_options
 #endif

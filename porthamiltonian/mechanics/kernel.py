@@ -2,7 +2,9 @@
 # model with a kernel-formulated Multibody (where ``np``, ``math`` and ``_jit`` are defined: numba's
 # njit or the identity); importable on its own as well (then ``_jit`` is the identity), which the
 # tests use. kernel.c is the same algorithm in C, line by line: a change here is made there too
-# (tests/validation/test_multibody_kernel.py runs both). Numeric code only, no sympy.
+# (tests/validation/test_multibody_kernel.py runs both). Numeric code only, no sympy. The entries
+# without tangents (mb_mass, mb_jacobians, mb_poses, mb_momenta) follow it, generated for both
+# templates from one table (porthamiltonian/mechanics/sources.py).
 """The recursive multibody kernel: one code for every tree, driven by numeric tables.
 
 The dynamics of :mod:`porthamiltonian.mechanics.tree` (the recursive joint-space Hamiltonian in
@@ -802,27 +804,3 @@ def _mb_position_values(what, s, c, values):
         for e in range(4):
             out[7 * i + 3 + e] = qw[4 * k + e]
     return out
-
-
-@_jit
-def mb_mass(s, c, values, din):
-    """The mass matrix M(q) (nv x nv, row-major), no tangents: (out, empty)."""
-    return _mb_position_values(0, s, c, values), np.zeros((0, 0))
-
-
-@_jit
-def mb_jacobians(s, c, values, din):
-    """Per site the world Jacobian of its velocity (3 x nv, row-major): (out, empty)."""
-    return _mb_position_values(1, s, c, values), np.zeros((0, 0))
-
-
-@_jit
-def mb_poses(s, c, values, din):
-    """Per site its world position and its link's unit quaternion (7): (out, empty)."""
-    return _mb_position_values(2, s, c, values), np.zeros((0, 0))
-
-
-@_jit
-def mb_momenta(s, c, values, din):
-    """M(q) v for values (q, v): (out, empty)."""
-    return _mb_position_values(3, s, c, values), np.zeros((0, 0))

@@ -16,19 +16,36 @@ from ..modeling.calls import KERNELS
 _HERE = Path(__file__).parent
 #: kernel name -> (Python template, C template), files of this package
 _FILES = {"multibody": ("kernel.py", "kernel.c")}
+#: kernel name -> its entries without tangents, appended to both templates: entry -> (the
+#: quantity's code in _mb_position_values / mb_positions_entry, what the entry returns)
+_POSITION_ENTRIES = {"multibody": {
+    "mb_mass": (0, "The mass matrix M(q) (nv x nv, row-major)"),
+    "mb_jacobians": (1, "Per site the world Jacobian of its velocity (3 x nv, row-major)"),
+    "mb_poses": (2, "Per site its world position and its link's unit quaternion (7)"),
+    "mb_momenta": (3, "M(q) v for values (q, v)"),
+}}
 
 
 @cache
 def python_template(kernel: str) -> str:
-    """The Python source of ``kernel`` (its functions decorated with the module's ``_jit``)."""
-    return (_HERE / _FILES[kernel][0]).read_text()
+    """The Python source of ``kernel`` (its functions decorated with the module's ``_jit``)
+    followed by its entries without tangents (``_POSITION_ENTRIES``)."""
+    return (_HERE / _FILES[kernel][0]).read_text() + "".join(
+        f'\n\n@_jit\ndef {entry}(s, c, values, din):\n    """{doc}, no tangents: (out, empty)."""\n'
+        f"    return _mb_position_values({what}, s, c, values), np.zeros((0, 0))\n"
+        for entry, (what, doc) in _POSITION_ENTRIES[kernel].items())
 
 
 @cache
 def c_template(kernel: str) -> str:
     """The C99 source of ``kernel`` (functions ``ph_<entry>``, static unless ``MB_ENTRY`` is
     defined before it)."""
-    return (_HERE / _FILES[kernel][1]).read_text()
+    return (_HERE / _FILES[kernel][1]).read_text() + "".join(
+        f"\n/* {doc}, no tangents (K, din, dout unused) */\n"
+        f"MB_ENTRY void ph_{entry}(const int *s, const double *c, const double *in, double *out, "
+        "int K,\n                        const double *din, double *dout)\n"
+        f"{{\n    (void)K; (void)din; (void)dout;\n    mb_positions_entry({what}, s, c, in, out);\n}}\n"
+        for entry, (what, doc) in _POSITION_ENTRIES[kernel].items())
 
 
 _HIDDEN = ('#if defined(__GNUC__) && !defined(PH_HIDDEN)\n'

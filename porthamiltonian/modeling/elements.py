@@ -147,8 +147,20 @@ class R(_OnePortIn):
 
 
 class _Source(Component):
+    """An ideal source on port ``p``: the argument named :attr:`imposed` (``effort`` or
+    ``flow``) is imposed on that port variable; the other is the environment's."""
+
+    #: the imposed port variable, also the name of the argument that gives it
+    imposed: ClassVar[str]
+
     def ports(self) -> list[Port]:
         return [Port("p", self.value("domain"), orientation="out")]
+
+    def build(self, b: Builder, domain: str, **value: sp.Expr) -> None:
+        port = b.port("p")
+        pair = (port.e, port.f) if self.imposed == "effort" else (port.f, port.e)
+        b.equation(pair[0], b.source(value[self.imposed], pair[1]), f"{self.imposed[0]} = source")
+        b.supply(port.power)
 
 
 @register
@@ -159,12 +171,8 @@ class Se(_Source):
     """
 
     kind = "Se"
+    imposed = "effort"
     arguments = {"domain": _DOMAIN, "effort": Arg("imposed effort (N, N m, V, Pa)")}
-
-    def build(self, b: Builder, domain: str, effort: sp.Expr) -> None:
-        port = b.port("p")
-        b.equation(port.e, b.source(effort, port.f), "e = source")
-        b.supply(port.power)
 
 
 @register
@@ -175,12 +183,8 @@ class Sf(_Source):
     """
 
     kind = "Sf"
+    imposed = "flow"
     arguments = {"domain": _DOMAIN, "flow": Arg("imposed flow (m/s, rad/s, A, m^3/s)")}
-
-    def build(self, b: Builder, domain: str, flow: sp.Expr) -> None:
-        port = b.port("p")
-        b.equation(port.f, b.source(flow, port.e), "f = source")
-        b.supply(port.power)
 
 
 class _TwoPort(Component):

@@ -325,19 +325,22 @@ class CompiledModel:
 
     def state_index(self, name: str) -> int:
         """The index of the state ``name``; StateError naming the states if there is none."""
-        try:
-            return self._state_index[name]
-        except KeyError:
-            raise StateError(f"model {self.name!r} has no state {name!r}; states: "
-                             f"{', '.join(self.state_names)}") from None
+        return self._index(self._state_index, name, "state", "states", self.state_names)
 
     def output_index(self, name: str) -> int:
         """The index of the output ``name``; StateError naming the outputs if there is none."""
+        return self._index(self._output_index, name, "state or output", "outputs",
+                           self.output_names)
+
+    def _index(self, table: Mapping[str, int], name: str, what: str, kind: str,
+               names: Sequence[str]) -> int:
+        """``table[name]``, or StateError: the model has no ``what`` ``name``, its ``kind``
+        are ``names``."""
         try:
-            return self._output_index[name]
+            return table[name]
         except KeyError:
-            raise StateError(f"model {self.name!r} has no state or output {name!r}; outputs: "
-                             f"{', '.join(self.output_names)}") from None
+            raise StateError(f"model {self.name!r} has no {what} {name!r}; {kind}: "
+                             f"{', '.join(names)}") from None
 
     def augment(self, x: np.ndarray) -> np.ndarray:
         """Model state -> integration state (ledger states E_diss = E_in = 0 appended)."""

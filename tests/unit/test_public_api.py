@@ -23,7 +23,7 @@ def _modules(package: str):
     root = importlib.import_module(package)
     yield root
     for info in pkgutil.walk_packages(root.__path__, f"{package}."):
-        if info.name.endswith(("rodas_loop", "rosenbrock_loop", "bdf_loop",
+        if info.name.endswith(("rodas_loop", "rosenbrock_loop", "bdf_loop", "common_loop",
                                "mechanics.kernel")):   # source templates
             continue
         yield importlib.import_module(info.name)

@@ -61,9 +61,9 @@ from porthamiltonian.errors import ModelError, ParameterValueError
 from ..core.protocol import Stride, StrideStatus, Walker
 from .monodromy import (
     JACOBIAN_METHODS,
+    Multipliers,
     StrideJacobian,
     multipliers,
-    spectral_radius,
     stride_jacobian,
 )
 from .poincare import WalkerFell, find_fixed_point
@@ -167,7 +167,7 @@ class ParameterPath:
 
 # --- results -----------------------------------------------------------------------------------------
 @dataclass
-class BranchPoint:
+class BranchPoint(Multipliers):
     """A point of a branch: μ, the parameter values, the period-k orbit's section states (model
     coordinates; ``orbit[0]`` is the fixed point continued), the Floquet multipliers of S^k
     (largest modulus first) and their error bounds, stability, and per step of the orbit its
@@ -185,14 +185,6 @@ class BranchPoint:
     @property
     def z(self) -> np.ndarray:
         return self.orbit[0]
-
-    @property
-    def max_modulus(self) -> float:
-        return spectral_radius(self.multipliers)
-
-    @property
-    def stable(self) -> bool:
-        return self.max_modulus < 1.0
 
     def to_dict(self, walker: Walker) -> dict:
         named = [walker.section_state(z) for z in self.orbit]

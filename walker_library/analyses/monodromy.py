@@ -43,8 +43,8 @@ from porthamiltonian.errors import ModelError
 from ..core.protocol import Stride, StrideStatus, Walker
 from .poincare import WalkerFell, advance
 
-__all__ = ["JACOBIAN_METHODS", "FloquetResult", "StrideJacobian", "eigen_errors", "floquet",
-           "multipliers", "spectral_radius", "stride_jacobian"]
+__all__ = ["JACOBIAN_METHODS", "FloquetResult", "Multipliers", "StrideJacobian", "eigen_errors",
+           "floquet", "multipliers", "spectral_radius", "stride_jacobian"]
 
 #: the ways of computing the stride map's Jacobian
 JACOBIAN_METHODS = ("fd", "variational")
@@ -227,8 +227,25 @@ def spectral_radius(multipliers: np.ndarray) -> float:
     return float(np.max(np.abs(multipliers))) if len(multipliers) else 0.0
 
 
+class Multipliers:
+    """The stability of an orbit from its Floquet multipliers (a base of the results that hold
+    them: :class:`FloquetResult`, a continuation's branch points)."""
+
+    multipliers: np.ndarray
+
+    @property
+    def max_modulus(self) -> float:
+        """The largest |λ| (:func:`spectral_radius`)."""
+        return spectral_radius(self.multipliers)
+
+    @property
+    def stable(self) -> bool:
+        """All multipliers inside the unit circle."""
+        return self.max_modulus < 1.0
+
+
 @dataclass
-class FloquetResult:
+class FloquetResult(Multipliers):
     """Floquet multipliers of a period-k orbit (eigenvalues of the stride map's Jacobian,
     largest modulus first), each with an error bound (``errors``), and the Jacobian in both
     section coordinates.
@@ -250,14 +267,6 @@ class FloquetResult:
     @property
     def error(self) -> float:
         return float(np.max(self.errors)) if len(self.errors) else 0.0
-
-    @property
-    def max_modulus(self) -> float:
-        return spectral_radius(self.multipliers)
-
-    @property
-    def stable(self) -> bool:
-        return self.max_modulus < 1.0
 
     @property
     def certain(self) -> bool:

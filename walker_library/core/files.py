@@ -13,9 +13,7 @@ The functions named after the shipped walkers (:func:`simplest_walker`, :func:`c
 """
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
 import tomllib
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -24,6 +22,7 @@ import tomli_w
 
 from porthamiltonian import io as ph_io
 from porthamiltonian.errors import ModelFileError, ParameterValueError
+from porthamiltonian.userfiles import write_atomic
 
 from . import warm
 from .hybrid import Integration, WalkerSpec
@@ -111,18 +110,7 @@ def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str
     if header:
         text = "".join(f"# {line}".rstrip() + "\n" for line in header.splitlines()) + "\n" + text
     path = check_target(path, overwrite=overwrite)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        umask = os.umask(0o022)
-        os.umask(umask)
-        os.fchmod(fd, 0o666 & ~umask)             # as a plain write would (mkstemp gives 0600)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    write_atomic(path, text, plain_mode=True)
     return path
 
 

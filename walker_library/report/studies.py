@@ -147,6 +147,19 @@ def _walker(name: str, **params: float) -> HybridWalker:
     return load_walker(name, params or None, backend=None)
 
 
+def _save_axes(fig: Any, ax: Any, path: Path, xlabel: str, ylabel: str, title: str, *,
+               title_size: int = 10, legend: int = 8) -> None:
+    """Label ``ax`` (its axes, its title in ``title_size`` pt, its legend in ``legend`` pt; 0: no
+    legend), lay ``fig`` out and save it to ``path``."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=title_size)
+    if legend:
+        ax.legend(fontsize=legend)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
 def _plot_xy(path: Path, xs: Sequence[float], series: dict[str, list], xlabel: str, ylabel: str, title: str,
              hlines: dict[str, float] | None = None) -> None:
     plt = pyplot()
@@ -156,13 +169,7 @@ def _plot_xy(path: Path, xs: Sequence[float], series: dict[str, list], xlabel: s
     for label, y in (hlines or {}).items():
         ax.axhline(y, ls="--", lw=0.8, color="0.4")
         ax.text(xs[0], y, f" {label}", fontsize=7, va="bottom")
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title, fontsize=10)
-    if len(series) > 1:
-        ax.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, path)
+    _save_axes(fig, ax, path, xlabel, ylabel, title, legend=8 if len(series) > 1 else 0)
 
 
 # --- Table 2.3 -----------------------------------------------------------------------------------
@@ -202,12 +209,10 @@ def run_damping_calibration(ctx: StudyContext) -> dict:
     fig, ax = plt.subplots(figsize=(6, 3.4))
     ax.semilogx(cal.lam, cal.dissipated, "o-")
     ax.axvline(cal.calibrated_lam, ls="--", color="C3", lw=0.8)
-    ax.set_xlabel("Hunt–Crossley damping λ (N·s/m²)")
-    ax.set_ylabel("energy dissipated per impact (J)")
-    ax.set_title(f"calibrated λ = {cal.calibrated_lam:.3g} (smallest λ within "
-                 f"{cal.rel_tol:g} of the maximum)", fontsize=9)
-    fig.tight_layout()
-    save_figure(fig, ctx.path("fig_2_12_dissipation_over_lambda.png"))
+    _save_axes(fig, ax, ctx.path("fig_2_12_dissipation_over_lambda.png"),
+               "Hunt–Crossley damping λ (N·s/m²)", "energy dissipated per impact (J)",
+               f"calibrated λ = {cal.calibrated_lam:.3g} (smallest λ within {cal.rel_tol:g} of "
+               "the maximum)", title_size=9, legend=0)
     (ctx.out / "calibration.json").write_text(to_json(cal.to_dict()))
     return {"rows": [_row("calibrated λ", cal.calibrated_lam, None, "N·s/m²",
                           "the thesis's value is lost ('e7' in App. A)"),
@@ -401,12 +406,8 @@ def run_basin(ctx: StudyContext) -> dict:
         ax.plot(A[ok], B[ok], "*", color="C2", ms=8, label="converges")
         ax.plot(A[~ok], B[~ok], ".", color="0.5", ms=4, label="does not")
         ax.plot(fp["theta"] / 0.4, fp["theta_dot"] / 0.8, "*", color="C3", ms=12)
-        ax.set_xlabel("θ / 0.4 rad")
-        ax.set_ylabel("θ̇ / 0.8 rad/s")
-        ax.set_title(f"Basin of attraction, γ = {slope}", fontsize=10)
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        save_figure(fig, ctx.path(f"fig_2_21_basin_{slope:g}.png"))
+        _save_axes(fig, ax, ctx.path(f"fig_2_21_basin_{slope:g}.png"), "θ / 0.4 rad",
+                   "θ̇ / 0.8 rad/s", f"Basin of attraction, γ = {slope}", legend=7)
         out["basins"][str(slope)] = {"fraction": float(ok.mean()), "n": n, "span": span}
         out["rows"].append(_row(f"basin fraction converged at γ = {slope}", float(ok.mean()), None,
                                 "1", f"{n}×{n} grid, ±{span[0]} (θ/0.4) × ±{span[1]} (θ̇/0.8)"))
@@ -457,12 +458,8 @@ def run_damper_factor(ctx: StudyContext) -> dict:
         for r in sel:
             if r.get("contiguous") is False and r.get("max_step_down"):
                 ax.plot(r["alpha"], 1e3 * r["max_step_down"], "x", color="k")
-    ax.set_xlabel("damper factor α")
-    ax.set_ylabel("max step-down (mm)")
-    ax.set_title("Compliant leg over α (x: not contiguous = 'chaotic')", fontsize=10)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, ctx.path("fig_3_3_over_alpha.png"))
+    _save_axes(fig, ax, ctx.path("fig_3_3_over_alpha.png"), "damper factor α",
+               "max step-down (mm)", "Compliant leg over α (x: not contiguous = 'chaotic')")
     good = [a for a in alphas
             if all(r.get("gait_status") == "periodic" and r.get("contiguous")
                    for r in rows if r["alpha"] == a)]
@@ -496,12 +493,8 @@ def run_leg_stiffness(ctx: StudyContext) -> dict:
     ax.plot([r.get("speed") for r in rigid_rows], _mm(rigid_rows), "o-",
             label="rigid legs (over slope)")
     ax.plot([r.get("speed") for r in rows], sd, "s-", label="compliant legs (over K)")
-    ax.set_xlabel("speed (m/s)")
-    ax.set_ylabel("max step-down (mm)")
-    ax.set_title("Robustness over speed (Fig. 3.6)", fontsize=10)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, ctx.path("fig_3_6_robustness_over_speed.png"))
+    _save_axes(fig, ax, ctx.path("fig_3_6_robustness_over_speed.png"), "speed (m/s)",
+               "max step-down (mm)", "Robustness over speed (Fig. 3.6)")
     stable = [r["K_leg"] for r in rows
               if r.get("gait_status") == "periodic" and r.get("stable")]
     faster = [r["K_leg"] for r in rows
@@ -574,12 +567,9 @@ def run_variable_stiffness(ctx: StudyContext) -> dict:
         if model == VARIABLE:
             extra["energy_injected_per_step"] = float(traj.E_in[-1] / len(strides))
             fig_energy(walk_series(w, z, 2), ctx.path("fig_3_8_energy_variable.png"))
-    ax.set_xlabel("leg spring extension Δz (mm; < 0: compressed)")
-    ax.set_ylabel("leg spring force F (N)")
-    ax.set_title("F–Δz loop of leg 1 over two steps (Fig. 3.7)", fontsize=10)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, ctx.path("fig_3_7_force_compression.png"))
+    _save_axes(fig, ax, ctx.path("fig_3_7_force_compression.png"),
+               "leg spring extension Δz (mm; < 0: compressed)", "leg spring force F (N)",
+               "F–Δz loop of leg 1 over two steps (Fig. 3.7)")
     table = ([{"kind": "constant", **{k: r.get(k) for k in ("K_leg", "alpha", "speed", "max_step_down",
                                                            "contiguous_limit", "contiguous")}}
               for r in crow]

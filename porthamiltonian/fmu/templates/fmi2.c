@@ -12,6 +12,16 @@ static void ph_fmi2_log(ph_instance *c, int status, const char *category, const 
 #define PH_C ((ph_instance *)c)
 #define PH_CHECK(c) do { if ((c) == NULL) return fmi2Error; } while (0)
 #define PH_RETURN(expr) return ph_fmi2_status[(expr)]
+/* fmi2Get<Type> / fmi2Set<Type> of a type no variable has: only an empty request succeeds */
+#define PH_NO_VARIABLES(fn, type, what) \
+    PH_FMI_EXPORT fmi2Status PH_FMI2(fn)(fmi2Component c, const fmi2ValueReference vr[], \
+                                           size_t nvr, type value[]) \
+    { \
+        PH_CHECK(c); \
+        (void)value; \
+        PH_RETURN(nvr == 0 ? PH_OK : PH_FAIL(PH_C, "%s: no " what " variable has value " \
+                                             "reference %u", PH_C->name, vr[0])); \
+    }
 
 PH_FMI_EXPORT const char *PH_FMI2(fmi2GetTypesPlatform)(void) { return "default"; }
 
@@ -134,25 +144,8 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetInteger)(fmi2Component c, const fmi2Valu
     return fmi2OK;
 }
 
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetBoolean)(fmi2Component c, const fmi2ValueReference vr[],
-                                                 size_t nvr, fmi2Boolean value[])
-{
-    PH_CHECK(c);
-    (void)value;
-    if (nvr == 0)
-        return fmi2OK;
-    PH_RETURN(PH_FAIL(PH_C, "%s: no Boolean variable has value reference %u", PH_C->name, vr[0]));
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetString)(fmi2Component c, const fmi2ValueReference vr[],
-                                                size_t nvr, fmi2String value[])
-{
-    PH_CHECK(c);
-    (void)value;
-    if (nvr == 0)
-        return fmi2OK;
-    PH_RETURN(PH_FAIL(PH_C, "%s: no String variable has value reference %u", PH_C->name, vr[0]));
-}
+PH_NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, "Boolean")
+PH_NO_VARIABLES(fmi2GetString, fmi2String, "String")
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetReal)(fmi2Component c, const fmi2ValueReference vr[],
                                               size_t nvr, const fmi2Real value[])
@@ -175,25 +168,8 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetInteger)(fmi2Component c, const fmi2Valu
                       PH_C->name, vr[0]));
 }
 
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetBoolean)(fmi2Component c, const fmi2ValueReference vr[],
-                                                 size_t nvr, const fmi2Boolean value[])
-{
-    PH_CHECK(c);
-    (void)value;
-    if (nvr == 0)
-        return fmi2OK;
-    PH_RETURN(PH_FAIL(PH_C, "%s: no Boolean variable has value reference %u", PH_C->name, vr[0]));
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetString)(fmi2Component c, const fmi2ValueReference vr[],
-                                                size_t nvr, const fmi2String value[])
-{
-    PH_CHECK(c);
-    (void)value;
-    if (nvr == 0)
-        return fmi2OK;
-    PH_RETURN(PH_FAIL(PH_C, "%s: no String variable has value reference %u", PH_C->name, vr[0]));
-}
+PH_NO_VARIABLES(fmi2SetBoolean, const fmi2Boolean, "Boolean")
+PH_NO_VARIABLES(fmi2SetString, const fmi2String, "String")
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetFMUstate)(fmi2Component c, fmi2FMUstate *FMUstate)
 {
@@ -210,10 +186,7 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetFMUstate)(fmi2Component c, fmi2FMUstate 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2FreeFMUstate)(fmi2Component c, fmi2FMUstate *FMUstate)
 {
     (void)c;
-    if (FMUstate != NULL) {
-        free(*FMUstate);
-        *FMUstate = NULL;
-    }
+    ph_free_state(FMUstate);
     return fmi2OK;
 }
 
@@ -231,13 +204,7 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SerializeFMUstate)(fmi2Component c, fmi2FMU
                                                         fmi2Byte serializedState[], size_t size)
 {
     PH_CHECK(c);
-    if (ph_check_state(PH_C, FMUstate) != PH_OK)
-        return fmi2Error;
-    if (size < sizeof(ph_saved))
-        PH_RETURN(PH_FAIL(PH_C, "%s: %zu bytes for a serialized FMU state of %zu", PH_C->name,
-                          size, sizeof(ph_saved)));
-    memcpy(serializedState, FMUstate, sizeof(ph_saved));
-    return fmi2OK;
+    PH_RETURN(ph_serialize(PH_C, FMUstate, serializedState, size));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2DeSerializeFMUstate)(fmi2Component c,
@@ -323,34 +290,22 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetDerivatives)(fmi2Component c, fmi2Real d
                                                      size_t nx)
 {
     PH_CHECK(c);
-    if (nx != PH_N)
-        PH_RETURN(PH_FAIL(PH_C, "%s: %zu derivatives asked for, the FMU has %d states",
-                          PH_C->name, nx, PH_N));
-    memcpy(derivatives, ph_now_rates(PH_C), sizeof(double) * PH_N);
-    return fmi2OK;
+    PH_RETURN(ph_values_out(PH_C, derivatives, nx, PH_N, "derivatives", ph_now_rates));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetEventIndicators)(fmi2Component c,
                                                          fmi2Real eventIndicators[], size_t ni)
 {
     PH_CHECK(c);
-    if (ni != PH_NE)
-        PH_RETURN(PH_FAIL(PH_C, "%s: %zu event indicators asked for, the FMU has %d",
-                          PH_C->name, ni, PH_NE));
-    if (ni > 0)
-        memcpy(eventIndicators, ph_now_guards(PH_C), sizeof(double) * PH_NE);
-    return fmi2OK;
+    PH_RETURN(ph_values_out(PH_C, eventIndicators, ni, PH_NE, "event indicators",
+                            ph_now_guards));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetContinuousStates)(fmi2Component c, fmi2Real x[],
                                                           size_t nx)
 {
     PH_CHECK(c);
-    if (nx != PH_N)
-        PH_RETURN(PH_FAIL(PH_C, "%s: %zu continuous states asked for, the FMU has %d",
-                          PH_C->name, nx, PH_N));
-    memcpy(x, PH_C->v.now.y, sizeof(double) * PH_N);
-    return fmi2OK;
+    PH_RETURN(ph_values_out(PH_C, x, nx, PH_N, "continuous states", ph_now_states));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetNominalsOfContinuousStates)(fmi2Component c,
@@ -446,48 +401,28 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2CancelStep)(fmi2Component c)
                       PH_C->name));
 }
 
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetStatus)(fmi2Component c, const fmi2StatusKind s,
-                                                fmi2Status *value)
-{
-    PH_CHECK(c);
-    if (s != fmi2DoStepStatus)
-        return fmi2Discard;
-    *value = PH_C->v.mode == PH_FAILED ? fmi2Error : fmi2OK;
-    return fmi2OK;
-}
+/* fmi2Get<Type>Status: the one status kind of the type reported (kind) is expr, any other is
+ * fmi2Discard; PH_NO_STATUS: a type of no status kind */
+#define PH_STATUS(fn, type, kind, expr) \
+    PH_FMI_EXPORT fmi2Status PH_FMI2(fn)(fmi2Component c, const fmi2StatusKind s, type *value) \
+    { \
+        PH_CHECK(c); \
+        if (s != (kind)) \
+            return fmi2Discard; \
+        *value = (expr); \
+        return fmi2OK; \
+    }
+#define PH_NO_STATUS(fn, type) \
+    PH_FMI_EXPORT fmi2Status PH_FMI2(fn)(fmi2Component c, const fmi2StatusKind s, type *value) \
+    { \
+        PH_CHECK(c); \
+        (void)s; (void)value; \
+        return fmi2Discard; \
+    }
 
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetRealStatus)(fmi2Component c, const fmi2StatusKind s,
-                                                    fmi2Real *value)
-{
-    PH_CHECK(c);
-    if (s != fmi2LastSuccessfulTime)
-        return fmi2Discard;
-    *value = PH_C->v.last_successful;
-    return fmi2OK;
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetIntegerStatus)(fmi2Component c, const fmi2StatusKind s,
-                                                       fmi2Integer *value)
-{
-    PH_CHECK(c);
-    (void)s; (void)value;
-    return fmi2Discard;
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetBooleanStatus)(fmi2Component c, const fmi2StatusKind s,
-                                                       fmi2Boolean *value)
-{
-    PH_CHECK(c);
-    if (s != fmi2Terminated)
-        return fmi2Discard;
-    *value = PH_C->v.mode == PH_TERMINATED;
-    return fmi2OK;
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetStringStatus)(fmi2Component c, const fmi2StatusKind s,
-                                                      fmi2String *value)
-{
-    PH_CHECK(c);
-    (void)s; (void)value;
-    return fmi2Discard;
-}
+PH_STATUS(fmi2GetStatus, fmi2Status, fmi2DoStepStatus,
+          PH_C->v.mode == PH_FAILED ? fmi2Error : fmi2OK)
+PH_STATUS(fmi2GetRealStatus, fmi2Real, fmi2LastSuccessfulTime, PH_C->v.last_successful)
+PH_NO_STATUS(fmi2GetIntegerStatus, fmi2Integer)
+PH_STATUS(fmi2GetBooleanStatus, fmi2Boolean, fmi2Terminated, PH_C->v.mode == PH_TERMINATED)
+PH_NO_STATUS(fmi2GetStringStatus, fmi2String)

@@ -307,10 +307,7 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetFMUState)(fmi3Instance instance, fmi3FMU
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3FreeFMUState)(fmi3Instance instance, fmi3FMUState *FMUState)
 {
     (void)instance;
-    if (FMUState != NULL) {
-        free(*FMUState);
-        *FMUState = NULL;
-    }
+    ph_free_state(FMUState);
     return fmi3OK;
 }
 
@@ -329,13 +326,7 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SerializeFMUState)(fmi3Instance instance,
                                                         fmi3Byte serializedState[], size_t size)
 {
     PH_CHECK3;
-    if (ph_check_state(PH_I, FMUState) != PH_OK)
-        return fmi3Error;
-    if (size < sizeof(ph_saved))
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu bytes for a serialized FMU state of %zu", PH_I->name,
-                           size, sizeof(ph_saved)));
-    memcpy(serializedState, FMUState, sizeof(ph_saved));
-    return fmi3OK;
+    PH_RETURN3(ph_serialize(PH_I, FMUState, serializedState, size));
 }
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3DeserializeFMUState)(fmi3Instance instance,
@@ -522,11 +513,8 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetContinuousStateDerivatives)(fmi3Instance
                                                                     size_t nContinuousStates)
 {
     PH_CHECK3;
-    if (nContinuousStates != PH_N)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu derivatives asked for, the FMU has %d states",
-                           PH_I->name, nContinuousStates, PH_N));
-    memcpy(derivatives, ph_now_rates(PH_I), sizeof(double) * PH_N);
-    return fmi3OK;
+    PH_RETURN3(ph_values_out(PH_I, derivatives, nContinuousStates, PH_N, "derivatives",
+                             ph_now_rates));
 }
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetEventIndicators)(fmi3Instance instance,
@@ -534,12 +522,8 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetEventIndicators)(fmi3Instance instance,
                                                          size_t nEventIndicators)
 {
     PH_CHECK3;
-    if (nEventIndicators != PH_NE)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu event indicators asked for, the FMU has %d",
-                           PH_I->name, nEventIndicators, PH_NE));
-    if (nEventIndicators > 0)
-        memcpy(eventIndicators, ph_now_guards(PH_I), sizeof(double) * PH_NE);
-    return fmi3OK;
+    PH_RETURN3(ph_values_out(PH_I, eventIndicators, nEventIndicators, PH_NE, "event indicators",
+                             ph_now_guards));
 }
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetContinuousStates)(fmi3Instance instance,
@@ -547,11 +531,8 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetContinuousStates)(fmi3Instance instance,
                                                           size_t nContinuousStates)
 {
     PH_CHECK3;
-    if (nContinuousStates != PH_N)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu continuous states asked for, the FMU has %d",
-                           PH_I->name, nContinuousStates, PH_N));
-    memcpy(continuousStates, PH_I->v.now.y, sizeof(double) * PH_N);
-    return fmi3OK;
+    PH_RETURN3(ph_values_out(PH_I, continuousStates, nContinuousStates, PH_N, "continuous states",
+                             ph_now_states));
 }
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetNominalsOfContinuousStates)(fmi3Instance instance,

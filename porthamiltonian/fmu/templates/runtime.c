@@ -178,6 +178,24 @@ static const double *ph_now_guards(ph_instance *c)
     return c->g;
 }
 
+static const double *ph_now_states(ph_instance *c)
+{
+    return c->v.now.y;
+}
+
+/* The `want` values of `values` at v.now copied into `to` (FMI's get derivatives, event
+ * indicators and continuous states); n: how many the caller asked for, an error naming `what`
+ * unless it is `want` */
+static int ph_values_out(ph_instance *c, double *to, size_t n, int want, const char *what,
+                         const double *(*values)(ph_instance *))
+{
+    if (n != (size_t)want)
+        return PH_FAIL(c, "%s: %zu %s asked for, the FMU has %d", c->name, n, what, want);
+    if (n > 0)
+        memcpy(to, values(c), sizeof(double) * n);
+    return PH_OK;
+}
+
 /* --- instance --------------------------------------------------------------------------------- */
 static void ph_defaults(ph_instance *c)
 {
@@ -710,6 +728,27 @@ static int ph_set_state(ph_instance *c, const void *state)
         return PH_ERROR;
     c->v = s->values;
     ph_changed(c);
+    return PH_OK;
+}
+
+/* Free a state of ph_get_state or ph_deserialize (FMI's FreeFMUState); *state becomes NULL */
+static void ph_free_state(void **state)
+{
+    if (state != NULL) {
+        free(*state);
+        *state = NULL;
+    }
+}
+
+/* The state's bytes (FMI's SerializeFMUState) into bytes, size long: sizeof(ph_saved) needed */
+static int ph_serialize(ph_instance *c, const void *state, void *bytes, size_t size)
+{
+    if (ph_check_state(c, (const ph_saved *)state) != PH_OK)
+        return PH_ERROR;
+    if (size < sizeof(ph_saved))
+        return PH_FAIL(c, "%s: %zu bytes for a serialized FMU state of %zu", c->name, size,
+                       sizeof(ph_saved));
+    memcpy(bytes, state, sizeof(ph_saved));
     return PH_OK;
 }
 
