@@ -149,6 +149,18 @@ def _body(value: Any, bodies: Mapping, where: str, path: tuple, world: bool = Tr
                                     f"{', '.join(bodies)}{', world' if world else ''})", path=path)
 
 
+def _known_fields(entry: Mapping, allowed: Sequence[str], where: str, hint: str,
+                  path: tuple) -> Callable[[], None]:
+    """The check that ``entry`` has no field outside ``allowed`` (its error: ``where``, the
+    unknown fields, then ``hint``)."""
+    def check() -> None:
+        extra = set(entry) - set(allowed)
+        if extra:
+            raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; {hint}",
+                             path=(*path, min(extra)))
+    return check
+
+
 def _loop_checks(name: str, entry: Mapping, bodies: Mapping,
                  where: str) -> list[Callable[[], None]]:
     """The independent checks of one loop entry (each raises its problem; see
@@ -156,11 +168,7 @@ def _loop_checks(name: str, entry: Mapping, bodies: Mapping,
     path = ("loops", name)
     kind = entry.get("type")
 
-    def fields() -> None:
-        extra = set(entry) - set(_LOOP_FIELDS)
-        if extra:
-            raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; fields: "
-                             f"{', '.join(_LOOP_FIELDS)}", path=(*path, min(extra)))
+    fields = _known_fields(entry, _LOOP_FIELDS, where, f"fields: {', '.join(_LOOP_FIELDS)}", path)
 
     def type_() -> None:
         if kind not in LOOP_TYPES:
@@ -213,11 +221,8 @@ def _constraint_checks(name: str, entry: Mapping, bodies: Mapping, joints: Mappi
         return [type_]
     allowed = ("type", "active", *CONSTRAINT_FIELDS[kind])
 
-    def fields() -> None:
-        extra = set(entry) - set(allowed)
-        if extra:
-            raise ModelError(f"{where}: unknown field(s) {', '.join(sorted(extra))}; a {kind} "
-                             f"constraint takes {', '.join(allowed)}", path=(*path, min(extra)))
+    fields = _known_fields(entry, allowed, where,
+                           f"a {kind} constraint takes {', '.join(allowed)}", path)
 
     def values() -> None:
         _constraint_values(kind, entry, bodies, joints, points, where, path)

@@ -241,8 +241,24 @@ def floating_model(model: ModelDescription, multibody: str, root: str, about: st
     return Floating(out, root, tuple(rehung))
 
 
+class _Impact:
+    """What the two impact maps share: ∂x⁺/∂x⁻ from their ``tangents``."""
+
+    def tangents(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
+                 dx: np.ndarray, dp: np.ndarray, dp_after: np.ndarray
+                 ) -> tuple[np.ndarray, float]:
+        raise NotImplementedError
+
+    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray,
+                 p_after: np.ndarray) -> np.ndarray:
+        """∂x⁺/∂x⁻ at fixed parameters (:meth:`tangents` by the unit states)."""
+        n = len(x)
+        return self.tangents(t, x, p, p_after, np.eye(n), np.zeros((len(p), n)),
+                             np.zeros((len(p), n)))[0]
+
+
 @dataclass(frozen=True)
-class ImpactMap:
+class ImpactMap(_Impact):
     """Plastic impact at ``point`` of a rigid walker pinned at its root, then :class:`Relabel`.
 
     model : the walker's compiled model; floating : the compiled :func:`floating_model` (free at
@@ -326,13 +342,6 @@ class ImpactMap:
                 "trailing_foot_normal_velocity": float(pin_v[1]),
                 "constraint_velocity": float(np.max(np.abs(impact.constraint_velocity)))}
         return x_new, info
-
-    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray,
-                 p_after: np.ndarray) -> np.ndarray:
-        """∂x⁺/∂x⁻ at fixed parameters (:meth:`tangents` by the unit states)."""
-        n = len(x)
-        return self.tangents(t, x, p, p_after, np.eye(n), np.zeros((len(p), n)),
-                             np.zeros((len(p), n)))[0]
 
     def tangents(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
                  dx: np.ndarray, dp: np.ndarray, dp_after: np.ndarray
@@ -438,7 +447,7 @@ def _switches(model: CompiledModel, multibody: str) -> list[tuple[str, int]]:
 
 
 @dataclass(frozen=True)
-class ConstraintImpact:
+class ConstraintImpact(_Impact):
     """The plastic impact onto ``constraint`` of the walker's multibody ``multibody`` (a knee
     strike onto the knee's lock; module docstring). ``__call__(t, x, p, p_after)`` returns the
     state just after it (the configuration unchanged, the momenta jumped; the constraint's rows
@@ -459,13 +468,6 @@ class ConstraintImpact:
         info = {"impact_energy_lost": impact.energy_lost, "impulse": impact.impulse.tolist(),
                 "constraint_velocity": float(np.max(np.abs(impact.constraint_velocity)))}
         return x_new, info
-
-    def jacobian(self, t: float, x: np.ndarray, p: np.ndarray,
-                 p_after: np.ndarray) -> np.ndarray:
-        """∂x⁺/∂x⁻ at fixed parameters (:meth:`tangents` by the unit states)."""
-        n = len(x)
-        return self.tangents(t, x, p, p_after, np.eye(n), np.zeros((len(p), n)),
-                             np.zeros((len(p), n)))[0]
 
     def tangents(self, t: float, x: np.ndarray, p: np.ndarray, p_after: np.ndarray,
                  dx: np.ndarray, dp: np.ndarray, dp_after: np.ndarray

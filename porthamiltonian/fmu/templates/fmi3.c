@@ -508,32 +508,19 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetContinuousStates)(fmi3Instance instance,
     return fmi3OK;
 }
 
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetContinuousStateDerivatives)(fmi3Instance instance,
-                                                                    fmi3Float64 derivatives[],
-                                                                    size_t nContinuousStates)
-{
-    PH_CHECK3;
-    PH_RETURN3(ph_values_out(PH_I, derivatives, nContinuousStates, PH_N, "derivatives",
-                             ph_now_rates));
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetEventIndicators)(fmi3Instance instance,
-                                                         fmi3Float64 eventIndicators[],
-                                                         size_t nEventIndicators)
-{
-    PH_CHECK3;
-    PH_RETURN3(ph_values_out(PH_I, eventIndicators, nEventIndicators, PH_NE, "event indicators",
-                             ph_now_guards));
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetContinuousStates)(fmi3Instance instance,
-                                                          fmi3Float64 continuousStates[],
-                                                          size_t nContinuousStates)
-{
-    PH_CHECK3;
-    PH_RETURN3(ph_values_out(PH_I, continuousStates, nContinuousStates, PH_N, "continuous states",
-                             ph_now_states));
-}
+/* the getters of the current values (FMI 3: derivatives, event indicators, states), checked
+ * for the caller's count */
+#define PH_VALUES_OUT3(fn, n_have, what, now)                                             \
+    PH_FMI_EXPORT fmi3Status PH_FMI3(fn)(fmi3Instance instance, fmi3Float64 values[],     \
+                                         size_t n)                                        \
+    {                                                                                     \
+        PH_CHECK3;                                                                        \
+        PH_RETURN3(ph_values_out(PH_I, values, n, n_have, what, now));                    \
+    }
+PH_VALUES_OUT3(fmi3GetContinuousStateDerivatives, PH_N, "derivatives", ph_now_rates)
+PH_VALUES_OUT3(fmi3GetEventIndicators, PH_NE, "event indicators", ph_now_guards)
+PH_VALUES_OUT3(fmi3GetContinuousStates, PH_N, "continuous states", ph_now_states)
+#undef PH_VALUES_OUT3
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetNominalsOfContinuousStates)(fmi3Instance instance,
                                                                     fmi3Float64 nominals[],

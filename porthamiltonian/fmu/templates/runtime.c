@@ -142,41 +142,21 @@ static double ph_tgrad(const ph_values *v, const double *p)
     return (PH_AUTONOMOUS && !moving) ? 0.0 : 1e-7 * fmax(1.0, fabs(v->t_segment));
 }
 
-static const double *ph_now_rates(ph_instance *c)
-{
-    if (!c->have_rates) {
-        rhs(c->v.now.t, c->v.now.y, c->v.now.p, c->rates);
-        c->have_rates = 1;
+/* the current rates, outputs, energy and guards: each computed once per state and time */
+#define PH_NOW(what, fn, flag, buf)                              \
+    static const double *ph_now_##what(ph_instance *c)           \
+    {                                                            \
+        if (!c->flag) {                                          \
+            fn(c->v.now.t, c->v.now.y, c->v.now.p, c->buf);      \
+            c->flag = 1;                                         \
+        }                                                        \
+        return c->buf;                                           \
     }
-    return c->rates;
-}
-
-static const double *ph_now_outputs(ph_instance *c)
-{
-    if (!c->have_outputs) {
-        outputs(c->v.now.t, c->v.now.y, c->v.now.p, c->out);
-        c->have_outputs = 1;
-    }
-    return c->out;
-}
-
-static const double *ph_now_energy(ph_instance *c)
-{
-    if (!c->have_energy) {
-        energy(c->v.now.t, c->v.now.y, c->v.now.p, c->energy);
-        c->have_energy = 1;
-    }
-    return c->energy;
-}
-
-static const double *ph_now_guards(ph_instance *c)
-{
-    if (!c->have_guards) {
-        guards(c->v.now.t, c->v.now.y, c->v.now.p, c->g);
-        c->have_guards = 1;
-    }
-    return c->g;
-}
+PH_NOW(rates, rhs, have_rates, rates)
+PH_NOW(outputs, outputs, have_outputs, out)
+PH_NOW(energy, energy, have_energy, energy)
+PH_NOW(guards, guards, have_guards, g)
+#undef PH_NOW
 
 static const double *ph_now_states(ph_instance *c)
 {
