@@ -222,8 +222,12 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
     history.append((z.tolist(), res))
     exact = jacobian != "fd"
     J: np.ndarray | None = None     # the Newton matrix's ∂S/∂z, None: to be computed at z
+    J_used: np.ndarray | None = None  # the matrix of the last Newton step
     for it in range(1, max_iter + 1):
         if res < tol:
+            creep = _creeping(J_used, F, z, tol)
+            if creep is not None:
+                return FixedPointResult(False, z, res, it - 1, period, creep, history=history)
             return FixedPointResult(True, z, res, it - 1, period, "converged", history=history)
         fresh = J is None
         if J is None and exact:
@@ -240,6 +244,7 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
                 return FixedPointResult(False, z, res, it, period, f"a perturbed stride fell "
                                         f"({err.stride.reason}) at Newton iteration {it}",
                                         history=history)
+        J_used = J
         try:
             dz = -np.linalg.solve(J - np.eye(n), F)
         except np.linalg.LinAlgError:
@@ -279,6 +284,31 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
     return FixedPointResult(res < tol, z, res, max_iter, period,
                             "converged" if res < tol else f"not converged in {max_iter} iterations",
                             history=history)
+
+
+def _creeping(J: np.ndarray | None, F: np.ndarray, z: np.ndarray, tol: float) -> str | None:
+    """Why z, whose residual F is below ``tol``, is no isolated fixed point, or None when it is.
+
+    The residual test alone is absolute: near a family of fixed points (a passive walker on
+    level ground creeping toward standing still, where a multiplier tends to 1), every stride
+    changes a small state by less than ``tol`` while Newton's iterates keep shrinking it by a
+    fixed fraction. There the next Newton correction −(J − I)⁻¹F is large: a fixed point is
+    accepted only when that correction is at most max(1e3·tol, 1e-6)·max(1, |z_i|) in each
+    coordinate (an isolated fixed point has |correction| ≈ |F|/|1 − λ|, far below it unless a
+    multiplier is within about 1e-3 of 1). ``J`` is the matrix of the last Newton step (None:
+    no step was taken, nothing to judge)."""
+    if J is None:
+        return None
+    try:
+        dz = np.linalg.solve(J - np.eye(len(z)), F)
+    except np.linalg.LinAlgError:
+        return "singular Newton matrix at the converged point (a multiplier equals 1)"
+    bound = max(1e3 * tol, 1e-6) * np.maximum(1.0, np.abs(z))
+    if np.all(np.abs(dz) <= bound):
+        return None
+    return (f"no isolated fixed point: the residual is below {tol:g}, but Newton's next "
+            f"correction is {float(np.max(np.abs(dz))):.3g} (a multiplier near 1: the iterates "
+            f"creep toward a family of fixed points, e.g. standing still)")
 
 
 def _forward(walker: Walker, z: np.ndarray, period: int, step: float, Sz: np.ndarray) -> np.ndarray:
