@@ -19,6 +19,10 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 ``jac_p(t, x, p)``    ∂ẋ/∂p by the parameters asked for (``program(model, jac_p=[...])``)
 ``energy_jac(t, x, p)`` ∂H/∂[x, p] by the states and those parameters (with ``jac_p``: the
                       parameter sensitivities' energy ledger at events)
+``guard_jac(t, x, p)`` ∂g/∂[x, p] of the event guards by the model states and those parameters
+                      (with ``jac_p``: the guard's gradient in the saltation matrix at events)
+``outputs_jac(t, x, p)`` ∂y/∂[x, p] of every named output, likewise (with ``jac_p``: outputs'
+                      parameter sensitivities, e.g. a gait's step length)
 ``update_<j>(t, x, p)`` the new discrete states of discrete-time block j at a sampling instant
 
 The parameter vector ``p`` holds the parameters, then two slots per input (:func:`input_slots`):
@@ -66,7 +70,7 @@ from .structure import stages
 
 #: Bumped whenever generated code changes meaning; part of the cache key (with a hash of the
 #: kernels' templates, which generated modules include or link).
-CODEGEN_VERSION = "9." + kernel_digest()
+CODEGEN_VERSION = "10." + kernel_digest()
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -677,7 +681,10 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
     when it declares some; not generated, and why in ``unavailable``, when one of them reads a
     kernel output without tangents, e.g. a kernel multibody's body pose), ``jac_p`` (∂ẋ/∂p
     over the parameters ``jac_p``) and with it ``energy_jac`` (∂H/∂[x, p] over the states, the
-    ledger's included, and those parameters)."""
+    ledger's included, and those parameters) and ``guard_jac`` (∂g/∂[x, p] of the event guards
+    over the model states and those parameters) and ``outputs_jac`` (∂y/∂[x, p] of every named
+    output, likewise; each not when one of its expressions reads a kernel output without
+    tangents)."""
     out: list[Function] = []
     n = len(model.rhs)
     states = list(model.states)
@@ -727,6 +734,21 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             f"The gradient of the Hamiltonian H of model {model.name!r} by the states and "
             f"parameters: out[0, j] = dH/d([x, p][j]), 1 x {n + len(jac_p)}.",
             _listing("parameters (after the states):", list(jac_p)))))
+        guards = [g for _, g in model.events]
+        variables = states + [index[name] for name in jac_p]
+        if guards and not _without_tangents(model, guards):
+            out.append(jacobian_function(builder, model, "guard_jac", guards, variables, doc(
+                f"The Jacobian of the event guards g of model {model.name!r} by the model "
+                f"states and parameters: out[k, j] = d(g[k])/d([x, p][j]), {len(guards)} x "
+                f"{len(variables)}, row-major (not by the time).",
+                _listing("parameters (after the states):", list(jac_p)))))
+        ys = list(model.outputs.values())
+        if ys and not _without_tangents(model, ys):
+            out.append(jacobian_function(builder, model, "outputs_jac", ys, variables, doc(
+                f"The Jacobian of the named outputs y of model {model.name!r} by the model "
+                f"states and parameters: out[i, j] = d(y[i])/d([x, p][j]), {len(ys)} x "
+                f"{len(variables)}, row-major.",
+                _listing("parameters (after the states):", list(jac_p)))))
     return out
 
 
