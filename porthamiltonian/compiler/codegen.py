@@ -734,21 +734,23 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             f"The gradient of the Hamiltonian H of model {model.name!r} by the states and "
             f"parameters: out[0, j] = dH/d([x, p][j]), 1 x {n + len(jac_p)}.",
             _listing("parameters (after the states):", list(jac_p)))))
-        guards = [g for _, g in model.events]
         variables = states + [index[name] for name in jac_p]
-        if guards and not _without_tangents(model, guards):
-            out.append(jacobian_function(builder, model, "guard_jac", guards, variables, doc(
-                f"The Jacobian of the event guards g of model {model.name!r} by the model "
-                f"states and parameters: out[k, j] = d(g[k])/d([x, p][j]), {len(guards)} x "
-                f"{len(variables)}, row-major (not by the time).",
-                _listing("parameters (after the states):", list(jac_p)))))
-        ys = list(model.outputs.values())
-        if ys and not _without_tangents(model, ys):
-            out.append(jacobian_function(builder, model, "outputs_jac", ys, variables, doc(
-                f"The Jacobian of the named outputs y of model {model.name!r} by the model "
-                f"states and parameters: out[i, j] = d(y[i])/d([x, p][j]), {len(ys)} x "
-                f"{len(variables)}, row-major.",
-                _listing("parameters (after the states):", list(jac_p)))))
+        for fname, what, exprs in (("guard_jac", "event guards g", [g for _, g in model.events]),
+                                   ("outputs_jac", "named outputs y", list(model.outputs.values()))):
+            if not exprs:
+                continue
+            if _without_tangents(model, exprs):
+                unavailable[fname] = (f"model {model.name!r}: some {what} read values its "
+                                      "kernel evaluates without derivatives (a body's pose)")
+                continue
+            try:
+                out.append(jacobian_function(builder, model, fname, exprs, variables, doc(
+                    f"The Jacobian of the {what} of model {model.name!r} by the model states "
+                    f"and parameters: out[k, j] = d({what[-1]}[k])/d([x, p][j]), {len(exprs)} x "
+                    f"{len(variables)}, row-major (not by the time).",
+                    _listing("parameters (after the states):", list(jac_p)))))
+            except CompilerError as error:     # a parameter in a kernel's table (raised before
+                unavailable[fname] = str(error)  # the function is built): differences instead
     return out
 
 
