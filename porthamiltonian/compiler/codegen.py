@@ -19,6 +19,10 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 ``jac_p(t, x, p)``    ∂ẋ/∂p by the parameters asked for (``program(model, jac_p=[...])``)
 ``energy_jac(t, x, p)`` ∂H/∂[x, p] by the states and those parameters (with ``jac_p``: the
                       parameter sensitivities' energy ledger at events)
+``guard_jac(t, x, p)`` ∂g/∂[x, p] of the event guards by the model states and those parameters
+                      (with ``jac_p``: the guard's gradient in the saltation matrix at events)
+``outputs_jac(t, x, p)`` ∂y/∂[x, p] of every named output, likewise (with ``jac_p``: outputs'
+                      parameter sensitivities, e.g. a gait's step length)
 ``update_<j>(t, x, p)`` the new discrete states of discrete-time block j at a sampling instant
 
 The parameter vector ``p`` holds the parameters, then two slots per input (:func:`input_slots`):
@@ -66,7 +70,7 @@ from .structure import stages
 
 #: Bumped whenever generated code changes meaning; part of the cache key (with a hash of the
 #: kernels' templates, which generated modules include or link).
-CODEGEN_VERSION = "9." + kernel_digest()
+CODEGEN_VERSION = "10." + kernel_digest()
 
 
 # --- the intermediate program ------------------------------------------------------------------
@@ -677,7 +681,10 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
     when it declares some; not generated, and why in ``unavailable``, when one of them reads a
     kernel output without tangents, e.g. a kernel multibody's body pose), ``jac_p`` (∂ẋ/∂p
     over the parameters ``jac_p``) and with it ``energy_jac`` (∂H/∂[x, p] over the states, the
-    ledger's included, and those parameters)."""
+    ledger's included, and those parameters) and ``guard_jac`` (∂g/∂[x, p] of the event guards
+    over the model states and those parameters) and ``outputs_jac`` (∂y/∂[x, p] of every named
+    output, likewise; each not when one of its expressions reads a kernel output without
+    tangents)."""
     out: list[Function] = []
     n = len(model.rhs)
     states = list(model.states)
@@ -727,6 +734,23 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             f"The gradient of the Hamiltonian H of model {model.name!r} by the states and "
             f"parameters: out[0, j] = dH/d([x, p][j]), 1 x {n + len(jac_p)}.",
             _listing("parameters (after the states):", list(jac_p)))))
+        variables = states + [index[name] for name in jac_p]
+        for fname, what, exprs in (("guard_jac", "event guards g", [g for _, g in model.events]),
+                                   ("outputs_jac", "named outputs y", list(model.outputs.values()))):
+            if not exprs:
+                continue
+            if _without_tangents(model, exprs):
+                unavailable[fname] = (f"model {model.name!r}: some {what} read values its "
+                                      "kernel evaluates without derivatives (a body's pose)")
+                continue
+            try:
+                out.append(jacobian_function(builder, model, fname, exprs, variables, doc(
+                    f"The Jacobian of the {what} of model {model.name!r} by the model states "
+                    f"and parameters: out[k, j] = d({what[-1]}[k])/d([x, p][j]), {len(exprs)} x "
+                    f"{len(variables)}, row-major (not by the time).",
+                    _listing("parameters (after the states):", list(jac_p)))))
+            except CompilerError as error:     # a parameter in a kernel's table (raised before
+                unavailable[fname] = str(error)  # the function is built): differences instead
     return out
 
 

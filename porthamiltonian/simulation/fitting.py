@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from ..errors import DataError, OptionError, ParameterValueError
-from .psensitivity import output_gradient
+from .psensitivity import jac_p_build, output_gradient
 from .saltation import Seeds, Sensitivity
 from .simulate import Reset
 
@@ -212,6 +212,7 @@ class _Problem:
         index = [model.param_names.index(p) for p in self.params]
         rows, jac = [], []
         t_all = traj.t
+        build = jac_p_build(model, self.params)     # the run's (compiled with ∂y/∂p)
         for s in self.series:
             at = np.array([int(np.flatnonzero(t_all == t)[0]) for t in s.t])
             if s.name in model.state_names:
@@ -223,7 +224,7 @@ class _Problem:
                 for r, i in enumerate(at):
                     x, p = traj.x[i], traj.p_at(i)
                     value[r] = model.outputs(t_all[i], x, p)[o]
-                    gx, gp = output_gradient(model, o, t_all[i], x, p, index)
+                    gx, gp = output_gradient(model, o, t_all[i], x, p, index, build)
                     d[r] = gx @ S[i] + gp[index]
             rows.append(s.weight * (value - s.y))
             jac.append(s.weight[:, None] * d)

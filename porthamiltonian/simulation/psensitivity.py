@@ -21,7 +21,9 @@ E_in, p):
 (f_w = (ẋ, P_diss, P_in, 0); at a stop f_w⁺ = 0). ∇H comes from the generated ``energy_jac``
 (exact, also where a contact's H is only C¹: on the very surfaces where its events fire), its
 parameter columns for a parameter outside the build (a mode an action sets) by central
-differences; g_p by central differences of the guard (:mod:`.differences`).
+differences; g_x and g_p from the generated ``guard_jac`` (exact) for a model event, g_t and a
+parameter outside the build by central differences of the guard (:mod:`.differences`), as all
+of them for a guard given as a function.
 """
 from __future__ import annotations
 
@@ -38,7 +40,17 @@ from .saltation import saltation_matrix
 if TYPE_CHECKING:
     from .compiled import CompiledModel
 
-__all__ = ["JumpResult", "ParameterColumns", "output_gradient", "parameter_jump"]
+__all__ = ["JumpResult", "ParameterColumns", "jac_p_build", "output_gradient",
+           "parameter_jump"]
+
+
+def jac_p_build(model: CompiledModel, names: Sequence[str]) -> CompiledModel:
+    """The model with ``jac_p`` over at least ``names`` (itself when it has them; else compiled
+    again with them, once: the build a run with parameter sensitivities by ``names`` starts
+    with)."""
+    if set(names) <= set(model.jac_p_names):
+        return model
+    return model.extended(jac_p=list(names))
 
 
 class ParameterColumns:
@@ -59,11 +71,7 @@ class ParameterColumns:
         self.build = self._build(list(self.names))
 
     def _build(self, names: list[str]) -> CompiledModel:
-        """The model with ``jac_p`` over at least ``names`` (itself when it has them)."""
-        have = self.model.jac_p_names
-        if set(names) <= set(have):
-            return self.model
-        return self.model.extended(jac_p=names)
+        return jac_p_build(self.model, names)
 
     @property
     def compiled(self) -> list[str]:
@@ -79,6 +87,21 @@ class ParameterColumns:
         (no rows when they are all zero: no forcing)."""
         rows = self.pi[[self.model.param_names.index(n) for n in self.compiled]]
         return np.ascontiguousarray(rows if np.any(rows) else rows[:0])
+
+    def guard_jacobian(self, k: int, t: float, y: np.ndarray, p: np.ndarray
+                       ) -> tuple[np.ndarray, dict[int, float]] | None:
+        """(∂g_k/∂x over the model states, ∂g_k/∂p_i by parameter index for the build's
+        ``jac_p`` parameters) of the model's guard ``k`` at (t, y, p), exact: the generated
+        ``guard_jac``; None when the build has none (a guard reading a kernel output without
+        tangents)."""
+        fun = self.build.functions.extra.get("guard_jac")
+        if fun is None:
+            return None
+        n = self.model.n_states
+        row = np.asarray(fun(t, y, self.build.native_params(p)), dtype=float)[k]
+        index = self.model.param_names.index
+        return row[:n].copy(), {index(name): float(v)
+                                for name, v in zip(self.compiled, row[n:])}
 
     def follow(self) -> None:
         """After an event the run continues from: a parameter whose row became nonzero joins
@@ -133,7 +156,7 @@ def parameter_jump(columns: ParameterColumns, phi: np.ndarray, t: float, y_minus
                    reset_x: np.ndarray, reset_p: Mapping[str, np.ndarray] | None,
                    changed: Mapping[str, np.ndarray | None], booking: str, stop: bool,
                    moved: bool, guard: Callable[[float, np.ndarray, np.ndarray], float],
-                   scale: np.ndarray, event: str) -> JumpResult:
+                   scale: np.ndarray, event: str, guard_index: int | None = None) -> JumpResult:
     """The columns (``phi``: n + 2 x m; Π in ``columns``) across one event (module docstring).
 
     y_minus, p_minus, y_plus, p_plus : integration state and parameters before and after the
@@ -142,7 +165,9 @@ def parameter_jump(columns: ParameterColumns, phi: np.ndarray, t: float, y_minus
     each with the gradient of its new value by [x⁻, p] (n + len(param_names)) or None
     (constant); booking : "dissipated" or "supplied"; stop : the run ends on the event's
     surface (f⁺ = 0); guard : g(t, x, p) of the model state x; scale : the typical size of
-    (t, x) for the guard's differences; event : its name, for messages."""
+    (t, x) for the guard's differences; event : its name, for messages; guard_index : the
+    index of a model event's guard among the model's (its generated gradient is used), None
+    for a guard given as a function (differences)."""
     model = columns.model
     n, names = model.n_states, model.param_names
     N, n_p = n + 2, len(names)
@@ -179,16 +204,8 @@ def parameter_jump(columns: ParameterColumns, phi: np.ndarray, t: float, y_minus
     f_minus = np.asarray(model.functions.rhs(t, y_minus, model.native_params(p_minus)))[:N]
     f_plus = (np.zeros(N) if stop else
               np.asarray(model.functions.rhs(t, y_plus, model.native_params(p_plus)))[:N])
-    # the guard
-    z = np.concatenate([[t], y_minus[:n], p_minus[live]])
-
-    def g(w: np.ndarray) -> float:
-        q = p_minus.copy()
-        q[live] = w[n + 1:]
-        return float(guard(float(w[0]), w[1:n + 1].copy(), q))
-
-    grad = gradient(g, z, np.concatenate([scale, np.ones(len(live))]))
-    g_t, g_x, g_p = float(grad.value[0]), grad.value[1:n + 1], grad.value[n + 1:]
+    g_t, g_x, g_p, guard_error = _guard_gradient(columns, guard, guard_index, t, y_minus,
+                                                 p_minus, live, scale)
     # the ledger's jump J = H(x⁺, p⁺) − H(x⁻, p⁻)
     moving = [i for i, row in rows.items() if np.any(row[:n]) or np.any(row[n:][live])]
     dH_minus, Hp_minus = _energy_gradient(columns, t, y_minus, p_minus, list(live))
@@ -234,25 +251,82 @@ def parameter_jump(columns: ParameterColumns, phi: np.ndarray, t: float, y_minus
     tau = -(g_w @ psi) / rate
     out = S @ psi
     return JumpResult(out[:N], out[N:], S, tau, g_t, g_x,
-                      {int(i): float(v) for i, v in zip(live, g_p)}, grad.max_error)
+                      {int(i): float(v) for i, v in zip(live, g_p)}, guard_error)
+
+
+def _guard_gradient(columns: ParameterColumns,
+                    guard: Callable[[float, np.ndarray, np.ndarray], float],
+                    guard_index: int | None, t: float, y: np.ndarray, p: np.ndarray,
+                    live: np.ndarray, scale: np.ndarray
+                    ) -> tuple[float, np.ndarray, np.ndarray, float]:
+    """(g_t, g_x, g_p over ``live``, error estimate) of the guard at the event (t, y, p).
+
+    A model event's guard: g_x and g_p by the build's parameters from the generated
+    ``guard_jac`` (exact), g_t and g_p by a parameter outside the build (a mode an action
+    sets) by central differences along those coordinates only. A guard given as a function
+    (or a model without ``guard_jac``): central differences along (t, x, p_live)."""
+    n = columns.model.n_states
+    exact = None if guard_index is None else columns.guard_jacobian(guard_index, t, y, p)
+    if exact is None:
+        rest = list(range(n + 1)) + [n + 1 + c for c in range(len(live))]
+        g_x = np.zeros(n)
+        known: dict[int, float] = {}
+    else:
+        g_x, known = exact
+        rest = [0] + [n + 1 + c for c, i in enumerate(live) if i not in known]
+    z = np.concatenate([[t], y[:n], p[live]])
+    sizes = np.concatenate([scale, np.ones(len(live))])
+
+    def g(w: np.ndarray) -> float:
+        zz = z.copy()
+        zz[rest] = w
+        q = p.copy()
+        q[live] = zz[n + 1:]
+        return float(guard(float(zz[0]), zz[1:n + 1].copy(), q))
+
+    grad = gradient(g, z[rest], sizes[rest])
+    full = np.zeros(len(z))
+    full[rest] = grad.value
+    if exact is not None:
+        full[1:n + 1] = g_x
+        for c, i in enumerate(live):
+            if i in known:
+                full[n + 1 + c] = known[i]
+    return float(full[0]), full[1:n + 1], full[n + 1:], grad.max_error
 
 
 def output_gradient(model: CompiledModel, o: int, t: float, x: np.ndarray, p: np.ndarray,
-                    rows: Sequence[int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(∂y_o/∂x, ∂y_o/∂p) of output ``o`` at (t, x, p) by central differences
-    (:mod:`.differences`); ∂y_o/∂p over every parameter of the model, by those of ``rows``
-    (the parameters whose row of Π is not zero) and 0 by the others, which are not perturbed
-    (a mode or an unrelated parameter). The chain rule with the run's columns gives the
-    output's sensitivity: dy = ∂y/∂x S + ∂y/∂p Π."""
+                    rows: Sequence[int] | np.ndarray, build: CompiledModel | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(∂y_o/∂x, ∂y_o/∂p) of output ``o`` at (t, x, p); ∂y_o/∂p over every parameter of the
+    model, by those of ``rows`` (the parameters whose row of Π is not zero) and 0 by the
+    others, which are not perturbed (a mode or an unrelated parameter). The chain rule with the
+    run's columns gives the output's sensitivity: dy = ∂y/∂x S + ∂y/∂p Π.
+
+    build : the model compiled with ``jac_p`` (the run's build): ∂y_o/∂x and ∂y_o/∂p by its
+    ``jac_p`` parameters from its generated ``outputs_jac`` (exact); the rest (no build, no
+    ``outputs_jac``, a parameter outside it) by central differences (:mod:`.differences`)."""
     index = np.asarray(rows, dtype=int)
-    dx = jacobian(lambda xx: model.outputs(t, xx, p)[o:o + 1], x, 1.0).value[0]
+    dp = np.zeros(len(model.param_names))
+    fun = None if build is None else build.functions.extra.get("outputs_jac")
+    if fun is not None and build is not None:
+        n = model.n_states
+        y = np.ascontiguousarray(x if len(x) == n + 2 else model.augment(x), dtype=float)
+        row = np.asarray(fun(t, y, build.native_params(p)), dtype=float)[o]
+        dx = np.zeros(len(x))
+        dx[:n] = row[:n]
+        exact = {model.param_names.index(name): float(v)
+                 for name, v in zip(build.jac_p_names, row[n:])}
+        dp[[i for i in index if i in exact]] = [exact[i] for i in index if i in exact]
+        index = np.array([i for i in index if i not in exact], dtype=int)
+    else:
+        dx = jacobian(lambda xx: model.outputs(t, xx, p)[o:o + 1], x, 1.0).value[0]
 
     def by(v: np.ndarray) -> np.ndarray:
         q = p.copy()
         q[index] = v
         return model.outputs(t, x, q)[o:o + 1]
 
-    dp = np.zeros(len(model.param_names))
     if len(index):
         dp[index] = jacobian(by, p[index], 1.0).value[0]
     return dx, dp

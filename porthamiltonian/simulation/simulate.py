@@ -546,7 +546,7 @@ class Simulator:
         phi_minus, pi_minus = phi[:n].copy(), columns.pi.copy()
         out = parameter_jump(columns, phi, t, y_minus, p_minus, y_plus, p_plus, R,
                              reset.jacobian_p, changed, reset.energy, stop, moved, guard, scale,
-                             self.names[k])
+                             self.names[k], k if k < self.n_model_events else None)
         self.phi, columns.pi = out.phi, out.pi
         if not stop:
             columns.follow()

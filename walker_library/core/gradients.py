@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike
 from porthamiltonian.errors import ModelError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.simulation.differences import Derivative, jacobian
-from porthamiltonian.simulation.psensitivity import output_gradient
+from porthamiltonian.simulation.psensitivity import jac_p_build, output_gradient
 from porthamiltonian.simulation.saltation import Seeds, Sensitivity
 
 from .machine import WalkLog
@@ -194,8 +194,9 @@ def stride_gradient(walker: HybridWalker, z: ArrayLike, names: Sequence[str], *,
     o_foot, o_stance = model.output_index(f"{foot}.x"), model.output_index(f"{stance}.x")
     on_surface = crossing.phi_minus + np.outer(crossing.f_minus, crossing.time_sensitivity)
     rows = np.flatnonzero(np.any(params_minus != 0.0, axis=1) | np.any(unit, axis=1))
-    foot_x = output_gradient(model, o_foot, last.t, last.x_minus, last.p_minus, rows)
-    stance_x = output_gradient(model, o_stance, 0.0, x0, p0, rows)
+    build = jac_p_build(model, names)          # the run's (compiled with ∂y/∂p)
+    foot_x = output_gradient(model, o_foot, last.t, last.x_minus, last.p_minus, rows, build)
+    stance_x = output_gradient(model, o_stance, 0.0, x0, p0, rows, build)
     pi0 = np.hstack([np.zeros((len(unit), k)), unit])
     d_length = (foot_x[0] @ on_surface + foot_x[1] @ params_minus
                 - stance_x[0] @ np.hstack([lift.value, x0_p]) - stance_x[1] @ pi0)
