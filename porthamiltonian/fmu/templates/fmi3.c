@@ -139,15 +139,18 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3Reset)(fmi3Instance instance)
 }
 
 /* --- getting and setting values ---------------------------------------------------------------- */
+/* every variable is a scalar: as many values as value references */
+#define PH_SCALARS3                                                                         \
+    if (nValues != nValueReferences)                                                        \
+        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu values for %zu value references (all scalars)",   \
+                           PH_I->name, nValues, nValueReferences))
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetFloat64)(fmi3Instance instance,
                                                  const fmi3ValueReference valueReferences[],
                                                  size_t nValueReferences, fmi3Float64 values[],
                                                  size_t nValues)
 {
     PH_CHECK3;
-    if (nValues != nValueReferences)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu values for %zu value references (all scalars)",
-                           PH_I->name, nValues, nValueReferences));
+    PH_SCALARS3;
     for (size_t i = 0; i < nValueReferences; ++i)
         if (ph_get_real(PH_I, valueReferences[i], &values[i]) != PH_OK)
             return fmi3Error;
@@ -160,9 +163,7 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetFloat64)(fmi3Instance instance,
                                                  const fmi3Float64 values[], size_t nValues)
 {
     PH_CHECK3;
-    if (nValues != nValueReferences)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu values for %zu value references (all scalars)",
-                           PH_I->name, nValues, nValueReferences));
+    PH_SCALARS3;
     for (size_t i = 0; i < nValueReferences; ++i)
         if (ph_set_real(PH_I, valueReferences[i], values[i]) != PH_OK)
             return fmi3Error;
@@ -175,9 +176,7 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetInt32)(fmi3Instance instance,
                                                size_t nValues)
 {
     PH_CHECK3;
-    if (nValues != nValueReferences)
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu values for %zu value references (all scalars)",
-                           PH_I->name, nValues, nValueReferences));
+    PH_SCALARS3;
     for (size_t i = 0; i < nValueReferences; ++i) {
         int64_t v;
         if (ph_get_integer(PH_I, valueReferences[i], &v) != PH_OK)
@@ -375,73 +374,39 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3ExitConfigurationMode)(fmi3Instance instanc
     PH_RETURN3(PH_FAIL(PH_I, "%s: no structural parameters", PH_I->name));
 }
 
-#define PH_NO_CLOCKS PH_CHECK3; \
-    PH_RETURN3(PH_FAIL(PH_I, "%s: this FMU has no clocks", PH_I->name))
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetIntervalDecimal)(fmi3Instance instance,
-    const fmi3ValueReference valueReferences[], size_t nValueReferences,
-    fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[])
-{
-    (void)valueReferences; (void)nValueReferences; (void)intervals; (void)qualifiers;
-    PH_NO_CLOCKS;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetIntervalFraction)(fmi3Instance instance,
-    const fmi3ValueReference valueReferences[], size_t nValueReferences,
-    fmi3UInt64 counters[], fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[])
-{
-    (void)valueReferences; (void)nValueReferences; (void)counters; (void)resolutions;
-    (void)qualifiers;
-    PH_NO_CLOCKS;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetShiftDecimal)(fmi3Instance instance,
-    const fmi3ValueReference valueReferences[], size_t nValueReferences,
-    fmi3Float64 shifts[])
-{
-    (void)valueReferences; (void)nValueReferences; (void)shifts;
-    PH_NO_CLOCKS;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetShiftFraction)(fmi3Instance instance,
-    const fmi3ValueReference valueReferences[], size_t nValueReferences,
-    fmi3UInt64 counters[], fmi3UInt64 resolutions[])
-{
-    (void)valueReferences; (void)nValueReferences; (void)counters; (void)resolutions;
-    PH_NO_CLOCKS;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetIntervalDecimal)(fmi3Instance instance,
-    const fmi3ValueReference valueReferences[], size_t nValueReferences,
-    const fmi3Float64 intervals[])
-{
-    (void)valueReferences; (void)nValueReferences; (void)intervals;
-    PH_NO_CLOCKS;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetIntervalFraction)(fmi3Instance instance,
-    const fmi3ValueReference valueReferences[], size_t nValueReferences,
-    const fmi3UInt64 counters[], const fmi3UInt64 resolutions[])
-{
-    (void)valueReferences; (void)nValueReferences; (void)counters; (void)resolutions;
-    PH_NO_CLOCKS;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetShiftDecimal)(fmi3Instance instance,
-    const fmi3ValueReference valueReferences[], size_t nValueReferences,
-    const fmi3Float64 shifts[])
-{
-    (void)valueReferences; (void)nValueReferences; (void)shifts;
-    PH_NO_CLOCKS;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetShiftFraction)(fmi3Instance instance,
-    const fmi3ValueReference valueReferences[], size_t nValueReferences,
-    const fmi3UInt64 counters[], const fmi3UInt64 resolutions[])
-{
-    (void)valueReferences; (void)nValueReferences; (void)counters; (void)resolutions;
-    PH_NO_CLOCKS;
-}
+/* the clock functions: this FMU has no clocks, each refuses with the same message (the value
+ * arrays after nValueReferences differ: their declarations, then their casts to void) */
+#define PH_UNPAREN(...) __VA_ARGS__
+#define PH_NO_CLOCK(fn, values, unused)                                                     \
+    PH_FMI_EXPORT fmi3Status PH_FMI3(fn)(fmi3Instance instance,                             \
+        const fmi3ValueReference valueReferences[], size_t nValueReferences,                \
+        PH_UNPAREN values)                                                                  \
+    {                                                                                       \
+        (void)valueReferences; (void)nValueReferences; unused;                              \
+        PH_CHECK3;                                                                          \
+        PH_RETURN3(PH_FAIL(PH_I, "%s: this FMU has no clocks", PH_I->name));                \
+    }
+PH_NO_CLOCK(fmi3GetIntervalDecimal, (fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[]),
+            (void)intervals; (void)qualifiers)
+PH_NO_CLOCK(fmi3GetIntervalFraction,
+            (fmi3UInt64 counters[], fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[]),
+            (void)counters; (void)resolutions; (void)qualifiers)
+PH_NO_CLOCK(fmi3GetShiftDecimal, (fmi3Float64 shifts[]),
+            (void)shifts)
+PH_NO_CLOCK(fmi3GetShiftFraction, (fmi3UInt64 counters[], fmi3UInt64 resolutions[]),
+            (void)counters; (void)resolutions)
+PH_NO_CLOCK(fmi3SetIntervalDecimal, (const fmi3Float64 intervals[]),
+            (void)intervals)
+PH_NO_CLOCK(fmi3SetIntervalFraction,
+            (const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]),
+            (void)counters; (void)resolutions)
+PH_NO_CLOCK(fmi3SetShiftDecimal, (const fmi3Float64 shifts[]),
+            (void)shifts)
+PH_NO_CLOCK(fmi3SetShiftFraction,
+            (const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]),
+            (void)counters; (void)resolutions)
+#undef PH_NO_CLOCK
+#undef PH_UNPAREN
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3EvaluateDiscreteStates)(fmi3Instance instance)
 {
