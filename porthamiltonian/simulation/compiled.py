@@ -433,7 +433,10 @@ class CompiledModel:
         """A multibody's accelerations v̇ at one point, ``{"<mb>.a.<velocity>": value}``
         (rad/s², m/s²), exact: the rate of the velocity output ``<mb>.v.<velocity>`` of each
         revolute, prismatic, translational and universal joint; arguments as
-        :meth:`derivative`. A trajectory gives them by name too (``traj["arm.a.pivot"]``)."""
+        :meth:`derivative`. A trajectory gives them by name too (``traj["arm.a.pivot"]``).
+        With loops or constraints they include the constraint stabilisation's correction (the
+        ``constraint_gain`` term), so off the constraint manifold they differ from
+        M⁻¹(ṗ − Ṁv) of the unconstrained tree; on it the correction vanishes."""
         return _linearize.accelerations(self, t, x, u, params)
 
     def linearize(self, x: Any = None, u: Any = None, params: Any = None,
