@@ -434,9 +434,9 @@ class CompiledModel:
         (rad/s², m/s²), exact: the rate of the velocity output ``<mb>.v.<velocity>`` of each
         revolute, prismatic, translational and universal joint; arguments as
         :meth:`derivative`. A trajectory gives them by name too (``traj["arm.a.pivot"]``).
-        With loops or constraints they include the constraint stabilisation's correction (the
-        ``constraint_gain`` term), so off the constraint manifold they differ from
-        M⁻¹(ṗ − Ṁv) of the unconstrained tree; on it the correction vanishes."""
+        With loops or constraints they include the position correction of the constraints'
+        stabilisation (``constraint_gain``), so off the constraints (φ ≠ 0 or φ̇ ≠ 0) they
+        differ from M⁻¹(ṗ − Ṁv) of the momentum rates; on them the correction vanishes."""
         return _linearize.accelerations(self, t, x, u, params)
 
     def linearize(self, x: Any = None, u: Any = None, params: Any = None,
