@@ -52,7 +52,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         walker = item.nodeid.startswith("tests/walkers/")
         marked = item.get_closest_marker("numba_loop") is not None
-        (keep if (walker or marked if numba_pass else not marked) else drop).append(item)
+        selected = (walker or marked) if numba_pass else not marked
+        (keep if selected else drop).append(item)
     if drop:
         config.hook.pytest_deselected(items=drop)
         items[:] = keep

@@ -15,13 +15,16 @@
   (a knee strike onto the knee's lock: :func:`porthamiltonian.simulation.switching.impact_onto`),
   no relabelling; the rule sets the constraint's switch.
 
-The maps are functions of the state with a Jacobian (:meth:`Relabel.matrix`, exact;
-:meth:`ImpactMap.jacobian`; :meth:`ConstraintImpact.jacobian`: central differences) for saltation-matrix computations. :meth:`ImpactMap.tangents` is the
-impact's forward-mode derivative by the state and the parameters: with v = M⁻¹p, the floating
-state (q_f = F q, the hip's position y_h(q) and velocity J_h(q) v), the saddle-point system
+The maps are functions of the state with a Jacobian for saltation-matrix computations
+(:meth:`Relabel.matrix`, exact; the impacts' ``jacobian`` from their ``tangents``: for
+:class:`ConstraintImpact` fourth-order differences of the whole impact along each column).
+:meth:`ImpactMap.tangents` is the impact's forward-mode derivative by the state and the
+parameters: with v = M⁻¹p, the floating state (q_f = F q, the hip's position y_h(q) and velocity
+J_h(q) v), the saddle-point system
 
-    K(q_f) [v⁺; −Λ] = [M_f v_f; 0],   K = [[M_f, Gᵀ], [G, 0]]  (G: the striking point's rows and those of
- the active constraints),
+    K(q_f) [v⁺; −Λ] = [M_f v_f; 0],   K = [[M_f, Gᵀ], [G, 0]]
+
+(G: the striking point's rows and those of the active constraints),
 
 and the momenta after the relabelling p' = M(q', p_after) v', the linear solves are
 differentiated exactly (d(K⁻¹b) = K⁻¹(db − dK K⁻¹b): K [dv⁺; −dΛ] = [dM_f (v_f − v⁺) + dGᵀΛ +
@@ -315,6 +318,11 @@ class ImpactMap(_Impact):
         vf[lay["pin"]] = self.model.matrix(f"{mb}.J.{self.about.split('.', 1)[1]}", t, x, p) @ v
         return xf, vf, pf
 
+    def _rows(self, t: float, xf: np.ndarray, pf: np.ndarray) -> list[str]:
+        """The impact's constraint matrices on the floating model at (xf, pf): the striking
+        point's Jacobian, then those of the active constraints (:meth:`_held`)."""
+        return [f"{self.multibody}.J.{self.point.split('.', 1)[1]}", *self._held(t, xf, pf)]
+
     def _held(self, t: float, xf: np.ndarray, pf: np.ndarray) -> list[str]:
         """The constraint matrices (``<multibody>.G.<constraint>``) of the floating model's
         constraints active at (xf, pf): a locked knee stays locked through the heel strike. The
@@ -329,9 +337,8 @@ class ImpactMap(_Impact):
                  p_after: np.ndarray) -> tuple[np.ndarray, dict]:
         mb, lay = self.multibody, self._layout
         xf, vf, pf = self.floating_state(t, x, p)
-        imp = model_impact(self.floating, xf, pf,
-                           [f"{mb}.J.{self.point.split('.', 1)[1]}", *self._held(t, xf, pf)],
-                           f"{mb}.M", t=t, v_minus=vf)
+        imp = model_impact(self.floating, xf, pf, self._rows(t, xf, pf), f"{mb}.M", t=t,
+                           v_minus=vf)
         pin_v = self.floating.matrix(f"{mb}.J.{PIN}_point", t, imp.x_plus, pf) @ imp.impact.v_plus
         impact = imp.impact
         y = self.model.outputs(t, x, p)
@@ -394,7 +401,7 @@ class ImpactMap(_Impact):
         dvf = np.zeros((len(vf), K))
         dvf[lay["fv"]] = lay["F"] @ dv
         dvf[lay["pin"]] = d_in[nv:] + m.matrix(hip, t, x, p) @ dv
-        rows = [f"{mb}.J.{self.point.split('.', 1)[1]}", *self._held(t, xf, pf)]
+        rows = self._rows(t, xf, pf)
         imp = model_impact(f, xf, pf, rows, f"{mb}.M", t=t, v_minus=vf).impact
         v_plus, lam = imp.v_plus, imp.impulse
         nf = len(vf)
@@ -432,7 +439,6 @@ class ImpactMap(_Impact):
         d_out = along(walker_out, np.concatenate([x_new, p_after]), np.vstack([dx_new, dp_after]))
         dx_new[lay["p"]] = d_out + m.matrix(f"{mb}.M", t, x_new, p_after) @ dv_new
         return dx_new, max(errors, default=0.0)
-
 
 
 def _switches(model: CompiledModel, multibody: str) -> list[tuple[str, int]]:
