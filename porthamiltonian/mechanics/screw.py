@@ -325,19 +325,11 @@ def vee3(S: ArrayLike) -> Array:
 
 
 def hat6(T: ArrayLike) -> Array:
-    """The se(3) matrix of a twist.
+    """The 4x4 se(3) matrix ``[[ω̃, v], [0, 0]]`` of a twist ``T = (ω, v)`` [rad/s, m/s].
 
-    Parameters
-    ----------
-    T : array_like, shape (6,)
-        Twist ``(ω, v)`` [rad/s, m/s].
-
-    Returns
-    -------
-    ndarray or sympy.Matrix, shape (4, 4)
-        ``[[ω̃, v], [0, 0]]``. For the twist ``T_A`` of frame B relative to A expressed in A,
-        ``dH_A_B/dt = hat6(T_A) @ H_A_B``; for the body twist ``T_B``,
-        ``dH_A_B/dt = H_A_B @ hat6(T_B)``.
+    For the twist ``T_A`` of frame B relative to A expressed in A,
+    ``dH_A_B/dt = hat6(T_A) @ H_A_B``; for the body twist ``T_B``,
+    ``dH_A_B/dt = H_A_B @ hat6(T_B)``.
     """
     ns = _backend(T)
     w, v = _split6(ns, T)
@@ -387,18 +379,10 @@ def Ad(H: ArrayLike) -> Array:
 
 
 def ad(T: ArrayLike) -> Array:
-    """Matrix of the Lie bracket with a twist (the adjoint of se(3)), in the ``(ω, v)`` ordering.
+    """The 6x6 matrix ``[[ω̃, 0], [ṽ, ω̃]]`` of the Lie bracket with a twist ``T = (ω, v)``
+    [rad/s, m/s] (the adjoint of se(3)), in the ``(ω, v)`` ordering.
 
-    Parameters
-    ----------
-    T : array_like, shape (6,)
-        Twist ``(ω, v)`` [rad/s, m/s].
-
-    Returns
-    -------
-    ndarray or sympy.Matrix, shape (6, 6)
-        ``[[ω̃, 0], [ṽ, ω̃]]``, such that ``ad(T1) @ T2 = [T1, T2]`` with
-        ``hat6([T1, T2]) = hat6(T1) hat6(T2) - hat6(T2) hat6(T1)``.
+    ``ad(T1) @ T2 = [T1, T2]`` with ``hat6([T1, T2]) = hat6(T1) hat6(T2) - hat6(T2) hat6(T1)``.
     """
     ns = _backend(T)
     w, v = _split6(ns, T)
@@ -417,16 +401,7 @@ def ad_star(T: ArrayLike) -> Array:
         dp/dt = p × ω + f
 
     For a pure rotation about the centre of mass this is Euler's ``I ω̇ = (I ω) × ω + τ``.
-
-    Parameters
-    ----------
-    T : array_like, shape (6,)
-        Twist ``(ω, v)`` [rad/s, m/s].
-
-    Returns
-    -------
-    ndarray or sympy.Matrix, shape (6, 6)
-        ``[[-ω̃, -ṽ], [0, -ω̃]]``.
+    The matrix (6x6) is ``[[-ω̃, -ṽ], [0, -ω̃]]``.
     """
     return ad(T).T
 
