@@ -51,13 +51,7 @@ from ..core.protocol import Stride, Walker
 from .continuation import ParameterPath, continue_gait
 from .metrics import GaitMetrics, gait_metrics
 from .monodromy import FloquetResult, floquet
-from .poincare import (
-    FixedPointResult,
-    PeriodResult,
-    WalkerFell,
-    detect_period,
-    find_fixed_point,
-)
+from .poincare import FixedPointResult, PeriodResult, WalkerFell, detect_period, find_fixed_point
 from .results import JSONResult, to_jsonable, view
 
 __all__ = ["TIME_LIMIT", "GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult",

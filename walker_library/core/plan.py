@@ -56,7 +56,7 @@ if TYPE_CHECKING:
 # need it (linear maps, the thesis's inverse) import it when they run.
 
 __all__ = ["BodiesMass", "ChangePlan", "ConditionPlan", "ModelNames", "Projected", "RelabelMap", "SectionMap",
-           "SetState", "SolveState", "TransitionPlan", "WalkerPlan", "walker_plan"]
+           "SolveState", "TransitionPlan", "WalkerPlan", "walker_plan"]
 
 #: prefix of the outputs the walker adds to its model (one per evaluated expression)
 PREFIX = "hybrid"
@@ -126,8 +126,8 @@ class ConditionPlan:
 
 @dataclass(frozen=True)
 class ChangePlan:
-    """``name`` (a mode, or a section coordinate of the guess) takes ``constant``, or the value
-    of the walker output ``output``."""
+    """``name`` (a mode; a section coordinate of the guess; in the section's lift, a state
+    coordinate or joint rate) takes ``constant``, or the value of the walker output ``output``."""
 
     name: str
     constant: float | None = None
@@ -154,21 +154,11 @@ class TransitionPlan:
 
 
 @dataclass(frozen=True)
-class SetState:
-    """A lift step: state coordinate (or joint rate) ``target`` takes ``constant`` or the value
-    of the walker output ``output``."""
-
-    target: str
-    constant: float | None = None
-    output: str | None = None
-
-
-@dataclass(frozen=True)
 class SolveState:
-    """A lift step: state coordinate ``target`` is solved for so that the walker output
-    ``output`` equals the section coordinate ``given`` (0 when ``given`` is None)."""
+    """A lift step: state coordinate ``name`` is solved for so that the walker output ``output``
+    equals the section coordinate ``given`` (0 when ``given`` is None)."""
 
-    target: str
+    name: str
     output: str
     given: str | None = None
 
@@ -186,7 +176,7 @@ class Projected:
 class SectionMap:
     """The Poincaré section: its coordinates and the thesis's (``to_thesis`` maps the first to the
     second, ``from_thesis`` back; rows of numbers), how a section state is lifted to a model state
-    (:class:`SetState`, :class:`SolveState`, in order, then p = M(q) v) and projected back
+    (:class:`ChangePlan`, :class:`SolveState`, in order, then p = M(q) v) and projected back
     (:class:`Projected`), the labelling condition, and the thesis's angles (coefficients over the
     multibody coordinates)."""
 
@@ -194,7 +184,7 @@ class SectionMap:
     thesis_names: tuple[str, ...]
     to_thesis: tuple[tuple[float, ...], ...]
     from_thesis: tuple[tuple[float, ...], ...]
-    lift: tuple[SetState | SolveState, ...]
+    lift: tuple[ChangePlan | SolveState, ...]
     project: tuple[Projected, ...]
     labelling: ConditionPlan | None
     angles: Mapping[str, tuple[float, ...]]
@@ -388,16 +378,15 @@ def _transitions(spec: WalkerSpec, parsed: Parsed, ex: _Outputs) -> tuple[Transi
     return tuple(out)
 
 
-def _lift(spec: WalkerSpec, ex: _Outputs) -> tuple[tuple[SetState | SolveState, ...],
+def _lift(spec: WalkerSpec, ex: _Outputs) -> tuple[tuple[ChangePlan | SolveState, ...],
                                                   tuple[Projected, ...]]:
     """The lift's steps (the completions in order) and the projection's entries."""
     coords = spec.section.coordinates
     defined: dict[str, str] = {}
-    lift: list[SetState | SolveState] = []
+    lift: list[ChangePlan | SolveState] = []
     for c in spec.section.complete:
         if c.such_that is None:
-            value = ex.value(c.coordinate, c.value)
-            lift.append(SetState(c.coordinate, value.constant, value.output))
+            lift.append(ex.value(c.coordinate, c.value))
             continue
         lhs, rhs = parse_equation(c.such_that)
         if rhs in coords or lhs in coords:

@@ -51,7 +51,7 @@ from porthamiltonian.simulation.compiled import CompiledModel
 
 from .hybrid import Integration, WalkerSpec
 from .machine import Change, Condition, ModeMachine, Transition, WalkLog
-from .plan import BodiesMass, SetState, WalkerPlan, walker_plan
+from .plan import BodiesMass, ChangePlan, WalkerPlan, walker_plan
 from .protocol import ParameterSpec, Stride, StrideStatus, check_parameters
 from .reading import walker_spec
 from .resets import ConstraintImpact, ImpactMap, Relabel
@@ -428,16 +428,16 @@ class HybridWalker:
             elif name in m.state_names:
                 x[m.state_index(name)] = value
         for step in self.plan.section.lift:
-            if isinstance(step, SetState):
+            if isinstance(step, ChangePlan):
                 value = (step.constant if step.output is None
                          else self.outputs(0.0, x, p)[c.out[step.output]])
             else:
-                value = self._solve(x, p, step.target, c.out[step.output],
+                value = self._solve(x, p, step.name, c.out[step.output],
                                     0.0 if step.given is None else given[step.given])
-            if step.target in c.rates:
-                v[c.rates[step.target]] = value
+            if step.name in c.rates:
+                v[c.rates[step.name]] = value
             else:
-                x[m.state_index(step.target)] = value
+                x[m.state_index(step.name)] = value
         x[list(c.momenta)] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
         return x
 

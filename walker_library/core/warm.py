@@ -58,7 +58,6 @@ from .plan import (
     Projected,
     RelabelMap,
     SectionMap,
-    SetState,
     SolveState,
     TransitionPlan,
     WalkerPlan,
@@ -75,7 +74,7 @@ KIND = "walker"
 #: the record classes a snapshot may hold, by name
 RECORDS: Mapping[str, type] = MappingProxyType({cls.__name__: cls for cls in (
     Foot, Rule, Completion, Section, Integration, Terrain, ModelNames, ConditionPlan, ChangePlan,
-    TransitionPlan, SetState, SolveState, Projected, SectionMap, RelabelMap, ParameterSpec)})
+    TransitionPlan, SolveState, Projected, SectionMap, RelabelMap, ParameterSpec)})
 #: the fields of a WalkerSpec kept (its model and what was read from it are not)
 _SPEC_FIELDS = ("feet", "modes", "rules", "section", "angles", "terrain", "relabel", "guess",
                 "guess_where", "ranges", "integration", "mass", "leg_length", "hip", "source",
