@@ -147,11 +147,20 @@ class R(_OnePortIn):
 
 
 class _Source(Component):
-    """An ideal source on port ``p``: the argument named :attr:`imposed` (``effort`` or
-    ``flow``) is imposed on that port variable; the other is the environment's."""
+    """An ideal source on port ``p`` (power out): the argument named :attr:`imposed` (``effort``
+    or ``flow``) is imposed on that port variable, the other is the environment's; it supplies
+    the power e·f. A source class names its imposed variable and that variable's units in its
+    class statement (``class Se(_Source, imposed="effort", units="N, ...")``), which give its
+    arguments: the domain and the imposed variable."""
 
     #: the imposed port variable, also the name of the argument that gives it
     imposed: ClassVar[str]
+
+    def __init_subclass__(cls, imposed: str = "", units: str = "", **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if imposed:                     # (a subclass of Se or Sf keeps its base's)
+            cls.imposed = imposed
+            cls.arguments = {"domain": _DOMAIN, imposed: Arg(f"imposed {imposed} ({units})")}
 
     def ports(self) -> list[Port]:
         return [Port("p", self.value("domain"), orientation="out")]
@@ -164,27 +173,23 @@ class _Source(Component):
 
 
 @register
-class Se(_Source):
+class Se(_Source, imposed="effort", units="N, N m, V, Pa"):
     """Effort source (force, torque, voltage), modulated when ``effort`` depends on t or states.
 
     Ports: ``p`` (power out). Law: e = ``effort``. Supplied power: e·f.
     """
 
     kind = "Se"
-    imposed = "effort"
-    arguments = {"domain": _DOMAIN, "effort": Arg("imposed effort (N, N m, V, Pa)")}
 
 
 @register
-class Sf(_Source):
+class Sf(_Source, imposed="flow", units="m/s, rad/s, A, m^3/s"):
     """Flow source (velocity, current), modulated when ``flow`` depends on t or states.
 
     Ports: ``p`` (power out). Law: f = ``flow``. Supplied power: e·f.
     """
 
     kind = "Sf"
-    imposed = "flow"
-    arguments = {"domain": _DOMAIN, "flow": Arg("imposed flow (m/s, rad/s, A, m^3/s)")}
 
 
 class _TwoPort(Component):
