@@ -125,23 +125,14 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetReal)(fmi2Component c, const fmi2ValueRe
                                               size_t nvr, fmi2Real value[])
 {
     PH_CHECK(c);
-    for (size_t i = 0; i < nvr; ++i)
-        if (ph_get_real(PH_C, vr[i], &value[i]) != PH_OK)
-            return fmi2Error;
-    return fmi2OK;
+    PH_RETURN(ph_get_reals(PH_C, vr, nvr, value));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetInteger)(fmi2Component c, const fmi2ValueReference vr[],
                                                  size_t nvr, fmi2Integer value[])
 {
     PH_CHECK(c);
-    for (size_t i = 0; i < nvr; ++i) {
-        int64_t v;
-        if (ph_get_integer(PH_C, vr[i], &v) != PH_OK)
-            return fmi2Error;
-        value[i] = (fmi2Integer)v;
-    }
-    return fmi2OK;
+    PH_RETURN(ph_get_integers(PH_C, vr, nvr, value));
 }
 
 PH_NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, "Boolean")
@@ -151,10 +142,7 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetReal)(fmi2Component c, const fmi2ValueRe
                                               size_t nvr, const fmi2Real value[])
 {
     PH_CHECK(c);
-    for (size_t i = 0; i < nvr; ++i)
-        if (ph_set_real(PH_C, vr[i], value[i]) != PH_OK)
-            return fmi2Error;
-    return fmi2OK;
+    PH_RETURN(ph_set_reals(PH_C, vr, nvr, value));
 }
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetInteger)(fmi2Component c, const fmi2ValueReference vr[],
@@ -171,49 +159,9 @@ PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetInteger)(fmi2Component c, const fmi2Valu
 PH_NO_VARIABLES(fmi2SetBoolean, const fmi2Boolean, "Boolean")
 PH_NO_VARIABLES(fmi2SetString, const fmi2String, "String")
 
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetFMUstate)(fmi2Component c, fmi2FMUstate *FMUstate)
-{
-    PH_CHECK(c);
-    PH_RETURN(ph_get_state(PH_C, FMUstate));
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SetFMUstate)(fmi2Component c, fmi2FMUstate FMUstate)
-{
-    PH_CHECK(c);
-    PH_RETURN(ph_set_state(PH_C, FMUstate));
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2FreeFMUstate)(fmi2Component c, fmi2FMUstate *FMUstate)
-{
-    (void)c;
-    ph_free_state(FMUstate);
-    return fmi2OK;
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SerializedFMUstateSize)(fmi2Component c,
-                                                             fmi2FMUstate FMUstate,
-                                                             size_t *size)
-{
-    PH_CHECK(c);
-    (void)FMUstate;
-    *size = sizeof(ph_saved);
-    return fmi2OK;
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2SerializeFMUstate)(fmi2Component c, fmi2FMUstate FMUstate,
-                                                        fmi2Byte serializedState[], size_t size)
-{
-    PH_CHECK(c);
-    PH_RETURN(ph_serialize(PH_C, FMUstate, serializedState, size));
-}
-
-PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2DeSerializeFMUstate)(fmi2Component c,
-                                                          const fmi2Byte serializedState[],
-                                                          size_t size, fmi2FMUstate *FMUstate)
-{
-    PH_CHECK(c);
-    PH_RETURN(ph_deserialize(PH_C, serializedState, size, FMUstate));
-}
+/* fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate, fmi2SerializedFMUstateSize,
+ * fmi2SerializeFMUstate, fmi2DeSerializeFMUstate (runtime.c) */
+PH_FMU_STATE_FUNCTIONS(2, fmi2Component, FMUstate, DeSerialize)
 
 PH_FMI_EXPORT fmi2Status PH_FMI2(fmi2GetDirectionalDerivative)(
     fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,

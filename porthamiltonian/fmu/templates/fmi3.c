@@ -139,75 +139,39 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3Reset)(fmi3Instance instance)
 }
 
 /* --- getting and setting values ---------------------------------------------------------------- */
-/* every variable is a scalar: as many values as value references */
-#define PH_SCALARS3                                                                         \
-    if (nValues != nValueReferences)                                                        \
-        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu values for %zu value references (all scalars)",   \
-                           PH_I->name, nValues, nValueReferences))
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetFloat64)(fmi3Instance instance,
-                                                 const fmi3ValueReference valueReferences[],
-                                                 size_t nValueReferences, fmi3Float64 values[],
-                                                 size_t nValues)
-{
-    PH_CHECK3;
-    PH_SCALARS3;
-    for (size_t i = 0; i < nValueReferences; ++i)
-        if (ph_get_real(PH_I, valueReferences[i], &values[i]) != PH_OK)
-            return fmi3Error;
-    return fmi3OK;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetFloat64)(fmi3Instance instance,
-                                                 const fmi3ValueReference valueReferences[],
-                                                 size_t nValueReferences,
-                                                 const fmi3Float64 values[], size_t nValues)
-{
-    PH_CHECK3;
-    PH_SCALARS3;
-    for (size_t i = 0; i < nValueReferences; ++i)
-        if (ph_set_real(PH_I, valueReferences[i], values[i]) != PH_OK)
-            return fmi3Error;
-    return fmi3OK;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetInt32)(fmi3Instance instance,
-                                               const fmi3ValueReference valueReferences[],
-                                               size_t nValueReferences, fmi3Int32 values[],
-                                               size_t nValues)
-{
-    PH_CHECK3;
-    PH_SCALARS3;
-    for (size_t i = 0; i < nValueReferences; ++i) {
-        int64_t v;
-        if (ph_get_integer(PH_I, valueReferences[i], &v) != PH_OK)
-            return fmi3Error;
-        values[i] = (fmi3Int32)v;
-    }
-    return fmi3OK;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetInt32)(fmi3Instance instance,
-                                               const fmi3ValueReference valueReferences[],
-                                               size_t nValueReferences,
-                                               const fmi3Int32 values[], size_t nValues)
-{
-    PH_CHECK3;
-    (void)values; (void)nValues;
-    PH_RETURN3(nValueReferences == 0 ? PH_OK : PH_FAIL(PH_I, "%s: Int32 variable %u is "
-               "computed and cannot be set", PH_I->name, valueReferences[0]));
-}
-
-/* the types this FMU has no variables of */
-#define PH_NO_GET(Type, ctype) \
+/* fmi3Get<Type> / fmi3Set<Type> (ctype: the type's C type) around `body` */
+#define PH_GET3(Type, ctype, body) \
     PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3Get##Type)(fmi3Instance instance, \
         const fmi3ValueReference valueReferences[], size_t nValueReferences, ctype values[], \
         size_t nValues) \
-    { PH_CHECK3; (void)values; (void)nValues; PH_NO_TYPE(#Type); }
-#define PH_NO_SET(Type, ctype) \
+    { PH_CHECK3; body; }
+#define PH_SET3(Type, ctype, body) \
     PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3Set##Type)(fmi3Instance instance, \
         const fmi3ValueReference valueReferences[], size_t nValueReferences, \
         const ctype values[], size_t nValues) \
-    { PH_CHECK3; (void)values; (void)nValues; PH_NO_TYPE(#Type); }
+    { PH_CHECK3; body; }
+
+/* the types with variables: every variable is a scalar (as many values as value references),
+ * got and set by the runtime's loops; the Int32 variables (event counts) are computed */
+#define PH_SCALARS3(call) \
+    if (nValues != nValueReferences) \
+        PH_RETURN3(PH_FAIL(PH_I, "%s: %zu values for %zu value references (all scalars)", \
+                           PH_I->name, nValues, nValueReferences)); \
+    PH_RETURN3(call)
+PH_GET3(Float64, fmi3Float64,
+        PH_SCALARS3(ph_get_reals(PH_I, valueReferences, nValueReferences, values)))
+PH_SET3(Float64, fmi3Float64,
+        PH_SCALARS3(ph_set_reals(PH_I, valueReferences, nValueReferences, values)))
+PH_GET3(Int32, fmi3Int32,
+        PH_SCALARS3(ph_get_integers(PH_I, valueReferences, nValueReferences, values)))
+PH_SET3(Int32, fmi3Int32,
+        (void)values; (void)nValues;
+        PH_RETURN3(nValueReferences == 0 ? PH_OK : PH_FAIL(PH_I, "%s: Int32 variable %u is "
+                   "computed and cannot be set", PH_I->name, valueReferences[0])))
+
+/* the types this FMU has no variables of */
+#define PH_NO_GET(Type, ctype) PH_GET3(Type, ctype, (void)values; (void)nValues; PH_NO_TYPE(#Type))
+#define PH_NO_SET(Type, ctype) PH_SET3(Type, ctype, (void)values; (void)nValues; PH_NO_TYPE(#Type))
 
 PH_NO_GET(Float32, fmi3Float32)
 PH_NO_GET(Int8, fmi3Int8)
@@ -291,50 +255,9 @@ PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetVariableDependencies)(
     PH_RETURN3(PH_FAIL(PH_I, "%s: the variables' dependencies are not listed", PH_I->name));
 }
 
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetFMUState)(fmi3Instance instance, fmi3FMUState *FMUState)
-{
-    PH_CHECK3;
-    PH_RETURN3(ph_get_state(PH_I, FMUState));
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SetFMUState)(fmi3Instance instance, fmi3FMUState FMUState)
-{
-    PH_CHECK3;
-    PH_RETURN3(ph_set_state(PH_I, FMUState));
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3FreeFMUState)(fmi3Instance instance, fmi3FMUState *FMUState)
-{
-    (void)instance;
-    ph_free_state(FMUState);
-    return fmi3OK;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SerializedFMUStateSize)(fmi3Instance instance,
-                                                             fmi3FMUState FMUState,
-                                                             size_t *size)
-{
-    PH_CHECK3;
-    (void)FMUState;
-    *size = sizeof(ph_saved);
-    return fmi3OK;
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3SerializeFMUState)(fmi3Instance instance,
-                                                        fmi3FMUState FMUState,
-                                                        fmi3Byte serializedState[], size_t size)
-{
-    PH_CHECK3;
-    PH_RETURN3(ph_serialize(PH_I, FMUState, serializedState, size));
-}
-
-PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3DeserializeFMUState)(fmi3Instance instance,
-                                                          const fmi3Byte serializedState[],
-                                                          size_t size, fmi3FMUState *FMUState)
-{
-    PH_CHECK3;
-    PH_RETURN3(ph_deserialize(PH_I, serializedState, size, FMUState));
-}
+/* fmi3GetFMUState, fmi3SetFMUState, fmi3FreeFMUState, fmi3SerializedFMUStateSize,
+ * fmi3SerializeFMUState, fmi3DeserializeFMUState (runtime.c) */
+PH_FMU_STATE_FUNCTIONS(3, fmi3Instance, FMUState, Deserialize)
 
 PH_FMI_EXPORT fmi3Status PH_FMI3(fmi3GetDirectionalDerivative)(
     fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,

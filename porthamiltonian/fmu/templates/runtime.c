@@ -325,6 +325,36 @@ static int ph_set_real(ph_instance *c, unsigned int vr, double value)
     return PH_OK;
 }
 
+/* FMI's Get/Set of Real (FMI 3: Float64) and Integer (FMI 3: Int32) values, one value reference
+ * at a time; the first that fails ends the call (an FMI 3 Int32 is an int here, as a value
+ * reference is an unsigned int: ph_fmu.h's types on the platforms the FMU is built for) */
+static int ph_get_reals(ph_instance *c, const unsigned int *vr, size_t n, double *values)
+{
+    for (size_t i = 0; i < n; ++i)
+        if (ph_get_real(c, vr[i], &values[i]) != PH_OK)
+            return PH_ERROR;
+    return PH_OK;
+}
+
+static int ph_get_integers(ph_instance *c, const unsigned int *vr, size_t n, int *values)
+{
+    for (size_t i = 0; i < n; ++i) {
+        int64_t v;
+        if (ph_get_integer(c, vr[i], &v) != PH_OK)
+            return PH_ERROR;
+        values[i] = (int)v;
+    }
+    return PH_OK;
+}
+
+static int ph_set_reals(ph_instance *c, const unsigned int *vr, size_t n, const double *values)
+{
+    for (size_t i = 0; i < n; ++i)
+        if (ph_set_real(c, vr[i], values[i]) != PH_OK)
+            return PH_ERROR;
+    return PH_OK;
+}
+
 /* --- events and rules ------------------------------------------------------------------------- */
 static int ph_holds(const ph_condition *cond, const double *out)
 {
@@ -749,6 +779,56 @@ static int ph_deserialize(ph_instance *c, const void *bytes, size_t size, void *
     *state = s;
     return PH_OK;
 }
+
+/* FMI's six FMU-state functions, each one call into the functions above, for FMI 2 and FMI 3
+ * (expanded once by fmi2.c and once by fmi3.c) in the standard's names and types: V the version
+ * (2, 3), INSTANCE its instance type (fmi2Component, fmi3Instance), STATE its spelling of
+ * "FMUState" in the names and the state's type (FMI 2: FMUstate), DESERIALIZE its spelling of
+ * the verb (FMI 2: DeSerialize). E.g. V 2: fmi2GetFMUstate(fmi2Component, fmi2FMUstate *). */
+#define PH_STATE_RETURN(V, call)                                                              \
+    do {                                                                                      \
+        if (instance == NULL)                                                                 \
+            return fmi##V##Error;                                                             \
+        return ph_fmi##V##_status[call];                                                      \
+    } while (0)
+#define PH_FMU_STATE_FUNCTIONS(V, INSTANCE, STATE, DESERIALIZE)                               \
+    PH_FMI_EXPORT fmi##V##Status PH_FMI##V(fmi##V##Get##STATE)(INSTANCE instance,             \
+                                                               fmi##V##STATE *state)          \
+    {                                                                                         \
+        PH_STATE_RETURN(V, ph_get_state(instance, state));                                    \
+    }                                                                                         \
+    PH_FMI_EXPORT fmi##V##Status PH_FMI##V(fmi##V##Set##STATE)(INSTANCE instance,             \
+                                                               fmi##V##STATE state)           \
+    {                                                                                         \
+        PH_STATE_RETURN(V, ph_set_state(instance, state));                                    \
+    }                                                                                         \
+    PH_FMI_EXPORT fmi##V##Status PH_FMI##V(fmi##V##Free##STATE)(INSTANCE instance,            \
+                                                                fmi##V##STATE *state)         \
+    {                                                                                         \
+        (void)instance;                                                                       \
+        ph_free_state(state);                                                                 \
+        return fmi##V##OK;                                                                    \
+    }                                                                                         \
+    PH_FMI_EXPORT fmi##V##Status PH_FMI##V(fmi##V##Serialized##STATE##Size)(                  \
+        INSTANCE instance, fmi##V##STATE state, size_t *size)                                 \
+    {                                                                                         \
+        if (instance == NULL)                                                                 \
+            return fmi##V##Error;                                                             \
+        (void)state;                                                                          \
+        *size = sizeof(ph_saved);                                                             \
+        return fmi##V##OK;                                                                    \
+    }                                                                                         \
+    PH_FMI_EXPORT fmi##V##Status PH_FMI##V(fmi##V##Serialize##STATE)(                         \
+        INSTANCE instance, fmi##V##STATE state, fmi##V##Byte serializedState[], size_t size)  \
+    {                                                                                         \
+        PH_STATE_RETURN(V, ph_serialize(instance, state, serializedState, size));             \
+    }                                                                                         \
+    PH_FMI_EXPORT fmi##V##Status PH_FMI##V(fmi##V##DESERIALIZE##STATE)(                       \
+        INSTANCE instance, const fmi##V##Byte serializedState[], size_t size,                 \
+        fmi##V##STATE *state)                                                                 \
+    {                                                                                         \
+        PH_STATE_RETURN(V, ph_deserialize(instance, serializedState, size, state));           \
+    }
 
 /* --- co-simulation ---------------------------------------------------------------------------- */
 /* One accepted step of v->main (the loop returns after it: max_steps = 1), with its events and
