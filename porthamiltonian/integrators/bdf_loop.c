@@ -313,10 +313,8 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             nfev += 1;
         }
         /* events on (t, t_new], Phi over the step (its last A is J at the next step's start), the point */
-        hit = ph_finish_step(t, hh, t_new, y, yk, ND, E, p, g_old, directions, terminal, g_count,
-                             store_cap, ev_t, ev_k, &n_ev, yi, phi_tab, J_phi, f_phi, W, piv, 0,
-                             rtol, atol, n_model, m, P, J_phi, vcounts, &eta_phi, vwork, n_gain,
-                             gain, phi_error, ts, ys, phis, &n_store, &t);
+        hit = ph_finish_step(t, hh, t_new, y, yk, ND, E, phi_tab, J_phi, f_phi, W, piv, 0, J_phi,
+                             PH_FINISH_ARGS);
         if (hit >= 0) {
             status = 1;
             break;

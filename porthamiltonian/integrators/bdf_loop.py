@@ -172,8 +172,7 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
     phi, phis, phi_err); ``h`` is the step size in force at the end (the next call starts at
     order 1 with at most it), ``nlu`` counts the factorizations of I − c J (and of Φ's
     sub-steps)."""
-    n = y0.shape[0]
-    m = phi0.shape[1]
+    n, m = phi0.shape       # Φ0: n x m (m = 0: no sensitivities)
     t = t0
     y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y0, p, directions.shape[0], mask_index,
                                                         mask_sign, store_cap, phi0)

@@ -54,6 +54,12 @@ static int ph_stop_status(double t, double t_end, int64_t nsteps, int64_t max_st
     return -1;
 }
 
+/* ph_finish_step's arguments from p on: the loop's state, under the same names in both loops
+ * (their parameters PH_LOOP_PARAMS, PH_PHI_PARAMS and their own variables) */
+#define PH_FINISH_ARGS p, g_old, directions, terminal, g_count, store_cap, ev_t, ev_k, &n_ev, yi, \
+    rtol, atol, n_model, m, P, vcounts, &eta_phi, vwork, n_gain, gain, phi_error, ts, ys, phis, \
+    &n_store, &t
+
 /* The end of the accepted step of length h from (t, y) to (t_new, y1), E its dense output (nd
  * rows): its events located (ph_locate_events; g_old moves to the step's end unless a terminal
  * one is hit), then, with m > 0, Phi (P) carried to the earliest terminal event or to the
@@ -61,16 +67,17 @@ static int ph_stop_status(double t, double t_end, int64_t nsteps, int64_t max_st
  * W, piv of nb rows, 0: none; A at its end into J_end, its evaluations added to vcounts, its
  * largest error estimate to phi_error[0]), and the point there stored at *n_store (then
  * counted) of ts, ys, phis and copied into y (_finish_step of common_loop.py). Returns the
- * terminal event's index or -1; the point's time into *t_out; yi: work (PH_N). */
+ * terminal event's index or -1; the point's time into *t_out; yi: work (PH_N). The loops pass
+ * the arguments from p on as PH_FINISH_ARGS. */
 static int64_t ph_finish_step(double t, double h, double t_new, double *y, const double *y1,
-                              int nd, const double *E, const double *p, double *g_old,
+                              int nd, const double *E, const ph_tableau *tab, const double *J,
+                              const double *f0, const double *W, const int *piv, int nb,
+                              double *J_end, const double *p, double *g_old,
                               const int64_t *directions, const uint8_t *terminal,
                               int64_t g_count, int64_t store_cap, double *ev_t, int64_t *ev_k,
-                              int64_t *n_ev, double *yi, const ph_tableau *tab, const double *J,
-                              const double *f0, const double *W, const int *piv, int nb,
-                              double rtol, const double *atol, int64_t n_model, int64_t m,
-                              double *P, double *J_end, int64_t *vcounts, double *eta_phi,
-                              double *vwork, int64_t n_gain, const double *gain,
+                              int64_t *n_ev, double *yi, double rtol, const double *atol,
+                              int64_t n_model, int64_t m, double *P, int64_t *vcounts,
+                              double *eta_phi, double *vwork, int64_t n_gain, const double *gain,
                               double *phi_error, double *ts, double *ys, double *phis,
                               int64_t *n_store, double *t_out)
 {

@@ -699,10 +699,8 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             break;
         }
         /* events on (t, t_new], Phi over the step (its last A is the next step's J), the point */
-        hit = ph_finish_step(t, h, t_new, y, y1, nd, E, p, g_old, directions, terminal, g_count,
-                             store_cap, ev_t, ev_k, &n_ev, yi, tab, J, f0, W, piv, nf,
-                             rtol, atol, n_model, m, P, J_next, vcounts, &eta_phi, vwork, n_gain,
-                             gain, phi_error, ts, ys, phis, &n_store, &t);
+        hit = ph_finish_step(t, h, t_new, y, y1, nd, E, tab, J, f0, W, piv, nf, J_next,
+                             PH_FINISH_ARGS);
         if (hit >= 0) {
             status = 1;
             break;

@@ -536,9 +536,8 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     points, ``phi_err`` the largest relative error estimate of Φ over its accepted sub-steps
     (_variational_step; at most _PHI_TOLERANCE rtol unless a sub-step limit was reached).
     """
-    n = y0.shape[0]
+    n, m = phi0.shape       # Φ0: n x m (m = 0: no sensitivities)
     s = TN.shape[0]
-    m = phi0.shape[1]
     t = t0
     y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y0, p, directions.shape[0], mask_index,
                                                         mask_sign, store_cap, phi0)
