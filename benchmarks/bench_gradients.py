@@ -38,6 +38,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from machine import machine_info
+from timing import interleaved
 
 from walker_library import find_fixed_point, load_walker
 from walker_library.analyses.optimize import optimize_gait
@@ -60,13 +61,7 @@ def bench_stride(name: str, rounds: int) -> None:
                 "gradient": lambda: stride_gradient(walker, z, names)}
     for run in variants.values():          # compile, warm caches
         run()
-    times: dict[str, list[float]] = {k: [] for k in variants}
-    keys = list(variants)
-    for r in range(rounds):
-        for k in keys[r % len(keys):] + keys[:r % len(keys)]:
-            t0 = time.perf_counter()
-            variants[k]()
-            times[k].append(time.perf_counter() - t0)
+    times = interleaved(variants, rounds)
     med = {k: statistics.median(v) for k, v in times.items()}
     print(f"{name} ({', '.join(names)}; {rounds} rounds): " + ", ".join(
         f"{k} {1e3 * v:.1f} ms" for k, v in med.items())

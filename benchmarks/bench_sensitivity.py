@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import statistics
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -35,6 +34,7 @@ sys.path.insert(0, str(ROOT / "tests" / "walkers"))
 
 import numpy as np
 from machine import machine_info
+from timing import interleaved
 from variational_stride import _with_reset_jacobians, stride_jacobian
 
 from porthamiltonian.simulation.differences import jacobian as difference_jacobian
@@ -68,13 +68,7 @@ def bench(name: str, rounds: int) -> None:
                 "full": lambda: stride(True), "jacobian": lambda: stride_jacobian(walker, z),
                 "fd": lambda: fd_jacobian(walker, z, step=1e-5)}
     counts = {k: stride(v) for k, v in (("plain", False), ("section", lift), ("full", True))}
-    times: dict[str, list[float]] = {k: [] for k in variants}
-    keys = list(variants)
-    for r in range(rounds):
-        for k in keys[r % len(keys):] + keys[:r % len(keys)]:
-            t0 = time.perf_counter()
-            variants[k]()
-            times[k].append(time.perf_counter() - t0)
+    times = interleaved(variants, rounds)
     tight = walker.with_options(rtol=max(o.rtol * 1e-3, 3e-14), atol=o.atol * 1e-3,
                                 max_step=min(o.max_step, 2e-5))
     ref = stride_jacobian(tight, z).J
@@ -84,7 +78,7 @@ def bench(name: str, rounds: int) -> None:
           f"rtol {o.rtol:g}, {rounds} rounds)\n")
     print("| variant | median [ms] | / plain | steps | jac | rhs | max multiplier error |")
     print("|---|---|---|---|---|---|---|")
-    for k in keys:
+    for k in variants:
         med = statistics.median(times[k])
         tr = counts.get(k)
         steps = f"{len(tr.t)}" if tr is not None else "–"
