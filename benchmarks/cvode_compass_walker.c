@@ -7,6 +7,8 @@
  * those of tests/validation/handwritten_walkers.py (CompassWalkerHand, see its docstring):
  * y = (x, z, a1, a2, vx, vz, w1, w2), M(q) v' = b(q, v) + Q(contact), v' by Gaussian elimination
  * of the 4 x 4 system; the Jacobian is [[0, I], [M^-1 (db/dq - dM/dq v'), M^-1 db/dv]].
+ * The CVODE side (callbacks, the walk with its mode switches, --check, the timed repeats) is
+ * cvode_walk.h's, shared with cvode_compliant_leg_walker.c.
  * Benchmarks only: SUNDIALS is no dependency of porthamiltonian.
  *
  * Build (Debian's SUNDIALS 6: apt-get install -y libsundials-dev), as bench_walkers.py does:
@@ -31,6 +33,8 @@
 #include <sundials/sundials_context.h>
 #include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
+
+#define NY 8        /* y = (x, z, a1, a2, vx, vz, w1, w2) */
 
 /* parameters: handwritten_walkers.COMPASS_DEFAULTS */
 static const double SLOPE = 0.009, MH = 3.0, M_LEG = 0.01, M_FOOT = 0.1, L = 0.7, R = 0.05,
@@ -176,7 +180,7 @@ static void rhs_values(const Walker *w, const double *y, double *ydot)
     }
 }
 
-static void jac_values(const Walker *w, const double *y, double J[8][8])
+static void jac_values(const Walker *w, const double *y, double J[NY][NY])
 {
     double M[4][4], Mc[4][4], b[4], db[4][8], acc[4];
     forces(w, y, b, db);
@@ -206,172 +210,20 @@ static void jac_values(const Walker *w, const double *y, double J[8][8])
     }
 }
 
-/* --- CVODE callbacks ------------------------------------------------------------------------------- */
-static long n_rhs_calls = 0, n_jac_calls = 0;
-
-static int rhs_cb(sunrealtype t, N_Vector y, N_Vector ydot, void *data)
-{
-    (void)t;
-    n_rhs_calls += 1;
-    rhs_values((const Walker *)data, N_VGetArrayPointer(y), N_VGetArrayPointer(ydot));
-    return 0;
-}
-
-static int jac_cb(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jm, void *data, N_Vector t1,
-                  N_Vector t2, N_Vector t3)
-{
-    (void)t; (void)fy; (void)t1; (void)t2; (void)t3;
-    double J[8][8];
-    n_jac_calls += 1;
-    jac_values((const Walker *)data, N_VGetArrayPointer(y), J);
-    for (int i = 0; i < 8; ++i)
-        for (int j = 0; j < 8; ++j)
-            SM_ELEMENT_D(Jm, i, j) = J[i][j];
-    return 0;
-}
-
 static double penetration(const double *y, int k) { return R - y[1] + L * cos(y[2 + k]); }
 static double foot_x(const double *y, int k) { return y[0] - L * sin(y[2 + k]); }
 
-static int roots_cb(sunrealtype t, N_Vector yv, sunrealtype *g, void *data)
-{
-    const Walker *w = (const Walker *)data;
-    const double *y = N_VGetArrayPointer(yv);
-    for (int k = 0; k < 2; ++k) {
-        const double v = w->c[k] ? penetration(y, k) + LIFTOFF_MARGIN : penetration(y, k);
-        const double dir = w->c[k] ? -1.0 : 1.0;
-        g[k] = (w->masked == k && t == w->t_mask) ? dir * fmax(fabs(v), 1e-300) : v;
-    }
-    g[2] = y[1] - FALL_FRACTION * L;
-    return 0;
-}
-
-typedef struct {
-    int strides;
-    double z[6];
-    long steps, nfev, njev, events;
-    const char *end;
-} WalkResult;
-
-static WalkResult walk(const double *z0, int n_steps, double rtol, double atol, double max_step)
-{
-    WalkResult out = {0};
-    Walker w = new_walker();
-    SUNContext ctx;
-    SUNContext_Create(NULL, &ctx);
-    N_Vector y = N_VNew_Serial(8, ctx);
-    double *yd = N_VGetArrayPointer(y);
-    const double yinit[8] = {0.0, L * cos(z0[0]) + R - START_PENETRATION, z0[0], z0[1], z0[2],
-                             z0[3], z0[4], z0[5]};
-    memcpy(yd, yinit, sizeof(yinit));
-    if (!(penetration(yd, 1) + LIFTOFF_MARGIN > 0))
-        w.c[1] = 0;
-    void *mem = CVodeCreate(CV_BDF, ctx);
-    SUNMatrix A = SUNDenseMatrix(8, 8, ctx);
-    SUNLinearSolver LS = SUNLinSol_Dense(y, A, ctx);
-    CVodeInit(mem, rhs_cb, 0.0, y);
-    CVodeSStolerances(mem, rtol, atol);
-    CVodeSetUserData(mem, &w);
-    CVodeSetLinearSolver(mem, LS, A);
-    CVodeSetJacFn(mem, jac_cb);
-    CVodeSetMaxStep(mem, max_step);
-    CVodeSetMaxNumSteps(mem, 10000000);
-    CVodeRootInit(mem, 3, roots_cb);
-    int dirs[3];
-    int lead = 0;
-    double t = 0.0;
-    const double t_end = MAX_STEP_TIME * n_steps;
-    n_rhs_calls = n_jac_calls = 0;
-    out.end = "time_limit";
-    for (;;) {
-        for (int k = 0; k < 2; ++k)
-            dirs[k] = w.c[k] ? -1 : 1;
-        dirs[2] = -1;
-        CVodeSetRootDirection(mem, dirs);
-        int flag = CVode(mem, t_end, y, &t, CV_NORMAL);
-        long nst = 0;
-        CVodeGetNumSteps(mem, &nst);
-        out.steps += nst;
-        if (flag != CV_ROOT_RETURN) {
-            out.end = flag == CV_SUCCESS ? "time_limit" : "cvode_failure";
-            break;
-        }
-        out.events += 1;
-        int found[3];
-        CVodeGetRootInfo(mem, found);
-        w.masked = -1;
-        if (found[2]) {
-            out.end = "fall";
-            break;
-        }
-        int k = found[0] ? 0 : 1;
-        if (w.c[k]) {
-            w.c[k] = 0;                                         /* lift-off */
-        } else {
-            const int other = 1 - k;
-            if (k == lead) {
-                w.c[k] = 1;                                     /* a bounce of the leading foot */
-            } else if (foot_x(yd, k) - foot_x(yd, other) > FRONT_MARGIN) {
-                w.c[k] = 1;                                     /* heel strike: a new step */
-                lead = k;
-                out.strides += 1;
-                const int i = 2 + k, j = 2 + other;
-                const double zs[6] = {yd[i], yd[j], yd[4], yd[5], yd[4 + i], yd[4 + j]};
-                memcpy(out.z, zs, sizeof(zs));
-                if (out.strides >= n_steps) {
-                    out.end = "done";
-                    break;
-                }
-            } else {
-                w.masked = k;                                   /* scuffing: held at restart */
-                w.t_mask = t;
-            }
-        }
-        CVodeReInit(mem, t, y);
-    }
-    out.nfev = n_rhs_calls;
-    out.njev = n_jac_calls;
-    CVodeFree(&mem);
-    SUNLinSolFree(LS);
-    SUNMatDestroy(A);
-    N_VDestroy(y);
-    SUNContext_Free(&ctx);
-    return out;
-}
-
-static int check(void)
-{
-    Walker w = new_walker();
-    const double states[3][8] = {
-        {0.01, 0.7 * cos(0.2) + R - 1e-5, -0.2, 0.21, 0.6, -0.1, 0.8, 0.83},
-        {0.02, 0.7 * cos(0.1) + R - 3e-5, 0.1, -0.15, 0.55, 0.02, -0.7, 0.9},
-        {0.0, 0.7 * cos(0.25) + R - 2e-6, 0.25, -0.25, 0.5, -0.05, 0.3, -0.2}};
-    double worst = 0.0;
-    for (int s = 0; s < 3; ++s) {
-        double J[8][8], f1[8], f2[8], y[8], scale = 0.0;
-        jac_values(&w, states[s], J);
-        for (int i = 0; i < 8; ++i)
-            for (int j = 0; j < 8; ++j)
-                scale = fmax(scale, fabs(J[i][j]));
-        for (int j = 0; j < 8; ++j) {
-            const double h = 1e-7 * fmax(1.0, fabs(states[s][j]));
-            memcpy(y, states[s], sizeof(y));
-            y[j] += h;
-            rhs_values(&w, y, f1);
-            y[j] -= 2 * h;
-            rhs_values(&w, y, f2);
-            for (int i = 0; i < 8; ++i)
-                worst = fmax(worst, fabs((f1[i] - f2[i]) / (2 * h) - J[i][j]) / scale);
-        }
-    }
-    printf("{\"jacobian_vs_central_differences\": %.3e}\n", worst);
-    return 0;
-}
+#include "cvode_walk.h"
 
 int main(int argc, char **argv)
 {
-    if (argc == 2 && strcmp(argv[1], "--check") == 0)
-        return check();
+    if (argc == 2 && strcmp(argv[1], "--check") == 0) {
+        const double states[3][NY] = {
+            {0.01, 0.7 * cos(0.2) + R - 1e-5, -0.2, 0.21, 0.6, -0.1, 0.8, 0.83},
+            {0.02, 0.7 * cos(0.1) + R - 3e-5, 0.1, -0.15, 0.55, 0.02, -0.7, 0.9},
+            {0.0, 0.7 * cos(0.25) + R - 2e-6, 0.25, -0.25, 0.5, -0.05, 0.3, -0.2}};
+        return check(states, 3);
+    }
     if (argc != 12) {
         fprintf(stderr, "usage: %s N_STEPS RTOL ATOL MAX_STEP REPEATS a_lead a_trail vx vz "
                         "w_lead w_trail | --check\n", argv[0]);
@@ -382,18 +234,17 @@ int main(int argc, char **argv)
     double z0[6];
     for (int i = 0; i < 6; ++i)
         z0[i] = atof(argv[6 + i]);
-    WalkResult res = {0};
-    printf("{\"seconds\": [");
-    for (int r = 0; r < repeats; ++r) {
-        struct timespec a, b;
-        clock_gettime(CLOCK_MONOTONIC, &a);
-        res = walk(z0, n_steps, rtol, atol, max_step);
-        clock_gettime(CLOCK_MONOTONIC, &b);
-        printf("%s%.9f", r ? ", " : "", (b.tv_sec - a.tv_sec) + 1e-9 * (b.tv_nsec - a.tv_nsec));
-    }
+    /* the start of a stride: the section state, the hip at x = 0 and at the height that puts
+     * the leading foot START_PENETRATION into the surface */
+    const double y0[NY] = {0.0, L * cos(z0[0]) + R - START_PENETRATION, z0[0], z0[1], z0[2],
+                           z0[3], z0[4], z0[5]};
+    const WalkResult res = timed_walks(y0, n_steps, rtol, atol, max_step, repeats);
+    /* the section state at the last heel strike: the leading foot's angle first */
+    const int i = 2 + res.lead, j = 3 - res.lead;
+    const double *y = res.y;
     printf("], \"z\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g], \"strides\": %d, "
            "\"steps\": %ld, \"nfev\": %ld, \"njev\": %ld, \"events\": %ld, \"end\": \"%s\"}\n",
-           res.z[0], res.z[1], res.z[2], res.z[3], res.z[4], res.z[5], res.strides, res.steps,
-           res.nfev, res.njev, res.events, res.end);
+           y[i], y[j], y[4], y[5], y[4 + i], y[4 + j], res.strides, res.steps, res.nfev,
+           res.njev, res.events, res.end);
     return 0;
 }

@@ -12,6 +12,8 @@
  * q'' by Gaussian elimination of the 6 x 6 system. The Jacobian is exact: the same equations in
  * forward-mode dual numbers (value and the 12 partial derivatives), so that it needs no second
  * derivation by hand; --check compares it with central differences of the right-hand side.
+ * The CVODE side (callbacks, the walk with its mode switches, --check, the timed repeats) is
+ * cvode_walk.h's, shared with cvode_compass_walker.c.
  * Benchmarks only: SUNDIALS is no dependency of porthamiltonian.
  *
  * Build (Debian's SUNDIALS 6: apt-get install -y libsundials-dev), as bench_walkers.py does:
@@ -58,6 +60,13 @@ typedef struct {
     int masked;         /* guard held on its new side at t_mask (-1: none) */
     double t_mask;
 } Walker;
+
+/* both feet in contact, no guard masked */
+static Walker new_walker(void)
+{
+    Walker w = {{1, 1}, -1, 0.0};
+    return w;
+}
 
 /* --- the equations in doubles ----------------------------------------------------------------- */
 static double mu(double v)
@@ -324,178 +333,29 @@ static void jac_values(const Walker *w, const double *yv, double Jac[NY][NY])
     }
 }
 
-/* --- CVODE callbacks -------------------------------------------------------------------------- */
-static long n_rhs_calls = 0, n_jac_calls = 0;
-
-static int rhs_cb(sunrealtype t, N_Vector y, N_Vector ydot, void *data)
-{
-    (void)t;
-    n_rhs_calls += 1;
-    rhs_values((const Walker *)data, N_VGetArrayPointer(y), N_VGetArrayPointer(ydot));
-    return 0;
-}
-
-static int jac_cb(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jm, void *data, N_Vector t1,
-                  N_Vector t2, N_Vector t3)
-{
-    (void)t; (void)fy; (void)t1; (void)t2; (void)t3;
-    double J[NY][NY];
-    n_jac_calls += 1;
-    jac_values((const Walker *)data, N_VGetArrayPointer(y), J);
-    for (int i = 0; i < NY; ++i)
-        for (int j = 0; j < NY; ++j)
-            SM_ELEMENT_D(Jm, i, j) = J[i][j];
-    return 0;
-}
-
 static double penetration(const double *y, int k)
 {
     return R - y[1] + (L + y[4 + k]) * cos(y[2 + k]);
 }
 static double foot_x(const double *y, int k) { return y[0] - (L + y[4 + k]) * sin(y[2 + k]); }
 
-static int roots_cb(sunrealtype t, N_Vector yv, sunrealtype *g, void *data)
-{
-    const Walker *w = (const Walker *)data;
-    const double *y = N_VGetArrayPointer(yv);
-    for (int k = 0; k < 2; ++k) {
-        const double v = w->c[k] ? penetration(y, k) + LIFTOFF_MARGIN : penetration(y, k);
-        const double dir = w->c[k] ? -1.0 : 1.0;
-        g[k] = (w->masked == k && t == w->t_mask) ? dir * fmax(fabs(v), 1e-300) : v;
-    }
-    g[2] = y[1] - FALL_FRACTION * L;
-    return 0;
-}
-
-typedef struct {
-    int strides, lead;
-    double y[NY];
-    long steps, nfev, njev, events;
-    const char *end;
-} WalkResult;
-
-static WalkResult walk(const double *y0, int n_steps, double rtol, double atol, double max_step)
-{
-    WalkResult out = {0};
-    Walker w = {{1, 1}, -1, 0.0};
-    SUNContext ctx;
-    SUNContext_Create(NULL, &ctx);
-    N_Vector y = N_VNew_Serial(NY, ctx);
-    double *yd = N_VGetArrayPointer(y);
-    memcpy(yd, y0, sizeof(double) * NY);
-    if (!(penetration(yd, 1) + LIFTOFF_MARGIN > 0))
-        w.c[1] = 0;
-    void *mem = CVodeCreate(CV_BDF, ctx);
-    SUNMatrix A = SUNDenseMatrix(NY, NY, ctx);
-    SUNLinearSolver LS = SUNLinSol_Dense(y, A, ctx);
-    CVodeInit(mem, rhs_cb, 0.0, y);
-    CVodeSStolerances(mem, rtol, atol);
-    CVodeSetUserData(mem, &w);
-    CVodeSetLinearSolver(mem, LS, A);
-    CVodeSetJacFn(mem, jac_cb);
-    CVodeSetMaxStep(mem, max_step);
-    CVodeSetMaxNumSteps(mem, 10000000);
-    CVodeRootInit(mem, 3, roots_cb);
-    int dirs[3];
-    int lead = 0;
-    double t = 0.0;
-    const double t_end = MAX_STEP_TIME * n_steps;
-    n_rhs_calls = n_jac_calls = 0;
-    out.end = "time_limit";
-    for (;;) {
-        for (int k = 0; k < 2; ++k)
-            dirs[k] = w.c[k] ? -1 : 1;
-        dirs[2] = -1;
-        CVodeSetRootDirection(mem, dirs);
-        int flag = CVode(mem, t_end, y, &t, CV_NORMAL);
-        long nst = 0;
-        CVodeGetNumSteps(mem, &nst);
-        out.steps += nst;
-        if (flag != CV_ROOT_RETURN) {
-            out.end = flag == CV_SUCCESS ? "time_limit" : "cvode_failure";
-            break;
-        }
-        out.events += 1;
-        int found[3];
-        CVodeGetRootInfo(mem, found);
-        w.masked = -1;
-        if (found[2]) {
-            out.end = "fall";
-            break;
-        }
-        int k = found[0] ? 0 : 1;
-        if (w.c[k]) {
-            w.c[k] = 0;                                         /* lift-off */
-        } else {
-            const int other = 1 - k;
-            if (k == lead) {
-                w.c[k] = 1;                                     /* a bounce of the leading foot */
-            } else if (foot_x(yd, k) - foot_x(yd, other) > FRONT_MARGIN) {
-                w.c[k] = 1;                                     /* heel strike: a new step */
-                lead = k;
-                out.strides += 1;
-                out.lead = k;
-                memcpy(out.y, yd, sizeof(double) * NY);
-                if (out.strides >= n_steps) {
-                    out.end = "done";
-                    break;
-                }
-            } else {
-                w.masked = k;                                   /* scuffing: held at restart */
-                w.t_mask = t;
-            }
-        }
-        CVodeReInit(mem, t, y);
-    }
-    out.nfev = n_rhs_calls;
-    out.njev = n_jac_calls;
-    CVodeFree(&mem);
-    SUNLinSolFree(LS);
-    SUNMatDestroy(A);
-    N_VDestroy(y);
-    SUNContext_Free(&ctx);
-    return out;
-}
-
-static int check(void)
-{
-    Walker w = {{1, 1}, -1, 0.0};
-    const double states[3][NY] = {
-        {0.01, 0.7 * cos(0.2) + R - 1e-5, -0.2, 0.21, 1e-4, -2e-4,
-         0.6, -0.1, 0.8, 0.83, 0.01, -0.02},
-        {0.02, 0.7 * cos(0.1) + R - 3e-5, 0.1, -0.15, -3e-4, 1e-4,
-         0.55, 0.02, -0.7, 0.9, -0.03, 0.01},
-        {0.0, 0.7 * cos(0.25) + R - 2e-6, 0.25, -0.25, 2e-4, 2e-4,
-         0.5, -0.05, 0.3, -0.2, 0.0, 0.02}};
-    double worst = 0.0;
-    for (int s = 0; s < 3; ++s) {
-        double J[NY][NY], f1[NY], f2[NY], y[NY], scale = 0.0;
-        jac_values(&w, states[s], J);
-        for (int i = 0; i < NY; ++i)
-            for (int j = 0; j < NY; ++j)
-                scale = fmax(scale, fabs(J[i][j]));
-        for (int j = 0; j < NY; ++j) {
-            const double h = 1e-7 * fmax(1.0, fabs(states[s][j]));
-            memcpy(y, states[s], sizeof(y));
-            y[j] += h;
-            rhs_values(&w, y, f1);
-            y[j] -= 2 * h;
-            rhs_values(&w, y, f2);
-            for (int i = 0; i < NY; ++i)
-                worst = fmax(worst, fabs((f1[i] - f2[i]) / (2 * h) - J[i][j]) / scale);
-        }
-    }
-    printf("{\"jacobian_vs_central_differences\": %.3e}\n", worst);
-    return 0;
-}
+#include "cvode_walk.h"
 
 int main(int argc, char **argv)
 {
     D_LEG = 2.0 * ALPHA * sqrt((MH + M_FOOT) * K_LEG);
-    if (argc == 2 && strcmp(argv[1], "--check") == 0)
-        return check();
+    if (argc == 2 && strcmp(argv[1], "--check") == 0) {
+        const double states[3][NY] = {
+            {0.01, 0.7 * cos(0.2) + R - 1e-5, -0.2, 0.21, 1e-4, -2e-4,
+             0.6, -0.1, 0.8, 0.83, 0.01, -0.02},
+            {0.02, 0.7 * cos(0.1) + R - 3e-5, 0.1, -0.15, -3e-4, 1e-4,
+             0.55, 0.02, -0.7, 0.9, -0.03, 0.01},
+            {0.0, 0.7 * cos(0.25) + R - 2e-6, 0.25, -0.25, 2e-4, 2e-4,
+             0.5, -0.05, 0.3, -0.2, 0.0, 0.02}};
+        return check(states, 3);
+    }
     if (argc == 2 + NY && strcmp(argv[1], "--rhs") == 0) {
-        Walker w = {{1, 1}, -1, 0.0};
+        Walker w = new_walker();
         double y[NY], f[NY];
         for (int i = 0; i < NY; ++i)
             y[i] = atof(argv[2 + i]);
@@ -516,15 +376,7 @@ int main(int argc, char **argv)
     double y0[NY];
     for (int i = 0; i < NY; ++i)
         y0[i] = atof(argv[6 + i]);
-    WalkResult res = {0};
-    printf("{\"seconds\": [");
-    for (int r = 0; r < repeats; ++r) {
-        struct timespec a, b;
-        clock_gettime(CLOCK_MONOTONIC, &a);
-        res = walk(y0, n_steps, rtol, atol, max_step);
-        clock_gettime(CLOCK_MONOTONIC, &b);
-        printf("%s%.9f", r ? ", " : "", (b.tv_sec - a.tv_sec) + 1e-9 * (b.tv_nsec - a.tv_nsec));
-    }
+    const WalkResult res = timed_walks(y0, n_steps, rtol, atol, max_step, repeats);
     printf("], \"y\": [");
     for (int i = 0; i < NY; ++i)
         printf("%s%.17g", i ? ", " : "", res.y[i]);
