@@ -366,14 +366,26 @@ def bench_backends(name: str, z, args, rec: dict, cvode: dict[str, tuple[str | N
     rec["backends"] = rows
 
 
+def having(report: dict, key: str) -> list[tuple[str, dict]]:
+    """The walkers' records in ``report`` that hold ``key``, by name."""
+    return [(name, rec) for name, rec in report.items() if key in rec]
+
+
+def table(title: str | None, *columns: str) -> None:
+    """Print the head of a markdown table: its section title (when given), column names, rule."""
+    if title:
+        print(f"\n## {title}")
+    print("\n| " + " | ".join(columns) + " |")
+    print("|" + "---|" * len(columns))
+
+
 def print_backends(report: dict) -> None:
     if not any("backends" in r for r in report.values()):
         return
-    print("\n## Time per step by back end (median of the interleaved rounds; python: one step per "
-          "round for the compliant walkers)")
-    print("\n| walker | variant | [ms/step] | accepted steps / rhs / jac / LU per step | error "
-          "after the walk vs the reference | time / C (file's method) |")
-    print("|---|---|---|---|---|---|")
+    table("Time per step by back end (median of the interleaved rounds; python: one step per "
+          "round for the compliant walkers)",
+          "walker", "variant", "[ms/step]", "accepted steps / rhs / jac / LU per step",
+          "error after the walk vs the reference", "time / C (file's method)")
     for name, rec in report.items():
         rows = rec.get("backends", {})
         c = rows.get("c, the file's method", {}).get("median")
@@ -610,13 +622,11 @@ def print_tables(report: dict, info: dict, args) -> None:
         if rec.get("no_fixed_point"):
             print(f"\n{name}: no fixed point ({rec['no_fixed_point']}): the times are per "
                   f"attempted stride from the initial guess; how it ended: {rec['stride_end']}")
-    print("\n| walker | framework default [ms/step] | hand-written variant | hand [ms/step] | "
-          "ratio hand/framework | 3x target | hand steps / nfev / njev per step | "
-          "framework steps / nfev / njev per step | next-state diff 1 stride | diff after the walk |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for name, rec in report.items():
-        if "per_step" not in rec:
-            continue
+    table(None, "walker", "framework default [ms/step]", "hand-written variant", "hand [ms/step]",
+          "ratio hand/framework", "3x target", "hand steps / nfev / njev per step",
+          "framework steps / nfev / njev per step", "next-state diff 1 stride",
+          "diff after the walk")
+    for name, rec in having(report, "per_step"):
         ps, st, br = rec["per_step"], rec["per_step_stats"], rec["breakdown"]
         f_ms = 1e3 * ps["framework"]["median"]
         for k in ps:
@@ -643,13 +653,11 @@ def print_tables(report: dict, info: dict, args) -> None:
                   f"{1e3 * ps['framework numba']['median']:.2f}) | DOP853 | "
                   f"{1e3 * ps['hand DOP853']['median']:.2f} | "
                   f"{ps['hand DOP853']['median'] / ps['framework numba']['median']:.2f} | info | | | | |")
-    print("\n## Fixed point from the walker's initial guess (median wall time)")
-    print("\n| walker | tol | framework [s] (Newton its) | hand-written [s] (variant, Newton its, "
-          "strides) | ratio hand/framework | max abs diff of the fixed points |")
-    print("|---|---|---|---|---|---|")
-    for name, rec in report.items():
-        if "fp_framework" not in rec:
-            continue
+    table("Fixed point from the walker's initial guess (median wall time)",
+          "walker", "tol", "framework [s] (Newton its)",
+          "hand-written [s] (variant, Newton its, strides)", "ratio hand/framework",
+          "max abs diff of the fixed points")
+    for name, rec in having(report, "fp_framework"):
         f = rec["fp_framework"]
         ft = statistics.median(f["times"])
         for var, hrec in rec.get("fp_hand", {}).items():
@@ -657,23 +665,19 @@ def print_tables(report: dict, info: dict, args) -> None:
             print(f"| {name} | {rec.get('tol', '')} | {ft:.3f} ({f['iterations']}) | {ht:.3f} "
                   f"({var}, {hrec['iterations']}, {hrec['strides']}) | {ht / ft:.1f} | "
                   f"{hrec['diff']:.1e} |")
-    print("\n## Where the framework's time goes (one walk, instrumented)")
-    print("\n| walker | backend / method | wall [ms/step] | share in | share | events / segments "
-          "per step | ledger rel. residual |")
-    print("|---|---|---|---|---|---|---|")
-    for name, rec in report.items():
-        if "breakdown" not in rec:
-            continue
+    table("Where the framework's time goes (one walk, instrumented)",
+          "walker", "backend / method", "wall [ms/step]", "share in", "share",
+          "events / segments per step", "ledger rel. residual")
+    for name, rec in having(report, "breakdown"):
         b = rec["breakdown"]
         print(f"| {name} | {rec.get('backend', '')} | {1e3 * b['total'] / args.steps:.2f} | "
               f"{'compiled loop' if b['part'] == 'loop' else 'generated RHS'} "
               f"({b['calls']} calls) | {100 * b['share']:.0f} % | {b['events']:.1f} / "
               f"{b['segments']:.1f} | {b['ledger_residual']:.1e} |")
     if any("compile" in r for r in report.values()):
-        print("\n## Compile (fresh subprocesses; cold = empty cache, cached = the same cache again)")
-        print("\n| walker | backend | cold: build [s] | cold: first stride [s] | cached: build [s] "
-              "| cached: first stride [s] | second stride [s] |")
-        print("|---|---|---|---|---|---|---|")
+        table("Compile (fresh subprocesses; cold = empty cache, cached = the same cache again)",
+              "walker", "backend", "cold: build [s]", "cold: first stride [s]", "cached: build [s]",
+              "cached: first stride [s]", "second stride [s]")
         for name, rec in report.items():
             for label, c in rec.get("compile", {}).items():
                 cold, cached = c["cold"], c["cached"]
