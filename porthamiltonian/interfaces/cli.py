@@ -33,7 +33,6 @@ import math
 import os
 import sys
 import time
-import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -634,6 +633,8 @@ def _detach_stdout() -> None:
 
 
 def _report_bug() -> int:
+    import traceback
+
     traceback.print_exc()
     print("error: this is a bug in porthamiltonian, not a problem with your input; please report "
           "it with the command line and the traceback above", file=sys.stderr)
