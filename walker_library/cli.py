@@ -63,12 +63,19 @@ from porthamiltonian.interfaces.cli import (
     run_sweep,
 )
 
-from .analyses.gait import GAIT_QUANTITIES, TIME_LIMIT, section_guess
+from .analyses.gait import (
+    GAIT_QUANTITIES,
+    TIME_LIMIT,
+    analyze_gait,
+    gait_start,
+    section_guess,
+    walk,
+)
 from .core.files import available_walkers, load_walker
 
-# Each command imports the analyses it runs (and the text output its report tables): a warm
-# `walker gait --json` loads neither the optimizer, the continuation, the sweeps, the FMU export
-# nor the report's modules (tests/walkers/test_warm_start.py checks the modules it loads).
+# Each command imports the analyses it runs beyond the gait's (and, for text output, the report's
+# labels): a warm `walker gait --json` loads neither the optimizer, the continuation, the
+# gradients, the sweeps, the FMU export nor the report (tests/walkers/test_warm_start.py checks).
 if TYPE_CHECKING:
     from .analyses.continuation import ContinuationResult
     from .core.walker import HybridWalker
@@ -152,8 +159,6 @@ def _with_unit(walker: HybridWalker, key: str, value: Any) -> str:
 
 
 def cmd_gait(args: argparse.Namespace) -> int:
-    from .analyses.gait import analyze_gait
-
     walker, guess = _walker_and_guess(args)
     names = None
     if args.gradient:
@@ -276,7 +281,6 @@ def _continuation(walker: HybridWalker, text: str, guess: np.ndarray | None, *,
     before any work, the gait at the start found by the full gait search; ``time_limit``
     (s) bounds the continuation."""
     from .analyses.continuation import ParameterPath, continue_gait, parse_range
-    from .analyses.gait import gait_start
 
     name, start, stop = parse_range(text)
     path = ParameterPath.single(walker, name, start, stop)
@@ -325,8 +329,6 @@ def cmd_continue(args: argparse.Namespace) -> int:
 
 
 def cmd_walk(args: argparse.Namespace) -> int:
-    from .analyses.gait import walk
-
     walker = _walker(args)
     result = walk(walker, None, args.steps)
     if args.json:
