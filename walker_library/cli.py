@@ -37,14 +37,14 @@ import json
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from porthamiltonian import io as ph_io
-from porthamiltonian.batch import SweepError, open_executor
+from porthamiltonian.batch.errors import SweepError
 from porthamiltonian.batch.progress import activity
 from porthamiltonian.errors import ModelError, ModelFileError
+from porthamiltonian.interfaces import io as ph_io
 from porthamiltonian.interfaces.cli import (
     BACKEND_OPTION,
     JSON_OPTION,
@@ -63,19 +63,22 @@ from porthamiltonian.interfaces.cli import (
     run_sweep,
 )
 
-from .analyses.cases import ANALYSES, get_analysis
-from .analyses.continuation import ContinuationResult, ParameterPath, continue_gait, parse_range
-from .analyses.gait import TIME_LIMIT, analyze_gait, gait_start, section_guess, walk
-from .analyses.gradients import GAIT_QUANTITIES, gait_gradient
-from .analyses.optimize import optimize_gait, parse_constraint
-from .analyses.results import to_json
-from .analyses.robustness import basin, gait_sensitivity_norm, step_down
-from .core.files import available_walkers, check_target, load_walker, save_walker
-from .core.fmu import export_walker_fmu
-from .core.gradients import check_names
-from .core.walker import HybridWalker
-from .report.labels import describe, is_nondimensional, shown_unit
-from .report.page import multiplier_cells
+from .analyses.gait import (
+    GAIT_QUANTITIES,
+    TIME_LIMIT,
+    analyze_gait,
+    gait_start,
+    section_guess,
+    walk,
+)
+from .core.files import available_walkers, load_walker
+
+# Each command imports the analyses it runs beyond the gait's (and, for text output, the report's
+# labels): a warm `walker gait --json` loads neither the optimizer, the continuation, the
+# gradients, the sweeps, the FMU export nor the report (tests/walkers/test_warm_start.py checks).
+if TYPE_CHECKING:
+    from .analyses.continuation import ContinuationResult
+    from .core.walker import HybridWalker
 
 
 def _fmt(value: Any) -> str:
@@ -148,6 +151,8 @@ CONTINUATION_TIME_LIMIT = 3600.0
 def _with_unit(walker: HybridWalker, key: str, value: Any) -> str:
     """``value`` and the unit of quantity ``key`` of ``walker`` ("nondim." in a nondimensional
     model; nothing for a ratio)."""
+    from .report.labels import describe, is_nondimensional, shown_unit
+
     unit = describe(walker, key).unit
     shown = "" if unit == "1" else shown_unit(unit, is_nondimensional(walker))
     return f"{_fmt(value)} {shown}".rstrip()
@@ -155,7 +160,11 @@ def _with_unit(walker: HybridWalker, key: str, value: Any) -> str:
 
 def cmd_gait(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
-    names = check_names(walker, _names(args.gradient)) if args.gradient else None
+    names = None
+    if args.gradient:
+        from .analyses.gradients import gait_gradient
+        from .core.gradients import check_names
+        names = check_names(walker, _names(args.gradient))
     with activity(f"gait {walker.name}", enabled=not args.quiet) as shown:
         result = analyze_gait(walker, guess, max_period=args.max_period, fd_step=args.fd_step,
                               n_iterate=args.iterate, jacobian=args.jacobian,
@@ -171,6 +180,8 @@ def cmd_gait(args: argparse.Namespace) -> int:
     if args.json:
         print(result.to_json())
         return 0
+    from .report.page import multiplier_cells
+
     d = result.to_dict()
     print(f"{walker.name}: {d['outcome'].replace('_', ' ')} ({d['message']})")
     if d["status"] == "periodic":
@@ -213,6 +224,9 @@ def cmd_gait(args: argparse.Namespace) -> int:
 
 
 def cmd_optimize(args: argparse.Namespace) -> int:
+    from .analyses.optimize import optimize_gait, parse_constraint
+    from .core.gradients import check_names
+
     walker, guess = _walker_and_guess(args)
     vary = check_names(walker, _names(args.vary))
     constraints = [parse_constraint(c) for c in args.constraint]
@@ -266,6 +280,8 @@ def _continuation(walker: HybridWalker, text: str, guess: np.ndarray | None, *,
     """Continue the gait in ``text`` (NAME=START:STOP): the range and parameter are checked
     before any work, the gait at the start found by the full gait search; ``time_limit``
     (s) bounds the continuation."""
+    from .analyses.continuation import ParameterPath, continue_gait, parse_range
+
     name, start, stop = parse_range(text)
     path = ParameterPath.single(walker, name, start, stop)
     z0, period = gait_start(walker, name, start, guess, jacobian=jacobian, log=log)
@@ -360,6 +376,8 @@ def _case_study(args: argparse.Namespace, label: str, study: Callable[..., Any],
 
 
 def cmd_step_down(args: argparse.Namespace) -> int:
+    from .analyses.robustness import step_down
+
     done = _case_study(args, "step-down", step_down, resolution=args.resolution,
                        h_max=args.h_max)
     if done is None:
@@ -373,6 +391,8 @@ def cmd_step_down(args: argparse.Namespace) -> int:
 
 
 def cmd_basin(args: argparse.Namespace) -> int:
+    from .analyses.robustness import basin
+
     done = _case_study(args, "basin", basin, n=args.n, span=args.span)
     if done is None:
         return 0
@@ -389,6 +409,9 @@ def cmd_basin(args: argparse.Namespace) -> int:
 
 
 def cmd_gsn(args: argparse.Namespace) -> int:
+    from .analyses.results import to_json
+    from .analyses.robustness import gait_sensitivity_norm
+
     walker = _walker(args)
     with activity(f"gsn {walker.name}", enabled=not args.quiet):
         result = gait_sensitivity_norm(walker)
@@ -430,12 +453,16 @@ def _option(pair: str) -> tuple[str, Any]:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    from .analyses.cases import get_analysis
+
     analysis = get_analysis(args.analysis)
     options = dict(_option(p) for p in args.option)
     return run_sweep(args, analysis, {"model": args.model, "backend": args.backend, **options})
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
+    from porthamiltonian.batch import open_executor
+
     from .report.studies import STUDIES, run_studies
     if args.list:
         for study in STUDIES.values():
@@ -468,6 +495,8 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
+    from .core.files import check_target, save_walker
+
     check_target(args.path, overwrite=args.force)             # before any work
     walker = load_walker(check_walker_name(args.model), parse_assignments(args.set))
     path = save_walker(walker, args.path, f"Walker file written by `walker export {args.model}` "
@@ -477,6 +506,8 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def cmd_export_fmu(args: argparse.Namespace) -> int:
+    from .core.fmu import export_walker_fmu
+
     walker = _walker(args)
     path = export_walker_fmu(walker, args.out, fmi=args.fmi, kind=args.kind, steps=args.steps)
     print(f"wrote {path}: walker {walker.name} as an FMI {args.fmi}.0 FMU ({args.kind}); its "
@@ -496,6 +527,8 @@ def _guess_options(p: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``walker`` command's parser."""
+    from .analyses.cases import ANALYSES
+
     model_help = "walker model: a name from models/ (walker list) or a path to a walker file"
     parser = argparse.ArgumentParser(prog="walker", description=__doc__.splitlines()[0],
                                      parents=[backend_option(None)])

@@ -20,15 +20,49 @@ signals, crashed and orphaned workers), :mod:`.executors` (dask.distributed), :m
 (named case functions for the command lines), :mod:`.simulation` (the generic case: simulate a
 model per case; settling time), :mod:`.values` (JSON values), :mod:`.errors`.
 """
-from .analysis import Analysis
-from .errors import SweepError, SweepFileError
-from .executors import open_executor
-from .grids import cases_sha256, grid, parse_axis, parse_grid
-from .progress import activity, tick
-from .resultsfile import FORMAT, VERSION, load_results, read_header
-from .runner import Sweep, SweepInterrupted, SweepReport, run_case
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+# (eager: the function ``table`` must shadow the module of the same name, as it always did)
 from .table import read_dataframe, table, to_dataframe, write_csv
-from .values import to_jsonable
+
+#: where each public name lives, imported when first used: a command that only shows progress or
+#: writes JSON values (a warm ``walker gait``) does not load the sweep runner and its
+#: multiprocessing, concurrent.futures and socket modules
+_NAMES = {
+    "Analysis": "analysis", "SweepError": "errors", "SweepFileError": "errors",
+    "open_executor": "executors", "cases_sha256": "grids", "grid": "grids",
+    "parse_axis": "grids", "parse_grid": "grids", "activity": "progress", "tick": "progress",
+    "FORMAT": "resultsfile", "VERSION": "resultsfile", "load_results": "resultsfile",
+    "read_header": "resultsfile", "Sweep": "runner", "SweepInterrupted": "runner",
+    "SweepReport": "runner", "run_case": "runner", "to_jsonable": "values",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """The public name ``name``, its module imported on first use (see :data:`_NAMES`)."""
+    if name not in _NAMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_NAMES[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_NAMES})
+
+
+if TYPE_CHECKING:
+    from .analysis import Analysis
+    from .errors import SweepError, SweepFileError
+    from .executors import open_executor
+    from .grids import cases_sha256, grid, parse_axis, parse_grid
+    from .progress import activity, tick
+    from .resultsfile import FORMAT, VERSION, load_results, read_header
+    from .runner import Sweep, SweepInterrupted, SweepReport, run_case
+    from .values import to_jsonable
 
 __all__ = [
     "FORMAT", "VERSION", "Analysis", "Sweep", "SweepError", "SweepFileError", "SweepInterrupted",

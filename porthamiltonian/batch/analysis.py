@@ -15,8 +15,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from .runner import resolve_function
-
 __all__ = ["Analysis"]
 
 
@@ -38,10 +36,14 @@ class Analysis:
 
     def resolve(self) -> Callable:
         """The case function (imported now if given by name)."""
+        from .runner import resolve_function  # the sweep runner: only when a sweep runs
+
         return resolve_function(self.function)
 
     def run_prepare(self, cases: list[dict], fixed: Mapping[str, Any]) -> dict[str, Any]:
         """Run ``prepare`` (if any); the shared arguments it returns ({} for none)."""
         if self.prepare is None:
             return {}
+        from .runner import resolve_function
+
         return dict(resolve_function(self.prepare)(cases, **fixed) or {})

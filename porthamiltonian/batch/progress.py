@@ -263,8 +263,9 @@ def activity(desc: str, *, enabled: bool = True, stream: IO[str] | None = None
     ``enabled``, tqdm is installed and the stream is a terminal, e.g. ``gait compass_walker, 57
     strides [00:12]``; otherwise show nothing (:meth:`_Activity.write` lines excepted)."""
     stream = stream or sys.stderr
-    tqdm = _tqdm() if enabled else None
-    if tqdm is None or not getattr(stream, "isatty", lambda: False)():
+    shown = enabled and getattr(stream, "isatty", lambda: False)()
+    tqdm = _tqdm() if shown else None           # (tqdm imported only for a terminal)
+    if tqdm is None:
         yield _Activity(None, stream)
         return
     bar = tqdm(desc=desc, unit="", file=stream, dynamic_ncols=True,

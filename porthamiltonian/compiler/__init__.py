@@ -25,7 +25,7 @@ from ..errors import CompilerError, ModelError
 from ..modeling.constraints import Constraint
 from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from ..simulation.sampling import DiscreteBlock
-from . import cache, estimate, numba_cache
+from . import cache, numba_cache
 from .literals import printable
 from .snapshots import deferred, package_made, recall, remember, snapshot_key
 
@@ -202,6 +202,7 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     times: dict[str, float] = {}
     pending = None
     if meta is None:
+        from . import estimate
         from .codegen import program
         from .phform import ph_form, ph_functions
         from .printers import c_source, kernels, python_source

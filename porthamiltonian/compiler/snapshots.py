@@ -30,6 +30,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import os
 import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
@@ -58,7 +59,11 @@ def _sources(packages: tuple[str, ...]) -> str:
         if root is None:
             digest.update(f"{name}: not imported\0".encode())
             continue
-        for path in sorted([*root.rglob("*.py"), *root.rglob("*.c")]):
+        found = []                       # (one walk of the tree, its byte-code folders skipped)
+        for folder, subfolders, files in os.walk(root):
+            subfolders[:] = [d for d in subfolders if d != "__pycache__"]
+            found += [Path(folder, f) for f in files if f.endswith((".py", ".c"))]
+        for path in sorted(found):
             digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()
 

@@ -33,23 +33,22 @@ import math
 import os
 import sys
 import time
-import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from .. import backends, userfiles
-from ..backends import module, native
-from ..batch import Analysis, Sweep, SweepError, SweepInterrupted, open_executor, parse_grid
+from ..batch.analysis import Analysis
+from ..batch.errors import SweepError
 from ..batch.grids import MAX_CASES
 from ..batch.progress import MODES
-from ..batch.table import write_csv
-from ..compiler.estimate import duration_text
 from ..errors import ModelError, OptionError
-from ..fmu import export_fmu
-from ..integrators import TABLEAUS
 from . import fitting, io, linearization
 from .sweeps import SimulationModel, prepare_simulation, simulate_case, simulation_settings
+
+# A command's own machinery (the sweep runner, the FMU exporter, the compiler, the code printers)
+# is imported inside the command that uses it: a warm run of one command (e.g. `walker gait`,
+# which imports this module for the shared options) loads only what it runs.
 
 
 # --- options shared by the commands (argparse parent parsers) ------------------------------------
@@ -237,6 +236,8 @@ def run_sweep(args: argparse.Namespace, analysis: Analysis, fixed: dict[str, Any
     (the analysis's ``prepare``) the cases themselves. Exit status: 0 when every case is in the
     file (failed cases included), 1 when some were lost by the executor (rerun to resume),
     128 + the signal's number when interrupted."""
+    from ..batch import Sweep, SweepInterrupted, open_executor, parse_grid, write_csv
+
     cases = parse_grid(args.grid, args.max_cases or None)
     meta = {"analysis": analysis.name, "grid": list(args.grid),
             **_model_file_meta(str(fixed.get("model", "")))}
@@ -312,6 +313,8 @@ class RunProgress:
         elapsed = self.clock() - self.start
         if elapsed < self.next or t <= self.t_start:
             return
+        from ..compiler.estimate import duration_text
+
         self.next = elapsed + 30.0
         done = (t - self.t_start) / (self.t_end - self.t_start)
         line = (f"{self.name}: t = {t:.4g} s of {self.t_end:g} s ({100 * done:.3g} %) after "
@@ -377,6 +380,7 @@ def cmd_view(args: argparse.Namespace) -> int:
 def cmd_show(args: argparse.Namespace) -> int:
     """``porthamiltonian show``: components, bonds, parameters and the state equations (with
     ``--code``: the generated source of the chosen back end)."""
+    from ..backends import module, native
     from ..compiler import compile_model, symbolic
     from ..compiler.phform import ph_text
 
@@ -458,6 +462,9 @@ def cmd_check_energy(args: argparse.Namespace) -> int:
 
 def cmd_export_fmu(args: argparse.Namespace) -> int:
     """``porthamiltonian export-fmu``: the model as an FMU (docs/fmu.md)."""
+    from ..fmu import export_fmu
+    from ..integrators import TABLEAUS
+
     record = io.read(args.model)
     settings = simulation_settings(record.simulation)
     with record.located():
@@ -626,6 +633,8 @@ def _detach_stdout() -> None:
 
 
 def _report_bug() -> int:
+    import traceback
+
     traceback.print_exc()
     print("error: this is a bug in porthamiltonian, not a problem with your input; please report "
           "it with the command line and the traceback above", file=sys.stderr)

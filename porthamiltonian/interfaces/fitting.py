@@ -17,14 +17,16 @@ import io as _io
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..batch.values import to_jsonable
 from ..errors import DataError, OptionError
-from ..simulation.fitting import FitResult, fit
 from . import io
+
+if TYPE_CHECKING:
+    from ..simulation.fitting import FitResult
 
 #: the largest data file read (bytes)
 MAX_DATA_BYTES = 50_000_000
@@ -104,6 +106,8 @@ def run_fit(args: argparse.Namespace, compiled: Any, values: dict[str, float],
             atol: Any = 1e-10) -> int:
     """The command: fit, print, exit status 0 (fitted), 1 (unidentifiable or not converged);
     ``atol``: the model file's."""
+    from ..simulation.fitting import fit  # (the fit's machinery: only when fitting)
+
     names = [n.strip() for n in args.param.split(",") if n.strip()]
     data, times = read_data(args.data, [e.name for e in compiled.events])
     bounds = {}

@@ -67,8 +67,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import tomli_w
-
 from .. import userfiles
 from ..errors import ModelError, ModelFileError, OptionError
 from ..simulation.options import check_rtol
@@ -933,6 +931,8 @@ def _plain(comp: Component) -> dict[str, Any]:
 
 def dumps(model: Model | ModelFile) -> str:
     """TOML text of a model or model file."""
+    import tomli_w  # (only when a file is written)
+
     return tomli_w.dumps(model_to_dict(model))
 
 

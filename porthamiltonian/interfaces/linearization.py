@@ -15,14 +15,16 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import ModelError
-from ..simulation.compiled import CompiledModel
-from ..simulation.linearize import LinearModel
 from . import io
+
+if TYPE_CHECKING:
+    from ..simulation.compiled import CompiledModel
+    from ..simulation.linearize import LinearModel
 
 
 def operating_point(record: io.ModelFile, compiled: CompiledModel, at: Mapping[str, float],

@@ -12,17 +12,19 @@ as do :meth:`~CompiledModel.derivative`, the exact Jacobians, :meth:`~CompiledMo
 bound as a method: one signature, documented once). The simulator sits below this module in the
 import graph: it needs only the layout and the numeric functions of the model it is handed (it
 imports this module for type checking only), so that the compiled model can offer the call users
-expect (``compile_model(m).simulate(10.0)``) without an import cycle. ``export_fmu`` is
-:func:`porthamiltonian.fmu.export_fmu` bound the same way (the FMU exporter sits in the back-end
-stage).
+expect (``compile_model(m).simulate(10.0)``) without an import cycle. ``export_fmu`` calls
+:func:`porthamiltonian.fmu.export_fmu` (the FMU exporter sits in the back-end stage; it is
+imported when a model is exported, not with every compiled model).
 """
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
+from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,12 +36,13 @@ from ..errors import (
     StateError,
     UnknownParameterError,
 )
-from ..fmu import export_fmu as _export_fmu
 from ..modeling.constraints import Constraint, ConstraintChecker
-from . import linearize as _linearize
-from .phmatrices import PHMatrices, ph_matrices
 from .sampling import DiscreteBlock
 from .simulate import simulate as _simulate
+
+if TYPE_CHECKING:
+    from .linearize import LinearModel, TrimResult
+    from .phmatrices import PHMatrices
 
 
 @dataclass(frozen=True)
@@ -415,18 +418,24 @@ class CompiledModel:
         ``{state: value}`` over the initial values), ``u`` the inputs (array or ``{input:
         value}``), ``params`` parameter values by name (see
         :mod:`porthamiltonian.simulation.linearize`)."""
-        return _linearize.derivative(self, t, x, u, params)
+        from .linearize import derivative
+
+        return derivative(self, t, x, u, params)
 
     def jacobian(self, t: float = 0.0, x: Any = None, u: Any = None,
                  params: Any = None) -> np.ndarray:
         """∂ẋ/∂x (n x n) at one point, exact (the generated chain rule); arguments as
         :meth:`derivative`."""
-        return _linearize.jacobian(self, t, x, u, params)
+        from .linearize import jacobian
+
+        return jacobian(self, t, x, u, params)
 
     def input_jacobian(self, t: float = 0.0, x: Any = None, u: Any = None,
                        params: Any = None) -> np.ndarray:
         """∂ẋ/∂u (n x m) at one point, exact; arguments as :meth:`derivative`."""
-        return _linearize.input_jacobian(self, t, x, u, params)
+        from .linearize import input_jacobian
+
+        return input_jacobian(self, t, x, u, params)
 
     def accelerations(self, t: float = 0.0, x: Any = None, u: Any = None,
                       params: Any = None) -> dict[str, float]:
@@ -437,23 +446,29 @@ class CompiledModel:
         With loops or constraints they include the position correction of the constraints'
         stabilisation (``constraint_gain``), so off the constraints (φ ≠ 0 or φ̇ ≠ 0) they
         differ from M⁻¹(ṗ − Ṁv) of the momentum rates; on them the correction vanishes."""
-        return _linearize.accelerations(self, t, x, u, params)
+        from .linearize import accelerations
+
+        return accelerations(self, t, x, u, params)
 
     def linearize(self, x: Any = None, u: Any = None, params: Any = None,
-                  t: float = 0.0) -> _linearize.LinearModel:
+                  t: float = 0.0) -> LinearModel:
         """(A, B, C, D) at (t, x, u, params) from the exact Jacobians, as a
         :class:`~porthamiltonian.simulation.linearize.LinearModel` (``.to_control()``: a
         python-control StateSpace). States: the dynamic ones (storages, continuous signal
         blocks); outputs: the declared outputs (else the states)."""
-        return _linearize.linearize(self, x, u, params, t)
+        from .linearize import linearize
+
+        return linearize(self, x, u, params, t)
 
     def trim(self, x: Any = None, u: Any = None, params: Any = None, t: float = 0.0,
              free_states: Any = None, free_inputs: Any = (), tol: float = 1e-12,
-             max_iter: int = 50) -> _linearize.TrimResult:
+             max_iter: int = 50) -> TrimResult:
         """An equilibrium ẋ = 0 by Newton's method with the exact Jacobians, from the point
         (x, u): the free states (default: all dynamic ones) and free inputs (default: none) are
         solved for (see :func:`porthamiltonian.simulation.linearize.trim`)."""
-        return _linearize.trim(self, x, u, params, t, free_states, free_inputs, tol, max_iter)
+        from .linearize import trim
+
+        return trim(self, x, u, params, t, free_states, free_inputs, tol, max_iter)
 
     def to_control(self, x: Any = None, u: Any = None, params: Any = None,
                    t: float = 0.0) -> Any:
@@ -467,7 +482,9 @@ class CompiledModel:
         ``jac_p`` (this model compiles itself again with it, once, when it lacks it)."""
         names = [names] if isinstance(names, str) else list(names)
         model = self if self.jac_p_names == names else self.extended(jac_p=names)
-        pt = _linearize.point(model, t, x, u, params)
+        from .linearize import point
+
+        pt = point(model, t, x, u, params)
         out = model.functions.extra["jac_p"](pt.t, pt.y, model.native_params(pt.p))
         return np.asarray(out, dtype=float)[:self.n_states]
 
@@ -478,7 +495,10 @@ class CompiledModel:
         (:mod:`porthamiltonian.simulation.phmatrices`; this model compiles itself again with
         the form's functions, once, when it lacks them)."""
         model = self if self.ph_layout is not None else self.extended(ph=True)
-        pt = _linearize.point(model, t, x, u, params)
+        from .linearize import point
+        from .phmatrices import ph_matrices
+
+        pt = point(model, t, x, u, params)
         return ph_matrices(model, pt.t, pt.y, pt.p)
 
     def extended(self, **options: Any) -> CompiledModel:
@@ -497,7 +517,13 @@ class CompiledModel:
         return model_html(self)
 
     simulate = _simulate
-    export_fmu = _export_fmu
+
+    def export_fmu(self, path: str | os.PathLike[str], **options: Any) -> Path:
+        """Write this model as an FMU at ``path``: :func:`porthamiltonian.fmu.export_fmu` with
+        its keyword ``options`` (``fmi``, ``kind``, ``params``, ``rtol``, ...)."""
+        from ..fmu import export_fmu
+
+        return export_fmu(self, path, **options)
 
     def __repr__(self) -> str:
         return (f"CompiledModel({self.name!r}, {self.n_states} states, {len(self.param_names)} "

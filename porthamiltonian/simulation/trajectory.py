@@ -31,7 +31,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import OptionError
-from .linearize import acceleration_rows, acceleration_values
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
@@ -213,6 +212,8 @@ class Trajectory:
             return self.p[:, self.model.param_names.index(name)]
         if name in self.model.input_names and name not in self.model.output_names:
             return self.inputs[:, self.model.input_names.index(name)]
+        from .linearize import acceleration_rows, acceleration_values  # (a multibody's v̇)
+
         rows = acceleration_rows(self.model)
         if name in rows and name not in self.model.output_names:
             values = self._per_point("accelerations", lambda t, y, pn: acceleration_values(

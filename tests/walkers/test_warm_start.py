@@ -2,7 +2,9 @@
 
 * a second load in a new process imports neither sympy nor networkx (nor matplotlib), and its
   stride is the first load's, bit for bit; importing the packages and the ``walker`` command
-  loads none of them either;
+  loads none of them either; a warm ``walker gait`` loads only the modules it runs (not scipy,
+  the sweep runner, the progress bar, the other commands' machinery) and prints the gait of a
+  full load;
 * the restored walker is the file's: the same table, plan records and parameters, and its
   model (read when first used) is the file's model;
 * a snapshot edited in the cache is refused (one CacheWarning naming it), the walker is loaded
@@ -84,6 +86,39 @@ def test_the_packages_and_the_walker_command_import_no_symbolic_library():
     found = _run("import json, sys\nimport porthamiltonian, walker_library, walker_library.cli\n"
                  f"print(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))\n")
     assert found == []
+
+
+#: what a warm ``walker gait`` of a walker on the compiled loops never loads: besides the symbolic
+#: and plotting libraries, scipy and pandas, the progress bar (no terminal), the sweep runner and
+#: its process pools, and the machinery of the commands it does not run (the code generator, FMU
+#: export, fitting, linearization, the optimizer, continuation, gradients, the report)
+NOT_ON_THE_WARM_PATH = (*HEAVY, "scipy", "pandas", "tqdm", "multiprocessing", "concurrent.futures",
+                        "porthamiltonian.compiler.codegen", "porthamiltonian.fmu",
+                        "porthamiltonian.batch.runner", "porthamiltonian.simulation.fitting",
+                        "porthamiltonian.simulation.linearize", "walker_library.analyses.optimize",
+                        "walker_library.analyses.continuation", "walker_library.analyses.gradients",
+                        "walker_library.report")
+
+
+def test_a_warm_walker_gait_loads_only_what_it_runs():
+    """``walker gait compass_walker --json`` after a first load (the session's cache holds the
+    model and the snapshot): none of the modules above, and the gait of the walker loaded in
+    full in this process, character for character."""
+    from walker_library.analyses.gait import analyze_gait
+
+    expected = analyze_gait(load_walker("compass_walker")).to_json()
+    found = _run(
+        "import contextlib, io, json, sys\n"
+        "from walker_library.cli import main\n"
+        "out = io.StringIO()\n"
+        "with contextlib.redirect_stdout(out):\n"
+        "    status = main(['gait', 'compass_walker', '--json'])\n"
+        "print(json.dumps({'status': status, 'out': out.getvalue(), 'modules': sorted(sys.modules)}))\n")
+    assert found["status"] == 0
+    assert found["out"].strip() == expected
+    loaded = [m for m in found["modules"]
+              if any(m == name or m.startswith(f"{name}.") for name in NOT_ON_THE_WARM_PATH)]
+    assert loaded == []
 
 
 def test_the_restored_walker_is_the_files(cold):

@@ -48,19 +48,22 @@ import numpy as np
 from porthamiltonian.errors import ModelError
 
 from ..core.protocol import Stride, Walker
-from .continuation import ParameterPath, continue_gait
 from .metrics import GaitMetrics, gait_metrics
 from .monodromy import FloquetResult, floquet
 from .poincare import FixedPointResult, PeriodResult, WalkerFell, detect_period, find_fixed_point
 from .results import JSONResult, to_jsonable, view
 
-__all__ = ["TIME_LIMIT", "GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult",
+__all__ = ["GAIT_QUANTITIES", "TIME_LIMIT", "GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult",
            "analyze_gait", "gait_start", "section_guess", "walk"]
 
 _LEGGED_KEYS = ("theta", "theta_dot", "phi", "phi_dot")
 #: the default time limit of a gait search (s): its continuation from the nominal gait stops
 #: there (a stiffness of 1e15 would otherwise be followed for hours)
 TIME_LIMIT = 600.0
+#: the gait quantities that :mod:`.gradients` differentiates (and ``walker optimize`` takes as
+#: objective), by their keys in ``walker gait --json``
+GAIT_QUANTITIES = ("step_period", "speed", "step_length", "energy_dissipated_per_step",
+                   "cost_of_transport", "max_multiplier_modulus")
 
 
 @dataclass
@@ -347,6 +350,8 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
         return
     if log is not None:
         log(f"continuing the model file's nominal gait: {names}")
+    from .continuation import ParameterPath, continue_gait  # (only when a gait is continued)
+
     try:
         path = ParameterPath.homotopy(walker, nominal_values, walker.parameters)
         result = continue_gait(nominal, path, guess=start.z, period=start.period,

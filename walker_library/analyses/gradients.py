@@ -58,6 +58,7 @@ from porthamiltonian.simulation.differences import gradient
 
 from ..core.gradients import StrideGradient, check_names, stride_gradient
 from ..core.protocol import Walker
+from .gait import GAIT_QUANTITIES
 from .results import JSONResult
 
 if TYPE_CHECKING:
@@ -66,9 +67,6 @@ if TYPE_CHECKING:
 __all__ = ["GAIT_QUANTITIES", "MULTIPLIER_STEP", "GaitGradient", "gait_gradient",
            "solve_gait"]
 
-#: the gait quantities differentiated, by their keys in ``walker gait --json``
-GAIT_QUANTITIES = ("step_period", "speed", "step_length", "energy_dissipated_per_step",
-                   "cost_of_transport", "max_multiplier_modulus")
 #: the relative step h of the multiplier's derivative (module docstring)
 MULTIPLIER_STEP = 1e-3
 

@@ -18,8 +18,6 @@ import tomllib
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-import tomli_w
-
 from porthamiltonian import io as ph_io
 from porthamiltonian.errors import ModelFileError, ParameterValueError
 from porthamiltonian.userfiles import write_atomic
@@ -95,6 +93,8 @@ def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str
     symbolic link at ``path`` is replaced by the file, never written through. ``overwrite=False``
     refuses (ModelFileError) when anything is at ``path`` already (``walker export`` without
     ``--force``)."""
+    import tomli_w  # (here: only a written file needs it)
+
     spec = walker.spec if isinstance(walker, HybridWalker) else walker
     data = ph_io.model_to_dict(ph_io.ModelFile(
         spec.model, description=spec.description, meta={"units": spec.units} if spec.units else {}))

@@ -47,8 +47,6 @@ from porthamiltonian.modeling.expressions import parse
 from porthamiltonian.simulation.assembly import constraint_rows
 from porthamiltonian.simulation.compiled import CompiledModel
 from porthamiltonian.simulation.differences import directional
-from porthamiltonian.simulation.impact import model_impact
-from porthamiltonian.simulation.switching import impact_onto
 
 if TYPE_CHECKING:
     from porthamiltonian.modeling.model import Model, ModelDescription
@@ -335,6 +333,8 @@ class ImpactMap(_Impact):
 
     def __call__(self, t: float, x: np.ndarray, p: np.ndarray,
                  p_after: np.ndarray) -> tuple[np.ndarray, dict]:
+        from porthamiltonian.simulation.impact import model_impact  # (rigid walkers only)
+
         mb, lay = self.multibody, self._layout
         xf, vf, pf = self.floating_state(t, x, p)
         imp = model_impact(self.floating, xf, pf, self._rows(t, xf, pf), f"{mb}.M", t=t,
@@ -402,6 +402,8 @@ class ImpactMap(_Impact):
         dvf[lay["fv"]] = lay["F"] @ dv
         dvf[lay["pin"]] = d_in[nv:] + m.matrix(hip, t, x, p) @ dv
         rows = self._rows(t, xf, pf)
+        from porthamiltonian.simulation.impact import model_impact
+
         imp = model_impact(f, xf, pf, rows, f"{mb}.M", t=t, v_minus=vf).impact
         v_plus, lam = imp.v_plus, imp.impulse
         nf = len(vf)
@@ -465,6 +467,8 @@ class ConstraintImpact(_Impact):
     _onto: Any = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        from porthamiltonian.simulation.switching import impact_onto  # (knee strikes only)
+
         object.__setattr__(self, "_onto", impact_onto(self.model, self.multibody,
                                                       self.constraint))
 
