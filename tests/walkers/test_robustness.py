@@ -85,6 +85,32 @@ def test_step_down_does_not_depend_on_the_grid(simplest):
     assert r3.max_step_down == 1e-3 and r3.contiguous is True
 
 
+def test_a_recovery_ends_at_the_first_step_within_tol(simplest):
+    """The walk's ``until`` ends it after the first step whose section state satisfies it, on
+    the same strides as the full walk; ``recovers`` stops there and counts the steps to it, also
+    across chunks. On this spiral (complex multipliers) the distance is not monotone: step 13 is
+    within 1e-5 of the fixed point (6.0e-6, measured), step 14 outside (6.2e-5), step 20 within
+    again."""
+    w, g = simplest
+    z_star = _z(w, g)
+    z0 = z_star + np.array([0.0, 0.01, 0.0])
+    full = w.walk(z0, 24)
+    d = [float(np.max(np.abs(s.z_next - z_star))) for s in full]
+    tol = 1e-5
+    k = next(i for i, x in enumerate(d, 1) if x <= tol)
+    assert k == 13 and d[13] > tol and d[19] <= tol
+    early = w.walk(z0, 24, until=lambda z: float(np.max(np.abs(z - z_star))) <= tol)
+    assert [s.status for s in early] == ["step"] * k
+    for a, b in zip(early, full):
+        assert np.array_equal(a.z_next, b.z_next) and a.duration == b.duration
+    fps = np.array([z_star])
+    for n_steps in (20, 5):
+        r = recovers(w, z0, fps, n_steps=n_steps, tol=tol)
+        assert r.status == "converged" and r.steps == k
+        # a new chunk restarts the integration from the section state: equal to its tolerance
+        assert r.distance == pytest.approx(d[k - 1], abs=1e-9)
+
+
 def test_step_down_without_a_gait_is_a_result():
     # from this guess the walker falls (the continuation from the file's gait, not asked for
     # here, would find the shallow slope's gait)

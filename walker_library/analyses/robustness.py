@@ -4,14 +4,15 @@ Gait Sensitivity Norm. Generic over :class:`~.protocol.Walker`; every result ser
 
 Recovery criterion (shared by step-down and basin)
 --------------------------------------------------
-A disturbed walker *recovers* when it walks ``n_steps`` steps without falling and its last section
-state lies within ``tol`` (∞-norm, in the model's section coordinates: rad, rad/s, m/s) of one of
-the gait's fixed points (a period-k gait has k). ``n_steps`` defaults to enough steps for a
-perturbation of the gait's size to decay below ``tol`` at the gait's slowest Floquet multiplier
-ρ: n = ceil(log(tol/0.1)/log ρ) + 5, clipped to [20, 300].
-
-Walks continue in chunks of ``n_steps`` (at most 5) while the walker neither falls nor converges,
-so a slow transient near the edge of the basin is not miscounted.
+A disturbed walker *recovers* when, without falling, its section state after a step comes
+within ``tol`` (∞-norm, in the model's section coordinates: rad, rad/s, m/s) of one of the gait's
+fixed points (a period-k gait has k). The distance is checked after every step and the walk ends
+at the first step within ``tol`` (the recovery's ``steps`` counts the steps to it), at a fall
+(``steps`` counts the steps to it, the falling one included), or after ``n_steps`` steps in each of
+at most 5 chunks: ``n_steps`` defaults to enough steps for a perturbation of the gait's size to
+decay below ``tol`` at the gait's slowest Floquet multiplier ρ: n = ceil(log(tol/0.1)/log ρ) + 5,
+clipped to [20, 300], and further chunks follow while the walker neither falls nor converges, so a
+slow transient near the edge of the basin is not miscounted ("wandered" after 5 n_steps).
 
 * :func:`step_down` — the surface drops by h once, before the next heel strike (``walk(...,
   ground_drop=h)``), starting on the gait's fixed point. h (in metres) is scanned upward on a
@@ -123,19 +124,25 @@ class Recovery:
 def recovers(walker: Walker, z0: np.ndarray, fixed_points: np.ndarray, *, n_steps: int, tol: float,
              ground_drop: float = 0.0, max_chunks: int = 5) -> Recovery:
     """Walk from ``z0`` (after a drop of ``ground_drop``) and classify the outcome: walks
-    ``n_steps`` at a time, at most ``max_chunks`` times, until the state is within ``tol`` of a
-    fixed point ("converged"), the walker falls ("fell"), or the steps run out ("wandered": a
-    slow transient or another attractor)."""
+    ``n_steps`` at a time, at most ``max_chunks`` times, until the state after a step is within
+    ``tol`` of a fixed point ("converged"; checked after every step, the walk ends there), the
+    walker falls ("fell"), or the steps run out ("wandered": a slow transient or another
+    attractor). ``steps``: the steps walked (to the first within ``tol``, to the fall)."""
     z, total, d = np.asarray(z0, dtype=float), 0, math.nan
+
+    def distance(z: np.ndarray) -> float:
+        return float(np.min(np.max(np.abs(fixed_points - z[None, :]), axis=1)))
+
     for chunk in range(max_chunks):
-        strides = walker.walk(z, n_steps, ground_drop=ground_drop if chunk == 0 else 0.0)
+        strides = walker.walk(z, n_steps, ground_drop=ground_drop if chunk == 0 else 0.0,
+                              until=lambda z: distance(z) <= tol)
         tick("stride", len(strides))
         total += len(strides)
         last = strides[-1]
         if last.fell or last.z_next is None:
             return Recovery(RecoveryStatus.FELL, total, math.nan, last.reason)
         z = last.z_next
-        d = float(np.min(np.max(np.abs(fixed_points - z[None, :]), axis=1)))
+        d = distance(z)
         if d <= tol:
             return Recovery(RecoveryStatus.CONVERGED, total, d)
     return Recovery(RecoveryStatus.WANDERED, total, d)
@@ -323,7 +330,8 @@ def basin_state(walker: Walker, z_star: np.ndarray, theta: float, theta_dot: flo
 class BasinResult(JSONResult):
     """Result of :func:`basin`: a grid over thesis θ (rad) and θ̇ (rad/s) around the fixed point,
     also given scaled (θ/theta_scale, θ̇/theta_dot_scale). ``status[i][j]`` for theta[i],
-    theta_dot[j]: "converged", "fell", "wandered" (or "invalid" for a state the walker refuses).
+    theta_dot[j]: "converged", "fell", "wandered" (or "invalid" for a state the walker refuses);
+    ``steps[i][j]`` the steps it walked (to the first within ``tol``, to the fall: module docstring).
     ``fraction`` converged; ``radius`` the largest scaled distance r such that every grid point
     within r of the fixed point converged (the thesis's "biggest circle" measure, §2.6)."""
 
