@@ -8,6 +8,7 @@ response against the linearized stride map x_{k+1} = A x_k + B h_k, T_k = C x_k 
 from separately computed derivatives (Hobbelen & Wisse 2007, eq. for the H2 norm)."""
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -16,9 +17,16 @@ import operator
 import numpy as np
 import pytest
 
+from porthamiltonian.errors import ParameterValueError
 from walker_library import analyze_gait, compass_gait, simplest_walker
 from walker_library.analyses.poincare import jacobian
-from walker_library.analyses.robustness import basin, gait_sensitivity_norm, recovers, step_down
+from walker_library.analyses.robustness import (
+    basin,
+    basin_walker,
+    gait_sensitivity_norm,
+    recovers,
+    step_down,
+)
 from walker_library.cli import main
 
 
@@ -158,7 +166,23 @@ def test_basin_of_the_compass_gait():
     assert r.theta_dot[4] - r.theta_dot[0] == pytest.approx(2 * 0.1 * 0.8, rel=1e-12)
     assert 0 < r.fraction < 1 and set(functools.reduce(operator.iadd, r.outcome, [])) <= {"converged", "fell", "wandered"}
     assert 0 < r.radius <= 0.1 * math.sqrt(2)
+    assert r.method == "DOP853"                            # a rigid walker's own
     json.loads(r.to_json())
+
+
+def test_the_basin_method_rule(simplest):
+    """basin_walker: "auto" keeps a walker whose own method is not a compiled stiff one (DOP853
+    here) and gives one whose method is Rodas5P QBDF at the same tolerances; a name is taken as
+    given, None keeps the walker's own, an unknown name is refused."""
+    w, _ = simplest
+    assert basin_walker(w) is w and basin_walker(w, None) is w and w.options.method == "DOP853"
+    stiff = w.with_options(method="Rodas5P")
+    auto = basin_walker(stiff)
+    assert auto.options == dataclasses.replace(stiff.options, method="QBDF")
+    assert basin_walker(stiff, None) is stiff
+    assert basin_walker(w, "Rodas4").options.method == "Rodas4"
+    with pytest.raises(ParameterValueError, match="unknown integration method 'Euler'"):
+        basin_walker(w, "Euler")
 
 
 def test_cli_step_down_json(capsys):
