@@ -22,6 +22,13 @@ import pytest
 
 from walker_library import analyze_gait, compass_walker, walk
 from walker_library.analyses.calibration import calibrate_damping
+from walker_library.analyses.robustness import (
+    basin,
+    basin_state,
+    basin_walker,
+    fixed_points,
+    recovers,
+)
 
 
 @pytest.fixture(scope="module")
@@ -104,6 +111,31 @@ def test_scuffing_rule_ignores_the_mid_stance_pass(walker, gait):
     mid = [seg for seg in traj.segments if seg.t[0] < times[0] < seg.t[-1] or seg.t[0] == times[0]]
     c2 = walker.model.param_names.index("c2")
     assert all(seg.p[c2] == 0.0 for seg in mid)
+
+
+def test_basin_walks_with_qbdf_and_keeps_every_status(walker, gait):
+    """The basin walks this stiff walker's points with QBDF (basin_walker's "auto"), not its own
+    Rodas5P. A 5 × 5 grid of the study's span (θ/0.4 ± 0.025, θ̇/0.8 ± 0.1) at γ = 0.009: the
+    statuses and step counts are those of Rodas5P (measured on the whole grid; the 50 × 50 grid
+    at γ = 0.007 keeps all 2500: benchmarks/RESULTS.md); two neighbours across the boundary are
+    walked again with Rodas5P here, and the converged end states agree to 1e-6 (QBDF's error
+    over the walk, a hundredth of the basin's tolerance)."""
+    r = basin(walker, gait, n=5, span=(0.025, 0.1))
+    assert r.method == "QBDF" and walker.options.method == "Rodas5P"
+    C, F = "converged", "fell"
+    assert r.outcome == [[F, F, C, C, F], [F, F, C, F, F], [F, C, C, F, F], [C, C, F, F, F],
+                         [C, C, F, F, F]]
+    assert r.steps == [[1, 1, 9, 6, 2], [1, 3, 8, 4, 1], [1, 11, 8, 2, 1], [11, 10, 3, 1, 1],
+                       [10, 9, 1, 1, 1]]
+    fps = fixed_points(walker, gait)
+    for j in (2, 3):
+        z0 = basin_state(walker, fps[0], r.theta[1], r.theta_dot[j])
+        own = recovers(walker, z0, fps, n_steps=r.n_steps, tol=r.tol)
+        qbdf = recovers(basin_walker(walker), z0, fps, n_steps=r.n_steps, tol=r.tol)
+        assert (own.status, own.steps) == (qbdf.status, qbdf.steps) == (r.outcome[1][j],
+                                                                          r.steps[1][j])
+        if own.survived:
+            assert abs(own.distance - qbdf.distance) < 1e-6
 
 
 def test_falls_are_results(walker):

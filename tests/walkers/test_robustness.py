@@ -8,6 +8,7 @@ response against the linearized stride map x_{k+1} = A x_k + B h_k, T_k = C x_k 
 from separately computed derivatives (Hobbelen & Wisse 2007, eq. for the H2 norm)."""
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -16,9 +17,16 @@ import operator
 import numpy as np
 import pytest
 
+from porthamiltonian.errors import ParameterValueError
 from walker_library import analyze_gait, compass_gait, simplest_walker
 from walker_library.analyses.poincare import jacobian
-from walker_library.analyses.robustness import basin, gait_sensitivity_norm, recovers, step_down
+from walker_library.analyses.robustness import (
+    basin,
+    basin_walker,
+    gait_sensitivity_norm,
+    recovers,
+    step_down,
+)
 from walker_library.cli import main
 
 
@@ -85,6 +93,32 @@ def test_step_down_does_not_depend_on_the_grid(simplest):
     assert r3.max_step_down == 1e-3 and r3.contiguous is True
 
 
+def test_a_recovery_ends_at_the_first_step_within_tol(simplest):
+    """The walk's ``until`` ends it after the first step whose section state satisfies it, on
+    the same strides as the full walk; ``recovers`` stops there and counts the steps to it, also
+    across chunks. On this spiral (complex multipliers) the distance is not monotone: step 13 is
+    within 1e-5 of the fixed point (6.0e-6, measured), step 14 outside (6.2e-5), step 20 within
+    again."""
+    w, g = simplest
+    z_star = _z(w, g)
+    z0 = z_star + np.array([0.0, 0.01, 0.0])
+    full = w.walk(z0, 24)
+    d = [float(np.max(np.abs(s.z_next - z_star))) for s in full]
+    tol = 1e-5
+    k = next(i for i, x in enumerate(d, 1) if x <= tol)
+    assert k == 13 and d[13] > tol and d[19] <= tol
+    early = w.walk(z0, 24, until=lambda z: float(np.max(np.abs(z - z_star))) <= tol)
+    assert [s.status for s in early] == ["step"] * k
+    for a, b in zip(early, full):
+        assert np.array_equal(a.z_next, b.z_next) and a.duration == b.duration
+    fps = np.array([z_star])
+    for n_steps in (20, 5):
+        r = recovers(w, z0, fps, n_steps=n_steps, tol=tol)
+        assert r.status == "converged" and r.steps == k
+        # a new chunk restarts the integration from the section state: equal to its tolerance
+        assert r.distance == pytest.approx(d[k - 1], abs=1e-9)
+
+
 def test_step_down_without_a_gait_is_a_result():
     # from this guess the walker falls (the continuation from the file's gait, not asked for
     # here, would find the shallow slope's gait)
@@ -132,7 +166,23 @@ def test_basin_of_the_compass_gait():
     assert r.theta_dot[4] - r.theta_dot[0] == pytest.approx(2 * 0.1 * 0.8, rel=1e-12)
     assert 0 < r.fraction < 1 and set(functools.reduce(operator.iadd, r.outcome, [])) <= {"converged", "fell", "wandered"}
     assert 0 < r.radius <= 0.1 * math.sqrt(2)
+    assert r.method == "DOP853"                            # a rigid walker's own
     json.loads(r.to_json())
+
+
+def test_the_basin_method_rule(simplest):
+    """basin_walker: "auto" keeps a walker whose own method is not a compiled stiff one (DOP853
+    here) and gives one whose method is Rodas5P QBDF at the same tolerances; a name is taken as
+    given, None keeps the walker's own, an unknown name is refused."""
+    w, _ = simplest
+    assert basin_walker(w) is w and basin_walker(w, None) is w and w.options.method == "DOP853"
+    stiff = w.with_options(method="Rodas5P")
+    auto = basin_walker(stiff)
+    assert auto.options == dataclasses.replace(stiff.options, method="QBDF")
+    assert basin_walker(stiff, None) is stiff
+    assert basin_walker(w, "Rodas4").options.method == "Rodas4"
+    with pytest.raises(ParameterValueError, match="unknown integration method 'Euler'"):
+        basin_walker(w, "Euler")
 
 
 def test_cli_step_down_json(capsys):

@@ -30,6 +30,7 @@ from .robustness import (
     AnalysisStatus,
     RecoveryStatus,
     basin_state,
+    basin_walker,
     fixed_points,
     recovers,
     recovery_steps,
@@ -152,12 +153,15 @@ def step_down_case(case: Mapping[str, Any], *, model: str, backend: str | None =
 
 def basin_case(case: Mapping[str, Any], *, model: str, backend: str | None = None,
                params: Mapping[str, Any] | None = None, n_steps: int | None = None,
-               tol: float = 1e-4, gait: GaitResult | None = None) -> dict:
+               tol: float = 1e-4, gait: GaitResult | None = None,
+               method: str | None = "auto") -> dict:
     """Case function of ``--analysis basin``: one point of a basin of attraction. ``case`` holds
     the thesis ``theta`` (rad) and ``theta_dot`` (rad/s) of the initial section state;
     ``params`` the walker's parameters (e.g. the slope); ``gait`` the walker's gait with them
-    (the sweep's shared argument; None: found here, once per process). Returns status
-    "converged", "fell", "wandered", "invalid" or "no_gait", and steps."""
+    (the sweep's shared argument; None: found here, once per process); ``method`` the
+    integration of the walk (:func:`~.robustness.basin_walker`; the gait is the walker's own).
+    Returns status "converged", "fell", "wandered", "invalid" or "no_gait", steps (to the first
+    state within ``tol``, or to the fall), distance and reason."""
     if gait is None:
         walker, gait = walker_cache().gait(model, backend, params)
     else:
@@ -170,7 +174,7 @@ def basin_case(case: Mapping[str, Any], *, model: str, backend: str | None = Non
         z0 = basin_state(walker, fps[0], float(case["theta"]), float(case["theta_dot"]))
     except (ValueError, np.linalg.LinAlgError) as err:
         return {"status": "invalid", "steps": 0, "message": str(err)}
-    r = recovers(walker, z0, fps, n_steps=n, tol=tol)
+    r = recovers(basin_walker(walker, method), z0, fps, n_steps=n, tol=tol)
     return to_jsonable({"status": r.status, "steps": r.steps, "distance": r.distance,
                         "reason": r.reason})
 
@@ -195,16 +199,18 @@ def prepare_walker(cases: Sequence[Mapping[str, Any]], *, model: str,
 
 
 def prepare_basin(cases: Sequence[Mapping[str, Any]], *, model: str, backend: str | None = None,
-                  params: Mapping[str, Any] | None = None, **options: Any) -> dict[str, Any]:
-    """Build the walker with ``params`` (checked) and find its gait once, here: the sweep's
-    shared argument ``gait``, so that no worker looks for it again."""
+                  params: Mapping[str, Any] | None = None, method: str | None = "auto",
+                  **options: Any) -> dict[str, Any]:
+    """Build the walker with ``params`` (checked), check ``method``, and find its gait once,
+    here: the sweep's shared argument ``gait``, so that no worker looks for it again."""
     for index, case in enumerate(cases):
         missing = [k for k in ("theta", "theta_dot") if k not in case]
         if missing:
             raise SweepError(f"case {index} {canonical(dict(case))}: a basin case needs "
                              f"{' and '.join(missing)} (rad, rad/s): --grid theta=... "
                              "--grid theta_dot=...")
-    _, gait = walker_cache().gait(model, backend, params)
+    walker, gait = walker_cache().gait(model, backend, params)
+    basin_walker(walker, method)
     return {"gait": gait}
 
 

@@ -4,14 +4,15 @@ Gait Sensitivity Norm. Generic over :class:`~.protocol.Walker`; every result ser
 
 Recovery criterion (shared by step-down and basin)
 --------------------------------------------------
-A disturbed walker *recovers* when it walks ``n_steps`` steps without falling and its last section
-state lies within ``tol`` (∞-norm, in the model's section coordinates: rad, rad/s, m/s) of one of
-the gait's fixed points (a period-k gait has k). ``n_steps`` defaults to enough steps for a
-perturbation of the gait's size to decay below ``tol`` at the gait's slowest Floquet multiplier
-ρ: n = ceil(log(tol/0.1)/log ρ) + 5, clipped to [20, 300].
-
-Walks continue in chunks of ``n_steps`` (at most 5) while the walker neither falls nor converges,
-so a slow transient near the edge of the basin is not miscounted.
+A disturbed walker *recovers* when, without falling, its section state after a step comes
+within ``tol`` (∞-norm, in the model's section coordinates: rad, rad/s, m/s) of one of the gait's
+fixed points (a period-k gait has k). The distance is checked after every step and the walk ends
+at the first step within ``tol`` (the recovery's ``steps`` counts the steps to it), at a fall
+(``steps`` counts the steps to it, the falling one included), or after ``n_steps`` steps in each of
+at most 5 chunks: ``n_steps`` defaults to enough steps for a perturbation of the gait's size to
+decay below ``tol`` at the gait's slowest Floquet multiplier ρ: n = ceil(log(tol/0.1)/log ρ) + 5,
+clipped to [20, 300], and further chunks follow while the walker neither falls nor converges, so a
+slow transient near the edge of the basin is not miscounted ("wandered" after 5 n_steps).
 
 * :func:`step_down` — the surface drops by h once, before the next heel strike (``walk(...,
   ground_drop=h)``), starting on the gait's fixed point. h (in metres) is scanned upward on a
@@ -29,6 +30,16 @@ so a slow transient near the edge of the basin is not miscounted.
   thesis's Fig. 2.21); the other section coordinates follow the fixed point (φ keeps its offset
   from 2θ; a walker may define ``basin_state(z_star, theta, theta_dot)`` to complete a state
   consistently). Each point is ``"converged"`` or ``"fell"`` (or ``"wandered"``: neither).
+  A basin's walks are integrated by :func:`basin_walker`: with ``method="auto"`` (the default)
+  a walker whose own method is a compiled stiff one (Rodas4, Rodas5P, QBDF: the compliant-contact
+  walkers) walks its points with QBDF, the compiled variable-order BDF that reuses its Jacobian,
+  at the walker's own tolerances. A point's status needs its section state to a small fraction
+  of ``tol``, not to the gait search's accuracy: on compass_walker at the file's rtol 1e-9 QBDF
+  is 3.4x faster than Rodas5P per stride, at a section-state error of 2e-7 after 6 strides
+  against Rodas5P's 9e-9 (reference: rtol 1e-12), and the 50 × 50 basin at slope 0.007 keeps
+  all 2500 statuses and step counts (benchmarks/RESULTS.md, issue 26). A choice of this
+  analysis, not the file's: the gait search and the step-down test (whose bisection to 0.01 mm
+  pins numbers) keep the walker's own method; ``method=None`` keeps it for the basin too.
 * :func:`gait_sensitivity_norm` — Hobbelen & Wisse (2007): the 2-norm of the response of gait
   indicators (step period, step length) to a unit step-down impulse, g_k = ∂(indicator of step k)
   /∂h summed over the steps until the response has decayed; by finite differences at h and h/2
@@ -48,8 +59,11 @@ import numpy as np
 
 from porthamiltonian.batch.progress import tick
 from porthamiltonian.errors import ParameterValueError
+from porthamiltonian.integrators import COMPILED_METHODS
+from porthamiltonian.simulation.simulate import METHODS
 
 from ..core.protocol import Walker
+from ..core.walker import HybridWalker
 from .gait import GaitResult, GaitStatus, analyze_gait
 from .results import JSONResult
 
@@ -61,12 +75,16 @@ __all__ = [
     "StepDownResult",
     "basin",
     "basin_state",
+    "basin_walker",
     "fixed_points",
     "gait_sensitivity_norm",
     "recovers",
     "recovery_steps",
     "step_down",
 ]
+
+
+BASIN_METHOD = "QBDF"   #: the method a stiff walker's basin is walked with (basin_walker)
 
 
 def fixed_points(walker: Walker, gait: GaitResult) -> np.ndarray:
@@ -123,19 +141,25 @@ class Recovery:
 def recovers(walker: Walker, z0: np.ndarray, fixed_points: np.ndarray, *, n_steps: int, tol: float,
              ground_drop: float = 0.0, max_chunks: int = 5) -> Recovery:
     """Walk from ``z0`` (after a drop of ``ground_drop``) and classify the outcome: walks
-    ``n_steps`` at a time, at most ``max_chunks`` times, until the state is within ``tol`` of a
-    fixed point ("converged"), the walker falls ("fell"), or the steps run out ("wandered": a
-    slow transient or another attractor)."""
+    ``n_steps`` at a time, at most ``max_chunks`` times, until the state after a step is within
+    ``tol`` of a fixed point ("converged"; checked after every step, the walk ends there), the
+    walker falls ("fell"), or the steps run out ("wandered": a slow transient or another
+    attractor). ``steps``: the steps walked (to the first within ``tol``, to the fall)."""
     z, total, d = np.asarray(z0, dtype=float), 0, math.nan
+
+    def distance(z: np.ndarray) -> float:
+        return float(np.min(np.max(np.abs(fixed_points - z[None, :]), axis=1)))
+
     for chunk in range(max_chunks):
-        strides = walker.walk(z, n_steps, ground_drop=ground_drop if chunk == 0 else 0.0)
+        strides = walker.walk(z, n_steps, ground_drop=ground_drop if chunk == 0 else 0.0,
+                              until=lambda z: distance(z) <= tol)
         tick("stride", len(strides))
         total += len(strides)
         last = strides[-1]
         if last.fell or last.z_next is None:
             return Recovery(RecoveryStatus.FELL, total, math.nan, last.reason)
         z = last.z_next
-        d = float(np.min(np.max(np.abs(fixed_points - z[None, :]), axis=1)))
+        d = distance(z)
         if d <= tol:
             return Recovery(RecoveryStatus.CONVERGED, total, d)
     return Recovery(RecoveryStatus.WANDERED, total, d)
@@ -298,6 +322,30 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
 
 
 # --- basin of attraction -------------------------------------------------------------------------
+def _method(walker: Walker) -> str:
+    """The integration method of ``walker`` ("" for a walker that does not say)."""
+    return walker.options.method if isinstance(walker, HybridWalker) else ""
+
+
+def basin_walker(walker: Walker, method: str | None = "auto") -> Walker:
+    """The walker a basin walks its points with (module docstring): ``method`` "auto" — QBDF,
+    at the walker's own tolerances, when its own method is a compiled stiff one (Rodas4,
+    Rodas5P, QBDF), else the walker as it is (DOP853 on the rigid-impact walkers); a method name
+    (one of :data:`porthamiltonian.simulation.simulate.METHODS`) — that one, at the walker's
+    tolerances; None — the walker as it is."""
+    if method is None or not isinstance(walker, HybridWalker):
+        return walker
+    if method == "auto":
+        if walker.options.method not in COMPILED_METHODS:
+            return walker
+        method = BASIN_METHOD
+    if method not in METHODS:
+        raise ParameterValueError(f"basin: unknown integration method {method!r}; choose "
+                                  f"'auto', None (the walker's own) or one of "
+                                  f"{', '.join(METHODS)}")
+    return walker if method == walker.options.method else walker.with_options(method=method)
+
+
 def basin_state(walker: Walker, z_star: np.ndarray, theta: float, theta_dot: float) -> np.ndarray:
     """Section state with thesis θ, θ̇ set and the rest taken from the fixed point ``z_star``
     (φ keeps its offset from 2θ). A walker's own ``basin_state`` method takes precedence."""
@@ -323,9 +371,11 @@ def basin_state(walker: Walker, z_star: np.ndarray, theta: float, theta_dot: flo
 class BasinResult(JSONResult):
     """Result of :func:`basin`: a grid over thesis θ (rad) and θ̇ (rad/s) around the fixed point,
     also given scaled (θ/theta_scale, θ̇/theta_dot_scale). ``status[i][j]`` for theta[i],
-    theta_dot[j]: "converged", "fell", "wandered" (or "invalid" for a state the walker refuses).
+    theta_dot[j]: "converged", "fell", "wandered" (or "invalid" for a state the walker refuses);
+    ``steps[i][j]`` the steps it walked (to the first within ``tol``, to the fall: module docstring).
     ``fraction`` converged; ``radius`` the largest scaled distance r such that every grid point
-    within r of the fixed point converged (the thesis's "biggest circle" measure, §2.6)."""
+    within r of the fixed point converged (the thesis's "biggest circle" measure, §2.6);
+    ``method`` the integration method the points were walked with (:func:`basin_walker`)."""
 
     model: str
     status: AnalysisStatus
@@ -340,6 +390,7 @@ class BasinResult(JSONResult):
     radius: float
     n_steps: int
     tol: float
+    method: str
     parameters: dict
     seconds: float
     message: str
@@ -348,16 +399,21 @@ class BasinResult(JSONResult):
 def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
           span: float | tuple[float, float] = 0.1,
           theta_scale: float = 0.4, theta_dot_scale: float = 0.8, n_steps: int | None = None,
-          tol: float = 1e-4, progress: Callable[[dict], None] | None = None) -> BasinResult:
+          tol: float = 1e-4, method: str | None = "auto",
+          progress: Callable[[dict], None] | None = None) -> BasinResult:
     """Basin of attraction on an n × n grid of scaled section states within ±``span`` (scaled
     units; a pair gives the θ and θ̇ half-widths apart) of the fixed point (module docstring),
     evaluated serially; a parallel basin is a sweep
-    over section states (:func:`walker_library.analyses.basin_case`). ``progress`` is called per grid point."""
+    over section states (:func:`walker_library.analyses.basin_case`). ``method``: the
+    integration of the points' walks (:func:`basin_walker`; the gait is the walker's own).
+    ``progress`` is called per grid point."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
+    walking = basin_walker(walker, method)
     base: dict[str, Any] = {"model": walker.name, "parameters": dict(walker.parameters),
                             "tol": tol, "theta_scale": theta_scale,
-                            "theta_dot_scale": theta_dot_scale}
+                            "theta_dot_scale": theta_dot_scale,
+                            "method": _method(walking)}
     if gait.status != GaitStatus.PERIODIC:
         return BasinResult(status=AnalysisStatus.NO_GAIT, theta=[], theta_dot=[], fixed_point=gait.fixed_point,
                            outcome=[], steps=[], fraction=math.nan, radius=math.nan, n_steps=0,
@@ -383,7 +439,7 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
             except (ValueError, np.linalg.LinAlgError):
                 outcome[i][j] = "invalid"
                 continue
-            r = recovers(walker, z0, fps, n_steps=n_steps, tol=tol)
+            r = recovers(walking, z0, fps, n_steps=n_steps, tol=tol)
             outcome[i][j], steps[i][j] = r.status, r.steps
             if progress is not None:
                 progress({"theta": float(th), "theta_dot": float(thd), "status": r.status})

@@ -12,7 +12,9 @@ identity without a reset), so that saltation matrices can be formed at every eve
 rules to the initial modes and gives :func:`porthamiltonian.simulate` one action per event
 (:meth:`ModeMachine.actions`); every transition that fires is recorded in the walk's
 :class:`WalkLog` (:class:`Fired`: time, transition, state and parameters before and after), and
-the walk stops after the requested number of heel strikes or at a fall.
+the walk stops after the requested number of heel strikes (or earlier, at the first heel strike
+after which the walk's stop predicate holds: :meth:`.walker.HybridWalker.walk`'s ``until``) or
+at a fall.
 
 For runs with sensitivities (:mod:`.variational`) the actions also give the derivatives of
 what they do (:meth:`ModeMachine.actions` with ``derivatives``): the state map's Jacobian
@@ -30,7 +32,7 @@ from __future__ import annotations
 
 import functools
 import operator
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import cast
 
@@ -145,15 +147,27 @@ class Fired:
 
 @dataclass
 class WalkLog:
-    """What one walk's transitions did: every :class:`Fired` in order, and the heel strikes."""
+    """What one walk's transitions did: every :class:`Fired` in order, and the heel strikes.
+    The walk ends at its ``target``-th heel strike, or earlier at the first heel strike after
+    which ``until(x_plus, p_plus)`` holds (``met`` then True)."""
 
     target: int
+    until: Callable[[np.ndarray, np.ndarray], bool] | None = None
     fired: list[Fired] = field(default_factory=list)
+    met: bool = False
 
     @property
     def heel_strikes(self) -> list[Fired]:
         """The fired transitions that ended a step."""
         return [f for f in self.fired if f.transition.heel_strike]
+
+    def done(self, x: np.ndarray, p: np.ndarray) -> bool:
+        """After a heel strike to state ``x`` with parameters ``p`` (already logged): whether the
+        walk has its steps (the target reached, or ``until`` holds)."""
+        if len(self.heel_strikes) >= self.target:
+            return True
+        self.met = self.until is not None and bool(self.until(x, p))
+        return self.met
 
 
 @dataclass(frozen=True)
@@ -197,7 +211,7 @@ class ModeMachine:
             extra, info["jacobian_error"] = self._derivatives(tr, t, x, p, derivatives)
         log.fired.append(Fired(t, tr, np.array(x, dtype=float), np.array(p, dtype=float),
                                x_after, p_after, info))
-        stop = tr.fall or (tr.heel_strike and len(log.heel_strikes) >= log.target)
+        stop = tr.fall or (tr.heel_strike and log.done(x_after, p_after))
         names = self.model.param_names
         params = {names[c.index]: p_after[c.index] for c in tr.changes}
         return Reset(x=x_after if tr.impact is not None else None, params=params or None,

@@ -25,7 +25,7 @@ stance foot ahead of the hip), θ̇ < 0 while walking downhill, and φ = 2θ at 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
@@ -194,8 +194,10 @@ class Walker(Protocol):
         """Simulate one step from section coordinates ``z`` (``details``: also max θ, max φ)."""
 
     def walk(self, z: np.ndarray, n_steps: int, *, details: bool = False,
-             record: bool = False, ground_drop: float = 0.0) -> list[Stride]:
-        """``n_steps`` consecutive strides from ``z`` (stops at the first fall).
+             record: bool = False, ground_drop: float = 0.0,
+             until: Callable[[np.ndarray], bool] | None = None) -> list[Stride]:
+        """``n_steps`` consecutive strides from ``z`` (stops at the first fall, or after the
+        first stride whose end section state satisfies ``until``).
 
         ``ground_drop`` h (m, >= 0): the surface drops by h once, ahead of the stance foot, before
         the first heel strike, and stays down (the thesis's step-down, §2.6): the first step's new

@@ -11,8 +11,8 @@ stiffness); with ``details``, max |θ| and max |φ| over the step in the section
 the step (from the dense output, refined, when the integrator has one; else over the stored
 points). ``info`` also holds the state and parameters before and after the heel strike, the
 transitions that fired during the step (``info["fired"]``: :class:`~.machine.Fired`), and the
-impact's record for a rigid walker. A walk that ends without its last heel strike adds a
-Stride with status ``"fell"`` and the reason: ``"time_limit"``, the event that ended it (e.g.
+impact's record for a rigid walker. A walk that ends without its last heel strike (and not
+stopped by its ``until``) adds a Stride with status ``"fell"`` and the reason: ``"time_limit"``, the event that ended it (e.g.
 ``"fall"``), or the integrator's status.
 """
 from __future__ import annotations
@@ -130,7 +130,7 @@ def cut_strides(walker: HybridWalker, traj: Trajectory, log: WalkLog, *, details
             s.max_theta, s.max_phi = _maxima(walker, traj, Y, i_prev, idx, t_prev, hs.t, p_step)
         strides.append(s)
         t_prev, i_prev, prev, p_step, foot_x = hs.t, idx, now, hs.p_plus, x_new
-    if len(strides) < log.target:
+    if len(strides) < log.target and not log.met:
         fell = Stride(StrideStatus.FELL, None, float(traj.t_final - t_prev), reason=_fall_reason(traj),
                       info={"message": traj.message, "status": traj.status})
         if details and traj.t_final > t_prev:

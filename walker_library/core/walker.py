@@ -36,7 +36,7 @@ labelling when its ``labelling`` condition does not hold).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from types import MappingProxyType
 from typing import Any
@@ -565,13 +565,16 @@ class HybridWalker:
         return self.walk(z, 1, details=details, record=record)[0]
 
     def walk(self, z: np.ndarray, n_steps: int, *, details: bool = False, record: bool = False,
-             ground_drop: float = 0.0) -> list[Stride]:
+             ground_drop: float = 0.0,
+             until: Callable[[np.ndarray], bool] | None = None) -> list[Stride]:
         """``n_steps`` consecutive strides from section state ``z`` in one simulation (one
         energy ledger); stops at the first fall, which is the last Stride (status "fell").
 
         ``details``: also max |θ|, max |φ| per step; ``record``: the trajectory in the last
         stride's ``info["trajectory"]``; ``ground_drop`` h (m, >= 0): the description's drop
-        parameter is h, and its rules lower the surface (e.g. ahead of the stance foot, once)."""
+        parameter is h, and its rules lower the surface (e.g. ahead of the stance foot, once);
+        ``until``: called with the section state after each heel strike, ends the walk there
+        (fewer than ``n_steps`` strides, the last a step) when it returns True."""
         if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
             raise ParameterValueError(f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
         p0 = self.start_params(ground_drop)
@@ -582,7 +585,8 @@ class HybridWalker:
         if not np.all(np.isfinite(x0)):
             return [Stride(StrideStatus.FELL, None, 0.0, reason="invalid_state")]
         p0 = self.machine.start(x0, p0)
-        log = WalkLog(int(n_steps))
+        log = WalkLog(int(n_steps), None if until is None
+                      else lambda x, p: until(self.project(x, p)))
         o = self.options
         traj = self.model.simulate(
             o.max_step_time * n_steps, x0=x0, params=dict(zip(self.model.param_names, p0)),
