@@ -42,6 +42,7 @@ def pytest_configure(config: pytest.Config) -> None:
                                        "--numba-pass, deselected otherwise)")
 
 
+@pytest.hookimpl(tryfirst=True)     # before pytest-xdist's, which reads the groups
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """``--numba-pass`` or not (module docstring); under pytest-xdist (``-n auto --dist
     loadgroup``, the README's command), keep each test file on one worker (its module fixtures
