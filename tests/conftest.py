@@ -15,9 +15,12 @@
   workers share one compiled-model cache (see the hooks below).
 * ``compile_named(name)`` compiles a model of ``models/`` with the fast-to-build ``python`` back
   end (memoized for the session), for tests where the back end does not matter.
-* ``energy_check`` is the session's one ``porthamiltonian --backend python check-energy`` over
-  every shipped model (a fresh interpreter): the command-line test and the per-model energy tests
-  read its report instead of simulating every model again (about a minute of CPU each time).
+* ``energy_check`` is the session's one ``porthamiltonian --backend c check-energy`` over every
+  shipped model (a fresh interpreter): the command-line test and the per-model energy tests read
+  its report instead of simulating every model again, and the tests comparing every model's
+  python and C functions wait for it and read the compiled models from the shared cache. (On the
+  C back end: the same generated program as the python back end's, which test_backends checks
+  function by function; the simulations cost a third of the python back end's CPU.)
 """
 from __future__ import annotations
 
@@ -171,10 +174,10 @@ class EnergyCheck:
 
 @pytest.fixture(scope="session")
 def energy_check(isolated_cache) -> EnergyCheck:
-    """``porthamiltonian --backend python check-energy`` over every shipped model, in a fresh
+    """``porthamiltonian --backend c check-energy`` over every shipped model, in a fresh
     interpreter (the session's cache), each with its file's [simulation] settings."""
     started = EnergyCheck(subprocess.Popen(
-        [sys.executable, "-m", "porthamiltonian", "--backend", "python", "check-energy"],
+        [sys.executable, "-m", "porthamiltonian", "--backend", "c", "check-energy"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
     yield started
     if started.proc.poll() is None:
