@@ -15,6 +15,10 @@
   workers share one compiled-model cache (see the hooks below).
 * ``compile_named(name)`` compiles a model of ``models/`` with the fast-to-build ``python`` back
   end (memoized for the session), for tests where the back end does not matter.
+* The garbage collector: the objects alive after collection are frozen (never scanned again)
+  and the young generation is collected every 10000 allocations instead of 700 (sympy and the
+  compiled models make many objects): 5-13 % less CPU on the sympy- and walker-heavy files
+  (A/B, interleaved, load 1-2), no check changed.
 * ``energy_check`` is the session's one ``porthamiltonian --backend c check-energy`` over every
   shipped model (a fresh interpreter): the command-line test and the per-model energy tests read
   its report instead of simulating every model again, and the tests comparing every model's
@@ -24,6 +28,7 @@
 """
 from __future__ import annotations
 
+import gc
 import os
 import re
 import subprocess
@@ -43,6 +48,14 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "numba_loop: checks numba's compiled loops (run by "
                                        "--numba-pass, deselected otherwise)")
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """Freeze what collection left alive and collect the young generation less often (module
+    docstring)."""
+    gc.collect()
+    gc.freeze()
+    gc.set_threshold(10000, 20, 20)
 
 
 @pytest.hookimpl(tryfirst=True)     # before pytest-xdist's, which reads the groups
