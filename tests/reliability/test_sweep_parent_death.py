@@ -22,8 +22,10 @@ from walker_library.analyses.cases import gait_case
 from walker_library.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
-# simplest_walker's gait over 12 slopes, python back end: ~0.5 s per case on one core
-SLOPES = "slope=0.004:0.015:12"
+# simplest_walker's gait over 6 slopes, python back end: ~0.5 s per case on one core (from 0.015
+# on, the gait search continues through the period doublings: 7-70x longer)
+N_CASES = 6
+SLOPES = f"slope=0.004:0.014:{N_CASES}"
 FIXED = {"model": "simplest_walker", "backend": "python"}
 
 
@@ -83,7 +85,7 @@ def test_sigkill_of_the_sweep_then_an_immediate_resume(tmp_path):
     proc = subprocess.Popen(_command(out), env=_env(), cwd=ROOT, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     t0 = time.monotonic()
-    while _rows(out) < 3 or len(_workers(out)) < 2:
+    while len(_workers(out)) < 2:                     # killed once each worker wrote a row
         assert proc.poll() is None, f"the sweep ended early: {proc.communicate()}"
         assert time.monotonic() - t0 < 120, "no rows from both workers in time"
         time.sleep(0.01)
@@ -93,13 +95,13 @@ def test_sigkill_of_the_sweep_then_an_immediate_resume(tmp_path):
     proc.communicate(timeout=30)
     assert proc.returncode == -signal.SIGKILL
     n_before = len(load_results(out))
-    assert 3 <= n_before < 12
+    assert 2 <= n_before < N_CASES
 
     # the same command, at once: the lock died with its holder (the workers never held it)
     resumed = subprocess.run(_command(out), env=_env(), cwd=ROOT, capture_output=True,
                              text=True, timeout=300, check=False)
     assert resumed.returncode == 0, resumed.stderr
-    assert f"this run {12 - n_before} case(s)" in resumed.stdout
+    assert f"this run {N_CASES - n_before} case(s)" in resumed.stdout
     assert f"{n_before} already done" in resumed.stdout
 
     # the killed sweep's workers exited with it (parent-death signal)
@@ -109,7 +111,7 @@ def test_sigkill_of_the_sweep_then_an_immediate_resume(tmp_path):
     assert not any(_alive(pid) for pid in workers)
 
     rows = load_results(out)
-    assert sorted(r["case_id"] for r in rows) == list(range(12))       # each case exactly once
+    assert sorted(r["case_id"] for r in rows) == list(range(N_CASES))  # each case exactly once
     assert {r["case_id"]: (r["case"], r["status"], r["result"]) for r in rows} == \
         _uninterrupted(tmp_path)
 

@@ -6,7 +6,8 @@ numba and the python reference evaluate the same program (porthamiltonian.compil
   states and parameters (numba on a cheap set: its compilation is slow);
 * the printers give Heaviside, sign, min/max, Piecewise, abs and powers the same meaning on
   edge values (±0, ±inf, NaN);
-* the energy ledger closes on the C back end for every shipped model (its file's settings);
+* (the energy ledger closes on the C back end for every shipped model with its file's settings:
+  test_textbook's per-model test, from the session's ``check-energy`` run, tests/conftest.py);
 * the same gait: a rigid walker (scipy DOP853 on C or on python functions) to 1e-9 (fixed
   point) and 1e-7 (multipliers).
 """
@@ -51,9 +52,12 @@ def _agree(a: dict, b: dict, what: str) -> None:
 
 
 @pytest.mark.parametrize("name", MODELS)
-def test_python_and_c_agree_on_every_shipped_model(name, compile_named):
+def test_python_and_c_agree_on_every_shipped_model(name, compile_named, energy_check):
     """Every function of every shipped model at 3 random points: C equals the python reference
-    to 1e-12 of the function's largest entry (measured: ≤ 7e-16)."""
+    to 1e-12 of the function's largest entry (measured: ≤ 7e-16). (The session's check-energy
+    run has built every model for both back ends into the shared cache: waited for, not built
+    twice.)"""
+    _ = energy_check.run
     py = compile_named(name)
     c = compile_model(io.load(name), backend="c")
     assert c.backend == "c" and c.key == py.key
@@ -138,18 +142,6 @@ def test_generated_functions_list_their_layout_and_hostile_names_stay_in_comment
         # rhs, jac, guards: hidden externals, called by the integration loops' own object
         linkage = "PH_HIDDEN" if name in ("rhs", "jac", "guards") else "static"
         assert f"{linkage} void {name}(" in c.source and f"\ndef {name}(" in py.source
-
-
-@pytest.mark.parametrize("name", MODELS)
-def test_energy_ledger_closes_on_the_c_back_end(name, model_settings):
-    """The file's own simulation settings on the C back end: the run succeeds and the ledger's
-    residual is within the file's energy tolerance (what `porthamiltonian check-energy` does)."""
-    sim = model_settings(name)
-    model = compile_model(io.load(name), backend="c")
-    options = {k: sim[k] for k in ("method", "rtol", "atol", "max_step", "inputs") if k in sim}
-    traj = model.simulate(float(sim["t_end"]), **options)
-    assert traj.success, traj.message
-    assert traj.relative_residual <= float(sim["energy_tolerance"])
 
 
 def test_same_rigid_walker_gait_on_python_and_c():

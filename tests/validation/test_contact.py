@@ -742,7 +742,7 @@ def test_energy_ledger_closes_with_rodas4_and_radau(compile_named, model_setting
 
 
 def test_check_energy_command_passes_on_the_contact_models(energy_check):
-    """``porthamiltonian --backend python check-energy`` passes the four models (the session's
+    """``porthamiltonian --backend c check-energy`` passes the four models (the session's
     run over every shipped model, tests/conftest.py)."""
     for name in CONTACT_MODELS:
         assert energy_check.line(name)["ok"], energy_check.line(name)["text"]

@@ -75,7 +75,7 @@ def test_model_files_load_in_a_fresh_process():
 
 
 def test_check_energy_passes_on_the_mechanics_models(energy_check):
-    """``porthamiltonian check-energy`` (python back end, a fresh interpreter: the session's run
+    """``porthamiltonian check-energy`` (C back end, a fresh interpreter: the session's run
     over every shipped model, tests/conftest.py) closes the energy balance of each mechanics
     model with its own [simulation] settings and energy_tolerance."""
     for name in MECHANICS_MODELS:

@@ -314,10 +314,12 @@ def _numeric_power_balance(name, n, defaults):
 
 @pytest.mark.parametrize("name", io.available_models())
 def test_energy_residual_within_model_tolerance(energy_check, model_settings, name):
-    """Simulated with its own [simulation] settings (python back end), each model's ledger
+    """Simulated with its own [simulation] settings (C back end), each model's ledger
     residual max |H − H(0) + E_diss − E_in| / energy scale stays below its energy_tolerance.
     The numbers are the session's one ``check-energy`` run's (tests/conftest.py), which simulates
-    each model so, rather than a second simulation of every model here."""
+    each model so, rather than a second simulation of every model here. (The python back end
+    evaluates the same generated program: test_backends compares every function of every model
+    on the two back ends.)"""
     line = energy_check.line(name)
     assert line["status"] == "finished", line["text"]
     assert line["tol"] == float(model_settings(name)["energy_tolerance"]), line["text"]
