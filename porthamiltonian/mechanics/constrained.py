@@ -107,7 +107,7 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
     return rates, Q
 
 
-def constrain_kernel(b: Builder, rows: Sequence[Row], q: Sequence, p: Sequence, v: Sequence,
+def constrain_kernel(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence,
                      Q: list, rates: list, kinematics: Callable[[Sequence], list], gain: Any,
                      where: str, solve: Callable[[list, int], list]) -> tuple[list, list]:
     """:func:`constrain` for a tree evaluated by the kernel (:mod:`.kernel`): the same equations,
@@ -117,7 +117,7 @@ def constrain_kernel(b: Builder, rows: Sequence[Row], q: Sequence, p: Sequence, 
     SG Y − (1 − S), ν = (SG Y − (1 − S))⁻¹ (SG a₀ − r), and the position correction from the same
     complement — with its Jacobian by implicit differentiation inside the kernel. Only the rows'
     φ, G and Ġ v are written out (from the tree's positions); the kernel's inputs are
-    (q, p, f, SG (m x n, row-major), 1 − S, r = −S (Ġ v + γ G v), S φ), its outputs
+    (q, v, f, SG (m x n, row-major), 1 − S, r = −S (Ġ v + γ G v), S φ), its outputs
     (ṗ = f + Gᵀ S λ, λ, Δv)."""
     n, m = len(v), len(rows)
     G = _matrix(rows, n, where)
@@ -136,7 +136,7 @@ def constrain_kernel(b: Builder, rows: Sequence[Row], q: Sequence, p: Sequence, 
          in enumerate(zip(active, Gdot_v, Gv))]
     h = [named(f"residual{i}", s * row.phi) if correct and row.holonomic else sp.S.Zero
          for i, (s, row) in enumerate(zip(active, rows))]
-    out = solve([*q, *p, *f, *SG, *free, *r, *h], m)
+    out = solve([*q, *v, *f, *SG, *free, *r, *h], m)
     lam, dv = out[n:n + m], out[n + m:]
     if correct:
         rates = [a + c for a, c in zip(rates, kinematics([gain * d for d in dv]))]

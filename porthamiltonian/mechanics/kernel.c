@@ -553,13 +553,14 @@ static void mb_implicit(int D, const mb_tab *t, const double *R, const double *p
     for (int i = 0; i < nv; ++i) x[i * D] = xv[i];
 }
 
-/* e += C(q, v): Newton-Euler's velocity-product forces at zero joint accelerations and no gravity
- * (Featherstone 2008, section 5.3) from the velocities v and the body twists (w, lin) (duals).
- * Root to tip the spatial accelerations A_k = X_k^T A_parent + T_k x S v (6 duals per link:
- * angular, then linear), tip to root the wrenches F_k = I_k A_k + T_k x* I_k T_k plus the
- * children's, C = S^T F_k. */
+/* e += M(q) acc + C(q, v): Newton-Euler's inverse dynamics without gravity (Featherstone 2008,
+ * section 5.3) at the joint accelerations acc (numbers), from the velocities v and the body twists
+ * (w, lin) (duals). Root to tip the spatial accelerations A_k = X_k^T A_parent + S acc + T_k x S v
+ * (6 duals per link: angular, then linear), tip to root the wrenches F_k = I_k A_k + T_k x* I_k T_k
+ * plus the children's, S^T F_k. */
 static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, const double *v,
-                    const double *w, const double *lin, double *A, double *F, double *e)
+                    const double *acc, const double *w, const double *lin, double *A, double *F,
+                    double *e)
 {
     const int nl = t->nl;
     for (int k = 0; k < nl; ++k) {
@@ -577,6 +578,10 @@ static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, co
         for (int s = 0; s < mb_dofs(kind); ++s) {
             double a[3], u[3], ma[3];
             mb_screw(t, k, s, a, u);
+            for (int i = 0; i < 3; ++i) {
+                Ak[i * D] += acc[i0 + s] * a[i];
+                Ak[3 * D + i * D] += acc[i0 + s] * u[i];
+            }
             for (int i = 0; i < 3; ++i) ma[i] = -a[i];
             v_zero(D, tmp);
             v_cross_c(D, ma, wk, tmp);                   /* w x a */
@@ -612,6 +617,32 @@ static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, co
     }
 }
 
+/* e = Pi^T ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity products Mdot v) from
+ * the velocities v: the twists and subtree momenta (w, lin, L, P) formed here */
+static void mb_products(int D, const mb_tab *t, const double *R, const double *p, const double *v,
+                        const double *acc, double *w, double *lin, double *L, double *P, double *A,
+                        double *F, double *e)
+{
+    mb_velocities(D, t, R, p, v, w, lin, L, P);
+    for (int k = 0; k < t->nl; ++k) {
+        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
+        for (int r = 0; r < n; ++r) {
+            double a[3], u[3];
+            mb_screw(t, k, r, a, u);
+            d_set(D, e + (i0 + r) * D, 0.0);
+            mb_velocity_force(D, w + 3 * D * k, lin + 3 * D * k, L + 3 * D * k, P + 3 * D * k, a, u,
+                              e + (i0 + r) * D);
+        }
+    }
+    mb_bias(D, t, R, p, v, acc, w, lin, A, F, e);
+}
+
+/* out = the values of the n duals x (n x D) */
+MB_INLINE void mb_values(int D, int n, const double *x, double *out)
+{
+    for (int i = 0; i < n; ++i) out[i] = x[i * D];
+}
+
 /* A = P L U in place (m x m, row-major; partial pivoting, row swaps in piv) */
 static void mb_lu(int m, double *A, int *piv)
 {
@@ -634,84 +665,103 @@ static void mb_lu(int m, double *A, int *piv)
     }
 }
 
-/* x = A^-1 x for column col of x (m x D) with the factors of mb_lu */
-static void mb_lu_solve(int m, const double *A, const int *piv, int D, int col, double *x)
+/* x = A^-1 x for the columns j0 .. D - 1 of x (m x D) with the factors of mb_lu */
+static void mb_lu_solve(int m, const double *A, const int *piv, int D, int j0, double *x)
 {
-    for (int k = 0; k < m; ++k) {
-        const double tmp = x[k * D + col];
-        x[k * D + col] = x[piv[k] * D + col];
-        x[piv[k] * D + col] = tmp;
-    }
+    for (int k = 0; k < m; ++k)
+        for (int col = j0; col < D; ++col) {
+            const double tmp = x[k * D + col];
+            x[k * D + col] = x[piv[k] * D + col];
+            x[piv[k] * D + col] = tmp;
+        }
     for (int i = 0; i < m; ++i)
-        for (int j = 0; j < i; ++j) x[i * D + col] -= A[i * m + j] * x[j * D + col];
+        for (int j = 0; j < i; ++j) {
+            const double a = A[i * m + j];
+            for (int col = j0; col < D; ++col) x[i * D + col] -= a * x[j * D + col];
+        }
     for (int i = m - 1; i >= 0; --i) {
-        for (int j = i + 1; j < m; ++j) x[i * D + col] -= A[i * m + j] * x[j * D + col];
-        x[i * D + col] /= A[i * m + i];
+        for (int j = i + 1; j < m; ++j) {
+            const double a = A[i * m + j];
+            for (int col = j0; col < D; ++col) x[i * D + col] -= a * x[j * D + col];
+        }
+        for (int col = j0; col < D; ++col) x[i * D + col] /= A[i * m + i];
     }
+}
+
+/* the entries (i, k) of Ga (duals xG, m x n) with a nonzero value or tangent: the structural
+ * nonzeros, rows in nz[0 .. count), columns in nz[m n ..); returns count */
+static int mb_pattern(int D, int m, int n, const double *xG, int *nz)
+{
+    int count = 0;
+    for (int i = 0; i < m; ++i)
+        for (int k = 0; k < n; ++k)
+            for (int j = 0; j < D; ++j)
+                if (xG[(i * n + k) * D + j] != 0.0) {
+                    nz[count] = i;
+                    nz[m * n + count] = k;
+                    ++count;
+                    break;
+                }
+    return count;
 }
 
 /* The saddle-point system [M Ga^T; Ga C] [a; nu] = [X; Z] solved in place (X <- a, Z <- nu) for the
  * columns j0 .. D - 1 of X (n x D) and Z (m x D) by the Schur complement: with the factors H of M,
  * Y = M^-1 Ga^T (n x m) and Sc = Ga Y - C (m x m, factored by mb_lu), a' = M^-1 X,
- * nu = Sc^-1 (Ga a' - Z), a = a' - Y nu */
+ * nu = Sc^-1 (Ga a' - Z), a = a' - Y nu (Ga's nonzeros: nz, nnz of mb_pattern; not full: nu only,
+ * X left at a') */
 static void mb_saddle(int D, int j0, int n, int m, const int *lam, const double *H,
-                      const double *Ga, const double *Y, const double *Sc, const int *piv,
-                      double *X, double *Z)
+                      const double *Ga, const int *nz, int nnz, const double *Y, const double *Sc,
+                      const int *piv, double *X, double *Z, int full)
 {
     mb_solve(D, j0, n, lam, lam + n, H, X);
-    for (int col = j0; col < D; ++col) {
-        for (int i = 0; i < m; ++i) {
-            double acc = -Z[i * D + col];
-            for (int k = 0; k < n; ++k) acc += Ga[i * n + k] * X[k * D + col];
-            Z[i * D + col] = acc;
-        }
-        mb_lu_solve(m, Sc, piv, D, col, Z);
-        for (int k = 0; k < n; ++k) {
-            double acc = 0.0;
-            for (int i = 0; i < m; ++i) acc += Y[k * m + i] * Z[i * D + col];
-            X[k * D + col] -= acc;
-        }
+    for (int i = 0; i < m; ++i)
+        for (int col = j0; col < D; ++col) Z[i * D + col] = -Z[i * D + col];
+    for (int e = 0; e < nnz; ++e) {
+        const int i = nz[e], k = nz[m * n + e];
+        const double g = Ga[i * n + k];
+        for (int col = j0; col < D; ++col) Z[i * D + col] += g * X[k * D + col];
     }
+    mb_lu_solve(m, Sc, piv, D, j0, Z);
+    if (!full) return;
+    for (int k = 0; k < n; ++k)
+        for (int i = 0; i < m; ++i) {
+            const double y = Y[k * m + i];
+            for (int col = j0; col < D; ++col) X[k * D + col] -= y * Z[i * D + col];
+        }
 }
 
 /* The right-hand sides of a saddle solution's tangents (columns 1 .. D - 1): T -= d(M a)|_a (the
  * tangents of dm) + dGa^T nu, Z -= dGa a + dC nu, for the solution (a, nu) (numbers) and the duals
- * of Ga (xG, m x n) and of C's diagonal (xC) */
+ * of Ga (xG, m x n; its nonzeros nz, nnz) and of C's diagonal (xC) */
 static void mb_saddle_tangents(int D, int n, int m, const double *xG, const double *xC,
-                               const double *a, const double *nu, const double *dm, double *T,
-                               double *Z)
+                               const int *nz, int nnz, const double *a, const double *nu,
+                               const double *dm, double *T, double *Z)
 {
-    for (int j = 1; j < D; ++j) {
-        for (int k = 0; k < n; ++k) {
-            double acc = dm[k * D + j];
-            for (int i = 0; i < m; ++i) acc += xG[(i * n + k) * D + j] * nu[i];
-            T[k * D + j] -= acc;
-        }
-        for (int i = 0; i < m; ++i) {
-            double acc = xC[i * D + j] * nu[i];
-            for (int k = 0; k < n; ++k) acc += xG[(i * n + k) * D + j] * a[k];
-            Z[i * D + j] -= acc;
+    for (int k = 0; k < n; ++k)
+        for (int j = 1; j < D; ++j) T[k * D + j] -= dm[k * D + j];
+    for (int i = 0; i < m; ++i)
+        for (int j = 1; j < D; ++j) Z[i * D + j] -= xC[i * D + j] * nu[i];
+    for (int e = 0; e < nnz; ++e) {
+        const int i = nz[e], k = nz[m * n + e];
+        const double *g = xG + (i * n + k) * D;
+        for (int j = 1; j < D; ++j) {
+            T[k * D + j] -= g[j] * nu[i];
+            Z[i * D + j] -= g[j] * a[k];
         }
     }
 }
 
-/* The tree at the duals x = (q, p, ...): poses, composites, M factored in place (values; lam: the
- * parents and runs of mb_lambda), the velocities v = M^-1 p (duals), the twists (w, lin) and
- * subtree momenta (L, P); S0 (6 nv), xv (nv), y and e (nv x D): work space */
+/* The tree at the duals x = (q, ...): poses, composites and M factored in place (values; lam: the
+ * parents and runs of mb_lambda; S0: 6 nv of work space) */
 static void mb_tree(int D, const mb_tab *t, const double *x, double *R, double *p, double *R0,
-                    double *p0, double *mc, double *hc, double *Jc, double *S0, double *M, int *lam,
-                    double *v, double *w, double *lin, double *L, double *P, double *xv, double *y,
-                    double *e)
+                    double *p0, double *mc, double *hc, double *Jc, double *S0, double *M, int *lam)
 {
-    const int nv = t->nv;
     mb_positions(D, t, x, R, p, R0, p0);
     mb_composites(D, t, R, p, mc, hc, Jc);
     mb_mass(D, t, R0, p0, mc, hc, Jc, S0, M);           /* values only */
-    mb_lambda(t, lam, lam + nv);
-    mb_ltdl(nv, lam, lam + nv, M);
-    d_copy(nv * D, v, x + t->nq * D);
-    mb_implicit(D, t, R, p, lam, M, v, w, lin, L, P, xv, y, e);
-    mb_velocities(D, t, R, p, v, w, lin, L, P);
+    mb_lambda(t, lam, lam + t->nv);
+    mb_ltdl(t->nv, lam, lam + t->nv, M);
 }
 
 /* --- entry points -------------------------------------------------------------------------------- */
@@ -747,7 +797,10 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
     double *M = Jc + 9 * nl, *x = M + nv * nv, *v = x + (nq + nv) * D, *V = v + nv * D;
     double *S0 = V + D, *xv = S0 + 6 * nv, *y = xv + nv, *ev = y + nv * D;
     mb_seed(D, nq + nv, in, din, x);
-    mb_tree(D, t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam, v, w, lin, L, P, xv, y, ev);
+    mb_tree(D, t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
+    d_copy(nv * D, v, x + nq * D);
+    mb_implicit(D, t, R, p, lam, M, v, w, lin, L, P, xv, y, ev);
+    mb_velocities(D, t, R, p, v, w, lin, L, P);
     const double *G = t->c + MB_LINK * nl;
     for (int k = 0; k < nl; ++k) {                      /* gravity in each link's frame */
         const int parent = t->link[4 * k];
@@ -932,7 +985,7 @@ MB_ENTRY void ph_mb_load(const int *s, const double *c, const double *in, double
     free(ws);
 }
 
-/* The constrained entry: in = (q, p, f (the momentum rates with the ports' loads), Ga = S G
+/* The constrained entry: in = (q, v, f (the momentum rates with the ports' loads), Ga = S G
  * (m x nv, row-major), C = 1 - S (m), r = -S (Gdot v + gamma G v) (m), h = S phi (m)), m the
  * table's last integer; out = (pdot = f - Ga^T nu, lambda = -nu, the position correction dv) of
  * the saddle-point systems [M Ga^T; Ga C] [a; nu] = [f - Mdot v; r] and [M Ga^T; Ga C] [dv; mu] =
@@ -945,37 +998,36 @@ MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in,
     mb_read(s, c, &t);
     const int nl = t.nl, nv = t.nv, nq = t.nq, m = s[4 + 4 * nl + 2 * t.ns], D = 1 + K;
     const int n_in = nq + 2 * nv + m * nv + 3 * m;
-    const size_t size = (size_t)nl * 54 * D + (size_t)nl * 10 + (size_t)nv * (nv + 6)
-                        + (size_t)n_in * D + (size_t)nv * (8 * D + 2) + (size_t)m * (2 * nv + m + 2)
+    const size_t size = (size_t)nl * 54 * D + (size_t)nl * 46 + (size_t)nv * (nv + 6)
+                        + (size_t)n_in * D + (size_t)nv * (5 * D + 4) + (size_t)m * (2 * nv + m + 2)
                         + (size_t)m * 4 * D;
     double *ws = malloc(sizeof(double) * size);
-    int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 1));
+    int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 2 * m * nv + 1));
     if (ws == NULL || iw == NULL) abort();
     double *R = ws, *p = R + 9 * D * nl, *R0 = p + 3 * D * nl, *p0 = R0 + 9 * D * nl;
     double *hc = p0 + 3 * D * nl, *w = hc + 3 * D * nl, *lin = w + 3 * D * nl, *L = lin + 3 * D * nl;
     double *P = L + 3 * D * nl, *A = P + 3 * D * nl, *F = A + 6 * D * nl, *mc = F + 6 * D * nl;
     double *Jc = mc + nl, *M = Jc + 9 * nl, *S0 = M + nv * nv, *x = S0 + 6 * nv;
-    double *v = x + n_in * D, *b = v + nv * D, *y = b + nv * D, *e = y + nv * D, *T = e + nv * D;
-    double *Tc = T + nv * D, *dm = Tc + nv * D, *xv = dm + nv * D, *acc = xv + nv * D;
-    double *shift = acc + nv, *Ga = shift + nv, *Y = Ga + m * nv, *Sc = Y + nv * m;
-    double *nu = Sc + m * m, *mu = nu + m, *Z = mu + m, *Zc = Z + m * D;
-    int *lam = iw, *piv = iw + 2 * nv;
+    double *v = x + n_in * D, *y = v + nv * D, *T = y + nv * D, *Tc = T + nv * D, *dm = Tc + nv * D;
+    double *acc = dm + nv * D, *shift = acc + nv, *zero = shift + nv, *vv = zero + nv;
+    double *Rv = vv + nv, *pv = Rv + 9 * nl, *wv = pv + 3 * nl, *lv = wv + 3 * nl, *Lv = lv + 3 * nl;
+    double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl, *Ga = Fv + 6 * nl;
+    double *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m, *Z = mu + m;
+    double *Zc = Z + m * D;
+    int *lam = iw, *piv = iw + 2 * nv, *nz = piv + m;
     const double *xF = x + (nq + nv) * D, *xG = x + (nq + 2 * nv) * D, *xC = xG + m * nv * D;
     const double *xB = xC + m * D, *xH = xC + 2 * m * D;
     mb_seed(D, n_in, in, din, x);
-    mb_tree(D, &t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam, v, w, lin, L, P, xv, y, e);
-    for (int i = 0; i < nv * D; ++i) b[i] = 0.0;
-    for (int k = 0; k < nl; ++k) {        /* Mdot v = Pi^T ad_T S + C(q, v), then b = f - Mdot v */
-        const int i0 = t.link[4 * k + 2], n = mb_dofs(t.link[4 * k + 1]);
-        for (int r = 0; r < n; ++r) {
-            double a[3], u[3];
-            mb_screw(&t, k, r, a, u);
-            mb_velocity_force(D, w + 3 * D * k, lin + 3 * D * k, L + 3 * D * k, P + 3 * D * k, a, u,
-                              b + (i0 + r) * D);
-        }
-    }
-    mb_bias(D, &t, R, p, v, w, lin, A, F, b);
-    for (int i = 0; i < nv * D; ++i) b[i] = xF[i] - b[i];
+    mb_tree(D, &t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
+    d_copy(nv * D, v, x + nq * D);      /* the velocities (and tangents) are inputs */
+    /* values: b = f - Mdot v for the accelerations' right-hand side */
+    mb_values(D, 9 * nl, R, Rv);
+    mb_values(D, 3 * nl, p, pv);
+    mb_values(D, nv, v, vv);
+    for (int k = 0; k < nv; ++k) zero[k] = 0.0;
+    mb_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, acc);
+    for (int k = 0; k < nv; ++k) acc[k] = xF[k * D] - acc[k];
+    const int nnz = mb_pattern(D, m, nv, xG, nz);
     for (int i = 0; i < m; ++i)
         for (int k = 0; k < nv; ++k) Y[k * m + i] = Ga[i * nv + k] = xG[(i * nv + k) * D];
     mb_solve(m, 0, nv, lam, lam + nv, M, Y);
@@ -986,33 +1038,35 @@ MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in,
             Sc[i * m + j] = sum;
         }
     mb_lu(m, Sc, piv);
-    for (int k = 0; k < nv; ++k) { acc[k] = b[k * D]; shift[k] = 0.0; }
+    for (int k = 0; k < nv; ++k) shift[k] = 0.0;
     for (int i = 0; i < m; ++i) { nu[i] = xB[i * D]; mu[i] = -xH[i * D]; }
-    mb_saddle(1, 0, nv, m, lam, M, Ga, Y, Sc, piv, acc, nu);
-    mb_saddle(1, 0, nv, m, lam, M, Ga, Y, Sc, piv, shift, mu);
+    mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, acc, nu, 1);
+    mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, shift, mu, 1);
     if (K > 0) {        /* the saddle systems differentiated: the same matrix, new right-hand sides */
-        mb_times_m(D, &t, R, p, acc, w, lin, L, P, y, dm);
-        d_copy(nv * D, T, b);
+        mb_products(D, &t, R, p, v, acc, w, lin, L, P, A, F, dm);    /* tangents at fixed a */
+        d_copy(nv * D, T, xF);
         d_copy(m * D, Z, xB);
-        mb_saddle_tangents(D, nv, m, xG, xC, acc, nu, dm, T, Z);
-        mb_saddle(D, 1, nv, m, lam, M, Ga, Y, Sc, piv, T, Z);
+        mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, acc, nu, dm, T, Z);
+        mb_saddle(D, 1, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, T, Z, 0);
         mb_times_m(D, &t, R, p, shift, w, lin, L, P, y, dm);
         for (int i = 0; i < nv * D; ++i) Tc[i] = 0.0;
         for (int i = 0; i < m * D; ++i) Zc[i] = -xH[i];
-        mb_saddle_tangents(D, nv, m, xG, xC, shift, mu, dm, Tc, Zc);
-        mb_saddle(D, 1, nv, m, lam, M, Ga, Y, Sc, piv, Tc, Zc);
+        mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, shift, mu, dm, Tc, Zc);
+        mb_saddle(D, 1, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, Tc, Zc, 1);
     }
     for (int k = 0; k < nv; ++k) {        /* pdot = f - Ga^T nu, lambda = -nu, dv */
         out[k] = xF[k * D];
-        for (int i = 0; i < m; ++i) out[k] -= Ga[i * nv + k] * nu[i];
         out[nv + m + k] = shift[k];
         for (int j = 0; j < K; ++j) {
-            double sum = xF[k * D + 1 + j];
-            for (int i = 0; i < m; ++i)
-                sum -= xG[(i * nv + k) * D + 1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j];
-            dout[k * K + j] = sum;
+            dout[k * K + j] = xF[k * D + 1 + j];
             dout[(nv + m + k) * K + j] = Tc[k * D + 1 + j];
         }
+    }
+    for (int z = 0; z < nnz; ++z) {
+        const int i = nz[z], k = nz[m * nv + z];
+        const double *g = xG + (i * nv + k) * D;
+        out[k] -= Ga[i * nv + k] * nu[i];
+        for (int j = 0; j < K; ++j) dout[k * K + j] -= g[1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j];
     }
     for (int i = 0; i < m; ++i) {
         out[nv + i] = -nu[i];

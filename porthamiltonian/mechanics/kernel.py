@@ -40,7 +40,7 @@ V, then per site: kind 0 (point) world position and velocity (6), kind 1 (frame)
 (ω, v) in its link's axes (6), kind 2 (world frame) world position, angular velocity and
 velocity in world axes (9)). ``mb_load`` — in (q, per site a wrench (τ, f) about the site, in world
 axes, or the link's axes for kind 1); out the generalized forces Sᵀ W (nv). ``mb_constrained``
-(the table's last integer m, no sites) — in (q, p, f the momentum rates with the ports' loads,
+(the table's last integer m, no sites) — in (q, v, f the momentum rates with the ports' loads,
 Ga = S G (m x nv, row-major), C = 1 − S (m), r = −S (Ġ v + γ G v) (m), h = S φ (m)); out
 (ṗ = f − Gaᵀ ν, λ = −ν, Δv) of the saddle-point systems [M Gaᵀ; Ga C] [a; ν] = [f − Ṁ v; r]
 and [M Gaᵀ; Ga C] [Δv; μ] = [0; −h] (porthamiltonian/mechanics/constrained.py), solved by the
@@ -608,12 +608,13 @@ def _mb_implicit(D, s, c, R, p, lam, run, H, x, w, lin, L, P):
 
 
 @_jit
-def _mb_bias(D, s, c, R, p, v, w, lin, A, F, e):
-    """e += C(q, v): Newton–Euler's velocity-product forces at zero joint accelerations and no
-    gravity (Featherstone 2008, §5.3; tree.Tree.velocity_products), from the velocities v and
-    the body twists (w, lin) (duals). Root to tip the spatial accelerations
-    A_k = X_kᵀ A_λ + T_k × S v (angular at A[0:3], linear at A[3:6] of each link's 6 duals),
-    tip to root the wrenches F_k = 𝕀_k A_k + T_k ×* 𝕀_k T_k plus the children's, C = Sᵀ F_k."""
+def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e):
+    """e += M(q) acc + C(q, v): Newton–Euler's inverse dynamics without gravity (Featherstone
+    2008, §5.3; tree.Tree.velocity_products) at the joint accelerations acc (numbers), from the
+    velocities v and the body twists (w, lin) (duals). Root to tip the spatial accelerations
+    A_k = X_kᵀ A_λ + S acc + T_k × S v (angular at A[0:3], linear at A[3:6] of each link's 6
+    duals), tip to root the wrenches F_k = 𝕀_k A_k + T_k ×* 𝕀_k T_k plus the children's,
+    Sᵀ F_k."""
     nl = s[0]
     a, u = np.zeros(3), np.zeros(3)
     Jm = np.zeros(9)
@@ -632,6 +633,9 @@ def _mb_bias(D, s, c, R, p, v, w, lin, A, F, e):
             _mb_rot_t(D, R, 9 * D * k, tmp, 0, A, ia + 3 * D)
         for r in range(_mb_dofs(kind)):
             _mb_screw(s, c, k, r, a, u)
+            for i in range(3):
+                A[ia + i * D] += acc[i0 + r] * a[i]
+                A[ia + 3 * D + i * D] += acc[i0 + r] * u[i]
             _mb_zero(tmp, 0, 3 * D)
             _mb_cross_c(D, a, 0, -1.0, w, iw, tmp, 0)             # w × a
             for i in range(3):
@@ -679,18 +683,14 @@ def _mb_emit(D, x, ix, out, dout, i):
 
 
 @_jit
-def _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M, v, w, lin, L, P):
-    """The tree at the duals x = (q, p, …): poses, composites, M factored in place (values), the
-    velocities v = M⁻¹ p (duals), the twists (w, lin) and subtree momenta (L, P): (lam, run)."""
-    nv, nq = s[1], s[2]
+def _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M):
+    """The tree at the duals x = (q, …): poses, composites and M factored in place (values):
+    (lam, run) of _mb_lambda."""
     _mb_positions(D, s, c, x, R, p, R0, p0)
     _mb_composites(D, s, c, R, p, mc, hc, Jc)
     _mb_mass(D, s, c, R0, p0, mc, hc, Jc, M)
     lam, run = _mb_lambda(s)
-    _mb_ltdl(nv, lam, run, M)
-    _mb_copy(v, 0, x, nq * D, nv * D)
-    _mb_implicit(D, s, c, R, p, lam, run, M, v, w, lin, L, P)
-    _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+    _mb_ltdl(s[1], lam, run, M)
     return lam, run
 
 
@@ -722,7 +722,10 @@ def mb_state(s, c, values, din):
     a, u = np.zeros(3), np.zeros(3)
     e = np.zeros(D)
     _mb_seed(D, nq + nv, values, din, x)
-    _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M, v, w, lin, L, P)
+    lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
+    _mb_copy(v, 0, x, nq * D, nv * D)
+    _mb_implicit(D, s, c, R, p, lam, run, M, v, w, lin, L, P)
+    _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
     G = _MB_LINK * nl
     for k in range(nl):                                 # gravity in each link's frame
         parent = s[4 + 4 * k]
@@ -844,6 +847,30 @@ def mb_load(s, c, values, din):
 
 
 @_jit
+def _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, e):
+    """e = Πᵀ ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity products Ṁ v)
+    from the velocities v: the twists and subtree momenta (w, lin, L, P) formed here."""
+    a, u = np.zeros(3), np.zeros(3)
+    wa = np.zeros(3 * D)
+    _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+    for k in range(s[0]):
+        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+            _mb_screw(s, c, k, r, a, u)
+            _mb_set(D, e, (s[4 + 4 * k + 2] + r) * D, 0.0)
+            _mb_velocity_force(D, w, lin, L, P, 3 * D * k, a, u, wa, e, (s[4 + 4 * k + 2] + r) * D)
+    _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e)
+
+
+@_jit
+def _mb_values(x, D, n):
+    """The values of the n duals x (n x D)."""
+    out = np.zeros(n)
+    for i in range(n):
+        out[i] = x[i * D]
+    return out
+
+
+@_jit
 def _mb_lu(m, A, piv):
     """A = P L U in place (m x m, row-major; partial pivoting, row swaps in piv)."""
     for k in range(m):
@@ -863,57 +890,85 @@ def _mb_lu(m, A, piv):
 
 
 @_jit
-def _mb_lu_solve(m, A, piv, D, col, x):
-    """x = A⁻¹ x for column col of x (m x D) with the factors of _mb_lu."""
+def _mb_lu_solve(m, A, piv, D, j0, x):
+    """x = A⁻¹ x for the columns j0 .. D − 1 of x (m x D) with the factors of _mb_lu."""
     for k in range(m):
         t = piv[k]
-        x[k * D + col], x[t * D + col] = x[t * D + col], x[k * D + col]
+        for col in range(j0, D):
+            x[k * D + col], x[t * D + col] = x[t * D + col], x[k * D + col]
     for i in range(m):
         for j in range(i):
-            x[i * D + col] -= A[i * m + j] * x[j * D + col]
+            a = A[i * m + j]
+            for col in range(j0, D):
+                x[i * D + col] -= a * x[j * D + col]
     for i in range(m - 1, -1, -1):
         for j in range(i + 1, m):
-            x[i * D + col] -= A[i * m + j] * x[j * D + col]
-        x[i * D + col] /= A[i * m + i]
+            a = A[i * m + j]
+            for col in range(j0, D):
+                x[i * D + col] -= a * x[j * D + col]
+        for col in range(j0, D):
+            x[i * D + col] /= A[i * m + i]
 
 
 @_jit
-def _mb_saddle(D, j0, n, m, lam, run, H, Ga, Y, Sc, piv, X, Z):
+def _mb_pattern(D, m, n, x, iG):
+    """The entries (i, k) of Ga (duals at x[iG:], m x n) with a nonzero value or tangent: the
+    structural nonzeros (rows, columns, count)."""
+    rows, cols = np.zeros(m * n, dtype=np.int64), np.zeros(m * n, dtype=np.int64)
+    count = 0
+    for i in range(m):
+        for k in range(n):
+            for j in range(D):
+                if x[iG + (i * n + k) * D + j] != 0.0:
+                    rows[count], cols[count] = i, k
+                    count += 1
+                    break
+    return rows, cols, count
+
+
+@_jit
+def _mb_saddle(D, j0, n, m, lam, run, H, Ga, nz_i, nz_k, nnz, Y, Sc, piv, X, Z, full):
     """The saddle-point system [M Gaᵀ; Ga C] [a; ν] = [X; Z] solved in place (X ← a, Z ← ν)
     for the columns j0 .. D − 1 of X (n x D) and Z (m x D) by the Schur complement: with the
     factors H of M, Y = M⁻¹ Gaᵀ (n x m) and Sc = Ga Y − C (m x m, factored by _mb_lu),
-    a' = M⁻¹ X, ν = Sc⁻¹ (Ga a' − Z), a = a' − Y ν."""
+    a' = M⁻¹ X, ν = Sc⁻¹ (Ga a' − Z), a = a' − Y ν (Ga's nonzeros: nz_i, nz_k, nnz; not
+    ``full``: ν only, X left at a')."""
     _mb_solve(D, j0, n, lam, run, H, X)
-    for col in range(j0, D):
+    for i in range(m):
+        for col in range(j0, D):
+            Z[i * D + col] = -Z[i * D + col]
+    for e in range(nnz):
+        i, k = nz_i[e], nz_k[e]
+        g = Ga[i * n + k]
+        for col in range(j0, D):
+            Z[i * D + col] += g * X[k * D + col]
+    _mb_lu_solve(m, Sc, piv, D, j0, Z)
+    if not full:
+        return
+    for k in range(n):
         for i in range(m):
-            acc = -Z[i * D + col]
-            for k in range(n):
-                acc += Ga[i * n + k] * X[k * D + col]
-            Z[i * D + col] = acc
-        _mb_lu_solve(m, Sc, piv, D, col, Z)
-        for k in range(n):
-            acc = 0.0
-            for i in range(m):
-                acc += Y[k * m + i] * Z[i * D + col]
-            X[k * D + col] -= acc
+            y = Y[k * m + i]
+            for col in range(j0, D):
+                X[k * D + col] -= y * Z[i * D + col]
 
 
 @_jit
-def _mb_saddle_tangents(D, n, m, x, iG, iC, a, nu, dm, T, Z):
+def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
     """The right-hand sides of a saddle solution's tangents (columns 1 .. D − 1): T −= d(M a)|_a
     (the tangents of dm) + dGaᵀ ν, Z −= dGa a + dC ν, for the solution (a, ν) (numbers) and the
-    duals of Ga at x[iG:] (m x n) and of C's diagonal at x[iC:]."""
-    for j in range(1, D):
-        for k in range(n):
-            acc = dm[k * D + j]
-            for i in range(m):
-                acc += x[iG + (i * n + k) * D + j] * nu[i]
-            T[k * D + j] -= acc
-        for i in range(m):
-            acc = x[iC + i * D + j] * nu[i]
-            for k in range(n):
-                acc += x[iG + (i * n + k) * D + j] * a[k]
-            Z[i * D + j] -= acc
+    duals of Ga at x[iG:] (m x n; its nonzeros nz_i, nz_k, nnz) and of C's diagonal at x[iC:]."""
+    for k in range(n):
+        for j in range(1, D):
+            T[k * D + j] -= dm[k * D + j]
+    for i in range(m):
+        for j in range(1, D):
+            Z[i * D + j] -= x[iC + i * D + j] * nu[i]
+    for e in range(nnz):
+        i, k = nz_i[e], nz_k[e]
+        g = iG + (i * n + k) * D
+        for j in range(1, D):
+            T[k * D + j] -= x[g + j] * nu[i]
+            Z[i * D + j] -= x[g + j] * a[k]
 
 
 @_jit
@@ -936,18 +991,18 @@ def mb_constrained(s, c, values, din):
     A, F = np.zeros(6 * D * nl), np.zeros(6 * D * nl)
     mc, Jc, M = np.zeros(nl), np.zeros(9 * nl), np.zeros(nv * nv)
     x = np.zeros(n_in * D)
-    v, b = np.zeros(nv * D), np.zeros(nv * D)
-    a, u = np.zeros(3), np.zeros(3)
-    wa = np.zeros(3 * D)
+    v = np.zeros(nv * D)
     _mb_seed(D, n_in, values, din, x)
-    lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M, v, w, lin, L, P)
-    for k in range(nl):                 # Ṁ v = Πᵀ ad_T S + C(q, v), then b = f − Ṁ v
-        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_velocity_force(D, w, lin, L, P, 3 * D * k, a, u, wa, b, (s[4 + 4 * k + 2] + r) * D)
-    _mb_bias(D, s, c, R, p, v, w, lin, A, F, b)
-    for i in range(nv * D):
-        b[i] = x[iF + i] - b[i]
+    lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
+    _mb_copy(v, 0, x, nq * D, nv * D)          # the velocities (and tangents) are inputs
+    # values: b = f − Ṁ v for the accelerations' right-hand side
+    Rv, pv, vv = _mb_values(R, D, 9 * nl), _mb_values(p, D, 3 * nl), _mb_values(v, D, nv)
+    acc_a, nu = np.zeros(nv), np.zeros(m)            # the accelerations and ν = −λ
+    _mb_products(1, s, c, Rv, pv, vv, np.zeros(nv), np.zeros(3 * nl), np.zeros(3 * nl),
+                 np.zeros(3 * nl), np.zeros(3 * nl), np.zeros(6 * nl), np.zeros(6 * nl), acc_a)
+    for k in range(nv):
+        acc_a[k] = x[iF + k * D] - acc_a[k]
+    nz_i, nz_k, nnz = _mb_pattern(D, m, nv, x, iG)
     Ga, Y, Sc = np.zeros(m * nv), np.zeros(nv * m), np.zeros(m * m)
     piv = np.zeros(m, dtype=np.int64)
     for i in range(m):
@@ -962,42 +1017,38 @@ def mb_constrained(s, c, values, din):
                 acc += Ga[i * nv + k] * Y[k * m + j]
             Sc[i * m + j] = acc
     _mb_lu(m, Sc, piv)
-    acc_a, nu = np.zeros(nv), np.zeros(m)            # the accelerations and ν = −λ
     shift, mu = np.zeros(nv), np.zeros(m)            # the position correction Δv
-    for k in range(nv):
-        acc_a[k] = b[k * D]
     for i in range(m):
         nu[i] = x[iB + i * D]
         mu[i] = -x[iH + i * D]
-    _mb_saddle(1, 0, nv, m, lam, run, M, Ga, Y, Sc, piv, acc_a, nu)
-    _mb_saddle(1, 0, nv, m, lam, run, M, Ga, Y, Sc, piv, shift, mu)
+    _mb_saddle(1, 0, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, acc_a, nu, True)
+    _mb_saddle(1, 0, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, shift, mu, True)
     T, Z = np.zeros(nv * D), np.zeros(m * D)
     Tc, Zc = np.zeros(nv * D), np.zeros(m * D)
     if K > 0:           # the saddle system differentiated: the same matrix, new right-hand sides
-        dm = np.zeros(nv * D)
-        _mb_times_m(D, s, c, R, p, acc_a, w, lin, L, P, dm)
-        for i in range(nv * D):
-            T[i] = b[i]
-        for i in range(m * D):
-            Z[i] = x[iB + i]
-        _mb_saddle_tangents(D, nv, m, x, iG, iC, acc_a, nu, dm, T, Z)
-        _mb_saddle(D, 1, nv, m, lam, run, M, Ga, Y, Sc, piv, T, Z)
+        dm = np.zeros(nv * D)           # Πᵀ ad_T S + M a + C(q, v): its tangents at fixed a
+        _mb_products(D, s, c, R, p, v, acc_a, w, lin, L, P, A, F, dm)
+        _mb_copy(T, 0, x, iF, nv * D)
+        _mb_copy(Z, 0, x, iB, m * D)
+        _mb_saddle_tangents(D, nv, m, x, iG, iC, nz_i, nz_k, nnz, acc_a, nu, dm, T, Z)
+        _mb_saddle(D, 1, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, T, Z, False)
         _mb_times_m(D, s, c, R, p, shift, w, lin, L, P, dm)
         for i in range(m * D):
             Zc[i] = -x[iH + i]
-        _mb_saddle_tangents(D, nv, m, x, iG, iC, shift, mu, dm, Tc, Zc)
-        _mb_saddle(D, 1, nv, m, lam, run, M, Ga, Y, Sc, piv, Tc, Zc)
+        _mb_saddle_tangents(D, nv, m, x, iG, iC, nz_i, nz_k, nnz, shift, mu, dm, Tc, Zc)
+        _mb_saddle(D, 1, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, Tc, Zc, True)
     for k in range(nv):             # ṗ = f − Gaᵀ ν, λ = −ν, Δv
         out[k] = x[iF + k * D]
-        for i in range(m):
-            out[k] -= Ga[i * nv + k] * nu[i]
         out[nv + m + k] = shift[k]
         for j in range(K):
-            acc = x[iF + k * D + 1 + j]
-            for i in range(m):
-                acc -= x[iG + (i * nv + k) * D + 1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j]
-            dout[k, j] = acc
+            dout[k, j] = x[iF + k * D + 1 + j]
             dout[nv + m + k, j] = Tc[k * D + 1 + j]
+    for e in range(nnz):
+        i, k = nz_i[e], nz_k[e]
+        g = iG + (i * nv + k) * D
+        out[k] -= Ga[i * nv + k] * nu[i]
+        for j in range(K):
+            dout[k, j] -= x[g + 1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j]
     for i in range(m):
         out[nv + i] = -nu[i]
         for j in range(K):

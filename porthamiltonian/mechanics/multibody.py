@@ -513,7 +513,7 @@ class Multibody(Component):
                 geometry.world()
                 rows = self._rows(b, geometry, placement, specs, q)
                 return constrained.constrain_kernel(
-                    b, rows, q, p, v, Q, rates,
+                    b, rows, q, v, Q, rates,
                     lambda w: coordinate_rates(links, q, w, 0, rotation), constraint_gain,
                     f"Multibody {b.name!r}", tree.constrained)
         self._finish(b, specs, q, p, v, Q, rates, potential, tree.mass_matrix(q), close)
