@@ -40,7 +40,9 @@
 #define MB_INLINE static inline
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC push_options
-#pragma GCC optimize ("O2")
+/* the dual numbers' loops over their D components vectorized (at -O2 GCC vectorizes only loops
+ * needing no run-time checks; the tangent entries are about 1.5x faster this way) */
+#pragma GCC optimize ("O2", "vect-cost-model=dynamic")
 #endif
 
 enum { MB_ROT = 0, MB_TRANS = 1, MB_SPH = 2, MB_FREE = 3 };
@@ -991,12 +993,12 @@ MB_ENTRY void ph_mb_load(const int *s, const double *c, const double *in, double
  * the saddle-point systems [M Ga^T; Ga C] [a; nu] = [f - Mdot v; r] and [M Ga^T; Ga C] [dv; mu] =
  * [0; -h], solved by the Schur complement on the factors of M; their tangents by implicit
  * differentiation (the same systems with the differentiated right-hand sides). */
-MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in, double *out,
-                                int K, const double *din, double *dout)
+MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const double *in,
+                                  double *out, const double *din, double *dout)
 {
     mb_tab t;
     mb_read(s, c, &t);
-    const int nl = t.nl, nv = t.nv, nq = t.nq, m = s[4 + 4 * nl + 2 * t.ns], D = 1 + K;
+    const int nl = t.nl, nv = t.nv, nq = t.nq, m = s[4 + 4 * nl + 2 * t.ns], K = D - 1;
     const int n_in = nq + 2 * nv + m * nv + 3 * m;
     const size_t size = (size_t)nl * 54 * D + (size_t)nl * 46 + (size_t)nv * (nv + 6)
                         + (size_t)n_in * D + (size_t)nv * (5 * D + 4) + (size_t)m * (2 * nv + m + 2)
@@ -1032,11 +1034,11 @@ MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in,
         for (int k = 0; k < nv; ++k) Y[k * m + i] = Ga[i * nv + k] = xG[(i * nv + k) * D];
     mb_solve(m, 0, nv, lam, lam + nv, M, Y);
     for (int i = 0; i < m; ++i)
-        for (int j = 0; j < m; ++j) {
-            double sum = i == j ? -xC[i * D] : 0.0;
-            for (int k = 0; k < nv; ++k) sum += Ga[i * nv + k] * Y[k * m + j];
-            Sc[i * m + j] = sum;
-        }
+        for (int j = 0; j < m; ++j) Sc[i * m + j] = i == j ? -xC[i * D] : 0.0;
+    for (int z = 0; z < nnz; ++z) {       /* Sc = Ga Y - C */
+        const int i = nz[z], k = nz[m * nv + z];
+        for (int j = 0; j < m; ++j) Sc[i * m + j] += Ga[i * nv + k] * Y[k * m + j];
+    }
     mb_lu(m, Sc, piv);
     for (int k = 0; k < nv; ++k) shift[k] = 0.0;
     for (int i = 0; i < m; ++i) { nu[i] = xB[i * D]; mu[i] = -xH[i * D]; }
@@ -1074,6 +1076,25 @@ MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in,
     }
     free(iw);
     free(ws);
+}
+
+static MB_FLATTEN void mb_constrained_value(const int *s, const double *c, const double *in,
+                                            double *out)
+{
+    mb_constrained_run(1, s, c, in, out, NULL, NULL);
+}
+
+static void mb_constrained_tangent(int D, const int *s, const double *c, const double *in,
+                                   double *out, const double *din, double *dout)
+{
+    mb_constrained_run(D, s, c, in, out, din, dout);
+}
+
+MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in, double *out,
+                                int K, const double *din, double *dout)
+{
+    if (K == 0) mb_constrained_value(s, c, in, out);
+    else mb_constrained_tangent(1 + K, s, c, in, out, din, dout);
 }
 
 /* Position-level values (no tangents): what = 0: the mass matrix M(q) (nv x nv, row-major);

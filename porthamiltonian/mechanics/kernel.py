@@ -1011,11 +1011,11 @@ def mb_constrained(s, c, values, din):
             Y[k * m + i] = Ga[i * nv + k]
     _mb_solve(m, 0, nv, lam, run, M, Y)
     for i in range(m):
+        Sc[i * m + i] = -x[iC + i * D]
+    for e in range(nnz):                # Sc = Ga Y − C
+        i, k = nz_i[e], nz_k[e]
         for j in range(m):
-            acc = -x[iC + i * D] if i == j else 0.0
-            for k in range(nv):
-                acc += Ga[i * nv + k] * Y[k * m + j]
-            Sc[i * m + j] = acc
+            Sc[i * m + j] += Ga[i * nv + k] * Y[k * m + j]
     _mb_lu(m, Sc, piv)
     shift, mu = np.zeros(nv), np.zeros(m)            # the position correction Δv
     for i in range(m):
