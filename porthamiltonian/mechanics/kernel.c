@@ -40,9 +40,7 @@
 #define MB_INLINE static inline
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC push_options
-/* the dual numbers' loops over their D components vectorized (at -O2 GCC vectorizes only loops
- * needing no run-time checks; the tangent entries are about 1.5x faster this way) */
-#pragma GCC optimize ("O2", "vect-cost-model=dynamic")
+#pragma GCC optimize ("O2")
 #endif
 
 enum { MB_ROT = 0, MB_TRANS = 1, MB_SPH = 2, MB_FREE = 3 };
@@ -1078,8 +1076,7 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     free(ws);
 }
 
-static MB_FLATTEN void mb_constrained_value(const int *s, const double *c, const double *in,
-                                            double *out)
+static void mb_constrained_value(const int *s, const double *c, const double *in, double *out)
 {
     mb_constrained_run(1, s, c, in, out, NULL, NULL);
 }

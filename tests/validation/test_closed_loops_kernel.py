@@ -122,7 +122,7 @@ def test_the_c_kernel_is_the_python_kernel(pairs):
 
 
 def test_a_kernel_ladder_keeps_its_constraints_and_its_energy(pairs):
-    """The ladder (auto: the kernel, 12 links) swinging 1 s under gravity (C, Rodas5P, rtol 1e-8):
+    """The ladder in the kernel formulation swinging 1 s under gravity (C, Rodas5P, rtol 1e-8):
     the energy ledger closes (the constraint forces do no work; ≤ 1e-7 relative) and the loops
     stay closed (|φ| ≤ 1e-7 m); its run equals the symbolic formulation's to 1e-7 (the two
     differ by round-off only, amplified by the integrator's step choices)."""
