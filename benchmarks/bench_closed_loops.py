@@ -14,7 +14,8 @@
    rows, 10 degrees of freedom), against the equivalent tree (the same model without the loops):
    build time (symbolic + code + C, fresh interpreter) and time per step and per right-hand
    side (with its Jacobian) over 2 s under gravity (target: build ≤ 10 s, speed ≥ 1/3 of the
-   tree's per step).
+   tree's per step), the ladder as ``"auto"`` builds it (symbolic) and in the kernel
+   formulation (``ladder_kernel``; the tree: the kernel, as ``"auto"`` builds it).
 
 Run::
 
@@ -205,7 +206,7 @@ def bench_drift() -> list[dict]:
     return rows
 
 
-def ladder_text(loops: bool, n: int = 10) -> str:
+def ladder_text(loops: bool, n: int = 10, formulation: str = "auto") -> str:
     """Two chains of n links (1 m apart, links 0.3 m) and n rungs, closed by n loop revolutes."""
     link = '{mass = 1.0, com = [0, 0, -0.15], inertia = [0.0075, 0.0075, 0.0075]}'
     rung = '{mass = 0.5, com = [0.5, 0, 0], inertia = [0.04, 0.04, 0.04]}'
@@ -227,8 +228,10 @@ def ladder_text(loops: bool, n: int = 10) -> str:
     closures = [f'mb.loops.C{k} = {{type = "revolute", parent = "K{k}", child = "R{k}", '
                 f'axis = "y", origin = [1, 0, 0], child_origin = [0, 0, -0.3]}}'
                 for k in range(1, n + 1)] if loops else []
-    return "\n".join([f'[model]\nname = "ladder{n}{"" if loops else "_tree"}"\n',
-                      "[components]", 'mb.type = "Multibody"', 'mb.plane = "xz"', *body,
+    name = f'ladder{n}{"" if loops else "_tree"}{"" if formulation == "auto" else "_" + formulation}'
+    return "\n".join([f'[model]\nname = "{name}"\n',
+                      "[components]", 'mb.type = "Multibody"', 'mb.plane = "xz"',
+                      f'mb.formulation = "{formulation}"', *body,
                       *joints, *closures]) + "\n"
 
 
@@ -236,7 +239,8 @@ def bench_ladder(repeats: int) -> dict:
     import porthamiltonian as ph
     from porthamiltonian import io
 
-    texts = {"ladder": ladder_text(True), "tree": ladder_text(False)}
+    texts = {"ladder": ladder_text(True), "ladder_kernel": ladder_text(True, formulation="kernel"),
+             "tree": ladder_text(False)}
     builds: dict = {f"{name}_{kind}": [] for name in texts for kind in ("build_s", "build_cpu_s")}
     for _ in range(repeats):                        # interleaved: ladder, tree, ladder, ...
         for name, text in texts.items():
@@ -246,8 +250,8 @@ def bench_ladder(repeats: int) -> dict:
     out: dict = {key: statistics.median(values) for key, values in builds.items()}
     models = {name: ph.compile_model(io.loads(text, f"{name}.toml"), backend="c")
               for name, text in texts.items()}
-    per_step: dict = {"ladder": [], "tree": []}
-    per_f: dict = {"ladder": [], "tree": []}
+    per_step: dict = {name: [] for name in texts}
+    per_f: dict = {name: [] for name in texts}
     for _ in range(repeats):
         for name, model in models.items():
             t = time.process_time()
@@ -260,9 +264,11 @@ def bench_ladder(repeats: int) -> dict:
     for name in models:
         out[f"{name}_us_per_step"] = 1e6 * statistics.median(per_step[name])
         out[f"{name}_us_per_evaluation"] = 1e6 * statistics.median(per_f[name])
-    out["speed_ratio_per_step"] = out["tree_us_per_step"] / out["ladder_us_per_step"]
-    out["speed_ratio_per_evaluation"] = (out["tree_us_per_evaluation"]
-                                         / out["ladder_us_per_evaluation"])
+    for name in ("ladder", "ladder_kernel"):
+        tag = "" if name == "ladder" else "_kernel"
+        out[f"speed_ratio_per_step{tag}"] = out["tree_us_per_step"] / out[f"{name}_us_per_step"]
+        out[f"speed_ratio_per_evaluation{tag}"] = (out["tree_us_per_evaluation"]
+                                                   / out[f"{name}_us_per_evaluation"])
     return out
 
 

@@ -84,11 +84,7 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
     matrices ``G`` (all rows) and ``G.<constraint>`` (for impacts). ``where`` names the
     multibody in errors."""
     n, m = len(v), len(rows)
-    if m > n:
-        raise ModelError(f"{where}: {m} constraint rows ({_listing(rows)}) on {n} velocities: "
-                         "more constraints than degrees of freedom, at least "
-                         f"{m - n} of them redundant or inconsistent; remove some")
-    G = sp.Matrix(m, n, lambda i, k: rows[i].G[k])
+    G = _matrix(rows, n, where)
     active = [r.active for r in rows]
     A = _saddle(M, G, active)
     holonomic = any(r.holonomic for r in rows)
@@ -98,12 +94,7 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
         phi = [0] * n + [-s * r.phi if r.holonomic else 0 for s, r in zip(active, rows)]
         dv = b.implicit("correction", A, sp.Matrix(phi))[:n]
         rates = [a + c for a, c in zip(rates, kinematics([gain * d for d in dv]))]
-    direction = dict(zip(q, kinematics(v)))
-    rate = Rates(direction, b.built.intermediates, b.intermediate,
-                 lambda w: str(w)[len(b.name) + 1:])
-    Gdot_v = [sp.Add(*[rate(G[i, k]) * v[k] for k in range(n) if G[i, k] != 0])
-              for i in range(m)]
-    Gv = [sp.Add(*[G[i, k] * v[k] for k in range(n) if G[i, k] != 0]) for i in range(m)]
+    Gdot_v, Gv = _velocity_terms(b, G, q, v, kinematics)
     Mv = products()
     f = [b.intermediate(f"mb.f{k}", Q[k]) for k in range(n)]
     rhs = [f[k] - Mv[k] for k in range(n)]
@@ -114,6 +105,66 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
          for k in range(n)]
     _declare(b, rows, G, lam, Gv)
     return rates, Q
+
+
+def constrain_kernel(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence,
+                     Q: list, rates: list, kinematics: Callable[[Sequence], list], gain: Any,
+                     where: str, solve: Callable[[list, int], list]) -> tuple[list, list]:
+    """:func:`constrain` for a tree evaluated by the kernel (:mod:`.kernel`): the same equations,
+    the saddle-point systems solved at run time by the kernel's ``mb_constrained`` entry
+    (``solve(inputs, m)``, :meth:`.kernel_tables.KernelTree.constrained`) on the kernel's
+    factorisation of M — Y = M⁻¹ (SG)ᵀ, a₀ = M⁻¹ (f − Ṁ v), the m x m Schur complement
+    SG Y − (1 − S), ν = (SG Y − (1 − S))⁻¹ (SG a₀ − r), and the position correction from the same
+    complement — with its Jacobian by implicit differentiation inside the kernel. Only the rows'
+    φ, G and Ġ v are written out (from the tree's positions); the kernel's inputs are
+    (q, v, f, SG (m x n, row-major), 1 − S, r = −S (Ġ v + γ G v), S φ), its outputs
+    (ṗ = f + Gᵀ S λ, λ, Δv)."""
+    n, m = len(v), len(rows)
+    G = _matrix(rows, n, where)
+    active = [r.active for r in rows]
+    Gdot_v, Gv = _velocity_terms(b, G, q, v, kinematics)
+    correct = gain != 0 and any(r.holonomic for r in rows)
+
+    def named(name: str, expr: Any) -> Any:
+        return b.intermediate(f"mb.{name}", expr)
+
+    f = [named(f"f{k}", Q[k]) for k in range(n)]
+    SG = [named(f"SG.{i}.{k}", active[i] * G[i, k]) if G[i, k] != 0 else sp.S.Zero
+          for i in range(m) for k in range(n)]
+    free = [named(f"free{i}", 1 - s) for i, s in enumerate(active)]
+    r = [named(f"bias{i}", -s * (gd + gain * gv)) for i, (s, gd, gv)
+         in enumerate(zip(active, Gdot_v, Gv))]
+    h = [named(f"residual{i}", s * row.phi) if correct and row.holonomic else sp.S.Zero
+         for i, (s, row) in enumerate(zip(active, rows))]
+    out = solve([*q, *v, *f, *SG, *free, *r, *h], m)
+    lam, dv = out[n:n + m], out[n + m:]
+    if correct:
+        rates = [a + c for a, c in zip(rates, kinematics([gain * d for d in dv]))]
+    _declare(b, rows, G, lam, Gv)
+    return rates, list(out[:n])
+
+
+def _matrix(rows: Sequence[Row], n: int, where: str) -> sp.Matrix:
+    """G (m x n) of the rows; more rows than velocities is refused."""
+    m = len(rows)
+    if m > n:
+        raise ModelError(f"{where}: {m} constraint rows ({_listing(rows)}) on {n} velocities: "
+                         "more constraints than degrees of freedom, at least "
+                         f"{m - n} of them redundant or inconsistent; remove some")
+    return sp.Matrix(m, n, lambda i, k: rows[i].G[k])
+
+
+def _velocity_terms(b: Builder, G: sp.Matrix, q: Sequence, v: Sequence,
+                    kinematics: Callable[[Sequence], list]) -> tuple[list, list]:
+    """(Ġ v, G v): Ġ by forward-mode differentiation of G's entries along q̇ = K(q) v."""
+    m, n = G.shape
+    direction = dict(zip(q, kinematics(v)))
+    rate = Rates(direction, b.built.intermediates, b.intermediate,
+                 lambda w: str(w)[len(b.name) + 1:])
+    Gdot_v = [sp.Add(*[rate(G[i, k]) * v[k] for k in range(n) if G[i, k] != 0])
+              for i in range(m)]
+    Gv = [sp.Add(*[G[i, k] * v[k] for k in range(n) if G[i, k] != 0]) for i in range(m)]
+    return Gdot_v, Gv
 
 
 def _cut_build(b: Builder, cut: PHCut, rows: Sequence[Row], G: sp.Matrix, Q: list, rates: list,
@@ -174,4 +225,4 @@ def _listing(rows: Sequence[Row]) -> str:
     return ", ".join(f"{k}: {c}" for k, c in names.items())
 
 
-__all__ = ["constrain"]
+__all__ = ["constrain", "constrain_kernel"]

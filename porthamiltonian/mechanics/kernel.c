@@ -12,7 +12,9 @@
  * composite-rigid-body recursion and its sparse L^T D L factorisation (Featherstone, Rigid Body
  * Dynamics Algorithms, 2008, sections 6.2 and 6.5), the velocities v = M^-1 p, the body twists and
  * subtree momenta, the momentum rates Pi_k^T ad_{T_k} S + gravity, and the kinematics of sites
- * (points and frames fixed to links). Every entry point can also propagate K tangent directions
+ * (points and frames fixed to links); with closed loops and constraints (ph_mb_constrained) the
+ * velocity products by a Newton-Euler pass and the constrained equations by a Schur complement on
+ * the factors of M. Every entry point can also propagate K tangent directions
  * (forward mode, the chain rule through the recursion): each quantity is stored as 1 + K doubles,
  * its value then its K derivatives, so that one code serves the value (K = 0, compiled as its own
  * copy with the tangent loops removed) and the Jacobian. The tangent of v is solved implicitly,
@@ -424,6 +426,36 @@ MB_INLINE void mb_solve(int D, int j0, int n, const int *lam, const int *run, co
 }
 
 /* --- velocities ---------------------------------------------------------------------------------- */
+/* a link's wrench (torque T about its origin, force F; its frame; relative pose Rk, pk) added to
+ * its parent's: Tp += R T + p x (R F), Fp += R F */
+MB_INLINE void mb_carry(int D, const double *Rk, const double *pk, const double *T, const double *F,
+                        double *Tp, double *Fp)
+{
+    double RF[3 * D];
+    v_zero(D, RF);
+    v_rot(D, Rk, F, RF);
+    v_rot(D, Rk, T, Tp);
+    v_cross(D, pk, RF, Tp);
+    for (int i = 0; i < 3 * D; ++i) Fp[i] += RF[i];
+}
+
+/* (L, P) = I_k (x, y): link k's own spatial inertia (about its origin, its frame) times the twist
+ * (x, y): L = J x + h x y, P = m y - h x x */
+MB_INLINE void mb_inertia(int D, const mb_tab *t, int k, const double *x, const double *y,
+                          double *L, double *P)
+{
+    const double *l = t->c + MB_LINK * k, *J = l + 10, m = l[6];
+    const double Jm[9] = {J[0], J[3], J[4], J[3], J[1], J[5], J[4], J[5], J[2]};
+    v_zero(D, L);
+    v_zero(D, P);
+    for (int i = 0; i < 3; ++i)
+        for (int a = 0; a < 3; ++a) d_axpy(D, Jm[3 * i + a], x + a * D, L + i * D);
+    v_cross_c(D, l + 7, y, L);                           /* h x y */
+    for (int i = 0; i < 3; ++i) d_axpy(D, m, y + i * D, P + i * D);
+    const double mh[3] = {-l[7], -l[8], -l[9]};          /* x x h = -h x x */
+    v_cross_c(D, mh, x, P);
+}
+
 /* body twists (w, lin) root to tip and subtree momenta (L, P) tip to root from the velocities v
  * (duals, nv x D) */
 MB_INLINE void mb_velocities(int D, const mb_tab *t, const double *R, const double *p,
@@ -451,31 +483,285 @@ MB_INLINE void mb_velocities(int D, const mb_tab *t, const double *R, const doub
             }
         }
     }
-    for (int k = 0; k < t->nl; ++k) {                   /* each link's own momentum */
-        const double *l = t->c + MB_LINK * k, *J = l + 10, m = l[6];
-        const double Jm[9] = {J[0], J[3], J[4], J[3], J[1], J[5], J[4], J[5], J[2]};
-        double *Lk = L + 3 * D * k, *Pk = P + 3 * D * k;
-        const double *wk = w + 3 * D * k, *lk = lin + 3 * D * k;
-        v_zero(D, Lk);
-        v_zero(D, Pk);
-        for (int i = 0; i < 3; ++i)
-            for (int a = 0; a < 3; ++a) d_axpy(D, Jm[3 * i + a], wk + a * D, Lk + i * D);
-        v_cross_c(D, l + 7, lk, Lk);                     /* h x lin */
-        for (int i = 0; i < 3; ++i) d_axpy(D, m, lk + i * D, Pk + i * D);
-        const double mh[3] = {-l[7], -l[8], -l[9]};      /* w x h = -h x w */
-        v_cross_c(D, mh, wk, Pk);
-    }
+    for (int k = 0; k < t->nl; ++k)                     /* each link's own momentum */
+        mb_inertia(D, t, k, w + 3 * D * k, lin + 3 * D * k, L + 3 * D * k, P + 3 * D * k);
     for (int k = t->nl - 1; k >= 0; --k) {              /* carried to the parents */
         const int parent = t->link[4 * k];
         if (parent < 0) continue;
-        const double *Rk = R + 9 * D * k;
-        double RP[3 * D];
-        v_zero(D, RP);
-        v_rot(D, Rk, P + 3 * D * k, RP);
-        v_rot(D, Rk, L + 3 * D * k, L + 3 * D * parent);
-        v_cross(D, p + 3 * D * k, RP, L + 3 * D * parent);
-        for (int i = 0; i < 3 * D; ++i) P[3 * D * parent + i] += RP[i];
+        mb_carry(D, R + 9 * D * k, p + 3 * D * k, L + 3 * D * k, P + 3 * D * k, L + 3 * D * parent,
+                 P + 3 * D * parent);
     }
+}
+
+/* e += Pi^T ad_T S = L . (w x a) + P . (w x u + lin x a) for the unit twist S = (a, u) of a link
+ * with twist (w, lin) and subtree momentum (L, P) */
+MB_INLINE void mb_velocity_force(int D, const double *w, const double *lin, const double *L,
+                                 const double *P, const double *a, const double *u, double *e)
+{
+    double wa[3 * D], ma[3];
+    for (int i = 0; i < 3; ++i) ma[i] = -a[i];
+    v_zero(D, wa);
+    v_cross_c(D, ma, w, wa);                            /* w x a */
+    v_dot(D, L, wa, e);
+    v_zero(D, wa);
+    for (int i = 0; i < 3; ++i) ma[i] = -u[i];
+    v_cross_c(D, ma, w, wa);                            /* w x u */
+    for (int i = 0; i < 3; ++i) ma[i] = -a[i];
+    v_cross_c(D, ma, lin, wa);                          /* lin x a */
+    v_dot(D, P, wa, e);
+}
+
+/* e = S^T Pi (nv duals) from the subtree momenta: M v for the velocities behind (L, P) */
+MB_INLINE void mb_generalized(int D, const mb_tab *t, const double *L, const double *P, double *e)
+{
+    for (int k = 0; k < t->nl; ++k) {
+        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
+        for (int s = 0; s < n; ++s) {
+            double a[3], u[3];
+            mb_screw(t, k, s, a, u);
+            d_set(D, e + (i0 + s) * D, 0.0);
+            v_dot_c(D, a, L + 3 * D * k, e + (i0 + s) * D);
+            v_dot_c(D, u, P + 3 * D * k, e + (i0 + s) * D);
+        }
+    }
+}
+
+/* e = M(q) x as duals for the numbers xv (nv): its value and, at fixed x, its tangents
+ * d(M x)|_x through the positions' tangents; y: nv x D of work space */
+static void mb_times_m(int D, const mb_tab *t, const double *R, const double *p, const double *xv,
+                       double *w, double *lin, double *L, double *P, double *y, double *e)
+{
+    for (int i = 0; i < t->nv; ++i) d_set(D, y + i * D, xv[i]);
+    mb_velocities(D, t, R, p, y, w, lin, L, P);
+    mb_generalized(D, t, L, P, e);
+}
+
+/* x = M^-1 y in place for the duals y in x (nv x D), H the factors of M: the values by the
+ * factors, the tangents implicitly, dx = M^-1 (dy - d(M x)|_x); work: xv (nv), y and e (nv x D) */
+static void mb_implicit(int D, const mb_tab *t, const double *R, const double *p, const int *lam,
+                        const double *H, double *x, double *w, double *lin, double *L, double *P,
+                        double *xv, double *y, double *e)
+{
+    const int nv = t->nv;
+    for (int i = 0; i < nv; ++i) xv[i] = x[i * D];
+    mb_solve(1, 0, nv, lam, lam + nv, H, xv);
+    if (D > 1) {
+        mb_times_m(D, t, R, p, xv, w, lin, L, P, y, e);
+        for (int i = 0; i < nv * D; ++i) x[i] -= e[i];
+        mb_solve(D, 1, nv, lam, lam + nv, H, x);
+    }
+    for (int i = 0; i < nv; ++i) x[i * D] = xv[i];
+}
+
+/* e += M(q) acc + C(q, v): Newton-Euler's inverse dynamics without gravity (Featherstone 2008,
+ * section 5.3) at the joint accelerations acc (numbers), from the velocities v and the body twists
+ * (w, lin) (duals). Root to tip the spatial accelerations A_k = X_k^T A_parent + S acc + T_k x S v
+ * (6 duals per link: angular, then linear), tip to root the wrenches F_k = I_k A_k + T_k x* I_k T_k
+ * plus the children's, S^T F_k. */
+static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, const double *v,
+                    const double *acc, const double *w, const double *lin, double *A, double *F,
+                    double *e)
+{
+    const int nl = t->nl;
+    for (int k = 0; k < nl; ++k) {
+        const int parent = t->link[4 * k], kind = t->link[4 * k + 1], i0 = t->link[4 * k + 2];
+        double *Ak = A + 6 * D * k, tmp[3 * D];
+        const double *wk = w + 3 * D * k, *lk = lin + 3 * D * k;
+        for (int i = 0; i < 6 * D; ++i) Ak[i] = 0.0;
+        if (parent >= 0) {            /* R^T alpha_parent, R^T (c_parent + alpha_parent x p) */
+            const double *Ap = A + 6 * D * parent;
+            d_copy(3 * D, tmp, Ap + 3 * D);
+            v_cross(D, Ap, p + 3 * D * k, tmp);
+            v_rot_t(D, R + 9 * D * k, Ap, Ak);
+            v_rot_t(D, R + 9 * D * k, tmp, Ak + 3 * D);
+        }
+        for (int s = 0; s < mb_dofs(kind); ++s) {
+            double a[3], u[3], ma[3];
+            mb_screw(t, k, s, a, u);
+            for (int i = 0; i < 3; ++i) {
+                Ak[i * D] += acc[i0 + s] * a[i];
+                Ak[3 * D + i * D] += acc[i0 + s] * u[i];
+            }
+            for (int i = 0; i < 3; ++i) ma[i] = -a[i];
+            v_zero(D, tmp);
+            v_cross_c(D, ma, wk, tmp);                   /* w x a */
+            for (int i = 0; i < 3; ++i) d_fma(D, v + (i0 + s) * D, tmp + i * D, Ak + i * D);
+            v_zero(D, tmp);
+            for (int i = 0; i < 3; ++i) ma[i] = -u[i];
+            v_cross_c(D, ma, wk, tmp);                   /* w x u */
+            for (int i = 0; i < 3; ++i) ma[i] = -a[i];
+            v_cross_c(D, ma, lk, tmp);                   /* lin x a */
+            for (int i = 0; i < 3; ++i) d_fma(D, v + (i0 + s) * D, tmp + i * D, Ak + 3 * D + i * D);
+        }
+    }
+    for (int i = 0; i < 6 * D * nl; ++i) F[i] = 0.0;
+    for (int k = nl - 1; k >= 0; --k) {
+        const int parent = t->link[4 * k], i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
+        const double *wk = w + 3 * D * k, *lk = lin + 3 * D * k;
+        double *Fk = F + 6 * D * k, tf[6 * D], Lo[3 * D], Po[3 * D];
+        mb_inertia(D, t, k, A + 6 * D * k, A + 6 * D * k + 3 * D, tf, tf + 3 * D);
+        mb_inertia(D, t, k, wk, lk, Lo, Po);
+        v_cross(D, wk, Lo, tf);
+        v_cross(D, lk, Po, tf);
+        v_cross(D, wk, Po, tf + 3 * D);
+        for (int i = 0; i < 6 * D; ++i) Fk[i] += tf[i];
+        for (int s = 0; s < n; ++s) {
+            double a[3], u[3];
+            mb_screw(t, k, s, a, u);
+            v_dot_c(D, a, Fk, e + (i0 + s) * D);
+            v_dot_c(D, u, Fk + 3 * D, e + (i0 + s) * D);
+        }
+        if (parent < 0) continue;
+        double *Fp = F + 6 * D * parent;
+        mb_carry(D, R + 9 * D * k, p + 3 * D * k, Fk, Fk + 3 * D, Fp, Fp + 3 * D);
+    }
+}
+
+/* e = Pi^T ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity products Mdot v) from
+ * the velocities v: the twists and subtree momenta (w, lin, L, P) formed here */
+static void mb_products(int D, const mb_tab *t, const double *R, const double *p, const double *v,
+                        const double *acc, double *w, double *lin, double *L, double *P, double *A,
+                        double *F, double *e)
+{
+    mb_velocities(D, t, R, p, v, w, lin, L, P);
+    for (int k = 0; k < t->nl; ++k) {
+        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
+        for (int r = 0; r < n; ++r) {
+            double a[3], u[3];
+            mb_screw(t, k, r, a, u);
+            d_set(D, e + (i0 + r) * D, 0.0);
+            mb_velocity_force(D, w + 3 * D * k, lin + 3 * D * k, L + 3 * D * k, P + 3 * D * k, a, u,
+                              e + (i0 + r) * D);
+        }
+    }
+    mb_bias(D, t, R, p, v, acc, w, lin, A, F, e);
+}
+
+/* out = the values of the n duals x (n x D) */
+MB_INLINE void mb_values(int D, int n, const double *x, double *out)
+{
+    for (int i = 0; i < n; ++i) out[i] = x[i * D];
+}
+
+/* A = P L U in place (m x m, row-major; partial pivoting, row swaps in piv) */
+static void mb_lu(int m, double *A, int *piv)
+{
+    for (int k = 0; k < m; ++k) {
+        int best = k;
+        for (int i = k + 1; i < m; ++i)
+            if (fabs(A[i * m + k]) > fabs(A[best * m + k])) best = i;
+        piv[k] = best;
+        if (best != k)
+            for (int j = 0; j < m; ++j) {
+                const double tmp = A[k * m + j];
+                A[k * m + j] = A[best * m + j];
+                A[best * m + j] = tmp;
+            }
+        for (int i = k + 1; i < m; ++i) {
+            const double f = A[i * m + k] / A[k * m + k];
+            A[i * m + k] = f;
+            for (int j = k + 1; j < m; ++j) A[i * m + j] -= f * A[k * m + j];
+        }
+    }
+}
+
+/* x = A^-1 x for the columns j0 .. D - 1 of x (m x D) with the factors of mb_lu */
+static void mb_lu_solve(int m, const double *A, const int *piv, int D, int j0, double *x)
+{
+    for (int k = 0; k < m; ++k)
+        for (int col = j0; col < D; ++col) {
+            const double tmp = x[k * D + col];
+            x[k * D + col] = x[piv[k] * D + col];
+            x[piv[k] * D + col] = tmp;
+        }
+    for (int i = 0; i < m; ++i)
+        for (int j = 0; j < i; ++j) {
+            const double a = A[i * m + j];
+            for (int col = j0; col < D; ++col) x[i * D + col] -= a * x[j * D + col];
+        }
+    for (int i = m - 1; i >= 0; --i) {
+        for (int j = i + 1; j < m; ++j) {
+            const double a = A[i * m + j];
+            for (int col = j0; col < D; ++col) x[i * D + col] -= a * x[j * D + col];
+        }
+        for (int col = j0; col < D; ++col) x[i * D + col] /= A[i * m + i];
+    }
+}
+
+/* the entries (i, k) of Ga (duals xG, m x n) with a nonzero value or tangent: the structural
+ * nonzeros, rows in nz[0 .. count), columns in nz[m n ..); returns count */
+static int mb_pattern(int D, int m, int n, const double *xG, int *nz)
+{
+    int count = 0;
+    for (int i = 0; i < m; ++i)
+        for (int k = 0; k < n; ++k)
+            for (int j = 0; j < D; ++j)
+                if (xG[(i * n + k) * D + j] != 0.0) {
+                    nz[count] = i;
+                    nz[m * n + count] = k;
+                    ++count;
+                    break;
+                }
+    return count;
+}
+
+/* The saddle-point system [M Ga^T; Ga C] [a; nu] = [X; Z] solved in place (X <- a, Z <- nu) for the
+ * columns j0 .. D - 1 of X (n x D) and Z (m x D) by the Schur complement: with the factors H of M,
+ * Y = M^-1 Ga^T (n x m) and Sc = Ga Y - C (m x m, factored by mb_lu), a' = M^-1 X,
+ * nu = Sc^-1 (Ga a' - Z), a = a' - Y nu (Ga's nonzeros: nz, nnz of mb_pattern; not full: nu only,
+ * X left at a') */
+static void mb_saddle(int D, int j0, int n, int m, const int *lam, const double *H,
+                      const double *Ga, const int *nz, int nnz, const double *Y, const double *Sc,
+                      const int *piv, double *X, double *Z, int full)
+{
+    mb_solve(D, j0, n, lam, lam + n, H, X);
+    for (int i = 0; i < m; ++i)
+        for (int col = j0; col < D; ++col) Z[i * D + col] = -Z[i * D + col];
+    for (int e = 0; e < nnz; ++e) {
+        const int i = nz[e], k = nz[m * n + e];
+        const double g = Ga[i * n + k];
+        for (int col = j0; col < D; ++col) Z[i * D + col] += g * X[k * D + col];
+    }
+    mb_lu_solve(m, Sc, piv, D, j0, Z);
+    if (!full) return;
+    for (int k = 0; k < n; ++k)
+        for (int i = 0; i < m; ++i) {
+            const double y = Y[k * m + i];
+            for (int col = j0; col < D; ++col) X[k * D + col] -= y * Z[i * D + col];
+        }
+}
+
+/* The right-hand sides of a saddle solution's tangents (columns 1 .. D - 1): T -= d(M a)|_a (the
+ * tangents of dm) + dGa^T nu, Z -= dGa a + dC nu, for the solution (a, nu) (numbers) and the duals
+ * of Ga (xG, m x n; its nonzeros nz, nnz) and of C's diagonal (xC) */
+static void mb_saddle_tangents(int D, int n, int m, const double *xG, const double *xC,
+                               const int *nz, int nnz, const double *a, const double *nu,
+                               const double *dm, double *T, double *Z)
+{
+    for (int k = 0; k < n; ++k)
+        for (int j = 1; j < D; ++j) T[k * D + j] -= dm[k * D + j];
+    for (int i = 0; i < m; ++i)
+        for (int j = 1; j < D; ++j) Z[i * D + j] -= xC[i * D + j] * nu[i];
+    for (int e = 0; e < nnz; ++e) {
+        const int i = nz[e], k = nz[m * n + e];
+        const double *g = xG + (i * n + k) * D;
+        for (int j = 1; j < D; ++j) {
+            T[k * D + j] -= g[j] * nu[i];
+            Z[i * D + j] -= g[j] * a[k];
+        }
+    }
+}
+
+/* The tree at the duals x = (q, ...): poses, composites and M factored in place (values; lam: the
+ * parents and runs of mb_lambda; S0: 6 nv of work space) */
+static void mb_tree(int D, const mb_tab *t, const double *x, double *R, double *p, double *R0,
+                    double *p0, double *mc, double *hc, double *Jc, double *S0, double *M, int *lam)
+{
+    mb_positions(D, t, x, R, p, R0, p0);
+    mb_composites(D, t, R, p, mc, hc, Jc);
+    mb_mass(D, t, R0, p0, mc, hc, Jc, S0, M);           /* values only */
+    mb_lambda(t, lam, lam + t->nv);
+    mb_ltdl(t->nv, lam, lam + t->nv, M);
 }
 
 /* --- entry points -------------------------------------------------------------------------------- */
@@ -497,8 +783,8 @@ MB_INLINE void mb_emit(int D, const double *x, double *out, double *dout)
 
 static size_t mb_state_size(const mb_tab *t, int D)
 {
-    return (size_t)t->nl * (48 * D + 10) + (size_t)t->nv * (t->nv + 6) + (size_t)(t->nv + t->nq) * D
-           + (size_t)t->nv * D + 3 * (size_t)D;
+    return (size_t)t->nl * (48 * D + 10) + (size_t)t->nv * (t->nv + 7) + (size_t)(t->nv + t->nq) * D
+           + 3 * (size_t)t->nv * D + 3 * (size_t)D;
 }
 
 MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const double *din,
@@ -509,30 +795,11 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
     double *g = p0 + 3 * D * nl, *hc = g + 3 * D * nl, *w = hc + 3 * D * nl, *lin = w + 3 * D * nl;
     double *L = lin + 3 * D * nl, *P = L + 3 * D * nl, *mc = P + 3 * D * nl, *Jc = mc + nl;
     double *M = Jc + 9 * nl, *x = M + nv * nv, *v = x + (nq + nv) * D, *V = v + nv * D;
-    double *S0 = V + D;
+    double *S0 = V + D, *xv = S0 + 6 * nv, *y = xv + nv, *ev = y + nv * D;
     mb_seed(D, nq + nv, in, din, x);
-    mb_positions(D, t, x, R, p, R0, p0);
-    mb_composites(D, t, R, p, mc, hc, Jc);
-    mb_mass(D, t, R0, p0, mc, hc, Jc, S0, M);           /* values only */
-    mb_lambda(t, lam, lam + nv);
-    mb_ltdl(nv, lam, lam + nv, M);
-    for (int i = 0; i < nv; ++i) d_set(D, v + i * D, in[nq + i]);
-    mb_solve(D, 0, nv, lam, lam + nv, M, v);
-    if (K > 0) {      /* dv = M^-1 (dp - d(M v)|_v): the momenta's tangents at fixed v first */
-        mb_velocities(D, t, R, p, v, w, lin, L, P);
-        for (int k = 0; k < nl; ++k) {
-            const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
-            for (int s = 0; s < n; ++s) {
-                double a[3], u[3], e[D];
-                mb_screw(t, k, s, a, u);
-                d_set(D, e, 0.0);
-                v_dot_c(D, a, L + 3 * D * k, e);
-                v_dot_c(D, u, P + 3 * D * k, e);
-                for (int j = 1; j < D; ++j) v[(i0 + s) * D + j] = x[(nq + i0 + s) * D + j] - e[j];
-            }
-        }
-        mb_solve(D, 1, nv, lam, lam + nv, M, v);
-    }
+    mb_tree(D, t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
+    d_copy(nv * D, v, x + nq * D);
+    mb_implicit(D, t, R, p, lam, M, v, w, lin, L, P, xv, y, ev);
     mb_velocities(D, t, R, p, v, w, lin, L, P);
     const double *G = t->c + MB_LINK * nl;
     for (int k = 0; k < nl; ++k) {                      /* gravity in each link's frame */
@@ -552,21 +819,11 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
         v_zero(D, hg);
         v_cross(D, hc + 3 * D * k, gk, hg);
         for (int s = 0; s < n; ++s) {
-            double a[3], u[3], e[D], wa[3 * D], ma[3];
+            double a[3], u[3], e[D], ug[D];
             mb_screw(t, k, s, a, u);
             d_set(D, e, 0.0);
-            for (int i = 0; i < 3; ++i) ma[i] = -a[i];
-            v_zero(D, wa);
-            v_cross_c(D, ma, wk, wa);                   /* w x a */
-            v_dot(D, L + 3 * D * k, wa, e);
-            v_zero(D, wa);
-            for (int i = 0; i < 3; ++i) ma[i] = -u[i];
-            v_cross_c(D, ma, wk, wa);                   /* w x u */
-            for (int i = 0; i < 3; ++i) ma[i] = -a[i];
-            v_cross_c(D, ma, lk, wa);                   /* lin x a */
-            v_dot(D, P + 3 * D * k, wa, e);
+            mb_velocity_force(D, wk, lk, L + 3 * D * k, P + 3 * D * k, a, u, e);
             v_dot_c(D, a, hg, e);
-            double ug[D];
             d_set(D, ug, 0.0);
             v_dot_c(D, u, gk, ug);
             d_axpy(D, mc[k], ug, e);
@@ -691,13 +948,7 @@ MB_INLINE void mb_load_run(int D, const mb_tab *t, const double *in, const doubl
             mb_emit(D, e, out + i0 + s, dout + (i0 + s) * K);
         }
         if (parent < 0) continue;
-        const double *Rk = R + 9 * D * k;
-        double Rf[3 * D];
-        v_zero(D, Rf);
-        v_rot(D, Rk, fk, Rf);
-        v_rot(D, Rk, tk, tau + 3 * D * parent);
-        v_cross(D, p + 3 * D * k, Rf, tau + 3 * D * parent);
-        for (int e = 0; e < 3 * D; ++e) f[3 * D * parent + e] += Rf[e];
+        mb_carry(D, R + 9 * D * k, p + 3 * D * k, tk, fk, tau + 3 * D * parent, f + 3 * D * parent);
     }
 }
 
@@ -732,6 +983,115 @@ MB_ENTRY void ph_mb_load(const int *s, const double *c, const double *in, double
     if (K == 0) mb_load_value(&t, in, out, ws);
     else mb_load_tangent(D, &t, in, din, out, dout, ws);
     free(ws);
+}
+
+/* The constrained entry: in = (q, v, f (the momentum rates with the ports' loads), Ga = S G
+ * (m x nv, row-major), C = 1 - S (m), r = -S (Gdot v + gamma G v) (m), h = S phi (m)), m the
+ * table's last integer; out = (pdot = f - Ga^T nu, lambda = -nu, the position correction dv) of
+ * the saddle-point systems [M Ga^T; Ga C] [a; nu] = [f - Mdot v; r] and [M Ga^T; Ga C] [dv; mu] =
+ * [0; -h], solved by the Schur complement on the factors of M; their tangents by implicit
+ * differentiation (the same systems with the differentiated right-hand sides). */
+MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const double *in,
+                                  double *out, const double *din, double *dout)
+{
+    mb_tab t;
+    mb_read(s, c, &t);
+    const int nl = t.nl, nv = t.nv, nq = t.nq, m = s[4 + 4 * nl + 2 * t.ns], K = D - 1;
+    const int n_in = nq + 2 * nv + m * nv + 3 * m;
+    const size_t size = (size_t)nl * 54 * D + (size_t)nl * 46 + (size_t)nv * (nv + 6)
+                        + (size_t)n_in * D + (size_t)nv * (5 * D + 4) + (size_t)m * (2 * nv + m + 2)
+                        + (size_t)m * 4 * D;
+    double *ws = malloc(sizeof(double) * size);
+    int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 2 * m * nv + 1));
+    if (ws == NULL || iw == NULL) abort();
+    double *R = ws, *p = R + 9 * D * nl, *R0 = p + 3 * D * nl, *p0 = R0 + 9 * D * nl;
+    double *hc = p0 + 3 * D * nl, *w = hc + 3 * D * nl, *lin = w + 3 * D * nl, *L = lin + 3 * D * nl;
+    double *P = L + 3 * D * nl, *A = P + 3 * D * nl, *F = A + 6 * D * nl, *mc = F + 6 * D * nl;
+    double *Jc = mc + nl, *M = Jc + 9 * nl, *S0 = M + nv * nv, *x = S0 + 6 * nv;
+    double *v = x + n_in * D, *y = v + nv * D, *T = y + nv * D, *Tc = T + nv * D, *dm = Tc + nv * D;
+    double *acc = dm + nv * D, *shift = acc + nv, *zero = shift + nv, *vv = zero + nv;
+    double *Rv = vv + nv, *pv = Rv + 9 * nl, *wv = pv + 3 * nl, *lv = wv + 3 * nl, *Lv = lv + 3 * nl;
+    double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl, *Ga = Fv + 6 * nl;
+    double *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m, *Z = mu + m;
+    double *Zc = Z + m * D;
+    int *lam = iw, *piv = iw + 2 * nv, *nz = piv + m;
+    const double *xF = x + (nq + nv) * D, *xG = x + (nq + 2 * nv) * D, *xC = xG + m * nv * D;
+    const double *xB = xC + m * D, *xH = xC + 2 * m * D;
+    mb_seed(D, n_in, in, din, x);
+    mb_tree(D, &t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
+    d_copy(nv * D, v, x + nq * D);      /* the velocities (and tangents) are inputs */
+    /* values: b = f - Mdot v for the accelerations' right-hand side */
+    mb_values(D, 9 * nl, R, Rv);
+    mb_values(D, 3 * nl, p, pv);
+    mb_values(D, nv, v, vv);
+    for (int k = 0; k < nv; ++k) zero[k] = 0.0;
+    mb_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, acc);
+    for (int k = 0; k < nv; ++k) acc[k] = xF[k * D] - acc[k];
+    const int nnz = mb_pattern(D, m, nv, xG, nz);
+    for (int i = 0; i < m; ++i)
+        for (int k = 0; k < nv; ++k) Y[k * m + i] = Ga[i * nv + k] = xG[(i * nv + k) * D];
+    mb_solve(m, 0, nv, lam, lam + nv, M, Y);
+    for (int i = 0; i < m; ++i)
+        for (int j = 0; j < m; ++j) Sc[i * m + j] = i == j ? -xC[i * D] : 0.0;
+    for (int z = 0; z < nnz; ++z) {       /* Sc = Ga Y - C */
+        const int i = nz[z], k = nz[m * nv + z];
+        for (int j = 0; j < m; ++j) Sc[i * m + j] += Ga[i * nv + k] * Y[k * m + j];
+    }
+    mb_lu(m, Sc, piv);
+    for (int k = 0; k < nv; ++k) shift[k] = 0.0;
+    for (int i = 0; i < m; ++i) { nu[i] = xB[i * D]; mu[i] = -xH[i * D]; }
+    mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, acc, nu, 1);
+    mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, shift, mu, 1);
+    if (K > 0) {        /* the saddle systems differentiated: the same matrix, new right-hand sides */
+        mb_products(D, &t, R, p, v, acc, w, lin, L, P, A, F, dm);    /* tangents at fixed a */
+        d_copy(nv * D, T, xF);
+        d_copy(m * D, Z, xB);
+        mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, acc, nu, dm, T, Z);
+        mb_saddle(D, 1, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, T, Z, 0);
+        mb_times_m(D, &t, R, p, shift, w, lin, L, P, y, dm);
+        for (int i = 0; i < nv * D; ++i) Tc[i] = 0.0;
+        for (int i = 0; i < m * D; ++i) Zc[i] = -xH[i];
+        mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, shift, mu, dm, Tc, Zc);
+        mb_saddle(D, 1, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, Tc, Zc, 1);
+    }
+    for (int k = 0; k < nv; ++k) {        /* pdot = f - Ga^T nu, lambda = -nu, dv */
+        out[k] = xF[k * D];
+        out[nv + m + k] = shift[k];
+        for (int j = 0; j < K; ++j) {
+            dout[k * K + j] = xF[k * D + 1 + j];
+            dout[(nv + m + k) * K + j] = Tc[k * D + 1 + j];
+        }
+    }
+    for (int z = 0; z < nnz; ++z) {
+        const int i = nz[z], k = nz[m * nv + z];
+        const double *g = xG + (i * nv + k) * D;
+        out[k] -= Ga[i * nv + k] * nu[i];
+        for (int j = 0; j < K; ++j) dout[k * K + j] -= g[1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j];
+    }
+    for (int i = 0; i < m; ++i) {
+        out[nv + i] = -nu[i];
+        for (int j = 0; j < K; ++j) dout[(nv + i) * K + j] = -Z[i * D + 1 + j];
+    }
+    free(iw);
+    free(ws);
+}
+
+static void mb_constrained_value(const int *s, const double *c, const double *in, double *out)
+{
+    mb_constrained_run(1, s, c, in, out, NULL, NULL);
+}
+
+static void mb_constrained_tangent(int D, const int *s, const double *c, const double *in,
+                                   double *out, const double *din, double *dout)
+{
+    mb_constrained_run(D, s, c, in, out, din, dout);
+}
+
+MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in, double *out,
+                                int K, const double *din, double *dout)
+{
+    if (K == 0) mb_constrained_value(s, c, in, out);
+    else mb_constrained_tangent(1 + K, s, c, in, out, din, dout);
 }
 
 /* Position-level values (no tangents): what = 0: the mass matrix M(q) (nv x nv, row-major);

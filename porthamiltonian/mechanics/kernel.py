@@ -39,7 +39,13 @@ Entries (``in``, ``out``): ``mb_state`` — in (q, p); out (v, the momentum rate
 V, then per site: kind 0 (point) world position and velocity (6), kind 1 (frame) its twist
 (ω, v) in its link's axes (6), kind 2 (world frame) world position, angular velocity and
 velocity in world axes (9)). ``mb_load`` — in (q, per site a wrench (τ, f) about the site, in world
-axes, or the link's axes for kind 1); out the generalized forces Sᵀ W (nv). Without tangents:
+axes, or the link's axes for kind 1); out the generalized forces Sᵀ W (nv). ``mb_constrained``
+(the table's last integer m, no sites) — in (q, v, f the momentum rates with the ports' loads,
+Ga = S G (m x nv, row-major), C = 1 − S (m), r = −S (Ġ v + γ G v) (m), h = S φ (m)); out
+(ṗ = f − Gaᵀ ν, λ = −ν, Δv) of the saddle-point systems [M Gaᵀ; Ga C] [a; ν] = [f − Ṁ v; r]
+and [M Gaᵀ; Ga C] [Δv; μ] = [0; −h] (porthamiltonian/mechanics/constrained.py), solved by the
+Schur complement Ga M⁻¹ Gaᵀ − C on the factors of M, with Ṁ v = Πᵀ ad_T S + C(q, v) from a
+Newton–Euler pass; the tangents by implicit differentiation of the two systems. Without tangents:
 ``mb_mass`` (in q; out M, nv × nv row-major), ``mb_jacobians`` (in q; per site the world Jacobian of
 its velocity, 3 × nv), ``mb_poses`` (in q; per site its world position and the unit quaternion of
 its link's axes, 7), ``mb_momenta`` (in (q, v); out M(q) v).
@@ -447,31 +453,68 @@ def _mb_ltdl(n, lam, run, H):
 
 
 @_jit
-def _mb_solve(D, j0, n, lam, run, H, x):
-    """x = M⁻¹ x for the columns j0 .. D − 1 of x (n x D) with the factors of _mb_ltdl."""
-    for i in range(n - 1, -1, -1):                      # Lᵀ y = x
+def _mb_sweep(D, j0, n, lam, run, H, x, transposed):
+    """One triangular sweep over the columns j0 .. D − 1 of x (n x D) with the unit factor L of
+    _mb_ltdl: Lᵀ y = x (``transposed``, tip to root: x_m −= L_im x_i) or L y = x (root to tip:
+    x_i −= L_im x_m), over the ancestors m of every i."""
+    for step in range(n):
+        i = n - 1 - step if transposed else step
         j = lam[i]
         while j >= 0:
             for m in range(j, run[j] - 1, -1):
                 a = H[i * n + m]
+                src, dst = (i, m) if transposed else (m, i)
                 for col in range(j0, D):
-                    x[m * D + col] -= a * x[i * D + col]
+                    x[dst * D + col] -= a * x[src * D + col]
             j = lam[run[j]]
+
+
+@_jit
+def _mb_solve(D, j0, n, lam, run, H, x):
+    """x = M⁻¹ x for the columns j0 .. D − 1 of x (n x D) with the factors of _mb_ltdl."""
+    _mb_sweep(D, j0, n, lam, run, H, x, True)           # Lᵀ y = x
     for i in range(n):                                  # D z = y, then L x = z
         r = 1.0 / H[i * n + i]
         for col in range(j0, D):
             x[i * D + col] *= r
-    for i in range(n):
-        j = lam[i]
-        while j >= 0:
-            for m in range(j, run[j] - 1, -1):
-                a = H[i * n + m]
-                for col in range(j0, D):
-                    x[i * D + col] -= a * x[m * D + col]
-            j = lam[run[j]]
+    _mb_sweep(D, j0, n, lam, run, H, x, False)
 
 
 # --- velocities -----------------------------------------------------------------------------------
+@_jit
+def _mb_carry(D, R, p, k, T, it, tp, F, jf, fp, tmp):
+    """Link k's wrench (torque T at it about its origin, force F at jf; its frame) added to its
+    parent's (at tp, fp): T_λ += R T + p × (R F), F_λ += R F; tmp: 3 duals of work space."""
+    _mb_zero(tmp, 0, 3 * D)
+    _mb_rot(D, R, 9 * D * k, F, jf, tmp, 0)
+    _mb_rot(D, R, 9 * D * k, T, it, T, tp)
+    _mb_cross(D, p, 3 * D * k, tmp, 0, T, tp)
+    for i in range(3 * D):
+        F[fp + i] += tmp[i]
+
+
+@_jit
+def _mb_inertia(D, c, k, Jm, x, ix, y, iy, L, il, P, ip):
+    """(L, P) = 𝕀_k (x, y): link k's own spatial inertia (about its origin, its frame) times the
+    twist (x, y): L = J x + h × y, P = m y − h × x (duals at the offsets given). Jm: 9 numbers
+    of work space."""
+    base = _MB_LINK * k
+    J, m = base + 10, c[base + 6]
+    Jm[0], Jm[4], Jm[8] = c[J], c[J + 1], c[J + 2]
+    Jm[1] = Jm[3] = c[J + 3]
+    Jm[2] = Jm[6] = c[J + 4]
+    Jm[5] = Jm[7] = c[J + 5]
+    _mb_zero(L, il, 3 * D)
+    _mb_zero(P, ip, 3 * D)
+    for i in range(3):
+        for b in range(3):
+            _mb_axpy(D, Jm[3 * i + b], x, ix + b * D, L, il + i * D)
+    _mb_cross_c(D, c, base + 7, 1.0, y, iy, L, il)            # h × y
+    for i in range(3):
+        _mb_axpy(D, m, y, iy + i * D, P, ip + i * D)
+    _mb_cross_c(D, c, base + 7, -1.0, x, ix, P, ip)           # x × h = −h × x
+
+
 @_jit
 def _mb_velocities(D, s, c, R, p, v, w, lin, L, P):
     """Body twists (w, lin) root to tip and subtree momenta (L, P) tip to root from the
@@ -496,34 +539,130 @@ def _mb_velocities(D, s, c, R, p, v, w, lin, L, P):
                 _mb_axpy(D, a[i], v, (i0 + r) * D, w, iw + i * D)
                 _mb_axpy(D, u[i], v, (i0 + r) * D, lin, iw + i * D)
     for k in range(nl):                                 # each link's own momentum
-        base = _MB_LINK * k
-        J, m = base + 10, c[base + 6]
-        Jm[0], Jm[4], Jm[8] = c[J], c[J + 1], c[J + 2]
-        Jm[1] = Jm[3] = c[J + 3]
-        Jm[2] = Jm[6] = c[J + 4]
-        Jm[5] = Jm[7] = c[J + 5]
         iw = 3 * D * k
-        _mb_zero(L, iw, 3 * D)
-        _mb_zero(P, iw, 3 * D)
-        for i in range(3):
-            for b in range(3):
-                _mb_axpy(D, Jm[3 * i + b], w, iw + b * D, L, iw + i * D)
-        _mb_cross_c(D, c, base + 7, 1.0, lin, iw, L, iw)          # h × lin
-        for i in range(3):
-            _mb_axpy(D, m, lin, iw + i * D, P, iw + i * D)
-        _mb_cross_c(D, c, base + 7, -1.0, w, iw, P, iw)           # w × h = −h × w
+        _mb_inertia(D, c, k, Jm, w, iw, lin, iw, L, iw, P, iw)
     RP = np.zeros(3 * D)
     for k in range(nl - 1, -1, -1):                     # carried to the parents
         parent = s[4 + 4 * k]
         if parent < 0:
             continue
         iw = 3 * D * k
-        _mb_zero(RP, 0, 3 * D)
-        _mb_rot(D, R, 9 * D * k, P, iw, RP, 0)
-        _mb_rot(D, R, 9 * D * k, L, iw, L, 3 * D * parent)
-        _mb_cross(D, p, iw, RP, 0, L, 3 * D * parent)
-        for i in range(3 * D):
-            P[3 * D * parent + i] += RP[i]
+        _mb_carry(D, R, p, k, L, iw, 3 * D * parent, P, iw, 3 * D * parent, RP)
+
+
+@_jit
+def _mb_velocity_force(D, w, lin, L, P, iw, a, u, wa, e, ie):
+    """e += Πᵀ ad_T S = L · (w × a) + P · (w × u + lin × a) for the unit twist S = (a, u) of the
+    link at iw (twist (w, lin), subtree momentum (L, P)); wa: 3 duals of work space."""
+    _mb_zero(wa, 0, 3 * D)
+    _mb_cross_c(D, a, 0, -1.0, w, iw, wa, 0)             # w × a
+    _mb_dot(D, L, iw, wa, 0, e, ie)
+    _mb_zero(wa, 0, 3 * D)
+    _mb_cross_c(D, u, 0, -1.0, w, iw, wa, 0)             # w × u
+    _mb_cross_c(D, a, 0, -1.0, lin, iw, wa, 0)           # lin × a
+    _mb_dot(D, P, iw, wa, 0, e, ie)
+
+
+@_jit
+def _mb_generalized(D, s, c, L, P, e):
+    """e = Sᵀ Π (nv duals) from the subtree momenta: M v for the velocities behind (L, P)."""
+    a, u = np.zeros(3), np.zeros(3)
+    for k in range(s[0]):
+        i0 = s[4 + 4 * k + 2]
+        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+            _mb_screw(s, c, k, r, a, u)
+            _mb_set(D, e, (i0 + r) * D, 0.0)
+            _mb_dot_c(D, a, 0, L, 3 * D * k, e, (i0 + r) * D)
+            _mb_dot_c(D, u, 0, P, 3 * D * k, e, (i0 + r) * D)
+
+
+@_jit
+def _mb_times_m(D, s, c, R, p, xv, w, lin, L, P, e):
+    """e = M(q) x as duals for the numbers xv (nv): its value and, at fixed x, its tangents
+    d(M x)|_x through the positions' tangents."""
+    nv = s[1]
+    y = np.zeros(nv * D)
+    for i in range(nv):
+        y[i * D] = xv[i]
+    _mb_velocities(D, s, c, R, p, y, w, lin, L, P)
+    _mb_generalized(D, s, c, L, P, e)
+
+
+@_jit
+def _mb_implicit(D, s, c, R, p, lam, run, H, x, w, lin, L, P):
+    """x = M⁻¹ y in place for the duals y in x (nv x D), H the factors of M: the values by the
+    factors, the tangents implicitly, dx = M⁻¹ (dy − d(M x)|_x)."""
+    nv = s[1]
+    xv = np.zeros(nv)
+    for i in range(nv):
+        xv[i] = x[i * D]
+    _mb_solve(1, 0, nv, lam, run, H, xv)
+    if D > 1:
+        e = np.zeros(nv * D)
+        _mb_times_m(D, s, c, R, p, xv, w, lin, L, P, e)
+        for i in range(nv * D):
+            x[i] -= e[i]
+        _mb_solve(D, 1, nv, lam, run, H, x)
+    for i in range(nv):
+        x[i * D] = xv[i]
+
+
+@_jit
+def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e):
+    """e += M(q) acc + C(q, v): Newton–Euler's inverse dynamics without gravity (Featherstone
+    2008, §5.3; tree.Tree.velocity_products) at the joint accelerations acc (numbers), from the
+    velocities v and the body twists (w, lin) (duals). Root to tip the spatial accelerations
+    A_k = X_kᵀ A_λ + S acc + T_k × S v (angular at A[0:3], linear at A[3:6] of each link's 6
+    duals), tip to root the wrenches F_k = 𝕀_k A_k + T_k ×* 𝕀_k T_k plus the children's,
+    Sᵀ F_k."""
+    nl = s[0]
+    a, u = np.zeros(3), np.zeros(3)
+    Jm = np.zeros(9)
+    tmp = np.zeros(3 * D)
+    Lo, Po = np.zeros(3 * D), np.zeros(3 * D)
+    tf = np.zeros(6 * D)
+    for k in range(nl):
+        parent, kind, i0 = s[4 + 4 * k], s[4 + 4 * k + 1], s[4 + 4 * k + 2]
+        ia, iw = 6 * D * k, 3 * D * k
+        _mb_zero(A, ia, 6 * D)
+        if parent >= 0:                 # Rᵀ α_λ, Rᵀ (c_λ + α_λ × p)
+            ip = 6 * D * parent
+            _mb_copy(tmp, 0, A, ip + 3 * D, 3 * D)
+            _mb_cross(D, A, ip, p, iw, tmp, 0)
+            _mb_rot_t(D, R, 9 * D * k, A, ip, A, ia)
+            _mb_rot_t(D, R, 9 * D * k, tmp, 0, A, ia + 3 * D)
+        for r in range(_mb_dofs(kind)):
+            _mb_screw(s, c, k, r, a, u)
+            for i in range(3):
+                A[ia + i * D] += acc[i0 + r] * a[i]
+                A[ia + 3 * D + i * D] += acc[i0 + r] * u[i]
+            _mb_zero(tmp, 0, 3 * D)
+            _mb_cross_c(D, a, 0, -1.0, w, iw, tmp, 0)             # w × a
+            for i in range(3):
+                _mb_fma(D, v, (i0 + r) * D, tmp, i * D, A, ia + i * D)
+            _mb_zero(tmp, 0, 3 * D)
+            _mb_cross_c(D, u, 0, -1.0, w, iw, tmp, 0)             # w × u
+            _mb_cross_c(D, a, 0, -1.0, lin, iw, tmp, 0)           # lin × a
+            for i in range(3):
+                _mb_fma(D, v, (i0 + r) * D, tmp, i * D, A, ia + 3 * D + i * D)
+    _mb_zero(F, 0, 6 * D * nl)
+    for k in range(nl - 1, -1, -1):
+        parent, i0, ia, iw = s[4 + 4 * k], s[4 + 4 * k + 2], 6 * D * k, 3 * D * k
+        _mb_inertia(D, c, k, Jm, A, ia, A, ia + 3 * D, tf, 0, tf, 3 * D)
+        _mb_inertia(D, c, k, Jm, w, iw, lin, iw, Lo, 0, Po, 0)
+        _mb_cross(D, w, iw, Lo, 0, tf, 0)
+        _mb_cross(D, lin, iw, Po, 0, tf, 0)
+        _mb_cross(D, w, iw, Po, 0, tf, 3 * D)
+        for i in range(6 * D):
+            F[ia + i] += tf[i]
+        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+            _mb_screw(s, c, k, r, a, u)
+            _mb_dot_c(D, a, 0, F, ia, e, (i0 + r) * D)
+            _mb_dot_c(D, u, 0, F, ia + 3 * D, e, (i0 + r) * D)
+        if parent < 0:
+            continue
+        ip = 6 * D * parent
+        _mb_carry(D, R, p, k, F, ia, ip, F, ia + 3 * D, ip + 3 * D, tmp)
 
 
 # --- entry points ---------------------------------------------------------------------------------
@@ -541,6 +680,18 @@ def _mb_emit(D, x, ix, out, dout, i):
     out[i] = x[ix]
     for j in range(1, D):
         dout[i, j - 1] = x[ix + j]
+
+
+@_jit
+def _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M):
+    """The tree at the duals x = (q, …): poses, composites and M factored in place (values):
+    (lam, run) of _mb_lambda."""
+    _mb_positions(D, s, c, x, R, p, R0, p0)
+    _mb_composites(D, s, c, R, p, mc, hc, Jc)
+    _mb_mass(D, s, c, R0, p0, mc, hc, Jc, M)
+    lam, run = _mb_lambda(s)
+    _mb_ltdl(s[1], lam, run, M)
+    return lam, run
 
 
 @_jit
@@ -571,26 +722,9 @@ def mb_state(s, c, values, din):
     a, u = np.zeros(3), np.zeros(3)
     e = np.zeros(D)
     _mb_seed(D, nq + nv, values, din, x)
-    _mb_positions(D, s, c, x, R, p, R0, p0)
-    _mb_composites(D, s, c, R, p, mc, hc, Jc)
-    _mb_mass(D, s, c, R0, p0, mc, hc, Jc, M)
-    lam, run = _mb_lambda(s)
-    _mb_ltdl(nv, lam, run, M)
-    for i in range(nv):
-        _mb_set(D, v, i * D, values[nq + i])
-    _mb_solve(D, 0, nv, lam, run, M, v)
-    if K > 0:      # dv = M⁻¹ (dp − d(M v)|_v): the momenta's tangents at fixed v first
-        _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
-        for k in range(nl):
-            i0 = s[4 + 4 * k + 2]
-            for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-                _mb_screw(s, c, k, r, a, u)
-                _mb_set(D, e, 0, 0.0)
-                _mb_dot_c(D, a, 0, L, 3 * D * k, e, 0)
-                _mb_dot_c(D, u, 0, P, 3 * D * k, e, 0)
-                for j in range(1, D):
-                    v[(i0 + r) * D + j] = x[(nq + i0 + r) * D + j] - e[j]
-        _mb_solve(D, 1, nv, lam, run, M, v)
+    lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
+    _mb_copy(v, 0, x, nq * D, nv * D)
+    _mb_implicit(D, s, c, R, p, lam, run, M, v, w, lin, L, P)
     _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
     G = _MB_LINK * nl
     for k in range(nl):                                 # gravity in each link's frame
@@ -613,13 +747,7 @@ def mb_state(s, c, values, din):
         for r in range(_mb_dofs(s[4 + 4 * k + 1])):
             _mb_screw(s, c, k, r, a, u)
             _mb_set(D, e, 0, 0.0)
-            _mb_zero(wa, 0, 3 * D)
-            _mb_cross_c(D, a, 0, -1.0, w, iw, wa, 0)         # w × a
-            _mb_dot(D, L, iw, wa, 0, e, 0)
-            _mb_zero(wa, 0, 3 * D)
-            _mb_cross_c(D, u, 0, -1.0, w, iw, wa, 0)         # w × u
-            _mb_cross_c(D, a, 0, -1.0, lin, iw, wa, 0)       # lin × a
-            _mb_dot(D, P, iw, wa, 0, e, 0)
+            _mb_velocity_force(D, w, lin, L, P, iw, a, u, wa, e, 0)
             _mb_dot_c(D, a, 0, hg, 0, e, 0)
             _mb_set(D, ug, 0, 0.0)
             _mb_dot_c(D, u, 0, g, iw, ug, 0)
@@ -714,12 +842,217 @@ def mb_load(s, c, values, din):
             _mb_emit(D, e, 0, out, dout, i0 + r)
         if parent < 0:
             continue
-        _mb_zero(Rf, 0, 3 * D)
-        _mb_rot(D, R, 9 * D * k, f, iw, Rf, 0)
-        _mb_rot(D, R, 9 * D * k, tau, iw, tau, 3 * D * parent)
-        _mb_cross(D, p, iw, Rf, 0, tau, 3 * D * parent)
-        for j in range(3 * D):
-            f[3 * D * parent + j] += Rf[j]
+        _mb_carry(D, R, p, k, tau, iw, 3 * D * parent, f, iw, 3 * D * parent, Rf)
+    return out, dout
+
+
+@_jit
+def _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, e):
+    """e = Πᵀ ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity products Ṁ v)
+    from the velocities v: the twists and subtree momenta (w, lin, L, P) formed here."""
+    a, u = np.zeros(3), np.zeros(3)
+    wa = np.zeros(3 * D)
+    _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+    for k in range(s[0]):
+        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+            _mb_screw(s, c, k, r, a, u)
+            _mb_set(D, e, (s[4 + 4 * k + 2] + r) * D, 0.0)
+            _mb_velocity_force(D, w, lin, L, P, 3 * D * k, a, u, wa, e, (s[4 + 4 * k + 2] + r) * D)
+    _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e)
+
+
+@_jit
+def _mb_values(x, D, n):
+    """The values of the n duals x (n x D)."""
+    out = np.zeros(n)
+    for i in range(n):
+        out[i] = x[i * D]
+    return out
+
+
+@_jit
+def _mb_lu(m, A, piv):
+    """A = P L U in place (m x m, row-major; partial pivoting, row swaps in piv)."""
+    for k in range(m):
+        best = k
+        for i in range(k + 1, m):
+            if abs(A[i * m + k]) > abs(A[best * m + k]):
+                best = i
+        piv[k] = best
+        if best != k:
+            for j in range(m):
+                A[k * m + j], A[best * m + j] = A[best * m + j], A[k * m + j]
+        for i in range(k + 1, m):
+            f = A[i * m + k] / A[k * m + k]
+            A[i * m + k] = f
+            for j in range(k + 1, m):
+                A[i * m + j] -= f * A[k * m + j]
+
+
+@_jit
+def _mb_lu_solve(m, A, piv, D, j0, x):
+    """x = A⁻¹ x for the columns j0 .. D − 1 of x (m x D) with the factors of _mb_lu."""
+    for k in range(m):
+        t = piv[k]
+        for col in range(j0, D):
+            x[k * D + col], x[t * D + col] = x[t * D + col], x[k * D + col]
+    for i in range(m):
+        for j in range(i):
+            a = A[i * m + j]
+            for col in range(j0, D):
+                x[i * D + col] -= a * x[j * D + col]
+    for i in range(m - 1, -1, -1):
+        for j in range(i + 1, m):
+            a = A[i * m + j]
+            for col in range(j0, D):
+                x[i * D + col] -= a * x[j * D + col]
+        for col in range(j0, D):
+            x[i * D + col] /= A[i * m + i]
+
+
+@_jit
+def _mb_pattern(D, m, n, x, iG):
+    """The entries (i, k) of Ga (duals at x[iG:], m x n) with a nonzero value or tangent: the
+    structural nonzeros (rows, columns, count)."""
+    rows, cols = np.zeros(m * n, dtype=np.int64), np.zeros(m * n, dtype=np.int64)
+    count = 0
+    for i in range(m):
+        for k in range(n):
+            for j in range(D):
+                if x[iG + (i * n + k) * D + j] != 0.0:
+                    rows[count], cols[count] = i, k
+                    count += 1
+                    break
+    return rows, cols, count
+
+
+@_jit
+def _mb_saddle(D, j0, n, m, lam, run, H, Ga, nz_i, nz_k, nnz, Y, Sc, piv, X, Z, full):
+    """The saddle-point system [M Gaᵀ; Ga C] [a; ν] = [X; Z] solved in place (X ← a, Z ← ν)
+    for the columns j0 .. D − 1 of X (n x D) and Z (m x D) by the Schur complement: with the
+    factors H of M, Y = M⁻¹ Gaᵀ (n x m) and Sc = Ga Y − C (m x m, factored by _mb_lu),
+    a' = M⁻¹ X, ν = Sc⁻¹ (Ga a' − Z), a = a' − Y ν (Ga's nonzeros: nz_i, nz_k, nnz; not
+    ``full``: ν only, X left at a')."""
+    _mb_solve(D, j0, n, lam, run, H, X)
+    for i in range(m):
+        for col in range(j0, D):
+            Z[i * D + col] = -Z[i * D + col]
+    for e in range(nnz):
+        i, k = nz_i[e], nz_k[e]
+        g = Ga[i * n + k]
+        for col in range(j0, D):
+            Z[i * D + col] += g * X[k * D + col]
+    _mb_lu_solve(m, Sc, piv, D, j0, Z)
+    if not full:
+        return
+    for k in range(n):
+        for i in range(m):
+            y = Y[k * m + i]
+            for col in range(j0, D):
+                X[k * D + col] -= y * Z[i * D + col]
+
+
+@_jit
+def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
+    """The right-hand sides of a saddle solution's tangents (columns 1 .. D − 1): T −= d(M a)|_a
+    (the tangents of dm) + dGaᵀ ν, Z −= dGa a + dC ν, for the solution (a, ν) (numbers) and the
+    duals of Ga at x[iG:] (m x n; its nonzeros nz_i, nz_k, nnz) and of C's diagonal at x[iC:]."""
+    for k in range(n):
+        for j in range(1, D):
+            T[k * D + j] -= dm[k * D + j]
+    for i in range(m):
+        for j in range(1, D):
+            Z[i * D + j] -= x[iC + i * D + j] * nu[i]
+    for e in range(nnz):
+        i, k = nz_i[e], nz_k[e]
+        g = iG + (i * n + k) * D
+        for j in range(1, D):
+            T[k * D + j] -= x[g + j] * nu[i]
+            Z[i * D + j] -= x[g + j] * a[k]
+
+
+@_jit
+def mb_constrained(s, c, values, din):
+    """The constrained entry (see the module docstring): (out, dout)."""
+    nl, nv, nq, ns = s[0], s[1], s[2], s[3]
+    m = s[4 + 4 * nl + 2 * ns]
+    K = din.shape[1]
+    D = 1 + K
+    n_in = nq + 2 * nv + m * nv + 3 * m
+    iF, iG = (nq + nv) * D, (nq + 2 * nv) * D
+    iC = iG + m * nv * D
+    iB, iH = iC + m * D, iC + 2 * m * D
+    out = np.zeros(2 * nv + m)
+    dout = np.zeros((2 * nv + m, K))
+    R, p = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
+    R0, p0 = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
+    hc, w, lin = np.zeros(3 * D * nl), np.zeros(3 * D * nl), np.zeros(3 * D * nl)
+    L, P = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
+    A, F = np.zeros(6 * D * nl), np.zeros(6 * D * nl)
+    mc, Jc, M = np.zeros(nl), np.zeros(9 * nl), np.zeros(nv * nv)
+    x = np.zeros(n_in * D)
+    v = np.zeros(nv * D)
+    _mb_seed(D, n_in, values, din, x)
+    lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
+    _mb_copy(v, 0, x, nq * D, nv * D)          # the velocities (and tangents) are inputs
+    # values: b = f − Ṁ v for the accelerations' right-hand side
+    Rv, pv, vv = _mb_values(R, D, 9 * nl), _mb_values(p, D, 3 * nl), _mb_values(v, D, nv)
+    acc_a, nu = np.zeros(nv), np.zeros(m)            # the accelerations and ν = −λ
+    _mb_products(1, s, c, Rv, pv, vv, np.zeros(nv), np.zeros(3 * nl), np.zeros(3 * nl),
+                 np.zeros(3 * nl), np.zeros(3 * nl), np.zeros(6 * nl), np.zeros(6 * nl), acc_a)
+    for k in range(nv):
+        acc_a[k] = x[iF + k * D] - acc_a[k]
+    nz_i, nz_k, nnz = _mb_pattern(D, m, nv, x, iG)
+    Ga, Y, Sc = np.zeros(m * nv), np.zeros(nv * m), np.zeros(m * m)
+    piv = np.zeros(m, dtype=np.int64)
+    for i in range(m):
+        for k in range(nv):
+            Ga[i * nv + k] = x[iG + (i * nv + k) * D]
+            Y[k * m + i] = Ga[i * nv + k]
+    _mb_solve(m, 0, nv, lam, run, M, Y)
+    for i in range(m):
+        Sc[i * m + i] = -x[iC + i * D]
+    for e in range(nnz):                # Sc = Ga Y − C
+        i, k = nz_i[e], nz_k[e]
+        for j in range(m):
+            Sc[i * m + j] += Ga[i * nv + k] * Y[k * m + j]
+    _mb_lu(m, Sc, piv)
+    shift, mu = np.zeros(nv), np.zeros(m)            # the position correction Δv
+    for i in range(m):
+        nu[i] = x[iB + i * D]
+        mu[i] = -x[iH + i * D]
+    _mb_saddle(1, 0, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, acc_a, nu, True)
+    _mb_saddle(1, 0, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, shift, mu, True)
+    T, Z = np.zeros(nv * D), np.zeros(m * D)
+    Tc, Zc = np.zeros(nv * D), np.zeros(m * D)
+    if K > 0:           # the saddle system differentiated: the same matrix, new right-hand sides
+        dm = np.zeros(nv * D)           # Πᵀ ad_T S + M a + C(q, v): its tangents at fixed a
+        _mb_products(D, s, c, R, p, v, acc_a, w, lin, L, P, A, F, dm)
+        _mb_copy(T, 0, x, iF, nv * D)
+        _mb_copy(Z, 0, x, iB, m * D)
+        _mb_saddle_tangents(D, nv, m, x, iG, iC, nz_i, nz_k, nnz, acc_a, nu, dm, T, Z)
+        _mb_saddle(D, 1, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, T, Z, False)
+        _mb_times_m(D, s, c, R, p, shift, w, lin, L, P, dm)
+        for i in range(m * D):
+            Zc[i] = -x[iH + i]
+        _mb_saddle_tangents(D, nv, m, x, iG, iC, nz_i, nz_k, nnz, shift, mu, dm, Tc, Zc)
+        _mb_saddle(D, 1, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, Tc, Zc, True)
+    for k in range(nv):             # ṗ = f − Gaᵀ ν, λ = −ν, Δv
+        out[k] = x[iF + k * D]
+        out[nv + m + k] = shift[k]
+        for j in range(K):
+            dout[k, j] = x[iF + k * D + 1 + j]
+            dout[nv + m + k, j] = Tc[k * D + 1 + j]
+    for e in range(nnz):
+        i, k = nz_i[e], nz_k[e]
+        g = iG + (i * nv + k) * D
+        out[k] -= Ga[i * nv + k] * nu[i]
+        for j in range(K):
+            dout[k, j] -= x[g + 1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j]
+    for i in range(m):
+        out[nv + i] = -nu[i]
+        for j in range(K):
+            dout[nv + i, j] = -Z[i * D + 1 + j]
     return out, dout
 
 

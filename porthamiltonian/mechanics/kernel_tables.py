@@ -121,6 +121,13 @@ class KernelTree:
         out = self._call("mb.poses", "mb_poses", sites, list(q), 7 * len(sites))
         return [(out[7 * i:7 * i + 3], out[7 * i + 3:7 * i + 7]) for i in range(len(sites))]
 
+    def constrained(self, inputs: list, m: int) -> list:
+        """The constrained momentum rates, the multipliers and the position correction (see
+        :func:`.constrained.constrain_kernel` for ``inputs``; m rows): 2 nv + m outputs."""
+        ints, numbers = self.table([])
+        return self.b.call("mb.constrained", "multibody", "mb_constrained", [*ints, m], numbers,
+                           inputs, 2 * self.nv + m)
+
     def momenta(self, q: Sequence, v: Sequence) -> list:
         """M(q) v (for the initial momenta from parameter expressions)."""
         return self._call("mb.p0", "mb_momenta", [], [*q, *v], self.nv)

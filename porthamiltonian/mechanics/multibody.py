@@ -31,8 +31,9 @@ the same numbers (docs/multibody.md):
   Jacobian follows by the chain rule through the intermediates;
 * ``"auto"`` (default): the kernel when an axis is not along a coordinate axis or the tree has
   more than :data:`KERNEL_LINKS` links (and its tables depend on parameters only), else
-  symbolic. A tree with ``loops`` or ``constraints`` is always symbolic (``"kernel"`` refuses
-  them).
+  symbolic; a tree with ``loops`` or ``constraints`` is written out (symbolic) unless
+  ``formulation = "kernel"``, with which the kernel solves the constrained equations too
+  (:func:`.constrained.constrain_kernel`).
 
 Frames and conventions
 ----------------------
@@ -128,7 +129,12 @@ def auto_kernel(axes: list, parametric: bool, closed: bool = False) -> bool:
     """What ``formulation = "auto"`` picks for a tree of elementary links with these ``axes``
     (None for a link without one): the kernel when its tables depend on parameters only
     (``parametric``), it has no loops or constraints (``closed``) and an axis is not along a
-    coordinate axis (±) or there are more than :data:`KERNEL_LINKS` links."""
+    coordinate axis (±) or there are more than :data:`KERNEL_LINKS` links. A closed tree is
+    written out: the kernel builds it faster (the 10-loop ladder of
+    benchmarks/bench_closed_loops.py in about half the CPU time) but runs it about 2.5x slower
+    per step (0.28–0.34 of the open tree's speed, at the 1/3 the closed-loop benchmarks ask,
+    against 0.64–0.79 written out);
+    ``formulation = "kernel"`` chooses it."""
     generic = any(axis is not None and sum(1 for a in axis if a != 0) > 1 for axis in axes)
     return parametric and not closed and (generic or len(axes) > KERNEL_LINKS)
 
@@ -365,7 +371,7 @@ class Multibody(Component):
         if self._kernel(b, formulation, links, g, static_first, sites,
                         closed=bool(loops or constraints)):
             self._build_kernel(b, bodies, plane, quaternion_gain, specs, q0, v0, links,
-                               placement, g, static_first, sites)
+                               placement, g, static_first, sites, constraint_gain)
         else:
             self._build_symbolic(b, bodies, joints, plane, quaternion_gain, specs, q0, v0,
                                  links, placement, g, static_first, constraint_gain)
@@ -399,13 +405,8 @@ class Multibody(Component):
         """Whether the tree is evaluated by the kernel (see the module docstring). The
         port-Hamiltonian form's cut build (``b.ph``) writes the Poisson structure out
         symbolically in either formulation: it needs the kinematics only (v = ∂H/∂p stands for
-        the kernel's M⁻¹p), and ∇H comes from the kernel's tangents. A tree with loops or
-        constraints (``closed``) is written out symbolically: the kernel does not solve the
-        constrained equations."""
-        if formulation == "kernel" and closed:
-            raise ModelError("Multibody formulation 'kernel' does not take 'loops' or "
-                             "'constraints' (the kernel solves the tree's equations only); use "
-                             "formulation = 'symbolic' or 'auto'", path=("formulation",))
+        the kernel's M⁻¹p), and ∇H comes from the kernel's tangents. With loops or constraints
+        (``closed``) the kernel also solves the constrained equations (``mb_constrained``)."""
         if formulation == "symbolic" or b.ph is not None:
             return False
         tables = [*g, *static_first, *(c for _, local, _ in sites.values() for c in local)]
@@ -424,10 +425,11 @@ class Multibody(Component):
     def _build_kernel(self, b: Builder, bodies: dict[str, Any], plane: str | None,
                       quaternion_gain: sp.Expr, specs: list[Joint], q0: list, v0: list,
                       links: list[Link], placement: dict, g: list, static_first: list,
-                      sites: dict[str, tuple]) -> None:
+                      sites: dict[str, tuple], constraint_gain: sp.Expr) -> None:
         """The tree evaluated by the recursive kernel over its numeric tables
         (:mod:`.kernel_tables`); the ports, outputs and rates around it as in the symbolic
-        formulation."""
+        formulation; the loops and constraints enforced by the kernel's constrained entry on
+        rows written out from the tree's positions only (:func:`.constrained.constrain_kernel`)."""
         nq = sum(len(spec.coordinates) for spec in specs)
         tree = KernelTree(b, links, g, static_first, nq)
         n = tree.nv
@@ -496,12 +498,39 @@ class Multibody(Component):
         if loads:
             Q = [a + c for a, c in zip(Q, tree.load(q, loads))]
 
-        def rotation(link: Link) -> Any:
-            c = link.coordinate
-            return quaternion_rotation(q[c + 3:c + 7], b.intermediate, f"mb.{link.name}.rot")
+        quaternions: dict[Link, Any] = {}
+
+        def rotation(link: Link) -> Any:            # (once per link: the loops ask again)
+            if link not in quaternions:
+                c = link.coordinate
+                quaternions[link] = quaternion_rotation(q[c + 3:c + 7], b.intermediate,
+                                                        f"mb.{link.name}.rot")
+            return quaternions[link]
 
         rates = coordinate_rates(links, q, v, quaternion_gain, rotation)
-        self._finish(b, specs, q, p, v, Q, rates, potential, tree.mass_matrix(q))
+        close = None
+        if self.value("loops") or self.value("constraints"):
+            def close(Q: list, rates: list) -> tuple[list, list]:
+                geometry = Tree(links, self._maker(b))
+                geometry.positions(q)
+                geometry.world()
+                rows = self._rows(b, geometry, placement, specs, q)
+                return constrained.constrain_kernel(
+                    b, rows, q, v, Q, rates,
+                    lambda w: coordinate_rates(links, q, w, 0, rotation), constraint_gain,
+                    f"Multibody {b.name!r}", tree.constrained)
+        self._finish(b, specs, q, p, v, Q, rates, potential, tree.mass_matrix(q), close)
+
+    @staticmethod
+    def _maker(b: Builder) -> Callable[[str, Any], Any]:
+        """The tree's intermediate maker: ``mb.<name>`` (atoms and their negatives as they are)."""
+        def make(name: str, expr: Any) -> Any:
+            expr = sp.sympify(expr)
+            if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
+                                and expr.args[1].is_Atom):
+                return expr
+            return b.intermediate(f"mb.{name}", expr)
+        return make
 
     def _build_symbolic(self, b: Builder, bodies: dict[str, Any], joints: dict[str, Any],
                         plane: str | None, quaternion_gain: sp.Expr, specs: list[Joint],
@@ -519,14 +548,7 @@ class Multibody(Component):
             start.velocities(v0)
             p0 = start.generalized_momenta()
         q, p = self._states(b, specs, q0, p0)
-
-        def make(name: str, expr: Any) -> Any:
-            expr = sp.sympify(expr)
-            if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
-                                and expr.args[1].is_Atom):
-                return expr
-            return b.intermediate(f"mb.{name}", expr)
-
+        make = self._maker(b)
         tree = Tree(links, make)
         tree.positions(q)
         tree.world()
@@ -627,8 +649,10 @@ class Multibody(Component):
         close = None
         if self.value("loops") or self.value("constraints"):
             def close(Q: list, rates: list) -> tuple[list, list]:
-                return self._closed(b, tree, placement, make, specs, q, v, M, Q, rates,
-                                    constraint_gain)
+                rows = self._rows(b, tree, placement, specs, q)
+                return constrained.constrain(b, rows, q, v, M, tree.velocity_products, Q, rates,
+                                             lambda w: tree.coordinate_rates(q, w, 0),
+                                             constraint_gain, f"Multibody {b.name!r}")
         self._finish(b, specs, q, p, v, Q, rates, potential, M, close)
 
     def _finish(self, b: Builder, specs: list[Joint], q: list, p: list, v: list, Q: list,
@@ -676,24 +700,19 @@ class Multibody(Component):
                          "1")
         b.matrix("M", M)
 
-    def _closed(self, b: Builder, tree: Tree, placement: dict, make: Callable[[str, Any], Any],
-                specs: list[Joint],
-                q: list, v: list, M: sp.Matrix, Q: list, rates: list, gain: sp.Expr
-                ) -> tuple[list, list]:
-        """The coordinate and momentum rates with the loops and constraints enforced
-        (:mod:`.constrained`)."""
+    def _rows(self, b: Builder, tree: Tree, placement: dict, specs: list[Joint], q: list
+              ) -> list[closure.Row]:
+        """The rows of the loops and constraints (:mod:`.closure`) on ``tree`` (after
+        :meth:`.tree.Tree.world`: its positions only)."""
         velocity_index, coordinate, k, c = {}, {}, 0, 0
         for spec in specs:
             velocity_index[spec.name] = list(range(k, k + len(spec.velocities)))
             coordinate[spec.name] = q[c:c + len(spec.coordinates)]
             k, c = k + len(spec.velocities), c + len(spec.coordinates)
         points = {point: (body, pos) for body, (point, pos) in self._points()}
-        closures = closure.Closures(tree, placement, make, b.parse, velocity_index, coordinate,
-                                    points)
-        rows = closures.rows(self.value("loops"), self.value("constraints"))
-        return constrained.constrain(b, rows, q, v, M, tree.velocity_products, Q, rates,
-                                     lambda w: tree.coordinate_rates(q, w, 0), gain,
-                                     f"Multibody {b.name!r}")
+        closures = closure.Closures(tree, placement, self._maker(b), b.parse, velocity_index,
+                                    coordinate, points)
+        return closures.rows(self.value("loops"), self.value("constraints"))
 
     def _initial(self, b: Builder, joints: dict[str, Any], specs: list[Joint]
                  ) -> tuple[list[Any], list[Any]]:

@@ -25,7 +25,7 @@ from sympy.core.symbol import Str
 
 #: the kernels the printers know: name -> entries with tangents, entries without
 KERNELS = {
-    "multibody": ({"mb_state", "mb_load"}, {"mb_mass", "mb_jacobians", "mb_poses", "mb_momenta"}),
+    "multibody": ({"mb_state", "mb_load", "mb_constrained"}, {"mb_mass", "mb_jacobians", "mb_poses", "mb_momenta"}),
 }
 
 

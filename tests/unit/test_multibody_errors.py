@@ -11,6 +11,7 @@ import pytest
 import porthamiltonian as ph
 from porthamiltonian import errors, io, symbolic
 from porthamiltonian.mechanics import Multibody
+from porthamiltonian.mechanics.multibody import KERNEL_LINKS
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -438,17 +439,23 @@ def test_a_configuration_that_cannot_be_assembled_is_refused_with_the_residual(i
     assert "cannot be assembled" in msg and "residual 2" in msg and "pin.x" in msg
 
 
-def test_kernel_formulation_with_loops_or_constraints_is_refused_and_auto_writes_them_out():
-    """The kernel evaluates the tree's equations only: ``formulation = "kernel"`` with a
-    constraint is a ModelError at the key; ``"auto"`` on a tree it would otherwise give the
-    kernel (an axis off the coordinate axes) builds the symbolic code (no kernel call)."""
+def test_the_kernel_solves_loops_and_constraints_and_auto_writes_them_out():
+    """``formulation = "kernel"`` with a constraint calls the kernel's constrained entry (the
+    numbers: tests/validation/test_closed_loops_kernel.py); ``"auto"`` writes a closed tree out
+    symbolically, whether an axis is off the coordinate axes or the tree has more than
+    KERNEL_LINKS links (either gives an open tree the kernel)."""
     joined = {"type": "point", "point": "tip_a", "to": "tip_b", "axes": ["x"]}
-    with pytest.raises(errors.ModelError) as info:
-        compile_symbolic(build(TWO_RODS, TWO_PIVOTS, constraints={"P": joined},
-                               formulation="kernel"))
-    assert tuple(info.value.path)[-1] == "formulation"
-    assert "'loops' or 'constraints'" in str(info.value) and "'symbolic'" in str(info.value)
+    calls = compile_symbolic(build(TWO_RODS, TWO_PIVOTS, constraints={"P": joined},
+                                   formulation="kernel")).calls
+    assert {call.entry for call in calls.values()} >= {"mb_state", "mb_constrained"}
     tilted = {"j1": revolute("world", "a", axis=[0.6, 0, 0.8]),
               "j2": revolute("world", "b", origin=[1, 0, 0])}
     assert compile_symbolic(build(TWO_RODS, tilted)).calls            # auto: the kernel
     assert not compile_symbolic(build(TWO_RODS, tilted, constraints={"P": joined})).calls
+    chain = {f"l{k}": rod(points={f"tip{k}": [0, 0, -1]}) for k in range(KERNEL_LINKS + 1)}
+    hinges = {f"j{k}": revolute("world" if k == 0 else f"l{k - 1}", f"l{k}",
+                                origin=[0, 0, 0 if k == 0 else -1])
+              for k in range(KERNEL_LINKS + 1)}
+    pinned = {"P": {"type": "point", "point": f"tip{KERNEL_LINKS}", "axes": ["x"]}}
+    assert compile_symbolic(build(chain, hinges)).calls
+    assert not compile_symbolic(build(chain, hinges, constraints=pinned)).calls
