@@ -9,6 +9,7 @@ port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import shlex
 import sys
@@ -352,9 +353,12 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
-        attach = numba_cache.verified_caches(path.parent) if name == "numba" else None
+        if name == "python":
+            return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text)
         return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text,
-                           attach=attach)
+                           attach=numba_cache.verified_caches(path.parent),
+                           loops=numba_cache.loop_module(use_cache),
+                           compiling=functools.partial(cache.compiling, path.parent))
     shapes = dict(meta.shapes)
     n_params = slot_count(meta)
     identity = native.compiler_identity()

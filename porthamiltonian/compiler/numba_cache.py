@@ -19,18 +19,45 @@ When the module is loaded, every file of its ``__pycache__`` is checked so (:fun
 pycache_usable`); a ``__pycache__`` that is not the user's private folder
 (:func:`.cache.private_problem`) is removed, or when it cannot be, caching is off for the
 module.
+
+The integration loops, compiled once for all models (:mod:`porthamiltonian.backends.
+numba_loops`), are a module of their own in an entry of their own, keyed by its text
+(:func:`loop_module`), and their compiled code is kept and verified the same way.
 """
 from __future__ import annotations
 
+import functools
+import hashlib
 import io
 import pickle
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ..backends import module, numba_loops
 from . import cache
 
-__all__ = ["verified_caches"]
+__all__ = ["loop_module", "verified_caches"]
+
+
+def loop_module(use_cache: bool = True) -> numba_loops.LoopModule:
+    """The numba back end's loop module (:func:`~porthamiltonian.backends.numba_loops.
+    loops_text`), imported once per process from the cache entry keyed by a hash of its text,
+    its dispatchers given verified caches (:func:`verified_caches`), with the entry's compile
+    lock (:func:`.cache.compiling`); with ``use_cache`` False, built in the private temporary
+    folder."""
+    if use_cache not in _LOOP_MODULES:
+        text = numba_loops.loops_text()
+        key = hashlib.sha256(("numba loops\0" + text).encode()).hexdigest()[:32]
+        path = cache.backend_module(key, "numba", text, use_cache)
+        _LOOP_MODULES[use_cache] = numba_loops.LoopModule(
+            module.import_module(path, text, verified_caches(path.parent)),
+            functools.partial(cache.compiling, path.parent))
+    return _LOOP_MODULES[use_cache]
+
+
+#: this process's loop modules, by use_cache
+_LOOP_MODULES: dict[bool, numba_loops.LoopModule] = {}
 
 
 def verified_caches(entry: Path) -> Callable[[Any], None]:
