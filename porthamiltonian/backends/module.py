@@ -8,7 +8,6 @@
 """
 from __future__ import annotations
 
-import contextlib
 import functools
 import importlib.util
 import sys
@@ -64,8 +63,7 @@ def shown_text(body: str, backend: str) -> str:
 
 def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (), *,
          source: str | None = None, attach: Callable[[Any], None] | None = None,
-         loops: numba_loops.LoopModule | None = None,
-         compiling: numba_loops.Lock | None = None) -> Functions:
+         loops: types.ModuleType | None = None) -> Functions:
     """Import the generated module at ``path`` and wrap its functions for ``backend``.
 
     ``extra``: the names of its further generated functions (e.g. ``jac_u``). ``source``: the
@@ -73,8 +71,7 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
     again, and no bytecode is written or read). ``attach``: called with each numba dispatcher of
     the module before any is called (e.g. to give it a verified on-disk cache). ``loops``: the
     numba back end's loop module (:func:`.numba_loops.loops_text`), whose loops are bound to
-    this module's functions; ``compiling``: the lock held while they are compiled for the loops
-    (:class:`.numba_loops.BoundLoop`)."""
+    this module's functions."""
     module = import_module(path, source, attach)
     f = {name: getattr(module, name) for name in _NAMES}
     matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]
@@ -99,7 +96,7 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
                          {name: wrap(getattr(module, name)) for name in extra})
     if loops is None:
         raise CompilerError(f"{path}: the numba back end needs its loop module")
-    bound, variational = numba_loops.bind(loops, called, compiling or contextlib.nullcontext)
+    bound, variational = numba_loops.bind(loops, called)
     rhs, jac, energy, outputs, guards, initial = (f[n] for n in _NAMES)
     return Functions("numba", rhs, jac, energy, outputs, guards, initial, tuple(matrices), bound,
                      variational, {name: getattr(module, name) for name in extra})

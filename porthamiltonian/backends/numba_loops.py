@@ -17,11 +17,9 @@ the other back ends are (the conventions of :mod:`porthamiltonian.integrators`).
 """
 from __future__ import annotations
 
-import contextlib
 import types as pytypes
 import warnings
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -72,37 +70,18 @@ def _numba_type(kind: str) -> Any:
             "d": types.int64[::1], "b": types.boolean[::1], "m": types.float64[:, ::1]}[kind]
 
 
-#: A lock held while code that concurrent processes share is compiled (e.g.
-#: :func:`porthamiltonian.compiler.cache.compiling` of the cache entry that keeps it).
-Lock = Callable[[], contextlib.AbstractContextManager[Any]]
-
-
-@dataclass(frozen=True)
-class LoopModule:
-    """The imported loop module (:func:`loops_text`) and the lock of the cache entry that keeps
-    its compiled code."""
-
-    module: pytypes.ModuleType
-    compiling: Lock = contextlib.nullcontext
-
-
 class BoundLoop:
     """A loop entry point of the shared module bound to one model's functions ``fn`` (numba
     dispatchers), called as the other back ends' loops are: ``loop(*args)`` converts the
     arguments to the types the loop is compiled for (:func:`_argument`) and runs the entry point
     compiled with ``fn`` typed as first-class functions — compiled, or read from numba's cache,
     at the first call in a process, the model's functions compiled for the loop's argument
-    types ``(float64, float64[::1], float64[::1])`` then. Each compile runs under its lock
-    (``model_lock`` for the model's functions, ``loop_lock`` for the loop), so that a concurrent
-    process waits for it and reads the result from the cache instead of compiling it too."""
+    types ``(float64, float64[::1], float64[::1])`` then."""
 
-    def __init__(self, entry: Any, fn: tuple[Any, ...], variational: bool,
-                 model_lock: Lock = contextlib.nullcontext,
-                 loop_lock: Lock = contextlib.nullcontext) -> None:
+    def __init__(self, entry: Any, fn: tuple[Any, ...], variational: bool) -> None:
         self.entry = entry
         self.fn = fn
         self.kinds = _KINDS + ("mm" if variational else "")
-        self.locks = (model_lock, loop_lock)
         self._run: Callable[..., Any] | None = None
 
     def __call__(self, *args: Any) -> Any:
@@ -120,29 +99,23 @@ class BoundLoop:
             warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
             signatures = []
             for f in self.fn:
-                if arguments not in f.overloads:
-                    with self.locks[0]():
-                        f.compile(arguments)
+                f.compile(arguments)
                 signatures.append(types.FunctionType(f.overloads[arguments].signature))
             full = (types.Tuple(signatures), *(_numba_type(k) for k in self.kinds))
-            if full not in self.entry.overloads:
-                with self.locks[1]():
-                    self.entry.compile(full)
+            self.entry.compile(full)
         self._run = self.entry.overloads[full].entry_point
         return self._run
 
 
-def bind(loops: LoopModule, fn: tuple[Any, ...], model_lock: Lock = contextlib.nullcontext
+def bind(loops: pytypes.ModuleType, fn: tuple[Any, ...]
          ) -> tuple[Mapping[str, BoundLoop], Mapping[str, BoundLoop]]:
     """(the plain loops, the variational loops) of the shared module ``loops``, by method name,
-    bound to the model's functions ``fn`` (:data:`LOOP_FUNCTIONS`; ``model_lock``: the lock of
-    the cache entry that keeps their compiled code)."""
+    bound to the model's functions ``fn`` (:data:`LOOP_FUNCTIONS`)."""
     def bound(symbol: str, variational: bool) -> BoundLoop:
-        return BoundLoop(getattr(loops.module, f"integrate_{symbol}"), fn, variational,
-                         model_lock, loops.compiling)
+        return BoundLoop(getattr(loops, f"integrate_{symbol}"), fn, variational)
 
     return ({name: bound(symbol, False) for name, symbol in LOOPS.items()},
             {name: bound(f"{symbol}_variational", True) for name, symbol in LOOPS.items()})
 
 
-__all__ = ["HEADER", "LOOP_FUNCTIONS", "BoundLoop", "Lock", "LoopModule", "bind", "loops_text"]
+__all__ = ["HEADER", "LOOP_FUNCTIONS", "BoundLoop", "bind", "loops_text"]

@@ -9,7 +9,6 @@ port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import shlex
 import sys
@@ -357,8 +356,7 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
             return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text)
         return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text,
                            attach=numba_cache.verified_caches(path.parent),
-                           loops=numba_cache.loop_module(use_cache),
-                           compiling=functools.partial(cache.compiling, path.parent))
+                           loops=numba_cache.loop_module(use_cache))
     shapes = dict(meta.shapes)
     n_params = slot_count(meta)
     identity = native.compiler_identity()
