@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import OptionError
 from ..integrators import LOOPS, python_loops
 
-#: The numba module's header (the loops' own module: no model functions in it).
+#: The header of the numba back end's modules (a model's functions, the loops).
 HEADER = ("import math\nimport numpy as np\nfrom numba import njit as _njit\n"
           "_jit = _njit(cache=True)\n")
 #: The model functions a loop calls, in the order of its argument ``fn``.
