@@ -2,8 +2,9 @@
 
 ``python``  the generated straight-line code run by CPython on Python floats (``x.tolist()``),
             measured ~4x faster than numpy-vectorized lambdify on this project's models.
-``numba``   the same source with every function compiled by ``numba.njit(cache=True)`` at its
-            first call (numba keeps the machine code beside the module).
+``numba``   the model's functions of the same source compiled by ``numba.njit(cache=True)`` at
+            their first call (numba keeps the machine code beside the module); the integration
+            loops are compiled once for all models (:mod:`.numba_loops`).
 """
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import functools
 import importlib.util
 import sys
 import types
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,10 +20,10 @@ import numpy as np
 
 from ..errors import CompilerError
 from ..integrators import LOOPS, python_loops
-from . import Functions
+from . import Functions, numba_loops
 
 _HEADERS = {
-    "numba": "import math\nimport numpy as np\nfrom numba import njit as _njit\n_jit = _njit(cache=True)\n",
+    "numba": numba_loops.HEADER,
     "python": "import math\nimport numpy as np\n\n\ndef _jit(f):\n    return f\n",
 }
 _NAMES = ("rhs", "jac", "energy", "outputs", "guards", "initial")
@@ -37,24 +38,75 @@ JAC_P_STUB = ('@_jit\ndef jac_p(t, x, p):\n    """No parameter Jacobian generate
 
 def module_text(body: str, backend: str) -> str:
     """The module of ``backend``: its header, the generated body (and :data:`JAC_P_STUB` when it
-    has no ``jac_p``) and the integration loops (which call the body's functions directly)."""
+    has no ``jac_p``) and, for the python back end, the integration loops (bound to the body's
+    functions by :func:`load`; the numba back end's are a module of their own,
+    :func:`.numba_loops.loops_text`)."""
     stub = "" if "def jac_p(" in body else JAC_P_STUB
     doc = ""
     if body.startswith('"""'):          # the module's docstring first, so that it is __doc__
         end = body.index('\n"""', 3) + 4
         doc, body = body[:end] + "\n", body[end:].lstrip("\n")
-    return (doc + _HEADERS[backend] + "\n\n" + body + "\n\n" + stub + "\n\n"
-            + python_loops())
+    loops = python_loops() if backend == "python" else ""
+    return doc + _HEADERS[backend] + "\n\n" + body + "\n\n" + stub + "\n\n" + loops
+
+
+def shown_text(body: str, backend: str) -> str:
+    """What ``backend`` (python, numba) runs for the model of ``body``: its module
+    (:func:`module_text`), and for numba the loop module of all models after it
+    (``show --code``)."""
+    text = module_text(body, backend)
+    if backend == "numba":
+        text += ("\n\n# --- the integration loops: one module, compiled once for all models "
+                 "(porthamiltonian.backends.numba_loops) ---\n" + numba_loops.loops_text())
+    return text
 
 
 def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (), *,
-         source: str | None = None, attach: Callable[[Any], None] | None = None) -> Functions:
+         source: str | None = None, attach: Callable[[Any], None] | None = None,
+         loops: types.ModuleType | None = None) -> Functions:
     """Import the generated module at ``path`` and wrap its functions for ``backend``.
 
     ``extra``: the names of its further generated functions (e.g. ``jac_u``). ``source``: the
     module's text, already verified by the caller: it is compiled as it is (the file is not read
     again, and no bytecode is written or read). ``attach``: called with each numba dispatcher of
-    the module before any is called (e.g. to give it a verified on-disk cache)."""
+    the module before any is called (e.g. to give it a verified on-disk cache). ``loops``: the
+    numba back end's loop module (:func:`.numba_loops.loops_text`), whose loops are bound to
+    this module's functions."""
+    module = import_module(path, source, attach)
+    f = {name: getattr(module, name) for name in _NAMES}
+    matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]
+    called = tuple(getattr(module, name) for name in numba_loops.LOOP_FUNCTIONS)  # by the loops
+    if backend == "python":
+        bound: Mapping[str, Callable[..., Any]] = {
+            name: functools.partial(getattr(module, f"integrate_{symbol}"), called)
+            for name, symbol in LOOPS.items()}
+        variational: Mapping[str, Callable[..., Any]] = {
+            name: functools.partial(getattr(module, f"integrate_{symbol}_variational"), called)
+            for name, symbol in LOOPS.items()}
+        # plain CPython is fastest on Python floats: hand the generated code lists (the caller
+        # passes p as a list too, see CompiledModel.native_params)
+        def wrap(fn: Callable[..., Any]) -> Callable[..., Any]:
+            @functools.wraps(fn)                   # its name, docstring and __wrapped__
+            def on_lists(t: float, x: Any, p: Any) -> Any:
+                return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
+            return on_lists
+        rhs, jac, energy, outputs, guards = (wrap(f[n]) for n in _NAMES[:5])
+        return Functions("python", rhs, jac, energy, outputs, guards, f["initial"],
+                         tuple(wrap(m) for m in matrices), bound, variational,
+                         {name: wrap(getattr(module, name)) for name in extra})
+    if loops is None:
+        raise CompilerError(f"{path}: the numba back end needs its loop module")
+    bound, variational = numba_loops.bind(loops, called)
+    rhs, jac, energy, outputs, guards, initial = (f[n] for n in _NAMES)
+    return Functions("numba", rhs, jac, energy, outputs, guards, initial, tuple(matrices), bound,
+                     variational, {name: getattr(module, name) for name in extra})
+
+
+def import_module(path: Path, source: str | None = None,
+                  attach: Callable[[Any], None] | None = None) -> types.ModuleType:
+    """The generated module at ``path``, imported once per process (named after the file's
+    stem): ``source`` (its text, verified by the caller) compiled as it is, else the file;
+    ``attach`` called with each of its numba dispatchers (see :func:`load`)."""
     module_name = f"_porthamiltonian_generated_{path.stem}"
     module = sys.modules.get(module_name)
     if module is None:
@@ -73,23 +125,4 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
                 if hasattr(value, "py_func") and hasattr(value, "_cache"):
                     attach(value)
         sys.modules[module_name] = module
-    f = {name: getattr(module, name) for name in _NAMES}
-    matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]
-    loops = {name: getattr(module, f"integrate_{symbol}") for name, symbol in LOOPS.items()}
-    variational = {name: getattr(module, f"integrate_{symbol}_variational")
-                   for name, symbol in LOOPS.items()}
-    if backend == "python":
-        # plain CPython is fastest on Python floats: hand the generated code lists (the caller
-        # passes p as a list too, see CompiledModel.native_params)
-        def wrap(fn: Callable[..., Any]) -> Callable[..., Any]:
-            @functools.wraps(fn)                   # its name, docstring and __wrapped__
-            def on_lists(t: float, x: Any, p: Any) -> Any:
-                return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
-            return on_lists
-        rhs, jac, energy, outputs, guards = (wrap(f[n]) for n in _NAMES[:5])
-        return Functions("python", rhs, jac, energy, outputs, guards, f["initial"],
-                         tuple(wrap(m) for m in matrices), loops, variational,
-                         {name: wrap(getattr(module, name)) for name in extra})
-    rhs, jac, energy, outputs, guards, initial = (f[n] for n in _NAMES)
-    return Functions("numba", rhs, jac, energy, outputs, guards, initial, tuple(matrices), loops,
-                     variational, {name: getattr(module, name) for name in extra})
+    return module

@@ -353,9 +353,11 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
     if name != "c":
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
-        attach = numba_cache.verified_caches(path.parent) if name == "numba" else None
+        if name == "python":
+            return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text)
         return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text,
-                           attach=attach)
+                           attach=numba_cache.verified_caches(path.parent),
+                           loops=numba_cache.loop_module(use_cache))
     shapes = dict(meta.shapes)
     n_params = slot_count(meta)
     identity = native.compiler_identity()

@@ -99,6 +99,7 @@ if sys.platform != "win32":
 
 _MANIFEST = "manifest.json"
 _LOCK = ".lock"
+_COMPILING = ".compiling"
 _PYCACHE = "__pycache__"
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 
@@ -326,7 +327,8 @@ def _sha256(data: bytes) -> str:
 
 
 def _check_file_name(name: str) -> None:
-    if not (isinstance(name, str) and _NAME.fullmatch(name)) or name in (_MANIFEST, _LOCK):
+    if not (isinstance(name, str) and _NAME.fullmatch(name)) or name in (_MANIFEST, _LOCK,
+                                                                         _COMPILING):
         raise OptionError(f"cache file name {name!r}: letters, digits, '_', '.', '-' only, not "
                          f"{_MANIFEST}")
 
@@ -342,6 +344,31 @@ def _locked(entry: Path) -> Iterator[None]:
         yield
         return
     fd = os.open(entry / _LOCK, os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        held.add(str(entry))
+        yield
+    finally:
+        held.discard(str(entry))
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def compiling(entry: Path) -> Iterator[None]:
+    """Hold the entry's compile lock (a file of its own, not the manifest's lock) while a back end
+    compiles code that it keeps in the entry, e.g. numba's: a concurrent process (a sweep's or a
+    test run's other worker) that wants the same code waits, then reads it from the cache
+    instead of compiling it a second time. Reentrant within a thread; without POSIX file locks,
+    or when the lock file cannot be made (a read-only entry), no lock."""
+    held = _HELD.__dict__.setdefault("compiling", set())
+    if sys.platform == "win32" or str(entry) in held:  # pragma: no cover - (Windows)
+        yield
+        return
+    try:
+        fd = os.open(entry / _COMPILING, os.O_RDWR | os.O_CREAT, 0o600)
+    except OSError:
+        yield
+        return
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
         held.add(str(entry))
@@ -654,6 +681,7 @@ __all__ = [
     "CacheWarning",
     "backend_module",
     "cache_dir",
+    "compiling",
     "configured_dir",
     "discard",
     "drop_pycache",

@@ -1,4 +1,5 @@
-"""Integration loops compiled together with a model's generated functions.
+"""Integration loops: compiled with a model's generated functions (C), or once for all models
+(numba), or run as Python (the reference).
 
 ``rosenbrock_loop.py`` and ``rosenbrock_loop.c`` are source templates of one step loop (stages,
 LU, error control, dense output, event location) for the Rosenbrock methods of
@@ -6,14 +7,19 @@ LU, error control, dense output, event location) for the Rosenbrock methods of
 (:mod:`.bdf`: variable-order BDF reusing its Jacobian and LU over steps), which uses the
 Rosenbrock template's LU, dense output, event location and sensitivity step;
 ``common_loop.py`` and ``common_loop.c`` hold what both loops do alike (the result buffers, the
-checks before a step, the end of an accepted step: events, Φ, the stored point). The back ends
-append the templates and each method's entry point to every generated model module (Python for
-the ``python`` and ``numba`` back ends, one C translation unit for ``c``), where the loops call
-that module's ``rhs``, ``jac`` and ``guards`` directly: under numba and C the whole step loop is
-machine code, under the python back end the same algorithm runs as a reference.
+checks before a step, the end of an accepted step: events, Φ, the stored point). The C back end
+appends the C templates and each method's entry point to every model's translation unit, where
+the loops call the model's ``rhs``, ``jac`` and ``guards`` directly. The Python templates take
+the model's functions as their first argument ``fn = (rhs, jac, guards, jac_p)``: the python
+back end appends them to every generated module and binds ``fn`` to the module's functions (the
+same algorithm run as a reference); the numba back end compiles them once, in a module of their
+own, for ``fn`` typed as first-class functions, and every model's loops call that one compiled
+code (:mod:`porthamiltonian.backends.numba_loops`). Under numba and C the whole step loop is
+machine code.
 
 Every entry point takes ``(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal,
-mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step)`` and returns the
+mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step)`` (after ``fn`` in the
+Python templates; bound by the back ends) and returns the
 15-tuple documented in ``rosenbrock_loop.py`` (``_rosenbrock``); the variational entry points
 ``integrate_<method>_variational`` take the initial sensitivities ``phi0`` (n x m) as one more
 argument and return the 18-tuple (Φ at the end, at the stored points, its error estimate).

@@ -23,15 +23,15 @@ def python_entry() -> str:
     phi = f"{p}_A, {p}_C, {p}_NODES, {p}_D, {tab.gamma!r}, {1.0 / tab.error_order!r}"
     return "\n".join([
         "@_jit",
-        f"def integrate_{SYMBOL}({_ARGS}):",
+        f"def integrate_{SYMBOL}(fn, {_ARGS}):",
         f'    """{NAME}: the step loop _bdf (its copy without Φ)."""',
-        (f"    return _bdf_plain({phi}, {_ARGS}, np.empty((y0.shape[0], 0)), "
+        (f"    return _bdf_plain(fn, {phi}, {_ARGS}, np.empty((y0.shape[0], 0)), "
          "np.empty((0, 0)))[:15]"),
         "", "",
         "@_jit",
-        f"def integrate_{SYMBOL}_variational({_ARGS}, phi0, gain):",
+        f"def integrate_{SYMBOL}_variational(fn, {_ARGS}, phi0, gain):",
         f'    """{NAME} with sensitivities (the variational equations, by {PHI_METHOD}) from phi0."""',
-        f"    return _bdf({phi}, {_ARGS}, phi0, gain)", ""])
+        f"    return _bdf(fn, {phi}, {_ARGS}, phi0, gain)", ""])
 
 
 def c_entry() -> str:

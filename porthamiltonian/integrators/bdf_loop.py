@@ -1,5 +1,5 @@
-# Template, not imported: appended by porthamiltonian.backends to each generated model module after
-# rosenbrock_loop.py (whose _w_factor, _lu_solve and _dense it calls), common_loop.py (_loop_start,
+# Template, not imported: appended by porthamiltonian.backends to the loop modules (see
+# rosenbrock_loop.py's header: ``fn``, the model's functions) after rosenbrock_loop.py (whose _w_factor, _lu_solve and _dense it calls), common_loop.py (_loop_start,
 # _stop_status, _finish_step: the events, Φ and the stored point at the end of a step) and the
 # methods' tables; the entry points integrate_qbdf, integrate_qbdf_variational follow it
 # (porthamiltonian/integrators/bdf.py). bdf_loop.c is the same loop in C: a change here is made
@@ -133,7 +133,7 @@ def _rms(v, w, n):
 
 
 @_jit
-def _bdf_first_step(t, y, f0, p, rtol, atol, h0, hmax, t_end):
+def _bdf_first_step(fn, t, y, f0, p, rtol, atol, h0, hmax, t_end):
     """The first step of order 1 (Hairer, Nørsett & Wanner, Solving ODEs I, 2nd ed., §II.4: from
     the scaled norms of y, f and of a difference estimate of f'), at most h0 when h0 > 0, hmax
     and the span. Returns (h, rhs evaluations made)."""
@@ -148,6 +148,7 @@ def _bdf_first_step(t, y, f0, p, rtol, atol, h0, hmax, t_end):
     y1 = np.empty(n)
     for i in range(n):
         y1[i] = y[i] + h * f0[i]
+    rhs = fn[0]
     f1 = rhs(t + h, y1, p)
     for i in range(n):
         y1[i] = f1[i] - f0[i]
@@ -161,7 +162,7 @@ def _bdf_first_step(t, y, f0, p, rtol, atol, h0, hmax, t_end):
 
 
 @_jit
-def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, directions,
+def _bdf(fn, TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, directions,
          terminal, mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step, phi0,
          gain):
     """Integrate from (t0, y0) to t_end or the first terminal event with QBDF (see the header);
@@ -174,8 +175,9 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
     sub-steps)."""
     n, m = phi0.shape       # Φ0: n x m (m = 0: no sensitivities)
     t = t0
-    y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y0, p, directions.shape[0], mask_index,
-                                                        mask_sign, store_cap, phi0)
+    rhs, jac = fn[0], fn[1]
+    y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(fn, t, y0, p, directions.shape[0],
+                                                        mask_index, mask_sign, store_cap, phi0)
     nfev = njev = nlu = nsteps = n_store = n_ev = 0
     D = np.zeros((_BDF_MAX_ORDER + 3, n))
     E = np.zeros((_BDF_MAX_ORDER - 1, n))
@@ -199,7 +201,7 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
     eta_phi = 1e300
     f0 = rhs(t, y, p)
     nfev += 1
-    h, nf = _bdf_first_step(t, y, f0, p, rtol, atol, h0, hmax, t_end)
+    h, nf = _bdf_first_step(fn, t, y, f0, p, rtol, atol, h0, hmax, t_end)
     nfev += nf
     for i in range(n):
         D[0, i] = y[i]
@@ -348,7 +350,7 @@ def _bdf(TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, dire
         # events on (t, t_new], Φ over the step (its last A is J at the next step's start), the
         # point
         hit, t, n_ev, n_store, g_old, njev, nfev, nlu, J_phi, phi_err, eta_phi = _finish_step(
-            t, hh, t_new, y, yk, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J_phi,
+            fn, t, hh, t_new, y, yk, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J_phi,
             f_phi, W, piv, 0, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain,
             ts, ys, phis, n_store, njev, nfev, nlu, phi_err)
         if hit >= 0:

@@ -1,5 +1,5 @@
-# Template, not imported: appended by porthamiltonian.backends to each generated model module after
-# rosenbrock_loop.py (whose _dense, _locate_events and _variational_step it calls) and before
+# Template, not imported: appended by porthamiltonian.backends to the loop modules (see
+# rosenbrock_loop.py's header: ``fn``, the model's functions) after rosenbrock_loop.py (whose _dense, _locate_events and _variational_step it calls) and before
 # the methods' entry points and bdf_loop.py. The pieces every step loop shares (the Rosenbrock
 # loop _rosenbrock and the BDF loop _bdf): the result buffers and the guards at the start, the
 # checks before each step, and the end of an accepted step (events, Φ, the stored point).
@@ -10,7 +10,7 @@
 
 
 @_jit
-def _loop_start(t, y0, p, n_guards, mask_index, mask_sign, store_cap, phi0):
+def _loop_start(fn, t, y0, p, n_guards, mask_index, mask_sign, store_cap, phi0):
     """A loop's state, buffers and guards at the start (t, y0): returns (y: a copy of y0; ts,
     ys, ev_t, ev_k: the stored points and the non-terminal events, store_cap of each; P: Φ
     flattened by rows, a copy of phi0 (n x m); phis: Φ at the stored points; g_old: the n_guards
@@ -19,6 +19,7 @@ def _loop_start(t, y0, p, n_guards, mask_index, mask_sign, store_cap, phi0):
     y = y0.copy()
     n = y.shape[0]
     nm = n * phi0.shape[1]
+    guards = fn[2]
     g_old = guards(t, y, p)[:n_guards].copy()
     if mask_index >= 0:
         g_old[mask_index] = mask_sign * max(abs(g_old[mask_index]), 1e-300)
@@ -41,7 +42,7 @@ def _stop_status(t, t_end, nsteps, max_steps, n_store, n_ev, store_cap):
 
 
 @_jit
-def _finish_step(t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J,
+def _finish_step(fn, t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J,
                  f0, W, piv, nb, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain,
                  ts, ys, phis, n_store, njev, nfev, nlu, phi_err):
     """The end of the accepted step of length h from (t, y) to (t_new, y1), E its dense output
@@ -57,7 +58,7 @@ def _finish_step(t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev
     t_hit = t_new
     g_new = g_old
     if directions.shape[0] > 0:
-        hit, t_hit, n_ev, g_new = _locate_events(t, h, y, y1, E, p, g_old, directions, terminal,
+        hit, t_hit, n_ev, g_new = _locate_events(fn, t, h, y, y1, E, p, g_old, directions, terminal,
                                                  ev_t, ev_k, n_ev, yi)
     th_end = 1.0
     y_end = y1
@@ -72,7 +73,7 @@ def _finish_step(t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev
     J_end = J
     if P.shape[0] > 0:
         nj, nf, nl, J_end, worst, eta_phi = _variational_step(
-            t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo, rtol, atol,
+            fn, t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo, rtol, atol,
             n_model, P, eta_phi, gain)
     ts[n_store] = t_hit
     ys[n_store, :] = y_end

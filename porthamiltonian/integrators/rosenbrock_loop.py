@@ -1,6 +1,9 @@
-# Template, not imported: appended by porthamiltonian.backends to each generated model module,
-# after the model's functions (``rhs``, ``jac``, ``guards``), where ``np``, ``math`` and ``_jit``
-# are defined, and before common_loop.py (its _loop_start, _stop_status and _finish_step, which the
+# Template, not imported: appended by porthamiltonian.backends to each generated model module of
+# the python back end, after the model's functions, and to the numba back end's one loop module
+# for all models, where ``np``, ``math`` and ``_jit`` are defined. The model's functions come as
+# the argument ``fn`` = (rhs, jac, guards, jac_p), each (t, x, p) -> array, of every function
+# that calls them (under numba a tuple of first-class functions: one compiled loop serves every
+# model, porthamiltonian/backends/numba_loops.py). This file comes before common_loop.py (its _loop_start, _stop_status and _finish_step, which the
 # loop calls, are shared with the BDF loop); the tables of each method and its entry point ``integrate_<method>`` follow it
 # (porthamiltonian/integrators/tableaus.py). rosenbrock_loop.c is the same loop in C: a change
 # here is made there too (tests/validation/test_rodas.py runs both on the same problems).
@@ -168,13 +171,14 @@ def _add_product(A, cols, B, out):
 
 
 @_jit
-def _forcing(t, y, p, gain, out):
+def _forcing(fn, t, y, p, gain, out):
     """out = jac_p(t, y, p) G (n x m, flattened by rows; G = ``gain``, L x m): the forcing of
     the parameter sensitivities (see the header)."""
     n = y.shape[0]
     m = gain.shape[1]
     for q in range(n * m):
         out[q] = 0.0
+    jac_p = fn[3]
     _add_product(jac_p(t, y, p), gain.shape[0], gain, out.reshape(n, m))
 
 
@@ -217,7 +221,7 @@ def _difference_rate(Xp, X, Xm, eps, out):
 
 
 @_jit
-def _forcing_rate(t, h, y, p, gain, F, f, sc, n_model, DF):
+def _forcing_rate(fn, t, h, y, p, gain, F, f, sc, n_model, DF):
     """DF = d/dt F(t, x(t)) of the forcing F = jac_p G at (t, y) (F: its value there), by the
     differences of _jac_rate (the same step, the same choice between the central and the
     one-sided differences). Returns the jac_p evaluations made (2)."""
@@ -227,21 +231,22 @@ def _forcing_rate(t, h, y, p, gain, F, f, sc, n_model, DF):
     yp, ym = _shifted(y, f, eps)
     Fp = np.empty(nm)
     Fm = np.empty(nm)
-    _forcing(t + eps, yp, p, gain, Fp)
-    _forcing(t - eps, ym, p, gain, Fm)
+    _forcing(fn, t + eps, yp, p, gain, Fp)
+    _forcing(fn, t - eps, ym, p, gain, Fm)
     m = nm // n
     _difference_rate(Fp.reshape(n, m), F.reshape(n, m), Fm.reshape(n, m), eps, DF.reshape(n, m))
     return 2
 
 
 @_jit
-def _jac_rate(t, h, y, p, J, f, sc, n_model, D):
+def _jac_rate(fn, t, h, y, p, J, f, sc, n_model, D):
     """D = d/dt J(t, x(t)) = ∂_x J[f] + ∂_t J at (t, y), f = ẋ, by a difference of J along
     (1, f) with the step ε of _rate_step (model states i: every state moves by at most
     ε_mach^(1/3) of its scale sc_i, the time by at most that part of the step), central unless
     J has a kink in between (_difference_rate). Returns the jac evaluations made (2)."""
     eps = _rate_step(h, f, sc, n_model)
     yp, ym = _shifted(y, f, eps)
+    jac = fn[1]
     _difference_rate(jac(t + eps, yp, p), J, jac(t - eps, ym, p), eps, D)
     return 2
 
@@ -285,7 +290,7 @@ def _lu_solve_rows(A, piv, nb, B, m):
 
 
 @_jit
-def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, TD, n_model, P,
+def _phi_substep(fn, th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, TD, n_model, P,
                  KP, P1, xi, gain, Fa, DF, F_end):
     """One sub-step of Φ from τ = t + th_a h to t + th_b h (η = (th_b − th_a) h; see the header):
     KP and P1 from P, with the LU of W = I/(ηγ) − Ja and D = A'(τ); with parameters (``gain``
@@ -295,6 +300,7 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
     s = TN.shape[0]
     nm = P.shape[0]
     m = nm // n
+    jac = fn[1]
     forced = gain.shape[0] > 0
     ds = th_b - th_a
     eta = ds * h
@@ -319,13 +325,13 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
                 A = jac(t + h, y1, p)
                 if forced:
                     F = F_end
-                    _forcing(t + h, y1, p, gain, F)
+                    _forcing(fn, t + h, y1, p, gain, F)
             else:
                 _dense(th, y, y1, E, xi)
                 A = jac(t + th * h, xi, p)
                 if forced:
                     F = F_end
-                    _forcing(t + th * h, xi, p, gain, F)
+                    _forcing(fn, t + th * h, xi, p, gain, F)
             nj += 2 if forced else 1
         hd = eta * TD[st]
         for q in range(nm):
@@ -343,7 +349,7 @@ def _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, TN, T
 
 
 @_jit
-def _locate_events(t, h, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi):
+def _locate_events(fn, t, h, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi):
     """Events on (t, t + h] of the step from y to y1 with the dense output E (_dense): the
     guards at the step's end and at _SAMPLES interior points (so that a guard crossing twice
     within one step, e.g. a ball's whole flight, is not missed; g_old: at the step's start); a
@@ -356,6 +362,7 @@ def _locate_events(t, h, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n
     t_new = t + h
     hit = -1
     t_hit = t_new
+    guards = fn[2]
     g_new = guards(t_new, y1, p)[:g_count].copy()
     g_a = g_old.copy()
     th_a = 0.0
@@ -417,7 +424,7 @@ def _locate_events(t, h, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n
 
 
 @_jit
-def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
+def _variational_step(fn, t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
                       rtol, atol, n_model, P, eta0, gain):
     """Carry Φ (P, in place) over the accepted step from t to t + th_end h in sub-steps of its own
     error control (see the header), the first eta0 long (s; the whole step when eta0 >= th_end h,
@@ -430,6 +437,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
     the header; its jac_p evaluations are counted with jac's). Returns (jac evaluations, rhs evaluations, LU factorizations, A at the end (the
     next step's J when th_end = 1), the largest error estimate accepted, the next sub-step's length
     proposed)."""
+    rhs = fn[0]
     n = y.shape[0]
     s = TN.shape[0]
     nm = P.shape[0]
@@ -458,15 +466,15 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
     Fb = np.zeros(nm)
     DF = np.zeros(nm)
     if forced:
-        _forcing(t, y, p, gain, Fa)
+        _forcing(fn, t, y, p, gain, Fa)
         nj += 1
     while th_a < th_end:
         last = ds >= th_end - th_a
         th_b = th_end if last else th_a + ds
         eta = (th_b - th_a) * h
-        nj += _jac_rate(t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D)
+        nj += _jac_rate(fn, t + th_a * h, eta, xa, p, Ja, fa, sc, n_model, D)
         if forced:
-            nj += _forcing_rate(t + th_a * h, eta, xa, p, gain, Fa, fa, sc, n_model, DF)
+            nj += _forcing_rate(fn, t + th_a * h, eta, xa, p, gain, Fa, fa, sc, n_model, DF)
         if th_a == 0.0 and th_b == 1.0 and nb > 0:
             Wu = W
             pu = piv
@@ -479,8 +487,8 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
                 continue
             Wu = Ws
             pu = pivs
-        nj_s, A_end = _phi_substep(th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, nbu, TA, TC, TN,
-                                   TD, n_model, P, KP, P1, xi, gain, Fa, DF, Fb)
+        nj_s, A_end = _phi_substep(fn, th_a, th_b, t, h, y, y1, p, E, Ja, D, Wu, pu, nbu, TA, TC,
+                                   TN, TD, n_model, P, KP, P1, xi, gain, Fa, DF, Fb)
         nj += nj_s
         num = 0.0
         den = 0.0
@@ -510,7 +518,7 @@ def _variational_step(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, 
 
 
 @_jit
-def _no_variational(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
+def _no_variational(fn, t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD, gam, expo,
                     rtol, atol, n_model, P, eta0, gain):
     """_variational_step in the copy of _rosenbrock for runs without sensitivities (never
     called there: m = 0; see porthamiltonian/integrators/__init__.py)."""
@@ -518,7 +526,7 @@ def _no_variational(t, h, th_end, y, y1, p, J, f0, W, piv, nb, E, TA, TC, TN, TD
 
 
 @_jit
-def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax,
+def _rosenbrock(fn, TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax,
                 directions, terminal, mask_index, mask_sign, n_model, bound, max_steps, store_cap,
                 tgrad_step, phi0, gain):
     """Integrate from (t0, y0) to t_end or the first terminal event with the method of the
@@ -539,8 +547,9 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
     n, m = phi0.shape       # Φ0: n x m (m = 0: no sensitivities)
     s = TN.shape[0]
     t = t0
-    y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(t, y0, p, directions.shape[0], mask_index,
-                                                        mask_sign, store_cap, phi0)
+    rhs, jac = fn[0], fn[1]
+    y, ts, ys, ev_t, ev_k, P, phis, g_old = _loop_start(fn, t, y0, p, directions.shape[0],
+                                                        mask_index, mask_sign, store_cap, phi0)
     nfev = njev = nlu = nsteps = n_store = n_ev = 0
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
@@ -660,7 +669,7 @@ def _rosenbrock(TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol, h0,
             break
         # events on (t, t_new], Φ over the step (its last A is the next step's J), the point
         hit, t, n_ev, n_store, g_old, njev, nfev, nlu, J_next, phi_err, eta_phi = _finish_step(
-            t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J, f0,
+            fn, t, h, t_new, y, y1, E, p, g_old, directions, terminal, ev_t, ev_k, n_ev, yi, J, f0,
             W, piv, nb, TA, TC, TN, TD, gam, expo, rtol, atol, n_model, P, eta_phi, gain, ts, ys,
             phis, n_store, njev, nfev, nlu, phi_err)
         if hit >= 0:

@@ -153,8 +153,10 @@ _ARGS = ("t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal, mask_ind
 
 
 def python_entry(tab: Tableau) -> str:
-    """The tables of ``tab`` as module constants and its entry point ``integrate_<symbol>`` (the
-    Python loop template's ``_rosenbrock`` with them)."""
+    """The tables of ``tab`` as module constants and its entry points ``integrate_<symbol>``
+    and ``integrate_<symbol>_variational`` (the Python loop template's ``_rosenbrock`` with
+    them), each taking the model's functions ``fn`` first (see :mod:`porthamiltonian.
+    integrators`)."""
     s, p = tab.stages, f"_{tab.symbol.upper()}"
     return "\n".join([
         f"{p}_A = np.array({_flat(tab.a)!r}).reshape({s}, {s})",
@@ -164,16 +166,16 @@ def python_entry(tab: Tableau) -> str:
         f"{p}_H = np.array({_flat(tab.dense)!r}).reshape({len(tab.dense)}, {s})",
         "", "",
         "@_jit",
-        f"def integrate_{tab.symbol}({_ARGS}):",
+        f"def integrate_{tab.symbol}(fn, {_ARGS}):",
         f'    """{tab.name}: the step loop _rosenbrock (its copy without Φ) with its tables."""',
-        (f"    return _rosenbrock_plain({p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
+        (f"    return _rosenbrock_plain(fn, {p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
          f"{1.0 / tab.error_order!r}, {_ARGS}, np.empty((y0.shape[0], 0)), "
          "np.empty((0, 0)))[:15]"),
         "", "",
         "@_jit",
-        f"def integrate_{tab.symbol}_variational({_ARGS}, phi0, gain):",
+        f"def integrate_{tab.symbol}_variational(fn, {_ARGS}, phi0, gain):",
         f'    """{tab.name} with sensitivities (the variational equations) from phi0."""',
-        (f"    return _rosenbrock({p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
+        (f"    return _rosenbrock(fn, {p}_A, {p}_C, {p}_NODES, {p}_D, {p}_H, {tab.gamma!r}, "
          f"{1.0 / tab.error_order!r}, {_ARGS}, phi0, gain)"), ""])
 
 

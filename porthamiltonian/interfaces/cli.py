@@ -390,7 +390,7 @@ def cmd_show(args: argparse.Namespace) -> int:
         with record.located():
             compiled = compile_model(model, backend=args.backend)
         print(native.translation_unit(compiled.source) if compiled.backend == "c" else
-              module.module_text(compiled.source, compiled.backend), end="")
+              module.shown_text(compiled.source, compiled.backend), end="")
         return 0
     with record.located():
         flat = model.validate()

@@ -149,6 +149,14 @@ class ModelMeta:
                                           for k, v in dict(data.get("unavailable", {})).items()}))
 
 
+def _native_array(a: Any) -> np.ndarray:
+    """``a`` as a contiguous, writable float array (itself when it is one): numba compiles a
+    function once per argument type, and a read-only array (a trajectory's, a walker's frozen
+    state) is a type of its own — passing one would compile the function a second time."""
+    out = np.ascontiguousarray(a, dtype=float)
+    return out if out.flags.writeable else out.copy()
+
+
 def _strings(values: Any) -> tuple[str, ...]:
     if isinstance(values, str) or not all(isinstance(v, str) for v in values):
         raise TypeError(f"expected a list of strings, got {values!r}")
@@ -306,7 +314,7 @@ class CompiledModel:
         parameters alone gets its input slots appended, zero)."""
         if len(p) < self.n_slots:
             p = self._padded(p)
-        return p.tolist() if self.backend == "python" else np.ascontiguousarray(p, dtype=float)
+        return p.tolist() if self.backend == "python" else _native_array(p)
 
     def initial_state(self, p: np.ndarray | None = None,
                       values: Mapping[str, float] | None = None) -> np.ndarray:
@@ -356,7 +364,7 @@ class CompiledModel:
     def _point(self, x: np.ndarray) -> np.ndarray:
         """The integration state of a model or integration state ``x``, contiguous floats."""
         y = x if len(x) == self.n_states + 2 else self.augment(x)
-        return np.ascontiguousarray(y, dtype=float)
+        return _native_array(y)
 
     def energy(self, t: float, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """[H, P_diss, P_in] (J, W, W) at one point (x: the model or the integration state)."""
