@@ -337,13 +337,21 @@ _HELD = threading.local()
 
 
 @contextlib.contextmanager
-def _locked(entry: Path) -> Iterator[None]:
-    """Hold the entry's lock (manifest read-modify-write); reentrant within a thread."""
-    held = _HELD.__dict__.setdefault("entries", set())
+def _flock(entry: Path, name: str, kind: str, optional: bool) -> Iterator[None]:
+    """Hold an exclusive POSIX lock on the file ``name`` in ``entry``; reentrant within a thread
+    (``kind`` names the set of entries this thread holds). ``optional``: when the lock file
+    cannot be made (a read-only entry) go on without a lock instead of raising OSError."""
+    held = _HELD.__dict__.setdefault(kind, set())
     if sys.platform == "win32" or str(entry) in held:  # pragma: no cover - (Windows)
         yield
         return
-    fd = os.open(entry / _LOCK, os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fd = os.open(entry / name, os.O_RDWR | os.O_CREAT, 0o600)
+    except OSError:
+        if not optional:
+            raise
+        yield
+        return
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
         held.add(str(entry))
@@ -353,29 +361,18 @@ def _locked(entry: Path) -> Iterator[None]:
         os.close(fd)
 
 
-@contextlib.contextmanager
-def compiling(entry: Path) -> Iterator[None]:
+def _locked(entry: Path) -> contextlib.AbstractContextManager[None]:
+    """Hold the entry's lock (manifest read-modify-write); reentrant within a thread."""
+    return _flock(entry, _LOCK, "entries", optional=False)
+
+
+def compiling(entry: Path) -> contextlib.AbstractContextManager[None]:
     """Hold the entry's compile lock (a file of its own, not the manifest's lock) while a back end
     compiles code that it keeps in the entry, e.g. numba's: a concurrent process (a sweep's or a
     test run's other worker) that wants the same code waits, then reads it from the cache
     instead of compiling it a second time. Reentrant within a thread; without POSIX file locks,
     or when the lock file cannot be made (a read-only entry), no lock."""
-    held = _HELD.__dict__.setdefault("compiling", set())
-    if sys.platform == "win32" or str(entry) in held:  # pragma: no cover - (Windows)
-        yield
-        return
-    try:
-        fd = os.open(entry / _COMPILING, os.O_RDWR | os.O_CREAT, 0o600)
-    except OSError:
-        yield
-        return
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        held.add(str(entry))
-        yield
-    finally:
-        held.discard(str(entry))
-        os.close(fd)
+    return _flock(entry, _COMPILING, "compiling", optional=True)
 
 
 def _manifest(entry: Path) -> dict[str, str] | None:
