@@ -106,7 +106,12 @@ def test_a_warm_walker_gait_loads_only_what_it_runs():
     full in this process, character for character."""
     from walker_library.analyses.gait import analyze_gait
 
-    expected = analyze_gait(load_walker("compass_walker")).to_json()
+    walker = load_walker("compass_walker")
+    expected = analyze_gait(walker).to_json()
+    # numba itself imports scipy, and concurrent.futures when it compiles or loads a function:
+    # on that back end those two are numba's, not ours
+    own = ("scipy", "concurrent.futures") if walker.backend == "numba" else ()
+    forbidden = [name for name in NOT_ON_THE_WARM_PATH if name not in own]
     found = _run(
         "import contextlib, io, json, sys\n"
         "from walker_library.cli import main\n"
@@ -117,7 +122,7 @@ def test_a_warm_walker_gait_loads_only_what_it_runs():
     assert found["status"] == 0
     assert found["out"].strip() == expected
     loaded = [m for m in found["modules"]
-              if any(m == name or m.startswith(f"{name}.") for name in NOT_ON_THE_WARM_PATH)]
+              if any(m == name or m.startswith(f"{name}.") for name in forbidden)]
     assert loaded == []
 
 
