@@ -18,8 +18,9 @@ The package follows its data flow, one sub-package per stage:
 """
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from porthamiltonian.lazy import lazy_names
 
 #: where each public name lives: imported when first used, so that ``import walker_library``
 #: (and the ``walker`` command) loads only what it needs (a warm ``walker gait`` needs neither
@@ -45,19 +46,9 @@ _NAMES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    """The public name ``name``, imported on first use (with :mod:`.report.display`, which
-    registers the results' notebook views)."""
-    if name not in _NAMES:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    importlib.import_module(".report.display", __name__)
-    value = getattr(importlib.import_module(f".{_NAMES[name]}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_NAMES})
+#: the public names, imported on first use (with :mod:`.report.display`, which registers the
+#: results' notebook views)
+__getattr__, __dir__ = lazy_names(__name__, _NAMES, first="report.display")
 
 
 if TYPE_CHECKING:

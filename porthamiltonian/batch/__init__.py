@@ -22,8 +22,9 @@ model per case; settling time), :mod:`.values` (JSON values), :mod:`.errors`.
 """
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ..lazy import lazy_names
 
 # (eager: the function ``table`` must shadow the module of the same name, as it always did)
 from .table import read_dataframe, table, to_dataframe, write_csv
@@ -41,17 +42,8 @@ _NAMES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    """The public name ``name``, its module imported on first use (see :data:`_NAMES`)."""
-    if name not in _NAMES:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{_NAMES[name]}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_NAMES})
+#: the public names, their module imported on first use (see :data:`_NAMES`)
+__getattr__, __dir__ = lazy_names(__name__, _NAMES)
 
 
 if TYPE_CHECKING:
