@@ -155,11 +155,6 @@ MB_INLINE void v_cross_c(int D, const double *a, const double *b, double *out)
         d_axpy(D, -a[i2], b + i1 * D, out + i * D);
     }
 }
-/* out += a . b */
-MB_INLINE void v_dot(int D, const double *a, const double *b, double *out)
-{
-    for (int i = 0; i < 3; ++i) d_fma(D, a + i * D, b + i * D, out);
-}
 /* out += a . b for a constant a */
 MB_INLINE void v_dot_c(int D, const double *a, const double *b, double *out)
 {
@@ -493,37 +488,36 @@ MB_INLINE void mb_velocities(int D, const mb_tab *t, const double *R, const doub
     }
 }
 
-/* e += Pi^T ad_T S = L . (w x a) + P . (w x u + lin x a) for the unit twist S = (a, u) of a link
- * with twist (w, lin) and subtree momentum (L, P) */
-MB_INLINE void mb_velocity_force(int D, const double *w, const double *lin, const double *L,
-                                 const double *P, const double *a, const double *u, double *e)
+/* tau += L x w + P x lin, f += P x w: the wrench ad_T^T Pi of a link with twist T = (w, lin) and
+ * subtree momentum Pi = (L, P), so that S^T (ad_T^T Pi) = Pi^T ad_T S = L . (w x a) + P . (w x u +
+ * lin x a) for each unit twist S = (a, u) (the triple product) */
+MB_INLINE void mb_ad_t(int D, const double *w, const double *lin, const double *L, const double *P,
+                       double *tau, double *f)
 {
-    double wa[3 * D], ma[3];
-    for (int i = 0; i < 3; ++i) ma[i] = -a[i];
-    v_zero(D, wa);
-    v_cross_c(D, ma, w, wa);                            /* w x a */
-    v_dot(D, L, wa, e);
-    v_zero(D, wa);
-    for (int i = 0; i < 3; ++i) ma[i] = -u[i];
-    v_cross_c(D, ma, w, wa);                            /* w x u */
-    for (int i = 0; i < 3; ++i) ma[i] = -a[i];
-    v_cross_c(D, ma, lin, wa);                          /* lin x a */
-    v_dot(D, P, wa, e);
+    v_cross(D, L, w, tau);
+    v_cross(D, P, lin, tau);
+    v_cross(D, P, w, f);
+}
+
+/* e = S_k^T W (n duals at e, n the link's velocities): e_r = a . tau + u . f for each unit twist
+ * S_r = (a, u) of link k and the wrench W = (tau, f) (3 duals each, the link's frame) */
+MB_INLINE void mb_project(int D, const mb_tab *t, int k, const double *tau, const double *f,
+                          double *e)
+{
+    for (int r = 0; r < mb_dofs(t->link[4 * k + 1]); ++r) {
+        double a[3], u[3];
+        mb_screw(t, k, r, a, u);
+        d_set(D, e + r * D, 0.0);
+        v_dot_c(D, a, tau, e + r * D);
+        v_dot_c(D, u, f, e + r * D);
+    }
 }
 
 /* e = S^T Pi (nv duals) from the subtree momenta: M v for the velocities behind (L, P) */
 MB_INLINE void mb_generalized(int D, const mb_tab *t, const double *L, const double *P, double *e)
 {
-    for (int k = 0; k < t->nl; ++k) {
-        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
-        for (int s = 0; s < n; ++s) {
-            double a[3], u[3];
-            mb_screw(t, k, s, a, u);
-            d_set(D, e + (i0 + s) * D, 0.0);
-            v_dot_c(D, a, L + 3 * D * k, e + (i0 + s) * D);
-            v_dot_c(D, u, P + 3 * D * k, e + (i0 + s) * D);
-        }
-    }
+    for (int k = 0; k < t->nl; ++k)
+        mb_project(D, t, k, L + 3 * D * k, P + 3 * D * k, e + t->link[4 * k + 2] * D);
 }
 
 /* e = M(q) x as duals for the numbers xv (nv): its value and, at fixed x, its tangents
@@ -553,14 +547,14 @@ static void mb_implicit(int D, const mb_tab *t, const double *R, const double *p
     for (int i = 0; i < nv; ++i) x[i * D] = xv[i];
 }
 
-/* e += M(q) acc + C(q, v): Newton-Euler's inverse dynamics without gravity (Featherstone 2008,
- * section 5.3) at the joint accelerations acc (numbers), from the velocities v and the body twists
- * (w, lin) (duals). Root to tip the spatial accelerations A_k = X_k^T A_parent + S acc + T_k x S v
- * (6 duals per link: angular, then linear), tip to root the wrenches F_k = I_k A_k + T_k x* I_k T_k
- * plus the children's, S^T F_k. */
+/* F = the subtree wrenches of Newton-Euler's inverse dynamics without gravity (Featherstone 2008,
+ * section 5.3), S^T F = M(q) acc + C(q, v), at the joint accelerations acc (numbers), from the
+ * velocities v and the body twists (w, lin) (duals). Root to tip the spatial accelerations
+ * A_k = X_k^T A_parent + S acc + T_k x S v (6 duals per link: angular, then linear), tip to root
+ * the wrenches F_k = I_k A_k + T_k x* I_k T_k plus the children's (6 duals per link: torque, then
+ * force). */
 static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, const double *v,
-                    const double *acc, const double *w, const double *lin, double *A, double *F,
-                    double *e)
+                    const double *acc, const double *w, const double *lin, double *A, double *F)
 {
     const int nl = t->nl;
     for (int k = 0; k < nl; ++k) {
@@ -596,7 +590,7 @@ static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, co
     }
     for (int i = 0; i < 6 * D * nl; ++i) F[i] = 0.0;
     for (int k = nl - 1; k >= 0; --k) {
-        const int parent = t->link[4 * k], i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
+        const int parent = t->link[4 * k];
         const double *wk = w + 3 * D * k, *lk = lin + 3 * D * k;
         double *Fk = F + 6 * D * k, tf[6 * D], Lo[3 * D], Po[3 * D];
         mb_inertia(D, t, k, A + 6 * D * k, A + 6 * D * k + 3 * D, tf, tf + 3 * D);
@@ -605,36 +599,27 @@ static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, co
         v_cross(D, lk, Po, tf);
         v_cross(D, wk, Po, tf + 3 * D);
         for (int i = 0; i < 6 * D; ++i) Fk[i] += tf[i];
-        for (int s = 0; s < n; ++s) {
-            double a[3], u[3];
-            mb_screw(t, k, s, a, u);
-            v_dot_c(D, a, Fk, e + (i0 + s) * D);
-            v_dot_c(D, u, Fk + 3 * D, e + (i0 + s) * D);
-        }
         if (parent < 0) continue;
         double *Fp = F + 6 * D * parent;
         mb_carry(D, R + 9 * D * k, p + 3 * D * k, Fk, Fk + 3 * D, Fp, Fp + 3 * D);
     }
 }
 
-/* e = Pi^T ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity products Mdot v) from
- * the velocities v: the twists and subtree momenta (w, lin, L, P) formed here */
+/* e = S^T (ad_T^T Pi + F) = Pi^T ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity
+ * products Mdot v) from the velocities v: the twists and subtree momenta (w, lin, L, P) and the
+ * Newton-Euler wrenches F formed here */
 static void mb_products(int D, const mb_tab *t, const double *R, const double *p, const double *v,
                         const double *acc, double *w, double *lin, double *L, double *P, double *A,
                         double *F, double *e)
 {
     mb_velocities(D, t, R, p, v, w, lin, L, P);
+    mb_bias(D, t, R, p, v, acc, w, lin, A, F);
     for (int k = 0; k < t->nl; ++k) {
-        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
-        for (int r = 0; r < n; ++r) {
-            double a[3], u[3];
-            mb_screw(t, k, r, a, u);
-            d_set(D, e + (i0 + r) * D, 0.0);
-            mb_velocity_force(D, w + 3 * D * k, lin + 3 * D * k, L + 3 * D * k, P + 3 * D * k, a, u,
-                              e + (i0 + r) * D);
-        }
+        const int i = 3 * D * k;
+        double *Fk = F + 6 * D * k;
+        mb_ad_t(D, w + i, lin + i, L + i, P + i, Fk, Fk + 3 * D);
+        mb_project(D, t, k, Fk, Fk + 3 * D, e + t->link[4 * k + 2] * D);
     }
-    mb_bias(D, t, R, p, v, acc, w, lin, A, F, e);
 }
 
 /* out = the values of the n duals x (n x D) */
@@ -812,23 +797,15 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
     int o = 0;
     for (int i = 0; i < nv; ++i) mb_emit(D, v + i * D, out + o + i, dout + (o + i) * K);
     o += nv;
-    for (int k = 0; k < nl; ++k) {        /* Pi^T ad_T S + S^T (hc x g, mc g) */
-        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
-        const double *wk = w + 3 * D * k, *lk = lin + 3 * D * k, *gk = g + 3 * D * k;
-        double hg[3 * D];
-        v_zero(D, hg);
-        v_cross(D, hc + 3 * D * k, gk, hg);
-        for (int s = 0; s < n; ++s) {
-            double a[3], u[3], e[D], ug[D];
-            mb_screw(t, k, s, a, u);
-            d_set(D, e, 0.0);
-            mb_velocity_force(D, wk, lk, L + 3 * D * k, P + 3 * D * k, a, u, e);
-            v_dot_c(D, a, hg, e);
-            d_set(D, ug, 0.0);
-            v_dot_c(D, u, gk, ug);
-            d_axpy(D, mc[k], ug, e);
-            mb_emit(D, e, out + o + i0 + s, dout + (o + i0 + s) * K);
-        }
+    for (int k = 0; k < nl; ++k) {        /* S^T (ad_T^T Pi + (hc x g, mc g)) */
+        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]), i = 3 * D * k;
+        double tau[3 * D], f[3 * D], e[6 * D];
+        v_zero(D, tau);
+        v_cross(D, hc + i, g + i, tau);
+        for (int j = 0; j < 3 * D; ++j) f[j] = mc[k] * g[i + j];
+        mb_ad_t(D, w + i, lin + i, L + i, P + i, tau, f);
+        mb_project(D, t, k, tau, f, e);
+        for (int r = 0; r < n; ++r) mb_emit(D, e + r * D, out + o + i0 + r, dout + (o + i0 + r) * K);
     }
     o += nv;
     /* V = -g . (first moment of the bodies welded to the world + of every root's subtree) */
@@ -939,14 +916,9 @@ MB_INLINE void mb_load_run(int D, const mb_tab *t, const double *in, const doubl
     for (int k = nl - 1; k >= 0; --k) {
         const int parent = t->link[4 * k], i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
         const double *tk = tau + 3 * D * k, *fk = f + 3 * D * k;
-        for (int s = 0; s < n; ++s) {
-            double a[3], u[3], e[D];
-            mb_screw(t, k, s, a, u);
-            d_set(D, e, 0.0);
-            v_dot_c(D, a, tk, e);
-            v_dot_c(D, u, fk, e);
-            mb_emit(D, e, out + i0 + s, dout + (i0 + s) * K);
-        }
+        double e[6 * D];
+        mb_project(D, t, k, tk, fk, e);
+        for (int r = 0; r < n; ++r) mb_emit(D, e + r * D, out + i0 + r, dout + (i0 + r) * K);
         if (parent < 0) continue;
         mb_carry(D, R + 9 * D * k, p + 3 * D * k, tk, fk, tau + 3 * D * parent, f + 3 * D * parent);
     }

@@ -194,13 +194,6 @@ def _mb_cross_c(D, a, ia, sign, b, ib, out, io):
 
 
 @_jit
-def _mb_dot(D, a, ia, b, ib, out, io):
-    """out += a · b."""
-    for i in range(3):
-        _mb_fma(D, a, ia + i * D, b, ib + i * D, out, io)
-
-
-@_jit
 def _mb_dot_c(D, a, ia, b, ib, out, io):
     """out += a · b for a constant a."""
     for i in range(3):
@@ -551,16 +544,25 @@ def _mb_velocities(D, s, c, R, p, v, w, lin, L, P):
 
 
 @_jit
-def _mb_velocity_force(D, w, lin, L, P, iw, a, u, wa, e, ie):
-    """e += Πᵀ ad_T S = L · (w × a) + P · (w × u + lin × a) for the unit twist S = (a, u) of the
-    link at iw (twist (w, lin), subtree momentum (L, P)); wa: 3 duals of work space."""
-    _mb_zero(wa, 0, 3 * D)
-    _mb_cross_c(D, a, 0, -1.0, w, iw, wa, 0)             # w × a
-    _mb_dot(D, L, iw, wa, 0, e, ie)
-    _mb_zero(wa, 0, 3 * D)
-    _mb_cross_c(D, u, 0, -1.0, w, iw, wa, 0)             # w × u
-    _mb_cross_c(D, a, 0, -1.0, lin, iw, wa, 0)           # lin × a
-    _mb_dot(D, P, iw, wa, 0, e, ie)
+def _mb_ad_t(D, w, lin, L, P, iw, tau, it, f, jf):
+    """τ += L × w + P × lin, f += P × w (at it, jf): the wrench ad_Tᵀ Π of the link at iw with
+    twist T = (w, lin) and subtree momentum Π = (L, P), so that Sᵀ (ad_Tᵀ Π) = Πᵀ ad_T S =
+    L · (w × a) + P · (w × u + lin × a) for each unit twist S = (a, u) (the triple product)."""
+    _mb_cross(D, L, iw, w, iw, tau, it)
+    _mb_cross(D, P, iw, lin, iw, tau, it)
+    _mb_cross(D, P, iw, w, iw, f, jf)
+
+
+@_jit
+def _mb_project(D, s, c, k, a, u, tau, it, f, jf, e, ie):
+    """e = S_kᵀ W (the link's n velocities' duals from ie): e_r = a · τ + u · f for each unit twist
+    S_r = (a, u) of link k and the wrench W = (τ at it, f at jf; 3 duals each, the link's frame);
+    a, u: 3 numbers of work space each."""
+    for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+        _mb_screw(s, c, k, r, a, u)
+        _mb_set(D, e, ie + r * D, 0.0)
+        _mb_dot_c(D, a, 0, tau, it, e, ie + r * D)
+        _mb_dot_c(D, u, 0, f, jf, e, ie + r * D)
 
 
 @_jit
@@ -568,12 +570,7 @@ def _mb_generalized(D, s, c, L, P, e):
     """e = Sᵀ Π (nv duals) from the subtree momenta: M v for the velocities behind (L, P)."""
     a, u = np.zeros(3), np.zeros(3)
     for k in range(s[0]):
-        i0 = s[4 + 4 * k + 2]
-        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_set(D, e, (i0 + r) * D, 0.0)
-            _mb_dot_c(D, a, 0, L, 3 * D * k, e, (i0 + r) * D)
-            _mb_dot_c(D, u, 0, P, 3 * D * k, e, (i0 + r) * D)
+        _mb_project(D, s, c, k, a, u, L, 3 * D * k, P, 3 * D * k, e, s[4 + 4 * k + 2] * D)
 
 
 @_jit
@@ -608,13 +605,13 @@ def _mb_implicit(D, s, c, R, p, lam, run, H, x, w, lin, L, P):
 
 
 @_jit
-def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e):
-    """e += M(q) acc + C(q, v): Newton–Euler's inverse dynamics without gravity (Featherstone
-    2008, §5.3; tree.Tree.velocity_products) at the joint accelerations acc (numbers), from the
-    velocities v and the body twists (w, lin) (duals). Root to tip the spatial accelerations
-    A_k = X_kᵀ A_λ + S acc + T_k × S v (angular at A[0:3], linear at A[3:6] of each link's 6
-    duals), tip to root the wrenches F_k = 𝕀_k A_k + T_k ×* 𝕀_k T_k plus the children's,
-    Sᵀ F_k."""
+def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F):
+    """F = the subtree wrenches of Newton–Euler's inverse dynamics without gravity (Featherstone
+    2008, §5.3; tree.Tree.velocity_products), Sᵀ F = M(q) acc + C(q, v), at the joint
+    accelerations acc (numbers), from the velocities v and the body twists (w, lin) (duals). Root
+    to tip the spatial accelerations A_k = X_kᵀ A_λ + S acc + T_k × S v (angular at A[0:3], linear
+    at A[3:6] of each link's 6 duals), tip to root the wrenches F_k = 𝕀_k A_k + T_k ×* 𝕀_k T_k
+    plus the children's (torque at F[0:3], force at F[3:6])."""
     nl = s[0]
     a, u = np.zeros(3), np.zeros(3)
     Jm = np.zeros(9)
@@ -647,7 +644,7 @@ def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e):
                 _mb_fma(D, v, (i0 + r) * D, tmp, i * D, A, ia + 3 * D + i * D)
     _mb_zero(F, 0, 6 * D * nl)
     for k in range(nl - 1, -1, -1):
-        parent, i0, ia, iw = s[4 + 4 * k], s[4 + 4 * k + 2], 6 * D * k, 3 * D * k
+        parent, ia, iw = s[4 + 4 * k], 6 * D * k, 3 * D * k
         _mb_inertia(D, c, k, Jm, A, ia, A, ia + 3 * D, tf, 0, tf, 3 * D)
         _mb_inertia(D, c, k, Jm, w, iw, lin, iw, Lo, 0, Po, 0)
         _mb_cross(D, w, iw, Lo, 0, tf, 0)
@@ -655,10 +652,6 @@ def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e):
         _mb_cross(D, w, iw, Po, 0, tf, 3 * D)
         for i in range(6 * D):
             F[ia + i] += tf[i]
-        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_dot_c(D, a, 0, F, ia, e, (i0 + r) * D)
-            _mb_dot_c(D, u, 0, F, ia + 3 * D, e, (i0 + r) * D)
         if parent < 0:
             continue
         ip = 6 * D * parent
@@ -720,7 +713,7 @@ def mb_state(s, c, values, din):
     x = np.zeros((nq + nv) * D)
     v = np.zeros(nv * D)
     a, u = np.zeros(3), np.zeros(3)
-    e = np.zeros(D)
+    e = np.zeros(6 * D)
     _mb_seed(D, nq + nv, values, din, x)
     lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
     _mb_copy(v, 0, x, nq * D, nv * D)
@@ -737,22 +730,17 @@ def mb_state(s, c, values, din):
     for i in range(nv):
         _mb_emit(D, v, i * D, out, dout, i)
     o = nv
-    hg = np.zeros(3 * D)
-    wa = np.zeros(3 * D)
-    ug = np.zeros(D)
-    for k in range(nl):                  # Πᵀ ad_T S + Sᵀ (hc × g, mc g)
+    tau, f = np.zeros(3 * D), np.zeros(3 * D)
+    for k in range(nl):                  # Sᵀ (ad_Tᵀ Π + (hc × g, mc g))
         i0, iw = s[4 + 4 * k + 2], 3 * D * k
-        _mb_zero(hg, 0, 3 * D)
-        _mb_cross(D, hc, iw, g, iw, hg, 0)
+        _mb_zero(tau, 0, 3 * D)
+        _mb_cross(D, hc, iw, g, iw, tau, 0)
+        for j in range(3 * D):
+            f[j] = mc[k] * g[iw + j]
+        _mb_ad_t(D, w, lin, L, P, iw, tau, 0, f, 0)
+        _mb_project(D, s, c, k, a, u, tau, 0, f, 0, e, 0)
         for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_set(D, e, 0, 0.0)
-            _mb_velocity_force(D, w, lin, L, P, iw, a, u, wa, e, 0)
-            _mb_dot_c(D, a, 0, hg, 0, e, 0)
-            _mb_set(D, ug, 0, 0.0)
-            _mb_dot_c(D, u, 0, g, iw, ug, 0)
-            _mb_axpy(D, mc[k], ug, 0, e, 0)
-            _mb_emit(D, e, 0, out, dout, o + i0 + r)
+            _mb_emit(D, e, r * D, out, dout, o + i0 + r)
     o += nv
     # V = −g · (first moment of the bodies welded to the world + of every root's subtree)
     SF = G + 3
@@ -830,16 +818,13 @@ def mb_load(s, c, values, din):
             tau[3 * D * k + j] += tl[j]
             f[3 * D * k + j] += fl[j]
     a, u = np.zeros(3), np.zeros(3)
-    e = np.zeros(D)
+    e = np.zeros(6 * D)
     Rf = np.zeros(3 * D)
     for k in range(nl - 1, -1, -1):
         parent, i0, iw = s[4 + 4 * k], s[4 + 4 * k + 2], 3 * D * k
+        _mb_project(D, s, c, k, a, u, tau, iw, f, iw, e, 0)
         for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_set(D, e, 0, 0.0)
-            _mb_dot_c(D, a, 0, tau, iw, e, 0)
-            _mb_dot_c(D, u, 0, f, iw, e, 0)
-            _mb_emit(D, e, 0, out, dout, i0 + r)
+            _mb_emit(D, e, r * D, out, dout, i0 + r)
         if parent < 0:
             continue
         _mb_carry(D, R, p, k, tau, iw, 3 * D * parent, f, iw, 3 * D * parent, Rf)
@@ -848,17 +833,16 @@ def mb_load(s, c, values, din):
 
 @_jit
 def _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, e):
-    """e = Πᵀ ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity products Ṁ v)
-    from the velocities v: the twists and subtree momenta (w, lin, L, P) formed here."""
+    """e = Sᵀ (ad_Tᵀ Π + F) = Πᵀ ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the
+    velocity products Ṁ v) from the velocities v: the twists and subtree momenta (w, lin, L, P)
+    and the Newton–Euler wrenches F formed here."""
     a, u = np.zeros(3), np.zeros(3)
-    wa = np.zeros(3 * D)
     _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+    _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F)
     for k in range(s[0]):
-        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_set(D, e, (s[4 + 4 * k + 2] + r) * D, 0.0)
-            _mb_velocity_force(D, w, lin, L, P, 3 * D * k, a, u, wa, e, (s[4 + 4 * k + 2] + r) * D)
-    _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e)
+        iw, ia = 3 * D * k, 6 * D * k
+        _mb_ad_t(D, w, lin, L, P, iw, F, ia, F, ia + 3 * D)
+        _mb_project(D, s, c, k, a, u, F, ia, F, ia + 3 * D, e, s[4 + 4 * k + 2] * D)
 
 
 @_jit
