@@ -146,6 +146,21 @@ def python_cases() -> dict[str, ph.Model]:
     return {"tree3d": tree3d_model(), "chain5": chain_model(5)}
 
 
+def compare_formulations(kernel, symbolic, x: np.ndarray, params: np.ndarray, close,
+                          functions: tuple[str, ...], label: str) -> None:
+    """The kernel-formulated model against the symbolic one at state ``x`` (parameter vector
+    ``params``): each of ``functions`` (``rhs``, ``jac``, ...) and every matrix, through
+    ``close(new, old, what)`` (the caller's tolerance)."""
+    y = symbolic.augment(x)
+    pk, ps = kernel.native_params(params), symbolic.native_params(params)
+    for name in functions:
+        close(getattr(kernel.functions, name)(0.0, y, pk),
+              getattr(symbolic.functions, name)(0.0, y, ps), f"{label} {name}")
+    for name in symbolic.matrix_names:
+        close(kernel.matrix(name, 0.0, x, params), symbolic.matrix(name, 0.0, x, params),
+              f"{label} {name}")
+
+
 def random_states(compiled, seed: int, count: int) -> np.ndarray:
     """``count`` model states around the initial state: multibody coordinates ``<mb>.q.*``
     shifted by U(−0.4, 0.4), their velocities drawn from U(−2, 2) (m/s or rad/s) and the momenta
