@@ -24,23 +24,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from multibody_cases import compare_formulations, random_states, tree3d_model, with_formulation
+from multibody_cases import (
+    close,
+    compare_formulations,
+    random_states,
+    tree3d_model,
+    with_formulation,
+)
 
 import porthamiltonian as ph
 from porthamiltonian import io
 from porthamiltonian.errors import CompilerError, ModelError
 from porthamiltonian.mechanics import Multibody
-
-RTOL = 1e-12
-
-
-def close(new, old, what: str, rtol: float = RTOL) -> None:
-    new, old = np.atleast_2d(np.asarray(new, float)), np.atleast_2d(np.asarray(old, float))
-    assert new.shape == old.shape, f"{what}: shape {new.shape} != {old.shape}"
-    scale = np.max(np.abs(old), axis=1, keepdims=True)
-    bound = rtol * np.maximum(np.abs(old), 0.1 * scale) + 1e-300
-    worst = np.max(np.abs(new - old) / bound)
-    assert worst <= 1.0, f"{what}: deviation {worst:.3g} x tolerance"
 
 
 def all_joints_model() -> ph.Model:
