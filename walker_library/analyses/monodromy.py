@@ -193,7 +193,7 @@ def _concurrently(first: Callable[[], _A], second: Callable[[], _B]) -> tuple[_A
     def run() -> None:
         try:
             other.append((True, second()))
-        except BaseException as err:       # (re-raised in the calling thread)
+        except BaseException as err:  # noqa: BLE001 - re-raised in the calling thread
             other.append((False, err))
 
     thread = threading.Thread(target=run, name="stride-sensitivity", daemon=True)
