@@ -22,7 +22,9 @@ user part also apart) and the 1-minute load average at its start; medians over `
 the ratio warm / full of the medians (same run, same load). The machine is shared: the CPU times
 move much less with the load than the wall times. ``--breakdown`` adds one in-process split of a
 warm run (import, load, analysis; CPU seconds). ``--no-full`` leaves the ``full`` variant out
-(its rounds cost seconds each: a before/after of the warm run alone). ``--bytecode``: the
+(its rounds cost seconds each: a before/after of the warm run alone); ``--cold`` adds the
+variants ``cold`` (and ``base-cold`` with ``--baseline``): the same command on an empty cache of
+its own each round (the model built and compiled, the snapshot stored). ``--bytecode``: the
 children import from bytecode (a temporary folder, filled by the untimed first runs) even where
 ``$PYTHONDONTWRITEBYTECODE`` is set, as an installed package does; without it, where that
 variable is set and the trees have no ``__pycache__``, every run compiles the source of every
@@ -95,8 +97,17 @@ def _private_cache() -> Path:
     return cache
 
 
+def _cold(command: list[str], root: Path = ROOT) -> tuple[float, float, float, float]:
+    """:func:`_timed` of ``command`` run from ``root`` on an empty cache of its own."""
+    cache = _private_cache()
+    try:
+        return _timed(command, _env(cache, root), root)
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+
+
 def warm_start(walker: str, rounds: int, breakdown: bool, baseline: Path | None = None,
-               what: str = "gait", full: bool = True) -> None:
+               what: str = "gait", full: bool = True, cold: bool = False) -> None:
     cache = _private_cache()
     base_cache = _private_cache()
     env = _env(cache)
@@ -111,8 +122,12 @@ def warm_start(walker: str, rounds: int, breakdown: bool, baseline: Path | None 
         results: dict[str, list[tuple[float, float, float, float]]] = {"warm": []}
         if full:
             results["full"] = []
+        if cold:
+            results["cold"] = []
         if baseline is not None:
             results["baseline"] = []
+            if cold:
+                results["base-cold"] = []
             _timed(command, _env(base_cache, baseline), baseline)   # its cold run
             _timed(command, _env(base_cache, baseline), baseline)   # (its bytecode written)
         _timed(command, env)                                         # (this tree's likewise)
@@ -125,6 +140,10 @@ def warm_start(walker: str, rounds: int, breakdown: bool, baseline: Path | None 
             results["warm"].append(_timed(command, env))
             if baseline is not None:
                 results["baseline"].append(_timed(command, _env(base_cache, baseline), baseline))
+            if cold:
+                results["cold"].append(_cold(command))
+                if baseline is not None:
+                    results["base-cold"].append(_cold(command, baseline))
         print(f"\n{' '.join(command[2:])}, end to end ({rounds} interleaved rounds; medians"
               f"{'; from bytecode' if _PYCACHE else ''})")
         print(f"{'variant':8s} {'wall s':>8s} {'CPU s':>8s} {'user s':>8s}  load (min-max)   "
@@ -142,6 +161,9 @@ def warm_start(walker: str, rounds: int, breakdown: bool, baseline: Path | None 
         if baseline is not None:
             print(f"ratio warm/baseline (warm): wall {med['warm'][0] / med['baseline'][0]:.2f}, "
                   f"CPU {med['warm'][1] / med['baseline'][1]:.2f}")
+        if cold and baseline is not None:
+            print(f"ratio cold/base-cold: wall {med['cold'][0] / med['base-cold'][0]:.2f}, "
+                  f"CPU {med['cold'][1] / med['base-cold'][1]:.2f}")
         if breakdown and what == "gait":
             code = (
                 "import time, sys, json\nt0 = time.process_time()\n"
@@ -233,6 +255,9 @@ def main() -> None:
                     help="walker gait WALKER, or porthamiltonian simulate WALKER (any model)")
     ap.add_argument("--no-full", dest="full", action="store_false",
                     help="leave out the full-read variant (the warm run, and the baseline's)")
+    ap.add_argument("--cold", action="store_true",
+                    help="also the command on an empty cache each round (this tree's and the "
+                         "baseline's)")
     ap.add_argument("--bytecode", action="store_true",
                     help="children import from bytecode (a temporary folder) even when "
                          "$PYTHONDONTWRITEBYTECODE is set, as an installed package does")
@@ -243,7 +268,7 @@ def main() -> None:
     try:
         if args.only != "calls":
             warm_start(args.walker, args.rounds, args.breakdown, args.baseline, args.command,
-                       args.full)
+                       args.full, args.cold)
     finally:
         for folder in _PYCACHE:
             shutil.rmtree(folder, ignore_errors=True)
