@@ -36,6 +36,7 @@ comes with whether the error allows it (:attr:`FloquetResult.certain`).
 from __future__ import annotations
 
 import math
+import os
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -187,7 +188,12 @@ _B = TypeVar("_B")
 
 def _concurrently(first: Callable[[], _A], second: Callable[[], _B]) -> tuple[_A, _B]:
     """(first(), second()), ``second`` called in a thread of its own while this one calls
-    ``first``; an exception of either is raised here (``first``'s when both raise)."""
+    ``first`` (one after the other where this process may use one processor only); an exception
+    of either is raised here (``first``'s when both raise)."""
+    usable = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+              else os.cpu_count() or 1)
+    if usable < 2:
+        return first(), second()
     other: list = []
 
     def run() -> None:
