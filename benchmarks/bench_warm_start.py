@@ -17,11 +17,18 @@ run), interleaved with the others: the before/after of a change. ``--command sim
 NAME`` measures ``porthamiltonian simulate NAME --json`` instead (its snapshot:
 porthamiltonian/interfaces/warm.py).
 
-Each run records its wall time, its CPU time (user + system, from ``getrusage`` of the child) and
-the 1-minute load average at its start; medians over ``--rounds`` and the ratio warm / full of
-the medians (same run, same load). The machine is shared: the CPU times move much less with the
-load than the wall times. ``--breakdown`` adds one in-process split of a warm run (import, load,
-analysis; CPU seconds).
+Each run records its wall time, its CPU time (user + system, from ``getrusage`` of the child; the
+user part also apart) and the 1-minute load average at its start; medians over ``--rounds`` and
+the ratio warm / full of the medians (same run, same load). The machine is shared: the CPU times
+move much less with the load than the wall times. ``--breakdown`` adds one in-process split of a
+warm run (import, load, analysis; CPU seconds). ``--no-full`` leaves the ``full`` variant out
+(its rounds cost seconds each: a before/after of the warm run alone); ``--cold`` adds the
+variants ``cold`` (and ``base-cold`` with ``--baseline``): the same command on an empty cache of
+its own each round (the model built and compiled, the snapshot stored). ``--bytecode``: the
+children import from bytecode (a temporary folder, filled by the untimed first runs) even where
+``$PYTHONDONTWRITEBYTECODE`` is set, as an installed package does; without it, where that
+variable is set and the trees have no ``__pycache__``, every run compiles the source of every
+module it imports (on this project's warm ``walker gait``, ~0.2 s of CPU).
 
 **Call overhead.** One right-hand side of ``mass_spring_damper`` (2 states) on the C back end
 from Python, ``compiled.functions.rhs(t, y, p)`` (the fast path of
@@ -56,14 +63,23 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.machine import machine_info
 
+#: the bytecode folder of the children (``--bytecode``; empty: as the environment says)
+_PYCACHE: list[str] = []
+
 
 def _env(cache: Path, root: Path = ROOT) -> dict:
-    return {**os.environ, "PORTHAMILTONIAN_CACHE": str(cache), "PORTHAMILTONIAN_QUIET": "1",
-            "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    env = {**os.environ, "PORTHAMILTONIAN_CACHE": str(cache), "PORTHAMILTONIAN_QUIET": "1",
+           "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    if _PYCACHE:                    # imports from bytecode, as from an installed package
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = _PYCACHE[0]
+    return env
 
 
-def _timed(command: list[str], env: dict, root: Path = ROOT) -> tuple[float, float, float]:
-    """(wall s, CPU s of the child, load average at the start) of one run of ``command``."""
+def _timed(command: list[str], env: dict,
+           root: Path = ROOT) -> tuple[float, float, float, float]:
+    """(wall s, CPU s of the child, its user CPU s, load average at the start) of one run of
+    ``command``."""
     load = os.getloadavg()[0]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
@@ -71,8 +87,8 @@ def _timed(command: list[str], env: dict, root: Path = ROOT) -> tuple[float, flo
                    stderr=subprocess.DEVNULL)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return wall, cpu, load
+    user = after.ru_utime - before.ru_utime
+    return wall, user + after.ru_stime - before.ru_stime, user, load
 
 
 def _private_cache() -> Path:
@@ -81,44 +97,73 @@ def _private_cache() -> Path:
     return cache
 
 
+def _cold(command: list[str], root: Path = ROOT) -> tuple[float, float, float, float]:
+    """:func:`_timed` of ``command`` run from ``root`` on an empty cache of its own."""
+    cache = _private_cache()
+    try:
+        return _timed(command, _env(cache, root), root)
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+
+
 def warm_start(walker: str, rounds: int, breakdown: bool, baseline: Path | None = None,
-               what: str = "gait") -> None:
+               what: str = "gait", full: bool = True, cold: bool = False) -> None:
     cache = _private_cache()
     base_cache = _private_cache()
     env = _env(cache)
     command = ([sys.executable, "-m", "walker_library", "gait", walker, "--json"] if what == "gait"
                else [sys.executable, "-m", "porthamiltonian", "simulate", walker, "--json"])
     try:
-        wall, cpu, load = _timed(command, env)
+        wall, cpu, _, load = _timed(command, env)
         print(f"cold run (build, cache filled): {wall:.2f} s wall, {cpu:.2f} s CPU, load {load:.2f}")
         snapshots = list(cache.glob("s*/snapshot.json"))
         if len(snapshots) != 1:
             raise SystemExit(f"expected one snapshot in {cache}, found {len(snapshots)}")
-        results: dict[str, list[tuple[float, float, float]]] = {"full": [], "warm": []}
+        results: dict[str, list[tuple[float, float, float, float]]] = {"warm": []}
+        if full:
+            results["full"] = []
+        if cold:
+            results["cold"] = []
         if baseline is not None:
             results["baseline"] = []
+            if cold:
+                results["base-cold"] = []
             _timed(command, _env(base_cache, baseline), baseline)   # its cold run
+            _timed(command, _env(base_cache, baseline), baseline)   # (its bytecode written)
+        _timed(command, env)                                         # (this tree's likewise)
         for _ in range(rounds):
-            snapshots[0].unlink()
-            results["full"].append(_timed(command, env))
-            if not snapshots[0].is_file():
-                raise SystemExit("the full read did not store the snapshot again")
+            if full:
+                snapshots[0].unlink()
+                results["full"].append(_timed(command, env))
+                if not snapshots[0].is_file():
+                    raise SystemExit("the full read did not store the snapshot again")
             results["warm"].append(_timed(command, env))
             if baseline is not None:
                 results["baseline"].append(_timed(command, _env(base_cache, baseline), baseline))
-        print(f"\n{' '.join(command[2:])}, end to end ({rounds} interleaved rounds; medians)")
-        print(f"{'variant':8s} {'wall s':>8s} {'CPU s':>8s}  load (min-max)   all wall times")
+            if cold:
+                results["cold"].append(_cold(command))
+                if baseline is not None:
+                    results["base-cold"].append(_cold(command, baseline))
+        print(f"\n{' '.join(command[2:])}, end to end ({rounds} interleaved rounds; medians"
+              f"{'; from bytecode' if _PYCACHE else ''})")
+        print(f"{'variant':8s} {'wall s':>8s} {'CPU s':>8s} {'user s':>8s}  load (min-max)   "
+              "all wall times")
         med = {}
         for name, rows in results.items():
-            walls, cpus, loads = zip(*rows)
+            walls, cpus, users, loads = zip(*rows)
             med[name] = (statistics.median(walls), statistics.median(cpus))
-            print(f"{name:8s} {med[name][0]:8.3f} {med[name][1]:8.3f}  {min(loads):.2f}-"
-                  f"{max(loads):.2f}  {' '.join(f'{w:.2f}' for w in walls)}")
-        print(f"ratio warm/full: wall {med['warm'][0] / med['full'][0]:.2f}, "
-              f"CPU {med['warm'][1] / med['full'][1]:.2f}")
+            print(f"{name:8s} {med[name][0]:8.3f} {med[name][1]:8.3f} "
+                  f"{statistics.median(users):8.3f}  {min(loads):.2f}-{max(loads):.2f}  "
+                  f"{' '.join(f'{w:.2f}' for w in walls)}")
+        if full:
+            print(f"ratio warm/full: wall {med['warm'][0] / med['full'][0]:.2f}, "
+                  f"CPU {med['warm'][1] / med['full'][1]:.2f}")
         if baseline is not None:
             print(f"ratio warm/baseline (warm): wall {med['warm'][0] / med['baseline'][0]:.2f}, "
                   f"CPU {med['warm'][1] / med['baseline'][1]:.2f}")
+        if cold and baseline is not None:
+            print(f"ratio cold/base-cold: wall {med['cold'][0] / med['base-cold'][0]:.2f}, "
+                  f"CPU {med['cold'][1] / med['base-cold'][1]:.2f}")
         if breakdown and what == "gait":
             code = (
                 "import time, sys, json\nt0 = time.process_time()\n"
@@ -208,10 +253,25 @@ def main() -> None:
                     help="another checkout whose warm run is interleaved with this one's")
     ap.add_argument("--command", choices=("gait", "simulate"), default="gait",
                     help="walker gait WALKER, or porthamiltonian simulate WALKER (any model)")
+    ap.add_argument("--no-full", dest="full", action="store_false",
+                    help="leave out the full-read variant (the warm run, and the baseline's)")
+    ap.add_argument("--cold", action="store_true",
+                    help="also the command on an empty cache each round (this tree's and the "
+                         "baseline's)")
+    ap.add_argument("--bytecode", action="store_true",
+                    help="children import from bytecode (a temporary folder) even when "
+                         "$PYTHONDONTWRITEBYTECODE is set, as an installed package does")
     args = ap.parse_args()
     print(machine_info())
-    if args.only != "calls":
-        warm_start(args.walker, args.rounds, args.breakdown, args.baseline, args.command)
+    if args.bytecode:
+        _PYCACHE.append(tempfile.mkdtemp(prefix="bench-warm-pycache-"))
+    try:
+        if args.only != "calls":
+            warm_start(args.walker, args.rounds, args.breakdown, args.baseline, args.command,
+                       args.full, args.cold)
+    finally:
+        for folder in _PYCACHE:
+            shutil.rmtree(folder, ignore_errors=True)
     if args.only != "warm":
         call_overhead(args.calls, args.blocks)
 

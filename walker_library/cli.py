@@ -32,7 +32,6 @@ out-of-range parameter), with a message on stderr.
 from __future__ import annotations
 
 import argparse
-import difflib
 import json
 import sys
 from collections.abc import Callable, Sequence
@@ -92,6 +91,8 @@ def check_walker_name(model: str) -> str:
     models, with the closest one suggested."""
     if ph_io.is_path(model) or model in ph_io.available_models():
         return model                   # (loading a model that is no walker file says so)
+    import difflib
+
     walkers = available_walkers()
     close = difflib.get_close_matches(model, walkers, n=1, cutoff=0.6)
     hint = f" (did you mean {close[0]}?)" if close else ""

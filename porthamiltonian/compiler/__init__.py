@@ -20,12 +20,12 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from .. import backends
-from ..backends import module, native
+from ..backends import native
 from ..errors import CompilerError, ModelError
 from ..modeling.constraints import Constraint
 from ..simulation.compiled import CompiledModel, EventInfo, ModelMeta
 from ..simulation.sampling import DiscreteBlock
-from . import cache, numba_cache
+from . import cache
 from .literals import printable
 from .snapshots import deferred, package_made, recall, remember, snapshot_key
 
@@ -37,7 +37,8 @@ if TYPE_CHECKING:
     from .structure import Solution
 
 # The symbolic stages (sympy) and the model builder (networkx) are imported by the functions
-# that run them: a compiled model reopened from the cache (:func:`reopen`) needs neither.
+# that run them: a compiled model reopened from the cache (:func:`reopen`) needs neither (nor,
+# on the C back end, the Python and numba back ends' loaders).
 
 
 def __getattr__(name: str) -> Any:
@@ -351,6 +352,9 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
     unit with the integration loops' object (:func:`native.loop_source`, by the model's sizes)
     and the objects of the kernels it calls, each compiled once and cached."""
     if name != "c":
+        from ..backends import module
+        from . import numba_cache
+
         text = module.module_text(bodies["python"], name)
         path = cache.backend_module(key, name, text, use_cache)
         if name == "python":

@@ -43,12 +43,12 @@ from ..batch.errors import SweepError
 from ..batch.grids import MAX_CASES
 from ..batch.progress import MODES
 from ..errors import ModelError, OptionError
-from . import fitting, io, linearization
-from .sweeps import SimulationModel, prepare_simulation, simulate_case, simulation_settings
+from . import io
 
-# A command's own machinery (the sweep runner, the FMU exporter, the compiler, the code printers)
-# is imported inside the command that uses it: a warm run of one command (e.g. `walker gait`,
-# which imports this module for the shared options) loads only what it runs.
+# A command's own machinery (the sweep runner and the model sweeps' cases, the FMU exporter, the
+# compiler, the code printers, fitting, linearization) is imported inside the command that uses
+# it: a warm run of one command (e.g. `walker gait`, which imports this module for the shared
+# options) loads only what it runs.
 
 
 # --- options shared by the commands (argparse parent parsers) ------------------------------------
@@ -275,7 +275,12 @@ def run_sweep(args: argparse.Namespace, analysis: Analysis, fixed: dict[str, Any
     return 0
 
 
-SIMULATE = Analysis("simulate", simulate_case,
+def simulate_analysis() -> Analysis:
+    """The analysis of ``porthamiltonian sweep``: one simulation per case
+    (:func:`.sweeps.simulate_case`)."""
+    from .sweeps import prepare_simulation, simulate_case
+
+    return Analysis("simulate", simulate_case,
                     "simulate the model with each case's parameter values: status, ledger, "
                     "final/min/max of outputs, settling time", prepare=prepare_simulation,
                     ok_statuses=("finished", "event"))
@@ -290,7 +295,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
              "outputs": args.output or None, "settle": args.settle, "band": args.band}
     columns = ([f"final.{n}" for n in args.output] + (["settling_time"] if args.settle else [])
                + ["energy.dissipated", "energy.relative_residual"])
-    return run_sweep(args, SIMULATE, fixed, columns)
+    return run_sweep(args, simulate_analysis(), fixed, columns)
 
 
 # --- simulate, show, check-energy -------------------------------------------------------------------
@@ -331,6 +336,8 @@ class RunProgress:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``porthamiltonian simulate``: one run, its final state and ledger (text or JSON)."""
+    from .sweeps import SimulationModel
+
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
@@ -360,6 +367,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     """``porthamiltonian view``: simulate a model and write its 3D view and still image."""
     from pathlib import Path
 
+    from .sweeps import SimulationModel
     from .viewer import scene_from_trajectory
 
     record = io.read(args.model)
@@ -423,6 +431,8 @@ def cmd_show(args: argparse.Namespace) -> int:
 def cmd_linearize(args: argparse.Namespace) -> int:
     """``porthamiltonian linearize``: A, B, C, D and eigenvalues at the operating point
     (:mod:`porthamiltonian.interfaces.linearization`)."""
+    from . import linearization
+
     return linearization.run_linearize(args, parse_assignments(args.at, "--at"),
                                        parse_assignments(args.set))
 
@@ -430,6 +440,9 @@ def cmd_linearize(args: argparse.Namespace) -> int:
 def cmd_fit(args: argparse.Namespace) -> int:
     """``porthamiltonian fit``: parameters fitted to a data file
     (:mod:`porthamiltonian.interfaces.fitting`)."""
+    from . import fitting
+    from .sweeps import SimulationModel
+
     entry = SimulationModel.load(args.model, args.backend)
     return fitting.run_fit(args, entry.compiled, parse_assignments(args.set),
                            entry.settings["atol"])
@@ -437,6 +450,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
 def cmd_check_energy(args: argparse.Namespace) -> int:
     """``porthamiltonian check-energy``: each model's energy balance against its tolerance."""
+    from .sweeps import SimulationModel
+
     names = args.models or io.available_models()
     failed = []
     for name in names:
@@ -464,6 +479,7 @@ def cmd_export_fmu(args: argparse.Namespace) -> int:
     """``porthamiltonian export-fmu``: the model as an FMU (docs/fmu.md)."""
     from ..fmu import export_fmu
     from ..integrators import TABLEAUS
+    from .sweeps import simulation_settings
 
     record = io.read(args.model)
     settings = simulation_settings(record.simulation)
@@ -499,6 +515,8 @@ def _constant_inputs(inputs: Any) -> dict[str, float] | None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``porthamiltonian`` command's parser."""
+    from . import fitting, linearization
+
     model_help = "model: a name from models/ (see check-energy's list) or a path to a .toml file"
     parser = argparse.ArgumentParser(prog="porthamiltonian", description=__doc__.splitlines()[0],
                                      parents=[backend_option("auto")])

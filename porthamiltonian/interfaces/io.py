@@ -60,7 +60,6 @@ import difflib
 import math
 import os
 import re
-import tomllib
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -72,6 +71,8 @@ from ..errors import ModelError, ModelFileError, OptionError
 from ..simulation.options import check_rtol
 
 if TYPE_CHECKING:
+    import tomllib
+
     from ..modeling.component import Component
     from ..modeling.model import Model, ModelDescription
     from ..simulation.compiled import CompiledModel
@@ -422,6 +423,8 @@ def reads(text: str, source: str = "<string>") -> ModelFile:
     if len(text) > MAX_FILE_SIZE:
         raise ModelFileError(f"{source}: the text is {len(text)} characters long; a model file "
                              f"is at most {MAX_FILE_SIZE}")
+    import tomllib  # (here: a warm start reads the text, keyed by it, but parses none)
+
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

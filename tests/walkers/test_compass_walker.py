@@ -260,3 +260,59 @@ def test_a_walk_from_the_cache_does_not_import_scipy(walker):
     # import) when the walker runs on it (.ci/run's second pass)
     allowed = {"scipy.linalg"} if walker.backend == "numba" else set()
     assert set(imported) - allowed == set()
+
+
+def test_the_gaits_stride_is_cut_from_newtons_last_walk(walker, gait, monkeypatch):
+    """The same walk asked again with ``details`` (the gait's metrics stride at the fixed point,
+    after Newton's last residual there) is cut from the last walk's trajectory: no second
+    integration, and the strides of a walker that integrates it afresh, bit for bit; the
+    stride's max |θ| and max |φ| (all stored points at once) are the largest of
+    ``walker.angles`` over the stored points."""
+    from walker_library.core.walker import HybridWalker
+
+    z = np.array([gait.fixed_point[k] for k in walker.section])
+    runs = []
+    simulate = walker.model.simulate
+    monkeypatch.setattr(walker.model, "simulate", lambda *a, **k: runs.append(1) or simulate(*a, **k))
+    w = HybridWalker(walker.plan, walker.compiled, walker.run)
+    plain = w.walk(z, 1)[0]
+    cut = w.walk(z, 1, details=True)[0]
+    assert len(runs) == 1
+    fresh = HybridWalker(walker.plan, walker.compiled, walker.run).walk(z, 1, details=True,
+                                                                         record=True)[0]
+    assert len(runs) == 2
+    assert np.array_equal(cut.z_next, plain.z_next) and np.array_equal(cut.z_next, fresh.z_next)
+    assert (cut.max_theta, cut.max_phi) == (fresh.max_theta, fresh.max_phi)
+    assert (cut.duration, cut.energy_dissipated) == (fresh.duration, fresh.energy_dissipated)
+    X = fresh.info["trajectory"].y[:walker.model.n_states]
+    angles = [w.angles(X[:, i]) for i in range(X.shape[1])]
+    assert cut.max_theta == max(abs(a["theta"]) for a in angles)
+    assert cut.max_phi == max(abs(a["phi"]) for a in angles)
+    w.walk(z + 1e-6, 1)                      # another walk: integrated
+    assert len(runs) == 3
+
+
+def test_floquet_runs_its_two_jacobians_side_by_side_with_the_same_numbers(walker, gait):
+    """The Floquet multipliers' two runs (the walker's tolerances and ten times them) run in two
+    threads; the result is that of the two runs made one after the other, and an error in the
+    second thread's run is raised in the caller's."""
+    from walker_library.analyses.monodromy import StrideJacobian, floquet, multipliers
+    from walker_library.core.walker import HybridWalker
+
+    z = np.array([gait.fixed_point[k] for k in walker.section])
+    fine, coarse = walker.stride_sensitivity(z), walker.stride_sensitivity(z, factor=10.0)
+    lam, err = multipliers(StrideJacobian(fine.jacobian, np.abs(fine.jacobian - coarse.jacobian)
+                                          + fine.difference_error, np.full(len(z), np.nan),
+                                          "variational", 1, 2, coarse.jacobian,
+                                          fine.difference_error))
+    fl = floquet(walker, z)
+    assert np.array_equal(fl.multipliers, lam) and np.array_equal(fl.errors, err)
+
+    class Broken(HybridWalker):
+        def stride_sensitivity(self, z, period=1, *, factor=1.0):
+            if factor != 1.0:
+                raise ValueError("the coarse run broke")
+            return super().stride_sensitivity(z, period, factor=factor)
+
+    with pytest.raises(ValueError, match="coarse run broke"):
+        floquet(Broken(walker.plan, walker.compiled, walker.run), z)

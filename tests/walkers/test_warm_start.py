@@ -90,14 +90,18 @@ def test_the_packages_and_the_walker_command_import_no_symbolic_library():
 
 #: what a warm ``walker gait`` of a walker on the compiled loops never loads: besides the symbolic
 #: and plotting libraries, scipy and pandas, the progress bar (no terminal), the sweep runner and
-#: its process pools, and the machinery of the commands it does not run (the code generator, FMU
-#: export, fitting, linearization, the optimizer, continuation, gradients, the report)
+#: its process pools, the TOML parser (the snapshot is keyed by the file's text, which is not
+#: parsed), and the machinery of the commands it does not run (the code generator, FMU export,
+#: fitting, linearization, the model sweeps, the optimizer, continuation, gradients, step-down
+#: and basins, the report)
 NOT_ON_THE_WARM_PATH = (*HEAVY, "scipy", "pandas", "tqdm", "multiprocessing", "concurrent.futures",
-                        "porthamiltonian.compiler.codegen", "porthamiltonian.fmu",
-                        "porthamiltonian.batch.runner", "porthamiltonian.simulation.fitting",
+                        "tomllib", "porthamiltonian.compiler.codegen", "porthamiltonian.fmu",
+                        "porthamiltonian.batch.runner", "porthamiltonian.interfaces.fitting",
+                        "porthamiltonian.interfaces.linearization",
+                        "porthamiltonian.interfaces.sweeps", "porthamiltonian.simulation.fitting",
                         "porthamiltonian.simulation.linearize", "walker_library.analyses.optimize",
                         "walker_library.analyses.continuation", "walker_library.analyses.gradients",
-                        "walker_library.report")
+                        "walker_library.analyses.robustness", "walker_library.report")
 
 
 def test_a_warm_walker_gait_loads_only_what_it_runs():

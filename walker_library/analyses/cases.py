@@ -26,16 +26,10 @@ from porthamiltonian.errors import ParameterValueError
 from ..core.protocol import Walker
 from .gait import GaitResult, GaitStatus, analyze_gait
 from .results import to_jsonable
-from .robustness import (
-    AnalysisStatus,
-    RecoveryStatus,
-    basin_state,
-    basin_walker,
-    fixed_points,
-    recovers,
-    recovery_steps,
-    step_down,
-)
+
+# The step-down and basin analyses (:mod:`.robustness`) are imported by their case functions:
+# the ``walker`` command reads :data:`ANALYSES` for its help, and a warm ``walker gait`` runs
+# neither.
 
 __all__ = ["ANALYSES", "WalkerCache", "basin_case", "gait_case", "gait_summary", "get_analysis",
            "prepare_basin", "prepare_walker", "step_down_case", "walker_cache"]
@@ -133,6 +127,8 @@ def step_down_case(case: Mapping[str, Any], *, model: str, backend: str | None =
     contiguous_limit (m), survived_intervals (m), first_failure (m), holes, and the gait's
     outcome, stability, speed (m/s), energy per step (J), step period (s), largest
     |multiplier|."""
+    from .robustness import step_down
+
     walker, gait = walker_cache().gait(model, backend, case)
     r = step_down(walker, gait, resolution=resolution, h_max=h_max)
     mults = [abs(complex(m)) for m in gait.floquet_multipliers]
@@ -162,6 +158,15 @@ def basin_case(case: Mapping[str, Any], *, model: str, backend: str | None = Non
     integration of the walk (:func:`~.robustness.basin_walker`; the gait is the walker's own).
     Returns status "converged", "fell", "wandered", "invalid" or "no_gait", steps (to the first
     state within ``tol``, or to the fall), distance and reason."""
+    from .robustness import (
+        AnalysisStatus,
+        basin_state,
+        basin_walker,
+        fixed_points,
+        recovers,
+        recovery_steps,
+    )
+
     if gait is None:
         walker, gait = walker_cache().gait(model, backend, params)
     else:
@@ -203,6 +208,8 @@ def prepare_basin(cases: Sequence[Mapping[str, Any]], *, model: str, backend: st
                   **options: Any) -> dict[str, Any]:
     """Build the walker with ``params`` (checked), check ``method``, and find its gait once,
     here: the sweep's shared argument ``gait``, so that no worker looks for it again."""
+    from .robustness import basin_walker
+
     for index, case in enumerate(cases):
         missing = [k for k in ("theta", "theta_dot") if k not in case]
         if missing:
@@ -226,7 +233,7 @@ ANALYSES: dict[str, Analysis] = {a.name: a for a in (
     Analysis("basin", basin_case,
              "one basin-of-attraction point per case (theta, theta_dot; walker parameters in "
              "--option params={...}): converged, fell or wandered",
-             prepare=prepare_basin, ok_statuses=(RecoveryStatus.CONVERGED,),
+             prepare=prepare_basin, ok_statuses=("converged",),   # RecoveryStatus.CONVERGED
              columns=("steps", "distance")),
 )}
 

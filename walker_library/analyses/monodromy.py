@@ -12,7 +12,9 @@ One interface, :func:`stride_jacobian`, with a ``method``:
   errors), plus the bound of what the difference Jacobians of the lift, the impact maps and the
   projection bring in (:mod:`.variational`, ~1e-11 relative). The walker provides ``stride_sensitivity(z, period, factor=1)``
   (:class:`~.core.HybridWalker` does); :func:`stride_jacobian` raises a clear error for a walker
-  without it.
+  without it. The two runs are independent: the second runs in a thread of its own meanwhile
+  (the compiled loops release the GIL, so on two free cores the pair takes the time of the
+  longer run, not of both; the numbers are those of the two runs made one after the other).
 * ``"fd"`` — central finite differences (the cross-check), the step chosen per section
   coordinate automatically. For coordinate j the differences are taken on a ladder of steps
   h = h0_j 4⁻ᵐ (m = 0, 1, …; h0_j = ``first_step`` × max(|z_j|, 1e-3), ``first_step`` = 1e-3 by
@@ -34,7 +36,11 @@ comes with whether the error allows it (:attr:`FloquetResult.certain`).
 from __future__ import annotations
 
 import math
+import os
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
@@ -176,9 +182,42 @@ def stride_jacobian(walker: Walker, z: np.ndarray, *, period: int = 1, method: s
     return StrideJacobian(J, E, kept, method, period, total)
 
 
+_A = TypeVar("_A")
+_B = TypeVar("_B")
+
+
+def _concurrently(first: Callable[[], _A], second: Callable[[], _B]) -> tuple[_A, _B]:
+    """(first(), second()), ``second`` called in a thread of its own while this one calls
+    ``first`` (one after the other where this process may use one processor only); an exception
+    of either is raised here (``first``'s when both raise)."""
+    usable = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+              else os.cpu_count() or 1)
+    if usable < 2:
+        return first(), second()
+    other: list = []
+
+    def run() -> None:
+        try:
+            other.append((True, second()))
+        except BaseException as err:  # noqa: BLE001 - re-raised in the calling thread
+            other.append((False, err))
+
+    thread = threading.Thread(target=run, name="stride-sensitivity", daemon=True)
+    thread.start()
+    try:
+        result = first()
+    finally:
+        thread.join()
+    ok, value = other[0]
+    if not ok:
+        raise value
+    return result, value
+
+
 def _variational(walker: Walker, z: np.ndarray, period: int) -> StrideJacobian:
     """The exact Jacobian and its error estimate (module docstring)."""
-    runs = [walker.stride_sensitivity(z, period), walker.stride_sensitivity(z, period, factor=10.0)]
+    runs = _concurrently(lambda: walker.stride_sensitivity(z, period),
+                         lambda: walker.stride_sensitivity(z, period, factor=10.0))
     fell = next((run.fell for run in runs if run.fell), "")
     J, bound, coarse = runs[0].jacobian, runs[0].difference_error, runs[1].jacobian
     if fell or J is None or bound is None or coarse is None:    # a run that fell has no J

@@ -14,7 +14,6 @@ The functions named after the shipped walkers (:func:`simplest_walker`, :func:`c
 from __future__ import annotations
 
 import os
-import tomllib
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -131,6 +130,8 @@ def check_target(path: str | Path, *, overwrite: bool) -> Path:
 def available_walkers() -> list[str]:
     """Names of the model files found by name (models/, $PORTHAMILTONIAN_MODELS) that have a
     ``[walker]`` table."""
+    import tomllib  # (here: a warm run parses no TOML)
+
     out = []
     for name in ph_io.available_models():
         try:

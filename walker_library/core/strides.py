@@ -41,6 +41,16 @@ def _fall_reason(traj: Trajectory) -> str:
     return traj.status
 
 
+def _angle_columns(walker: HybridWalker, X: np.ndarray) -> np.ndarray:
+    """θ and φ (rad; NaN where the walker has none) of the states in the columns of ``X``, in
+    their own labelling, as rows of (θ, φ): :meth:`~.walker.HybridWalker.angles` of every column
+    at once (the angles are linear in the coordinates)."""
+    angles = walker.compiled.angles
+    q = X[list(walker.compiled.coordinates)]
+    return np.column_stack([angles[k] @ q if k in angles else np.full(X.shape[1], math.nan)
+                            for k in ("theta", "phi")])
+
+
 def _maxima(walker: HybridWalker, traj: Trajectory, X: np.ndarray, i0: int, i1: int,
             t0: float, t1: float, p: np.ndarray) -> tuple[float, float]:
     """max |θ|, max |φ| over a step (rad), in the section's labelling under the step's
@@ -59,7 +69,8 @@ def _maxima(walker: HybridWalker, traj: Trajectory, X: np.ndarray, i0: int, i1: 
         return a.get("theta", math.nan), a.get("phi", math.nan)
 
     if not any(seg.sol is not None for seg in traj.segments):
-        values = np.array([thph(X[:, i]) for i in range(i0, i1 + 1)])
+        values = (np.array([thph(X[:, i]) for i in range(i0, i1 + 1)]) if y0 is not None
+                  else _angle_columns(walker, X[:n, i0:i1 + 1]))
         theta, phi = (float(np.max(np.abs(values[:, j]))) if np.all(np.isfinite(values[:, j]))
                       else math.nan for j in range(2))
         return theta, phi

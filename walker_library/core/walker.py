@@ -261,6 +261,8 @@ class HybridWalker:
         self.run = run if run is not None else RunValues.of(
             compiled, check_parameters(plan.parameters, dict(values or {})),
             options or plan.spec.integration)
+        #: the last plain walk: (z, n_steps, ground_drop) and (trajectory, log, x0, p0) (:meth:`walk`)
+        self._last_walk: tuple[tuple, tuple] | None = None
 
     # --- what the walker is --------------------------------------------------------------------
     @property
@@ -574,9 +576,22 @@ class HybridWalker:
         stride's ``info["trajectory"]``; ``ground_drop`` h (m, >= 0): the description's drop
         parameter is h, and its rules lower the surface (e.g. ahead of the stance foot, once);
         ``until``: called with the section state after each heel strike, ends the walk there
-        (fewer than ``n_steps`` strides, the last a step) when it returns True."""
+        (fewer than ``n_steps`` strides, the last a step) when it returns True.
+
+        The same walk as the last one, asked again (e.g. with ``details``: a gait's strides after
+        Newton's last residual at the fixed point), is cut from the last one's trajectory, not
+        integrated again (a walk without ``until`` or ``record`` whose integrator keeps no dense
+        output: its trajectory does not depend on ``details``)."""
         if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
             raise ParameterValueError(f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
+        o = self.options
+        dense = (details or record) and o.method not in COMPILED_METHODS
+        plain = until is None and not record and not dense
+        key = (np.asarray(z, dtype=float).tobytes(), int(n_steps), float(ground_drop))
+        last = self._last_walk
+        if plain and last is not None and last[0] == key:
+            traj, log, x0, p0 = last[1]
+            return cut_strides(self, traj, log, details=details, record=False, x0=x0, p0=p0)
         p0 = self.start_params(ground_drop)
         try:
             x0 = self.lift(z, p0)
@@ -587,12 +602,13 @@ class HybridWalker:
         p0 = self.machine.start(x0, p0)
         log = WalkLog(int(n_steps), None if until is None
                       else lambda x, p: until(self.project(x, p)))
-        o = self.options
         traj = self.model.simulate(
             o.max_step_time * n_steps, x0=x0, params=dict(zip(self.model.param_names, p0)),
             method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step,
             actions=self.machine.actions(log), max_events=100 * n_steps + 100,
-            dense_output=(details or record) and o.method not in COMPILED_METHODS)
+            dense_output=dense)
+        if plain:
+            self._last_walk = (key, (traj, log, x0, p0))
         return cut_strides(self, traj, log, details=details, record=record, x0=x0, p0=p0)
 
     def stride_sensitivity(self, z: np.ndarray, period: int = 1, *,
