@@ -290,6 +290,11 @@ def test_the_gaits_stride_is_cut_from_newtons_last_walk(walker, gait, monkeypatc
     assert cut.max_phi == max(abs(a["phi"]) for a in angles)
     w.walk(z + 1e-6, 1)                      # another walk: integrated
     assert len(runs) == 3
+    w.walk(z + 1e-6, 1)                      # the same walk again: cut
+    assert len(runs) == 3
+    w.run = w.with_parameters(slope=0.01).run  # other run values: integrated again
+    w.walk(z + 1e-6, 1)
+    assert len(runs) == 4
 
 
 def test_floquet_runs_its_two_jacobians_side_by_side_with_the_same_numbers(walker, gait):

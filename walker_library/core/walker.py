@@ -261,7 +261,8 @@ class HybridWalker:
         self.run = run if run is not None else RunValues.of(
             compiled, check_parameters(plan.parameters, dict(values or {})),
             options or plan.spec.integration)
-        #: the last plain walk: (z, n_steps, ground_drop) and (trajectory, log, x0, p0) (:meth:`walk`)
+        #: the last plain walk: (z, n_steps, ground_drop) and (trajectory, log, x0, p0, the run
+        #: values it used: a walk after ``walker.run`` was replaced is integrated again) (:meth:`walk`)
         self._last_walk: tuple[tuple, tuple] | None = None
 
     # --- what the walker is --------------------------------------------------------------------
@@ -589,8 +590,8 @@ class HybridWalker:
         plain = until is None and not record and not dense
         key = (np.asarray(z, dtype=float).tobytes(), int(n_steps), float(ground_drop))
         last = self._last_walk
-        if plain and last is not None and last[0] == key:
-            traj, log, x0, p0 = last[1]
+        if plain and last is not None and last[0] == key and last[1][4] is self.run:
+            traj, log, x0, p0, _ = last[1]
             return cut_strides(self, traj, log, details=details, record=False, x0=x0, p0=p0)
         p0 = self.start_params(ground_drop)
         try:
@@ -608,7 +609,7 @@ class HybridWalker:
             actions=self.machine.actions(log), max_events=100 * n_steps + 100,
             dense_output=dense)
         if plain:
-            self._last_walk = (key, (traj, log, x0, p0))
+            self._last_walk = (key, (traj, log, x0, p0, self.run))
         return cut_strides(self, traj, log, details=details, record=record, x0=x0, p0=p0)
 
     def stride_sensitivity(self, z: np.ndarray, period: int = 1, *,
