@@ -11,6 +11,9 @@
   ``numba_loop``: the checks of the numba back end's own compiled loops (each costs a JIT of a
   model's loops, ~15 s of CPU). Without it, those are deselected: the README's test command
   checks the same loops as Python source and as C, and ``.ci/run`` checks them on numba.
+  Likewise the walker tests marked ``study`` (a reproduction study's pinned numbers, e.g.
+  ``walker reproduce compliance_3d --quick``, ~10 s of CPU): run by that pass only (on numba;
+  the studies' code paths are checked piecewise in the README's command).
 * Under pytest-xdist (the README's ``-n auto``) each test file stays on one worker (the files
   sharing a costly session fixture on the same one) and the workers share one compiled-model
   cache (see the hooks below).
@@ -49,6 +52,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "numba_loop: checks numba's compiled loops (run by "
                                        "--numba-pass, deselected otherwise)")
+    config.addinivalue_line("markers", "study: a walker reproduction study with pinned numbers "
+                                       "(run by --numba-pass, deselected otherwise)")
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
@@ -71,7 +76,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         walker = item.nodeid.startswith("tests/walkers/")
         marked = item.get_closest_marker("numba_loop") is not None
-        selected = (walker or marked) if numba_pass else not marked
+        study = walker and item.get_closest_marker("study") is not None
+        selected = (walker or marked) if numba_pass else not (marked or study)
         (keep if selected else drop).append(item)
     if drop:
         config.hook.pytest_deselected(items=drop)
