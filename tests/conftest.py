@@ -11,8 +11,12 @@
   ``numba_loop``: the checks of the numba back end's own compiled loops (each costs a JIT of a
   model's loops, ~15 s of CPU). Without it, those are deselected: the README's test command
   checks the same loops as Python source and as C, and ``.ci/run`` checks them on numba.
-* Under pytest-xdist (the README's ``-n auto``) each test file stays on one worker and the
-  workers share one compiled-model cache (see the hooks below).
+  Likewise the walker tests marked ``study`` (a reproduction study's pinned numbers, e.g.
+  ``walker reproduce compliance_3d --quick``, ~10 s of CPU): run by that pass only (on numba;
+  the studies' code paths are checked piecewise in the README's command).
+* Under pytest-xdist (the README's ``-n auto``) each test file stays on one worker (the files
+  sharing a costly session fixture on the same one) and the workers share one compiled-model
+  cache (see the hooks below).
 * ``compile_named(name)`` compiles a model of ``models/`` with the fast-to-build ``python`` back
   end (memoized for the session), for tests where the back end does not matter.
 * The garbage collector: the objects alive after collection are frozen (never scanned again)
@@ -48,6 +52,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "numba_loop: checks numba's compiled loops (run by "
                                        "--numba-pass, deselected otherwise)")
+    config.addinivalue_line("markers", "study: a walker reproduction study with pinned numbers "
+                                       "(run by --numba-pass, deselected otherwise)")
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
@@ -62,23 +68,28 @@ def pytest_collection_finish(session: pytest.Session) -> None:
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """``--numba-pass`` or not (module docstring); under pytest-xdist (``-n auto --dist
     loadgroup``, the README's command), keep each test file on one worker (its module fixtures
-    run once) and every test that reads the session's ``check-energy`` run on the same worker
-    (that run is made once)."""
+    run once), every test that reads the session's ``check-energy`` run on the same worker
+    (that run is made once), and the files that use the sweeps' ``gait_reference`` (the
+    serial walker sweep, ~5 s of CPU for its chaotic slope) together on one worker."""
     numba_pass = config.getoption("--numba-pass")
     keep, drop = [], []
     for item in items:
         walker = item.nodeid.startswith("tests/walkers/")
         marked = item.get_closest_marker("numba_loop") is not None
-        selected = (walker or marked) if numba_pass else not marked
+        study = walker and item.get_closest_marker("study") is not None
+        selected = (walker or marked) if numba_pass else not (marked or study)
         (keep if selected else drop).append(item)
     if drop:
         config.hook.pytest_deselected(items=drop)
         items[:] = keep
     if not config.pluginmanager.hasplugin("xdist"):
         return
+    shared = {item.nodeid.split("::", 1)[0] for item in items
+              if "gait_reference" in getattr(item, "fixturenames", ())}
     for item in items:
+        path = item.nodeid.split("::", 1)[0]
         group = ("energy_check" if "energy_check" in getattr(item, "fixturenames", ())
-                 else item.nodeid.split("::", 1)[0])
+                 else "gait_reference" if path in shared else path)
         item.add_marker(pytest.mark.xdist_group(group))
 
 

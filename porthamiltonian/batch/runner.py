@@ -574,14 +574,23 @@ class Sweep:
         pending: dict[Future[Any], int] = {}
         lost = 0
 
-        def submit() -> None:
+        def submit() -> bool:
+            """Fill the window; False when the own pool died since the last wait (a worker
+            crashed after its case's future was collected): its futures say so at the next
+            wait, and the case not submitted stays first in the queue."""
             while queue and len(pending) < window:
-                cid = queue.popleft()
-                pending[submit_case(active, cid)] = cid
+                try:
+                    future = submit_case(active, queue[0])
+                except BrokenProcessPool:
+                    if not owned:
+                        raise
+                    return False
+                pending[future] = queue.popleft()
+            return True
 
         try:
             submit()
-            while pending:
+            while pending or queue:
                 finished, _ = wait(list(pending), timeout=0.25, return_when=FIRST_COMPLETED)
                 if channel is not None:
                     for what, n in channel.drain().items():
@@ -612,7 +621,10 @@ class Sweep:
                             lost += 1
                     active = new_pool(n_workers)
                 prog.refresh()
-                submit()
+                if not submit() and not pending:     # died with nothing in it: a new pool
+                    _terminate(active)
+                    active = new_pool(n_workers)
+                    submit()
             if channel is not None:                 # ticks sent after the last row arrived
                 for what, n in channel.drain().items():
                     prog.add_work(what, n)

@@ -308,6 +308,43 @@ def test_a_case_that_kills_its_worker_becomes_an_error_row(tmp_path):
     assert all(rows[i]["result"] == {"status": "ok", "x": cases[i]["x"]} for i in (0, 1, 3, 4))
 
 
+def test_a_pool_that_dies_between_a_wait_and_the_next_submit_is_replaced(tmp_path, monkeypatch):
+    """A worker dies after the runner collected the finished futures and before it submits the
+    next case (the pool refuses the submission with BrokenProcessPool; seen under load in
+    test_a_case_that_kills_its_worker_becomes_an_error_row): the cases in flight run again,
+    every case is computed once, none is lost."""
+    import os
+    import signal
+    import time
+    from concurrent.futures import ProcessPoolExecutor
+
+    from porthamiltonian.batch import runner
+
+    killed: list[int] = []
+
+    class DyingPool(ProcessPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            if len(killed) == 0 and args[2] == 4:       # case 4: the first after the window
+                pid = next(iter(self._processes))
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+                t0 = time.monotonic()
+                while not self._broken and time.monotonic() - t0 < 30:
+                    time.sleep(0.01)
+                assert self._broken
+            return super().submit(fn, *args, **kwargs)
+
+    monkeypatch.setattr(runner, "ProcessPoolExecutor", DyingPool)
+    path = tmp_path / "s.jsonl"
+    cases = [{"x": float(x)} for x in range(1, 7)]
+    report = Sweep(sweep_cases.crash_case, cases, path).run(workers=2, progress="none")
+    assert len(killed) == 1
+    assert report.complete and report.status_counts == {"ok": 6}
+    rows = load_results(path)
+    assert sorted(r["case_id"] for r in rows) == list(range(6))
+    assert all(r["result"] == {"status": "ok", "x": cases[r["case_id"]]["x"]} for r in rows)
+
+
 # --- tidy table, CSV ------------------------------------------------------------------------------
 def test_table_is_in_case_order_with_flat_columns_and_pending_cases(tmp_path):
     path = tmp_path / "s.jsonl"

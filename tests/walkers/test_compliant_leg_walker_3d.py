@@ -96,6 +96,7 @@ def test_ledger_closes_over_20_steps_and_a_roll_push_falls(pair):
     assert strides[-1].fell and strides[-1].reason == "fall" and len(strides) <= 6
 
 
+@pytest.mark.study      # run by .ci/run's numba pass (tests/conftest.py), not by the README's
 def test_compliance_3d_study_reduced_grid(pair, tmp_path):
     """`walker reproduce compliance_3d --quick` (K_leg = 6000 N/m and the rigid legs; bisection to
     0.5 mm and 1e-3, pushes survived over 2 steps). At w = 0 a step-down keeps the motion
