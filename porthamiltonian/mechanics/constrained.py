@@ -81,7 +81,8 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
     form's cut build) and ``kinematics(w)`` is K(q) w. Declares
     the blocks, the outputs ``reaction.<constraint>.<row>`` (the multipliers: N, N m),
     ``phi.<constraint>.<row>`` (the holonomic residuals), ``active.<constraint>`` and the
-    matrices ``G`` (all rows) and ``G.<constraint>`` (for impacts). ``where`` names the
+    matrices ``G`` (all rows), ``G.<constraint>`` (for impacts) and ``S`` (the rows' switches,
+    m x 1: read by the rank check before anything solves with the rows). ``where`` names the
     multibody in errors."""
     n, m = len(v), len(rows)
     G = _matrix(rows, n, where)
@@ -216,6 +217,7 @@ def _declare(b: Builder, rows: Sequence[Row], G: sp.Matrix, lam: Sequence, Gv: S
         b.output(f"active.{name}", rows[indices[0]].active, "1")
         b.matrix(f"G.{name}", G.extract(indices, list(range(G.shape[1]))))
     b.matrix("G", G)
+    b.matrix("S", sp.Matrix([row.active for row in rows]))
 
 
 def _listing(rows: Sequence[Row]) -> str:

@@ -637,6 +637,18 @@ static void mb_products(int D, const mb_tab *t, const double *R, const double *p
     mb_bias(D, t, R, p, v, acc, w, lin, A, F, e);
 }
 
+/* e = Pi^T ad_T S + M(q) acc + C(q, v) as mb_products; kept: the twists (w, lin) and the velocity
+ * forces vf = Pi^T ad_T S are the state entry's (its work), only the Newton-Euler pass is run */
+static void mb_kept_products(int D, const mb_tab *t, const double *R, const double *p,
+                             const double *v, const double *acc, double *w, double *lin, double *L,
+                             double *P, double *A, double *F, const double *vf, int kept, double *e)
+{
+    if (kept) {
+        d_copy(t->nv * D, e, vf);
+        mb_bias(D, t, R, p, v, acc, w, lin, A, F, e);
+    } else mb_products(D, t, R, p, v, acc, w, lin, L, P, A, F, e);
+}
+
 /* out = the values of the n duals x (n x D) */
 MB_INLINE void mb_values(int D, int n, const double *x, double *out)
 {
@@ -781,21 +793,59 @@ MB_INLINE void mb_emit(int D, const double *x, double *out, double *dout)
     for (int j = 1; j < D; ++j) dout[j - 1] = x[j];
 }
 
+/* The state entry's work, kept for the constrained entry (ph_mb_state_keep,
+ * ph_mb_constrained_reuse): ws[0] = D, then the duals x (q, p), v, R, p, R0, p0, hc, w, lin, L, P,
+ * the velocity forces Pi^T ad_T S (nv) and the values mc, Jc, M (factored) */
+typedef struct { double *x, *v, *R, *p, *R0, *p0, *hc, *w, *lin, *L, *P, *vf, *mc, *Jc, *M; } mb_work;
+
+static size_t mb_work_size(const mb_tab *t, int D)
+{
+    return 1 + (size_t)D * (size_t)(t->nq + 3 * t->nv + 39 * t->nl) + 10 * (size_t)t->nl
+           + (size_t)t->nv * (size_t)t->nv;
+}
+
+static void mb_work_views(const mb_tab *t, int D, double *ws, mb_work *k)
+{
+    const int nl = t->nl, nv = t->nv;
+    k->x = ws + 1; k->v = k->x + (t->nq + nv) * D; k->R = k->v + nv * D; k->p = k->R + 9 * D * nl;
+    k->R0 = k->p + 3 * D * nl; k->p0 = k->R0 + 9 * D * nl; k->hc = k->p0 + 3 * D * nl;
+    k->w = k->hc + 3 * D * nl; k->lin = k->w + 3 * D * nl; k->L = k->lin + 3 * D * nl;
+    k->P = k->L + 3 * D * nl; k->vf = k->P + 3 * D * nl; k->mc = k->vf + nv * D;
+    k->Jc = k->mc + nl; k->M = k->Jc + 9 * nl;
+}
+
+/* whether ws is a state entry's work at the duals of (q, v) that begin x (values and tangents
+ * equal): then the constrained entry reuses its tree, twists and velocity forces */
+static int mb_kept(const mb_tab *t, int D, const double *ws, const double *x)
+{
+    const int nq = t->nq, nv = t->nv;
+    if (ws == NULL || ws[0] != D) return 0;
+    for (int i = 0; i < nq * D; ++i)
+        if (ws[1 + i] != x[i]) return 0;
+    const double *v = ws + 1 + (nq + nv) * D;
+    for (int i = 0; i < nv * D; ++i)
+        if (v[i] != x[nq * D + i]) return 0;
+    return 1;
+}
+
 static size_t mb_state_size(const mb_tab *t, int D)
 {
-    return (size_t)t->nl * (48 * D + 10) + (size_t)t->nv * (t->nv + 7) + (size_t)(t->nv + t->nq) * D
-           + 3 * (size_t)t->nv * D + 3 * (size_t)D;
+    return mb_work_size(t, D) + (size_t)t->nl * 3 * D + (size_t)D + 7 * (size_t)t->nv
+           + 2 * (size_t)t->nv * D;
 }
 
 MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const double *din,
                             double *out, double *dout, double *ws, int *lam)
 {
     const int nl = t->nl, nv = t->nv, nq = t->nq, K = D - 1;
-    double *R = ws, *p = R + 9 * D * nl, *R0 = p + 3 * D * nl, *p0 = R0 + 9 * D * nl;
-    double *g = p0 + 3 * D * nl, *hc = g + 3 * D * nl, *w = hc + 3 * D * nl, *lin = w + 3 * D * nl;
-    double *L = lin + 3 * D * nl, *P = L + 3 * D * nl, *mc = P + 3 * D * nl, *Jc = mc + nl;
-    double *M = Jc + 9 * nl, *x = M + nv * nv, *v = x + (nq + nv) * D, *V = v + nv * D;
-    double *S0 = V + D, *xv = S0 + 6 * nv, *y = xv + nv, *ev = y + nv * D;
+    mb_work kw;
+    mb_work_views(t, D, ws, &kw);
+    ws[0] = D;
+    double *R = kw.R, *p = kw.p, *R0 = kw.R0, *p0 = kw.p0, *hc = kw.hc, *w = kw.w, *lin = kw.lin;
+    double *L = kw.L, *P = kw.P, *vf = kw.vf, *mc = kw.mc, *Jc = kw.Jc, *M = kw.M, *x = kw.x;
+    double *v = kw.v;
+    double *g = ws + mb_work_size(t, D), *V = g + 3 * D * nl, *S0 = V + D, *xv = S0 + 6 * nv;
+    double *y = xv + nv, *ev = y + nv * D;
     mb_seed(D, nq + nv, in, din, x);
     mb_tree(D, t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
     d_copy(nv * D, v, x + nq * D);
@@ -823,6 +873,7 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
             mb_screw(t, k, s, a, u);
             d_set(D, e, 0.0);
             mb_velocity_force(D, wk, lk, L + 3 * D * k, P + 3 * D * k, a, u, e);
+            d_copy(D, vf + (i0 + s) * D, e);
             v_dot_c(D, a, hg, e);
             d_set(D, ug, 0.0);
             v_dot_c(D, u, gk, ug);
@@ -912,6 +963,20 @@ MB_ENTRY void ph_mb_state(const int *s, const double *c, const double *in, doubl
     free(ws);
 }
 
+/* ph_mb_state, its work (mb_work) kept in *work for ph_mb_constrained_reuse: the caller frees it */
+MB_ENTRY void ph_mb_state_keep(const int *s, const double *c, const double *in, double *out, int K,
+                             const double *din, double *dout, double **work)
+{
+    mb_tab t;
+    mb_read(s, c, &t);
+    int lam[t.nv > 0 ? 2 * t.nv : 1];
+    double *ws = malloc(sizeof(double) * mb_state_size(&t, 1 + K));
+    if (ws == NULL) abort();
+    if (K == 0) mb_state_value(&t, in, out, ws, lam);
+    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam);
+    *work = ws;
+}
+
 MB_INLINE void mb_load_run(int D, const mb_tab *t, const double *in, const double *din,
                            double *out, double *dout, double *ws)
 {
@@ -992,40 +1057,51 @@ MB_ENTRY void ph_mb_load(const int *s, const double *c, const double *in, double
  * [0; -h], solved by the Schur complement on the factors of M; their tangents by implicit
  * differentiation (the same systems with the differentiated right-hand sides). */
 MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const double *in,
-                                  double *out, const double *din, double *dout)
+                                  double *out, const double *din, double *dout, const double *kept)
 {
     mb_tab t;
     mb_read(s, c, &t);
     const int nl = t.nl, nv = t.nv, nq = t.nq, m = s[4 + 4 * nl + 2 * t.ns], K = D - 1;
     const int n_in = nq + 2 * nv + m * nv + 3 * m;
-    const size_t size = (size_t)nl * 54 * D + (size_t)nl * 46 + (size_t)nv * (nv + 6)
-                        + (size_t)n_in * D + (size_t)nv * (5 * D + 4) + (size_t)m * (2 * nv + m + 2)
-                        + (size_t)m * 4 * D;
-    double *ws = malloc(sizeof(double) * size);
+    const size_t size = (size_t)nl * 24 * D + (size_t)nl * 36 + (size_t)nv * 11 + (size_t)n_in * D
+                        + (size_t)nv * 4 * D + (size_t)m * (2 * nv + m + 2) + (size_t)m * 2 * D;
+    double *ws = malloc(sizeof(double) * size), *own = NULL;
     int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 2 * m * nv + 1));
     if (ws == NULL || iw == NULL) abort();
-    double *R = ws, *p = R + 9 * D * nl, *R0 = p + 3 * D * nl, *p0 = R0 + 9 * D * nl;
-    double *hc = p0 + 3 * D * nl, *w = hc + 3 * D * nl, *lin = w + 3 * D * nl, *L = lin + 3 * D * nl;
-    double *P = L + 3 * D * nl, *A = P + 3 * D * nl, *F = A + 6 * D * nl, *mc = F + 6 * D * nl;
-    double *Jc = mc + nl, *M = Jc + 9 * nl, *S0 = M + nv * nv, *x = S0 + 6 * nv;
-    double *v = x + n_in * D, *y = v + nv * D, *T = y + nv * D, *Tc = T + nv * D, *dm = Tc + nv * D;
+    double *A = ws, *F = A + 6 * D * nl, *w2 = F + 6 * D * nl, *lin2 = w2 + 3 * D * nl;
+    double *L2 = lin2 + 3 * D * nl, *P2 = L2 + 3 * D * nl, *S0 = P2 + 3 * D * nl, *x = S0 + 6 * nv;
+    double *y = x + n_in * D, *T = y + nv * D, *Tc = T + nv * D, *dm = Tc + nv * D;
     double *acc = dm + nv * D, *shift = acc + nv, *zero = shift + nv, *vv = zero + nv;
     double *Rv = vv + nv, *pv = Rv + 9 * nl, *wv = pv + 3 * nl, *lv = wv + 3 * nl, *Lv = lv + 3 * nl;
-    double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl, *Ga = Fv + 6 * nl;
-    double *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m, *Z = mu + m;
-    double *Zc = Z + m * D;
+    double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl, *vfv = Fv + 6 * nl;
+    double *Ga = vfv + nv, *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m;
+    double *Z = mu + m, *Zc = Z + m * D;
     int *lam = iw, *piv = iw + 2 * nv, *nz = piv + m;
     const double *xF = x + (nq + nv) * D, *xG = x + (nq + 2 * nv) * D, *xC = xG + m * nv * D;
     const double *xB = xC + m * D, *xH = xC + 2 * m * D;
     mb_seed(D, n_in, in, din, x);
-    mb_tree(D, &t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
-    d_copy(nv * D, v, x + nq * D);      /* the velocities (and tangents) are inputs */
+    const int reuse = mb_kept(&t, D, kept, x);
+    mb_work kw;
+    if (reuse) {
+        mb_work_views(&t, D, (double *)kept, &kw);       /* read only */
+        mb_lambda(&t, lam, lam + nv);
+    } else {
+        own = malloc(sizeof(double) * mb_work_size(&t, D));
+        if (own == NULL) abort();
+        mb_work_views(&t, D, own, &kw);
+        mb_tree(D, &t, x, kw.R, kw.p, kw.R0, kw.p0, kw.mc, kw.hc, kw.Jc, S0, kw.M, lam);
+        d_copy(nv * D, kw.v, x + nq * D);      /* the velocities (and tangents) are inputs */
+    }
+    const double *R = kw.R, *p = kw.p, *v = kw.v, *M = kw.M;
     /* values: b = f - Mdot v for the accelerations' right-hand side */
     mb_values(D, 9 * nl, R, Rv);
     mb_values(D, 3 * nl, p, pv);
     mb_values(D, nv, v, vv);
+    mb_values(D, 3 * nl, kw.w, wv);
+    mb_values(D, 3 * nl, kw.lin, lv);
+    mb_values(D, nv, kw.vf, vfv);
     for (int k = 0; k < nv; ++k) zero[k] = 0.0;
-    mb_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, acc);
+    mb_kept_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, vfv, reuse, acc);
     for (int k = 0; k < nv; ++k) acc[k] = xF[k * D] - acc[k];
     const int nnz = mb_pattern(D, m, nv, xG, nz);
     for (int i = 0; i < m; ++i)
@@ -1043,12 +1119,12 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, acc, nu, 1);
     mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, shift, mu, 1);
     if (K > 0) {        /* the saddle systems differentiated: the same matrix, new right-hand sides */
-        mb_products(D, &t, R, p, v, acc, w, lin, L, P, A, F, dm);    /* tangents at fixed a */
+        mb_kept_products(D, &t, R, p, v, acc, kw.w, kw.lin, kw.L, kw.P, A, F, kw.vf, reuse, dm);
         d_copy(nv * D, T, xF);
         d_copy(m * D, Z, xB);
         mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, acc, nu, dm, T, Z);
         mb_saddle(D, 1, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, T, Z, 0);
-        mb_times_m(D, &t, R, p, shift, w, lin, L, P, y, dm);
+        mb_times_m(D, &t, R, p, shift, w2, lin2, L2, P2, y, dm);   /* (the kept work stays) */
         for (int i = 0; i < nv * D; ++i) Tc[i] = 0.0;
         for (int i = 0; i < m * D; ++i) Zc[i] = -xH[i];
         mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, shift, mu, dm, Tc, Zc);
@@ -1073,25 +1149,36 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
         for (int j = 0; j < K; ++j) dout[(nv + i) * K + j] = -Z[i * D + 1 + j];
     }
     free(iw);
+    free(own);
     free(ws);
 }
 
-static void mb_constrained_value(const int *s, const double *c, const double *in, double *out)
+static void mb_constrained_value(const int *s, const double *c, const double *in, double *out,
+                                 const double *kept)
 {
-    mb_constrained_run(1, s, c, in, out, NULL, NULL);
+    mb_constrained_run(1, s, c, in, out, NULL, NULL, kept);
 }
 
 static void mb_constrained_tangent(int D, const int *s, const double *c, const double *in,
-                                   double *out, const double *din, double *dout)
+                                   double *out, const double *din, double *dout, const double *kept)
 {
-    mb_constrained_run(D, s, c, in, out, din, dout);
+    mb_constrained_run(D, s, c, in, out, din, dout, kept);
 }
 
 MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in, double *out,
                                 int K, const double *din, double *dout)
 {
-    if (K == 0) mb_constrained_value(s, c, in, out);
-    else mb_constrained_tangent(1 + K, s, c, in, out, din, dout);
+    if (K == 0) mb_constrained_value(s, c, in, out, NULL);
+    else mb_constrained_tangent(1 + K, s, c, in, out, din, dout, NULL);
+}
+
+/* ph_mb_constrained reusing the work of ph_mb_state_keep at the same (q, v) (mb_kept; else
+ * computing it) */
+MB_ENTRY void ph_mb_constrained_reuse(const int *s, const double *c, const double *in, double *out,
+                                      int K, const double *din, double *dout, const double *work)
+{
+    if (K == 0) mb_constrained_value(s, c, in, out, work);
+    else mb_constrained_tangent(1 + K, s, c, in, out, din, dout, work);
 }
 
 /* Position-level values (no tangents): what = 0: the mass matrix M(q) (nv x nv, row-major);

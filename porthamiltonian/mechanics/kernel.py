@@ -704,21 +704,66 @@ def _mb_state_outputs(s):
 
 
 @_jit
+def _mb_work_size(s, D):
+    """The length of a state entry's work (:func:`_mb_work`) at D = 1 + K."""
+    nl, nv, nq = s[0], s[1], s[2]
+    return 1 + (nq + 3 * nv + 39 * nl) * D + 10 * nl + nv * nv
+
+
+@_jit
+def _mb_work(s, D, work):
+    """The state entry's work, kept for the constrained entry (mb_state_keep,
+    mb_constrained_reuse): work[0] = D, then views of the duals x (q, p), v, R, p, R0, p0, hc,
+    w, lin, L, P, the velocity forces Πᵀ ad_T S (nv) and of the values mc, Jc, M (factored)."""
+    nl, nv, nq = s[0], s[1], s[2]
+    o = np.zeros(16, dtype=np.int64)
+    sizes = ((nq + nv) * D, nv * D, 9 * D * nl, 3 * D * nl, 9 * D * nl, 3 * D * nl, 3 * D * nl,
+             3 * D * nl, 3 * D * nl, 3 * D * nl, 3 * D * nl, nv * D, nl, 9 * nl, nv * nv)
+    o[0] = 1
+    for i in range(15):
+        o[i + 1] = o[i] + sizes[i]
+    return (work[o[0]:o[1]], work[o[1]:o[2]], work[o[2]:o[3]], work[o[3]:o[4]], work[o[4]:o[5]],
+            work[o[5]:o[6]], work[o[6]:o[7]], work[o[7]:o[8]], work[o[8]:o[9]], work[o[9]:o[10]],
+            work[o[10]:o[11]], work[o[11]:o[12]], work[o[12]:o[13]], work[o[13]:o[14]],
+            work[o[14]:o[15]])
+
+
+@_jit
+def _mb_kept(s, D, work, x):
+    """Whether work is a state entry's at the duals of (q, v) that begin x (values and tangents
+    equal): then the constrained entry reuses its tree, twists and velocity forces."""
+    nv, nq = s[1], s[2]
+    if work.shape[0] != _mb_work_size(s, D) or work[0] != D:
+        return False
+    for i in range(nq * D):
+        if work[1 + i] != x[i]:
+            return False
+    iv = 1 + (nq + nv) * D
+    for i in range(nv * D):
+        if work[iv + i] != x[nq * D + i]:
+            return False
+    return True
+
+
+@_jit
 def mb_state(s, c, values, din):
     """The state entry (see the module docstring): (out, dout)."""
+    out, dout, _ = mb_state_keep(s, c, values, din)
+    return out, dout
+
+
+@_jit
+def mb_state_keep(s, c, values, din):
+    """The state entry and its work (:func:`_mb_work`): (out, dout, work)."""
     nl, nv, nq, ns = s[0], s[1], s[2], s[3]
     K = din.shape[1]
     D = 1 + K
     out = np.zeros(_mb_state_outputs(s))
     dout = np.zeros((out.shape[0], K))
-    R, p = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
-    R0, p0 = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
-    g, hc = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
-    w, lin = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
-    L, P = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
-    mc, Jc, M = np.zeros(nl), np.zeros(9 * nl), np.zeros(nv * nv)
-    x = np.zeros((nq + nv) * D)
-    v = np.zeros(nv * D)
+    work = np.zeros(_mb_work_size(s, D))
+    work[0] = D
+    x, v, R, p, R0, p0, hc, w, lin, L, P, vf, mc, Jc, M = _mb_work(s, D, work)
+    g = np.zeros(3 * D * nl)
     a, u = np.zeros(3), np.zeros(3)
     e = np.zeros(D)
     _mb_seed(D, nq + nv, values, din, x)
@@ -748,6 +793,7 @@ def mb_state(s, c, values, din):
             _mb_screw(s, c, k, r, a, u)
             _mb_set(D, e, 0, 0.0)
             _mb_velocity_force(D, w, lin, L, P, iw, a, u, wa, e, 0)
+            _mb_copy(vf, (i0 + r) * D, e, 0, D)
             _mb_dot_c(D, a, 0, hg, 0, e, 0)
             _mb_set(D, ug, 0, 0.0)
             _mb_dot_c(D, u, 0, g, iw, ug, 0)
@@ -795,7 +841,7 @@ def mb_state(s, c, values, din):
         for j in range(m):
             _mb_emit(D, buf, j * D, out, dout, o + j)
         o += m
-    return out, dout
+    return out, dout, work
 
 
 @_jit
@@ -972,8 +1018,28 @@ def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
 
 
 @_jit
+def _mb_kept_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, vf, kept, e):
+    """e = Πᵀ ad_T S + M(q) acc + C(q, v) as _mb_products; ``kept``: the twists (w, lin) and
+    the velocity forces vf = Πᵀ ad_T S are the state entry's (its work), only the Newton–Euler
+    pass is run."""
+    if kept:
+        _mb_copy(e, 0, vf, 0, s[1] * D)
+        _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e)
+    else:
+        _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, e)
+
+
+@_jit
 def mb_constrained(s, c, values, din):
     """The constrained entry (see the module docstring): (out, dout)."""
+    return mb_constrained_reuse(s, c, values, din, np.zeros(1))
+
+
+@_jit
+def mb_constrained_reuse(s, c, values, din, work):
+    """The constrained entry reusing the work of the state entry at the same (q, v) (its tree,
+    M's factors, twists and velocity forces; :func:`_mb_kept`), else computing them: (out,
+    dout)."""
     nl, nv, nq, ns = s[0], s[1], s[2], s[3]
     m = s[4 + 4 * nl + 2 * ns]
     K = din.shape[1]
@@ -984,22 +1050,24 @@ def mb_constrained(s, c, values, din):
     iB, iH = iC + m * D, iC + 2 * m * D
     out = np.zeros(2 * nv + m)
     dout = np.zeros((2 * nv + m, K))
-    R, p = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
-    R0, p0 = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
-    hc, w, lin = np.zeros(3 * D * nl), np.zeros(3 * D * nl), np.zeros(3 * D * nl)
-    L, P = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
     A, F = np.zeros(6 * D * nl), np.zeros(6 * D * nl)
-    mc, Jc, M = np.zeros(nl), np.zeros(9 * nl), np.zeros(nv * nv)
     x = np.zeros(n_in * D)
-    v = np.zeros(nv * D)
     _mb_seed(D, n_in, values, din, x)
-    lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
-    _mb_copy(v, 0, x, nq * D, nv * D)          # the velocities (and tangents) are inputs
+    kept = _mb_kept(s, D, work, x)
+    if not kept:
+        work = np.zeros(_mb_work_size(s, D))
+    _, v, R, p, R0, p0, hc, w, lin, L, P, vf, mc, Jc, M = _mb_work(s, D, work)
+    if kept:
+        lam, run = _mb_lambda(s)
+    else:
+        lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
+        _mb_copy(v, 0, x, nq * D, nv * D)          # the velocities (and tangents) are inputs
     # values: b = f − Ṁ v for the accelerations' right-hand side
     Rv, pv, vv = _mb_values(R, D, 9 * nl), _mb_values(p, D, 3 * nl), _mb_values(v, D, nv)
     acc_a, nu = np.zeros(nv), np.zeros(m)            # the accelerations and ν = −λ
-    _mb_products(1, s, c, Rv, pv, vv, np.zeros(nv), np.zeros(3 * nl), np.zeros(3 * nl),
-                 np.zeros(3 * nl), np.zeros(3 * nl), np.zeros(6 * nl), np.zeros(6 * nl), acc_a)
+    _mb_kept_products(1, s, c, Rv, pv, vv, np.zeros(nv), _mb_values(w, D, 3 * nl),
+                      _mb_values(lin, D, 3 * nl), np.zeros(3 * nl), np.zeros(3 * nl),
+                      np.zeros(6 * nl), np.zeros(6 * nl), _mb_values(vf, D, nv), kept, acc_a)
     for k in range(nv):
         acc_a[k] = x[iF + k * D] - acc_a[k]
     nz_i, nz_k, nnz = _mb_pattern(D, m, nv, x, iG)
@@ -1027,11 +1095,13 @@ def mb_constrained(s, c, values, din):
     Tc, Zc = np.zeros(nv * D), np.zeros(m * D)
     if K > 0:           # the saddle system differentiated: the same matrix, new right-hand sides
         dm = np.zeros(nv * D)           # Πᵀ ad_T S + M a + C(q, v): its tangents at fixed a
-        _mb_products(D, s, c, R, p, v, acc_a, w, lin, L, P, A, F, dm)
+        _mb_kept_products(D, s, c, R, p, v, acc_a, w, lin, L, P, A, F, vf, kept, dm)
         _mb_copy(T, 0, x, iF, nv * D)
         _mb_copy(Z, 0, x, iB, m * D)
         _mb_saddle_tangents(D, nv, m, x, iG, iC, nz_i, nz_k, nnz, acc_a, nu, dm, T, Z)
         _mb_saddle(D, 1, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, T, Z, False)
+        w, lin, L, P = (np.zeros(3 * D * nl), np.zeros(3 * D * nl), np.zeros(3 * D * nl),
+                        np.zeros(3 * D * nl))       # (the kept work stays as it is)
         _mb_times_m(D, s, c, R, p, shift, w, lin, L, P, dm)
         for i in range(m * D):
             Zc[i] = -x[iH + i]

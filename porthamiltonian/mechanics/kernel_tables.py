@@ -126,7 +126,7 @@ class KernelTree:
         :func:`.constrained.constrain_kernel` for ``inputs``; m rows): 2 nv + m outputs."""
         ints, numbers = self.table([])
         return self.b.call("mb.constrained", "multibody", "mb_constrained", [*ints, m], numbers,
-                           inputs, 2 * self.nv + m)
+                           inputs, 2 * self.nv + m, after="mb.state")
 
     def momenta(self, q: Sequence, v: Sequence) -> list:
         """M(q) v (for the initial momenta from parameter expressions)."""
