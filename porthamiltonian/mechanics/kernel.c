@@ -700,28 +700,11 @@ static void mb_lu_solve(int m, const double *A, const int *piv, int D, int j0, d
     }
 }
 
-/* the entries (i, k) of Ga (duals xG, m x n) with a nonzero value or tangent: the structural
- * nonzeros, rows in nz[0 .. count), columns in nz[m n ..); returns count */
-static int mb_pattern(int D, int m, int n, const double *xG, int *nz)
-{
-    int count = 0;
-    for (int i = 0; i < m; ++i)
-        for (int k = 0; k < n; ++k)
-            for (int j = 0; j < D; ++j)
-                if (xG[(i * n + k) * D + j] != 0.0) {
-                    nz[count] = i;
-                    nz[m * n + count] = k;
-                    ++count;
-                    break;
-                }
-    return count;
-}
-
 /* The saddle-point system [M Ga^T; Ga C] [a; nu] = [X; Z] solved in place (X <- a, Z <- nu) for the
  * columns j0 .. D - 1 of X (n x D) and Z (m x D) by the Schur complement: with the factors H of M,
  * Y = M^-1 Ga^T (n x m) and Sc = Ga Y - C (m x m, factored by mb_lu), a' = M^-1 X,
- * nu = Sc^-1 (Ga a' - Z), a = a' - Y nu (Ga's nonzeros: nz, nnz of mb_pattern; not full: nu only,
- * X left at a') */
+ * nu = Sc^-1 (Ga a' - Z), a = a' - Y nu (Ga's structural nonzeros: the nnz (row, column) pairs nz;
+ * not full: nu only, X left at a') */
 static void mb_saddle(int D, int j0, int n, int m, const int *lam, const double *H,
                       const double *Ga, const int *nz, int nnz, const double *Y, const double *Sc,
                       const int *piv, double *X, double *Z, int full)
@@ -730,7 +713,7 @@ static void mb_saddle(int D, int j0, int n, int m, const int *lam, const double 
     for (int i = 0; i < m; ++i)
         for (int col = j0; col < D; ++col) Z[i * D + col] = -Z[i * D + col];
     for (int e = 0; e < nnz; ++e) {
-        const int i = nz[e], k = nz[m * n + e];
+        const int i = nz[2 * e], k = nz[2 * e + 1];
         const double g = Ga[i * n + k];
         for (int col = j0; col < D; ++col) Z[i * D + col] += g * X[k * D + col];
     }
@@ -745,7 +728,7 @@ static void mb_saddle(int D, int j0, int n, int m, const int *lam, const double 
 
 /* The right-hand sides of a saddle solution's tangents (columns 1 .. D - 1): T -= d(M a)|_a (the
  * tangents of dm) + dGa^T nu, Z -= dGa a + dC nu, for the solution (a, nu) (numbers) and the duals
- * of Ga (xG, m x n; its nonzeros nz, nnz) and of C's diagonal (xC) */
+ * of Ga's nonzeros (xG, in the order of the pairs nz) and of C's diagonal (xC) */
 static void mb_saddle_tangents(int D, int n, int m, const double *xG, const double *xC,
                                const int *nz, int nnz, const double *a, const double *nu,
                                const double *dm, double *T, double *Z)
@@ -755,8 +738,8 @@ static void mb_saddle_tangents(int D, int n, int m, const double *xG, const doub
     for (int i = 0; i < m; ++i)
         for (int j = 1; j < D; ++j) Z[i * D + j] -= xC[i * D + j] * nu[i];
     for (int e = 0; e < nnz; ++e) {
-        const int i = nz[e], k = nz[m * n + e];
-        const double *g = xG + (i * n + k) * D;
+        const int i = nz[2 * e], k = nz[2 * e + 1];
+        const double *g = xG + e * D;
         for (int j = 1; j < D; ++j) {
             T[k * D + j] -= g[j] * nu[i];
             Z[i * D + j] -= g[j] * a[k];
@@ -1050,9 +1033,9 @@ MB_ENTRY void ph_mb_load(const int *s, const double *c, const double *in, double
     free(ws);
 }
 
-/* The constrained entry: in = (q, v, f (the momentum rates with the ports' loads), Ga = S G
- * (m x nv, row-major), C = 1 - S (m), r = -S (Gdot v + gamma G v) (m), h = S phi (m)), m the
- * table's last integer; out = (pdot = f - Ga^T nu, lambda = -nu, the position correction dv) of
+/* The constrained entry: in = (q, v, f (the momentum rates with the ports' loads), Ga = S G (its
+ * structural nonzeros), C = 1 - S (m), r = -S (Gdot v + gamma G v) (m), h = S phi (m)); the table
+ * ends with m, the count nnz of Ga's structural nonzeros and their (row, column) pairs; out = (pdot = f - Ga^T nu, lambda = -nu, the position correction dv) of
  * the saddle-point systems [M Ga^T; Ga C] [a; nu] = [f - Mdot v; r] and [M Ga^T; Ga C] [dv; mu] =
  * [0; -h], solved by the Schur complement on the factors of M; their tangents by implicit
  * differentiation (the same systems with the differentiated right-hand sides). */
@@ -1062,11 +1045,12 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     mb_tab t;
     mb_read(s, c, &t);
     const int nl = t.nl, nv = t.nv, nq = t.nq, m = s[4 + 4 * nl + 2 * t.ns], K = D - 1;
-    const int n_in = nq + 2 * nv + m * nv + 3 * m;
+    const int nnz = s[5 + 4 * nl + 2 * t.ns], *nz = s + 6 + 4 * nl + 2 * t.ns;
+    const int n_in = nq + 2 * nv + nnz + 3 * m;
     const size_t size = (size_t)nl * 24 * D + (size_t)nl * 36 + (size_t)nv * 11 + (size_t)n_in * D
                         + (size_t)nv * 4 * D + (size_t)m * (2 * nv + m + 2) + (size_t)m * 2 * D;
     double *ws = malloc(sizeof(double) * size), *own = NULL;
-    int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 2 * m * nv + 1));
+    int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 1));
     if (ws == NULL || iw == NULL) abort();
     double *A = ws, *F = A + 6 * D * nl, *w2 = F + 6 * D * nl, *lin2 = w2 + 3 * D * nl;
     double *L2 = lin2 + 3 * D * nl, *P2 = L2 + 3 * D * nl, *S0 = P2 + 3 * D * nl, *x = S0 + 6 * nv;
@@ -1076,8 +1060,8 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl, *vfv = Fv + 6 * nl;
     double *Ga = vfv + nv, *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m;
     double *Z = mu + m, *Zc = Z + m * D;
-    int *lam = iw, *piv = iw + 2 * nv, *nz = piv + m;
-    const double *xF = x + (nq + nv) * D, *xG = x + (nq + 2 * nv) * D, *xC = xG + m * nv * D;
+    int *lam = iw, *piv = iw + 2 * nv;
+    const double *xF = x + (nq + nv) * D, *xG = x + (nq + 2 * nv) * D, *xC = xG + nnz * D;
     const double *xB = xC + m * D, *xH = xC + 2 * m * D;
     mb_seed(D, n_in, in, din, x);
     const int reuse = mb_kept(&t, D, kept, x);
@@ -1103,14 +1087,16 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     for (int k = 0; k < nv; ++k) zero[k] = 0.0;
     mb_kept_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, vfv, reuse, acc);
     for (int k = 0; k < nv; ++k) acc[k] = xF[k * D] - acc[k];
-    const int nnz = mb_pattern(D, m, nv, xG, nz);
-    for (int i = 0; i < m; ++i)
-        for (int k = 0; k < nv; ++k) Y[k * m + i] = Ga[i * nv + k] = xG[(i * nv + k) * D];
+    for (int i = 0; i < m * nv; ++i) Y[i] = Ga[i] = 0.0;
+    for (int z = 0; z < nnz; ++z) {
+        const int i = nz[2 * z], k = nz[2 * z + 1];
+        Y[k * m + i] = Ga[i * nv + k] = xG[z * D];
+    }
     mb_solve(m, 0, nv, lam, lam + nv, M, Y);
     for (int i = 0; i < m; ++i)
         for (int j = 0; j < m; ++j) Sc[i * m + j] = i == j ? -xC[i * D] : 0.0;
     for (int z = 0; z < nnz; ++z) {       /* Sc = Ga Y - C */
-        const int i = nz[z], k = nz[m * nv + z];
+        const int i = nz[2 * z], k = nz[2 * z + 1];
         for (int j = 0; j < m; ++j) Sc[i * m + j] += Ga[i * nv + k] * Y[k * m + j];
     }
     mb_lu(m, Sc, piv);
@@ -1139,8 +1125,8 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
         }
     }
     for (int z = 0; z < nnz; ++z) {
-        const int i = nz[z], k = nz[m * nv + z];
-        const double *g = xG + (i * nv + k) * D;
+        const int i = nz[2 * z], k = nz[2 * z + 1];
+        const double *g = xG + z * D;
         out[k] -= Ga[i * nv + k] * nu[i];
         for (int j = 0; j < K; ++j) dout[k * K + j] -= g[1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j];
     }

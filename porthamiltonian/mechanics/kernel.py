@@ -40,8 +40,9 @@ V, then per site: kind 0 (point) world position and velocity (6), kind 1 (frame)
 (ω, v) in its link's axes (6), kind 2 (world frame) world position, angular velocity and
 velocity in world axes (9)). ``mb_load`` — in (q, per site a wrench (τ, f) about the site, in world
 axes, or the link's axes for kind 1); out the generalized forces Sᵀ W (nv). ``mb_constrained``
-(the table's last integer m, no sites) — in (q, v, f the momentum rates with the ports' loads,
-Ga = S G (m x nv, row-major), C = 1 − S (m), r = −S (Ġ v + γ G v) (m), h = S φ (m)); out
+(no sites; the table ends with m, the count of Ga's structural nonzeros and their (row, column)
+pairs) — in (q, v, f the momentum rates with the ports' loads, Ga = S G (its structural
+nonzeros, in the table's order), C = 1 − S (m), r = −S (Ġ v + γ G v) (m), h = S φ (m)); out
 (ṗ = f − Gaᵀ ν, λ = −ν, Δv) of the saddle-point systems [M Gaᵀ; Ga C] [a; ν] = [f − Ṁ v; r]
 and [M Gaᵀ; Ga C] [Δv; μ] = [0; −h] (porthamiltonian/mechanics/constrained.py), solved by the
 Schur complement Ga M⁻¹ Gaᵀ − C on the factors of M, with Ṁ v = Πᵀ ad_T S + C(q, v) from a
@@ -957,19 +958,15 @@ def _mb_lu_solve(m, A, piv, D, j0, x):
 
 
 @_jit
-def _mb_pattern(D, m, n, x, iG):
-    """The entries (i, k) of Ga (duals at x[iG:], m x n) with a nonzero value or tangent: the
-    structural nonzeros (rows, columns, count)."""
-    rows, cols = np.zeros(m * n, dtype=np.int64), np.zeros(m * n, dtype=np.int64)
-    count = 0
-    for i in range(m):
-        for k in range(n):
-            for j in range(D):
-                if x[iG + (i * n + k) * D + j] != 0.0:
-                    rows[count], cols[count] = i, k
-                    count += 1
-                    break
-    return rows, cols, count
+def _mb_pattern(s):
+    """The structural nonzeros (i, k) of Ga (m x nv) from the constrained entry's table: (rows,
+    columns, count); Ga's inputs are their values in this order."""
+    at = 4 + 4 * s[0] + 2 * s[3] + 1
+    nnz = s[at]
+    rows, cols = np.zeros(nnz, dtype=np.int64), np.zeros(nnz, dtype=np.int64)
+    for e in range(nnz):
+        rows[e], cols[e] = s[at + 1 + 2 * e], s[at + 2 + 2 * e]
+    return rows, cols, nnz
 
 
 @_jit
@@ -1002,7 +999,7 @@ def _mb_saddle(D, j0, n, m, lam, run, H, Ga, nz_i, nz_k, nnz, Y, Sc, piv, X, Z, 
 def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
     """The right-hand sides of a saddle solution's tangents (columns 1 .. D − 1): T −= d(M a)|_a
     (the tangents of dm) + dGaᵀ ν, Z −= dGa a + dC ν, for the solution (a, ν) (numbers) and the
-    duals of Ga at x[iG:] (m x n; its nonzeros nz_i, nz_k, nnz) and of C's diagonal at x[iC:]."""
+    duals of Ga's nonzeros (nz_i, nz_k, nnz) at x[iG:] and of C's diagonal at x[iC:]."""
     for k in range(n):
         for j in range(1, D):
             T[k * D + j] -= dm[k * D + j]
@@ -1011,7 +1008,7 @@ def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
             Z[i * D + j] -= x[iC + i * D + j] * nu[i]
     for e in range(nnz):
         i, k = nz_i[e], nz_k[e]
-        g = iG + (i * n + k) * D
+        g = iG + e * D
         for j in range(1, D):
             T[k * D + j] -= x[g + j] * nu[i]
             Z[i * D + j] -= x[g + j] * a[k]
@@ -1042,11 +1039,12 @@ def mb_constrained_reuse(s, c, values, din, work):
     dout)."""
     nl, nv, nq, ns = s[0], s[1], s[2], s[3]
     m = s[4 + 4 * nl + 2 * ns]
+    nz_i, nz_k, nnz = _mb_pattern(s)
     K = din.shape[1]
     D = 1 + K
-    n_in = nq + 2 * nv + m * nv + 3 * m
+    n_in = nq + 2 * nv + nnz + 3 * m
     iF, iG = (nq + nv) * D, (nq + 2 * nv) * D
-    iC = iG + m * nv * D
+    iC = iG + nnz * D
     iB, iH = iC + m * D, iC + 2 * m * D
     out = np.zeros(2 * nv + m)
     dout = np.zeros((2 * nv + m, K))
@@ -1070,13 +1068,12 @@ def mb_constrained_reuse(s, c, values, din, work):
                       np.zeros(6 * nl), np.zeros(6 * nl), _mb_values(vf, D, nv), kept, acc_a)
     for k in range(nv):
         acc_a[k] = x[iF + k * D] - acc_a[k]
-    nz_i, nz_k, nnz = _mb_pattern(D, m, nv, x, iG)
     Ga, Y, Sc = np.zeros(m * nv), np.zeros(nv * m), np.zeros(m * m)
     piv = np.zeros(m, dtype=np.int64)
-    for i in range(m):
-        for k in range(nv):
-            Ga[i * nv + k] = x[iG + (i * nv + k) * D]
-            Y[k * m + i] = Ga[i * nv + k]
+    for e in range(nnz):
+        i, k = nz_i[e], nz_k[e]
+        Ga[i * nv + k] = x[iG + e * D]
+        Y[k * m + i] = Ga[i * nv + k]
     _mb_solve(m, 0, nv, lam, run, M, Y)
     for i in range(m):
         Sc[i * m + i] = -x[iC + i * D]
@@ -1115,7 +1112,7 @@ def mb_constrained_reuse(s, c, values, din, work):
             dout[nv + m + k, j] = Tc[k * D + 1 + j]
     for e in range(nnz):
         i, k = nz_i[e], nz_k[e]
-        g = iG + (i * nv + k) * D
+        g = iG + e * D
         out[k] -= Ga[i * nv + k] * nu[i]
         for j in range(K):
             dout[k, j] -= x[g + 1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j]
