@@ -44,7 +44,7 @@
 #endif
 
 enum { MB_ROT = 0, MB_TRANS = 1, MB_SPH = 2, MB_FREE = 3 };
-enum { MB_LINK = 16, MB_STACK = 16384 };
+enum { MB_LINK = 16, MB_STACK = 16384, MB_HEAD = 8 };
 
 typedef struct {
     int nl, nv, nq, ns;
@@ -777,24 +777,26 @@ MB_INLINE void mb_emit(int D, const double *x, double *out, double *dout)
 }
 
 /* The state entry's work, kept for the constrained entry (ph_mb_state_keep,
- * ph_mb_constrained_reuse): ws[0] = D, then the duals x (q, p), v, R, p, R0, p0, hc, w, lin, L, P,
- * the velocity forces Pi^T ad_T S (nv) and the values mc, Jc, M (factored) */
-typedef struct { double *x, *v, *R, *p, *R0, *p0, *hc, *w, *lin, *L, *P, *vf, *mc, *Jc, *M; } mb_work;
+ * ph_mb_constrained_reuse): ws[0] = D (the header: 8 doubles, so that the arrays keep the
+ * buffer's alignment), then the duals R, p, R0, p0, g (gravity in the links' frames), hc, w,
+ * lin, L, P, the values mc, Jc, M (factored), the duals x (q, p), v and the velocity forces
+ * Pi^T ad_T S (nv; kept by ph_mb_state_keep only) */
+typedef struct { double *R, *p, *R0, *p0, *g, *hc, *w, *lin, *L, *P, *mc, *Jc, *M, *x, *v, *vf; } mb_work;
 
 static size_t mb_work_size(const mb_tab *t, int D)
 {
-    return 1 + (size_t)D * (size_t)(t->nq + 3 * t->nv + 39 * t->nl) + 10 * (size_t)t->nl
+    return MB_HEAD + (size_t)D * (size_t)(t->nq + 3 * t->nv + 42 * t->nl) + 10 * (size_t)t->nl
            + (size_t)t->nv * (size_t)t->nv;
 }
 
 static void mb_work_views(const mb_tab *t, int D, double *ws, mb_work *k)
 {
     const int nl = t->nl, nv = t->nv;
-    k->x = ws + 1; k->v = k->x + (t->nq + nv) * D; k->R = k->v + nv * D; k->p = k->R + 9 * D * nl;
-    k->R0 = k->p + 3 * D * nl; k->p0 = k->R0 + 9 * D * nl; k->hc = k->p0 + 3 * D * nl;
+    k->R = ws + MB_HEAD; k->p = k->R + 9 * D * nl; k->R0 = k->p + 3 * D * nl;
+    k->p0 = k->R0 + 9 * D * nl; k->g = k->p0 + 3 * D * nl; k->hc = k->g + 3 * D * nl;
     k->w = k->hc + 3 * D * nl; k->lin = k->w + 3 * D * nl; k->L = k->lin + 3 * D * nl;
-    k->P = k->L + 3 * D * nl; k->vf = k->P + 3 * D * nl; k->mc = k->vf + nv * D;
-    k->Jc = k->mc + nl; k->M = k->Jc + 9 * nl;
+    k->P = k->L + 3 * D * nl; k->mc = k->P + 3 * D * nl; k->Jc = k->mc + nl; k->M = k->Jc + 9 * nl;
+    k->x = k->M + nv * nv; k->v = k->x + (t->nq + nv) * D; k->vf = k->v + nv * D;
 }
 
 /* whether ws is a state entry's work at the duals of (q, v) that begin x (values and tangents
@@ -803,32 +805,34 @@ static int mb_kept(const mb_tab *t, int D, const double *ws, const double *x)
 {
     const int nq = t->nq, nv = t->nv;
     if (ws == NULL || ws[0] != D) return 0;
+    mb_work kw;
+    mb_work_views(t, D, (double *)ws, &kw);
     for (int i = 0; i < nq * D; ++i)
-        if (ws[1 + i] != x[i]) return 0;
-    const double *v = ws + 1 + (nq + nv) * D;
+        if (kw.x[i] != x[i]) return 0;
     for (int i = 0; i < nv * D; ++i)
-        if (v[i] != x[nq * D + i]) return 0;
+        if (kw.v[i] != x[nq * D + i]) return 0;
     return 1;
 }
 
 static size_t mb_state_size(const mb_tab *t, int D)
 {
-    return mb_work_size(t, D) + (size_t)t->nl * 3 * D + (size_t)D + 7 * (size_t)t->nv
-           + 2 * (size_t)t->nv * D;
+    return mb_work_size(t, D) + (size_t)D + 7 * (size_t)t->nv + 2 * (size_t)t->nv * D;
 }
 
+/* the state entry (ph_mb_state) in ws (mb_state_size); keep: with the velocity forces in the
+ * work (mb_work) */
 MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const double *din,
-                            double *out, double *dout, double *ws, int *lam)
+                            double *out, double *dout, double *ws, int *lam, int keep)
 {
     const int nl = t->nl, nv = t->nv, nq = t->nq, K = D - 1;
     mb_work kw;
     mb_work_views(t, D, ws, &kw);
     ws[0] = D;
-    double *R = kw.R, *p = kw.p, *R0 = kw.R0, *p0 = kw.p0, *hc = kw.hc, *w = kw.w, *lin = kw.lin;
-    double *L = kw.L, *P = kw.P, *vf = kw.vf, *mc = kw.mc, *Jc = kw.Jc, *M = kw.M, *x = kw.x;
-    double *v = kw.v;
-    double *g = ws + mb_work_size(t, D), *V = g + 3 * D * nl, *S0 = V + D, *xv = S0 + 6 * nv;
-    double *y = xv + nv, *ev = y + nv * D;
+    double *R = kw.R, *p = kw.p, *R0 = kw.R0, *p0 = kw.p0, *g = kw.g, *hc = kw.hc, *w = kw.w;
+    double *lin = kw.lin, *L = kw.L, *P = kw.P, *mc = kw.mc, *Jc = kw.Jc, *M = kw.M, *x = kw.x;
+    double *v = kw.v, *vf = keep ? kw.vf : NULL;
+    double *V = ws + mb_work_size(t, D), *S0 = V + D, *xv = S0 + 6 * nv, *y = xv + nv;
+    double *ev = y + nv * D;
     mb_seed(D, nq + nv, in, din, x);
     mb_tree(D, t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
     d_copy(nv * D, v, x + nq * D);
@@ -856,7 +860,7 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
             mb_screw(t, k, s, a, u);
             d_set(D, e, 0.0);
             mb_velocity_force(D, wk, lk, L + 3 * D * k, P + 3 * D * k, a, u, e);
-            d_copy(D, vf + (i0 + s) * D, e);
+            if (keep) d_copy(D, vf + (i0 + s) * D, e);
             v_dot_c(D, a, hg, e);
             d_set(D, ug, 0.0);
             v_dot_c(D, u, gk, ug);
@@ -912,15 +916,16 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
     }
 }
 
-static MB_FLATTEN void mb_state_value(const mb_tab *t, const double *in, double *out, double *ws, int *lam)
+static MB_FLATTEN void mb_state_value(const mb_tab *t, const double *in, double *out, double *ws,
+                                     int *lam, int keep)
 {
-    mb_state_run(1, t, in, NULL, out, NULL, ws, lam);
+    mb_state_run(1, t, in, NULL, out, NULL, ws, lam, keep);
 }
 
 static void mb_state_tangent(int D, const mb_tab *t, const double *in, const double *din,
-                             double *out, double *dout, double *ws, int *lam)
+                             double *out, double *dout, double *ws, int *lam, int keep)
 {
-    mb_state_run(D, t, in, din, out, dout, ws, lam);
+    mb_state_run(D, t, in, din, out, dout, ws, lam, keep);
 }
 
 /* The state entry: in = (q, p); out = (v, the momentum rates without port loads, V, then per
@@ -936,13 +941,13 @@ MB_ENTRY void ph_mb_state(const int *s, const double *c, const double *in, doubl
     const size_t size = mb_state_size(&t, 1 + K);
     if (K == 0 && size <= MB_STACK) {
         double ws[size];
-        mb_state_value(&t, in, out, ws, lam);
+        mb_state_value(&t, in, out, ws, lam, 0);
         return;
     }
     double *ws = malloc(sizeof(double) * size);
     if (ws == NULL) abort();
-    if (K == 0) mb_state_value(&t, in, out, ws, lam);
-    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam);
+    if (K == 0) mb_state_value(&t, in, out, ws, lam, 0);
+    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam, 0);
     free(ws);
 }
 
@@ -955,8 +960,8 @@ MB_ENTRY void ph_mb_state_keep(const int *s, const double *c, const double *in, 
     int lam[t.nv > 0 ? 2 * t.nv : 1];
     double *ws = malloc(sizeof(double) * mb_state_size(&t, 1 + K));
     if (ws == NULL) abort();
-    if (K == 0) mb_state_value(&t, in, out, ws, lam);
-    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam);
+    if (K == 0) mb_state_value(&t, in, out, ws, lam, 1);
+    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam, 1);
     *work = ws;
 }
 

@@ -94,7 +94,8 @@ multiplier λ solved from the index-reduced equations in the generated code, wit
 stabilized at the rate ``constraint_gain``. Outputs ``<name>.reaction.<constraint>.<row>`` (the
 constraint forces and torques), ``<name>.phi.<constraint>.<row>`` (the residuals),
 ``<name>.velocity.<constraint>.<row>`` (G v), ``<name>.active.<constraint>``; matrices
-``<name>.G`` and ``<name>.G.<constraint>`` (for impacts onto a constraint).
+``<name>.G``, ``<name>.G.<constraint>`` (for impacts onto a constraint) and ``<name>.S`` (the
+rows' switches).
 
 Limits: bodies are given by their inertial data, not by shapes.
 """
