@@ -6,11 +6,12 @@ then, in interleaved rounds (order rotated), one stride from z* as ``HybridWalke
 (``model.simulate`` with the mode machine's actions, to the heel strike):
 
 * ``plain``        without sensitivities (the baseline of every ratio);
-* ``section``      with Φ seeded by the lift's Jacobian (k directions: the walker's case; resets
-                   give their Jacobians by differences, as in the prototype below);
+* ``section``      with Φ seeded by the lift's Jacobian (k directions: the walker's case; the
+                   mode machine's actions give the resets' Jacobians);
 * ``full``         with Φ = ∂x/∂x₀ over all n model states;
-* ``jacobian``     the whole stride Jacobian of the prototype tests/walkers/variational_stride.py
-                   (the run with k directions plus the differences of lift, resets, projection);
+* ``jacobian``     the whole exact stride Jacobian, :meth:`HybridWalker.stride_sensitivity`
+                   (:func:`walker_library.core.variational.stride_sensitivity`: the run with k
+                   directions plus the differences of lift and projection);
 * ``fd``           central finite differences of ``HybridWalker.stride`` (2 k strides).
 
 Printed: median wall times, ratios to ``plain``, accepted steps, jac and rhs evaluations, and the
@@ -30,12 +31,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
-sys.path.insert(0, str(ROOT / "tests" / "walkers"))
 
 import numpy as np
 from machine import machine_info
 from timing import interleaved
-from variational_stride import _with_reset_jacobians, stride_jacobian
 
 from porthamiltonian.simulation.differences import jacobian as difference_jacobian
 from walker_library import find_fixed_point, load_walker
@@ -57,22 +56,22 @@ def bench(name: str, rounds: int) -> None:
     lift = difference_jacobian(lambda w: walker.lift(w, p_start), z, 1.0).value
 
     def stride(seeds):
-        log = WalkLog(1)        # with sensitivities, resets give their Jacobians (prototype)
-        actions = (walker.machine.actions(log) if seeds is False else
-                   _with_reset_jacobians(walker, log, []))
+        log = WalkLog(1)        # with sensitivities, the resets give their Jacobians too
+        actions = walker.machine.actions(log, None if seeds is False else ())
         return model.simulate(o.max_step_time, x0=x0, params=dict(zip(model.param_names, p0)),
                               method="Rodas5P", rtol=o.rtol, atol=o.atol, max_step=o.max_step,
                               actions=actions, max_events=200, sensitivity=seeds)
 
     variants = {"plain": lambda: stride(False), "section": lambda: stride(lift),
-                "full": lambda: stride(True), "jacobian": lambda: stride_jacobian(walker, z),
+                "full": lambda: stride(True), "jacobian": lambda: walker.stride_sensitivity(z),
                 "fd": lambda: fd_jacobian(walker, z, step=1e-5)}
     counts = {k: stride(v) for k, v in (("plain", False), ("section", lift), ("full", True))}
     times = interleaved(variants, rounds)
     tight = walker.with_options(rtol=max(o.rtol * 1e-3, 3e-14), atol=o.atol * 1e-3,
                                 max_step=min(o.max_step, 2e-5))
-    ref = stride_jacobian(tight, z).J
-    errors = {"jacobian": stride_jacobian(walker, z).J, "fd": fd_jacobian(walker, z, step=1e-5)}
+    ref = tight.stride_sensitivity(z).jacobian
+    errors = {"jacobian": walker.stride_sensitivity(z).jacobian,
+              "fd": fd_jacobian(walker, z, step=1e-5)}
     base = statistics.median(times["plain"])
     print(f"\n### {name} (n = {model.n_states} states, k = {len(z)} section coordinates, "
           f"rtol {o.rtol:g}, {rounds} rounds)\n")

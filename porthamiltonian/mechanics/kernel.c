@@ -155,11 +155,6 @@ MB_INLINE void v_cross_c(int D, const double *a, const double *b, double *out)
         d_axpy(D, -a[i2], b + i1 * D, out + i * D);
     }
 }
-/* out += a . b */
-MB_INLINE void v_dot(int D, const double *a, const double *b, double *out)
-{
-    for (int i = 0; i < 3; ++i) d_fma(D, a + i * D, b + i * D, out);
-}
 /* out += a . b for a constant a */
 MB_INLINE void v_dot_c(int D, const double *a, const double *b, double *out)
 {
@@ -493,37 +488,36 @@ MB_INLINE void mb_velocities(int D, const mb_tab *t, const double *R, const doub
     }
 }
 
-/* e += Pi^T ad_T S = L . (w x a) + P . (w x u + lin x a) for the unit twist S = (a, u) of a link
- * with twist (w, lin) and subtree momentum (L, P) */
-MB_INLINE void mb_velocity_force(int D, const double *w, const double *lin, const double *L,
-                                 const double *P, const double *a, const double *u, double *e)
+/* tau += L x w + P x lin, f += P x w: the wrench ad_T^T Pi of a link with twist T = (w, lin) and
+ * subtree momentum Pi = (L, P), so that S^T (ad_T^T Pi) = Pi^T ad_T S = L . (w x a) + P . (w x u +
+ * lin x a) for each unit twist S = (a, u) (the triple product) */
+MB_INLINE void mb_ad_t(int D, const double *w, const double *lin, const double *L, const double *P,
+                       double *tau, double *f)
 {
-    double wa[3 * D], ma[3];
-    for (int i = 0; i < 3; ++i) ma[i] = -a[i];
-    v_zero(D, wa);
-    v_cross_c(D, ma, w, wa);                            /* w x a */
-    v_dot(D, L, wa, e);
-    v_zero(D, wa);
-    for (int i = 0; i < 3; ++i) ma[i] = -u[i];
-    v_cross_c(D, ma, w, wa);                            /* w x u */
-    for (int i = 0; i < 3; ++i) ma[i] = -a[i];
-    v_cross_c(D, ma, lin, wa);                          /* lin x a */
-    v_dot(D, P, wa, e);
+    v_cross(D, L, w, tau);
+    v_cross(D, P, lin, tau);
+    v_cross(D, P, w, f);
+}
+
+/* e = S_k^T W (n duals at e, n the link's velocities): e_r = a . tau + u . f for each unit twist
+ * S_r = (a, u) of link k and the wrench W = (tau, f) (3 duals each, the link's frame) */
+MB_INLINE void mb_project(int D, const mb_tab *t, int k, const double *tau, const double *f,
+                          double *e)
+{
+    for (int r = 0; r < mb_dofs(t->link[4 * k + 1]); ++r) {
+        double a[3], u[3];
+        mb_screw(t, k, r, a, u);
+        d_set(D, e + r * D, 0.0);
+        v_dot_c(D, a, tau, e + r * D);
+        v_dot_c(D, u, f, e + r * D);
+    }
 }
 
 /* e = S^T Pi (nv duals) from the subtree momenta: M v for the velocities behind (L, P) */
 MB_INLINE void mb_generalized(int D, const mb_tab *t, const double *L, const double *P, double *e)
 {
-    for (int k = 0; k < t->nl; ++k) {
-        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
-        for (int s = 0; s < n; ++s) {
-            double a[3], u[3];
-            mb_screw(t, k, s, a, u);
-            d_set(D, e + (i0 + s) * D, 0.0);
-            v_dot_c(D, a, L + 3 * D * k, e + (i0 + s) * D);
-            v_dot_c(D, u, P + 3 * D * k, e + (i0 + s) * D);
-        }
-    }
+    for (int k = 0; k < t->nl; ++k)
+        mb_project(D, t, k, L + 3 * D * k, P + 3 * D * k, e + t->link[4 * k + 2] * D);
 }
 
 /* e = M(q) x as duals for the numbers xv (nv): its value and, at fixed x, its tangents
@@ -553,14 +547,14 @@ static void mb_implicit(int D, const mb_tab *t, const double *R, const double *p
     for (int i = 0; i < nv; ++i) x[i * D] = xv[i];
 }
 
-/* e += M(q) acc + C(q, v): Newton-Euler's inverse dynamics without gravity (Featherstone 2008,
- * section 5.3) at the joint accelerations acc (numbers), from the velocities v and the body twists
- * (w, lin) (duals). Root to tip the spatial accelerations A_k = X_k^T A_parent + S acc + T_k x S v
- * (6 duals per link: angular, then linear), tip to root the wrenches F_k = I_k A_k + T_k x* I_k T_k
- * plus the children's, S^T F_k. */
+/* F = the subtree wrenches of Newton-Euler's inverse dynamics without gravity (Featherstone 2008,
+ * section 5.3), S^T F = M(q) acc + C(q, v), at the joint accelerations acc (numbers), from the
+ * velocities v and the body twists (w, lin) (duals). Root to tip the spatial accelerations
+ * A_k = X_k^T A_parent + S acc + T_k x S v (6 duals per link: angular, then linear), tip to root
+ * the wrenches F_k = I_k A_k + T_k x* I_k T_k plus the children's (6 duals per link: torque, then
+ * force). */
 static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, const double *v,
-                    const double *acc, const double *w, const double *lin, double *A, double *F,
-                    double *e)
+                    const double *acc, const double *w, const double *lin, double *A, double *F)
 {
     const int nl = t->nl;
     for (int k = 0; k < nl; ++k) {
@@ -596,7 +590,7 @@ static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, co
     }
     for (int i = 0; i < 6 * D * nl; ++i) F[i] = 0.0;
     for (int k = nl - 1; k >= 0; --k) {
-        const int parent = t->link[4 * k], i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
+        const int parent = t->link[4 * k];
         const double *wk = w + 3 * D * k, *lk = lin + 3 * D * k;
         double *Fk = F + 6 * D * k, tf[6 * D], Lo[3 * D], Po[3 * D];
         mb_inertia(D, t, k, A + 6 * D * k, A + 6 * D * k + 3 * D, tf, tf + 3 * D);
@@ -605,48 +599,27 @@ static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, co
         v_cross(D, lk, Po, tf);
         v_cross(D, wk, Po, tf + 3 * D);
         for (int i = 0; i < 6 * D; ++i) Fk[i] += tf[i];
-        for (int s = 0; s < n; ++s) {
-            double a[3], u[3];
-            mb_screw(t, k, s, a, u);
-            v_dot_c(D, a, Fk, e + (i0 + s) * D);
-            v_dot_c(D, u, Fk + 3 * D, e + (i0 + s) * D);
-        }
         if (parent < 0) continue;
         double *Fp = F + 6 * D * parent;
         mb_carry(D, R + 9 * D * k, p + 3 * D * k, Fk, Fk + 3 * D, Fp, Fp + 3 * D);
     }
 }
 
-/* e = Pi^T ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity products Mdot v) from
- * the velocities v: the twists and subtree momenta (w, lin, L, P) formed here */
+/* e = S^T (ad_T^T Pi + F) = Pi^T ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity
+ * products Mdot v) from the velocities v: the twists and subtree momenta (w, lin, L, P) formed
+ * here (given: kept, the state entry's work) and the Newton-Euler wrenches F */
 static void mb_products(int D, const mb_tab *t, const double *R, const double *p, const double *v,
                         const double *acc, double *w, double *lin, double *L, double *P, double *A,
-                        double *F, double *e)
+                        double *F, int kept, double *e)
 {
-    mb_velocities(D, t, R, p, v, w, lin, L, P);
+    if (!kept) mb_velocities(D, t, R, p, v, w, lin, L, P);
+    mb_bias(D, t, R, p, v, acc, w, lin, A, F);
     for (int k = 0; k < t->nl; ++k) {
-        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
-        for (int r = 0; r < n; ++r) {
-            double a[3], u[3];
-            mb_screw(t, k, r, a, u);
-            d_set(D, e + (i0 + r) * D, 0.0);
-            mb_velocity_force(D, w + 3 * D * k, lin + 3 * D * k, L + 3 * D * k, P + 3 * D * k, a, u,
-                              e + (i0 + r) * D);
-        }
+        const int i = 3 * D * k;
+        double *Fk = F + 6 * D * k;
+        mb_ad_t(D, w + i, lin + i, L + i, P + i, Fk, Fk + 3 * D);
+        mb_project(D, t, k, Fk, Fk + 3 * D, e + t->link[4 * k + 2] * D);
     }
-    mb_bias(D, t, R, p, v, acc, w, lin, A, F, e);
-}
-
-/* e = Pi^T ad_T S + M(q) acc + C(q, v) as mb_products; kept: the twists (w, lin) and the velocity
- * forces vf = Pi^T ad_T S are the state entry's (its work), only the Newton-Euler pass is run */
-static void mb_kept_products(int D, const mb_tab *t, const double *R, const double *p,
-                             const double *v, const double *acc, double *w, double *lin, double *L,
-                             double *P, double *A, double *F, const double *vf, int kept, double *e)
-{
-    if (kept) {
-        d_copy(t->nv * D, e, vf);
-        mb_bias(D, t, R, p, v, acc, w, lin, A, F, e);
-    } else mb_products(D, t, R, p, v, acc, w, lin, L, P, A, F, e);
 }
 
 /* out = the values of the n duals x (n x D) */
@@ -779,13 +752,12 @@ MB_INLINE void mb_emit(int D, const double *x, double *out, double *dout)
 /* The state entry's work, kept for the constrained entry (ph_mb_state_keep,
  * ph_mb_constrained_reuse): ws[0] = D (the header: 8 doubles, so that the arrays keep the
  * buffer's alignment), then the duals R, p, R0, p0, g (gravity in the links' frames), hc, w,
- * lin, L, P, the values mc, Jc, M (factored), the duals x (q, p), v and the velocity forces
- * Pi^T ad_T S (nv; kept by ph_mb_state_keep only) */
-typedef struct { double *R, *p, *R0, *p0, *g, *hc, *w, *lin, *L, *P, *mc, *Jc, *M, *x, *v, *vf; } mb_work;
+ * lin, L, P, the values mc, Jc, M (factored) and the duals x (q, p) and v */
+typedef struct { double *R, *p, *R0, *p0, *g, *hc, *w, *lin, *L, *P, *mc, *Jc, *M, *x, *v; } mb_work;
 
 static size_t mb_work_size(const mb_tab *t, int D)
 {
-    return MB_HEAD + (size_t)D * (size_t)(t->nq + 3 * t->nv + 42 * t->nl) + 10 * (size_t)t->nl
+    return MB_HEAD + (size_t)D * (size_t)(t->nq + 2 * t->nv + 42 * t->nl) + 10 * (size_t)t->nl
            + (size_t)t->nv * (size_t)t->nv;
 }
 
@@ -796,7 +768,7 @@ static void mb_work_views(const mb_tab *t, int D, double *ws, mb_work *k)
     k->p0 = k->R0 + 9 * D * nl; k->g = k->p0 + 3 * D * nl; k->hc = k->g + 3 * D * nl;
     k->w = k->hc + 3 * D * nl; k->lin = k->w + 3 * D * nl; k->L = k->lin + 3 * D * nl;
     k->P = k->L + 3 * D * nl; k->mc = k->P + 3 * D * nl; k->Jc = k->mc + nl; k->M = k->Jc + 9 * nl;
-    k->x = k->M + nv * nv; k->v = k->x + (t->nq + nv) * D; k->vf = k->v + nv * D;
+    k->x = k->M + nv * nv; k->v = k->x + (t->nq + nv) * D;
 }
 
 /* whether ws is a state entry's work at the duals of (q, v) that begin x (values and tangents
@@ -819,10 +791,9 @@ static size_t mb_state_size(const mb_tab *t, int D)
     return mb_work_size(t, D) + (size_t)D + 7 * (size_t)t->nv + 2 * (size_t)t->nv * D;
 }
 
-/* the state entry (ph_mb_state) in ws (mb_state_size); keep: with the velocity forces in the
- * work (mb_work) */
+/* the state entry (ph_mb_state) in ws (mb_state_size: its work, mb_work, first) */
 MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const double *din,
-                            double *out, double *dout, double *ws, int *lam, int keep)
+                            double *out, double *dout, double *ws, int *lam)
 {
     const int nl = t->nl, nv = t->nv, nq = t->nq, K = D - 1;
     mb_work kw;
@@ -830,7 +801,7 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
     ws[0] = D;
     double *R = kw.R, *p = kw.p, *R0 = kw.R0, *p0 = kw.p0, *g = kw.g, *hc = kw.hc, *w = kw.w;
     double *lin = kw.lin, *L = kw.L, *P = kw.P, *mc = kw.mc, *Jc = kw.Jc, *M = kw.M, *x = kw.x;
-    double *v = kw.v, *vf = keep ? kw.vf : NULL;
+    double *v = kw.v;
     double *V = ws + mb_work_size(t, D), *S0 = V + D, *xv = S0 + 6 * nv, *y = xv + nv;
     double *ev = y + nv * D;
     mb_seed(D, nq + nv, in, din, x);
@@ -849,24 +820,15 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
     int o = 0;
     for (int i = 0; i < nv; ++i) mb_emit(D, v + i * D, out + o + i, dout + (o + i) * K);
     o += nv;
-    for (int k = 0; k < nl; ++k) {        /* Pi^T ad_T S + S^T (hc x g, mc g) */
-        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
-        const double *wk = w + 3 * D * k, *lk = lin + 3 * D * k, *gk = g + 3 * D * k;
-        double hg[3 * D];
-        v_zero(D, hg);
-        v_cross(D, hc + 3 * D * k, gk, hg);
-        for (int s = 0; s < n; ++s) {
-            double a[3], u[3], e[D], ug[D];
-            mb_screw(t, k, s, a, u);
-            d_set(D, e, 0.0);
-            mb_velocity_force(D, wk, lk, L + 3 * D * k, P + 3 * D * k, a, u, e);
-            if (keep) d_copy(D, vf + (i0 + s) * D, e);
-            v_dot_c(D, a, hg, e);
-            d_set(D, ug, 0.0);
-            v_dot_c(D, u, gk, ug);
-            d_axpy(D, mc[k], ug, e);
-            mb_emit(D, e, out + o + i0 + s, dout + (o + i0 + s) * K);
-        }
+    for (int k = 0; k < nl; ++k) {        /* S^T (ad_T^T Pi + (hc x g, mc g)) */
+        const int i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]), i = 3 * D * k;
+        double tau[3 * D], f[3 * D], e[6 * D];
+        v_zero(D, tau);
+        v_cross(D, hc + i, g + i, tau);
+        for (int j = 0; j < 3 * D; ++j) f[j] = mc[k] * g[i + j];
+        mb_ad_t(D, w + i, lin + i, L + i, P + i, tau, f);
+        mb_project(D, t, k, tau, f, e);
+        for (int r = 0; r < n; ++r) mb_emit(D, e + r * D, out + o + i0 + r, dout + (o + i0 + r) * K);
     }
     o += nv;
     /* V = -g . (first moment of the bodies welded to the world + of every root's subtree) */
@@ -917,15 +879,15 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
 }
 
 static MB_FLATTEN void mb_state_value(const mb_tab *t, const double *in, double *out, double *ws,
-                                     int *lam, int keep)
+                                     int *lam)
 {
-    mb_state_run(1, t, in, NULL, out, NULL, ws, lam, keep);
+    mb_state_run(1, t, in, NULL, out, NULL, ws, lam);
 }
 
 static void mb_state_tangent(int D, const mb_tab *t, const double *in, const double *din,
-                             double *out, double *dout, double *ws, int *lam, int keep)
+                             double *out, double *dout, double *ws, int *lam)
 {
-    mb_state_run(D, t, in, din, out, dout, ws, lam, keep);
+    mb_state_run(D, t, in, din, out, dout, ws, lam);
 }
 
 /* The state entry: in = (q, p); out = (v, the momentum rates without port loads, V, then per
@@ -941,13 +903,13 @@ MB_ENTRY void ph_mb_state(const int *s, const double *c, const double *in, doubl
     const size_t size = mb_state_size(&t, 1 + K);
     if (K == 0 && size <= MB_STACK) {
         double ws[size];
-        mb_state_value(&t, in, out, ws, lam, 0);
+        mb_state_value(&t, in, out, ws, lam);
         return;
     }
     double *ws = malloc(sizeof(double) * size);
     if (ws == NULL) abort();
-    if (K == 0) mb_state_value(&t, in, out, ws, lam, 0);
-    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam, 0);
+    if (K == 0) mb_state_value(&t, in, out, ws, lam);
+    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam);
     free(ws);
 }
 
@@ -960,8 +922,8 @@ MB_ENTRY void ph_mb_state_keep(const int *s, const double *c, const double *in, 
     int lam[t.nv > 0 ? 2 * t.nv : 1];
     double *ws = malloc(sizeof(double) * mb_state_size(&t, 1 + K));
     if (ws == NULL) abort();
-    if (K == 0) mb_state_value(&t, in, out, ws, lam, 1);
-    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam, 1);
+    if (K == 0) mb_state_value(&t, in, out, ws, lam);
+    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam);
     *work = ws;
 }
 
@@ -992,14 +954,9 @@ MB_INLINE void mb_load_run(int D, const mb_tab *t, const double *in, const doubl
     for (int k = nl - 1; k >= 0; --k) {
         const int parent = t->link[4 * k], i0 = t->link[4 * k + 2], n = mb_dofs(t->link[4 * k + 1]);
         const double *tk = tau + 3 * D * k, *fk = f + 3 * D * k;
-        for (int s = 0; s < n; ++s) {
-            double a[3], u[3], e[D];
-            mb_screw(t, k, s, a, u);
-            d_set(D, e, 0.0);
-            v_dot_c(D, a, tk, e);
-            v_dot_c(D, u, fk, e);
-            mb_emit(D, e, out + i0 + s, dout + (i0 + s) * K);
-        }
+        double e[6 * D];
+        mb_project(D, t, k, tk, fk, e);
+        for (int r = 0; r < n; ++r) mb_emit(D, e + r * D, out + i0 + r, dout + (i0 + r) * K);
         if (parent < 0) continue;
         mb_carry(D, R + 9 * D * k, p + 3 * D * k, tk, fk, tau + 3 * D * parent, f + 3 * D * parent);
     }
@@ -1052,7 +1009,7 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     const int nl = t.nl, nv = t.nv, nq = t.nq, m = s[4 + 4 * nl + 2 * t.ns], K = D - 1;
     const int nnz = s[5 + 4 * nl + 2 * t.ns], *nz = s + 6 + 4 * nl + 2 * t.ns;
     const int n_in = nq + 2 * nv + nnz + 3 * m;
-    const size_t size = (size_t)nl * 24 * D + (size_t)nl * 36 + (size_t)nv * 11 + (size_t)n_in * D
+    const size_t size = (size_t)nl * 24 * D + (size_t)nl * 36 + (size_t)nv * 10 + (size_t)n_in * D
                         + (size_t)nv * 4 * D + (size_t)m * (2 * nv + m + 2) + (size_t)m * 2 * D;
     double *ws = malloc(sizeof(double) * size), *own = NULL;
     int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 1));
@@ -1062,8 +1019,8 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     double *y = x + n_in * D, *T = y + nv * D, *Tc = T + nv * D, *dm = Tc + nv * D;
     double *acc = dm + nv * D, *shift = acc + nv, *zero = shift + nv, *vv = zero + nv;
     double *Rv = vv + nv, *pv = Rv + 9 * nl, *wv = pv + 3 * nl, *lv = wv + 3 * nl, *Lv = lv + 3 * nl;
-    double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl, *vfv = Fv + 6 * nl;
-    double *Ga = vfv + nv, *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m;
+    double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl;
+    double *Ga = Fv + 6 * nl, *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m;
     double *Z = mu + m, *Zc = Z + m * D;
     int *lam = iw, *piv = iw + 2 * nv;
     const double *xF = x + (nq + nv) * D, *xG = x + (nq + 2 * nv) * D, *xC = xG + nnz * D;
@@ -1088,9 +1045,10 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     mb_values(D, nv, v, vv);
     mb_values(D, 3 * nl, kw.w, wv);
     mb_values(D, 3 * nl, kw.lin, lv);
-    mb_values(D, nv, kw.vf, vfv);
+    mb_values(D, 3 * nl, kw.L, Lv);
+    mb_values(D, 3 * nl, kw.P, Pv);
     for (int k = 0; k < nv; ++k) zero[k] = 0.0;
-    mb_kept_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, vfv, reuse, acc);
+    mb_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, reuse, acc);
     for (int k = 0; k < nv; ++k) acc[k] = xF[k * D] - acc[k];
     for (int i = 0; i < m * nv; ++i) Y[i] = Ga[i] = 0.0;
     for (int z = 0; z < nnz; ++z) {
@@ -1110,7 +1068,7 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, acc, nu, 1);
     mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, shift, mu, 1);
     if (K > 0) {        /* the saddle systems differentiated: the same matrix, new right-hand sides */
-        mb_kept_products(D, &t, R, p, v, acc, kw.w, kw.lin, kw.L, kw.P, A, F, kw.vf, reuse, dm);
+        mb_products(D, &t, R, p, v, acc, kw.w, kw.lin, kw.L, kw.P, A, F, reuse, dm);
         d_copy(nv * D, T, xF);
         d_copy(m * D, Z, xB);
         mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, acc, nu, dm, T, Z);

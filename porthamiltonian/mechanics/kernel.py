@@ -195,13 +195,6 @@ def _mb_cross_c(D, a, ia, sign, b, ib, out, io):
 
 
 @_jit
-def _mb_dot(D, a, ia, b, ib, out, io):
-    """out += a · b."""
-    for i in range(3):
-        _mb_fma(D, a, ia + i * D, b, ib + i * D, out, io)
-
-
-@_jit
 def _mb_dot_c(D, a, ia, b, ib, out, io):
     """out += a · b for a constant a."""
     for i in range(3):
@@ -552,16 +545,25 @@ def _mb_velocities(D, s, c, R, p, v, w, lin, L, P):
 
 
 @_jit
-def _mb_velocity_force(D, w, lin, L, P, iw, a, u, wa, e, ie):
-    """e += Πᵀ ad_T S = L · (w × a) + P · (w × u + lin × a) for the unit twist S = (a, u) of the
-    link at iw (twist (w, lin), subtree momentum (L, P)); wa: 3 duals of work space."""
-    _mb_zero(wa, 0, 3 * D)
-    _mb_cross_c(D, a, 0, -1.0, w, iw, wa, 0)             # w × a
-    _mb_dot(D, L, iw, wa, 0, e, ie)
-    _mb_zero(wa, 0, 3 * D)
-    _mb_cross_c(D, u, 0, -1.0, w, iw, wa, 0)             # w × u
-    _mb_cross_c(D, a, 0, -1.0, lin, iw, wa, 0)           # lin × a
-    _mb_dot(D, P, iw, wa, 0, e, ie)
+def _mb_ad_t(D, w, lin, L, P, iw, tau, it, f, jf):
+    """τ += L × w + P × lin, f += P × w (at it, jf): the wrench ad_Tᵀ Π of the link at iw with
+    twist T = (w, lin) and subtree momentum Π = (L, P), so that Sᵀ (ad_Tᵀ Π) = Πᵀ ad_T S =
+    L · (w × a) + P · (w × u + lin × a) for each unit twist S = (a, u) (the triple product)."""
+    _mb_cross(D, L, iw, w, iw, tau, it)
+    _mb_cross(D, P, iw, lin, iw, tau, it)
+    _mb_cross(D, P, iw, w, iw, f, jf)
+
+
+@_jit
+def _mb_project(D, s, c, k, a, u, tau, it, f, jf, e, ie):
+    """e = S_kᵀ W (the link's n velocities' duals from ie): e_r = a · τ + u · f for each unit twist
+    S_r = (a, u) of link k and the wrench W = (τ at it, f at jf; 3 duals each, the link's frame);
+    a, u: 3 numbers of work space each."""
+    for r in range(_mb_dofs(s[4 + 4 * k + 1])):
+        _mb_screw(s, c, k, r, a, u)
+        _mb_set(D, e, ie + r * D, 0.0)
+        _mb_dot_c(D, a, 0, tau, it, e, ie + r * D)
+        _mb_dot_c(D, u, 0, f, jf, e, ie + r * D)
 
 
 @_jit
@@ -569,12 +571,7 @@ def _mb_generalized(D, s, c, L, P, e):
     """e = Sᵀ Π (nv duals) from the subtree momenta: M v for the velocities behind (L, P)."""
     a, u = np.zeros(3), np.zeros(3)
     for k in range(s[0]):
-        i0 = s[4 + 4 * k + 2]
-        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_set(D, e, (i0 + r) * D, 0.0)
-            _mb_dot_c(D, a, 0, L, 3 * D * k, e, (i0 + r) * D)
-            _mb_dot_c(D, u, 0, P, 3 * D * k, e, (i0 + r) * D)
+        _mb_project(D, s, c, k, a, u, L, 3 * D * k, P, 3 * D * k, e, s[4 + 4 * k + 2] * D)
 
 
 @_jit
@@ -609,13 +606,13 @@ def _mb_implicit(D, s, c, R, p, lam, run, H, x, w, lin, L, P):
 
 
 @_jit
-def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e):
-    """e += M(q) acc + C(q, v): Newton–Euler's inverse dynamics without gravity (Featherstone
-    2008, §5.3; tree.Tree.velocity_products) at the joint accelerations acc (numbers), from the
-    velocities v and the body twists (w, lin) (duals). Root to tip the spatial accelerations
-    A_k = X_kᵀ A_λ + S acc + T_k × S v (angular at A[0:3], linear at A[3:6] of each link's 6
-    duals), tip to root the wrenches F_k = 𝕀_k A_k + T_k ×* 𝕀_k T_k plus the children's,
-    Sᵀ F_k."""
+def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F):
+    """F = the subtree wrenches of Newton–Euler's inverse dynamics without gravity (Featherstone
+    2008, §5.3; tree.Tree.velocity_products), Sᵀ F = M(q) acc + C(q, v), at the joint
+    accelerations acc (numbers), from the velocities v and the body twists (w, lin) (duals). Root
+    to tip the spatial accelerations A_k = X_kᵀ A_λ + S acc + T_k × S v (angular at A[0:3], linear
+    at A[3:6] of each link's 6 duals), tip to root the wrenches F_k = 𝕀_k A_k + T_k ×* 𝕀_k T_k
+    plus the children's (torque at F[0:3], force at F[3:6])."""
     nl = s[0]
     a, u = np.zeros(3), np.zeros(3)
     Jm = np.zeros(9)
@@ -648,7 +645,7 @@ def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e):
                 _mb_fma(D, v, (i0 + r) * D, tmp, i * D, A, ia + 3 * D + i * D)
     _mb_zero(F, 0, 6 * D * nl)
     for k in range(nl - 1, -1, -1):
-        parent, i0, ia, iw = s[4 + 4 * k], s[4 + 4 * k + 2], 6 * D * k, 3 * D * k
+        parent, ia, iw = s[4 + 4 * k], 6 * D * k, 3 * D * k
         _mb_inertia(D, c, k, Jm, A, ia, A, ia + 3 * D, tf, 0, tf, 3 * D)
         _mb_inertia(D, c, k, Jm, w, iw, lin, iw, Lo, 0, Po, 0)
         _mb_cross(D, w, iw, Lo, 0, tf, 0)
@@ -656,10 +653,6 @@ def _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e):
         _mb_cross(D, w, iw, Po, 0, tf, 3 * D)
         for i in range(6 * D):
             F[ia + i] += tf[i]
-        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_dot_c(D, a, 0, F, ia, e, (i0 + r) * D)
-            _mb_dot_c(D, u, 0, F, ia + 3 * D, e, (i0 + r) * D)
         if parent < 0:
             continue
         ip = 6 * D * parent
@@ -708,25 +701,24 @@ def _mb_state_outputs(s):
 def _mb_work_size(s, D):
     """The length of a state entry's work (:func:`_mb_work`) at D = 1 + K."""
     nl, nv, nq = s[0], s[1], s[2]
-    return 1 + (nq + 3 * nv + 39 * nl) * D + 10 * nl + nv * nv
+    return 1 + (nq + 2 * nv + 39 * nl) * D + 10 * nl + nv * nv
 
 
 @_jit
 def _mb_work(s, D, work):
     """The state entry's work, kept for the constrained entry (mb_state_keep,
     mb_constrained_reuse): work[0] = D, then views of the duals x (q, p), v, R, p, R0, p0, hc,
-    w, lin, L, P, the velocity forces Πᵀ ad_T S (nv) and of the values mc, Jc, M (factored)."""
+    w, lin, L, P and of the values mc, Jc, M (factored)."""
     nl, nv, nq = s[0], s[1], s[2]
-    o = np.zeros(16, dtype=np.int64)
+    o = np.zeros(15, dtype=np.int64)
     sizes = ((nq + nv) * D, nv * D, 9 * D * nl, 3 * D * nl, 9 * D * nl, 3 * D * nl, 3 * D * nl,
-             3 * D * nl, 3 * D * nl, 3 * D * nl, 3 * D * nl, nv * D, nl, 9 * nl, nv * nv)
+             3 * D * nl, 3 * D * nl, 3 * D * nl, 3 * D * nl, nl, 9 * nl, nv * nv)
     o[0] = 1
-    for i in range(15):
+    for i in range(14):
         o[i + 1] = o[i] + sizes[i]
     return (work[o[0]:o[1]], work[o[1]:o[2]], work[o[2]:o[3]], work[o[3]:o[4]], work[o[4]:o[5]],
             work[o[5]:o[6]], work[o[6]:o[7]], work[o[7]:o[8]], work[o[8]:o[9]], work[o[9]:o[10]],
-            work[o[10]:o[11]], work[o[11]:o[12]], work[o[12]:o[13]], work[o[13]:o[14]],
-            work[o[14]:o[15]])
+            work[o[10]:o[11]], work[o[11]:o[12]], work[o[12]:o[13]], work[o[13]:o[14]])
 
 
 @_jit
@@ -763,10 +755,10 @@ def mb_state_keep(s, c, values, din):
     dout = np.zeros((out.shape[0], K))
     work = np.zeros(_mb_work_size(s, D))
     work[0] = D
-    x, v, R, p, R0, p0, hc, w, lin, L, P, vf, mc, Jc, M = _mb_work(s, D, work)
+    x, v, R, p, R0, p0, hc, w, lin, L, P, mc, Jc, M = _mb_work(s, D, work)
     g = np.zeros(3 * D * nl)
     a, u = np.zeros(3), np.zeros(3)
-    e = np.zeros(D)
+    e = np.zeros(6 * D)
     _mb_seed(D, nq + nv, values, din, x)
     lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
     _mb_copy(v, 0, x, nq * D, nv * D)
@@ -783,23 +775,17 @@ def mb_state_keep(s, c, values, din):
     for i in range(nv):
         _mb_emit(D, v, i * D, out, dout, i)
     o = nv
-    hg = np.zeros(3 * D)
-    wa = np.zeros(3 * D)
-    ug = np.zeros(D)
-    for k in range(nl):                  # Πᵀ ad_T S + Sᵀ (hc × g, mc g)
+    tau, f = np.zeros(3 * D), np.zeros(3 * D)
+    for k in range(nl):                  # Sᵀ (ad_Tᵀ Π + (hc × g, mc g))
         i0, iw = s[4 + 4 * k + 2], 3 * D * k
-        _mb_zero(hg, 0, 3 * D)
-        _mb_cross(D, hc, iw, g, iw, hg, 0)
+        _mb_zero(tau, 0, 3 * D)
+        _mb_cross(D, hc, iw, g, iw, tau, 0)
+        for j in range(3 * D):
+            f[j] = mc[k] * g[iw + j]
+        _mb_ad_t(D, w, lin, L, P, iw, tau, 0, f, 0)
+        _mb_project(D, s, c, k, a, u, tau, 0, f, 0, e, 0)
         for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_set(D, e, 0, 0.0)
-            _mb_velocity_force(D, w, lin, L, P, iw, a, u, wa, e, 0)
-            _mb_copy(vf, (i0 + r) * D, e, 0, D)
-            _mb_dot_c(D, a, 0, hg, 0, e, 0)
-            _mb_set(D, ug, 0, 0.0)
-            _mb_dot_c(D, u, 0, g, iw, ug, 0)
-            _mb_axpy(D, mc[k], ug, 0, e, 0)
-            _mb_emit(D, e, 0, out, dout, o + i0 + r)
+            _mb_emit(D, e, r * D, out, dout, o + i0 + r)
     o += nv
     # V = −g · (first moment of the bodies welded to the world + of every root's subtree)
     SF = G + 3
@@ -877,16 +863,13 @@ def mb_load(s, c, values, din):
             tau[3 * D * k + j] += tl[j]
             f[3 * D * k + j] += fl[j]
     a, u = np.zeros(3), np.zeros(3)
-    e = np.zeros(D)
+    e = np.zeros(6 * D)
     Rf = np.zeros(3 * D)
     for k in range(nl - 1, -1, -1):
         parent, i0, iw = s[4 + 4 * k], s[4 + 4 * k + 2], 3 * D * k
+        _mb_project(D, s, c, k, a, u, tau, iw, f, iw, e, 0)
         for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_set(D, e, 0, 0.0)
-            _mb_dot_c(D, a, 0, tau, iw, e, 0)
-            _mb_dot_c(D, u, 0, f, iw, e, 0)
-            _mb_emit(D, e, 0, out, dout, i0 + r)
+            _mb_emit(D, e, r * D, out, dout, i0 + r)
         if parent < 0:
             continue
         _mb_carry(D, R, p, k, tau, iw, 3 * D * parent, f, iw, 3 * D * parent, Rf)
@@ -894,18 +877,18 @@ def mb_load(s, c, values, din):
 
 
 @_jit
-def _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, e):
-    """e = Πᵀ ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity products Ṁ v)
-    from the velocities v: the twists and subtree momenta (w, lin, L, P) formed here."""
+def _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, kept, e):
+    """e = Sᵀ (ad_Tᵀ Π + F) = Πᵀ ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the
+    velocity products Ṁ v) from the velocities v: the twists and subtree momenta (w, lin, L, P)
+    formed here (given: ``kept``, the state entry's work) and the Newton–Euler wrenches F."""
     a, u = np.zeros(3), np.zeros(3)
-    wa = np.zeros(3 * D)
-    _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+    if not kept:
+        _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+    _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F)
     for k in range(s[0]):
-        for r in range(_mb_dofs(s[4 + 4 * k + 1])):
-            _mb_screw(s, c, k, r, a, u)
-            _mb_set(D, e, (s[4 + 4 * k + 2] + r) * D, 0.0)
-            _mb_velocity_force(D, w, lin, L, P, 3 * D * k, a, u, wa, e, (s[4 + 4 * k + 2] + r) * D)
-    _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e)
+        iw, ia = 3 * D * k, 6 * D * k
+        _mb_ad_t(D, w, lin, L, P, iw, F, ia, F, ia + 3 * D)
+        _mb_project(D, s, c, k, a, u, F, ia, F, ia + 3 * D, e, s[4 + 4 * k + 2] * D)
 
 
 @_jit
@@ -1015,18 +998,6 @@ def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
 
 
 @_jit
-def _mb_kept_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, vf, kept, e):
-    """e = Πᵀ ad_T S + M(q) acc + C(q, v) as _mb_products; ``kept``: the twists (w, lin) and
-    the velocity forces vf = Πᵀ ad_T S are the state entry's (its work), only the Newton–Euler
-    pass is run."""
-    if kept:
-        _mb_copy(e, 0, vf, 0, s[1] * D)
-        _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F, e)
-    else:
-        _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, e)
-
-
-@_jit
 def mb_constrained(s, c, values, din):
     """The constrained entry (see the module docstring): (out, dout)."""
     return mb_constrained_reuse(s, c, values, din, np.zeros(1))
@@ -1054,7 +1025,7 @@ def mb_constrained_reuse(s, c, values, din, work):
     kept = _mb_kept(s, D, work, x)
     if not kept:
         work = np.zeros(_mb_work_size(s, D))
-    _, v, R, p, R0, p0, hc, w, lin, L, P, vf, mc, Jc, M = _mb_work(s, D, work)
+    _, v, R, p, R0, p0, hc, w, lin, L, P, mc, Jc, M = _mb_work(s, D, work)
     if kept:
         lam, run = _mb_lambda(s)
     else:
@@ -1063,9 +1034,9 @@ def mb_constrained_reuse(s, c, values, din, work):
     # values: b = f − Ṁ v for the accelerations' right-hand side
     Rv, pv, vv = _mb_values(R, D, 9 * nl), _mb_values(p, D, 3 * nl), _mb_values(v, D, nv)
     acc_a, nu = np.zeros(nv), np.zeros(m)            # the accelerations and ν = −λ
-    _mb_kept_products(1, s, c, Rv, pv, vv, np.zeros(nv), _mb_values(w, D, 3 * nl),
-                      _mb_values(lin, D, 3 * nl), np.zeros(3 * nl), np.zeros(3 * nl),
-                      np.zeros(6 * nl), np.zeros(6 * nl), _mb_values(vf, D, nv), kept, acc_a)
+    _mb_products(1, s, c, Rv, pv, vv, np.zeros(nv), _mb_values(w, D, 3 * nl),
+                 _mb_values(lin, D, 3 * nl), _mb_values(L, D, 3 * nl), _mb_values(P, D, 3 * nl),
+                 np.zeros(6 * nl), np.zeros(6 * nl), kept, acc_a)
     for k in range(nv):
         acc_a[k] = x[iF + k * D] - acc_a[k]
     Ga, Y, Sc = np.zeros(m * nv), np.zeros(nv * m), np.zeros(m * m)
@@ -1092,7 +1063,7 @@ def mb_constrained_reuse(s, c, values, din, work):
     Tc, Zc = np.zeros(nv * D), np.zeros(m * D)
     if K > 0:           # the saddle system differentiated: the same matrix, new right-hand sides
         dm = np.zeros(nv * D)           # Πᵀ ad_T S + M a + C(q, v): its tangents at fixed a
-        _mb_kept_products(D, s, c, R, p, v, acc_a, w, lin, L, P, A, F, vf, kept, dm)
+        _mb_products(D, s, c, R, p, v, acc_a, w, lin, L, P, A, F, kept, dm)
         _mb_copy(T, 0, x, iF, nv * D)
         _mb_copy(Z, 0, x, iB, m * D)
         _mb_saddle_tangents(D, nv, m, x, iG, iC, nz_i, nz_k, nnz, acc_a, nu, dm, T, Z)

@@ -8,7 +8,9 @@
 * :func:`chain_model`: the planar N-link pendulum chain of benchmarks/bench_mechanics.py;
 * :func:`generic_chain_model`: an N-link chain on revolute joints about random 3D axes;
 * :func:`with_formulation`: a model with its Multibody's formulation (kernel, symbolic) set;
-* :func:`random_states`: reproducible random states around a model's initial state.
+* :func:`random_states`: reproducible random states around a model's initial state;
+* :func:`close`, :func:`compare_formulations`: the comparisons (to 1e-12 relative, row-scaled)
+  of the kernel and regression tests.
 
 Used by record_multibody_reference.py (which wrote data/multibody_reference.json with the
 pre-recursive formulation) and test_multibody_regression.py (which compares against it).
@@ -144,6 +146,32 @@ def with_formulation(model: ph.Model, formulation: str) -> ph.Model:
 def python_cases() -> dict[str, ph.Model]:
     """The models built here, by name."""
     return {"tree3d": tree3d_model(), "chain5": chain_model(5)}
+
+
+def close(new, old, what: str, rtol: float = 1e-12) -> None:
+    """Assert ``new`` equals ``old`` entrywise to ``rtol`` relative to the entry, or to 0.1 of its
+    row's largest entry where that is larger (rows of a matrix, or the one row of a vector)."""
+    new, old = np.atleast_2d(np.asarray(new, float)), np.atleast_2d(np.asarray(old, float))
+    assert new.shape == old.shape, f"{what}: shape {new.shape} != {old.shape}"
+    scale = np.max(np.abs(old), axis=1, keepdims=True)
+    bound = rtol * np.maximum(np.abs(old), 0.1 * scale) + 1e-300
+    worst = np.max(np.abs(new - old) / bound)
+    assert worst <= 1.0, f"{what}: deviation {worst:.3g} x tolerance"
+
+
+def compare_formulations(kernel, symbolic, x: np.ndarray, params: np.ndarray, close,
+                          functions: tuple[str, ...], label: str) -> None:
+    """The kernel-formulated model against the symbolic one at state ``x`` (parameter vector
+    ``params``): each of ``functions`` (``rhs``, ``jac``, ...) and every matrix, through
+    ``close(new, old, what)`` (the caller's tolerance)."""
+    y = symbolic.augment(x)
+    pk, ps = kernel.native_params(params), symbolic.native_params(params)
+    for name in functions:
+        close(getattr(kernel.functions, name)(0.0, y, pk),
+              getattr(symbolic.functions, name)(0.0, y, ps), f"{label} {name}")
+    for name in symbolic.matrix_names:
+        close(kernel.matrix(name, 0.0, x, params), symbolic.matrix(name, 0.0, x, params),
+              f"{label} {name}")
 
 
 def random_states(compiled, seed: int, count: int) -> np.ndarray:

@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 import pytest
-from multibody_cases import random_states, with_formulation
+from multibody_cases import compare_formulations, random_states, with_formulation
 
 import porthamiltonian as ph
 from porthamiltonian import errors, io
@@ -96,16 +96,10 @@ def test_kernel_with_loops_gives_the_numbers_of_the_symbolic_formulation(pairs, 
     assert kernel.matrix_names == symbolic.matrix_names
     for values in CASES[case][1]:
         params = symbolic.params(values)
-        pk, ps = kernel.native_params(params), symbolic.native_params(params)
         states = [symbolic.initial_state(params), *random_states(symbolic, 11, 3)]
         for k, x in enumerate(states):
-            y = symbolic.augment(x)
-            for name in ("rhs", "jac", "outputs"):
-                close(getattr(kernel.functions, name)(0.0, y, pk),
-                      getattr(symbolic.functions, name)(0.0, y, ps), f"{case} {name} #{k} {values}")
-            for name in symbolic.matrix_names:
-                close(kernel.matrix(name, 0.0, x, params), symbolic.matrix(name, 0.0, x, params),
-                      f"{case} {name} #{k}")
+            compare_formulations(kernel, symbolic, x, params, close, ("rhs", "jac", "outputs"),
+                                 f"{case} #{k} {values}")
 
 
 def test_the_c_kernel_is_the_python_kernel(pairs):

@@ -24,23 +24,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from multibody_cases import random_states, tree3d_model, with_formulation
+from multibody_cases import (
+    close,
+    compare_formulations,
+    random_states,
+    tree3d_model,
+    with_formulation,
+)
 
 import porthamiltonian as ph
 from porthamiltonian import io
 from porthamiltonian.errors import CompilerError, ModelError
 from porthamiltonian.mechanics import Multibody
-
-RTOL = 1e-12
-
-
-def close(new, old, what: str, rtol: float = RTOL) -> None:
-    new, old = np.atleast_2d(np.asarray(new, float)), np.atleast_2d(np.asarray(old, float))
-    assert new.shape == old.shape, f"{what}: shape {new.shape} != {old.shape}"
-    scale = np.max(np.abs(old), axis=1, keepdims=True)
-    bound = rtol * np.maximum(np.abs(old), 0.1 * scale) + 1e-300
-    worst = np.max(np.abs(new - old) / bound)
-    assert worst <= 1.0, f"{what}: deviation {worst:.3g} x tolerance"
 
 
 def all_joints_model() -> ph.Model:
@@ -113,15 +108,9 @@ def test_kernel_gives_the_numbers_of_the_symbolic_formulation(pairs, case, backe
     assert kernel.matrix_names == symbolic.matrix_names
     params = np.array(symbolic.param_defaults, dtype=float)
     close(kernel.initial_state(params), symbolic.initial_state(params), f"{case} initial")
-    pk, ps = kernel.native_params(params), symbolic.native_params(params)
     for k, x in enumerate(random_states(symbolic, 7, 3)):
-        y = symbolic.augment(x)
-        for name in ("rhs", "jac", "energy", "outputs"):
-            close(getattr(kernel.functions, name)(0.0, y, pk),
-                  getattr(symbolic.functions, name)(0.0, y, ps), f"{case} {name} #{k}")
-        for name in symbolic.matrix_names:
-            close(kernel.matrix(name, 0.0, x, params), symbolic.matrix(name, 0.0, x, params),
-                  f"{case} {name} #{k}")
+        compare_formulations(kernel, symbolic, x, params, close,
+                             ("rhs", "jac", "energy", "outputs"), f"{case} #{k}")
 
 
 def test_kernel_jacobian_matches_central_differences(pairs):

@@ -20,13 +20,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from multibody_cases import python_cases
+from multibody_cases import close, python_cases
 
 from porthamiltonian import compile_model, io
 
 HERE = Path(__file__).resolve().parent
 REFERENCE = json.loads((HERE / "data" / "multibody_reference.json").read_text())
-RTOL = 1e-12
 #: parameter values changed in the files after the reference was recorded (their initial guess
 #: re-tuned for the legs' inertia): the reference's values
 RECORDED = {"smooth_stiffness_walker": {"theta0": 0.2634, "theta_dot0": -0.9481,
@@ -75,15 +74,6 @@ def point_legs(text: str) -> str:
     """A walker file's text with its legs' rod inertia set to 0 (point-mass legs, as the files
     were when the reference was recorded)."""
     return ROD.sub("inertia = 0", text)
-
-
-def close(new, old, what: str) -> None:
-    new, old = np.atleast_2d(np.asarray(new, float)), np.atleast_2d(np.asarray(old, float))
-    assert new.shape == old.shape, f"{what}: shape {new.shape} != {old.shape}"
-    scale = np.max(np.abs(old), axis=1, keepdims=True)
-    bound = RTOL * np.maximum(np.abs(old), 0.1 * scale) + 1e-300
-    worst = np.max(np.abs(new - old) / bound)
-    assert worst <= 1.0, f"{what}: deviation {worst:.3g} x tolerance"
 
 
 @pytest.fixture(scope="module")
