@@ -772,7 +772,7 @@ static void mb_work_views(const mb_tab *t, int D, double *ws, mb_work *k)
 }
 
 /* whether ws is a state entry's work at the duals of (q, v) that begin x (values and tangents
- * equal): then the constrained entry reuses its tree, twists and velocity forces */
+ * equal): then the constrained entry reuses its tree, twists and subtree momenta */
 static int mb_kept(const mb_tab *t, int D, const double *ws, const double *x)
 {
     const int nq = t->nq, nv = t->nv;

@@ -724,7 +724,7 @@ def _mb_work(s, D, work):
 @_jit
 def _mb_kept(s, D, work, x):
     """Whether work is a state entry's at the duals of (q, v) that begin x (values and tangents
-    equal): then the constrained entry reuses its tree, twists and velocity forces."""
+    equal): then the constrained entry reuses its tree, twists and subtree momenta."""
     nv, nq = s[1], s[2]
     if work.shape[0] != _mb_work_size(s, D) or work[0] != D:
         return False
@@ -1006,7 +1006,7 @@ def mb_constrained(s, c, values, din):
 @_jit
 def mb_constrained_reuse(s, c, values, din, work):
     """The constrained entry reusing the work of the state entry at the same (q, v) (its tree,
-    M's factors, twists and velocity forces; :func:`_mb_kept`), else computing them: (out,
+    M's factors, twists and subtree momenta; :func:`_mb_kept`), else computing them: (out,
     dout)."""
     nl, nv, nq, ns = s[0], s[1], s[2], s[3]
     m = s[4 + 4 * nl + 2 * ns]
