@@ -169,7 +169,10 @@ class SolveRows:
 class KernelInvocation:
     """What every kernel call statement holds: the routine ``entry`` of ``kernel`` on the
     integer ``table``, the ``constants`` and ``inputs`` (expressions), with ``n_outputs``
-    outputs; ``label`` names its local arrays."""
+    outputs; ``label`` names its local arrays. ``keep``: the name of the local that keeps the
+    entry's work (it calls ``<entry>_keep``), ``reuse``: the name of such a local of an earlier
+    call in the same function that this one reads (it calls ``<entry>_reuse``; see
+    :class:`porthamiltonian.modeling.calls.KernelCall`'s ``after``); "" for none."""
 
     label: str
     kernel: str
@@ -178,6 +181,8 @@ class KernelInvocation:
     constants: tuple[sp.Expr, ...]
     inputs: tuple[sp.Expr, ...]
     n_outputs: int
+    keep: str = dataclasses.field(default="", kw_only=True)
+    reuse: str = dataclasses.field(default="", kw_only=True)
 
 
 @dataclass(frozen=True)
@@ -271,16 +276,24 @@ class FunctionBuilder:
         #: the kernel calls: name -> (label, mapped constants, mapped inputs, [(index, symbol)])
         self.calls: dict[str, tuple[str, tuple[sp.Expr, ...], tuple[sp.Expr, ...],
                                     list[tuple[int, sp.Symbol]]]] = {}
+        #: the calls whose work a later call reuses (:class:`KernelInvocation`)
+        self.kept = {call.after for call in model.calls.values() if call.after}
         for name, (inputs, outs) in _call_groups(model).items():
             call = model.calls[name]
             label = f"kern{len(self.calls)}"        # its outputs: kern<i>o[k] (see program)
             constants = tuple(_float(sp.sympify(c).xreplace(mapping)) for c in call.constants)
             args = tuple(_float(sp.sympify(u).xreplace(mapping)) for u in inputs)
             self.calls[name] = (label, constants, args, outs)
+            reads = _names(constants + args)
+            reuse = ""
+            if call.after in self.calls:        # after the call whose work it reuses
+                first = self.calls[call.after]
+                reuse = f"{first[0]}w"
+                reads |= {str(mapping[w]) for _, w in first[3]}
             stmt = Call(label, call.kernel, call.entry, call.table, constants, args,
-                        call.n_outputs)
-            self.nodes.append(([str(mapping[w]) for _, w in outs], _names(constants + args),
-                               [stmt]))
+                        call.n_outputs, keep=f"{label}w" if name in self.kept else "",
+                        reuse=reuse)
+            self.nodes.append(([str(mapping[w]) for _, w in outs], reads, [stmt]))
         for index, (syms, A, b) in enumerate(model.blocks):
             n = len(syms)
             an, bn = f"A{index}", f"b{index}"
@@ -906,8 +919,14 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
         into = tuple((i, "Dw", row_of[w]) for i, w in outs if w in row_of)
         for _, _, m in into:
             dw.masks[m] = mask
+        tangents.add(call_name)
+        reuse = f"t{builder.calls[call.after][0]}w" if call.after in tangents else ""
         return [("call", CallTangent(f"t{label}", call.kernel, call.entry, call.table, constants,
-                                     inputs, call.n_outputs, ncols, tuple(rows), into))]
+                                     inputs, call.n_outputs, ncols, tuple(rows), into,
+                                     keep=f"t{label}w" if call_name in builder.kept else "",
+                                     reuse=reuse))]
+
+    tangents: set[str] = set()              # the calls whose tangents are computed so far
 
     cursor = done = 0
 

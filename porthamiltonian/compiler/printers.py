@@ -234,10 +234,7 @@ def _python_statement(st: Statement, pr: Callable[[sp.Basic], str], lines: list[
     elif isinstance(st, SolveRows):
         lines.append(f"    {st.R} = np.linalg.solve({st.A}, {st.R})")
     elif isinstance(st, Call):
-        lines.append(f"    {st.label}o = {st.entry}({_table_name(st.table)}, "
-                     f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
-                     f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
-                     "np.zeros((1, 0)))[0]")
+        lines += _python_call(st, pr, "np.zeros((1, 0))", "o", 0)
     elif isinstance(st, CallTangent):
         d = f"{st.label}d"
         lines.append(f"    {d} = np.zeros(({len(st.inputs)}, {st.ncols}))")
@@ -245,13 +242,25 @@ def _python_statement(st: Statement, pr: Callable[[sp.Basic], str], lines: list[
             if row is not None:
                 lines.append(f"    {d}[{j}, {row[1]}] = 1.0" if row[0] == "x" else
                              f"    {d}[{j}, :] = {row[0]}[{row[1]}, :]")
-        lines.append(f"    {st.label}e = {st.entry}({_table_name(st.table)}, "
-                     f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
-                     f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
-                     f"{d})[1]")
+        lines += _python_call(st, pr, d, "e", 1)
         lines += [f"    {array}[{m}, :] = {st.label}e[{k}, :]" for k, array, m in st.into]
     else:  # pragma: no cover
         raise TypeError(st)
+
+
+def _python_call(st: Call | CallTangent, pr: Callable[[sp.Basic], str], din: str, suffix: str,
+                 which: int) -> list[str]:
+    """A kernel call's Python lines: ``<label><suffix>`` its result ``which`` (0 the outputs, 1
+    their tangents); with ``keep`` also its work, with ``reuse`` the work it reads."""
+    entry = f"{st.entry}_keep" if st.keep else f"{st.entry}_reuse" if st.reuse else st.entry
+    call = (f"{entry}({_table_name(st.table)}, "
+            f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
+            f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
+            f"{din}{', ' + st.reuse if st.reuse else ''})")
+    if not st.keep:
+        return [f"    {st.label}{suffix} = {call}[{which}]"]
+    return [f"    {st.label}r = {call}", f"    {st.label}{suffix} = {st.label}r[{which}]",
+            f"    {st.keep} = {st.label}r[2]"]
 
 
 _KERNEL_ARRAY = re.compile(r"kern\d+o$")
@@ -582,10 +591,16 @@ def c_function(fn: Function, printer: CPrinter | None = None,
         elif isinstance(st, Call):
             lines += _c_call_arrays(st, pr)
             lines.append(f"    double {st.label}o[{max(st.n_outputs, 1)}];")
-            lines.append(f"    ph_{st.entry}({st.label}s, {st.label}c, {st.label}i, {st.label}o, 0, "
-                         "NULL, NULL);")
+            if st.keep:
+                lines.append(f"    double *{st.keep} = NULL;")
+                heap.append(st.keep)
+            lines.append(f"    ph_{_c_entry_name(st)}({st.label}s, {st.label}c, {st.label}i, "
+                         f"{st.label}o, 0, NULL, NULL{_c_work(st)});")
         elif isinstance(st, CallTangent):
             n, label = st.ncols, st.label
+            if st.keep:
+                lines.append(f"    double *{st.keep} = NULL;")
+                heap.append(st.keep)
             lines.append("    {")
             lines += ["    " + line for line in _c_call_arrays(st, pr)]
             lines += [f"        double {label}o[{max(st.n_outputs, 1)}];",
@@ -596,8 +611,8 @@ def c_function(fn: Function, printer: CPrinter | None = None,
                     lines.append(f"        {label}d[{j * n + row[1]}] = 1.0;" if row[0] == "x" else
                                  f"        memcpy({label}d + {j * n}, {row[0]} + {row[1] * n}, "
                                  f"sizeof(double) * {n});")
-            lines.append(f"        ph_{st.entry}({label}s, {label}c, {label}i, {label}o, {n}, "
-                         f"{label}d, {label}e);")
+            lines.append(f"        ph_{_c_entry_name(st)}({label}s, {label}c, {label}i, {label}o, "
+                         f"{n}, {label}d, {label}e{_c_work(st)});")
             lines += [f"        memcpy({array} + {m * n}, {label}e + {k * n}, sizeof(double) * {n});"
                       for k, array, m in st.into]
             lines += [f"        free({label}d);", f"        free({label}e);", "    }"]
@@ -606,6 +621,16 @@ def c_function(fn: Function, printer: CPrinter | None = None,
     lines += [f"    free({name});" for name in heap]
     lines.append("}")
     return "\n".join(lines)
+
+
+def _c_entry_name(st: Call | CallTangent) -> str:
+    """The C entry a kernel call runs (``<entry>_keep``, ``<entry>_reuse`` or ``<entry>``)."""
+    return f"{st.entry}_keep" if st.keep else f"{st.entry}_reuse" if st.reuse else st.entry
+
+
+def _c_work(st: Call | CallTangent) -> str:
+    """The work argument of a call that keeps or reuses work ("" otherwise)."""
+    return f", &{st.keep}" if st.keep else f", {st.reuse}" if st.reuse else ""
 
 
 def _c_call_arrays(st: Call | CallTangent, pr: Callable[[sp.Basic], str]) -> list[str]:

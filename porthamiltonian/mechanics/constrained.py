@@ -81,7 +81,8 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
     form's cut build) and ``kinematics(w)`` is K(q) w. Declares
     the blocks, the outputs ``reaction.<constraint>.<row>`` (the multipliers: N, N m),
     ``phi.<constraint>.<row>`` (the holonomic residuals), ``active.<constraint>`` and the
-    matrices ``G`` (all rows) and ``G.<constraint>`` (for impacts). ``where`` names the
+    matrices ``G`` (all rows), ``G.<constraint>`` (for impacts) and ``S`` (the rows' switches,
+    m x 1: read by the rank check before anything solves with the rows). ``where`` names the
     multibody in errors."""
     n, m = len(v), len(rows)
     G = _matrix(rows, n, where)
@@ -109,16 +110,17 @@ def constrain(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence, M: sp.M
 
 def constrain_kernel(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence,
                      Q: list, rates: list, kinematics: Callable[[Sequence], list], gain: Any,
-                     where: str, solve: Callable[[list, int], list]) -> tuple[list, list]:
+                     where: str, solve: Callable[[list, int, list], list]
+                     ) -> tuple[list, list]:
     """:func:`constrain` for a tree evaluated by the kernel (:mod:`.kernel`): the same equations,
     the saddle-point systems solved at run time by the kernel's ``mb_constrained`` entry
-    (``solve(inputs, m)``, :meth:`.kernel_tables.KernelTree.constrained`) on the kernel's
+    (``solve(inputs, m, pattern)``, :meth:`.kernel_tables.KernelTree.constrained`) on the kernel's
     factorisation of M — Y = M⁻¹ (SG)ᵀ, a₀ = M⁻¹ (f − Ṁ v), the m x m Schur complement
     SG Y − (1 − S), ν = (SG Y − (1 − S))⁻¹ (SG a₀ − r), and the position correction from the same
     complement — with its Jacobian by implicit differentiation inside the kernel. Only the rows'
     φ, G and Ġ v are written out (from the tree's positions); the kernel's inputs are
-    (q, v, f, SG (m x n, row-major), 1 − S, r = −S (Ġ v + γ G v), S φ), its outputs
-    (ṗ = f + Gᵀ S λ, λ, Δv)."""
+    (q, v, f, SG (G's structural nonzeros, row by row: ``pattern``), 1 − S,
+    r = −S (Ġ v + γ G v), S φ), its outputs (ṗ = f + Gᵀ S λ, λ, Δv)."""
     n, m = len(v), len(rows)
     G = _matrix(rows, n, where)
     active = [r.active for r in rows]
@@ -129,14 +131,14 @@ def constrain_kernel(b: Builder, rows: Sequence[Row], q: Sequence, v: Sequence,
         return b.intermediate(f"mb.{name}", expr)
 
     f = [named(f"f{k}", Q[k]) for k in range(n)]
-    SG = [named(f"SG.{i}.{k}", active[i] * G[i, k]) if G[i, k] != 0 else sp.S.Zero
-          for i in range(m) for k in range(n)]
+    pattern = [(i, k) for i in range(m) for k in range(n) if G[i, k] != 0]
+    SG = [named(f"SG.{i}.{k}", active[i] * G[i, k]) for i, k in pattern]
     free = [named(f"free{i}", 1 - s) for i, s in enumerate(active)]
     r = [named(f"bias{i}", -s * (gd + gain * gv)) for i, (s, gd, gv)
          in enumerate(zip(active, Gdot_v, Gv))]
     h = [named(f"residual{i}", s * row.phi) if correct and row.holonomic else sp.S.Zero
          for i, (s, row) in enumerate(zip(active, rows))]
-    out = solve([*q, *v, *f, *SG, *free, *r, *h], m)
+    out = solve([*q, *v, *f, *SG, *free, *r, *h], m, pattern)
     lam, dv = out[n:n + m], out[n + m:]
     if correct:
         rates = [a + c for a, c in zip(rates, kinematics([gain * d for d in dv]))]
@@ -216,6 +218,7 @@ def _declare(b: Builder, rows: Sequence[Row], G: sp.Matrix, lam: Sequence, Gv: S
         b.output(f"active.{name}", rows[indices[0]].active, "1")
         b.matrix(f"G.{name}", G.extract(indices, list(range(G.shape[1]))))
     b.matrix("G", G)
+    b.matrix("S", sp.Matrix([row.active for row in rows]))
 
 
 def _listing(rows: Sequence[Row]) -> str:

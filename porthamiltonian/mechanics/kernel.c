@@ -44,7 +44,7 @@
 #endif
 
 enum { MB_ROT = 0, MB_TRANS = 1, MB_SPH = 2, MB_FREE = 3 };
-enum { MB_LINK = 16, MB_STACK = 16384 };
+enum { MB_LINK = 16, MB_STACK = 16384, MB_HEAD = 8 };
 
 typedef struct {
     int nl, nv, nq, ns;
@@ -606,13 +606,13 @@ static void mb_bias(int D, const mb_tab *t, const double *R, const double *p, co
 }
 
 /* e = S^T (ad_T^T Pi + F) = Pi^T ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the velocity
- * products Mdot v) from the velocities v: the twists and subtree momenta (w, lin, L, P) and the
- * Newton-Euler wrenches F formed here */
+ * products Mdot v) from the velocities v: the twists and subtree momenta (w, lin, L, P) formed
+ * here (given: kept, the state entry's work) and the Newton-Euler wrenches F */
 static void mb_products(int D, const mb_tab *t, const double *R, const double *p, const double *v,
                         const double *acc, double *w, double *lin, double *L, double *P, double *A,
-                        double *F, double *e)
+                        double *F, int kept, double *e)
 {
-    mb_velocities(D, t, R, p, v, w, lin, L, P);
+    if (!kept) mb_velocities(D, t, R, p, v, w, lin, L, P);
     mb_bias(D, t, R, p, v, acc, w, lin, A, F);
     for (int k = 0; k < t->nl; ++k) {
         const int i = 3 * D * k;
@@ -673,28 +673,11 @@ static void mb_lu_solve(int m, const double *A, const int *piv, int D, int j0, d
     }
 }
 
-/* the entries (i, k) of Ga (duals xG, m x n) with a nonzero value or tangent: the structural
- * nonzeros, rows in nz[0 .. count), columns in nz[m n ..); returns count */
-static int mb_pattern(int D, int m, int n, const double *xG, int *nz)
-{
-    int count = 0;
-    for (int i = 0; i < m; ++i)
-        for (int k = 0; k < n; ++k)
-            for (int j = 0; j < D; ++j)
-                if (xG[(i * n + k) * D + j] != 0.0) {
-                    nz[count] = i;
-                    nz[m * n + count] = k;
-                    ++count;
-                    break;
-                }
-    return count;
-}
-
 /* The saddle-point system [M Ga^T; Ga C] [a; nu] = [X; Z] solved in place (X <- a, Z <- nu) for the
  * columns j0 .. D - 1 of X (n x D) and Z (m x D) by the Schur complement: with the factors H of M,
  * Y = M^-1 Ga^T (n x m) and Sc = Ga Y - C (m x m, factored by mb_lu), a' = M^-1 X,
- * nu = Sc^-1 (Ga a' - Z), a = a' - Y nu (Ga's nonzeros: nz, nnz of mb_pattern; not full: nu only,
- * X left at a') */
+ * nu = Sc^-1 (Ga a' - Z), a = a' - Y nu (Ga's structural nonzeros: the nnz (row, column) pairs nz;
+ * not full: nu only, X left at a') */
 static void mb_saddle(int D, int j0, int n, int m, const int *lam, const double *H,
                       const double *Ga, const int *nz, int nnz, const double *Y, const double *Sc,
                       const int *piv, double *X, double *Z, int full)
@@ -703,7 +686,7 @@ static void mb_saddle(int D, int j0, int n, int m, const int *lam, const double 
     for (int i = 0; i < m; ++i)
         for (int col = j0; col < D; ++col) Z[i * D + col] = -Z[i * D + col];
     for (int e = 0; e < nnz; ++e) {
-        const int i = nz[e], k = nz[m * n + e];
+        const int i = nz[2 * e], k = nz[2 * e + 1];
         const double g = Ga[i * n + k];
         for (int col = j0; col < D; ++col) Z[i * D + col] += g * X[k * D + col];
     }
@@ -718,7 +701,7 @@ static void mb_saddle(int D, int j0, int n, int m, const int *lam, const double 
 
 /* The right-hand sides of a saddle solution's tangents (columns 1 .. D - 1): T -= d(M a)|_a (the
  * tangents of dm) + dGa^T nu, Z -= dGa a + dC nu, for the solution (a, nu) (numbers) and the duals
- * of Ga (xG, m x n; its nonzeros nz, nnz) and of C's diagonal (xC) */
+ * of Ga's nonzeros (xG, in the order of the pairs nz) and of C's diagonal (xC) */
 static void mb_saddle_tangents(int D, int n, int m, const double *xG, const double *xC,
                                const int *nz, int nnz, const double *a, const double *nu,
                                const double *dm, double *T, double *Z)
@@ -728,8 +711,8 @@ static void mb_saddle_tangents(int D, int n, int m, const double *xG, const doub
     for (int i = 0; i < m; ++i)
         for (int j = 1; j < D; ++j) Z[i * D + j] -= xC[i * D + j] * nu[i];
     for (int e = 0; e < nnz; ++e) {
-        const int i = nz[e], k = nz[m * n + e];
-        const double *g = xG + (i * n + k) * D;
+        const int i = nz[2 * e], k = nz[2 * e + 1];
+        const double *g = xG + e * D;
         for (int j = 1; j < D; ++j) {
             T[k * D + j] -= g[j] * nu[i];
             Z[i * D + j] -= g[j] * a[k];
@@ -766,21 +749,61 @@ MB_INLINE void mb_emit(int D, const double *x, double *out, double *dout)
     for (int j = 1; j < D; ++j) dout[j - 1] = x[j];
 }
 
-static size_t mb_state_size(const mb_tab *t, int D)
+/* The state entry's work, kept for the constrained entry (ph_mb_state_keep,
+ * ph_mb_constrained_reuse): ws[0] = D (the header: 8 doubles, so that the arrays keep the
+ * buffer's alignment), then the duals R, p, R0, p0, g (gravity in the links' frames), hc, w,
+ * lin, L, P, the values mc, Jc, M (factored) and the duals x (q, p) and v */
+typedef struct { double *R, *p, *R0, *p0, *g, *hc, *w, *lin, *L, *P, *mc, *Jc, *M, *x, *v; } mb_work;
+
+static size_t mb_work_size(const mb_tab *t, int D)
 {
-    return (size_t)t->nl * (48 * D + 10) + (size_t)t->nv * (t->nv + 7) + (size_t)(t->nv + t->nq) * D
-           + 3 * (size_t)t->nv * D + 3 * (size_t)D;
+    return MB_HEAD + (size_t)D * (size_t)(t->nq + 2 * t->nv + 42 * t->nl) + 10 * (size_t)t->nl
+           + (size_t)t->nv * (size_t)t->nv;
 }
 
+static void mb_work_views(const mb_tab *t, int D, double *ws, mb_work *k)
+{
+    const int nl = t->nl, nv = t->nv;
+    k->R = ws + MB_HEAD; k->p = k->R + 9 * D * nl; k->R0 = k->p + 3 * D * nl;
+    k->p0 = k->R0 + 9 * D * nl; k->g = k->p0 + 3 * D * nl; k->hc = k->g + 3 * D * nl;
+    k->w = k->hc + 3 * D * nl; k->lin = k->w + 3 * D * nl; k->L = k->lin + 3 * D * nl;
+    k->P = k->L + 3 * D * nl; k->mc = k->P + 3 * D * nl; k->Jc = k->mc + nl; k->M = k->Jc + 9 * nl;
+    k->x = k->M + nv * nv; k->v = k->x + (t->nq + nv) * D;
+}
+
+/* whether ws is a state entry's work at the duals of (q, v) that begin x (values and tangents
+ * equal): then the constrained entry reuses its tree, twists and subtree momenta */
+static int mb_kept(const mb_tab *t, int D, const double *ws, const double *x)
+{
+    const int nq = t->nq, nv = t->nv;
+    if (ws == NULL || ws[0] != D) return 0;
+    mb_work kw;
+    mb_work_views(t, D, (double *)ws, &kw);
+    for (int i = 0; i < nq * D; ++i)
+        if (kw.x[i] != x[i]) return 0;
+    for (int i = 0; i < nv * D; ++i)
+        if (kw.v[i] != x[nq * D + i]) return 0;
+    return 1;
+}
+
+static size_t mb_state_size(const mb_tab *t, int D)
+{
+    return mb_work_size(t, D) + (size_t)D + 7 * (size_t)t->nv + 2 * (size_t)t->nv * D;
+}
+
+/* the state entry (ph_mb_state) in ws (mb_state_size: its work, mb_work, first) */
 MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const double *din,
                             double *out, double *dout, double *ws, int *lam)
 {
     const int nl = t->nl, nv = t->nv, nq = t->nq, K = D - 1;
-    double *R = ws, *p = R + 9 * D * nl, *R0 = p + 3 * D * nl, *p0 = R0 + 9 * D * nl;
-    double *g = p0 + 3 * D * nl, *hc = g + 3 * D * nl, *w = hc + 3 * D * nl, *lin = w + 3 * D * nl;
-    double *L = lin + 3 * D * nl, *P = L + 3 * D * nl, *mc = P + 3 * D * nl, *Jc = mc + nl;
-    double *M = Jc + 9 * nl, *x = M + nv * nv, *v = x + (nq + nv) * D, *V = v + nv * D;
-    double *S0 = V + D, *xv = S0 + 6 * nv, *y = xv + nv, *ev = y + nv * D;
+    mb_work kw;
+    mb_work_views(t, D, ws, &kw);
+    ws[0] = D;
+    double *R = kw.R, *p = kw.p, *R0 = kw.R0, *p0 = kw.p0, *g = kw.g, *hc = kw.hc, *w = kw.w;
+    double *lin = kw.lin, *L = kw.L, *P = kw.P, *mc = kw.mc, *Jc = kw.Jc, *M = kw.M, *x = kw.x;
+    double *v = kw.v;
+    double *V = ws + mb_work_size(t, D), *S0 = V + D, *xv = S0 + 6 * nv, *y = xv + nv;
+    double *ev = y + nv * D;
     mb_seed(D, nq + nv, in, din, x);
     mb_tree(D, t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
     d_copy(nv * D, v, x + nq * D);
@@ -855,7 +878,8 @@ MB_INLINE void mb_state_run(int D, const mb_tab *t, const double *in, const doub
     }
 }
 
-static MB_FLATTEN void mb_state_value(const mb_tab *t, const double *in, double *out, double *ws, int *lam)
+static MB_FLATTEN void mb_state_value(const mb_tab *t, const double *in, double *out, double *ws,
+                                     int *lam)
 {
     mb_state_run(1, t, in, NULL, out, NULL, ws, lam);
 }
@@ -887,6 +911,20 @@ MB_ENTRY void ph_mb_state(const int *s, const double *c, const double *in, doubl
     if (K == 0) mb_state_value(&t, in, out, ws, lam);
     else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam);
     free(ws);
+}
+
+/* ph_mb_state, its work (mb_work) kept in *work for ph_mb_constrained_reuse: the caller frees it */
+MB_ENTRY void ph_mb_state_keep(const int *s, const double *c, const double *in, double *out, int K,
+                             const double *din, double *dout, double **work)
+{
+    mb_tab t;
+    mb_read(s, c, &t);
+    int lam[t.nv > 0 ? 2 * t.nv : 1];
+    double *ws = malloc(sizeof(double) * mb_state_size(&t, 1 + K));
+    if (ws == NULL) abort();
+    if (K == 0) mb_state_value(&t, in, out, ws, lam);
+    else mb_state_tangent(1 + K, &t, in, din, out, dout, ws, lam);
+    *work = ws;
 }
 
 MB_INLINE void mb_load_run(int D, const mb_tab *t, const double *in, const double *din,
@@ -957,56 +995,71 @@ MB_ENTRY void ph_mb_load(const int *s, const double *c, const double *in, double
     free(ws);
 }
 
-/* The constrained entry: in = (q, v, f (the momentum rates with the ports' loads), Ga = S G
- * (m x nv, row-major), C = 1 - S (m), r = -S (Gdot v + gamma G v) (m), h = S phi (m)), m the
- * table's last integer; out = (pdot = f - Ga^T nu, lambda = -nu, the position correction dv) of
+/* The constrained entry: in = (q, v, f (the momentum rates with the ports' loads), Ga = S G (its
+ * structural nonzeros), C = 1 - S (m), r = -S (Gdot v + gamma G v) (m), h = S phi (m)); the table
+ * ends with m, the count nnz of Ga's structural nonzeros and their (row, column) pairs; out = (pdot = f - Ga^T nu, lambda = -nu, the position correction dv) of
  * the saddle-point systems [M Ga^T; Ga C] [a; nu] = [f - Mdot v; r] and [M Ga^T; Ga C] [dv; mu] =
  * [0; -h], solved by the Schur complement on the factors of M; their tangents by implicit
  * differentiation (the same systems with the differentiated right-hand sides). */
 MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const double *in,
-                                  double *out, const double *din, double *dout)
+                                  double *out, const double *din, double *dout, const double *kept)
 {
     mb_tab t;
     mb_read(s, c, &t);
     const int nl = t.nl, nv = t.nv, nq = t.nq, m = s[4 + 4 * nl + 2 * t.ns], K = D - 1;
-    const int n_in = nq + 2 * nv + m * nv + 3 * m;
-    const size_t size = (size_t)nl * 54 * D + (size_t)nl * 46 + (size_t)nv * (nv + 6)
-                        + (size_t)n_in * D + (size_t)nv * (5 * D + 4) + (size_t)m * (2 * nv + m + 2)
-                        + (size_t)m * 4 * D;
-    double *ws = malloc(sizeof(double) * size);
-    int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 2 * m * nv + 1));
+    const int nnz = s[5 + 4 * nl + 2 * t.ns], *nz = s + 6 + 4 * nl + 2 * t.ns;
+    const int n_in = nq + 2 * nv + nnz + 3 * m;
+    const size_t size = (size_t)nl * 24 * D + (size_t)nl * 36 + (size_t)nv * 10 + (size_t)n_in * D
+                        + (size_t)nv * 4 * D + (size_t)m * (2 * nv + m + 2) + (size_t)m * 2 * D;
+    double *ws = malloc(sizeof(double) * size), *own = NULL;
+    int *iw = malloc(sizeof(int) * (size_t)(2 * nv + m + 1));
     if (ws == NULL || iw == NULL) abort();
-    double *R = ws, *p = R + 9 * D * nl, *R0 = p + 3 * D * nl, *p0 = R0 + 9 * D * nl;
-    double *hc = p0 + 3 * D * nl, *w = hc + 3 * D * nl, *lin = w + 3 * D * nl, *L = lin + 3 * D * nl;
-    double *P = L + 3 * D * nl, *A = P + 3 * D * nl, *F = A + 6 * D * nl, *mc = F + 6 * D * nl;
-    double *Jc = mc + nl, *M = Jc + 9 * nl, *S0 = M + nv * nv, *x = S0 + 6 * nv;
-    double *v = x + n_in * D, *y = v + nv * D, *T = y + nv * D, *Tc = T + nv * D, *dm = Tc + nv * D;
+    double *A = ws, *F = A + 6 * D * nl, *w2 = F + 6 * D * nl, *lin2 = w2 + 3 * D * nl;
+    double *L2 = lin2 + 3 * D * nl, *P2 = L2 + 3 * D * nl, *S0 = P2 + 3 * D * nl, *x = S0 + 6 * nv;
+    double *y = x + n_in * D, *T = y + nv * D, *Tc = T + nv * D, *dm = Tc + nv * D;
     double *acc = dm + nv * D, *shift = acc + nv, *zero = shift + nv, *vv = zero + nv;
     double *Rv = vv + nv, *pv = Rv + 9 * nl, *wv = pv + 3 * nl, *lv = wv + 3 * nl, *Lv = lv + 3 * nl;
-    double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl, *Ga = Fv + 6 * nl;
-    double *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m, *Z = mu + m;
-    double *Zc = Z + m * D;
-    int *lam = iw, *piv = iw + 2 * nv, *nz = piv + m;
-    const double *xF = x + (nq + nv) * D, *xG = x + (nq + 2 * nv) * D, *xC = xG + m * nv * D;
+    double *Pv = Lv + 3 * nl, *Av = Pv + 3 * nl, *Fv = Av + 6 * nl;
+    double *Ga = Fv + 6 * nl, *Y = Ga + m * nv, *Sc = Y + nv * m, *nu = Sc + m * m, *mu = nu + m;
+    double *Z = mu + m, *Zc = Z + m * D;
+    int *lam = iw, *piv = iw + 2 * nv;
+    const double *xF = x + (nq + nv) * D, *xG = x + (nq + 2 * nv) * D, *xC = xG + nnz * D;
     const double *xB = xC + m * D, *xH = xC + 2 * m * D;
     mb_seed(D, n_in, in, din, x);
-    mb_tree(D, &t, x, R, p, R0, p0, mc, hc, Jc, S0, M, lam);
-    d_copy(nv * D, v, x + nq * D);      /* the velocities (and tangents) are inputs */
+    const int reuse = mb_kept(&t, D, kept, x);
+    mb_work kw;
+    if (reuse) {
+        mb_work_views(&t, D, (double *)kept, &kw);       /* read only */
+        mb_lambda(&t, lam, lam + nv);
+    } else {
+        own = malloc(sizeof(double) * mb_work_size(&t, D));
+        if (own == NULL) abort();
+        mb_work_views(&t, D, own, &kw);
+        mb_tree(D, &t, x, kw.R, kw.p, kw.R0, kw.p0, kw.mc, kw.hc, kw.Jc, S0, kw.M, lam);
+        d_copy(nv * D, kw.v, x + nq * D);      /* the velocities (and tangents) are inputs */
+    }
+    const double *R = kw.R, *p = kw.p, *v = kw.v, *M = kw.M;
     /* values: b = f - Mdot v for the accelerations' right-hand side */
     mb_values(D, 9 * nl, R, Rv);
     mb_values(D, 3 * nl, p, pv);
     mb_values(D, nv, v, vv);
+    mb_values(D, 3 * nl, kw.w, wv);
+    mb_values(D, 3 * nl, kw.lin, lv);
+    mb_values(D, 3 * nl, kw.L, Lv);
+    mb_values(D, 3 * nl, kw.P, Pv);
     for (int k = 0; k < nv; ++k) zero[k] = 0.0;
-    mb_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, acc);
+    mb_products(1, &t, Rv, pv, vv, zero, wv, lv, Lv, Pv, Av, Fv, reuse, acc);
     for (int k = 0; k < nv; ++k) acc[k] = xF[k * D] - acc[k];
-    const int nnz = mb_pattern(D, m, nv, xG, nz);
-    for (int i = 0; i < m; ++i)
-        for (int k = 0; k < nv; ++k) Y[k * m + i] = Ga[i * nv + k] = xG[(i * nv + k) * D];
+    for (int i = 0; i < m * nv; ++i) Y[i] = Ga[i] = 0.0;
+    for (int z = 0; z < nnz; ++z) {
+        const int i = nz[2 * z], k = nz[2 * z + 1];
+        Y[k * m + i] = Ga[i * nv + k] = xG[z * D];
+    }
     mb_solve(m, 0, nv, lam, lam + nv, M, Y);
     for (int i = 0; i < m; ++i)
         for (int j = 0; j < m; ++j) Sc[i * m + j] = i == j ? -xC[i * D] : 0.0;
     for (int z = 0; z < nnz; ++z) {       /* Sc = Ga Y - C */
-        const int i = nz[z], k = nz[m * nv + z];
+        const int i = nz[2 * z], k = nz[2 * z + 1];
         for (int j = 0; j < m; ++j) Sc[i * m + j] += Ga[i * nv + k] * Y[k * m + j];
     }
     mb_lu(m, Sc, piv);
@@ -1015,12 +1068,12 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
     mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, acc, nu, 1);
     mb_saddle(1, 0, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, shift, mu, 1);
     if (K > 0) {        /* the saddle systems differentiated: the same matrix, new right-hand sides */
-        mb_products(D, &t, R, p, v, acc, w, lin, L, P, A, F, dm);    /* tangents at fixed a */
+        mb_products(D, &t, R, p, v, acc, kw.w, kw.lin, kw.L, kw.P, A, F, reuse, dm);
         d_copy(nv * D, T, xF);
         d_copy(m * D, Z, xB);
         mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, acc, nu, dm, T, Z);
         mb_saddle(D, 1, nv, m, lam, M, Ga, nz, nnz, Y, Sc, piv, T, Z, 0);
-        mb_times_m(D, &t, R, p, shift, w, lin, L, P, y, dm);
+        mb_times_m(D, &t, R, p, shift, w2, lin2, L2, P2, y, dm);   /* (the kept work stays) */
         for (int i = 0; i < nv * D; ++i) Tc[i] = 0.0;
         for (int i = 0; i < m * D; ++i) Zc[i] = -xH[i];
         mb_saddle_tangents(D, nv, m, xG, xC, nz, nnz, shift, mu, dm, Tc, Zc);
@@ -1035,8 +1088,8 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
         }
     }
     for (int z = 0; z < nnz; ++z) {
-        const int i = nz[z], k = nz[m * nv + z];
-        const double *g = xG + (i * nv + k) * D;
+        const int i = nz[2 * z], k = nz[2 * z + 1];
+        const double *g = xG + z * D;
         out[k] -= Ga[i * nv + k] * nu[i];
         for (int j = 0; j < K; ++j) dout[k * K + j] -= g[1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j];
     }
@@ -1045,25 +1098,36 @@ MB_INLINE void mb_constrained_run(int D, const int *s, const double *c, const do
         for (int j = 0; j < K; ++j) dout[(nv + i) * K + j] = -Z[i * D + 1 + j];
     }
     free(iw);
+    free(own);
     free(ws);
 }
 
-static void mb_constrained_value(const int *s, const double *c, const double *in, double *out)
+static void mb_constrained_value(const int *s, const double *c, const double *in, double *out,
+                                 const double *kept)
 {
-    mb_constrained_run(1, s, c, in, out, NULL, NULL);
+    mb_constrained_run(1, s, c, in, out, NULL, NULL, kept);
 }
 
 static void mb_constrained_tangent(int D, const int *s, const double *c, const double *in,
-                                   double *out, const double *din, double *dout)
+                                   double *out, const double *din, double *dout, const double *kept)
 {
-    mb_constrained_run(D, s, c, in, out, din, dout);
+    mb_constrained_run(D, s, c, in, out, din, dout, kept);
 }
 
 MB_ENTRY void ph_mb_constrained(const int *s, const double *c, const double *in, double *out,
                                 int K, const double *din, double *dout)
 {
-    if (K == 0) mb_constrained_value(s, c, in, out);
-    else mb_constrained_tangent(1 + K, s, c, in, out, din, dout);
+    if (K == 0) mb_constrained_value(s, c, in, out, NULL);
+    else mb_constrained_tangent(1 + K, s, c, in, out, din, dout, NULL);
+}
+
+/* ph_mb_constrained reusing the work of ph_mb_state_keep at the same (q, v) (mb_kept; else
+ * computing it) */
+MB_ENTRY void ph_mb_constrained_reuse(const int *s, const double *c, const double *in, double *out,
+                                      int K, const double *din, double *dout, const double *work)
+{
+    if (K == 0) mb_constrained_value(s, c, in, out, work);
+    else mb_constrained_tangent(1 + K, s, c, in, out, din, dout, work);
 }
 
 /* Position-level values (no tangents): what = 0: the mass matrix M(q) (nv x nv, row-major);

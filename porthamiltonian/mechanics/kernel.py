@@ -40,8 +40,9 @@ V, then per site: kind 0 (point) world position and velocity (6), kind 1 (frame)
 (ω, v) in its link's axes (6), kind 2 (world frame) world position, angular velocity and
 velocity in world axes (9)). ``mb_load`` — in (q, per site a wrench (τ, f) about the site, in world
 axes, or the link's axes for kind 1); out the generalized forces Sᵀ W (nv). ``mb_constrained``
-(the table's last integer m, no sites) — in (q, v, f the momentum rates with the ports' loads,
-Ga = S G (m x nv, row-major), C = 1 − S (m), r = −S (Ġ v + γ G v) (m), h = S φ (m)); out
+(no sites; the table ends with m, the count of Ga's structural nonzeros and their (row, column)
+pairs) — in (q, v, f the momentum rates with the ports' loads, Ga = S G (its structural
+nonzeros, in the table's order), C = 1 − S (m), r = −S (Ġ v + γ G v) (m), h = S φ (m)); out
 (ṗ = f − Gaᵀ ν, λ = −ν, Δv) of the saddle-point systems [M Gaᵀ; Ga C] [a; ν] = [f − Ṁ v; r]
 and [M Gaᵀ; Ga C] [Δv; μ] = [0; −h] (porthamiltonian/mechanics/constrained.py), solved by the
 Schur complement Ga M⁻¹ Gaᵀ − C on the factors of M, with Ṁ v = Πᵀ ad_T S + C(q, v) from a
@@ -697,21 +698,65 @@ def _mb_state_outputs(s):
 
 
 @_jit
+def _mb_work_size(s, D):
+    """The length of a state entry's work (:func:`_mb_work`) at D = 1 + K."""
+    nl, nv, nq = s[0], s[1], s[2]
+    return 1 + (nq + 2 * nv + 39 * nl) * D + 10 * nl + nv * nv
+
+
+@_jit
+def _mb_work(s, D, work):
+    """The state entry's work, kept for the constrained entry (mb_state_keep,
+    mb_constrained_reuse): work[0] = D, then views of the duals x (q, p), v, R, p, R0, p0, hc,
+    w, lin, L, P and of the values mc, Jc, M (factored)."""
+    nl, nv, nq = s[0], s[1], s[2]
+    o = np.zeros(15, dtype=np.int64)
+    sizes = ((nq + nv) * D, nv * D, 9 * D * nl, 3 * D * nl, 9 * D * nl, 3 * D * nl, 3 * D * nl,
+             3 * D * nl, 3 * D * nl, 3 * D * nl, 3 * D * nl, nl, 9 * nl, nv * nv)
+    o[0] = 1
+    for i in range(14):
+        o[i + 1] = o[i] + sizes[i]
+    return (work[o[0]:o[1]], work[o[1]:o[2]], work[o[2]:o[3]], work[o[3]:o[4]], work[o[4]:o[5]],
+            work[o[5]:o[6]], work[o[6]:o[7]], work[o[7]:o[8]], work[o[8]:o[9]], work[o[9]:o[10]],
+            work[o[10]:o[11]], work[o[11]:o[12]], work[o[12]:o[13]], work[o[13]:o[14]])
+
+
+@_jit
+def _mb_kept(s, D, work, x):
+    """Whether work is a state entry's at the duals of (q, v) that begin x (values and tangents
+    equal): then the constrained entry reuses its tree, twists and subtree momenta."""
+    nv, nq = s[1], s[2]
+    if work.shape[0] != _mb_work_size(s, D) or work[0] != D:
+        return False
+    for i in range(nq * D):
+        if work[1 + i] != x[i]:
+            return False
+    iv = 1 + (nq + nv) * D
+    for i in range(nv * D):
+        if work[iv + i] != x[nq * D + i]:
+            return False
+    return True
+
+
+@_jit
 def mb_state(s, c, values, din):
     """The state entry (see the module docstring): (out, dout)."""
+    out, dout, _ = mb_state_keep(s, c, values, din)
+    return out, dout
+
+
+@_jit
+def mb_state_keep(s, c, values, din):
+    """The state entry and its work (:func:`_mb_work`): (out, dout, work)."""
     nl, nv, nq, ns = s[0], s[1], s[2], s[3]
     K = din.shape[1]
     D = 1 + K
     out = np.zeros(_mb_state_outputs(s))
     dout = np.zeros((out.shape[0], K))
-    R, p = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
-    R0, p0 = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
-    g, hc = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
-    w, lin = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
-    L, P = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
-    mc, Jc, M = np.zeros(nl), np.zeros(9 * nl), np.zeros(nv * nv)
-    x = np.zeros((nq + nv) * D)
-    v = np.zeros(nv * D)
+    work = np.zeros(_mb_work_size(s, D))
+    work[0] = D
+    x, v, R, p, R0, p0, hc, w, lin, L, P, mc, Jc, M = _mb_work(s, D, work)
+    g = np.zeros(3 * D * nl)
     a, u = np.zeros(3), np.zeros(3)
     e = np.zeros(6 * D)
     _mb_seed(D, nq + nv, values, din, x)
@@ -783,7 +828,7 @@ def mb_state(s, c, values, din):
         for j in range(m):
             _mb_emit(D, buf, j * D, out, dout, o + j)
         o += m
-    return out, dout
+    return out, dout, work
 
 
 @_jit
@@ -832,12 +877,13 @@ def mb_load(s, c, values, din):
 
 
 @_jit
-def _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, e):
+def _mb_products(D, s, c, R, p, v, acc, w, lin, L, P, A, F, kept, e):
     """e = Sᵀ (ad_Tᵀ Π + F) = Πᵀ ad_T S + M(q) acc + C(q, v) (nv duals; with acc = 0 the
     velocity products Ṁ v) from the velocities v: the twists and subtree momenta (w, lin, L, P)
-    and the Newton–Euler wrenches F formed here."""
+    formed here (given: ``kept``, the state entry's work) and the Newton–Euler wrenches F."""
     a, u = np.zeros(3), np.zeros(3)
-    _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
+    if not kept:
+        _mb_velocities(D, s, c, R, p, v, w, lin, L, P)
     _mb_bias(D, s, c, R, p, v, acc, w, lin, A, F)
     for k in range(s[0]):
         iw, ia = 3 * D * k, 6 * D * k
@@ -895,19 +941,15 @@ def _mb_lu_solve(m, A, piv, D, j0, x):
 
 
 @_jit
-def _mb_pattern(D, m, n, x, iG):
-    """The entries (i, k) of Ga (duals at x[iG:], m x n) with a nonzero value or tangent: the
-    structural nonzeros (rows, columns, count)."""
-    rows, cols = np.zeros(m * n, dtype=np.int64), np.zeros(m * n, dtype=np.int64)
-    count = 0
-    for i in range(m):
-        for k in range(n):
-            for j in range(D):
-                if x[iG + (i * n + k) * D + j] != 0.0:
-                    rows[count], cols[count] = i, k
-                    count += 1
-                    break
-    return rows, cols, count
+def _mb_pattern(s):
+    """The structural nonzeros (i, k) of Ga (m x nv) from the constrained entry's table: (rows,
+    columns, count); Ga's inputs are their values in this order."""
+    at = 4 + 4 * s[0] + 2 * s[3] + 1
+    nnz = s[at]
+    rows, cols = np.zeros(nnz, dtype=np.int64), np.zeros(nnz, dtype=np.int64)
+    for e in range(nnz):
+        rows[e], cols[e] = s[at + 1 + 2 * e], s[at + 2 + 2 * e]
+    return rows, cols, nnz
 
 
 @_jit
@@ -940,7 +982,7 @@ def _mb_saddle(D, j0, n, m, lam, run, H, Ga, nz_i, nz_k, nnz, Y, Sc, piv, X, Z, 
 def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
     """The right-hand sides of a saddle solution's tangents (columns 1 .. D − 1): T −= d(M a)|_a
     (the tangents of dm) + dGaᵀ ν, Z −= dGa a + dC ν, for the solution (a, ν) (numbers) and the
-    duals of Ga at x[iG:] (m x n; its nonzeros nz_i, nz_k, nnz) and of C's diagonal at x[iC:]."""
+    duals of Ga's nonzeros (nz_i, nz_k, nnz) at x[iG:] and of C's diagonal at x[iC:]."""
     for k in range(n):
         for j in range(1, D):
             T[k * D + j] -= dm[k * D + j]
@@ -949,7 +991,7 @@ def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
             Z[i * D + j] -= x[iC + i * D + j] * nu[i]
     for e in range(nnz):
         i, k = nz_i[e], nz_k[e]
-        g = iG + (i * n + k) * D
+        g = iG + e * D
         for j in range(1, D):
             T[k * D + j] -= x[g + j] * nu[i]
             Z[i * D + j] -= x[g + j] * a[k]
@@ -958,41 +1000,51 @@ def _mb_saddle_tangents(D, n, m, x, iG, iC, nz_i, nz_k, nnz, a, nu, dm, T, Z):
 @_jit
 def mb_constrained(s, c, values, din):
     """The constrained entry (see the module docstring): (out, dout)."""
+    return mb_constrained_reuse(s, c, values, din, np.zeros(1))
+
+
+@_jit
+def mb_constrained_reuse(s, c, values, din, work):
+    """The constrained entry reusing the work of the state entry at the same (q, v) (its tree,
+    M's factors, twists and subtree momenta; :func:`_mb_kept`), else computing them: (out,
+    dout)."""
     nl, nv, nq, ns = s[0], s[1], s[2], s[3]
     m = s[4 + 4 * nl + 2 * ns]
+    nz_i, nz_k, nnz = _mb_pattern(s)
     K = din.shape[1]
     D = 1 + K
-    n_in = nq + 2 * nv + m * nv + 3 * m
+    n_in = nq + 2 * nv + nnz + 3 * m
     iF, iG = (nq + nv) * D, (nq + 2 * nv) * D
-    iC = iG + m * nv * D
+    iC = iG + nnz * D
     iB, iH = iC + m * D, iC + 2 * m * D
     out = np.zeros(2 * nv + m)
     dout = np.zeros((2 * nv + m, K))
-    R, p = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
-    R0, p0 = np.zeros(9 * D * nl), np.zeros(3 * D * nl)
-    hc, w, lin = np.zeros(3 * D * nl), np.zeros(3 * D * nl), np.zeros(3 * D * nl)
-    L, P = np.zeros(3 * D * nl), np.zeros(3 * D * nl)
     A, F = np.zeros(6 * D * nl), np.zeros(6 * D * nl)
-    mc, Jc, M = np.zeros(nl), np.zeros(9 * nl), np.zeros(nv * nv)
     x = np.zeros(n_in * D)
-    v = np.zeros(nv * D)
     _mb_seed(D, n_in, values, din, x)
-    lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
-    _mb_copy(v, 0, x, nq * D, nv * D)          # the velocities (and tangents) are inputs
+    kept = _mb_kept(s, D, work, x)
+    if not kept:
+        work = np.zeros(_mb_work_size(s, D))
+    _, v, R, p, R0, p0, hc, w, lin, L, P, mc, Jc, M = _mb_work(s, D, work)
+    if kept:
+        lam, run = _mb_lambda(s)
+    else:
+        lam, run = _mb_tree(D, s, c, x, R, p, R0, p0, mc, hc, Jc, M)
+        _mb_copy(v, 0, x, nq * D, nv * D)          # the velocities (and tangents) are inputs
     # values: b = f − Ṁ v for the accelerations' right-hand side
     Rv, pv, vv = _mb_values(R, D, 9 * nl), _mb_values(p, D, 3 * nl), _mb_values(v, D, nv)
     acc_a, nu = np.zeros(nv), np.zeros(m)            # the accelerations and ν = −λ
-    _mb_products(1, s, c, Rv, pv, vv, np.zeros(nv), np.zeros(3 * nl), np.zeros(3 * nl),
-                 np.zeros(3 * nl), np.zeros(3 * nl), np.zeros(6 * nl), np.zeros(6 * nl), acc_a)
+    _mb_products(1, s, c, Rv, pv, vv, np.zeros(nv), _mb_values(w, D, 3 * nl),
+                 _mb_values(lin, D, 3 * nl), _mb_values(L, D, 3 * nl), _mb_values(P, D, 3 * nl),
+                 np.zeros(6 * nl), np.zeros(6 * nl), kept, acc_a)
     for k in range(nv):
         acc_a[k] = x[iF + k * D] - acc_a[k]
-    nz_i, nz_k, nnz = _mb_pattern(D, m, nv, x, iG)
     Ga, Y, Sc = np.zeros(m * nv), np.zeros(nv * m), np.zeros(m * m)
     piv = np.zeros(m, dtype=np.int64)
-    for i in range(m):
-        for k in range(nv):
-            Ga[i * nv + k] = x[iG + (i * nv + k) * D]
-            Y[k * m + i] = Ga[i * nv + k]
+    for e in range(nnz):
+        i, k = nz_i[e], nz_k[e]
+        Ga[i * nv + k] = x[iG + e * D]
+        Y[k * m + i] = Ga[i * nv + k]
     _mb_solve(m, 0, nv, lam, run, M, Y)
     for i in range(m):
         Sc[i * m + i] = -x[iC + i * D]
@@ -1011,11 +1063,13 @@ def mb_constrained(s, c, values, din):
     Tc, Zc = np.zeros(nv * D), np.zeros(m * D)
     if K > 0:           # the saddle system differentiated: the same matrix, new right-hand sides
         dm = np.zeros(nv * D)           # Πᵀ ad_T S + M a + C(q, v): its tangents at fixed a
-        _mb_products(D, s, c, R, p, v, acc_a, w, lin, L, P, A, F, dm)
+        _mb_products(D, s, c, R, p, v, acc_a, w, lin, L, P, A, F, kept, dm)
         _mb_copy(T, 0, x, iF, nv * D)
         _mb_copy(Z, 0, x, iB, m * D)
         _mb_saddle_tangents(D, nv, m, x, iG, iC, nz_i, nz_k, nnz, acc_a, nu, dm, T, Z)
         _mb_saddle(D, 1, nv, m, lam, run, M, Ga, nz_i, nz_k, nnz, Y, Sc, piv, T, Z, False)
+        w, lin, L, P = (np.zeros(3 * D * nl), np.zeros(3 * D * nl), np.zeros(3 * D * nl),
+                        np.zeros(3 * D * nl))       # (the kept work stays as it is)
         _mb_times_m(D, s, c, R, p, shift, w, lin, L, P, dm)
         for i in range(m * D):
             Zc[i] = -x[iH + i]
@@ -1029,7 +1083,7 @@ def mb_constrained(s, c, values, din):
             dout[nv + m + k, j] = Tc[k * D + 1 + j]
     for e in range(nnz):
         i, k = nz_i[e], nz_k[e]
-        g = iG + (i * nv + k) * D
+        g = iG + e * D
         out[k] -= Ga[i * nv + k] * nu[i]
         for j in range(K):
             dout[k, j] -= x[g + 1 + j] * nu[i] + Ga[i * nv + k] * Z[i * D + 1 + j]

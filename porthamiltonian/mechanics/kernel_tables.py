@@ -121,12 +121,14 @@ class KernelTree:
         out = self._call("mb.poses", "mb_poses", sites, list(q), 7 * len(sites))
         return [(out[7 * i:7 * i + 3], out[7 * i + 3:7 * i + 7]) for i in range(len(sites))]
 
-    def constrained(self, inputs: list, m: int) -> list:
+    def constrained(self, inputs: list, m: int, pattern: Sequence[tuple[int, int]]) -> list:
         """The constrained momentum rates, the multipliers and the position correction (see
-        :func:`.constrained.constrain_kernel` for ``inputs``; m rows): 2 nv + m outputs."""
+        :func:`.constrained.constrain_kernel` for ``inputs``; m rows, ``pattern`` the (row,
+        column) of each entry of G given): 2 nv + m outputs."""
         ints, numbers = self.table([])
-        return self.b.call("mb.constrained", "multibody", "mb_constrained", [*ints, m], numbers,
-                           inputs, 2 * self.nv + m)
+        ints += [m, len(pattern), *(j for entry in pattern for j in entry)]
+        return self.b.call("mb.constrained", "multibody", "mb_constrained", ints, numbers,
+                           inputs, 2 * self.nv + m, after="mb.state")
 
     def momenta(self, q: Sequence, v: Sequence) -> list:
         """M(q) v (for the initial momenta from parameter expressions)."""

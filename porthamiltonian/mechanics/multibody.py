@@ -31,9 +31,9 @@ the same numbers (docs/multibody.md):
   Jacobian follows by the chain rule through the intermediates;
 * ``"auto"`` (default): the kernel when an axis is not along a coordinate axis or the tree has
   more than :data:`KERNEL_LINKS` links (and its tables depend on parameters only), else
-  symbolic; a tree with ``loops`` or ``constraints`` is written out (symbolic) unless
-  ``formulation = "kernel"``, with which the kernel solves the constrained equations too
-  (:func:`.constrained.constrain_kernel`).
+  symbolic; a tree with ``loops`` or ``constraints`` goes to the kernel only when it has more
+  than :data:`KERNEL_LINKS` links (:func:`auto_kernel`), where the kernel solves the
+  constrained equations too (:func:`.constrained.constrain_kernel`).
 
 Frames and conventions
 ----------------------
@@ -94,7 +94,8 @@ multiplier λ solved from the index-reduced equations in the generated code, wit
 stabilized at the rate ``constraint_gain``. Outputs ``<name>.reaction.<constraint>.<row>`` (the
 constraint forces and torques), ``<name>.phi.<constraint>.<row>`` (the residuals),
 ``<name>.velocity.<constraint>.<row>`` (G v), ``<name>.active.<constraint>``; matrices
-``<name>.G`` and ``<name>.G.<constraint>`` (for impacts onto a constraint).
+``<name>.G``, ``<name>.G.<constraint>`` (for impacts onto a constraint) and ``<name>.S`` (the
+rows' switches).
 
 Limits: bodies are given by their inertial data, not by shapes.
 """
@@ -128,15 +129,14 @@ FORMULATIONS = ("auto", "kernel", "symbolic")
 def auto_kernel(axes: list, parametric: bool, closed: bool = False) -> bool:
     """What ``formulation = "auto"`` picks for a tree of elementary links with these ``axes``
     (None for a link without one): the kernel when its tables depend on parameters only
-    (``parametric``), it has no loops or constraints (``closed``) and an axis is not along a
-    coordinate axis (±) or there are more than :data:`KERNEL_LINKS` links. A closed tree is
-    written out: the kernel builds it faster (the 10-loop ladder of
-    benchmarks/bench_closed_loops.py in about half the CPU time) but runs it about 2.5x slower
-    per step (0.28–0.34 of the open tree's speed, at the 1/3 the closed-loop benchmarks ask,
-    against 0.64–0.79 written out);
-    ``formulation = "kernel"`` chooses it."""
+    (``parametric``) and there are more than :data:`KERNEL_LINKS` links, or, without loops or
+    constraints (``closed``), an axis is not along a coordinate axis (±). A small closed tree
+    is written out (the shipped loop models: the saddle-point solve in generated code is the
+    faster there); a large one goes to the kernel, which builds the 10-loop ladder of
+    benchmarks/bench_closed_loops.py (30 links) in about half the CPU time of the written-out
+    equations and runs it at about 1/3 of the open tree's speed per step (benchmarks/RESULTS.md)."""
     generic = any(axis is not None and sum(1 for a in axis if a != 0) > 1 for axis in axes)
-    return parametric and not closed and (generic or len(axes) > KERNEL_LINKS)
+    return parametric and (len(axes) > KERNEL_LINKS or (generic and not closed))
 
 
 def _formulation(value: Any) -> None:

@@ -11,7 +11,7 @@ import hashlib
 from functools import cache
 from pathlib import Path
 
-from ..modeling.calls import KERNELS
+from ..modeling.calls import KERNELS, WORK
 
 _HERE = Path(__file__).parent
 #: kernel name -> (Python template, C template), files of this package
@@ -62,11 +62,15 @@ def c_object_source(kernel: str) -> str:
 
 
 def c_declarations(kernel: str) -> str:
-    """The declarations of ``kernel``'s entries, for a translation unit that calls them."""
-    entries = sorted(KERNELS[kernel][0] | KERNELS[kernel][1])
+    """The declarations of ``kernel``'s entries, for a translation unit that calls them (with
+    the ``_keep`` and ``_reuse`` twins of :data:`~porthamiltonian.modeling.calls.WORK`'s)."""
+    keeps, reuses = WORK.get(kernel, (set(), set()))
+    entries = [(entry, "") for entry in sorted(KERNELS[kernel][0] | KERNELS[kernel][1])]
+    entries += [(f"{entry}_keep", ", double **work") for entry in sorted(keeps)]
+    entries += [(f"{entry}_reuse", ", const double *work") for entry in sorted(reuses)]
     return _HIDDEN + "".join(
         f"PH_HIDDEN void ph_{entry}(const int *s, const double *c, const double *in, double *out, "
-        "int K, const double *din, double *dout);\n" for entry in entries)
+        f"int K, const double *din, double *dout{work});\n" for entry, work in entries)
 
 
 @cache

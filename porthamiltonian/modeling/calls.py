@@ -27,6 +27,9 @@ from sympy.core.symbol import Str
 KERNELS = {
     "multibody": ({"mb_state", "mb_load", "mb_constrained"}, {"mb_mass", "mb_jacobians", "mb_poses", "mb_momenta"}),
 }
+#: kernel name -> entries that can keep their work, entries that can reuse it (see
+#: :class:`KernelCall`'s ``after``): the printers call ``<entry>_keep`` and ``<entry>_reuse``
+WORK = {"multibody": ({"mb_state"}, {"mb_constrained"})}
 
 
 class KernelOutput(sp.Function):
@@ -58,7 +61,12 @@ class KernelCall:
     ``name``: qualified, unique in the model (``component.name``); ``kernel`` and ``entry``: the
     routine (one of :data:`KERNELS`); ``table``: its integers; ``constants``: parameter
     expressions; ``n_inputs``, ``n_outputs``: the sizes of its vectors; ``tangents``: whether the
-    entry propagates tangent directions (else its outputs may not reach the state equations).
+    entry propagates tangent directions (else its outputs may not reach the state equations);
+    ``after``: the name of an earlier call of the same kernel whose outputs this call reads and
+    whose work it may reuse (:data:`WORK`; e.g. the constrained entry of a multibody after its
+    state entry: the tree, M's factors and the twists at the same (q, v) are computed once). The
+    kernel checks that the work is at its own inputs (else it computes it), so sharing never
+    changes a number.
     """
 
     name: str
@@ -69,6 +77,7 @@ class KernelCall:
     n_inputs: int
     n_outputs: int
     tangents: bool
+    after: str = ""
 
 
 def outputs(call: str, inputs: list[Any], n_outputs: int) -> list[sp.Expr]:
@@ -78,4 +87,4 @@ def outputs(call: str, inputs: list[Any], n_outputs: int) -> list[sp.Expr]:
     return [KernelOutput(tag, sp.Integer(k), *args) for k in range(n_outputs)]
 
 
-__all__ = ["KERNELS", "KernelCall", "KernelOutput", "outputs"]
+__all__ = ["KERNELS", "WORK", "KernelCall", "KernelOutput", "outputs"]

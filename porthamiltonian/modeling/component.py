@@ -40,7 +40,7 @@ from ..errors import (
     UnknownComponentError,
     UnknownPortError,
 )
-from .calls import KERNELS, KernelCall
+from .calls import KERNELS, WORK, KernelCall
 from .calls import outputs as call_outputs
 from .constraints import RULES, Constraint, violation
 from .expressions import TIME, as_expr, check_name, parse, to_text
@@ -289,18 +289,28 @@ class Builder:
         return symbols
 
     def call(self, name: str, kernel: str, entry: str, table: list[int], constants: list[Any],
-             inputs: list[Any], n_outputs: int) -> list[sp.Symbol]:
+             inputs: list[Any], n_outputs: int, after: str = "") -> list[sp.Symbol]:
         """Outputs computed by a compiled kernel (:mod:`porthamiltonian.modeling.calls`): the
         routine ``entry`` of ``kernel`` with the integer ``table``, the ``constants``
         (expressions in the parameters only) and the ``inputs`` (expressions in states, port
         variables, intermediates). Returns the intermediates ``component.name.<k>`` of its
         ``n_outputs`` outputs; the compiler differentiates through the call by the kernel's own
-        tangents (entries that have none may not reach the state equations)."""
+        tangents (entries that have none may not reach the state equations). ``after``: the
+        name of an earlier call of this component whose work this one may reuse
+        (:class:`~porthamiltonian.modeling.calls.KernelCall`)."""
         if kernel not in KERNELS or entry not in KERNELS[kernel][0] | KERNELS[kernel][1]:
             raise ModelError(f"component {self.name!r}: unknown kernel entry {kernel}.{entry}")
         qualified = self._qualified(name)
         if qualified in self.built.calls:
             raise ModelError(f"component {self.name!r} declares call {name!r} twice")
+        if after:
+            after = self._qualified(after)
+            first = self.built.calls.get(after)
+            keeps, reuses = WORK.get(kernel, (set(), set()))
+            if (first is None or first.kernel != kernel or first.entry not in keeps
+                    or entry not in reuses):
+                raise ModelError(f"component {self.name!r}: call {name!r} cannot reuse the work "
+                                 f"of {after!r}")
         constants = [as_expr(c) for c in constants]
         for value in constants:
             stray = value.free_symbols - (set(self._names.values()) - self._inputs)
@@ -309,7 +319,7 @@ class Builder:
                                  f"parameters only, not on {', '.join(sorted(map(str, stray)))}")
         self.built.calls[qualified] = KernelCall(
             qualified, kernel, entry, tuple(int(v) for v in table), tuple(constants), len(inputs),
-            n_outputs, entry in KERNELS[kernel][0])
+            n_outputs, entry in KERNELS[kernel][0], after)
         return [self.intermediate(f"{name}.{k}", expr)
                 for k, expr in enumerate(call_outputs(qualified, list(inputs), n_outputs))]
 

@@ -2,7 +2,7 @@
 
 A multibody with loops or constraints (:mod:`porthamiltonian.mechanics.closure`) publishes its
 constraint Jacobian ``<mb>.G`` (rows over its velocities), the holonomic residuals
-``<mb>.phi.<constraint>.<row>``, the switches ``<mb>.active.<constraint>`` and its mass matrix
+``<mb>.phi.<constraint>.<row>``, the rows' switches ``<mb>.S`` and its mass matrix
 ``<mb>.M``. From those, numerically (no sympy):
 
 * :func:`consistent` — the state nearest to a given one on the constraint manifold, in the mass
@@ -144,23 +144,16 @@ def _moved(x: np.ndarray, rows: ConstraintRows, dv: np.ndarray) -> np.ndarray:
 def _system(model: CompiledModel, rows: ConstraintRows, t: float, x: np.ndarray,
             p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(M, G of the active rows, their residuals (0 for velocity-level rows), the active row
-    indices) at a point. The outputs solve the constrained equations (the reactions); where
-    they cannot (a singular saddle-point matrix: dependent rows), the rank check names the rows
-    (all taken as active)."""
-    try:
-        y = model.outputs(t, x, p)
-    except (np.linalg.LinAlgError, ZeroDivisionError, ArithmeticError):
-        y = None
-    if y is None or not np.all(np.isfinite(y)):
-        everything = np.arange(len(rows.rows))
-        check_rank(model, rows, model.matrix(f"{rows.name}.G", t, x, p), everything)
-        if y is None:
-            y = model.outputs(t, x, p)            # raises the back end's own error
-    on = [i for i, k in enumerate(rows.active) if y[k] > 0.5]
+    indices) at a point. The active rows (the switches ``<mb>.S``) are checked for rank first
+    (:func:`check_rank`), before the outputs solve the constrained equations with them (a
+    singular saddle-point matrix: dependent rows)."""
+    on = np.flatnonzero(model.matrix(f"{rows.name}.S", t, x, p)[:, 0] > 0.5)
     G = model.matrix(f"{rows.name}.G", t, x, p)[on]
+    check_rank(model, rows, G, on)
+    y = model.outputs(t, x, p)
     M = model.matrix(f"{rows.name}.M", t, x, p)
     phi = np.array([y[rows.phi[i]] if rows.phi[i] >= 0 else 0.0 for i in on])
-    return M, G, phi, np.array(on, dtype=int)
+    return M, G, phi, on
 
 
 def _saddle(M: np.ndarray, G: np.ndarray, top: np.ndarray, bottom: np.ndarray) -> np.ndarray:
@@ -209,7 +202,6 @@ def _assemble(model: CompiledModel, rows: ConstraintRows, x: np.ndarray, p: np.n
               t: float, warn: bool) -> np.ndarray:
     scale = _scale(model, rows, x)
     M, G, phi, on = _system(model, rows, t, x, p)
-    check_rank(model, rows, G, on)
     first = float(np.max(np.abs(phi))) if phi.size else 0.0
     residual, moved = first, 0.0
     start = x.copy()
@@ -231,7 +223,6 @@ def _assemble(model: CompiledModel, rows: ConstraintRows, x: np.ndarray, p: np.n
                          f"largest: {bad}): the constraints are inconsistent there; give "
                          "initial coordinates nearer a closed configuration")
     moved = float(np.max(np.abs(x[list(rows.q)] - start[list(rows.q)]))) if rows.q else 0.0
-    check_rank(model, rows, G, on)
     pidx = list(rows.p)
     v = np.linalg.solve(M, x[pidx])
     error = float(np.max(np.abs(G @ v))) if len(on) else 0.0

@@ -245,3 +245,55 @@ def test_a_heel_strike_with_the_knee_bent_is_a_fall(walker):
     x = s.info["trajectory"].x[-1]
     assert x[walker.model.state_index("walker.q.knee")] > 0.3   # flexed 0.343 rad
     assert walker.output("walker.swing_foot.x", x) > 0.05   # in front of the stance foot (at 0)
+
+
+# --- a loop engaged by a rule ---------------------------------------------------------------------
+LOCK = '''[components.walker.constraints.knee_lock]
+type = "lock"
+joint = "knee"
+active = "knee_locked"'''
+#: the same lock as a loop-closing joint: a translational joint between the swing thigh and
+#: shank at the knee, free in the plane (axes x, z), so its only row is the relative rotation's,
+#: phi = sin(q_knee) (the lock's row times cos(q_knee) = 1 at extension)
+LOOP = '''[components.walker.loops.knee_lock]
+type = "translational"
+parent = "swing_thigh"
+child = "swing_shank"
+origin = [0, 0, "-(a2 + b2)"]
+axes = ["x", "z"]
+active = "knee_locked"'''
+
+
+def test_a_loop_engaged_by_a_rule_locks_the_knee_as_the_constraint_does(walker, gait, two_steps,
+                                                                      tmp_path):
+    """The rule ``engage = "walker.knee_lock"`` on a loop (the knee's lock written as a loop joint,
+    ``LOOP``) instead of a constraint: the knee strike's plastic impact onto the loop's row, then
+    the loop active until the heel strike. From the gait's fixed point the stride is the lock's:
+    the knee strike's loss (Kelvin's, the same projection) to 1e-9 relative and the next section
+    state to 1e-9; the ledger closes (1e-9 of the energy dissipated); between the engagement and
+    the heel strike the loop stays closed: its residual and its velocity row at the heel strike
+    ≤ 1e-9 (rad, rad/s), the knee rate zero just after the engagement (1e-12)."""
+    text = (Path(__file__).parents[2] / "models" / "kneed_walker.toml").read_text()
+    assert LOCK in text
+    path = tmp_path / "kneed_walker_loop.toml"
+    path.write_text(text.replace(LOCK, LOOP))
+    looped = load_walker(path)
+    model = looped.model
+    assert "walker.phi.knee_lock.wy" in model.output_names
+    z = np.array([gait.fixed_point[n] for n in walker.section])
+    (stride,) = looped.walk(z, 1)
+    ref = two_steps[0]
+    assert stride.status.value == "step"
+    assert stride.z_next == pytest.approx(ref.z_next, abs=1e-9)
+    (knee,) = _fired([stride], "knee_strike")
+    lost = knee.info["impact_energy_lost"]
+    assert lost == pytest.approx(_fired([ref], "knee_strike")[0].info["impact_energy_lost"],
+                                 rel=1e-9)
+    assert knee.p_plus[model.param_names.index("knee_locked")] == 1.0
+    _, _, rates = _masses(looped, knee.x_plus, knee.p_plus)
+    assert rates[2] - rates[1] == pytest.approx(0.0, abs=1e-12)
+    assert abs(stride.energy_residual) < 1e-9 * stride.energy_dissipated
+    (heel,) = _fired([stride], "heel_strike")
+    y = model.outputs(heel.t, heel.x_minus, heel.p_minus)
+    for name in ("walker.phi.knee_lock.wy", "walker.velocity.knee_lock.wy"):
+        assert abs(y[model.output_index(name)]) < 1e-9, name
