@@ -17,6 +17,7 @@ the other back ends are (the conventions of :mod:`porthamiltonian.integrators`).
 """
 from __future__ import annotations
 
+import threading
 import types as pytypes
 import warnings
 from collections.abc import Callable, Mapping
@@ -32,6 +33,10 @@ HEADER = ("import math\nimport numpy as np\nfrom numba import njit as _njit\n"
           "_jit = _njit(cache=True)\n")
 #: The model functions a loop calls, in the order of its argument ``fn``.
 LOOP_FUNCTIONS = ("rhs", "jac", "guards", "jac_p")
+#: One compile at a time in a process: two threads starting the same loop (the Floquet pair's
+#: runs) compile it once, and the warnings filter set around a compile is not undone by the
+#: other thread's compile finishing first.
+_COMPILING = threading.Lock()
 
 
 def loops_text() -> str:
@@ -95,15 +100,18 @@ class BoundLoop:
         from numba.core.errors import NumbaExperimentalFeatureWarning
 
         arguments = (types.float64, types.float64[::1], types.float64[::1])
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-            signatures = []
-            for f in self.fn:
-                f.compile(arguments)
-                signatures.append(types.FunctionType(f.overloads[arguments].signature))
-            full = (types.Tuple(signatures), *(_numba_type(k) for k in self.kinds))
-            self.entry.compile(full)
-        self._run = self.entry.overloads[full].entry_point
+        with _COMPILING:
+            if self._run is not None:              # compiled by another thread meanwhile
+                return self._run
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
+                signatures = []
+                for f in self.fn:
+                    f.compile(arguments)
+                    signatures.append(types.FunctionType(f.overloads[arguments].signature))
+                full = (types.Tuple(signatures), *(_numba_type(k) for k in self.kinds))
+                self.entry.compile(full)
+            self._run = self.entry.overloads[full].entry_point
         return self._run
 
 
