@@ -252,8 +252,7 @@ def _python_call(st: Call | CallTangent, pr: Callable[[sp.Basic], str], din: str
                  which: int) -> list[str]:
     """A kernel call's Python lines: ``<label><suffix>`` its result ``which`` (0 the outputs, 1
     their tangents); with ``keep`` also its work, with ``reuse`` the work it reads."""
-    entry = f"{st.entry}_keep" if st.keep else f"{st.entry}_reuse" if st.reuse else st.entry
-    call = (f"{entry}({_table_name(st.table)}, "
+    call = (f"{_entry_name(st)}({_table_name(st.table)}, "
             f"np.array([{', '.join(pr(c) for c in st.constants)}], dtype=np.float64), "
             f"np.array([{', '.join(pr(u) for u in st.inputs)}], dtype=np.float64), "
             f"{din}{', ' + st.reuse if st.reuse else ''})")
@@ -594,7 +593,7 @@ def c_function(fn: Function, printer: CPrinter | None = None,
             if st.keep:
                 lines.append(f"    double *{st.keep} = NULL;")
                 heap.append(st.keep)
-            lines.append(f"    ph_{_c_entry_name(st)}({st.label}s, {st.label}c, {st.label}i, "
+            lines.append(f"    ph_{_entry_name(st)}({st.label}s, {st.label}c, {st.label}i, "
                          f"{st.label}o, 0, NULL, NULL{_c_work(st)});")
         elif isinstance(st, CallTangent):
             n, label = st.ncols, st.label
@@ -611,7 +610,7 @@ def c_function(fn: Function, printer: CPrinter | None = None,
                     lines.append(f"        {label}d[{j * n + row[1]}] = 1.0;" if row[0] == "x" else
                                  f"        memcpy({label}d + {j * n}, {row[0]} + {row[1] * n}, "
                                  f"sizeof(double) * {n});")
-            lines.append(f"        ph_{_c_entry_name(st)}({label}s, {label}c, {label}i, {label}o, "
+            lines.append(f"        ph_{_entry_name(st)}({label}s, {label}c, {label}i, {label}o, "
                          f"{n}, {label}d, {label}e{_c_work(st)});")
             lines += [f"        memcpy({array} + {m * n}, {label}e + {k * n}, sizeof(double) * {n});"
                       for k, array, m in st.into]
@@ -623,8 +622,9 @@ def c_function(fn: Function, printer: CPrinter | None = None,
     return "\n".join(lines)
 
 
-def _c_entry_name(st: Call | CallTangent) -> str:
-    """The C entry a kernel call runs (``<entry>_keep``, ``<entry>_reuse`` or ``<entry>``)."""
+def _entry_name(st: Call | CallTangent) -> str:
+    """The kernel entry a call runs (``<entry>_keep``, ``<entry>_reuse`` or ``<entry>``; ``ph_``
+    before it in C)."""
     return f"{st.entry}_keep" if st.keep else f"{st.entry}_reuse" if st.reuse else st.entry
 
 
