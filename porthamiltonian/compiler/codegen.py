@@ -259,6 +259,9 @@ class FunctionBuilder:
         self.mapped = _Mapped(mapping)
         #: fold the pure aliases of every function (:func:`_aliases_folded`)
         self.fold = fold
+        #: the derivatives the program's Jacobians took, by (expression, variable): they share
+        #: most of them (:func:`jacobian_function`)
+        self.derivatives: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] = {}
         regular = [(w, e) for w, e in model.intermediates if not isinstance(e, KernelOutput)]
         pre: list[sp.Expr] = [expr for _, expr in regular]
         for _, A, b in model.blocks:
@@ -529,14 +532,17 @@ def _check_call(model: SymbolicModel, name: str, call_name: str, w: sp.Symbol,
             "component's formulation = 'symbolic' to differentiate by them")
 
 
-def jacobian(exprs: list[sp.Expr], variables: list[sp.Symbol]) -> list[tuple[int, int, sp.Expr]]:
+def jacobian(exprs: list[sp.Expr], variables: list[sp.Symbol],
+             memo: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] | None = None
+             ) -> list[tuple[int, int, sp.Expr]]:
     """The nonzero entries (i, j, ∂exprs[i]/∂variables[j]), row by row and in column order
-    within a row, each expression differentiated only by the variables it contains."""
+    within a row, each expression differentiated only by the variables it contains (``memo``:
+    the derivatives found so far, :func:`~porthamiltonian.modeling.differentiation.derivative`)."""
     index = {v: j for j, v in enumerate(variables)}
     out = []
     for i, expr in enumerate(exprs):
         for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.__getitem__):
-            d = derivative(expr, v)
+            d = derivative(expr, v, memo)
             if d != 0:
                 out.append((i, index[v], d))
     return out
@@ -864,6 +870,7 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
     # with kernel calls (many outputs read by outputs and matrices only), rows only for what
     # exprs read; without, every intermediate (the walkers' code kept as it was)
     reads = _reads(model, exprs) if model.calls else {w for w, _ in model.intermediates}
+    memo = builder.derivatives
     rows = [(w, e) for w, e in model.intermediates if w in reads]     # the rows of Dw
     ws = [w for w, _ in rows]
     nrows, ncols, nw = len(exprs), len(variables), len(ws)
@@ -876,8 +883,9 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
         if w in calls and e.call not in barriers.values():
             _check_call(model, name, e.call, w, variables)
             barriers[m] = e.call
-    groups: list[tuple[Any, ...]] = [("entries", "out", jacobian(exprs, variables), (nrows, ncols))]
-    chain = jacobian(defs, ws)                  # (m, j, ∂w_m/∂w_j) by rows: j < m
+    groups: list[tuple[Any, ...]] = [("entries", "out", jacobian(exprs, variables, memo),
+                                      (nrows, ncols))]
+    chain = jacobian(defs, ws, memo)            # (m, j, ∂w_m/∂w_j) by rows: j < m
     chain_rows = [m for m, _, _ in chain]
     dw = _Columns(nw)
     chain_ranges: list[tuple[int, int]] = []
@@ -946,7 +954,7 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
         return out
 
     if nw:
-        entries = jacobian(defs, variables)
+        entries = jacobian(defs, variables, memo)
         dw.set(entries)
         groups.append(("entries", "Dw", entries, (nw, ncols)))
         groups += rows_upto(ends[0])
@@ -960,12 +968,12 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
             A = sp.diag(*[blk[1] for blk in members])
             b = sp.Matrix.vstack(*[blk[2] for blk in members])
             res = list(b - A * sp.Matrix(vs))
-            entries, product = jacobian(res, variables), jacobian(res, ws)
+            entries, product = jacobian(res, variables, memo), jacobian(res, ws, memo)
             r = _Columns(nv)
             r.set(entries)
             dw_ranges = dw.ranges()
             dw.add(r, product)
-            earlier = [(array, jacobian(res, prior), prior, prior_cols)
+            earlier = [(array, jacobian(res, prior, memo), prior, prior_cols)
                        for array, prior, prior_cols in solved]
             for _, part, _, prior_cols in earlier:
                 prior_cols.add(r, part)
@@ -983,14 +991,15 @@ def jacobian_function(builder: FunctionBuilder, model: SymbolicModel, name: str,
             unknown_at.update((v, (R, i, r)) for i, v in enumerate(vs))
         lo, hi = ends[s - 1], ends[s]
         for array, vs_t, r_t in solved:
-            velocity = [(lo + i, j, e) for i, j, e in jacobian(defs[lo:hi], vs_t)]
+            velocity = [(lo + i, j, e) for i, j, e in jacobian(defs[lo:hi], vs_t, memo)]
             groups.append(("product", "Dw", velocity, (nw, len(vs_t)), array, ncols,
                            r_t.ranges()))
             r_t.add(dw, velocity)
         groups += rows_upto(hi)
     groups += rows_upto(nw)
-    groups.append(("product", "out", jacobian(exprs, ws), (nrows, nw), "Dw", ncols, dw.ranges()))
-    groups += [("product", "out", jacobian(exprs, vs_t), (nrows, len(vs_t)), array, ncols,
+    groups.append(("product", "out", jacobian(exprs, ws, memo), (nrows, nw), "Dw", ncols,
+                   dw.ranges()))
+    groups += [("product", "out", jacobian(exprs, vs_t, memo), (nrows, len(vs_t)), array, ncols,
                 r_t.ranges()) for array, vs_t, r_t in solved]
     if chain:
         groups[1:1] = [("array", "g", [e for _, _, e in chain], (len(chain),)),

@@ -20,25 +20,43 @@ import sympy as sp
 from .expressions import TIME
 
 
-def derivative(expr: sp.Expr, v: sp.Symbol) -> sp.Expr:
+def derivative(expr: sp.Expr, v: sp.Symbol,
+               memo: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] | None = None) -> sp.Expr:
     """∂expr/∂v: sums, products and numeric powers by hand (the bulk of generated expressions,
-    about ten times faster than sympy's general ``diff``), anything else by ``sympy.diff``."""
+    about ten times faster than sympy's general ``diff``), anything else by ``sympy.diff``.
+
+    ``memo``: the derivatives found so far, by (expression, variable), filled and reused for
+    every subexpression: the code generator differentiates the same subexpressions again and
+    again (a model's Jacobians share them; the compass walker's program asks 1108 times for 490
+    distinct derivatives). The result is the same expression with or without it."""
+    if memo is None:
+        return _derivative(expr, v, None)
+    key = (expr, v)
+    found = memo.get(key)
+    if found is None:
+        found = memo[key] = _derivative(expr, v, memo)
+    return found
+
+
+def _derivative(expr: sp.Expr, v: sp.Symbol,
+                memo: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] | None) -> sp.Expr:
+    """:func:`derivative` without looking ``expr`` up in ``memo`` (its parts are)."""
     if expr == v:
         return sp.S.One
     if v not in expr.free_symbols:
         return sp.S.Zero
     if expr.is_Add:
-        return sp.Add(*[derivative(a, v) for a in expr.args if v in a.free_symbols])
+        return sp.Add(*[derivative(a, v, memo) for a in expr.args if v in a.free_symbols])
     if expr.is_Mul:
         args, terms = expr.args, []
         for i, a in enumerate(args):
             if v in a.free_symbols:
-                d = derivative(a, v)
+                d = derivative(a, v, memo)
                 if d != 0:
                     terms.append(sp.Mul(*args[:i], d, *args[i + 1:]))
         return sp.Add(*terms)
     if expr.is_Pow and expr.exp.is_Number:
-        return expr.exp * expr.base ** (expr.exp - 1) * derivative(expr.base, v)
+        return expr.exp * expr.base ** (expr.exp - 1) * derivative(expr.base, v, memo)
     return sp.diff(expr, v)
 
 

@@ -24,9 +24,10 @@ import pytest
 from porthamiltonian.backends.module import module_text
 from porthamiltonian.compiler import compile_model, symbolic
 from porthamiltonian.compiler.assemble import SymbolicModel
-from porthamiltonian.compiler.codegen import Program, program
+from porthamiltonian.compiler.codegen import Program, jacobian, program
 from porthamiltonian.compiler.printers import c_source, python_source
 from porthamiltonian.interfaces import io
+from porthamiltonian.modeling import differentiation
 
 # a generated function's local (at the functions' indent) set to another local or to a
 # state/parameter entry alone, or to zero
@@ -134,3 +135,28 @@ def test_folding_changes_no_number(name):
         assert (a != 0).sum() == (b != 0).sum()
         scale = np.abs(b).max(axis=1, keepdims=True) + 1e-300
         assert np.abs(a - b) / scale == pytest.approx(0, abs=1e-14)
+
+
+@pytest.mark.parametrize("name", ["compass_walker", "four_bar"])
+def test_the_derivative_memo_gives_the_same_derivatives(name, monkeypatch):
+    """codegen's Jacobians share one memo of derivatives (FunctionBuilder.derivatives): with it,
+    the entries of ∂w/∂w and ∂w/∂x are the same expressions as without it, and the
+    intermediates' shared subexpressions are differentiated once each."""
+    sym = _programs(name)[0]
+    defs = [e for _, e in sym.intermediates]
+    ws = [w for w, _ in sym.intermediates]
+    states = [*sym.states, *sym.ledger_states]
+    computed = []
+    plain = differentiation._derivative
+    monkeypatch.setattr(differentiation, "_derivative",
+                        lambda e, v, memo: computed.append((e, v)) or plain(e, v, memo))
+    memo: dict = {}
+    for variables in (ws, states, ws):         # ws again: answered from the memo
+        assert jacobian(defs, variables, memo) == jacobian(defs, variables)
+    with_memo = len(computed)
+    computed.clear()
+    for variables in (ws, states, ws):
+        jacobian(defs, variables)
+    # the loop above: the plain runs, then each derivative of the memo once
+    assert with_memo == len(computed) + len(memo)
+    assert 0 < len(memo) < len(computed) / 2
