@@ -31,7 +31,7 @@ and Python bodies. A case that
 exceeds ``--timeout`` seconds is reported as such.
 
 ``--phases`` measures instead the CPU time of each phase of the two walkers' builds in fresh
-subprocesses (the symbolic model, code generation, printing both languages, the C compiler on the
+subprocesses (the symbolic model, code generation, printing the C body, the C compiler on the
 model's unit and on the loops' unit), this tree against ``--baseline``'s modules run by this
 script, interleaved over ``--repeats`` rounds: a steadier before/after than the whole cold build
 on a loaded machine (no imports, no scheduling).
@@ -161,7 +161,8 @@ _PYCACHE: list[str] = []
 
 
 def generated_size(cache: str) -> dict:
-    """Bytes and lines of the bodies and operations in the C body (of the largest entry)."""
+    """Bytes and lines of the bodies and operations in the C body (of the largest entry); the
+    Python body's are 0 when the entry has none (a C build prints none)."""
     best: dict = {}
     for entry in Path(cache).iterdir():
         c, py = entry / "body.c", entry / "body.py"
@@ -171,8 +172,9 @@ def generated_size(cache: str) -> dict:
         body = text[text.index("#define PH_N"):]
         ops = len(re.findall(r"(?<![eE])[-+*/](?!=)", body)) + len(re.findall(r"\b[a-z]+\(", body))
         if c.stat().st_size > best.get("c_bytes", 0):
-            best = {"c_bytes": c.stat().st_size, "py_bytes": py.stat().st_size, "ops": ops,
-                    "c_lines": text.count("\n"), "py_lines": py.read_text().count("\n")}
+            python = py.read_text() if py.is_file() else ""
+            best = {"c_bytes": c.stat().st_size, "py_bytes": len(python.encode()), "ops": ops,
+                    "c_lines": text.count("\n"), "py_lines": python.count("\n")}
     return best
 
 
@@ -283,7 +285,7 @@ PHASES = ("symbolic", "program", "print", "cc model", "cc loops")
 
 def phase_child(cases: str) -> None:
     """The CPU seconds of each phase of building each walker of ``cases`` (sympy's cache cleared
-    before each): the symbolic model, ``codegen.program``, printing both languages, the C
+    before each): the symbolic model, ``codegen.program``, printing the C body, the C
     compiler on the model's unit and on the loops' unit (object files, the library's flags).
     The package comes from ``$PHBENCH_TREE`` (this script put its own tree first on the path)."""
     sys.path.insert(0, os.environ.get("PHBENCH_TREE", str(ROOT)))
@@ -313,8 +315,9 @@ def phase_child(cases: str) -> None:
         t1 = time.process_time()
         prog = program(sym)
         t2 = time.process_time()
-        py, c = python_source(prog), c_source(prog)
+        c = c_source(prog)              # (the build prints no Python body for C)
         t3 = time.process_time()
+        py = python_source(prog)
         out[case] = {"symbolic": t1 - t0, "program": t2 - t1, "print": t3 - t2,
                      "cc model": cc(native.model_unit(c, key="bench")),
                      "cc loops": cc(native.loop_source(prog.n, prog.n_guards)),

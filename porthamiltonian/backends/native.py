@@ -169,8 +169,9 @@ def loop_source(n: int, n_guards: int) -> str:
 
 
 class Pending:
-    """A compile running in the background (:func:`start_object`); :meth:`result` waits for it:
-    (the object's bytes, seconds of wall time), errors as :func:`build`."""
+    """A compile running in the background (:func:`start_object`): :meth:`wait` gives the
+    object's path (valid until :meth:`close`), :meth:`result` its bytes; errors as
+    :func:`build`."""
 
     def __init__(self, text: str, name: str):
         self._tmp = tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-")
@@ -198,22 +199,30 @@ class Pending:
             self.process.wait()
         self._tmp.cleanup()
 
+    def wait(self, log_dir: Path | None, log_as: Path | None = None) -> tuple[Path, float]:
+        """Wait for the compile: (the object's path, valid until :meth:`close`, seconds since it
+        started); a failure raises CompilerError with its command and log (in ``log_dir``,
+        named after ``log_as`` when given, or a kept temporary file)."""
+        if self.process is None:            # no compiler, or it could not start: say why
+            data, _ = build(self.source, log_dir, (), object_only=True, log_as=log_as)
+            self.out.write_bytes(data)
+            return self.out, time.perf_counter() - self.start
+        status = self.process.wait()
+        seconds = time.perf_counter() - self.start
+        if status == 0 and self.out.is_file():
+            return self.out, seconds
+        log = _write_log(log_as or self.source, log_dir, self.command, f"exit status {status}",
+                         self.log.read_text(errors="replace"))
+        raise CompilerError(f"the C compiler failed (exit status {status}) building "
+                            f"{self.source.name}: {shlex.join(self.command)}; its output is in "
+                            f"{log}. {ADVICE}")
+
     def result(self, log_dir: Path | None, log_as: Path | None = None) -> tuple[bytes, float]:
-        """Wait for the compile: (the object's bytes, seconds since it started); a failure
-        raises CompilerError with its command and log (in ``log_dir``, named after ``log_as``
-        when given, or a kept temporary file)."""
+        """Wait for the compile (:meth:`wait`): (the object's bytes, seconds since it started);
+        the temporary folder is removed."""
         try:
-            if self.process is None:        # no compiler, or it could not start: say why
-                return build(self.source, log_dir, (), object_only=True, log_as=log_as)
-            status = self.process.wait()
-            seconds = time.perf_counter() - self.start
-            if status == 0 and self.out.is_file():
-                return self.out.read_bytes(), seconds
-            log = _write_log(log_as or self.source, log_dir, self.command,
-                             f"exit status {status}", self.log.read_text(errors="replace"))
-            raise CompilerError(f"the C compiler failed (exit status {status}) building "
-                                f"{self.source.name}: {shlex.join(self.command)}; its output is "
-                                f"in {log}. {ADVICE}")
+            path, seconds = self.wait(log_dir, log_as)
+            return path.read_bytes(), seconds
         finally:
             self._tmp.cleanup()
 
@@ -305,14 +314,34 @@ def build(source: Path, log_dir: Path | None, objects: tuple[Path, ...] = (),
     :class:`~porthamiltonian.errors.CompilerError` shows the command and the file holding the
     compiler's output: ``log_dir/<source>.log`` (the cache entry; ``<log_as>.log`` when given),
     or a kept temporary file when ``log_dir`` is None; then ``advice``."""
+    flags = [f for f in FLAGS if f != "-shared"] + ["-c"] if object_only else list(FLAGS)
+    return _run(flags, (source,), () if object_only else (*objects,),
+                f"{source.stem}{'.o' if object_only else _SUFFIX}", source.name,
+                log_as or source, log_dir, advice)
+
+
+def link(objects: tuple[Path, ...], name: str, log_dir: Path | None, log_as: Path,
+         advice: str = ADVICE) -> tuple[bytes, float]:
+    """Link the object files ``objects`` (a model's unit compiled by :func:`start_object`, the
+    loops', the kernels') into the shared library ``name`` (its file name without the suffix);
+    (its bytes, seconds). Errors as :func:`build`, the log named after ``log_as`` (the model's
+    unit)."""
+    return _run(list(FLAGS), (), objects, f"{name}{_SUFFIX}", f"{name}{_SUFFIX}", log_as,
+                log_dir, advice)
+
+
+def _run(flags: list[str], sources: tuple[Path, ...], objects: tuple[Path, ...], out_name: str,
+         what_built: str, log_as: Path, log_dir: Path | None, advice: str) -> tuple[bytes, float]:
+    """Run the C compiler with ``flags`` on ``sources`` (and, for a library, ``objects`` and
+    the math library) into ``out_name`` in a private temporary folder: (its bytes, seconds);
+    a failure raises CompilerError naming ``what_built``, its output logged (:func:`build`)."""
     cc = compiler()
     if cc is None:
         raise CompilerError(_NO_COMPILER)
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
-        out = Path(tmp) / f"{source.stem}{'.o' if object_only else _SUFFIX}"
-        flags = [f for f in FLAGS if f != "-shared"] + ["-c"] if object_only else list(FLAGS)
-        command = [*cc, *flags, "-o", str(out), str(source),
-                   *(() if object_only else (*map(str, objects), "-lm"))]
+        out = Path(tmp) / out_name
+        command = [*cc, *flags, "-o", str(out), *map(str, sources),
+                   *((*map(str, objects), "-lm") if "-shared" in flags else ())]
         start = time.perf_counter()
         try:
             run = subprocess.run(command, capture_output=True, text=True, errors="replace",
@@ -325,8 +354,8 @@ def build(source: Path, log_dir: Path | None, objects: tuple[Path, ...] = (),
         if failure is None:
             return out.read_bytes(), seconds
     what, output = failure
-    log = _write_log(log_as or source, log_dir, command, what, output)
-    raise CompilerError(f"the C compiler failed ({what}) building {source.name}: "
+    log = _write_log(log_as, log_dir, command, what, output)
+    raise CompilerError(f"the C compiler failed ({what}) building {what_built}: "
                         f"{shlex.join(command)}; its output is in {log}. {advice}")
 
 
@@ -588,5 +617,5 @@ def _loop(entry: Any, n: int, n_params: int, n_guards: int, variational: bool = 
 
 
 __all__ = ["FLAGS", "Pending", "build", "compile_object", "compiler", "compiler_identity",
-           "library_name", "library_prefix", "load", "loop_source", "model_unit", "object_key",
-           "start_object", "translation_unit"]
+           "library_name", "library_prefix", "link", "load", "loop_source", "model_unit",
+           "object_key", "start_object", "translation_unit"]

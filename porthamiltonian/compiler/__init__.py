@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 
     from ..modeling.model import Model, ModelDescription
     from .assemble import SymbolicModel
+    from .codegen import Program
     from .structure import Solution
 
 # The symbolic stages (sympy) and the model builder (networkx) are imported by the functions
@@ -201,51 +202,37 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     key = cache.model_key(description, options)
     meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
-    pending = None
-    if meta is None:
-        from . import estimate
-        from .codegen import program
-        from .phform import ph_form, ph_functions
-        from .printers import c_source, kernels, python_source
-
-        estimate.check(description, backends.report)      # refused, or announced, before work
-        start = time.perf_counter()
-        sym = symbolic(description)
-        form = ph_form(description, sym, _solved(description)) if ph else None
-        times["symbolic"] = time.perf_counter() - start
-        if order[0] == "c" and not _C_FAILED:       # the loops compile while the code is made
-            pending = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
-        start = time.perf_counter()
-        prog = program(sym, jac_p=list(jac_p or []))
-        if form is not None:
-            prog = dataclasses.replace(prog, functions=(*prog.functions,
-                                                        *ph_functions(prog, sym, form)))
-        bodies = {"python": python_source(prog), "c": c_source(prog)}
-        times["code"] = time.perf_counter() - start
-        meta = ModelMeta(
-            name=sym.name, state_names=tuple(sym.state_names), param_names=tuple(sym.param_names),
-            param_defaults=tuple(float(v) for v in sym.param_defaults),
-            param_units=tuple(sym.param_units),
-            output_names=tuple(sym.outputs),
-            events=tuple(EventInfo(ev.name, ev.direction, ev.terminal) for ev, _ in sym.events),
-            equations=tuple(sym.equations), hamiltonian=str(sym.hamiltonian),
-            matrices=tuple(sym.matrices),
-            shapes=MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
-            autonomous=_autonomous(sym), energy_parts=tuple(sym.energy_parts),
-            constraints=tuple(sym.constraints), units=MappingProxyType(dict(sym.units)),
-            input_names=tuple(sym.input_names), input_units=tuple(sym.input_units),
-            state_roles=tuple(sym.state_roles),
-            declared_outputs=tuple(sym.declared_outputs), jac_p=tuple(jac_p or ()),
-            discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states),
-                                         f"update_{j}")
-                           for j, (c, period, states, _) in enumerate(sym.discrete)),
-            ph=form.layout() if form is not None else None,
-            kernels=tuple(kernels(prog)), unavailable=MappingProxyType(dict(prog.unavailable)))
-        if use_cache:
-            cache.write(key, meta.to_json(), bodies)
+    pending: dict[str, native.Pending] = {}     # the C compiles running in the background
+    prog = None
     try:
+        if meta is None:
+            from . import estimate
+            from .printers import c_source
+
+            estimate.check(description, backends.report)      # refused, or announced, before work
+            start = time.perf_counter()
+            sym, form = _symbolic(description, ph)
+            times["symbolic"] = time.perf_counter() - start
+            compiles = order[0] == "c" and not _C_FAILED
+            if compiles:                   # the loops compile while the code is made
+                loops = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
+                if loops is not None:
+                    pending["loops"] = loops
+            start = time.perf_counter()
+            prog = _program(sym, form, jac_p)
+            bodies = {"c": c_source(prog)}          # the Python body: when a back end needs it
+            times["code"] = time.perf_counter() - start
+            if compiles:                   # the model's unit compiles while the rest is done
+                pending["model"] = native.start_object(
+                    native.model_unit(bodies["c"], key=key), _unit_name(key).removesuffix(".c"))
+            meta = _meta(sym, prog, form, jac_p)
+            if use_cache:
+                cache.write(key, meta.to_json(), bodies)
         for i, name in enumerate(order):
             try:
+                if name != "c" and "python" not in bodies:
+                    bodies["python"] = _python_body(key, description, prog, jac_p, ph,
+                                                    use_cache, times)
                 functions = _load(name, key, meta, bodies, use_cache, times,
                                   explicit=len(order) == 1, pending=pending)
             except CompilerError as err:
@@ -257,8 +244,8 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                 continue
             break
     finally:
-        if pending is not None:
-            pending.close()
+        for job in pending.values():
+            job.close()
     if times:
         parts = [f"{k} {v:.1f} s" for k, v in times.items()]
         size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
@@ -279,6 +266,70 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                                              for n in meta.declared_outputs
                                              if n in description.outputs},
                          rebuild=rebuild)
+
+
+def _symbolic(description: ModelDescription, ph: bool) -> tuple[SymbolicModel, Any]:
+    """The symbolic model of ``description`` and, with ``ph``, its port-Hamiltonian form."""
+    from .phform import ph_form
+
+    sym = symbolic(description)
+    return sym, ph_form(description, sym, _solved(description)) if ph else None
+
+
+def _program(sym: SymbolicModel, form: Any, jac_p: Sequence[str] | None) -> Program:
+    """The program of ``sym`` (with ``jac_p``, and the functions of the pH form ``form``)."""
+    from .codegen import program
+    from .phform import ph_functions
+
+    prog = program(sym, jac_p=list(jac_p or []))
+    if form is not None:
+        prog = dataclasses.replace(prog, functions=(*prog.functions,
+                                                    *ph_functions(prog, sym, form)))
+    return prog
+
+
+def _meta(sym: SymbolicModel, prog: Program, form: Any,
+          jac_p: Sequence[str] | None) -> ModelMeta:
+    """The compiled model's metadata (``meta.json`` of its cache entry)."""
+    from .printers import kernels
+
+    return ModelMeta(
+        name=sym.name, state_names=tuple(sym.state_names), param_names=tuple(sym.param_names),
+        param_defaults=tuple(float(v) for v in sym.param_defaults),
+        param_units=tuple(sym.param_units),
+        output_names=tuple(sym.outputs),
+        events=tuple(EventInfo(ev.name, ev.direction, ev.terminal) for ev, _ in sym.events),
+        equations=tuple(sym.equations), hamiltonian=str(sym.hamiltonian),
+        matrices=tuple(sym.matrices),
+        shapes=MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
+        autonomous=_autonomous(sym), energy_parts=tuple(sym.energy_parts),
+        constraints=tuple(sym.constraints), units=MappingProxyType(dict(sym.units)),
+        input_names=tuple(sym.input_names), input_units=tuple(sym.input_units),
+        state_roles=tuple(sym.state_roles),
+        declared_outputs=tuple(sym.declared_outputs), jac_p=tuple(jac_p or ()),
+        discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states), f"update_{j}")
+                       for j, (c, period, states, _) in enumerate(sym.discrete)),
+        ph=form.layout() if form is not None else None,
+        kernels=tuple(kernels(prog)), unavailable=MappingProxyType(dict(prog.unavailable)))
+
+
+def _python_body(key: str, description: ModelDescription, prog: Program | None,
+                 jac_p: Sequence[str] | None, ph: bool, use_cache: bool,
+                 times: dict[str, float]) -> str:
+    """The model's Python body (``body.py``), printed when a back end first needs it (the
+    python and numba back ends): from ``prog``, this build's program, or, for an entry that a
+    C build stored without it, from the program made again; stored in the entry (its time added
+    to ``times["code"]``)."""
+    from .printers import python_source
+
+    start = time.perf_counter()
+    if prog is None:
+        prog = _program(*_symbolic(description, ph), jac_p)
+    text = python_source(prog)
+    times["code"] = times.get("code", 0.0) + time.perf_counter() - start
+    if use_cache:
+        cache.store(key, cache.PYTHON_BODY, text)
+    return text
 
 
 def compiled_record(compiled: CompiledModel) -> dict[str, Any]:
@@ -310,7 +361,8 @@ def reopen(record: Mapping[str, Any],
     if name not in backends.BACKENDS or not cache.model_key_form(key):
         return None
     meta, bodies = _cached(key)
-    if meta is None or list(meta.jac_p) != jac_p or (meta.ph is not None) != ph:
+    if meta is None or list(meta.jac_p) != jac_p or (meta.ph is not None) != ph or (
+            name != "c" and "python" not in bodies):    # (a C build's entry: compiled again)
         return None
     times: dict[str, float] = {}
     try:
@@ -346,11 +398,13 @@ def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
 
 def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
           times: dict[str, float], explicit: bool,
-          pending: native.Pending | None = None) -> backends.Functions:
+          pending: Mapping[str, native.Pending] | None = None) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
-    compile time (the time waited for it) goes into ``times``. The C library links the model's
-    unit with the integration loops' object (:func:`native.loop_source`, by the model's sizes)
-    and the objects of the kernels it calls, each compiled once and cached."""
+    compile time (the time waited for it) goes into ``times``. The C library links the object
+    of the model's unit with the integration loops' object (:func:`native.loop_source`, by the
+    model's sizes) and the objects of the kernels it calls, each compiled once and cached;
+    ``pending``: the compiles :func:`compile_model` started in the background (``"model"``:
+    the model's unit, ``"loops"``), waited for here."""
     if name != "c":
         from ..backends import module
         from . import numba_cache
@@ -375,13 +429,23 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
             cache.discard(key, cached.name)
     if _C_FAILED and not explicit:
         raise CompilerError(_C_FAILED[0])
-    source = cache.store(key, f"m{key}_c.c", native.model_unit(bodies["c"], key=key), use_cache)
+    pending = pending or {}
+    text = native.model_unit(bodies["c"], key=key)
+    source = cache.store(key, _unit_name(key), text, use_cache)
     log_dir = source.parent if cache.kept(source) else None     # failures: the model's log
     try:
         objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
                         for kernel in meta.kernels)
-        objects += (_loop_object(meta, use_cache, times, pending, log_dir, source),)
-        data, seconds = native.build(source, log_dir, objects)
+        objects += (_loop_object(meta, use_cache, times, pending.get("loops"), log_dir,
+                                 source),)
+        start = time.perf_counter()
+        unit = pending.get("model") or native.start_object(text, source.stem)
+        try:
+            data, _ = native.link((unit.wait(log_dir, source)[0], *objects), source.stem,
+                                  log_dir, source)
+        finally:
+            unit.close()
+        seconds = time.perf_counter() - start
     except CompilerError as err:
         # no working compiler now: this model's library built by another compiler will do,
         # after its self-check (a cached library needs no compiler)
@@ -418,6 +482,11 @@ def _earlier_library(key: str, shapes: dict[str, tuple[int, ...]], n_params: int
             cache.warn(f"compiled-model cache: {err}; the library is removed")
             cache.discard(key, name)
     return None
+
+
+def _unit_name(key: str) -> str:
+    """The file name of model ``key``'s C translation unit in its cache entry."""
+    return f"m{key}_c.c"
 
 
 def _loop_name() -> str:

@@ -15,7 +15,9 @@ folder per entry, ``<cache>/<key>/``:
 
 ``meta.json``            the layout (states, parameters, outputs, events, energy parts, parameter
                          constraints) and the equations for display
-``body.py``, ``body.c``  the generated code (one program printed as Python and as C)
+``body.c``, ``body.py``  the generated code (one program printed as C and as Python); body.py
+                         is added when a back end first needs it (python, numba): a C build
+                         does not print it
 ``m<key>_<backend>.py``  a back end's module (python, numba), derived from body.py, added when
                          first needed
 ``m<key>_c.c``, ``m<key>_c_<platform>.so``  the C back end's translation unit and shared library
@@ -436,12 +438,16 @@ def _verified(entry: Path, name: str, files: dict[str, str]) -> bytes | None:
 
 
 # --- entries: layout and code ------------------------------------------------------------------------
-_BODIES = {"python": "body.py", "c": "body.c"}
+#: the file of an entry holding the generated Python body: stored by the first build that
+#: needs it (the python and numba back ends), optional in an entry (a C build leaves none)
+PYTHON_BODY = "body.py"
+_BODIES = {"python": PYTHON_BODY, "c": "body.c"}
 
 
 def read(key: str) -> tuple[dict[str, Any], dict[str, str]] | None:
-    """The entry's ``(meta, bodies)`` (bodies: ``{"python": ..., "c": ...}``) when present and
-    intact; None on a miss. A damaged entry is
+    """The entry's ``(meta, bodies)`` (bodies: ``{"c": ...}`` and, when the entry has it,
+    ``"python"``) when present and intact; None on a miss. A damaged entry (a recorded file,
+    the Python body's included, missing or not matching its sha256) is
     reported in one warning naming the file and removed (the caller rebuilds it). When the cache
     folder is not usable, this process's private folder serves instead."""
     entry = _base(True) / key
@@ -453,14 +459,16 @@ def read(key: str) -> tuple[dict[str, Any], dict[str, str]] | None:
     if files is not None and not set(names) & set(files):
         return None                     # only back-end files stored so far: a miss
     if files is not None:
-        found = {name: _verified(entry, name, files) for name in names}
+        found = {name: _verified(entry, name, files) for name in names
+                 if name != PYTHON_BODY or name in files}
         raw = {name: data for name, data in found.items() if data is not None}
         if len(raw) < len(found):
             raw = None
     if raw is not None:
         try:
             meta = json.loads(raw["meta.json"])
-            return meta, {lang: raw[name].decode() for lang, name in _BODIES.items()}
+            return meta, {lang: raw[name].decode() for lang, name in _BODIES.items()
+                          if name in raw}
         except (ValueError, UnicodeDecodeError) as err:
             _warn(f"compiled-model cache: {entry / 'meta.json'} cannot be read ({err}); the "
                   "entry is rebuilt")
@@ -469,9 +477,9 @@ def read(key: str) -> tuple[dict[str, Any], dict[str, str]] | None:
 
 
 def write(key: str, meta: dict[str, Any], bodies: dict[str, str]) -> None:
-    """Store a new entry (layout and code bodies by language, ``"python"`` and ``"c"``),
-    complete or not at all (in this process's private folder when the cache folder is not
-    usable)."""
+    """Store a new entry (layout and code bodies by language: ``"c"``, and ``"python"`` when
+    given, else stored later as :data:`PYTHON_BODY` with :func:`store`), complete or not at all
+    (in this process's private folder when the cache folder is not usable)."""
     base = _base(True)
     try:
         staging = Path(tempfile.mkdtemp(prefix=f".new-{key}-", dir=base))
@@ -480,7 +488,8 @@ def write(key: str, meta: dict[str, Any], bodies: dict[str, str]) -> None:
         return
     try:
         contents = {"meta.json": json.dumps(meta, indent=1).encode(),
-                    **{name: bodies[lang].encode() for lang, name in _BODIES.items()}}
+                    **{name: bodies[lang].encode() for lang, name in _BODIES.items()
+                       if lang in bodies}}
         for name, data in contents.items():
             (staging / name).write_bytes(data)
         (staging / _MANIFEST).write_text(json.dumps(
@@ -675,6 +684,7 @@ def record_written(entry: Path, paths: Callable[[], Iterable[Path]]) -> Iterator
 
 
 __all__ = [
+    "PYTHON_BODY",
     "CacheWarning",
     "backend_module",
     "cache_dir",

@@ -184,8 +184,9 @@ def test_use_cache_false_writes_nothing(fresh):
 
 
 def test_one_build_line_then_silence(fresh, monkeypatch, capfd):
-    """``building NAME: symbolic .. s, code .. s, C .. s, N kB`` once; nothing when cached; the
-    model's name as printable text; nothing at all with $PORTHAMILTONIAN_QUIET."""
+    """``building NAME: symbolic .. s, code .. s, C .. s, N kB`` once; nothing when cached (the
+    python back end after the C one: the Python body printed, ``code .. s``); the model's name
+    as printable text; nothing at all with $PORTHAMILTONIAN_QUIET."""
     monkeypatch.delenv("PORTHAMILTONIAN_QUIET", raising=False)
     model = _model(5.1)
     model.name = "osc\x1b[2J"
@@ -195,7 +196,13 @@ def test_one_build_line_then_silence(fresh, monkeypatch, capfd):
     assert re.fullmatch(r"building osc\\x1b\[2J: symbolic \d+\.\d s, code \d+\.\d s, C \d+\.\d s, "
                         r"\d+ kB", err[0]), err
     compile_model(model, backend="c")
-    compile_model(model, backend="python")   # the code is cached: only the module is written
+    assert capfd.readouterr().err == ""
+    # a C build prints no Python body: the python back end's first build prints it (one line)
+    compile_model(model, backend="python")
+    err = capfd.readouterr().err.splitlines()
+    assert len(err) == 1, err
+    assert re.fullmatch(r"building osc\\x1b\[2J: code \d+\.\d s, \d+ kB", err[0]), err
+    compile_model(model, backend="python")   # the code is cached: nothing to do
     assert capfd.readouterr().err == ""
     monkeypatch.setenv("PORTHAMILTONIAN_QUIET", "1")
     compile_model(_model(5.2), backend="c")

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 import stat
 import sys
 
@@ -129,6 +130,31 @@ def test_damaged_manifest_is_detected_and_rebuilt(reference, damage, recwarn):
     _same(_run(_compile()), expected)
     warned = _cache_warnings(recwarn)
     assert len(warned) == 1 and str(entry / "manifest.json") in warned[0], warned
+    _intact(entry)
+
+
+@pytest.mark.parametrize("damage", [None, _change_coefficient, os.unlink, "planted"])
+def test_python_body_added_to_a_c_entry_is_verified(reference, damage, recwarn):
+    """A C build stores no Python body; the python back end's first build of that entry prints
+    it and records it (body.py), after which it is verified like every file: edited or missing,
+    one warning and the entry rebuilt; a body.py left in the entry without a record is never
+    read (the body is printed again and recorded). The simulation is the same each time."""
+    entry, expected, key = reference
+    shutil.rmtree(entry)                            # the python back end's entry, made again
+    c_build = compile_model(io.load(MODEL), backend="c")
+    assert c_build.key == key and not (entry / "body.py").exists()
+    assert "body.py" not in json.loads((entry / "manifest.json").read_text())["files"]
+    if damage == "planted":
+        (entry / "body.py").write_text("raise SystemExit('planted body read')\n")
+    _same(_run(_compile()), expected)               # the body printed now, and recorded
+    _intact(entry)
+    if damage in (None, "planted"):
+        assert _cache_warnings(recwarn) == []
+        return
+    damage(entry / "body.py")
+    _same(_run(_compile()), expected)
+    warned = _cache_warnings(recwarn)
+    assert len(warned) == 1 and str(entry / "body.py") in warned[0], warned
     _intact(entry)
 
 
