@@ -114,14 +114,22 @@ PH_EXPORT const char *ph_model_key(void) { return "%s"; }
 """
 
 
+#: appended to every translation unit: the model's sizes, which the loops' object reads
+#: (:func:`loop_source`)
+_SIZES_EXPORT = ("/* the sizes the integration loops' object reads (states with the ledger, "
+                 "guard slots) */\nPH_HIDDEN const int ph_n = PH_N, ph_ng = PH_NG;\n")
+
+
 def model_unit(body: str, key: str = "") -> str:
     """A model's own translation unit for the C back end: the generated body (and
-    :data:`JAC_P_STUB` when it has no ``jac_p``), the self-check
-    and ``ph_model_key`` returning ``key`` (the model's cache key: letters and digits); the
-    integration loops are an object of their own (:func:`loop_source`) linked with it."""
+    :data:`JAC_P_STUB` when it has no ``jac_p``), the model's sizes ``ph_n`` and ``ph_ng``,
+    the self-check and ``ph_model_key`` returning ``key`` (the model's cache key: letters and
+    digits); the integration loops are an object of their own (:func:`loop_source`) linked
+    with it."""
     if not key.isalnum() and key:
         raise CompilerError(f"model key {key!r}: letters and digits only")
-    return _with_jac_p(body) + "\n" + _SELF_CHECK.replace("%s", key)
+    return (_with_jac_p(body) + "\n" + _SIZES_EXPORT + "\n"
+            + _SELF_CHECK.replace("%s", key))
 
 
 def _with_jac_p(body: str) -> str:
@@ -156,16 +164,18 @@ _LOOP_HEADER = """\
 """
 
 
-def loop_source(n: int, n_guards: int) -> str:
-    """The integration loops as a translation unit of their own, for a model of ``n`` states
-    (with the ledger) and ``n_guards`` guard slots, calling the model's ``rhs``, ``jac``,
-    ``guards`` and ``jac_p`` (hidden external functions of its generated unit): it depends on the model only
-    through the two sizes, so its object is compiled once per sizes (and compiler) and cached,
-    and it compiles in parallel with the model's code generation (compiler.compile_model)."""
+def loop_source() -> str:
+    """The integration loops as a translation unit of their own, calling the model's ``rhs``,
+    ``jac``, ``guards`` and ``jac_p`` (hidden external functions of its generated unit) and
+    reading its sizes ``ph_n`` (states with the ledger) and ``ph_ng`` (guard slots) from it
+    at run time (:func:`model_unit`): one object for every model, compiled once per compiler
+    and cached, which starts compiling before the model is read (compiler.prepare). (The
+    loops compiled for the model's sizes as constants ran at most ~2 % faster per stride on
+    the walkers: benchmarks/RESULTS.md, "Cold build, third pass".)"""
     declarations = "".join(f"PH_HIDDEN void {name}(double t, const double *x, const double *p, "
                            "double *out);\n" for name in LOOP_FUNCTIONS)
-    return (_LOOP_HEADER + f"#define PH_N {n}\n#define PH_NG {n_guards}\n" + declarations
-            + LOOP_PRAGMA + c_loops())
+    return (_LOOP_HEADER + "PH_HIDDEN extern const int ph_n, ph_ng;\n#define PH_N ph_n\n"
+            "#define PH_NG ph_ng\n" + declarations + LOOP_PRAGMA + c_loops())
 
 
 class Pending:
@@ -193,9 +203,12 @@ class Pending:
             except OSError:
                 self.process = None
 
-    def close(self) -> None:
-        """Wait for the compiler (if running) and remove the temporary folder."""
+    def close(self, stop: bool = False) -> None:
+        """Wait for the compiler (if running; ``stop``: end it first, its result not wanted)
+        and remove the temporary folder."""
         if self.process is not None and self.process.poll() is None:
+            if stop:
+                self.process.terminate()
             self.process.wait()
         self._tmp.cleanup()
 

@@ -8,8 +8,10 @@ port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
 """
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import json
+import os
 import shlex
 import sys
 import time
@@ -210,14 +212,12 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             from .printers import c_source
 
             estimate.check(description, backends.report)      # refused, or announced, before work
+            if order[0] == "c":             # the loops compile while the code is made
+                _prepare_loops(use_cache)
             start = time.perf_counter()
             sym, form = _symbolic(description, ph)
             times["symbolic"] = time.perf_counter() - start
             compiles = order[0] == "c" and not _C_FAILED
-            if compiles:                   # the loops compile while the code is made
-                loops = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
-                if loops is not None:
-                    pending["loops"] = loops
             start = time.perf_counter()
             prog = _program(sym, form, jac_p)
             bodies = {"c": c_source(prog)}          # the Python body: when a back end needs it
@@ -401,10 +401,10 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
           pending: Mapping[str, native.Pending] | None = None) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
     compile time (the time waited for it) goes into ``times``. The C library links the object
-    of the model's unit with the integration loops' object (:func:`native.loop_source`, by the
-    model's sizes) and the objects of the kernels it calls, each compiled once and cached;
-    ``pending``: the compiles :func:`compile_model` started in the background (``"model"``:
-    the model's unit, ``"loops"``), waited for here."""
+    of the model's unit with the integration loops' object (:func:`native.loop_source`, one for
+    every model) and the objects of the kernels it calls, each compiled once and cached;
+    ``pending``: the compile of the model's unit :func:`compile_model` started in the
+    background (``"model"``), waited for here."""
     if name != "c":
         from ..backends import module
         from . import numba_cache
@@ -436,8 +436,7 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
     try:
         objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
                         for kernel in meta.kernels)
-        objects += (_loop_object(meta, use_cache, times, pending.get("loops"), log_dir,
-                                 source),)
+        objects += (_loop_object(use_cache, times, log_dir, source),)
         start = time.perf_counter()
         unit = pending.get("model") or native.start_object(text, source.stem)
         try:
@@ -493,21 +492,53 @@ def _loop_name() -> str:
     return f"loops_{sys.platform}.o"
 
 
-def _start_loop(n: int, n_guards: int, use_cache: bool) -> native.Pending | None:
-    """Start compiling the loops' object for these sizes unless it is cached."""
-    text = native.loop_source(n, n_guards)
-    if use_cache and cache.verified_path(native.object_key(text), _loop_name()) is not None:
-        return None
-    return native.start_object(text, "loops")
+#: the loops' object compiling in the background (:func:`prepare`), by the id of the process
+#: that started it: (its cache key, the compile)
+_LOOPS: dict[int, tuple[str, native.Pending]] = {}
 
 
-def _loop_object(meta: ModelMeta, use_cache: bool, times: dict[str, float],
-                 pending: native.Pending | None, log_dir: Path | None, model_source: Path) -> Path:
-    """The integration loops' object for the model's sizes: cached, or the background compile
-    ``pending`` waited for, or compiled now (the time waited added to ``times["C"]``); a
-    failure is logged as the model's (``log_dir``, named after ``model_source``)."""
-    text = native.loop_source(meta.shapes["rhs"][0], meta.shapes["guards"][0])
+def prepare(backend: str = "auto") -> None:
+    """Start compiling the C back end's integration loops (:func:`native.loop_source`: one
+    object for every model) in the background when ``backend`` would try C first and the
+    object is not cached yet, so that the compiler works while the model is read and built
+    (``load_walker`` calls it before it reads a walker file); the next :func:`compile_model`
+    on C waits for it and caches it. Nothing when it is cached or already compiling, or when
+    the C back end failed in this process."""
+    if backends.candidates(backend)[0] == "c":
+        _prepare_loops(use_cache=True)
+
+
+def _prepare_loops(use_cache: bool) -> None:
+    """:func:`prepare` for a build on C (``use_cache``: look for the object in the cache)."""
+    if _C_FAILED or os.getpid() in _LOOPS:
+        return
+    text = native.loop_source()
     key = native.object_key(text)
+    if use_cache and cache.verified_path(key, _loop_name()) is not None:
+        return
+    if not _LOOPS:
+        atexit.register(_stop_loops)
+    _LOOPS[os.getpid()] = (key, native.start_object(text, "loops"))
+
+
+def _stop_loops() -> None:
+    """At exit: stop this process's loops compile that no build waited for."""
+    found = _LOOPS.pop(os.getpid(), None)
+    if found is not None:
+        found[1].close(stop=True)
+
+
+def _loop_object(use_cache: bool, times: dict[str, float], log_dir: Path | None,
+                 model_source: Path) -> Path:
+    """The integration loops' object: cached, or the background compile :func:`prepare`
+    started waited for, or compiled now (the time waited added to ``times["C"]``); a failure is
+    logged as the model's (``log_dir``, named after ``model_source``)."""
+    text = native.loop_source()
+    key = native.object_key(text)
+    found = _LOOPS.pop(os.getpid(), None)
+    pending = found[1] if found is not None and found[0] == key else None
+    if found is not None and pending is None:       # started for another compiler
+        found[1].close(stop=True)
     path = cache.verified_path(key, _loop_name()) if use_cache else None
     if path is None:
         start = time.perf_counter()
@@ -515,6 +546,8 @@ def _loop_object(meta: ModelMeta, use_cache: bool, times: dict[str, float],
                 else native.compile_object(text, "loops", log_dir, model_source)[0])
         times["C"] = times.get("C", 0.0) + time.perf_counter() - start
         path = cache.store(key, _loop_name(), data, use_cache)
+    elif pending is not None:
+        pending.close(stop=True)
     return path
 
 
@@ -563,5 +596,5 @@ def _autonomous(sym: SymbolicModel) -> bool:
 
 
 __all__ = ["Layout", "SymbolicModel", "compile_model", "compiled_record", "deferred", "layout",
-           "package_made", "power_balance", "recall", "remember", "reopen", "snapshot_key",
-           "symbolic"]
+           "package_made", "power_balance", "prepare", "recall", "remember", "reopen",
+           "snapshot_key", "symbolic"]

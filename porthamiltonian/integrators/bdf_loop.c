@@ -24,7 +24,8 @@
  * (_bdf_rescale of bdf_loop.py: D <- (R U)^T D) */
 static void ph_bdf_rescale(double *D, int order, double factor)
 {
-    enum { N = PH_N, Q = PH_BDF_MAX_ORDER + 1 };
+    const int N = PH_N;
+    enum { Q = PH_BDF_MAX_ORDER + 1 };
     const int q1 = order + 1;
     double R[Q][Q], U[Q][Q], RU[Q][Q], old[Q * PH_N];
     for (int j = 0; j < q1; ++j) {
@@ -60,7 +61,8 @@ static void ph_bdf_rescale(double *D, int order, double factor)
  * bdf_loop.py); E: nd rows, those past order - 2 zero */
 static void ph_bdf_dense(const double *D, int order, int nd, double *E)
 {
-    enum { N = PH_N, Q = PH_BDF_MAX_ORDER + 1 };
+    const int N = PH_N;
+    enum { Q = PH_BDF_MAX_ORDER + 1 };
     double B[Q][Q];
     memset(B, 0, sizeof(B));
     B[0][0] = 1.0;
@@ -99,7 +101,7 @@ static double ph_bdf_first_step(double t, const double *y, const double *f0, con
                                 double rtol, const double *atol, double h0, double hmax,
                                 double t_end, double *work)
 {
-    enum { N = PH_N };
+    const int N = PH_N;
     double *sc = work, *y1 = sc + N, *f1 = y1 + N;
     for (int i = 0; i < N; ++i)
         sc[i] = atol[i] + rtol * fabs(y[i]);
@@ -121,7 +123,8 @@ static double ph_bdf_first_step(double t, const double *y, const double *f0, con
 
 static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
 {
-    enum { N = PH_N, NG = PH_NG, QR = PH_BDF_MAX_ORDER + 3, ND = PH_BDF_MAX_ORDER - 1 };
+    const int N = PH_N, NG = PH_NG;
+    enum { QR = PH_BDF_MAX_ORDER + 3, ND = PH_BDF_MAX_ORDER - 1 };
     (void)tgrad_step;
     int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nlu = 0, nsteps = 0, hit = -1;
     int status = 0, nb = 0, piv[PH_N];

@@ -25,7 +25,7 @@ static void ph_start_guards(double t, const double *y, const double *p, int64_t 
 static double *ph_phi_start(int64_t m, const double *phi0, int s, int extra, int64_t n_gain,
                             double *phi_error, double *work, double **J_end, double **vwork)
 {
-    enum { N = PH_N };
+    const int N = PH_N;
     const int64_t nm = m * N;
     double *P = malloc(sizeof(double) * (size_t)(nm * (s + 4) + 8 * N * N + 6 * N + extra
                                                  + PH_FORCING_WORK(nm, n_gain)));
@@ -81,7 +81,7 @@ static int64_t ph_finish_step(double t, double h, double t_new, double *y, const
                               double *phi_error, double *ts, double *ys, double *phis,
                               int64_t *n_store, double *t_out)
 {
-    enum { N = PH_N, NG = PH_NG };
+    const int N = PH_N, NG = PH_NG;
     double g_new[PH_NG], t_hit = t_new, th_end = 1.0;
     const double *y_end = y1;
     int64_t hit = -1;

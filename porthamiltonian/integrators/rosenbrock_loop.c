@@ -1,5 +1,7 @@
 /* Template, not compiled alone: appended by porthamiltonian.backends to each model's generated
- * C functions (rhs, jac, guards; PH_N states, PH_NG guard slots), followed by the tables and
+ * C functions (rhs, jac, guards; PH_N states, PH_NG guard slots: the model's constants in one
+ * translation unit with it, e.g. an FMU's, or the sizes its unit exports, ph_n and ph_ng, read
+ * at run time by the loops' object that every model links), followed by the tables and
  * exported entry point ph_integrate_<method> of each method (porthamiltonian/integrators/
  * tableaus.py). It is rosenbrock_loop.py in C, step for step (same stages, error norm, step-size
  * rule, dense output, guard samples, Illinois iteration and statuses): a change there is made
@@ -229,7 +231,7 @@ static int ph_forcing_rate(double t, double h, const double *y, const double *p,
                            const double *gain, int64_t m, const double *F, const double *f,
                            const double *sc, int64_t n_model, double *DF, double *work)
 {
-    enum { N = PH_N };
+    const int N = PH_N;
     const int64_t nm = N * m;
     const double eps = ph_rate_step(h, f, sc, n_model);
     double *Fp = work, *Fm = Fp + nm, *yp = Fm + nm, *ym = yp + N, *Jp = ym + N;
@@ -247,7 +249,7 @@ static int ph_jac_rate(double t, double h, const double *y, const double *p, con
                        const double *f, const double *sc, int64_t n_model, double *D,
                        double *work)
 {
-    enum { N = PH_N };
+    const int N = PH_N;
     const double eps = ph_rate_step(h, f, sc, n_model);
     double *Jp = work, *Jm = Jp + N * N, *yp = Jm + N * N, *ym = yp + N;
     ph_shifted(y, f, eps, yp, ym);
@@ -314,7 +316,7 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
                           double *A_end, double *work, int64_t n_gain, const double *gain,
                           const double *Fa, const double *DF, double *F_end, double *Fp)
 {
-    enum { N = PH_N };
+    const int N = PH_N;
     const int s = tab->s;
     const int64_t nm = m * N;
     const double ds = th_b - th_a, eta = ds * h;
@@ -394,7 +396,7 @@ static void ph_variational_step(const ph_tableau *tab, double t, double h, doubl
                                 double *J_end, int64_t *counts, double *worst, double *eta,
                                 double *work, int64_t n_gain, const double *gain)
 {
-    enum { N = PH_N };
+    const int N = PH_N;
     const int s = tab->s;
     const int64_t nm = m * N;
     double *KP = work, *P1 = KP + s * nm, *D = P1 + nm, *Ws = D + N * N, *Ja = Ws + N * N;
@@ -487,7 +489,7 @@ static int64_t ph_locate_events(int nd, double t, double h, const double *y, con
                                 int64_t g_count, int64_t store_cap, double *ev_t, int64_t *ev_k,
                                 int64_t *n_ev, double *t_hit, double *yi)
 {
-    enum { N = PH_N, NG = PH_NG };
+    const int N = PH_N, NG = PH_NG;
     double g_a[PH_NG], g_b[PH_NG];
     int64_t hit = -1;
     const double t_new = t + h;
@@ -555,7 +557,7 @@ static int64_t ph_locate_events(int nd, double t, double h, const double *y, con
 
 static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
 {
-    enum { N = PH_N, NG = PH_NG };
+    const int N = PH_N, NG = PH_NG;
     const int s = tab->s, nd = tab->m;
     const double gam = tab->gamma, expo = tab->expo;
     int64_t n_ev = 0, n_store = 0, nfev = 0, njev = 0, nlu = 0, nsteps = 0, hit = -1;

@@ -7,12 +7,16 @@ porthamiltonian/backends/native.py, porthamiltonian/compiler/__init__.py).
 * no compiler at all: a CompilerError saying what to install;
 * a cached library needs no compiler, is verified by its sha256 before it is loaded (a damaged
   one is never loaded: it is rebuilt), and ``use_cache=False`` writes nothing to the cache;
-* the build line: one line on stderr per build, none when everything is cached.
+* the build line: one line on stderr per build, none when everything is cached;
+* the integration loops' object: one for every model (their sizes read at run time), compiled
+  once per compiler, in the background from ``compiler.prepare`` on; a compile started for
+  another compiler is never used.
 """
 from __future__ import annotations
 
 import importlib.util
 import json
+import os
 import re
 import subprocess
 import sys
@@ -48,6 +52,7 @@ def fresh(tmp_path, monkeypatch):
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(folder))
     monkeypatch.setattr(cache, "_refused", set())
     monkeypatch.setattr(compiler, "_C_FAILED", [])
+    monkeypatch.setattr(compiler, "_LOOPS", {})
     return folder
 
 
@@ -215,3 +220,51 @@ def test_backend_variable_chooses_what_auto_means(fresh, monkeypatch):
     monkeypatch.setenv("PORTHAMILTONIAN_BACKEND", "fortran")
     with pytest.raises(ph.errors.ModelError, match=r"PORTHAMILTONIAN_BACKEND.*'fortran'"):
         compile_model(_model(5.3))
+
+
+def _chain(n: int) -> ph.Model:
+    """``n`` masses on springs in a row: a model of 2 n states (a size other than osc's)."""
+    m = ph.Model(f"chain{n}")
+    for i in range(n):
+        m.add(f"j{i}", ph.OneJunction())
+        m.add(f"mass{i}", ph.I(inertance=1.0 + i, p0=0.1 * (i + 1)))
+        m.add(f"spring{i}", ph.C(stiffness=2.0 + i))
+        m.connect(f"j{i}", f"mass{i}.p")
+        m.connect(f"j{i}", f"spring{i}.p")
+    return m
+
+
+def _loop_objects(folder) -> list:
+    return sorted(folder.glob("*/loops_*.o"))
+
+
+def test_one_loops_object_serves_models_of_every_size(fresh, capfd):
+    """prepare() starts the loops' object compiling; the first build on C waits for it and
+    caches it; a model of another size links the same object (no compile of its own), and its
+    functions are right (the loops read the model's sizes at run time)."""
+    compiler.prepare("c")
+    assert list(compiler._LOOPS) == [os.getpid()]
+    small = compile_model(_model(6.1), backend="c")
+    assert compiler._LOOPS == {} and len(_loop_objects(fresh)) == 1
+    big = compile_model(_chain(3), backend="c")
+    assert len(_loop_objects(fresh)) == 1
+    compiler.prepare("c")                       # cached: nothing started
+    assert compiler._LOOPS == {}
+    for model, n in ((small, 2), (big, 6)):
+        assert model.n_states == n
+        traj = model.simulate(2.0, method="Rodas5P", rtol=1e-10, atol=1e-12)
+        reference = model.simulate(2.0, method="Radau", rtol=1e-10, atol=1e-12)
+        assert traj.status == "finished" and traj.y.shape[0] == n + 2      # (the ledger)
+        assert traj.y[:, -1] == pytest.approx(reference.y[:, -1], rel=1e-6, abs=1e-8)
+    capfd.readouterr()
+
+
+def test_loops_started_for_another_compiler_are_not_used(fresh, monkeypatch):
+    """A loops' compile that prepare() started before CC changed is stopped, not linked: the
+    object is built by the compiler of the build (here one that fails)."""
+    compiler.prepare("c")
+    assert compiler._LOOPS
+    monkeypatch.setenv("CC", "false")
+    with pytest.raises(CompilerError, match="false -O1"):
+        compile_model(_model(6.2), backend="c")
+    assert compiler._LOOPS == {} and _loop_objects(fresh) == []

@@ -18,6 +18,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from porthamiltonian import io as ph_io
+from porthamiltonian.compiler import prepare
 from porthamiltonian.errors import ModelFileError, ParameterValueError
 from porthamiltonian.userfiles import write_atomic
 
@@ -73,6 +74,7 @@ def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None 
         walker = warm.restore(source, text, asked, values=overrides, options=options)
         if walker is not None:
             return walker
+        prepare(asked or "auto")    # the C loops compile while the file is read and built
         record = ph_io.reads(text, source)
         walker = build_walker(file_spec(record), backend=backend, options=options,
                               values=overrides, text=record.text)
