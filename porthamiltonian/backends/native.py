@@ -170,8 +170,9 @@ def loop_source() -> str:
     reading its sizes ``ph_n`` (states with the ledger) and ``ph_ng`` (guard slots) from it
     at run time (:func:`model_unit`): one object for every model, compiled once per compiler
     and cached, which starts compiling before the model is read (compiler.prepare). (The
-    loops compiled for the model's sizes as constants ran at most ~2 % faster per stride on
-    the walkers: benchmarks/RESULTS.md, "Cold build, third pass".)"""
+    loops compiled for the model's sizes as constants ran ≈ 3 % faster per stride on the
+    compass walker, the same on the compliant-leg walker: benchmarks/RESULTS.md, "Cold build,
+    third pass".)"""
     declarations = "".join(f"PH_HIDDEN void {name}(double t, const double *x, const double *p, "
                            "double *out);\n" for name in LOOP_FUNCTIONS)
     return (_LOOP_HEADER + "PH_HIDDEN extern const int ph_n, ph_ng;\n#define PH_N ph_n\n"
