@@ -516,11 +516,10 @@ def _prepare_loops(use_cache: bool) -> None:
     key = native.object_key(text)
     if use_cache and cache.verified_path(key, _loop_name()) is not None:
         return
-    if not _LOOPS:
-        atexit.register(_stop_loops)
     _LOOPS[os.getpid()] = (key, native.start_object(text, "loops"))
 
 
+@atexit.register
 def _stop_loops() -> None:
     """At exit: stop this process's loops compile that no build waited for."""
     found = _LOOPS.pop(os.getpid(), None)
