@@ -125,6 +125,15 @@ def compile_named(isolated_cache) -> Callable:
     return _compile
 
 
+@pytest.fixture
+def without_views(monkeypatch) -> None:
+    """No notebook view of the walker results registered (walker_library.analyses.results), as
+    in a fresh ``walker`` process, which never imports walker_library.report.display: a command
+    that draws through a view (``ContinuationResult.figure``) fails here as it does there."""
+    from walker_library.analyses import results
+    monkeypatch.setattr(results, "_VIEWS", {})
+
+
 @pytest.fixture(scope="session")
 def model_settings() -> Callable:
     """``model_settings(name)`` -> the model file's [simulation] table with the CLI defaults."""

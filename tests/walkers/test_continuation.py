@@ -217,7 +217,7 @@ def test_continue_from_where_no_gait_exists_says_so(capsys):
     assert "no gait at the start of the range (slope = -0.01)" in err
 
 
-def test_compass_gait_first_flip_by_the_command(tmp_path, capsys):
+def test_compass_gait_first_flip_by_the_command(tmp_path, capsys, without_views):
     """GOSWAMI's compass gait over the slope, by ``walker continue --json --out``: the period-1
     gait loses stability through a flip (located at 0.07663563 rad = 4.391°, regression pin to
     1e-8) and a stable period-2 gait takes over; the cascade beyond it is checked below and in
