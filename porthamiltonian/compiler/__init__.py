@@ -8,6 +8,7 @@ port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import shlex
@@ -199,66 +200,32 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     description = _frozen(model)
     options = {k: v for k, v in (("jac_p", list(jac_p or [])), ("ph", ph)) if v}
     key = cache.model_key(description, options)
-    meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
-    pending = None
-    if meta is None:
-        from . import estimate
-        from .codegen import program
-        from .phform import ph_form, ph_functions
-        from .printers import c_source, kernels, python_source
-
-        estimate.check(description, backends.report)      # refused, or announced, before work
-        start = time.perf_counter()
-        sym = symbolic(description)
-        form = ph_form(description, sym, _solved(description)) if ph else None
-        times["symbolic"] = time.perf_counter() - start
-        if order[0] == "c" and not _C_FAILED:       # the loops compile while the code is made
-            pending = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
-        start = time.perf_counter()
-        prog = program(sym, jac_p=list(jac_p or []))
-        if form is not None:
-            prog = dataclasses.replace(prog, functions=(*prog.functions,
-                                                        *ph_functions(prog, sym, form)))
-        bodies = {"python": python_source(prog), "c": c_source(prog)}
-        times["code"] = time.perf_counter() - start
-        meta = ModelMeta(
-            name=sym.name, state_names=tuple(sym.state_names), param_names=tuple(sym.param_names),
-            param_defaults=tuple(float(v) for v in sym.param_defaults),
-            param_units=tuple(sym.param_units),
-            output_names=tuple(sym.outputs),
-            events=tuple(EventInfo(ev.name, ev.direction, ev.terminal) for ev, _ in sym.events),
-            equations=tuple(sym.equations), hamiltonian=str(sym.hamiltonian),
-            matrices=tuple(sym.matrices),
-            shapes=MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
-            autonomous=_autonomous(sym), energy_parts=tuple(sym.energy_parts),
-            constraints=tuple(sym.constraints), units=MappingProxyType(dict(sym.units)),
-            input_names=tuple(sym.input_names), input_units=tuple(sym.input_units),
-            state_roles=tuple(sym.state_roles),
-            declared_outputs=tuple(sym.declared_outputs), jac_p=tuple(jac_p or ()),
-            discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states),
-                                         f"update_{j}")
-                           for j, (c, period, states, _) in enumerate(sym.discrete)),
-            ph=form.layout() if form is not None else None,
-            kernels=tuple(kernels(prog)), unavailable=MappingProxyType(dict(prog.unavailable)))
-        if use_cache:
-            cache.write(key, meta.to_json(), bodies)
-    try:
-        for i, name in enumerate(order):
-            try:
-                functions = _load(name, key, meta, bodies, use_cache, times,
-                                  explicit=len(order) == 1, pending=pending)
-            except CompilerError as err:
-                if len(order) == 1:
-                    raise
-                if not _C_FAILED:
-                    _C_FAILED.append(str(err))
-                    backends.fell_back(str(err), order[i + 1])
-                continue
-            break
-    finally:
-        if pending is not None:
-            pending.close()
+    with contextlib.ExitStack() as held:
+        meta, bodies = _cached(key) if use_cache else (None, {})
+        pending = None
+        if meta is None and use_cache:
+            held.enter_context(cache.building(key))    # one process builds, the others wait
+            meta, bodies = _cached(key)                # built by another while this one waited
+        if meta is None:
+            meta, bodies, pending = _generate(description, key, order, use_cache,
+                                              list(jac_p or []), ph, times)
+        try:
+            for i, name in enumerate(order):
+                try:
+                    functions = _load(name, key, meta, bodies, use_cache, times,
+                                      explicit=len(order) == 1, pending=pending)
+                except CompilerError as err:
+                    if len(order) == 1:
+                        raise
+                    if not _C_FAILED:
+                        _C_FAILED.append(str(err))
+                        backends.fell_back(str(err), order[i + 1])
+                    continue
+                break
+        finally:
+            if pending is not None:
+                pending.close()
     if times:
         parts = [f"{k} {v:.1f} s" for k, v in times.items()]
         size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
@@ -279,6 +246,57 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                                              for n in meta.declared_outputs
                                              if n in description.outputs},
                          rebuild=rebuild)
+
+
+def _generate(description: ModelDescription, key: str, order: Sequence[str], use_cache: bool,
+              jac_p: list[str], ph: bool, times: dict[str, float]
+              ) -> tuple[ModelMeta, dict[str, str], native.Pending | None]:
+    """Model ``key``'s metadata and code bodies (``{"python": ..., "c": ...}``) made now and
+    stored in the cache (``use_cache``), with the background compile of the C loops' object
+    when C comes first in ``order`` (None otherwise, or when it is cached); the symbolic and
+    code times go into ``times``."""
+    from . import estimate
+    from .codegen import program
+    from .phform import ph_form, ph_functions
+    from .printers import c_source, kernels, python_source
+
+    estimate.check(description, backends.report)      # refused, or announced, before work
+    start = time.perf_counter()
+    sym = symbolic(description)
+    form = ph_form(description, sym, _solved(description)) if ph else None
+    times["symbolic"] = time.perf_counter() - start
+    pending = None
+    if order[0] == "c" and not _C_FAILED:       # the loops compile while the code is made
+        pending = _start_loop(len(sym.states) + 2, max(len(sym.events), 1), use_cache)
+    start = time.perf_counter()
+    prog = program(sym, jac_p=jac_p)
+    if form is not None:
+        prog = dataclasses.replace(prog, functions=(*prog.functions,
+                                                    *ph_functions(prog, sym, form)))
+    bodies = {"python": python_source(prog), "c": c_source(prog)}
+    times["code"] = time.perf_counter() - start
+    meta = ModelMeta(
+        name=sym.name, state_names=tuple(sym.state_names), param_names=tuple(sym.param_names),
+        param_defaults=tuple(float(v) for v in sym.param_defaults),
+        param_units=tuple(sym.param_units),
+        output_names=tuple(sym.outputs),
+        events=tuple(EventInfo(ev.name, ev.direction, ev.terminal) for ev, _ in sym.events),
+        equations=tuple(sym.equations), hamiltonian=str(sym.hamiltonian),
+        matrices=tuple(sym.matrices),
+        shapes=MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
+        autonomous=_autonomous(sym), energy_parts=tuple(sym.energy_parts),
+        constraints=tuple(sym.constraints), units=MappingProxyType(dict(sym.units)),
+        input_names=tuple(sym.input_names), input_units=tuple(sym.input_units),
+        state_roles=tuple(sym.state_roles),
+        declared_outputs=tuple(sym.declared_outputs), jac_p=tuple(jac_p),
+        discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states),
+                                     f"update_{j}")
+                       for j, (c, period, states, _) in enumerate(sym.discrete)),
+        ph=form.layout() if form is not None else None,
+        kernels=tuple(kernels(prog)), unavailable=MappingProxyType(dict(prog.unavailable)))
+    if use_cache:
+        cache.write(key, meta.to_json(), bodies)
+    return meta, bodies, pending
 
 
 def compiled_record(compiled: CompiledModel) -> dict[str, Any]:
@@ -362,46 +380,50 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
         return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text,
                            attach=numba_cache.verified_caches(path.parent),
                            loops=numba_cache.loop_module(use_cache))
-    shapes = dict(meta.shapes)
-    n_params = slot_count(meta)
-    identity = native.compiler_identity()
-    lib_name = native.library_name(key, identity or "none")
-    cached = cache.verified_path(key, lib_name) if use_cache else None
-    if cached is not None:
+    # one process builds a missing library, the others wait for it and load it from the cache
+    with cache.building(key) if use_cache else contextlib.nullcontext():
+        shapes = dict(meta.shapes)
+        n_params = slot_count(meta)
+        identity = native.compiler_identity()
+        lib_name = native.library_name(key, identity or "none")
+        cached = cache.verified_path(key, lib_name) if use_cache else None
+        if cached is not None:
+            try:
+                return native.load(cached, shapes, n_params, key)
+            except CompilerError as err:
+                cache.warn(f"compiled-model cache: {err}; the library is removed and rebuilt")
+                cache.discard(key, cached.name)
+        if _C_FAILED and not explicit:
+            raise CompilerError(_C_FAILED[0])
+        source = cache.store(key, f"m{key}_c.c", native.model_unit(bodies["c"], key=key),
+                             use_cache)
+        log_dir = source.parent if cache.kept(source) else None  # failures: the model's log
         try:
-            return native.load(cached, shapes, n_params, key)
+            objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
+                            for kernel in meta.kernels)
+            objects += (_loop_object(meta, use_cache, times, pending, log_dir, source),)
+            data, seconds = native.build(source, log_dir, objects)
         except CompilerError as err:
-            cache.warn(f"compiled-model cache: {err}; the library is removed and rebuilt")
-            cache.discard(key, cached.name)
-    if _C_FAILED and not explicit:
-        raise CompilerError(_C_FAILED[0])
-    source = cache.store(key, f"m{key}_c.c", native.model_unit(bodies["c"], key=key), use_cache)
-    log_dir = source.parent if cache.kept(source) else None     # failures: the model's log
-    try:
-        objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
-                        for kernel in meta.kernels)
-        objects += (_loop_object(meta, use_cache, times, pending, log_dir, source),)
-        data, seconds = native.build(source, log_dir, objects)
-    except CompilerError as err:
-        # no working compiler now: this model's library built by another compiler will do,
-        # after its self-check (a cached library needs no compiler)
-        earlier = _earlier_library(key, shapes, n_params) if use_cache else None
-        if earlier is None:
-            raise
-        if identity is not None:        # a compiler that fails (none at all: nothing to say)
-            warnings.warn(f"{err}; using this model's C library built earlier by another "
-                          "compiler (it passed its self-check)", backends.BackendWarning,
-                          stacklevel=4)
-        return earlier
-    times["C"] = times.get("C", 0.0) + seconds
-    path = cache.store(key, lib_name, data, use_cache)
-    try:
-        return native.load(path, shapes, n_params, key)
-    except CompilerError as err:
-        cache.discard(key, lib_name)
-        raise CompilerError(f"the C compiler ({shlex.join(native.compiler() or ['?'])}) built a "
-                            f"library that fails its self-check: {err}. Set CC to a working C "
-                            "compiler, or choose the numba or python back end") from None
+            # no working compiler now: this model's library built by another compiler will do,
+            # after its self-check (a cached library needs no compiler)
+            earlier = _earlier_library(key, shapes, n_params) if use_cache else None
+            if earlier is None:
+                raise
+            if identity is not None:        # a compiler that fails (none at all: nothing to say)
+                warnings.warn(f"{err}; using this model's C library built earlier by another "
+                              "compiler (it passed its self-check)", backends.BackendWarning,
+                              stacklevel=4)
+            return earlier
+        times["C"] = times.get("C", 0.0) + seconds
+        path = cache.store(key, lib_name, data, use_cache)
+        try:
+            return native.load(path, shapes, n_params, key)
+        except CompilerError as err:
+            cache.discard(key, lib_name)
+            raise CompilerError(f"the C compiler ({shlex.join(native.compiler() or ['?'])}) "
+                                f"built a library that fails its self-check: {err}. Set CC to "
+                                "a working C compiler, or choose the numba or python back "
+                                "end") from None
 
 
 def _earlier_library(key: str, shapes: dict[str, tuple[int, ...]], n_params: int
