@@ -13,7 +13,10 @@
   checks the same loops as Python source and as C, and ``.ci/run`` checks them on numba.
   Likewise the walker tests marked ``study`` (a reproduction study's pinned numbers, e.g.
   ``walker reproduce compliance_3d --quick``, ~10 s of CPU): run by that pass only (on numba;
-  the studies' code paths are checked piecewise in the README's command).
+  the studies' code paths are checked piecewise in the README's command). And the walker tests
+  marked ``breadth``: the same check repeated on a variant whose code path the README's command
+  already checks on a sibling (a parameter or mass variant's Floquet multipliers, the next flip
+  of a cascade): run by that pass only.
 * Under pytest-xdist (the README's ``-n auto``) each test file stays on one worker (the files
   sharing a costly session fixture on the same one) and the workers share one compiled-model
   cache (see the hooks below).
@@ -54,6 +57,9 @@ def pytest_configure(config: pytest.Config) -> None:
                                        "--numba-pass, deselected otherwise)")
     config.addinivalue_line("markers", "study: a walker reproduction study with pinned numbers "
                                        "(run by --numba-pass, deselected otherwise)")
+    config.addinivalue_line("markers", "breadth: a walker check repeated on a variant whose code "
+                                       "path a sibling test checks (run by --numba-pass, "
+                                       "deselected otherwise)")
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
@@ -76,7 +82,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         walker = item.nodeid.startswith("tests/walkers/")
         marked = item.get_closest_marker("numba_loop") is not None
-        study = walker and item.get_closest_marker("study") is not None
+        study = walker and any(item.get_closest_marker(m) is not None
+                               for m in ("study", "breadth"))
         selected = (walker or marked) if numba_pass else not (marked or study)
         (keep if selected else drop).append(item)
     if drop:
@@ -123,6 +130,15 @@ def compile_named(isolated_cache) -> Callable:
         return compiled[name]
 
     return _compile
+
+
+@pytest.fixture
+def without_views(monkeypatch) -> None:
+    """No notebook view of the walker results registered (walker_library.analyses.results), as
+    in a fresh ``walker`` process, which never imports walker_library.report.display: a command
+    that draws through a view (``ContinuationResult.figure``) fails here as it does there."""
+    from walker_library.analyses import results
+    monkeypatch.setattr(results, "_VIEWS", {})
 
 
 @pytest.fixture(scope="session")

@@ -301,7 +301,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         (out / "continuation.json").write_text(result.to_json())
-        result.figure(out / "bifurcation_diagram.png")
+        from .report.figures import fig_bifurcation
+        fig_bifurcation(result, out / "bifurcation_diagram.png")
     if args.json:
         print(result.to_json())
         return 0

@@ -9,6 +9,7 @@ port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import dataclasses
 import json
 import os
@@ -206,7 +207,11 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     times: dict[str, float] = {}
     pending: dict[str, native.Pending] = {}     # the C compiles running in the background
     prog = None
-    try:
+    with contextlib.ExitStack() as held:
+        if meta is None and use_cache:
+            held.enter_context(cache.building(key))    # one process builds, the others wait
+            meta, bodies = _cached(key)                # built by another while this one waited
+        held.callback(_close_all, pending)
         if meta is None:
             from . import estimate
             from .printers import c_source
@@ -243,9 +248,6 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                     backends.fell_back(str(err), order[i + 1])
                 continue
             break
-    finally:
-        for job in pending.values():
-            job.close()
     if times:
         parts = [f"{k} {v:.1f} s" for k, v in times.items()]
         size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
@@ -266,6 +268,12 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                                              for n in meta.declared_outputs
                                              if n in description.outputs},
                          rebuild=rebuild)
+
+
+def _close_all(pending: Mapping[str, native.Pending]) -> None:
+    """Wait for the background compiles ``pending`` and remove their temporary folders."""
+    for job in pending.values():
+        job.close()
 
 
 def _symbolic(description: ModelDescription, ph: bool) -> tuple[SymbolicModel, Any]:
@@ -416,6 +424,15 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
         return module.load(path, name, len(meta.matrices), extra_functions(meta), source=text,
                            attach=numba_cache.verified_caches(path.parent),
                            loops=numba_cache.loop_module(use_cache))
+    # one process builds a missing library, the others wait for it and load it from the cache
+    with cache.building(key) if use_cache else contextlib.nullcontext():
+        return _load_c(key, meta, bodies, use_cache, times, explicit, pending or {})
+
+
+def _load_c(key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
+            times: dict[str, float], explicit: bool,
+            pending: Mapping[str, native.Pending]) -> backends.Functions:
+    """The C back end's functions (:func:`_load`), under the model's build lock."""
     shapes = dict(meta.shapes)
     n_params = slot_count(meta)
     identity = native.compiler_identity()
@@ -429,7 +446,6 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
             cache.discard(key, cached.name)
     if _C_FAILED and not explicit:
         raise CompilerError(_C_FAILED[0])
-    pending = pending or {}
     text = native.model_unit(bodies["c"], key=key)
     source = cache.store(key, _unit_name(key), text, use_cache)
     log_dir = source.parent if cache.kept(source) else None     # failures: the model's log

@@ -35,7 +35,10 @@ other files              artifacts a back end stores with :func:`store`
 
 An entry is created complete in a temporary folder and renamed into place, so concurrent sweep
 workers can share one cache; files added later are written atomically (write, then rename) and
-the manifest is updated under a lock.
+the manifest is updated under a lock. A process that makes an entry or its C library holds the
+model's build lock, ``<cache>/.building-<key>`` (an empty file, :func:`building`): another
+process compiling the same model at the same time waits for it and then reads the entry,
+instead of running the symbolic stage and the C compiler a second time.
 
 Integrity and trust (the rules a native back end follows too, through :func:`store`,
 :func:`load_verified` and :func:`verified_path`)
@@ -339,16 +342,17 @@ _HELD = threading.local()
 
 
 @contextlib.contextmanager
-def _flock(entry: Path, name: str, kind: str, optional: bool) -> Iterator[None]:
-    """Hold an exclusive POSIX lock on the file ``name`` in ``entry``; reentrant within a thread
-    (``kind`` names the set of entries this thread holds). ``optional``: when the lock file
-    cannot be made (a read-only entry) go on without a lock instead of raising OSError."""
-    held = _HELD.__dict__.setdefault(kind, set())
-    if sys.platform == "win32" or str(entry) in held:  # pragma: no cover - (Windows)
+def _flock(folder: Path, name: str, optional: bool) -> Iterator[None]:
+    """Hold an exclusive POSIX lock on the file ``name`` in ``folder``; reentrant within a
+    thread (the lock files this thread holds). ``optional``: when the lock file cannot be made
+    (a read-only entry) go on without a lock instead of raising OSError."""
+    held = _HELD.__dict__.setdefault("files", set())
+    lock = str(folder / name)
+    if sys.platform == "win32" or lock in held:  # pragma: no cover - (Windows)
         yield
         return
     try:
-        fd = os.open(entry / name, os.O_RDWR | os.O_CREAT, 0o600)
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o600)
     except OSError:
         if not optional:
             raise
@@ -356,16 +360,16 @@ def _flock(entry: Path, name: str, kind: str, optional: bool) -> Iterator[None]:
         return
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        held.add(str(entry))
+        held.add(lock)
         yield
     finally:
-        held.discard(str(entry))
+        held.discard(lock)
         os.close(fd)
 
 
 def _locked(entry: Path) -> contextlib.AbstractContextManager[None]:
     """Hold the entry's lock (manifest read-modify-write); reentrant within a thread."""
-    return _flock(entry, _LOCK, "entries", optional=False)
+    return _flock(entry, _LOCK, optional=False)
 
 
 def compiling(entry: Path) -> contextlib.AbstractContextManager[None]:
@@ -374,7 +378,19 @@ def compiling(entry: Path) -> contextlib.AbstractContextManager[None]:
     test run's other worker) that wants the same code waits, then reads it from the cache
     instead of compiling it a second time. Reentrant within a thread; without POSIX file locks,
     or when the lock file cannot be made (a read-only entry), no lock."""
-    return _flock(entry, _COMPILING, "compiling", optional=True)
+    return _flock(entry, _COMPILING, optional=True)
+
+
+def building(key: str) -> contextlib.AbstractContextManager[None]:
+    """Hold model ``key``'s build lock (the file ``.building-<key>`` in the cache folder) while
+    this process makes its entry or its C library: a concurrent process (a sweep's or a test
+    run's other worker) that compiles the same model waits, then reads what the first one made
+    from the cache instead of making it a second time (the callers look again once they hold
+    the lock). Reentrant within a thread; no lock when the cache folder is not usable (nothing
+    is shared then) or the lock file cannot be made, and without POSIX file locks."""
+    base = cache_dir()
+    return contextlib.nullcontext() if base is None else _flock(base, f".building-{key}",
+                                                               optional=True)
 
 
 def _manifest(entry: Path) -> dict[str, str] | None:

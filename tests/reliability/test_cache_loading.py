@@ -20,7 +20,9 @@ import json
 import os
 import pickle
 import stat
+import subprocess
 import sys
+import time
 import warnings
 
 import numba
@@ -266,3 +268,41 @@ def test_the_library_of_another_model_is_refused_and_rebuilt(fresh):
     mine = (fresh / one.key / native.library_name(one.key)).read_bytes()
     assert mine != theirs and cache._sha256(mine) == _manifest(fresh / one.key)[
         native.library_name(one.key)]
+
+
+# --- two processes, one build ------------------------------------------------------------------------
+#: a second process: it reads the model and its key, says so, then compiles it (python back end)
+_SECOND = """
+from porthamiltonian import compile_model, io
+from porthamiltonian.compiler import cache
+model = io.load("mass_spring_damper")
+cache.model_key(model)
+print("ready", flush=True)
+compiled = compile_model(model, backend="python")
+print(compiled.key, repr(float(compiled.simulate(1.0)["H"][-1])))
+"""
+
+
+def test_a_second_process_waits_for_the_build_and_reads_the_entry(fresh, monkeypatch):
+    """While this process holds the model's build lock (as during its build), another process
+    compiling the same model waits for it, then reads the entry this one made: it prints no
+    'building' line of its own (without the lock it would miss the cache and build too) and
+    gets the same model (key; H after 1 s equal to round-off, 1e-12 relative)."""
+    monkeypatch.delenv("PORTHAMILTONIAN_QUIET", raising=False)
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    model = io.load(MODEL)
+    key = cache.model_key(model)
+    with cache.building(key):
+        second = subprocess.Popen([sys.executable, "-c", _SECOND], env=env,
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        assert second.stdout is not None and second.stdout.readline() == "ready\n"
+        time.sleep(0.5)                       # the second process is at its look-up: a miss
+        assert not (fresh / key).exists()
+        ours = _compile("python", model)
+    out, err = second.communicate(timeout=120)
+    assert second.returncode == 0, err
+    assert "building" not in err, err
+    their_key, their_h = out.split()
+    assert their_key == ours.key == key
+    assert float(their_h) == pytest.approx(float(ours.simulate(1.0)["H"][-1]), rel=1e-12)

@@ -22,16 +22,17 @@ from walker_library.analyses.cases import gait_case
 from walker_library.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
-# simplest_walker's gait over 6 slopes, python back end: ~0.5 s per case on one core (from 0.015
-# on, the gait search continues through the period doublings: 7-70x longer)
-N_CASES = 6
-SLOPES = f"slope=0.004:0.014:{N_CASES}"
-FIXED = {"model": "simplest_walker", "backend": "python"}
+# simplest_walker's gait over 40 slopes, C back end: ~0.1 s per case on one core, so the sweep is
+# still busy when both workers have written a row (from 0.015 on, the gait search continues
+# through the period doublings: 7-70x longer)
+N_CASES = 40
+SLOPES = f"slope=0.004:0.012:{N_CASES}"
+FIXED = {"model": "simplest_walker", "backend": "c"}
 
 
 def _command(out: Path) -> list[str]:
     return [sys.executable, "-m", "walker_library.cli", "sweep", "simplest_walker", "--grid",
-            SLOPES, "--backend", "python", "--workers", "2", "--progress", "none",
+            SLOPES, "--backend", "c", "--workers", "2", "--progress", "none",
             "--out", str(out)]
 
 

@@ -126,12 +126,13 @@ def test_view_of_a_hostile_model_writes_its_page_and_image(tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def hostile_report(tmp_path_factory):
-    """A report (with the 3D view and a continuation) of simplest_walker under a hostile name,
-    and the viewer page of heavy_top under one."""
+    """A report (one step: the page's parts are what is checked, with the 3D view and a
+    continuation) of simplest_walker under a hostile name, and the viewer page of heavy_top
+    under one."""
     tmp = tmp_path_factory.mktemp("hostile")
     walker = _hostile_copy(tmp, "simplest_walker")
     out = tmp / "report"
-    assert walker_main(["report", str(walker), "--out", str(out), "--steps", "3", "--view3d",
+    assert walker_main(["report", str(walker), "--out", str(out), "--steps", "1", "--view3d",
                         "--quiet", "--no-step-down", "--continuation", "slope=0.0145:0.0147"]) == 0
     view = tmp / "view"
     assert cli.main(["--backend", "python", "view", str(_hostile_copy(tmp, "heavy_top")),

@@ -24,6 +24,7 @@ import pytest
 from browser import console_errors, render
 from PIL import Image
 
+from walker_library.analyses import results
 from walker_library.cli import main
 from walker_library.report import writer as report_module
 from walker_library.report.writer import ExtraFigure
@@ -58,6 +59,8 @@ def report(tmp_path_factory):
               ExtraFigure("Left out", "none.png", lambda walker, gait, path: None)]
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(report_module, "EXTRA_FIGURES", extras)
+        # no notebook view registered, as in a fresh `walker` process (conftest: without_views)
+        mp.setattr(results, "_VIEWS", {})
         assert main(["report", "simplest_walker", "--out", str(out), "--steps", "4",
                      "--view3d", "--quiet", "--continuation", "slope=0.0145:0.0152"]) == 0
     return out

@@ -13,7 +13,7 @@ from walker_library.cli import main
 from walker_library.report.studies import STUDIES, run_studies
 
 
-def test_quick_studies_write_figures_and_thesis_rows(tmp_path, capsys):
+def test_quick_studies_write_figures_and_thesis_rows(tmp_path, capsys, without_views):
     out = tmp_path / "repro"
     assert main(["reproduce", "damping_calibration", "slope_multipliers", "--quick", "--serial",
                  "--quiet", "--out", str(out)]) == 0

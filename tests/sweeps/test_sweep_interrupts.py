@@ -164,10 +164,12 @@ def test_hard_killed_sweep_with_a_torn_last_line_resumes(tmp_path):
 
 def test_interrupted_simplest_walker_gait_sweep_resumes_to_the_same_numbers(tmp_path, capsys,
                                                                             gait_reference):
-    """The real thing: simplest_walker gait over 4 slopes (C back end, one worker), stopped
-    by SIGINT after the first row, resumed; the table equals an uninterrupted in-process run."""
+    """The real thing: simplest_walker gait over the reference's first 3 slopes (C back end, one
+    worker), stopped by SIGINT after the first row, resumed; the table equals an uninterrupted
+    in-process run (the reference's fourth slope, chaotic, ~5 s of CPU, is the same machinery's
+    case: the reference checks its verdict)."""
     out = tmp_path / "gait.jsonl"
-    args = ["sweep", "simplest_walker", "--grid", "slope=0.004:0.019:4", "--out", str(out),
+    args = ["sweep", "simplest_walker", "--grid", "slope=0.004:0.014:3", "--out", str(out),
             "--backend", "c", "--workers", "1", "--progress", "none"]
     proc = _start(args)
     _wait_for_rows(proc, out, 1)
@@ -175,19 +177,19 @@ def test_interrupted_simplest_walker_gait_sweep_resumes_to_the_same_numbers(tmp_
     _, stderr = proc.communicate(timeout=30)
     assert proc.returncode == 130, stderr
     partial = load_results(out)
-    assert 1 <= len(partial) < 4
+    assert 1 <= len(partial) < 3
 
     assert main([*args, "--json"]) == 0                    # the same command, again
     doc = json.loads(capsys.readouterr().out)
-    assert doc["report"]["n_run"] == 4 - len(partial) and doc["report"]["complete"]
+    assert doc["report"]["n_run"] == 3 - len(partial) and doc["report"]["complete"]
     assert doc["identity"]["function"] == "walker_library.analyses.cases:gait_case"
     assert doc["identity"]["fixed"] == {"backend": "c", "model": "simplest_walker"}
     rows = load_results(out)
-    assert sorted(r["case_id"] for r in rows) == [0, 1, 2, 3]
+    assert sorted(r["case_id"] for r in rows) == [0, 1, 2]
     reference = gait_reference
-    assert _results(rows) == reference
+    assert _results(rows) == {i: reference[i] for i in range(3)}
     statuses = [reference[i][1] for i in range(4)]
     # γ = 0.019: chaotic, only unstable orbits (status "periodic", not stable)
     assert statuses == ["periodic"] * 4
     assert [reference[i][2]["stable"] for i in range(4)] == [True, True, True, False]
-    assert [row["status"] for row in doc["table"]] == statuses
+    assert [row["status"] for row in doc["table"]] == statuses[:3]

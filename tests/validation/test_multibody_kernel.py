@@ -85,14 +85,20 @@ CASES = {"tree3d": tree3d_model, "all_joints": all_joints_model}
 
 @pytest.fixture(scope="module")
 def pairs(isolated_cache):
+    """``pairs(case, backend)`` -> (the kernel formulation on ``backend``, the symbolic
+    formulation): the symbolic reference is built once per case, on the python back end (its
+    generated program is the C back end's, function by function: test_backends), so each
+    back end's kernel is compared with the same numbers."""
     built = {}
 
     def get(case: str, backend: str):
+        if (case, "symbolic") not in built:
+            built[case, "symbolic"] = ph.compile_model(with_formulation(CASES[case](), "symbolic"),
+                                                       backend="python")
         if (case, backend) not in built:
-            model = CASES[case]()
-            built[case, backend] = tuple(ph.compile_model(with_formulation(model, f), backend=backend)
-                                         for f in ("kernel", "symbolic"))
-        return built[case, backend]
+            built[case, backend] = ph.compile_model(with_formulation(CASES[case](), "kernel"),
+                                                    backend=backend)
+        return built[case, backend], built[case, "symbolic"]
 
     return get
 
@@ -212,8 +218,10 @@ def open_cart_pole(formulation: str, pose: bool = False) -> ph.Model:
 
 @pytest.fixture(scope="module")
 def open_pair(isolated_cache):
-    return tuple(ph.compile_model(open_cart_pole(f), backend="c", jac_p=["c"])
-                 for f in ("kernel", "symbolic"))
+    """The open cart-pole's kernel formulation on the C back end and its symbolic reference on
+    the python back end (see ``pairs``)."""
+    return (ph.compile_model(open_cart_pole("kernel"), backend="c", jac_p=["c"]),
+            ph.compile_model(open_cart_pole("symbolic"), backend="python", jac_p=["c"]))
 
 
 def test_derivatives_of_an_open_kernel_model_are_those_of_the_symbolic_formulation(open_pair):

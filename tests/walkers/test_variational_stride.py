@@ -91,12 +91,21 @@ def test_compass_walker_against_extrapolated_differences():
     assert np.max(np.abs(d2 - exact)) > 30 * np.max(np.abs(exact - rich))
 
 
+#: variants of compliant_leg_walker (a hip spring, point-mass legs, friction at the sole point:
+#: the same contacts, events and variational equations as the walkers beside them): checked by
+#: the numba pass only (tests/conftest.py, ``breadth``)
+_BREADTH = pytest.mark.breadth
+
+
 @pytest.mark.parametrize("name", ["compass_walker", "compliant_leg_walker",
                                   "smooth_stiffness_walker", "variable_stiffness_walker",
-                                  "ankle_stiffness_walker", "hip_and_leg_spring_walker",
-                                  "compass_walker_point_legs", "compliant_leg_walker_point_legs",
+                                  "ankle_stiffness_walker",
+                                  pytest.param("hip_and_leg_spring_walker", marks=_BREADTH),
+                                  "compass_walker_point_legs",
+                                  pytest.param("compliant_leg_walker_point_legs", marks=_BREADTH),
                                   "compass_walker_sole_friction",
-                                  "compliant_leg_walker_sole_friction"])
+                                  pytest.param("compliant_leg_walker_sole_friction",
+                                               marks=_BREADTH)])
 def test_compliant_walker_multipliers_to_1e_6(name):
     """The exact multipliers at the file's tolerances (rtol 1e-9) differ from those of a run at
     rtol 1e-11 by less than 1e-6 (measured 5e-9 to 1.1e-7; 8.3e-7 on smooth_stiffness_walker

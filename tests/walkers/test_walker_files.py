@@ -132,18 +132,19 @@ def test_swapping_one_foots_friction_for_a_viscous_damper_changes_the_walk(tmp_p
     """fric1 (SCVS friction at foot 1's sole, compass_walker_sole_friction: a 2-D point port)
     becomes a linear viscous damper on the sole point while foot 1's contact is on (R on the 2-D
     point port, resistance B_sole·c1): the walker is that edited model (its component kinds), it
-    walks with a closed ledger, and its stride is not the original's (python back end: no
-    compilation of the compiled loop)."""
+    walks with a closed ledger, and its stride is not the original's (C back end in both
+    passes: the subject is the edited description, and numba would compile the edited model's
+    functions for this one test, ~40 s in the numba pass)."""
     text = (MODELS / "compass_walker_sole_friction.toml").read_text()
     line = next(ln for ln in text.splitlines() if ln.startswith("fric1 = "))
     edited = text.replace(line, 'fric1 = { type = "R", dim = 2, resistance = "B_sole*c1" }').replace(
         "lam = { value", 'B_sole = { value = 5.0, unit = "N*s/m", doc = "sole damper" }\nlam = { value', 1)
     path = tmp_path / "viscous_foot.toml"
     path.write_text(edited)
-    w = load_walker(path, backend="python")
+    w = load_walker(path, backend="c")
     assert w.spec.model.component("fric1").kind == "R"
     assert w.spec.model.component("fric2").kind == "SCVSFriction"
-    original = load_walker("compass_walker_sole_friction", backend="python")
+    original = load_walker("compass_walker_sole_friction", backend="c")
     z = original.initial_guess()
     a, b = original.stride(z), w.stride(z, record=True)
     assert a.status == "step"

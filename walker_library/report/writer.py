@@ -69,6 +69,7 @@ from .comparison import REFERENCES, ComparisonRow, compare, differing_conditions
 from .figures import (
     fig_angles,
     fig_basin,
+    fig_bifurcation,
     fig_energy,
     fig_energy_per_step,
     fig_floquet,
@@ -194,7 +195,7 @@ def write_report(walker: HybridWalker, out: str | Path, *, n_steps: int = 6, wit
             put(section.filename, (out / section.filename).read_bytes())
             extras.append((section, caption))
     if continuation is not None:
-        put("bifurcation_diagram.png", continuation.figure(out / "bifurcation_diagram.png"))
+        put("bifurcation_diagram.png", fig_bifurcation(continuation, out / "bifurcation_diagram.png"))
         dump("continuation.json", continuation.to_dict())
     comparison = compare(walker, gait, sd)
     ledger = {"max_abs_residual": float(np.max(np.abs(series.residual))),
