@@ -162,29 +162,30 @@ class FrameworkSection:
 
     def __init__(self, fw, joints):
         self.fw = fw
-        coords = [fw.model.state_names[i][len("walker.q."):] for i in fw._iq]
-        self.order = [coords.index(j) for j in joints]
-        self.iq = np.asarray(fw._iq)[self.order]
-        self.ip = np.asarray(fw._ip)[self.order]
+        names = list(fw.model.state_names)
+        coords = [n[len("walker.q."):] for n in names if n.startswith("walker.q.")]
+        self._v_order = [coords.index(j) for j in joints]     # joints' rates among M⁻¹p
+        self.iq = np.array([names.index(f"walker.q.{j}") for j in joints])
+        self._ip_all = np.array([names.index(f"walker.p.{c}") for c in coords])
         self.p = fw.start_params()                      # both feet's contacts on, foot 1 leading
         self.i_lead = fw.model.param_names.index("lead")
 
     def to_y(self, z):
         fw = self.fw
         x = fw.lift(z, self.p)
-        v = fw.velocities(x, self.p)
-        return np.concatenate([x[fw._iq][self.order], v[self.order]])
+        v = np.linalg.solve(fw.model.matrix("walker.M", 0.0, x, self.p), x[self._ip_all])
+        return np.concatenate([x[self.iq], v[self._v_order]])
 
     def to_z(self, y, lead):
         fw = self.fw
-        m = len(self.order)
+        m = len(self.iq)
         x = np.zeros(fw.model.n_states)
         x[self.iq] = y[:m]
         for k in (1, 2):                                # the springs' lengths follow the joints
             x[fw.model.state_index(f"spring{k}.q")] = x[fw.model.state_index(f"walker.q.ankle{k}")]
         v = np.empty(m)
-        v[self.order] = y[m:]
-        x[fw._ip] = fw.model.matrix("walker.M", 0.0, x, self.p) @ v
+        v[self._v_order] = y[m:]
+        x[self._ip_all] = fw.model.matrix("walker.M", 0.0, x, self.p) @ v
         p = self.p.copy()
         p[self.i_lead] = lead + 1
         return fw.project(x, p)
