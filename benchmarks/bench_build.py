@@ -363,6 +363,8 @@ def phases(args) -> None:
 
 # --- optimisation levels -----------------------------------------------------------------------------
 def opt_levels(args) -> None:
+    from timing import fresh_walk
+
     from porthamiltonian.backends import native
     from walker_library import find_fixed_point, load_walker
 
@@ -399,7 +401,7 @@ def opt_levels(args) -> None:
             for level in levels:
                 model.functions = functions[level]
                 t0 = time.perf_counter()
-                strides = _fresh_walk(walker, z, args.strides)
+                strides = fresh_walk(walker, z, args.strides)
                 per[level].append((time.perf_counter() - t0) / len(strides))
         model.functions = original
         base = statistics.median(per["-O1", False])
@@ -413,6 +415,7 @@ def opt_levels(args) -> None:
 def walker_3d(args) -> None:
     """Newton iterations to the 3D fixed point from the 2D one; time per stride, 3D vs 2D."""
     import numpy as np
+    from timing import fresh_walk
 
     from walker_library import find_fixed_point, load_walker
     planar, spatial = load_walker(PLANAR_TWIN, backend="c"), load_walker(WALKER_3D, backend="c")
@@ -426,20 +429,13 @@ def walker_3d(args) -> None:
     for _ in range(args.rounds):
         for name, walker, z in ((PLANAR_TWIN, planar, z2), (WALKER_3D, spatial, fp3.z)):
             t0 = time.perf_counter()
-            strides = _fresh_walk(walker, z, args.strides)
+            strides = fresh_walk(walker, z, args.strides)
             per[name].append((time.perf_counter() - t0) / len(strides))
     base = statistics.median(per[PLANAR_TWIN])
     for name, times in per.items():
         print(f"time per stride, {name}: {1e3 * statistics.median(times):.2f} ms (median of "
               f"{args.rounds} interleaved rounds of {args.strides} strides); "
               f"ratio to {PLANAR_TWIN} {statistics.median(times) / base:.2f}", flush=True)
-
-
-def _fresh_walk(walker, z, n_steps: int) -> list:
-    """``walker.walk(z, n_steps)`` integrated every time: a walk with an ``until`` predicate (one
-    that never stops it) is never cut from the walker's last walk, which a repeated plain walk
-    is (HybridWalker.walk), so that each timed walk integrates its strides."""
-    return walker.walk(z, n_steps, until=lambda _z: False)
 
 
 def _shapes(model) -> dict:

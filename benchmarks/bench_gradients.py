@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from machine import machine_info
-from timing import interleaved
+from timing import fresh_walk, interleaved
 
 from walker_library import find_fixed_point, load_walker
 from walker_library.analyses.optimize import optimize_gait
@@ -56,7 +56,7 @@ def bench_stride(name: str, rounds: int) -> None:
     z = find_fixed_point(walker, walker.initial_guess(),
                          tol=float(getattr(walker, "gait_tolerance", 1e-10))).z
     names = NAMES[name]
-    variants = {"plain": lambda: walker.stride(z),
+    variants = {"plain": lambda: fresh_walk(walker, z, 1),
                 "state": lambda: walker.stride_sensitivity(z),
                 "gradient": lambda: stride_gradient(walker, z, names)}
     for run in variants.values():          # compile, warm caches

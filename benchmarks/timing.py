@@ -1,4 +1,5 @@
-"""How the benchmarks time variants against each other (ratios against a same-run baseline)."""
+"""How the benchmarks time variants against each other (ratios against a same-run baseline), and
+walks that integrate every time they are timed."""
 from __future__ import annotations
 
 import time
@@ -16,3 +17,10 @@ def interleaved(variants: Mapping[str, Callable[[], object]], rounds: int) -> di
             variants[k]()
             times[k].append(time.perf_counter() - t0)
     return times
+
+
+def fresh_walk(walker, z, n_steps: int) -> list:
+    """``walker.walk(z, n_steps)`` integrated every time: a walk with an ``until`` predicate (one
+    that never stops it) is never cut from the walker's last walk, which a repeated plain walk
+    is (HybridWalker.walk), so that each timed walk integrates its strides."""
+    return walker.walk(z, n_steps, until=lambda _z: False)
