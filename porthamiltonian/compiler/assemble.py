@@ -33,6 +33,7 @@ import sympy as sp
 from ..errors import ModelError, StateError
 from ..modeling.calls import KernelCall
 from ..modeling.constraints import Constraint
+from ..modeling.differentiation import derivative
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import EventSpec
 from ..modeling.ports import domain
@@ -128,9 +129,9 @@ def assemble(solution: Solution) -> SymbolicModel:
             # intermediates hide a dependence on time or on other components' states: the
             # modulation power is formed from the energy written out in states
             energy = _inline(energy, system.intermediates)
-        modulation = sp.diff(energy, TIME)
+        modulation = derivative(energy, TIME)
         if not b.energy_via_ports:
-            modulation += sum((sp.diff(energy, x) * xdot[x] for x in energy.free_symbols & set(states)
+            modulation += sum((derivative(energy, x) * xdot[x] for x in energy.free_symbols & set(states)
                                if x not in owned[cname]), sp.Integer(0))
         p_in += modulation
         p_diss += b.dissipation.xreplace(system.aliases).xreplace(values)
@@ -317,8 +318,8 @@ def power_balance(model: SymbolicModel) -> sp.Expr:
     n = len(model.states)
     if model.intermediates:
         return power_balance(_inlined(model))
-    dH = sp.diff(model.hamiltonian, TIME) + sum(
-        (sp.diff(model.hamiltonian, x) * f for x, f in zip(model.states, model.rhs[:n])), sp.Integer(0))
+    dH = derivative(model.hamiltonian, TIME) + sum(
+        (derivative(model.hamiltonian, x) * f for x, f in zip(model.states, model.rhs[:n])), sp.Integer(0))
     return dH - model.p_in + model.p_diss
 
 

@@ -48,6 +48,7 @@ import sympy as sp
 
 from ..errors import PassivityError
 from ..modeling.component import Dissipator, PHCut, Source
+from ..modeling.differentiation import derivative
 from ..modeling.model import ModelDescription
 from .assemble import SymbolicModel, _needed
 from .codegen import Function, FunctionBuilder, Program, gathered, jacobian_function, symbol_map
@@ -292,7 +293,7 @@ def _matrix(rows: list[sp.Expr], columns: list[sp.Symbol],
         if expr.free_symbols & cut:
             reads[symbol] = expr
     full = [sp.sympify(r).xreplace(reads) for r in rows]
-    return sp.Matrix(len(full), len(columns), lambda i, j: sp.diff(full[i], columns[j]))
+    return sp.Matrix(len(full), len(columns), lambda i, j: derivative(full[i], columns[j]))
 
 
 def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list[Function]:

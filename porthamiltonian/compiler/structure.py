@@ -47,6 +47,7 @@ from ..errors import (
     UnknownParameterError,
 )
 from ..modeling.component import Builder, Built, PHCut, PortVars
+from ..modeling.differentiation import derivative
 from ..modeling.elements import _Junction
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import ModelDescription
@@ -381,7 +382,7 @@ def _junction_equations(name: str, comp: _Junction, built: Built,
 
 
 def _solvable(residual: sp.Expr, unknown: sp.Symbol, unknowns: set[sp.Symbol]) -> bool:
-    coefficient = sp.diff(residual, unknown)
+    coefficient = derivative(residual, unknown)
     return coefficient != 0 and not (coefficient.free_symbols & unknowns)
 
 
@@ -428,7 +429,7 @@ def solve(system: System) -> Solution:
     for i in nx.lexicographical_topological_sort(deps):
         u = matched[i]
         residual = eqs[i].residual
-        coefficient = sp.diff(residual, u)
+        coefficient = derivative(residual, u)
         rest = residual.xreplace({u: 0})
         expr = (-rest / coefficient).xreplace(values)
         values[u] = expr

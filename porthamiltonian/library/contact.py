@@ -92,6 +92,7 @@ import sympy as sp
 
 from ..errors import ParameterValueError
 from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.differentiation import derivative
 from ..modeling.ports import Port
 from .surfaces import Surface, make_surface, surface_arguments
 
@@ -163,7 +164,7 @@ def split_law(b: Builder, law: Callable[[sp.Expr, sp.Expr], Law], pen: sp.Expr, 
     if b.ph is None:
         return force, force, energy, dissipation
     z = sp.Dummy("z", real=True)                    # ∂E/∂z of the law's energy at z = pen
-    elastic = sp.diff(law(z, rate)[1], z).xreplace({z: pen})
+    elastic = derivative(law(z, rate)[1], z).xreplace({z: pen})
     pushed = b.stored_via_ports(elastic) + b.resistive(force - elastic, rate, "normal")
     return force, pushed, energy, dissipation
 

@@ -54,6 +54,7 @@ import sympy as sp
 
 from ..errors import ParameterValueError
 from ..modeling.component import Arg, Builder, Component, register
+from ..modeling.differentiation import derivative
 from ..modeling.ports import DOMAINS, Port
 
 _COMMON = {
@@ -116,7 +117,7 @@ class _SpringDamper(Component):
             energy = stiffness * z**2 / 2
             b.energy(energy)
             b.equation(b.der(q), port.f, "dq/dt = f")
-            force = b.coenergy(q, sp.diff(energy, q))
+            force = b.coenergy(q, derivative(energy, q))
         if damping is None:
             damping = 2 * alpha * sp.sqrt(mass * stiffness) if alpha is not None else sp.Integer(0)
         b.equation(port.e, force + b.resistive(damping * port.f, port.f, "damper"),
@@ -201,9 +202,9 @@ class ActuatedSpringDamper(Component):
                        else sp.Integer(0))
         b.equation(b.der(q), port.f, "dq/dt = f")
         b.equation(b.der(K), kport.f, "dK/dt = f_k")
-        b.equation(port.e, b.coenergy(q, sp.diff(energy, q))
+        b.equation(port.e, b.coenergy(q, derivative(energy, q))
                    + b.resistive(damping * port.f, port.f, "damper"), "e = dH/dq + D f")
-        b.equation(kport.e, b.coenergy(K, sp.diff(energy, K)), "e_k = dH/dK = z^2/2")
+        b.equation(kport.e, b.coenergy(K, derivative(energy, K)), "e_k = dH/dK = z^2/2")
         b.built.storage_ports += ["p", "k"]
         b.dissipate(damping * port.f**2)
         b.output("z", z, dom.displacement_unit)

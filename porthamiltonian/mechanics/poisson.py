@@ -25,6 +25,7 @@ from typing import Any
 import sympy as sp
 
 from ..errors import ModelError
+from ..modeling.differentiation import derivative
 from .joints import Joint
 from .kinematics import cross
 
@@ -37,7 +38,7 @@ def poisson_rates(specs: Sequence[Joint], joints: Mapping[str, Any], rates: Sequ
     the quaternion's stabilising term) and η_q, η_p the symbols of ∂H/∂q, ∂H/∂p."""
     out = []
     for k in range(len(p)):
-        out.append(-sp.Add(*[sp.diff(rate, eta_p[k]) * eta for rate, eta in zip(rates, eta_q)]))
+        out.append(-sp.Add(*[derivative(rate, eta_p[k]) * eta for rate, eta in zip(rates, eta_q)]))
     start = 0
     for spec in specs:
         index = list(range(start, start + len(spec.velocities)))

@@ -43,6 +43,7 @@ from ..errors import (
 from .calls import KERNELS, WORK, KernelCall
 from .calls import outputs as call_outputs
 from .constraints import RULES, Constraint, violation
+from .differentiation import derivative
 from .expressions import TIME, as_expr, check_name, parse, to_text
 from .ports import Port, domain
 
@@ -418,7 +419,7 @@ class Builder:
         """The integral-causality law of one storage state (see :meth:`storage`)."""
         if causality not in ("C", "I"):
             raise ModelError(f"component {self.name!r}: storage causality must be 'C' or 'I'")
-        gradient = sp.diff(energy, state)
+        gradient = derivative(energy, state)
         for decl in self.built.states:          # a state without a unit gets its port's
             if decl.symbol == state and not decl.unit:
                 dom = domain(port.port.domain)
@@ -461,7 +462,7 @@ class Builder:
         linear = (all(isinstance(wj, sp.Symbol) for wj in w)   # (a law of a port's flow)
                   and all(zi.is_polynomial(*w) for zi in z))
         if linear:
-            C = sp.Matrix(len(z), len(w), lambda i, j: sp.diff(z[i], w[j]))
+            C = sp.Matrix(len(z), len(w), lambda i, j: derivative(z[i], w[j]))
             linear = (not (C.free_symbols & (ports | set(w)))
                       and all(sp.expand(zi - sum(C[i, j] * w[j] for j in range(len(w)))) == 0
                               for i, zi in enumerate(z)))

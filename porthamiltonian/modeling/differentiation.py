@@ -16,19 +16,24 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Mapping
 
 import sympy as sp
+from sympy.core.function import ArgumentIndexError
 
 from .expressions import TIME
 
 
 def derivative(expr: sp.Expr, v: sp.Symbol,
                memo: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] | None = None) -> sp.Expr:
-    """∂expr/∂v: sums, products and numeric powers by hand (the bulk of generated expressions,
-    about ten times faster than sympy's general ``diff``), anything else by ``sympy.diff``.
+    """∂expr/∂v by the rules of :func:`_derivative` (sums, products, numeric powers, functions
+    of one or more arguments by their ``fdiff``, Piecewise branch by branch), anything else by
+    ``sympy.diff``: the same derivative sympy's ``diff`` gives, built without its ``Derivative``
+    objects and their assumption queries (several times faster on the compiler's expressions).
 
     ``memo``: the derivatives found so far, by (expression, variable), filled and reused for
     every subexpression: the code generator differentiates the same subexpressions again and
     again (a model's Jacobians share them; the compass walker's program asks 1108 times for 490
     distinct derivatives). The result is the same expression with or without it."""
+    if not isinstance(expr, sp.Basic):
+        expr = sp.sympify(expr)             # (a number, or a component's plain value)
     if memo is None:
         return _derivative(expr, v, None)
     key = (expr, v)
@@ -36,6 +41,12 @@ def derivative(expr: sp.Expr, v: sp.Symbol,
     if found is None:
         found = memo[key] = _derivative(expr, v, memo)
     return found
+
+
+#: the function classes whose derivative is the chain rule over their arguments with their own
+#: ``fdiff`` (sympy's ``Function._eval_derivative``); the others (Abs, sign, re, im, ...) go to
+#: ``sympy.diff``, which knows their special rules
+_CHAIN_RULE = sp.Function._eval_derivative
 
 
 def _derivative(expr: sp.Expr, v: sp.Symbol,
@@ -57,6 +68,22 @@ def _derivative(expr: sp.Expr, v: sp.Symbol,
         return sp.Add(*terms)
     if expr.is_Pow and expr.exp.is_Number:
         return expr.exp * expr.base ** (expr.exp - 1) * derivative(expr.base, v, memo)
+    if isinstance(expr, sp.Piecewise):
+        # the conditions are constants of the derivative (as for sympy's Piecewise)
+        branches = [(derivative(e, v, memo), c) for e, c in expr.args]
+        if all(d == branches[0][0] for d, _ in branches):
+            return branches[0][0]
+        return sp.Piecewise(*branches)
+    if isinstance(expr, sp.Function) and type(expr)._eval_derivative is _CHAIN_RULE:
+        terms = []
+        for i, a in enumerate(expr.args, start=1):
+            d = derivative(a, v, memo)
+            if d != 0:
+                try:
+                    terms.append(expr.fdiff(i) * d)
+                except ArgumentIndexError:      # no rule for this argument: sympy's Derivative
+                    return sp.diff(expr, v)
+        return sp.Add(*terms)
     return sp.diff(expr, v)
 
 
