@@ -20,7 +20,7 @@ def interleaved(variants: Mapping[str, Callable[[], object]], rounds: int) -> di
 
 
 def fresh_walk(walker, z, n_steps: int) -> list:
-    """``walker.walk(z, n_steps)`` integrated every time: a walk with an ``until`` predicate (one
-    that never stops it) is never cut from the walker's last walk, which a repeated plain walk
-    is (HybridWalker.walk), so that each timed walk integrates its strides."""
-    return walker.walk(z, n_steps, until=lambda _z: False)
+    """``walker.walk(z, n_steps)`` integrated every time (``reuse=False``: a repeated walk is
+    otherwise cut from the walker's last walk, HybridWalker.walk), so that each timed walk
+    integrates its strides."""
+    return walker.walk(z, n_steps, reuse=False)

@@ -292,9 +292,13 @@ def test_the_gaits_stride_is_cut_from_newtons_last_walk(walker, gait, monkeypatc
     assert len(runs) == 3
     w.walk(z + 1e-6, 1)                      # the same walk again: cut
     assert len(runs) == 3
+    again = w.walk(z + 1e-6, 1, reuse=False)  # integrated, on request: the same stride
+    assert len(runs) == 4
+    assert np.array_equal(again[0].z_next, w.walk(z + 1e-6, 1)[0].z_next)
+    assert len(runs) == 4                    # (and a plain walk after it: cut from it)
     w.run = w.with_parameters(slope=0.01).run  # other run values: integrated again
     w.walk(z + 1e-6, 1)
-    assert len(runs) == 4
+    assert len(runs) == 5
 
 
 def test_floquet_runs_its_two_jacobians_side_by_side_with_the_same_numbers(walker, gait):

@@ -195,9 +195,12 @@ class Walker(Protocol):
 
     def walk(self, z: np.ndarray, n_steps: int, *, details: bool = False,
              record: bool = False, ground_drop: float = 0.0,
-             until: Callable[[np.ndarray], bool] | None = None) -> list[Stride]:
+             until: Callable[[np.ndarray], bool] | None = None,
+             reuse: bool = True) -> list[Stride]:
         """``n_steps`` consecutive strides from ``z`` (stops at the first fall, or after the
-        first stride whose end section state satisfies ``until``).
+        first stride whose end section state satisfies ``until``). ``reuse``: a walk that
+        repeats the last one may be cut from its trajectory (the same strides, not integrated
+        again); False integrates it in every case (e.g. to time the integration).
 
         ``ground_drop`` h (m, >= 0): the surface drops by h once, ahead of the stance foot, before
         the first heel strike, and stays down (the thesis's step-down, §2.6): the first step's new

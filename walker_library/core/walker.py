@@ -569,7 +569,8 @@ class HybridWalker:
 
     def walk(self, z: np.ndarray, n_steps: int, *, details: bool = False, record: bool = False,
              ground_drop: float = 0.0,
-             until: Callable[[np.ndarray], bool] | None = None) -> list[Stride]:
+             until: Callable[[np.ndarray], bool] | None = None,
+             reuse: bool = True) -> list[Stride]:
         """``n_steps`` consecutive strides from section state ``z`` in one simulation (one
         energy ledger); stops at the first fall, which is the last Stride (status "fell").
 
@@ -582,12 +583,13 @@ class HybridWalker:
         The same walk as the last one, asked again (e.g. with ``details``: a gait's strides after
         Newton's last residual at the fixed point), is cut from the last one's trajectory, not
         integrated again (a walk without ``until`` or ``record`` whose integrator keeps no dense
-        output: its trajectory does not depend on ``details``)."""
+        output: its trajectory does not depend on ``details``); ``reuse=False`` integrates it
+        anyway (e.g. to time the integration)."""
         if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
             raise ParameterValueError(f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
         o = self.options
         dense = (details or record) and o.method not in COMPILED_METHODS
-        plain = until is None and not record and not dense
+        plain = until is None and not record and not dense and reuse
         key = (np.asarray(z, dtype=float).tobytes(), int(n_steps), float(ground_drop))
         last = self._last_walk
         if plain and last is not None and last[0] == key and last[1][4] is self.run:
