@@ -547,22 +547,26 @@ def _loop_object(use_cache: bool, times: dict[str, float], log_dir: Path | None,
                  model_source: Path) -> Path:
     """The integration loops' object: cached, or the background compile :func:`prepare`
     started waited for, or compiled now (the time waited added to ``times["C"]``); a failure is
-    logged as the model's (``log_dir``, named after ``model_source``)."""
+    logged as the model's (``log_dir``, named after ``model_source``). Under the object's build
+    lock (:func:`cache.building`): a process that finds it stored by another meanwhile stops
+    its own compile."""
     text = native.loop_source()
     key = native.object_key(text)
     found = _LOOPS.pop(os.getpid(), None)
     pending = found[1] if found is not None and found[0] == key else None
     if found is not None and pending is None:       # started for another compiler
         found[1].close(stop=True)
-    path = cache.verified_path(key, _loop_name()) if use_cache else None
-    if path is None:
-        start = time.perf_counter()
-        data = (pending.result(log_dir, model_source)[0] if pending is not None
-                else native.compile_object(text, "loops", log_dir, model_source)[0])
-        times["C"] = times.get("C", 0.0) + time.perf_counter() - start
-        path = cache.store(key, _loop_name(), data, use_cache)
-    elif pending is not None:
-        pending.close(stop=True)
+    # one process stores the object, the others wait and read it (their own compiles stopped)
+    with cache.building(key) if use_cache else contextlib.nullcontext():
+        path = cache.verified_path(key, _loop_name()) if use_cache else None
+        if path is None:
+            start = time.perf_counter()
+            data = (pending.result(log_dir, model_source)[0] if pending is not None
+                    else native.compile_object(text, "loops", log_dir, model_source)[0])
+            times["C"] = times.get("C", 0.0) + time.perf_counter() - start
+            path = cache.store(key, _loop_name(), data, use_cache)
+        elif pending is not None:
+            pending.close(stop=True)
     return path
 
 
@@ -571,17 +575,19 @@ def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_di
     """The compiled object of ``kernel`` (:mod:`porthamiltonian.mechanics.sources`), from the
     cache (an entry of its own, keyed by its source and the compiler) or compiled now (its time
     added to ``times["C"]``; a failure logged as the model's): one compile serves every model
-    that calls the kernel."""
+    that calls the kernel, and one process compiles it while the others wait under its build
+    lock (:func:`cache.building`)."""
     from ..mechanics.sources import c_object_source  # (the mechanics import sympy)
 
     text = c_object_source(kernel)
     key = native.object_key(text)
     name = f"{kernel}_{sys.platform}.o"
-    path = cache.verified_path(key, name) if use_cache else None
-    if path is None:
-        data, seconds = native.compile_object(text, kernel, log_dir, model_source)
-        times["C"] = times.get("C", 0.0) + seconds
-        path = cache.store(key, name, data, use_cache)
+    with cache.building(key) if use_cache else contextlib.nullcontext():   # (as the loops')
+        path = cache.verified_path(key, name) if use_cache else None
+        if path is None:
+            data, seconds = native.compile_object(text, kernel, log_dir, model_source)
+            times["C"] = times.get("C", 0.0) + seconds
+            path = cache.store(key, name, data, use_cache)
     return path
 
 

@@ -306,3 +306,38 @@ def test_a_second_process_waits_for_the_build_and_reads_the_entry(fresh, monkeyp
     their_key, their_h = out.split()
     assert their_key == ours.key == key
     assert float(their_h) == pytest.approx(float(ours.simulate(1.0)["H"][-1]), rel=1e-12)
+
+
+#: a second process: compiles the model on C (its loops' object is not in the cache yet)
+_SECOND_C = _SECOND.replace('backend="python"', 'backend="c"')
+
+
+def test_the_loops_object_is_compiled_by_one_process(fresh, monkeypatch):
+    """The integration loops' object (one for every model) is stored under its own build lock:
+    while this process holds it, another process that compiles a model on C waits at its loops
+    and stores nothing (without the lock it would compile and store its own within this wait);
+    once this process has stored the object and let go, the other links with it (the file is
+    not written again: same inode and time) and simulates as a C model should (H after 1 s as
+    this process's python build, 1e-12 relative)."""
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    key = native.object_key(native.loop_source())
+    name = f"loops_{sys.platform}.o"
+    with cache.building(key):
+        second = subprocess.Popen([sys.executable, "-c", _SECOND_C], env=env,
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        assert second.stdout is not None and second.stdout.readline() == "ready\n"
+        time.sleep(3.0)                      # its model built, its loops compiled: it waits
+        assert cache.verified_path(key, name) is None
+        _compile("c", io.load("pendulum"))   # (another model: its own model lock)
+        stored = cache.verified_path(key, name)
+        assert stored is not None
+        before = stored.stat()
+    out, err = second.communicate(timeout=120)
+    assert second.returncode == 0, err
+    after = stored.stat()
+    assert (after.st_ino, after.st_mtime_ns) == (before.st_ino, before.st_mtime_ns)
+    their_key, their_h = out.split()
+    ours = _compile("python")
+    assert their_key == ours.key
+    assert float(their_h) == pytest.approx(float(ours.simulate(1.0)["H"][-1]), rel=1e-12)
