@@ -69,26 +69,37 @@ def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     description (every problem at once, :meth:`~porthamiltonian.modeling.model.ModelDescription.validate`),
     then structure, assembly. Errors carry the path of what they are about
     (:attr:`~porthamiltonian.errors.ModelError.path`)."""
+    return _symbolic_model(_frozen(model), claim=False)
+
+
+def _symbolic_model(description: ModelDescription, claim: bool) -> SymbolicModel:
+    """:func:`symbolic` of a frozen description; ``claim``: for a build that reports its time
+    (:func:`compile_model`), whose ``solved_earlier`` then holds the seconds of a structure
+    solve an earlier call made and no build reported (:func:`_solved`)."""
     from .assemble import assemble
     from .phform import ph_form
 
-    description = _frozen(model)
-    sym = assemble(_solved(description.validate()))
-    sym.ph_maker = lambda: ph_form(description, sym, _solved(description))
+    solution, earlier = _solved(description.validate(), claim)
+    sym = assemble(solution)
+    sym.ph_maker = lambda: ph_form(description, sym, _solved(description)[0])
+    sym.solved_earlier = earlier
     return sym
 
 
 #: the solved structures (:func:`structure.build_system` + :func:`structure.solve`, most of the
 #: symbolic work) of the last models of this process, by everything but their events and model
 #: outputs, which only :func:`assemble` reads: a walker asks for its model's :func:`layout` (for
-#: the names its description may use), then compiles it with its own outputs (walker_library.core)
-_SOLVED: OrderedDict[str, tuple[tuple[type, ...], Solution]] = OrderedDict()
+#: the names its description may use), then compiles it with its own outputs (walker_library.core).
+#: Each with the seconds its solve took while no build line has reported them (a layout's).
+_SOLVED: OrderedDict[str, tuple[tuple[type, ...], Solution, list[float]]] = OrderedDict()
 _SOLVED_KEPT = 4
 
 
-def _solved(description: ModelDescription) -> Solution:
+def _solved(description: ModelDescription, claim: bool = False) -> tuple[Solution, float]:
     """``solve(build_system(description))``, reused from :data:`_SOLVED` when only the events
-    or the model outputs differ (the component classes themselves must be the same objects)."""
+    or the model outputs differ (the component classes themselves must be the same objects),
+    and the seconds of an earlier call's solve that ``claim`` (a build reporting its time, which
+    counts a solve made now itself) takes over: once, so that no two build lines count them."""
     from .structure import Solution, build_system, solve
 
     bare = dataclasses.replace(description, events=(), outputs=MappingProxyType({}), scopes=(
@@ -100,13 +111,18 @@ def _solved(description: ModelDescription) -> Solution:
     if hit is not None and len(hit[0]) == len(classes) and all(
             a is b for a, b in zip(hit[0], classes)):
         _SOLVED.move_to_end(key)
-        solution = hit[1]
-        return Solution(dataclasses.replace(solution.system, flat=description), solution.order)
+        solution, unreported = hit[1], hit[2]
+        earlier = unreported[0] if claim else 0.0
+        if claim:
+            unreported[0] = 0.0
+        return Solution(dataclasses.replace(solution.system, flat=description),
+                        solution.order), earlier
+    start = time.perf_counter()
     solution = solve(build_system(description))
-    _SOLVED[key] = (classes, solution)
+    _SOLVED[key] = (classes, solution, [0.0 if claim else time.perf_counter() - start])
     while len(_SOLVED) > _SOLVED_KEPT:
         _SOLVED.popitem(last=False)
-    return solution
+    return solution, 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -221,7 +237,8 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                 _prepare_loops(use_cache)
             start = time.perf_counter()
             sym, form = _symbolic(description, ph)
-            times["symbolic"] = time.perf_counter() - start
+            # (with the part of it a layout of this model did before: a walker's)
+            times["symbolic"] = time.perf_counter() - start + sym.solved_earlier
             compiles = order[0] == "c" and not _C_FAILED
             start = time.perf_counter()
             prog = _program(sym, form, jac_p)
@@ -280,8 +297,8 @@ def _symbolic(description: ModelDescription, ph: bool) -> tuple[SymbolicModel, A
     """The symbolic model of ``description`` and, with ``ph``, its port-Hamiltonian form."""
     from .phform import ph_form
 
-    sym = symbolic(description)
-    return sym, ph_form(description, sym, _solved(description)) if ph else None
+    sym = _symbolic_model(description, claim=True)
+    return sym, ph_form(description, sym, _solved(description)[0]) if ph else None
 
 
 def _program(sym: SymbolicModel, form: Any, jac_p: Sequence[str] | None) -> Program:

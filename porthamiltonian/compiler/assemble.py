@@ -83,6 +83,9 @@ class SymbolicModel:
     discrete: list[tuple[str, str, list[sp.Symbol], list[sp.Expr]]] = field(default_factory=list)
     #: makes the explicit port-Hamiltonian form (set by :func:`porthamiltonian.compiler.symbolic`)
     ph_maker: Any = field(default=None, repr=False, compare=False)
+    #: seconds of this model's structure solve made by an earlier call (a layout) and reported
+    #: by no build line yet (compiler._solved): a build adds them to its symbolic time
+    solved_earlier: float = field(default=0.0, repr=False, compare=False)
 
     def ph_form(self) -> Any:
         """The explicit port-Hamiltonian form [ẋ; w; y] = (J − R)[∇H; z; u] of this model, a

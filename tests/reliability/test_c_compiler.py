@@ -20,6 +20,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 import warnings
 
 import numpy as np
@@ -180,6 +181,32 @@ def test_damaged_library_is_never_loaded_and_is_rebuilt(fresh, damage, recwarn):
     assert len(warned) == 1 and str(lib) in warned[0], warned
     files = json.loads((lib.parent / "manifest.json").read_text())["files"]
     assert cache._sha256(lib.read_bytes()) == files[lib.name]
+
+
+def test_the_build_line_counts_the_symbolic_work_of_an_earlier_layout(fresh, monkeypatch, capfd):
+    """A walker asks for its model's layout (the symbolic stage), then compiles the model with
+    its outputs, reusing that stage: the build line's symbolic time counts the layout's part
+    (here a solve made to last 0.3 s), once: a second build of the model (another output, a
+    build of its own) reuses the solve again and does not count it twice."""
+    from porthamiltonian.compiler import structure
+
+    monkeypatch.delenv("PORTHAMILTONIAN_QUIET", raising=False)
+    solve = structure.solve
+
+    def slow(system):
+        time.sleep(0.3)
+        return solve(system)
+    monkeypatch.setattr(structure, "solve", slow)
+    model = _model(5.3)
+    compiler.layout(model, use_cache=False)
+    model.output("x2", "2 * spring.q")
+    compile_model(model, backend="python")
+    model.output("x3", "3 * spring.q")
+    compile_model(model, backend="python")
+    lines = capfd.readouterr().err.splitlines()
+    seconds = [float(re.match(r"building osc: symbolic (\d+\.\d) s", line).group(1))
+               for line in lines]
+    assert len(seconds) == 2 and seconds[0] >= 0.3 and seconds[1] < 0.3, lines
 
 
 def test_use_cache_false_writes_nothing(fresh):
