@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import functools
 import graphlib
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -244,8 +245,14 @@ class Program:
 
 
 # --- building ------------------------------------------------------------------------------------
+#: ``str`` of a free symbol that is not a plain Symbol (an array entry ``x[0]``), remembered:
+#: sympy prints it through its printer every time
+_printed = functools.lru_cache(maxsize=1 << 14)(str)
+
+
 def _names(exprs: Iterable[sp.Expr]) -> set[str]:
-    return {str(s) for e in exprs for s in e.free_symbols}
+    """The names of the symbols and array entries ``exprs`` read, as ``str`` gives them."""
+    return {s.name if type(s) is sp.Symbol else _printed(s) for e in exprs for s in e.free_symbols}
 
 
 class FunctionBuilder:
