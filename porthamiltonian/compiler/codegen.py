@@ -258,7 +258,8 @@ def _names(exprs: Iterable[sp.Expr]) -> set[str]:
 class FunctionBuilder:
     """Builds the functions. The intermediates and block solves (the prologue) are cse'd once and
     shared; each function cse's its own results, then takes in dependency order only the prologue
-    nodes it needs, then its result."""
+    nodes it needs, then its result. The cse (:func:`.cse.cse`) also maps the model's symbols to
+    the code's names (``mapping``, :func:`symbol_map`) as it rebuilds the expressions."""
 
     def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel,
                  fold: bool = True):
