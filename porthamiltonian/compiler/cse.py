@@ -5,9 +5,9 @@ shares a negated product (``-x*y`` with ``x*y``) and a reciprocal power (``x**-2
 ``x**2``) with their positive forms, as sympy's ``opt_cse`` does. It leaves out the rest of
 ``opt_cse`` — the matching of common sub-sums and sub-products among sums and products
 (``a + b`` in ``a + b + c`` and ``a + b + d``), quadratic in the number of sums and products and
-most of sympy's time on a large model — and rebuilds sums, products and powers with their
-arguments as they stand (no re-evaluation: sympy's flattening and assumption queries were most
-of the rest). The order of every sum's and product's terms is the expression's own, so the
+most of sympy's time on a large model — and rebuilds sums, products, powers, functions and
+relations with their arguments as they stand (no re-evaluation: sympy's flattening and
+assumption queries were most of the rest). The order of every sum's and product's terms is the expression's own, so the
 printed code evaluates each the same way whatever was named.
 """
 from __future__ import annotations
