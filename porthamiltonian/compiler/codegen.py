@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import functools
 import graphlib
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -66,6 +67,7 @@ from ..modeling.calls import KernelOutput
 from ..modeling.differentiation import derivative
 from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
+from .cse import cse
 from .structure import stages
 
 #: Bumped whenever generated code changes meaning; part of the cache key (with a hash of the
@@ -243,20 +245,25 @@ class Program:
 
 
 # --- building ------------------------------------------------------------------------------------
+#: ``str`` of a free symbol that is not a plain Symbol (an array entry ``x[0]``), remembered:
+#: sympy prints it through its printer every time
+_printed = functools.lru_cache(maxsize=1 << 14)(str)
+
+
 def _names(exprs: Iterable[sp.Expr]) -> set[str]:
-    return {str(s) for e in exprs for s in e.free_symbols}
+    """The names of the symbols and array entries ``exprs`` read, as ``str`` gives them."""
+    return {s.name if type(s) is sp.Symbol else _printed(s) for e in exprs for s in e.free_symbols}
 
 
 class FunctionBuilder:
     """Builds the functions. The intermediates and block solves (the prologue) are cse'd once and
     shared; each function cse's its own results, then takes in dependency order only the prologue
-    nodes it needs, then its result."""
+    nodes it needs, then its result. The cse (:func:`.cse.cse`) also maps the model's symbols to
+    the code's names (``mapping``, :func:`symbol_map`) as it rebuilds the expressions."""
 
     def __init__(self, mapping: dict[sp.Symbol, sp.Expr], model: SymbolicModel,
                  fold: bool = True):
         self.mapping = mapping
-        #: ``expr.xreplace(mapping)`` with every subtree mapped once (:class:`_Mapped`)
-        self.mapped = _Mapped(mapping)
         #: fold the pure aliases of every function (:func:`_aliases_folded`)
         self.fold = fold
         #: the derivatives the program's Jacobians took, by (expression, variable): they share
@@ -266,8 +273,7 @@ class FunctionBuilder:
         pre: list[sp.Expr] = [expr for _, expr in regular]
         for _, A, b in model.blocks:
             pre += list(A) + list(b)
-        pre = [self.mapped(e) for e in pre]
-        replacements, reduced = sp.cse(pre, symbols=sp.numbered_symbols("s"), order="none")
+        replacements, reduced = cse(pre, "s", mapping)
         # nodes: (targets, dependencies, statements)
         self.nodes: list[tuple[list[str], set[str], list[Statement]]] = [
             ([str(sym)], _names([expr]), [Let(str(sym), expr)]) for sym, expr in replacements]
@@ -340,8 +346,8 @@ class FunctionBuilder:
         shape of F, src, ncols, the column range of each row of src) for ``dst += F @ src``, or ("statement", statement) for a
         statement without expressions; every expression is cse'd together. The result is the
         array ``out``."""
-        flat = [self.mapped(e) for g in groups for e in _expressions(g)]
-        replacements, reduced = sp.cse(flat, symbols=sp.numbered_symbols("c"), order="none")
+        flat = [e for g in groups for e in _expressions(g)]
+        replacements, reduced = cse(flat, "c", self.mapping)
         body: list[Statement] = [Let(str(sym), expr) for sym, expr in replacements]
         needed = _names(expr for _, expr in replacements)
         k = 0
@@ -382,34 +388,6 @@ class FunctionBuilder:
         statements, aliases = _aliases_folded(pre + body) if self.fold else (pre + body, {})
         return Function(name, args, tuple(doc), tuple(statements), shape,
                         tuple(aliases.items()))
-
-
-class _Mapped:
-    """``expr.xreplace(rule)``, the same result built the same way (``func(*args)`` of the mapped
-    arguments where one changed), with each distinct subtree mapped once over all the calls: the
-    Jacobians' expressions repeat the model's subexpressions many times, which sympy's xreplace
-    walks anew each time."""
-
-    def __init__(self, rule: dict[sp.Symbol, sp.Expr]):
-        self.rule = rule
-        self.done: dict[sp.Basic, tuple[sp.Basic, bool]] = {}
-
-    def __call__(self, expr: Any) -> Any:
-        return self._map(sp.sympify(expr))[0]
-
-    def _map(self, node: sp.Basic) -> tuple[sp.Basic, bool]:
-        """(the mapped node, whether the rule matched in it)."""
-        out = self.done.get(node)
-        if out is None:
-            if node in self.rule:
-                out = (self.rule[node], True)
-            else:
-                mapped = [self._map(a) if isinstance(a, sp.Basic) else (a, False)
-                          for a in node.args]
-                changed = any(hit for _, hit in mapped)
-                out = (node.func(*(a for a, _ in mapped)), True) if changed else (node, False)
-            self.done[node] = out
-        return out
 
 
 def _aliases_folded(body: list[Statement]) -> tuple[list[Statement], dict[str, sp.Expr]]:

@@ -24,6 +24,7 @@ from collections.abc import Callable
 
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
+from sympy.printing.precedence import PRECEDENCE, PRECEDENCE_FUNCTIONS, PRECEDENCE_VALUES
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..backends.native import LOOP_FUNCTIONS
@@ -56,7 +57,83 @@ def _float(value: float) -> str:
     return repr(value)
 
 
-class PythonPrinter(PythonCodePrinter):
+def _mul_precedence(item: sp.Basic) -> int:
+    """sympy's ``precedence_Mul`` without ``could_extract_minus_sign``, which builds ``-item``
+    to compare it with ``item`` (only a ``zoo`` factor makes them equal: not a product the
+    compiler prints): a product with a negative number first prints with a leading minus."""
+    if any(hasattr(arg, "precedence") and isinstance(arg, sp.Function)
+           and arg.precedence < PRECEDENCE["Mul"] for arg in item.args):
+        return int(PRECEDENCE["Mul"])
+    c = item.args[0]
+    return int(PRECEDENCE["Add"] if c.is_Number and c.is_extended_negative else PRECEDENCE["Mul"])
+
+
+#: each expression type's precedence rule, found once (sympy's ``precedence`` walks the type's
+#: MRO at every call): a constant, or a function of the expression
+_PRECEDENCE_RULES: dict[type, int | Callable[[sp.Basic], int]] = {}
+
+
+def _precedence(item: sp.Basic) -> int:
+    """sympy's ``precedence(item)``, its rule cached by type (:func:`_mul_precedence` for
+    products)."""
+    if hasattr(item, "precedence"):
+        return int(item.precedence)
+    rule = _PRECEDENCE_RULES.get(type(item))
+    if rule is None:
+        rule = PRECEDENCE["Atom"]
+        for cls in type(item).mro():
+            if cls.__name__ == "Mul":
+                rule = _mul_precedence
+            elif cls.__name__ in PRECEDENCE_FUNCTIONS:
+                rule = PRECEDENCE_FUNCTIONS[cls.__name__]
+            elif cls.__name__ in PRECEDENCE_VALUES:
+                rule = PRECEDENCE_VALUES[cls.__name__]
+            else:
+                continue
+            break
+        _PRECEDENCE_RULES[type(item)] = rule
+    return rule if isinstance(rule, int) else rule(item)
+
+
+class _Direct:
+    """Printing of one expression at a time without sympy's overheads, to the same text:
+    ``doprint`` is ``_print`` (sympy's ``CodePrinter.doprint`` first rebuilds the whole
+    expression, ``replace`` of ``re`` around unevaluated expressions, which the compiler never
+    builds, then formats the line; together as long as the printing itself); ``parenthesize``
+    and ``_print_Add`` are sympy's (``StrPrinter``) with :func:`_precedence`. Anything
+    ``_print`` does not give as one line with no number constant to declare (``_print_Pi``,
+    ``_print_Exp1`` print theirs inline) goes to sympy's ``doprint``."""
+
+    _number_symbols: set[tuple[sp.Basic, str]]
+    _print: Callable[[sp.Basic], str]
+
+    def doprint(self, expr: sp.Basic, assign_to: sp.Basic | None = None) -> str:
+        if assign_to is None and isinstance(expr, sp.Basic):
+            self._number_symbols = set()
+            text = self._print(expr)
+            if not self._number_symbols and "\n" not in text:
+                return text
+        return str(super().doprint(expr, assign_to))    # type: ignore[misc]
+
+    def parenthesize(self, item: sp.Basic, level: int, strict: bool = False) -> str:
+        p = _precedence(item)
+        return f"({self._print(item)})" if p < level or (not strict and p <= level) \
+            else self._print(item)
+
+    def _print_Add(self, expr: sp.Basic, order: str | None = None) -> str:
+        prec = _precedence(expr)
+        out: list[str] = []
+        for term in self._as_ordered_terms(expr, order=order):   # type: ignore[attr-defined]
+            t = self._print(term)
+            sign = "+"
+            if t.startswith("-") and not term.is_Add:
+                sign, t = "-", t[1:]
+            out += [sign, f"({t})" if _precedence(term) < prec or term.is_Add else t]
+        first = out.pop(0)
+        return ("" if first == "+" else first) + " ".join(out)
+
+
+class PythonPrinter(_Direct, PythonCodePrinter):
     """sympy -> Python expressions (``math`` functions, ``np`` only for arrays)."""
 
     def __init__(self) -> None:
@@ -84,7 +161,7 @@ class PythonPrinter(PythonCodePrinter):
         return f"(({a}) if ({c}) else ({b}))"
 
 
-class CPrinter(C99CodePrinter):
+class CPrinter(_Direct, C99CodePrinter):
     """sympy -> C99 expressions with the Python printer's meaning (see the module docstring)."""
 
     def __init__(self) -> None:

@@ -176,7 +176,11 @@ def test_nonlinear_bicycle_self_stable_only_in_its_speed_range(bicycle, v, uprig
 def test_cli_linearizes_the_bicycle_at_a_speed(bicycle, isolated_cache):
     """`porthamiltonian linearize whipple_bicycle --set v=5 --json`: with the default
     stabilization its eigenvalues are the bicycle's four (Table 2 at 5 m/s, to 1e-9), the
-    stabilization's (−constraint_gain, −quaternion_gain) and the cyclic coordinates' zeros."""
+    stabilization's (−constraint_gain, −quaternion_gain) and the cyclic coordinates' zeros.
+    −constraint_gain = −10 is defective (a Jordan block of 4 among its 8): the Jacobian's
+    round-off, ε ≈ 1e-16, splits it by about ε^(1/4) ≈ 1e-4 (measured 0.8e-4 to 1.1e-4, as the
+    generated code's order of operations changes), so its members are checked to 1e-3 and
+    their mean, which round-off moves by ε only, to 1e-9."""
     env = {**os.environ, "PORTHAMILTONIAN_CACHE": str(isolated_cache)}
     done = subprocess.run([sys.executable, "-m", "porthamiltonian", "--backend", "c", "linearize",
                            "whipple_bicycle", "--set", "v=5", "--json"], capture_output=True,
@@ -187,5 +191,7 @@ def test_cli_linearizes_the_bicycle_at_a_speed(bicycle, isolated_cache):
     for x in TABLE2[5]:
         assert np.min(np.abs(lam - x)) < 1e-9
     others = lam[[np.min(np.abs(np.array(TABLE2[5]) - x)) > 1e-6 for x in lam]]
-    assert np.all(np.isclose(others, 0, atol=1e-5) | np.isclose(others, -10, atol=1e-5)
+    constraint = np.abs(others + 10) < 1e-3
+    assert np.all(constraint | np.isclose(others, 0, atol=1e-5)
                   | np.isclose(others, -1, atol=1e-5)), others
+    assert constraint.sum() == 8 and abs(others[constraint].mean() + 10) < 1e-9, others
