@@ -90,9 +90,18 @@ def _symbolic_model(description: ModelDescription, claim: bool) -> SymbolicModel
 #: symbolic work) of the last models of this process, by everything but their events and model
 #: outputs, which only :func:`assemble` reads: a walker asks for its model's :func:`layout` (for
 #: the names its description may use), then compiles it with its own outputs (walker_library.core).
-#: Each with the seconds its solve took while no build line has reported them (a layout's).
-_SOLVED: OrderedDict[str, tuple[tuple[type, ...], Solution, list[float]]] = OrderedDict()
+_SOLVED: OrderedDict[str, _Solved] = OrderedDict()
 _SOLVED_KEPT = 4
+
+
+@dataclasses.dataclass
+class _Solved:
+    """An entry of :data:`_SOLVED`: the component classes it was solved with, the solution, and
+    the seconds its solve took while no build line has reported them (a layout's solve)."""
+
+    classes: tuple[type, ...]
+    solution: Solution
+    unreported: float
 
 
 def _solved(description: ModelDescription, claim: bool = False) -> tuple[Solution, float]:
@@ -108,18 +117,17 @@ def _solved(description: ModelDescription, claim: bool = False) -> tuple[Solutio
     key = bare.canonical()
     classes = tuple(type(c) for c in description.components.values())
     hit = _SOLVED.get(key)
-    if hit is not None and len(hit[0]) == len(classes) and all(
-            a is b for a, b in zip(hit[0], classes)):
+    if hit is not None and len(hit.classes) == len(classes) and all(
+            a is b for a, b in zip(hit.classes, classes)):
         _SOLVED.move_to_end(key)
-        solution, unreported = hit[1], hit[2]
-        earlier = unreported[0] if claim else 0.0
+        earlier = hit.unreported if claim else 0.0
         if claim:
-            unreported[0] = 0.0
-        return Solution(dataclasses.replace(solution.system, flat=description),
-                        solution.order), earlier
+            hit.unreported = 0.0
+        return Solution(dataclasses.replace(hit.solution.system, flat=description),
+                        hit.solution.order), earlier
     start = time.perf_counter()
     solution = solve(build_system(description))
-    _SOLVED[key] = (classes, solution, [0.0 if claim else time.perf_counter() - start])
+    _SOLVED[key] = _Solved(classes, solution, 0.0 if claim else time.perf_counter() - start)
     while len(_SOLVED) > _SOLVED_KEPT:
         _SOLVED.popitem(last=False)
     return solution, 0.0
@@ -442,7 +450,7 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
                            attach=numba_cache.verified_caches(path.parent),
                            loops=numba_cache.loop_module(use_cache))
     # one process builds a missing library, the others wait for it and load it from the cache
-    with cache.building(key) if use_cache else contextlib.nullcontext():
+    with _building(key, use_cache):
         return _load_c(key, meta, bodies, use_cache, times, explicit, pending or {})
 
 
@@ -516,6 +524,12 @@ def _earlier_library(key: str, shapes: dict[str, tuple[int, ...]], n_params: int
     return None
 
 
+def _building(key: str, use_cache: bool) -> contextlib.AbstractContextManager[None]:
+    """The build lock of ``key`` (a model's, an object's: :func:`cache.building`) when the
+    cache is used; nothing to hold without it (nothing is shared)."""
+    return cache.building(key) if use_cache else contextlib.nullcontext()
+
+
 def _unit_name(key: str) -> str:
     """The file name of model ``key``'s C translation unit in its cache entry."""
     return f"m{key}_c.c"
@@ -574,7 +588,7 @@ def _loop_object(use_cache: bool, times: dict[str, float], log_dir: Path | None,
     if found is not None and pending is None:       # started for another compiler
         found[1].close(stop=True)
     # one process stores the object, the others wait and read it (their own compiles stopped)
-    with cache.building(key) if use_cache else contextlib.nullcontext():
+    with _building(key, use_cache):
         path = cache.verified_path(key, _loop_name()) if use_cache else None
         if path is None:
             start = time.perf_counter()
@@ -599,7 +613,7 @@ def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_di
     text = c_object_source(kernel)
     key = native.object_key(text)
     name = f"{kernel}_{sys.platform}.o"
-    with cache.building(key) if use_cache else contextlib.nullcontext():   # (as the loops')
+    with _building(key, use_cache):                 # (as the loops')
         path = cache.verified_path(key, name) if use_cache else None
         if path is None:
             data, seconds = native.compile_object(text, kernel, log_dir, model_source)
