@@ -12,6 +12,7 @@ import sympy as sp
 
 from porthamiltonian.modeling import differentiation
 from porthamiltonian.modeling.differentiation import derivative
+from porthamiltonian.modeling.expressions import FUNCTIONS
 
 x, y, k = sp.symbols("x y k", real=True)
 
@@ -72,3 +73,18 @@ def test_a_piecewise_whose_branches_have_one_derivative_is_that_derivative():
 def test_a_plain_number_differentiates_to_zero():
     assert derivative(3, x) == 0
     assert derivative(2.5, x) == 0
+
+
+@pytest.mark.parametrize("name", sorted(FUNCTIONS))
+def test_every_function_a_model_file_may_call_differentiates_as_sympy_does(name):
+    """Each function of the model files' expression language (expressions.FUNCTIONS), of
+    arguments that depend on x and y, by x and by y: the value of sympy's diff at three points."""
+    low, _ = FUNCTIONS[name].arity
+    args = [0.7 * x + 0.3, 0.5 * y + 0.4, x + 2][:max(low, 1)]
+    expr = FUNCTIONS[name].symbolic(*args)
+    for v in (x, y):
+        ours, theirs = derivative(expr, v), sp.diff(expr, v)
+        for at in [(0.3, 0.2), (-0.4, 0.7), (0.9, -0.6)]:
+            expected = _value(theirs, at)
+            assert math.isclose(_value(ours, at), expected, rel_tol=1e-13, abs_tol=1e-13), (
+                name, v, at)
