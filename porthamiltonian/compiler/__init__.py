@@ -252,9 +252,8 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             prog = _program(sym, form, jac_p)
             bodies = {"c": c_source(prog)}          # the Python body: when a back end needs it
             times["code"] = time.perf_counter() - start
-            if compiles:                   # the model's unit compiles while the rest is done
-                pending["model"] = native.start_object(
-                    native.model_unit(bodies["c"], key=key), _unit_name(key).removesuffix(".c"))
+            if compiles:                   # the model's units compile while the rest is done
+                pending.update(_start_units(bodies["c"], key))
             meta = _meta(sym, prog, form, jac_p)
             if use_cache:
                 cache.write(key, meta.to_json(), bodies)
@@ -433,11 +432,12 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
           times: dict[str, float], explicit: bool,
           pending: Mapping[str, native.Pending] | None = None) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
-    compile time (the time waited for it) goes into ``times``. The C library links the object
-    of the model's unit with the integration loops' object (:func:`native.loop_source`, one for
-    every model) and the objects of the kernels it calls, each compiled once and cached;
-    ``pending``: the compile of the model's unit :func:`compile_model` started in the
-    background (``"model"``), waited for here."""
+    compile time (the time waited for it) goes into ``times``. The C library links the objects
+    of the model's units (:func:`native.model_units`: one, or two compiled at once) with the
+    integration loops' object (:func:`native.loop_source`, one for every model) and the objects
+    of the kernels it calls, each compiled once and cached; ``pending``: the compiles of the
+    model's units :func:`compile_model` started in the background (``"model"``, ``"model1"``),
+    waited for here."""
     if name != "c":
         from ..backends import module
         from . import numba_cache
@@ -479,12 +479,14 @@ def _load_c(key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
                         for kernel in meta.kernels)
         objects += (_loop_object(use_cache, times, log_dir, source),)
         start = time.perf_counter()
-        unit = pending.get("model") or native.start_object(text, source.stem)
+        units = [job for name, job in pending.items() if name.startswith("model")] or list(
+            _start_units(bodies["c"], key).values())
         try:
-            data, _ = native.link((unit.wait(log_dir, source)[0], *objects), source.stem,
-                                  log_dir, source)
+            data, _ = native.link((*(unit.wait(log_dir, source)[0] for unit in units),
+                                   *objects), source.stem, log_dir, source)
         finally:
-            unit.close()
+            for unit in units:
+                unit.close()
         seconds = time.perf_counter() - start
     except CompilerError as err:
         # no working compiler now: this model's library built by another compiler will do,
@@ -528,6 +530,14 @@ def _building(key: str, use_cache: bool) -> contextlib.AbstractContextManager[No
     """The build lock of ``key`` (a model's, an object's: :func:`cache.building`) when the
     cache is used; nothing to hold without it (nothing is shared)."""
     return cache.building(key) if use_cache else contextlib.nullcontext()
+
+
+def _start_units(body: str, key: str) -> dict[str, native.Pending]:
+    """Start compiling the model's units (:func:`native.model_units`: one, or two at once for
+    a long body) in the background, by name (``model``, ``model1``)."""
+    stem = _unit_name(key).removesuffix(".c")
+    return {f"model{i or ''}": native.start_object(text, f"{stem}{f'_{i}' if i else ''}")
+            for i, text in enumerate(native.model_units(body, key))}
 
 
 def _unit_name(key: str) -> str:

@@ -27,7 +27,7 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE, PRECEDENCE_FUNCTIONS, PRECEDENCE_VALUES
 from sympy.printing.pycode import PythonCodePrinter
 
-from ..backends.native import LOOP_FUNCTIONS
+from ..backends.native import FUNCTION_MARK, FUNCTIONS_END, LOOP_FUNCTIONS
 from ..mechanics.sources import c_declarations, python_template
 from .codegen import (
     Array,
@@ -722,8 +722,10 @@ def _c_call_arrays(st: Call | CallTangent, pr: Callable[[sp.Basic], str]) -> lis
 
 
 def c_source(prog: Program) -> str:
-    """The program as a C99 translation unit: the functions (static), their exported wrappers
-    ``ph_<name>``, ``ph_layout`` and the sizes the loop template needs (``PH_N``, ``PH_NG``)."""
+    """The program as a C99 translation unit: the functions (static), each followed by its
+    exported wrapper ``ph_<name>`` (and preceded by
+    :data:`~porthamiltonian.backends.native.FUNCTION_MARK`), ``ph_layout`` and
+    the sizes the loop template needs (``PH_N``, ``PH_NG``)."""
     printer = CPrinter()
     header = "\n".join(f"{' *' if i else '/*'} {c_comment(line)}" for i, line in
                        enumerate(prog.header))
@@ -731,14 +733,15 @@ def c_source(prog: Program) -> str:
     parts += [c_declarations(kernel) for kernel in kernels(prog)]
     parts.append(f"#define PH_N {prog.n}\n#define PH_NG {prog.n_guards}")
     printed: dict[int, str] = {}
-    parts += [c_function(fn, printer, printed) for fn in prog.functions]
-    for fn in prog.functions:
+    for fn in prog.functions:             # each function with its wrapper, after its marker
         if fn.args == ("p",):
-            parts.append(f"PH_EXPORT void ph_{fn.name}(const double *p, double *out) "
-                         f"{{ {fn.name}(p, out); }}")
+            export = (f"PH_EXPORT void ph_{fn.name}(const double *p, double *out) "
+                      f"{{ {fn.name}(p, out); }}")
         else:
-            parts.append(f"PH_EXPORT void ph_{fn.name}(double t, const double *x, const double *p, "
-                         f"double *out) {{ {fn.name}(t, x, p, out); }}")
+            export = (f"PH_EXPORT void ph_{fn.name}(double t, const double *x, const double *p, "
+                      f"double *out) {{ {fn.name}(t, x, p, out); }}")
+        parts += [FUNCTION_MARK.format(fn.name), c_function(fn, printer, printed), export]
+    parts.append(FUNCTIONS_END)
     sizes = [prog.n, prog.n_params, prog.n_guards, prog.n_outputs,
              sum(1 for fn in prog.functions if fn.name.startswith("matrix_"))]
     parts.append("/* sizes: states (with the ledger), parameters, guard slots, output slots, "
