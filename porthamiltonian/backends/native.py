@@ -126,17 +126,28 @@ _SIZES_EXPORT = ("/* the sizes the integration loops' object reads (states with 
 #: shares the functions out between two units
 FUNCTION_MARK = "/* ph: function {} */"
 FUNCTIONS_END = "/* ph: end of the functions */"
-#: a model's body longer than this (characters) compiles as two units, one compiler for each:
-#: the build waits for them with the second core free (compass_walker's 57 kB unit: 0.30–0.43 s
-#: for one compile, 0.2 s for two halves at once)
+#: a model's body longer than this (characters) compiles as two units, one compiler for each,
+#: when a core is free (:func:`core_free`): the build waits for them (compass_walker's 57 kB
+#: unit: 0.27–0.39 s for one compile, 0.25 s for two halves at once, but 0.39 s of CPU against
+#: 0.30 s: on a busy machine the second compiler only costs)
 SPLIT_SIZE = 24_000
 _MARK = re.compile(r"^/\* ph: function \w+ \*/$", re.MULTILINE)
 
 
-def model_units(body: str, key: str = "") -> list[str]:
+def core_free() -> bool:
+    """Whether a processor core is idle, so that a second compiler speeds a build up instead of
+    taking the core from other work: the 1-minute load average at most the core count less one
+    (a machine without a load average: more than one core)."""
+    cores = os.cpu_count() or 1
+    if not hasattr(os, "getloadavg"):
+        return cores > 1
+    return os.getloadavg()[0] <= cores - 1
+
+
+def model_units(body: str, key: str = "", split: bool = True) -> list[str]:
     """The model's own code as the translation units the C back end compiles at once: the one
-    unit of :func:`model_unit`, or, for a body longer than :data:`SPLIT_SIZE`, two of about equal
-    size. Each has the body's prelude (includes, static helpers, sizes); the generated
+    unit of :func:`model_unit`, or, with ``split`` (:func:`core_free`, for a build) and for a
+    body longer than :data:`SPLIT_SIZE`, two of about equal size. Each has the body's prelude (includes, static helpers, sizes); the generated
     functions, each with its wrapper, are shared out by size (the largest first, each to the
     shorter unit) and keep their order within a unit; the first unit has the rest
     (``ph_layout``, :func:`model_unit`'s additions).
@@ -144,7 +155,7 @@ def model_units(body: str, key: str = "") -> list[str]:
     jac_p), the others static in their unit with their wrapper."""
     end = body.find(FUNCTIONS_END)
     marks = [m.start() for m in _MARK.finditer(body, 0, end if end >= 0 else len(body))]
-    if len(body) <= SPLIT_SIZE or end < 0 or len(marks) < 2:
+    if not split or len(body) <= SPLIT_SIZE or end < 0 or len(marks) < 2:
         return [model_unit(body, key)]
     body = _with_jac_p(body)                # (a stub, after the functions: in the first unit)
     prelude, tail = body[:marks[0]], body[end:]

@@ -433,7 +433,8 @@ def _load(name: str, key: str, meta: ModelMeta, bodies: dict[str, str], use_cach
           pending: Mapping[str, native.Pending] | None = None) -> backends.Functions:
     """The back end ``name``'s functions, building (and caching) what is missing; the C
     compile time (the time waited for it) goes into ``times``. The C library links the objects
-    of the model's units (:func:`native.model_units`: one, or two compiled at once) with the
+    of the model's units (:func:`native.model_units`: one, or two compiled at once when a core
+    is free) with the
     integration loops' object (:func:`native.loop_source`, one for every model) and the objects
     of the kernels it calls, each compiled once and cached; ``pending``: the compiles of the
     model's units :func:`compile_model` started in the background (``"model"``, ``"model1"``),
@@ -534,10 +535,11 @@ def _building(key: str, use_cache: bool) -> contextlib.AbstractContextManager[No
 
 def _start_units(body: str, key: str) -> dict[str, native.Pending]:
     """Start compiling the model's units (:func:`native.model_units`: one, or two at once for
-    a long body) in the background, by name (``model``, ``model1``)."""
+    a long body when a core is free) in the background, by name (``model``, ``model1``)."""
     stem = _unit_name(key).removesuffix(".c")
+    units = native.model_units(body, key, split=native.core_free())
     return {f"model{i or ''}": native.start_object(text, f"{stem}{f'_{i}' if i else ''}")
-            for i, text in enumerate(native.model_units(body, key))}
+            for i, text in enumerate(units)}
 
 
 def _unit_name(key: str) -> str:
