@@ -3,7 +3,10 @@
 * Every test runs with ``PORTHAMILTONIAN_CACHE`` pointing at a session-scoped temporary folder,
   set before anything is compiled, so the suite never reads or writes ``~/.cache`` (subprocesses
   started by the tests inherit it), and with ``PORTHAMILTONIAN_QUIET`` set: no build lines on
-  stderr, whose appearance would depend on the order of the tests (tests of the lines unset it).
+  stderr, whose appearance would depend on the order of the tests (tests of the lines unset it),
+  and with ``PORTHAMILTONIAN_CC_JOBS=1``: a build runs one C compiler (the workers keep the cores
+  busy, where a second compiler for a long body only costs CPU; tests/unit/test_model_units.py
+  sets 2 to check the two-unit build).
 * ``PORTHAMILTONIAN_BACKEND`` (``c``, ``numba``, ``python``), when set by the caller, is what
   back end ``"auto"`` means (porthamiltonian.backends): ``.ci/run`` runs the walker tests once
   more with ``PORTHAMILTONIAN_BACKEND=numba`` so that the numba fallback stays tested.
@@ -113,6 +116,8 @@ def isolated_cache(tmp_path_factory: pytest.TempPathFactory):
     mp = pytest.MonkeyPatch()
     mp.setenv("PORTHAMILTONIAN_CACHE", str(path))
     mp.setenv("PORTHAMILTONIAN_QUIET", "1")
+    # one C compiler per build: the workers keep the cores busy (a second one only costs CPU)
+    mp.setenv("PORTHAMILTONIAN_CC_JOBS", "1")
     yield path
     mp.undo()
 

@@ -127,26 +127,35 @@ _SIZES_EXPORT = ("/* the sizes the integration loops' object reads (states with 
 FUNCTION_MARK = "/* ph: function {} */"
 FUNCTIONS_END = "/* ph: end of the functions */"
 #: a model's body longer than this (characters) compiles as two units, one compiler for each,
-#: when a core is free (:func:`core_free`): the build waits for them (compass_walker's 57 kB
+#: when a core is free (:func:`split_units`): the build waits for them (compass_walker's 57 kB
 #: unit: 0.27–0.39 s for one compile, 0.25 s for two halves at once, but 0.39 s of CPU against
 #: 0.30 s: on a busy machine the second compiler only costs)
 SPLIT_SIZE = 24_000
 _MARK = re.compile(r"^/\* ph: function \w+ \*/$", re.MULTILINE)
 
 
+def split_units() -> bool:
+    """Whether a build compiles a long model body as two units at once (:func:`model_units`):
+    ``$PORTHAMILTONIAN_CC_JOBS`` (the compilers a build may run at once: 1 where other processes
+    keep every core busy, e.g. parallel test workers; 2 or more: two units), else when a core is
+    free (:func:`core_free`). A value that is not a number is ignored."""
+    jobs = os.environ.get("PORTHAMILTONIAN_CC_JOBS", "").strip()
+    return int(jobs) > 1 if jobs.isdigit() else core_free()
+
+
 def core_free() -> bool:
     """Whether a processor core is idle, so that a second compiler speeds a build up instead of
-    taking the core from other work: the 1-minute load average at most the core count less one
-    (a machine without a load average: more than one core)."""
+    taking the core from other work: the 1-minute load average below the core count less one
+    half (a machine without a load average: more than one core)."""
     cores = os.cpu_count() or 1
     if not hasattr(os, "getloadavg"):
         return cores > 1
-    return os.getloadavg()[0] <= cores - 1
+    return os.getloadavg()[0] < cores - 0.5
 
 
 def model_units(body: str, key: str = "", split: bool = True) -> list[str]:
     """The model's own code as the translation units the C back end compiles at once: the one
-    unit of :func:`model_unit`, or, with ``split`` (:func:`core_free`, for a build) and for a
+    unit of :func:`model_unit`, or, with ``split`` (:func:`split_units`, for a build) and for a
     body longer than :data:`SPLIT_SIZE`, two of about equal size. Each has the body's prelude (includes, static helpers, sizes); the generated
     functions, each with its wrapper, are shared out by size (the largest first, each to the
     shorter unit) and keep their order within a unit; the first unit has the rest

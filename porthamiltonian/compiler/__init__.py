@@ -537,7 +537,7 @@ def _start_units(body: str, key: str) -> dict[str, native.Pending]:
     """Start compiling the model's units (:func:`native.model_units`: one, or two at once for
     a long body when a core is free) in the background, by name (``model``, ``model1``)."""
     stem = _unit_name(key).removesuffix(".c")
-    units = native.model_units(body, key, split=native.core_free())
+    units = native.model_units(body, key, split=native.split_units())
     return {f"model{i or ''}": native.start_object(text, f"{stem}{f'_{i}' if i else ''}")
             for i, text in enumerate(units)}
 

@@ -1,5 +1,5 @@
 """The C back end compiles a long model body as two translation units at once when a core is
-free (porthamiltonian.backends.native.model_units, core_free): every generated function in exactly one of them
+free (porthamiltonian.backends.native.model_units, split_units): every generated function in exactly one of them
 with its wrapper, the two about the same size, the model's other definitions once; a library
 linked from them computes what the one-unit library computes, bit for bit, with and without a
 generated ``jac_p`` (the stub must then not be added beside it)."""
@@ -59,28 +59,36 @@ def test_a_short_body_or_a_busy_machine_is_one_unit():
     assert native.model_units(body, key="k2", split=False) == [native.model_unit(body, key="k2")]
 
 
-def test_a_core_is_free_below_the_core_count_less_one(monkeypatch):
+def test_two_units_when_asked_or_when_a_core_is_free(monkeypatch):
+    """$PORTHAMILTONIAN_CC_JOBS decides (the test suite sets 1: its workers keep the cores
+    busy); without it (or with a value that is not a number), a free core: the 1-minute load
+    below the core count less one half."""
     monkeypatch.setattr("os.cpu_count", lambda: 2)
-    monkeypatch.setattr("os.getloadavg", lambda: (0.9, 0.0, 0.0))
-    assert native.core_free()
-    monkeypatch.setattr("os.getloadavg", lambda: (1.6, 0.0, 0.0))  # (two test workers, say)
-    assert not native.core_free()
+    monkeypatch.setattr("os.getloadavg", lambda: (1.2, 0.0, 0.0))
+    for value, split in (("1", False), ("2", True), (" 4 ", True)):
+        monkeypatch.setenv("PORTHAMILTONIAN_CC_JOBS", value)
+        assert native.split_units() is split
+    for value in ("", "two", "-1"):
+        monkeypatch.setenv("PORTHAMILTONIAN_CC_JOBS", value)
+        assert native.split_units()                  # load 1.2 < 1.5: a core is free
+    monkeypatch.setattr("os.getloadavg", lambda: (1.6, 0.0, 0.0))  # (two busy workers, say)
+    assert not native.split_units()
 
 
 @pytest.mark.parametrize("jac_p", [[], ["slope"]], ids=["plain", "jac_p"])
 def test_the_two_unit_library_computes_what_one_unit_computes(jac_p, monkeypatch, tmp_path):
-    """compass_walker built on C twice, in two fresh caches: as two units (a core free), then
-    as one (no core free): every generated function (rhs, jac, energy, outputs,
+    """compass_walker built on C twice, in two fresh caches: as two units
+    ($PORTHAMILTONIAN_CC_JOBS=2), then as one (1): every generated function (rhs, jac, energy, outputs,
     guards, out_jac, jac_p) equal bit for bit at 5 points."""
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "two"))
-    monkeypatch.setattr(native, "core_free", lambda: True)
+    monkeypatch.setenv("PORTHAMILTONIAN_CC_JOBS", "2")
     units = []
     start = native.start_object
     monkeypatch.setattr(native, "start_object", lambda text, name: units.append(name)
                         or start(text, name))
     two = compile_model(io.load("compass_walker"), backend="c", jac_p=jac_p)
     assert len([u for u in units if u.startswith("m")]) == 2          # (and the loops')
-    monkeypatch.setattr(native, "core_free", lambda: False)
+    monkeypatch.setenv("PORTHAMILTONIAN_CC_JOBS", "1")
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "one"))
     one = compile_model(io.load("compass_walker"), backend="c", jac_p=jac_p)
     rng = np.random.default_rng(5)
