@@ -156,12 +156,12 @@ def core_free() -> bool:
 def model_units(body: str, key: str = "", split: bool = True) -> list[str]:
     """The model's own code as the translation units the C back end compiles at once: the one
     unit of :func:`model_unit`, or, with ``split`` (:func:`split_units`, for a build) and for a
-    body longer than :data:`SPLIT_SIZE`, two of about equal size. Each has the body's prelude (includes, static helpers, sizes); the generated
-    functions, each with its wrapper, are shared out by size (the largest first, each to the
-    shorter unit) and keep their order within a unit; the first unit has the rest
-    (``ph_layout``, :func:`model_unit`'s additions).
-    Functions that call one another across units are external (``PH_HIDDEN``: rhs, jac, guards,
-    jac_p), the others static in their unit with their wrapper."""
+    body longer than :data:`SPLIT_SIZE`, two of about equal size. Each has the body's prelude
+    (includes, static helpers, sizes); the generated functions, each with its wrapper, are
+    shared out by size (the largest first, each to the shorter unit) and keep their order
+    within a unit; the first unit has the rest (``ph_layout``, :func:`model_unit`'s additions).
+    The functions the loops call are external (``PH_HIDDEN``: rhs, jac, guards, jac_p), the
+    others static in their unit beside their wrapper."""
     end = body.find(FUNCTIONS_END)
     marks = [m.start() for m in _MARK.finditer(body, 0, end if end >= 0 else len(body))]
     if not split or len(body) <= SPLIT_SIZE or end < 0 or len(marks) < 2:
@@ -169,15 +169,14 @@ def model_units(body: str, key: str = "", split: bool = True) -> list[str]:
     body = _with_jac_p(body)                # (a stub, after the functions: in the first unit)
     prelude, tail = body[:marks[0]], body[end:]
     functions = [body[a:b] for a, b in zip(marks, [*marks[1:], end])]
-    units: list[list[str]] = [[], []]
+    groups: list[list[int]] = [[], []]
     sizes = [0, 0]
-    for text in sorted(functions, key=len, reverse=True):
+    for i in sorted(range(len(functions)), key=lambda i: -len(functions[i])):
         k = sizes.index(min(sizes))
-        units[k].append(text)
-        sizes[k] += len(text)
-    order = {id(text): i for i, text in enumerate(functions)}
-    first, second = (sorted(u, key=lambda t: order[id(t)]) for u in units)
-    return [prelude + "".join(first) + tail + "\n" + _unit_end(key), prelude + "".join(second)]
+        groups[k].append(i)
+        sizes[k] += len(functions[i])
+    first, second = ("".join(functions[i] for i in sorted(group)) for group in groups)
+    return [prelude + first + tail + "\n" + _unit_end(key), prelude + second]
 
 
 def model_unit(body: str, key: str = "") -> str:
