@@ -22,7 +22,7 @@ from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
-from .. import backends
+from .. import backends, collector
 from ..backends import native
 from ..errors import CompilerError, ModelError
 from ..modeling.constraints import Constraint
@@ -64,6 +64,7 @@ def _frozen(model: Model | ModelDescription) -> ModelDescription:
 _C_FAILED: list[str] = []
 
 
+@collector.paused()
 def symbolic(model: Model | ModelDescription) -> SymbolicModel:
     """Run the symbolic part of the compiler (no code generation, no cache): validate the frozen
     description (every problem at once, :meth:`~porthamiltonian.modeling.model.ModelDescription.validate`),
@@ -167,6 +168,7 @@ class Layout:
 _LAYOUT_FILE = "layout.json"
 
 
+@collector.paused()
 def layout(model: Model | ModelDescription, use_cache: bool = True) -> Layout:
     """The :class:`Layout` of ``model`` (a model, or its frozen description): the symbolic
     compiler's names without code generation, for checking names against a model before it is
@@ -190,6 +192,7 @@ def layout(model: Model | ModelDescription, use_cache: bool = True) -> Layout:
     return found
 
 
+@collector.paused()
 def compile_model(model: Model | ModelDescription, backend: str = "auto",
                   use_cache: bool = True, *, jac_p: Sequence[str] | None = None,
                   ph: bool = False) -> CompiledModel:

@@ -66,7 +66,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .. import userfiles
+from .. import collector, userfiles
 from ..errors import ModelError, ModelFileError, OptionError
 from ..simulation.options import check_rtol
 
@@ -415,6 +415,7 @@ def read(name_or_path: str | Path) -> ModelFile:
     return reads(text, source=str(path))
 
 
+@collector.paused()
 def reads(text: str, source: str = "<string>") -> ModelFile:
     """Read a model from TOML text; ``source`` names it in error messages."""
     if not isinstance(text, str):

@@ -133,7 +133,8 @@ def test_the_walk_sees_lazy_imports_and_skips_type_checking_ones(tmp_path):
 #: (The compiler comes after the simulation stage in import order although it runs before it: it
 #: builds the CompiledModel, so it imports that class; the simulation never imports the compiler.)
 STAGES = {
-    "porthamiltonian": [("errors", "version", "userfiles", "escaping", "lazy"), ("modeling",),
+    "porthamiltonian": [("errors", "version", "userfiles", "escaping", "lazy",
+                         "collector"), ("modeling",),
                         ("library", "mechanics"), ("integrators",), ("backends", "fmu"),
                         ("simulation",), ("compiler",),
                         ("batch",), ("interfaces",), ("__init__", "__main__")],

@@ -17,6 +17,7 @@ import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from porthamiltonian import collector
 from porthamiltonian import io as ph_io
 from porthamiltonian.compiler import prepare
 from porthamiltonian.errors import ModelFileError, ParameterValueError
@@ -56,6 +57,7 @@ def _file_text(name_or_path: str | Path) -> tuple[str, str]:
                                       kind="model file", language="TOML")
 
 
+@collector.paused()
 def load_walker(name_or_path: str | Path, overrides: Mapping[str, float] | None = None, *,
                 backend: str | None = None, options: Integration | None = None) -> HybridWalker:
     """The walker of a walker file (a name in models/, or a path), with its ``[parameters]``
