@@ -123,6 +123,37 @@ def isolated_cache(tmp_path_factory: pytest.TempPathFactory):
 
 
 @pytest.fixture(scope="session")
+def seed_loops(isolated_cache) -> Callable[[], None]:
+    """``seed_loops()`` stores the C back end's integration loops' object in the cache folder
+    that ``PORTHAMILTONIAN_CACHE`` names now (a test's fresh folder), for a test that needs an
+    empty cache for the model entries it examines but not for the loops (one object for every
+    model, compiled once per compiler: otherwise every fresh folder compiles it again, ~0.6 s
+    of CPU). The object is the session cache's (compiled there once, for the session's
+    compiler), read through the cache's verified path (its sha256 against the session entry's
+    manifest) and stored with its hash in the fresh folder's entry (``cache.store``), as a
+    build would have stored it. A test that sets another compiler (``CC``) still compiles its
+    own: the object's key holds the compiler's identity. Not for the tests of the loops' object
+    itself, of compiler identities and flags, or of ``use_cache=False``."""
+    from pathlib import Path
+
+    from porthamiltonian import compiler
+    from porthamiltonian.backends import native
+    from porthamiltonian.compiler import cache
+
+    key, name = native.object_key(native.loop_source()), compiler._loop_name()
+    with pytest.MonkeyPatch.context() as mp:        # (first asked for when a test's is set)
+        mp.setenv("PORTHAMILTONIAN_CACHE", str(isolated_cache))
+        compiler._loop_object(True, {}, None, Path("loops.c"))
+        data = cache.load_verified(key, name)
+    assert data is not None, f"the session cache lost the loops' object {key}/{name}"
+
+    def seed() -> None:
+        cache.store(key, name, data)
+
+    return seed
+
+
+@pytest.fixture(scope="session")
 def compile_named(isolated_cache) -> Callable:
     """``compile_named(name)`` -> CompiledModel of ``models/<name>.toml`` (python back end)."""
     from porthamiltonian import compile_model, io

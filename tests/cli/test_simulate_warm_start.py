@@ -55,11 +55,13 @@ def _snapshot_path() -> Path:
 
 
 @pytest.fixture(scope="module")
-def cold(tmp_path_factory: pytest.TempPathFactory):
+def cold(tmp_path_factory: pytest.TempPathFactory, seed_loops):
     """The command run once in a fresh cache of this module's own (a full read, which leaves
-    the snapshot)."""
+    the snapshot), holding the session's integration loops' object (tests/conftest.py: not
+    compiled again)."""
     mp = pytest.MonkeyPatch()
     mp.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path_factory.mktemp("simulate_warm_cache")))
+    seed_loops()
     first = _run()
     yield first
     mp.undo()

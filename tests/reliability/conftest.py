@@ -75,6 +75,15 @@ def audit():
     return _audit
 
 
+@pytest.fixture
+def fresh_with_loops(fresh, seed_loops):
+    """The test module's own ``fresh`` cache folder, holding the session's integration loops'
+    object (tests/conftest.py, ``seed_loops``): for the tests of a model's entry or library on
+    C, not for those of the loops' object, of compiler identities or of ``use_cache=False``."""
+    seed_loops()
+    return fresh
+
+
 @pytest.fixture(scope="session")
 def model_text():
     """``model_text(name)``: the text of ``models/<name>.toml``."""

@@ -146,6 +146,7 @@ def test_zig_is_the_last_resort(monkeypatch, tmp_path):
     assert native.compiler() == [sys.executable, "-m", "ziglang", "cc"]
 
 
+@pytest.mark.usefixtures("fresh_with_loops")
 def test_cached_library_needs_no_compiler(fresh, monkeypatch):
     """A model built earlier runs from its cached library when the C compiler named now fails:
     the build of what that compiler would need is tried, fails, and one BackendWarning says the
@@ -160,6 +161,7 @@ def test_cached_library_needs_no_compiler(fresh, monkeypatch):
     np.testing.assert_array_equal(first.simulate(1.0).y, again.simulate(1.0).y)
 
 
+@pytest.mark.usefixtures("fresh_with_loops")
 @pytest.mark.parametrize("damage", ["garbage", "truncated"])
 def test_damaged_library_is_never_loaded_and_is_rebuilt(fresh, damage, recwarn):
     """A library whose bytes differ from the manifest's sha256 is reported (one CacheWarning
@@ -215,6 +217,7 @@ def test_use_cache_false_writes_nothing(fresh):
     assert not fresh.exists() or not any(fresh.iterdir())
 
 
+@pytest.mark.usefixtures("fresh_with_loops")
 def test_one_build_line_then_silence(fresh, monkeypatch, capfd):
     """``building NAME: symbolic .. s, code .. s, C .. s, N kB`` once; nothing when cached (the
     python back end after the C one: the Python body printed, ``code .. s``); the model's name

@@ -133,6 +133,7 @@ def test_damaged_manifest_is_detected_and_rebuilt(reference, damage, recwarn):
     _intact(entry)
 
 
+@pytest.mark.usefixtures("fresh_with_loops")
 @pytest.mark.parametrize("damage", [None, _change_coefficient, os.unlink, "planted"])
 def test_python_body_added_to_a_c_entry_is_verified(reference, damage, recwarn):
     """A C build stores no Python body; the python back end's first build of that entry prints

@@ -225,6 +225,7 @@ def test_a_library_that_breaks_ieee_arithmetic_is_refused(fresh, monkeypatch, fl
     assert any("break IEEE arithmetic" in m for m in _warned(caught, BackendWarning))
 
 
+@pytest.mark.usefixtures("fresh_with_loops")
 @pytest.mark.parametrize("body, words", [
     ('echo garbage > "$out"', "not a loadable shared library"),
     ('cp /bin/sh "$out"', "not a loadable shared library"),
@@ -251,6 +252,7 @@ _OSC = ("import warnings, porthamiltonian as ph\n"
         "print(ph.compile_model(m, backend='c').simulate(1.0).x_final.tolist())\n")
 
 
+@pytest.mark.usefixtures("fresh_with_loops")
 def test_the_library_of_another_model_is_refused_and_rebuilt(fresh):
     """Another model's library in this model's place (its hash recorded, as a mix-up of files
     would have it): its ph_model_key says so; it is removed and this model's is built. In a

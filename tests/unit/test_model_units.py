@@ -76,20 +76,24 @@ def test_two_units_when_asked_or_when_a_core_is_free(monkeypatch):
 
 
 @pytest.mark.parametrize("jac_p", [[], ["slope"]], ids=["plain", "jac_p"])
-def test_the_two_unit_library_computes_what_one_unit_computes(jac_p, monkeypatch, tmp_path):
-    """compass_walker built on C twice, in two fresh caches: as two units
+def test_the_two_unit_library_computes_what_one_unit_computes(jac_p, monkeypatch, tmp_path,
+                                                             seed_loops):
+    """compass_walker built on C twice, in two fresh caches (each holding the session's loops'
+    object, which both libraries link: the model's units are what differs): as two units
     ($PORTHAMILTONIAN_CC_JOBS=2), then as one (1): every generated function (rhs, jac, energy, outputs,
     guards, out_jac, jac_p) equal bit for bit at 5 points."""
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "two"))
+    seed_loops()
     monkeypatch.setenv("PORTHAMILTONIAN_CC_JOBS", "2")
     units = []
     start = native.start_object
     monkeypatch.setattr(native, "start_object", lambda text, name: units.append(name)
                         or start(text, name))
     two = compile_model(io.load("compass_walker"), backend="c", jac_p=jac_p)
-    assert len([u for u in units if u.startswith("m")]) == 2          # (and the loops')
+    assert len([u for u in units if u.startswith("m")]) == 2
     monkeypatch.setenv("PORTHAMILTONIAN_CC_JOBS", "1")
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "one"))
+    seed_loops()
     one = compile_model(io.load("compass_walker"), backend="c", jac_p=jac_p)
     rng = np.random.default_rng(5)
     x0 = one.augment(one.initial_state())

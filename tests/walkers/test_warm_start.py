@@ -43,11 +43,13 @@ def _run(code: str) -> dict:
 
 
 @pytest.fixture(scope="module")
-def own_cache(tmp_path_factory: pytest.TempPathFactory):
+def own_cache(tmp_path_factory: pytest.TempPathFactory, seed_loops):
     """A cache folder of this module's own (the snapshots it checks are the ones it makes, not
-    whatever the session's earlier tests left in the shared cache)."""
+    whatever the session's earlier tests left in the shared cache), holding the session's
+    integration loops' object (tests/conftest.py: not compiled again)."""
     mp = pytest.MonkeyPatch()
     mp.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path_factory.mktemp("warm_start_cache")))
+    seed_loops()
     yield
     mp.undo()
 
