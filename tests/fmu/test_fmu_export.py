@@ -374,19 +374,21 @@ def test_an_export_again_reuses_the_binary_and_is_the_same_fmu(compiled, own_cac
     assert _members(first)[binary] == stored[0].read_bytes()
     model.export_fmu(tmp_path / "other.fmu", fmi=3, stop_time=20.0, params={"F": 0.5})
     assert len(builds) == 3
+    assert validate_fmu(str(again)) == []
 
 
+@pytest.mark.parametrize("damage", ["garbage", "truncated"])
 def test_a_damaged_stored_binary_is_rebuilt_never_shipped(compiled, own_cache, tmp_path,
-                                                           recwarn):
-    """A stored binary whose bytes no longer match its recorded sha256 (here cut short, as by
-    an interrupted write) is not zipped: one CacheWarning names it, the binary is compiled
-    again, the FMU is the first export's, and the stored file is replaced by the intact one."""
+                                                           damage, recwarn):
+    """A stored binary whose bytes no longer match its recorded sha256 is not zipped: one
+    CacheWarning names it, the binary is compiled again, the FMU is the first export's, and the
+    stored file is replaced by the intact one."""
     folder, builds = own_cache
     model = compiled["mass_spring_damper"]
     first = model.export_fmu(tmp_path / "first.fmu", fmi=2, stop_time=20.0)
     (stored,) = folder.glob("*/fmu_{}{}".format(*platform_folder(2)))
     data = stored.read_bytes()
-    stored.write_bytes(data[: len(data) // 2])
+    stored.write_bytes(b"not a shared library" if damage == "garbage" else data[: len(data) // 2])
     again = model.export_fmu(tmp_path / "again.fmu", fmi=2, stop_time=20.0)
     assert len(builds) == 2
     warned = [str(w.message) for w in recwarn if issubclass(w.category, CacheWarning)]
