@@ -3,16 +3,13 @@
 Steps: check the arguments (Python-level events and actions are refused, the event program is
 checked against the model), build the variable table, write the C sources (``model.c`` and the
 runtime templates), compile them with the C back end's compiler into the platform's shared
-library, or reuse the library compiled before from the same sources (:func:`_build`: kept in the
-compiled-model cache, verified by its sha256 before use; a compiler failure raises
-:class:`~porthamiltonian.errors.CompilerError` naming the file that holds the compiler's
-output), write ``modelDescription.xml``, the documentation and, for
+library (a compiler failure raises :class:`~porthamiltonian.errors.CompilerError` naming the file
+that holds the compiler's output), write ``modelDescription.xml``, the documentation and, for
 FMI 3.0, ``sources/buildDescription.xml``, and zip everything into the FMU (written next to its
 destination and renamed into place: an existing file is replaced only by a complete FMU).
 """
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import math
@@ -31,7 +28,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..backends import native
-from ..compiler import cache
 from ..errors import ExportError, OptionError
 from ..integrators import TABLEAUS
 from ..version import __version__
@@ -96,8 +92,7 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
                method: str = "Rodas5P", rtol: float = 1e-8, atol: float = 1e-10,
                max_step: float = math.inf, start_time: float = 0.0,
                stop_time: float | None = None, step_size: float | None = None,
-               description: str = "", model_identifier: str | None = None,
-               use_cache: bool = True) -> Path:
+               description: str = "", model_identifier: str | None = None) -> Path:
     """Write ``model`` as an FMU at ``path`` (also ``compiled.export_fmu(path, ...)``).
 
     Parameters
@@ -130,15 +125,6 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
     description : the model's description (``modelDescription.xml`` and the documentation).
     model_identifier : the name of the shared library (default: the model's name as a C
         identifier).
-    use_cache : reuse the shared library compiled before from the same sources (an export
-        again into another file, or with another ``description``), kept in the compiled-model
-        cache (:mod:`porthamiltonian.compiler.cache`) under a hash of the exact translation unit
-        (every file of ``sources/``), the compiler's identity and flags and the platform folder,
-        and verified by its sha256 before it is zipped (a damaged one is rebuilt, with one
-        :class:`~porthamiltonian.compiler.cache.CacheWarning`); the FMU is byte for byte the
-        one a fresh build gives (the sources hold the start values, the solver settings and
-        the token: changing one of them compiles anew). ``False`` compiles anew and writes
-        nothing to the cache, as ``compile_model(..., use_cache=False)``.
 
     Returns the path written. Building needs a C compiler (the one the C back end uses, see
     :mod:`porthamiltonian.backends.native`); its failure raises
@@ -208,7 +194,7 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
         solver=(solver[0], solver[1], hmax), token=token, model_exchange="me" in kinds,
         co_simulation="cs" in kinds)
     files[ENTRY] = entry_source(version)
-    library = _build(files, folder, suffix, use_cache)
+    library = _build(files)
     tool = f"porthamiltonian {__version__}"
     date = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     xml = model_description(
@@ -292,29 +278,14 @@ def _token(model: CompiledModel, variables: Sequence[Variable], version: int,
     return "{" + str(uuid.UUID(hashlib.sha256(blob.encode()).hexdigest()[:32])) + "}"
 
 
-def _build(files: Mapping[str, str], folder: str, suffix: str, use_cache: bool) -> bytes:
-    """The shared library compiled from ``files`` (in a private temporary folder), or, with
-    ``use_cache``, the one compiled before from the same files for the same platform folder by
-    the same compiler with the same flags: a file of the compiled-model cache, keyed by
-    :func:`native.object_key <porthamiltonian.backends.native.object_key>` of them (the
-    compiler's identity and the platform too) and read only through its verified path (its
-    sha256 in the entry's manifest; a damaged file is removed, warned about and compiled
-    again). The build holds the key's build lock (:func:`cache.building
-    <porthamiltonian.compiler.cache.building>`): two exports of the same sources at once
-    compile once."""
-    key = native.object_key(json.dumps({"platform": folder, "files": dict(sorted(files.items()))}))
-    name = f"fmu_{folder}{suffix}"
-    with cache.building(key) if use_cache else contextlib.nullcontext():
-        data = cache.load_verified(key, name) if use_cache else None
-        if data is None:
-            with tempfile.TemporaryDirectory(prefix="porthamiltonian-fmu-") as tmp:
-                for file, text in files.items():
-                    (Path(tmp) / file).write_text(text)
-                data, _ = native.build(Path(tmp) / ENTRY, None, advice=(
-                    "Set CC to a working C compiler: an FMU's binary is compiled C whatever "
-                    "back end the model was compiled with"))
-            if use_cache:
-                cache.store(key, name, data)
+def _build(files: Mapping[str, str]) -> bytes:
+    """The shared library compiled from ``files`` (in a private temporary folder)."""
+    with tempfile.TemporaryDirectory(prefix="porthamiltonian-fmu-") as tmp:
+        for name, text in files.items():
+            (Path(tmp) / name).write_text(text)
+        data, _ = native.build(Path(tmp) / ENTRY, None, advice=(
+            "Set CC to a working C compiler: an FMU's binary is compiled C whatever back end "
+            "the model was compiled with"))
     return data
 
 

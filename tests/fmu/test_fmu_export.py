@@ -7,16 +7,12 @@ tolerance); the
 co-simulation FMU at its communication points against the same references; the bouncing ball's
 event times; the directional derivatives against the compiled Jacobian. One FMU per model and FMI
 version (model exchange and co-simulation in one), built once per module; and the heavy top with
-its tree evaluated by the multibody kernel (whose C the FMU's sources must hold). An export again
-from the same sources reuses the binary kept in the cache: the same FMU as a fresh build, byte
-for byte; a damaged stored binary is compiled again, never shipped.
+its tree evaluated by the multibody kernel (whose C the FMU's sources must hold).
 """
 from __future__ import annotations
 
 import ctypes
-import json
 import stat
-import time
 import zipfile
 
 import fmpy  # the test extra installs it
@@ -25,11 +21,8 @@ import pytest
 from fmpy.validation import validate_fmu
 
 from porthamiltonian import Event, compile_model, io
-from porthamiltonian.backends import native
-from porthamiltonian.compiler import cache
-from porthamiltonian.compiler.cache import CacheWarning
 from porthamiltonian.errors import CompilerError, ExportError, OptionError
-from porthamiltonian.fmu import EventProgram, EventRule, RuleChange, RuleCondition, platform_folder
+from porthamiltonian.fmu import EventProgram, EventRule, RuleChange, RuleCondition
 from porthamiltonian.fmu.units import base_unit
 from porthamiltonian.interfaces.cli import main
 
@@ -324,79 +317,6 @@ def test_initial_state_follows_its_parameters_unless_set(fmus, tmp_path):
     set_directly, _ = _instance(fmus["bouncing_ball", 3], tmp_path / "b", "CoSimulation",
                                 start={"h0": 2.0, "ball.q.drop.z": 1.0})
     assert set_directly.getFloat64([vr["ball.q.drop.z"]]) == [1.0]
-
-
-# --- the binary kept for the same sources ------------------------------------------------------
-@pytest.fixture
-def own_cache(tmp_path, monkeypatch):
-    """(a fresh cache folder for the exports, the list of the compiler's runs for them: the
-    sources' folder of each ``native.build``), the clock fixed (the FMU's generation time)."""
-    folder = tmp_path / "cache"
-    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(folder))
-    monkeypatch.setattr(cache, "_refused", set())
-    fixed = time.gmtime(0)
-    monkeypatch.setattr(time, "gmtime", lambda *args: fixed)
-    builds = []
-    build = native.build
-
-    def counted(source, *args, **kwargs):
-        builds.append(source.parent)
-        return build(source, *args, **kwargs)
-    monkeypatch.setattr(native, "build", counted)
-    return folder, builds
-
-
-def _members(path) -> dict[str, bytes]:
-    with zipfile.ZipFile(path) as zf:
-        return {name: zf.read(name) for name in zf.namelist()}
-
-
-def test_an_export_again_reuses_the_binary_and_is_the_same_fmu(compiled, own_cache, tmp_path):
-    """Exported again with the same options into another file, the FMU reuses the binary
-    compiled the first time (no compiler run) and is, member for member, byte for byte, the
-    FMU that a fresh build (use_cache=False, which writes nothing to the cache) gives; another
-    start value is other sources, compiled anew."""
-    folder, builds = own_cache
-    model = compiled["mass_spring_damper"]
-    platform, suffix = platform_folder(3)
-    first = model.export_fmu(tmp_path / "first.fmu", fmi=3, stop_time=20.0)
-    assert len(builds) == 1
-    stored = sorted(folder.glob(f"*/fmu_{platform}{suffix}"))
-    assert len(stored) == 1
-    again = model.export_fmu(tmp_path / "again.fmu", fmi=3, stop_time=20.0)
-    assert len(builds) == 1                                     # reused
-    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
-    fresh = model.export_fmu(tmp_path / "fresh.fmu", fmi=3, stop_time=20.0, use_cache=False)
-    assert len(builds) == 2
-    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before
-    assert _members(first) == _members(again) == _members(fresh)
-    binary = f"binaries/{platform}/mass_spring_damper{suffix}"
-    assert _members(first)[binary] == stored[0].read_bytes()
-    model.export_fmu(tmp_path / "other.fmu", fmi=3, stop_time=20.0, params={"F": 0.5})
-    assert len(builds) == 3
-    assert validate_fmu(str(again)) == []
-
-
-@pytest.mark.parametrize("damage", ["garbage", "truncated"])
-def test_a_damaged_stored_binary_is_rebuilt_never_shipped(compiled, own_cache, tmp_path,
-                                                           damage, recwarn):
-    """A stored binary whose bytes no longer match its recorded sha256 is not zipped: one
-    CacheWarning names it, the binary is compiled again, the FMU is the first export's, and the
-    stored file is replaced by the intact one."""
-    folder, builds = own_cache
-    model = compiled["mass_spring_damper"]
-    first = model.export_fmu(tmp_path / "first.fmu", fmi=2, stop_time=20.0)
-    (stored,) = folder.glob("*/fmu_{}{}".format(*platform_folder(2)))
-    data = stored.read_bytes()
-    stored.write_bytes(b"not a shared library" if damage == "garbage" else data[: len(data) // 2])
-    again = model.export_fmu(tmp_path / "again.fmu", fmi=2, stop_time=20.0)
-    assert len(builds) == 2
-    warned = [str(w.message) for w in recwarn if issubclass(w.category, CacheWarning)]
-    assert len(warned) == 1 and str(stored) in warned[0] and "sha256" in warned[0], warned
-    assert _members(again) == _members(first)
-    assert stored.read_bytes() == data
-    files = json.loads((stored.parent / "manifest.json").read_text())["files"]
-    assert files[stored.name] == cache._sha256(data)
 
 
 # --- refusals and errors ------------------------------------------------------------------------
