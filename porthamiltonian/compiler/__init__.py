@@ -4,7 +4,9 @@ Pipeline: :meth:`Model.freeze` (then ``validate``) -> :func:`structure.build_sys
 :func:`structure.solve` (causality, loops, dependent storages) -> :func:`assemble.assemble` (state
 equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and exact Jacobians together) ->
 :mod:`.printers` (Python and C) -> cache -> back end. :mod:`.phform` derives the explicit
-port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
+port-Hamiltonian form from a second, cut build of the same model (``ph=True``); its functions
+are an add-on of the model's cache entry, compiled beside the model's own (:func:`_with_addon`),
+as is ``out_jac`` (the declared outputs' Jacobian), built on a first linearization.
 """
 from __future__ import annotations
 
@@ -215,7 +217,7 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
     ph : also generate the explicit port-Hamiltonian form (:mod:`.phform`): the matrices and the
         vector [∇H; z; u] at a point (``CompiledModel.ph_matrices``; a compiled model asks for
         them itself, once, when they are first needed). Its functions are an add-on of the
-        model's cache entry (:func:`_with_ph`): generated and compiled on their own, into a
+        model's cache entry (:func:`_with_addon`): generated and compiled on their own, into a
         library (or module) beside the model's, which is not built again; a build of the
         add-on prints a line of its own (``building NAME, port-Hamiltonian form: ...``).
     """
@@ -285,19 +287,26 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                                                  if n in description.outputs},
                              rebuild=_rebuilder(lambda: description, backend, use_cache,
                                                 list(jac_p or [])))
-    return _with_ph(compiled, lambda: description, use_cache, order, sym) if ph else compiled
+    if ph:
+        compiled = _with_addon(compiled, _PH, lambda: description, use_cache, order, sym)
+    return compiled
 
 
 def _rebuilder(description: Callable[[], ModelDescription], backend: str, use_cache: bool,
                jac_p: list[str]) -> Callable[..., CompiledModel]:
     """A compiled model's ``rebuild`` (:meth:`CompiledModel.extended`): the model with more
-    generated functions. The port-Hamiltonian form alone is the add-on of its cache entry,
-    added to the model as it is (:func:`_with_ph`); other options (``jac_p``) compile the
-    model again (``description()``: its description, made when first needed)."""
+    generated functions. Add-ons alone (``ph=True``, ``out_jac=True``: :data:`_ADDONS`) are
+    added to the model as it is (:func:`_with_addon`); other options (``jac_p``) compile the
+    model again, with its form when it has it (``description()``: its description, made when
+    first needed)."""
     def rebuild(model: CompiledModel, **more: Any) -> CompiledModel:
+        if more.keys() <= _ADDONS.keys():
+            for name in _ADDONS:
+                if more.get(name):
+                    model = _with_addon(model, name, description, use_cache,
+                                        backends.candidates(backend))
+            return model
         merged: dict[str, Any] = {"jac_p": jac_p, "ph": model.ph_layout is not None, **more}
-        if list(merged["jac_p"]) == jac_p and merged["ph"]:
-            return _with_ph(model, description, use_cache, backends.candidates(backend))
         return compile_model(description(), backend=backend, use_cache=use_cache, **merged)
     return rebuild
 
@@ -317,16 +326,20 @@ def _report(model: str, times: Mapping[str, float], body: str | None = None, bac
                     f"{', '.join(parts)}")
 
 
-#: the name of the port-Hamiltonian form's add-on (:func:`_with_ph`)
+#: the name of the port-Hamiltonian form's add-on (:func:`_with_addon`)
 _PH = "ph"
+#: the add-ons of a model's cache entry (:func:`_with_addon`), by name: what their build line
+#: calls them
+_ADDONS = {_PH: "port-Hamiltonian form", "out_jac": "output Jacobian"}
 
 
 @dataclasses.dataclass(frozen=True)
 class _AddOn:
     """An add-on of a model's cache entry: functions generated from the model after its own
-    ones and compiled beside them, never into the model's library (:func:`_with_ph`). ``name``;
-    ``shapes``: the result shape of each of its functions; ``layout``: what it adds to the
-    model's metadata (:attr:`ModelMeta.ph`); ``kernels``: the kernels its code calls;
+    ones and compiled beside them, never into the model's library (:func:`_with_addon`).
+    ``name`` (:data:`_ADDONS`); ``shapes``: the result shape of each of its functions;
+    ``layout``: what the port-Hamiltonian form's adds to the model's metadata
+    (:attr:`ModelMeta.ph`; None for the others); ``kernels``: the kernels its code calls;
     ``bodies``: its code by language (``"c"``; ``"python"`` once a back end needed it).
 
     Its files in the model's entry, each with its sha256 in the manifest like every file
@@ -337,7 +350,7 @@ class _AddOn:
 
     name: str
     shapes: Mapping[str, tuple[int, ...]]
-    layout: dict[str, Any]
+    layout: dict[str, Any] | None
     kernels: tuple[str, ...]
     bodies: dict[str, str]
 
@@ -368,7 +381,8 @@ def _stored_addon(key: str, name: str) -> _AddOn | None:
         shapes = {str(k): tuple(int(n) for n in v) for k, v in dict(data["shapes"]).items()}
         bodies = {"c": c_body.decode(), **({} if python_body is None else
                                             {"python": python_body.decode()})}
-        return _AddOn(name, MappingProxyType(shapes), dict(data["layout"]),
+        layout = None if data["layout"] is None else dict(data["layout"])
+        return _AddOn(name, MappingProxyType(shapes), layout,
                       tuple(str(k) for k in data["kernels"]), bodies)
     except (KeyError, TypeError, ValueError, AttributeError):
         return None                 # another version's record: built and stored again
@@ -384,13 +398,14 @@ def _store_addon(key: str, addon: _AddOn) -> None:
          "kernels": list(addon.kernels)}, indent=1))
 
 
-def _ph_addon(description: ModelDescription, sym: SymbolicModel | None,
-              times: dict[str, float], python: bool) -> _AddOn:
-    """The port-Hamiltonian form's add-on of the model of ``description`` (its symbolic model
-    ``sym`` when this process made it already; else the symbolic stage runs now): the form
-    (:func:`.phform.ph_form`), its functions as a program of their own
-    (:func:`.phform.ph_program`) printed as C and, with ``python``, as Python (the times go
-    into ``times``)."""
+def _made_addon(name: str, description: ModelDescription, sym: SymbolicModel | None,
+                times: dict[str, float], python: bool) -> _AddOn:
+    """The add-on ``name`` of the model of ``description`` (its symbolic model ``sym`` when
+    this process made it already; else the symbolic stage runs now), printed as C and, with
+    ``python``, as Python (the times go into ``times``): the port-Hamiltonian form
+    (:func:`.phform.ph_form`) and its functions (:func:`.phform.ph_program`), or ``out_jac``
+    (:func:`.codegen.output_jacobian_program`)."""
+    from .codegen import output_jacobian_program
     from .phform import ph_form, ph_program
     from .printers import c_source, kernels, python_source
 
@@ -398,47 +413,46 @@ def _ph_addon(description: ModelDescription, sym: SymbolicModel | None,
     if sym is None:
         sym = _symbolic_model(description, claim=True)
         start -= sym.solved_earlier
-    form = ph_form(description, sym, _solved(description)[0])
+    form = ph_form(description, sym, _solved(description)[0]) if name == _PH else None
     times["symbolic"] = times.get("symbolic", 0.0) + time.perf_counter() - start
     start = time.perf_counter()
-    prog = ph_program(sym, form)
+    prog = output_jacobian_program(sym) if form is None else ph_program(sym, form)
     bodies = {"c": c_source(prog), **({"python": python_source(prog)} if python else {})}
     times["code"] = times.get("code", 0.0) + time.perf_counter() - start
-    return _AddOn(_PH, MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
-                  form.layout(), tuple(kernels(prog)), bodies)
+    return _AddOn(name, MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
+                  None if form is None else form.layout(), tuple(kernels(prog)), bodies)
 
 
-def _with_ph(compiled: CompiledModel, description: Callable[[], ModelDescription],
-             use_cache: bool, order: Sequence[str],
-             sym: SymbolicModel | None = None) -> CompiledModel:
-    """``compiled`` with the port-Hamiltonian form's functions (``ph_M0``, ``ph_grad``,
-    ``ph_values`` in ``functions.extra``, the form's layout in ``meta.ph``): the add-on
-    ``ph`` of its cache entry (:class:`_AddOn`), built when missing — the symbolic stage
-    (``sym`` when this process made it already), the form's functions alone generated and
-    compiled into a library (or module) of their own — under the add-on's build lock; the
-    model's own functions and library are kept as they are. The back end is the model's (a
-    C build of the add-on that fails under ``"auto"``, ``order``, falls back as
-    :func:`compile_model` does, for the add-on alone)."""
+def _with_addon(compiled: CompiledModel, name: str,
+                description: Callable[[], ModelDescription], use_cache: bool,
+                order: Sequence[str], sym: SymbolicModel | None = None) -> CompiledModel:
+    """``compiled`` with the functions of its cache entry's add-on ``name`` in
+    ``functions.extra`` — the port-Hamiltonian form's (``ph_M0``, ``ph_grad``, ``ph_values``;
+    its layout in ``meta.ph``), or ``out_jac`` —: the add-on (:class:`_AddOn`) from the
+    cache, or built when missing — the symbolic stage (``sym`` when this process made it
+    already), the add-on's functions alone generated and compiled into a library (or module)
+    of their own — under the add-on's build lock; the model's own functions and library are
+    kept as they are. The back end is the model's (a C build of the add-on that fails under
+    ``"auto"``, ``order``, falls back as :func:`compile_model` does, for the add-on alone)."""
     key, meta = compiled.key, compiled.meta
-    stem = f"{key}_{_PH}"
     times: dict[str, float] = {}
-    addon = _stored_addon(key, _PH) if use_cache else None
+    addon = _stored_addon(key, name) if use_cache else None
     candidates = list(order[order.index(compiled.backend):] if compiled.backend in order
                       else [compiled.backend])
-    with _building(stem, use_cache):
+    with _building(f"{key}_{name}", use_cache):
         if addon is None and use_cache:
-            addon = _stored_addon(key, _PH)        # built by another while this one waited
+            addon = _stored_addon(key, name)       # built by another while this one waited
         if addon is None:
-            addon = _ph_addon(description(), sym, times, python=candidates[0] != "c")
+            addon = _made_addon(name, description(), sym, times, python=candidates[0] != "c")
             if use_cache:
                 _store_addon(key, addon)
-        for i, name in enumerate(candidates):
+        for i, backend in enumerate(candidates):
             try:
-                if name != "c" and "python" not in addon.bodies:
-                    addon = _ph_addon(description(), sym, times, python=True)
+                if backend != "c" and "python" not in addon.bodies:
+                    addon = _made_addon(name, description(), sym, times, python=True)
                     if use_cache:
-                        cache.store(key, _addon_file(_PH, "python"), addon.bodies["python"])
-                functions = _load_addon(name, key, meta, addon, use_cache, times,
+                        cache.store(key, _addon_file(name, "python"), addon.bodies["python"])
+                functions = _load_addon(backend, key, meta, addon, use_cache, times,
                                         explicit=len(candidates) == 1)
             except CompilerError as err:
                 if i + 1 == len(candidates):
@@ -448,8 +462,8 @@ def _with_ph(compiled: CompiledModel, description: Callable[[], ModelDescription
                     backends.fell_back(str(err), candidates[i + 1])
                 continue
             break
-    _report(meta.name, times, addon.bodies["c" if name == "c" else "python"], name,
-            "port-Hamiltonian form")
+    _report(meta.name, times, addon.bodies["c" if backend == "c" else "python"], backend,
+            _ADDONS[name])
     return compiled.with_extra(functions, addon.shapes, ph=addon.layout)
 
 

@@ -23,6 +23,12 @@ folder per entry, ``<cache>/<key>/``:
 ``m<key>_c.c``, ``m<key>_c_<platform>.so``  the C back end's translation unit and shared library
                          (``.dll`` on Windows), added when first needed; ``m<key>_c.log``, the
                          compiler's output when it failed (never read back, not recorded)
+``addon-<name>.*``       an add-on: functions generated after the model's own and built beside
+                         them, never into the model's library (the port-Hamiltonian form's,
+                         ``ph``: :func:`porthamiltonian.compiler.compile_model` with ``ph=True``):
+                         its record (``.json``) and bodies (``.c``; ``.py`` when first needed),
+                         with its own back-end files ``m<key>_<name>_c.c``,
+                         ``m<key>_<name>_c_<platform>.so``, ``m<key>_<name>_<backend>.py``
 other files              artifacts a back end stores with :func:`store`
 ``manifest.json``        ``{"key": ..., "files": {name: sha256}}``: every file above
 ``__pycache__/``         numba's compiled functions (an index and a data file per function),

@@ -15,7 +15,8 @@ assignments in the same order. The functions, each taking the time ``t``, the st
 ``initial(p)``        the initial model states (n) from the parameters
 ``matrix_<k>(t, x, p)`` the named matrices (e.g. mass matrices), in the order of the metadata
 ``jac_u(t, x, p)``    ∂ẋ/∂u by the model's inputs, (n + 2) x m (models with inputs)
-``out_jac(t, x, p)``  ∂y/∂[x, u] of the declared outputs y by the model states and inputs
+``out_jac(t, x, p)``  ∂y/∂[x, u] of the declared outputs y by the model states and inputs (a
+                      program of its own, :func:`output_jacobian_program`: built on demand)
 ``jac_p(t, x, p)``    ∂ẋ/∂p by the parameters asked for (``program(model, jac_p=[...])``)
 ``energy_jac(t, x, p)`` ∂H/∂[x, p] by the states and those parameters (with ``jac_p``: the
                       parameter sensitivities' energy ledger at events)
@@ -611,20 +612,13 @@ def program(model: SymbolicModel, jac_p: list[str] | None = None, fold: bool = T
     are zero (:func:`zeros_folded`) and the pure aliases (:attr:`Function.aliases`); False
     keeps every assignment as the model and cse give it (to check that folding changes no
     result)."""
-    model = gathered(model)
-    if fold:
-        model = zeros_folded(model)
-    all_states = [*model.states, *model.ledger_states]
-    builder = FunctionBuilder(symbol_map(model), model, fold)
+    model, builder, doc = _prepared(model, fold)
     header, n, n_params, n_guards, n_out = _frame(model)
+    all_states = [*model.states, *model.ledger_states]
     state_names = [str(s) for s in all_states]
-    params_doc = f"p: the parameters ({n_params}), in the layout of the module's header."
-    args_doc = [f"x: the state ({n}), {params_doc}"]
+    params_doc = _params_doc(n_params)
     outputs = list(model.outputs)
     events = [ev.name for ev, _ in model.events]
-
-    def doc(summary: str, result: list[str]) -> list[str]:
-        return [summary, *result, *args_doc]
 
     n_init = max(len(model.initial), 1)
     initial_summary = (f"The initial state of model {model.name!r} from its parameters: out "
@@ -665,6 +659,39 @@ def program(model: SymbolicModel, jac_p: list[str] | None = None, fold: bool = T
                    tuple(unavailable.items()))
 
 
+def output_jacobian_program(model: SymbolicModel) -> Program:
+    """``out_jac``, the exact ∂y/∂[x, u] of the model's declared outputs y, as a program of its
+    own with :func:`program`'s layout (:func:`addon_program`): the add-on of the model's cache
+    entry that a first linearization builds (:mod:`porthamiltonian.compiler`), printed as
+    :func:`program` printed it among the model's functions (the same builder's prologue and
+    steps). The model must declare outputs that its kernels give derivatives of (else
+    :func:`program` says why in :attr:`Program.unavailable`)."""
+    model, builder, doc = _prepared(model, True)
+    return addon_program(model, [_output_jacobian(builder, model, doc)])
+
+
+def _prepared(model: SymbolicModel, fold: bool
+              ) -> tuple[SymbolicModel, FunctionBuilder, Callable[[str, list[str]], list[str]]]:
+    """What every program of ``model`` starts from: the model gathered (:func:`gathered`) and,
+    with ``fold``, its zero intermediates folded (:func:`zeros_folded`), its
+    :class:`FunctionBuilder`, and the maker of a function's docstring lines (a summary, the
+    result's lines, then the arguments')."""
+    model = gathered(model)
+    if fold:
+        model = zeros_folded(model)
+    builder = FunctionBuilder(symbol_map(model), model, fold)
+    _, n, n_params, _, _ = _frame(model)
+    args_doc = [f"x: the state ({n}), {_params_doc(n_params)}"]
+
+    def doc(summary: str, result: list[str]) -> list[str]:
+        return [summary, *result, *args_doc]
+    return model, builder, doc
+
+
+def _params_doc(n_params: int) -> str:
+    return f"p: the parameters ({n_params}), in the layout of the module's header."
+
+
 def _frame(model: SymbolicModel) -> tuple[tuple[str, ...], int, int, int, int]:
     """What every program of ``model`` shares besides its functions: the header (the state
     and parameter layouts), the number of integration states, of parameter slots, of guard
@@ -691,14 +718,15 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
                           doc: Callable[[str, list[str]], list[str]],
                           unavailable: dict[str, str]) -> list[Function]:
     """The exact Jacobians beside ``jac``, each by :func:`jacobian_function`: ``jac_u``
-    (∂ẋ/∂u, when the model has inputs), ``out_jac`` (∂y/∂[x, u] of the declared outputs y,
-    when it declares some; not generated, and why in ``unavailable``, when one of them reads a
-    kernel output without tangents, e.g. a kernel multibody's body pose), ``jac_p`` (∂ẋ/∂p
+    (∂ẋ/∂u, when the model has inputs), ``jac_p`` (∂ẋ/∂p
     over the parameters ``jac_p``) and with it ``energy_jac`` (∂H/∂[x, p] over the states, the
     ledger's included, and those parameters) and ``guard_jac`` (∂g/∂[x, p] of the event guards
     over the model states and those parameters) and ``outputs_jac`` (∂y/∂[x, p] of every named
     output, likewise; each not when one of its expressions reads a kernel output without
-    tangents)."""
+    tangents). ``out_jac`` (∂y/∂[x, u] of the declared outputs y) is not among them: it is
+    built on demand (:func:`output_jacobian_program`); when one of the declared outputs reads a
+    kernel output without tangents (e.g. a kernel multibody's body pose), ``unavailable`` says
+    why it cannot be."""
     out: list[Function] = []
     n = len(model.rhs)
     states = list(model.states)
@@ -716,13 +744,6 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             "a linearization are not available; declare a point's position "
             "('<multibody>.<point>.x') instead, or set the multibody's formulation = "
             "'symbolic'")
-    elif model.declared_outputs:
-        ys = [model.outputs[name] for name in model.declared_outputs]
-        out.append(jacobian_function(builder, model, "out_jac", ys, states + model.inputs, doc(
-            f"The Jacobian of the declared outputs y of model {model.name!r} by the model "
-            f"states and the inputs: out[i, j] = d(y[i])/d([x, u][j]), {len(ys)} x "
-            f"{len(states) + len(model.inputs)}, row-major.",
-            _listing("outputs y:", model.declared_outputs))))
     for j, (component, _, states_j, values) in enumerate(model.discrete):
         out.append(builder.function(f"update_{j}", doc(
             f"The sampling of the discrete-time block {component!r} of model {model.name!r}: "
@@ -766,6 +787,19 @@ def _derivative_functions(builder: FunctionBuilder, model: SymbolicModel, jac_p:
             except CompilerError as error:     # a parameter in a kernel's table (raised before
                 unavailable[fname] = str(error)  # the function is built): differences instead
     return out
+
+
+def _output_jacobian(builder: FunctionBuilder, model: SymbolicModel,
+                     doc: Callable[[str, list[str]], list[str]]) -> Function:
+    """``out_jac``: ∂y/∂[x, u] of the declared outputs y by the model states and the inputs
+    (:func:`output_jacobian_program`)."""
+    ys = [model.outputs[name] for name in model.declared_outputs]
+    states = list(model.states)
+    return jacobian_function(builder, model, "out_jac", ys, states + model.inputs, doc(
+        f"The Jacobian of the declared outputs y of model {model.name!r} by the model "
+        f"states and the inputs: out[i, j] = d(y[i])/d([x, u][j]), {len(ys)} x "
+        f"{len(states) + len(model.inputs)}, row-major.",
+        _listing("outputs y:", model.declared_outputs)))
 
 
 def _without_tangents(model: SymbolicModel, exprs: list[sp.Expr]) -> list[int]:

@@ -69,7 +69,8 @@ class ModelMeta:
     input_names, input_units : the declared inputs (two parameter-vector slots each).
     state_roles : per state "storage", "signal", "quadrature" or "discrete". declared_outputs :
     the model's outputs y. jac_p : the parameters of the generated ∂ẋ/∂p. discrete : the
-    discrete-time blocks. ph : the port-Hamiltonian form's layout (compiled with ``ph=True``).
+    discrete-time blocks. ph : the port-Hamiltonian form's layout (with ``ph=True``: from the
+    add-on of the model's cache entry, :meth:`CompiledModel.with_extra`; None in ``meta.json``).
     kernels : the compiled kernels the generated code calls (the C library links their
     objects; an FMU embeds their source). unavailable : why a derivative function was not
     generated, by its name (e.g. ``out_jac`` of outputs read from a kernel's value-only entry).
@@ -511,9 +512,10 @@ class CompiledModel:
 
     def extended(self, **options: Any) -> CompiledModel:
         """This model with more generated functions, kept for later calls: ``ph=True``, the
-        port-Hamiltonian form's (an add-on of the model's cache entry: this model's own
-        functions kept, the form's compiled beside them, :func:`porthamiltonian.compiler.
-        compile_model`); ``jac_p=[...]``, ∂ẋ/∂p (the model compiled again)."""
+        port-Hamiltonian form's, ``out_jac=True``, the declared outputs' Jacobian (add-ons of
+        the model's cache entry: this model's own functions kept, the add-on's compiled beside
+        them, :func:`porthamiltonian.compiler.compile_model`); ``jac_p=[...]``, ∂ẋ/∂p (the
+        model compiled again)."""
         key = repr(sorted(options.items()))
         if key not in self._extended:
             if self._rebuild is None:

@@ -1,5 +1,6 @@
-"""The port-Hamiltonian form's functions as an add-on of the model's cache entry
-(porthamiltonian/compiler/__init__.py, ``_with_ph``; porthamiltonian/compiler/cache.py).
+"""Add-ons of a model's cache entry: the port-Hamiltonian form's functions and the declared
+outputs' Jacobian ``out_jac``, each generated and compiled alone beside the model's library
+(porthamiltonian/compiler/__init__.py, ``_with_addon``; porthamiltonian/compiler/cache.py).
 
 * after a plain build, ``compile_model(model, ph=True)`` (and ``ph_matrices`` on the plain
   model) compiles one translation unit, the add-on's: the model's library is not built again
@@ -9,6 +10,7 @@
 * every file of the add-on is verified by its sha256 before it is used: a damaged one (its
   record, its bodies, its C library, its module) gives one CacheWarning naming it and is
   rebuilt, never loaded;
+* ``out_jac`` is not part of a model's build: its first linearization compiles it alone;
 * a compiled model with the form reopens from the cache (``compiler.reopen``) with it, in a
   process that imports no sympy; without the add-on in the cache it does not reopen.
 """
@@ -182,3 +184,40 @@ def test_a_model_with_its_form_reopens_without_sympy(fresh):
     np.testing.assert_array_equal(np.array(out["M0"]), expected)
     cache.discard(compiled.key, "addon-ph.json")
     assert compiler.reopen(record, lambda: io.load(MODEL).freeze()) is None
+
+
+def test_a_first_linearization_compiles_only_the_output_jacobian(fresh, monkeypatch):
+    """``out_jac`` (∂y/∂[x, u] of the declared outputs) is the add-on a first linearization
+    builds: cart_pole's C build, with a nonlinear output of a state and the input besides its
+    own (x, θ), has none; its first ``linearize`` compiles one unit, which defines out_jac
+    alone (the model's library untouched); a second linearization and a model compiled again
+    read it from the cache (nothing compiled). C and D: the rows of x and θ exactly [I 0] and
+    0; the nonlinear row equal to its closed form to 1e-15 (relative)."""
+    model = io.load("cart_pole")
+    model.output("tip", "cart_pole.q.slider + 0.5*sin(cart_pole.q.pivot) + 0.1*F**2")
+    plain = compile_model(model, backend="c")
+    assert "out_jac" not in plain.functions.extra and "out_jac" not in plain.meta.shapes
+    library = fresh / plain.key / native.library_name(plain.key)
+    before = library.stat()
+    started: list[str] = []
+    start_object = native.start_object
+
+    def counted(text: str, name: str) -> native.Pending:
+        started.append(text)
+        return start_object(text, name)
+    monkeypatch.setattr(native, "start_object", counted)
+    x, u = np.array([0.3, -0.4, 0.2, 0.1]), 0.7
+    lin = plain.linearize(x=x, u=[u])
+    assert len(started) == 1 and set(_functions(started[0])) == {"out_jac"}
+    after = library.stat()
+    assert (after.st_ino, after.st_mtime_ns) == (before.st_ino, before.st_mtime_ns)
+    assert lin.outputs == ("x", "theta", "tip")
+    np.testing.assert_array_equal(lin.C[:2], np.hstack([np.eye(2), np.zeros((2, 2))]))
+    np.testing.assert_array_equal(lin.D[:2], np.zeros((2, 1)))
+    closed = np.array([1.0, 0.5 * np.cos(x[1]), 0.0, 0.0, 0.2 * u])
+    row = np.append(lin.C[2], lin.D[2])
+    assert np.max(np.abs(row - closed)) <= 1e-15 * np.max(np.abs(closed)), row
+    again = compile_model(model, backend="c").linearize(x=x, u=[u])
+    np.testing.assert_array_equal(plain.linearize(x=x, u=[u]).C, lin.C)
+    np.testing.assert_array_equal(again.C, lin.C)
+    assert len(started) == 1

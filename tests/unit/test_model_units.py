@@ -79,7 +79,7 @@ def test_two_units_when_asked_or_when_a_core_is_free(monkeypatch):
 def test_the_two_unit_library_computes_what_one_unit_computes(jac_p, monkeypatch, tmp_path):
     """compass_walker built on C twice, in two fresh caches: as two units
     ($PORTHAMILTONIAN_CC_JOBS=2), then as one (1): every generated function (rhs, jac, energy, outputs,
-    guards, out_jac, jac_p) equal bit for bit at 5 points."""
+    guards, jac_p) equal bit for bit at 5 points."""
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "two"))
     monkeypatch.setenv("PORTHAMILTONIAN_CC_JOBS", "2")
     units = []
