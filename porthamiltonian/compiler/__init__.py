@@ -467,22 +467,22 @@ def _with_addon(compiled: CompiledModel, name: str,
     return compiled.with_extra(functions, addon.shapes, ph=addon.layout)
 
 
-def _load_addon(name: str, key: str, meta: ModelMeta, addon: _AddOn, use_cache: bool,
+def _load_addon(backend: str, key: str, meta: ModelMeta, addon: _AddOn, use_cache: bool,
                 times: dict[str, float], explicit: bool) -> dict[str, Callable[..., Any]]:
-    """The add-on's functions on the back end ``name`` (the model ``meta``'s layout), built
+    """The add-on's functions on the back end ``backend`` (the model ``meta``'s layout), built
     (and cached) when missing as :func:`_load` builds the model's: a C library of its own
     (:func:`_c_library`: the add-on's unit, linked with the kernels it calls), or a module of
     its own."""
     shapes = dict(addon.shapes)
     n, n_params = meta.shapes["rhs"][0], slot_count(meta)
-    if name != "c":
+    if backend != "c":
         from ..backends import module
         from . import numba_cache
 
-        text = module.addon_text(addon.bodies["python"], name)
-        path = cache.backend_module(key, name, text, use_cache, addon=addon.name)
-        return module.load_addon(path, name, list(shapes), source=text, attach=(
-            numba_cache.verified_caches(path.parent) if name == "numba" else None))
+        text = module.addon_text(addon.bodies["python"], backend)
+        path = cache.backend_module(key, backend, text, use_cache, addon=addon.name)
+        return module.load_addon(path, backend, list(shapes), source=text, attach=(
+            numba_cache.verified_caches(path.parent) if backend == "numba" else None))
     stem = f"{key}_{addon.name}"
     unit = native.addon_unit(addon.bodies["c"], stem)
     return _c_library(key, stem, unit,

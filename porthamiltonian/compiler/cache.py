@@ -25,7 +25,8 @@ folder per entry, ``<cache>/<key>/``:
                          compiler's output when it failed (never read back, not recorded)
 ``addon-<name>.*``       an add-on: functions generated after the model's own and built beside
                          them, never into the model's library (the port-Hamiltonian form's,
-                         ``ph``: :func:`porthamiltonian.compiler.compile_model` with ``ph=True``):
+                         ``ph``: :func:`porthamiltonian.compiler.compile_model` with ``ph=True``;
+                         the declared outputs' Jacobian, ``out_jac``: a first linearization):
                          its record (``.json``) and bodies (``.c``; ``.py`` when first needed),
                          with its own back-end files ``m<key>_<name>_c.c``,
                          ``m<key>_<name>_c_<platform>.so``, ``m<key>_<name>_<backend>.py``
