@@ -42,12 +42,19 @@ def module_text(body: str, backend: str) -> str:
     functions by :func:`load`; the numba back end's are a module of their own,
     :func:`.numba_loops.loops_text`)."""
     stub = "" if "def jac_p(" in body else JAC_P_STUB
+    loops = python_loops() if backend == "python" else ""
+    return addon_text(body, backend) + "\n\n" + stub + "\n\n" + loops
+
+
+def addon_text(body: str, backend: str) -> str:
+    """The module of ``backend`` for the body of an add-on of a model's cache entry (e.g. its
+    port-Hamiltonian form's functions: :mod:`porthamiltonian.compiler`): the body's docstring,
+    the back end's header, the body; no loops call its functions (:func:`load_addon`)."""
     doc = ""
     if body.startswith('"""'):          # the module's docstring first, so that it is __doc__
         end = body.index('\n"""', 3) + 4
         doc, body = body[:end] + "\n", body[end:].lstrip("\n")
-    loops = python_loops() if backend == "python" else ""
-    return doc + _HEADERS[backend] + "\n\n" + body + "\n\n" + stub + "\n\n" + loops
+    return doc + _HEADERS[backend] + "\n\n" + body
 
 
 def shown_text(body: str, backend: str) -> str:
@@ -83,23 +90,36 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
         variational: Mapping[str, Callable[..., Any]] = {
             name: functools.partial(getattr(module, f"integrate_{symbol}_variational"), called)
             for name, symbol in LOOPS.items()}
-        # plain CPython is fastest on Python floats: hand the generated code lists (the caller
-        # passes p as a list too, see CompiledModel.native_params)
-        def wrap(fn: Callable[..., Any]) -> Callable[..., Any]:
-            @functools.wraps(fn)                   # its name, docstring and __wrapped__
-            def on_lists(t: float, x: Any, p: Any) -> Any:
-                return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
-            return on_lists
-        rhs, jac, energy, outputs, guards = (wrap(f[n]) for n in _NAMES[:5])
+        rhs, jac, energy, outputs, guards = (_on_lists(f[n]) for n in _NAMES[:5])
         return Functions("python", rhs, jac, energy, outputs, guards, f["initial"],
-                         tuple(wrap(m) for m in matrices), bound, variational,
-                         {name: wrap(getattr(module, name)) for name in extra})
+                         tuple(_on_lists(m) for m in matrices), bound, variational,
+                         {name: _on_lists(getattr(module, name)) for name in extra})
     if loops is None:
         raise CompilerError(f"{path}: the numba back end needs its loop module")
     bound, variational = numba_loops.bind(loops, called)
     rhs, jac, energy, outputs, guards, initial = (f[n] for n in _NAMES)
     return Functions("numba", rhs, jac, energy, outputs, guards, initial, tuple(matrices), bound,
                      variational, {name: getattr(module, name) for name in extra})
+
+
+def load_addon(path: Path, backend: str, names: Sequence[str], *, source: str | None = None,
+               attach: Callable[[Any], None] | None = None) -> dict[str, Callable[..., Any]]:
+    """Import the module of an add-on (:func:`addon_text`) at ``path`` and wrap its functions
+    ``names`` for ``backend`` as :func:`load` wraps a model's further functions, by name
+    (``source``, ``attach``: as for :func:`load`)."""
+    module = import_module(path, source, attach)
+    wrap = _on_lists if backend == "python" else (lambda fn: fn)
+    return {name: wrap(getattr(module, name)) for name in names}
+
+
+def _on_lists(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """A generated function of the python back end called with the state as a list: plain
+    CPython is fastest on Python floats (the caller passes p as a list too, see
+    CompiledModel.native_params)."""
+    @functools.wraps(fn)                   # its name, docstring and __wrapped__
+    def on_lists(t: float, x: Any, p: Any) -> Any:
+        return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
+    return on_lists
 
 
 def import_module(path: Path, source: str | None = None,

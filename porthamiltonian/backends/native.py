@@ -190,9 +190,23 @@ def model_unit(body: str, key: str = "") -> str:
 
 def _unit_end(key: str) -> str:
     """What :func:`model_unit` adds after the body: the sizes, the self-check, the key."""
-    if not key.isalnum() and key:
-        raise CompilerError(f"model key {key!r}: letters and digits only")
-    return _SIZES_EXPORT + "\n" + _SELF_CHECK.replace("%s", key)
+    return _SIZES_EXPORT + "\n" + _self_check(key)
+
+
+def _self_check(key: str) -> str:
+    """The self-check and ``ph_model_key`` returning ``key`` (letters, digits and ``_``)."""
+    if key and not key.replace("_", "").isalnum():
+        raise CompilerError(f"model key {key!r}: letters, digits and '_' only")
+    return _SELF_CHECK.replace("%s", key)
+
+
+def addon_unit(body: str, key: str) -> str:
+    """The translation unit of an add-on of a model's cache entry (e.g. its port-Hamiltonian
+    form: :mod:`porthamiltonian.compiler`): the add-on's generated body, the self-check and
+    ``ph_model_key`` returning ``key`` (the model's cache key and the add-on's name,
+    ``<key>_<add-on>``). It is a library of its own, loaded beside the model's by
+    :func:`load_addon`; no integration loop calls its functions."""
+    return body + "\n" + _self_check(key)
 
 
 def _with_jac_p(body: str) -> str:
@@ -529,20 +543,10 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     numbers for the whole process, as ``-ffast-math`` does, gets the default floating-point
     environment restored), the library of another model (``key``: the model's cache key), or a
     layout that is not the model's."""
-    subnormals = _subnormals()
-    try:
-        lib = ctypes.CDLL(str(_fresh_path(Path(path))))
-    except OSError as err:
-        raise CompilerError(f"{path}: not a loadable shared library ({err})") from None
-    _check(lib, path, key, subnormals)
-    layout = (ctypes.c_int64 * 5)()
-    lib.ph_layout(layout)
     n = shapes["rhs"][0]
     expected = (n, n_params, shapes["guards"][0], shapes["outputs"][0],
                 sum(1 for name in shapes if name.startswith("matrix_")))
-    if tuple(layout) != expected:
-        raise CompilerError(f"{path}: the library's layout ({dict(zip(_SIZES, layout))}) is not the "
-                            f"model's ({dict(zip(_SIZES, expected))})")
+    lib = _opened(path, key, expected, len(expected))
 
     def function(name: str) -> Callable:
         return _function(getattr(lib, f"ph_{name}"), name, shapes[name], n, n_params)
@@ -571,6 +575,35 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
     rhs, jac, energy, outputs, guards = (function(name) for name in _NAMES)
     return Functions("c", rhs, jac, energy, outputs, guards, initial, matrices, loops,
                      variational, extra)
+
+
+def load_addon(path: Path, shapes: dict[str, tuple[int, ...]], n: int, n_params: int,
+               key: str) -> dict[str, Callable]:
+    """Load the library of an add-on (:func:`addon_unit`; verified by the caller) and wrap its
+    functions, by name: ``shapes``, their result shapes; ``n``, ``n_params``: the model's
+    state and parameter-vector lengths, which its layout must have. The checks of :func:`load`
+    (the self-check, the key ``<model key>_<add-on>``, the layout's first two sizes) raise a
+    CompilerError saying why it cannot be used."""
+    lib = _opened(path, key, (n, n_params), 2)
+    return {name: _function(getattr(lib, f"ph_{name}"), name, shape, n, n_params)
+            for name, shape in shapes.items()}
+
+
+def _opened(path: Path, key: str | None, expected: tuple[int, ...], compared: int) -> ctypes.CDLL:
+    """The library at ``path`` loaded, its self-check passed (:func:`_check`) and the first
+    ``compared`` sizes of its ``ph_layout`` equal to ``expected``; CompilerError otherwise."""
+    subnormals = _subnormals()
+    try:
+        lib = ctypes.CDLL(str(_fresh_path(Path(path))))
+    except OSError as err:
+        raise CompilerError(f"{path}: not a loadable shared library ({err})") from None
+    _check(lib, path, key, subnormals)
+    layout = (ctypes.c_int64 * 5)()
+    lib.ph_layout(layout)
+    if tuple(layout)[:compared] != expected:
+        raise CompilerError(f"{path}: the library's layout ({dict(zip(_SIZES, layout))}) is not the "
+                            f"model's ({dict(zip(_SIZES, expected))})")
+    return lib
 
 
 def _function(fn: Any, name: str, shape: tuple[int, ...], n: int, n_params: int) -> Callable:
@@ -693,6 +726,6 @@ def _loop(entry: Any, n: int, n_params: int, n_guards: int, variational: bool = 
     return integrate
 
 
-__all__ = ["FLAGS", "Pending", "build", "compile_object", "compiler", "compiler_identity",
-           "library_name", "library_prefix", "link", "load", "loop_source", "model_unit",
-           "object_key", "start_object", "translation_unit"]
+__all__ = ["FLAGS", "Pending", "addon_unit", "build", "compile_object", "compiler",
+           "compiler_identity", "library_name", "library_prefix", "link", "load", "load_addon",
+           "loop_source", "model_unit", "object_key", "start_object", "translation_unit"]

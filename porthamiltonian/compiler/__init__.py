@@ -4,7 +4,9 @@ Pipeline: :meth:`Model.freeze` (then ``validate``) -> :func:`structure.build_sys
 :func:`structure.solve` (causality, loops, dependent storages) -> :func:`assemble.assemble` (state
 equations, H, P_diss, P_in) -> :func:`codegen.program` (cse, RHS and exact Jacobians together) ->
 :mod:`.printers` (Python and C) -> cache -> back end. :mod:`.phform` derives the explicit
-port-Hamiltonian form from a second, cut build of the same model (``ph=True``).
+port-Hamiltonian form from a second, cut build of the same model (``ph=True``); its functions
+are an add-on of the model's cache entry, compiled beside the model's own (:func:`_with_addon`),
+as is ``out_jac`` (the declared outputs' Jacobian), built on a first linearization.
 """
 from __future__ import annotations
 
@@ -20,7 +22,7 @@ import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from .. import backends, collector
 from ..backends import native
@@ -217,7 +219,10 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
         (``CompiledModel.parameter_jacobian``; :func:`.codegen.jacobian_function`).
     ph : also generate the explicit port-Hamiltonian form (:mod:`.phform`): the matrices and the
         vector [∇H; z; u] at a point (``CompiledModel.ph_matrices``; a compiled model asks for
-        them itself, once, when they are first needed).
+        them itself, once, when they are first needed). Its functions are an add-on of the
+        model's cache entry (:func:`_with_addon`): generated and compiled on their own, into a
+        library (or module) beside the model's, which is not built again; a build of the
+        add-on prints a line of its own (``building NAME, port-Hamiltonian form: ...``).
     """
     from ..modeling.model import Model, ModelDescription
 
@@ -228,12 +233,11 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                          f"{type(model).__name__} {model!r:.80}{hint}")
     order = backends.candidates(backend)
     description = _frozen(model)
-    options = {k: v for k, v in (("jac_p", list(jac_p or [])), ("ph", ph)) if v}
-    key = cache.model_key(description, options)
+    key = cache.model_key(description, {"jac_p": list(jac_p)} if jac_p else None)
     meta, bodies = _cached(key) if use_cache else (None, {})
     times: dict[str, float] = {}
     pending: dict[str, native.Pending] = {}     # the C compiles running in the background
-    prog = None
+    prog = sym = None
     with contextlib.ExitStack() as held:
         if meta is None and use_cache:
             held.enter_context(cache.building(key))    # one process builds, the others wait
@@ -247,24 +251,24 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             if order[0] == "c":             # the loops compile while the code is made
                 _prepare_loops(use_cache)
             start = time.perf_counter()
-            sym, form = _symbolic(description, ph)
+            sym = _symbolic_model(description, claim=True)
             # (with the part of it a layout of this model did before: a walker's)
             times["symbolic"] = time.perf_counter() - start + sym.solved_earlier
             compiles = order[0] == "c" and not _C_FAILED
             start = time.perf_counter()
-            prog = _program(sym, form, jac_p)
+            prog = _program(sym, jac_p)
             bodies = {"c": c_source(prog)}          # the Python body: when a back end needs it
             times["code"] = time.perf_counter() - start
             if compiles:                   # the model's units compile while the rest is done
                 pending.update(_start_units(bodies["c"], key))
-            meta = _meta(sym, prog, form, jac_p)
+            meta = _meta(sym, prog, jac_p)
             if use_cache:
                 cache.write(key, meta.to_json(), bodies)
         for i, name in enumerate(order):
             try:
                 if name != "c" and "python" not in bodies:
-                    bodies["python"] = _python_body(key, description, prog, jac_p, ph,
-                                                    use_cache, times)
+                    bodies["python"] = _python_body(key, description, prog, jac_p, use_cache,
+                                                    times)
                 functions = _load(name, key, meta, bodies, use_cache, times,
                                   explicit=len(order) == 1, pending=pending)
             except CompilerError as err:
@@ -275,26 +279,220 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                     backends.fell_back(str(err), order[i + 1])
                 continue
             break
-    if times:
-        parts = [f"{k} {v:.1f} s" for k, v in times.items()]
-        size = len(bodies["c" if name == "c" else "python"].encode()) / 1000
-        note = " (numba compiles it at the first call)" if name == "numba" else ""
-        backends.report(f"building {printable(meta.name)}: {', '.join(parts)}, "
-                        f"{size:.0f} kB{note}")
-    def rebuild(**more: Any) -> CompiledModel:
-        """This model compiled again with the options ``more`` added (for CompiledModel)."""
-        merged = {"jac_p": list(jac_p or []), "ph": ph, **more}
-        return compile_model(description, backend=backend, use_cache=use_cache, **merged)
-
+    _report(meta.name, times, bodies["c" if name == "c" else "python"], name)
     docs = {par_name: par.doc for par_name, par in description.parameters.items()}
-    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
-                         c_source=bodies["c"],
-                         param_docs=[docs.get(n, "") for n in meta.param_names],
-                         input_docs=[description.inputs[n].doc for n in meta.input_names],
-                         output_expressions={n: description.outputs[n]
-                                             for n in meta.declared_outputs
-                                             if n in description.outputs},
-                         rebuild=rebuild)
+    compiled = CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
+                             c_source=bodies["c"],
+                             param_docs=[docs.get(n, "") for n in meta.param_names],
+                             input_docs=[description.inputs[n].doc for n in meta.input_names],
+                             output_expressions={n: description.outputs[n]
+                                                 for n in meta.declared_outputs
+                                                 if n in description.outputs},
+                             rebuild=_rebuilder(lambda: description, backend, use_cache,
+                                                list(jac_p or [])))
+    if ph:
+        compiled = _with_addon(compiled, _PH, lambda: description, use_cache, order, sym)
+    return compiled
+
+
+def _rebuilder(description: Callable[[], ModelDescription], backend: str, use_cache: bool,
+               jac_p: list[str]) -> Callable[..., CompiledModel]:
+    """A compiled model's ``rebuild`` (:meth:`CompiledModel.extended`): the model with more
+    generated functions. Add-ons alone (``ph=True``, ``out_jac=True``: :data:`_ADDONS`) are
+    added to the model as it is (:func:`_with_addon`); other options (``jac_p``) compile the
+    model again, with its form when it has it (``description()``: its description, made when
+    first needed)."""
+    def rebuild(model: CompiledModel, **more: Any) -> CompiledModel:
+        if more.keys() <= _ADDONS.keys():
+            for name in _ADDONS:
+                if more.get(name):
+                    model = _with_addon(model, name, description, use_cache,
+                                        backends.candidates(backend))
+            return model
+        merged: dict[str, Any] = {"jac_p": jac_p, "ph": model.ph_layout is not None, **more}
+        return compile_model(description(), backend=backend, use_cache=use_cache, **merged)
+    return rebuild
+
+
+def _report(model: str, times: Mapping[str, float], body: str | None = None, backend: str = "",
+            what: str = "") -> None:
+    """The build line on stderr when ``times`` holds work (none when everything came from the
+    cache): ``building NAME[, what]: symbolic 0.3 s, code 0.6 s, C 0.7 s, 41 kB`` (the size of
+    ``body``, the code the back end ``backend`` runs, when given)."""
+    if not times:
+        return
+    parts = [f"{k} {v:.1f} s" for k, v in times.items()]
+    if body is not None:
+        note = " (numba compiles it at the first call)" if backend == "numba" else ""
+        parts[-1] += f", {len(body.encode()) / 1000:.0f} kB{note}"
+    backends.report(f"building {printable(model)}{f', {what}' if what else ''}: "
+                    f"{', '.join(parts)}")
+
+
+#: the name of the port-Hamiltonian form's add-on (:func:`_with_addon`)
+_PH = "ph"
+#: the add-ons of a model's cache entry (:func:`_with_addon`), by name: what their build line
+#: calls them
+_ADDONS = {_PH: "port-Hamiltonian form", "out_jac": "output Jacobian"}
+
+
+@dataclasses.dataclass(frozen=True)
+class _AddOn:
+    """An add-on of a model's cache entry: functions generated from the model after its own
+    ones and compiled beside them, never into the model's library (:func:`_with_addon`).
+    ``name`` (:data:`_ADDONS`); ``shapes``: the result shape of each of its functions;
+    ``layout``: what the port-Hamiltonian form's adds to the model's metadata
+    (:attr:`ModelMeta.ph`; None for the others); ``kernels``: the kernels its code calls;
+    ``bodies``: its code by language (``"c"``; ``"python"`` once a back end needed it).
+
+    Its files in the model's entry, each with its sha256 in the manifest like every file
+    there (:mod:`.cache`): ``addon-<name>.json`` (the record), ``addon-<name>.c`` and
+    ``addon-<name>.py`` (the bodies), and what the back ends make of them: the C unit
+    ``m<key>_<name>_c.c`` and library ``m<key>_<name>_c_<platform>_..._<compiler>.so``, the
+    modules ``m<key>_<name>_python.py`` and ``m<key>_<name>_numba.py``."""
+
+    name: str
+    shapes: Mapping[str, tuple[int, ...]]
+    layout: dict[str, Any] | None
+    kernels: tuple[str, ...]
+    bodies: dict[str, str]
+
+
+#: the suffix of an add-on's file (:func:`_addon_file`): its record, its bodies by language
+_ADDON_SUFFIXES = {"": "json", "c": "c", "python": "py"}
+
+
+def _addon_file(name: str, language: str = "") -> str:
+    """The file of add-on ``name`` in its model's entry: its record, or its body in
+    ``language``."""
+    return f"addon-{name}.{_ADDON_SUFFIXES[language]}"
+
+
+def _stored_addon(key: str, name: str) -> _AddOn | None:
+    """The add-on ``name`` of entry ``key`` (:class:`_AddOn`) when its record and C body are
+    in the cache, intact (a damaged file is reported, removed and built again) and of this
+    version's form; else None. Its Python body when it has one."""
+    record = cache.load_verified(key, _addon_file(name))
+    if record is None:
+        return None
+    c_body = cache.load_verified(key, _addon_file(name, "c"))
+    if c_body is None:
+        return None
+    python_body = cache.load_verified(key, _addon_file(name, "python"))
+    try:
+        data = json.loads(record)
+        shapes = {str(k): tuple(int(n) for n in v) for k, v in dict(data["shapes"]).items()}
+        bodies = {"c": c_body.decode(), **({} if python_body is None else
+                                            {"python": python_body.decode()})}
+        layout = None if data["layout"] is None else dict(data["layout"])
+        return _AddOn(name, MappingProxyType(shapes), layout,
+                      tuple(str(k) for k in data["kernels"]), bodies)
+    except (KeyError, TypeError, ValueError, AttributeError):
+        return None                 # another version's record: built and stored again
+
+
+def _store_addon(key: str, addon: _AddOn) -> None:
+    """Store the add-on in entry ``key``: its bodies, then its record (a reader that finds the
+    record finds the bodies)."""
+    for language, body in addon.bodies.items():
+        cache.store(key, _addon_file(addon.name, language), body)
+    cache.store(key, _addon_file(addon.name), json.dumps(
+        {"shapes": {k: list(v) for k, v in addon.shapes.items()}, "layout": addon.layout,
+         "kernels": list(addon.kernels)}, indent=1))
+
+
+def _made_addon(name: str, description: ModelDescription, sym: SymbolicModel | None,
+                times: dict[str, float], python: bool) -> _AddOn:
+    """The add-on ``name`` of the model of ``description`` (its symbolic model ``sym`` when
+    this process made it already; else the symbolic stage runs now), printed as C and, with
+    ``python``, as Python (the times go into ``times``): the port-Hamiltonian form
+    (:func:`.phform.ph_form`) and its functions (:func:`.phform.ph_program`), or ``out_jac``
+    (:func:`.codegen.output_jacobian_program`)."""
+    from .codegen import output_jacobian_program
+    from .phform import ph_form, ph_program
+    from .printers import c_source, kernels, python_source
+
+    start = time.perf_counter()
+    if sym is None:
+        sym = _symbolic_model(description, claim=True)
+        start -= sym.solved_earlier
+    form = ph_form(description, sym, _solved(description)[0]) if name == _PH else None
+    times["symbolic"] = times.get("symbolic", 0.0) + time.perf_counter() - start
+    start = time.perf_counter()
+    prog = output_jacobian_program(sym) if form is None else ph_program(sym, form)
+    bodies = {"c": c_source(prog), **({"python": python_source(prog)} if python else {})}
+    times["code"] = times.get("code", 0.0) + time.perf_counter() - start
+    return _AddOn(name, MappingProxyType({fn.name: tuple(fn.shape) for fn in prog.functions}),
+                  None if form is None else form.layout(), tuple(kernels(prog)), bodies)
+
+
+def _with_addon(compiled: CompiledModel, name: str,
+                description: Callable[[], ModelDescription], use_cache: bool,
+                order: Sequence[str], sym: SymbolicModel | None = None) -> CompiledModel:
+    """``compiled`` with the functions of its cache entry's add-on ``name`` in
+    ``functions.extra`` — the port-Hamiltonian form's (``ph_M0``, ``ph_grad``, ``ph_values``;
+    its layout in ``meta.ph``), or ``out_jac`` —: the add-on (:class:`_AddOn`) from the
+    cache, or built when missing — the symbolic stage (``sym`` when this process made it
+    already), the add-on's functions alone generated and compiled into a library (or module)
+    of their own — under the add-on's build lock; the model's own functions and library are
+    kept as they are. The back end is the model's (a C build of the add-on that fails under
+    ``"auto"``, ``order``, falls back as :func:`compile_model` does, for the add-on alone)."""
+    key, meta = compiled.key, compiled.meta
+    times: dict[str, float] = {}
+    addon = _stored_addon(key, name) if use_cache else None
+    candidates = list(order[order.index(compiled.backend):] if compiled.backend in order
+                      else [compiled.backend])
+    with _building(f"{key}_{name}", use_cache):
+        if addon is None and use_cache:
+            addon = _stored_addon(key, name)       # built by another while this one waited
+        if addon is None:
+            addon = _made_addon(name, description(), sym, times, python=candidates[0] != "c")
+            if use_cache:
+                _store_addon(key, addon)
+        for i, backend in enumerate(candidates):
+            try:
+                if backend != "c" and "python" not in addon.bodies:
+                    addon = _made_addon(name, description(), sym, times, python=True)
+                    if use_cache:
+                        cache.store(key, _addon_file(name, "python"), addon.bodies["python"])
+                functions = _load_addon(backend, key, meta, addon, use_cache, times,
+                                        explicit=len(candidates) == 1)
+            except CompilerError as err:
+                if i + 1 == len(candidates):
+                    raise
+                if not _C_FAILED:
+                    _C_FAILED.append(str(err))
+                    backends.fell_back(str(err), candidates[i + 1])
+                continue
+            break
+    _report(meta.name, times, addon.bodies["c" if backend == "c" else "python"], backend,
+            _ADDONS[name])
+    return compiled.with_extra(functions, addon.shapes, ph=addon.layout)
+
+
+def _load_addon(backend: str, key: str, meta: ModelMeta, addon: _AddOn, use_cache: bool,
+                times: dict[str, float], explicit: bool) -> dict[str, Callable[..., Any]]:
+    """The add-on's functions on the back end ``backend`` (the model ``meta``'s layout), built
+    (and cached) when missing as :func:`_load` builds the model's: a C library of its own
+    (:func:`_c_library`: the add-on's unit, linked with the kernels it calls), or a module of
+    its own."""
+    shapes = dict(addon.shapes)
+    n, n_params = meta.shapes["rhs"][0], slot_count(meta)
+    if backend != "c":
+        from ..backends import module
+        from . import numba_cache
+
+        text = module.addon_text(addon.bodies["python"], backend)
+        path = cache.backend_module(key, backend, text, use_cache, addon=addon.name)
+        return module.load_addon(path, backend, list(shapes), source=text, attach=(
+            numba_cache.verified_caches(path.parent) if backend == "numba" else None))
+    stem = f"{key}_{addon.name}"
+    unit = native.addon_unit(addon.bodies["c"], stem)
+    return _c_library(key, stem, unit,
+                      lambda: [native.start_object(unit, _unit_name(stem).removesuffix(".c"))],
+                      addon.kernels,
+                      lambda path: native.load_addon(path, shapes, n, n_params, stem),
+                      use_cache, times, explicit)
 
 
 def _close_all(pending: Mapping[str, native.Pending]) -> None:
@@ -303,28 +501,14 @@ def _close_all(pending: Mapping[str, native.Pending]) -> None:
         job.close()
 
 
-def _symbolic(description: ModelDescription, ph: bool) -> tuple[SymbolicModel, Any]:
-    """The symbolic model of ``description`` and, with ``ph``, its port-Hamiltonian form."""
-    from .phform import ph_form
-
-    sym = _symbolic_model(description, claim=True)
-    return sym, ph_form(description, sym, _solved(description)[0]) if ph else None
-
-
-def _program(sym: SymbolicModel, form: Any, jac_p: Sequence[str] | None) -> Program:
-    """The program of ``sym`` (with ``jac_p``, and the functions of the pH form ``form``)."""
+def _program(sym: SymbolicModel, jac_p: Sequence[str] | None) -> Program:
+    """The program of ``sym`` (with ``jac_p``)."""
     from .codegen import program
-    from .phform import ph_functions
 
-    prog = program(sym, jac_p=list(jac_p or []))
-    if form is not None:
-        prog = dataclasses.replace(prog, functions=(*prog.functions,
-                                                    *ph_functions(prog, sym, form)))
-    return prog
+    return program(sym, jac_p=list(jac_p or []))
 
 
-def _meta(sym: SymbolicModel, prog: Program, form: Any,
-          jac_p: Sequence[str] | None) -> ModelMeta:
+def _meta(sym: SymbolicModel, prog: Program, jac_p: Sequence[str] | None) -> ModelMeta:
     """The compiled model's metadata (``meta.json`` of its cache entry)."""
     from .printers import kernels
 
@@ -344,13 +528,11 @@ def _meta(sym: SymbolicModel, prog: Program, form: Any,
         declared_outputs=tuple(sym.declared_outputs), jac_p=tuple(jac_p or ()),
         discrete=tuple(DiscreteBlock(c, period, tuple(str(s) for s in states), f"update_{j}")
                        for j, (c, period, states, _) in enumerate(sym.discrete)),
-        ph=form.layout() if form is not None else None,
         kernels=tuple(kernels(prog)), unavailable=MappingProxyType(dict(prog.unavailable)))
 
 
 def _python_body(key: str, description: ModelDescription, prog: Program | None,
-                 jac_p: Sequence[str] | None, ph: bool, use_cache: bool,
-                 times: dict[str, float]) -> str:
+                 jac_p: Sequence[str] | None, use_cache: bool, times: dict[str, float]) -> str:
     """The model's Python body (``body.py``), printed when a back end first needs it (the
     python and numba back ends): from ``prog``, this build's program, or, for an entry that a
     C build stored without it, from the program made again; stored in the entry (its time added
@@ -359,7 +541,7 @@ def _python_body(key: str, description: ModelDescription, prog: Program | None,
 
     start = time.perf_counter()
     if prog is None:
-        prog = _program(*_symbolic(description, ph), jac_p)
+        prog = _program(_symbolic_model(description, claim=True), jac_p)
     text = python_source(prog)
     times["code"] = times.get("code", 0.0) + time.perf_counter() - start
     if use_cache:
@@ -382,7 +564,8 @@ def reopen(record: Mapping[str, Any],
     """The compiled model of ``record`` (:func:`compiled_record`) from the cache, without the
     symbolic compiler (no sympy, no networkx): its metadata and code verified as
     :func:`compile_model` verifies them, its library loaded (built when only the library is
-    missing). None when the entry is gone or damaged, or the back end cannot load it: the caller
+    missing), with its port-Hamiltonian form's add-on when the record has it. None when the
+    entry (or that add-on) is gone or damaged, or the back end cannot load it: the caller
     compiles the model as usual. ``description`` gives the model's description when it is
     needed after all (a compiled model extended with ``ph=True`` or ``jac_p``)."""
     try:
@@ -396,27 +579,26 @@ def reopen(record: Mapping[str, Any],
     if name not in backends.BACKENDS or not cache.model_key_form(key):
         return None
     meta, bodies = _cached(key)
-    if meta is None or list(meta.jac_p) != jac_p or (meta.ph is not None) != ph or (
+    addon = _stored_addon(key, _PH) if ph else None
+    if meta is None or list(meta.jac_p) != jac_p or (ph and addon is None) or (
             name != "c" and "python" not in bodies):    # (a C build's entry: compiled again)
+        return None
+    if addon is not None and name != "c" and "python" not in addon.bodies:
         return None
     times: dict[str, float] = {}
     try:
         functions = _load(name, key, meta, bodies, True, times, explicit=True)
+        extra = {} if addon is None else _load_addon(name, key, meta, addon, True, times,
+                                                     explicit=True)
     except CompilerError:
         return None
-    if times:
-        backends.report(f"building {printable(meta.name)}: "
-                        f"{', '.join(f'{k} {v:.1f} s' for k, v in times.items())}")
-
-    def rebuild(**more: Any) -> CompiledModel:
-        """This model compiled again with the options ``more`` added (for CompiledModel)."""
-        merged = {"jac_p": jac_p, "ph": ph, **more}
-        return compile_model(description(), backend=name, **merged)
-
-    return CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
-                         c_source=bodies["c"], param_docs=docs["param_docs"],
-                         input_docs=docs["input_docs"], output_expressions=outputs,
-                         rebuild=rebuild)
+    _report(meta.name, times)
+    compiled = CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
+                             c_source=bodies["c"], param_docs=docs["param_docs"],
+                             input_docs=docs["input_docs"], output_expressions=outputs,
+                             rebuild=_rebuilder(description, name, True, jac_p))
+    return compiled if addon is None else compiled.with_extra(extra, addon.shapes,
+                                                              ph=addon.layout)
 
 
 def _cached(key: str) -> tuple[ModelMeta | None, dict[str, str]]:
@@ -464,38 +646,60 @@ def _load_c(key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
     """The C back end's functions (:func:`_load`), under the model's build lock."""
     shapes = dict(meta.shapes)
     n_params = slot_count(meta)
+
+    def units() -> list[native.Pending]:
+        return [job for name, job in pending.items() if name.startswith("model")] or list(
+            _start_units(bodies["c"], key).values())
+
+    return _c_library(key, key, native.model_unit(bodies["c"], key=key), units, meta.kernels,
+                      lambda path: native.load(path, shapes, n_params, key), use_cache, times,
+                      explicit)
+
+
+_Loaded = TypeVar("_Loaded")
+
+
+def _c_library(key: str, stem: str, unit: str, units: Callable[[], list[native.Pending]],
+               kernels: Sequence[str], loader: Callable[[Path], _Loaded], use_cache: bool,
+               times: dict[str, float], explicit: bool) -> _Loaded:
+    """The C library ``stem`` of entry ``key`` (the model's: ``stem`` is ``key``, linked with
+    the integration loops' object; an add-on's: ``<key>_<add-on>``) as ``loader`` loads it:
+    the cached one, verified by its sha256 and then by ``loader``'s self-check (a library
+    that fails it is removed and built again), else built now: its translation unit ``unit``
+    stored in the entry (``m<stem>_c.c``, where a failure's log goes), the compiles of
+    ``units()`` waited for and linked with the objects of the ``kernels`` it calls (the C
+    compile time goes into ``times``), stored, loaded."""
     identity = native.compiler_identity()
-    lib_name = native.library_name(key, identity or "none")
+    lib_name = native.library_name(stem, identity or "none")
     cached = cache.verified_path(key, lib_name) if use_cache else None
     if cached is not None:
         try:
-            return native.load(cached, shapes, n_params, key)
+            return loader(cached)
         except CompilerError as err:
             cache.warn(f"compiled-model cache: {err}; the library is removed and rebuilt")
             cache.discard(key, cached.name)
     if _C_FAILED and not explicit:
         raise CompilerError(_C_FAILED[0])
-    text = native.model_unit(bodies["c"], key=key)
-    source = cache.store(key, _unit_name(key), text, use_cache)
+    source = cache.store(key, _unit_name(stem), unit, use_cache)
     log_dir = source.parent if cache.kept(source) else None     # failures: the model's log
     try:
         objects = tuple(_kernel_object(kernel, use_cache, times, log_dir, source)
-                        for kernel in meta.kernels)
-        objects += (_loop_object(use_cache, times, log_dir, source),)
+                        for kernel in kernels)
+        if stem == key:
+            objects += (_loop_object(use_cache, times, log_dir, source),)
         start = time.perf_counter()
-        units = [job for name, job in pending.items() if name.startswith("model")] or list(
-            _start_units(bodies["c"], key).values())
+        jobs = units()
         try:
-            data, _ = native.link((*(unit.wait(log_dir, source)[0] for unit in units),
+            data, _ = native.link((*(job.wait(log_dir, source)[0] for job in jobs),
                                    *objects), source.stem, log_dir, source)
         finally:
-            for unit in units:
-                unit.close()
+            for job in jobs:
+                job.close()
         seconds = time.perf_counter() - start
     except CompilerError as err:
         # no working compiler now: this model's library built by another compiler will do,
         # after its self-check (a cached library needs no compiler)
-        earlier = _earlier_library(key, shapes, n_params) if use_cache else None
+        earlier = _earlier_library(key, stem, loader) if use_cache else None
         if earlier is None:
             raise
         if identity is not None:        # a compiler that fails (none at all: nothing to say)
@@ -506,7 +710,7 @@ def _load_c(key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
     times["C"] = times.get("C", 0.0) + seconds
     path = cache.store(key, lib_name, data, use_cache)
     try:
-        return native.load(path, shapes, n_params, key)
+        return loader(path)
     except CompilerError as err:
         cache.discard(key, lib_name)
         raise CompilerError(f"the C compiler ({shlex.join(native.compiler() or ['?'])}) built a "
@@ -514,16 +718,16 @@ def _load_c(key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
                             "compiler, or choose the numba or python back end") from None
 
 
-def _earlier_library(key: str, shapes: dict[str, tuple[int, ...]], n_params: int
-                     ) -> backends.Functions | None:
-    """A library of model ``key`` for this machine that another compiler built, loaded after
-    its self-check (one that fails it is removed); None when there is none."""
-    for name in cache.recorded(key, native.library_prefix(key)):
+def _earlier_library(key: str, stem: str, loader: Callable[[Path], _Loaded]) -> _Loaded | None:
+    """A library ``stem`` of entry ``key`` (:func:`_c_library`) for this machine that another
+    compiler built, loaded by ``loader`` after its self-check (one that fails it is removed);
+    None when there is none."""
+    for name in cache.recorded(key, native.library_prefix(stem)):
         path = cache.verified_path(key, name)
         if path is None:
             continue
         try:
-            return native.load(path, shapes, n_params, key)
+            return loader(path)
         except CompilerError as err:
             cache.warn(f"compiled-model cache: {err}; the library is removed")
             cache.discard(key, name)
@@ -545,9 +749,10 @@ def _start_units(body: str, key: str) -> dict[str, native.Pending]:
             for i, text in enumerate(units)}
 
 
-def _unit_name(key: str) -> str:
-    """The file name of model ``key``'s C translation unit in its cache entry."""
-    return f"m{key}_c.c"
+def _unit_name(stem: str) -> str:
+    """The file name of the C translation unit of the library ``stem`` (:func:`_c_library`)
+    in its cache entry."""
+    return f"m{stem}_c.c"
 
 
 def _loop_name() -> str:

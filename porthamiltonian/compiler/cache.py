@@ -23,6 +23,13 @@ folder per entry, ``<cache>/<key>/``:
 ``m<key>_c.c``, ``m<key>_c_<platform>.so``  the C back end's translation unit and shared library
                          (``.dll`` on Windows), added when first needed; ``m<key>_c.log``, the
                          compiler's output when it failed (never read back, not recorded)
+``addon-<name>.*``       an add-on: functions generated after the model's own and built beside
+                         them, never into the model's library (the port-Hamiltonian form's,
+                         ``ph``: :func:`porthamiltonian.compiler.compile_model` with ``ph=True``;
+                         the declared outputs' Jacobian, ``out_jac``: a first linearization):
+                         its record (``.json``) and bodies (``.c``; ``.py`` when first needed),
+                         with its own back-end files ``m<key>_<name>_c.c``,
+                         ``m<key>_<name>_c_<platform>.so``, ``m<key>_<name>_<backend>.py``
 other files              artifacts a back end stores with :func:`store`
 ``manifest.json``        ``{"key": ..., "files": {name: sha256}}``: every file above
 ``__pycache__/``         numba's compiled functions (an index and a data file per function),
@@ -414,14 +421,15 @@ def _manifest(entry: Path) -> dict[str, str] | None:
 
 def _record(entry: Path, updates: dict[str, str | None]) -> None:
     """Set (hash) or drop (None) files in the entry's manifest, under its lock; a name ending
-    in ``/`` drops every file under that folder."""
+    in ``/`` or ``.`` drops every file whose name starts with it (under that folder, or of
+    that module: :func:`drop_pycache`)."""
     with _locked(entry):
         try:
             files = json.loads((entry / _MANIFEST).read_bytes())["files"]
         except (OSError, ValueError, KeyError):
             files = {}
         for name, digest in updates.items():
-            if name.endswith("/"):
+            if name.endswith(("/", ".")):
                 files = {k: v for k, v in files.items() if not k.startswith(name)}
             elif digest is None:
                 files.pop(name, None)
@@ -611,22 +619,32 @@ def kept(path: Path) -> bool:
     return base is not None and base.resolve() in Path(path).resolve().parents
 
 
-def backend_module(key: str, backend: str, text: str, persistent: bool = True) -> Path:
-    """Path of the back-end module for ``key`` with the text ``text``: the stored one when it is
-    intact and the same, else written now (and the bytecode compiled from an older one removed)."""
-    name = f"m{key}_{backend}.py"
+def backend_module(key: str, backend: str, text: str, persistent: bool = True,
+                   addon: str = "") -> Path:
+    """Path of the back-end module for ``key`` (``m<key>_<backend>.py``; of its add-on
+    ``addon``: ``m<key>_<addon>_<backend>.py``) with the text ``text``: the stored one when it
+    is intact and the same, else written now (and the machine code numba compiled from an older
+    one removed: :func:`drop_pycache`)."""
+    name = f"m{key}{f'_{addon}' if addon else ''}_{backend}.py"
     path = verified_path(key, name) if persistent else None
     if path is None or path.read_bytes() != text.encode():
         path = store(key, name, text, persistent)
-        drop_pycache(path.parent)
+        drop_pycache(path.parent, path.stem)
     return path
 
 
-def drop_pycache(entry: Path) -> None:
-    """Remove the entry's ``__pycache__`` (numba's compiled functions) and its records."""
-    shutil.rmtree(entry / _PYCACHE, ignore_errors=True)
+def drop_pycache(entry: Path, module: str = "") -> None:
+    """Remove the entry's ``__pycache__`` (numba's compiled functions) and its records; with
+    ``module`` (a module's file stem, which numba's file names start with: ``<stem>.<function>
+    -<line>...``), only that module's files (a model's add-on written keeps the model's own)."""
+    if not module:
+        shutil.rmtree(entry / _PYCACHE, ignore_errors=True)
+    else:
+        for path in (entry / _PYCACHE).glob(f"{module}.*"):
+            with contextlib.suppress(OSError):
+                path.unlink()
     if (entry / _MANIFEST).exists():
-        _record(entry, {f"{_PYCACHE}/": None})
+        _record(entry, {f"{_PYCACHE}/{f'{module}.' if module else ''}": None})
 
 
 def read_recorded(entry: Path, path: Path) -> bytes | None:

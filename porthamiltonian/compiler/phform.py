@@ -30,7 +30,8 @@ derivative of its energy by its own states, and by the states it reads *through 
 a modulated storage on other states (a stiffness K(φ)) is a modulation, supplied power, not part
 of ∇H. It is generated exactly, by the chain rule of :func:`.codegen.jacobian_function`.
 
-What is generated (:func:`ph_functions`, ``compile_model(..., ph=True)``): ``ph_M0`` (M₀),
+What is generated (:func:`ph_functions`, ``compile_model(..., ph=True)``, compiled as an add-on
+of the model's cache entry: :func:`ph_program`): ``ph_M0`` (M₀),
 ``ph_grad`` (∂H_c/∂x per storage component c, combined by the layout's mask), ``ph_values``
 (z and w of every dissipator and u of every source from the model's solution, the linear
 dissipators' coefficients). :mod:`porthamiltonian.simulation.phmatrices` evaluates them at a
@@ -51,7 +52,15 @@ from ..modeling.component import Dissipator, PHCut, Source
 from ..modeling.differentiation import derivative
 from ..modeling.model import ModelDescription
 from .assemble import SymbolicModel, _needed
-from .codegen import Function, FunctionBuilder, Program, gathered, jacobian_function, symbol_map
+from .codegen import (
+    Function,
+    FunctionBuilder,
+    Program,
+    addon_program,
+    gathered,
+    jacobian_function,
+    symbol_map,
+)
 from .structure import Solution, build_system, solve
 
 
@@ -296,9 +305,18 @@ def _matrix(rows: list[sp.Expr], columns: list[sp.Symbol],
     return sp.Matrix(len(full), len(columns), lambda i, j: derivative(full[i], columns[j]))
 
 
-def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list[Function]:
+def ph_program(sym: SymbolicModel, form: PHForm) -> Program:
+    """The form's functions (:func:`ph_functions`) as a program of their own, with the model's
+    layout (:func:`.codegen.addon_program`): the ``ph`` add-on of the model's cache entry,
+    compiled beside the model's own library, not into it."""
+    return addon_program(sym, ph_functions(sym, form))
+
+
+def ph_functions(sym: SymbolicModel, form: PHForm) -> list[Function]:
     """The generated functions of the form (see the module docstring): ``ph_M0``, ``ph_grad``,
-    ``ph_values``, built with the same program machinery as the model's own functions."""
+    ``ph_values``, built with the same program machinery as the model's own functions (their
+    own builders: nothing is shared with the model's program, so they are the same code
+    whether printed with it or alone)."""
     # the cut build calls no kernel (a multibody writes its Poisson structure out symbolically)
     cut_model = dataclasses.replace(sym, intermediates=form.intermediates, blocks=form.blocks,
                                     calls={})
@@ -325,4 +343,4 @@ def ph_functions(prog: Program, sym: SymbolicModel, form: PHForm) -> list[Functi
     return functions
 
 
-__all__ = ["PHForm", "ph_form", "ph_functions", "ph_text"]
+__all__ = ["PHForm", "ph_form", "ph_functions", "ph_program", "ph_text"]

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
@@ -69,7 +69,8 @@ class ModelMeta:
     input_names, input_units : the declared inputs (two parameter-vector slots each).
     state_roles : per state "storage", "signal", "quadrature" or "discrete". declared_outputs :
     the model's outputs y. jac_p : the parameters of the generated ∂ẋ/∂p. discrete : the
-    discrete-time blocks. ph : the port-Hamiltonian form's layout (compiled with ``ph=True``).
+    discrete-time blocks. ph : the port-Hamiltonian form's layout (with ``ph=True``: from the
+    add-on of the model's cache entry, :meth:`CompiledModel.with_extra`; None in ``meta.json``).
     kernels : the compiled kernels the generated code calls (the C library links their
     objects; an FMU embeds their source). unavailable : why a derivative function was not
     generated, by its name (e.g. ``out_jac`` of outputs read from a kernel's value-only entry).
@@ -229,8 +230,8 @@ class CompiledModel:
         self.input_docs: list[str] = list(input_docs) or [""] * len(self.input_names)
         self.output_expressions: dict[str, str] = dict(output_expressions or {})
         self.key = key
-        #: compiles this model again with more generated functions (``ph=True``, ``jac_p=``):
-        #: set by the compiler; None for a model made otherwise
+        #: ``rebuild(model, **options)``: this model with more generated functions
+        #: (``ph=True``, ``jac_p=``), set by the compiler; None for a model made otherwise
         self._rebuild = rebuild
         self._extended: dict[str, CompiledModel] = {}
         self._state_index = {n: i for i, n in enumerate(self.state_names)}
@@ -510,15 +511,34 @@ class CompiledModel:
         return ph_matrices(model, pt.t, pt.y, pt.p)
 
     def extended(self, **options: Any) -> CompiledModel:
-        """This model compiled again with more generated functions (``ph=True``: the
-        port-Hamiltonian form; ``jac_p=[...]``: ∂ẋ/∂p), kept for later calls."""
+        """This model with more generated functions, kept for later calls: ``ph=True``, the
+        port-Hamiltonian form's, ``out_jac=True``, the declared outputs' Jacobian (add-ons of
+        the model's cache entry: this model's own functions kept, the add-on's compiled beside
+        them, :func:`porthamiltonian.compiler.compile_model`); ``jac_p=[...]``, ∂ẋ/∂p (the
+        model compiled again)."""
         key = repr(sorted(options.items()))
         if key not in self._extended:
             if self._rebuild is None:
                 raise ModelError(f"model {self.name!r} was not made by compile_model: compile it "
                                  f"with {', '.join(f'{k}={v!r}' for k, v in options.items())}")
-            self._extended[key] = self._rebuild(**options)
+            self._extended[key] = self._rebuild(self, **options)
         return self._extended[key]
+
+    def with_extra(self, functions: Mapping[str, Callable[..., Any]],
+                   shapes: Mapping[str, tuple[int, ...]],
+                   ph: Mapping[str, Any] | None = None) -> CompiledModel:
+        """This model with further generated ``functions`` (by name, ``(t, x, p)`` like
+        ``jac``; their result ``shapes``) in ``functions.extra`` and ``meta.shapes``, and the
+        port-Hamiltonian form's layout ``ph`` in ``meta.ph`` when given: the compiler's add-on
+        of a model's cache entry (:func:`porthamiltonian.compiler.compile_model`). The same
+        numeric functions, sources and texts otherwise; it extends itself as this model
+        does."""
+        meta = replace(self.meta, shapes=MappingProxyType({**self.meta.shapes, **shapes}),
+                       ph=self.meta.ph if ph is None else ph)
+        numeric = replace(self.functions, extra={**self.functions.extra, **functions})
+        return CompiledModel(meta, numeric, self.source, self.key, c_source=self.c_source,
+                             param_docs=self.param_docs, input_docs=self.input_docs,
+                             output_expressions=self.output_expressions, rebuild=self._rebuild)
 
     def _repr_html_(self) -> str:
         from .display import model_html

@@ -2,7 +2,8 @@
 
 Everything here evaluates generated code (no sympy, no finite differences): ``rhs`` for the
 derivative, ``jac`` for ∂ẋ/∂x, ``jac_u`` for ∂ẋ/∂u and ``out_jac`` for ∂y/∂[x, u] of the declared
-outputs, all from the chain rule of :func:`porthamiltonian.compiler.codegen.jacobian_function`.
+outputs (built on the first linearization, an add-on of the model's cache entry), all from the
+chain rule of :func:`porthamiltonian.compiler.codegen.jacobian_function`.
 The functions are also methods of :class:`~porthamiltonian.simulation.compiled.CompiledModel`
 (``model.derivative(t, x, u, params)``, ``model.linearize(x, u, params)``, ...).
 
@@ -152,11 +153,14 @@ def _jac_u(model: CompiledModel, pt: Point) -> np.ndarray:
 
 
 def _out_jac(model: CompiledModel, pt: Point) -> np.ndarray:
-    """∂y/∂[x, u] of the declared outputs (n_y x (n + m)); ModelError (saying why) when the
-    model could not have it generated."""
+    """∂y/∂[x, u] of the declared outputs (n_y x (n + m)), the generated ``out_jac``: not part
+    of a model's own build, it is the add-on of its cache entry that the model gets on its
+    first use (``model.extended(out_jac=True)``: generated and compiled alone, once); ModelError
+    (saying why) when the model cannot have it."""
+    if "out_jac" in model.meta.unavailable:
+        raise ModelError(model.meta.unavailable["out_jac"])
     if "out_jac" not in model.functions.extra:
-        raise ModelError(model.meta.unavailable.get(
-            "out_jac", f"model {model.name!r} has no generated output Jacobian"))
+        model = model.extended(out_jac=True)
     out = model.functions.extra["out_jac"](pt.t, pt.y, model.native_params(pt.p))
     return np.asarray(out, dtype=float)
 

@@ -81,7 +81,7 @@ def test_the_two_unit_library_computes_what_one_unit_computes(jac_p, monkeypatch
     """compass_walker built on C twice, in two fresh caches (each holding the session's loops'
     object, which both libraries link: the model's units are what differs): as two units
     ($PORTHAMILTONIAN_CC_JOBS=2), then as one (1): every generated function (rhs, jac, energy, outputs,
-    guards, out_jac, jac_p) equal bit for bit at 5 points."""
+    guards, jac_p) equal bit for bit at 5 points."""
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "two"))
     seed_loops()
     monkeypatch.setenv("PORTHAMILTONIAN_CC_JOBS", "2")
