@@ -426,6 +426,7 @@ def _made_addon(name: str, description: ModelDescription, sym: SymbolicModel | N
                   None if form is None else form.layout(), tuple(kernels(prog)), bodies)
 
 
+@collector.paused()
 def _with_addon(compiled: CompiledModel, name: str,
                 description: Callable[[], ModelDescription], use_cache: bool,
                 order: Sequence[str], sym: SymbolicModel | None = None) -> CompiledModel:
