@@ -127,10 +127,12 @@ def _build_in_another_process(backend: str) -> str:
     return build.stdout.strip()
 
 
-@pytest.mark.parametrize(("backend", "name"), [
-    ("c", "library"), ("c", "addon-ph.c"), ("c", "addon-ph.json"), ("python", "module"),
-    ("python", "addon-ph.py")])
-@pytest.mark.parametrize("damage", ["garbage", "truncated"])
+# every file once; the two kinds of damage (the same path: a sha256 that does not match) on the
+# library both, on the others alternately
+@pytest.mark.parametrize(("backend", "name", "damage"), [
+    ("c", "library", "garbage"), ("c", "library", "truncated"), ("c", "addon-ph.c", "truncated"),
+    ("c", "addon-ph.json", "garbage"), ("python", "module", "truncated"),
+    ("python", "addon-ph.py", "garbage")])
 def test_a_damaged_addon_file_is_never_loaded_and_is_rebuilt(fresh, backend, name, damage,
                                                              recwarn):
     """Each file of the add-on, damaged after a build in another process: one CacheWarning
