@@ -154,13 +154,22 @@ class ModelDescription:
     scopes: Mapping[str, str]
     paths: Mapping[str, Path]
     inputs: Mapping[str, Input] = field(default_factory=lambda: MappingProxyType({}))
+    #: what :meth:`problems` found in each expression, by (scope key, key path, names taken to
+    #: exist), and :meth:`scope_names` by prefix: a description is read, laid out and compiled,
+    #: each validating it, and its expressions do not change (:meth:`with_outputs` hands the
+    #: first on to the description it makes; ``dataclasses.replace`` starts afresh)
+    _memo: dict[Any, Any] = field(default_factory=dict, init=False, compare=False, repr=False)
 
     def scope_names(self, prefix: str) -> dict[str, sp.Symbol]:
         """The parameters and inputs visible in the scope ``prefix``, by their local names (the
-        symbols carry the full names)."""
-        return {full[len(prefix):]: sp.Symbol(full, real=True)
+        symbols carry the full names); a new dict at each call."""
+        found = self._memo.get(("scope", prefix))
+        if found is None:
+            found = self._memo[("scope", prefix)] = {
+                full[len(prefix):]: sp.Symbol(full, real=True)
                 for full in (*self.parameters, *self.inputs)
                 if full.startswith(prefix) and "." not in full[len(prefix):]}
+        return dict(found)
 
     def input_symbols(self) -> set[sp.Symbol]:
         """The symbols of the model's inputs (full names)."""
@@ -179,10 +188,12 @@ class ModelDescription:
             if name in self.outputs:
                 raise DuplicateNameError(f"model {self.name!r}: output {name!r} declared twice")
         new = dict(outputs)
-        return dataclasses.replace(
+        made = dataclasses.replace(
             self, outputs=MappingProxyType({**self.outputs, **new}),
             scopes=MappingProxyType({**self.scopes, **{f"output:{n}": "" for n in new}}),
             paths=MappingProxyType({**self.paths, **{f"output:{n}": ("outputs", n) for n in new}}))
+        made._memo.update(self._memo)     # the same parameters, inputs, components and scopes
+        return made
 
     # --- canonical form ----------------------------------------------------------------------
     def canonical(self) -> str:
@@ -255,6 +266,14 @@ class ModelDescription:
 
     def _parse_problem(self, text: Any, where: str, key: str, local: tuple[str, ...],
                        path: Path, missing: Collection[str]) -> list[ModelError]:
+        memo = ("problems", key, path, tuple(sorted(missing)))
+        found = self._memo.get(memo)
+        if found is None:
+            found = self._memo[memo] = self._parsed(text, where, key, local, path, missing)
+        return list(found)
+
+    def _parsed(self, text: Any, where: str, key: str, local: tuple[str, ...], path: Path,
+                missing: Collection[str]) -> list[ModelError]:
         prefix = self.scopes[key]
         absent = {n[len(prefix):] for n in missing
                   if n.startswith(prefix) and "." not in n[len(prefix):]}

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import porthamiltonian as ph
-from porthamiltonian import compile_model, symbolic
+from porthamiltonian import compile_model, io, symbolic
 from porthamiltonian.errors import DerivativeCausalityError, ModelError
 
 
@@ -173,3 +173,34 @@ def test_replace_swaps_a_component_and_keeps_its_bonds():
     assert model.component("damper") is new        # a refused swap changes nothing
     with pytest.raises(ModelError, match="no component 'nope'"):
         model.replace("nope", ph.R(resistance=1.0))
+
+
+def test_a_description_parses_each_expression_once_and_with_outputs_only_the_new_ones(
+        monkeypatch):
+    """Reading, laying out and compiling a model each validate its description: the
+    expressions are parsed once per description (and a description made by with_outputs parses
+    only its new outputs), and what is found is the same every time: a bad new output is
+    reported, the good ones are not."""
+    from porthamiltonian.modeling import model as model_module
+
+    calls: list[str] = []
+    parse = model_module.parse
+
+    def counting(text, *args, **kwargs):
+        calls.append(str(text))
+        return parse(text, *args, **kwargs)
+
+    monkeypatch.setattr(model_module, "parse", counting)
+    description = io.load("mass_spring_damper").freeze()
+    assert description.validate() is description
+    first = len(calls)
+    assert first > 0
+    assert description.validate() is description and description.problems() == []
+    assert len(calls) == first
+    more = description.with_outputs({"twice_k": "2 * k", "bad": "2 * no_such_parameter"})
+    found = more.problems()
+    assert calls[first:] == ["2 * k", "2 * no_such_parameter"]
+    assert [type(e).__name__ for e in found] == ["UnknownParameterError"]
+    assert "no_such_parameter" in str(found[0]) and "output 'bad'" in str(found[0])
+    assert [str(e) for e in more.problems()] == [str(e) for e in found]
+    assert len(calls) == first + 2
