@@ -264,21 +264,14 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
             meta = _meta(sym, prog, jac_p)
             if use_cache:
                 cache.write(key, meta.to_json(), bodies)
-        for i, name in enumerate(order):
-            try:
-                if name != "c" and "python" not in bodies:
-                    bodies["python"] = _python_body(key, description, prog, jac_p, use_cache,
-                                                    times)
-                functions = _load(name, key, meta, bodies, use_cache, times,
-                                  explicit=len(order) == 1, pending=pending)
-            except CompilerError as err:
-                if len(order) == 1:
-                    raise
-                if not _C_FAILED:
-                    _C_FAILED.append(str(err))
-                    backends.fell_back(str(err), order[i + 1])
-                continue
-            break
+
+        def load(name: str) -> backends.Functions:
+            if name != "c" and "python" not in bodies:
+                bodies["python"] = _python_body(key, description, prog, jac_p, use_cache, times)
+            return _load(name, key, meta, bodies, use_cache, times, explicit=len(order) == 1,
+                         pending=pending)
+
+        name, functions = _first_that_loads(order, load)
     _report(meta.name, times, bodies["c" if name == "c" else "python"], name)
     docs = {par_name: par.doc for par_name, par in description.parameters.items()}
     compiled = CompiledModel(meta, functions, bodies["c" if name == "c" else "python"], key,
@@ -450,22 +443,17 @@ def _with_addon(compiled: CompiledModel, name: str,
             addon = _made_addon(name, description(), sym, times, python=candidates[0] != "c")
             if use_cache:
                 _store_addon(key, addon)
-        for i, backend in enumerate(candidates):
-            try:
-                if backend != "c" and "python" not in addon.bodies:
-                    addon = _made_addon(name, description(), sym, times, python=True)
-                    if use_cache:
-                        cache.store(key, _addon_file(name, "python"), addon.bodies["python"])
-                functions = _load_addon(backend, key, meta, addon, use_cache, times,
-                                        explicit=len(candidates) == 1)
-            except CompilerError as err:
-                if i + 1 == len(candidates):
-                    raise
-                if not _C_FAILED:
-                    _C_FAILED.append(str(err))
-                    backends.fell_back(str(err), candidates[i + 1])
-                continue
-            break
+        def load(backend: str) -> dict[str, Callable[..., Any]]:
+            nonlocal addon
+            assert addon is not None
+            if backend != "c" and "python" not in addon.bodies:
+                addon = _made_addon(name, description(), sym, times, python=True)
+                if use_cache:
+                    cache.store(key, _addon_file(name, "python"), addon.bodies["python"])
+            return _load_addon(backend, key, meta, addon, use_cache, times,
+                               explicit=len(candidates) == 1)
+
+        backend, functions = _first_that_loads(candidates, load)
     _report(meta.name, times, addon.bodies["c" if backend == "c" else "python"], backend,
             _ADDONS[name])
     return compiled.with_extra(functions, addon.shapes, ph=addon.layout)
@@ -494,6 +482,26 @@ def _load_addon(backend: str, key: str, meta: ModelMeta, addon: _AddOn, use_cach
                       addon.kernels,
                       lambda path: native.load_addon(path, shapes, n, n_params, stem),
                       use_cache, times, explicit)
+
+
+#: what a back end's loading gives (:func:`_first_that_loads`, :func:`_c_library`)
+_Loaded = TypeVar("_Loaded")
+
+
+def _first_that_loads(order: Sequence[str], load: Callable[[str], _Loaded]
+                      ) -> tuple[str, _Loaded]:
+    """``(name, load(name))`` for the first back end of ``order`` whose ``load`` raises no
+    :class:`CompilerError`: a failure falls back to the next one (the first failure of this
+    process recorded in :data:`_C_FAILED` and announced, :func:`backends.fell_back`); the last
+    one's is raised."""
+    for i, name in enumerate(order[:-1]):
+        try:
+            return name, load(name)
+        except CompilerError as err:
+            if not _C_FAILED:
+                _C_FAILED.append(str(err))
+                backends.fell_back(str(err), order[i + 1])
+    return order[-1], load(order[-1])
 
 
 def _close_all(pending: Mapping[str, native.Pending]) -> None:
@@ -656,8 +664,6 @@ def _load_c(key: str, meta: ModelMeta, bodies: dict[str, str], use_cache: bool,
                       lambda path: native.load(path, shapes, n_params, key), use_cache, times,
                       explicit)
 
-
-_Loaded = TypeVar("_Loaded")
 
 
 def _c_library(key: str, stem: str, unit: str, units: Callable[[], list[native.Pending]],

@@ -75,6 +75,34 @@ def audit():
     return _audit
 
 
+def forget_generated() -> None:
+    """Drop the generated models' modules this process imported (a fresh cache's are new)."""
+    for name in [n for n in sys.modules if n.startswith("_porthamiltonian_generated_")]:
+        del sys.modules[name]
+
+
+@pytest.fixture
+def fresh(tmp_path, monkeypatch):
+    """A fresh cache folder, nothing of it imported yet, and a process that has not seen the C
+    back end fail (test files that need more define their own)."""
+    from porthamiltonian import compiler
+    from porthamiltonian.compiler import cache
+
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(folder))
+    monkeypatch.setattr(cache, "_refused", set())
+    monkeypatch.setattr(compiler, "_C_FAILED", [])
+    forget_generated()
+    yield folder
+    forget_generated()
+
+
+@pytest.fixture
+def forgotten():
+    """``forgotten()``: :func:`forget_generated`, for a test."""
+    return forget_generated
+
+
 @pytest.fixture
 def fresh_with_loops(fresh, seed_loops):
     """The test module's own ``fresh`` cache folder, holding the session's integration loops'

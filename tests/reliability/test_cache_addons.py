@@ -36,22 +36,20 @@ MODEL = "mass_spring_damper"
 PH_FUNCTIONS = ("ph_M0", "ph_grad", "ph_values")
 
 
-def _forget_modules() -> None:
-    for name in [n for n in sys.modules if n.startswith("_porthamiltonian_generated_")]:
-        del sys.modules[name]
-
-
 @pytest.fixture
-def fresh(tmp_path, monkeypatch):
-    """A fresh cache folder, nothing of it imported yet, and a process that has not seen the C
-    back end fail."""
-    folder = tmp_path / "cache"
-    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(folder))
-    monkeypatch.setattr(cache, "_refused", set())
-    monkeypatch.setattr(compiler, "_C_FAILED", [])
-    _forget_modules()
-    yield folder
-    _forget_modules()
+def unit_starts(monkeypatch):
+    """``unit_starts()``: from then on, the C units handed to the compiler (their texts), in
+    the list it returns."""
+    def start() -> list[str]:
+        started: list[str] = []
+        start_object = native.start_object
+
+        def counted(text: str, name: str) -> native.Pending:
+            started.append(text)
+            return start_object(text, name)
+        monkeypatch.setattr(native, "start_object", counted)
+        return started
+    return start
 
 
 def _files(entry) -> dict[str, str]:
@@ -74,7 +72,7 @@ def _functions(c_body: str) -> dict[str, str]:
     return dict(zip(parts[1::2], parts[2::2]))
 
 
-def test_ph_after_a_plain_build_compiles_only_the_addon(fresh, monkeypatch):
+def test_ph_after_a_plain_build_compiles_only_the_addon(fresh, unit_starts):
     """The plain C build, then ``ph=True``: one unit compiled (the add-on's, which defines the
     three pH functions and none of the model's own), the model's library file the same (inode,
     time, bytes); the add-on's functions are, to the character, those of the whole program
@@ -85,13 +83,7 @@ def test_ph_after_a_plain_build_compiles_only_the_addon(fresh, monkeypatch):
     entry = fresh / plain.key
     library = entry / native.library_name(plain.key)
     before = library.stat()
-    started: list[str] = []
-    start_object = native.start_object
-
-    def counted(text: str, name: str) -> native.Pending:
-        started.append(text)
-        return start_object(text, name)
-    monkeypatch.setattr(native, "start_object", counted)
+    started = unit_starts()
     with_form = compile_model(model, backend="c", ph=True)
     assert with_form.key == plain.key and set(PH_FUNCTIONS) <= set(with_form.functions.extra)
     assert len(started) == 1, [text[:200] for text in started]
@@ -133,8 +125,8 @@ def _build_in_another_process(backend: str) -> str:
     ("c", "library", "garbage"), ("c", "library", "truncated"), ("c", "addon-ph.c", "truncated"),
     ("c", "addon-ph.json", "garbage"), ("python", "module", "truncated"),
     ("python", "addon-ph.py", "garbage")])
-def test_a_damaged_addon_file_is_never_loaded_and_is_rebuilt(fresh, backend, name, damage,
-                                                             recwarn):
+def test_a_damaged_addon_file_is_never_loaded_and_is_rebuilt(fresh, forgotten, backend, name,
+                                                             damage, recwarn):
     """Each file of the add-on, damaged after a build in another process: one CacheWarning
     naming it, the file made again (its bytes matching the manifest), and the form's numbers
     those of an intact build (0 ulp); the model's own library or module is not touched."""
@@ -151,7 +143,7 @@ def test_a_damaged_addon_file_is_never_loaded_and_is_rebuilt(fresh, backend, nam
     assert len(warned) == 1 and str(path) in warned[0], warned
     assert path.read_bytes() == data and cache._sha256(data) == _files(entry)[path.name]
     assert own.read_bytes() == own_before
-    _forget_modules()
+    forgotten()
     uncached = compile_model(io.load(MODEL), backend=backend, ph=True, use_cache=False)
     np.testing.assert_array_equal(_form_numbers(compiled), _form_numbers(uncached))
 
@@ -188,7 +180,7 @@ def test_a_model_with_its_form_reopens_without_sympy(fresh):
     assert compiler.reopen(record, lambda: io.load(MODEL).freeze()) is None
 
 
-def test_a_first_linearization_compiles_only_the_output_jacobian(fresh, monkeypatch):
+def test_a_first_linearization_compiles_only_the_output_jacobian(fresh, unit_starts):
     """``out_jac`` (∂y/∂[x, u] of the declared outputs) is the add-on a first linearization
     builds: cart_pole's C build, with a nonlinear output of a state and the input besides its
     own (x, θ), has none; its first ``linearize`` compiles one unit, which defines out_jac
@@ -201,13 +193,7 @@ def test_a_first_linearization_compiles_only_the_output_jacobian(fresh, monkeypa
     assert "out_jac" not in plain.functions.extra and "out_jac" not in plain.meta.shapes
     library = fresh / plain.key / native.library_name(plain.key)
     before = library.stat()
-    started: list[str] = []
-    start_object = native.start_object
-
-    def counted(text: str, name: str) -> native.Pending:
-        started.append(text)
-        return start_object(text, name)
-    monkeypatch.setattr(native, "start_object", counted)
+    started = unit_starts()
     x, u = np.array([0.3, -0.4, 0.2, 0.1]), 0.7
     lin = plain.linearize(x=x, u=[u])
     assert len(started) == 1 and set(_functions(started[0])) == {"out_jac"}

@@ -44,15 +44,7 @@ def _forget_modules() -> None:
         del sys.modules[name]
 
 
-@pytest.fixture
-def fresh(tmp_path, monkeypatch):
-    folder = tmp_path / "cache"
-    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(folder))
-    monkeypatch.setattr(cache, "_refused", set())
-    monkeypatch.setattr(compiler, "_C_FAILED", [])
-    _forget_modules()
-    yield folder
-    _forget_modules()
+# ``fresh``: tests/reliability/conftest.py
 
 
 def _compile(backend: str, model=None):
