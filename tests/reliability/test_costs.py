@@ -225,6 +225,24 @@ def test_a_gait_search_that_would_run_for_hours_stops_at_its_time_limit(capsys, 
         assert "continuing the model file's nominal gait: K 1e+06 -> 1e+15" in err  # progress
 
 
+def test_newton_starts_no_iteration_after_its_time_limit():
+    """A deadline already passed: Newton takes the one stride from the guess and starts no
+    iteration (no Jacobian run); the gait search says so and where it stopped."""
+    from walker_library.analyses.gait import analyze_gait
+    from walker_library.analyses.poincare import find_fixed_point
+
+    walker = load_walker("simplest_walker")
+    fp = find_fixed_point(walker, deadline=time.perf_counter())
+    assert (fp.converged, fp.iterations, fp.message) == (False, 0, "stopped at the time limit")
+    assert len(fp.history) == 1 and fp.residual > 1e-10
+    free = find_fixed_point(walker)
+    assert free.converged and free.iterations >= 2
+    result = analyze_gait(walker, time_limit=1e-9)
+    assert "Newton (period 1) from the guess: stopped at the time limit" in result.search
+    assert ("the search stopped at its time limit (1e-09 s; --time-limit) after Newton from "
+            "the guess") in result.message
+
+
 def test_a_continuation_stops_at_its_time_limit_and_says_where():
     walker = load_walker("simplest_walker")
     t0 = time.perf_counter()

@@ -386,7 +386,7 @@ def _direct(walker: Walker, guess: np.ndarray | None, *, tol: float, max_iter: i
     """Steps 1–2 of the search from ``guess``: (the stable orbit found, or None; the period-1
     Newton search from the guess). The period detection is left in ``search.period``."""
     z0 = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
-    fp = find_fixed_point(walker, z0, period=1, tol=tol, max_iter=max_iter)
+    fp = find_fixed_point(walker, z0, period=1, tol=tol, max_iter=max_iter, deadline=deadline)
     search.tried.append(f"Newton (period 1) from the guess: {fp.message}")
     if fp.converged:
         orbit = search.add(fp.z, 1, "Newton from the guess")
@@ -403,7 +403,7 @@ def _direct(walker: Walker, guess: np.ndarray | None, *, tol: float, max_iter: i
                             f"{pr.fell_at_step} ({pr.iteration.fall_reason})")
     elif pr.period > 0:
         fpk = find_fixed_point(walker, pr.iteration.states[-1], period=pr.period, tol=tol,
-                               max_iter=max_iter)
+                               max_iter=max_iter, deadline=deadline)
         search.tried.append(f"iterating from the guess: period {pr.period}; Newton on S^"
                             f"{pr.period}: {fpk.message}")
         if fpk.converged:

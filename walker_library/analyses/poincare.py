@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -188,7 +189,7 @@ def _exact_jacobian(walker: Walker, z: np.ndarray, period: int) -> np.ndarray | 
 
 def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period: int = 1, tol: float = 1e-10,
                      max_iter: int = 30, fd_step: float = 1e-6,
-                     jacobian: str = "auto") -> FixedPointResult:
+                     jacobian: str = "auto", deadline: float = math.inf) -> FixedPointResult:
     """Newton's method on S^period(z) − z from ``guess`` (default: the walker's initial guess),
     with step halving when a step does not reduce the residual or makes the walker fall; it
     stops when the residual |S^period(z) − z|_∞ (absolute, section units) is below ``tol``, when
@@ -206,7 +207,11 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
         iteration (one stride per section coordinate). "auto" (the default): "variational",
         falling back to "fd" where the run with sensitivities cannot be made (a model whose
         runs cannot carry them, e.g. with discrete-time blocks) or falls when the plain stride
-        does not."""
+        does not.
+
+    deadline : a ``time.perf_counter()`` after which no new iteration starts: the result is then
+        the iterate reached, not converged, its message "stopped at the time limit" (an
+        iteration under way ends first)."""
     if jacobian not in NEWTON_JACOBIANS:
         raise OptionError(f"jacobian must be one of {', '.join(NEWTON_JACOBIANS)}, got {jacobian!r}")
     z = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
@@ -229,6 +234,9 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
             if creep is not None:
                 return FixedPointResult(False, z, res, it - 1, period, creep, history=history)
             return FixedPointResult(True, z, res, it - 1, period, "converged", history=history)
+        if time.perf_counter() > deadline:
+            return FixedPointResult(False, z, res, it - 1, period, "stopped at the time limit",
+                                    history=history)
         fresh = J is None
         if J is None and exact:
             J = _exact_jacobian(walker, z, period)
