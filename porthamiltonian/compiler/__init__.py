@@ -443,17 +443,19 @@ def _with_addon(compiled: CompiledModel, name: str,
             addon = _made_addon(name, description(), sym, times, python=candidates[0] != "c")
             if use_cache:
                 _store_addon(key, addon)
+        made = addon
+
         def load(backend: str) -> dict[str, Callable[..., Any]]:
-            nonlocal addon
-            assert addon is not None
-            if backend != "c" and "python" not in addon.bodies:
-                addon = _made_addon(name, description(), sym, times, python=True)
+            nonlocal made
+            if backend != "c" and "python" not in made.bodies:
+                made = _made_addon(name, description(), sym, times, python=True)
                 if use_cache:
-                    cache.store(key, _addon_file(name, "python"), addon.bodies["python"])
-            return _load_addon(backend, key, meta, addon, use_cache, times,
+                    cache.store(key, _addon_file(name, "python"), made.bodies["python"])
+            return _load_addon(backend, key, meta, made, use_cache, times,
                                explicit=len(candidates) == 1)
 
         backend, functions = _first_that_loads(candidates, load)
+        addon = made
     _report(meta.name, times, addon.bodies["c" if backend == "c" else "python"], backend,
             _ADDONS[name])
     return compiled.with_extra(functions, addon.shapes, ph=addon.layout)
