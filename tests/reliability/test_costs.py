@@ -30,6 +30,7 @@ from porthamiltonian.compiler.printers import c_source
 from porthamiltonian.errors import CostError
 from porthamiltonian.interfaces.cli import RunProgress
 from walker_library.analyses.continuation import continue_gait
+from walker_library.analyses.poincare import find_fixed_point
 from walker_library.core.files import load_walker
 
 GIGABYTE = 1 << 30
@@ -229,7 +230,6 @@ def test_newton_starts_no_iteration_after_its_time_limit():
     """A deadline already passed: Newton takes the one stride from the guess and starts no
     iteration (no Jacobian run); the gait search says so and where it stopped."""
     from walker_library.analyses.gait import analyze_gait
-    from walker_library.analyses.poincare import find_fixed_point
 
     walker = load_walker("simplest_walker")
     fp = find_fixed_point(walker, deadline=time.perf_counter())
@@ -241,6 +241,34 @@ def test_newton_starts_no_iteration_after_its_time_limit():
     assert "Newton (period 1) from the guess: stopped at the time limit" in result.search
     assert ("the search stopped at its time limit (1e-09 s; --time-limit) after Newton from "
             "the guess") in result.message
+
+
+def test_the_run_of_the_newton_matrix_stops_at_the_deadline():
+    """The run with sensitivities (a stiff contact makes it take seconds: compass_walker at
+    K = 1e15, ≈ 4 s on a quiet machine) stops at its first progress call after the deadline:
+    ``stopped``, no Jacobian; and Newton, whose deadline passes during that run, says "stopped at
+    the time limit" after the one stride from the guess. Without a deadline the same run gives
+    the Jacobian (compass_walker at its file's K)."""
+    walker = load_walker("compass_walker")
+    z = walker.initial_guess()
+    stopped = walker.stride_sensitivity(z, deadline=time.perf_counter())
+    assert stopped.stopped and stopped.jacobian is None and not stopped.fell
+    whole = walker.stride_sensitivity(z)
+    assert not whole.stopped and whole.jacobian is not None
+    stiff = walker.with_parameters(K=1e15)
+    seen: list[tuple[float, bool]] = []
+    sensitivity = stiff.stride_sensitivity
+
+    def recorded(*args, **kwargs):
+        run = sensitivity(*args, **kwargs)
+        seen.append((kwargs["deadline"], run.stopped))
+        return run
+    stiff.stride_sensitivity = recorded
+    stiff.stride(z)                 # Newton's first stride is then this walk again (reused)
+    deadline = time.perf_counter() + 0.2
+    fp = find_fixed_point(stiff, z, deadline=deadline)
+    assert (fp.converged, fp.iterations, fp.message) == (False, 0, "stopped at the time limit")
+    assert seen == [(deadline, True)] and len(fp.history) == 1
 
 
 def test_a_continuation_stops_at_its_time_limit_and_says_where():

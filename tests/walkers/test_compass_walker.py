@@ -318,10 +318,10 @@ def test_floquet_runs_its_two_jacobians_side_by_side_with_the_same_numbers(walke
     assert np.array_equal(fl.multipliers, lam) and np.array_equal(fl.errors, err)
 
     class Broken(HybridWalker):
-        def stride_sensitivity(self, z, period=1, *, factor=1.0):
+        def stride_sensitivity(self, z, period=1, *, factor=1.0, deadline=math.inf):
             if factor != 1.0:
                 raise ValueError("the coarse run broke")
-            return super().stride_sensitivity(z, period, factor=factor)
+            return super().stride_sensitivity(z, period, factor=factor, deadline=deadline)
 
     with pytest.raises(ValueError, match="coarse run broke"):
         floquet(Broken(walker.plan, walker.compiled, walker.run), z)

@@ -306,7 +306,7 @@ class _SyntheticMap:
     def stride(self, z, **options):
         return self.walk(z, 1)[0]
 
-    def stride_sensitivity(self, z, period=1, *, factor=1.0):
+    def stride_sensitivity(self, z, period=1, *, factor=1.0, deadline=math.inf):
         z, J = np.asarray(z, dtype=float), np.eye(2)
         for _ in range(period):
             J, z = self.jac(z) @ J, self.f(z)

@@ -132,6 +132,28 @@ def test_a_warm_walker_gait_loads_only_what_it_runs():
     assert loaded == []
 
 
+def test_a_warm_walker_gait_in_text_reads_no_model_file(capsys):
+    """``walker gait compass_walker`` printed as text (units and labels of every coordinate,
+    which name the multibody's joint types) after a first load: neither sympy nor networkx nor
+    matplotlib (the joint types come with the snapshot, the file is not read in full), and the
+    text of this process's run, character for character."""
+    from walker_library.cli import main
+
+    load_walker("compass_walker")
+    assert main(["gait", "compass_walker"]) == 0
+    expected = capsys.readouterr().out
+    found = _run(
+        "import contextlib, io, json, sys\n"
+        "from walker_library.cli import main\n"
+        "out = io.StringIO()\n"
+        "with contextlib.redirect_stdout(out):\n"
+        "    status = main(['gait', 'compass_walker'])\n"
+        f"print(json.dumps({{'status': status, 'out': out.getvalue(),\n"
+        f"                  'heavy': [m for m in {HEAVY!r} if m in sys.modules]}}))\n")
+    assert (found["status"], found["heavy"]) == (0, [])
+    assert found["out"] == expected and " rad/s" in expected
+
+
 def test_the_restored_walker_is_the_files(cold):
     walker, _ = cold
     restored = load_walker(NAME)

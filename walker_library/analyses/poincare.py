@@ -175,14 +175,22 @@ _STALL = 5
 _SLOW = 0.1
 
 
-def _exact_jacobian(walker: Walker, z: np.ndarray, period: int) -> np.ndarray | None:
+class _TimeLimit(Exception):
+    """The run of the Newton matrix passed the search's deadline."""
+
+
+def _exact_jacobian(walker: Walker, z: np.ndarray, period: int,
+                    deadline: float) -> np.ndarray | None:
     """∂S^period/∂z at z from one run of the strides with their sensitivities
     (``walker.stride_sensitivity``), or None when that run falls or the model's runs cannot
-    carry sensitivities (:class:`~porthamiltonian.errors.ModelError`)."""
+    carry sensitivities (:class:`~porthamiltonian.errors.ModelError`); :class:`_TimeLimit` when
+    it passed ``deadline``."""
     try:
-        run = walker.stride_sensitivity(z, period, factor=_LOOSE)
+        run = walker.stride_sensitivity(z, period, factor=_LOOSE, deadline=deadline)
     except ModelError:
         return None
+    if run.stopped:
+        raise _TimeLimit
     tick("stride", period)
     return None if run.fell else run.jacobian
 
@@ -209,9 +217,10 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
         runs cannot carry them, e.g. with discrete-time blocks) or falls when the plain stride
         does not.
 
-    deadline : a ``time.perf_counter()`` after which no new iteration starts: the result is then
-        the iterate reached, not converged, its message "stopped at the time limit" (an
-        iteration under way ends first)."""
+    deadline : a ``time.perf_counter()`` after which no new iteration starts and the run of
+        an exact Newton matrix under way stops: the result is then the iterate reached, not
+        converged, its message "stopped at the time limit" (the strides of an iteration under
+        way end first)."""
     if jacobian not in NEWTON_JACOBIANS:
         raise OptionError(f"jacobian must be one of {', '.join(NEWTON_JACOBIANS)}, got {jacobian!r}")
     z = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
@@ -239,7 +248,11 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
                                     history=history)
         fresh = J is None
         if J is None and exact:
-            J = _exact_jacobian(walker, z, period)
+            try:
+                J = _exact_jacobian(walker, z, period, deadline)
+            except _TimeLimit:
+                return FixedPointResult(False, z, res, it - 1, period,
+                                        "stopped at the time limit", history=history)
             if J is None and jacobian == "variational":
                 return FixedPointResult(False, z, res, it, period, "the run with sensitivities "
                                         f"fell or cannot be made at Newton iteration {it}",

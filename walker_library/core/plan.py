@@ -69,7 +69,8 @@ class ModelNames:
     """The names a model provides once compiled (its :class:`~porthamiltonian.compiler.Layout`):
     parameters, states, outputs (port variables and component outputs), the multibody's name,
     its coordinates (``<mb>.q.<c>`` without the prefix), its points and its pinned root joint
-    (a revolute joint from the world, if it has exactly one)."""
+    (a revolute joint from the world, if it has exactly one), and its joints' types (joint,
+    type) in the file's order (what the reports' units and labels read)."""
 
     params: tuple[str, ...]
     states: tuple[str, ...]
@@ -78,6 +79,7 @@ class ModelNames:
     coordinates: tuple[str, ...]
     points: tuple[str, ...]
     root_joint: str | None
+    joint_types: tuple[tuple[str, str], ...] = ()
 
     @classmethod
     def of(cls, frozen: ModelDescription, layout: Layout) -> ModelNames:
@@ -90,6 +92,7 @@ class ModelNames:
         coords = tuple(s[len(mb) + 3:] for s in states if mb and s.startswith(f"{mb}.q."))
         points: tuple[str, ...] = ()
         root = None
+        types: tuple[tuple[str, str], ...] = ()
         if mb:
             comp = frozen.components[mb]
             bodies, joints = comp.value("bodies"), comp.value("joints")
@@ -97,7 +100,9 @@ class ModelNames:
             roots = [j for j, d in joints.items() if d.get("parent") == "world"]
             root = (roots[0] if len(roots) == 1 and joints[roots[0]].get("type") == "revolute"
                     else None)
-        return cls(layout.param_names, states, layout.output_names, mb, coords, points, root)
+            types = tuple((str(j), str(d.get("type", ""))) for j, d in joints.items())
+        return cls(layout.param_names, states, layout.output_names, mb, coords, points, root,
+                   types)
 
     @property
     def point_names(self) -> set[str]:

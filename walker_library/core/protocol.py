@@ -208,10 +208,12 @@ class Walker(Protocol):
         lowered surface. The section coordinates are translation-invariant, so the strides after
         the drop are comparable with the gait's fixed point."""
 
-    def stride_sensitivity(self, z: np.ndarray, period: int = 1, *,
-                           factor: float = 1.0) -> StrideSensitivity:
+    def stride_sensitivity(self, z: np.ndarray, period: int = 1, *, factor: float = 1.0,
+                           deadline: float = math.inf) -> StrideSensitivity:
         """The exact Jacobian of the stride map S^period at ``z`` (the strides integrated with
-        their variational equations at the walker's tolerances times ``factor``)."""
+        their variational equations at the walker's tolerances times ``factor``); runs that
+        pass ``deadline`` (a ``time.perf_counter()``) are stopped, the result says so
+        (``stopped``)."""
 
     def section_state(self, z: np.ndarray) -> dict[str, float]:
         """The section state by name (SI), with theta, theta_dot, phi, phi_dot if legged."""

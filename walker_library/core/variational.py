@@ -30,6 +30,9 @@ same as a stride's (to that tolerance), so its z' agrees with :meth:`HybridWalke
 """
 from __future__ import annotations
 
+import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
 
@@ -58,7 +61,8 @@ class StrideSensitivity:
     sub-steps over the runs, in units of rtol (:attr:`porthamiltonian.saltation.Sensitivity.error`).
     difference_error : the elementwise bound of the error that the difference Jacobians (lift,
     impacts, projection) bring into ``jacobian`` (module docstring; k × k). rtol : the runs' relative tolerance. method : the
-    integrator. fell : the reason when a stride fell (then ``jacobian`` is None).
+    integrator. fell : the reason when a stride fell (then ``jacobian`` is None). stopped : the
+    runs passed their deadline and were stopped (then ``jacobian`` is None).
     """
 
     z_next: np.ndarray | None
@@ -68,6 +72,24 @@ class StrideSensitivity:
     rtol: float
     method: str
     fell: str = ""
+    stopped: bool = False
+
+
+class _TimeUp(Exception):
+    """A run with sensitivities passed its deadline (raised by its progress callback)."""
+
+
+def _until(deadline: float) -> Callable[[float, int], None] | None:
+    """The progress callback of a run that stops it once ``time.perf_counter()`` passes
+    ``deadline`` (the compiled loops call it between their batches of steps and at every event,
+    about every 0.5 s of a stiff walker's run with sensitivities); None without a deadline."""
+    if math.isinf(deadline):
+        return None
+
+    def check(t: float, steps: int) -> None:
+        if time.perf_counter() > deadline:
+            raise _TimeUp
+    return check
 
 
 def _relative(d: Derivative) -> float:
@@ -77,7 +99,7 @@ def _relative(d: Derivative) -> float:
 
 
 def _one(walker: HybridWalker, z: np.ndarray, method: str, rtol: float,
-         atol: np.ndarray) -> _Step | str:
+         atol: np.ndarray, deadline: float) -> _Step | str:
     """(z', ∂z'/∂z, Φ error, difference-error bound) of one stride, or a fall reason (str)."""
     p0 = walker.start_params()
     lift = jacobian(lambda w: walker.lift(w, p0), z, 1.0)
@@ -88,7 +110,7 @@ def _one(walker: HybridWalker, z: np.ndarray, method: str, rtol: float,
     traj = walker.model.simulate(
         o.max_step_time, x0=x0, params=dict(zip(walker.model.param_names, p0)), method=method,
         rtol=rtol, atol=atol, max_step=o.max_step, actions=walker.machine.actions(log, ()),
-        max_events=200, sensitivity=lift.value)
+        max_events=200, sensitivity=lift.value, progress=_until(deadline))
     strikes = log.heel_strikes
     if not strikes or any(f.transition.fall for f in log.fired):
         return f"no heel strike ({traj.message})"
@@ -103,10 +125,11 @@ def _one(walker: HybridWalker, z: np.ndarray, method: str, rtol: float,
 
 
 def stride_sensitivity(walker: HybridWalker, z: np.ndarray, period: int = 1, *,
-                       factor: float = 1.0) -> StrideSensitivity:
+                       factor: float = 1.0, deadline: float = math.inf) -> StrideSensitivity:
     """The exact Jacobian of the stride map S^period at section state ``z`` (module docstring)
     at the walker's tolerances times ``factor`` (rtol at least 3e-14). A fall is a result
-    (``fell``)."""
+    (``fell``); so is a ``deadline`` (a ``time.perf_counter()``) passed during the runs
+    (``stopped``: a stiff contact's run with sensitivities may take seconds)."""
     o = walker.options
     method = o.method if o.method in COMPILED_METHODS else "Rodas5P"
     factor = max(float(factor), 3e-14 / o.rtol)
@@ -115,7 +138,10 @@ def stride_sensitivity(walker: HybridWalker, z: np.ndarray, period: int = 1, *,
     J, E = np.eye(len(z)), np.zeros((len(z), len(z)))
     phi_err = 0.0
     for _ in range(int(period)):
-        out = _one(walker, z, method, rtol, atol)
+        try:
+            out = _one(walker, z, method, rtol, atol, deadline)
+        except _TimeUp:
+            return StrideSensitivity(None, None, phi_err, None, rtol, method, stopped=True)
         if isinstance(out, str):
             return StrideSensitivity(None, None, phi_err, None, rtol, method, fell=out)
         z, Js, pe, Es = out

@@ -297,6 +297,11 @@ class HybridWalker:
         return self.plan.names.multibody
 
     @property
+    def joint_types(self) -> Mapping[str, str]:
+        """The multibody's joints' types by joint name (the reports' units read them)."""
+        return dict(self.plan.names.joint_types)
+
+    @property
     def machine(self) -> ModeMachine:
         """The mode machine (the rules as transitions)."""
         return self.compiled.machine
@@ -614,12 +619,13 @@ class HybridWalker:
             self._last_walk = (key, (traj, log, x0, p0, self.run))
         return cut_strides(self, traj, log, details=details, record=record, x0=x0, p0=p0)
 
-    def stride_sensitivity(self, z: np.ndarray, period: int = 1, *,
-                           factor: float = 1.0) -> StrideSensitivity:
+    def stride_sensitivity(self, z: np.ndarray, period: int = 1, *, factor: float = 1.0,
+                           deadline: float = math.inf) -> StrideSensitivity:
         """The exact Jacobian of the stride map S^period at section state ``z``, from strides
         integrated with their variational equations at the walker's tolerances times
-        ``factor`` (:func:`.variational.stride_sensitivity`)."""
-        return stride_sensitivity(self, z, period, factor=factor)
+        ``factor``, stopped (``stopped``) once ``time.perf_counter()`` passes ``deadline``
+        (:func:`.variational.stride_sensitivity`)."""
+        return stride_sensitivity(self, z, period, factor=factor, deadline=deadline)
 
     def __repr__(self) -> str:
         return f"HybridWalker({self.name!r}, section={self.section}, backend={self.backend!r})"

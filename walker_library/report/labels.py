@@ -17,6 +17,7 @@ non-angular unit "nondim." rather than pretending its numbers are metres and sec
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
@@ -103,6 +104,11 @@ class Described(Protocol):
     def multibody(self) -> str:
         """The name of the model's multibody component (``""``: none)."""
 
+    @property
+    def joint_types(self) -> Mapping[str, str]:
+        """The multibody's joints' types by joint name (``"revolute"``, ``"prismatic"``, …;
+        empty without a multibody)."""
+
 
 def is_nondimensional(walker: Described | None) -> bool:
     """True when the walker's model file declares ``units = "nondimensional"`` in ``[model]``."""
@@ -140,24 +146,12 @@ def _joint(walker: Described | None, name: str) -> tuple[str, str, str] | None:
     return None
 
 
-def _joint_type(walker: Described, joint: str) -> str:
-    comp = walker.spec.model.component(walker.multibody)
-    from porthamiltonian.modeling.component import Component  # (on use: sympy)
-
-    if not isinstance(comp, Component):         # a sub-model has no joints
-        return ""
-    try:
-        return str(comp.value("joints")[joint].get("type", ""))
-    except (AttributeError, KeyError, TypeError):
-        return ""
-
-
 def _coordinate(walker: Described | None, name: str) -> Quantity | None:
     parsed = _joint(walker, name)
     if parsed is None or walker is None:
         return None
     kind, joint, axis = parsed
-    jtype = _joint_type(walker, joint)
+    jtype = walker.joint_types.get(joint, "")
     q_unit, v_unit, what = _JOINT_UNITS.get(jtype, ("", "", "coordinate"))
     along = {"x": " along the slope", "z": " normal to the slope"}.get(axis, f" {axis}" if axis else "")
     if kind == "q":
