@@ -32,7 +32,9 @@ def _walker(name: str, **changes: float) -> SimpleNamespace:
     modes = set(spec.mode_names)
     specs = {k: ParameterSpec(k, p.value, p.unit, p.doc) for k, p in spec.model.parameters.items()
              if k not in modes}
+    joints = spec.model.component("walker").value("joints")
     return SimpleNamespace(name=name, spec=spec, multibody="walker", specs=specs,
+                           joint_types={j: str(d.get("type", "")) for j, d in joints.items()},
                            parameters={**{k: s.value for k, s in specs.items()}, **changes})
 
 
