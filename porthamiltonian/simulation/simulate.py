@@ -676,28 +676,24 @@ class Simulator:
                     interpolants.append(step_sol)
             if has_events:
                 g_new = self._guards(t_new, y_new, params_at(t_new, y_new), p)
-                active = _active(g_old, g_new, self.direction)
-                if len(active):
-                    step_sol = step_sol or solver.dense_output()
-                    roots = []
-                    for k in active:
-                        def gk(t: float, k: int = k, sol: Any = step_sol) -> float:
-                            y_t = sol(t)
-                            return float(self._guards(t, y_t, params_at(t, y_t), p)[k])
-                        roots.append((brentq(gk, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS), k))
-                    roots.sort()
-                    for t_root, k in roots:
-                        y_root = step_sol(t_root)
-                        if self.terminal[k]:
-                            self.pre_event_sign = float(np.sign(g_old[k]))
-                            self._eval_at(ts, ys, step_sol, t_old, t_root, y_root)
-                            if t_eval is None:
-                                ts.append(t_root)
-                                ys.append(y_root)
-                            if settings.dense_output and interpolants:
-                                interpolants[-1] = _Clipped(interpolants[-1], t_root)
-                            return close(Status.EVENT, "", t_root, y_root, k)
-                        self._events.append((t_root, self.names[k]))
+                step_sol = step_sol or solver.dense_output()
+
+                def g_at(t: float, sol: Any = step_sol) -> np.ndarray:
+                    y_t = sol(t)
+                    return self._guards(t, y_t, params_at(t, y_t), p)
+                for t_root, k, before in _crossings(g_at, t_old, g_old, t_new, g_new,
+                                                    self.direction, self.terminal, brentq):
+                    y_root = step_sol(t_root)
+                    if self.terminal[k]:
+                        self.pre_event_sign = before
+                        self._eval_at(ts, ys, step_sol, t_old, t_root, y_root)
+                        if t_eval is None:
+                            ts.append(t_root)
+                            ys.append(y_root)
+                        if settings.dense_output and interpolants:
+                            interpolants[-1] = _Clipped(interpolants[-1], t_root)
+                        return close(Status.EVENT, "", t_root, y_root, k)
+                    self._events.append((t_root, self.names[k]))
                 g_old = g_new
             self._eval_at(ts, ys, step_sol, t_old, t_new, y_new)
             if t_eval is None:
@@ -800,6 +796,40 @@ class _Clipped:
 
     def __call__(self, t: float) -> Any:
         return self.inner(t)
+
+
+#: the guards are sampled at this many interior points of every step besides its ends, as the
+#: compiled loops do (``PH_SAMPLES`` of rosenbrock_loop.c, ``_SAMPLES`` of rosenbrock_loop.py):
+#: a guard that crosses zero and back within one step (a swing foot grazing the surface) changes
+#: sign between two samples, where it has none between the step's ends
+GUARD_SAMPLES = 3
+
+
+def _crossings(g_at: Callable[[float], np.ndarray], t_a: float, g_a: np.ndarray, t_b: float,
+               g_b: np.ndarray, direction: np.ndarray, terminal: np.ndarray,
+               brentq: Callable[..., float]) -> list[tuple[float, int, float]]:
+    """The guards' crossings in their directions within the step (t_a, t_b] of a scipy method,
+    sorted by time, each with the guard's sign before it: ``g_at(t)`` the guards on the step's
+    dense output, ``g_a``, ``g_b`` at its ends. The step is cut at :data:`GUARD_SAMPLES`
+    interior points; in each piece, in order, a sign change in a guard's direction is located by
+    ``brentq`` to 4 ε; the pieces after the first one with a terminal crossing are not searched
+    (the compiled loops' rule)."""
+    roots: list[tuple[float, int, float]] = []
+    t_lo, g_lo = t_a, g_a
+    for i in range(1, GUARD_SAMPLES + 2):
+        t_hi = t_a + (t_b - t_a) * i / (GUARD_SAMPLES + 1) if i <= GUARD_SAMPLES else t_b
+        g_hi = g_at(t_hi) if i <= GUARD_SAMPLES else g_b
+        found = False
+        for k in _active(g_lo, g_hi, direction):
+            def gk(t: float, k: int = k) -> float:
+                return float(g_at(t)[k])
+            roots.append((brentq(gk, t_lo, t_hi, xtol=4 * _EPS, rtol=4 * _EPS), int(k),
+                          float(np.sign(g_lo[k]))))
+            found = found or bool(terminal[k])
+        if found:
+            break
+        t_lo, g_lo = t_hi, g_hi
+    return sorted(roots)
 
 
 def _active(g: np.ndarray, g_new: np.ndarray, direction: np.ndarray) -> np.ndarray:

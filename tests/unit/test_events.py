@@ -200,3 +200,26 @@ def test_chattering_guard_fails_with_hysteresis_message(ball):
 def test_action_for_unknown_event_is_an_error(ball):
     with pytest.raises(ph.errors.ModelError, match="'?nope'?"):
         ball.simulate(1.0, actions={"nope": lambda t, x, p: ph.Reset()})
+
+
+@pytest.mark.parametrize(("direction", "terminal", "expected"), [
+    (0, False, [(0.48, 1.0), (0.52, -1.0)]), (-1, False, [(0.48, 1.0)]),
+    (1, True, [(0.52, -1.0)])])
+def test_a_guard_crossing_twice_within_a_scipy_step_is_seen(direction, terminal, expected):
+    """A scipy method's step (0, 1] in which a guard dips below zero and back, (t − 0.48)(t −
+    0.52): positive at both ends, where the step alone shows no crossing. The guards sampled
+    inside the step (``GUARD_SAMPLES``, as the compiled loops do) see it: both crossings in
+    their directions, located to 1e-12, each with the guard's sign before it."""
+    from scipy.optimize import brentq
+
+    from porthamiltonian.simulation.simulate import GUARD_SAMPLES, _crossings
+
+    assert GUARD_SAMPLES == 3
+    def g_at(t: float) -> np.ndarray:
+        return np.array([(t - 0.48) * (t - 0.52)])
+
+    found = _crossings(g_at, 0.0, g_at(0.0), 1.0, g_at(1.0), np.array([direction]),
+                       np.array([terminal]), brentq)
+    assert [k for _, k, _ in found] == [0] * len(expected)
+    assert [before for _, _, before in found] == [b for _, b in expected]
+    np.testing.assert_allclose([t for t, _, _ in found], [t for t, _ in expected], atol=1e-12)

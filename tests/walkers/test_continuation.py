@@ -151,8 +151,9 @@ def test_stability_verdict_does_not_depend_on_the_settings(simplest):
     the verdict 'unstable' is certain. The finite-difference ladder (``jacobian="fd"``) agrees
     whatever step it starts from (1e-1 to 1e-5 of the coordinates), within 2e-7 and its error
     bounds; a single fixed step does not: 1e-3 (the thesis's, App. C) gives −0.9916, 'stable';
-    1e-2 makes a perturbed stride fall."""
-    from walker_library.analyses.poincare import WalkerFell, jacobian
+    1e-2 a complex pair of modulus 1.37 (before the guards were sampled inside scipy's steps, a
+    perturbed stride of 1e-2 missed its grazing heel strike there and fell)."""
+    from walker_library.analyses.poincare import jacobian
     w = simplest.with_parameters(slope=0.01512)
     fp = find_fixed_point(w, w.from_thesis([-0.2319, 2 * 0.2369, -0.0256]))
     assert fp.converged
@@ -166,8 +167,8 @@ def test_stability_verdict_does_not_depend_on_the_settings(simplest):
         assert abs(fl.multipliers[0] - exact.multipliers[0]) < max(2e-7, fl.errors[0])
     thesis_step = np.linalg.eigvals(jacobian(w, fp.z, step=1e-3))
     assert max(abs(thesis_step)) < 1.0                    # the wrong verdict
-    with pytest.raises(WalkerFell):
-        jacobian(w, fp.z, step=1e-2)
+    coarse = np.linalg.eigvals(jacobian(w, fp.z, step=1e-2))
+    assert max(abs(coarse.imag)) > 1.0                    # the wrong multipliers
 
 
 def test_eigen_error_bound_covers_a_known_perturbation():

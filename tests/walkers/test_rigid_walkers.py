@@ -338,3 +338,22 @@ def test_guards_equal_the_multibody_point_heights(builder, guard_points):
         if "fall" in names:
             expected = out[w.model.output_index("walker.hip_centre.z")] - P["stance_z"] - P["fall_fraction"] * w.leg_length
             assert g[names.index("fall")] == pytest.approx(expected, abs=1e-14)
+
+
+def test_a_grazing_heel_strike_is_found_by_scipys_dop853_too():
+    """The simplest walker at γ = 0.01512 from its fixed point with θ̇ lowered by 0.01: the swing
+    foot grazes the surface near t = 5.03 s, crossing it and back within one of DOP853's steps
+    (up to max_step 0.25 s). The guards sampled inside scipy's steps see the heel strike where
+    the compiled Rodas5P loop does, to 1e-9 s, at every max_step (before, DOP853 missed it at
+    max_step 0.25 and 0.05 and the stride fell at 8.85 s)."""
+    from walker_library.analyses.poincare import find_fixed_point
+
+    w = simplest_walker().with_parameters(slope=0.01512)
+    z = find_fixed_point(w, w.from_thesis([-0.2319, 2 * 0.2369, -0.0256])).z.copy()
+    z[1] -= 1e-2
+    compiled = w.with_options(method="Rodas5P").stride(z)
+    assert not compiled.fell and compiled.duration == pytest.approx(5.0326559, abs=1e-6)
+    for max_step in (0.25, 0.05):
+        scipy_run = w.with_options(method="DOP853", max_step=max_step).stride(z)
+        assert not scipy_run.fell
+        assert scipy_run.duration == pytest.approx(compiled.duration, abs=1e-9)

@@ -166,17 +166,19 @@ def test_basin_of_the_compass_gait():
     assert r.theta_dot[4] - r.theta_dot[0] == pytest.approx(2 * 0.1 * 0.8, rel=1e-12)
     assert 0 < r.fraction < 1 and set(functools.reduce(operator.iadd, r.outcome, [])) <= {"converged", "fell", "wandered"}
     assert 0 < r.radius <= 0.1 * math.sqrt(2)
-    assert r.method == "DOP853"                            # a rigid walker's own
+    assert r.method == "QBDF"             # "auto": QBDF for a walker on a compiled method
     json.loads(r.to_json())
 
 
 def test_the_basin_method_rule(simplest):
-    """basin_walker: "auto" keeps a walker whose own method is not a compiled stiff one (DOP853
-    here) and gives one whose method is Rodas5P QBDF at the same tolerances; a name is taken as
-    given, None keeps the walker's own, an unknown name is refused."""
-    w, _ = simplest
-    assert basin_walker(w) is w and basin_walker(w, None) is w and w.options.method == "DOP853"
-    stiff = w.with_options(method="Rodas5P")
+    """basin_walker: "auto" keeps a walker whose own method is not a compiled stiff one (scipy's
+    DOP853 here) and gives one whose method is Rodas5P (the file's) QBDF at the same
+    tolerances; a name is taken as given, None keeps the walker's own, an unknown name is
+    refused."""
+    stiff, _ = simplest
+    assert stiff.options.method == "Rodas5P"
+    w = stiff.with_options(method="DOP853")
+    assert basin_walker(w) is w and basin_walker(w, None) is w
     auto = basin_walker(stiff)
     assert auto.options == dataclasses.replace(stiff.options, method="QBDF")
     assert basin_walker(stiff, None) is stiff

@@ -330,7 +330,7 @@ def _method(walker: Walker) -> str:
 def basin_walker(walker: Walker, method: str | None = "auto") -> Walker:
     """The walker a basin walks its points with (module docstring): ``method`` "auto" — QBDF,
     at the walker's own tolerances, when its own method is a compiled stiff one (Rodas4,
-    Rodas5P, QBDF), else the walker as it is (DOP853 on the rigid-impact walkers); a method name
+    Rodas5P, QBDF), else the walker as it is (a scipy method such as DOP853); a method name
     (one of :data:`porthamiltonian.simulation.simulate.METHODS`) — that one, at the walker's
     tolerances; None — the walker as it is."""
     if method is None or not isinstance(walker, HybridWalker):

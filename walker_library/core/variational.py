@@ -24,8 +24,8 @@ R_x inside Φ_final, each in error by ρ relative at most). A period-k orbit's J
 its own run, from the section state the previous one reached), so that parameters a heel strike
 sets from the state (a rigid walker's stance-foot position) never enter a differentiated flow.
 
-The run uses the walker's compiled method, or Rodas5P when its file integrates with a
-scipy method (the rigid walkers' DOP853), at the walker's tolerances; the flow of the run is the
+The run uses the walker's compiled method, or Rodas5P when it integrates with a scipy method
+(e.g. DOP853), at the walker's tolerances; the flow of the run is the
 same as a stride's (to that tolerance), so its z' agrees with :meth:`HybridWalker.walk`'s.
 """
 from __future__ import annotations
