@@ -3,6 +3,9 @@ derivatives through named intermediates (forward mode).
 
 * :func:`derivative` — ∂expr/∂v, sums, products and numeric powers by hand (the bulk of
   generated expressions, about ten times faster than sympy's general ``diff``).
+* :func:`free_symbols` — ``expr.free_symbols``, remembered for every subexpression: the
+  derivative asks at each level which of its parts contain the variable, which sympy answers by
+  walking each part's whole subtree again.
 * :class:`Rates` — the time derivative of expressions of the states along given state rates,
   through a component's intermediates by the forward chain rule: for each intermediate
   w = e(x, w_1, …) that an expression reaches, ẇ = ∂e/∂t + Σ ∂e/∂x_i ẋ_i + Σ ∂e/∂w_j ẇ_j becomes
@@ -13,6 +16,7 @@ derivatives through named intermediates (forward mode).
 """
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Iterable, Mapping
 
 import sympy as sp
@@ -49,19 +53,37 @@ def derivative(expr: sp.Expr, v: sp.Symbol,
 _CHAIN_RULE = sp.Function._eval_derivative
 
 
+@functools.lru_cache(maxsize=1 << 16)
+def free_symbols(expr: sp.Basic) -> frozenset[sp.Basic]:
+    """``expr.free_symbols``, remembered (the most recent 65536 expressions, as sympy's own
+    cache remembers its results): for a class whose free symbols are those of its arguments
+    (sympy's ``Basic.free_symbols``: sums, products, powers, functions, Piecewise, relations),
+    the union of its arguments' remembered sets; for one with a rule of its own (a symbol, an
+    array entry, and the classes with bound variables — Lambda, Integral, Derivative, Subs),
+    that rule's set."""
+    if type(expr).free_symbols is not _PLAIN_FREE_SYMBOLS:
+        return frozenset(expr.free_symbols)
+    return frozenset().union(*map(free_symbols, expr.args))
+
+
+#: sympy's free symbols of a tree: those of its arguments (the property classes with bound
+#: variables or leaves of their own replace)
+_PLAIN_FREE_SYMBOLS = sp.Basic.free_symbols
+
+
 def _derivative(expr: sp.Expr, v: sp.Symbol,
                 memo: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] | None) -> sp.Expr:
     """:func:`derivative` without looking ``expr`` up in ``memo`` (its parts are)."""
     if expr == v:
         return sp.S.One
-    if v not in expr.free_symbols:
+    if v not in free_symbols(expr):
         return sp.S.Zero
     if expr.is_Add:
-        return sp.Add(*[derivative(a, v, memo) for a in expr.args if v in a.free_symbols])
+        return sp.Add(*[derivative(a, v, memo) for a in expr.args if v in free_symbols(a)])
     if expr.is_Mul:
         args, terms = expr.args, []
         for i, a in enumerate(args):
-            if v in a.free_symbols:
+            if v in free_symbols(a):
                 d = derivative(a, v, memo)
                 if d != 0:
                     terms.append(sp.Mul(*args[:i], d, *args[i + 1:]))
@@ -128,4 +150,4 @@ class Rates:
         return self._done[w]
 
 
-__all__ = ["Rates", "derivative"]
+__all__ = ["Rates", "derivative", "free_symbols"]
