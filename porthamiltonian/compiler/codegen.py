@@ -246,8 +246,8 @@ class Program:
 
 
 # --- building ------------------------------------------------------------------------------------
-#: ``str`` of a free symbol that is not a plain Symbol (an array entry ``x[0]``), remembered:
-#: sympy prints it through its printer every time
+#: ``str`` of a free symbol that is not a plain Symbol (an array entry ``x[0]``, an array ``x``:
+#: the printers' array names too), remembered: sympy prints it through its printer every time
 _printed = functools.lru_cache(maxsize=1 << 14)(str)
 
 
