@@ -53,16 +53,24 @@ def derivative(expr: sp.Expr, v: sp.Symbol,
 _CHAIN_RULE = sp.Function._eval_derivative
 
 
-@functools.lru_cache(maxsize=1 << 14)
 def free_symbols(expr: sp.Basic) -> frozenset[sp.Basic]:
-    """``expr.free_symbols``, remembered (the most recent 16384 expressions: more than the
-    largest shipped model's compile asks about, the Whipple bicycle's 8300; 12 MB held when
-    full of the largest models' expressions): for a class whose free symbols are those of its
-    arguments
-    (sympy's ``Basic.free_symbols``: sums, products, powers, functions, Piecewise, relations),
-    the union of its arguments' remembered sets; for one with a rule of its own (a symbol, an
-    array entry, and the classes with bound variables — Lambda, Integral, Derivative, Subs),
-    that rule's set."""
+    """``expr.free_symbols``, remembered for each expression object: for a class whose free
+    symbols are those of its arguments (sympy's ``Basic.free_symbols``: sums, products, powers,
+    functions, Piecewise, relations), the union of its arguments' remembered sets; for one with
+    a rule of its own (a symbol, an array entry, and the classes with bound variables — Lambda,
+    Integral, Derivative, Subs), that rule's set."""
+    return _free_symbols(id(expr), expr)
+
+
+@functools.lru_cache(maxsize=1 << 14)
+def _free_symbols(key: int, expr: sp.Basic) -> frozenset[sp.Basic]:
+    """:func:`free_symbols` of ``expr`` by its identity ``key = id(expr)`` (the entry holds
+    ``expr``, so no other object has that id while it is remembered): an equal expression
+    built anew — sympy's cache forgets its symbols, the next model's expressions are made
+    again — is a new entry, not a comparison of the two whole trees, which remembering by
+    equality costs at every level of :func:`_derivative`'s recursion. The most recent 16384
+    expressions: more than the largest shipped model's compile asks about (the Whipple
+    bicycle's 8300); 12 MB held when full of the largest models' expressions."""
     if type(expr).free_symbols is not _PLAIN_FREE_SYMBOLS:
         return frozenset(expr.free_symbols)
     return frozenset().union(*map(free_symbols, expr.args))
