@@ -70,7 +70,7 @@ def _free_symbols(key: int, expr: sp.Basic) -> frozenset[sp.Basic]:
     again — is a new entry, not a comparison of the two whole trees, which remembering by
     equality costs at every level of :func:`_derivative`'s recursion. The most recent 16384
     expressions: more than the largest shipped model's compile asks about (the Whipple
-    bicycle's 8300); 12 MB held when full of the largest models' expressions."""
+    bicycle's 10400); 12 MB held when full of the largest models' expressions."""
     if type(expr).free_symbols is not _PLAIN_FREE_SYMBOLS:
         return frozenset(expr.free_symbols)
     return frozenset().union(*map(free_symbols, expr.args))
