@@ -33,7 +33,7 @@ import sympy as sp
 from ..errors import ModelError, StateError
 from ..modeling.calls import KernelCall
 from ..modeling.constraints import Constraint
-from ..modeling.differentiation import derivative, free_symbols
+from ..modeling.differentiation import derivative, free_symbols, remembering
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import EventSpec
 from ..modeling.ports import domain
@@ -102,6 +102,7 @@ class SymbolicModel:
         return [sp.Symbol("ledger.E_diss", real=True), sp.Symbol("ledger.E_in", real=True)]
 
 
+@remembering
 def assemble(solution: Solution) -> SymbolicModel:
     """The state equations, energy ledger, outputs, guards and initial values of a solved
     system (see the module docstring)."""

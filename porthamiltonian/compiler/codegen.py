@@ -65,7 +65,7 @@ from sympy.core.symbol import Str
 from ..errors import CompilerError
 from ..mechanics.sources import digest as kernel_digest
 from ..modeling.calls import KernelOutput
-from ..modeling.differentiation import derivative, free_symbols
+from ..modeling.differentiation import derivative, free_symbols, remembering
 from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
 from .cse import cse
@@ -604,6 +604,7 @@ def input_slots(names: list[str]) -> list[str]:
     return [f"{n} (input, at t = 0)" for n in names] + [f"{n} (input, rate)" for n in names]
 
 
+@remembering
 def program(model: SymbolicModel, jac_p: list[str] | None = None, fold: bool = True) -> Program:
     """The model's numeric functions as one intermediate program (see the module docstring).
 

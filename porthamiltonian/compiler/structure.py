@@ -48,7 +48,7 @@ from ..errors import (
     UnknownParameterError,
 )
 from ..modeling.component import Builder, Built, PHCut, PortVars
-from ..modeling.differentiation import derivative, free_symbols
+from ..modeling.differentiation import derivative, free_symbols, remembering
 from ..modeling.elements import _Junction
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import ModelDescription
@@ -92,6 +92,7 @@ class Solution:
     order: list[tuple[sp.Symbol, sp.Expr, Equation]]
 
 
+@remembering
 def build_system(flat: ModelDescription, ph: PHCut | None = None) -> System:
     """Run every component's ``build`` and collect the equations, unknowns and states. A model
     error raised by a component carries the component's path (and the argument's, where the
@@ -396,6 +397,7 @@ def _solvable(residual: sp.Expr, unknown: sp.Symbol, unknowns: set[sp.Symbol]) -
     return coefficient != 0 and not (coefficient.free_symbols & unknowns)
 
 
+@remembering
 def solve(system: System) -> Solution:
     """Assign causality (matching), check structure, order and solve the equations explicitly."""
     eqs, unknowns = system.equations, system.unknowns

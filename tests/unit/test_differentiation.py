@@ -11,7 +11,7 @@ import pytest
 import sympy as sp
 
 from porthamiltonian.modeling import differentiation
-from porthamiltonian.modeling.differentiation import derivative, free_symbols
+from porthamiltonian.modeling.differentiation import derivative, free_symbols, remembering
 from porthamiltonian.modeling.expressions import FUNCTIONS
 
 x, y, k = sp.symbols("x y k", real=True)
@@ -106,6 +106,7 @@ def _random_tree(rng, depth: int) -> sp.Expr:
     ])()
 
 
+@remembering
 def test_free_symbols_are_sympys_on_random_expressions():
     """The remembered free symbols of every subexpression are sympy's ``free_symbols``, also
     in and around the classes whose bound variables are not free (x in a Lambda, an Integral,
@@ -116,9 +117,32 @@ def test_free_symbols_are_sympys_on_random_expressions():
     rng = random.Random(1)
     for _ in range(200):
         expr = sp.Tuple(_random_tree(rng, 4), sp.Lambda(x, _random_tree(rng, 2)))
-        for sub in sp.preorder_traversal(expr):
+        for sub in sp.postorder_traversal(expr):
             assert free_symbols(sub) == sub.free_symbols, sub
+        assert differentiation._REMEMBERED
         assert free_symbols(expr) == expr.free_symbols
+
+
+def test_free_symbols_are_remembered_only_while_a_remembering_call_runs():
+    """Nothing is kept once the outermost call returns (the expressions of one model stay
+    alive no longer than its compiler stage); a nested call shares the outer one's table."""
+    seen = []
+
+    @remembering
+    def inner():
+        free_symbols(sp.sin(x) + y)
+        seen.append(len(differentiation._REMEMBERED))
+
+    @remembering
+    def outer():
+        free_symbols(x * y)
+        inner()
+        seen.append(len(differentiation._REMEMBERED))
+
+    outer()
+    assert seen == [5, 5]           # x*y, x, y, then sin(x) + y and sin(x) (x, y known)
+    assert differentiation._REMEMBERED is None
+    assert free_symbols(x * k) == {x, k}
 
 
 def test_derivative_with_the_remembered_free_symbols_is_sympys_diff():
