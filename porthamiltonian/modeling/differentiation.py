@@ -72,11 +72,11 @@ _F = TypeVar("_F", bound=Callable[..., Any])
 
 def remembering(fn: _F) -> _F:
     """``fn`` with :func:`free_symbols` remembering the sets it finds until the outermost
-    ``remembering`` call returns (the compiler's stages: :func:`~porthamiltonian.compiler.
-    structure.build_system`, ``solve``, ``assemble``, ``codegen.program``; a
-    :func:`derivative`): nothing is kept after it, so that the expressions of one model do not
-    stay alive, and an expression equal to an earlier one but built anew is a new entry, not a
-    comparison of the two whole trees."""
+    ``remembering`` call returns (the compiler's stages: ``structure.build_system``,
+    ``structure.solve``, ``assemble.assemble``, ``codegen.program``; a :func:`derivative`):
+    nothing is kept after it, so that the expressions of one model do not stay alive, and an
+    expression equal to an earlier one but built anew is a new entry, not a comparison of the
+    two whole trees."""
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         global _REMEMBERED
