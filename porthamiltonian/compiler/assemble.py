@@ -33,11 +33,11 @@ import sympy as sp
 from ..errors import ModelError, StateError
 from ..modeling.calls import KernelCall
 from ..modeling.constraints import Constraint
-from ..modeling.differentiation import derivative
+from ..modeling.differentiation import derivative, free_symbols, remembering
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import EventSpec
 from ..modeling.ports import domain
-from .structure import Solution, System, _flat
+from .structure import Solution, System, _flat, substituted
 
 
 @dataclass
@@ -102,6 +102,7 @@ class SymbolicModel:
         return [sp.Symbol("ledger.E_diss", real=True), sp.Symbol("ledger.E_in", real=True)]
 
 
+@remembering
 def assemble(solution: Solution) -> SymbolicModel:
     """The state equations, energy ledger, outputs, guards and initial values of a solved
     system (see the module docstring)."""
@@ -121,7 +122,7 @@ def assemble(solution: Solution) -> SymbolicModel:
     # port variables, and the intermediates that read them (directly or through others)
     ported = unknowns | system.port_level
     for cname, b in system.built.items():
-        energy = b.energy.xreplace(system.aliases)
+        energy = substituted(b.energy, system.aliases)
         energies[cname] = energy
         if energy.free_symbols & ported:
             raise ModelError(f"component {cname!r}: its stored energy depends on port variables; "
@@ -137,8 +138,8 @@ def assemble(solution: Solution) -> SymbolicModel:
             modulation += sum((derivative(energy, x) * xdot[x] for x in energy.free_symbols & set(states)
                                if x not in owned[cname]), sp.Integer(0))
         p_in += modulation
-        p_diss += b.dissipation.xreplace(system.aliases).xreplace(values)
-        p_in += b.supply.xreplace(system.aliases).xreplace(values)
+        p_diss += substituted(substituted(b.dissipation, system.aliases), values)
+        p_in += substituted(substituted(b.supply, system.aliases), values)
 
     outputs: dict[str, sp.Expr] = {}
     units = {str(s.symbol): s.unit for b in system.built.values() for s in b.states if s.unit}
@@ -152,7 +153,7 @@ def assemble(solution: Solution) -> SymbolicModel:
                 if unit and "|" not in unit:
                     units[name] = unit
         for oname, expr in b.outputs.items():
-            outputs[oname] = expr.xreplace(system.aliases).xreplace(values)
+            outputs[oname] = substituted(substituted(expr, system.aliases), values)
         units.update(b.output_units)
     parts = energy_parts(energies, outputs)
     units.update({name: "J" for name, _ in parts})
@@ -240,10 +241,10 @@ def _needed(intermediates: list[tuple[sp.Symbol, sp.Expr]],
     that a planar motion never reads)."""
     wanted: set[sp.Symbol] = set()
     for e in exprs:
-        wanted |= sp.sympify(e).free_symbols
+        wanted |= free_symbols(sp.sympify(e))
     for symbol, expr in reversed(intermediates):
         if symbol in wanted:
-            wanted |= expr.free_symbols
+            wanted |= free_symbols(expr)
     return [(s, e) for s, e in intermediates if s in wanted]
 
 
@@ -253,8 +254,8 @@ def _hidden_dependencies(intermediates: list[tuple[sp.Symbol, sp.Expr]],
     through earlier intermediates."""
     reach: dict[sp.Symbol, set[sp.Symbol]] = {}
     for symbol, expr in intermediates:
-        found = expr.free_symbols & leaves
-        for w in expr.free_symbols:
+        found = set(free_symbols(expr) & leaves)
+        for w in free_symbols(expr):
             if w in reach:
                 found |= reach[w]
         reach[symbol] = found

@@ -65,7 +65,7 @@ from sympy.core.symbol import Str
 from ..errors import CompilerError
 from ..mechanics.sources import digest as kernel_digest
 from ..modeling.calls import KernelOutput
-from ..modeling.differentiation import derivative
+from ..modeling.differentiation import derivative, free_symbols, remembering
 from ..modeling.expressions import TIME
 from .assemble import SymbolicModel
 from .cse import cse
@@ -246,14 +246,14 @@ class Program:
 
 
 # --- building ------------------------------------------------------------------------------------
-#: ``str`` of a free symbol that is not a plain Symbol (an array entry ``x[0]``), remembered:
-#: sympy prints it through its printer every time
+#: ``str`` of a free symbol that is not a plain Symbol (an array entry ``x[0]``, an array ``x``:
+#: the printers' array names too), remembered: sympy prints it through its printer every time
 _printed = functools.lru_cache(maxsize=1 << 14)(str)
 
 
 def _names(exprs: Iterable[sp.Expr]) -> set[str]:
     """The names of the symbols and array entries ``exprs`` read, as ``str`` gives them."""
-    return {s.name if type(s) is sp.Symbol else _printed(s) for e in exprs for s in e.free_symbols}
+    return {s.name if type(s) is sp.Symbol else _printed(s) for e in exprs for s in free_symbols(e)}
 
 
 class FunctionBuilder:
@@ -474,12 +474,12 @@ def _reads(model: SymbolicModel, exprs: list[sp.Expr]) -> set[sp.Symbol]:
     and the implicit blocks whose unknowns they read."""
     wanted: set[sp.Symbol] = set()
     for e in exprs:
-        wanted |= sp.sympify(e).free_symbols
+        wanted |= free_symbols(sp.sympify(e))
     blocks = list(model.blocks)
     while True:
         for w, e in reversed(model.intermediates):
             if w in wanted:
-                wanted |= e.free_symbols
+                wanted |= free_symbols(e)
         read = [blk for blk in blocks if set(blk[0]) & wanted]
         if not read:
             return wanted
@@ -520,7 +520,7 @@ def jacobian(exprs: list[sp.Expr], variables: list[sp.Symbol],
     index = {v: j for j, v in enumerate(variables)}
     out = []
     for i, expr in enumerate(exprs):
-        for v in sorted(sp.sympify(expr).free_symbols & index.keys(), key=index.__getitem__):
+        for v in sorted(free_symbols(sp.sympify(expr)) & index.keys(), key=index.__getitem__):
             d = derivative(expr, v, memo)
             if d != 0:
                 out.append((i, index[v], d))
@@ -604,6 +604,7 @@ def input_slots(names: list[str]) -> list[str]:
     return [f"{n} (input, at t = 0)" for n in names] + [f"{n} (input, rate)" for n in names]
 
 
+@remembering
 def program(model: SymbolicModel, jac_p: list[str] | None = None, fold: bool = True) -> Program:
     """The model's numeric functions as one intermediate program (see the module docstring).
 

@@ -43,6 +43,7 @@ from .codegen import (
     SparseProduct,
     Statement,
     Store,
+    _printed,
 )
 from .literals import c_comment, printable, python_docstring
 
@@ -148,6 +149,11 @@ class PythonPrinter(_Direct, PythonCodePrinter):
     def _print_Float(self, expr: sp.Basic) -> str:
         return repr(float(expr))
 
+    def _print_Indexed(self, expr: sp.Basic) -> str:
+        """sympy's (``str`` of the array, then the printed indices), the array's name
+        remembered."""
+        return f"{_printed(expr.base)}[{', '.join(self._print(i) for i in expr.indices)}]"
+
     def _print_Heaviside(self, expr: sp.Basic) -> str:
         x = self._print(expr.args[0])
         h0 = self._print(sp.Float(expr.args[1] if len(expr.args) > 1 else 0.5))
@@ -174,7 +180,7 @@ class CPrinter(_Direct, C99CodePrinter):
         return str(super()._print_Symbol(expr) if target is None else self._print(target))
 
     def _print_Indexed(self, expr: sp.Basic) -> str:
-        return f"{expr.base}[{int(expr.indices[0])}]"
+        return f"{_printed(expr.base)}[{int(expr.indices[0])}]"
 
     def _print_Float(self, expr: sp.Basic) -> str:
         return _float(float(expr))

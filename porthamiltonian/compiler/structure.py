@@ -32,6 +32,7 @@ velocity products — is stage 2. The code generator differentiates stage by sta
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from typing import Any, NoReturn
@@ -47,7 +48,7 @@ from ..errors import (
     UnknownParameterError,
 )
 from ..modeling.component import Builder, Built, PHCut, PortVars
-from ..modeling.differentiation import derivative
+from ..modeling.differentiation import derivative, free_symbols, remembering
 from ..modeling.elements import _Junction
 from ..modeling.expressions import TIME, parse
 from ..modeling.model import ModelDescription
@@ -91,6 +92,7 @@ class Solution:
     order: list[tuple[sp.Symbol, sp.Expr, Equation]]
 
 
+@remembering
 def build_system(flat: ModelDescription, ph: PHCut | None = None) -> System:
     """Run every component's ``build`` and collect the equations, unknowns and states. A model
     error raised by a component carries the component's path (and the argument's, where the
@@ -140,7 +142,8 @@ def build_system(flat: ModelDescription, ph: PHCut | None = None) -> System:
         if isinstance(comp, _Junction):
             equations += _junction_equations(name, comp, built[name], orientation)
 
-    equations = [Equation(eq.residual.xreplace(aliases), eq.component, eq.doc) for eq in equations]
+    equations = [Equation(substituted(eq.residual, aliases), eq.component, eq.doc)
+                 for eq in equations]
     states = [s.symbol for b in built.values() for s in b.states]
     derivatives = {s.derivative: s.symbol for b in built.values() for s in b.states}
     owner: dict[sp.Symbol, str] = {}
@@ -153,7 +156,7 @@ def build_system(flat: ModelDescription, ph: PHCut | None = None) -> System:
     unknowns = list(dict.fromkeys([*(u for u in owner if u not in derivatives), *derivatives]))
     known = {*params.values(), *inputs.values(), *states, TIME, *(ph.symbols if ph else ())}
     for b in built.values():
-        b.intermediates = [(s, e.xreplace(aliases)) for s, e in b.intermediates]
+        b.intermediates = [(s, substituted(e, aliases)) for s, e in b.intermediates]
     port_variables = set(unknowns) - set(derivatives)
     defined = {s for b in built.values() for s, _ in b.intermediates}
     block_symbols = {s for b in built.values() for symbols, _, _ in b.blocks for s in symbols}
@@ -186,7 +189,7 @@ def _reaching(intermediates: list[tuple[sp.Symbol, sp.Expr]], leaves: set[sp.Sym
     """The (ordered) intermediates that read one of ``leaves``, directly or through others."""
     found: set[sp.Symbol] = set()
     for symbol, expr in intermediates:
-        if expr.free_symbols & (leaves | found):
+        if free_symbols(expr) & (leaves | found):
             found.add(symbol)
     return found
 
@@ -213,7 +216,7 @@ def _ordered_intermediates(built: dict[str, Built], known: set[sp.Symbol],
     block_symbols = {s for symbols, _, _ in blocks for s in symbols}
     defined = set(defs)
     for symbol, expr in defs.items():
-        stray = expr.free_symbols - known - defined - block_symbols - port_variables
+        stray = free_symbols(expr) - known - defined - block_symbols - port_variables
         if stray:
             raise UnknownParameterError(
                 f"component {owner[symbol]!r}: intermediate {symbol} may depend on states, "
@@ -241,7 +244,7 @@ def stages(defs: dict[sp.Symbol, sp.Expr], blocks: list[Block], unknowns: Abstra
             raise StructureError(f"intermediate {symbol} depends on itself (through "
                                  f"component {owner.get(symbol, '?')!r})")
         state[symbol] = 1
-        for dep in sorted(defs[symbol].free_symbols & defs.keys(), key=str):
+        for dep in sorted(free_symbols(defs[symbol]) & defs.keys(), key=str):
             place(dep)
         state[symbol] = 2
         order.append(symbol)
@@ -267,7 +270,7 @@ def stages(defs: dict[sp.Symbol, sp.Expr], blocks: list[Block], unknowns: Abstra
                                      "unknowns")
             return found
         if symbol in defs:            # read by a block before its place in the order
-            stage[symbol] = max((level(d) for d in defs[symbol].free_symbols), default=0)
+            stage[symbol] = max((level(d) for d in free_symbols(defs[symbol])), default=0)
             return stage[symbol]
         return 1 if symbol in unknowns else 0
 
@@ -326,14 +329,14 @@ def _resolve_signals(built: dict[str, Built], equations: list[Equation],
     for _ in range(8):  # outputs may read outputs; resolve a few levels
         changed = False
         for sym, expr in list(outputs.items()):
-            new = expr.xreplace(outputs)
+            new = substituted(expr, outputs)
             if new != expr:
                 outputs[sym], changed = new, True
         if not changed:
             break
 
     def sub(e: sp.Expr) -> sp.Expr:
-        return e.xreplace(outputs)
+        return substituted(e, outputs)
 
     for eq in equations:
         eq.residual = sub(eq.residual)
@@ -352,6 +355,14 @@ def _resolve_signals(built: dict[str, Built], equations: list[Equation],
         for source in ph.sources:
             source.value, source.conjugate = sub(source.value), sub(source.conjugate)
     return {sym: outputs[sym] for sym in bound or {}}
+
+
+def substituted(expr: sp.Expr, rule: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr:
+    """``expr.xreplace(rule)`` for a ``rule`` of symbols that are never bound variables (port
+    variables, signals, solved unknowns): ``expr`` itself when it reads none of them, as its
+    remembered free symbols tell without xreplace's walk of the whole tree (most expressions
+    read none: the substitutions of :func:`build_system` and :func:`solve`)."""
+    return expr if free_symbols(expr).isdisjoint(rule) else expr.xreplace(rule)
 
 
 def _flat(x: Any) -> list[sp.Symbol]:
@@ -386,6 +397,7 @@ def _solvable(residual: sp.Expr, unknown: sp.Symbol, unknowns: set[sp.Symbol]) -
     return coefficient != 0 and not (coefficient.free_symbols & unknowns)
 
 
+@remembering
 def solve(system: System) -> Solution:
     """Assign causality (matching), check structure, order and solve the equations explicitly."""
     eqs, unknowns = system.equations, system.unknowns

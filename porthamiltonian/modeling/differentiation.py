@@ -3,6 +3,10 @@ derivatives through named intermediates (forward mode).
 
 * :func:`derivative` — ∂expr/∂v, sums, products and numeric powers by hand (the bulk of
   generated expressions, about ten times faster than sympy's general ``diff``).
+* :func:`free_symbols` — ``expr.free_symbols``, remembered for every subexpression while a
+  :func:`remembering` call runs (a compiler stage, a derivative): the derivative asks at each
+  level which of its parts contain the variable, which sympy answers by walking each part's
+  whole subtree again.
 * :class:`Rates` — the time derivative of expressions of the states along given state rates,
   through a component's intermediates by the forward chain rule: for each intermediate
   w = e(x, w_1, …) that an expression reaches, ẇ = ∂e/∂t + Σ ∂e/∂x_i ẋ_i + Σ ∂e/∂w_j ẇ_j becomes
@@ -13,7 +17,9 @@ derivatives through named intermediates (forward mode).
 """
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Iterable, Mapping
+from typing import Any, TypeVar, cast
 
 import sympy as sp
 from sympy.core.function import ArgumentIndexError
@@ -34,6 +40,12 @@ def derivative(expr: sp.Expr, v: sp.Symbol,
     distinct derivatives). The result is the same expression with or without it."""
     if not isinstance(expr, sp.Basic):
         expr = sp.sympify(expr)             # (a number, or a component's plain value)
+    return _remembering_derivative(expr, v, memo)
+
+
+def _memoized(expr: sp.Expr, v: sp.Symbol,
+              memo: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] | None) -> sp.Expr:
+    """:func:`derivative` of a sympy expression, looked up in and added to ``memo``."""
     if memo is None:
         return _derivative(expr, v, None)
     key = (expr, v)
@@ -49,35 +61,93 @@ def derivative(expr: sp.Expr, v: sp.Symbol,
 _CHAIN_RULE = sp.Function._eval_derivative
 
 
+#: the free symbols found while a :func:`remembering` call runs, by the id of the expression
+#: (each entry holds the expression, so no other object has that id while it is there); None
+#: outside one. (A thread that compiles while another's call runs uses that call's table and,
+#: once that call returns, sympy's walk: the same sets either way.)
+_REMEMBERED: dict[int, tuple[sp.Basic, frozenset[sp.Basic]]] | None = None
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def remembering(fn: _F) -> _F:
+    """``fn`` with :func:`free_symbols` remembering the sets it finds until the outermost
+    ``remembering`` call returns (the compiler's stages: ``structure.build_system``,
+    ``structure.solve``, ``assemble.assemble``, ``codegen.program``; a :func:`derivative`):
+    nothing is kept after it, so that the expressions of one model do not stay alive, and an
+    expression equal to an earlier one but built anew is a new entry, not a comparison of the
+    two whole trees."""
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        global _REMEMBERED
+        if _REMEMBERED is not None:
+            return fn(*args, **kwargs)
+        _REMEMBERED = {}
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            _REMEMBERED = None
+    return cast(_F, wrapper)
+
+
+def free_symbols(expr: sp.Basic) -> frozenset[sp.Basic]:
+    """``expr.free_symbols``, remembered for each expression object while a :func:`remembering`
+    call runs (sympy's set, as a frozenset, outside one): for a class whose free symbols are
+    those of its arguments (sympy's ``Basic.free_symbols``: sums, products, powers, functions,
+    Piecewise, relations), the union of its arguments' remembered sets; for one with a rule of
+    its own (a symbol, an array entry, and the classes with bound variables — Lambda,
+    Integral, Derivative, Subs), that rule's set."""
+    table = _REMEMBERED
+    if table is None:
+        return frozenset(expr.free_symbols)
+    found = table.get(id(expr))
+    if found is not None:
+        return found[1]
+    if type(expr).free_symbols is not _PLAIN_FREE_SYMBOLS:
+        symbols = frozenset(expr.free_symbols)
+    else:
+        symbols = frozenset().union(*map(free_symbols, expr.args))
+    table[id(expr)] = (expr, symbols)
+    return symbols
+
+
+#: sympy's free symbols of a tree: those of its arguments (the property classes with bound
+#: variables or leaves of their own replace)
+_PLAIN_FREE_SYMBOLS = sp.Basic.free_symbols
+
+#: :func:`derivative` of a sympy expression with its free symbols remembered
+_remembering_derivative = remembering(_memoized)
+
+
 def _derivative(expr: sp.Expr, v: sp.Symbol,
                 memo: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] | None) -> sp.Expr:
     """:func:`derivative` without looking ``expr`` up in ``memo`` (its parts are)."""
     if expr == v:
         return sp.S.One
-    if v not in expr.free_symbols:
+    if v not in free_symbols(expr):
         return sp.S.Zero
     if expr.is_Add:
-        return sp.Add(*[derivative(a, v, memo) for a in expr.args if v in a.free_symbols])
+        return sp.Add(*[_memoized(a, v, memo) for a in expr.args if v in free_symbols(a)])
     if expr.is_Mul:
         args, terms = expr.args, []
         for i, a in enumerate(args):
-            if v in a.free_symbols:
-                d = derivative(a, v, memo)
+            if v in free_symbols(a):
+                d = _memoized(a, v, memo)
                 if d != 0:
                     terms.append(sp.Mul(*args[:i], d, *args[i + 1:]))
         return sp.Add(*terms)
     if expr.is_Pow and expr.exp.is_Number:
-        return expr.exp * expr.base ** (expr.exp - 1) * derivative(expr.base, v, memo)
+        return expr.exp * expr.base ** (expr.exp - 1) * _memoized(expr.base, v, memo)
     if isinstance(expr, sp.Piecewise):
         # the conditions are constants of the derivative (as for sympy's Piecewise)
-        branches = [(derivative(e, v, memo), c) for e, c in expr.args]
+        branches = [(_memoized(e, v, memo), c) for e, c in expr.args]
         if all(d == branches[0][0] for d, _ in branches):
             return branches[0][0]
         return sp.Piecewise(*branches)
     if isinstance(expr, sp.Function) and type(expr)._eval_derivative is _CHAIN_RULE:
         terms = []
         for i, a in enumerate(expr.args, start=1):
-            d = derivative(a, v, memo)
+            d = _memoized(a, v, memo)
             if d != 0:
                 try:
                     terms.append(expr.fdiff(i) * d)
@@ -128,4 +198,4 @@ class Rates:
         return self._done[w]
 
 
-__all__ = ["Rates", "derivative"]
+__all__ = ["Rates", "derivative", "free_symbols", "remembering"]

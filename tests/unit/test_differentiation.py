@@ -11,7 +11,7 @@ import pytest
 import sympy as sp
 
 from porthamiltonian.modeling import differentiation
-from porthamiltonian.modeling.differentiation import derivative
+from porthamiltonian.modeling.differentiation import derivative, free_symbols, remembering
 from porthamiltonian.modeling.expressions import FUNCTIONS
 
 x, y, k = sp.symbols("x y k", real=True)
@@ -88,3 +88,74 @@ def test_every_function_a_model_file_may_call_differentiates_as_sympy_does(name)
             expected = _value(theirs, at)
             assert math.isclose(_value(ours, at), expected, rel_tol=1e-13, abs_tol=1e-13), (
                 name, v, at)
+
+
+def _random_tree(rng, depth: int) -> sp.Expr:
+    """A random expression of x, y, k, array entries a[i] and a function f, with sums,
+    products, powers, functions, Piecewise and the classes with bound variables (Integral,
+    Derivative, Subs) among its parts."""
+    a, f = sp.IndexedBase("a"), sp.Function("f")
+    if depth == 0:
+        return rng.choice([x, y, k, a[0], a[x], sp.Integer(rng.randint(-3, 3)), sp.Float(0.5)])
+    u, w = _random_tree(rng, depth - 1), _random_tree(rng, depth - 1)
+    return rng.choice([
+        lambda: u + w, lambda: u * w, lambda: u ** 2, lambda: sp.sin(u) * sp.cos(w),
+        lambda: f(u, w), lambda: sp.Piecewise((u, w > 0), (w, True)),
+        lambda: sp.Integral(u, (x, 0, 1)) * w, lambda: sp.Derivative(f(x, y), x) * u,
+        lambda: sp.Subs(f(x, y), x, w) + u,
+    ])()
+
+
+@remembering
+def test_free_symbols_are_sympys_on_random_expressions():
+    """The remembered free symbols of every subexpression are sympy's ``free_symbols``, also
+    in and around the classes whose bound variables are not free (x in a Lambda, an Integral,
+    a Derivative or a Subs) and for array entries (a[i] and a); asked again (from the memory),
+    the same."""
+    import random
+
+    rng = random.Random(1)
+    for _ in range(200):
+        expr = sp.Tuple(_random_tree(rng, 4), sp.Lambda(x, _random_tree(rng, 2)))
+        for sub in sp.postorder_traversal(expr):
+            assert free_symbols(sub) == sub.free_symbols, sub
+        assert differentiation._REMEMBERED
+        assert free_symbols(expr) == expr.free_symbols
+
+
+def test_free_symbols_are_remembered_only_while_a_remembering_call_runs():
+    """Nothing is kept once the outermost call returns (the expressions of one model stay
+    alive no longer than its compiler stage); a nested call shares the outer one's table."""
+    seen = []
+
+    @remembering
+    def inner():
+        free_symbols(sp.sin(x) + y)
+        seen.append(len(differentiation._REMEMBERED))
+
+    @remembering
+    def outer():
+        free_symbols(x * y)
+        inner()
+        seen.append(len(differentiation._REMEMBERED))
+
+    outer()
+    assert seen == [5, 5]           # x*y, x, y, then sin(x) + y and sin(x) (x, y known)
+    assert differentiation._REMEMBERED is None
+    assert free_symbols(x * k) == {x, k}
+
+
+def test_derivative_with_the_remembered_free_symbols_is_sympys_diff():
+    """Derivatives of random expressions without bound variables (sums, products, powers,
+    functions, Piecewise, array entries at constant indices) by x, with a memo shared between
+    them: sympy's diff (their difference expands to exactly 0)."""
+    import random
+
+    rng = random.Random(2)
+    memo: dict = {}
+    for _ in range(200):
+        expr = _random_tree(rng, 3)
+        if expr.has(sp.Integral, sp.Derivative, sp.Subs, sp.Function("f"),
+                    sp.IndexedBase("a")[x]):
+            continue
+        assert sp.expand(derivative(expr, x, memo) - sp.diff(expr, x)) == 0, expr
