@@ -106,14 +106,15 @@ def _fixed_step(model, method: str, t_end: float, h: float) -> np.ndarray:
 @pytest.mark.parametrize("name, method, order, h", [
     ("double_pendulum", "Rodas5P", 5, 0.02), ("pendulum", "Rodas4", 4, 0.02),
     ("modulated_spring", "Rodas4", 4, 0.02), ("modulated_spring", "Rodas5P", 5, 0.01)])
-def test_order_of_convergence_with_constant_steps(name, method, order, h):
+def test_order_of_convergence_with_constant_steps(c_run, name, method, order, h):
     """Halving a constant step divides the error at t = 1 by 2^order (Rodas4: 4, Rodas5P: 5;
     modulated_spring is time-dependent: ∂f/∂t by a difference), measured against Radau at rtol
     1e-13: the observed order over h -> h/2 -> h/4 (in the asymptotic range, above the error
     floor of the ∂f/∂t difference) is within 0.35 of it. This checks the coefficients of
-    tableaus.py as the loops use them (C back end)."""
+    tableaus.py as the loops use them (C back end; the Radau reference is the session's one run
+    per model, validation/conftest.py)."""
     model = compile_model(io.load(name), backend="c")
-    ref = model.simulate(1.0, method="Radau", rtol=1e-13, atol=1e-14).x_final
+    ref = c_run(name, 1.0, "Radau", 1e-13, 1e-14).x_final
     errors = [np.max(np.abs(_fixed_step(model, method, 1.0, step) - ref))
               for step in (h, h / 2, h / 4)]
     for a, b in itertools.pairwise(errors):
@@ -122,14 +123,15 @@ def test_order_of_convergence_with_constant_steps(name, method, order, h):
 
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("name", ["dc_motor", "modulated_spring", "double_pendulum", "free_rigid_body"])
-def test_agrees_with_radau(name, method):
+def test_agrees_with_radau(c_run, name, method):
     """Stiff (dc_motor: time constants 0.5 ms and ~40 ms), time-dependent (modulated_spring:
     ∂f/∂t by a difference), implicit blocks (double pendulum, free body): each compiled method
-    and Radau at rtol 1e-10 agree to 1e-6 relative to the state scale, and both ledgers close."""
+    and Radau at rtol 1e-10 agree to 1e-6 relative to the state scale, and both ledgers close.
+    (Radau's run is the session's one per model, shared with test_qbdf: validation/conftest.py.)"""
     model = compile_model(io.load(name), backend="c")
     t_end = min(3.0, float(io.read(name).simulation["t_end"]))
     a = model.simulate(t_end, method=method, rtol=1e-10, atol=1e-12)
-    b = model.simulate(t_end, method="Radau", rtol=1e-10, atol=1e-12)
+    b = c_run(name, t_end, "Radau", 1e-10, 1e-12)
     assert a.status == b.status == "finished"
     scale = max(1.0, float(np.max(np.abs(b.x))))
     assert np.max(np.abs(a.x_final - b.x_final)) < 1e-6 * scale

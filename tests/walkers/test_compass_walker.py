@@ -264,7 +264,8 @@ def test_a_walk_from_the_cache_does_not_import_scipy(walker):
 
 def test_the_gaits_stride_is_cut_from_newtons_last_walk(walker, gait, monkeypatch):
     """The same walk asked again with ``details`` (the gait's metrics stride at the fixed point,
-    after Newton's last residual there) is cut from the last walk's trajectory: no second
+    after Newton's last residual there), or plainly after a ``record`` walk, is cut from the
+    last walk's trajectory (a ``record`` walk itself is always integrated): no second
     integration, and the strides of a walker that integrates it afresh, bit for bit; the
     stride's max |θ| and max |φ| (all stored points at once) are the largest of
     ``walker.angles`` over the stored points."""
@@ -299,6 +300,14 @@ def test_the_gaits_stride_is_cut_from_newtons_last_walk(walker, gait, monkeypatc
     w.run = w.with_parameters(slope=0.01).run  # other run values: integrated again
     w.walk(z + 1e-6, 1)
     assert len(runs) == 5
+    recorded = w.walk(z, 2, record=True)     # a record walk (no dense output with Rodas5P)
+    assert len(runs) == 6
+    again = w.walk(z, 2)                     # then plainly, as gait.walk's callers do: cut
+    assert len(runs) == 6
+    assert [s.z_next.tobytes() for s in again] == [s.z_next.tobytes() for s in recorded]
+    assert "trajectory" in recorded[-1].info and "trajectory" not in again[-1].info
+    w.walk(z, 2, record=True)                # a record walk is always integrated (timed)
+    assert len(runs) == 7
 
 
 def test_floquet_runs_its_two_jacobians_side_by_side_with_the_same_numbers(walker, gait):

@@ -586,15 +586,18 @@ class HybridWalker:
         (fewer than ``n_steps`` strides, the last a step) when it returns True.
 
         The same walk as the last one, asked again (e.g. with ``details``: a gait's strides after
-        Newton's last residual at the fixed point), is cut from the last one's trajectory, not
-        integrated again (a walk without ``until`` or ``record`` whose integrator keeps no dense
-        output: its trajectory does not depend on ``details``); ``reuse=False`` integrates it
-        anyway (e.g. to time the integration)."""
+        Newton's last residual at the fixed point; or after a ``record`` walk, as callers of
+        :func:`~walker_library.analyses.gait.walk` do), is cut from the last one's trajectory,
+        not integrated again (a walk without ``until`` or ``record`` whose integrator keeps no
+        dense output: its trajectory does not depend on ``details``, nor on the last walk's
+        ``record``, which only handed it over); ``reuse=False`` integrates it anyway (e.g. to
+        time the integration), and so is a ``record`` walk always (the benchmarks time those)."""
         if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
             raise ParameterValueError(f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
         o = self.options
         dense = (details or record) and o.method not in COMPILED_METHODS
-        plain = until is None and not record and not dense and reuse
+        kept = until is None and not dense and reuse       # its trajectory: the plain walk's
+        plain = kept and not record
         key = (np.asarray(z, dtype=float).tobytes(), int(n_steps), float(ground_drop))
         last = self._last_walk
         if plain and last is not None and last[0] == key and last[1][4] is self.run:
@@ -615,7 +618,7 @@ class HybridWalker:
             method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step,
             actions=self.machine.actions(log), max_events=100 * n_steps + 100,
             dense_output=dense)
-        if plain:
+        if kept:
             self._last_walk = (key, (traj, log, x0, p0, self.run))
         return cut_strides(self, traj, log, details=details, record=record, x0=x0, p0=p0)
 
