@@ -210,11 +210,19 @@ def test_a_guard_crossing_twice_within_a_scipy_step_is_seen(direction, terminal,
     0.52): positive at both ends, where the step alone shows no crossing. The guards sampled
     inside the step (``GUARD_SAMPLES``, as the compiled loops do) see it: both crossings in
     their directions, located to 1e-12, each with the guard's sign before it."""
+    import re
+    from pathlib import Path
+
     from scipy.optimize import brentq
 
+    import porthamiltonian.integrators as loops
     from porthamiltonian.simulation.simulate import GUARD_SAMPLES, _crossings
 
-    assert GUARD_SAMPLES == 3
+    here = Path(loops.__file__).parent      # the compiled loops sample as many points
+    assert re.search(r"#define PH_SAMPLES (\d+)", (here / "rosenbrock_loop.c").read_text())[1] \
+        == re.search(r"^_SAMPLES = (\d+)", (here / "rosenbrock_loop.py").read_text(), re.MULTILINE)[1] \
+        == str(GUARD_SAMPLES) == "3"
+
     def g_at(t: float) -> np.ndarray:
         return np.array([(t - 0.48) * (t - 0.52)])
 
