@@ -175,24 +175,19 @@ _STALL = 5
 _SLOW = 0.1
 
 
-class _TimeLimit(Exception):
-    """The run of the Newton matrix passed the search's deadline."""
-
-
 def _exact_jacobian(walker: Walker, z: np.ndarray, period: int,
-                    deadline: float) -> np.ndarray | None:
-    """∂S^period/∂z at z from one run of the strides with their sensitivities
-    (``walker.stride_sensitivity``), or None when that run falls or the model's runs cannot
-    carry sensitivities (:class:`~porthamiltonian.errors.ModelError`); :class:`_TimeLimit` when
-    it passed ``deadline``."""
+                    deadline: float) -> tuple[np.ndarray | None, bool]:
+    """(∂S^period/∂z at z, stopped) from one run of the strides with their sensitivities
+    (``walker.stride_sensitivity``): the matrix None when that run falls, passes ``deadline``
+    (then ``stopped``) or the model's runs cannot carry sensitivities
+    (:class:`~porthamiltonian.errors.ModelError`)."""
     try:
         run = walker.stride_sensitivity(z, period, factor=_LOOSE, deadline=deadline)
     except ModelError:
-        return None
-    if run.stopped:
-        raise _TimeLimit
-    tick("stride", period)
-    return None if run.fell else run.jacobian
+        return None, False
+    if not run.stopped:
+        tick("stride", period)
+    return (None if run.fell else run.jacobian), run.stopped
 
 
 def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period: int = 1, tol: float = 1e-10,
@@ -248,9 +243,8 @@ def find_fixed_point(walker: Walker, guess: np.ndarray | None = None, *, period:
                                     history=history)
         fresh = J is None
         if J is None and exact:
-            try:
-                J = _exact_jacobian(walker, z, period, deadline)
-            except _TimeLimit:
+            J, stopped = _exact_jacobian(walker, z, period, deadline)
+            if stopped:
                 return FixedPointResult(False, z, res, it - 1, period,
                                         "stopped at the time limit", history=history)
             if J is None and jacobian == "variational":

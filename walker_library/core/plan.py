@@ -79,7 +79,7 @@ class ModelNames:
     coordinates: tuple[str, ...]
     points: tuple[str, ...]
     root_joint: str | None
-    joint_types: tuple[tuple[str, str], ...] = ()
+    joint_types: tuple[tuple[str, str], ...]
 
     @classmethod
     def of(cls, frozen: ModelDescription, layout: Layout) -> ModelNames:
