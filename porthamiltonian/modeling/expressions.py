@@ -713,7 +713,7 @@ def _written() -> tuple[dict[type, str], dict[type, str]]:
     """(the language's name of each sympy function class, the operator of each relation)."""
     sp = _sympy()
     names: dict[type, str] = {sp.Abs: "abs", sp.Min: "min", sp.Max: "max", sp.sign: "sign",
-                              sp.Heaviside: "Heaviside", sp.atan2: "atan2", sp.exp: "exp",
+                              sp.atan2: "atan2", sp.exp: "exp",
                               sp.log: "log"}
     names.update({getattr(sp, n): n for n in ("sin", "cos", "tan", "asin", "acos", "atan",
                                               "sinh", "cosh", "tanh")})
@@ -756,6 +756,14 @@ def to_text(expr: sp.Basic) -> str:
     if isinstance(expr, sp.Piecewise):
         inner = ", ".join(f"({to_text(v)}, {to_text(c)})" for v, c in expr.args)
         return f"Piecewise({inner})"
+    if isinstance(expr, sp.Heaviside):
+        # sympy keeps the value at zero as a second argument (1/2 unless given); the language's
+        # Heaviside is 1/2 at zero, any other value is written as a Piecewise.
+        x, at_zero = expr.args[0], (expr.args[1] if len(expr.args) > 1 else sp.S.Half)
+        if at_zero == sp.S.Half:
+            return f"Heaviside({to_text(x)})"
+        arg = to_text(x)
+        return f"Piecewise((1, {arg} > 0), ({to_text(at_zero)}, {arg} == 0), (0, True))"
     if type(expr) in ops_of:
         return f"{to_text(expr.lhs)} {ops_of[type(expr)]} {to_text(expr.rhs)}"
     if type(expr) in names_of:

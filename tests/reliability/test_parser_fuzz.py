@@ -126,3 +126,15 @@ def test_numeric_evaluation_agrees_with_sympy_and_text_round_trips(text):
     assert again is not None and math.isclose(again, exact, rel_tol=1e-12, abs_tol=1e-12), (
         text, written)
     assert math.isclose(parse_text(written).evaluate(VALUES), exact, rel_tol=1e-9, abs_tol=1e-9)
+
+
+def test_heaviside_round_trips_with_its_value_at_zero():
+    """sympy writes Heaviside(x) as Heaviside(x, 1/2): the text names one argument, and a value at
+    zero other than 1/2 (which the language's Heaviside cannot take) comes back as a Piecewise."""
+    k = NAMES["k"]
+    assert to_text(sp.Heaviside(k)) == "Heaviside(k)"
+    for at_zero, expected in ((sp.S.Half, 0.5), (sp.S.One, 1.0), (sp.S.Zero, 0.0)):
+        back = parse(to_text(sp.Heaviside(k - 4, at_zero)), NAMES, "round trip")
+        assert float(back.subs(k, 4)) == expected
+        assert float(back.subs(k, 4.5)) == 1.0 and float(back.subs(k, 3.5)) == 0.0
+        assert parse_text(to_text(sp.Heaviside(k - 4, at_zero))).evaluate({"k": 4.0}) == expected
