@@ -1,5 +1,5 @@
 """``python -m porthamiltonian``: the ``porthamiltonian`` command."""
-from .interfaces.cli import main
+from .interfaces.cli import command
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(command())

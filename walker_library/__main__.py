@@ -1,5 +1,5 @@
 """``python -m walker_library``: the ``walker`` command."""
-from .cli import main
+from .cli import command
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(command())

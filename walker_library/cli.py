@@ -54,6 +54,7 @@ from porthamiltonian.interfaces.cli import (
     at_least,
     backend_option,
     format_value,
+    leaving,
     not_negative,
     parse_assignments,
     positive,
@@ -728,8 +729,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``walker`` command: the exit status (0 ok, 1 a failed check, 2 bad input)."""
     return run(build_parser(), argv)
 
 
+def command() -> int:
+    """The ``walker`` console script and ``python -m walker_library``: :func:`main`, then the
+    process exits (:func:`porthamiltonian.interfaces.cli.leaving`)."""
+    return leaving(main())
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(command())

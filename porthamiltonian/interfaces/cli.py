@@ -27,6 +27,7 @@ the runner :func:`run`.
 from __future__ import annotations
 
 import argparse
+import gc
 import hashlib
 import json
 import math
@@ -664,5 +665,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     return run(build_parser(), argv)
 
 
+def leaving(status: int) -> int:
+    """``status``, with every object still alive frozen for the garbage collector
+    (:func:`gc.freeze`), for a command whose process exits next: the interpreter's exit then
+    skips collecting them (after a build, ≈ 0.13 s of a cold ``walker gait`` went to traversing
+    sympy's expressions at exit). Exit handlers still run and files are still closed."""
+    gc.freeze()
+    return status
+
+
+def command() -> int:
+    """The ``porthamiltonian`` console script and ``python -m porthamiltonian``: :func:`main`,
+    then the process exits (:func:`leaving`)."""
+    return leaving(main())
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(command())

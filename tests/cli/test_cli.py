@@ -190,6 +190,26 @@ def test_unknown_model_exits_2_with_message(runs):
     assert "Traceback" not in run.stderr
 
 
+def test_the_console_scripts_freeze_what_is_alive_before_the_exit(monkeypatch, capsys):
+    """``porthamiltonian`` and ``walker`` (the console scripts, ``python -m``) return main's exit
+    status with the objects still alive frozen for the collector, which the interpreter's exit
+    then does not traverse."""
+    import gc
+
+    from porthamiltonian.interfaces import cli
+    from walker_library import cli as walker_cli
+
+    for script, argv in ((cli.command, ["porthamiltonian", "simulate", "no_such_model"]),
+                         (walker_cli.command, ["walker", "gait", "no_such_walker"])):
+        monkeypatch.setattr(sys, "argv", argv)
+        alive = [[]]
+        alive[0].append(alive)                  # a cycle: only the collector frees it
+        before = gc.get_freeze_count()
+        assert script() == 2
+        assert gc.get_freeze_count() > before
+        assert "error: " in capsys.readouterr().err
+
+
 # The remaining bad-input checks call the entry point in-process (``main`` returns the exit status
 # that ``python -m porthamiltonian.interfaces.cli`` exits with), saving an interpreter start-up each.
 def test_set_without_equals_exits_2_with_message(capsys):
