@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -123,7 +123,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     method : ``"auto"`` (default: Radau when Python events, ``t_eval`` (without
         ``sensitivity``) or dense output are
         asked for, else :func:`auto_method`: QBDF for a multibody of two or more coordinates,
-        Rodas5P otherwise), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
+        Rodas5P otherwise; where QBDF stalls (step size too small: a jump of the force inside a
+        step, e.g. a Kelvin-Voigt contact at touchdown with a tight atol) the run is made again
+        with Rodas5P, and the message says so), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
         Rosenbrock methods of order 5 and 4: a Jacobian and an LU at every step; Rodas5P takes
         fewer steps at the same accuracy), ``"QBDF"`` (variable-order BDF, orders 1-5, reusing
         its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
@@ -225,7 +227,16 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         t_eval=t_eval, dense_output=checked["dense_output"], max_events=checked["max_events"],
         max_steps=checked["max_steps"], divergence_bound=checked["divergence_bound"],
         sensitivity=seeds, inputs=plan, progress=progress)
-    return Simulator(model, settings).run(t_start, y, p, t_end)
+    simulator = Simulator(model, settings)
+    result = simulator.run(t_start, y, p, t_end)
+    if requested == "auto" and method == "QBDF" and simulator.stalled:
+        # QBDF's controller can stall on a jump of the right-hand side inside a step (a
+        # Kelvin-Voigt floor's damping force switching on at touchdown, with a tight atol);
+        # Rodas5P's error estimate passes such a jump: the run is made again with it
+        again = Simulator(model, replace(settings, method="Rodas5P"),
+                          note=f" (method 'auto': {result.message}; run again with Rodas5P)")
+        result = again.run(t_start, y, p, t_end)
+    return result
 
 
 def _parameter_seeds(model: CompiledModel, seeds: Seeds, p: np.ndarray, x0: Any) -> Seeds:
@@ -326,8 +337,8 @@ class Simulator:
     has been recorded so far. :meth:`run` returns the immutable :class:`Trajectory`.
     """
 
-    def __init__(self, model: CompiledModel, settings: Settings):
-        self.model, self.settings = model, settings
+    def __init__(self, model: CompiledModel, settings: Settings, note: str = ""):
+        self.model, self.settings, self.note = model, settings, note
         events: list[EventInfo | Event] = [*model.events, *settings.events]
         self.names = [e.name for e in events]
         self.direction = np.array([e.direction for e in events])
@@ -347,6 +358,7 @@ class Simulator:
         self.phi_error = 0.0                    # their largest error estimate (in rtol)
         self._crossings: list[Crossing] = []
         self.columns: ParameterColumns | None = None    # with parameters: Π and the build
+        self.stalled = False            # a compiled loop's step size fell below its minimum
 
     def run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
         """Integrate from (t_start, y) with parameters p to t_end (or until a terminal event
@@ -471,8 +483,8 @@ class Simulator:
             sensitivity = Sensitivity(seeds.states.copy(), phi[:, :n, :m0].copy(),
                                       tuple(self._crossings), self.phi[:n, :m0].copy(),
                                       self.phi_error, **extra)
-        return Trajectory(self.model, self._segments, self._events, self._jumps, status, message,
-                          h0=h0, sensitivity=sensitivity, **self._counts)
+        return Trajectory(self.model, self._segments, self._events, self._jumps, status,
+                          message + self.note, h0=h0, sensitivity=sensitivity, **self._counts)
 
     def _cross(self, phi: np.ndarray, k: int, t: float, y_minus: np.ndarray,
                p_minus: np.ndarray, y_plus: np.ndarray, p_plus: np.ndarray, reset: Reset, *,
@@ -766,6 +778,7 @@ class Simulator:
         self._segments.append(Segment(t_all, y_all.T, p.copy(), None, phi_all))
         self.t, self.y = float(t), y.copy()
         status = _LOOP_STATUS.get(int(code), Status.FAILED)
+        self.stalled = int(code) == 2
         if status == Status.EVENT:
             self.pre_event_sign = -float(np.sign(self.direction[k])) if self.direction[k] else 0.0
             return status, "", int(k)

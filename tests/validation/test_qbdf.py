@@ -247,6 +247,25 @@ def test_auto_picks_qbdf_for_multibodies_of_two_or_more_coordinates():
     assert np.array_equal(a.y, b.y)
 
 
+def test_auto_runs_rodas5p_again_where_qbdf_stalls_on_a_jump_of_the_force():
+    """The Kelvin-Voigt floor at its file's tolerances (rtol 1e-9, atol 1e-12): the damping
+    force B v jumps from 0 to 140 N*s/m x 3.1 m/s at touchdown (t = 0.3193 s, the free fall of
+    0.5 m: sqrt(2 x 0.5 / 9.81) = 0.3193 s), inside a step. QBDF's controller stalls there;
+    "auto" (QBDF for this two-coordinate multibody) makes the run again with Rodas5P, says so,
+    and gives Rodas5P's run, bit for bit, with the ledger closed."""
+    ball = compile_model(io.load("bouncing_ball_kelvin_voigt"), backend="c")
+    assert auto_method(ball) == "QBDF"
+    tol = {"rtol": 1e-9, "atol": 1e-12}
+    stalled = ball.simulate(1.5, method="QBDF", **tol)
+    assert stalled.status == "failed" and "step size too small" in stalled.message
+    assert abs(stalled.t[-1] - math.sqrt(2 * 0.5 / 9.81)) < 1e-4
+    auto, rodas = ball.simulate(1.5, **tol), ball.simulate(1.5, method="Rodas5P", **tol)
+    assert auto.status == "finished" and auto.message == (
+        f"reached t_end (method 'auto': {stalled.message}; run again with Rodas5P)")
+    assert np.array_equal(auto.t, rodas.t) and np.array_equal(auto.y, rodas.y)
+    assert np.max(np.abs(auto.residual)) < 1e-6 * auto.energy_scale
+
+
 def test_refuses_python_events_and_dense_output(dc_motor):
     with pytest.raises(ph.errors.ModelError, match="QBDF"):
         dc_motor.simulate(0.1, method="QBDF", dense_output=True)
