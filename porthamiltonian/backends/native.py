@@ -48,7 +48,9 @@ from . import Functions
 #: (:data:`LOOP_PRAGMA`), which makes the compliant-leg walker's steps ~1.4x faster; the two loop
 #: nests of the generated functions (the Jacobian's row operations, the small solves) at -O3 by a
 #: pragma in the generated prelude (compiler/printers.py: -18 % per compass-walker step, no
-#: measurable build time).
+#: measurable build time); the functions called once per analysis, not at every step (jac_u:
+#: compiler/printers.py, COLD_FUNCTIONS) at -O0 by a pragma (the Whipple bicycle's unit: 5.3 ->
+#: 3.3 s of CPU).
 #: -fno-math-errno lets sqrt() compile to one instruction; -fno-tree-dse skips GCC's dead-store
 #: elimination, superlinear on the long runs of stores of generated code (the 40-link chain's
 #: unit: 4.4 -> 2.6 s of CPU) and of no use there; nothing changes results (no -ffast-math),

@@ -727,6 +727,16 @@ def _c_call_arrays(st: Call | CallTangent, pr: Callable[[sp.Basic], str]) -> lis
             f"    const double {st.label}i[{max(len(st.inputs), 1)}] = {{{values(st.inputs)}}};"]
 
 
+#: generated functions called once per analysis, not at every step: ``jac_u`` (∂ẋ/∂u, for a
+#: linearization, or an FMU's directional derivatives by its inputs). GCC compiles them at -O0
+#: (the same IEEE arithmetic): GCC's -O1 time grows faster than the length of a function, and
+#: the Whipple bicycle's 3400-line jac_u took 2.0 of its unit's 5.3 s of compile
+COLD_FUNCTIONS = frozenset({"jac_u"})
+_COLD_PUSH = ('#if defined(__GNUC__) && !defined(__clang__)\n#pragma GCC push_options\n'
+              '#pragma GCC optimize ("O0")\n#endif')
+_COLD_POP = '#if defined(__GNUC__) && !defined(__clang__)\n#pragma GCC pop_options\n#endif'
+
+
 def c_source(prog: Program) -> str:
     """The program as a C99 translation unit: the functions (static), each followed by its
     exported wrapper ``ph_<name>`` (and preceded by
@@ -746,7 +756,10 @@ def c_source(prog: Program) -> str:
         else:
             export = (f"PH_EXPORT void ph_{fn.name}(double t, const double *x, const double *p, "
                       f"double *out) {{ {fn.name}(t, x, p, out); }}")
-        parts += [FUNCTION_MARK.format(fn.name), c_function(fn, printer, printed), export]
+        code = c_function(fn, printer, printed)
+        if fn.name in COLD_FUNCTIONS:
+            code = f"{_COLD_PUSH}\n{code}\n{_COLD_POP}"
+        parts += [FUNCTION_MARK.format(fn.name), code, export]
     parts.append(FUNCTIONS_END)
     sizes = [prog.n, prog.n_params, prog.n_guards, prog.n_outputs,
              sum(1 for fn in prog.functions if fn.name.startswith("matrix_"))]

@@ -160,3 +160,20 @@ def test_the_derivative_memo_gives_the_same_derivatives(name, monkeypatch):
     # the loop above: the plain runs, then each derivative of the memo once
     assert with_memo == len(computed) + len(memo)
     assert 0 < len(memo) < len(computed) / 2
+
+
+def test_only_the_functions_called_once_per_analysis_compile_at_o0():
+    """jac_u (∂ẋ/∂u: a linearization, an FMU's directional derivatives by its inputs) is
+    wrapped in GCC's -O0 pragma and nothing else is; the C library's jac_u gives the python
+    back end's numbers (the cart-pole, whose input is the force on the cart)."""
+    cart = io.load("cart_pole")
+    source = c_source(program(symbolic(cart)))
+    cold = re.findall(r'#pragma GCC optimize \("O0"\)\n#endif\n\n?(?:/\*.*?\*/\n)?static void (\w+)',
+                      source, re.DOTALL)
+    assert cold == ["jac_u"]
+    assert source.count('#pragma GCC optimize ("O0")') == 1
+    c, py = compile_model(cart, backend="c"), compile_model(cart, backend="python")
+    x = c.augment(c.initial_state()) + 0.3
+    p = c.native_params(c.params())
+    jac_u = [model.functions.extra["jac_u"](0.2, x, p) for model in (c, py)]
+    assert np.any(jac_u[0]) and np.array_equal(*jac_u)
