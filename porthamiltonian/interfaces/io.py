@@ -68,7 +68,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import collector, userfiles
 from ..errors import ModelError, ModelFileError, OptionError
-from ..simulation.options import check_rtol
+from ..simulation.options import check_method, check_rtol
 
 if TYPE_CHECKING:
     import tomllib
@@ -816,9 +816,9 @@ def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
                     "table": "a table of state = number"}[kind]
             r.add(f"[simulation] {key} must be {want}, got {_type_name(value)} {value!r}",
                   "simulation", key)
-        elif key == "rtol":
+        elif key in ("rtol", "method"):
             try:
-                check_rtol(value)
+                (check_rtol if key == "rtol" else check_method)(value)
             except OptionError as err:
                 r.add(f"[simulation] {err}", "simulation", key)
     sim = data.get("simulation", {})

@@ -754,8 +754,10 @@ def to_text(expr: sp.Basic) -> str:
     if isinstance(expr, sp.Pow):
         return f"({to_text(expr.base)} ** {to_text(expr.exp)})"
     if isinstance(expr, sp.Piecewise):
-        inner = ", ".join(f"({to_text(v)}, {to_text(c)})" for v, c in expr.args)
-        return f"Piecewise({inner})"
+        if all(c is sp.true or type(c) in ops_of for _, c in expr.args):
+            inner = ", ".join(f"({to_text(v)}, {to_text(c)})" for v, c in expr.args)
+            return f"Piecewise({inner})"
+        return _branches(list(expr.args))
     if isinstance(expr, sp.Heaviside):
         # sympy keeps the value at zero as a second argument (1/2 unless given); the language's
         # Heaviside is 1/2 at zero, any other value is written as a Piecewise.
@@ -769,6 +771,41 @@ def to_text(expr: sp.Basic) -> str:
     if type(expr) in names_of:
         return f"{names_of[type(expr)]}({', '.join(to_text(a) for a in expr.args)})"
     raise ExpressionError(f"{expr} ({type(expr).__name__}) cannot be written in the expression "
+                          "language")
+
+
+def _branches(pairs: list[tuple[sp.Expr, sp.Basic]]) -> str:
+    """The (value, condition) pairs of a Piecewise whose conditions are logic (and, or, not,
+    if-then-else of comparisons, as sympy makes of a ``where`` inside a condition) as nested
+    ``where``: the language compares, it has no logic."""
+    sp = _sympy()
+    (value, cond), rest = pairs[0], pairs[1:]
+    if not rest:
+        if cond is sp.true:
+            return to_text(value)
+        raise ExpressionError(f"{sp.Piecewise(*pairs)} (a Piecewise without a last 'otherwise' "
+                              "branch) cannot be written in the expression language")
+    return _choose(cond, to_text(value), _branches(rest))
+
+
+def _choose(cond: sp.Basic, yes: str, no: str) -> str:
+    """Text that is ``yes`` where the logic ``cond`` holds, else ``no``."""
+    sp = _sympy()
+    _, ops_of = _written()
+    if cond is sp.true or cond is sp.false:
+        return yes if cond is sp.true else no
+    if type(cond) in ops_of:
+        return f"where({to_text(cond)}, {yes}, {no})"
+    if isinstance(cond, (sp.And, sp.Or)):
+        first, rest = cond.args[0], type(cond)(*cond.args[1:])
+        return (_choose(first, _choose(rest, yes, no), no) if isinstance(cond, sp.And) else
+                _choose(first, yes, _choose(rest, yes, no)))
+    if isinstance(cond, sp.Not):
+        return _choose(cond.args[0], no, yes)
+    if isinstance(cond, sp.ITE):
+        test, then, otherwise = cond.args
+        return _choose(test, _choose(then, yes, no), _choose(otherwise, yes, no))
+    raise ExpressionError(f"{cond} ({type(cond).__name__}) cannot be written in the expression "
                           "language")
 
 

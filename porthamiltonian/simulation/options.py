@@ -13,7 +13,7 @@ Rules
 * ``max_step``: a number > 0 (``inf``: no bound); ``first_step``: finite, > 0 and at most the span.
 * ``t_eval``: finite, non-decreasing times inside [t_start, t_end].
 * ``max_events``, ``max_steps``: integers >= 1; ``divergence_bound``: a number > 0.
-* ``jacobian``, ``dense_output``: booleans; ``method``: a string.
+* ``jacobian``, ``dense_output``: booleans; ``method``: ``"auto"`` or one of :data:`METHODS`.
 * ``sensitivity``: False, True (every model state), finite seed directions (n x m, m >= 1),
   parameter names (every model state and those parameters), or a
   :class:`~porthamiltonian.simulation.saltation.Seeds`.
@@ -28,7 +28,11 @@ from typing import Any
 import numpy as np
 
 from ..errors import OptionError
+from ..integrators import COMPILED_METHODS
 from .saltation import Seeds
+
+#: the integration methods by name: the compiled loops, then scipy's
+METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 
 #: The smallest relative tolerance accepted (100 float64 epsilons).
 RTOL_MIN = 100 * float(np.finfo(float).eps)
@@ -74,6 +78,13 @@ def check_flag(name: str, value: Any) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise OptionError(f"{name} must be True or False, got {value!r}")
     return bool(value)
+
+
+def check_method(value: Any) -> str:
+    """An integration method: ``"auto"`` or one of :data:`METHODS`."""
+    if value != "auto" and value not in METHODS:
+        raise OptionError(f"unknown method {value!r}; choose 'auto' or one of {', '.join(METHODS)}")
+    return str(value)
 
 
 def check_rtol(value: Any) -> float:

@@ -36,7 +36,7 @@ from ..integrators import COMPILED_METHODS
 from .assembly import consistent
 from .differences import Derivative, gradient, jacobian
 from .inputs import InputPlan, plan_inputs
-from .options import check_simulation
+from .options import check_method, check_simulation
 from .psensitivity import ParameterColumns, parameter_jump
 from .saltation import Crossing, Seeds, Sensitivity, saltation_matrix
 from .sampling import Breakpoints, sample
@@ -45,7 +45,6 @@ from .trajectory import Segment, Status, Trajectory
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
     from .compiled import CompiledModel, EventInfo
 
-METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 #: the methods whose whole step loop is compiled with the model (Functions.loops)
 _COMPILED = COMPILED_METHODS
 _STIFF = ("Radau", "BDF", "LSODA")
@@ -178,13 +177,11 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     if progress is not None and not callable(progress):
         raise OptionError(f"progress must be a function of the time and steps, or None, got "
                           f"{type(progress).__name__}")
-    requested = method
+    requested = check_method(method)
     if method == "auto":
         evaluated = t_eval is not None and checked["sensitivity"] is None
         method = ("Radau" if (events or evaluated or dense_output or calls) else
                   auto_method(model))
-    if method not in METHODS:
-        raise ModelError(f"unknown method {method!r}; choose 'auto' or one of {', '.join(METHODS)}")
     p = model.params(params)
     if plan is not None:
         p = plan.slots(p, t_start)

@@ -103,7 +103,12 @@ EXPRESSIONS = st.recursive(ATOMS, _combine, max_leaves=8)
 
 
 def _sympy_value(expr: sp.Expr) -> float | None:
-    value = complex(expr.subs({NAMES[n]: sp.Float(v) for n, v in VALUES.items()}).evalf(30))
+    """sympy's value of ``expr`` at VALUES; None where it is not real (sympy refuses to compare
+    a non-real number: ``k < sqrt(c)`` with c < 0)."""
+    try:
+        value = complex(expr.subs({NAMES[n]: sp.Float(v) for n, v in VALUES.items()}).evalf(30))
+    except (TypeError, ValueError):
+        return None
     return value.real if abs(value.imag) <= 1e-12 * max(1.0, abs(value.real)) else None
 
 
@@ -138,3 +143,22 @@ def test_heaviside_round_trips_with_its_value_at_zero():
         assert float(back.subs(k, 4)) == expected
         assert float(back.subs(k, 4.5)) == 1.0 and float(back.subs(k, 3.5)) == 0.0
         assert parse_text(to_text(sp.Heaviside(k - 4, at_zero))).evaluate({"k": 4.0}) == expected
+
+
+def test_a_where_inside_a_condition_round_trips():
+    """sympy folds ``where(k < where(k < m, k, m), k, m)`` into a Piecewise whose condition is
+    an if-then-else of comparisons (ITE), and ``where(k < m and ...)``-like logic into And, Or
+    and Not: the text writes them as nested ``where`` (found by the fuzz round trip)."""
+    k, m, c = NAMES["k"], NAMES["m"], NAMES["c"]
+    cases = [parse("where(k < where(k < m, k, m), k, m)", NAMES, "case"),
+             sp.Piecewise((k, sp.And(k < m, c < 0)), (m, True)),
+             sp.Piecewise((k, sp.Or(k > m, c > 0)), (m, sp.Not(c > 1)), (c, True)),
+             sp.Piecewise((k, sp.ITE(k > m, c < 0, c > 0)), (m, True))]
+    for values in ({"k": 4.0, "m": 1.5, "c": -0.4}, {"k": 1.0, "m": 1.5, "c": 0.4},
+                   {"k": 1.0, "m": 1.5, "c": 2.0}, {"k": 4.0, "m": 1.5, "c": 0.4}):
+        at = {NAMES[n]: v for n, v in values.items() if n in ("k", "m", "c")}
+        for expr in cases:
+            text = to_text(expr)
+            assert "where(" in text
+            assert float(parse(text, NAMES, "again").subs(at)) == float(expr.subs(at)), text
+            assert parse_text(text).evaluate({**VALUES, **values}) == float(expr.subs(at))

@@ -182,6 +182,23 @@ def no_compilation(monkeypatch):
     ("compass_walker", 'if = ["c1 == 0", "walker.foot1.x - walker.foot2.x > front_margin"]',
      'if = ["c1 == 0", "walker.foot1.x - walker.foot3.x > front_margin"]', "walker.foot3.x",
      "[[walker.rules]] #3 condition"),
+    # found by fuzzing the [walker] tables (each was a TypeError, IndexError, StopIteration or
+    # ValueError from inside the walker, or a run-time error without the file's name)
+    ("compass_walker", 'foot = "foot1"', "foot = []", "foot = []",
+     "[[walker.rules]] #3 foot must be a non-empty string, got []"),
+    ("compass_gait", 'hip = "walker.hip_centre"\n', "", "[walker]",
+     "[walker] hip is missing: a walker with impact rules needs it"),
+    ("compass_walker", 'stance = "foot1"\n', "", "[walker.section]",
+     ("[walker.section] stance is missing: the foot that stands on the surface at the section, "
+      "one of foot1, foot2")),
+    ("compass_walker", 'drop = "step_down"\n', "", "[walker.terrain]",
+     "[walker.terrain] drop is missing"),
+    ("compass_walker", 'method = "Rodas5P"', 'method = "numba"', 'method = "numba"',
+     "[walker.integration] unknown method 'numba'; choose 'auto' or one of Rodas4, Rodas5P"),
+    ("compass_walker", 'backend = "auto"', 'backend = "gpu"', 'backend = "gpu"',
+     "[walker.integration] backend must be \"auto\" or one of c, numba, python, got 'gpu'"),
+    ("compass_walker", "rtol = 1e-9,", "rtol = 1e-300,", "rtol = 1e-300,",
+     "[walker.integration] rtol must be >= 2.22e-14"),
 ])
 def test_a_bad_description_names_file_line_and_part(name, old, new, needle, part, tmp_path,
                                                     no_compilation):

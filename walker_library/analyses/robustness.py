@@ -60,7 +60,7 @@ import numpy as np
 from porthamiltonian.batch.progress import tick
 from porthamiltonian.errors import ParameterValueError
 from porthamiltonian.integrators import COMPILED_METHODS
-from porthamiltonian.simulation.simulate import METHODS
+from porthamiltonian.simulation.options import METHODS
 
 from ..core.protocol import Walker
 from ..core.walker import HybridWalker
@@ -331,7 +331,7 @@ def basin_walker(walker: Walker, method: str | None = "auto") -> Walker:
     """The walker a basin walks its points with (module docstring): ``method`` "auto" — QBDF,
     at the walker's own tolerances, when its own method is a compiled stiff one (Rodas4,
     Rodas5P, QBDF), else the walker as it is (a scipy method such as DOP853); a method name
-    (one of :data:`porthamiltonian.simulation.simulate.METHODS`) — that one, at the walker's
+    (one of :data:`porthamiltonian.simulation.options.METHODS`) — that one, at the walker's
     tolerances; None — the walker as it is."""
     if method is None or not isinstance(walker, HybridWalker):
         return walker

@@ -440,6 +440,9 @@ def _check_points(bad: Problems, spec: WalkerSpec, names: ModelNames) -> None:
                     f"{mb!r}; points: {', '.join(names.points)}", "feet", f.name)
     if spec.hip and spec.hip not in points:
         bad.add(f"[walker] hip {spec.hip!r} is not a point of the multibody {mb!r}", "hip")
+    if not spec.hip and any(r.impact is not None for r in spec.rules):
+        bad.add(f"[walker] hip is missing: a walker with impact rules needs it, the point of the "
+                f"multibody {mb!r} at the hip (the free base of the impacts' model)", "hip")
     for i, r in enumerate(spec.rules):
         if r.impact is None:
             continue

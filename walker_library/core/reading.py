@@ -20,8 +20,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
-from porthamiltonian.errors import ModelError, ModelFileError
+from porthamiltonian.backends import BACKENDS
+from porthamiltonian.errors import ModelError, ModelFileError, OptionError
 from porthamiltonian.modeling.expressions import parse
+from porthamiltonian.simulation.options import check_method, check_rtol
 
 from .hybrid import (
     Comparison,
@@ -189,12 +191,26 @@ def _read_integration(r: _Reading) -> Integration:
         if key not in allowed:
             r.bad.add(f"[walker.integration] has no key {key!r}{suggestion(key, allowed)}; keys: "
                       f"{', '.join(allowed)}", "integration", key)
-        elif key in ("backend", "method"):
-            opts[key] = r.string(value, f"[walker.integration] {key}", "integration", key)
+        elif key == "backend":
+            if value not in ("auto", *BACKENDS):
+                r.bad.add(f"[walker.integration] backend must be \"auto\" or one of "
+                          f"{', '.join(BACKENDS)}, got {value!r}", "integration", key)
+            else:
+                opts[key] = value
+        elif key == "method":
+            try:
+                opts[key] = check_method(value)
+            except OptionError as err:
+                r.bad.add(f"[walker.integration] {err}", "integration", key)
         elif not (_is_value(value) and not isinstance(value, str) and value > 0
                   and math.isfinite(value)):
             r.bad.add(f"[walker.integration] {key} must be a positive number, got {value!r}",
                       "integration", key)
+        elif key == "rtol":
+            try:
+                opts[key] = check_rtol(value)
+            except OptionError as err:
+                r.bad.add(f"[walker.integration] {err}", "integration", key)
         else:
             opts[key] = float(value)
     return Integration(**opts)
@@ -246,7 +262,13 @@ def _read_modes(r: _Reading) -> list[tuple[str, Value]]:
 def _read_terrain(r: _Reading, modes: list[tuple[str, Value]]) -> Terrain:
     """``[walker.terrain]``: the drop parameter and the surfaces (modes)."""
     ter = r.mapping("terrain")
-    drop = r.string(ter.get("drop"), "[walker.terrain] drop", "terrain", default="")
+    drop = ter.get("drop")
+    if drop is None:
+        r.bad.add("[walker.terrain] drop is missing: the parameter the step-down test sets to the "
+                  "height of the drop (m), e.g. drop = \"step_down\"", "terrain")
+        drop = ""
+    else:
+        drop = r.string(drop, "[walker.terrain] drop", "terrain", "drop", default="")
     if drop and drop not in r.symbols:
         r.bad.add(f"[walker.terrain] drop {drop!r} is not a parameter of the model",
                   "terrain", "drop")
@@ -314,10 +336,12 @@ def _read_rule(r: _Reading, i: int, entry: Mapping, feet: set[str],
             r.bad.add(f"{where}: {key} must be true or false", "rules", i, key)
             flags[key] = False
     foot = entry.get("foot")
+    if foot is not None:
+        foot = r.string(foot, f"{where} foot", "rules", i, "foot") or None
     if foot is not None and foot not in feet:
         r.bad.add(f"{where}: foot {foot!r} is not one of the feet ({', '.join(sorted(feet))})",
                   "rules", i, "foot")
-    if flags["heel_strike"] and foot is None:
+    if flags["heel_strike"] and "foot" not in entry:
         r.bad.add(f"{where}: a heel-strike rule needs foot = the foot that strikes", "rules", i)
     impact = entry.get("impact")
     if impact is not None:
@@ -497,7 +521,13 @@ def _read_section(r: _Reading, feet: list[Foot], relabel: tuple) -> tuple[
         coords = []
     if len(set(coords)) != len(coords):
         r.bad.add("[walker.section] coordinates repeat a name", "section", "coordinates")
-    stance = r.string(sec.get("stance"), "[walker.section] stance", "section", default="")
+    stance = sec.get("stance")
+    if stance is None:
+        r.bad.add("[walker.section] stance is missing: the foot that stands on the surface at "
+                  f"the section, one of {', '.join(f.name for f in feet) or 'the feet'}", "section")
+        stance = ""
+    else:
+        stance = r.string(stance, "[walker.section] stance", "section", "stance", default="")
     if stance and stance not in {f.name for f in feet}:
         r.bad.add(f"[walker.section] stance {stance!r} is not one of the feet", "section",
                   "stance")
