@@ -180,7 +180,8 @@ static int bdf(const ph_tableau *phi_tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
             sc[i] = atol[i] + rtol * fabs(y[i]);
         int underflow = 0;
         for (;;) {
-            if (h < 1e-14 * fmax(fabs(t), 1.0) && h < t_end - t) {   /* unless it is all that is left */
+            if (!(h >= 1e-14 * fmax(fabs(t), 1.0)) && !(h >= t_end - t)) {   /* unless it is all that is
+                                                                          * left; a NaN h too */
                 underflow = 1;
                 break;
             }

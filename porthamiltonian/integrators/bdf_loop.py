@@ -232,7 +232,7 @@ def _bdf(fn, TA, TC, TN, TD, gam, expo, t0, y0, t_end, p, rtol, atol, h0, hmax, 
             sc[i] = atol[i] + rtol * abs(y[i])
         underflow = False
         while True:
-            if h < 1e-14 * max(abs(t), 1.0) and h < t_end - t:   # unless it is all that is left
+            if not h >= 1e-14 * max(abs(t), 1.0) and not h >= t_end - t:  # unless all that is left; NaN
                 underflow = True
                 break
             t_new = t_end if last else t + h

@@ -622,7 +622,7 @@ static int rosenbrock(const ph_tableau *tab, PH_LOOP_PARAMS, PH_PHI_PARAMS)
         int rejected = 0, underflow = 0;
         for (;;) {
             /* too small a step, unless it is the whole of what is left (t_end - t tiny) */
-            if (h < 1e-14 * fmax(fabs(t), 1.0) && h < t_end - t) {
+            if (!(h >= 1e-14 * fmax(fabs(t), 1.0)) && !(h >= t_end - t)) {   /* a NaN h too */
                 underflow = 1;
                 break;
             }

@@ -601,7 +601,7 @@ def _rosenbrock(fn, TA, TC, TN, TD, TH, gam, expo, t0, y0, t_end, p, rtol, atol,
         underflow = False
         while True:
             # too small a step, unless it is the whole of what is left (t_end - t itself tiny)
-            if h < 1e-14 * max(abs(t), 1.0) and h < t_end - t:
+            if not h >= 1e-14 * max(abs(t), 1.0) and not h >= t_end - t:   # a NaN h too
                 underflow = True
                 break
             if t + h > t_end:

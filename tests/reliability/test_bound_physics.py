@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import MODELS_DIR
+from conftest import MODELS_DIR, capped
 
 import porthamiltonian as ph
 from porthamiltonian import compile_model, io
@@ -177,6 +177,31 @@ def test_a_tiny_end_time_finishes(method):
     assert traj.success and traj.t_final == 1e-300, traj.message
     assert traj.x_final[0] == pytest.approx(-4e-301, rel=1e-12)
     assert traj.x_final[1] == 0.1
+
+
+_NOT_FINITE = """
+import sys
+from porthamiltonian import compile_model, io
+m = compile_model(io.load("double_pendulum"), backend=sys.argv[1])
+x = m.initial_state()
+x[2], x[3] = 1e308, -1e308
+for method in ("Rodas5P", "QBDF"):
+    r = m.simulate(1.0, x0=x, method=method)
+    print(method, r.status, r.message)
+"""
+
+
+@pytest.mark.parametrize("backend", ["c", "python"])
+def test_a_state_whose_derivative_is_not_finite_fails_at_once(backend):
+    """The double pendulum with momenta ±1e308: the right-hand side at the start holds inf and
+    NaN, the first step size was NaN, and the compiled loops (C, and the python back end's
+    template) compared it with their smallest step forever (every comparison with NaN is
+    false). Both loops now say that the step size is too small, at t = 0; the run is a
+    subprocess, since a hang in C code cannot be interrupted."""
+    run = capped(["-c", _NOT_FINITE, backend], 4 << 30, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines() == [
+        f"{m} failed {m}: step size too small (or W singular) at t = 0" for m in ("Rodas5P", "QBDF")]
 
 
 # --- one namespace ------------------------------------------------------------------------------------
