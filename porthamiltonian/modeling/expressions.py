@@ -463,8 +463,15 @@ class Expression:
         names. Powers of numbers are computed only within the float64 range."""
         sp = _sympy()
         unknown: list[str] = []
+        undefined = (sp.nan, sp.zoo, sp.oo, sp.S.NegativeInfinity)
 
         def build(node: Node) -> Any:
+            value = made(node)
+            if any(value is u for u in undefined):
+                raise _Syntax("division by zero or an infinite value")
+            return value
+
+        def made(node: Node) -> Any:
             kind = node[0]
             if kind == "num":
                 return _number(node[1])
@@ -509,7 +516,11 @@ class Expression:
                 return sp.true
             return sp.Piecewise(*((build(value), build(cond)) for value, cond in node[1]))
 
-        return build(self.tree), unknown
+        try:
+            return build(self.tree), unknown
+        except (TypeError, ValueError) as err:     # sympy refuses to compare a non-real value
+            raise _Syntax(f"a value that is not a real number (a root or logarithm of a negative "
+                          f"number) is compared ({err})") from None
 
     def evaluate(self, values: Mapping[str, float]) -> float:
         """The value for the names in ``values`` (floats; ``pi`` and the functions known),

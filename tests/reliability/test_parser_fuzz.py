@@ -162,3 +162,22 @@ def test_a_where_inside_a_condition_round_trips():
             assert "where(" in text
             assert float(parse(text, NAMES, "again").subs(at)) == float(expr.subs(at)), text
             assert parse_text(text).evaluate({**VALUES, **values}) == float(expr.subs(at))
+
+
+def test_an_undefined_or_non_real_value_inside_an_expression_is_an_expression_error():
+    """atan2(0, 0) (NaN), log(0) (complex infinity) and sqrt(-1) inside a power, a steep function,
+    max or a comparison: sympy raised TypeError or ValueError from there (found by the fuzz);
+    each is now an ExpressionError naming where and why."""
+    for text, why in [("-(atan2(0, 0))**2", "division by zero or an infinite value"),
+                      ("exp(atan2(0, 0))", "division by zero or an infinite value"),
+                      ("max(atan2(0, 0), 1)", "division by zero or an infinite value"),
+                      ("where(k*log(0) < 1, 1, 2)", "division by zero or an infinite value"),
+                      ("exp(-log(0))**2", "division by zero or an infinite value"),
+                      ("where(sqrt(-1) < 1, 1, 2)", "not a real number"),
+                      ("max(log(-1), k)", "not a real number")]:
+        try:
+            parse(text, NAMES, "case")
+        except ExpressionError as err:
+            assert str(err).startswith(f"case: cannot parse {text!r}: ") and why in str(err)
+        else:
+            raise AssertionError(f"{text!r} parsed")
