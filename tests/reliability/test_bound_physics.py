@@ -22,7 +22,7 @@ from conftest import MODELS_DIR, capped
 
 import porthamiltonian as ph
 from porthamiltonian import compile_model, io
-from porthamiltonian.errors import DuplicateNameError, ModelError, ParameterValueError
+from porthamiltonian.errors import DuplicateNameError, ModelError, ParameterValueError, StateError
 from porthamiltonian.interfaces import cli
 from porthamiltonian.mechanics import FreeBody
 
@@ -256,3 +256,15 @@ def test_a_point_with_another_name_still_runs(compile_named):
     a = model.simulate(1.0, method="Radau", rtol=1e-10, atol=1e-12)
     b = reference.simulate(1.0, method="Radau", rtol=1e-10, atol=1e-12)
     assert np.array_equal(a.x_final, b.x_final)
+
+
+def test_a_walker_whose_mass_matrix_is_singular_says_so():
+    """compass_walker with l = 1e-300 (inside its range (0, inf)): the legs' inertia
+    m l²/12 rounds to zero and the mass matrix is singular. `walker gait` ended with numpy's
+    LinAlgError and "this is a bug" (found by fuzzing the command line); the walker now raises a
+    StateError naming the matrix and the likely cause."""
+    from walker_library import load_walker
+
+    walker = load_walker("compass_walker", {"l": 1e-300})
+    with pytest.raises(StateError, match=r"the mass matrix walker\.M is singular at this state"):
+        walker.section_state(walker.initial_guess())

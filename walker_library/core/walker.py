@@ -402,7 +402,13 @@ class HybridWalker:
     def velocities(self, x: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """Joint rates v of the multibody: M(q) v = p (solved, not inverted)."""
         M = self.model.matrix(f"{self.multibody}.M", 0.0, x, self.run.p if p is None else p)
-        return np.linalg.solve(M, np.asarray(x)[list(self.compiled.momenta)])
+        try:
+            return np.linalg.solve(M, np.asarray(x)[list(self.compiled.momenta)])
+        except np.linalg.LinAlgError:
+            raise StateError(f"walker {self.name!r}: the mass matrix {self.multibody}.M is "
+                             "singular at this state: a body without mass or inertia (a "
+                             "length or mass so small that its inertia rounds to zero?); "
+                             "check the parameters") from None
 
     def start_params(self, ground_drop: float = 0.0, p: np.ndarray | None = None) -> np.ndarray:
         """The parameter vector at the start of a walk: the drop set to ``ground_drop``, the modes
