@@ -124,7 +124,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         asked for, else :func:`auto_method`: QBDF for a multibody of two or more coordinates,
         Rodas5P otherwise; where QBDF stalls (step size too small: a jump of the force inside a
         step, e.g. a Kelvin-Voigt contact at touchdown with a tight atol) the run is made again
-        with Rodas5P, and the message says so), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
+        with Rodas5P from the start, and the message says so; ``progress`` then sees the time
+        start again), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
         Rosenbrock methods of order 5 and 4: a Jacobian and an LU at every step; Rodas5P takes
         fewer steps at the same accuracy), ``"QBDF"`` (variable-order BDF, orders 1-5, reusing
         its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
