@@ -452,7 +452,10 @@ class HybridWalker:
                 v[c.rates[step.name]] = value
             else:
                 x[m.state_index(step.name)] = value
-        x[list(c.momenta)] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
+        # momenta beyond the float64 range (a guess of 1e308 rad/s): a state that the run
+        # refuses, and the stride falls; numpy's warning about it would only repeat that
+        with np.errstate(over="ignore", invalid="ignore"):
+            x[list(c.momenta)] = self.model.matrix(f"{self.multibody}.M", 0.0, x, p) @ v
         return x
 
     def _solve(self, x: np.ndarray, p: np.ndarray, target: str, o: int, value: float) -> float:
