@@ -5,9 +5,10 @@
     walker continue MODEL --param NAME=START:STOP [--set NAME=VALUE ...] [--guess FILE]
                     [--doublings N] [--jacobian variational|fd] [--json] [--out DIR]
     walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--json]
-    walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--json]
-    walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--json]
-    walker gsn MODEL [--set NAME=VALUE ...] [--json]
+    walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--time-limit S]
+        [--json]
+    walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--time-limit S] [--json]
+    walker gsn MODEL [--set NAME=VALUE ...] [--time-limit S] [--json]
     walker report [MODEL] [--out DIR] [--set NAME=VALUE ...] [--steps N] [--basin] [--view3d]
                   [--continuation NAME=START:STOP]
     walker sweep MODEL --grid NAME=SPEC ... --out FILE [--analysis NAME] [--option NAME=VALUE]
@@ -364,14 +365,23 @@ def _case_lines(args: argparse.Namespace, label: str,
     return report
 
 
+def _search_limit(p: argparse.ArgumentParser) -> None:
+    """``--time-limit`` of a study that starts with the gait search (step-down, basin, gsn)."""
+    p.add_argument("--time-limit", type=float, default=TIME_LIMIT, metavar="S",
+                   help=f"stop the gait search the study starts from after S seconds (default "
+                        f"{TIME_LIMIT:g}; 0: no limit); without a gait the study says so")
+
+
 def _case_study(args: argparse.Namespace, label: str, study: Callable[..., Any],
                 **options: Any) -> tuple[HybridWalker, Any] | None:
-    """``study(walker, progress=..., **options)`` (step_down, basin) on the walker of ``args``,
-    under the activity display with a line per case (_case_lines); with --json its result is
-    printed and None returned, else (walker, result) for the command to print."""
+    """``study(walker, gait, progress=..., **options)`` (step_down, basin) on the walker of
+    ``args`` and its gait (the search under --time-limit), under the activity display with a
+    line per case (_case_lines); with --json its result is printed and None returned, else
+    (walker, result) for the command to print."""
     walker = _walker(args)
     with activity(f"{label} {walker.name}", enabled=not args.quiet) as shown:
-        result = study(walker, progress=_case_lines(args, label, shown), **options)
+        gait = analyze_gait(walker, time_limit=args.time_limit or None)
+        result = study(walker, gait, progress=_case_lines(args, label, shown), **options)
     if args.json:
         print(result.to_json())
         return None
@@ -417,7 +427,8 @@ def cmd_gsn(args: argparse.Namespace) -> int:
 
     walker = _walker(args)
     with activity(f"gsn {walker.name}", enabled=not args.quiet):
-        result = gait_sensitivity_norm(walker)
+        result = gait_sensitivity_norm(walker, analyze_gait(walker,
+                                                            time_limit=args.time_limit or None))
     if args.json:
         print(to_json(result))
         return 0
@@ -634,7 +645,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="height grid (m; default: 2e-4 of the leg length)")
     p.add_argument("--h-max", type=float, default=None, metavar="H",
                    help="largest height tried (m; default: 0.1 of the leg length)")
-    rules(p, resolution=positive, h_max=positive)
+    _search_limit(p)
+    rules(p, resolution=positive, h_max=positive, time_limit=not_negative)
     p.set_defaults(func=cmd_step_down)
 
     p = sub.add_parser("basin", parents=analysis,
@@ -643,11 +655,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--span", type=float, default=0.1,
                    help="half-width of the grid in scaled units (theta/0.4 rad, "
                         "theta_dot/0.8 rad/s; default: 0.1)")
-    rules(p, n=at_least(2), span=positive)
+    _search_limit(p)
+    rules(p, n=at_least(2), span=positive, time_limit=not_negative)
     p.set_defaults(func=cmd_basin)
 
     p = sub.add_parser("gsn", parents=analysis,
                        help="Gait Sensitivity Norm for a step-down disturbance")
+    _search_limit(p)
+    rules(p, time_limit=not_negative)
     p.set_defaults(func=cmd_gsn)
 
     p = sub.add_parser("report", parents=[BACKEND_OPTION, SET_OPTION, QUIET_OPTION],

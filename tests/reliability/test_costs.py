@@ -13,6 +13,7 @@ their own message.
 """
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -224,6 +225,20 @@ def test_a_gait_search_that_would_run_for_hours_stops_at_its_time_limit(capsys, 
         # it got as far as the homotopy (under load the 8 s may end earlier: after Newton from
         # the guess, or "before the continuation from the nominal gait (K ...)")
         assert "continuing the model file's nominal gait: K 1e+06 -> 1e+15" in err  # progress
+
+
+@pytest.mark.parametrize("study", ["step-down", "basin", "gsn"])
+def test_the_studies_stop_their_gait_search_at_their_time_limit(study, capsys):
+    """step-down, basin and gsn start from the gait search, which with K = 1e15 runs to its
+    default limit (600 s) before the study starts: --time-limit bounds it as for `walker gait`,
+    and the study says that it has no gait and why."""
+    from walker_library.cli import main
+
+    status = main([study, "compass_walker", "--set", "K=1e15", "--time-limit", "0.2", "--json",
+                   "--quiet"])
+    result = json.loads(capsys.readouterr().out)
+    assert status == 0 and result["status"] == "no_gait"
+    assert "the search stopped at its time limit (0.2 s; --time-limit)" in result["message"]
 
 
 def test_newton_starts_no_iteration_after_its_time_limit():
