@@ -44,6 +44,7 @@ from ..batch.errors import SweepError
 from ..batch.grids import MAX_CASES
 from ..batch.progress import MODES
 from ..errors import ModelError, OptionError
+from ..simulation.options import METHODS
 from . import io
 
 # A command's own machinery (the sweep runner and the model sweeps' cases, the FMU exporter, the
@@ -342,7 +343,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
-                          progress=RunProgress(model.name, entry.t_end(args.t_end)))
+                          progress=RunProgress(model.name, entry.t_end(args.t_end)),
+                          method=args.method)
     result: dict[str, Any] = {"model": model.name, "status": traj.status, "message": traj.message,
               "t_end": traj.t_final,
               "final_state": dict(zip(compiled.state_names, traj.x_final.tolist())),
@@ -529,6 +531,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="end time (s; default: the model file's [simulation] t_end)")
     p.add_argument("--csv", metavar="FILE",
                    help="also write the trajectory (time, states, ledger, outputs) as CSV")
+    p.add_argument("--method", choices=("auto", *METHODS), default=None,
+                   help="integration method (default: the model file's [simulation] method; "
+                        "docs/backends.md)")
     p.set_defaults(func=cmd_simulate)
     p = sub.add_parser("view", parents=[BACKEND_OPTION, SET_OPTION],
                        help="simulate a model and write an interactive 3D view of its bodies "

@@ -86,16 +86,17 @@ class SimulationModel:
 
     def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
                  dense_output: bool = False,
-                 progress: Callable[[float, int], None] | None = None) -> Trajectory:
+                 progress: Callable[[float, int], None] | None = None,
+                 method: str | None = None) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
-        method, rtol, atol, max_step and constant ``inputs`` (with ``dense_output``, a file's
-        compiled method, Rodas4, Rodas5P or QBDF, becomes "auto": Radau); a
+        method (``method``: another one), rtol, atol, max_step and constant ``inputs`` (with
+        ``dense_output``, a compiled method, Rodas4, Rodas5P or QBDF, becomes "auto": Radau); a
         :class:`~porthamiltonian.errors.ModelError` when no end is known.
         ``progress``: see :func:`~porthamiltonian.simulation.simulate.simulate`."""
         t_end = self.t_end(t_end)
         sim = self.settings
         options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
-        method = sim["method"]
+        method = sim["method"] if method is None else method
         if dense_output and method in COMPILED_METHODS:
             method = "auto"              # the compiled loop has no dense output: Radau instead
         if self.compiled.input_names:

@@ -210,6 +210,24 @@ def test_the_console_scripts_freeze_what_is_alive_before_the_exit(monkeypatch, c
         assert "error: " in capsys.readouterr().err
 
 
+def test_simulate_method_replaces_the_files(capsys):
+    """`simulate --method Rodas5P` on the Kelvin-Voigt ball (its file names Radau) is the
+    Python API's Rodas5P run at the file's tolerances, number for number; an unknown method is
+    refused by the argument parser (exit status 2)."""
+    from porthamiltonian import compile_model
+
+    status = main(["--backend", "c", "simulate", "bouncing_ball_kelvin_voigt", "--method",
+                   "Rodas5P", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    ball = compile_model(io.load("bouncing_ball_kelvin_voigt"), backend="c")
+    ref = ball.simulate(1.5, method="Rodas5P", rtol=1e-9, atol=1e-12)
+    assert status == 0 and out["nfev"] == ref.nfev
+    assert list(out["final_state"].values()) == ref.x_final.tolist()
+    with pytest.raises(SystemExit) as info:
+        main(["simulate", "bouncing_ball_kelvin_voigt", "--method", "rodas"])
+    assert info.value.code == 2 and "invalid choice: 'rodas'" in capsys.readouterr().err
+
+
 # The remaining bad-input checks call the entry point in-process (``main`` returns the exit status
 # that ``python -m porthamiltonian.interfaces.cli`` exits with), saving an interpreter start-up each.
 def test_set_without_equals_exits_2_with_message(capsys):
