@@ -67,6 +67,7 @@ from porthamiltonian.interfaces.cli import (
 from .analyses.gait import (
     GAIT_QUANTITIES,
     TIME_LIMIT,
+    GaitResult,
     analyze_gait,
     gait_start,
     section_guess,
@@ -372,6 +373,11 @@ def _search_limit(p: argparse.ArgumentParser) -> None:
                         f"{TIME_LIMIT:g}; 0: no limit); without a gait the study says so")
 
 
+def _study_gait(walker: HybridWalker, args: argparse.Namespace) -> GaitResult:
+    """The gait a study (step-down, basin, gsn) starts from: the search under --time-limit."""
+    return analyze_gait(walker, time_limit=args.time_limit or None)
+
+
 def _case_study(args: argparse.Namespace, label: str, study: Callable[..., Any],
                 **options: Any) -> tuple[HybridWalker, Any] | None:
     """``study(walker, gait, progress=..., **options)`` (step_down, basin) on the walker of
@@ -380,8 +386,8 @@ def _case_study(args: argparse.Namespace, label: str, study: Callable[..., Any],
     (walker, result) for the command to print."""
     walker = _walker(args)
     with activity(f"{label} {walker.name}", enabled=not args.quiet) as shown:
-        gait = analyze_gait(walker, time_limit=args.time_limit or None)
-        result = study(walker, gait, progress=_case_lines(args, label, shown), **options)
+        result = study(walker, _study_gait(walker, args), progress=_case_lines(args, label, shown),
+                       **options)
     if args.json:
         print(result.to_json())
         return None
@@ -427,8 +433,7 @@ def cmd_gsn(args: argparse.Namespace) -> int:
 
     walker = _walker(args)
     with activity(f"gsn {walker.name}", enabled=not args.quiet):
-        result = gait_sensitivity_norm(walker, analyze_gait(walker,
-                                                            time_limit=args.time_limit or None))
+        result = gait_sensitivity_norm(walker, _study_gait(walker, args))
     if args.json:
         print(to_json(result))
         return 0
