@@ -192,7 +192,7 @@ def test_empty_model_is_refused():
     ("rtol = 1e-9", "rtol = nan", ["rtol", "positive"]),
     ("atol = 1e-12", "atol = -1.0", ["atol", "positive"]),
     ("t_end = 20.0", "t_end = inf", ["t_end", "positive"]),
-    ('method = "Radau"', 'method = "radau"', ["unknown method 'radau'", "Radau"]),
+    ('method = "auto"', 'method = "radau"', ["unknown method 'radau'", "Radau"]),
 ])
 def test_bad_simulation_table_is_a_model_file_error(model_text, old, new, words):
     text = model_text("mass_spring_damper")

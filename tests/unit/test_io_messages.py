@@ -306,7 +306,7 @@ def test_bad_outputs(tmp_path):
      "did you mean 't_end'?"),
     ("t_end = 20.0", 't_end = "long"', "t_end", ["[simulation] t_end", "'long'"],
      "must be a positive number"),
-    ('method = "Radau"', "method = 4", "method = 4", ["[simulation] method", "an integer 4"],
+    ('method = "auto"', "method = 4", "method = 4", ["[simulation] method", "an integer 4"],
      "must be a string (e.g. \"Radau\")"),
     ("rtol = 1e-9", "rtol = -1e-9", "rtol", ["[simulation] rtol", "-1e-09"],
      "must be a positive number"),
