@@ -100,6 +100,15 @@ SET_OPTION.add_argument("--set", action="append", default=[], metavar="NAME=VALU
 JSON_OPTION = _parent()
 JSON_OPTION.add_argument("--json", action="store_true",
                          help="print one JSON document on stdout (SI units, named fields)")
+#: ``--progress-interval S`` of a single run (``simulate``, ``view``): see :class:`RunProgress`
+RUN_PROGRESS_OPTION = _parent()
+RUN_PROGRESS_OPTION.add_argument(
+    "--progress-interval", type=float, default=5.0, metavar="S",
+    help="seconds of wall time before the first progress line on stderr of a long run, then "
+         "one every 6 S (default: 5, then every 30)")
+RUN_PROGRESS_OPTION.set_defaults(option_rules={"progress_interval": positive})
+
+
 def backend_option(default: str | None = argparse.SUPPRESS) -> argparse.ArgumentParser:
     """A parent parser of ``--backend`` (the names :mod:`porthamiltonian.backends` accepts).
     A command's top-level parser takes it with the command's default; its subcommands take
@@ -304,16 +313,18 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 class RunProgress:
     """Lines on stderr during a long run (``simulate``, ``view``): the simulated time reached
     and, at the pace so far, how long to the end, or where the run will stop at ``max_steps``
-    (the first line after 5 s, then every 30 s: a ``t_end = 1e12`` does not run silently).
-    Called with the simulated time and the steps taken
-    (:func:`~porthamiltonian.simulation.simulate.simulate`'s ``progress``)."""
+    (the first line after ``interval`` seconds of wall time, 5 by default, then one every six
+    intervals, 30 s: a ``t_end = 1e12`` does not run silently). Called with the simulated time
+    and the steps taken (:func:`~porthamiltonian.simulation.simulate.simulate`'s
+    ``progress``)."""
 
     def __init__(self, name: str, t_end: float, t_start: float = 0.0,
-                 max_steps: int = 10_000_000, clock: Callable[[], float] = time.monotonic):
+                 max_steps: int = 10_000_000, clock: Callable[[], float] = time.monotonic,
+                 interval: float = 5.0):
         self.name, self.t_end, self.t_start, self.max_steps = name, t_end, t_start, max_steps
         self.clock = clock
         self.start = clock()
-        self.next = 5.0
+        self.next = self.interval = interval
 
     def __call__(self, t: float, steps: int) -> None:
         """Report where the run is, if it is time for a line."""
@@ -322,7 +333,7 @@ class RunProgress:
             return
         from ..compiler.estimate import duration_text
 
-        self.next = elapsed + 30.0
+        self.next = elapsed + 6.0 * self.interval
         done = (t - self.t_start) / (self.t_end - self.t_start)
         line = (f"{self.name}: t = {t:.4g} s of {self.t_end:g} s ({100 * done:.3g} %) after "
                 f"{elapsed:.0f} s, {steps} steps")
@@ -343,7 +354,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
-                          progress=RunProgress(model.name, entry.t_end(args.t_end)),
+                          progress=RunProgress(model.name, entry.t_end(args.t_end),
+                                               interval=args.progress_interval),
                           method=args.method)
     result: dict[str, Any] = {"model": model.name, "status": traj.status, "message": traj.message,
               "t_end": traj.t_final,
@@ -376,7 +388,8 @@ def cmd_view(args: argparse.Namespace) -> int:
     record = io.read(args.model)
     entry = SimulationModel.from_file(record, args.backend)
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
-                          progress=RunProgress(entry.model.name, entry.t_end(args.t_end)))
+                          progress=RunProgress(entry.model.name, entry.t_end(args.t_end),
+                                               interval=args.progress_interval))
     scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
                                   title=entry.model.name)
     out = Path(args.out)
@@ -524,7 +537,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="porthamiltonian", description=__doc__.splitlines()[0],
                                      parents=[backend_option("auto")])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    p = sub.add_parser("simulate", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION],
+    p = sub.add_parser("simulate", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION,
+                                            RUN_PROGRESS_OPTION],
                        help="simulate a model and print its final state and energy ledger")
     p.add_argument("model", help=model_help)
     p.add_argument("--t-end", type=float, default=None, metavar="T",
@@ -535,7 +549,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="integration method (default: the model file's [simulation] method; "
                         "docs/backends.md)")
     p.set_defaults(func=cmd_simulate)
-    p = sub.add_parser("view", parents=[BACKEND_OPTION, SET_OPTION],
+    p = sub.add_parser("view", parents=[BACKEND_OPTION, SET_OPTION, RUN_PROGRESS_OPTION],
                        help="simulate a model and write an interactive 3D view of its bodies "
                             "(view.html, works offline) and a still image (view.png)")
     p.add_argument("model", help=model_help + "; its bodies need poses: a FreeBody, or a "

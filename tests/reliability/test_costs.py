@@ -328,6 +328,13 @@ def test_the_progress_of_a_run_estimates_what_is_left(monkeypatch, capsys):
     clock2 = iter([0.0, 10.0])
     RunProgress("pendulum", 100.0, clock=lambda: next(clock2))(50.0, 100)
     assert "about 10 s to go at this pace" in capsys.readouterr().err
+    # --progress-interval 0.5: the first line after 0.5 s, the next 3 s later
+    clock3 = iter([0.0, 0.4, 0.6, 3.5, 3.7])
+    progress = RunProgress("pendulum", 100.0, clock=lambda: next(clock3), interval=0.5)
+    for t in (1.0, 2.0, 3.0, 4.0):
+        progress(t, 10)
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(" of ")[0] for line in lines] == ["pendulum: t = 2 s", "pendulum: t = 4 s"]
 
 
 def test_simulate_reports_its_progress(compile_named):
@@ -339,14 +346,20 @@ def test_simulate_reports_its_progress(compile_named):
 
 
 def test_t_end_1e12_is_not_silent(isolated_cache):
-    """``simulate pendulum --t-end 1e12``: within a minute a line says where the run is and that
-    max_steps will end it (the run is then stopped)."""
+    """``simulate pendulum --t-end 1e12``: a line says where the run is and that max_steps will
+    end it (the run is then stopped). By default the first line comes after 5 s (the clock of
+    test_the_progress_of_a_run_estimates_what_is_left); here after ``--progress-interval``
+    0.5 s, the same line."""
     import os
+
+    from porthamiltonian.interfaces.cli import build_parser
+    for command in ("simulate", "view"):
+        assert build_parser().parse_args([command, "pendulum"]).progress_interval == 5.0
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
     env.pop("PORTHAMILTONIAN_QUIET", None)
     proc = subprocess.Popen([sys.executable, "-m", "porthamiltonian", "simulate", "pendulum",
-                             "--t-end", "1e12"], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                            text=True, env=env)
+                             "--t-end", "1e12", "--progress-interval", "0.5"],
+                            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env)
     try:
         deadline = time.monotonic() + 240
         line = ""
