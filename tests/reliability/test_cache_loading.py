@@ -25,7 +25,6 @@ import sys
 import time
 import warnings
 
-import numba
 import numpy as np
 import pytest
 
@@ -113,6 +112,8 @@ def test_a_planted_numba_pickle_is_never_unpickled(numba_entry, planted, tmp_pat
     payload = pickle.dumps(_Opens(marker))
     if planted == "index":
         target = entry / "__pycache__" / "planted-1.py311.nbi"
+        import numba
+
         target.write_bytes(pickle.dumps(numba.__version__) + payload)
     else:
         target = next((entry / "__pycache__").glob("*.rhs-*.1.nbc"))

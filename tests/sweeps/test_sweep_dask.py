@@ -8,7 +8,6 @@ import json
 
 import pytest
 import sweep_cases
-from distributed import Client, LocalCluster
 from sweep_cases import GAIT_CASES, GAIT_FIXED
 
 from porthamiltonian.batch import Sweep, grid, load_results
@@ -18,6 +17,10 @@ from walker_library.cli import main
 
 @pytest.fixture(scope="module")
 def client():
+    """A local dask.distributed cluster (imported here, not at collection, where every
+    pytest-xdist worker imports every test module: 0.3 s)."""
+    from distributed import Client, LocalCluster
+
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                       dashboard_address=None) as cluster, Client(cluster) as c:
         yield c

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 
-import control
 import numpy as np
 import pytest
 
@@ -39,6 +38,14 @@ from porthamiltonian.simulation.inputs import Samples
 from porthamiltonian.simulation.linearize import point
 
 K_SPRING, C_DAMP, MASS = 4.0, 0.4, 1.5
+
+
+@pytest.fixture(scope="module")
+def control():
+    """python-control, imported by the tests that use it (0.8 s of imports: not at collection,
+    where every pytest-xdist worker imports every test module)."""
+    import control as module
+    return module
 
 
 def msd(drive: str = "F", controller=None) -> Model:
@@ -132,7 +139,7 @@ def cart_pole():
     return compile_model(io.load("cart_pole"), backend="python")
 
 
-def test_cart_pole_linearization_at_the_upright_equilibrium(cart_pole):
+def test_cart_pole_linearization_at_the_upright_equilibrium(cart_pole, control):
     """M(0) = [[M + m, m l], [m l, m l² + m l²/3]], ṗ_θ = m g l θ: A = [[0, M(0)⁻¹], [diag(0, m g
     l), 0]], B = e_{p_x} — to 1e-10; outputs (x, θ): C = [I 0], D = 0."""
     M, m, l, g = 1.0, 0.2, 0.5, 9.81
@@ -166,41 +173,46 @@ def test_parameter_jacobian_is_exact(open_msd):
 
 
 # --- controllers against python-control ------------------------------------------------------------
-PLANT = control.tf([1.0], [MASS, C_DAMP, K_SPRING])
 T_GRID = np.linspace(0.0, 8.0, 161)
 
 
-def _step_error(controller, C_s) -> float:
+def _plant(control):
+    """The mass–spring–damper 1 / (m s² + c s + k) as python-control's transfer function."""
+    return control.tf([1.0], [MASS, C_DAMP, K_SPRING])
+
+
+def _step_error(control, controller, C_s) -> float:
     """max |y − y_ref| over T_GRID of the unit-setpoint step response of the loop ``controller``
     (error r − q) around the mass–spring–damper, against python-control's forced_response of
     feedback(C P, 1)."""
     model = compile_model(msd("ctrl.y", controller), backend="python")
     traj = model.simulate(T_GRID[-1], method="Radau", t_eval=T_GRID, rtol=1e-12, atol=1e-14)
-    _, y = control.forced_response(control.feedback(C_s * PLANT, 1), T_GRID, np.ones_like(T_GRID))
+    loop = control.feedback(C_s * _plant(control), 1)
+    _, y = control.forced_response(loop, T_GRID, np.ones_like(T_GRID))
     return float(np.max(np.abs(traj["spring.q"] - y)))
 
 
-def test_pid_step_response_matches_python_control():
+def test_pid_step_response_matches_python_control(control):
     """PID kp + ki/s + kd s/(tf s + 1) on the mass–spring–damper: the step response equals
     python-control's to 1e-8 (measured ~4e-14)."""
     kp, ki, kd, tf = 10.0, 5.0, 2.0, 0.05
     s = control.tf("s")
-    error = _step_error(PID(input="r - spring.q", kp=kp, ki=ki, kd=kd, tf=tf),
+    error = _step_error(control, PID(input="r - spring.q", kp=kp, ki=ki, kd=kd, tf=tf),
                         kp + ki / s + kd * s / (tf * s + 1))
     assert error < 1e-8
 
 
-def test_transfer_function_step_response_matches_python_control():
+def test_transfer_function_step_response_matches_python_control(control):
     """A lead compensator 5 (s + 2)/(s + 10) as a TransferFunction block: the step response equals
     python-control's to 1e-8; the same as a StateSpace block (its controllable form written out)."""
     C_s = control.tf([5.0, 10.0], [1.0, 10.0])
-    assert _step_error(TransferFunction(input="r - spring.q", num=[5, 10], den=[1, 10]),
+    assert _step_error(control, TransferFunction(input="r - spring.q", num=[5, 10], den=[1, 10]),
                        C_s) < 1e-8
-    assert _step_error(StateSpace(inputs=["r - spring.q"], A=[[-10]], B=[[1]], C=[[-40]],
+    assert _step_error(control, StateSpace(inputs=["r - spring.q"], A=[[-10]], B=[[1]], C=[[-40]],
                                   D=[[5]]), C_s) < 1e-8
 
 
-def test_replace_swaps_the_controller():
+def test_replace_swaps_the_controller(control):
     """Model.replace puts a TransferFunction where the PID was; the closed loop's linearization has
     the new controller's states, and its eigenvalues those of python-control's feedback loop."""
     model = msd("ctrl.y", PID(input="r - spring.q", kp=10.0, ki=5.0))
@@ -208,7 +220,7 @@ def test_replace_swaps_the_controller():
     compiled = compile_model(model, backend="python")
     assert "ctrl.x1" in compiled.state_names and "ctrl.I" not in compiled.state_names
     lin = compiled.linearize()
-    poles = control.poles(control.feedback(control.tf([5.0, 10.0], [1.0, 10.0]) * PLANT, 1))
+    poles = control.poles(control.feedback(control.tf([5.0, 10.0], [1.0, 10.0]) * _plant(control), 1))
     np.testing.assert_allclose(np.sort_complex(lin.eigenvalues), np.sort_complex(poles),
                                atol=1e-10)
 
@@ -359,7 +371,7 @@ def test_input_errors_are_typed_and_named(open_msd):
 
 
 # --- LQR design loop -------------------------------------------------------------------------------
-def test_lqr_design_loop_on_the_cart_pole(cart_pole):
+def test_lqr_design_loop_on_the_cart_pole(cart_pole, control):
     """Linearize the cart-pole at its upright equilibrium, design an LQR (Q = diag(10, 100, 1, 1),
     R = 0.1) with python-control, put −K x back as a Sum block bound to the input F: the closed
     loop's linearization has eig(A − B K) to 1e-8, and the nonlinear loop brings the rod upright
