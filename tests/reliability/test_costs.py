@@ -211,20 +211,22 @@ def test_grid_limits_in_python_and_the_override():
 
 # --- time: the gait search and the continuation -------------------------------------------------------
 def test_a_gait_search_that_would_run_for_hours_stops_at_its_time_limit(capsys, within):
-    """K = 1e15 (a contact 1e9 times stiffer than the file's): the search continues the file's
-    nominal gait towards it, shows its progress, and stops at --time-limit with its own
-    message (before: over 10 minutes without a word)."""
+    """K = 1e15 (a contact 1e9 times stiffer than the file's): Newton from the guess stops at
+    half the limit (it would use any time given), the search continues the file's nominal gait
+    towards K, shows its progress, and stops at --time-limit with its own message (before: over
+    10 minutes without a word; then: Newton from the guess used the whole limit, 4.8 s of it
+    here before the continuation could start)."""
     from walker_library.cli import main
 
     with within(cpu=120):
-        status = main(["gait", "compass_walker", "--set", "K=1e15", "--time-limit", "8"])
+        status = main(["gait", "compass_walker", "--set", "K=1e15", "--time-limit", "4"])
     out, err = capsys.readouterr()
     assert status == 0, err
-    assert "the search stopped at its time limit (8 s; --time-limit)" in out
-    if "while continuing the model file's nominal gait (K 1e+06 -> 1e+15)" in out:
-        # it got as far as the homotopy (under load the 8 s may end earlier: after Newton from
-        # the guess, or "before the continuation from the nominal gait (K ...)")
-        assert "continuing the model file's nominal gait: K 1e+06 -> 1e+15" in err  # progress
+    assert "the search from the guess stopped at 50% of the time limit" in out
+    assert ("the search stopped at its time limit (4 s; --time-limit) while continuing the "
+            "model file's nominal gait (K 1e+06 -> 1e+15)") in out
+    assert "continuing the model file's nominal gait: K 1e+06 -> 1e+15" in err  # progress
+    assert "branch 0 (period 1): homotopy = " in err
 
 
 @pytest.mark.parametrize("study", ["step-down", "basin", "gsn"])

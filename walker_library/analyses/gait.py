@@ -12,6 +12,11 @@
    the period-doubled branch at the flips on the way (periods 1, 2, 4) — and the orbits at its
    end.
 
+Under a time limit, when step 3 can run (continuation on, parameters that differ from the
+file's), steps 1–2 get the first :data:`DIRECT_SHARE` of it and step 3 the rest: an extreme
+parameter (a contact 1e9 times stiffer) can make Newton from the guess use any time it is given,
+and the continuation, the step that reaches such parameters, would then never start.
+
 Each orbit's Floquet multipliers come with error bounds (:func:`~.monodromy.floquet`: the
 finite-difference step chosen per coordinate, so the verdict does not depend on a step the user
 picks). The outcome, in ``outcome`` (and ``status``, the interface's three values):
@@ -53,13 +58,16 @@ from .monodromy import FloquetResult, floquet
 from .poincare import FixedPointResult, PeriodResult, WalkerFell, detect_period, find_fixed_point
 from .results import JSONResult, to_jsonable, view
 
-__all__ = ["GAIT_QUANTITIES", "TIME_LIMIT", "GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult",
+__all__ = ["DIRECT_SHARE", "GAIT_QUANTITIES", "TIME_LIMIT", "GaitOutcome", "GaitResult", "GaitStatus", "Orbit", "WalkResult",
            "analyze_gait", "gait_start", "section_guess", "walk"]
 
 _LEGGED_KEYS = ("theta", "theta_dot", "phi", "phi_dot")
 #: the default time limit of a gait search (s): its continuation from the nominal gait stops
 #: there (a stiffness of 1e15 would otherwise be followed for hours)
 TIME_LIMIT = 600.0
+#: the part of a gait search's time limit that steps 1-2 (from the guess) may use when step 3
+#: (the continuation from the nominal gait) can follow (module docstring)
+DIRECT_SHARE = 0.5
 #: the gait quantities that :mod:`.gradients` differentiates (and ``walker optimize`` takes as
 #: objective), by their keys in ``walker gait --json``
 GAIT_QUANTITIES = ("step_period", "speed", "step_length", "energy_dissipated_per_step",
@@ -326,13 +334,19 @@ def _defaults(walker: Walker) -> dict[str, float]:
     return {k: s.value for k, s in walker.specs.items()}
 
 
+def _changed(walker: Walker) -> dict[str, float]:
+    """The walker's parameter values that differ from its model file's (step 3's homotopy)."""
+    nominal_values = _defaults(walker)
+    return {k: v for k, v in walker.parameters.items()
+            if k in nominal_values and nominal_values[k] != v}
+
+
 def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max_period: int,
               log: Callable[[str], None] | None, deadline: float) -> None:
     """Continue the model file's nominal gait to the walker's parameters (module docstring),
     until the search's ``deadline`` (time.perf_counter())."""
     nominal_values = _defaults(walker)
-    changed = {k: v for k, v in walker.parameters.items()
-               if k in nominal_values and nominal_values[k] != v}
+    changed = _changed(walker)
     nominal = walker.with_parameters(**nominal_values)
     start, _ = _direct(nominal, None, tol=tol, max_iter=max_iter, max_period=max_period,
                     search=_Search(nominal, search.fd_step, search.jacobian, tol))
@@ -382,9 +396,11 @@ def _homotopy(search: _Search, walker: Walker, *, tol: float, max_iter: int, max
 
 def _direct(walker: Walker, guess: np.ndarray | None, *, tol: float, max_iter: int,
             max_period: int, search: _Search, n_iterate: int = 200, period_tol: float = 1e-7,
-            deadline: float = math.inf) -> tuple[Orbit | None, FixedPointResult]:
+            deadline: float = math.inf,
+            share: bool = False) -> tuple[Orbit | None, FixedPointResult]:
     """Steps 1–2 of the search from ``guess``: (the stable orbit found, or None; the period-1
-    Newton search from the guess). The period detection is left in ``search.period``."""
+    Newton search from the guess). The period detection is left in ``search.period``.
+    ``deadline``: the search's, or (``share``) the end of the part of it steps 1-2 may use."""
     z0 = np.asarray(walker.initial_guess() if guess is None else guess, dtype=float)
     fp = find_fixed_point(walker, z0, period=1, tol=tol, max_iter=max_iter, deadline=deadline)
     search.tried.append(f"Newton (period 1) from the guess: {fp.message}")
@@ -394,7 +410,11 @@ def _direct(walker: Walker, guess: np.ndarray | None, *, tol: float, max_iter: i
             search.period = None
             return orbit, fp
     if time.perf_counter() > deadline:
-        search.out_of_time("after Newton from the guess")
+        if share:
+            search.tried.append(f"the search from the guess stopped at {DIRECT_SHARE:.0%} of "
+                                "the time limit (the continuation gets the rest)")
+        else:
+            search.out_of_time("after Newton from the guess")
         return search.stable(), fp
     pr = detect_period(walker, z0, max_period=max_period, n_steps=n_iterate, tol=period_tol)
     search.period = pr
@@ -446,9 +466,12 @@ def analyze_gait(walker: Walker, guess: np.ndarray | None = None, *, max_period:
                             "thesis_section": list(walker.thesis_section), "parameters": dict(walker.parameters)}
     search = _Search(walker, fd_step, jacobian, tol)
     search.time_limit = time_limit
+    share = time_limit is not None and continuation and bool(_changed(walker))
     gait, fp = _direct(walker, guess, tol=tol, max_iter=max_iter, max_period=max_period,
                        search=search, n_iterate=n_iterate, period_tol=period_tol,
-                       deadline=deadline)
+                       deadline=(time.perf_counter() + DIRECT_SHARE * time_limit
+                                 if share and time_limit is not None else deadline),
+                       share=share)
     pr = search.period
     if gait is None and continuation and not search.stopped:
         _homotopy(search, walker, tol=tol, max_iter=max_iter, max_period=max_period, log=log,
