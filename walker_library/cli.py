@@ -34,7 +34,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -366,11 +368,15 @@ def _case_lines(args: argparse.Namespace, label: str,
     return report
 
 
-def _search_limit(p: argparse.ArgumentParser) -> None:
-    """``--time-limit`` of a study that starts with the gait search (step-down, basin, gsn)."""
+def _search_limit(p: argparse.ArgumentParser, scan: bool = False) -> None:
+    """``--time-limit`` of a study that starts with the gait search (step-down, basin, gsn);
+    ``scan``: it bounds the study's scan of cases too (step-down, basin)."""
+    what = ("the study after S seconds: the gait search it starts from, then its scan, which "
+            "starts no case after S (a case under way ends first)" if scan else
+            "the gait search the study starts from after S seconds")
     p.add_argument("--time-limit", type=float, default=TIME_LIMIT, metavar="S",
-                   help=f"stop the gait search the study starts from after S seconds (default "
-                        f"{TIME_LIMIT:g}; 0: no limit); without a gait the study says so")
+                   help=f"stop {what} (default {TIME_LIMIT:g}; 0: no limit); without a gait "
+                        "the study says so")
 
 
 def _study_gait(walker: HybridWalker, args: argparse.Namespace) -> GaitResult:
@@ -380,14 +386,16 @@ def _study_gait(walker: HybridWalker, args: argparse.Namespace) -> GaitResult:
 
 def _case_study(args: argparse.Namespace, label: str, study: Callable[..., Any],
                 **options: Any) -> tuple[HybridWalker, Any] | None:
-    """``study(walker, gait, progress=..., **options)`` (step_down, basin) on the walker of
-    ``args`` and its gait (the search under --time-limit), under the activity display with a
+    """``study(walker, gait, progress=..., deadline=..., **options)`` (step_down, basin) on
+    the walker of ``args`` and its gait (the search under --time-limit), the study's cases
+    started within --time-limit of the command's start, under the activity display with a
     line per case (_case_lines); with --json its result is printed and None returned, else
     (walker, result) for the command to print."""
+    start = time.perf_counter()
     walker = _walker(args)
     with activity(f"{label} {walker.name}", enabled=not args.quiet) as shown:
         result = study(walker, _study_gait(walker, args), progress=_case_lines(args, label, shown),
-                       **options)
+                       deadline=start + (args.time_limit or math.inf), **options)
     if args.json:
         print(result.to_json())
         return None
@@ -419,7 +427,7 @@ def cmd_basin(args: argparse.Namespace) -> int:
     print(f"{walker.name}: {result.message}; radius {result.radius:.4g} (scaled units: theta/"
           f"{result.theta_scale:g} rad, theta_dot/{result.theta_dot_scale:g} rad/s)")
     if result.status == "ok":
-        mark = {"converged": "*", "fell": ".", "wandered": "~", "invalid": "x"}
+        mark = {"converged": "*", "fell": ".", "wandered": "~", "invalid": "x", "not_run": " "}
         print("  rows: theta_dot in rad/s (top = largest); columns: theta (left = smallest)")
         for j in reversed(range(len(result.theta_dot))):
             print(f"  {result.theta_dot[j]: .4f} " + "".join(mark[result.outcome[i][j]]
@@ -650,7 +658,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="height grid (m; default: 2e-4 of the leg length)")
     p.add_argument("--h-max", type=float, default=None, metavar="H",
                    help="largest height tried (m; default: 0.1 of the leg length)")
-    _search_limit(p)
+    _search_limit(p, scan=True)
     rules(p, resolution=positive, h_max=positive, time_limit=not_negative)
     p.set_defaults(func=cmd_step_down)
 
@@ -660,7 +668,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--span", type=float, default=0.1,
                    help="half-width of the grid in scaled units (theta/0.4 rad, "
                         "theta_dot/0.8 rad/s; default: 0.1)")
-    _search_limit(p)
+    _search_limit(p, scan=True)
     rules(p, n=at_least(2), span=positive, time_limit=not_negative)
     p.set_defaults(func=cmd_basin)
 

@@ -243,6 +243,97 @@ def test_the_studies_stop_their_gait_search_at_their_time_limit(study, capsys):
     assert "the search stopped at its time limit (0.2 s; --time-limit)" in result["message"]
 
 
+class _Clock:
+    """A clock for ``time.perf_counter()`` that a test moves (one second per case below)."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def perf_counter(self) -> float:
+        return self.now
+
+
+@pytest.fixture(scope="module")
+def compass_gait():
+    from walker_library.analyses.gait import analyze_gait
+
+    walker = load_walker("compass_walker")
+    return walker, analyze_gait(walker)
+
+
+def test_the_step_down_scan_starts_no_height_after_its_deadline(compass_gait, monkeypatch):
+    """Each height takes a second of a fake clock: with the deadline at 2.5 s the scan walks 3
+    heights, the same 3 as the whole scan's first, and its result says it stopped; a deadline
+    passed already walks none."""
+    from walker_library.analyses import robustness
+
+    walker, gait = compass_gait
+    whole = robustness.step_down(walker, gait)
+    assert whole.stopped == "" and len(whole.cases) > 10
+    clock = _Clock()
+    monkeypatch.setattr(robustness, "time", clock)
+
+    def tick(case: dict) -> None:
+        clock.now += 1.0
+
+    part = robustness.step_down(walker, gait, progress=tick, deadline=2.5)
+    assert part.stopped == "stopped at the time limit after 3 heights"
+    assert part.cases == whole.cases[:3] and part.status == "ok"
+    assert part.message.startswith("stopped at the time limit after 3 heights: largest drop "
+                                   f"survived {part.max_step_down * 1e3:.3f} mm")
+    none = robustness.step_down(walker, gait, deadline=-1.0)
+    assert none.cases == [] and none.max_step_down == 0.0
+    assert none.message == "stopped at the time limit before the first height: no drop measured"
+
+
+def test_the_basin_grid_starts_no_point_after_its_deadline(compass_gait, monkeypatch):
+    """A 3 x 3 grid with the deadline after 5 points (a second each): those 5 as in the whole
+    grid, the other 4 "not_run" (counted as not converged by the radius), the fraction over the
+    points walked."""
+    from walker_library.analyses import robustness
+
+    walker, gait = compass_gait
+    whole = robustness.basin(walker, gait, n=3)
+    ref = [o for row in whole.outcome for o in row]
+    assert whole.stopped == "" and "not_run" not in ref
+    clock = _Clock()
+    monkeypatch.setattr(robustness, "time", clock)
+
+    def tick(point: dict) -> None:
+        clock.now += 1.0
+
+    part = robustness.basin(walker, gait, n=3, progress=tick, deadline=4.5)
+    flat = [o for row in part.outcome for o in row]
+    assert flat[:5] == ref[:5] and flat[5:] == ["not_run"] * 4
+    assert part.stopped == "stopped at the time limit after 5 of 9 points"
+    converged = ref[:5].count("converged")
+    assert part.fraction == converged / 5
+    assert part.message == (f"{converged} of 5 grid states converge to the gait (stopped at the "
+                            "time limit after 5 of 9 points)")
+    assert part.radius <= min(whole.radius, math.hypot(0.1, 0.0))   # (1, 2) not run: r = 0.1
+
+
+@pytest.mark.parametrize("study", ["step-down", "basin"])
+def test_the_studies_scans_end_at_their_time_limit(study, monkeypatch, capsys):
+    """`walker step-down` and `walker basin` hand the study a deadline --time-limit seconds
+    after the command started (the gait search's time included)."""
+    from walker_library.analyses import robustness
+    from walker_library.cli import main
+
+    name = study.replace("-", "_")
+    real, seen = getattr(robustness, name), []
+
+    def recording(*args, **kwargs):
+        seen.append(kwargs["deadline"])
+        return real(*args, **{**kwargs, "deadline": -1.0})   # stop at once: the wiring only
+
+    monkeypatch.setattr(robustness, name, recording)
+    start = time.perf_counter()
+    assert main([study, "compass_walker", "--time-limit", "30", "--json", "--quiet"]) == 0
+    assert start < seen[0] - 30.0 < time.perf_counter()
+    assert json.loads(capsys.readouterr().out)["stopped"].startswith("stopped at the time limit")
+
+
 def test_newton_starts_no_iteration_after_its_time_limit():
     """A deadline already passed: Newton takes the one stride from the guess and starts no
     iteration (no Jacobian run); the gait search says so and where it stopped."""

@@ -183,7 +183,8 @@ class StepDownResult(JSONResult):
     ``boundary_tol``). first_failure : the smallest height that failed (None if none did).
     holes : failed heights below max_step_down. window : the heights scanned (m).
     cases : one record per height walked (h, status, steps, distance, reason, and whether it was
-    on the grid or a bisection).
+    on the grid or a bisection). stopped : "" or where the scan stopped at its ``deadline``
+    (the fields then describe the heights walked by then).
     """
 
     model: str
@@ -204,6 +205,11 @@ class StepDownResult(JSONResult):
     parameters: dict
     seconds: float
     message: str
+    stopped: str = ""
+
+
+class _TimeUp(Exception):
+    """A study's deadline passed before its next case."""
 
 
 def _intervals(cases: list[dict]) -> list[list[float]]:
@@ -227,10 +233,13 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
               h_max: float | None = None, n_beyond: int = 8, n_steps: int | None = None,
               tol: float = 1e-4, heights: Iterable[float] | None = None,
               boundary_tol: float = 1e-5,
-              progress: Callable[[dict], None] | None = None) -> StepDownResult:
+              progress: Callable[[dict], None] | None = None,
+              deadline: float = math.inf) -> StepDownResult:
     """The step-down test (module docstring). ``heights`` replaces the upward scan by an explicit
     list (all evaluated; the boundaries between them are still bisected unless
-    ``boundary_tol`` is 0). ``progress`` is called with each case record as it finishes."""
+    ``boundary_tol`` is 0). ``progress`` is called with each case record as it finishes.
+    ``deadline`` (a ``time.perf_counter()``): no height is started after it; the result is
+    then that of the heights walked (``stopped`` says so; a walk under way ends first)."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
     base: dict[str, Any] = {"model": walker.name, "parameters": dict(walker.parameters),
@@ -256,6 +265,8 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
     cases: list[dict] = []
 
     def run(h: float, kind: str) -> dict:
+        if time.perf_counter() > deadline:
+            raise _TimeUp
         r = recovers(walker, z0, fps, n_steps=n_steps, tol=tol, ground_drop=h)
         rec = {"h": h, "status": r.status, "survived": r.survived, "steps": r.steps,
                "distance": r.distance, "reason": r.reason, "kind": kind}
@@ -264,36 +275,46 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
             progress(rec)
         return rec
 
+    step, top = resolution, h_max     # (floats here: the closure below reads them)
+
+    def scan() -> None:
+        if heights is not None:
+            for h in sorted(float(h) for h in heights):
+                run(h, "given")
+        else:
+            misses, k, first = 0, 1, None
+            while k * step <= top * (1 + 1e-12):
+                h = round(k * step, 12)
+                ok = run(h, "grid")["survived"]
+                misses = 0 if ok else misses + 1
+                if not ok and first is None:
+                    first = h
+                if first is not None and h >= 2 * first and misses >= n_beyond:
+                    break
+                k += 1
+        # each boundary between a survived and a failed height, bisected
+        if boundary_tol > 0:
+            points = sorted(cases, key=lambda c: c["h"])
+            pairs = [(0.0, True, points[0]["h"], points[0]["survived"])] if points else []
+            pairs += [(a["h"], a["survived"], b["h"], b["survived"])
+                      for a, b in itertools.pairwise(points)]
+            for lo, lo_ok, hi, hi_ok in pairs:
+                if lo_ok == hi_ok:
+                    continue
+                while hi - lo > boundary_tol:
+                    mid = 0.5 * (lo + hi)
+                    if run(mid, "bisection")["survived"] == lo_ok:
+                        lo = mid
+                    else:
+                        hi = mid
+
+    stopped = ""
+    try:
+        scan()
+    except _TimeUp:
+        stopped = f"stopped at the time limit after {len(cases)} heights"
     if heights is not None:
-        for h in sorted(float(h) for h in heights):
-            run(h, "given")
         resolution = math.nan
-    else:
-        misses, k, first = 0, 1, None
-        while k * resolution <= h_max * (1 + 1e-12):
-            h = round(k * resolution, 12)
-            ok = run(h, "grid")["survived"]
-            misses = 0 if ok else misses + 1
-            if not ok and first is None:
-                first = h
-            if first is not None and h >= 2 * first and misses >= n_beyond:
-                break
-            k += 1
-    # each boundary between a survived and a failed height, bisected
-    if boundary_tol > 0:
-        points = sorted(cases, key=lambda c: c["h"])
-        pairs = [(0.0, True, points[0]["h"], points[0]["survived"])] if points else []
-        pairs += [(a["h"], a["survived"], b["h"], b["survived"])
-                  for a, b in itertools.pairwise(points)]
-        for lo, lo_ok, hi, hi_ok in pairs:
-            if lo_ok == hi_ok:
-                continue
-            while hi - lo > boundary_tol:
-                mid = 0.5 * (lo + hi)
-                if run(mid, "bisection")["survived"] == lo_ok:
-                    lo = mid
-                else:
-                    hi = mid
     survived_intervals = _intervals(cases)
     survived = [c["h"] for c in cases if c["survived"]]
     failed = [c["h"] for c in cases if not c["survived"]]
@@ -306,19 +327,22 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
     grid = (f"{resolution * 1e3:.3g} mm grid up to {window * 1e3:.3g} mm"
             if math.isfinite(resolution) else f"{len(cases)} heights")
     beyond = [iv for iv in survived_intervals if iv[0] > 0.0]
-    message = (f"largest drop survived {best * 1e3:.3f} mm ({grid}, boundaries to "
+    message = ((f"{stopped}: " if stopped else "")
+               + f"largest drop survived {best * 1e3:.3f} mm ({grid}, boundaries to "
                f"{boundary_tol * 1e3:g} mm); "
                + ("contiguous" if contiguous else
                   "no drop survived" if not survived else
                   f"contiguous up to {limit * 1e3:.3f} mm, then survived "
                   + ", ".join(f"{a * 1e3:.3f}–{b * 1e3:.3f} mm" for a, b in beyond)))
+    if stopped and not cases:
+        message = "stopped at the time limit before the first height: no drop measured"
     return StepDownResult(status=AnalysisStatus.OK, max_step_down=best, contiguous=contiguous,
                           contiguous_limit=limit, survived_intervals=survived_intervals,
                           resolution=resolution, boundary_tol=boundary_tol, window=window,
                           first_failure=min(failed) if failed else None,
                           holes=holes, n_steps=n_steps, cases=cases,
                           fixed_point=gait.fixed_points[0], seconds=time.perf_counter() - t0,
-                          message=message, **base)
+                          message=message, stopped=stopped, **base)
 
 
 # --- basin of attraction -------------------------------------------------------------------------
@@ -371,11 +395,13 @@ def basin_state(walker: Walker, z_star: np.ndarray, theta: float, theta_dot: flo
 class BasinResult(JSONResult):
     """Result of :func:`basin`: a grid over thesis θ (rad) and θ̇ (rad/s) around the fixed point,
     also given scaled (θ/theta_scale, θ̇/theta_dot_scale). ``status[i][j]`` for theta[i],
-    theta_dot[j]: "converged", "fell", "wandered" (or "invalid" for a state the walker refuses);
-    ``steps[i][j]`` the steps it walked (to the first within ``tol``, to the fall: module docstring).
-    ``fraction`` converged; ``radius`` the largest scaled distance r such that every grid point
-    within r of the fixed point converged (the thesis's "biggest circle" measure, §2.6);
-    ``method`` the integration method the points were walked with (:func:`basin_walker`)."""
+    theta_dot[j]: "converged", "fell", "wandered" (or "invalid" for a state the walker refuses,
+    "not_run" for a point the time limit left out); ``steps[i][j]`` the steps it walked (to the
+    first within ``tol``, to the fall: module docstring). ``fraction`` converged (of the points
+    walked); ``radius`` the largest scaled distance r such that every grid point within r of
+    the fixed point converged (the thesis's "biggest circle" measure, §2.6; a point not run
+    counts as not converged); ``method`` the integration method the points were walked with
+    (:func:`basin_walker`); ``stopped`` "" or where the grid stopped at its deadline."""
 
     model: str
     status: AnalysisStatus
@@ -394,19 +420,22 @@ class BasinResult(JSONResult):
     parameters: dict
     seconds: float
     message: str
+    stopped: str = ""
 
 
 def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
           span: float | tuple[float, float] = 0.1,
           theta_scale: float = 0.4, theta_dot_scale: float = 0.8, n_steps: int | None = None,
           tol: float = 1e-4, method: str | None = "auto",
-          progress: Callable[[dict], None] | None = None) -> BasinResult:
+          progress: Callable[[dict], None] | None = None,
+          deadline: float = math.inf) -> BasinResult:
     """Basin of attraction on an n × n grid of scaled section states within ±``span`` (scaled
     units; a pair gives the θ and θ̇ half-widths apart) of the fixed point (module docstring),
     evaluated serially; a parallel basin is a sweep
     over section states (:func:`walker_library.analyses.basin_case`). ``method``: the
     integration of the points' walks (:func:`basin_walker`; the gait is the walker's own).
-    ``progress`` is called per grid point."""
+    ``progress`` is called per grid point. ``deadline`` (a ``time.perf_counter()``): no point is
+    started after it; those left are "not_run" (``stopped`` says so)."""
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
     walking = basin_walker(walker, method)
@@ -430,10 +459,12 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
     s = np.linspace(-1.0, 1.0, n)
     thetas = fp["theta"] + theta_scale * span_th * s
     rates = fp["theta_dot"] + theta_dot_scale * span_thd * s
-    outcome = [["" for _ in range(n)] for _ in range(n)]
+    outcome = [["not_run" for _ in range(n)] for _ in range(n)]
     steps = [[0 for _ in range(n)] for _ in range(n)]
     for i, th in enumerate(thetas):
         for j, thd in enumerate(rates):
+            if time.perf_counter() > deadline:
+                break
             try:
                 z0 = basin_state(walker, z_star, float(th), float(thd))
             except (ValueError, np.linalg.LinAlgError):
@@ -444,16 +475,20 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
             if progress is not None:
                 progress({"theta": float(th), "theta_dot": float(thd), "status": r.status})
     ok = np.array([[o == RecoveryStatus.CONVERGED for o in row] for row in outcome])
+    walked = np.array([[o != "not_run" for o in row] for row in outcome])
+    stopped = ("" if walked.all() else
+               f"stopped at the time limit after {int(walked.sum())} of {walked.size} points")
     S1, S2 = np.meshgrid(span_th * s, span_thd * s, indexing="ij")
     dist = np.hypot(S1, S2)
     bad = dist[~ok]
     radius = float(bad.min()) if bad.size else float(dist.max())
+    message = (f"{int(ok.sum())} of {int(walked.sum())} grid states converge to the gait"
+               + (f" ({stopped})" if stopped else ""))
     return BasinResult(status=AnalysisStatus.OK, theta=thetas.tolist(), theta_dot=rates.tolist(),
                        fixed_point=fp, outcome=outcome, steps=steps,
-                       fraction=float(ok.mean()), radius=radius, n_steps=n_steps,
-                       seconds=time.perf_counter() - t0,
-                       message=f"{int(ok.sum())} of {ok.size} grid states converge to the gait",
-                       **base)
+                       fraction=float(ok.sum() / walked.sum()) if walked.any() else math.nan,
+                       radius=radius, n_steps=n_steps, seconds=time.perf_counter() - t0,
+                       message=message, stopped=stopped, **base)
 
 
 # --- Gait Sensitivity Norm -----------------------------------------------------------------------
