@@ -263,13 +263,14 @@ def compass_gait():
 
 def test_the_step_down_scan_starts_no_height_after_its_deadline(compass_gait, monkeypatch):
     """Each height takes a second of a fake clock: with the deadline at 2.5 s the scan walks 3
-    heights, the same 3 as the whole scan's first, and its result says it stopped; a deadline
-    passed already walks none."""
+    heights, the grid's first three (the same walks as those heights given explicitly), and its
+    result says it stopped; a deadline passed already walks none."""
     from walker_library.analyses import robustness
 
     walker, gait = compass_gait
-    whole = robustness.step_down(walker, gait)
-    assert whole.stopped == "" and len(whole.cases) > 10
+    grid = [round(k * 2e-4 * walker.leg_length, 12) for k in (1, 2, 3)]  # the default grid's
+    given = robustness.step_down(walker, gait, heights=grid, boundary_tol=0)
+    assert given.stopped == "" and [c["kind"] for c in given.cases] == ["given"] * 3
     clock = _Clock()
     monkeypatch.setattr(robustness, "time", clock)
 
@@ -278,7 +279,7 @@ def test_the_step_down_scan_starts_no_height_after_its_deadline(compass_gait, mo
 
     part = robustness.step_down(walker, gait, progress=tick, deadline=2.5)
     assert part.stopped == "stopped at the time limit after 3 heights"
-    assert part.cases == whole.cases[:3] and part.status == "ok"
+    assert part.cases == [{**c, "kind": "grid"} for c in given.cases] and part.status == "ok"
     assert part.message.startswith("stopped at the time limit after 3 heights: largest drop "
                                    f"survived {part.max_step_down * 1e3:.3f} mm")
     none = robustness.step_down(walker, gait, deadline=-1.0)
