@@ -34,6 +34,7 @@ typedef struct {
 } ph_tableau;
 
 #define PH_SAMPLES 3    /* interior guard samples per step */
+#define PH_MAX_STAGES 16    /* stages of a tableau at most (tableaus.py checks its tables) */
 
 #define PH_LOOP_PARAMS double t0, const double *y0, double t_end, const double *p, double rtol, \
     const double *atol, double h0, double hmax, const int64_t *directions, \
@@ -356,10 +357,13 @@ static int ph_phi_substep(const ph_tableau *tab, double th_a, double th_b, doubl
             nj += forced ? 2 : 1;
         }
         const double hd = eta * tab->d[st];
+        double ce[PH_MAX_STAGES];      /* c_ij / eta: a division per stage, not per term */
+        for (int j = 0; j < st; ++j)
+            ce[j] = tab->c[st * s + j] / eta;
         for (int64_t q = 0; q < nm; ++q) {
             double acc = hd * DP[q];
             for (int j = 0; j < st; ++j)
-                acc += tab->c[st * s + j] * KP[j * nm + q] / eta;
+                acc += ce[j] * KP[j * nm + q];
             if (forced)
                 acc += F[q];
             KPs[q] = acc;

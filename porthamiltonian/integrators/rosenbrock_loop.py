@@ -334,10 +334,11 @@ def _phi_substep(fn, th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, T
                     _forcing(fn, t + th * h, xi, p, gain, F)
             nj += 2 if forced else 1
         hd = eta * TD[st]
+        ce = TC[st] / eta                   # c_ij / η: a division per stage, not per term
         for q in range(nm):
             acc = hd * DP[q]
             for j in range(st):
-                acc += TC[st, j] * KP[j, q] / eta
+                acc += ce[j] * KP[j, q]
             if forced:
                 acc += F[q]
             KP[st, q] = acc

@@ -21,6 +21,10 @@ from dataclasses import dataclass
 
 from ..errors import OptionError
 
+#: the most stages a tableau may have: the C loops' stage buffers (PH_MAX_STAGES of
+#: rosenbrock_loop.c)
+MAX_STAGES = 16
+
 
 @dataclass(frozen=True)
 class Tableau:
@@ -61,6 +65,8 @@ class Tableau:
             broken.append("a and c must be strictly lower triangular")
         if not (self.nodes[0] == 0.0 and self.d and self.d[0] == self.gamma):
             broken.append("the first node must be 0 and d[0] gamma")
+        if s > MAX_STAGES:
+            broken.append(f"{s} stages, more than the loops' {MAX_STAGES} (PH_MAX_STAGES)")
         if broken:
             raise OptionError(f"tableau {self.name!r} is malformed: {'; '.join(broken)}")
 

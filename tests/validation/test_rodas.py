@@ -155,3 +155,24 @@ def test_divergence_is_a_status(backend):
 def test_compiled_methods_refuse_python_events_and_dense_output(msd, method):
     with pytest.raises(ph.errors.ModelError, match=method):
         msd.simulate(1.0, method=method, dense_output=True)
+
+
+def test_a_tableau_beyond_the_loops_stage_buffers_is_refused():
+    """The C loops keep a stage's coefficients in a buffer of PH_MAX_STAGES (16): a tableau
+    of 17 stages (zeros, well formed otherwise) is refused when checked, naming the limit."""
+    from dataclasses import replace
+
+    from porthamiltonian.errors import OptionError
+    from porthamiltonian.integrators.tableaus import MAX_STAGES, TABLEAUS
+
+    s = MAX_STAGES + 1
+    square = tuple(tuple(0.0 for _ in range(s)) for _ in range(s))
+    base = TABLEAUS["Rodas5P"]
+    wide = replace(base, a=square, c=square, nodes=(0.0,) * s, d=(base.gamma,) + (0.0,) * (s - 1),
+                   dense=tuple(tuple(0.0 for _ in range(s)) for _ in base.dense))
+    with pytest.raises(OptionError, match="17 stages, more than the loops' 16"):
+        wide.check()
+    base.check()
+    assert max(t.stages for t in TABLEAUS.values()) <= MAX_STAGES
+    source = (Path(ph.__file__).parent / "integrators" / "rosenbrock_loop.c").read_text()
+    assert f"#define PH_MAX_STAGES {MAX_STAGES} " in source
