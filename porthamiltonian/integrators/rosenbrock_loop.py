@@ -314,11 +314,14 @@ def _phi_substep(fn, th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, T
     nj = 0
     A = Ja
     for st in range(s):
+        # the stage sums term by term over Φ's entries, each entry adding its terms in the order
+        # j = 0, 1, … (the C loop's order: its inner loops run over the entries, vectorized)
         for q in range(nm):
-            acc = P[q]
-            for j in range(st):
-                acc += TA[st, j] * KP[j, q]
-            UP[q] = acc
+            UP[q] = P[q]
+        for j in range(st):
+            a = TA[st, j]
+            for q in range(nm):
+                UP[q] += a * KP[j, q]
         if st > 0 and TN[st] != TN[st - 1]:
             th = th_b if TN[st] == 1.0 else th_a + TN[st] * ds
             if th == 1.0:
@@ -336,12 +339,13 @@ def _phi_substep(fn, th_a, th_b, t, h, y, y1, p, E, Ja, D, W, piv, nb, TA, TC, T
         hd = eta * TD[st]
         ce = TC[st] / eta                   # c_ij / η: a division per stage, not per term
         for q in range(nm):
-            acc = hd * DP[q]
-            for j in range(st):
-                acc += ce[j] * KP[j, q]
-            if forced:
-                acc += F[q]
-            KP[st, q] = acc
+            KP[st, q] = hd * DP[q]
+        for j in range(st):
+            for q in range(nm):
+                KP[st, q] += ce[j] * KP[j, q]
+        if forced:
+            for q in range(nm):
+                KP[st, q] += F[q]
         _add_product(A, n_model, UP.reshape(n, m), KP[st].reshape(n, m))
         _lu_solve_rows(W, piv, nb, KP[st], m)
     for q in range(nm):
