@@ -40,6 +40,7 @@ from .options import check_method, check_simulation
 from .psensitivity import ParameterColumns, parameter_jump
 from .saltation import Crossing, Seeds, Sensitivity, saltation_matrix
 from .sampling import Breakpoints, sample
+from .stiffness import BOUNDS, EVERY, StiffnessWatch
 from .trajectory import Segment, Status, Trajectory
 
 if TYPE_CHECKING:   # the compiled model offers simulate as its method: no run-time import of it
@@ -357,6 +358,9 @@ class Simulator:
         self._crossings: list[Crossing] = []
         self.columns: ParameterColumns | None = None    # with parameters: Π and the build
         self.stalled = False            # a compiled loop's step size fell below its minimum
+        # an explicit method's steps held by its stability bound (a hint at the end of the run)
+        self.watch = (StiffnessWatch(settings.method, model.n_states)
+                      if settings.method in BOUNDS else None)
 
     def run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
         """Integrate from (t_start, y) with parameters p to t_end (or until a terminal event
@@ -481,6 +485,8 @@ class Simulator:
             sensitivity = Sensitivity(seeds.states.copy(), phi[:, :n, :m0].copy(),
                                       tuple(self._crossings), self.phi[:n, :m0].copy(),
                                       self.phi_error, **extra)
+        if self.watch is not None:
+            self.watch.warn(self.model.name)
         return Trajectory(self.model, self._segments, self._events, self._jumps, status,
                           message + self.note, h0=h0, sensitivity=sensitivity, **self._counts)
 
@@ -673,8 +679,12 @@ class Simulator:
                 return close(Status.FAILED, f"{settings.method} failed at t = {t_old:.6g}: "
                              f"{message}", t_old, None)
             t_new, y_new = solver.t, solver.y
-            if settings.progress is not None and self.steps % 1000 == 0:
-                settings.progress(float(t_new), self.steps)
+            if self.steps % EVERY == 0:
+                if settings.progress is not None:
+                    settings.progress(float(t_new), self.steps)
+                if self.watch is not None:
+                    self.watch.sample(t_new, jacf(t_new, y_new, params_at(t_new, y_new)),
+                                      t_new - t_old)
             bound = settings.divergence_bound
             if not np.all(np.isfinite(y_new)) or np.max(np.abs(y_new[:n])) > bound:
                 return close(Status.DIVERGED, f"max|x| exceeded {bound:g} (or "
