@@ -152,7 +152,9 @@ def _bdf_first_step(fn, t, y, f0, p, rtol, atol, h0, hmax, t_end):
     f1 = rhs(t + h, y1, p)
     for i in range(n):
         y1[i] = f1[i] - f0[i]
-    d2 = _rms(y1, sc, n) / h
+    # h = 0 when f0 lies beyond the float64 range (d1 = inf): C's division gives inf or NaN
+    # there and the same h = 0 below; Python's and numba's raise
+    d2 = _rms(y1, sc, n) / h if h > 0.0 else math.inf
     big = max(d1, d2)
     h1 = max(1e-6, h * 1e-3) if big <= 1e-15 else math.sqrt(0.01 / big)
     h = min(100.0 * h, h1, hmax, t_end - t)

@@ -131,7 +131,7 @@ def check_t_eval(value: Any, t_start: float, t_end: float) -> np.ndarray:
 
 def check_sensitivity(value: Any, n_states: int) -> Seeds | None:
     """What the sensitivities differentiate, as :class:`~.saltation.Seeds` with the state
-    directions an n x m0 array: None for False; the identity (n x n) for True; the given n x m
+    directions an n x m0 array: None for False (or None); the identity (n x n) for True; the given n x m
     array of finite numbers (a vector: one direction); for parameter names (strings), the
     identity and those parameters; a ``Seeds`` checked likewise (its ``initial``: n x k)."""
     if isinstance(value, Seeds):
@@ -151,7 +151,7 @@ def check_sensitivity(value: Any, n_states: int) -> Seeds | None:
                                   f"{len(names)} (dx0/dp, one column per parameter), got "
                                   f"shape {np.shape(value.initial)}")
         return Seeds(states, names, initial)
-    if isinstance(value, (bool, np.bool_)):
+    if value is None or isinstance(value, (bool, np.bool_)):
         return Seeds(np.eye(n_states)) if value else None
     if isinstance(value, (list, tuple)) and value and all(isinstance(v, str) for v in value):
         return Seeds(np.eye(n_states), _parameter_names(value))

@@ -282,6 +282,16 @@ def auto_method(model: CompiledModel) -> str:
     return "Rodas5P"
 
 
+def _beyond_floats(backend: str, err: Exception) -> bool:
+    """Whether ``err``, raised in a run on ``backend``, is Python's (or numba's) arithmetic at a
+    value beyond the float64 range or outside a function's domain — ``x**2`` overflowing, a
+    division by zero, ``math.cos(inf)`` — where C's arithmetic gives inf or NaN: not on the C
+    back end, whose functions never raise."""
+    if backend == "c":
+        return False
+    return isinstance(err, ArithmeticError) or str(err) == "math domain error"
+
+
 def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
     """The absolute tolerance of the integration state: per model state, the ledger states E_diss
     and E_in scaled like the largest of them."""
@@ -358,13 +368,37 @@ class Simulator:
         self._crossings: list[Crossing] = []
         self.columns: ParameterColumns | None = None    # with parameters: Π and the build
         self.stalled = False            # a compiled loop's step size fell below its minimum
+        self.h0 = math.nan              # H at the start (J)
         # an explicit method's steps held by its stability bound (a hint at the end of the run)
         self.watch = (StiffnessWatch(settings.method, model.n_states)
                       if settings.method in BOUNDS else None)
 
     def run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
         """Integrate from (t_start, y) with parameters p to t_end (or until a terminal event
-        without action, a stopping action, a failure); the result."""
+        without action, a stopping action, a failure); the result. numpy's floating-point
+        warnings are off during the run: a state beyond the float64 range shows in the run's
+        status (diverged, failed) on every back end, not also as RuntimeWarnings of the python
+        back end's generated code (whose small solves use numpy scalars) where C says
+        nothing."""
+        with np.errstate(all="ignore"):
+            try:
+                return self._run(t_start, y, p, t_end)
+            except (ArithmeticError, ValueError) as err:
+                if not _beyond_floats(self.model.backend, err):
+                    raise
+                if not self._segments:          # the run keeps its start, as a failed step does
+                    self._segments.append(Segment(
+                        np.array([self.t]), self.y[:, None].copy(), self.p.copy(), None,
+                        None if self.phi is None else self.phi[None].copy(),
+                        inputs=self._binder()))
+                return self._result(Status.FAILED, f"the model's functions raised "
+                                    f"{type(err).__name__} ({err}) after t = {self.t:.6g} ("
+                                    f"{self.model.backend} back end): a value beyond the float64 "
+                                    "range or outside a function's domain, where the C back end "
+                                    "computes inf or NaN and fails the run", self.h0)
+
+    def _run(self, t_start: float, y: np.ndarray, p: np.ndarray, t_end: float) -> Trajectory:
+        """:meth:`run`, under its floating-point state."""
         model, settings, n = self.model, self.settings, self.model.n_states
         self.t, self.y, self.p = t_start, y, p
         seeds = settings.sensitivity
@@ -374,7 +408,7 @@ class Simulator:
                 columns = np.hstack([columns, seeds.initial])
                 self.columns = ParameterColumns(model, seeds.parameters, columns.shape[1])
             self.phi = np.vstack([columns, np.zeros((2, columns.shape[1]))])
-        h0 = float(model.energy(t_start, y, p)[0])
+        h0 = self.h0 = float(model.energy(t_start, y, p)[0])
         stops = settings.t_eval if settings.method in _COMPILED else None
         breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p, stops)
         if breaks:
@@ -669,8 +703,7 @@ class Simulator:
         while True:
             t_old = solver.t
             try:
-                with np.errstate(all="ignore"):
-                    message = solver.step()
+                message = solver.step()
             except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
                 return close(Status.FAILED, f"integration failed at t = {t_old:.6g}: {err}",
                              t_old, None)
@@ -756,11 +789,10 @@ class Simulator:
         else:
             loop = model.functions.loops[settings.method]
         while True:
-            with np.errstate(all="ignore"):
-                (code, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
-                 h, nlu) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
-                           self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
-                           settings.max_steps - self.steps, 4096, tgrad)
+            (code, t, y, t_store, y_store, n_store, nfev, njev, nsteps, k, ev_t, ev_k, n_ev,
+             h, nlu) = loop(t, y, t_end, pn, settings.rtol, atol, h, hmax, self.direction,
+                       self.terminal, mask_index, mask_sign, n, settings.divergence_bound,
+                       settings.max_steps - self.steps, 4096, tgrad)
             self.steps += nsteps
             if settings.progress is not None:
                 settings.progress(float(t), self.steps)

@@ -188,6 +188,17 @@ x[2], x[3] = 1e308, -1e308
 for method in ("Rodas5P", "QBDF"):
     r = m.simulate(1.0, x0=x, method=method)
     print(method, r.status, r.message)
+x = m.initial_state()
+x[:] = 1e300
+for method in ("auto", "Radau", "RK45"):
+    r = m.simulate(1.0, x0=x, method=method)
+    print(method, r.status, r.t[-1])
+for name, value, sensitivity in (("mass_spring_damper", 1e300, False),
+                                 ("mass_spring_damper", 1e300, True), ("heavy_top", 1e-320, True)):
+    m = compile_model(io.load(name), backend=sys.argv[1])
+    for method in ("Rodas5P", "QBDF"):
+        r = m.simulate(0.5, x0=[value] * m.n_states, method=method, sensitivity=sensitivity)
+        print(method, r.status, r.t[-1], r.sensitivity is not None)
 """
 
 
@@ -197,11 +208,21 @@ def test_a_state_whose_derivative_is_not_finite_fails_at_once(backend):
     NaN, the first step size was NaN, and the compiled loops (C, and the python back end's
     template) compared it with their smallest step forever (every comparison with NaN is
     false). Both loops now say that the step size is too small, at t = 0; the run is a
-    subprocess, since a hang in C code cannot be interrupted."""
-    run = capped(["-c", _NOT_FINITE, backend], 4 << 30, timeout=120)
+    subprocess, since a hang in C code cannot be interrupted. From a state of 1e300 the
+    back ends end the same runs the same way, and say nothing else: the python back end's
+    generated code warned (numpy's RuntimeWarning of an overflow in its small solves; the
+    subprocess turns warnings into errors) and raised (Python's ``x**2`` overflowing, QBDF's
+    first step dividing by its step size 0, the heavy top's quaternion of 1e-320 normalised)
+    where C computes inf and NaN; its runs now end failed, with their start (and their
+    sensitivities) kept."""
+    run = capped(["-W", "error", "-c", _NOT_FINITE, backend], 4 << 30, timeout=120)
     assert run.returncode == 0, run.stderr
-    assert run.stdout.splitlines() == [
-        f"{m} failed {m}: step size too small (or W singular) at t = 0" for m in ("Rodas5P", "QBDF")]
+    lines = run.stdout.splitlines()
+    assert lines[:2] == [f"{m} failed {m}: step size too small (or W singular) at t = 0"
+                         for m in ("Rodas5P", "QBDF")]
+    assert lines[2:5] == ["auto failed 0.0", "Radau failed 0.0", "RK45 failed 0.0"]
+    assert lines[5:] == [f"{m} failed 0.0 {s}" for s in ("False", "True", "True")
+                         for m in ("Rodas5P", "QBDF")]
 
 
 # --- one namespace ------------------------------------------------------------------------------------
