@@ -285,11 +285,13 @@ def auto_method(model: CompiledModel) -> str:
 def _beyond_floats(backend: str, err: Exception) -> bool:
     """Whether ``err``, raised in a run on ``backend``, is Python's (or numba's) arithmetic at a
     value beyond the float64 range or outside a function's domain — ``x**2`` overflowing, a
-    division by zero, ``math.cos(inf)`` — where C's arithmetic gives inf or NaN: not on the C
-    back end, whose functions never raise."""
+    division by zero, ``math.cos(inf)``, numba's ``np.linalg.solve`` of a matrix holding inf or
+    NaN — where C's arithmetic gives inf or NaN: not on the C back end, whose functions never
+    raise."""
     if backend == "c":
         return False
-    return isinstance(err, ArithmeticError) or str(err) == "math domain error"
+    return (isinstance(err, (ArithmeticError, np.linalg.LinAlgError))
+            or str(err) == "math domain error")
 
 
 def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
