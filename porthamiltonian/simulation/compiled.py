@@ -310,6 +310,18 @@ class CompiledModel:
                                       f"finite, got {number!r}")
         return number
 
+    def raised_beyond_floats(self, err: BaseException) -> bool:
+        """Whether ``err``, raised while this model's functions ran, is Python's (or numba's)
+        arithmetic at a value beyond the float64 range or outside a function's domain —
+        ``x**2`` overflowing, a division by zero, ``math.cos(inf)``, numba's
+        ``np.linalg.solve`` of a matrix holding inf or NaN — where C's arithmetic gives inf or
+        NaN (the python and numba back ends; the C back end's functions never raise): a state
+        the caller treats as C's inf or NaN (a failed run, a fallen stride), not as a bug."""
+        if self.backend == "c":
+            return False
+        return (isinstance(err, (ArithmeticError, np.linalg.LinAlgError))
+                or str(err) == "math domain error")
+
     def native_params(self, p: np.ndarray) -> list[float] | np.ndarray:
         """The parameter vector in the form the back end's functions take (a vector of the
         parameters alone gets its input slots appended, zero)."""

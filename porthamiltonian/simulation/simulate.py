@@ -193,7 +193,8 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         x = np.array(x0, dtype=float)
     y = model.augment(x)
     if np.all(np.isfinite(y)):                  # a constrained multibody starts on its manifold
-        y[:model.n_states] = consistent(model, y[:model.n_states], p, t_start)
+        with np.errstate(all="ignore"):         # (as in the run: Simulator.run)
+            y[:model.n_states] = consistent(model, y[:model.n_states], p, t_start)
     if not np.all(np.isfinite(y)):
         raise StateError(f"model {model.name!r}: initial state is not finite: {x}")
     seeds = checked["sensitivity"]
@@ -280,18 +281,6 @@ def auto_method(model: CompiledModel) -> str:
             if sum(1 for s in model.state_names if s.startswith(prefix)) >= 2:
                 return "QBDF"
     return "Rodas5P"
-
-
-def _beyond_floats(backend: str, err: Exception) -> bool:
-    """Whether ``err``, raised in a run on ``backend``, is Python's (or numba's) arithmetic at a
-    value beyond the float64 range or outside a function's domain — ``x**2`` overflowing, a
-    division by zero, ``math.cos(inf)``, numba's ``np.linalg.solve`` of a matrix holding inf or
-    NaN — where C's arithmetic gives inf or NaN: not on the C back end, whose functions never
-    raise."""
-    if backend == "c":
-        return False
-    return (isinstance(err, (ArithmeticError, np.linalg.LinAlgError))
-            or str(err) == "math domain error")
 
 
 def _ledger_atol(atol: float | np.ndarray, n: int) -> float | np.ndarray:
@@ -386,7 +375,7 @@ class Simulator:
             try:
                 return self._run(t_start, y, p, t_end)
             except (ArithmeticError, ValueError) as err:
-                if not _beyond_floats(self.model.backend, err):
+                if not self.model.raised_beyond_floats(err):
                     raise
                 if not self._segments:          # the run keeps its start, as a failed step does
                     self._segments.append(Segment(

@@ -48,6 +48,7 @@ from porthamiltonian.errors import ModelError, ParameterValueError, StateError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.interfaces.io import ModelFile
 from porthamiltonian.simulation.compiled import CompiledModel
+from porthamiltonian.simulation.trajectory import Trajectory
 
 from .hybrid import Integration, WalkerSpec
 from .machine import Change, Condition, ModeMachine, Transition, WalkLog
@@ -611,15 +612,21 @@ class HybridWalker:
         last = self._last_walk
         if plain and last is not None and last[0] == key and last[1][4] is self.run:
             traj, log, x0, p0, _ = last[1]
-            return cut_strides(self, traj, log, details=details, record=False, x0=x0, p0=p0)
+            return self._cut(traj, log, details=details, record=False, x0=x0, p0=p0)
         p0 = self.start_params(ground_drop)
-        try:
-            x0 = self.lift(z, p0)
-        except (np.linalg.LinAlgError, ModelError, ValueError) as err:
-            return [Stride(StrideStatus.FELL, None, 0.0, reason=f"invalid_state: {err}")]
+        # numpy's floating-point warnings off, as in the run itself: a section state whose
+        # values overflow is a fall (invalid_state), on the python back end as on C
+        with np.errstate(all="ignore"):
+            try:
+                x0 = self.lift(z, p0)
+                if np.all(np.isfinite(x0)):
+                    p0 = self.machine.start(x0, p0)
+            except (np.linalg.LinAlgError, ModelError, ValueError, ArithmeticError) as err:
+                if isinstance(err, ArithmeticError) and not self.model.raised_beyond_floats(err):
+                    raise
+                return [Stride(StrideStatus.FELL, None, 0.0, reason=f"invalid_state: {err}")]
         if not np.all(np.isfinite(x0)):
             return [Stride(StrideStatus.FELL, None, 0.0, reason="invalid_state")]
-        p0 = self.machine.start(x0, p0)
         log = WalkLog(int(n_steps), None if until is None
                       else lambda x, p: until(self.project(x, p)))
         traj = self.model.simulate(
@@ -629,7 +636,14 @@ class HybridWalker:
             dense_output=dense)
         if kept:
             self._last_walk = (key, (traj, log, x0, p0, self.run))
-        return cut_strides(self, traj, log, details=details, record=record, x0=x0, p0=p0)
+        return self._cut(traj, log, details=details, record=record, x0=x0, p0=p0)
+
+    def _cut(self, traj: Trajectory, log: WalkLog, **options: Any) -> list[Stride]:
+        """:func:`.strides.cut_strides` of a walk's run, numpy's floating-point warnings off as in
+        the run itself (porthamiltonian.simulation.simulate): a state beyond the float64 range is
+        a fall (its reason says so), not also a RuntimeWarning of the python back end's energy."""
+        with np.errstate(all="ignore"):
+            return cut_strides(self, traj, log, **options)
 
     def stride_sensitivity(self, z: np.ndarray, period: int = 1, *, factor: float = 1.0,
                            deadline: float = math.inf) -> StrideSensitivity:
