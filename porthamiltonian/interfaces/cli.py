@@ -495,19 +495,20 @@ def cmd_export_fmu(args: argparse.Namespace) -> int:
     """``porthamiltonian export-fmu``: the model as an FMU (docs/fmu.md)."""
     from ..fmu import export_fmu
     from ..integrators import TABLEAUS
-    from .sweeps import simulation_settings
+    from .sweeps import check_settings, simulation_settings
 
     record = io.read(args.model)
     settings = simulation_settings(record.simulation)
     with record.located():
         compiled = record.compile(backend=args.backend)
+        check_settings(compiled, settings)
     method = settings["method"] if settings["method"] in TABLEAUS else "Rodas5P"
     t_end = args.t_end if args.t_end is not None else settings.get("t_end")
     path = export_fmu(compiled, args.out, fmi=args.fmi, kind=args.kind,
                       params=parse_assignments(args.set), method=method, rtol=settings["rtol"],
                       atol=settings["atol"], max_step=settings.get("max_step", float("inf")),
                       stop_time=t_end, description=record.description,
-                      inputs=_constant_inputs(settings.get("inputs")))
+                      x0=settings.get("initial"), inputs=_constant_inputs(settings.get("inputs")))
     kinds = {"me": "model exchange", "cs": "co-simulation",
              "both": "model exchange and co-simulation"}[args.kind]
     print(f"wrote {path}: FMI {args.fmi}.0 ({kinds}), {compiled.n_states} + 2 states (the ledger's "

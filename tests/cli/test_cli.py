@@ -228,6 +228,37 @@ def test_simulate_method_replaces_the_files(capsys):
     assert info.value.code == 2 and "invalid choice: 'rodas'" in capsys.readouterr().err
 
 
+def test_the_files_initial_state_is_the_runs(tmp_path, capsys):
+    """``[simulation] initial`` starts ``simulate`` (and check-energy, sweep, view, export-fmu)
+    from those state values (it was read, checked for its type and then ignored: the run
+    started from the components' initial values)."""
+    path = tmp_path / "msd.toml"
+    path.write_text(MSD_TEXT.replace("atol = 1e-12", 'atol = 1e-12\ninitial = { "spring.q" = 0.5 }'))
+    assert main(["--backend", "python", "simulate", str(path), "--t-end", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["energy"]["H0"] == pytest.approx(0.5 * 4.0 * 0.5**2, rel=1e-12)   # k q^2 / 2
+
+
+def test_names_the_model_lacks_in_the_simulation_table_exit_2_with_their_lines(tmp_path, capsys):
+    """A state of ``[simulation] initial`` or an input of ``inputs`` that the model does not have
+    is refused before any run, every one with its line (both used to be ignored silently)."""
+    initial, inputs = 'initial = { "spring.x" = 0.5 }', "inputs = { u = 1.0 }"
+    text = MSD_TEXT.replace("atol = 1e-12", f"atol = 1e-12\n{initial}\n{inputs}")
+    path = tmp_path / "msd.toml"
+    path.write_text(text)
+    lines = text.splitlines()
+    for command in (["simulate", str(path), "--t-end", "1"],
+                    ["export-fmu", str(path), "--out", str(tmp_path / "msd.fmu")]):
+        assert main(["--backend", "python", *command]) == 2
+        assert capsys.readouterr().err.splitlines() == [
+            f"error: {path}: 2 problems:",
+            (f"  line {lines.index(initial) + 1}: [simulation] initial: model "
+             "'mass_spring_damper' has no state 'spring.x'; its states: mass.p, spring.q"),
+            (f"  line {lines.index(inputs) + 1}: [simulation] inputs: model "
+             "'mass_spring_damper' has no input 'u'; its inputs: none")]
+    assert not (tmp_path / "msd.fmu").exists()
+
+
 # The remaining bad-input checks call the entry point in-process (``main`` returns the exit status
 # that ``python -m porthamiltonian.interfaces.cli`` exits with), saving an interpreter start-up each.
 def test_set_without_equals_exits_2_with_message(capsys):

@@ -193,6 +193,10 @@ def test_empty_model_is_refused():
     ("atol = 1e-12", "atol = -1.0", ["atol", "positive"]),
     ("t_end = 20.0", "t_end = inf", ["t_end", "positive"]),
     ('method = "auto"', 'method = "radau"', ["unknown method 'radau'", "Radau"]),
+    ("atol = 1e-12", 'atol = 1e-12\ninitial = { "spring.q" = nan }',
+     ["[simulation] initial", "a table of state = finite number", "nan"]),
+    ("atol = 1e-12", "atol = 1e-12\ninputs = { F = inf }",
+     ["[simulation] inputs", "a table of input = finite number", "inf"]),
 ])
 def test_bad_simulation_table_is_a_model_file_error(model_text, old, new, words):
     text = model_text("mass_spring_damper")
