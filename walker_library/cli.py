@@ -379,6 +379,15 @@ def _search_limit(p: argparse.ArgumentParser, scan: bool = False) -> None:
                         "the study says so")
 
 
+def _basin_n(option: str, n: int) -> None:
+    """The rule of ``walker basin --n``: at least 2, and a grid the basin accepts
+    (:func:`~walker_library.analyses.robustness.check_basin_size`), before the gait search."""
+    from .analyses.robustness import check_basin_size
+
+    at_least(2)(option, n)
+    check_basin_size(n, option)
+
+
 def _study_gait(walker: HybridWalker, args: argparse.Namespace) -> GaitResult:
     """The gait a study (step-down, basin, gsn) starts from: the search under --time-limit."""
     return analyze_gait(walker, time_limit=args.time_limit or None)
@@ -669,7 +678,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="half-width of the grid in scaled units (theta/0.4 rad, "
                         "theta_dot/0.8 rad/s; default: 0.1)")
     _search_limit(p, scan=True)
-    rules(p, n=at_least(2), span=positive, time_limit=not_negative)
+    rules(p, n=_basin_n, span=positive, time_limit=not_negative)
     p.set_defaults(func=cmd_basin)
 
     p = sub.add_parser("gsn", parents=analysis,

@@ -209,6 +209,26 @@ def test_grid_limits_in_python_and_the_override():
     assert len(parse_grid(["k=0:1:11", "c=1,2"], max_cases=22)) == 22
 
 
+def test_a_huge_basin_grid_is_refused_before_the_gait_search(tmp_path):
+    """`walker basin --n 100000` made its 10^10-entry tables before walking a point (it hung,
+    then ran out of memory): refused by the option's rule, before the walker is even loaded,
+    with the largest n and where a larger grid belongs; 316 x 316 (the most) is accepted."""
+    proc, cpu = _cpu_of(lambda: capped(["-m", "walker_library", "basin", "rimless_wheel", "--n",
+                                        "100000"], GIGABYTE))
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert proc.stderr == ("error: basin: --n = 100000 makes a grid of 10,000,000,000 points, "
+                           "more than 100,000 (each point is a walk, and the grid's tables are "
+                           "made before the first); give --n <= 316, or run a larger grid as a "
+                           "resumable sweep (walker sweep MODEL --analysis basin --grid ... "
+                           "--max-cases N)\n")
+    assert cpu < SUBPROCESS_CPU
+    from walker_library.analyses.robustness import check_basin_size
+
+    check_basin_size(316)
+    with pytest.raises(CostError, match=r"n = 317 makes a grid of 100,489 points"):
+        check_basin_size(317)
+
+
 # --- time: the gait search and the continuation -------------------------------------------------------
 def test_a_gait_search_that_would_run_for_hours_stops_at_its_time_limit(capsys, within):
     """K = 1e15 (a contact 1e9 times stiffer than the file's): Newton from the guess stops at

@@ -57,8 +57,9 @@ from typing import Any
 
 import numpy as np
 
+from porthamiltonian.batch.grids import MAX_CASES
 from porthamiltonian.batch.progress import tick
-from porthamiltonian.errors import ParameterValueError
+from porthamiltonian.errors import CostError, ParameterValueError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.simulation.options import METHODS
 
@@ -423,6 +424,19 @@ class BasinResult(JSONResult):
     stopped: str = ""
 
 
+def check_basin_size(n: int, option: str = "n") -> None:
+    """Refuse (:class:`~porthamiltonian.errors.CostError`) a basin grid of more than
+    :data:`~porthamiltonian.batch.grids.MAX_CASES` points (``n`` per axis; ``option``: how the
+    caller names ``n``): its tables are made before the first point is walked (n = 100 000
+    asked for 10^10 entries and hung), and each point is a walk."""
+    if n * n > MAX_CASES:
+        raise CostError(f"basin: {option} = {n} makes a grid of {n * n:,} points, more than "
+                        f"{MAX_CASES:,} (each point is a walk, and the grid's tables are made "
+                        f"before the first); give {option} <= {math.isqrt(MAX_CASES)}, or run a "
+                        "larger grid as a resumable sweep (walker sweep MODEL --analysis basin "
+                        "--grid ... --max-cases N)")
+
+
 def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
           span: float | tuple[float, float] = 0.1,
           theta_scale: float = 0.4, theta_dot_scale: float = 0.8, n_steps: int | None = None,
@@ -436,6 +450,7 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
     integration of the points' walks (:func:`basin_walker`; the gait is the walker's own).
     ``progress`` is called per grid point. ``deadline`` (a ``time.perf_counter()``): no point is
     started after it; those left are "not_run" (``stopped`` says so)."""
+    check_basin_size(n)                        # before the gait search
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
     walking = basin_walker(walker, method)
