@@ -229,6 +229,41 @@ def test_a_huge_basin_grid_is_refused_before_the_gait_search(tmp_path):
         check_basin_size(317)
 
 
+@pytest.mark.parametrize("resolution, h_max, error, message", [
+    ("0.1", "0.01", "ParameterValueError",
+     ("step_down: resolution (0.1 m) is larger than h_max (0.01 m), so the scan would walk no "
+      "height; give a resolution of at most h_max")),
+    ("1e-300", "0.1", "ParameterValueError",
+     ("step_down: resolution (1e-300 m) is below 1e-12 m, to which the heights are rounded; give "
+      "a resolution of at least 1e-12 m")),
+    ("1e-9", "0.1", "CostError",
+     ("step_down: h_max / resolution = 0.1 m / 1e-09 m makes up to 1e+08 heights, more than "
+      "100,000 (each a walk); give a coarser resolution or a lower h_max")),
+])
+def test_a_step_down_grid_without_heights_or_with_too_many_is_refused(resolution, h_max, error,
+                                                                       message, monkeypatch,
+                                                                       capsys):
+    """A resolution above h_max walked no height and reported "no drop survived" (status 0); one
+    below the heights' rounding walked h = 0 again and again (without a time limit, forever);
+    1e8 heights ran to the time limit. Each is refused before the gait search (exit 2; the
+    rimless wheel's default h_max is 0.1 of its 1 m leg)."""
+    from porthamiltonian import errors
+    from walker_library.analyses import robustness
+    from walker_library.cli import main
+
+    def no_search(*args, **kwargs):
+        raise AssertionError("the gait search started")
+
+    monkeypatch.setattr(robustness, "_gait_or_raise", no_search)
+    assert main(["step-down", "rimless_wheel", "--resolution", resolution, "--h-max", h_max,
+                 "--quiet"]) == 2
+    assert capsys.readouterr().err == f"error: {message}\n"
+    with pytest.raises(getattr(errors, error)) as info:
+        robustness.step_down(load_walker("rimless_wheel"), resolution=float(resolution),
+                             h_max=float(h_max))
+    assert str(info.value) == message
+
+
 # --- time: the gait search and the continuation -------------------------------------------------------
 def test_a_gait_search_that_would_run_for_hours_stops_at_its_time_limit(capsys, within):
     """K = 1e15 (a contact 1e9 times stiffer than the file's): Newton from the guess stops at

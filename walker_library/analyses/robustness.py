@@ -230,6 +230,31 @@ def _intervals(cases: list[dict]) -> list[list[float]]:
     return out
 
 
+#: the step-down scan's heights are rounded to this many decimals of a metre (0.003, not
+#: 0.0030000000000000005)
+HEIGHT_DIGITS = 12
+
+
+def _check_scan(resolution: float, h_max: float) -> None:
+    """The step-down scan's grid (m) has heights to walk, distinct after their rounding, and
+    at most :data:`~porthamiltonian.batch.grids.MAX_CASES` of them: a resolution above h_max
+    walked none and reported "no drop survived"; one below the rounding walked h = 0 over and
+    over (with no time limit, without end)."""
+    if resolution > h_max:
+        raise ParameterValueError(f"step_down: resolution ({resolution:g} m) is larger than "
+                                  f"h_max ({h_max:g} m), so the scan would walk no height; give "
+                                  "a resolution of at most h_max")
+    rounding = 10.0 ** -HEIGHT_DIGITS
+    if resolution < rounding:
+        raise ParameterValueError(f"step_down: resolution ({resolution:g} m) is below "
+                                  f"{rounding:g} m, to which the heights are rounded; give a "
+                                  f"resolution of at least {rounding:g} m")
+    if h_max / resolution > MAX_CASES:
+        raise CostError(f"step_down: h_max / resolution = {h_max:g} m / {resolution:g} m makes "
+                        f"up to {h_max / resolution:.3g} heights, more than {MAX_CASES:,} (each "
+                        "a walk); give a coarser resolution or a lower h_max")
+
+
 def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: float | None = None,
               h_max: float | None = None, n_beyond: int = 8, n_steps: int | None = None,
               tol: float = 1e-4, heights: Iterable[float] | None = None,
@@ -241,6 +266,15 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
     ``boundary_tol`` is 0). ``progress`` is called with each case record as it finishes.
     ``deadline`` (a ``time.perf_counter()``): no height is started after it; the result is
     then that of the heights walked (``stopped`` says so; a walk under way ends first)."""
+    leg = float(walker.leg_length)
+    resolution = 2e-4 * leg if resolution is None else float(resolution)
+    h_max = 0.1 * leg if h_max is None else float(h_max)
+    if not (resolution > 0 and h_max > 0 and boundary_tol >= 0):
+        raise ParameterValueError(f"step_down: resolution ({resolution!r} m) and h_max "
+                                  f"({h_max!r} m) must be positive, boundary_tol "
+                                  f"({boundary_tol!r} m) >= 0")
+    if heights is None:
+        _check_scan(resolution, h_max)            # before the gait search
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
     base: dict[str, Any] = {"model": walker.name, "parameters": dict(walker.parameters),
@@ -253,13 +287,6 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
                               cases=[], fixed_point=gait.fixed_point,
                               seconds=time.perf_counter() - t0,
                               message=f"no periodic gait to disturb: {gait.message}", **base)
-    leg = float(walker.leg_length)
-    resolution = 2e-4 * leg if resolution is None else float(resolution)
-    h_max = 0.1 * leg if h_max is None else float(h_max)
-    if not (resolution > 0 and h_max > 0 and boundary_tol >= 0):
-        raise ParameterValueError(f"step_down: resolution ({resolution!r} m) and h_max "
-                                  f"({h_max!r} m) must be positive, boundary_tol "
-                                  f"({boundary_tol!r} m) >= 0")
     n_steps = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
     fps = fixed_points(walker, gait)
     z0 = fps[0]
@@ -285,7 +312,7 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
         else:
             misses, k, first = 0, 1, None
             while k * step <= top * (1 + 1e-12):
-                h = round(k * step, 12)
+                h = round(k * step, HEIGHT_DIGITS)
                 ok = run(h, "grid")["survived"]
                 misses = 0 if ok else misses + 1
                 if not ok and first is None:
