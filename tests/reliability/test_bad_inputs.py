@@ -206,3 +206,18 @@ def test_bad_simulation_table_is_a_model_file_error(model_text, old, new, words)
     assert str(info.value).startswith("msd.toml, line ")
     for word in words:
         assert word in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize("values", [{"x0": 1e308}, {"x0": 1e200}, {"m": 1e-308}],
+                         ids=["x0=1e308", "x0=1e200", "m=1e-308"])
+def test_arithmetic_beyond_the_float_range_fails_the_run_on_every_back_end(msd, values):
+    """Python's floats raise where C's give inf or NaN: on the python back end a state or a
+    parameter near the float range raised OverflowError or ZeroDivisionError out of simulate
+    (`porthamiltonian --backend python simulate mass_spring_damper --set x0=1e308`: a bug
+    report, status 3). The run now fails as it does on the C back end: status "failed" at
+    t = 0, the same message."""
+    c = compile_model(io.load("mass_spring_damper"), backend="c")
+    for model in (msd, c):
+        traj = model.simulate(1.0, params=values)
+        assert (traj.status, traj.t_final) == ("failed", 0.0), (model.backend, traj.message)
+        assert traj.message.startswith("Rodas5P: step size too small"), traj.message
