@@ -43,6 +43,7 @@ from ..batch.analysis import Analysis
 from ..batch.errors import SweepError
 from ..batch.grids import MAX_CASES
 from ..batch.progress import MODES
+from ..batch.values import to_jsonable
 from ..errors import ModelError, OptionError
 from ..simulation.options import METHODS
 from . import io
@@ -363,8 +364,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
               "energy": traj.ledger(), "nfev": traj.nfev, "events": traj.events}
     if args.csv:
         traj.to_csv(args.csv, outputs=True)
-    if args.json:
-        print(json.dumps(result, indent=1))
+    if args.json:                  # (a run that overflowed: its inf and NaN as null)
+        print(json.dumps(to_jsonable(result), indent=1, allow_nan=False))
     else:
         print(f"{model.name}: {traj.status} at t = {traj.t_final:g} s ({traj.message}); "
               f"{traj.nfev} right-hand-side evaluations")

@@ -259,6 +259,31 @@ def test_names_the_model_lacks_in_the_simulation_table_exit_2_with_their_lines(t
     assert not (tmp_path / "msd.fmu").exists()
 
 
+def _strict_json(text: str) -> dict:
+    """``text`` parsed as JSON proper: NaN and Infinity (Python's extensions) refused."""
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"{constant} in the JSON output")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_json_of_a_run_that_overflowed_is_json(capsys):
+    """`simulate --json` and `linearize --json` printed NaN and Infinity (not JSON: strict
+    parsers refuse the document) when a run or a point overflowed (x0 = 1e308: an infinite
+    energy; k = 1e300: |dx/dt| beyond the float range); they print null there, as the walker
+    commands and `fit --json` do."""
+    from porthamiltonian.interfaces import cli
+
+    assert main(["--backend", "python", "simulate", "mass_spring_damper", "--set", "x0=1e308",
+                 "--t-end", "1", "--json"]) == 1
+    energy = _strict_json(capsys.readouterr().out)["energy"]
+    assert energy["H0"] is None and energy["relative_residual"] is None
+    assert cli.main(["--backend", "python", "linearize", "mass_spring_damper", "--set",
+                     "k=1e300", "--json"]) == 0
+    out = _strict_json(capsys.readouterr().out)
+    assert out["xdot_norm"] is None and out["eigenvalues"][1] == [pytest.approx(-0.2),
+                                                                  pytest.approx(1e150)]
+
+
 # The remaining bad-input checks call the entry point in-process (``main`` returns the exit status
 # that ``python -m porthamiltonian.interfaces.cli`` exits with), saving an interpreter start-up each.
 def test_set_without_equals_exits_2_with_message(capsys):
