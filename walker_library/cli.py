@@ -124,6 +124,9 @@ def _read_guess(path: str) -> dict:
     except json.JSONDecodeError as err:
         raise ModelFileError(f"--guess {path}: not a JSON document (line {err.lineno}: "
                              f"{err.msg}); give the output of `walker gait ... --json`") from None
+    except RecursionError:
+        raise ModelFileError(f"--guess {path}: arrays or objects are nested too deeply for a "
+                             "gait result; give the output of `walker gait ... --json`") from None
     if not isinstance(data, dict):
         raise ModelFileError(f"--guess {path}: expected a JSON object (a `walker gait --json` "
                              "result)")

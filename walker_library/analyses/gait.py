@@ -271,9 +271,17 @@ def section_guess(walker: Walker, previous: Mapping | None = None,
 
 
 def _finite(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    """``value`` as a float, or ModelError naming ``name``: a number (not a bool), finite as a
+    float (a JSON integer has no bound: 10**400 raised OverflowError out of the check)."""
+    number = math.nan
+    if _is_number(value):
+        try:
+            number = float(value)
+        except OverflowError:
+            pass
+    if not math.isfinite(number):
         raise ModelError(f"guess: {name} must be a finite number, got {value!r}")
-    return float(value)
+    return number
 
 
 # --- the search ----------------------------------------------------------------------------------
