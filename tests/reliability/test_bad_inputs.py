@@ -89,11 +89,20 @@ OPTIONS = [
     ("params", [1, 2], OptionError, ["params", "mapping"]),
     ("actions", {"nope": _f}, ModelError, ["nope"]), ("actions", {"e": 3}, OptionError, ["actions"]),
     ("events", "x", OptionError, ["events"]),
+    # integers beyond the float range (JSON and Python have no bound on them): OverflowError
+    # out of the checks before
+    ("t_end", 10**400, OptionError, ["t_end", "finite"]),
+    ("rtol", 10**400, OptionError, ["rtol", "finite"]),
+    ("atol", -10**400, OptionError, ["atol", "finite"]),
+    ("first_step", 10**400, OptionError, ["first_step", "finite"]),
+    ("x0", {"spring.q": 10**400}, StateError, ["spring.q = inf", "not finite"]),
+    ("params", {"k": 10**400}, ParameterValueError, ["'k'", "finite", "inf"]),
 ]
 
 
 @pytest.mark.parametrize("option, value, error, words", OPTIONS,
-                         ids=[f"{o}={re.sub(' at 0x[0-9a-f]+', '', repr(v))}" for o, v, _, _ in OPTIONS])
+                         ids=[f"{o}={re.sub(' at 0x[0-9a-f]+', '', repr(v))[:40]}"
+                              for o, v, _, _ in OPTIONS])
 def test_bad_option_is_a_typed_error_naming_it(msd, option, value, error, words):
     kwargs = {"t_end": 10.0, "method": "Radau"}
     kwargs[option] = value
