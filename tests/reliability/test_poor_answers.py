@@ -157,6 +157,16 @@ def test_export_with_force_replaces_the_link_not_its_target(tmp_path, capsys):
     assert oct(path.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
 
 
+def test_export_into_a_missing_folder_names_the_folder(tmp_path, capsys):
+    """The error named the temporary file the export writes first
+    (``.out.toml.dojfnmy6.tmp: No such file or directory``); it names the path and its
+    missing folder now, before any work."""
+    path = tmp_path / "missing" / "out.toml"
+    assert walker_cli.main(["export", "simplest_walker", str(path)]) == 2
+    assert capsys.readouterr().err == (f"error: cannot write {path}: the folder {path.parent} "
+                                       "does not exist\n")
+
+
 def _umask() -> int:
     mask = os.umask(0o022)
     os.umask(mask)
