@@ -95,7 +95,7 @@ def run_linearize(args: argparse.Namespace, at: Mapping[str, float],
         return 0
     print(f"{compiled.name}: linearized at t = {lin.t:g}"
           f"{' (an equilibrium found by trim)' if how['trim'] else ''}; |dx/dt| there = "
-          f"{np.linalg.norm(lin.xdot):.3g}")
+          f"{lin.xdot_norm:.3g}")
     print("  point: " + ", ".join(f"{n} = {v:.10g}" for n, v in zip(lin.states, lin.x)))
     if lin.inputs:
         print("  inputs: " + ", ".join(f"{n} = {v:.10g}" for n, v in zip(lin.inputs, lin.u)))
