@@ -436,14 +436,16 @@ def cmd_basin(args: argparse.Namespace) -> int:
     if done is None:
         return 0
     walker, result = done
+    if result.status != "ok":            # no gait: no radius (NaN) to show
+        print(f"{walker.name}: {result.message}")
+        return 0
     print(f"{walker.name}: {result.message}; radius {result.radius:.4g} (scaled units: theta/"
           f"{result.theta_scale:g} rad, theta_dot/{result.theta_dot_scale:g} rad/s)")
-    if result.status == "ok":
-        mark = {"converged": "*", "fell": ".", "wandered": "~", "invalid": "x", "not_run": " "}
-        print("  rows: theta_dot in rad/s (top = largest); columns: theta (left = smallest)")
-        for j in reversed(range(len(result.theta_dot))):
-            print(f"  {result.theta_dot[j]: .4f} " + "".join(mark[result.outcome[i][j]]
-                                                          for i in range(len(result.theta))))
+    mark = {"converged": "*", "fell": ".", "wandered": "~", "invalid": "x", "not_run": " "}
+    print("  rows: theta_dot in rad/s (top = largest); columns: theta (left = smallest)")
+    for j in reversed(range(len(result.theta_dot))):
+        print(f"  {result.theta_dot[j]: .4f} " + "".join(mark[result.outcome[i][j]]
+                                                      for i in range(len(result.theta))))
     return 0
 
 
@@ -456,6 +458,9 @@ def cmd_gsn(args: argparse.Namespace) -> int:
         result = gait_sensitivity_norm(walker, _study_gait(walker, args))
     if args.json:
         print(to_json(result))
+        return 0
+    if result.status != "ok":            # no gait: no norm and no error estimate (NaN)
+        print(f"{walker.name}: {result.message}")
         return 0
     unit = {"step_period": "s/m", "step_length": "m/m"}
     print(f"{walker.name}: {result.message} (per m of step-down); error estimate "

@@ -298,6 +298,19 @@ def test_the_studies_stop_their_gait_search_at_their_time_limit(study, capsys):
     assert "the search stopped at its time limit (0.2 s; --time-limit)" in result["message"]
 
 
+@pytest.mark.parametrize("study", ["basin", "gsn"])
+def test_a_study_without_a_gait_shows_no_nan(study, capsys):
+    """Without a gait (the search stopped at once) basin printed "radius nan" and gsn "error
+    estimate nan" after the message that there is no gait: the message alone now."""
+    from walker_library.cli import main
+
+    assert main([study, "compass_walker", "--set", "K=1e15", "--time-limit", "0.2",
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("compass_walker: no periodic gait: ") and out.count("\n") == 1, out
+    assert "nan" not in out, out
+
+
 class _Clock:
     """A clock for ``time.perf_counter()`` that a test moves (one second per case below)."""
 
