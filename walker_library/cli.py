@@ -56,6 +56,7 @@ from porthamiltonian.interfaces.cli import (
     add_sweep_parser,
     at_least,
     backend_option,
+    file_name,
     format_value,
     leaving,
     not_negative,
@@ -650,7 +651,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="period doublings to follow from flips (default: 2, period 1 -> 2 -> 4)")
     p.add_argument("--max-points", type=int, default=400, metavar="N",
                    help="points per branch at most (default: 400)")
-    p.add_argument("--out", default=None, metavar="DIR",
+    p.add_argument("--out", type=file_name, default=None, metavar="DIR",
                    help="write continuation.json and bifurcation_diagram.png there")
     p.add_argument("--time-limit", type=float, default=CONTINUATION_TIME_LIMIT, metavar="S",
                    help=f"start no new point after S seconds (default "

@@ -21,8 +21,8 @@ sweep), 141 when the reader of the output went away (``| head``).
 
 This module also holds what the ``walker`` command shares with this one: the parent parsers of
 the common options (:data:`SET_OPTION`, :data:`JSON_OPTION`, :func:`backend_option`,
-:data:`QUIET_OPTION`, :data:`SWEEP_OPTIONS`), :func:`parse_assignments`, :func:`run_sweep` and
-the runner :func:`run`.
+:data:`QUIET_OPTION`, :data:`SWEEP_OPTIONS`), :func:`file_name`, :func:`parse_assignments`,
+:func:`run_sweep` and the runner :func:`run`.
 """
 from __future__ import annotations
 
@@ -73,6 +73,14 @@ def not_negative(option: str, value: float) -> None:
     """A rule of an option (see :func:`rules`): a finite number >= 0 (0 often means "none")."""
     if not (math.isfinite(value) and value >= 0):
         raise OptionError(f"{option} must be a finite number >= 0, got {value:g}")
+
+
+def file_name(text: str) -> str:
+    """The argparse type of an optional output (``--csv FILE``, ``--out DIR``): a path that is
+    not empty (``--csv ""`` was taken as no option given: nothing written, without a word)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; give the file or folder to write")
+    return text
 
 
 def rules(parser: argparse.ArgumentParser, **checks: Callable[[str, Any], None]) -> None:
@@ -150,7 +158,7 @@ SWEEP_OPTIONS.add_argument("--scheduler", default=None, metavar="ADDRESS",
 SWEEP_OPTIONS.add_argument("--max-cases", type=int, default=MAX_CASES, metavar="N",
                            help=f"refuse a grid of more cases than this (default {MAX_CASES}: a "
                                 "case list takes about 0.5 kB of memory per case); 0: no limit")
-SWEEP_OPTIONS.add_argument("--csv", default=None, metavar="FILE",
+SWEEP_OPTIONS.add_argument("--csv", type=file_name, default=None, metavar="FILE",
                            help="also write the table as CSV")
 SWEEP_OPTIONS.add_argument("--progress", choices=MODES, default=None,
                            help="progress display on stderr (default: auto, a bar on a "
@@ -545,7 +553,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("model", help=model_help)
     p.add_argument("--t-end", type=float, default=None, metavar="T",
                    help="end time (s; default: the model file's [simulation] t_end)")
-    p.add_argument("--csv", metavar="FILE",
+    p.add_argument("--csv", type=file_name, metavar="FILE",
                    help="also write the trajectory (time, states, ledger, outputs) as CSV")
     p.add_argument("--method", choices=("auto", *METHODS), default=None,
                    help="integration method (default: the model file's [simulation] method; "
