@@ -22,6 +22,7 @@ import numpy as np
 from porthamiltonian.batch import Analysis, SweepError
 from porthamiltonian.batch.values import canonical
 from porthamiltonian.errors import ParameterValueError
+from porthamiltonian.simulation.options import check_integer, check_number
 
 from ..core.protocol import Walker
 from .gait import GaitResult, GaitStatus, analyze_gait, check_search
@@ -213,12 +214,19 @@ def prepare_gait(cases: Sequence[Mapping[str, Any]], *, model: str, backend: str
 
 
 def prepare_basin(cases: Sequence[Mapping[str, Any]], *, model: str, backend: str | None = None,
-                  params: Mapping[str, Any] | None = None, method: str | None = "auto",
-                  **options: Any) -> dict[str, Any]:
-    """Build the walker with ``params`` (checked), check ``method``, and find its gait once,
-    here: the sweep's shared argument ``gait``, so that no worker looks for it again."""
+                  params: Mapping[str, Any] | None = None, n_steps: int | None = None,
+                  tol: float = 1e-4, method: str | None = "auto") -> dict[str, Any]:
+    """Build the walker with ``params`` (checked), check ``n_steps``, ``tol`` and ``method``,
+    and find its gait once, here: the sweep's shared argument ``gait``, so that no worker looks
+    for it again."""
     from .robustness import basin_walker
 
+    if params is not None and not isinstance(params, Mapping):
+        raise SweepError(f"--option params must be a JSON object of parameter values (e.g. "
+                         f"params='{{\"slope\": 0.01}}'), got {params!r}")
+    if n_steps is not None:
+        check_integer("n_steps", n_steps)
+    check_number("tol", tol, positive=True)
     for index, case in enumerate(cases):
         missing = [k for k in ("theta", "theta_dot") if k not in case]
         if missing:
