@@ -303,12 +303,13 @@ def _continuation(walker: HybridWalker, text: str, guess: np.ndarray | None, *,
 def cmd_continue(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)  # before the continuation: a bad --out loses no work
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
                            max_points=args.max_points, jacobian=args.jacobian, log=log,
                            time_limit=args.time_limit or None)
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
         (out / "continuation.json").write_text(result.to_json())
         from .report.figures import fig_bifurcation
         fig_bifurcation(result, out / "bifurcation_diagram.png")
@@ -334,8 +335,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
                   + ("" if b.child is None else
                      f"; joins period-{2 * b.period} branch {b.child} (followed already)"
                      if b.joins else f"; period-{2 * b.period} branch {b.child}"))
-    if args.out:
-        print(f"wrote {Path(args.out) / 'continuation.json'} and bifurcation_diagram.png")
+    if out is not None:
+        print(f"wrote {out / 'continuation.json'} and bifurcation_diagram.png")
     return 0
 
 

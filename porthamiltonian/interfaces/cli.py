@@ -396,13 +396,13 @@ def cmd_view(args: argparse.Namespace) -> int:
 
     record = io.read(args.model)
     entry = SimulationModel.from_file(record, args.backend)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)      # before the run: a bad --out loses no work
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
                           progress=RunProgress(entry.model.name, entry.t_end(args.t_end),
                                                interval=args.progress_interval))
     scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
                                   title=entry.model.name)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     page = scene.to_html(out / "view.html", caption=record.description, still=False)
     still = scene.to_png(out / "view.png")
     print(f"wrote {page} and {still}: {len(scene.bodies)} bod{'y' if len(scene.bodies) == 1 else 'ies'}"

@@ -167,6 +167,29 @@ def test_export_into_a_missing_folder_names_the_folder(tmp_path, capsys):
                                        "does not exist\n")
 
 
+@pytest.mark.parametrize("command", [
+    ["porthamiltonian", "view", "pendulum", "--t-end", "1"],
+    ["walker", "continue", "simplest_walker", "--param", "slope=0.009:0.01"],
+])
+def test_an_output_folder_that_cannot_be_made_fails_before_the_work(command, tmp_path,
+                                                                     monkeypatch, capsys):
+    """`view --out FILE` and `walker continue --out FILE` ran the simulation or the whole
+    continuation (up to an hour) and only then failed to make the folder: the work was lost.
+    The folder is made first now; a path that is a file fails at once (status 2)."""
+    from porthamiltonian.interfaces.sweeps import SimulationModel
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the work started")
+
+    monkeypatch.setattr(SimulationModel, "simulate", no_work)
+    monkeypatch.setattr(walker_cli, "_continuation", no_work)
+    taken = tmp_path / "taken"
+    taken.write_text("a file")
+    main = cli.main if command[0] == "porthamiltonian" else walker_cli.main
+    assert main([*command[1:], "--out", str(taken)]) == 2
+    assert capsys.readouterr().err == f"error: {taken}: File exists\n"
+
+
 def _umask() -> int:
     mask = os.umask(0o022)
     os.umask(mask)
