@@ -11,6 +11,7 @@ first byte and between bytes), so a pipe that never writes cannot hang the comma
 :func:`write_atomic` writes a file whole or not at all.
 
 :func:`path_problem` tells, without reading, what is wrong with a path that is to be read;
+:func:`output_problem` what is wrong with a path to write, before the work that makes the file;
 :func:`replace_problem` what is at a path that a file written there must not replace.
 Errors are :class:`~porthamiltonian.errors.ModelFileError` starting with the ``label`` the
 caller gives (how the user named the file: ``"--guess result.json"``, the path).
@@ -27,8 +28,8 @@ from pathlib import Path
 
 from .errors import ModelFileError
 
-__all__ = ["PIPE_SECONDS", "is_pipe", "path_problem", "read_bytes", "read_text",
-           "replace_problem", "write_atomic"]
+__all__ = ["PIPE_SECONDS", "is_pipe", "output_problem", "path_problem", "read_bytes",
+           "read_text", "replace_problem", "write_atomic"]
 
 #: the longest wait (s) for a pipe's first byte and between its bytes
 PIPE_SECONDS = 30.0
@@ -77,6 +78,18 @@ def path_problem(path: str | Path) -> str | None:
         return "is not a valid path (it holds a NUL character)"
     kind = _kind(info.st_mode)
     return None if kind is None else f"is {kind}"
+
+
+def output_problem(path: str | Path) -> str | None:
+    """What is wrong with writing a file at ``path``, known before the work that makes it:
+    ``"is a directory, not a file"``, or that its folder does not exist; None otherwise (a
+    device such as ``/dev/stdout`` is written to)."""
+    path = Path(path)
+    if path.is_dir():
+        return "is a directory, not a file"
+    if not path.parent.is_dir():
+        return f"cannot be written: the folder {path.parent} does not exist"
+    return None
 
 
 def replace_problem(path: str | Path) -> str | None:

@@ -83,6 +83,15 @@ def file_name(text: str) -> str:
     return text
 
 
+def check_output(option: str, path: str | None) -> None:
+    """Before the work: an output file ``path`` of ``option`` (``--csv``) can be written (not
+    a directory, in a folder that exists); else a ModelError saying so (the run that the file
+    was to hold was lost when its writing failed after it)."""
+    problem = None if path is None else userfiles.output_problem(path)
+    if problem is not None:
+        raise ModelError(f"{option} {path} {problem}; give a file in a folder that exists")
+
+
 def rules(parser: argparse.ArgumentParser, **checks: Callable[[str, Any], None]) -> None:
     """Give the options of a command's ``parser`` their rules (``steps=at_least(1)``,
     ``rate=positive``): :func:`run` applies them before the command runs, so a bad value is
@@ -259,6 +268,7 @@ def run_sweep(args: argparse.Namespace, analysis: Analysis, fixed: dict[str, Any
     from ..batch import Sweep, SweepInterrupted, open_executor, parse_grid, write_csv
 
     cases = parse_grid(args.grid, args.max_cases or None)
+    check_output("--csv", args.csv)
     meta = {"analysis": analysis.name, "grid": list(args.grid),
             **_model_file_meta(str(fixed.get("model", "")))}
     sweep = Sweep(analysis.resolve(), cases, args.out, fixed=fixed, meta=meta,
@@ -360,6 +370,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """``porthamiltonian simulate``: one run, its final state and ledger (text or JSON)."""
     from .sweeps import SimulationModel
 
+    check_output("--csv", args.csv)
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
