@@ -10,7 +10,9 @@ m.toml)``, a named FIFO) within the same size bound and a time bound (:data:`PIP
 first byte and between bytes), so a pipe that never writes cannot hang the command.
 :func:`write_atomic` writes a file whole or not at all.
 
-:func:`path_problem` tells, without reading, what is wrong with a path that is to be read.
+:func:`path_problem` tells, without reading, what is wrong with a path that is to be read;
+:func:`output_problem` what is wrong with a path to write, before the work that makes the file;
+:func:`replace_problem` what is at a path that a file written there must not replace.
 Errors are :class:`~porthamiltonian.errors.ModelFileError` starting with the ``label`` the
 caller gives (how the user named the file: ``"--guess result.json"``, the path).
 """
@@ -26,7 +28,8 @@ from pathlib import Path
 
 from .errors import ModelFileError
 
-__all__ = ["PIPE_SECONDS", "is_pipe", "path_problem", "read_bytes", "read_text", "write_atomic"]
+__all__ = ["PIPE_SECONDS", "is_pipe", "output_problem", "path_problem", "read_bytes",
+           "read_text", "replace_problem", "write_atomic"]
 
 #: the longest wait (s) for a pipe's first byte and between its bytes
 PIPE_SECONDS = 30.0
@@ -74,6 +77,36 @@ def path_problem(path: str | Path) -> str | None:
     except ValueError:
         return "is not a valid path (it holds a NUL character)"
     kind = _kind(info.st_mode)
+    return None if kind is None else f"is {kind}"
+
+
+def output_problem(path: str | Path) -> str | None:
+    """What is wrong with writing a file at ``path``, known before the work that makes it:
+    ``"is a directory, not a file"``, or that its folder does not exist; None otherwise (a
+    device such as ``/dev/stdout`` is written to)."""
+    path = Path(path)
+    if path.is_dir():
+        return "is a directory, not a file"
+    if not path.parent.is_dir():
+        return f"cannot be written: the folder {path.parent} does not exist"
+    return None
+
+
+def replace_problem(path: str | Path) -> str | None:
+    """What is at ``path`` that a file written there must not replace (a new file renamed into
+    place, :func:`write_atomic`, would put a file where it was: as root, ``/dev/null`` became a
+    file): ``"is a directory, not a file"``, ``"is a device, not a file"``, a socket or a pipe;
+    None for nothing there, a regular file or a symbolic link (replaced, not written
+    through)."""
+    try:
+        info = os.lstat(path)
+    except (OSError, ValueError):
+        return None                   # nothing there (or no valid path: the write will say)
+    if stat.S_ISLNK(info.st_mode):
+        return None
+    if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode):
+        return "is a device, not a file"
+    kind = "a pipe, not a file" if stat.S_ISFIFO(info.st_mode) else _kind(info.st_mode)
     return None if kind is None else f"is {kind}"
 
 

@@ -56,6 +56,7 @@ from porthamiltonian.interfaces.cli import (
     add_sweep_parser,
     at_least,
     backend_option,
+    file_name,
     format_value,
     leaving,
     not_negative,
@@ -124,6 +125,9 @@ def _read_guess(path: str) -> dict:
     except json.JSONDecodeError as err:
         raise ModelFileError(f"--guess {path}: not a JSON document (line {err.lineno}: "
                              f"{err.msg}); give the output of `walker gait ... --json`") from None
+    except RecursionError:
+        raise ModelFileError(f"--guess {path}: arrays or objects are nested too deeply for a "
+                             "gait result; give the output of `walker gait ... --json`") from None
     if not isinstance(data, dict):
         raise ModelFileError(f"--guess {path}: expected a JSON object (a `walker gait --json` "
                              "result)")
@@ -299,12 +303,13 @@ def _continuation(walker: HybridWalker, text: str, guess: np.ndarray | None, *,
 def cmd_continue(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)  # before the continuation: a bad --out loses no work
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
                            max_points=args.max_points, jacobian=args.jacobian, log=log,
                            time_limit=args.time_limit or None)
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
         (out / "continuation.json").write_text(result.to_json())
         from .report.figures import fig_bifurcation
         fig_bifurcation(result, out / "bifurcation_diagram.png")
@@ -330,8 +335,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
                   + ("" if b.child is None else
                      f"; joins period-{2 * b.period} branch {b.child} (followed already)"
                      if b.joins else f"; period-{2 * b.period} branch {b.child}"))
-    if args.out:
-        print(f"wrote {Path(args.out) / 'continuation.json'} and bifurcation_diagram.png")
+    if out is not None:
+        print(f"wrote {out / 'continuation.json'} and bifurcation_diagram.png")
     return 0
 
 
@@ -379,6 +384,15 @@ def _search_limit(p: argparse.ArgumentParser, scan: bool = False) -> None:
                         "the study says so")
 
 
+def _basin_n(option: str, n: int) -> None:
+    """The rule of ``walker basin --n``: at least 2, and a grid the basin accepts
+    (:func:`~walker_library.analyses.robustness.check_basin_size`), before the gait search."""
+    from .analyses.robustness import check_basin_size
+
+    at_least(2)(option, n)
+    check_basin_size(n, option)
+
+
 def _study_gait(walker: HybridWalker, args: argparse.Namespace) -> GaitResult:
     """The gait a study (step-down, basin, gsn) starts from: the search under --time-limit."""
     return analyze_gait(walker, time_limit=args.time_limit or None)
@@ -424,14 +438,16 @@ def cmd_basin(args: argparse.Namespace) -> int:
     if done is None:
         return 0
     walker, result = done
+    if result.status != "ok":            # no gait: no radius (NaN) to show
+        print(f"{walker.name}: {result.message}")
+        return 0
     print(f"{walker.name}: {result.message}; radius {result.radius:.4g} (scaled units: theta/"
           f"{result.theta_scale:g} rad, theta_dot/{result.theta_dot_scale:g} rad/s)")
-    if result.status == "ok":
-        mark = {"converged": "*", "fell": ".", "wandered": "~", "invalid": "x", "not_run": " "}
-        print("  rows: theta_dot in rad/s (top = largest); columns: theta (left = smallest)")
-        for j in reversed(range(len(result.theta_dot))):
-            print(f"  {result.theta_dot[j]: .4f} " + "".join(mark[result.outcome[i][j]]
-                                                          for i in range(len(result.theta))))
+    mark = {"converged": "*", "fell": ".", "wandered": "~", "invalid": "x", "not_run": " "}
+    print("  rows: theta_dot in rad/s (top = largest); columns: theta (left = smallest)")
+    for j in reversed(range(len(result.theta_dot))):
+        print(f"  {result.theta_dot[j]: .4f} " + "".join(mark[result.outcome[i][j]]
+                                                      for i in range(len(result.theta))))
     return 0
 
 
@@ -444,6 +460,9 @@ def cmd_gsn(args: argparse.Namespace) -> int:
         result = gait_sensitivity_norm(walker, _study_gait(walker, args))
     if args.json:
         print(to_json(result))
+        return 0
+    if result.status != "ok":            # no gait: no norm and no error estimate (NaN)
+        print(f"{walker.name}: {result.message}")
         return 0
     unit = {"step_period": "s/m", "step_length": "m/m"}
     print(f"{walker.name}: {result.message} (per m of step-down); error estimate "
@@ -633,7 +652,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="period doublings to follow from flips (default: 2, period 1 -> 2 -> 4)")
     p.add_argument("--max-points", type=int, default=400, metavar="N",
                    help="points per branch at most (default: 400)")
-    p.add_argument("--out", default=None, metavar="DIR",
+    p.add_argument("--out", type=file_name, default=None, metavar="DIR",
                    help="write continuation.json and bifurcation_diagram.png there")
     p.add_argument("--time-limit", type=float, default=CONTINUATION_TIME_LIMIT, metavar="S",
                    help=f"start no new point after S seconds (default "
@@ -669,7 +688,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="half-width of the grid in scaled units (theta/0.4 rad, "
                         "theta_dot/0.8 rad/s; default: 0.1)")
     _search_limit(p, scan=True)
-    rules(p, n=at_least(2), span=positive, time_limit=not_negative)
+    rules(p, n=_basin_n, span=positive, time_limit=not_negative)
     p.set_defaults(func=cmd_basin)
 
     p = sub.add_parser("gsn", parents=analysis,

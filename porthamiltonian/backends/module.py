@@ -115,10 +115,19 @@ def load_addon(path: Path, backend: str, names: Sequence[str], *, source: str | 
 def _on_lists(fn: Callable[..., Any]) -> Callable[..., Any]:
     """A generated function of the python back end called with the state as a list: plain
     CPython is fastest on Python floats (the caller passes p as a list too, see
-    CompiledModel.native_params)."""
+    CompiledModel.native_params).
+
+    Python's floats raise where C's and numba's give inf or NaN (``1e200**2``: OverflowError,
+    ``1/0.0``: ZeroDivisionError, e.g. for a state or parameter near the float range): such a
+    call is made again on numpy's floats, which give inf and NaN as the other back ends do, so
+    that the run fails or diverges as a result instead of raising out of the integrator."""
     @functools.wraps(fn)                   # its name, docstring and __wrapped__
     def on_lists(t: float, x: Any, p: Any) -> Any:
-        return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
+        try:
+            return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
+        except ArithmeticError:
+            with np.errstate(all="ignore"):
+                return fn(t, np.asarray(x, dtype=float), np.asarray(p, dtype=float))
     return on_lists
 
 

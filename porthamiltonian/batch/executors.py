@@ -42,6 +42,10 @@ def open_executor(scheduler: str | None, workers: int | None = None) -> Iterator
                 client = stack.enter_context(Client(scheduler, timeout=30))
             except OSError as err:
                 raise SweepError(f"cannot reach the dask scheduler {scheduler!r}: {err}") from None
+            except (ValueError, TypeError) as err:   # dask's words for a malformed address
+                raise SweepError(f"--scheduler {scheduler!r} is not a dask scheduler address "
+                                 f"({err}); give tcp://host:port, or 'local' for a local "
+                                 "cluster") from None
         yield client.get_executor()
 
 

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import userfiles
 from ..backends import native
 from ..errors import ExportError, OptionError
 from ..integrators import TABLEAUS
@@ -290,9 +291,15 @@ def _build(files: Mapping[str, str]) -> bytes:
 
 
 def _destination(path: Path) -> Path:
-    """``path``, checked before any work: a file name in a folder that exists."""
+    """``path``, checked before any work: a file name in a folder that exists, where nothing
+    that a file must not replace is (a device, a socket, a pipe:
+    :func:`~porthamiltonian.userfiles.replace_problem`)."""
     if path.is_dir():
         raise ExportError(f"{path} is a folder: give the FMU's file name (e.g. model.fmu)")
+    problem = userfiles.replace_problem(path)
+    if problem is not None:
+        raise ExportError(f"{path} {problem}: the FMU would replace it; give the FMU's file name "
+                          "(e.g. model.fmu)")
     if not path.parent.is_dir():
         raise ExportError(f"cannot write {path}: the folder {path.parent} does not exist")
     return path

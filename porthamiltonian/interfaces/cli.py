@@ -21,8 +21,8 @@ sweep), 141 when the reader of the output went away (``| head``).
 
 This module also holds what the ``walker`` command shares with this one: the parent parsers of
 the common options (:data:`SET_OPTION`, :data:`JSON_OPTION`, :func:`backend_option`,
-:data:`QUIET_OPTION`, :data:`SWEEP_OPTIONS`), :func:`parse_assignments`, :func:`run_sweep` and
-the runner :func:`run`.
+:data:`QUIET_OPTION`, :data:`SWEEP_OPTIONS`), :func:`file_name`, :func:`parse_assignments`,
+:func:`run_sweep` and the runner :func:`run`.
 """
 from __future__ import annotations
 
@@ -43,6 +43,7 @@ from ..batch.analysis import Analysis
 from ..batch.errors import SweepError
 from ..batch.grids import MAX_CASES
 from ..batch.progress import MODES
+from ..batch.values import to_jsonable
 from ..errors import ModelError, OptionError
 from ..simulation.options import METHODS
 from . import io
@@ -72,6 +73,23 @@ def not_negative(option: str, value: float) -> None:
     """A rule of an option (see :func:`rules`): a finite number >= 0 (0 often means "none")."""
     if not (math.isfinite(value) and value >= 0):
         raise OptionError(f"{option} must be a finite number >= 0, got {value:g}")
+
+
+def file_name(text: str) -> str:
+    """The argparse type of an optional output (``--csv FILE``, ``--out DIR``): a path that is
+    not empty (``--csv ""`` was taken as no option given: nothing written, without a word)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; give the file or folder to write")
+    return text
+
+
+def check_output(option: str, path: str | None) -> None:
+    """Before the work: an output file ``path`` of ``option`` (``--csv``) can be written (not
+    a directory, in a folder that exists); else a ModelError saying so (the run that the file
+    was to hold was lost when its writing failed after it)."""
+    problem = None if path is None else userfiles.output_problem(path)
+    if problem is not None:
+        raise ModelError(f"{option} {path} {problem}; give a file in a folder that exists")
 
 
 def rules(parser: argparse.ArgumentParser, **checks: Callable[[str, Any], None]) -> None:
@@ -149,7 +167,7 @@ SWEEP_OPTIONS.add_argument("--scheduler", default=None, metavar="ADDRESS",
 SWEEP_OPTIONS.add_argument("--max-cases", type=int, default=MAX_CASES, metavar="N",
                            help=f"refuse a grid of more cases than this (default {MAX_CASES}: a "
                                 "case list takes about 0.5 kB of memory per case); 0: no limit")
-SWEEP_OPTIONS.add_argument("--csv", default=None, metavar="FILE",
+SWEEP_OPTIONS.add_argument("--csv", type=file_name, default=None, metavar="FILE",
                            help="also write the table as CSV")
 SWEEP_OPTIONS.add_argument("--progress", choices=MODES, default=None,
                            help="progress display on stderr (default: auto, a bar on a "
@@ -250,6 +268,7 @@ def run_sweep(args: argparse.Namespace, analysis: Analysis, fixed: dict[str, Any
     from ..batch import Sweep, SweepInterrupted, open_executor, parse_grid, write_csv
 
     cases = parse_grid(args.grid, args.max_cases or None)
+    check_output("--csv", args.csv)
     meta = {"analysis": analysis.name, "grid": list(args.grid),
             **_model_file_meta(str(fixed.get("model", "")))}
     sweep = Sweep(analysis.resolve(), cases, args.out, fixed=fixed, meta=meta,
@@ -351,6 +370,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """``porthamiltonian simulate``: one run, its final state and ledger (text or JSON)."""
     from .sweeps import SimulationModel
 
+    check_output("--csv", args.csv)
     entry = SimulationModel.load(args.model, args.backend)
     model, compiled = entry.model, entry.compiled
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
@@ -363,8 +383,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
               "energy": traj.ledger(), "nfev": traj.nfev, "events": traj.events}
     if args.csv:
         traj.to_csv(args.csv, outputs=True)
-    if args.json:
-        print(json.dumps(result, indent=1))
+    if args.json:                  # (a run that overflowed: its inf and NaN as null)
+        print(json.dumps(to_jsonable(result), indent=1, allow_nan=False))
     else:
         print(f"{model.name}: {traj.status} at t = {traj.t_final:g} s ({traj.message}); "
               f"{traj.nfev} right-hand-side evaluations")
@@ -387,13 +407,13 @@ def cmd_view(args: argparse.Namespace) -> int:
 
     record = io.read(args.model)
     entry = SimulationModel.from_file(record, args.backend)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)      # before the run: a bad --out loses no work
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
                           progress=RunProgress(entry.model.name, entry.t_end(args.t_end),
                                                interval=args.progress_interval))
     scene = scene_from_trajectory(traj, model=entry.model, rate=args.rate,
                                   title=entry.model.name)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     page = scene.to_html(out / "view.html", caption=record.description, still=False)
     still = scene.to_png(out / "view.png")
     print(f"wrote {page} and {still}: {len(scene.bodies)} bod{'y' if len(scene.bodies) == 1 else 'ies'}"
@@ -495,19 +515,20 @@ def cmd_export_fmu(args: argparse.Namespace) -> int:
     """``porthamiltonian export-fmu``: the model as an FMU (docs/fmu.md)."""
     from ..fmu import export_fmu
     from ..integrators import TABLEAUS
-    from .sweeps import simulation_settings
+    from .sweeps import check_settings, simulation_settings
 
     record = io.read(args.model)
     settings = simulation_settings(record.simulation)
     with record.located():
         compiled = record.compile(backend=args.backend)
+        check_settings(compiled, settings)
     method = settings["method"] if settings["method"] in TABLEAUS else "Rodas5P"
     t_end = args.t_end if args.t_end is not None else settings.get("t_end")
     path = export_fmu(compiled, args.out, fmi=args.fmi, kind=args.kind,
                       params=parse_assignments(args.set), method=method, rtol=settings["rtol"],
                       atol=settings["atol"], max_step=settings.get("max_step", float("inf")),
                       stop_time=t_end, description=record.description,
-                      inputs=_constant_inputs(settings.get("inputs")))
+                      x0=settings.get("initial"), inputs=_constant_inputs(settings.get("inputs")))
     kinds = {"me": "model exchange", "cs": "co-simulation",
              "both": "model exchange and co-simulation"}[args.kind]
     print(f"wrote {path}: FMI {args.fmi}.0 ({kinds}), {compiled.n_states} + 2 states (the ledger's "
@@ -543,7 +564,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("model", help=model_help)
     p.add_argument("--t-end", type=float, default=None, metavar="T",
                    help="end time (s; default: the model file's [simulation] t_end)")
-    p.add_argument("--csv", metavar="FILE",
+    p.add_argument("--csv", type=file_name, metavar="FILE",
                    help="also write the trajectory (time, states, ledger, outputs) as CSV")
     p.add_argument("--method", choices=("auto", *METHODS), default=None,
                    help="integration method (default: the model file's [simulation] method; "

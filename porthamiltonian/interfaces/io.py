@@ -810,10 +810,11 @@ def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
         ok = ((kind == "number" and _is_number(value) and math.isfinite(value) and value > 0)
               or (kind == "string" and isinstance(value, str))
               or (kind == "table" and isinstance(value, dict)
-                  and all(_is_number(v) for v in value.values())))
+                  and all(_is_number(v) and math.isfinite(v) for v in value.values())))
         if not ok:
             want = {"number": "a positive number", "string": "a string (e.g. \"Radau\")",
-                    "table": "a table of state = number"}[kind]
+                    "table": f"a table of {'state' if key == 'initial' else 'input'} = "
+                             "finite number"}[kind]
             r.add(f"[simulation] {key} must be {want}, got {_type_name(value)} {value!r}",
                   "simulation", key)
         elif key in ("rtol", "method"):

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..batch.values import to_jsonable
 from ..errors import ModelError
 from . import io
 
@@ -89,11 +90,12 @@ def run_linearize(args: argparse.Namespace, at: Mapping[str, float],
     with record.located():
         lin, how = operating_point(record, compiled, at, args.trim, params)
     if args.json:
-        print(json.dumps({**lin.to_dict(), "model": compiled.name, "trim": how}, indent=1))
+        print(json.dumps(to_jsonable({**lin.to_dict(), "model": compiled.name, "trim": how}),
+                         indent=1, allow_nan=False))
         return 0
     print(f"{compiled.name}: linearized at t = {lin.t:g}"
           f"{' (an equilibrium found by trim)' if how['trim'] else ''}; |dx/dt| there = "
-          f"{np.linalg.norm(lin.xdot):.3g}")
+          f"{lin.xdot_norm:.3g}")
     print("  point: " + ", ".join(f"{n} = {v:.10g}" for n, v in zip(lin.states, lin.x)))
     if lin.inputs:
         print("  inputs: " + ", ".join(f"{n} = {v:.10g}" for n, v in zip(lin.inputs, lin.u)))

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ModelError, OptionError
+from ..errors import InputError, ModelError, OptionError, StateError, ValidationError
 from ..integrators import COMPILED_METHODS
 
 if TYPE_CHECKING:
@@ -38,8 +38,8 @@ if TYPE_CHECKING:
     from ..simulation.trajectory import Trajectory
     from .io import ModelFile
 
-__all__ = ["ModelCache", "SimulationModel", "model_cache", "prepare_simulation",
-           "settling_time", "simulate_case", "simulation_settings"]
+__all__ = ["ModelCache", "SimulationModel", "check_settings", "model_cache",
+           "prepare_simulation", "settling_time", "simulate_case", "simulation_settings"]
 
 #: integration settings of a model file's [simulation] table when it does not give them
 DEFAULT_SETTINGS = {"method": "auto", "rtol": 1e-9, "atol": 1e-12, "energy_tolerance": 1e-6}
@@ -81,17 +81,20 @@ class SimulationModel:
     def from_file(cls, record: ModelFile, backend: str | None = None) -> SimulationModel:
         """The model of a model file already read (``record``), compiled with ``backend``
         (None: "auto"): a file that can be read once only (a pipe) is read once."""
-        return cls(record.model, record.compile(backend=backend or "auto"),
-                   simulation_settings(record.simulation))
+        compiled = record.compile(backend=backend or "auto")
+        with record.located():
+            check_settings(compiled, record.simulation)
+        return cls(record.model, compiled, simulation_settings(record.simulation))
 
     def simulate(self, t_end: float | None, params: Mapping[str, float] | None = None, *,
                  dense_output: bool = False,
                  progress: Callable[[float, int], None] | None = None,
                  method: str | None = None) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
-        method (``method``: another one), rtol, atol, max_step and constant ``inputs`` (with
-        ``dense_output``, a compiled method, Rodas4, Rodas5P or QBDF, becomes "auto": Radau); a
-        :class:`~porthamiltonian.errors.ModelError` when no end is known.
+        ``initial`` state values, method (``method``: another one), rtol, atol, max_step and
+        constant ``inputs`` (with ``dense_output``, a compiled method, Rodas4, Rodas5P or QBDF,
+        becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is
+        known.
         ``progress``: see :func:`~porthamiltonian.simulation.simulate.simulate`."""
         t_end = self.t_end(t_end)
         sim = self.settings
@@ -101,9 +104,9 @@ class SimulationModel:
             method = "auto"              # the compiled loop has no dense output: Radau instead
         if self.compiled.input_names:
             options["inputs"] = sim.get("inputs")     # the file's constant inputs
-        return self.compiled.simulate(t_end, params=params, method=method, rtol=sim["rtol"],
-                                      atol=sim["atol"], dense_output=dense_output,
-                                      progress=progress, **options)
+        return self.compiled.simulate(t_end, sim.get("initial"), params=params, method=method,
+                                      rtol=sim["rtol"], atol=sim["atol"],
+                                      dense_output=dense_output, progress=progress, **options)
 
     def t_end(self, t_end: float | None) -> float:
         """``t_end`` (s), else the file's; ModelError when neither is given."""
@@ -111,6 +114,24 @@ class SimulationModel:
         if t_end is None:
             raise ModelError(f"model {self.model.name!r} has no [simulation] t_end; pass --t-end")
         return float(t_end)
+
+
+def check_settings(compiled: CompiledModel, settings: Mapping[str, Any]) -> None:
+    """The names of a model file's ``[simulation] initial`` and ``inputs`` tables are states and
+    inputs of ``compiled``: else one error listing every name it does not have, each problem
+    with its key path (the file's line), before any run."""
+    found: list[ModelError] = []
+    for table, names, kind, error in (("initial", compiled.state_names, "state", StateError),
+                                      ("inputs", compiled.input_names, "input", InputError)):
+        for name in settings.get(table, {}):
+            if name not in names:
+                found.append(error(f"[simulation] {table}: model {compiled.name!r} has no {kind} "
+                                   f"{name!r}; its {kind}s: {', '.join(names) or 'none'}",
+                                   path=("simulation", table, name)))
+    if len(found) == 1:
+        raise found[0]
+    if found:
+        raise ValidationError(f"[simulation]: {len(found)} problems", problems=found)
 
 
 class ModelCache:

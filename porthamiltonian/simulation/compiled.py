@@ -302,6 +302,8 @@ class CompiledModel:
                                       f"number, got {value!r}")
         try:
             number = float(value)
+        except OverflowError:           # an integer beyond the float range: not finite
+            number = math.inf
         except (TypeError, ValueError):
             raise ParameterValueError(f"parameter {name!r} of model {self.name!r} must be a "
                                       f"number, got {value!r}") from None
@@ -339,7 +341,10 @@ class CompiledModel:
             if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
                 raise StateError(f"model {self.name!r}: the initial value of state {name!r} must "
                                  f"be a number, got {type(value).__name__} {value!r}")
-            x[index] = value
+            try:
+                x[index] = value
+            except OverflowError:       # an integer beyond the float range: not finite
+                x[index] = math.inf
         if not np.all(np.isfinite(x)):
             bad = ", ".join(f"{n} = {v}" for n, v in zip(self.state_names, x) if not np.isfinite(v))
             raise StateError(f"model {self.name!r}: initial state is not finite: {bad} (from the "

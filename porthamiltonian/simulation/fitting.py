@@ -301,6 +301,11 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
         event_series.append(Series(name, times, times, _weights(weights, name, times.size)))
     if not series and not event_series:
         raise DataError("fit: no data (neither outputs nor event times)")
+    named = [s.name for s in series + event_series]
+    unused = [name for name in (weights or {}) if name not in named]
+    if unused:
+        raise OptionError(f"weights for {', '.join(repr(n) for n in unused)}, which the data "
+                          f"does not hold (its outputs and events: {', '.join(named)})")
     last = max(float(np.max(s.t)) for s in series + event_series)
     t_end = float(t_end) if t_end is not None else last + (0.0 if series else 1e-9 + 0.1 * last)
     start = model.params({**(values or {}), **(initial or {})})
@@ -312,6 +317,9 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
         if name not in params:
             raise OptionError(f"bounds for {name!r}, which is not fitted ({', '.join(params)})")
         lo[params.index(name)], hi[params.index(name)] = float(a), float(b)
+        if not float(a) < float(b):
+            raise OptionError(f"bounds for {name!r} must be (low, high) with low < high "
+                              f"(-inf and inf allowed), got ({a!r}, {b!r})")
     if np.any(theta0 < lo) or np.any(theta0 > hi):
         raise OptionError(f"the initial values {dict(zip(params, theta0.tolist()))} lie "
                           "outside the bounds")

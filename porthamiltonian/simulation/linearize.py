@@ -29,6 +29,7 @@ none), the others held at their given values; least squares when the counts diff
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -250,7 +251,13 @@ class LinearModel:
                 "eigenvalues": [[float(v.real), float(v.imag)] for v in self.eigenvalues],
                 "t": self.t, "x": dict(zip(self.states, self.x.tolist())),
                 "u": dict(zip(self.inputs, self.u.tolist())),
-                "xdot_norm": float(np.linalg.norm(self.xdot)) if self.xdot.size else 0.0}
+                "xdot_norm": self.xdot_norm}
+
+    @property
+    def xdot_norm(self) -> float:
+        """|ẋ| at the point (Euclidean; 0 at an equilibrium), without overflow in the squares
+        (:func:`math.hypot`: numpy's norm gave inf, with a warning, for rates beyond 1e154)."""
+        return math.hypot(*self.xdot.tolist())
 
 
 def dynamic_states(model: CompiledModel) -> list[int]:

@@ -48,7 +48,10 @@ def check_number(name: str, value: Any, *, positive: bool = False, finite: bool 
     naming ``name``."""
     if not _is_real(value):
         raise OptionError(f"{name} must be a number, got {type(value).__name__} {value!r}")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:               # an integer beyond the float range: not finite
+        x = math.inf if value > 0 else -math.inf
     rules = []
     if finite:
         rules.append("finite")

@@ -272,8 +272,10 @@ class Trajectory:
 
     @property
     def residual(self) -> np.ndarray:
-        """r(t) = H(t) − H(0) + E_diss(t) − E_in(t) (J); zero up to integration error."""
-        r: np.ndarray = self.H - self.h0 + self.E_diss - self.E_in
+        """r(t) = H(t) − H(0) + E_diss(t) − E_in(t) (J); zero up to integration error (NaN where
+        the energy is infinite: a run that overflowed; numpy's warning about it is not shown)."""
+        with np.errstate(invalid="ignore", over="ignore"):
+            r: np.ndarray = self.H - self.h0 + self.E_diss - self.E_in
         return r
 
     @property

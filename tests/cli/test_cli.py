@@ -228,6 +228,66 @@ def test_simulate_method_replaces_the_files(capsys):
     assert info.value.code == 2 and "invalid choice: 'rodas'" in capsys.readouterr().err
 
 
+def test_the_files_initial_state_is_the_runs(tmp_path, capsys):
+    """``[simulation] initial`` starts ``simulate`` (and check-energy, sweep, view, export-fmu)
+    from those state values (it was read, checked for its type and then ignored: the run
+    started from the components' initial values)."""
+    path = tmp_path / "msd.toml"
+    path.write_text(MSD_TEXT.replace("atol = 1e-12", 'atol = 1e-12\ninitial = { "spring.q" = 0.5 }'))
+    assert main(["--backend", "python", "simulate", str(path), "--t-end", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["energy"]["H0"] == pytest.approx(0.5 * 4.0 * 0.5**2, rel=1e-12)   # k q^2 / 2
+
+
+def test_names_the_model_lacks_in_the_simulation_table_exit_2_with_their_lines(tmp_path, capsys):
+    """A state of ``[simulation] initial`` or an input of ``inputs`` that the model does not have
+    is refused before any run, every one with its line (both used to be ignored silently)."""
+    initial, inputs = 'initial = { "spring.x" = 0.5 }', "inputs = { u = 1.0 }"
+    text = MSD_TEXT.replace("atol = 1e-12", f"atol = 1e-12\n{initial}\n{inputs}")
+    path = tmp_path / "msd.toml"
+    path.write_text(text)
+    lines = text.splitlines()
+    for command in (["simulate", str(path), "--t-end", "1"],
+                    ["export-fmu", str(path), "--out", str(tmp_path / "msd.fmu")]):
+        assert main(["--backend", "python", *command]) == 2
+        assert capsys.readouterr().err.splitlines() == [
+            f"error: {path}: 2 problems:",
+            (f"  line {lines.index(initial) + 1}: [simulation] initial: model "
+             "'mass_spring_damper' has no state 'spring.x'; its states: mass.p, spring.q"),
+            (f"  line {lines.index(inputs) + 1}: [simulation] inputs: model "
+             "'mass_spring_damper' has no input 'u'; its inputs: none")]
+    assert not (tmp_path / "msd.fmu").exists()
+
+
+def _strict_json(text: str) -> dict:
+    """``text`` parsed as JSON proper: NaN and Infinity (Python's extensions) refused."""
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"{constant} in the JSON output")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_json_of_a_run_that_overflowed_is_json(capsys):
+    """`simulate --json` and `linearize --json` printed NaN and Infinity (not JSON: strict
+    parsers refuse the document) when a run or a point overflowed (x0 = 1e308: an infinite
+    energy; k = 1e300: |dx/dt| beyond the float range); they print null there, as the walker
+    commands and `fit --json` do."""
+    from porthamiltonian.interfaces import cli
+
+    assert main(["--backend", "python", "simulate", "mass_spring_damper", "--set", "x0=1e308",
+                 "--t-end", "1", "--json"]) == 1
+    out, err = capsys.readouterr()
+    assert "warning" not in err, err          # numpy's about inf - inf in the residual
+    energy = _strict_json(out)["energy"]
+    assert energy["H0"] is None and energy["relative_residual"] is None
+    assert cli.main(["--backend", "python", "linearize", "mass_spring_damper", "--set",
+                     "k=1e300", "--json"]) == 0
+    output, err = capsys.readouterr()
+    out = _strict_json(output)
+    assert out["eigenvalues"][1] == [pytest.approx(-0.2), pytest.approx(1e150)]
+    # |dx/dt| = k x0 = 1e299: numpy's norm squared it to inf, with an overflow warning
+    assert out["xdot_norm"] == pytest.approx(1e299, rel=1e-12) and "warning" not in err, err
+
+
 # The remaining bad-input checks call the entry point in-process (``main`` returns the exit status
 # that ``python -m porthamiltonian.interfaces.cli`` exits with), saving an interpreter start-up each.
 def test_set_without_equals_exits_2_with_message(capsys):

@@ -63,3 +63,22 @@ def test_bad_options(data, capsys):
         assert capsys.readouterr().err.startswith("error:")
     assert main(["fit", "mass_spring_damper", data + ".missing", "--param", "k"]) == 2
     assert capsys.readouterr().err.startswith("error:")
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--bounds", "k=nan:inf"],
+     "bounds for 'k' must be (low, high) with low < high (-inf and inf allowed), got (nan, inf)"),
+    (["--bounds", "k=5:1"],
+     "bounds for 'k' must be (low, high) with low < high (-inf and inf allowed), got (5.0, 1.0)"),
+    (["--bounds", "k=4:4"],
+     "bounds for 'k' must be (low, high) with low < high (-inf and inf allowed), got (4.0, 4.0)"),
+    (["--weight", "spring.x=2", "--weight", "spring.q=1"],
+     "weights for 'spring.x', which the data does not hold (its outputs and events: spring.q)"),
+])
+def test_bounds_that_are_no_interval_and_weights_of_no_data(data, args, message, capsys):
+    """A NaN bound reached scipy, whose ValueError was reported as a bug (status 3); reversed
+    bounds were "the initial values lie outside the bounds" and equal ones scipy's ValueError;
+    a weight of a name the data does not hold (a typo) was ignored, the fit run unweighted.
+    Each is now ``error:`` naming the option, status 2."""
+    assert main(["fit", "mass_spring_damper", data, "--param", "k", *args]) == 2
+    assert capsys.readouterr().err == f"error: {message}\n"

@@ -121,3 +121,20 @@ def test_a_model_build_is_announced_once_and_quiet_silences_it(tmp_path, monkeyp
             with backends.quiet():
                 assert main(argv) == 0
         assert "building" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("build, argv", [
+    (ph_parser, ["simulate", "mass_spring_damper", "--csv", ""]),
+    (ph_parser, ["sweep", "mass_spring_damper", "--grid", "k=1,2", "--out", "s.jsonl", "--csv",
+                 " "]),
+    (walker_parser, ["continue", "rimless_wheel", "--param", "slope=0.07:0.08", "--out", ""]),
+], ids=["simulate --csv", "sweep --csv", "continue --out"])
+def test_an_empty_output_path_is_refused(build, argv, capsys):
+    """An optional output given an empty path was taken as not given: the command ran and
+    wrote nothing, without a word. argparse refuses it now (status 2), naming the option."""
+    with pytest.raises(SystemExit) as info:
+        build().parse_args(argv)
+    option = argv[-2]
+    assert info.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(
+        f"error: argument {option}: an empty path; give the file or folder to write")

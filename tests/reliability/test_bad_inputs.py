@@ -89,11 +89,20 @@ OPTIONS = [
     ("params", [1, 2], OptionError, ["params", "mapping"]),
     ("actions", {"nope": _f}, ModelError, ["nope"]), ("actions", {"e": 3}, OptionError, ["actions"]),
     ("events", "x", OptionError, ["events"]),
+    # integers beyond the float range (JSON and Python have no bound on them): OverflowError
+    # out of the checks before
+    ("t_end", 10**400, OptionError, ["t_end", "finite"]),
+    ("rtol", 10**400, OptionError, ["rtol", "finite"]),
+    ("atol", -10**400, OptionError, ["atol", "finite"]),
+    ("first_step", 10**400, OptionError, ["first_step", "finite"]),
+    ("x0", {"spring.q": 10**400}, StateError, ["spring.q = inf", "not finite"]),
+    ("params", {"k": 10**400}, ParameterValueError, ["'k'", "finite", "inf"]),
 ]
 
 
 @pytest.mark.parametrize("option, value, error, words", OPTIONS,
-                         ids=[f"{o}={re.sub(' at 0x[0-9a-f]+', '', repr(v))}" for o, v, _, _ in OPTIONS])
+                         ids=[f"{o}={re.sub(' at 0x[0-9a-f]+', '', repr(v))[:40]}"
+                              for o, v, _, _ in OPTIONS])
 def test_bad_option_is_a_typed_error_naming_it(msd, option, value, error, words):
     kwargs = {"t_end": 10.0, "method": "Radau"}
     kwargs[option] = value
@@ -193,6 +202,10 @@ def test_empty_model_is_refused():
     ("atol = 1e-12", "atol = -1.0", ["atol", "positive"]),
     ("t_end = 20.0", "t_end = inf", ["t_end", "positive"]),
     ('method = "auto"', 'method = "radau"', ["unknown method 'radau'", "Radau"]),
+    ("atol = 1e-12", 'atol = 1e-12\ninitial = { "spring.q" = nan }',
+     ["[simulation] initial", "a table of state = finite number", "nan"]),
+    ("atol = 1e-12", "atol = 1e-12\ninputs = { F = inf }",
+     ["[simulation] inputs", "a table of input = finite number", "inf"]),
 ])
 def test_bad_simulation_table_is_a_model_file_error(model_text, old, new, words):
     text = model_text("mass_spring_damper")
@@ -202,3 +215,18 @@ def test_bad_simulation_table_is_a_model_file_error(model_text, old, new, words)
     assert str(info.value).startswith("msd.toml, line ")
     for word in words:
         assert word in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize("values", [{"x0": 1e308}, {"x0": 1e200}, {"m": 1e-308}],
+                         ids=["x0=1e308", "x0=1e200", "m=1e-308"])
+def test_arithmetic_beyond_the_float_range_fails_the_run_on_every_back_end(msd, values):
+    """Python's floats raise where C's give inf or NaN: on the python back end a state or a
+    parameter near the float range raised OverflowError or ZeroDivisionError out of simulate
+    (`porthamiltonian --backend python simulate mass_spring_damper --set x0=1e308`: a bug
+    report, status 3). The run now fails as it does on the C back end: status "failed" at
+    t = 0, the same message."""
+    c = compile_model(io.load("mass_spring_damper"), backend="c")
+    for model in (msd, c):
+        traj = model.simulate(1.0, params=values)
+        assert (traj.status, traj.t_final) == ("failed", 0.0), (model.backend, traj.message)
+        assert traj.message.startswith("Rodas5P: step size too small"), traj.message

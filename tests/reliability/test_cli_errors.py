@@ -40,7 +40,11 @@ USER_ERRORS = [
     (["simulate", "mass_spring_damper", "--t-end", "nan"], ["t_end"]),
     (["simulate", "mass_spring_damper", "--t-end", "-1"], ["t_end"]),
     (["simulate", "mass_spring_damper", "--t-end", "1", "--csv", "{missing}/out.csv"],
-     ["out.csv", "No such file"]),
+     ["--csv", "out.csv", "the folder", "does not exist"]),      # before the run
+    (["simulate", "mass_spring_damper", "--t-end", "1", "--csv", "{folder}"],
+     ["--csv", "is a directory, not a file"]),
+    (["sweep", "mass_spring_damper", "--grid", "k=1", "--out", "{folder}/s.jsonl", "--csv",
+      "{folder}"], ["--csv", "is a directory, not a file"]),
     (["show", "{hostile}"], ["cannot parse"]),
 ]
 
@@ -51,7 +55,8 @@ def test_user_error_is_one_message_and_status_2(argv, words, tmp_path, capsys, i
     line and one indented line per problem (the hostile file also leaves its spring unconnected:
     both problems are reported)."""
     names = {"hostile": _file(tmp_path, HOSTILE, "hostile.toml"),
-             "empty": _file(tmp_path, EMPTY, "empty.toml"), "missing": str(tmp_path / "missing")}
+             "empty": _file(tmp_path, EMPTY, "empty.toml"), "missing": str(tmp_path / "missing"),
+             "folder": str(tmp_path)}
     argv = [a.format(**names) for a in argv]
     status = cli.main(["--backend", "python", *argv])
     err = capsys.readouterr().err

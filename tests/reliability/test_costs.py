@@ -209,6 +209,61 @@ def test_grid_limits_in_python_and_the_override():
     assert len(parse_grid(["k=0:1:11", "c=1,2"], max_cases=22)) == 22
 
 
+def test_a_huge_basin_grid_is_refused_before_the_gait_search(tmp_path):
+    """`walker basin --n 100000` made its 10^10-entry tables before walking a point (it hung,
+    then ran out of memory): refused by the option's rule, before the walker is even loaded,
+    with the largest n and where a larger grid belongs; 316 x 316 (the most) is accepted."""
+    proc, cpu = _cpu_of(lambda: capped(["-m", "walker_library", "basin", "rimless_wheel", "--n",
+                                        "100000"], GIGABYTE))
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert proc.stderr == ("error: basin: --n = 100000 makes a grid of 10,000,000,000 points, "
+                           "more than 100,000 (each point is a walk, and the grid's tables are "
+                           "made before the first); give --n <= 316, or run a larger grid as a "
+                           "resumable sweep (walker sweep MODEL --analysis basin --grid ... "
+                           "--max-cases N)\n")
+    assert cpu < SUBPROCESS_CPU
+    from walker_library.analyses.robustness import check_basin_size
+
+    check_basin_size(316)
+    with pytest.raises(CostError, match=r"n = 317 makes a grid of 100,489 points"):
+        check_basin_size(317)
+
+
+@pytest.mark.parametrize("resolution, h_max, error, message", [
+    ("0.1", "0.01", "ParameterValueError",
+     ("step_down: resolution (0.1 m) is larger than h_max (0.01 m), so the scan would walk no "
+      "height; give a resolution of at most h_max")),
+    ("1e-300", "0.1", "ParameterValueError",
+     ("step_down: resolution (1e-300 m) is below 1e-12 m, to which the heights are rounded; give "
+      "a resolution of at least 1e-12 m")),
+    ("1e-9", "0.1", "CostError",
+     ("step_down: h_max / resolution = 0.1 m / 1e-09 m makes up to 1e+08 heights, more than "
+      "100,000 (each a walk); give a coarser resolution or a lower h_max")),
+])
+def test_a_step_down_grid_without_heights_or_with_too_many_is_refused(resolution, h_max, error,
+                                                                       message, monkeypatch,
+                                                                       capsys):
+    """A resolution above h_max walked no height and reported "no drop survived" (status 0); one
+    below the heights' rounding walked h = 0 again and again (without a time limit, forever);
+    1e8 heights ran to the time limit. Each is refused before the gait search (exit 2; the
+    rimless wheel's default h_max is 0.1 of its 1 m leg)."""
+    from porthamiltonian import errors
+    from walker_library.analyses import robustness
+    from walker_library.cli import main
+
+    def no_search(*args, **kwargs):
+        raise AssertionError("the gait search started")
+
+    monkeypatch.setattr(robustness, "_gait_or_raise", no_search)
+    assert main(["step-down", "rimless_wheel", "--resolution", resolution, "--h-max", h_max,
+                 "--quiet"]) == 2
+    assert capsys.readouterr().err == f"error: {message}\n"
+    with pytest.raises(getattr(errors, error)) as info:
+        robustness.step_down(load_walker("rimless_wheel"), resolution=float(resolution),
+                             h_max=float(h_max))
+    assert str(info.value) == message
+
+
 # --- time: the gait search and the continuation -------------------------------------------------------
 def test_a_gait_search_that_would_run_for_hours_stops_at_its_time_limit(capsys, within):
     """K = 1e15 (a contact 1e9 times stiffer than the file's): Newton from the guess stops at
@@ -241,6 +296,19 @@ def test_the_studies_stop_their_gait_search_at_their_time_limit(study, capsys):
     result = json.loads(capsys.readouterr().out)
     assert status == 0 and result["status"] == "no_gait"
     assert "the search stopped at its time limit (0.2 s; --time-limit)" in result["message"]
+
+
+@pytest.mark.parametrize("study", ["basin", "gsn"])
+def test_a_study_without_a_gait_shows_no_nan(study, capsys):
+    """Without a gait (the search stopped at once) basin printed "radius nan" and gsn "error
+    estimate nan" after the message that there is no gait: the message alone now."""
+    from walker_library.cli import main
+
+    assert main([study, "compass_walker", "--set", "K=1e15", "--time-limit", "0.2",
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("compass_walker: no periodic gait: ") and out.count("\n") == 1, out
+    assert "nan" not in out, out
 
 
 class _Clock:

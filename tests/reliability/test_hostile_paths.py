@@ -222,3 +222,30 @@ def test_walker_list_skips_a_huge_file(tmp_path):
                   env={"PORTHAMILTONIAN_MODELS": str(folder)})
     assert proc.returncode == 0, proc.stderr
     assert '"compass_walker"' in proc.stdout and "huge" not in proc.stdout
+
+
+@pytest.mark.parametrize("kind", ["fifo with no writer", "socket"])
+def test_a_written_file_replaces_no_pipe_socket_or_device(kind, tmp_path, capsys, within):
+    """`export-fmu --out` (both commands) and `walker export --force` write a new file and
+    rename it into place: over a pipe, a socket or a device that replaced the node with the file
+    (run as root, `--out /dev/null` turned /dev/null into an FMU). Each is refused before any
+    work, naming what is there, and the node stays (a pipe and a socket stand in for a device
+    here: a regression must not replace this machine's /dev/null)."""
+    path, _ = _make(kind, tmp_path)
+    words = {"fifo with no writer": "is a pipe, not a file", "socket": "is a socket, not a file"}
+    before = os.lstat(path)
+    for main, argv in ((cli.main, ["export-fmu", "mass_spring_damper", "--out", path]),
+                       (walker_cli.main, ["export-fmu", "compliant_leg_walker", "--out", path]),
+                       (walker_cli.main, ["export", "compass_walker", path, "--force"])):
+        with within():
+            status = main(argv)
+        err = capsys.readouterr().err
+        assert status == 2 and err.startswith(f"error: {path} {words[kind]}"), err
+        assert "give the" in err and "file" in err.split(";")[-1], err
+        assert os.lstat(path).st_ino == before.st_ino and os.lstat(path).st_mode == before.st_mode
+    assert userfiles.replace_problem(tmp_path / "nothing here") is None
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "link").symlink_to(tmp_path / "nowhere")
+    assert userfiles.replace_problem(tmp_path / "file") is None
+    assert userfiles.replace_problem(tmp_path / "link") is None
+    assert userfiles.replace_problem("/dev/null") == "is a device, not a file"

@@ -157,6 +157,39 @@ def test_export_with_force_replaces_the_link_not_its_target(tmp_path, capsys):
     assert oct(path.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
 
 
+def test_export_into_a_missing_folder_names_the_folder(tmp_path, capsys):
+    """The error named the temporary file the export writes first
+    (``.out.toml.dojfnmy6.tmp: No such file or directory``); it names the path and its
+    missing folder now, before any work."""
+    path = tmp_path / "missing" / "out.toml"
+    assert walker_cli.main(["export", "simplest_walker", str(path)]) == 2
+    assert capsys.readouterr().err == (f"error: cannot write {path}: the folder {path.parent} "
+                                       "does not exist\n")
+
+
+@pytest.mark.parametrize("command", [
+    ["porthamiltonian", "view", "pendulum", "--t-end", "1"],
+    ["walker", "continue", "simplest_walker", "--param", "slope=0.009:0.01"],
+])
+def test_an_output_folder_that_cannot_be_made_fails_before_the_work(command, tmp_path,
+                                                                     monkeypatch, capsys):
+    """`view --out FILE` and `walker continue --out FILE` ran the simulation or the whole
+    continuation (up to an hour) and only then failed to make the folder: the work was lost.
+    The folder is made first now; a path that is a file fails at once (status 2)."""
+    from porthamiltonian.interfaces.sweeps import SimulationModel
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the work started")
+
+    monkeypatch.setattr(SimulationModel, "simulate", no_work)
+    monkeypatch.setattr(walker_cli, "_continuation", no_work)
+    taken = tmp_path / "taken"
+    taken.write_text("a file")
+    main = cli.main if command[0] == "porthamiltonian" else walker_cli.main
+    assert main([*command[1:], "--out", str(taken)]) == 2
+    assert capsys.readouterr().err == f"error: {taken}: File exists\n"
+
+
 def _umask() -> int:
     mask = os.umask(0o022)
     os.umask(mask)

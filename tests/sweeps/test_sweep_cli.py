@@ -51,6 +51,39 @@ def test_out_of_range_walker_parameter_fails_naming_the_case(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_gait_search_options_are_checked_before_anything_is_written(tmp_path, capsys):
+    """`--option max_period=-1` (or "x", 2.5, or `nan`, which JSON reads as the text 'nan')
+    reached the gait search as given: used as such, its error met only when period 1 failed,
+    in one case's row. Each is refused before the sweep, naming the option."""
+    out = tmp_path / "s.jsonl"
+    for option, message in (("max_period=-1", "max_period must be an integer >= 1, got -1"),
+                            ("max_period=nan", "max_period must be an integer >= 1, got 'nan'"),
+                            ("max_period=2.5", "max_period must be an integer >= 1, got 2.5"),
+                            ("n_iterate=0", "n_iterate must be an integer >= 1, got 0"),
+                            ("fd_step=-1", "fd_step must be finite and > 0, got -1")):
+        assert main(["sweep", "simplest_walker", "--grid", "slope=0.01", "--backend", "python",
+                     "--option", option, "--out", str(out), "--serial"]) == 2
+        assert capsys.readouterr().err == f"error: {message}\n"
+        assert not out.exists()
+
+
+def test_basin_sweep_options_are_checked_before_anything_is_written(tmp_path, capsys):
+    """`--option params=[1]` reached the walker cache (a ValueError: a bug report, status 3);
+    n_steps=-1 and tol=nan (the text 'nan') failed each case with a message about something
+    else (t_end, a TypeError). Each is refused before the sweep, naming the option."""
+    out = tmp_path / "s.jsonl"
+    for option, message in (
+            ("params=[1]", ("--option params must be a JSON object of parameter values (e.g. "
+                            "params='{\"slope\": 0.01}'), got [1]")),
+            ("n_steps=-1", "n_steps must be an integer >= 1, got -1"),
+            ("tol=nan", "tol must be a number, got str 'nan'")):
+        assert main(["sweep", "simplest_walker", "--analysis", "basin", "--grid", "theta=0.2",
+                     "--grid", "theta_dot=-0.2", "--backend", "python", "--option", option,
+                     "--out", str(out), "--serial"]) == 2
+        assert capsys.readouterr().err == f"error: {message}\n"
+        assert not out.exists()
+
+
 def test_bad_input_exit_status_2_with_the_reason(tmp_path, capsys):
     out = tmp_path / "s.jsonl"
     assert main(["sweep", "unused", "--analysis", "limit-cycle", "--grid", "x=1", "--out", str(out)]) == 2

@@ -75,3 +75,22 @@ def test_command_line_scheduler_address(tmp_path, client, capsys, gait_reference
     assert _results(load_results(out)) == {i: gait_reference[i] for i in range(3)}
     assert [r["status"] for r in doc["table"]] == ["periodic"] * 3
     assert [r["stable"] for r in doc["table"]] == [True, True, True]
+
+
+@pytest.mark.parametrize("address, words", [
+    ("bogus", "missing port number"),
+    ("foo://127.0.0.1:1", "unknown address scheme 'foo'"),
+    ("tcp://localhost:port", "'port'"),
+])
+def test_a_malformed_scheduler_address_exits_2_naming_it(tmp_path, capsys, address, words):
+    """An address dask cannot parse is the user's (dask raises ValueError for these; it was
+    reported as a bug in porthamiltonian, status 3, with dask's traceback): status 2 before any
+    case runs, the address, dask's reason and the form to give."""
+    path = tmp_path / "sweep.jsonl"
+    status = main(["sweep", "rimless_wheel", "--grid", "slope=0.01,0.02", "--out", str(path),
+                   "--scheduler", address, "--progress", "none"])
+    err = capsys.readouterr().err
+    assert status == 2 and "Traceback" not in err, err
+    assert err.startswith(f"error: --scheduler {address!r} is not a dask scheduler address ("), err
+    assert words in err and "give tcp://host:port, or 'local' for a local cluster" in err, err
+    assert not path.exists() or "case_id" not in path.read_text()

@@ -74,13 +74,18 @@ def test_a_previous_result_is_a_guess(nominal_json, capsys):
      "must be a finite number"),
     ('{"fixed_point": {"walker.q.stance": 1e999, "walker.v.stance": 0.2, "walker.v.hip": 0}}',
      "must be a finite number"),
+    # an integer beyond the float range (OverflowError) and a deep nesting (RecursionError)
+    # were reported as bugs (status 3)
+    ('{"fixed_point": {"walker.q.stance": 1' + "0" * 400 + ', "walker.v.stance": 0.2, '
+     '"walker.v.hip": 0}}', "guess: walker.q.stance must be a finite number, got 1" + "0" * 400),
+    ("[" * 100_000 + "]" * 100_000, "arrays or objects are nested too deeply for a gait result"),
 ])
 def test_bad_guess_files_are_refused(tmp_path, capsys, content, message):
     path = tmp_path / "bad.json"
     path.write_text(content)
     assert main(["gait", "simplest_walker", "--guess", str(path)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: ")
+    assert err.startswith("error: ") and len(err.splitlines()) == 1
     assert message in err and "Traceback" not in err
 
 

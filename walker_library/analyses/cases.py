@@ -22,9 +22,10 @@ import numpy as np
 from porthamiltonian.batch import Analysis, SweepError
 from porthamiltonian.batch.values import canonical
 from porthamiltonian.errors import ParameterValueError
+from porthamiltonian.simulation.options import check_integer, check_number
 
 from ..core.protocol import Walker
-from .gait import GaitResult, GaitStatus, analyze_gait
+from .gait import GaitResult, GaitStatus, analyze_gait, check_search
 from .results import to_jsonable
 
 # The step-down and basin analyses (:mod:`.robustness`) are imported by their case functions:
@@ -203,13 +204,29 @@ def prepare_walker(cases: Sequence[Mapping[str, Any]], *, model: str,
             raise ParameterValueError(f"case {index} {canonical(dict(case))}: {err}") from None
 
 
+def prepare_gait(cases: Sequence[Mapping[str, Any]], *, model: str, backend: str | None = None,
+                 max_period: int = 8, fd_step: float | None = None,
+                 n_iterate: int = 200) -> None:
+    """:func:`prepare_walker`, and the search's options checked
+    (:func:`~walker_library.analyses.gait.check_search`) before any case runs."""
+    prepare_walker(cases, model=model, backend=backend)
+    check_search(max_period, n_iterate, fd_step)
+
+
 def prepare_basin(cases: Sequence[Mapping[str, Any]], *, model: str, backend: str | None = None,
-                  params: Mapping[str, Any] | None = None, method: str | None = "auto",
-                  **options: Any) -> dict[str, Any]:
-    """Build the walker with ``params`` (checked), check ``method``, and find its gait once,
-    here: the sweep's shared argument ``gait``, so that no worker looks for it again."""
+                  params: Mapping[str, Any] | None = None, n_steps: int | None = None,
+                  tol: float = 1e-4, method: str | None = "auto") -> dict[str, Any]:
+    """Build the walker with ``params`` (checked), check ``n_steps``, ``tol`` and ``method``,
+    and find its gait once, here: the sweep's shared argument ``gait``, so that no worker looks
+    for it again."""
     from .robustness import basin_walker
 
+    if params is not None and not isinstance(params, Mapping):
+        raise SweepError(f"--option params must be a JSON object of parameter values (e.g. "
+                         f"params='{{\"slope\": 0.01}}'), got {params!r}")
+    if n_steps is not None:
+        check_integer("n_steps", n_steps)
+    check_number("tol", tol, positive=True)
     for index, case in enumerate(cases):
         missing = [k for k in ("theta", "theta_dot") if k not in case]
         if missing:
@@ -224,7 +241,7 @@ def prepare_basin(cases: Sequence[Mapping[str, Any]], *, model: str, backend: st
 ANALYSES: dict[str, Analysis] = {a.name: a for a in (
     Analysis("gait", gait_case,
              "gait of the walker for each case: fixed point, Floquet multipliers, metrics",
-             prepare=prepare_walker, ok_statuses=(GaitStatus.PERIODIC,),
+             prepare=prepare_gait, ok_statuses=(GaitStatus.PERIODIC,),
              columns=("period_steps", "stable", "max_multiplier", "step_length", "speed")),
     Analysis("step-down", step_down_case,
              "gait and step-down test for each case: max_step_down (m), contiguous, speed, "

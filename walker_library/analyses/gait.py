@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from porthamiltonian.errors import ModelError
+from porthamiltonian.simulation.options import check_integer, check_number
 
 from ..core.protocol import Stride, Walker
 from .metrics import GaitMetrics, gait_metrics
@@ -270,9 +271,17 @@ def section_guess(walker: Walker, previous: Mapping | None = None,
 
 
 def _finite(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    """``value`` as a float, or ModelError naming ``name``: a number (not a bool), finite as a
+    float (a JSON integer has no bound: 10**400 raised OverflowError out of the check)."""
+    number = math.nan
+    if _is_number(value):
+        try:
+            number = float(value)
+        except OverflowError:
+            pass
+    if not math.isfinite(number):
         raise ModelError(f"guess: {name} must be a finite number, got {value!r}")
-    return float(value)
+    return number
 
 
 # --- the search ----------------------------------------------------------------------------------
@@ -435,6 +444,20 @@ def _direct(walker: Walker, guess: np.ndarray | None, *, tol: float, max_iter: i
     return search.stable(), fp
 
 
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def check_search(max_period: Any, n_iterate: Any,
+                 fd_step: Any) -> tuple[int, int, float | None]:
+    """The options of :func:`analyze_gait` that a sweep passes through (``--option``), checked:
+    ``max_period`` and ``n_iterate`` whole numbers >= 1, ``fd_step`` None or a finite number
+    > 0; else an OptionError naming the option (a max_period of -1 or "x" was used as given,
+    its error, if any, met only when period 1 failed)."""
+    return (check_integer("max_period", max_period), check_integer("n_iterate", n_iterate),
+            None if fd_step is None else check_number("fd_step", fd_step, positive=True))
+
+
 def analyze_gait(walker: Walker, guess: np.ndarray | None = None, *, max_period: int = 8,
                  fd_step: float | None = None, tol: float | None = None, n_iterate: int = 200,
                  period_tol: float = 1e-7, max_iter: int = 30, continuation: bool = True,
@@ -457,8 +480,10 @@ def analyze_gait(walker: Walker, guess: np.ndarray | None = None, *, max_period:
         log : progress lines of the homotopy (where it goes, each point): the part of the
         search that can take long.
     """
-    if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
+    if time_limit is not None and not (_is_number(time_limit) and math.isfinite(time_limit)
+                                       and time_limit > 0):
         raise ModelError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
+    max_period, n_iterate, fd_step = check_search(max_period, n_iterate, fd_step)
     deadline = math.inf if time_limit is None else time.perf_counter() + time_limit
     if tol is None:
         tol = float(walker.gait_tolerance)

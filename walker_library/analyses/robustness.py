@@ -57,8 +57,9 @@ from typing import Any
 
 import numpy as np
 
+from porthamiltonian.batch.grids import MAX_CASES
 from porthamiltonian.batch.progress import tick
-from porthamiltonian.errors import ParameterValueError
+from porthamiltonian.errors import CostError, ParameterValueError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.simulation.options import METHODS
 
@@ -229,6 +230,31 @@ def _intervals(cases: list[dict]) -> list[list[float]]:
     return out
 
 
+#: the step-down scan's heights are rounded to this many decimals of a metre (0.003, not
+#: 0.0030000000000000005)
+HEIGHT_DIGITS = 12
+
+
+def _check_scan(resolution: float, h_max: float) -> None:
+    """The step-down scan's grid (m) has heights to walk, distinct after their rounding, and
+    at most :data:`~porthamiltonian.batch.grids.MAX_CASES` of them: a resolution above h_max
+    walked none and reported "no drop survived"; one below the rounding walked h = 0 over and
+    over (with no time limit, without end)."""
+    if resolution > h_max:
+        raise ParameterValueError(f"step_down: resolution ({resolution:g} m) is larger than "
+                                  f"h_max ({h_max:g} m), so the scan would walk no height; give "
+                                  "a resolution of at most h_max")
+    rounding = 10.0 ** -HEIGHT_DIGITS
+    if resolution < rounding:
+        raise ParameterValueError(f"step_down: resolution ({resolution:g} m) is below "
+                                  f"{rounding:g} m, to which the heights are rounded; give a "
+                                  f"resolution of at least {rounding:g} m")
+    if h_max / resolution > MAX_CASES:
+        raise CostError(f"step_down: h_max / resolution = {h_max:g} m / {resolution:g} m makes "
+                        f"up to {h_max / resolution:.3g} heights, more than {MAX_CASES:,} (each "
+                        "a walk); give a coarser resolution or a lower h_max")
+
+
 def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: float | None = None,
               h_max: float | None = None, n_beyond: int = 8, n_steps: int | None = None,
               tol: float = 1e-4, heights: Iterable[float] | None = None,
@@ -240,6 +266,15 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
     ``boundary_tol`` is 0). ``progress`` is called with each case record as it finishes.
     ``deadline`` (a ``time.perf_counter()``): no height is started after it; the result is
     then that of the heights walked (``stopped`` says so; a walk under way ends first)."""
+    leg = float(walker.leg_length)
+    resolution = 2e-4 * leg if resolution is None else float(resolution)
+    h_max = 0.1 * leg if h_max is None else float(h_max)
+    if not (resolution > 0 and h_max > 0 and boundary_tol >= 0):
+        raise ParameterValueError(f"step_down: resolution ({resolution!r} m) and h_max "
+                                  f"({h_max!r} m) must be positive, boundary_tol "
+                                  f"({boundary_tol!r} m) >= 0")
+    if heights is None:
+        _check_scan(resolution, h_max)            # before the gait search
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
     base: dict[str, Any] = {"model": walker.name, "parameters": dict(walker.parameters),
@@ -252,13 +287,6 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
                               cases=[], fixed_point=gait.fixed_point,
                               seconds=time.perf_counter() - t0,
                               message=f"no periodic gait to disturb: {gait.message}", **base)
-    leg = float(walker.leg_length)
-    resolution = 2e-4 * leg if resolution is None else float(resolution)
-    h_max = 0.1 * leg if h_max is None else float(h_max)
-    if not (resolution > 0 and h_max > 0 and boundary_tol >= 0):
-        raise ParameterValueError(f"step_down: resolution ({resolution!r} m) and h_max "
-                                  f"({h_max!r} m) must be positive, boundary_tol "
-                                  f"({boundary_tol!r} m) >= 0")
     n_steps = recovery_steps(gait, tol) if n_steps is None else int(n_steps)
     fps = fixed_points(walker, gait)
     z0 = fps[0]
@@ -284,7 +312,7 @@ def step_down(walker: Walker, gait: GaitResult | None = None, *, resolution: flo
         else:
             misses, k, first = 0, 1, None
             while k * step <= top * (1 + 1e-12):
-                h = round(k * step, 12)
+                h = round(k * step, HEIGHT_DIGITS)
                 ok = run(h, "grid")["survived"]
                 misses = 0 if ok else misses + 1
                 if not ok and first is None:
@@ -423,6 +451,19 @@ class BasinResult(JSONResult):
     stopped: str = ""
 
 
+def check_basin_size(n: int, option: str = "n") -> None:
+    """Refuse (:class:`~porthamiltonian.errors.CostError`) a basin grid of more than
+    :data:`~porthamiltonian.batch.grids.MAX_CASES` points (``n`` per axis; ``option``: how the
+    caller names ``n``): its tables are made before the first point is walked (n = 100 000
+    asked for 10^10 entries and hung), and each point is a walk."""
+    if n * n > MAX_CASES:
+        raise CostError(f"basin: {option} = {n} makes a grid of {n * n:,} points, more than "
+                        f"{MAX_CASES:,} (each point is a walk, and the grid's tables are made "
+                        f"before the first); give {option} <= {math.isqrt(MAX_CASES)}, or run a "
+                        "larger grid as a resumable sweep (walker sweep MODEL --analysis basin "
+                        "--grid ... --max-cases N)")
+
+
 def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
           span: float | tuple[float, float] = 0.1,
           theta_scale: float = 0.4, theta_dot_scale: float = 0.8, n_steps: int | None = None,
@@ -436,6 +477,7 @@ def basin(walker: Walker, gait: GaitResult | None = None, *, n: int = 11,
     integration of the points' walks (:func:`basin_walker`; the gait is the walker's own).
     ``progress`` is called per grid point. ``deadline`` (a ``time.perf_counter()``): no point is
     started after it; those left are "not_run" (``stopped`` says so)."""
+    check_basin_size(n)                        # before the gait search
     t0 = time.perf_counter()
     gait = _gait_or_raise(walker, gait)
     walking = basin_walker(walker, method)

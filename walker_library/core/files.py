@@ -21,7 +21,7 @@ from porthamiltonian import collector
 from porthamiltonian import io as ph_io
 from porthamiltonian.compiler import prepare
 from porthamiltonian.errors import ModelFileError, ParameterValueError
-from porthamiltonian.userfiles import write_atomic
+from porthamiltonian.userfiles import replace_problem, write_atomic
 
 from . import warm
 from .hybrid import Integration, WalkerSpec
@@ -118,12 +118,17 @@ def save_walker(walker: HybridWalker | WalkerSpec, path: str | Path, header: str
 
 
 def check_target(path: str | Path, *, overwrite: bool) -> Path:
-    """``path`` as a Path if a walker file may be written there: not a directory, and, unless
-    ``overwrite``, nothing there yet (a file, a link, even a broken one); else a ModelFileError
-    saying what is there and what to do."""
+    """``path`` as a Path if a walker file may be written there: in a folder that exists, not a
+    directory, a device, a socket or a pipe, and, unless ``overwrite``, nothing there yet (a file, a link, even a
+    broken one); else a ModelFileError saying what is there and what to do."""
     path = Path(path)
     if os.path.isdir(path):
         raise ModelFileError(f"{path} is a directory; give the path of the walker file to write")
+    problem = replace_problem(path)
+    if problem is not None:             # not even with --force: the file would replace it
+        raise ModelFileError(f"{path} {problem}; give the path of the walker file to write")
+    if not os.path.isdir(path.parent):      # (else the error names the temporary file)
+        raise ModelFileError(f"cannot write {path}: the folder {path.parent} does not exist")
     if not overwrite and os.path.lexists(path):
         kind = "a symbolic link" if os.path.islink(path) else "a file"
         raise ModelFileError(f"{path}: {kind} is there already; give --force to replace it (a "
