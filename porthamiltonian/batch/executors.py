@@ -38,15 +38,40 @@ def open_executor(scheduler: str | None, workers: int | None = None) -> Iterator
                 dashboard_address=None))
             client = stack.enter_context(Client(cluster))
         else:
+            problem = _address_problem(scheduler)
+            if problem is not None:
+                raise _malformed(scheduler, problem)
             try:
                 client = stack.enter_context(Client(scheduler, timeout=30))
             except OSError as err:
                 raise SweepError(f"cannot reach the dask scheduler {scheduler!r}: {err}") from None
             except (ValueError, TypeError) as err:   # dask's words for a malformed address
-                raise SweepError(f"--scheduler {scheduler!r} is not a dask scheduler address "
-                                 f"({err}); give tcp://host:port, or 'local' for a local "
-                                 "cluster") from None
+                raise _malformed(scheduler, str(err)) from None
         yield client.get_executor()
+
+
+def _malformed(scheduler: str, reason: str) -> SweepError:
+    """The error of a scheduler address dask cannot use, with dask's ``reason``."""
+    return SweepError(f"--scheduler {scheduler!r} is not a dask scheduler address ({reason}); "
+                      "give tcp://host:port, or 'local' for a local cluster")
+
+
+def _address_problem(scheduler: str) -> str | None:
+    """What is wrong with the scheduler address ``scheduler`` in dask's own words (its parsers
+    of addresses: an unknown scheme, a TCP/TLS location without a port number or with one that
+    is no integer), or None: checked before a client is made, since a client made for a
+    malformed address can fail inside dask's event loop (an AssertionError of its loop runner,
+    seen after other clients in the process) and leave that loop's thread behind."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+    try:
+        scheme, location = parse_address(scheduler)
+        get_backend(scheme)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(location)
+    except (ValueError, TypeError) as err:
+        return str(err)
+    return None
 
 
 def executor_width(executor: Executor) -> int:
