@@ -619,14 +619,13 @@ class HybridWalker:
         with np.errstate(all="ignore"):
             try:
                 x0 = self.lift(z, p0)
-                if np.all(np.isfinite(x0)):
-                    p0 = self.machine.start(x0, p0)
             except (np.linalg.LinAlgError, ModelError, ValueError, ArithmeticError) as err:
                 if isinstance(err, ArithmeticError) and not self.model.raised_beyond_floats(err):
                     raise
                 return [Stride(StrideStatus.FELL, None, 0.0, reason=f"invalid_state: {err}")]
-        if not np.all(np.isfinite(x0)):
-            return [Stride(StrideStatus.FELL, None, 0.0, reason="invalid_state")]
+            if not np.all(np.isfinite(x0)):
+                return [Stride(StrideStatus.FELL, None, 0.0, reason="invalid_state")]
+            p0 = self.machine.start(x0, p0)
         log = WalkLog(int(n_steps), None if until is None
                       else lambda x, p: until(self.project(x, p)))
         traj = self.model.simulate(
