@@ -4,7 +4,7 @@
                 [--jacobian variational|fd] [--fd-step H] [--gradient NAMES] [--json]
     walker continue MODEL --param NAME=START:STOP [--set NAME=VALUE ...] [--guess FILE]
                     [--doublings N] [--jacobian variational|fd] [--json] [--out DIR]
-    walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--json]
+    walker walk MODEL [--set NAME=VALUE ...] [--steps N] [--time-limit S] [--json]
     walker step-down MODEL [--set NAME=VALUE ...] [--resolution H] [--h-max H] [--time-limit S]
         [--json]
     walker basin MODEL [--set NAME=VALUE ...] [--n N] [--span S] [--time-limit S] [--json]
@@ -70,6 +70,7 @@ from porthamiltonian.interfaces.cli import (
 from .analyses.gait import (
     GAIT_QUANTITIES,
     TIME_LIMIT,
+    WALK_BLOCK,
     GaitResult,
     analyze_gait,
     gait_start,
@@ -341,13 +342,17 @@ def cmd_continue(args: argparse.Namespace) -> int:
 
 
 def cmd_walk(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
     walker = _walker(args)
-    result = walk(walker, None, args.steps)
+    with activity(f"walk {walker.name}", enabled=not args.quiet):
+        result = walk(walker, None, args.steps, deadline=start + (args.time_limit or math.inf))
     if args.json:
         print(result.to_json())
         return 0
     print(f"{walker.name}: {result.steps_taken} steps" + (f", fell ({result.fall_reason})"
-                                                          if result.fell else ""))
+                                                          if result.fell else "")
+          + (f", stopped at the time limit ({args.time_limit:g} s; --time-limit)"
+             if result.stopped else ""))
     for k, s in enumerate(result.steps, 1):
         print(f"  step {k:3d}: {s['status']:5s} T = {_fmt(s['duration'])} s  length = "
               f"{_fmt(s['step_length'])} m  dissipated = {_fmt(s['energy_dissipated'])} J")
@@ -661,13 +666,17 @@ def build_parser() -> argparse.ArgumentParser:
     rules(p, doublings=at_least(0), max_points=at_least(2), time_limit=not_negative)
     p.set_defaults(func=cmd_continue)
 
-    p = sub.add_parser("walk", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION],
+    p = sub.add_parser("walk", parents=[BACKEND_OPTION, SET_OPTION, JSON_OPTION, QUIET_OPTION],
                        help="walk N steps from the initial guess; per-step records and the "
                             "energy ledger")
     p.add_argument("model", help=model_help)
     p.add_argument("--steps", type=int, default=20, metavar="N",
-                   help="steps to walk (default: 20)")
-    rules(p, steps=at_least(1))
+                   help=f"steps to walk (default: 20; in simulations of {WALK_BLOCK} strides "
+                        "each, from the section state the last one ended in)")
+    p.add_argument("--time-limit", type=float, default=TIME_LIMIT, metavar="S",
+                   help=f"start no block of {WALK_BLOCK} strides after S seconds, and report the "
+                        f"steps walked (default {TIME_LIMIT:g}; 0: no limit)")
+    rules(p, steps=at_least(1), time_limit=not_negative)
     p.set_defaults(func=cmd_walk)
 
     p = sub.add_parser("step-down", parents=analysis,

@@ -341,7 +341,13 @@ def trim(model: CompiledModel, x: Any = None, u: Any = None, params: Any = None,
         G = np.hstack([J[np.ix_(rows, free_x)], _jac_u(model, cur)[np.ix_(rows, free_u)]])
         z = np.concatenate([y[free_x], p[[P + k for k in free_u]]])
         residual = float(np.max(np.abs(f))) if f.size else 0.0
-        scale = 1.0 + float(np.max(np.abs(G * z[None, :]))) if G.size else 1.0
+        with np.errstate(over="ignore", invalid="ignore"):
+            scale = 1.0 + float(np.max(np.abs(G * z[None, :]))) if G.size else 1.0
+        if not (math.isfinite(scale) and math.isfinite(residual)):
+            # e.g. an angle of 1e308: ∂ẋ/∂z · z overflows, and every residual would pass
+            message = (f"the point is beyond the float64 range (max |dx/dt| = {residual:.3g}, "
+                       f"max |∂(dx/dt)/∂z · z| = {scale - 1.0:.3g})")
+            break
         if residual <= tol * scale:
             return TrimResult(y[:n].copy(), p[P:P + m].copy(), residual, iterations, True,
                               "converged")

@@ -9,6 +9,9 @@ wall clock, does not grow when other programs share the machine). ``capped(argv,
 a Python command line in a subprocess whose address space is capped (``resource.setrlimit``), for
 the inputs whose cost is memory.
 
+``REFUSAL_CPU``, ``HANG_WALL``, ``MODELS_DIR`` and ``capped`` live in bounds.py (tests import
+them from there).
+
 ``audit`` records, through a Python audit hook (PEP 578), every event that would mean that data
 ran as code or touched the system while a block runs: ``exec``/``compile`` of code, a process
 started (``os.system``, ``subprocess.Popen``, ``os.posix_spawn``, ``os.fork``, ``os.exec*``), a
@@ -20,18 +23,13 @@ import contextlib
 import os
 import resource
 import signal
-import subprocess
 import sys
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import ClassVar
 
 import pytest
-
-from porthamiltonian import io
-
-MODELS_DIR = Path(io.__file__).resolve().parents[2] / "models"
+from bounds import HANG_WALL, MODELS_DIR, REFUSAL_CPU
 
 _FORBIDDEN = {"exec", "compile", "os.system", "subprocess.Popen", "os.posix_spawn", "os.spawn",
               "os.exec", "os.fork", "os.forkpty", "pty.spawn", "ctypes.dlopen", "os.startfile"}
@@ -118,10 +116,6 @@ def model_text():
     return lambda name: (MODELS_DIR / f"{name}.toml").read_text()
 
 
-#: the bound of a refusal (issue 21): processor seconds, and a wall-clock guard against hangs
-REFUSAL_CPU, HANG_WALL = 5.0, 120.0
-
-
 def _cpu() -> float:
     own = resource.getrusage(resource.RUSAGE_SELF)
     kids = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -150,16 +144,3 @@ def _within(cpu: float = REFUSAL_CPU, wall: float = HANG_WALL) -> Iterator[None]
 def within():
     """``with within(cpu=5, wall=120): ...`` (module docstring)."""
     return _within
-
-
-def capped(argv: list[str], memory: int, *, timeout: float = HANG_WALL,
-           env: dict | None = None, cwd: str | None = None) -> subprocess.CompletedProcess:
-    """Run ``python argv...`` in a subprocess whose address space is capped at ``memory`` bytes
-    (RLIMIT_AS, inherited by what it starts), with this process's import path."""
-    def limit() -> None:
-        resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-
-    environment = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), **(env or {}))
-    return subprocess.run([sys.executable, *argv], capture_output=True, text=True,
-                          timeout=timeout, preexec_fn=limit, env=environment, cwd=cwd,
-                          check=False)

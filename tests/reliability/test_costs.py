@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import capped
+from bounds import capped
 
 from porthamiltonian import io
 from porthamiltonian.batch import grid, parse_grid

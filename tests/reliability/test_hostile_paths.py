@@ -9,7 +9,7 @@ gait`` and ``walker list`` read a 3 GB file whole before the size check, ``sweep
 read forever, and a UTF-8 byte-order mark was "Invalid statement".
 
 Each hostile path is given to every reader that takes one (a model file by path, ``simulate``,
-``walker gait --guess``, ``sweep --out``); each answers within :data:`conftest.REFUSAL_CPU`
+``walker gait --guess``, ``sweep --out``); each answers within :data:`bounds.REFUSAL_CPU`
 seconds of processor time (and no hang) with exit status 2 or a ModelFileError whose message
 says what the path is. The size cases run in subprocesses capped at 1 GB of address space.
 """
@@ -23,7 +23,7 @@ import threading
 from pathlib import Path
 
 import pytest
-from conftest import MODELS_DIR, capped
+from bounds import MODELS_DIR, capped
 
 from porthamiltonian import io, userfiles
 from porthamiltonian.errors import ModelFileError

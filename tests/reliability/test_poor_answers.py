@@ -1,6 +1,6 @@
 """One clear message for each input that got a misleading one, a raw traceback or silence
 (issue 21, the "Poor" list): a typed error (status 2 with ``error: ...`` on the command line)
-naming what is wrong, within :data:`conftest.REFUSAL_CPU` seconds of processor time.
+naming what is wrong, within :data:`bounds.REFUSAL_CPU` seconds of processor time.
 
 Before: a flow source on a mass got the dissipator's causality hint; ``--steps 0`` spoke of
 t_end; ``compile_model("msd")``, ``connect(1, 2)`` and ``x0={'spring.q': 'abc'}`` raised bare

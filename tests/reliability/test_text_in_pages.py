@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bounds import MODELS_DIR
 from browser import console_errors, render
-from conftest import MODELS_DIR
 
 from porthamiltonian.escaping import PLAIN_TEXT, plain_text, script_json
 from porthamiltonian.interfaces import cli

@@ -15,6 +15,7 @@ References (each test states its numbers and tolerance):
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -426,6 +427,19 @@ def test_trim_finds_the_input_that_holds_a_state(open_msd):
                            free_states=["mass.p"], free_inputs=["F"])
     assert square.success and square.u[0] == pytest.approx(2.0, abs=1e-12)
     assert square.x[open_msd.state_index("mass.p")] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_trim_from_a_point_beyond_float64_does_not_claim_an_equilibrium():
+    """From q = 1e308 m (found by fuzzing ``linearize --at``): ∂ẋ/∂z · z overflows, and the
+    relative convergence test (residual <= tol (1 + inf)) passed with |dx/dt| = 2e308; now trim
+    fails and says why, without numpy's overflow warning."""
+    model = compile_model(msd("F"), backend="python")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        far = model.trim(x={"spring.q": 1e308, "mass.p": 0.0}, u=[0.0])
+    assert not far.success and "beyond the float64 range" in far.message
+    near = model.trim(x={"spring.q": 0.5, "mass.p": 0.0}, u=[0.0])
+    assert near.success and near.x[model.state_index("spring.q")] == pytest.approx(0.0, abs=1e-12)
 
 
 def test_a_sensor_reads_a_flow():

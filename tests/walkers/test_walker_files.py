@@ -199,6 +199,15 @@ def no_compilation(monkeypatch):
      "[walker.integration] backend must be \"auto\" or one of c, numba, python, got 'gpu'"),
     ("compass_walker", "rtol = 1e-9,", "rtol = 1e-300,", "rtol = 1e-300,",
      "[walker.integration] rtol must be >= 2.22e-14"),
+    ("compass_walker", "rtol = 1e-9,", "rtol = 1e-9, max_steps_per_stride = 2.5,",
+     "max_steps_per_stride = 2.5",
+     ("[walker.integration] max_steps_per_stride must be a whole number of steps up to 1e9, "
+      "got 2.5")),
+    ("compass_walker", "rtol = 1e-9,", "rtol = 1e-9, max_steps_per_stride = 10000000000,",
+     "max_steps_per_stride = 1", "max_steps_per_stride must be a whole number"),
+    ("compass_walker", "rtol = 1e-9,", "rtol = 1e-9, max_steps_per_stride = 0,",
+     "max_steps_per_stride = 0",
+     "[walker.integration] max_steps_per_stride must be a positive number, got 0"),
 ])
 def test_a_bad_description_names_file_line_and_part(name, old, new, needle, part, tmp_path,
                                                     no_compilation):

@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from porthamiltonian.batch.progress import tick
 from porthamiltonian.errors import ModelError
 from porthamiltonian.simulation.options import check_integer, check_number
 
@@ -593,9 +594,17 @@ def gait_start(walker: Walker, parameter: str, start: float, guess: np.ndarray |
     return np.array([g.fixed_point[k] for k in w.section], dtype=float), g.period_steps
 
 
+#: strides per simulation of :func:`walk`: a longer walk runs in blocks of this many strides,
+#: each from the section state the last one ended in, so that its memory stays bounded
+WALK_BLOCK = 20
+
+
 @dataclass
 class WalkResult(JSONResult):
-    """n steps walked in one simulation: per-step records, and the ledger over the whole run."""
+    """n steps walked: per-step records, and the energy ledger over the whole walk.
+
+    stopped : ``"time_limit"`` when the walk stopped at its deadline with fewer steps than
+    asked (and did not fall), else ``""``."""
 
     model: str
     steps_taken: int
@@ -607,23 +616,50 @@ class WalkResult(JSONResult):
     max_energy_residual: float
     relative_energy_residual: float
     parameters: dict = field(default_factory=dict)
+    stopped: str = ""
 
 
-def walk(walker: Walker, z0: np.ndarray | None = None, n_steps: int = 20) -> WalkResult:
-    """Walk ``n_steps`` from ``z0`` (default: the initial guess) in one simulation and report the
-    energy ledger: its residual H − H(0) + E_diss − E_in, absolute and relative to the energy scale."""
-    z0 = np.asarray(walker.initial_guess() if z0 is None else z0, dtype=float)
-    strides = walker.walk(z0, n_steps, record=True)
-    traj = strides[-1].info.get("trajectory")
-    fell = strides[-1].fell
-    steps = [_step_record(walker, s) for s in strides]
-    if traj is not None:
-        residual = np.abs(traj.residual)
-        max_res, rel = float(np.max(residual)), float(traj.relative_residual)
-    else:
-        max_res = rel = math.nan
-    good = [s for s in strides if not s.fell]
-    return WalkResult(walker.name, len(good), fell, strides[-1].reason if fell else "", steps,
-                      float(sum(s.energy_dissipated for s in good)),
-                      float(sum(s.potential_released for s in good)), max_res, rel,
-                      dict(walker.parameters))
+def walk(walker: Walker, z0: np.ndarray | None = None, n_steps: int = 20, *,
+         deadline: float = math.inf) -> WalkResult:
+    """Walk ``n_steps`` from ``z0`` (default: the initial guess) and report the energy ledger:
+    its residual r = H − H(0) + E_diss − E_in, its largest |r| (J) and that relative to the
+    energy scale (``Trajectory.energy_scale``).
+
+    Up to :data:`WALK_BLOCK` steps are one simulation; a longer walk is simulated in blocks of
+    that many strides, each from the section state the last block ended in (the composition of
+    the stride map the gait analyses use), so that its memory does not grow with the steps
+    (one simulation keeps every integrator step: 0.5 MB per stride for the compliant-leg
+    walker). The residual then adds up over the blocks (each block's from its own start, plus
+    the ends of the blocks before it), relative to the largest block's energy scale (smaller
+    than the whole walk's: the relative residual is not flattered). ``deadline`` (a
+    ``time.perf_counter()``): no block starts after it; the result then says so (``stopped``)."""
+    z = np.asarray(walker.initial_guess() if z0 is None else z0, dtype=float)
+    steps: list[dict] = []
+    dissipated = released = offset = scale = max_res = 0.0
+    fell, reason, stopped, left = False, "", "", int(n_steps)
+    while left > 0:
+        if time.perf_counter() > deadline:
+            stopped = "time_limit"
+            break
+        strides = walker.walk(z, min(left, WALK_BLOCK), record=True)
+        tick("stride", len(strides))
+        traj = strides[-1].info.get("trajectory")
+        if traj is not None and len(traj.t):
+            r = traj.residual
+            max_res = float(np.max([max_res, float(np.max(np.abs(offset + r)))]))  # NaN stays
+            offset += float(r[-1])
+            scale = max(scale, traj.energy_scale)
+        else:
+            max_res = math.nan
+        steps += [_step_record(walker, s) for s in strides]
+        good = [s for s in strides if not s.fell]
+        dissipated += sum(s.energy_dissipated for s in good)
+        released += sum(s.potential_released for s in good)
+        left -= len(good)
+        if strides[-1].fell or not good or good[-1].z_next is None:
+            fell, reason = True, strides[-1].reason
+            break
+        z = good[-1].z_next
+    rel = max_res / scale if scale > 0 else math.nan
+    return WalkResult(walker.name, int(n_steps) - left, fell, reason, steps, float(dissipated),
+                      float(released), max_res, rel, dict(walker.parameters), stopped)

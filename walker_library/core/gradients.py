@@ -161,7 +161,8 @@ def stride_gradient(walker: HybridWalker, z: ArrayLike, names: Sequence[str], *,
     traj = model.simulate(
         o.max_step_time, x0=x0, params=dict(zip(model.param_names, p0)), method=method,
         rtol=rtol, atol=atol, max_step=o.max_step, actions=walker.machine.actions(log, names),
-        max_events=200, sensitivity=Seeds(lift.value, names, x0_p))
+        max_events=200, max_steps=o.max_steps_per_stride,
+        sensitivity=Seeds(lift.value, names, x0_p))
     strikes = log.heel_strikes
     s = cast(Sensitivity, traj.sensitivity)         # a run given sensitivity= records it
     if not strikes or any(f.transition.fall for f in log.fired):

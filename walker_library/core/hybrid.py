@@ -153,8 +153,11 @@ class Section:
 @dataclass(frozen=True)
 class Integration:
     """Integrator settings of a walk: back end (``"auto"``: the framework's choice), method, rtol,
-    atol, max_step (s), max_step_time (s: no heel strike within it is a fall), and the Newton
-    tolerance of the gait search (section units)."""
+    atol, max_step (s), max_step_time (s: no heel strike within it is a fall), the Newton
+    tolerance of the gait search (section units), and max_steps_per_stride, the integrator's
+    steps a stride may take (a run of n strides: n times as many; more end the stride as a fall
+    whose reason names the integrator's status, e.g. a stiffness so large that a stride would
+    take hours and gigabytes: the shipped walkers take 200-5 200 steps per stride)."""
 
     backend: str = "auto"
     method: str = "Rodas4"
@@ -163,6 +166,7 @@ class Integration:
     max_step: float = 0.01
     max_step_time: float = 3.0
     gait_tolerance: float = 1e-10
+    max_steps_per_stride: int = 100_000
 
 
 @dataclass(frozen=True)

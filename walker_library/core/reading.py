@@ -184,7 +184,8 @@ def walker_spec(model: Model, table: Mapping[str, Any], *, source: str = "<pytho
 
 # --- the readers, one per part ---------------------------------------------------------------------
 def _read_integration(r: _Reading) -> Integration:
-    """``[walker.integration]``: back end and method (strings), the rest positive numbers."""
+    """``[walker.integration]``: back end and method (strings), the rest positive numbers
+    (max_steps_per_stride a whole one)."""
     opts: dict[str, Any] = {}
     allowed = [f.name for f in fields(Integration)]
     for key, value in r.mapping("integration").items():
@@ -206,6 +207,12 @@ def _read_integration(r: _Reading) -> Integration:
                   and math.isfinite(value)):
             r.bad.add(f"[walker.integration] {key} must be a positive number, got {value!r}",
                       "integration", key)
+        elif key == "max_steps_per_stride":
+            if isinstance(value, bool) or not isinstance(value, int) or value > 10**9:
+                r.bad.add(f"[walker.integration] max_steps_per_stride must be a whole number of "
+                          f"steps up to 1e9, got {value!r}", "integration", key)
+            else:
+                opts[key] = value
         elif key == "rtol":
             try:
                 opts[key] = check_rtol(value)

@@ -110,7 +110,8 @@ def _one(walker: HybridWalker, z: np.ndarray, method: str, rtol: float,
     traj = walker.model.simulate(
         o.max_step_time, x0=x0, params=dict(zip(walker.model.param_names, p0)), method=method,
         rtol=rtol, atol=atol, max_step=o.max_step, actions=walker.machine.actions(log, ()),
-        max_events=200, sensitivity=lift.value, progress=_until(deadline))
+        max_events=200, max_steps=o.max_steps_per_stride, sensitivity=lift.value,
+        progress=_until(deadline))
     strikes = log.heel_strikes
     if not strikes or any(f.transition.fall for f in log.fired):
         return f"no heel strike ({traj.message})"

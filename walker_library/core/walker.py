@@ -542,21 +542,24 @@ class HybridWalker:
     def section_state(self, z: np.ndarray) -> dict[str, float]:
         """The section state by name: its coordinates, the completed state coordinates, the
         thesis's coordinates and angles (theta, theta_dot, phi, phi_dot where defined), and the
-        hip's speed (m/s)."""
+        hip's speed (m/s). A state beyond the float64 range (the last iterate of a search that
+        diverged) gives inf or nan there, without numpy's warnings."""
         z = np.asarray(z, dtype=float)
-        x = self.lift(z)
-        p = self.start_params()
-        v = self.velocities(x, p)
-        d = dict(zip(self.section, (float(a) for a in z)))
-        rates = self.compiled.rates
-        for c in self.spec.section.complete:
-            d[c.coordinate] = float(v[rates[c.coordinate]] if c.coordinate in rates
-                                    else x[self.model.state_index(c.coordinate)])
-        d.update(zip(self.thesis_section, (float(a) for a in self.to_thesis(z))))
-        d.update(self.angles(x, v))
-        if self.hip:
-            J = self.model.matrix(f"{self.multibody}.J.{self.hip.split('.', 1)[1]}", 0.0, x, p)
-            d["hip_speed"] = float(np.linalg.norm(J @ v))
+        with np.errstate(all="ignore"):
+            x = self.lift(z)
+            p = self.start_params()
+            v = self.velocities(x, p)
+            d = dict(zip(self.section, (float(a) for a in z)))
+            rates = self.compiled.rates
+            for c in self.spec.section.complete:
+                d[c.coordinate] = float(v[rates[c.coordinate]] if c.coordinate in rates
+                                        else x[self.model.state_index(c.coordinate)])
+            d.update(zip(self.thesis_section, (float(a) for a in self.to_thesis(z))))
+            d.update(self.angles(x, v))
+            if self.hip:
+                J = self.model.matrix(f"{self.multibody}.J.{self.hip.split('.', 1)[1]}", 0.0, x,
+                                      p)
+                d["hip_speed"] = float(np.linalg.norm(J @ v))
         return d
 
     def initial_guess(self) -> np.ndarray:
@@ -632,6 +635,7 @@ class HybridWalker:
             o.max_step_time * n_steps, x0=x0, params=dict(zip(self.model.param_names, p0)),
             method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step,
             actions=self.machine.actions(log), max_events=100 * n_steps + 100,
+            max_steps=o.max_steps_per_stride * n_steps,
             dense_output=dense)
         if kept:
             self._last_walk = (key, (traj, log, x0, p0, self.run))

@@ -1,0 +1,82 @@
+"""Long walks stay bounded (docs/walkers.md, "Walking" and "A stride's cost is bounded").
+
+* a walk longer than ``WALK_BLOCK`` steps runs in blocks of that many strides, each from the
+  section state the last one ended in: its steps are those of one simulation of the whole walk
+  (to the integrator's tolerance), and its ledger residual is the blocks' residuals added up
+  (recomputed here from the blocks' own trajectories);
+* a stride beyond ``max_steps_per_stride`` integrator steps ends the walk as a fall whose reason
+  names the limit (a result, not hours of work and gigabytes);
+* ``walker walk --time-limit`` stops between blocks and reports the steps walked.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from porthamiltonian import io
+from walker_library import load_walker, walk
+from walker_library.analyses.gait import WALK_BLOCK
+from walker_library.cli import main
+
+MODELS = Path(io.__file__).resolve().parents[2] / "models"
+
+
+def test_a_walk_in_blocks_is_the_walk_in_one_simulation_and_adds_up_its_ledger():
+    walker = load_walker("compass_gait")
+    z = walker.initial_guess()
+    n = 2 * WALK_BLOCK + 5
+    blocked = walk(walker, z, n)
+    assert blocked.steps_taken == n and len(blocked.steps) == n and not blocked.fell
+    assert blocked.stopped == ""
+    whole = walker.walk(z, n)              # one simulation of all n strides
+    assert len(whole) == n and not whole[-1].fell
+    for got, ref in zip(blocked.steps, whole):
+        assert got["duration"] == pytest.approx(ref.duration, rel=1e-7)
+        assert got["step_length"] == pytest.approx(ref.step_length, rel=1e-7)
+        assert got["energy_dissipated"] == pytest.approx(ref.energy_dissipated, rel=1e-6)
+    assert blocked.energy_dissipated == pytest.approx(sum(s.energy_dissipated for s in whole),
+                                                      rel=1e-8)
+    # the ledger: each block's residual from its own start, plus the ends of the blocks before
+    offset, worst, scale, start = 0.0, 0.0, 0.0, z
+    for size in (WALK_BLOCK, WALK_BLOCK, 5):
+        strides = walker.walk(start, size, record=True)
+        traj = strides[-1].info["trajectory"]
+        worst = max(worst, float(np.max(np.abs(offset + traj.residual))))
+        offset += float(traj.residual[-1])
+        scale = max(scale, traj.energy_scale)
+        start = strides[-1].z_next
+    assert blocked.max_energy_residual == worst
+    assert blocked.relative_energy_residual == worst / scale
+    assert 0.0 < blocked.relative_energy_residual < 1e-8
+
+
+def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path):
+    text = (MODELS / "compass_gait.toml").read_text()
+    old = "max_step_time = "
+    assert text.count(old) == 1
+    tight = tmp_path / "tight_compass_gait.toml"
+    tight.write_text(text.replace(old, "max_steps_per_stride = 50, " + old))
+    walker = load_walker(tight)
+    assert walker.options.max_steps_per_stride == 50
+    result = walk(walker, None, 3)         # a run of 3 strides: 3 x 50 steps
+    assert result.fell and result.steps_taken == 0
+    assert result.fall_reason.startswith("failed: more than 150 steps"), result.fall_reason
+    # the shipped file's budget (100 000 per stride) is far from this walker's ~250 steps
+    assert walk(load_walker("compass_gait"), None, 3).steps_taken == 3
+
+
+def test_walker_walk_time_limit_reports_the_steps_walked(capsys):
+    assert main(["walk", "rimless_wheel", "--steps", "1000000", "--time-limit", "0.3",
+                 "--json", "--quiet"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["stopped"] == "time_limit" and not d["fell"]
+    assert 0 < d["steps_taken"] < 1000000 and d["steps_taken"] % WALK_BLOCK == 0
+    assert len(d["steps"]) == d["steps_taken"]
+    assert d["relative_energy_residual"] < 1e-8
+    assert main(["walk", "rimless_wheel", "--steps", "1000000", "--time-limit", "0.2"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith("rimless_wheel: ") and first.endswith(
+        "steps, stopped at the time limit (0.2 s; --time-limit)"), first
