@@ -35,6 +35,9 @@ recommendations        the thesis's §4.2: step-down over foot radius, hip stiff
 compliance_3d          the thesis's closing question in 3D: step-down and lateral pushes (roll
                        rate, lateral hip velocity) survived over K_leg, 3D compliant against 3D
                        rigid legs (compliant_leg_walker_3d, compass_walker_3d)
+kneed_walker           beyond the thesis: Hsu Chen's kneed walker (M.Eng. thesis, MIT 2007) — its
+                       fixed point, step period and eigenvalues beside the published ones, the
+                       angles and multipliers; over the slope the fold and period doublings
 =====================  ==========================================================================
 
 ``quick=True`` runs every study on coarse grids (the tests use it); the full grids are the
@@ -70,6 +73,7 @@ from .figures import (
     fig_bifurcation,
     fig_energy,
     fig_energy_per_step,
+    fig_floquet,
     fig_limit_cycle,
     pyplot,
     save_figure,
@@ -762,6 +766,67 @@ def run_compliance_3d(ctx: StudyContext) -> dict:
     ], "table": table, "rigid": {k: rigid.get(k) for k in keys[1:]}}
 
 
+# --- the kneed walker (Hsu Chen 2007) -----------------------------------------------------------
+KNEED = "kneed_walker"
+#: V. F. Hsu Chen, "Passive Dynamic Walking with Knees: A Point Foot Model", M.Eng. thesis, MIT
+#: EECS, 2007, sec. 3.3 (slope 0.0504 rad): the fixed point just after heel strike (4 digits,
+#: angles from the vertical: q1 the stance leg, q2 = q3 the swing thigh and shank), the step
+#: period (digitised from its Fig. 3-4, ± 2 %) and sec. 3.3.1's return-map eigenvalues (a
+#: least-squares fit to 25 perturbed runs, not a Jacobian)
+CHEN_FIXED_POINT = {"q1": 0.1877, "q2": -0.2884, "q1_dot": -1.1014, "q2_dot": -0.0399}
+CHEN_STEP_PERIOD = 0.559
+CHEN_EIGENVALUES = (0.4053, complex(-0.2129, 0.3454), complex(-0.2129, -0.3454))
+#: the slope ranges continued from the thesis's slope: down past the fold where the period-1
+#: gait ends, up through its period doubling and the period-2 orbit's
+KNEED_SLOPES = ((0.0504, 0.03, 0), (0.0504, 0.12, 1))
+
+
+def run_kneed_walker(ctx: StudyContext) -> dict:
+    """Hsu Chen's kneed walker: the gait at the thesis's slope beside its fixed point, step period
+    and eigenvalues (ours in its coordinates: q1 = θ − γ, q2 = q1 − φ, q̇1 = θ̇, q̇2 = θ̇ − φ̇),
+    the angles over a few strides and the multipliers; the full study also continues the gait
+    over the slope (the fold and period doublings: no published numbers to compare with)."""
+    w = _walker(KNEED)
+    gamma = float(w.parameters["slope"])
+    gait = analyze_gait(w)
+    if gait.status != "periodic":
+        raise ModelError(f"{KNEED}: no gait at the thesis's slope ({gait.message})")
+    fp = gait.fixed_point
+    q1, q1_dot = fp["theta"] - gamma, fp["theta_dot"]
+    mu = list(gait.floquet_multipliers)
+    chen = max(abs(e) for e in CHEN_EIGENVALUES)
+    rows = [
+        _row("q1, stance leg from the vertical", q1, CHEN_FIXED_POINT["q1"], "rad",
+             "the thesis's from a fixed-step search; ours the exact fixed point"),
+        _row("q2 = q3, swing leg from the vertical", q1 - fp["phi"], CHEN_FIXED_POINT["q2"],
+             "rad"),
+        _row("q̇1", q1_dot, CHEN_FIXED_POINT["q1_dot"], "rad/s"),
+        _row("q̇2 = q̇3", q1_dot - fp["phi_dot"], CHEN_FIXED_POINT["q2_dot"], "rad/s",
+             "a difference of two rates near 1.1 rad/s"),
+        _row("step period", gait.metrics.step_period, CHEN_STEP_PERIOD, "s",
+             "the thesis's digitised from its Fig. 3-4 (± 2 %)"),
+        _row("max |return-map eigenvalue|", max(abs(m) for m in mu), chen, "1",
+             f"ours the stride Jacobian's (± {gait.multiplier_error:.1g}), the thesis's a "
+             "least-squares fit to 25 perturbed runs: both stable"),
+    ]
+    z = np.array([gait.fixed_point[k] for k in w.section])
+    series = walk_series(w, z, 2 if ctx.quick else 4, max_step=gait.metrics.step_period / 150)
+    fig_angles(series, ctx.path("angles.png"))
+    fig_floquet(mu, gait.multiplier_error, ctx.path("multipliers.png"))
+    out: dict[str, Any] = {"gait": to_jsonable(gait.to_dict())}
+    for lo, hi, doublings in () if ctx.quick else KNEED_SLOPES:
+        result = continue_gait(w, "slope", lo, hi, guess=z, period=1, doublings=doublings,
+                               log=ctx.log)
+        name = f"slope_{'down' if hi < lo else 'up'}"
+        (ctx.out / f"{name}.json").write_text(result.to_json())
+        fig_bifurcation(result, ctx.path(f"{name}_bifurcation_diagram.png"))
+        for b in result.bifurcations:
+            rows.append(_row(f"{b.kind} of the period-{b.period} gait over the slope", b.mu, None,
+                             "rad", f"{np.degrees(b.mu):.4f}°, ± {b.mu_error:.1g}"))
+    out["rows"] = rows
+    return out
+
+
 STUDIES: dict[str, Study] = {s.name: s for s in [
     Study("table_2_3", "Nominal gait at γ = 0.009", "Table 2.3", run_table_2_3, (NOMINAL,)),
     Study("damping_calibration", "Energy per impact over λ; calibration", "§2.3.2, Fig. 2.12",
@@ -788,6 +853,8 @@ STUDIES: dict[str, Study] = {s.name: s for s in [
     Study("compliance_3d", "Step-down and lateral pushes over K_leg in 3D",
           "§4.2 (\"build a 3D model and study the effects of applying compliancy to it\")",
           run_compliance_3d, (COMPLIANT_3D, RIGID_3D)),
+    Study("kneed_walker", "A walker with knees: gait, multipliers, slope range",
+          "Hsu Chen 2007, sec. 3.3 (beyond the thesis)", run_kneed_walker, (KNEED,)),
 ]}
 
 
