@@ -77,6 +77,7 @@ from .analyses.gait import (
     section_guess,
     walk,
 )
+from .analyses.series import MAX_SERIES_STEPS, check_series_steps
 from .core.files import available_walkers, load_walker
 
 # Each command imports the analyses it runs beyond the gait's (and, for text output, the report's
@@ -713,7 +714,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="report", metavar="DIR",
                    help="output directory (default: ./report)")
     p.add_argument("--steps", type=int, default=6, metavar="N",
-                   help="steps of the recorded walk (default: 6)")
+                   help=f"steps of the recorded walk (default: 6, at most {MAX_SERIES_STEPS})")
     p.add_argument("--basin", action="store_true", help="also the basin of attraction (slow)")
     p.add_argument("--no-step-down", action="store_true", help="skip the step-down test")
     p.add_argument("--continuation", default=None, metavar="NAME=START:STOP",
@@ -730,7 +731,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "walker always has one), with its still image view3d.png")
     view.add_argument("--no-view3d", dest="view3d", action="store_false",
                       help="no 3D view, not even for a 3D walker")
-    rules(p, steps=at_least(1), time_limit=not_negative)
+    rules(p, steps=check_series_steps, time_limit=not_negative)
     p.set_defaults(func=cmd_report)
 
     p = add_sweep_parser(

@@ -78,7 +78,12 @@ def test_a_bad_initial_value_names_the_state(compile_named, x0, words, within):
 
 WALKER_OPTIONS = [
     (["walk", "compass_walker", "--steps", "0"], "--steps must be at least 1, got 0"),
-    (["report", "compass_walker", "--steps", "-1"], "--steps must be at least 1, got -1"),
+    (["report", "compass_walker", "--steps", "-1"],
+     "--steps must be a whole number from 1 to 100, got -1"),
+    # a recorded walk of 100 000 steps kept every integrator step: gigabytes (0.5 GB per 60
+    # strides of the compass walker), before the figures and the animation
+    (["report", "compass_walker", "--steps", "100000"],
+     "--steps must be a whole number from 1 to 100, got 100000"),
     (["basin", "simplest_walker", "--n", "1"], "--n must be at least 2, got 1"),
     (["basin", "simplest_walker", "--span", "0"], "--span must be a finite number > 0, got 0"),
     (["step-down", "simplest_walker", "--resolution", "nan"], "--resolution must be a finite"),

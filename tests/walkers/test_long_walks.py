@@ -6,7 +6,8 @@
   (recomputed here from the blocks' own trajectories);
 * a stride beyond ``max_steps_per_stride`` integrator steps ends the walk as a fall whose reason
   names the limit (a result, not hours of work and gigabytes);
-* ``walker walk --time-limit`` stops between blocks and reports the steps walked.
+* ``walker walk --time-limit`` stops between blocks and reports the steps walked;
+* a recorded walk (the report's figures and animation: one simulation) is bounded.
 """
 from __future__ import annotations
 
@@ -17,8 +18,10 @@ import numpy as np
 import pytest
 
 from porthamiltonian import io
+from porthamiltonian.errors import OptionError
 from walker_library import load_walker, walk
 from walker_library.analyses.gait import WALK_BLOCK
+from walker_library.analyses.series import MAX_SERIES_STEPS, walk_series
 from walker_library.cli import main
 
 MODELS = Path(io.__file__).resolve().parents[2] / "models"
@@ -69,7 +72,8 @@ def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path):
 
 
 def test_walker_walk_time_limit_reports_the_steps_walked(capsys):
-    assert main(["walk", "rimless_wheel", "--steps", "1000000", "--time-limit", "0.3",
+    load_walker("rimless_wheel")           # built: the limit counts from the command's start
+    assert main(["walk", "rimless_wheel", "--steps", "1000000", "--time-limit", "1.5",
                  "--json", "--quiet"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["stopped"] == "time_limit" and not d["fell"]
@@ -80,3 +84,13 @@ def test_walker_walk_time_limit_reports_the_steps_walked(capsys):
     first = capsys.readouterr().out.splitlines()[0]
     assert first.startswith("rimless_wheel: ") and first.endswith(
         "steps, stopped at the time limit (0.2 s; --time-limit)"), first
+
+
+def test_a_recorded_walk_is_bounded_and_says_what_walks_further():
+    """walk_series (the report's figures and animation) keeps every integrator step of one
+    simulation: at most MAX_SERIES_STEPS steps, a typed error beyond that naming `walker walk`."""
+    walker = load_walker("rimless_wheel")
+    with pytest.raises(OptionError, match=r"n_steps must be a whole number from 1 to 100, got "
+                                          r"101: .*`walker walk MODEL --steps N`"):
+        walk_series(walker, walker.initial_guess(), MAX_SERIES_STEPS + 1)
+    assert len(walk_series(walker, walker.initial_guess(), 2).strides) == 2

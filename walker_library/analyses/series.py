@@ -12,8 +12,11 @@ normal) for animations. One conversion serves every walker (:class:`~.core.Hybri
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from numbers import Integral
 
 import numpy as np
+
+from porthamiltonian.errors import OptionError
 
 from ..core.protocol import Stride
 from ..core.walker import HybridWalker
@@ -56,11 +59,30 @@ class GaitSeries:
         return np.cumsum([s.duration for s in self.strides if not s.fell])
 
 
+#: the most steps :func:`walk_series` records: one simulation keeps every integrator step (60
+#: strides of the compass walker for a report: 0.5 GB), and the series is drawn and animated;
+#: :func:`~walker_library.analyses.gait.walk` walks any number of steps in bounded memory
+MAX_SERIES_STEPS = 100
+
+
+def check_series_steps(option: str, n_steps: int) -> None:
+    """``n_steps`` of a recorded walk: a whole number from 1 to :data:`MAX_SERIES_STEPS`, else
+    an OptionError naming ``option`` (a command's ``--steps``, the API's ``n_steps``)."""
+    if isinstance(n_steps, bool) or not isinstance(n_steps, Integral) or not (
+            1 <= n_steps <= MAX_SERIES_STEPS):
+        raise OptionError(f"{option} must be a whole number from 1 to {MAX_SERIES_STEPS}, got "
+                          f"{n_steps!r}: a recorded walk (figures, animation) keeps every "
+                          "integrator step; `walker walk MODEL --steps N` walks any number of "
+                          "steps with their records and ledger")
+
+
 def walk_series(walker: HybridWalker, z: np.ndarray, n_steps: int, *, ground_drop: float = 0.0,
                 max_step: float | None = None) -> GaitSeries:
-    """Walk ``n_steps`` from section state ``z`` (recorded) and convert (module docstring).
-    ``max_step`` (s) caps the integrator's step for smooth curves (the stored points are the
-    integrator's own; an explicit method on a smooth swing phase takes few, long steps)."""
+    """Walk ``n_steps`` (at most :data:`MAX_SERIES_STEPS`) from section state ``z`` (recorded)
+    and convert (module docstring). ``max_step`` (s) caps the integrator's step for smooth
+    curves (the stored points are the integrator's own; an explicit method on a smooth swing
+    phase takes few, long steps)."""
+    check_series_steps("n_steps", n_steps)
     if max_step is not None and max_step < walker.options.max_step:
         walker = walker.with_options(max_step=float(max_step))
     strides = walker.walk(np.asarray(z, dtype=float), n_steps, record=True, ground_drop=ground_drop)
