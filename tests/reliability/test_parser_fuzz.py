@@ -16,7 +16,8 @@ import math
 from datetime import timedelta
 
 import sympy as sp
-from hypothesis import HealthCheck, assume, given, settings
+from fuzzing import fuzz_settings
+from hypothesis import HealthCheck, assume, given
 from hypothesis import strategies as st
 
 from porthamiltonian import io
@@ -25,8 +26,8 @@ from porthamiltonian.modeling.expressions import parse, parse_text, to_text
 
 NAMES = {n: sp.Symbol(n, real=True) for n in ("k", "m", "c", "x0")}
 VALUES = {"k": 4.0, "m": 1.5, "c": -0.4, "x0": 0.1}
-FUZZ = settings(max_examples=150, deadline=timedelta(seconds=2), derandomize=True,
-                suppress_health_check=[HealthCheck.too_slow])
+FUZZ = fuzz_settings(150, deadline=timedelta(seconds=2),
+                     suppress_health_check=[HealthCheck.too_slow])
 
 TOKENS = st.sampled_from([
     "k", "m", "c", "x0", "t", "pi", "E", "mass.p", "spring.q", "sin", "cos", "exp", "log", "sqrt",
@@ -64,7 +65,7 @@ def test_random_unicode(text):
     check_parse(text)
 
 
-@settings(max_examples=100, deadline=timedelta(seconds=2), derandomize=True)
+@fuzz_settings(100, deadline=timedelta(seconds=2))
 @given(st.one_of(TOKEN_TEXT, st.text(max_size=100)))
 def test_random_expressions_in_a_model_file(text):
     doc = io.model_to_dict(io.loads('bonds = ["j -> spring.p", "j -> mass.p"]\n'
@@ -112,8 +113,8 @@ def _sympy_value(expr: sp.Expr) -> float | None:
     return value.real if abs(value.imag) <= 1e-12 * max(1.0, abs(value.real)) else None
 
 
-@settings(max_examples=80, deadline=timedelta(seconds=2), derandomize=True,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@fuzz_settings(80, deadline=timedelta(seconds=2),
+               suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(EXPRESSIONS)
 def test_numeric_evaluation_agrees_with_sympy_and_text_round_trips(text):
     expr = check_parse(text)

@@ -17,7 +17,8 @@ import tomllib
 from pathlib import Path
 
 import tomli_w
-from hypothesis import HealthCheck, given, settings
+from fuzzing import fuzz_settings
+from hypothesis import HealthCheck, given
 from hypothesis import strategies as st
 
 from porthamiltonian import compile_model, io
@@ -31,8 +32,8 @@ FILES = {p.stem: p.read_text() for p in sorted(MODELS_DIR.glob("*.toml"))}
 CHEAP = sorted(name for name, text in FILES.items()
                if "Multibody" not in text and "FreeBody" not in text) + [
     "bouncing_ball", "bouncing_ball_kelvin_voigt", "double_pendulum", "pendulum", "slider_arm"]
-SETTINGS = settings(max_examples=200, deadline=None, derandomize=True,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+SETTINGS = fuzz_settings(200, deadline=None,
+                         suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
 def check_load(text: str, source: str = "fuzz.toml", compile_it: bool = False) -> None:
