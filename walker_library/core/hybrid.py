@@ -157,7 +157,7 @@ class Integration:
     tolerance of the gait search (section units), and max_steps_per_stride, the integrator's
     steps a stride may take (a run of n strides: n times as many; more end the stride as a fall
     whose reason names the integrator's status, e.g. a stiffness so large that a stride would
-    take hours and gigabytes: the shipped walkers take 200-5 200 steps per stride)."""
+    take hours and gigabytes: the shipped walkers take 170-5 200 steps per stride)."""
 
     backend: str = "auto"
     method: str = "Rodas4"
