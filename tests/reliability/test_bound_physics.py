@@ -64,6 +64,24 @@ def test_inertia_bound_at_run_time_gets_the_literal_rule(heavy_top, values, word
         assert word in message, message
 
 
+def test_remembered_values_pass_and_a_violation_is_refused_every_time(heavy_top):
+    """The checker remembers value sets that satisfied every constraint (a walker binds the same
+    parameters at every stride); a violating set raises at every call, after good ones too,
+    and a set that differs in one value is evaluated again."""
+    checker = heavy_top.constraints
+    good = dict(zip(heavy_top.param_names, heavy_top.params().tolist()))
+    checker.check(good)
+    assert tuple(good.items()) in checker._passed
+    bad = {**good, "C": -0.006}
+    for _ in range(3):
+        with pytest.raises(ParameterValueError, match="triangle inequality"):
+            checker.check(bad)
+        checker.check(good)
+    assert tuple(bad.items()) not in checker._passed
+    with pytest.raises(ParameterValueError, match="triangle inequality"):
+        heavy_top.changed_params(heavy_top.params(), {"C": -0.006})   # a partial check
+
+
 @pytest.mark.parametrize("argv, words", [
     (["simulate", "heavy_top", "--set", "C=-0.006"], ["component 'top' body 'body' inertia"]),
     (["simulate", "heavy_top", "--set", "A_c=0.001", "--set", "C=0.01"], ["triangle"]),
