@@ -209,11 +209,15 @@ static void ph_difference_rate(const double *Xp, const double *X, const double *
                                double eps, double *out)
 {
     double up = 0.0, down = 0.0, second = 0.0, central = 0.0;
+    /* the largest of each: a > m ? a : m is fmax(m, a) while m is a number (it starts at 0 and
+     * a NaN a is passed over, as fmax does), but an instruction GCC vectorizes, not a call */
     for (int64_t k = 0; k < len; ++k) {
-        up = fmax(up, fabs(Xp[k] - X[k]));
-        down = fmax(down, fabs(X[k] - Xm[k]));
-        second = fmax(second, fabs(Xp[k] - 2.0 * X[k] + Xm[k]));
-        central = fmax(central, fabs(Xp[k] - Xm[k]));
+        const double a = fabs(Xp[k] - X[k]), b = fabs(X[k] - Xm[k]);
+        const double c = fabs(Xp[k] - 2.0 * X[k] + Xm[k]), d = fabs(Xp[k] - Xm[k]);
+        up = a > up ? a : up;
+        down = b > down ? b : down;
+        second = c > second ? c : second;
+        central = d > central ? d : central;
     }
     const int kink = second > 0.5 * central && second > 1e-12 * (up + down + 1e-300);
     for (int64_t k = 0; k < len; ++k) {
