@@ -13,13 +13,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from numbers import Integral
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from porthamiltonian.errors import OptionError
 
 from ..core.protocol import Stride
-from ..core.walker import HybridWalker
+
+if TYPE_CHECKING:        # (the command line reads MAX_SERIES_STEPS without loading walkers)
+    from ..core.walker import HybridWalker
 
 __all__ = ["GaitSeries", "walk_series"]
 
