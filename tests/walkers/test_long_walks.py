@@ -23,6 +23,7 @@ from walker_library import load_walker, walk
 from walker_library.analyses.gait import WALK_BLOCK
 from walker_library.analyses.series import MAX_SERIES_STEPS, walk_series
 from walker_library.cli import main
+from walker_library.core.gradients import stride_gradient
 
 MODELS = Path(io.__file__).resolve().parents[2] / "models"
 
@@ -67,6 +68,11 @@ def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path):
     result = walk(walker, None, 3)         # a run of 3 strides: 3 x 50 steps
     assert result.fell and result.steps_taken == 0
     assert result.fall_reason.startswith("failed: more than 150 steps"), result.fall_reason
+    # the runs with sensitivities keep the budget too: the stride falls, naming it
+    sens = walker.stride_sensitivity(walker.initial_guess())
+    assert sens.jacobian is None and "more than 50 steps" in sens.fell, sens.fell
+    grad = stride_gradient(walker, walker.initial_guess(), ["m"])
+    assert grad.z_next is None and "more than 50 steps" in grad.fell, grad.fell
     # the shipped file's budget (100 000 per stride) is far from this walker's ~250 steps
     assert walk(load_walker("compass_gait"), None, 3).steps_taken == 3
 
