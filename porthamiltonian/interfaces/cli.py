@@ -620,7 +620,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="settling band as a fraction of the largest deviation from the final "
                         "value (default: 0.02, the 2%% settling time)")
     p.set_defaults(func=cmd_sweep)
-    p = fitting.add_fit_parser(sub, [BACKEND_OPTION, SET_OPTION, JSON_OPTION], model_help)
+    p = fitting.add_fit_parser(sub, [BACKEND_OPTION, SET_OPTION, JSON_OPTION, QUIET_OPTION,
+                                     RUN_PROGRESS_OPTION], model_help)
+    rules(p, time_limit=not_negative, progress_interval=positive)
     p.set_defaults(func=cmd_fit)
     p = add_fmu_parser(sub, "write the model as an FMU (FMI 2.0 or 3.0, model exchange and/or "
                             "co-simulation) for other tools; docs/fmu.md", model_help,

@@ -16,11 +16,14 @@ import csv
 import io as _io
 import json
 import math
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..backends import report
 from ..batch.values import to_jsonable
 from ..errors import DataError, OptionError
 from . import io
@@ -119,12 +122,39 @@ def run_fit(args: argparse.Namespace, compiled: Any, values: dict[str, float],
     weights = {k: _number(v, "--weight") for k, v in _pairs(args.weight, "--weight").items()}
     result = fit(compiled, data or None, names, events=times or None, bounds=bounds,
                  weights=weights, values=values, t_end=args.t_end, method=args.method,
-                 rtol=args.rtol, atol=atol, absolute_sigma=args.absolute_sigma)
+                 rtol=args.rtol, atol=atol, absolute_sigma=args.absolute_sigma,
+                 deadline=time.perf_counter() + (args.time_limit or math.inf),
+                 progress=FitProgress(compiled.name, interval=args.progress_interval))
     if args.json:
         print(json.dumps(to_jsonable(result.to_dict()), indent=1))
     else:
         _print(compiled.name, result)
     return 0 if result.identifiable and result.converged else 1
+
+
+class FitProgress:
+    """Lines on stderr during a long fit (``porthamiltonian fit``; not with ``--quiet``): the
+    runs made, the last run's cost and the best so far (the first line after ``interval``
+    seconds of wall time, then one every six intervals, as a long run's lines). Called with the
+    runs made and the last run's cost (:func:`~porthamiltonian.simulation.fitting.fit`'s
+    ``progress``)."""
+
+    def __init__(self, name: str, interval: float = 5.0,
+                 clock: Callable[[], float] = time.monotonic):
+        self.name, self.clock, self.interval = name, clock, interval
+        self.start = clock()
+        self.next = interval
+        self.best = math.inf
+
+    def __call__(self, runs: int, cost: float) -> None:
+        """Note the run; report the fit's progress if it is time for a line."""
+        self.best = min(self.best, cost)
+        elapsed = self.clock() - self.start
+        if elapsed < self.next:
+            return
+        self.next = elapsed + 6.0 * self.interval
+        report(f"{self.name}: fit, {runs} runs after {elapsed:.0f} s; cost {cost:.4g} (best "
+               f"{self.best:.4g}) (Ctrl-C stops it; --time-limit bounds it)")
 
 
 def _print(name: str, r: FitResult) -> None:
@@ -170,4 +200,7 @@ def add_fit_parser(sub: Any, parents: list, model_help: str) -> argparse.Argumen
     p.add_argument("--method", default="Rodas5P", choices=("Rodas5P", "Rodas4", "QBDF"),
                    help="the compiled integrator (default: Rodas5P)")
     p.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance (default 1e-8)")
+    p.add_argument("--time-limit", type=float, default=0.0, metavar="S",
+                   help="start no run after S seconds: the result is then the best point the "
+                        "runs reached, not converged (default 0: no limit)")
     return p

@@ -33,7 +33,8 @@ the residuals per output; the convergence report is least_squares'.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, cast
 
@@ -127,7 +128,8 @@ class FitResult:
     Jacobian, largest first), rank, identifiable, unidentifiable (parameters in the null
     directions), null_directions (each {parameter: component}, relative units); converged,
     status, message, nfev, njev, optimality (the gradient's norm at the end: first-order
-    optimality) — least_squares' report; events ({event: [[model time, data time], ...]});
+    optimality) — least_squares' report, or status ``"time_limit"`` when the fit's deadline
+    stopped it (the estimates: the best point the runs reached); events ({event: [[model time, data time], ...]});
     trajectory : the run at the estimates (not in :meth:`to_dict`).
     """
 
@@ -269,7 +271,8 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
         atol: float | np.ndarray = 1e-10, max_step: float = math.inf,
         actions: Mapping[str, Any] | None = None, inputs: Any = None, max_nfev: int = 100,
         confidence: float = 0.95, absolute_sigma: bool = False,
-        rank_tol: float | None = None) -> FitResult:
+        rank_tol: float | None = None, deadline: float = math.inf,
+        progress: Callable[[int, float], None] | None = None) -> FitResult:
     """Fit the parameters ``params`` of ``model`` to ``data`` (module docstring).
 
     data : measured outputs (:func:`measurements`: a data frame, or a mapping); events : event
@@ -280,7 +283,11 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
         actions, inputs : as :func:`~.simulate.simulate`; t_end : the run's end (default: the
         last sample or event time); max_nfev : least_squares' limit of evaluations;
         confidence : of the intervals; absolute_sigma : the weights are true 1/σ (else the
-        residual variance is estimated); rank_tol : of the identifiability check.
+        residual variance is estimated); rank_tol : of the identifiability check;
+    deadline : a ``time.perf_counter()`` after which no run starts: the result is then the best
+        point the runs reached (status ``"time_limit"``, not converged), its statistics there;
+    progress : called after every run with the runs made and the cost ½ Σ r² at the run's
+        point (e.g. to show that a long fit is alive).
     """
     from scipy.optimize import least_squares
     from scipy.stats import t as student
@@ -329,21 +336,28 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
     tol = max(1e-6, 100.0 * rtol) if rank_tol is None else float(rank_tol)
     result = FitResult(params, dict(zip(params, theta0.tolist())),
                        dict(zip(params, theta0.tolist())), confidence=confidence)
-    r0, J0 = problem.evaluate(theta0)
-    sv, rank, bad, directions = _rank(J0, theta0, params, tol)
-    if rank < len(params):
-        return _unidentifiable(result, sv, rank, bad, directions, len(r0), "start")
-    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {theta0.tobytes(): (r0, J0)}
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    runs = [0]
+    best: list[Any] = []        # the lowest cost so far: [cost, θ, r, J, its trajectory]
 
-    def both(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def both(theta: np.ndarray, timed: bool = True) -> tuple[np.ndarray, np.ndarray]:
         key = theta.tobytes()
         if key not in cache:
+            if timed and time.perf_counter() > deadline:
+                raise _TimeUp
             try:
                 cache.clear()
                 cache[key] = problem.evaluate(theta)
             except ParameterValueError as err:
                 raise DataError(f"the fit stepped to {dict(zip(params, theta.tolist()))}: "
                                 f"{err}; give bounds that keep the parameters valid") from None
+            r, J = cache[key]
+            cost = 0.5 * float(r @ r)
+            runs[0] += 1
+            if not best or cost < best[0]:
+                best[:] = [cost, theta.copy(), r, J, problem.last]
+            if progress is not None:
+                progress(runs[0], cost)
         return cache[key]
 
     def residuals(theta: np.ndarray) -> np.ndarray:
@@ -352,11 +366,20 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
     def jacobian(theta: np.ndarray) -> np.ndarray:
         return both(theta)[1]
 
-    res = least_squares(residuals, theta0, jac=jacobian,
-                        bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev, method="trf")
-    r, J = both(res.x)
-    sv, rank, bad, directions = _rank(J, res.x, params, tol)
-    result.estimates = dict(zip(params, res.x.tolist()))
+    r0, J0 = both(theta0, timed=False)
+    sv, rank, bad, directions = _rank(J0, theta0, params, tol)
+    if rank < len(params):
+        return _unidentifiable(result, sv, rank, bad, directions, len(r0), "start")
+    try:
+        res = least_squares(residuals, theta0, jac=jacobian, bounds=(lo, hi), x_scale="jac",
+                            max_nfev=max_nfev, method="trf")
+        x = res.x
+        r, J = both(x, timed=False)
+    except _TimeUp:
+        res = None
+        _, x, r, J, problem.last = best
+    sv, rank, bad, directions = _rank(J, x, params, tol)
+    result.estimates = dict(zip(params, x.tolist()))
     result.trajectory = problem.last
     if rank < len(params):
         return _unidentifiable(result, sv, rank, bad, directions, len(r), "optimum")
@@ -368,7 +391,7 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
     se = np.sqrt(np.diag(cov))
     k = float(student.ppf(0.5 + confidence / 2, dof)) if dof > 0 else math.nan
     result.standard_errors = dict(zip(params, se.tolist()))
-    result.intervals = {p: [float(res.x[j] - k * se[j]), float(res.x[j] + k * se[j])]
+    result.intervals = {p: [float(x[j] - k * se[j]), float(x[j] + k * se[j])]
                         for j, p in enumerate(params)}
     result.covariance = cov.tolist()
     result.correlation = (cov / np.outer(se, se)).tolist()
@@ -385,12 +408,22 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
         result.events[e.name] = [[float(crossings[j]) if j < len(crossings) else math.nan,
                                   float(t)] for j, t in enumerate(e.y)]
     result.n_data, result.dof, result.sigma = n_data, dof, math.sqrt(s2)
-    result.cost, result.optimality = float(res.cost), float(res.optimality)
     result.singular_values, result.rank = sv.tolist(), rank
+    if res is None:
+        result.cost, result.converged, result.status = 0.5 * float(r @ r), False, "time_limit"
+        result.message = (f"stopped at the time limit after {runs[0]} runs: the estimates are "
+                          "the best point the runs reached, not an optimum")
+        result.nfev = result.njev = runs[0]
+        return result
+    result.cost, result.optimality = float(res.cost), float(res.optimality)
     result.converged = bool(res.status > 0)
     result.status, result.message = _STATUS.get(res.status, "failed"), str(res.message)
     result.nfev, result.njev = int(res.nfev), int(res.njev or 0)
     return result
+
+
+class _TimeUp(Exception):
+    """A fit passed its deadline (raised before a run, caught around the minimiser)."""
 
 
 _STATUS = {-1: "failed", 0: "max_nfev", 1: "gtol", 2: "ftol", 3: "xtol", 4: "ftol_xtol"}

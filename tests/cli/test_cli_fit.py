@@ -82,3 +82,26 @@ def test_bounds_that_are_no_interval_and_weights_of_no_data(data, args, message,
     Each is now ``error:`` naming the option, status 2."""
     assert main(["fit", "mass_spring_damper", data, "--param", "k", *args]) == 2
     assert capsys.readouterr().err == f"error: {message}\n"
+
+
+def test_time_limit_and_progress_lines(data, capsys, monkeypatch):
+    """``--time-limit`` stops a fit between runs with the best point so far (status 1, not
+    converged, status "time_limit" in the JSON); ``--progress-interval`` gives lines on stderr
+    (a fit with ``--t-end 1e308`` ran for minutes without a word), ``--quiet`` none."""
+    monkeypatch.delenv("PORTHAMILTONIAN_QUIET", raising=False)     # (the tests' default)
+    assert main(["fit", "mass_spring_damper", data, "--param", "k,c", "--set", "k=3",
+                 "--time-limit", "1e-9", "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "time_limit" and not out["converged"] and out["nfev"] == 1
+    assert out["estimates"]["k"] == 3.0
+    assert main(["fit", "mass_spring_damper", data, "--param", "k,c", "--set", "k=3",
+                 "--progress-interval", "1e-9"]) == 0
+    captured = capsys.readouterr()
+    assert "converged" in captured.out
+    lines = [ln for ln in captured.err.splitlines() if ": fit, " in ln]
+    assert lines and lines[0].startswith("mass_spring_damper: fit, 1 runs after "), captured.err
+    assert main(["fit", "mass_spring_damper", data, "--param", "k,c", "--set", "k=3",
+                 "--progress-interval", "1e-9", "--quiet"]) == 0
+    assert ": fit, " not in capsys.readouterr().err
+    assert main(["fit", "mass_spring_damper", data, "--param", "k", "--time-limit", "-1"]) == 2
+    assert "--time-limit must be a finite number >= 0, got -1" in capsys.readouterr().err

@@ -121,3 +121,25 @@ def test_fit_input_errors(msd):
         ph.fit(msd, {"spring.q": ([1.0], [0.0])}, ["k", "k"])
     with pytest.raises(OptionError, match="outside the bounds"):
         ph.fit(msd, {"spring.q": ([1.0], [0.0])}, ["k"], bounds={"k": (5.0, 6.0)})
+
+
+def test_a_deadline_returns_the_best_point_reached_and_progress_sees_every_run(msd):
+    """``progress`` hears of every run (its count and cost); a fit whose deadline has passed
+    after its first run starts no other: its result is that run's point (the start), status
+    "time_limit", not converged, with the statistics there; the fit without a deadline from
+    the same start reaches a lower cost than any run the progress saw before its end."""
+    t = np.linspace(0.5, 10.0, 20)
+    q = msd.simulate(10.0, t_eval=t, rtol=1e-10, atol=1e-12, method="Rodas5P")["spring.q"]
+    data = {"spring.q": (t, q + 2e-3 * np.random.default_rng(3).standard_normal(t.size))}
+    heard: list[tuple[int, float]] = []
+    full = ph.fit(msd, data, ["k", "c"], initial={"k": 3.0, "c": 0.6},
+                  progress=lambda runs, cost: heard.append((runs, cost)))
+    assert full.converged and [r for r, _ in heard] == list(range(1, len(heard) + 1))
+    assert len(heard) >= full.nfev and full.cost == pytest.approx(min(c for _, c in heard),
+                                                                  rel=1e-12)
+    stopped = ph.fit(msd, data, ["k", "c"], initial={"k": 3.0, "c": 0.6}, deadline=0.0)
+    assert stopped.status == "time_limit" and not stopped.converged and stopped.nfev == 1
+    assert stopped.estimates == {"k": 3.0, "c": 0.6}
+    assert stopped.cost == pytest.approx(heard[0][1], rel=1e-12) and stopped.cost > full.cost
+    assert "stopped at the time limit after 1 runs" in stopped.message
+    assert all(np.isfinite(v) for v in stopped.standard_errors.values())
