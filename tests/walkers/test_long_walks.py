@@ -6,17 +6,21 @@
   (recomputed here from the blocks' own trajectories);
 * a stride beyond ``max_steps_per_stride`` integrator steps ends the walk as a fall whose reason
   names the limit (a result, not hours of work and gigabytes);
-* ``walker walk --time-limit`` stops between blocks and reports the steps walked.
+* ``walker walk --time-limit`` stops between blocks and reports the steps walked;
+* a count, period or deadline that is not one is a typed error, and a state no stride starts
+  from is a fall of the variational stride too.
 """
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from porthamiltonian import io
+from porthamiltonian.errors import OptionError
 from walker_library import load_walker, walk
 from walker_library.analyses.gait import WALK_BLOCK
 from walker_library.cli import main
@@ -80,3 +84,44 @@ def test_walker_walk_time_limit_reports_the_steps_walked(capsys):
     first = capsys.readouterr().out.splitlines()[0]
     assert first.startswith("rimless_wheel: ") and first.endswith(
         "steps, stopped at the time limit (0.2 s; --time-limit)"), first
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda w, z: walk(w, z, 0), "n_steps must be an integer >= 1, got 0"),
+    (lambda w, z: walk(w, z, 2.5), "n_steps must be an integer >= 1, got 2.5"),
+    (lambda w, z: walk(w, z, float("nan")), "n_steps must be an integer >= 1, got nan"),
+    (lambda w, z: walk(w, z, 3, deadline=float("nan")),
+     "deadline must be a number, not NaN, got nan"),
+    (lambda w, z: w.walk(z, 0), "n_steps must be an integer >= 1, got 0"),
+    (lambda w, z: w.walk(z, 2.5), "n_steps must be an integer >= 1, got 2.5"),
+    (lambda w, z: w.stride_sensitivity(z, 0), "period must be an integer >= 1, got 0"),
+    (lambda w, z: w.stride_sensitivity(z, 1, deadline=float("nan")),
+     "deadline must be a number, not NaN, got nan"),
+], ids=["walk 0", "walk 2.5", "walk nan", "walk deadline nan", "HybridWalker.walk 0",
+        "HybridWalker.walk 2.5", "stride_sensitivity period 0", "stride_sensitivity deadline nan"])
+def test_a_bad_count_or_deadline_is_a_typed_error(call, words):
+    """walk(w, z, 0) and walk(w, z, -1) returned an empty walk, 2.5 walked 2 steps, a NaN
+    deadline was no limit; HybridWalker.walk(z, 0) blamed t_end, (z, 2.5) max_events;
+    stride_sensitivity(z, 0) returned the identity as the Jacobian of no stride. Each is an
+    OptionError naming the argument now."""
+    walker = load_walker("compass_gait")
+    with pytest.raises(OptionError) as info:
+        call(walker, walker.initial_guess())
+    assert str(info.value) == words
+
+
+@pytest.mark.parametrize("z", [[1e308] * 6, [float("nan")] * 6, [0.1]],
+                         ids=["beyond float64", "nan", "too short"])
+def test_a_state_no_stride_starts_from_falls_in_the_variational_stride_too(z):
+    """stride_sensitivity from a section state beyond float64 (or NaN) raised "sensitivity
+    directions must be finite", after numpy's "invalid value" warnings of the lift's
+    differences; one of the wrong length raised. ``stride`` calls such a state a fall
+    (invalid_state); stride_sensitivity now does too, quietly (warnings are errors here)."""
+    walker = load_walker("compass_walker")
+    z = np.array(z)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        stride = walker.stride(z)
+        sens = walker.stride_sensitivity(z)
+    assert stride.fell and stride.reason.startswith("invalid_state")
+    assert sens.jacobian is None and sens.fell == stride.reason
