@@ -357,6 +357,9 @@ def cmd_walk(args: argparse.Namespace) -> int:
     for k, s in enumerate(result.steps, 1):
         print(f"  step {k:3d}: {s['status']:5s} T = {_fmt(s['duration'])} s  length = "
               f"{_fmt(s['step_length'])} m  dissipated = {_fmt(s['energy_dissipated'])} J")
+    if not result.steps:        # stopped before its first block: nothing integrated
+        print("  no stride was integrated: no energy ledger")
+        return 0
     print(f"  dissipated = {result.energy_dissipated:.10g} J, potential released = "
           f"{result.potential_released:.10g} J, max |energy residual| = "
           f"{result.max_energy_residual:.3e} J (relative {result.relative_energy_residual:.3e})")

@@ -125,3 +125,13 @@ def test_a_state_no_stride_starts_from_falls_in_the_variational_stride_too(z):
         sens = walker.stride_sensitivity(z)
     assert stride.fell and stride.reason.startswith("invalid_state")
     assert sens.jacobian is None and sens.fell == stride.reason
+
+
+def test_a_walk_stopped_before_its_first_block_says_it_has_no_ledger(capsys):
+    """``walker walk --time-limit`` passed before the first block printed "max |energy
+    residual| = 0.000e+00 J (relative nan)" for a ledger of nothing; it says so now."""
+    assert main(["walk", "rimless_wheel", "--steps", "100", "--time-limit", "1e-9",
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    first = "rimless_wheel: 0 steps, stopped at the time limit (1e-09 s; --time-limit)"
+    assert out.splitlines() == [first, "  no stride was integrated: no energy ledger"]
