@@ -58,6 +58,7 @@ from porthamiltonian.interfaces.cli import (
     backend_option,
     file_name,
     format_value,
+    input_name,
     leaving,
     not_negative,
     parse_assignments,
@@ -140,7 +141,7 @@ def _walker_and_guess(args: argparse.Namespace) -> tuple[HybridWalker, np.ndarra
     """The walker with the ``--set`` parameter values, and the section state that the ``--set``
     section coordinates and ``--guess`` file make (None if neither is given)."""
     values = parse_assignments(args.set)
-    previous = _read_guess(args.guess) if getattr(args, "guess", None) else None
+    previous = _read_guess(args.guess) if getattr(args, "guess", None) is not None else None
     walker = load_walker(check_walker_name(args.model), None, backend=args.backend)
     coords = (set(walker.section) | set(walker.thesis_section)) - set(walker.parameters)
     unknown = [k for k in values if k not in coords and k not in walker.parameters]
@@ -173,7 +174,7 @@ def _with_unit(walker: HybridWalker, key: str, value: Any) -> str:
 def cmd_gait(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     names = None
-    if args.gradient:
+    if args.gradient is not None:           # --gradient "": no names, refused by check_names
         from .analyses.gradients import gait_gradient
         from .core.gradients import check_names
         names = check_names(walker, _names(args.gradient))
@@ -357,6 +358,9 @@ def cmd_walk(args: argparse.Namespace) -> int:
     for k, s in enumerate(result.steps, 1):
         print(f"  step {k:3d}: {s['status']:5s} T = {_fmt(s['duration'])} s  length = "
               f"{_fmt(s['step_length'])} m  dissipated = {_fmt(s['energy_dissipated'])} J")
+    if not result.steps:        # stopped before its first block: nothing integrated
+        print("  no stride was integrated: no energy ledger")
+        return 0
     print(f"  dissipated = {result.energy_dissipated:.10g} J, potential released = "
           f"{result.potential_released:.10g} J, max |energy residual| = "
           f"{result.max_energy_residual:.3e} J (relative {result.relative_energy_residual:.3e})")
@@ -568,7 +572,7 @@ def cmd_export_fmu(args: argparse.Namespace) -> int:
 
 
 def _guess_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--guess", default=None, metavar="FILE",
+    p.add_argument("--guess", type=input_name, default=None, metavar="FILE",
                    help="start from the fixed point of a previous `walker gait --json` result "
                         "(--set of a section coordinate, model's or thesis's, changes one value)")
     p.add_argument("--jacobian", choices=("variational", "fd"), default="variational",
@@ -634,13 +638,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the optimizer's iteration limit (default: 30)")
     p.add_argument("--tol", type=float, default=1e-6,
                    help="relative tolerance of the optimizer (default: 1e-6)")
-    p.add_argument("--record", default=None, metavar="FILE",
+    p.add_argument("--record", type=file_name, default=None, metavar="FILE",
                    help="record every gait evaluation in this JSON Lines file (run again: "
                         "evaluations in it are read back, not simulated)")
     p.add_argument("--step-down", choices=("none", "ends", "path"), default="ends",
                    help="the step-down test (not differentiated) at the start and the optimum "
                         "(ends, default), also at every accepted iterate (path), or never")
-    p.add_argument("--guess", default=None, metavar="FILE",
+    p.add_argument("--guess", type=input_name, default=None, metavar="FILE",
                    help="start from the fixed point of a `walker gait --json` result")
     p.add_argument("--formulation", choices=("auto", "epigraph", "direct"), default="auto",
                    help="minimising max_multiplier_modulus: the smooth epigraph problem "
@@ -711,7 +715,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the main job: HTML report (figures, GIF, JSON) of a walker")
     p.add_argument("model", nargs="?", default="compass_walker",
                    help="walker model (default: compass_walker, the thesis's nominal walker)")
-    p.add_argument("--out", default="report", metavar="DIR",
+    p.add_argument("--out", type=file_name, default="report", metavar="DIR",
                    help="output directory (default: ./report)")
     p.add_argument("--steps", type=int, default=6, metavar="N",
                    help=f"steps of the recorded walk (default: 6, at most {MAX_SERIES_STEPS})")
@@ -753,7 +757,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="rebuild the thesis's tables and figures (named studies)")
     p.add_argument("studies", nargs="*", metavar="STUDY",
                    help="studies to run (default: all; see --list)")
-    p.add_argument("--out", default="reproduction", metavar="DIR",
+    p.add_argument("--out", type=file_name, default="reproduction", metavar="DIR",
                    help="output directory (default: ./reproduction)")
     p.add_argument("--quick", action="store_true", help="coarse grids (minutes, not hours)")
     p.add_argument("--workers", type=int, default=None, metavar="N",

@@ -21,8 +21,8 @@ sweep), 141 when the reader of the output went away (``| head``).
 
 This module also holds what the ``walker`` command shares with this one: the parent parsers of
 the common options (:data:`SET_OPTION`, :data:`JSON_OPTION`, :func:`backend_option`,
-:data:`QUIET_OPTION`, :data:`SWEEP_OPTIONS`), :func:`file_name`, :func:`parse_assignments`,
-:func:`run_sweep` and the runner :func:`run`.
+:data:`QUIET_OPTION`, :data:`SWEEP_OPTIONS`), :func:`file_name`, :func:`input_name`,
+:func:`parse_assignments`, :func:`run_sweep` and the runner :func:`run`.
 """
 from __future__ import annotations
 
@@ -80,6 +80,15 @@ def file_name(text: str) -> str:
     not empty (``--csv ""`` was taken as no option given: nothing written, without a word)."""
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty path; give the file or folder to write")
+    return text
+
+
+def input_name(text: str) -> str:
+    """The argparse type of an optional input file (``walker gait --guess FILE``): a path that
+    is not empty (``--guess ""`` was taken as no option given: the search started from the
+    model file's guess, without a word)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; give the file to read")
     return text
 
 
@@ -577,7 +586,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "Multibody body with outputs <multibody>.<body>.pose.x|y|z|qw|qx|qy|qz")
     p.add_argument("--t-end", type=float, default=None, metavar="T",
                    help="end time (s; default: the model file's [simulation] t_end)")
-    p.add_argument("--out", default="view", metavar="DIR",
+    p.add_argument("--out", type=file_name, default="view", metavar="DIR",
                    help="output directory (default: ./view)")
     p.add_argument("--rate", type=float, default=30.0, metavar="R",
                    help="frames per second of simulated time (default: 30; at most 900 "

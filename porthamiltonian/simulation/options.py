@@ -65,7 +65,8 @@ def check_number(name: str, value: Any, *, positive: bool = False, finite: bool 
     ok = ok and (x > 0 or not positive) and (at_least is None or x >= at_least)
     ok = ok and (below is None or x < below)
     if not ok:
-        raise OptionError(f"{name} must be {' and '.join(rules)}, got {value!r}")
+        raise OptionError(f"{name} must be {' and '.join(rules) or 'a number, not NaN'}, got "
+                          f"{value!r}")
     return x
 
 

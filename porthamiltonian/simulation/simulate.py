@@ -691,6 +691,15 @@ class Simulator:
                 self.y = y_last
             return status, message, k
 
+        # rates that are not finite at the segment's start: scipy's initial step size is then
+        # NaN, and RK45's and DOP853's step loops never leave (NaN is neither accepted nor
+        # below the smallest step: `--set m=1e-300` hung for ever, with no progress line)
+        f0 = np.asarray(fun(t0, y0), dtype=float)
+        if not np.all(np.isfinite(f0)):
+            names = [*model.state_names, "E_diss", "E_in"]
+            bad = ", ".join(f"{names[i]}: {f0[i]:g}" for i in np.flatnonzero(~np.isfinite(f0)))
+            return close(Status.FAILED, f"the rates at t = {t0:.6g} are not finite ({bad})",
+                         t0, None)
         while True:
             t_old = solver.t
             try:

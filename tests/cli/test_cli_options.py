@@ -128,13 +128,36 @@ def test_a_model_build_is_announced_once_and_quiet_silences_it(tmp_path, monkeyp
     (ph_parser, ["sweep", "mass_spring_damper", "--grid", "k=1,2", "--out", "s.jsonl", "--csv",
                  " "]),
     (walker_parser, ["continue", "rimless_wheel", "--param", "slope=0.07:0.08", "--out", ""]),
-], ids=["simulate --csv", "sweep --csv", "continue --out"])
-def test_an_empty_output_path_is_refused(build, argv, capsys):
-    """An optional output given an empty path was taken as not given: the command ran and
-    wrote nothing, without a word. argparse refuses it now (status 2), naming the option."""
+    (ph_parser, ["view", "pendulum", "--out", ""]),
+    (walker_parser, ["reproduce", "kneed_walker", "--quick", "--out", ""]),
+    (walker_parser, ["report", "--out", " "]),
+    (walker_parser, ["optimize", "rimless_wheel", "--vary", "slope", "--objective", "speed",
+                     "--record", ""]),
+    (walker_parser, ["gait", "rimless_wheel", "--guess", ""]),
+    (walker_parser, ["continue", "rimless_wheel", "--param", "slope=0.07:0.08", "--guess", ""]),
+    (walker_parser, ["optimize", "rimless_wheel", "--vary", "slope", "--objective", "speed",
+                     "--guess", ""]),
+], ids=["simulate --csv", "sweep --csv", "continue --out", "view --out", "reproduce --out",
+        "report --out", "optimize --record", "gait --guess", "continue --guess",
+        "optimize --guess"])
+def test_an_empty_path_is_refused(build, argv, capsys):
+    """An optional file given an empty path was taken as not given: the command ran and wrote
+    nothing, without a word (``--csv``), or wrote into the current folder (``view --out``,
+    ``reproduce --out``, ``report --out``), or searched from the model file's guess
+    (``--guess``). argparse refuses it now (status 2), naming the option."""
     with pytest.raises(SystemExit) as info:
         build().parse_args(argv)
     option = argv[-2]
     assert info.value.code == 2
+    what = "give the file to read" if option == "--guess" else "give the file or folder to write"
     assert capsys.readouterr().err.splitlines()[-1].endswith(
-        f"error: argument {option}: an empty path; give the file or folder to write")
+        f"error: argument {option}: an empty path; {what}")
+
+
+def test_an_empty_gradient_is_refused(capsys):
+    """``walker gait --gradient ""`` was taken as no option given (no gradients, no word); it
+    is refused as ``--gradient " "`` was, by the names' check (status 2)."""
+    assert walker_main(["gait", "rimless_wheel", "--gradient", ""]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: rimless_wheel: cannot differentiate by (): give distinct "
+                          "parameters of the walker"), err

@@ -69,3 +69,16 @@ def test_a_rigid_walker_is_refused_with_the_reason(tmp_path, capsys):
         export_walker_fmu(rigid, tmp_path / "w.fmu")
     assert main(["export-fmu", "simplest_walker", "--out", str(tmp_path / "w.fmu")]) == 2
     assert "error: walker 'simplest_walker' cannot be exported" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("steps", ["0", str(10**400)])
+def test_a_stop_time_beyond_float64_is_refused(steps, tmp_path, capsys):
+    """``walker export-fmu --steps 10**400``: the stop time steps × max_step_time raised
+    OverflowError (status 3, "this is a bug"); the steps are checked against the largest count
+    whose stop time is a float64 (3 s per step: 5.99e307), before any work."""
+    out = tmp_path / "w.fmu"
+    assert main(["export-fmu", "compass_walker", "--out", str(out), "--steps", steps]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: steps must be a whole number from 1 to 5.99e+307 (the stop "
+                          "time, steps × max_step_time = 3 s, a float64), got "), err
+    assert "Traceback" not in err and not out.exists()

@@ -245,6 +245,19 @@ def test_a_state_whose_derivative_is_not_finite_fails_at_once(backend):
                          for m in ("Rodas5P", "QBDF")]
 
 
+@pytest.mark.parametrize("method", ["RK45", "DOP853"])
+def test_rates_that_are_not_finite_at_the_start_fail_the_scipy_run(method, within):
+    """``simulate mass_spring_damper --method RK45 --set m=1e-300`` hung for ever, printing
+    nothing: the damper's power c p²/m² is 0/0 = NaN at the start (m² underflows), scipy's
+    first step size was then NaN, and the step loops of RK45 and DOP853 never leave with one.
+    The run now fails at t = 0 and names the rate that is not finite."""
+    model = compile_model(io.load("mass_spring_damper"), backend="python")
+    with within():
+        traj = model.simulate(1.0, params={"m": 1e-300}, method=method)
+    assert traj.status == "failed" and traj.t_final == 0.0
+    assert traj.message == "the rates at t = 0 are not finite (E_diss: nan)", traj.message
+
+
 # --- one namespace ------------------------------------------------------------------------------------
 def _pendulum(points: str = "", joint: str = "pivot", body: str = "bob") -> str:
     text = _text("pendulum").replace("[components.pendulum.joints.pivot]",

@@ -7,11 +7,14 @@
 * a stride beyond ``max_steps_per_stride`` integrator steps ends the walk as a fall whose reason
   names the limit (a result, not hours of work and gigabytes);
 * ``walker walk --time-limit`` stops between blocks and reports the steps walked;
-* a recorded walk (the report's figures and animation: one simulation) is bounded.
+* a recorded walk (the report's figures and animation: one simulation) is bounded;
+* a count, period or deadline that is not one is a typed error, and a state no stride starts
+  from is a fall of the variational stride too.
 """
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -101,3 +104,54 @@ def test_a_recorded_walk_is_bounded_and_says_what_walks_further():
                                           r"101: .*`walker walk MODEL --steps N`"):
         walk_series(walker, walker.initial_guess(), MAX_SERIES_STEPS + 1)
     assert len(walk_series(walker, walker.initial_guess(), 2).strides) == 2
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda w, z: walk(w, z, 0), "n_steps must be an integer >= 1, got 0"),
+    (lambda w, z: walk(w, z, 2.5), "n_steps must be an integer >= 1, got 2.5"),
+    (lambda w, z: walk(w, z, float("nan")), "n_steps must be an integer >= 1, got nan"),
+    (lambda w, z: walk(w, z, 3, deadline=float("nan")),
+     "deadline must be a number, not NaN, got nan"),
+    (lambda w, z: w.walk(z, 0), "n_steps must be an integer >= 1, got 0"),
+    (lambda w, z: w.walk(z, 2.5), "n_steps must be an integer >= 1, got 2.5"),
+    (lambda w, z: w.stride_sensitivity(z, 0), "period must be an integer >= 1, got 0"),
+    (lambda w, z: w.stride_sensitivity(z, 1, deadline=float("nan")),
+     "deadline must be a number, not NaN, got nan"),
+], ids=["walk 0", "walk 2.5", "walk nan", "walk deadline nan", "HybridWalker.walk 0",
+        "HybridWalker.walk 2.5", "stride_sensitivity period 0", "stride_sensitivity deadline nan"])
+def test_a_bad_count_or_deadline_is_a_typed_error(call, words):
+    """walk(w, z, 0) and walk(w, z, -1) returned an empty walk, 2.5 walked 2 steps, a NaN
+    deadline was no limit; HybridWalker.walk(z, 0) blamed t_end, (z, 2.5) max_events;
+    stride_sensitivity(z, 0) returned the identity as the Jacobian of no stride. Each is an
+    OptionError naming the argument now."""
+    walker = load_walker("compass_gait")
+    with pytest.raises(OptionError) as info:
+        call(walker, walker.initial_guess())
+    assert str(info.value) == words
+
+
+@pytest.mark.parametrize("z", [[1e308] * 6, [float("nan")] * 6, [0.1]],
+                         ids=["beyond float64", "nan", "too short"])
+def test_a_state_no_stride_starts_from_falls_in_the_variational_stride_too(z):
+    """stride_sensitivity from a section state beyond float64 (or NaN) raised "sensitivity
+    directions must be finite", after numpy's "invalid value" warnings of the lift's
+    differences; one of the wrong length raised. ``stride`` calls such a state a fall
+    (invalid_state); stride_sensitivity now does too, quietly (warnings are errors here)."""
+    walker = load_walker("compass_walker")
+    z = np.array(z)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        stride = walker.stride(z)
+        sens = walker.stride_sensitivity(z)
+    assert stride.fell and stride.reason.startswith("invalid_state")
+    assert sens.jacobian is None and sens.fell == stride.reason
+
+
+def test_a_walk_stopped_before_its_first_block_says_it_has_no_ledger(capsys):
+    """``walker walk --time-limit`` passed before the first block printed "max |energy
+    residual| = 0.000e+00 J (relative nan)" for a ledger of nothing; it says so now."""
+    assert main(["walk", "rimless_wheel", "--steps", "100", "--time-limit", "1e-9",
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    first = "rimless_wheel: 0 steps, stopped at the time limit (1e-09 s; --time-limit)"
+    assert out.splitlines() == [first, "  no stride was integrated: no energy ledger"]

@@ -632,11 +632,15 @@ def walk(walker: Walker, z0: np.ndarray | None = None, n_steps: int = 20, *,
     walker). The residual then adds up over the blocks (each block's from its own start, plus
     the ends of the blocks before it), relative to the largest block's energy scale (smaller
     than the whole walk's: the relative residual is not flattered). ``deadline`` (a
-    ``time.perf_counter()``): no block starts after it; the result then says so (``stopped``)."""
+    ``time.perf_counter()``): no block starts after it; the result then says so (``stopped``).
+    ``n_steps`` is an integer >= 1 and ``deadline`` a number (not NaN, which compares false
+    with every time: no limit); else an OptionError (0 or -1 steps returned an empty walk)."""
+    n_steps = check_integer("n_steps", n_steps)
+    deadline = check_number("deadline", deadline, finite=False)
     z = np.asarray(walker.initial_guess() if z0 is None else z0, dtype=float)
     steps: list[dict] = []
     dissipated = released = offset = scale = max_res = 0.0
-    fell, reason, stopped, left = False, "", "", int(n_steps)
+    fell, reason, stopped, left = False, "", "", n_steps
     while left > 0:
         if time.perf_counter() > deadline:
             stopped = "time_limit"
@@ -661,5 +665,5 @@ def walk(walker: Walker, z0: np.ndarray | None = None, n_steps: int = 20, *,
             break
         z = good[-1].z_next
     rel = max_res / scale if scale > 0 else math.nan
-    return WalkResult(walker.name, int(n_steps) - left, fell, reason, steps, float(dissipated),
+    return WalkResult(walker.name, n_steps - left, fell, reason, steps, float(dissipated),
                       float(released), max_res, rel, dict(walker.parameters), stopped)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -79,12 +80,16 @@ def export_walker_fmu(walker: HybridWalker, path: str | os.PathLike[str], *, fmi
         FMU's own stiff integrator locates the contacts' events).
     """
     program = walker_program(walker)
-    if not (isinstance(steps, int) and steps >= 1):
-        raise ExportError(f"steps must be a whole number >= 1, got {steps!r}")
+    m, o = walker.model, walker.options
+    # the stop time steps × max_step_time is a float64 (10**400 steps raised OverflowError)
+    most = sys.float_info.max / o.max_step_time
+    if not (isinstance(steps, int) and 1 <= steps <= most):
+        raise ExportError(f"steps must be a whole number from 1 to {most:.3g} (the stop time, "
+                          f"steps × max_step_time = {o.max_step_time:g} s, a float64), got "
+                          f"{steps!r}")
     z = walker.initial_guess() if z is None else np.asarray(z, dtype=float)
     p0 = walker.start_params(ground_drop)
     x0 = walker.lift(z, p0)
-    m, o = walker.model, walker.options
     method = o.method if o.method in TABLEAUS else "Rodas5P"
     return export_fmu(
         m, path, fmi=fmi, kind=kind, program=program, x0=x0,

@@ -40,6 +40,7 @@ import numpy as np
 
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.simulation.differences import Derivative, jacobian
+from porthamiltonian.simulation.options import check_integer, check_number
 from porthamiltonian.simulation.saltation import Sensitivity, section_jacobian
 
 from .machine import WalkLog
@@ -100,10 +101,13 @@ def _relative(d: Derivative) -> float:
 
 def _one(walker: HybridWalker, z: np.ndarray, method: str, rtol: float,
          atol: np.ndarray, deadline: float) -> _Step | str:
-    """(z', ∂z'/∂z, Φ error, difference-error bound) of one stride, or a fall reason (str)."""
+    """(z', ∂z'/∂z, Φ error, difference-error bound) of one stride, or a fall reason (str):
+    a state no stride starts from (``HybridWalker.start_state``) falls as in ``walk``."""
     p0 = walker.start_params()
+    x0 = walker.start_state(z, p0)
+    if isinstance(x0, str):
+        return x0
     lift = jacobian(lambda w: walker.lift(w, p0), z, 1.0)
-    x0 = walker.lift(z, p0)
     p0 = walker.machine.start(x0, p0)
     log = WalkLog(1)
     o = walker.options
@@ -135,10 +139,12 @@ def stride_sensitivity(walker: HybridWalker, z: np.ndarray, period: int = 1, *,
     method = o.method if o.method in COMPILED_METHODS else "Rodas5P"
     factor = max(float(factor), 3e-14 / o.rtol)
     rtol, atol = o.rtol * factor, np.asarray(o.atol, dtype=float) * factor
+    period = check_integer("period", period)
+    deadline = check_number("deadline", deadline, finite=False)     # NaN: never passed
     z = np.asarray(z, dtype=float)
     J, E = np.eye(len(z)), np.zeros((len(z), len(z)))
     phi_err = 0.0
-    for _ in range(int(period)):
+    for _ in range(period):
         try:
             out = _one(walker, z, method, rtol, atol, deadline)
         except _TimeUp:
@@ -146,6 +152,7 @@ def stride_sensitivity(walker: HybridWalker, z: np.ndarray, period: int = 1, *,
         if isinstance(out, str):
             return StrideSensitivity(None, None, phi_err, None, rtol, method, fell=out)
         z, Js, pe, Es = out
-        J, E = Js @ J, Es @ np.abs(J) + np.abs(Js) @ E
+        with np.errstate(over="ignore", invalid="ignore"):  # a long unstable orbit's: inf
+            J, E = Js @ J, Es @ np.abs(J) + np.abs(Js) @ E
         phi_err = max(phi_err, pe)
     return StrideSensitivity(z, J, phi_err, E, rtol, method)

@@ -48,6 +48,7 @@ from porthamiltonian.errors import ModelError, ParameterValueError, StateError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.interfaces.io import ModelFile
 from porthamiltonian.simulation.compiled import CompiledModel
+from porthamiltonian.simulation.options import check_integer
 from porthamiltonian.simulation.trajectory import Trajectory
 
 from .hybrid import Integration, WalkerSpec
@@ -607,29 +608,23 @@ class HybridWalker:
         time the integration), and so is a ``record`` walk always (the benchmarks time those)."""
         if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
             raise ParameterValueError(f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
+        n_steps = check_integer("n_steps", n_steps)    # 0 and 2.5 reached the integrator
         o = self.options
         dense = (details or record) and o.method not in COMPILED_METHODS
         kept = until is None and not dense and reuse       # its trajectory: the plain walk's
         plain = kept and not record
-        key = (np.asarray(z, dtype=float).tobytes(), int(n_steps), float(ground_drop))
+        key = (np.asarray(z, dtype=float).tobytes(), n_steps, float(ground_drop))
         last = self._last_walk
         if plain and last is not None and last[0] == key and last[1][4] is self.run:
             traj, log, x0, p0, _ = last[1]
             return self._cut(traj, log, details=details, record=False, x0=x0, p0=p0)
         p0 = self.start_params(ground_drop)
-        # numpy's floating-point warnings off, as in the run itself: a section state whose
-        # values overflow is a fall (invalid_state), on the python back end as on C
-        with np.errstate(all="ignore"):
-            try:
-                x0 = self.lift(z, p0)
-            except (np.linalg.LinAlgError, ModelError, ValueError, ArithmeticError) as err:
-                if isinstance(err, ArithmeticError) and not self.model.raised_beyond_floats(err):
-                    raise
-                return [Stride(StrideStatus.FELL, None, 0.0, reason=f"invalid_state: {err}")]
-            if not np.all(np.isfinite(x0)):
-                return [Stride(StrideStatus.FELL, None, 0.0, reason="invalid_state")]
+        with np.errstate(all="ignore"):         # as in start_state and the run itself
+            x0 = self.start_state(z, p0)
+            if isinstance(x0, str):
+                return [Stride(StrideStatus.FELL, None, 0.0, reason=x0)]
             p0 = self.machine.start(x0, p0)
-        log = WalkLog(int(n_steps), None if until is None
+        log = WalkLog(n_steps, None if until is None
                       else lambda x, p: until(self.project(x, p)))
         traj = self.model.simulate(
             o.max_step_time * n_steps, x0=x0, params=dict(zip(self.model.param_names, p0)),
@@ -640,6 +635,22 @@ class HybridWalker:
         if kept:
             self._last_walk = (key, (traj, log, x0, p0, self.run))
         return self._cut(traj, log, details=details, record=record, x0=x0, p0=p0)
+
+    def start_state(self, z: np.ndarray, p0: np.ndarray) -> np.ndarray | str:
+        """The model state x₀ = L(z) a stride from section state ``z`` starts from (parameters
+        ``p0``), or, for a state no stride can start from, its fall reason
+        (``"invalid_state..."``): the lift fails (a wrong shape, no solution) or gives values
+        beyond the float64 range. numpy's floating-point warnings are off, as in the run
+        itself, and Python's arithmetic errors beyond float64 are such a fall, so that the
+        python back end answers as C does."""
+        with np.errstate(all="ignore"):
+            try:
+                x0 = self.lift(z, p0)
+            except (np.linalg.LinAlgError, ModelError, ValueError, ArithmeticError) as err:
+                if isinstance(err, ArithmeticError) and not self.model.raised_beyond_floats(err):
+                    raise
+                return f"invalid_state: {err}"
+        return x0 if np.all(np.isfinite(x0)) else "invalid_state"
 
     def _cut(self, traj: Trajectory, log: WalkLog, **options: Any) -> list[Stride]:
         """:func:`.strides.cut_strides` of a walk's run, numpy's floating-point warnings off as in
