@@ -129,7 +129,8 @@ class FitResult:
     directions), null_directions (each {parameter: component}, relative units); converged,
     status, message, nfev, njev, optimality (the gradient's norm at the end: first-order
     optimality) — least_squares' report, or status ``"time_limit"`` when the fit's deadline
-    stopped it (the estimates: the best point the runs reached); events ({event: [[model time, data time], ...]});
+    stopped it (the estimates: the best point the runs reached); events ({event: [[model time,
+    data time], ...]});
     trajectory : the run at the estimates (not in :meth:`to_dict`).
     """
 
