@@ -22,7 +22,7 @@ import pytest
 
 from porthamiltonian import io
 from porthamiltonian.errors import OptionError
-from walker_library import load_walker, walk
+from walker_library import load_walker, read_walker, walk
 from walker_library.analyses.gait import WALK_BLOCK
 from walker_library.analyses.series import MAX_SERIES_STEPS, walk_series
 from walker_library.cli import main
@@ -61,23 +61,28 @@ def test_a_walk_in_blocks_is_the_walk_in_one_simulation_and_adds_up_its_ledger()
 
 
 def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path):
+    """A walker file's budget is read (``[walker] integration``); with 50 steps per stride (the
+    shipped compass gait's own model, ``with_options``: nothing compiled again) the walk, the
+    stride with its sensitivities and the stride gradient fall, naming the limit."""
     text = (MODELS / "compass_gait.toml").read_text()
     old = "max_step_time = "
     assert text.count(old) == 1
     tight = tmp_path / "tight_compass_gait.toml"
     tight.write_text(text.replace(old, "max_steps_per_stride = 50, " + old))
-    walker = load_walker(tight)
-    assert walker.options.max_steps_per_stride == 50
+    spec, _ = read_walker(tight)
+    assert spec.integration.max_steps_per_stride == 50
+    shipped = load_walker("compass_gait")
+    walker = shipped.with_options(max_steps_per_stride=50)
     result = walk(walker, None, 3)         # a run of 3 strides: 3 x 50 steps
     assert result.fell and result.steps_taken == 0
     assert result.fall_reason.startswith("failed: more than 150 steps"), result.fall_reason
     # the runs with sensitivities keep the budget too: the stride falls, naming it
     sens = walker.stride_sensitivity(walker.initial_guess())
     assert sens.jacobian is None and "more than 50 steps" in sens.fell, sens.fell
-    grad = stride_gradient(walker, walker.initial_guess(), ["m"])
+    grad = stride_gradient(walker, walker.initial_guess(), ["slope", "m_H", "a"])
     assert grad.z_next is None and "more than 50 steps" in grad.fell, grad.fell
     # the shipped file's budget (100 000 per stride) is far from this walker's ~250 steps
-    assert walk(load_walker("compass_gait"), None, 3).steps_taken == 3
+    assert walk(shipped, None, 3).steps_taken == 3
 
 
 def test_walker_walk_time_limit_reports_the_steps_walked(capsys):
