@@ -86,22 +86,30 @@ def test_walker_walk_time_limit_reports_the_steps_walked(capsys):
         "steps, stopped at the time limit (0.2 s; --time-limit)"), first
 
 
+#: HybridWalker.walk's count: its run's time, n × max_step_time (compass_gait: 5 s), a float64
+_RUN = ("n_steps must be a whole number from 1 to 3.6e+307 (the time, n_steps × max_step_time = "
+        "5 s, a float64), ")
+
+
 @pytest.mark.parametrize("call, words", [
     (lambda w, z: walk(w, z, 0), "n_steps must be an integer >= 1, got 0"),
     (lambda w, z: walk(w, z, 2.5), "n_steps must be an integer >= 1, got 2.5"),
     (lambda w, z: walk(w, z, float("nan")), "n_steps must be an integer >= 1, got nan"),
     (lambda w, z: walk(w, z, 3, deadline=float("nan")),
      "deadline must be a number, not NaN, got nan"),
-    (lambda w, z: w.walk(z, 0), "n_steps must be an integer >= 1, got 0"),
-    (lambda w, z: w.walk(z, 2.5), "n_steps must be an integer >= 1, got 2.5"),
+    (lambda w, z: w.walk(z, 0), _RUN + "got 0"),
+    (lambda w, z: w.walk(z, 2.5), _RUN + "got 2.5"),
+    (lambda w, z: w.walk(z, 10**400), _RUN + f"got {10**400}"),
     (lambda w, z: w.stride_sensitivity(z, 0), "period must be an integer >= 1, got 0"),
     (lambda w, z: w.stride_sensitivity(z, 1, deadline=float("nan")),
      "deadline must be a number, not NaN, got nan"),
 ], ids=["walk 0", "walk 2.5", "walk nan", "walk deadline nan", "HybridWalker.walk 0",
-        "HybridWalker.walk 2.5", "stride_sensitivity period 0", "stride_sensitivity deadline nan"])
+        "HybridWalker.walk 2.5", "HybridWalker.walk 10**400", "stride_sensitivity period 0",
+        "stride_sensitivity deadline nan"])
 def test_a_bad_count_or_deadline_is_a_typed_error(call, words):
     """walk(w, z, 0) and walk(w, z, -1) returned an empty walk, 2.5 walked 2 steps, a NaN
-    deadline was no limit; HybridWalker.walk(z, 0) blamed t_end, (z, 2.5) max_events;
+    deadline was no limit; HybridWalker.walk(z, 0) blamed t_end, (z, 2.5) max_events, and
+    (z, 10**400) raised OverflowError (`walker report --steps 10**400`: status 3);
     stride_sensitivity(z, 0) returned the identity as the Jacobian of no stride. Each is an
     OptionError naming the argument now."""
     walker = load_walker("compass_gait")
