@@ -355,6 +355,9 @@ def cmd_walk(args: argparse.Namespace) -> int:
           + (f", stopped at the time limit ({args.time_limit:g} s; --time-limit)"
              if result.stopped else ""))
     for k, s in enumerate(result.steps, 1):
+        if s["status"] == "fell":       # no heel strike: no length or energy of a step (NaN)
+            print(f"  step {k:3d}: fell  T = {_fmt(s['duration'])} s")
+            continue
         print(f"  step {k:3d}: {s['status']:5s} T = {_fmt(s['duration'])} s  length = "
               f"{_fmt(s['step_length'])} m  dissipated = {_fmt(s['energy_dissipated'])} J")
     if not result.steps:        # stopped before its first block: nothing integrated

@@ -57,7 +57,7 @@ def test_a_walk_in_blocks_is_the_walk_in_one_simulation_and_adds_up_its_ledger()
     assert 0.0 < blocked.relative_energy_residual < 1e-8
 
 
-def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path):
+def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path, capsys):
     text = (MODELS / "compass_gait.toml").read_text()
     old = "max_step_time = "
     assert text.count(old) == 1
@@ -68,6 +68,12 @@ def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path):
     result = walk(walker, None, 3)         # a run of 3 strides: 3 x 50 steps
     assert result.fell and result.steps_taken == 0
     assert result.fall_reason.startswith("failed: more than 150 steps"), result.fall_reason
+    # the command line: the fall's line has no step length or energy (it printed "nan")
+    assert main(["walk", str(tight), "--steps", "3"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"tight_compass_gait: 0 steps, fell ({result.fall_reason})"
+    assert out[1].startswith("  step   1: fell  T = ") and out[1].endswith(" s"), out[1]
+    assert "nan" not in "\n".join(out)
     # the shipped file's budget (100 000 per stride) is far from this walker's ~250 steps
     assert walk(load_walker("compass_gait"), None, 3).steps_taken == 3
 
