@@ -82,3 +82,20 @@ def test_bounds_that_are_no_interval_and_weights_of_no_data(data, args, message,
     Each is now ``error:`` naming the option, status 2."""
     assert main(["fit", "mass_spring_damper", data, "--param", "k", *args]) == 2
     assert capsys.readouterr().err == f"error: {message}\n"
+
+
+def test_errors_beyond_float64_are_inf_without_warnings(data, capsys):
+    """Weights of 1e-308 (absolute): the Jacobian's singular values square to 0, and numpy's
+    "divide by zero" and "invalid value" warnings reached the user's screen. The standard
+    error is beyond float64 (null in the JSON, ± inf in the text), quietly."""
+    args = ["fit", "mass_spring_damper", data, "--param", "k", "--weight", "spring.q=1e-308",
+            "--absolute-sigma"]
+    assert main([*args, "--json"]) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    assert out["standard_errors"] == {"k": None} and out["intervals"] == {"k": [None, None]}
+    assert out["correlation"] == [[None]]
+    assert "warning" not in captured.err, captured.err
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    assert "4 ± inf   95 %: [-inf, inf]" in captured.out and "warning" not in captured.err
