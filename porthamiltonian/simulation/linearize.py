@@ -103,12 +103,14 @@ def input_vector(model: CompiledModel, u: Any) -> np.ndarray:
         if unknown or missing:
             raise InputError(f"model {model.name!r}: u has unknown input(s) {unknown} or lacks "
                              f"{missing}; its inputs: {', '.join(names) or 'none'}")
-        values = np.array([u[k] for k in names], dtype=float)
-    else:
-        values = np.atleast_1d(np.asarray(u, dtype=float))
-        if values.shape != (m,):
-            raise InputError(f"model {model.name!r}: u must have {m} value(s) "
-                             f"({', '.join(names) or 'no inputs'}), got shape {values.shape}")
+    try:
+        values = (np.array([u[k] for k in names], dtype=float) if isinstance(u, Mapping)
+                  else np.atleast_1d(np.asarray(u, dtype=float)))
+    except OverflowError:               # an integer beyond the float range: not finite
+        raise InputError(f"model {model.name!r}: the inputs must be finite, got {u!r}") from None
+    if values.shape != (m,):
+        raise InputError(f"model {model.name!r}: u must have {m} value(s) "
+                         f"({', '.join(names) or 'no inputs'}), got shape {values.shape}")
     if not np.all(np.isfinite(values)):
         raise InputError(f"model {model.name!r}: the inputs must be finite, got {values}")
     return values

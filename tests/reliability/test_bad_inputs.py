@@ -18,6 +18,7 @@ import pytest
 
 from porthamiltonian import Model, compile_model, io
 from porthamiltonian.errors import (
+    InputError,
     ModelError,
     ModelFileError,
     OptionError,
@@ -25,6 +26,7 @@ from porthamiltonian.errors import (
     StateError,
     UnknownParameterError,
 )
+from porthamiltonian.simulation.linearize import linearize, trim
 
 
 @pytest.fixture(autouse=True)
@@ -97,6 +99,7 @@ OPTIONS = [
     ("first_step", 10**400, OptionError, ["first_step", "finite"]),
     ("x0", {"spring.q": 10**400}, StateError, ["spring.q = inf", "not finite"]),
     ("params", {"k": 10**400}, ParameterValueError, ["'k'", "finite", "inf"]),
+    ("sensitivity", [[10**400], [0]], OptionError, ["sensitivity directions must be finite"]),
 ]
 
 
@@ -111,6 +114,17 @@ def test_bad_option_is_a_typed_error_naming_it(msd, option, value, error, words)
         msd.simulate(t_end, **kwargs)
     for word in words:
         assert word in str(info.value), str(info.value)
+
+
+def test_an_input_beyond_the_float_range_is_not_finite():
+    """An input bound to an integer beyond float64 (``inputs={"F": 10**400}``; trim's and
+    linearize's ``u``) raised OverflowError; it is not finite, as an input of inf is."""
+    cart_pole = compile_model(io.load("cart_pole"), backend="python")
+    with pytest.raises(InputError, match=r"^input 'F' must be finite, got 10{400}$"):
+        cart_pole.simulate(0.1, inputs={"F": 10**400})
+    for call in (trim, linearize):
+        with pytest.raises(InputError, match="model 'cart_pole': the inputs must be finite"):
+            call(cart_pole, u={"F": -10**400})
 
 
 #: (model, parameter values, error, words)
