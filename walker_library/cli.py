@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from porthamiltonian import userfiles
 from porthamiltonian.batch.errors import SweepError
 from porthamiltonian.batch.progress import activity
 from porthamiltonian.errors import ModelError, ModelFileError
@@ -305,9 +306,8 @@ def _continuation(walker: HybridWalker, text: str, guess: np.ndarray | None, *,
 def cmd_continue(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)  # before the continuation: a bad --out loses no work
+    # before the continuation: a bad --out loses no work
+    out = userfiles.make_folder(args.out) if args.out else None
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
                            max_points=args.max_points, jacobian=args.jacobian, log=log,
                            time_limit=args.time_limit or None)
