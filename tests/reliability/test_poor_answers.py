@@ -242,3 +242,20 @@ def test_a_full_disk_stops_a_sweep_with_a_message_and_loses_nothing(tmp_path):
     import json
     report = json.loads(again.stdout)["report"]
     assert report["n_done"] == 12 and report["n_previously_done"] == done
+
+
+@pytest.mark.parametrize("command", [
+    ["porthamiltonian", "sweep", "mass_spring_damper", "--grid", "k=1,2", "--serial", "--out"],
+    ["walker", "optimize", "simplest_walker", "--vary", "slope", "--objective", "speed",
+     "--step-down", "none", "--record"],
+])
+def test_a_results_file_inside_a_file_names_what_is_in_the_way(command, tmp_path, capsys):
+    """``sweep --out FILE/s.jsonl`` and ``optimize --record FILE/x.jsonl`` said "cannot create
+    the results file (File exists)": the file in the way is named now (status 2)."""
+    taken = tmp_path / "taken"
+    taken.write_text("a file")
+    main = cli.main if command[0] == "porthamiltonian" else walker_cli.main
+    assert main([*command[1:], str(taken / "rows.jsonl")]) == 2
+    err = capsys.readouterr().err
+    assert err.endswith(f"error: {taken} exists and is not a folder: give a folder to write "
+                        "into\n"), err
