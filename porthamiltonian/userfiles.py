@@ -12,7 +12,8 @@ first byte and between bytes), so a pipe that never writes cannot hang the comma
 
 :func:`path_problem` tells, without reading, what is wrong with a path that is to be read;
 :func:`output_problem` what is wrong with a path to write, before the work that makes the file;
-:func:`replace_problem` what is at a path that a file written there must not replace.
+:func:`replace_problem` what is at a path that a file written there must not replace;
+:func:`make_folder` makes an output folder, saying what is in its way.
 Errors are :class:`~porthamiltonian.errors.ModelFileError` starting with the ``label`` the
 caller gives (how the user named the file: ``"--guess result.json"``, the path).
 """
@@ -28,8 +29,8 @@ from pathlib import Path
 
 from .errors import ModelFileError
 
-__all__ = ["PIPE_SECONDS", "is_pipe", "output_problem", "path_problem", "read_bytes",
-           "read_text", "replace_problem", "write_atomic"]
+__all__ = ["PIPE_SECONDS", "is_pipe", "make_folder", "output_problem", "path_problem",
+           "read_bytes", "read_text", "replace_problem", "write_atomic"]
 
 #: the longest wait (s) for a pipe's first byte and between its bytes
 PIPE_SECONDS = 30.0
@@ -90,6 +91,22 @@ def output_problem(path: str | Path) -> str | None:
     if not path.parent.is_dir():
         return f"cannot be written: the folder {path.parent} does not exist"
     return None
+
+
+def make_folder(path: str | Path) -> Path:
+    """Make the output folder ``path`` and its parents (before the work that fills it); what is
+    in the way is a ModelFileError saying so (``mkdir`` said only "File exists" or "Not a
+    directory")."""
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise ModelFileError(f"{path} exists and is not a folder: give a folder to write "
+                             "into") from None
+    except NotADirectoryError:
+        raise ModelFileError(f"{path} cannot be made: a part of its path is a file, not a "
+                             "folder") from None
+    return path
 
 
 def replace_problem(path: str | Path) -> str | None:

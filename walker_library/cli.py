@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from porthamiltonian import userfiles
 from porthamiltonian.batch.errors import SweepError
 from porthamiltonian.batch.progress import activity
 from porthamiltonian.errors import ModelError, ModelFileError
@@ -306,9 +307,8 @@ def _continuation(walker: HybridWalker, text: str, guess: np.ndarray | None, *,
 def cmd_continue(args: argparse.Namespace) -> int:
     walker, guess = _walker_and_guess(args)
     log = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)  # before the continuation: a bad --out loses no work
+    # before the continuation: a bad --out loses no work
+    out = userfiles.make_folder(args.out) if args.out else None
     result = _continuation(walker, args.param, guess, doublings=args.doublings,
                            max_points=args.max_points, jacobian=args.jacobian, log=log,
                            time_limit=args.time_limit or None)
@@ -356,6 +356,9 @@ def cmd_walk(args: argparse.Namespace) -> int:
           + (f", stopped at the time limit ({args.time_limit:g} s; --time-limit)"
              if result.stopped else ""))
     for k, s in enumerate(result.steps, 1):
+        if s["status"] == "fell":       # no heel strike: no length or energy of a step (NaN)
+            print(f"  step {k:3d}: fell  T = {_fmt(s['duration'])} s")
+            continue
         print(f"  step {k:3d}: {s['status']:5s} T = {_fmt(s['duration'])} s  length = "
               f"{_fmt(s['step_length'])} m  dissipated = {_fmt(s['energy_dissipated'])} J")
     if not result.steps:        # stopped before its first block: nothing integrated

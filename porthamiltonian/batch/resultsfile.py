@@ -36,7 +36,7 @@ from typing import IO, Any
 if sys.platform != "win32":  # advisory locking (POSIX)
     import fcntl
 
-from ..userfiles import path_problem
+from ..userfiles import make_folder, path_problem
 from .errors import SweepFileError
 
 __all__ = ["FORMAT", "VERSION", "ResultsFile", "load_results", "read_file", "read_header", "scan"]
@@ -233,8 +233,9 @@ def _fsync_dir(path: Path) -> None:
 
 
 def _create(path: Path, header_line: bytes) -> None:
-    """Create ``path`` holding only the header, atomically; an existing file is left alone."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Create ``path`` holding only the header, atomically; an existing file is left alone
+    (its folder made first: a file in the way says so, not "File exists")."""
+    make_folder(path.parent)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
     try:
         with open(tmp, "wb") as fh:

@@ -409,15 +409,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 def cmd_view(args: argparse.Namespace) -> int:
     """``porthamiltonian view``: simulate a model and write its 3D view and still image."""
-    from pathlib import Path
 
     from .sweeps import SimulationModel
     from .viewer import scene_from_trajectory
 
     record = io.read(args.model)
     entry = SimulationModel.from_file(record, args.backend)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)      # before the run: a bad --out loses no work
+    out = userfiles.make_folder(args.out)   # before the run: a bad --out loses no work
     traj = entry.simulate(args.t_end, parse_assignments(args.set),
                           progress=RunProgress(entry.model.name, entry.t_end(args.t_end),
                                                interval=args.progress_interval))

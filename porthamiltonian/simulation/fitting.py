@@ -388,14 +388,18 @@ def fit(model: CompiledModel, data: Any, params: Sequence[str], *,
     dof = n_data - q
     s2 = 1.0 if absolute_sigma else (float(r @ r) / dof if dof > 0 else math.nan)
     _, s, Vt = np.linalg.svd(J, full_matrices=False)
-    cov = (Vt.T / s ** 2) @ Vt * s2
-    se = np.sqrt(np.diag(cov))
+    # singular values whose squares underflow (weights of 1e-308): errors beyond float64, inf
+    # (correlations NaN), without numpy's "divide by zero" warnings on the user's screen
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        cov = (Vt.T / s ** 2) @ Vt * s2
+        se = np.sqrt(np.diag(cov))
+        correlation = cov / np.outer(se, se)
     k = float(student.ppf(0.5 + confidence / 2, dof)) if dof > 0 else math.nan
     result.standard_errors = dict(zip(params, se.tolist()))
     result.intervals = {p: [float(x[j] - k * se[j]), float(x[j] + k * se[j])]
                         for j, p in enumerate(params)}
     result.covariance = cov.tolist()
-    result.correlation = (cov / np.outer(se, se)).tolist()
+    result.correlation = correlation.tolist()
     offset = 0
     for s_ in series + event_series:
         part = r[offset:offset + len(s_.t)]

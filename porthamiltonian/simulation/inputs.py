@@ -30,6 +30,7 @@ or not covering the span, a callable returning the wrong shape.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from numbers import Real
@@ -231,9 +232,13 @@ def plan_inputs(names: list[str], n_params: int, inputs: Any, t_start: float,
         elif callable(b):
             pass
         elif isinstance(b, Real) and not isinstance(b, bool):
-            if not np.isfinite(float(b)):
+            try:
+                value = float(b)
+            except OverflowError:       # an integer beyond the float range: not finite
+                value = math.inf
+            if not math.isfinite(value):
                 raise InputError(f"input {name!r} must be finite, got {b!r}")
-            b = float(b)
+            b = value
         else:
             raise InputError(f"input {name!r}: bind it to a number, Samples(t, values, hold) "
                              f"or a callable u(t, x); got {_shown(b)}")

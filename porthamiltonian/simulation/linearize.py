@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import InputError, ModelError, OptionError, StateError
 from .assembly import consistent, constraint_rows
+from .options import check_integer, check_number
 
 if TYPE_CHECKING:
     from .compiled import CompiledModel
@@ -74,10 +75,15 @@ def point(model: CompiledModel, t: float = 0.0, x: Any = None, u: Any = None,
             raise OptionError(f"params must be a mapping {{name: value}} or a vector of "
                               f"{len(model.param_names)} values, got shape {p.shape}")
         p = model._padded(p)
+    t = check_number("t", t)           # NaN went through: a linearization of NaN
     if x is None or isinstance(x, Mapping):
         state = model.initial_state(p, x)
     else:
-        state = np.asarray(x, dtype=float)
+        try:
+            state = np.asarray(x, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise StateError(f"model {model.name!r}: the state must be numbers (an array or a "
+                             f"mapping {{state: value}}), got {x!r}") from None
     y = model.augment(state)
     if not np.all(np.isfinite(y)):
         raise StateError(f"model {model.name!r}: the state is not finite: {state}")
@@ -103,12 +109,14 @@ def input_vector(model: CompiledModel, u: Any) -> np.ndarray:
         if unknown or missing:
             raise InputError(f"model {model.name!r}: u has unknown input(s) {unknown} or lacks "
                              f"{missing}; its inputs: {', '.join(names) or 'none'}")
-        values = np.array([u[k] for k in names], dtype=float)
-    else:
-        values = np.atleast_1d(np.asarray(u, dtype=float))
-        if values.shape != (m,):
-            raise InputError(f"model {model.name!r}: u must have {m} value(s) "
-                             f"({', '.join(names) or 'no inputs'}), got shape {values.shape}")
+    try:
+        values = (np.array([u[k] for k in names], dtype=float) if isinstance(u, Mapping)
+                  else np.atleast_1d(np.asarray(u, dtype=float)))
+    except OverflowError:               # an integer beyond the float range: not finite
+        raise InputError(f"model {model.name!r}: the inputs must be finite, got {u!r}") from None
+    if values.shape != (m,):
+        raise InputError(f"model {model.name!r}: u must have {m} value(s) "
+                         f"({', '.join(names) or 'no inputs'}), got shape {values.shape}")
     if not np.all(np.isfinite(values)):
         raise InputError(f"model {model.name!r}: the inputs must be finite, got {values}")
     return values
@@ -319,6 +327,12 @@ def trim(model: CompiledModel, x: Any = None, u: Any = None, params: Any = None,
     raises on non-convergence: ``success`` says. A multibody with loops or constraints is kept
     on them: every iterate is assembled (:func:`~.assembly.consistent`)."""
     pt = point(model, t, x, u, params)
+    # checked, not taken as given: tol = inf "converged" at the start, NaN never did, a name
+    # given as a string was read letter by letter
+    tol = check_number("tol", tol, positive=True)
+    max_iter = check_integer("max_iter", max_iter, 0)
+    if isinstance(free_states, str) or isinstance(free_inputs, str):
+        raise OptionError("free_states and free_inputs are lists of names, not a string")
     n, m, P = model.n_states, len(model.input_names), len(model.param_names)
     keep = dynamic_states(model)
     free_x = keep if free_states is None else [model.state_index(s) for s in free_states]
@@ -327,6 +341,8 @@ def trim(model: CompiledModel, x: Any = None, u: Any = None, params: Any = None,
         raise InputError(f"model {model.name!r} has no input(s) {unknown} to trim; its inputs: "
                          f"{', '.join(model.input_names) or 'none'}")
     free_u = [model.input_names.index(k) for k in free_inputs]
+    if not free_x and not free_u:
+        raise OptionError("nothing to trim: free_states and free_inputs are both empty")
     y, p = pt.y.copy(), pt.p.copy()
     rows = keep
     residual, iterations, message = np.inf, 0, ""

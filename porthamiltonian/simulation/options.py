@@ -177,6 +177,8 @@ def _directions(value: Any, n_states: int) -> np.ndarray:
     """Seed directions: an n x m array of finite numbers (a vector: one direction)."""
     try:
         seeds = np.array(value, dtype=float)
+    except OverflowError:               # an integer beyond the float range: not finite
+        raise OptionError("sensitivity directions must be finite") from None
     except (TypeError, ValueError):
         raise OptionError(f"sensitivity must be True, False or an array of directions "
                           f"({n_states} x m), got {value!r}") from None

@@ -711,6 +711,13 @@ class Simulator:
             if solver.status == "failed":
                 return close(Status.FAILED, f"{settings.method} failed at t = {t_old:.6g}: "
                              f"{message}", t_old, None)
+            if solver.t == t_old and solver.status == "running":
+                # LSODA's step size can fall below the resolution of t (pendulum at g = 1e300:
+                # periods of 1e-150 s at t = 0); its steps then never advance, and the run
+                # took max_steps of them without a word
+                return close(Status.FAILED, f"{settings.method}'s step size fell below the "
+                             f"resolution of t at t = {t_old:.6g}: its steps no longer advance",
+                             t_old, None)
             t_new, y_new = solver.t, solver.y
             if self.steps % EVERY == 0:
                 if settings.progress is not None:

@@ -105,3 +105,20 @@ def test_time_limit_and_progress_lines(data, capsys, monkeypatch):
     assert ": fit, " not in capsys.readouterr().err
     assert main(["fit", "mass_spring_damper", data, "--param", "k", "--time-limit", "-1"]) == 2
     assert "--time-limit must be a finite number >= 0, got -1" in capsys.readouterr().err
+
+
+def test_errors_beyond_float64_are_inf_without_warnings(data, capsys):
+    """Weights of 1e-308 (absolute): the Jacobian's singular values square to 0, and numpy's
+    "divide by zero" and "invalid value" warnings reached the user's screen. The standard
+    error is beyond float64 (null in the JSON, ± inf in the text), quietly."""
+    args = ["fit", "mass_spring_damper", data, "--param", "k", "--weight", "spring.q=1e-308",
+            "--absolute-sigma"]
+    assert main([*args, "--json"]) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    assert out["standard_errors"] == {"k": None} and out["intervals"] == {"k": [None, None]}
+    assert out["correlation"] == [[None]]
+    assert "warning" not in captured.err, captured.err
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    assert "4 ± inf   95 %: [-inf, inf]" in captured.out and "warning" not in captured.err

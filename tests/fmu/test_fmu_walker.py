@@ -79,6 +79,6 @@ def test_a_stop_time_beyond_float64_is_refused(steps, tmp_path, capsys):
     out = tmp_path / "w.fmu"
     assert main(["export-fmu", "compass_walker", "--out", str(out), "--steps", steps]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: steps must be a whole number from 1 to 5.99e+307 (the stop "
-                          "time, steps × max_step_time = 3 s, a float64), got "), err
+    assert err.startswith("error: steps must be a whole number from 1 to 5.99e+307 (the time, "
+                          "steps × max_step_time = 3 s, a float64), got "), err
     assert "Traceback" not in err and not out.exists()

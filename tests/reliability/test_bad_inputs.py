@@ -18,6 +18,7 @@ import pytest
 
 from porthamiltonian import Model, compile_model, io
 from porthamiltonian.errors import (
+    InputError,
     ModelError,
     ModelFileError,
     OptionError,
@@ -25,6 +26,7 @@ from porthamiltonian.errors import (
     StateError,
     UnknownParameterError,
 )
+from porthamiltonian.simulation.linearize import linearize, trim
 
 
 @pytest.fixture(autouse=True)
@@ -97,6 +99,7 @@ OPTIONS = [
     ("first_step", 10**400, OptionError, ["first_step", "finite"]),
     ("x0", {"spring.q": 10**400}, StateError, ["spring.q = inf", "not finite"]),
     ("params", {"k": 10**400}, ParameterValueError, ["'k'", "finite", "inf"]),
+    ("sensitivity", [[10**400], [0]], OptionError, ["sensitivity directions must be finite"]),
 ]
 
 
@@ -111,6 +114,47 @@ def test_bad_option_is_a_typed_error_naming_it(msd, option, value, error, words)
         msd.simulate(t_end, **kwargs)
     for word in words:
         assert word in str(info.value), str(info.value)
+
+
+def test_an_input_beyond_the_float_range_is_not_finite():
+    """An input bound to an integer beyond float64 (``inputs={"F": 10**400}``; trim's and
+    linearize's ``u``) raised OverflowError; it is not finite, as an input of inf is."""
+    cart_pole = compile_model(io.load("cart_pole"), backend="python")
+    with pytest.raises(InputError, match=r"^input 'F' must be finite, got 10{400}$"):
+        cart_pole.simulate(0.1, inputs={"F": 10**400})
+    for call in (trim, linearize):
+        with pytest.raises(InputError, match="model 'cart_pole': the inputs must be finite"):
+            call(cart_pole, u={"F": -10**400})
+
+
+#: trim's and linearize's arguments taken as given before: (call, options, error, message)
+TRIM = [
+    (trim, {"tol": math.inf}, OptionError, "tol must be finite and > 0, got inf"),
+    (trim, {"tol": math.nan}, OptionError, "tol must be finite and > 0, got nan"),
+    (trim, {"max_iter": -1}, OptionError, "max_iter must be an integer >= 0, got -1"),
+    (trim, {"max_iter": 2.5}, OptionError, "max_iter must be an integer >= 0, got 2.5"),
+    (trim, {"free_states": []}, OptionError,
+     "nothing to trim: free_states and free_inputs are both empty"),
+    (trim, {"free_states": "cart_pole.q.pivot"}, OptionError,
+     "free_states and free_inputs are lists of names, not a string"),
+    (trim, {"t": 10**400}, OptionError, f"t must be finite, got {10**400}"),
+    (linearize, {"t": math.nan}, OptionError, "t must be finite, got nan"),
+    (linearize, {"x": "abcd"}, StateError, ("model 'cart_pole': the state must be numbers (an "
+                                            "array or a mapping {state: value}), got 'abcd'")),
+]
+
+
+@pytest.mark.parametrize("call, options, error, message", TRIM,
+                         ids=[f"{c.__name__} {o}"[:50] for c, o, _, _ in TRIM])
+def test_trim_and_linearize_check_their_arguments(call, options, error, message):
+    """trim(tol=inf) "converged" at its start (residual 0.098), tol=NaN never did, max_iter=-1
+    returned an empty message, free_states=[] iterated 50 times with nothing free, a name given
+    as a string was read letter by letter ("no state 'c'"); t = NaN linearized at NaN, t =
+    10**400 raised OverflowError, x = "abcd" a ValueError. Each is a typed error now."""
+    cart_pole = compile_model(io.load("cart_pole"), backend="python")
+    with pytest.raises(error) as info:
+        call(cart_pole, u={"F": 0.0}, **options)
+    assert str(info.value) == message
 
 
 #: (model, parameter values, error, words)

@@ -258,6 +258,18 @@ def test_rates_that_are_not_finite_at_the_start_fail_the_scipy_run(method, withi
     assert traj.message == "the rates at t = 0 are not finite (E_diss: nan)", traj.message
 
 
+def test_an_lsoda_step_below_the_resolution_of_t_fails_the_run(within):
+    """``simulate pendulum --method LSODA --set g=1e300`` ran for many minutes without a word:
+    at periods of 1e-150 s LSODA's steps are below the resolution of t = 0 and never advance
+    it, and the loop took max_steps (10⁷) of them. The first such step fails the run."""
+    model = compile_model(io.load("pendulum"), backend="python")
+    with within():
+        traj = model.simulate(1.0, params={"g": 1e300}, method="LSODA")
+    assert traj.status == "failed" and traj.t_final == 0.0
+    assert traj.message == ("LSODA's step size fell below the resolution of t at t = 0: its "
+                            "steps no longer advance"), traj.message
+
+
 # --- one namespace ------------------------------------------------------------------------------------
 def _pendulum(points: str = "", joint: str = "pivot", body: str = "bob") -> str:
     text = _text("pendulum").replace("[components.pendulum.joints.pivot]",

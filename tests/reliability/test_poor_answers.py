@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from dataclasses import replace
 
 import pytest
 
@@ -25,6 +26,8 @@ from porthamiltonian.errors import (
 )
 from porthamiltonian.interfaces import cli
 from walker_library import cli as walker_cli
+from walker_library.report import writer
+from walker_library.report.studies import STUDIES
 
 
 @pytest.mark.parametrize("source, storage, words", [
@@ -175,12 +178,16 @@ def test_export_into_a_missing_folder_names_the_folder(tmp_path, capsys):
 @pytest.mark.parametrize("command", [
     ["porthamiltonian", "view", "pendulum", "--t-end", "1"],
     ["walker", "continue", "simplest_walker", "--param", "slope=0.009:0.01"],
+    ["walker", "report", "simplest_walker", "--no-step-down"],
+    ["walker", "reproduce", "kneed_walker", "--quick", "--serial"],
 ])
-def test_an_output_folder_that_cannot_be_made_fails_before_the_work(command, tmp_path,
+@pytest.mark.parametrize("inside", [False, True], ids=["a file", "inside a file"])
+def test_an_output_folder_that_cannot_be_made_fails_before_the_work(command, inside, tmp_path,
                                                                      monkeypatch, capsys):
     """`view --out FILE` and `walker continue --out FILE` ran the simulation or the whole
     continuation (up to an hour) and only then failed to make the folder: the work was lost.
-    The folder is made first now; a path that is a file fails at once (status 2)."""
+    The folder is made first now; a path that is a file fails at once (status 2), saying what
+    is in the way (mkdir said "File exists" or "Not a directory")."""
     from porthamiltonian.interfaces.sweeps import SimulationModel
 
     def no_work(*args, **kwargs):
@@ -188,11 +195,18 @@ def test_an_output_folder_that_cannot_be_made_fails_before_the_work(command, tmp
 
     monkeypatch.setattr(SimulationModel, "simulate", no_work)
     monkeypatch.setattr(walker_cli, "_continuation", no_work)
+    monkeypatch.setattr(writer, "analyze_gait", no_work)
+    monkeypatch.setitem(STUDIES, "kneed_walker", replace(STUDIES["kneed_walker"], run=no_work))
     taken = tmp_path / "taken"
     taken.write_text("a file")
+    out = taken / "sub" if inside else taken
     main = cli.main if command[0] == "porthamiltonian" else walker_cli.main
-    assert main([*command[1:], "--out", str(taken)]) == 2
-    assert capsys.readouterr().err == f"error: {taken}: File exists\n"
+    assert main([*command[1:], "--out", str(out)]) == 2
+    made = out / "kneed_walker" if command[1] == "reproduce" else out
+    assert capsys.readouterr().err == (
+        f"error: {made} cannot be made: a part of its path is a file, not a folder\n"
+        if inside or command[1] == "reproduce" else
+        f"error: {taken} exists and is not a folder: give a folder to write into\n")
 
 
 def _umask() -> int:
@@ -233,3 +247,20 @@ def test_a_full_disk_stops_a_sweep_with_a_message_and_loses_nothing(tmp_path):
     import json
     report = json.loads(again.stdout)["report"]
     assert report["n_done"] == 12 and report["n_previously_done"] == done
+
+
+@pytest.mark.parametrize("command", [
+    ["porthamiltonian", "sweep", "mass_spring_damper", "--grid", "k=1,2", "--serial", "--out"],
+    ["walker", "optimize", "simplest_walker", "--vary", "slope", "--objective", "speed",
+     "--step-down", "none", "--record"],
+])
+def test_a_results_file_inside_a_file_names_what_is_in_the_way(command, tmp_path, capsys):
+    """``sweep --out FILE/s.jsonl`` and ``optimize --record FILE/x.jsonl`` said "cannot create
+    the results file (File exists)": the file in the way is named now (status 2)."""
+    taken = tmp_path / "taken"
+    taken.write_text("a file")
+    main = cli.main if command[0] == "porthamiltonian" else walker_cli.main
+    assert main([*command[1:], str(taken / "rows.jsonl")]) == 2
+    err = capsys.readouterr().err
+    assert err.endswith(f"error: {taken} exists and is not a folder: give a folder to write "
+                        "into\n"), err

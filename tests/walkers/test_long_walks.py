@@ -60,7 +60,7 @@ def test_a_walk_in_blocks_is_the_walk_in_one_simulation_and_adds_up_its_ledger()
     assert 0.0 < blocked.relative_energy_residual < 1e-8
 
 
-def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path):
+def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path, capsys):
     """A walker file's budget is read (``[walker] integration``); with 50 steps per stride (the
     shipped compass gait's own model, ``with_options``: nothing compiled again) the walk, the
     stride with its sensitivities and the stride gradient fall, naming the limit."""
@@ -81,6 +81,12 @@ def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path):
     assert sens.jacobian is None and "more than 50 steps" in sens.fell, sens.fell
     grad = stride_gradient(walker, walker.initial_guess(), ["slope", "m_H", "a"])
     assert grad.z_next is None and "more than 50 steps" in grad.fell, grad.fell
+    # the command line: the fall's line has no step length or energy (it printed "nan")
+    assert main(["walk", str(tight), "--steps", "3"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"tight_compass_gait: 0 steps, fell ({result.fall_reason})"
+    assert out[1].startswith("  step   1: fell  T = ") and out[1].endswith(" s"), out[1]
+    assert "nan" not in "\n".join(out)
     # the shipped file's budget (100 000 per stride) is far from this walker's ~250 steps
     assert walk(shipped, None, 3).steps_taken == 3
 
@@ -111,22 +117,30 @@ def test_a_recorded_walk_is_bounded_and_says_what_walks_further():
     assert len(walk_series(walker, walker.initial_guess(), 2).strides) == 2
 
 
+#: HybridWalker.walk's count: its run's time, n × max_step_time (compass_gait: 5 s), a float64
+_RUN = ("n_steps must be a whole number from 1 to 3.6e+307 (the time, n_steps × max_step_time = "
+        "5 s, a float64), ")
+
+
 @pytest.mark.parametrize("call, words", [
     (lambda w, z: walk(w, z, 0), "n_steps must be an integer >= 1, got 0"),
     (lambda w, z: walk(w, z, 2.5), "n_steps must be an integer >= 1, got 2.5"),
     (lambda w, z: walk(w, z, float("nan")), "n_steps must be an integer >= 1, got nan"),
     (lambda w, z: walk(w, z, 3, deadline=float("nan")),
      "deadline must be a number, not NaN, got nan"),
-    (lambda w, z: w.walk(z, 0), "n_steps must be an integer >= 1, got 0"),
-    (lambda w, z: w.walk(z, 2.5), "n_steps must be an integer >= 1, got 2.5"),
+    (lambda w, z: w.walk(z, 0), _RUN + "got 0"),
+    (lambda w, z: w.walk(z, 2.5), _RUN + "got 2.5"),
+    (lambda w, z: w.walk(z, 10**400), _RUN + f"got {10**400}"),
     (lambda w, z: w.stride_sensitivity(z, 0), "period must be an integer >= 1, got 0"),
     (lambda w, z: w.stride_sensitivity(z, 1, deadline=float("nan")),
      "deadline must be a number, not NaN, got nan"),
 ], ids=["walk 0", "walk 2.5", "walk nan", "walk deadline nan", "HybridWalker.walk 0",
-        "HybridWalker.walk 2.5", "stride_sensitivity period 0", "stride_sensitivity deadline nan"])
+        "HybridWalker.walk 2.5", "HybridWalker.walk 10**400", "stride_sensitivity period 0",
+        "stride_sensitivity deadline nan"])
 def test_a_bad_count_or_deadline_is_a_typed_error(call, words):
     """walk(w, z, 0) and walk(w, z, -1) returned an empty walk, 2.5 walked 2 steps, a NaN
-    deadline was no limit; HybridWalker.walk(z, 0) blamed t_end, (z, 2.5) max_events;
+    deadline was no limit; HybridWalker.walk(z, 0) blamed t_end, (z, 2.5) max_events, and
+    (z, 10**400) raised OverflowError (`walker report --steps 10**400`: status 3);
     stride_sensitivity(z, 0) returned the identity as the Jacobian of no stride. Each is an
     OptionError naming the argument now."""
     walker = load_walker("compass_gait")

@@ -15,7 +15,9 @@ import math
 import numpy as np
 import pytest
 
+from porthamiltonian.errors import OptionError
 from walker_library.analyses.monodromy import stride_jacobian
+from walker_library.analyses.optimize import optimize_gait
 from walker_library.analyses.poincare import find_fixed_point
 from walker_library.cli import main as walker_main
 from walker_library.core.files import load_walker
@@ -102,7 +104,6 @@ def test_least_multiplier_by_the_epigraph_lands_on_the_collision():
     and equal to 1e-3 (their separation grows like the square root of the distance to the
     collision); a grid γ*(1 ± 2e-3) with ρ from the exact stride Jacobian at fixed points found
     to 1e-12 (independent of the optimizer's gradients) is higher on both sides."""
-    from walker_library.analyses.optimize import optimize_gait
 
     walker = load_walker("simplest_walker")
     res = optimize_gait(walker, ["slope"], "max_multiplier_modulus",
@@ -121,3 +122,19 @@ def test_least_multiplier_by_the_epigraph_lands_on_the_collision():
         w = walker.with_parameters(slope=gamma * factor)
         fp = find_fixed_point(w, z, tol=1e-12)
         assert max(abs(np.linalg.eigvals(stride_jacobian(w, fp.z).matrix))) > rho + 1e-4
+
+
+def test_an_iteration_limit_beyond_scipy_is_refused_before_the_work(capsys):
+    """``walker optimize --max-evaluations 10**40`` ran the first gait, then failed inside
+    scipy's slsqp (a SystemError: status 3, "this is a bug"); it is refused first now, and
+    optimize_gait checks its count and tolerance (2.5 and NaN went to scipy)."""
+    assert walker_main(["optimize", "compass_walker", "--vary", "slope", "--objective", "speed",
+                        "--step-down", "none", "--quiet", "--max-evaluations", str(10**40)]) == 2
+    err = capsys.readouterr().err
+    assert err == ("error: max_evaluations must be at most 2147483647 (scipy's iteration "
+                   f"counter), got {10**40}\n"), err
+    walker = load_walker("compass_walker")
+    for options, words in (({"max_evaluations": 2.5}, "max_evaluations must be an integer"),
+                           ({"tol": math.nan}, "tol must be finite and > 0, got nan")):
+        with pytest.raises(OptionError, match=words):
+            optimize_gait(walker, ["slope"], "speed", step_down="none", **options)

@@ -56,6 +56,7 @@ from numpy.typing import ArrayLike
 from porthamiltonian.batch.errors import SweepFileError
 from porthamiltonian.batch.resultsfile import FORMAT, VERSION, ResultsFile, Scan
 from porthamiltonian.errors import ModelError, OptionError
+from porthamiltonian.simulation.options import check_integer, check_number
 
 from ..core.gradients import check_names
 from ..core.protocol import Walker
@@ -257,6 +258,10 @@ def _open_record(path: Path, identity: dict) -> tuple[ResultsFile, dict[str, dic
     return ResultsFile.open(path, line, check)
 
 
+#: the largest ``max_evaluations``: scipy's optimizers count their iterations in a C int
+MAX_EVALUATIONS = 2**31 - 1
+
+
 def optimize_gait(walker: HybridWalker, vary: Sequence[str], objective: str, *,
                   maximize: bool = False, constraints: Sequence[Constraint | str] = (),
                   bounds: Mapping[str, tuple[float, float]] | None = None,
@@ -282,6 +287,12 @@ def optimize_gait(walker: HybridWalker, vary: Sequence[str], objective: str, *,
         raise OptionError(f"method {method!r}: SLSQP or trust-constr")
     if step_down not in ("none", "ends", "path"):
         raise OptionError(f"step_down {step_down!r}: none, ends or path")
+    # scipy's iteration counter is a C int: 10**400 failed after the first gait, as a
+    # SystemError of scipy's slsqp
+    if check_integer("max_evaluations", max_evaluations) > MAX_EVALUATIONS:
+        raise OptionError(f"max_evaluations must be at most {MAX_EVALUATIONS} (scipy's iteration "
+                          f"counter), got {max_evaluations}")
+    tol = check_number("tol", tol, positive=True)
     epigraph_ok = objective == "max_multiplier_modulus" and not maximize
     if formulation == "auto":
         formulation = "epigraph" if epigraph_ok else "direct"

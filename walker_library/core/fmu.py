@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -81,12 +80,7 @@ def export_walker_fmu(walker: HybridWalker, path: str | os.PathLike[str], *, fmi
     """
     program = walker_program(walker)
     m, o = walker.model, walker.options
-    # the stop time steps × max_step_time is a float64 (10**400 steps raised OverflowError)
-    most = sys.float_info.max / o.max_step_time
-    if not (isinstance(steps, int) and 1 <= steps <= most):
-        raise ExportError(f"steps must be a whole number from 1 to {most:.3g} (the stop time, "
-                          f"steps × max_step_time = {o.max_step_time:g} s, a float64), got "
-                          f"{steps!r}")
+    stop_time = o.walk_time(steps, "steps")
     z = walker.initial_guess() if z is None else np.asarray(z, dtype=float)
     p0 = walker.start_params(ground_drop)
     x0 = walker.lift(z, p0)
@@ -97,4 +91,4 @@ def export_walker_fmu(walker: HybridWalker, path: str | os.PathLike[str], *, fmi
         outputs=[name for name in m.output_names if not name.startswith(_INTERNAL)],
         method=method, rtol=o.rtol, atol=o.atol,
         max_step=o.max_step if math.isfinite(o.max_step) else math.inf,
-        stop_time=steps * o.max_step_time, description=walker.doc)
+        stop_time=stop_time, description=walker.doc)

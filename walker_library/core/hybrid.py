@@ -21,11 +21,13 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
+from numbers import Integral
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
-from porthamiltonian.errors import ModelError
+from porthamiltonian.errors import ModelError, OptionError
 from porthamiltonian.modeling.expressions import parse
 
 if TYPE_CHECKING:
@@ -167,6 +169,18 @@ class Integration:
     max_step_time: float = 3.0
     gait_tolerance: float = 1e-10
     max_steps_per_stride: int = 100_000
+
+    def walk_time(self, n_steps: Any, name: str = "n_steps") -> float:
+        """The time a run of ``n_steps`` strides may take, n × max_step_time (s), for a whole
+        number n >= 1 whose time is a float64; else an OptionError naming ``name`` (0 steps
+        reached the integrator as t_end = 0, 10**400 raised OverflowError)."""
+        most = sys.float_info.max / self.max_step_time
+        if (isinstance(n_steps, bool) or not isinstance(n_steps, Integral)
+                or not 1 <= int(n_steps) <= most):
+            raise OptionError(f"{name} must be a whole number from 1 to {most:.3g} (the time, "
+                              f"{name} × max_step_time = {self.max_step_time:g} s, a float64), "
+                              f"got {n_steps!r}")
+        return int(n_steps) * self.max_step_time
 
 
 @dataclass(frozen=True)

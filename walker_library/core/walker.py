@@ -48,7 +48,6 @@ from porthamiltonian.errors import ModelError, ParameterValueError, StateError
 from porthamiltonian.integrators import COMPILED_METHODS
 from porthamiltonian.interfaces.io import ModelFile
 from porthamiltonian.simulation.compiled import CompiledModel
-from porthamiltonian.simulation.options import check_integer
 from porthamiltonian.simulation.trajectory import Trajectory
 
 from .hybrid import Integration, WalkerSpec
@@ -608,8 +607,8 @@ class HybridWalker:
         time the integration), and so is a ``record`` walk always (the benchmarks time those)."""
         if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
             raise ParameterValueError(f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
-        n_steps = check_integer("n_steps", n_steps)    # 0 and 2.5 reached the integrator
         o = self.options
+        t_end = o.walk_time(n_steps)                # 0 and 2.5 steps reached the integrator
         dense = (details or record) and o.method not in COMPILED_METHODS
         kept = until is None and not dense and reuse       # its trajectory: the plain walk's
         plain = kept and not record
@@ -627,7 +626,7 @@ class HybridWalker:
         log = WalkLog(n_steps, None if until is None
                       else lambda x, p: until(self.project(x, p)))
         traj = self.model.simulate(
-            o.max_step_time * n_steps, x0=x0, params=dict(zip(self.model.param_names, p0)),
+            t_end, x0=x0, params=dict(zip(self.model.param_names, p0)),
             method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step,
             actions=self.machine.actions(log), max_events=100 * n_steps + 100,
             max_steps=o.max_steps_per_stride * n_steps,

@@ -59,6 +59,7 @@ import numpy as np
 
 from porthamiltonian.batch import Sweep
 from porthamiltonian.errors import ModelError
+from porthamiltonian.userfiles import make_folder
 
 from ..analyses.cases import basin_case, step_down_case, walker_cache
 from ..analyses.continuation import ContinuationResult, continue_gait
@@ -874,7 +875,7 @@ def run_studies(names: list[str] | None, out: str | Path, **options: Any) -> dic
     for name in names:
         study = STUDIES[name]
         ctx = StudyContext(out / name, **options)
-        ctx.out.mkdir(parents=True, exist_ok=True)
+        make_folder(ctx.out)
         ctx.log(f"study {name}: {study.title} ({study.thesis})")
         t0 = time.perf_counter()
         summary = study.run(ctx)

@@ -48,6 +48,7 @@ import numpy as np
 
 from porthamiltonian import io as ph_io
 from porthamiltonian.errors import ModelError
+from porthamiltonian.userfiles import make_folder
 
 from ..analyses.continuation import ContinuationResult
 from ..analyses.gait import GaitResult, analyze_gait
@@ -132,8 +133,7 @@ def write_report(walker: HybridWalker, out: str | Path, *, n_steps: int = 6, wit
     ``log`` receives progress lines."""
     t0 = time.perf_counter()
     say = log or (lambda msg: None)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_folder(out)
     nondim = is_nondimensional(walker)
     files: list[str] = []
     images: dict[str, tuple[str, bytes]] = {}
