@@ -184,15 +184,21 @@ class Trajectory:
         """``fn(t, y, p)`` (a back-end function: the parameters converted once per segment) at
         every point."""
         if key not in self._cache:
-            rows = []
             n = self.model.n_states
+            out: np.ndarray | None = None
+            i = 0
+            total = sum(len(s.t) for s in self.segments)
             for s in self.segments:
                 pn = self.model.native_params(s.p)
                 for k in range(len(s.t)):
                     if s.inputs is not None:
                         pn = self.model.native_params(s.inputs(s.t[k], s.y[:n, k], s.p))
-                    rows.append(np.asarray(fn(s.t[k], np.ascontiguousarray(s.y[:, k]), pn)))
-            self._cache[key] = _frozen(np.array(rows))
+                    row = np.asarray(fn(s.t[k], np.ascontiguousarray(s.y[:, k]), pn))
+                    if out is None:     # one array filled row by row: no list of rows beside it
+                        out = np.empty((total, *row.shape), dtype=row.dtype)
+                    out[i] = row
+                    i += 1
+            self._cache[key] = _frozen(out if out is not None else np.array([]))
         return self._cache[key]
 
     @property
