@@ -73,9 +73,10 @@ def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path, ca
     assert spec.integration.max_steps_per_stride == 50
     shipped = load_walker("compass_gait")
     walker = shipped.with_options(max_steps_per_stride=50)
-    result = walk(walker, None, 3)         # a run of 3 strides: 3 x 50 steps
+    result = walk(walker, None, 3)         # a run of 3 strides: 50 steps for each stride
     assert result.fell and result.steps_taken == 0
-    assert result.fall_reason.startswith("failed: more than 150 steps"), result.fall_reason
+    assert result.fall_reason.startswith(
+        "failed: more than 50 steps in one stride (max_steps_per_stride; t = "), result.fall_reason
     # the runs with sensitivities keep the budget too: the stride falls, naming it
     sens = walker.stride_sensitivity(walker.initial_guess())
     assert sens.jacobian is None and "more than 50 steps" in sens.fell, sens.fell
@@ -89,6 +90,40 @@ def test_a_stride_beyond_its_step_budget_is_a_fall_naming_the_limit(tmp_path, ca
     assert "nan" not in "\n".join(out)
     # the shipped file's budget (100 000 per stride) is far from this walker's ~250 steps
     assert walk(shipped, None, 3).steps_taken == 3
+
+
+def test_the_budget_holds_for_each_stride_of_a_walk_not_for_the_run(monkeypatch):
+    """A walk's run may take n × budget steps, but no stride more than its own budget: the
+    compass gait's first three strides from its guess, their integrator steps read from the
+    loops' reports at the heel strikes (236, 243, 238 when written); with a budget of the first
+    stride's steps the second stride, a few steps longer, falls naming the budget, and the
+    first is kept (the run stopped there and made again up to the second stride's budget)."""
+    walker = load_walker("compass_gait")
+    z = walker.initial_guess()
+    reports: list[tuple[float, int]] = []
+    simulate = walker.model.simulate
+
+    def recorded(*args, **options):
+        watch = options.get("progress")
+
+        def report(t, steps):
+            reports.append((t, steps))
+            if watch is not None:
+                watch(t, steps)
+        return simulate(*args, **{**options, "progress": report})
+
+    monkeypatch.setattr(walker.model, "simulate", recorded)
+    strides = walker.walk(z, 3, reuse=False)
+    monkeypatch.undo()
+    at = dict(reports)
+    ends = [at[s.info["t_end"]] for s in strides]
+    steps = np.diff([0, *ends]).tolist()
+    assert steps[1] > steps[0], steps            # the second stride is the longer one
+    result = walk(walker.with_options(max_steps_per_stride=steps[0]), z, 3)
+    assert result.steps_taken == 1 and result.fell, result.fall_reason
+    assert result.fall_reason.startswith(f"failed: more than {steps[0]} steps in one stride")
+    assert result.steps[0]["duration"] == pytest.approx(strides[0].duration, rel=1e-12)
+    assert walk(walker.with_options(max_steps_per_stride=max(steps)), z, 3).steps_taken == 3
 
 
 def test_walker_walk_time_limit_reports_the_steps_walked(capsys):

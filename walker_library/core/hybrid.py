@@ -157,9 +157,9 @@ class Integration:
     """Integrator settings of a walk: back end (``"auto"``: the framework's choice), method, rtol,
     atol, max_step (s), max_step_time (s: no heel strike within it is a fall), the Newton
     tolerance of the gait search (section units), and max_steps_per_stride, the integrator's
-    steps a stride may take (a run of n strides: n times as many; more end the stride as a fall
-    whose reason names the integrator's status, e.g. a stiffness so large that a stride would
-    take hours and gigabytes: the shipped walkers take 170-5 200 steps per stride)."""
+    steps each stride may take (more end the stride as a fall that says so, e.g. a stiffness so
+    large that a stride would take hours and gigabytes: the shipped walkers take 170-5 200
+    steps per stride; HybridWalker.walk)."""
 
     backend: str = "auto"
     method: str = "Rodas4"

@@ -13,7 +13,7 @@ points). ``info`` also holds the state and parameters before and after the heel 
 transitions that fired during the step (``info["fired"]``: :class:`~.machine.Fired`), and the
 impact's record for a rigid walker. A walk that ends without its last heel strike (and not
 stopped by its ``until``) adds a Stride with status ``"fell"`` and the reason: ``"time_limit"``, the event that ended it (e.g.
-``"fall"``), or the integrator's status and message (e.g. ``"failed: more than 200000 steps
+``"fall"``), or the integrator's status and message (e.g. ``"failed: more than 100000 steps
 ..."``: a stride beyond the walker's ``max_steps_per_stride``).
 """
 from __future__ import annotations

@@ -233,6 +233,15 @@ def plan_walker(spec: WalkerSpec, text: str = "") -> WalkerPlan:
     return walker_plan(spec, names, text)
 
 
+class _OverBudget(Exception):
+    """A stride of a walk took more integrator steps than its budget (raised by the run's
+    progress callback; ``steps``: the run's steps at the stride's start)."""
+
+    def __init__(self, steps: int):
+        super().__init__(steps)
+        self.steps = steps
+
+
 class HybridWalker:
     """A walker: its :class:`~.plan.WalkerPlan`, its :class:`CompiledWalker` and its
     :class:`RunValues` (see the module docstring; :func:`build_walker` and
@@ -604,7 +613,11 @@ class HybridWalker:
         not integrated again (a walk without ``until`` or ``record`` whose integrator keeps no
         dense output: its trajectory does not depend on ``details``, nor on the last walk's
         ``record``, which only handed it over); ``reuse=False`` integrates it anyway (e.g. to
-        time the integration), and so is a ``record`` walk always (the benchmarks time those)."""
+        time the integration), and so is a ``record`` walk always (the benchmarks time those).
+
+        Each stride may take ``max_steps_per_stride`` integrator steps (the options): one that
+        passes them falls (``"failed: more than N steps in one stride ..."``), the strides
+        before it kept (the run is stopped there and made again up to that stride's budget)."""
         if not (math.isfinite(ground_drop) and ground_drop >= 0.0):
             raise ParameterValueError(f"ground_drop = {ground_drop!r} must be a finite height >= 0 (m)")
         o = self.options
@@ -623,17 +636,45 @@ class HybridWalker:
             if isinstance(x0, str):
                 return [Stride(StrideStatus.FELL, None, 0.0, reason=x0)]
             p0 = self.machine.start(x0, p0)
-        log = WalkLog(n_steps, None if until is None
-                      else lambda x, p: until(self.project(x, p)))
-        traj = self.model.simulate(
-            t_end, x0=x0, params=dict(zip(self.model.param_names, p0)),
-            method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step,
-            actions=self.machine.actions(log), max_events=100 * n_steps + 100,
-            max_steps=o.max_steps_per_stride * n_steps,
-            dense_output=dense)
+        budget = o.max_steps_per_stride
+
+        def run(max_steps: int, watch: bool) -> tuple[Trajectory, WalkLog]:
+            """The walk's simulation; ``watch``: stopped (_OverBudget) once a stride has taken
+            more than ``budget`` steps since the last heel strike (the loops report at every
+            event and every 4096 steps)."""
+            log = WalkLog(n_steps, None if until is None
+                          else lambda x, p: until(self.project(x, p)))
+            mark = [0, 0, 0]        # heel strikes seen, the steps at the last one, at the last report
+
+            def check(t: float, steps: int) -> None:
+                if len(log.heel_strikes) != mark[0]:    # its action ran after the last report,
+                    mark[:2] = [len(log.heel_strikes), mark[2]]        # the strike's own event
+                mark[2] = steps
+                if steps - mark[1] > budget:
+                    raise _OverBudget(mark[1])
+
+            traj = self.model.simulate(
+                t_end, x0=x0, params=dict(zip(self.model.param_names, p0)),
+                method=o.method, rtol=o.rtol, atol=o.atol, max_step=o.max_step,
+                actions=self.machine.actions(log), max_events=100 * n_steps + 100,
+                max_steps=max_steps, dense_output=dense, progress=check if watch else None)
+            return traj, log
+
+        try:
+            traj, log = run(budget * n_steps, n_steps > 1)
+            over = False
+        except _OverBudget as err:
+            # a stride over its budget: the same run again (the same strides before it), ended
+            # where that stride passes the budget, so that no stride costs more than its own
+            traj, log = run(err.steps + budget, False)
+            over = True
         if kept:
             self._last_walk = (key, (traj, log, x0, p0, self.run))
-        return self._cut(traj, log, details=details, record=record, x0=x0, p0=p0)
+        strides = self._cut(traj, log, details=details, record=record, x0=x0, p0=p0)
+        if over and strides[-1].fell and traj.status == "failed":
+            strides[-1].reason = (f"failed: more than {budget} steps in one stride "
+                                  f"(max_steps_per_stride; t = {traj.t_final:.6g})")
+        return strides
 
     def start_state(self, z: np.ndarray, p0: np.ndarray) -> np.ndarray | str:
         """The model state x₀ = L(z) a stride from section state ``z`` starts from (parameters
