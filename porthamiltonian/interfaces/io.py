@@ -68,7 +68,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import collector, userfiles
 from ..errors import ModelError, ModelFileError, OptionError
-from ..simulation.options import check_method, check_rtol
+from ..simulation.options import check_method, check_rtol, is_real
 
 if TYPE_CHECKING:
     import tomllib
@@ -550,7 +550,7 @@ def _read_parameters(model: Model, params: Any, r: _Reader, at: tuple) -> set[st
                       f"{_type_name(spec[bad])}", *where)
                 continue
             value, unit, doc = spec["value"], spec.get("unit", ""), spec.get("doc", "")
-        if not _is_number(value):
+        if not is_real(value):
             r.add(f"parameter {name!r} must be a number (SI units), got {_type_name(value)} "
                   f"{value!r}; write {name} = 1.0 or {name} = {{ value = 1.0, unit = \"...\" }}",
                   *where)
@@ -751,11 +751,11 @@ def _event_problem(index: int, ev: Any) -> tuple[str, tuple] | None:
                 f"keys: {', '.join(_EVENT_KEYS)}"), (extra[0],)
     if not isinstance(ev["name"], str):
         return f"event #{index + 1}: name must be a string, got {_type_name(ev['name'])}", ("name",)
-    if not isinstance(ev["guard"], str) and not _is_number(ev["guard"]):
+    if not isinstance(ev["guard"], str) and not is_real(ev["guard"]):
         return (f"event {ev['name']!r}: guard must be an expression (a string), got "
                 f"{_type_name(ev['guard'])}"), ("guard",)
     direction = ev.get("direction", 0)
-    if not _is_number(direction) or direction not in (-1, 0, 1):
+    if not is_real(direction) or direction not in (-1, 0, 1):
         return (f"event {ev['name']!r}: direction must be -1 (falling), 0 (both) or 1 (rising), "
                 f"got {direction!r}"), ("direction",)
     if not isinstance(ev.get("terminal", False), bool):
@@ -771,7 +771,7 @@ def _read_outputs(model: Model, outputs: Any, r: _Reader, at: tuple) -> None:
               *at, "outputs")
         return
     for name, expr in outputs.items():
-        if not isinstance(expr, str) and not _is_number(expr):
+        if not isinstance(expr, str) and not is_real(expr):
             r.add(f"output {name!r} must be an expression (a string), got {_type_name(expr)}",
                   *at, "outputs", name)
             continue
@@ -807,10 +807,10 @@ def _read_simulation(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
     """``[simulation]``: the command line's defaults, each key checked for its type."""
     for key, value in _table_entries(data, "simulation", _SIM_TYPES, r):
         kind = _SIM_TYPES[key]
-        ok = ((kind == "number" and _is_number(value) and math.isfinite(value) and value > 0)
+        ok = ((kind == "number" and is_real(value) and math.isfinite(value) and value > 0)
               or (kind == "string" and isinstance(value, str))
               or (kind == "table" and isinstance(value, dict)
-                  and all(_is_number(v) and math.isfinite(v) for v in value.values())))
+                  and all(is_real(v) and math.isfinite(v) for v in value.values())))
         if not ok:
             want = {"number": "a positive number", "string": "a string (e.g. \"Radau\")",
                     "table": f"a table of {'state' if key == 'initial' else 'input'} = "
@@ -836,21 +836,17 @@ def _read_linearize(data: dict[str, Any], r: _Reader) -> dict[str, Any]:
     their types; names are checked against the compiled model when it is linearized)."""
     for key, value in _table_entries(data, "linearize", _LINEARIZE_KEYS, r):
         ok = {"states": lambda v: isinstance(v, dict) and all(
-                  _is_number(x) and math.isfinite(x) for x in v.values()),
+                  is_real(x) and math.isfinite(x) for x in v.values()),
               "inputs": lambda v: isinstance(v, dict) and all(
-                  _is_number(x) and math.isfinite(x) for x in v.values()),
+                  is_real(x) and math.isfinite(x) for x in v.values()),
               "trim": lambda v: isinstance(v, bool),
               "free_inputs": lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
-              "t": lambda v: _is_number(v) and math.isfinite(v)}[key](value)
+              "t": lambda v: is_real(v) and math.isfinite(v)}[key](value)
         if not ok:
             r.add(f"[linearize] {key} must be {_LINEARIZE_KEYS[key]}, got {_type_name(value)} "
                   f"{value!r}", "linearize", key)
     table = data.get("linearize", {})
     return dict(table) if isinstance(table, dict) else {}
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 _MAX_NAME, _MAX_DESCRIPTION = 200, 2000

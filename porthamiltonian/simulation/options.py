@@ -38,7 +38,8 @@ METHODS = (*COMPILED_METHODS, "Radau", "BDF", "LSODA", "RK45", "DOP853")
 RTOL_MIN = 100 * float(np.finfo(float).eps)
 
 
-def _is_real(value: Any) -> bool:
+def is_real(value: Any) -> bool:
+    """``value`` is a real number (int, float, numpy's scalars), not a bool."""
     return isinstance(value, Real) and not isinstance(value, bool)
 
 
@@ -46,7 +47,7 @@ def check_number(name: str, value: Any, *, positive: bool = False, finite: bool 
            below: float | None = None, at_least: float | None = None) -> float:
     """``value`` as a float, after checking it is a number satisfying the rule; else OptionError
     naming ``name``."""
-    if not _is_real(value):
+    if not is_real(value):
         raise OptionError(f"{name} must be a number, got {type(value).__name__} {value!r}")
     try:
         x = float(value)
@@ -102,7 +103,7 @@ def check_rtol(value: Any) -> float:
 
 def check_atol(value: Any, n_states: int) -> float | np.ndarray:
     """An absolute tolerance: a finite number > 0, or one per model state."""
-    if _is_real(value):
+    if is_real(value):
         return check_number("atol", value, positive=True)
     try:
         arr = np.asarray(value, dtype=float)

@@ -52,7 +52,7 @@ import numpy as np
 
 from porthamiltonian.batch.progress import tick
 from porthamiltonian.errors import ModelError
-from porthamiltonian.simulation.options import check_integer, check_number
+from porthamiltonian.simulation.options import check_integer, check_number, is_real
 
 from ..core.protocol import Stride, Walker
 from .metrics import GaitMetrics, gait_metrics
@@ -275,7 +275,7 @@ def _finite(value: Any, name: str) -> float:
     """``value`` as a float, or ModelError naming ``name``: a number (not a bool), finite as a
     float (a JSON integer has no bound: 10**400 raised OverflowError out of the check)."""
     number = math.nan
-    if _is_number(value):
+    if is_real(value):
         try:
             number = float(value)
         except OverflowError:
@@ -445,10 +445,6 @@ def _direct(walker: Walker, guess: np.ndarray | None, *, tol: float, max_iter: i
     return search.stable(), fp
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
 def check_search(max_period: Any, n_iterate: Any,
                  fd_step: Any) -> tuple[int, int, float | None]:
     """The options of :func:`analyze_gait` that a sweep passes through (``--option``), checked:
@@ -481,7 +477,7 @@ def analyze_gait(walker: Walker, guess: np.ndarray | None = None, *, max_period:
         log : progress lines of the homotopy (where it goes, each point): the part of the
         search that can take long.
     """
-    if time_limit is not None and not (_is_number(time_limit) and math.isfinite(time_limit)
+    if time_limit is not None and not (is_real(time_limit) and math.isfinite(time_limit)
                                        and time_limit > 0):
         raise ModelError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
     max_period, n_iterate, fd_step = check_search(max_period, n_iterate, fd_step)
