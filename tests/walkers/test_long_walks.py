@@ -129,7 +129,7 @@ def test_the_budget_holds_for_each_stride_of_a_walk_not_for_the_run(monkeypatch)
 def test_walker_walk_time_limit_reports_the_steps_walked(capsys):
     warm = load_walker("rimless_wheel")    # built and run once (numba: compiled), as the limit
     warm.stride(warm.initial_guess())      # counts from the command's start
-    assert main(["walk", "rimless_wheel", "--steps", "1000000", "--time-limit", "1.5",
+    assert main(["walk", "rimless_wheel", "--steps", "1000000", "--time-limit", "0.5",
                  "--json", "--quiet"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["stopped"] == "time_limit" and not d["fell"]
