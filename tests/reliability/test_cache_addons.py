@@ -23,7 +23,6 @@ import re
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -111,31 +110,6 @@ def test_ph_after_a_plain_build_compiles_only_the_addon(fresh_with_loops, unit_s
 
 
 @pytest.fixture(scope="module")
-def built_elsewhere(tmp_path_factory, seed_loops):
-    """``built_elsewhere(backend)``: the model with its form compiled by a fresh process (so that
-    this one has mapped none of its libraries) in a cache folder of the module's, once per back
-    end; its key and the folder of its entry (which a test copies into its own cache)."""
-    built: dict[str, tuple[str, Path]] = {}
-
-    def get(backend: str) -> tuple[str, Path]:
-        if backend not in built:
-            folder = tmp_path_factory.mktemp(f"built_{backend}") / "cache"
-            with pytest.MonkeyPatch.context() as mp:
-                mp.setenv("PORTHAMILTONIAN_CACHE", str(folder))
-                seed_loops()
-                build = subprocess.run(
-                    [sys.executable, "-c", (
-                        "from porthamiltonian import compile_model, io; "
-                        f"print(compile_model(io.load({MODEL!r}), backend={backend!r}, "
-                        "ph=True).key)")],
-                    capture_output=True, text=True, check=True, env=dict(os.environ))
-            key = build.stdout.strip()
-            built[backend] = key, folder / key
-        return built[backend]
-    return get
-
-
-@pytest.fixture(scope="module")
 def intact_numbers():
     """``intact_numbers(backend)``: :func:`_form_numbers` of the model with its form compiled
     without the cache (``use_cache=False``, nothing of an earlier build reused), once per back
@@ -164,7 +138,7 @@ def test_a_damaged_addon_file_is_never_loaded_and_is_rebuilt(fresh_with_loops, f
     and all, copied into this test's cache): one CacheWarning naming it, the file made again
     (its bytes matching the manifest), and the form's numbers those of an intact build (0 ulp);
     the model's own library or module is not touched."""
-    key, built = built_elsewhere(backend)
+    key, built = built_elsewhere(MODEL, backend, ph=True)
     entry = fresh_with_loops / key
     shutil.copytree(built, entry)
     files = {"library": native.library_name(f"{key}_ph"), "module": f"m{key}_ph_python.py"}
