@@ -232,10 +232,15 @@ def fresh_runs():
             run = capped(["-W", "error", "-c", _each_backend(body), *BACKENDS], 4 << 30,
                          timeout=timeout)
             assert run.returncode == 0, run.stderr
-            parts = run.stdout.split("== ")[1:]
-            runs[body] = {part.split("\n", 1)[0]: part.split("\n", 1)[1].splitlines()
-                          for part in parts}
-            assert list(runs[body]) == list(BACKENDS), run.stdout
+            parts: dict[str, list[str]] = {}
+            for line in run.stdout.splitlines():
+                if line.startswith("== ") and line[3:] in BACKENDS:
+                    parts[line[3:]] = []
+                else:
+                    assert parts, run.stdout            # nothing before the first part
+                    parts[list(parts)[-1]].append(line)
+            assert list(parts) == list(BACKENDS), run.stdout
+            runs[body] = parts
         return runs[body]
     return get
 
