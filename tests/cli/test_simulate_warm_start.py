@@ -10,30 +10,35 @@
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import subprocess
 import sys
 import warnings
+from io import StringIO
 from pathlib import Path
 
 import pytest
 
 from porthamiltonian.compiler.cache import CacheWarning, configured_dir
 from porthamiltonian.interfaces import io, warm
+from porthamiltonian.interfaces.cli import main
 from porthamiltonian.interfaces.sweeps import SimulationModel
 
 ROOT = Path(__file__).resolve().parents[2]
 #: a model with events (the ball's bounces) and a [simulation] table
 NAME = "bouncing_ball"
 HEAVY = ("sympy", "networkx", "matplotlib")
+#: the command
+ARGV = ["simulate", NAME, "--json"]
 #: run the command in a new interpreter; print its exit status, output and the heavy modules
 _CODE = (
     "import contextlib, io, json, sys\n"
     "from porthamiltonian.interfaces.cli import main\n"
     "out = io.StringIO()\n"
     "with contextlib.redirect_stdout(out):\n"
-    f"    status = main(['simulate', {NAME!r}, '--json'])\n"
+    f"    status = main({ARGV!r})\n"
     f"print(json.dumps({{'status': status, 'out': out.getvalue(),\n"
     f"                  'heavy': [m for m in {HEAVY!r} if m in sys.modules]}}))\n")
 
@@ -56,14 +61,17 @@ def _snapshot_path() -> Path:
 
 @pytest.fixture(scope="module")
 def cold(tmp_path_factory: pytest.TempPathFactory, seed_loops):
-    """The command run once in a fresh cache of this module's own (a full read, which leaves
-    the snapshot), holding the session's integration loops' object (tests/conftest.py: not
-    compiled again)."""
+    """The command run once, in this process (its entry point, ``main``: the new process is
+    the second run's), in a fresh cache of this module's own (a full read, which leaves the
+    snapshot), holding the session's integration loops' object (tests/conftest.py: not
+    compiled again); its exit status and output."""
     mp = pytest.MonkeyPatch()
     mp.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path_factory.mktemp("simulate_warm_cache")))
     seed_loops()
-    first = _run()
-    yield first
+    out = StringIO()
+    with contextlib.redirect_stdout(out):
+        status = main(ARGV)
+    yield {"status": status, "out": out.getvalue()}
     mp.undo()
 
 

@@ -23,9 +23,11 @@ import contextlib
 import os
 import resource
 import signal
+import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import ClassVar
 
 import pytest
@@ -108,6 +110,33 @@ def fresh_with_loops(fresh, seed_loops):
     C, not for those of the loops' object, of compiler identities or of ``use_cache=False``."""
     seed_loops()
     return fresh
+
+
+@pytest.fixture(scope="session")
+def built_elsewhere(tmp_path_factory, seed_loops):
+    """``built_elsewhere(model, backend, ph=False)``: ``models/<model>.toml`` compiled (with its
+    port-Hamiltonian form when ``ph``) by a fresh process, so that this one has mapped none of
+    its libraries, in a cache folder of its own seeded with the session's loops' object; the
+    key and the folder of the entry, which a test copies (manifest and all) into its own cache
+    to damage it. Once per (model, back end, ph) for the session."""
+    built: dict[tuple[str, str, bool], tuple[str, Path]] = {}
+
+    def get(model: str, backend: str, ph: bool = False) -> tuple[str, Path]:
+        if (model, backend, ph) not in built:
+            folder = tmp_path_factory.mktemp(f"built_{model}_{backend}") / "cache"
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setenv("PORTHAMILTONIAN_CACHE", str(folder))
+                seed_loops()
+                build = subprocess.run(
+                    [sys.executable, "-c", ("from porthamiltonian import compile_model, io; "
+                                            f"print(compile_model(io.load({model!r}), "
+                                            f"backend={backend!r}, ph={ph!r}).key)")],
+                    capture_output=True, text=True, check=True, env=dict(os.environ))
+            key = build.stdout.strip()
+            built[model, backend, ph] = key, folder / key
+        return built[model, backend, ph]
+
+    return get
 
 
 @pytest.fixture(scope="session")

@@ -17,6 +17,7 @@ still run, and their numbers are unchanged.
 from __future__ import annotations
 
 import json
+import textwrap
 
 import numpy as np
 import pytest
@@ -199,10 +200,54 @@ def test_a_tiny_end_time_finishes(method):
     assert traj.x_final[1] == 0.1
 
 
+#: the back ends the subprocess runs below compare (each prints the same lines)
+BACKENDS = ("c", "python")
+
+
+def _each_backend(body: str) -> str:
+    """A script that runs ``body`` (``backend`` bound to its back end's name) once for each
+    back end named on its command line, each part headed ``== BACKEND`` and an exception's
+    traceback printed in its back end's part."""
+    return ("import sys, traceback\n"
+            "def run(backend):\n" + textwrap.indent(textwrap.dedent(body), "    ") +
+            "for backend in sys.argv[1:]:\n"
+            "    print('==', backend)\n"
+            "    try:\n"
+            "        run(backend)\n"
+            "    except Exception:\n"
+            "        traceback.print_exc(file=sys.stdout)\n")
+
+
+@pytest.fixture(scope="module")
+def fresh_runs():
+    """``fresh_runs(body, timeout)``: the lines each back end printed (``{backend: lines}``)
+    from :func:`_each_backend`'s script of ``body``, run for both back ends in one subprocess
+    (the interpreter's start and imports paid once), with warnings as errors (``-W error``),
+    4 GB of address space and ``timeout`` seconds: a hang in C code cannot be interrupted, and
+    fails the tests of the script at the timeout. Once per body for the module."""
+    runs: dict[str, dict[str, list[str]]] = {}
+
+    def get(body: str, timeout: float) -> dict[str, list[str]]:
+        if body not in runs:
+            run = capped(["-W", "error", "-c", _each_backend(body), *BACKENDS], 4 << 30,
+                         timeout=timeout)
+            assert run.returncode == 0, run.stderr
+            parts: dict[str, list[str]] = {}
+            for line in run.stdout.splitlines():
+                if line.startswith("== ") and line[3:] in BACKENDS:
+                    parts[line[3:]] = []
+                else:
+                    assert parts, run.stdout            # nothing before the first part
+                    parts[list(parts)[-1]].append(line)
+            assert list(parts) == list(BACKENDS), run.stdout
+            runs[body] = parts
+        return runs[body]
+    return get
+
+
 _NOT_FINITE = """
-import sys
 from porthamiltonian import compile_model, io
-m = compile_model(io.load("double_pendulum"), backend=sys.argv[1])
+m = compile_model(io.load("double_pendulum"), backend=backend)
 x = m.initial_state()
 x[2], x[3] = 1e308, -1e308
 for method in ("Rodas5P", "QBDF"):
@@ -215,29 +260,27 @@ for method in ("auto", "Radau", "RK45"):
     print(method, r.status, r.t[-1])
 for name, value, sensitivity in (("mass_spring_damper", 1e300, False),
                                  ("mass_spring_damper", 1e300, True), ("heavy_top", 1e-320, True)):
-    m = compile_model(io.load(name), backend=sys.argv[1])
+    m = compile_model(io.load(name), backend=backend)
     for method in ("Rodas5P", "QBDF"):
         r = m.simulate(0.5, x0=[value] * m.n_states, method=method, sensitivity=sensitivity)
         print(method, r.status, r.t[-1], r.sensitivity is not None)
 """
 
 
-@pytest.mark.parametrize("backend", ["c", "python"])
-def test_a_state_whose_derivative_is_not_finite_fails_at_once(backend):
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_state_whose_derivative_is_not_finite_fails_at_once(backend, fresh_runs):
     """The double pendulum with momenta ±1e308: the right-hand side at the start holds inf and
     NaN, the first step size was NaN, and the compiled loops (C, and the python back end's
     template) compared it with their smallest step forever (every comparison with NaN is
     false). Both loops now say that the step size is too small, at t = 0; the run is a
-    subprocess, since a hang in C code cannot be interrupted. From a state of 1e300 the
-    back ends end the same runs the same way, and say nothing else: the python back end's
-    generated code warned (numpy's RuntimeWarning of an overflow in its small solves; the
+    subprocess (``fresh_runs``), since a hang in C code cannot be interrupted. From a state of
+    1e300 the back ends end the same runs the same way, and say nothing else: the python back
+    end's generated code warned (numpy's RuntimeWarning of an overflow in its small solves; the
     subprocess turns warnings into errors) and raised (Python's ``x**2`` overflowing, QBDF's
     first step dividing by its step size 0, the heavy top's quaternion of 1e-320 normalised)
     where C computes inf and NaN; its runs now end failed, with their start (and their
     sensitivities) kept."""
-    run = capped(["-W", "error", "-c", _NOT_FINITE, backend], 4 << 30, timeout=120)
-    assert run.returncode == 0, run.stderr
-    lines = run.stdout.splitlines()
+    lines = fresh_runs(_NOT_FINITE, 120)[backend]
     assert lines[:2] == [f"{m} failed {m}: step size too small (or W singular) at t = 0"
                          for m in ("Rodas5P", "QBDF")]
     assert lines[2:5] == ["auto failed 0.0", "Radau failed 0.0", "RK45 failed 0.0"]
@@ -336,36 +379,37 @@ def test_a_walker_whose_mass_matrix_is_singular_says_so():
         walker.section_state(walker.initial_guess())
 
 
-@pytest.mark.parametrize("backend", ["c", "python"])
-def test_a_stride_from_velocities_beyond_float64_falls_quietly(backend):
+_HUGE_VELOCITIES = """
+from walker_library import load_walker
+walker = load_walker('kneed_walker', backend=backend)
+for v in ((None, 1e308), (-1.7e308, 1.7e308)):
+    z = walker.initial_guess()
+    z[1] = z[1] if v[0] is None else v[0]
+    z[2] = v[1]
+    stride = walker.stride(z)
+    print(stride.status, stride.reason.split(':')[0])
+walker = load_walker('compliant_leg_walker', backend=backend)
+for i in (6, 9):
+    z = walker.initial_guess()
+    z[i] = 1e308
+    stride = walker.stride(z)
+    print(stride.status, stride.reason.split(':')[0])
+"""
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_stride_from_velocities_beyond_float64_falls_quietly(backend, fresh_runs):
     """The kneed walker from its guess with walker.v.hip = 1e308 (found by fuzzing the walker
     files' guesses): the right-hand side holds inf and NaN, and the stride hung in the compiled
     loop (a NaN step size); with walker.v.stance = -1.7e308 as well, the momenta overflow and
     numpy warned of it. Now both strides fall at once (failed; invalid_state), without a warning
-    (a subprocess, with warnings as errors: a hang in C code cannot be interrupted). On the
-    python back end too, where the generated code warned (numpy's overflow in the stride's
-    energy and outputs) or raised (the compliant-leg walker's section completed from a hip
+    (a subprocess, ``fresh_runs``, with warnings as errors: a hang in C code cannot be
+    interrupted). On the python back end too, where the generated code warned (numpy's overflow
+    in the stride's energy and outputs) or raised (the compliant-leg walker's section completed from a hip
     velocity of 1e308: Python's ``s**2`` overflowing in the lift, a crash): every stride falls
     as on C (the reason of an invalid state names Python's exception there)."""
-    script = ("import sys\n"
-              "from walker_library import load_walker\n"
-              "walker = load_walker('kneed_walker', backend=sys.argv[1])\n"
-              "for v in ((None, 1e308), (-1.7e308, 1.7e308)):\n"
-              "    z = walker.initial_guess()\n"
-              "    z[1] = z[1] if v[0] is None else v[0]\n"
-              "    z[2] = v[1]\n"
-              "    stride = walker.stride(z)\n"
-              "    print(stride.status, stride.reason.split(':')[0])\n"
-              "walker = load_walker('compliant_leg_walker', backend=sys.argv[1])\n"
-              "for i in (6, 9):\n"
-              "    z = walker.initial_guess()\n"
-              "    z[i] = 1e308\n"
-              "    stride = walker.stride(z)\n"
-              "    print(stride.status, stride.reason.split(':')[0])\n")
-    run = capped(["-W", "error", "-c", script, backend], 4 << 30, timeout=300)
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.splitlines() == ["fell failed", "fell invalid_state", "fell invalid_state",
-                                       "fell failed"]
+    lines = fresh_runs(_HUGE_VELOCITIES, 300)[backend]
+    assert lines == ["fell failed", "fell invalid_state", "fell invalid_state", "fell failed"]
 
 
 def test_a_guess_beyond_float64_is_reported_without_numpy_warnings():

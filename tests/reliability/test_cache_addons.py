@@ -20,6 +20,7 @@ import dataclasses
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 
@@ -108,17 +109,6 @@ def test_ph_after_a_plain_build_compiles_only_the_addon(fresh_with_loops, unit_s
     assert plain.meta.ph is None and with_form.meta.ph == with_form.ph_layout is not None
 
 
-def _build_in_another_process(backend: str) -> str:
-    """Compile the model with its form in a fresh process (so that this one has mapped none of
-    its libraries); its key."""
-    build = subprocess.run(
-        [sys.executable, "-c", ("from porthamiltonian import compile_model, io; "
-                                f"print(compile_model(io.load({MODEL!r}), backend={backend!r}, "
-                                "ph=True).key)")],
-        capture_output=True, text=True, check=True, env=dict(os.environ))
-    return build.stdout.strip()
-
-
 @pytest.fixture(scope="module")
 def intact_numbers():
     """``intact_numbers(backend)``: :func:`_form_numbers` of the model with its form compiled
@@ -142,13 +132,15 @@ def intact_numbers():
     ("c", "addon-ph.json", "garbage"), ("python", "module", "truncated"),
     ("python", "addon-ph.py", "garbage")])
 def test_a_damaged_addon_file_is_never_loaded_and_is_rebuilt(fresh_with_loops, forgotten,
-                                                             intact_numbers, backend, name,
-                                                             damage, recwarn):
-    """Each file of the add-on, damaged after a build in another process: one CacheWarning
-    naming it, the file made again (its bytes matching the manifest), and the form's numbers
-    those of an intact build (0 ulp); the model's own library or module is not touched."""
-    key = _build_in_another_process(backend)
+                                                             built_elsewhere, intact_numbers,
+                                                             backend, name, damage, recwarn):
+    """Each file of the add-on, damaged after a build in another process (its entry, manifest
+    and all, copied into this test's cache): one CacheWarning naming it, the file made again
+    (its bytes matching the manifest), and the form's numbers those of an intact build (0 ulp);
+    the model's own library or module is not touched."""
+    key, built = built_elsewhere(MODEL, backend, ph=True)
     entry = fresh_with_loops / key
+    shutil.copytree(built, entry)
     files = {"library": native.library_name(f"{key}_ph"), "module": f"m{key}_ph_python.py"}
     path = entry / files.get(name, name)
     own = entry / (native.library_name(key) if backend == "c" else f"m{key}_python.py")

@@ -1,8 +1,9 @@
 """The compiled-model cache is trusted only when intact (issue 10, item 3;
 porthamiltonian/compiler/cache.py).
 
-Each case compiles models/mass_spring_damper.toml (python back end) into a fresh cache, damages
-or plants something, compiles again (the generated modules dropped from sys.modules, so that they
+Each case starts from a fresh cache holding an untampered compile of
+models/mass_spring_damper.toml (python back end; compiled once for the module, its entry copied
+with its manifest into each case's cache), damages or plants something, compiles again (the generated modules dropped from sys.modules, so that they
 are imported from disk again) and checks: exactly one CacheWarning naming the damaged file or
 the untrusted folder, the entry rebuilt intact (or the folder left alone), no planted code run,
 and a simulation bit-identical to the untampered one.
@@ -67,14 +68,30 @@ def _intact(entry) -> None:
         assert cache._sha256((entry / name).read_bytes()) == digest, name
 
 
-@pytest.fixture
-def reference(fresh):
-    """(entry folder, simulation) of an untampered compile."""
-    compiled = _compile()
-    entry = fresh / compiled.key
+@pytest.fixture(scope="module")
+def untampered(tmp_path_factory):
+    """(entry folder, simulation, key) of an untampered compile into a fresh cache folder of
+    the module's own, once: the entry intact, the folder made private (0700)."""
+    folder = tmp_path_factory.mktemp("untampered") / "cache"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PORTHAMILTONIAN_CACHE", str(folder))
+        compiled = _compile()
+        simulation = _run(compiled)
+    _forget_modules()
+    entry = folder / compiled.key
     _intact(entry)
-    assert stat.S_IMODE(os.stat(fresh).st_mode) == 0o700
-    return entry, _run(compiled), compiled.key
+    assert stat.S_IMODE(os.stat(folder).st_mode) == 0o700
+    return entry, simulation, compiled.key
+
+
+@pytest.fixture
+def reference(fresh, untampered):
+    """(entry folder, simulation, key): the untampered entry copied (manifest and all) into
+    this test's fresh cache folder (private, as a compile makes it), and its simulation."""
+    built, simulation, key = untampered
+    fresh.mkdir(mode=0o700, exist_ok=True)         # (made already when the loops are seeded)
+    shutil.copytree(built, fresh / key)
+    return fresh / key, simulation, key
 
 
 def _truncate(path):

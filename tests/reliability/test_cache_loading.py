@@ -19,6 +19,7 @@ import builtins
 import json
 import os
 import pickle
+import shutil
 import stat
 import subprocess
 import sys
@@ -75,12 +76,17 @@ def _rhs(compiled) -> np.ndarray:
 
 
 # --- numba's files ----------------------------------------------------------------------------------
-@pytest.fixture
-def numba_entry(fresh):
-    """(entry, rhs at the initial state) after numba compiled and cached rhs."""
-    compiled = _compile("numba")
-    expected = _rhs(compiled)
-    entry = fresh / compiled.key
+@pytest.fixture(scope="module")
+def numba_built(tmp_path_factory):
+    """(entry, rhs at the initial state) after numba compiled and cached rhs, in a cache folder
+    of the module's own, once: every file numba wrote is recorded in the manifest, and intact."""
+    folder = tmp_path_factory.mktemp("numba_built") / "cache"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PORTHAMILTONIAN_CACHE", str(folder))
+        compiled = _compile("numba")
+        expected = _rhs(compiled)
+    _forget_modules()
+    entry = folder / compiled.key
     files = _manifest(entry)
     cached = sorted(p.name for p in (entry / "__pycache__").iterdir())
     assert any(n.endswith(".nbi") for n in cached) and any(n.endswith(".nbc") for n in cached)
@@ -88,6 +94,17 @@ def numba_entry(fresh):
         data = (entry / "__pycache__" / name).read_bytes()
         assert files[f"__pycache__/{name}"] == cache._sha256(data), name
     return entry, expected
+
+
+@pytest.fixture
+def numba_entry(fresh, numba_built):
+    """(entry, rhs at the initial state): :func:`numba_built`'s entry copied (its numba files,
+    their time stamps and the manifest with it) into this test's fresh cache, for the test to
+    damage."""
+    built, expected = numba_built
+    fresh.mkdir(mode=0o700)
+    shutil.copytree(built, fresh / built.name)
+    return fresh / built.name, expected
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated", "empty"])
