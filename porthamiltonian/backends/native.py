@@ -258,6 +258,22 @@ def loop_source() -> str:
             "#define PH_NG ph_ng\n" + declarations + LOOP_PRAGMA + c_loops())
 
 
+def write_source(path: Path, data: str | bytes) -> None:
+    """Write a file for the C compiler (a source, or an object to link) at ``path``; a write that
+    fails (a full disk, a file size limit) raises :class:`~porthamiltonian.errors.CompilerError`
+    saying where and what to do, as a problem of the machine, not a bug."""
+    try:
+        if isinstance(data, bytes):
+            path.write_bytes(data)
+        else:
+            path.write_text(data)
+    except OSError as err:
+        raise CompilerError(f"cannot write {path.name} for the C compiler in {path.parent} "
+                            f"({err.strerror or err}): free space in {tempfile.gettempdir()} "
+                            "(or raise the file size limit), or point TMPDIR at a folder with "
+                            "room") from err
+
+
 class Pending:
     """A compile running in the background (:func:`start_object`): :meth:`wait` gives the
     object's path (valid until :meth:`close`), :meth:`result` its bytes; errors as
@@ -267,7 +283,11 @@ class Pending:
         self._tmp = tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-")
         folder = Path(self._tmp.name)
         self.source = folder / f"{name}.c"
-        self.source.write_text(text)
+        try:
+            write_source(self.source, text)
+        except CompilerError:
+            self._tmp.cleanup()
+            raise
         self.out = folder / f"{name}.o"
         self.log = folder / f"{name}.log"
         cc = compiler()
@@ -298,7 +318,7 @@ class Pending:
         named after ``log_as`` when given, or a kept temporary file)."""
         if self.process is None:            # no compiler, or it could not start: say why
             data, _ = build(self.source, log_dir, (), object_only=True, log_as=log_as)
-            self.out.write_bytes(data)
+            write_source(self.out, data)
             return self.out, time.perf_counter() - self.start
         status = self.process.wait()
         seconds = time.perf_counter() - self.start
@@ -393,7 +413,7 @@ def compile_object(text: str, name: str, log_dir: Path | None = None,
     named after ``log_as``, e.g. the model's unit that needs the object, when given)."""
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-cc-") as tmp:
         source = Path(tmp) / f"{name}.c"
-        source.write_text(text)
+        write_source(source, text)
         return build(source, log_dir, (), object_only=True, log_as=log_as, advice=advice)
 
 
@@ -453,7 +473,9 @@ def _run(flags: list[str], sources: tuple[Path, ...], objects: tuple[Path, ...],
 
 
 def _write_log(source: Path, log_dir: Path | None, command: list[str], what: str,
-               output: str) -> Path:
+               output: str) -> Path | str:
+    """The file holding the compiler's ``output`` (in ``log_dir`` when given and writable, else
+    a kept temporary file); when no file can be written, the output itself, cut to its end."""
     text = f"command: {shlex.join(command)}\n{what}\n\n{output or '(no output)'}\n"
     if log_dir is not None:
         path = log_dir / f"{source.stem}.log"
@@ -464,9 +486,12 @@ def _write_log(source: Path, log_dir: Path | None, command: list[str], what: str
             return path
         except OSError:
             pass
-    fd, name = tempfile.mkstemp(prefix=f"porthamiltonian-{source.stem}-", suffix=".log")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
+    try:
+        fd, name = tempfile.mkstemp(prefix=f"porthamiltonian-{source.stem}-", suffix=".log")
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+    except OSError as err:           # nowhere to write (a full disk): the output in the message
+        return f"(no file: {err.strerror or err}) {output.strip()[-2000:] or '(no output)'}"
     return Path(name)
 
 

@@ -98,7 +98,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..errors import OptionError
+from ..errors import CompilerError, OptionError
 from ..userfiles import write_atomic
 
 if TYPE_CHECKING:
@@ -557,7 +557,12 @@ def store(key: str, name: str, data: bytes | str, persistent: bool = True) -> Pa
         _record(entry, {name: _sha256(raw)})
     except OSError as err:
         if not persistent:
-            raise
+            # nowhere to write (a full disk, a file size limit): the user's to fix, not a bug
+            raise CompilerError(
+                f"cannot write {name} of the compiled model {key} in {_base(False)} "
+                f"({err.strerror or err}): free space in {tempfile.gettempdir()} (or raise the "
+                "file size limit), or point TMPDIR and PORTHAMILTONIAN_CACHE at a folder with "
+                "room") from err
         _warn(f"compiled-model cache {configured_dir()}: cannot write {name} ({err.strerror}); "
               "built in a private temporary folder instead")
         return store(key, name, raw, persistent=False)

@@ -283,7 +283,7 @@ def _build(files: Mapping[str, str]) -> bytes:
     """The shared library compiled from ``files`` (in a private temporary folder)."""
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-fmu-") as tmp:
         for name, text in files.items():
-            (Path(tmp) / name).write_text(text)
+            native.write_source(Path(tmp) / name, text)
         data, _ = native.build(Path(tmp) / ENTRY, None, advice=(
             "Set CC to a working C compiler: an FMU's binary is compiled C whatever back end "
             "the model was compiled with"))

@@ -232,7 +232,8 @@ def test_a_full_disk_stops_a_sweep_with_a_message_and_loses_nothing(tmp_path, ca
     2 and says the rows are kept; rerun (here, where files can grow), it finishes the cases
     without repeating those done."""
     out = tmp_path / "s.jsonl"
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    compile_model(io.load("mass_spring_damper"), backend="python")     # in the cache: only the
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))     # results file is to grow
     proc = subprocess.run([sys.executable, "-c", _FULL, str(out)], capture_output=True,
                           text=True, env=env, timeout=300, check=False)
     assert proc.returncode == 2, proc.stderr[-2000:]
@@ -264,3 +265,35 @@ def test_a_results_file_inside_a_file_names_what_is_in_the_way(command, tmp_path
     err = capsys.readouterr().err
     assert err.endswith(f"error: {taken} exists and is not a folder: give a folder to write "
                         "into\n"), err
+
+
+_NO_ROOM = """
+import resource, signal, sys
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (3000, 3000))   # no generated file fits anywhere
+from porthamiltonian.interfaces import cli
+from walker_library import cli as walker_cli
+for backend in ("python", "c"):
+    print(cli.main(["--backend", backend, "simulate", "mass_spring_damper", "--t-end", "1"]))
+print(walker_cli.main(["gait", "rimless_wheel", "--backend", "c"]))
+"""
+
+
+def test_a_build_with_nowhere_to_write_says_so(tmp_path):
+    """A build that can write its generated code nowhere (RLIMIT_FSIZE as with a full disk: the
+    cache, then the private temporary folder; a subprocess with an empty cache) ended in "this
+    is a bug" and a traceback: it is the machine's problem, exit status 2 with what to do, on
+    the python back end (its module) and on C (the compiler's source)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path),
+               PORTHAMILTONIAN_CACHE=str(tmp_path / "cache"))
+    proc = subprocess.run([sys.executable, "-c", _NO_ROOM], capture_output=True, text=True,
+                          env=env, timeout=300, check=False)
+    assert proc.returncode == 0 and proc.stdout.split() == ["2", "2", "2"], proc.stderr[-3000:]
+    assert "Traceback" not in proc.stderr and "bug" not in proc.stderr, proc.stderr[-3000:]
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 3, proc.stderr
+    assert "cannot write m" in errors[0] and "_python.py of the compiled model" in errors[0]
+    for line in errors[1:]:
+        assert "cannot write loops.c for the C compiler in " in line, line
+    for line in errors:
+        assert "(File too large): free space in " in line and "point TMPDIR" in line, line
