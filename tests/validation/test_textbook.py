@@ -274,9 +274,9 @@ def test_power_balance_vanishes_at_random_points(name):
     blocks is read from its solved structure (the compiler's structure solve, reused by the
     compile or the symbolic assembly that follows): the models checked numerically need no symbolic
     assembly of their own."""
-    description = io.load(name)
-    if compiler._solved(compiler._frozen(description).validate())[0].system.blocks:
-        _numeric_power_balance(name)
+    description = io.load(name).freeze()          # (loaded and frozen once for both branches)
+    if compiler._solved(description.validate())[0].system.blocks:
+        _numeric_power_balance(name, description)
         return
     sym = symbolic(description)
     balance = power_balance(sym)
@@ -296,11 +296,11 @@ def test_power_balance_vanishes_at_random_points(name):
         assert abs(f_balance(*values)) <= 1e-9 * max(scale, 1e-300), (name, values)
 
 
-def _numeric_power_balance(name):
+def _numeric_power_balance(name, description):
     """(A multibody with loops or constraints balances its power on its constraints, where the
     constraint forces do no work: its random states lie within 0.1 of the initial state and are
     moved onto the constraints, as a run's initial state is.)"""
-    compiled = compile_model(io.load(name), backend="python")
+    compiled = compile_model(description, backend="python")
     rng = np.random.default_rng(20240611)
     n, p = compiled.n_states, np.asarray(compiled.param_defaults)
     constrained = bool(constraint_rows(compiled))
