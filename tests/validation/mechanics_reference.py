@@ -23,7 +23,7 @@ class Reference:
     velocities ∂v_c/∂u_j, ∂ω/∂u_j (Kane's ``partial_velocity``). Every vector is kept in the
     frames sympy forms it in; for the numbers, the relative orientations (``dcm``) and the vector
     components are lambdified — all in one function, evaluated once per q (a ``lambdify`` per
-    array costs ~25 % more CPU for the whole derivation; the arrays' code, and so the numbers,
+    array costs ~20 % more CPU for the whole derivation; the arrays' code, and so the numbers,
     are the same) — and composed with numpy, so that they take complex q.
 
     ``values(q, v)`` gives M(q) = Σ m Jᵥᵀ Jᵥ + J_ωᵀ I J_ω (the Hessian of T), H = T + V and
