@@ -10,6 +10,7 @@ also runs its parent packages' ``__init__``, but those edges are left out: a pac
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import networkx as nx
@@ -42,8 +43,10 @@ def _imports(tree: ast.AST):
         stack += ast.iter_child_nodes(node)
 
 
+@functools.cache
 def import_graph(package: str = PACKAGE) -> tuple[nx.DiGraph, dict[str, set[str]]]:
-    """(graph of the package's modules, every absolute name each module imports)."""
+    """(graph of the package's modules, every absolute name each module imports). Made once per
+    package (four tests read the framework's; none changes it)."""
     files = sorted((ROOT / package).rglob("*.py"))
     modules = {_module_name(f): f for f in files}
     graph, named = nx.DiGraph(), {}

@@ -22,7 +22,9 @@ class Reference:
     (``set_ang_vel``, ``v2pt_theory``, ``v1pt_theory``), rigid bodies, and each body's partial
     velocities ∂v_c/∂u_j, ∂ω/∂u_j (Kane's ``partial_velocity``). Every vector is kept in the
     frames sympy forms it in; for the numbers, the relative orientations (``dcm``) and the vector
-    components are lambdified and composed with numpy, so that they take complex q.
+    components are lambdified — all in one function, evaluated once per q (a ``lambdify`` per
+    array costs ~20 % more CPU for the whole derivation; the arrays' code, and so the numbers,
+    are the same) — and composed with numpy, so that they take complex q.
 
     ``values(q, v)`` gives M(q) = Σ m Jᵥᵀ Jᵥ + J_ωᵀ I J_ω (the Hessian of T), H = T + V and
     Hamilton's ṗ = ∂L/∂q|_q̇ (L = ½ q̇ᵀ M q̇ − V) by complex-step differentiation (step 1e-30:
@@ -72,8 +74,12 @@ class Reference:
                            np.array(j["body"]["inertia"])))
         self.N, self.n = N, len(qs)
 
-        def numeric(expr):
-            return sp.lambdify([qs], expr, "numpy")
+        arrays: list = []               # every array the numbers need, lambdified at the end
+
+        def numeric(expr) -> int:
+            """The index of ``expr`` in the arrays the lambdified function returns."""
+            arrays.append(expr)
+            return len(arrays) - 1
 
         self.dcm = {f: numeric(p.dcm(f)) for f, p in self.parent.items()}   # p coords <- f
         g = gravity[0] * N.x + gravity[1] * N.y + gravity[2] * N.z
@@ -85,32 +91,35 @@ class Reference:
                                 [self._parts(x, numeric) for x in w]))
         self.potential = self._parts(-sum((rb.mass * rb.masscenter.pos_from(O).dot(g)
                                            for rb, _ in bodies), sp.Integer(0)) * N.x, numeric)
+        self.arrays = sp.lambdify([qs], arrays, "numpy")
 
     @staticmethod
     def _parts(vector, numeric):
         return [(frame, numeric(components)) for components, frame in vector.args]
 
-    def _in_N(self, parts, q, rotations):
+    @staticmethod
+    def _in_N(parts, arrays, rotations):
         out = np.zeros(3, dtype=complex)
         for frame, components in parts:
-            out += rotations(frame) @ np.asarray(components(q), dtype=complex).reshape(3)
+            out += rotations(frame) @ np.asarray(arrays[components], dtype=complex).reshape(3)
         return out
 
     def mass_and_potential(self, q):
+        arrays = self.arrays(q)
         cache = {self.N: np.eye(3, dtype=complex)}
 
         def rotation(frame):                     # N coordinates <- frame coordinates
             if frame not in cache:
                 cache[frame] = rotation(self.parent[frame]) @ np.asarray(
-                    self.dcm[frame](q), dtype=complex)
+                    arrays[self.dcm[frame]], dtype=complex)
             return cache[frame]
 
         M = np.zeros((self.n, self.n), dtype=complex)
         for mass, inertia, frame, vc, w in self.bodies:
-            Jv = np.array([self._in_N(x, q, rotation) for x in vc]).T
-            Jw = rotation(frame).T @ np.array([self._in_N(x, q, rotation) for x in w]).T
+            Jv = np.array([self._in_N(x, arrays, rotation) for x in vc]).T
+            Jw = rotation(frame).T @ np.array([self._in_N(x, arrays, rotation) for x in w]).T
             M += mass * Jv.T @ Jv + Jw.T @ inertia @ Jw
-        return M, self._in_N(self.potential, q, rotation)[0]
+        return M, self._in_N(self.potential, arrays, rotation)[0]
 
     def values(self, q: np.ndarray, v: np.ndarray):
         M, V = self.mass_and_potential(q.astype(complex))

@@ -27,7 +27,7 @@ import sympy as sp
 from scipy.integrate import quad
 
 import porthamiltonian
-from porthamiltonian import compile_model, io, power_balance, symbolic
+from porthamiltonian import compile_model, compiler, io, power_balance, symbolic
 from porthamiltonian.modeling.expressions import TIME
 from porthamiltonian.simulation.assembly import consistent, constraint_rows
 
@@ -270,11 +270,15 @@ def test_power_balance_vanishes_at_random_points(name):
     1e-9 of the size of its terms. Models with implicit blocks (a mass matrix solved numerically)
     are checked numerically instead (CompiledModel.power_balance: a fourth-order central
     difference of H along ẋ against P_in − P_diss) to 1e-8 of |H|·max(1, |ẋ|) + |P_in| + |P_diss|
-    (the round-off and truncation scale of the difference)."""
-    sym = symbolic(io.load(name))
-    if sym.blocks:
-        _numeric_power_balance(name, len(sym.states), sym.param_defaults)
+    (the round-off and truncation scale of the difference). Whether a model has implicit
+    blocks is read from its solved structure (the compiler's structure solve, reused by the
+    compile or the symbolic assembly that follows): the models checked numerically need no symbolic
+    assembly of their own."""
+    description = io.load(name).freeze()          # (loaded and frozen once for both branches)
+    if compiler._solved(description.validate())[0].system.blocks:
+        _numeric_power_balance(name, description)
         return
+    sym = symbolic(description)
     balance = power_balance(sym)
     n = len(sym.states)
     dH = sp.diff(sym.hamiltonian, TIME) + sum(sp.diff(sym.hamiltonian, x) * f
@@ -292,13 +296,13 @@ def test_power_balance_vanishes_at_random_points(name):
         assert abs(f_balance(*values)) <= 1e-9 * max(scale, 1e-300), (name, values)
 
 
-def _numeric_power_balance(name, n, defaults):
+def _numeric_power_balance(name, description):
     """(A multibody with loops or constraints balances its power on its constraints, where the
     constraint forces do no work: its random states lie within 0.1 of the initial state and are
     moved onto the constraints, as a run's initial state is.)"""
-    compiled = compile_model(io.load(name), backend="python")
+    compiled = compile_model(description, backend="python")
     rng = np.random.default_rng(20240611)
-    p = np.asarray(defaults)
+    n, p = compiled.n_states, np.asarray(compiled.param_defaults)
     constrained = bool(constraint_rows(compiled))
     for _ in range(20):
         t = rng.uniform(0.0, 10.0)
