@@ -266,8 +266,11 @@ def compile_model(model: Model | ModelDescription, backend: str = "auto",
                 cache.write(key, meta.to_json(), bodies)
 
         def load(name: str) -> backends.Functions:
+            nonlocal sym
             if name != "c" and "python" not in bodies:
-                bodies["python"] = _python_body(key, description, prog, jac_p, use_cache, times)
+                bodies["python"], made = _python_body(key, description, prog, jac_p, use_cache,
+                                                      times)
+                sym = sym or made                   # for the add-on below, not made again
             return _load(name, key, meta, bodies, use_cache, times, explicit=len(order) == 1,
                          pending=pending)
 
@@ -543,21 +546,25 @@ def _meta(sym: SymbolicModel, prog: Program, jac_p: Sequence[str] | None) -> Mod
 
 
 def _python_body(key: str, description: ModelDescription, prog: Program | None,
-                 jac_p: Sequence[str] | None, use_cache: bool, times: dict[str, float]) -> str:
+                 jac_p: Sequence[str] | None, use_cache: bool,
+                 times: dict[str, float]) -> tuple[str, SymbolicModel | None]:
     """The model's Python body (``body.py``), printed when a back end first needs it (the
     python and numba back ends): from ``prog``, this build's program, or, for an entry that a
     C build stored without it, from the program made again; stored in the entry (its time added
-    to ``times["code"]``)."""
+    to ``times["code"]``). With the symbolic model made for it (None when ``prog`` was given),
+    which an add-on built next reuses."""
     from .printers import python_source
 
     start = time.perf_counter()
+    sym = None
     if prog is None:
-        prog = _program(_symbolic_model(description, claim=True), jac_p)
+        sym = _symbolic_model(description, claim=True)
+        prog = _program(sym, jac_p)
     text = python_source(prog)
     times["code"] = times.get("code", 0.0) + time.perf_counter() - start
     if use_cache:
         cache.store(key, cache.PYTHON_BODY, text)
-    return text
+    return text, sym
 
 
 def compiled_record(compiled: CompiledModel) -> dict[str, Any]:

@@ -109,6 +109,26 @@ def test_ph_after_a_plain_build_compiles_only_the_addon(fresh_with_loops, unit_s
     assert plain.meta.ph is None and with_form.meta.ph == with_form.ph_layout is not None
 
 
+def test_a_python_build_with_its_form_after_a_c_build_derives_the_model_once(
+        fresh_with_loops, forgotten, intact_numbers, monkeypatch):
+    """A C build stores no Python body; the python back end's build with the form (``ph=True``)
+    from that entry made the symbolic model twice, for the body and again for the add-on: once
+    now, and the form's numbers are those of a build without the cache (0 ulp)."""
+    model = io.load(MODEL)
+    compile_model(model, backend="c")
+    forgotten()
+    made: list[str] = []
+    symbolic_model = compiler._symbolic_model
+
+    def counted(description, claim):
+        made.append(description.name)
+        return symbolic_model(description, claim)
+    monkeypatch.setattr(compiler, "_symbolic_model", counted)
+    compiled = compile_model(model, backend="python", ph=True)
+    assert made == [MODEL]
+    np.testing.assert_array_equal(_form_numbers(compiled), intact_numbers("python"))
+
+
 @pytest.fixture(scope="module")
 def intact_numbers():
     """``intact_numbers(backend)``: :func:`_form_numbers` of the model with its form compiled
