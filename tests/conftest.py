@@ -29,6 +29,11 @@
   and the young generation is collected every 10000 allocations instead of 700 (sympy and the
   compiled models make many objects): 5-13 % less CPU on the sympy- and walker-heavy files
   (A/B, interleaved, load 1-2), no check changed.
+* Python bytecode: the session writes it beside the sources (``__pycache__``, ignored by git),
+  as an installed package has it, even when ``PYTHONDONTWRITEBYTECODE`` is set (it is unset
+  for the session and the processes it starts): the workers and the hundred or so interpreters
+  the tests start would otherwise each compile the package's sources anew (the README's command
+  with it set: 13 s more CPU, two interleaved pairs of the whole suite).
 * ``energy_check`` is the session's one ``porthamiltonian --backend c check-energy`` over every
   shipped model (a fresh interpreter): the command-line test and the per-model energy tests read
   its report instead of simulating every model again, and the tests comparing every model's
@@ -56,6 +61,10 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    # bytecode for the package (module docstring): before pytest-xdist starts the workers, which
+    # inherit this environment, as do the interpreters the tests start
+    if os.environ.pop("PYTHONDONTWRITEBYTECODE", None) is not None:
+        sys.dont_write_bytecode = False
     config.addinivalue_line("markers", "numba_loop: checks numba's compiled loops (run by "
                                        "--numba-pass, deselected otherwise)")
     config.addinivalue_line("markers", "study: a walker reproduction study with pinned numbers "
