@@ -728,10 +728,12 @@ def _c_call_arrays(st: Call | CallTangent, pr: Callable[[sp.Basic], str]) -> lis
 
 
 #: generated functions called once per analysis, not at every step: ``jac_u`` (∂ẋ/∂u, for a
-#: linearization, or an FMU's directional derivatives by its inputs). GCC compiles them at -O0
-#: (the same IEEE arithmetic): GCC's -O1 time grows faster than the length of a function, and
-#: the Whipple bicycle's 3400-line jac_u took 2.0 of its unit's 5.3 s of compile
-COLD_FUNCTIONS = frozenset({"jac_u"})
+#: linearization, or an FMU's directional derivatives by its inputs) and ``out_jac`` (∂y/∂[x, u]
+#: of the declared outputs, for a linearization). GCC compiles them at -O0 (the same IEEE
+#: arithmetic): GCC's -O1 time grows faster than the length of a function; the Whipple
+#: bicycle's 3400-line jac_u took 2.0 of its unit's 5.3 s of compile, its out_jac unit 2.2 s
+#: (0.25 s at -O0)
+COLD_FUNCTIONS = frozenset({"jac_u", "out_jac"})
 _COLD_PUSH = ('#if defined(__GNUC__) && !defined(__clang__)\n#pragma GCC push_options\n'
               '#pragma GCC optimize ("O0")\n#endif')
 _COLD_POP = '#if defined(__GNUC__) && !defined(__clang__)\n#pragma GCC pop_options\n#endif'

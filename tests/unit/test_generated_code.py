@@ -177,3 +177,22 @@ def test_only_the_functions_called_once_per_analysis_compile_at_o0():
     p = c.native_params(c.params())
     jac_u = [model.functions.extra["jac_u"](0.2, x, p) for model in (c, py)]
     assert np.any(jac_u[0]) and np.array_equal(*jac_u)
+
+
+def test_the_outputs_jacobian_compiles_at_o0_with_the_same_numbers():
+    """out_jac (∂y/∂[x, u] of the declared outputs, once per linearization point; its own
+    add-on unit) is wrapped in the -O0 pragma as jac_u is (the Whipple bicycle's unit: 2.2 s
+    of GCC at -O1, 0.25 s at -O0); the C library's out_jac gives the python back end's numbers,
+    bit for bit (the cart-pole's declared outputs)."""
+    from porthamiltonian.compiler.codegen import output_jacobian_program
+
+    cart = io.load("cart_pole")
+    source = c_source(output_jacobian_program(symbolic(cart)))
+    cold = re.findall(r'#pragma GCC optimize \("O0"\)\n#endif\n\n?(?:/\*.*?\*/\n)?static void (\w+)',
+                      source, re.DOTALL)
+    assert cold == ["out_jac"]
+    c, py = (compile_model(cart, backend=b).extended(out_jac=True) for b in ("c", "python"))
+    x = c.augment(c.initial_state()) + 0.3
+    p = c.native_params(c.params())
+    out_jac = [model.functions.extra["out_jac"](0.2, x, p) for model in (c, py)]
+    assert np.any(out_jac[0]) and np.array_equal(*out_jac)
