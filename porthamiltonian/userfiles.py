@@ -29,7 +29,7 @@ from pathlib import Path
 
 from .errors import ModelFileError
 
-__all__ = ["PIPE_SECONDS", "is_pipe", "make_folder", "output_problem", "path_problem",
+__all__ = ["PIPE_SECONDS", "is_pipe", "make_folder", "no_room", "output_problem", "path_problem",
            "read_bytes", "read_text", "replace_problem", "write_atomic"]
 
 #: the longest wait (s) for a pipe's first byte and between its bytes
@@ -64,6 +64,14 @@ def _os_problem(err: OSError) -> str:
     if err.errno == errno.ENAMETOOLONG:
         return "is not a valid path (the name is too long)"
     return f"cannot be read ({err.strerror or err})"
+
+
+def no_room(what: str, err: OSError, variables: str = "TMPDIR") -> str:
+    """The message for ``what`` (e.g. "cannot write x.c for the C compiler in /tmp/...") that
+    could not be written (a full disk, a file size limit: the machine's problem, not a bug):
+    why, and what to do, naming the environment ``variables`` that move the files."""
+    return (f"{what} ({err.strerror or err}): free space in {tempfile.gettempdir()} (or raise "
+            f"the file size limit), or point {variables} at a folder with room")
 
 
 def path_problem(path: str | Path) -> str | None:

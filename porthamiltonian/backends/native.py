@@ -39,6 +39,7 @@ import numpy as np
 
 from ..errors import CompilerError, OptionError
 from ..integrators import LOOPS, c_loops
+from ..userfiles import no_room
 from . import Functions
 
 #: Optimisation and code-generation flags, chosen by measurement on the walkers
@@ -268,10 +269,8 @@ def write_source(path: Path, data: str | bytes) -> None:
         else:
             path.write_text(data)
     except OSError as err:
-        raise CompilerError(f"cannot write {path.name} for the C compiler in {path.parent} "
-                            f"({err.strerror or err}): free space in {tempfile.gettempdir()} "
-                            "(or raise the file size limit), or point TMPDIR at a folder with "
-                            "room") from err
+        raise CompilerError(no_room(f"cannot write {path.name} for the C compiler in "
+                                    f"{path.parent}", err)) from err
 
 
 class Pending:

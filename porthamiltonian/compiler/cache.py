@@ -99,7 +99,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import CompilerError, OptionError
-from ..userfiles import write_atomic
+from ..userfiles import no_room, write_atomic
 
 if TYPE_CHECKING:
     from ..modeling.model import Model, ModelDescription
@@ -558,11 +558,9 @@ def store(key: str, name: str, data: bytes | str, persistent: bool = True) -> Pa
     except OSError as err:
         if not persistent:
             # nowhere to write (a full disk, a file size limit): the user's to fix, not a bug
-            raise CompilerError(
-                f"cannot write {name} of the compiled model {key} in {_base(False)} "
-                f"({err.strerror or err}): free space in {tempfile.gettempdir()} (or raise the "
-                "file size limit), or point TMPDIR and PORTHAMILTONIAN_CACHE at a folder with "
-                "room") from err
+            raise CompilerError(no_room(
+                f"cannot write {name} of the compiled model {key} in {_base(False)}", err,
+                "TMPDIR and PORTHAMILTONIAN_CACHE")) from err
         _warn(f"compiled-model cache {configured_dir()}: cannot write {name} ({err.strerror}); "
               "built in a private temporary folder instead")
         return store(key, name, raw, persistent=False)

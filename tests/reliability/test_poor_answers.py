@@ -216,6 +216,13 @@ def _umask() -> int:
 
 
 # --- a full disk during a sweep ---------------------------------------------------------------------
+#: the environment of a process under a file size limit: no bytecode written (Python would write
+#: a .pyc cut at the limit, which breaks every later import of its module, in every process)
+def _limited_env(**more: str) -> dict[str, str]:
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), PYTHONDONTWRITEBYTECODE="1",
+                **more)
+
+
 _FULL = """
 import resource, signal, sys
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
@@ -232,10 +239,10 @@ def test_a_full_disk_stops_a_sweep_with_a_message_and_loses_nothing(tmp_path, ca
     2 and says the rows are kept; rerun (here, where files can grow), it finishes the cases
     without repeating those done."""
     out = tmp_path / "s.jsonl"
-    compile_model(io.load("mass_spring_damper"), backend="python")     # in the cache: only the
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))     # results file is to grow
+    # the model cached first: only the results file is to grow
+    compile_model(io.load("mass_spring_damper"), backend="python")
     proc = subprocess.run([sys.executable, "-c", _FULL, str(out)], capture_output=True,
-                          text=True, env=env, timeout=300, check=False)
+                          text=True, env=_limited_env(), timeout=300, check=False)
     assert proc.returncode == 2, proc.stderr[-2000:]
     assert "cannot write the results file" in proc.stderr and "is kept" in proc.stderr
     assert "Traceback" not in proc.stderr and "bug" not in proc.stderr
@@ -284,10 +291,9 @@ def test_a_build_with_nowhere_to_write_says_so(tmp_path):
     cache, then the private temporary folder; a subprocess with an empty cache) ended in "this
     is a bug" and a traceback: it is the machine's problem, exit status 2 with what to do, on
     the python back end (its module) and on C (the compiler's source)."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path),
-               PORTHAMILTONIAN_CACHE=str(tmp_path / "cache"))
     proc = subprocess.run([sys.executable, "-c", _NO_ROOM], capture_output=True, text=True,
-                          env=env, timeout=300, check=False)
+                          env=_limited_env(PORTHAMILTONIAN_CACHE=str(tmp_path / "cache")),
+                          timeout=300, check=False)
     assert proc.returncode == 0 and proc.stdout.split() == ["2", "2", "2"], proc.stderr[-3000:]
     assert "Traceback" not in proc.stderr and "bug" not in proc.stderr, proc.stderr[-3000:]
     errors = [line for line in proc.stderr.splitlines() if line.startswith("error: ")]
