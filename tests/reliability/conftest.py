@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import ClassVar
 
 import pytest
-from bounds import HANG_WALL, MODELS_DIR, REFUSAL_CPU
+from bounds import HANG_WALL, MODELS_DIR, REFUSAL_CPU, forget_generated
 
 _FORBIDDEN = {"exec", "compile", "os.system", "subprocess.Popen", "os.posix_spawn", "os.spawn",
               "os.exec", "os.fork", "os.forkpty", "pty.spawn", "ctypes.dlopen", "os.startfile"}
@@ -73,12 +73,6 @@ def _audit() -> Iterator[list]:
 def audit():
     """``with audit() as events: ...`` then ``assert not events``."""
     return _audit
-
-
-def forget_generated() -> None:
-    """Drop the generated models' modules this process imported (a fresh cache's are new)."""
-    for name in [n for n in sys.modules if n.startswith("_porthamiltonian_generated_")]:
-        del sys.modules[name]
 
 
 @pytest.fixture

@@ -18,12 +18,12 @@ import importlib.util
 import json
 import os
 import re
-import shutil
 import time
 import warnings
 
 import numpy as np
 import pytest
+from bounds import copy_entry
 
 import porthamiltonian as ph
 from porthamiltonian import compile_model, compiler, io
@@ -170,8 +170,7 @@ def test_damaged_library_is_never_loaded_and_is_rebuilt(fresh, built_elsewhere, 
     that this one has never mapped it (its entry, manifest and all, copied into this test's
     cache)."""
     key, built = built_elsewhere("mass_spring_damper", "c")
-    shutil.copytree(built, fresh / key)
-    lib = fresh / key / native.library_name(key)
+    lib = copy_entry(built, fresh) / native.library_name(key)
     data = lib.read_bytes()
     lib.write_bytes(b"not a shared library" if damage == "garbage" else data[: len(data) // 2])
     compiled = compile_model(io.load("mass_spring_damper"), backend="c")

@@ -20,12 +20,12 @@ import dataclasses
 import json
 import os
 import re
-import shutil
 import subprocess
 import sys
 
 import numpy as np
 import pytest
+from bounds import copy_entry
 
 from porthamiltonian import compile_model, compiler, io
 from porthamiltonian.backends import native
@@ -159,8 +159,7 @@ def test_a_damaged_addon_file_is_never_loaded_and_is_rebuilt(fresh_with_loops, f
     (its bytes matching the manifest), and the form's numbers those of an intact build (0 ulp);
     the model's own library or module is not touched."""
     key, built = built_elsewhere(MODEL, backend, ph=True)
-    entry = fresh_with_loops / key
-    shutil.copytree(built, entry)
+    entry = copy_entry(built, fresh_with_loops)
     files = {"library": native.library_name(f"{key}_ph"), "module": f"m{key}_ph_python.py"}
     path = entry / files.get(name, name)
     own = entry / (native.library_name(key) if backend == "c" else f"m{key}_python.py")

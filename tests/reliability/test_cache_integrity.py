@@ -15,10 +15,10 @@ import os
 import re
 import shutil
 import stat
-import sys
 
 import numpy as np
 import pytest
+from bounds import copy_entry, forget_generated
 
 from porthamiltonian import compile_model, io
 from porthamiltonian.compiler import cache
@@ -27,20 +27,15 @@ from porthamiltonian.compiler.cache import CacheWarning
 MODEL = "mass_spring_damper"
 
 
-def _forget_modules() -> None:
-    for name in [n for n in sys.modules if n.startswith("_porthamiltonian_generated_")]:
-        del sys.modules[name]
-
-
 @pytest.fixture
 def fresh(tmp_path, monkeypatch):
     """A fresh cache folder (tmp/cache) for this test, nothing of it imported yet."""
     folder = tmp_path / "cache"
     monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(folder))
     monkeypatch.setattr(cache, "_refused", set())
-    _forget_modules()
+    forget_generated()
     yield folder
-    _forget_modules()
+    forget_generated()
 
 
 def _run(compiled):
@@ -49,7 +44,7 @@ def _run(compiled):
 
 
 def _compile():
-    _forget_modules()
+    forget_generated()
     return compile_model(io.load(MODEL), backend="python")
 
 
@@ -77,7 +72,7 @@ def untampered(tmp_path_factory):
         mp.setenv("PORTHAMILTONIAN_CACHE", str(folder))
         compiled = _compile()
         simulation = _run(compiled)
-    _forget_modules()
+    forget_generated()
     entry = folder / compiled.key
     _intact(entry)
     assert stat.S_IMODE(os.stat(folder).st_mode) == 0o700
@@ -89,9 +84,7 @@ def reference(fresh, untampered):
     """(entry folder, simulation, key): the untampered entry copied (manifest and all) into
     this test's fresh cache folder (private, as a compile makes it), and its simulation."""
     built, simulation, key = untampered
-    fresh.mkdir(mode=0o700, exist_ok=True)         # (made already when the loops are seeded)
-    shutil.copytree(built, fresh / key)
-    return fresh / key, simulation, key
+    return copy_entry(built, fresh), simulation, key
 
 
 def _truncate(path):
@@ -244,7 +237,7 @@ def test_read_only_cache_builds_elsewhere_with_a_warning(reference, monkeypatch,
 
 
 def test_use_cache_false_writes_nothing(fresh):
-    _forget_modules()
+    forget_generated()
     compiled = compile_model(io.load(MODEL), backend="python", use_cache=False)
     _run(compiled)
     assert not fresh.exists()

@@ -19,7 +19,6 @@ import builtins
 import json
 import os
 import pickle
-import shutil
 import stat
 import subprocess
 import sys
@@ -28,6 +27,7 @@ import warnings
 
 import numpy as np
 import pytest
+from bounds import copy_entry, forget_generated
 
 import porthamiltonian as ph
 from porthamiltonian import compile_model, compiler, io
@@ -39,16 +39,11 @@ from porthamiltonian.errors import CompilerError
 MODEL = "mass_spring_damper"
 
 
-def _forget_modules() -> None:
-    for name in [n for n in sys.modules if n.startswith("_porthamiltonian_generated_")]:
-        del sys.modules[name]
-
-
 # ``fresh``: tests/reliability/conftest.py
 
 
 def _compile(backend: str, model=None):
-    _forget_modules()
+    forget_generated()
     return compile_model(model or io.load(MODEL), backend=backend)
 
 
@@ -85,7 +80,7 @@ def numba_built(tmp_path_factory):
         mp.setenv("PORTHAMILTONIAN_CACHE", str(folder))
         compiled = _compile("numba")
         expected = _rhs(compiled)
-    _forget_modules()
+    forget_generated()
     entry = folder / compiled.key
     files = _manifest(entry)
     cached = sorted(p.name for p in (entry / "__pycache__").iterdir())
@@ -102,9 +97,7 @@ def numba_entry(fresh, numba_built):
     their time stamps and the manifest with it) into this test's fresh cache, for the test to
     damage."""
     built, expected = numba_built
-    fresh.mkdir(mode=0o700)
-    shutil.copytree(built, fresh / built.name)
-    return fresh / built.name, expected
+    return copy_entry(built, fresh), expected
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated", "empty"])
