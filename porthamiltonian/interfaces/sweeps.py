@@ -30,7 +30,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import InputError, ModelError, OptionError, StateError, ValidationError
-from ..integrators import COMPILED_METHODS
 
 if TYPE_CHECKING:
     from ..modeling.model import Model
@@ -92,16 +91,13 @@ class SimulationModel:
                  method: str | None = None) -> Trajectory:
         """Simulate to ``t_end`` (None: the file's ``t_end``) with ``params`` and the file's
         ``initial`` state values, method (``method``: another one), rtol, atol, max_step and
-        constant ``inputs`` (with ``dense_output``, a compiled method, Rodas4, Rodas5P or QBDF,
-        becomes "auto": Radau); a :class:`~porthamiltonian.errors.ModelError` when no end is
+        constant ``inputs``; a :class:`~porthamiltonian.errors.ModelError` when no end is
         known.
         ``progress``: see :func:`~porthamiltonian.simulation.simulate.simulate`."""
         t_end = self.t_end(t_end)
         sim = self.settings
         options = {"max_step": sim["max_step"]} if "max_step" in sim else {}
         method = sim["method"] if method is None else method
-        if dense_output and method in COMPILED_METHODS:
-            method = "auto"              # the compiled loop has no dense output: Radau instead
         if self.compiled.input_names:
             options["inputs"] = sim.get("inputs")     # the file's constant inputs
         return self.compiled.simulate(t_end, sim.get("initial"), params=params, method=method,

@@ -59,7 +59,9 @@ class Segment:
     t: np.ndarray
     y: np.ndarray            # (n + 2, len(t)): model states and ledger states
     p: np.ndarray
-    sol: Any                 # scipy OdeSolution or None
+    #: the interpolant over [sol.t_min, sol.t_max] (scipy's OdeSolution, or a compiled run's
+    #: :class:`~.dense.StepInterpolant`), or None
+    sol: Any
     phi: np.ndarray | None = None   # (len(t), n + 2, m): the sensitivities, when asked for
     #: callable inputs (scipy path): (t, x, p) -> p with their slots set, else None
     inputs: Any = None
@@ -247,7 +249,7 @@ class Trajectory:
         out = np.empty((self.model.n_states, len(t_arr)))
         for k, tk in enumerate(t_arr):
             for s in self.segments:
-                if s.sol is not None and s.t[0] <= tk <= s.t[-1]:
+                if s.sol is not None and s.sol.t_min <= tk <= s.sol.t_max:
                     out[:, k] = s.sol(tk)[: self.model.n_states]
                     break
             else:

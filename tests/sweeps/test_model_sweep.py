@@ -63,7 +63,7 @@ def test_docs_example_settling_times_and_ledger_match_the_closed_form(tmp_path, 
     assert sorted(set(df["k"])) == [1.0, 4.0, 16.0] and sorted(set(df["c"])) == [0.4, 0.8, 1.6]
     for _, row in df.iterrows():
         k, c = row["k"], row["c"]
-        # the simulation (Radau, rtol 1e-9, dense output) against the closed form
+        # the simulation (Rodas5P, rtol 1e-9, dense output) against the closed form
         assert row["settling_time"] == pytest.approx(closed_form_settling_time(k, c, t_end),
                                                      abs=1e-5)
         # and the envelope x0 e^(−ζ ω_n t) / √(1 − ζ²) of |x|: x settles at most half a damped

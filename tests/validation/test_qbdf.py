@@ -266,6 +266,7 @@ def test_auto_runs_rodas5p_again_where_qbdf_stalls_on_a_jump_of_the_force():
     assert np.max(np.abs(auto.residual)) < 1e-6 * auto.energy_scale
 
 
-def test_refuses_python_events_and_dense_output(dc_motor):
-    with pytest.raises(ph.errors.ModelError, match="QBDF"):
-        dc_motor.simulate(0.1, method="QBDF", dense_output=True)
+def test_refuses_python_events(dc_motor):
+    turn = ph.Event("turn", lambda t, x, p: x[1])
+    with pytest.raises(ph.errors.ModelError, match="QBDF.*Python events"):
+        dc_motor.simulate(0.1, method="QBDF", events=[turn])
