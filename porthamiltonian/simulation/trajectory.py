@@ -247,14 +247,17 @@ class Trajectory:
         """Dense output: model states at time(s) ``t`` (shape (n,) or (n, len(t)))."""
         t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         out = np.empty((self.model.n_states, len(t_arr)))
-        for k, tk in enumerate(t_arr):
-            for s in self.segments:
-                if s.sol is not None and s.sol.t_min <= tk <= s.sol.t_max:
-                    out[:, k] = s.sol(tk)[: self.model.n_states]
-                    break
-            else:
-                raise OptionError(f"t = {tk} is outside the simulated interval, or the run was "
-                                  "made without dense_output=True")
+        todo = np.ones(len(t_arr), dtype=bool)      # a time on two segments: the first's value
+        for s in self.segments:
+            if s.sol is None:
+                continue
+            here = todo & (s.sol.t_min <= t_arr) & (t_arr <= s.sol.t_max)
+            if np.any(here):
+                out[:, here] = np.asarray(s.sol(t_arr[here]))[: self.model.n_states]
+                todo &= ~here
+        if np.any(todo):
+            raise OptionError(f"t = {t_arr[todo][0]} is outside the simulated interval, or the "
+                              "run was made without dense_output=True")
         return out[:, 0] if np.ndim(t) == 0 else out
 
     # --- energy ledger --------------------------------------------------------------------------
