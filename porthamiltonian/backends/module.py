@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import math
 import sys
 import types
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -112,22 +113,57 @@ def load_addon(path: Path, backend: str, names: Sequence[str], *, source: str | 
     return {name: wrap(getattr(module, name)) for name in names}
 
 
+#: ``math``'s functions as numpy's, which answer as C's libm does where ``math``'s raise: NaN
+#: outside the domain (``sqrt(-1)``, ``log(-1)``, ``acos(2)``), ±inf at a pole (``log(0)``) or
+#: beyond the float range (``exp(1000)``); the others (``pi``, ``erf``, ...) are ``math``'s own
+_IEEE_NAMES = {"sqrt": "sqrt", "exp": "exp", "expm1": "expm1", "log": "log", "log10": "log10",
+               "log2": "log2", "log1p": "log1p", "sin": "sin", "cos": "cos", "tan": "tan",
+               "asin": "arcsin", "acos": "arccos", "atan": "arctan", "atan2": "arctan2",
+               "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "asinh": "arcsinh",
+               "acosh": "arccosh", "atanh": "arctanh", "pow": "power", "fmod": "fmod",
+               "hypot": "hypot", "cbrt": "cbrt", "fabs": "fabs"}
+_IEEE_MATH = types.SimpleNamespace(**{name: getattr(math, name) for name in dir(math)
+                                      if not name.startswith("_")})
+for _name, _numpy_name in _IEEE_NAMES.items():
+    setattr(_IEEE_MATH, _name, getattr(np, _numpy_name))
+
+
+def _on_numpy_floats(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """``fn`` (a function of a generated module) and the module's other functions, which it may
+    call, with :data:`_IEEE_MATH` for ``math``: the same code on numpy's functions."""
+    namespace = dict(fn.__globals__, math=_IEEE_MATH)
+    for name, value in fn.__globals__.items():
+        if isinstance(value, types.FunctionType) and value.__globals__ is fn.__globals__:
+            namespace[name] = types.FunctionType(value.__code__, namespace, value.__name__,
+                                                 value.__defaults__, value.__closure__)
+    return cast(Callable[..., Any], namespace[fn.__name__])
+
+
 def _on_lists(fn: Callable[..., Any]) -> Callable[..., Any]:
     """A generated function of the python back end called with the state as a list: plain
     CPython is fastest on Python floats (the caller passes p as a list too, see
     CompiledModel.native_params).
 
     Python's floats raise where C's and numba's give inf or NaN (``1e200**2``: OverflowError,
-    ``1/0.0``: ZeroDivisionError, e.g. for a state or parameter near the float range): such a
-    call is made again on numpy's floats, which give inf and NaN as the other back ends do, so
-    that the run fails or diverges as a result instead of raising out of the integrator."""
+    ``1/0.0``: ZeroDivisionError, e.g. for a state or parameter near the float range), and so
+    do ``math``'s functions outside their domain (``math.sqrt(-1)``: "math domain error", e.g.
+    an output ``sqrt(q)`` along a run where q < 0): such a call is made again on numpy's floats
+    and functions (:func:`_on_numpy_floats`), which give inf and NaN as the other back ends do,
+    so that a run fails or diverges as a result instead of raising out of the integrator, and
+    an output is NaN where it is undefined, as on C."""
+    ieee: list[Callable[..., Any]] = []
+
     @functools.wraps(fn)                   # its name, docstring and __wrapped__
     def on_lists(t: float, x: Any, p: Any) -> Any:
         try:
             return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
-        except ArithmeticError:
+        except (ArithmeticError, ValueError) as err:
+            if isinstance(err, ValueError) and str(err) != "math domain error":
+                raise
+            if not ieee:
+                ieee.append(_on_numpy_floats(fn))
             with np.errstate(all="ignore"):
-                return fn(t, np.asarray(x, dtype=float), np.asarray(p, dtype=float))
+                return ieee[0](t, np.asarray(x, dtype=float), np.asarray(p, dtype=float))
     return on_lists
 
 

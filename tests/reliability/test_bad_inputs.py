@@ -274,3 +274,33 @@ def test_arithmetic_beyond_the_float_range_fails_the_run_on_every_back_end(msd, 
         traj = model.simulate(1.0, params=values)
         assert (traj.status, traj.t_final) == ("failed", 0.0), (model.backend, traj.message)
         assert traj.message.startswith("Rodas5P: step size too small"), traj.message
+
+
+def test_an_output_outside_its_functions_domain_is_nan_on_every_back_end():
+    """``sqrt``, ``log`` and ``acos`` of the spring's elongation, which swings negative: C and
+    numba compute NaN (and -inf for log 0) where the elongation is outside the domain; the
+    python back end raised "math domain error" out of ``traj[...]`` and of a direct call. Now
+    every back end gives the same values (NaN at the same points, 1e-15 elsewhere)."""
+    from porthamiltonian import C, I, OneJunction
+    m = Model("domains")
+    m.parameter("a", 1.0, "m")
+    m.add("j", OneJunction())
+    m.add("mass", I(inertance=1.0))
+    m.add("spring", C(stiffness=1.0, q0="a"))
+    m.connect("j", "mass.p")
+    m.connect("j", "spring.p")
+    names = {"root": "sqrt(spring.q)", "logarithm": "log(spring.q)", "angle": "acos(2*spring.q)"}
+    for name, expression in names.items():
+        m.output(name, expression)
+    runs = {}
+    for backend in ("c", "python"):
+        model = compile_model(m, backend=backend)
+        traj = model.simulate(4.0, method="Rodas5P")
+        runs[backend] = np.array([traj[name] for name in names])
+        at_zero = model.outputs(0.0, np.zeros(4), model.params())[-3:]
+        assert np.isnan(model.outputs(0.0, np.array([0.0, -1.0, 0, 0]), model.params())[-3:]).all()
+        np.testing.assert_array_equal(at_zero, [0.0, -np.inf, math.pi / 2])
+    undefined = np.isnan(runs["c"])
+    assert undefined.any() and (~undefined).any()
+    np.testing.assert_array_equal(np.isnan(runs["python"]), undefined)
+    np.testing.assert_allclose(runs["python"][~undefined], runs["c"][~undefined], rtol=1e-15)
