@@ -26,6 +26,16 @@ from dataclasses import dataclass, field
 
 from ..errors import ModelError
 
+
+def beyond_floats(err: BaseException) -> bool:
+    """Whether ``err``, raised by the python back end's generated code, is Python's arithmetic
+    where C's gives inf or NaN: an ``ArithmeticError`` (an overflow, a division by zero), a
+    ``math`` function outside its domain ("math domain error"), or a complex number (``**`` of
+    a negative float to a fractional power) stored as a float (``TypeError``)."""
+    return (isinstance(err, ArithmeticError) or str(err) == "math domain error"
+            or (isinstance(err, TypeError) and "complex" in str(err)))
+
+
 #: The back ends, in the order ``"auto"`` tries them.
 BACKENDS = ("c", "numba", "python")
 #: The environment variable that chooses what ``"auto"`` means.
@@ -122,4 +132,4 @@ def quiet(enabled: bool = True) -> Iterator[None]:
 
 
 __all__ = ["BACKENDS", "BACKEND_VARIABLE", "QUIET_VARIABLE", "BackendWarning", "Functions",
-           "candidates", "fell_back", "numba_available", "quiet", "report"]
+           "beyond_floats", "candidates", "fell_back", "numba_available", "quiet", "report"]

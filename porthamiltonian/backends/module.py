@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import CompilerError
 from ..integrators import LOOPS, python_loops
-from . import Functions, numba_loops
+from . import Functions, beyond_floats, numba_loops
 
 _HEADERS = {
     "numba": numba_loops.HEADER,
@@ -147,7 +147,8 @@ def _on_lists(fn: Callable[..., Any]) -> Callable[..., Any]:
     Python's floats raise where C's and numba's give inf or NaN (``1e200**2``: OverflowError,
     ``1/0.0``: ZeroDivisionError, e.g. for a state or parameter near the float range), and so
     do ``math``'s functions outside their domain (``math.sqrt(-1)``: "math domain error", e.g.
-    an output ``sqrt(q)`` along a run where q < 0): such a call is made again on numpy's floats
+    an output ``sqrt(q)`` along a run where q < 0), and ``q**1.5`` of a negative q is a complex
+    number that a result refuses (``TypeError``): such a call is made again on numpy's floats
     and functions (:func:`_on_numpy_floats`), which give inf and NaN as the other back ends do,
     so that a run fails or diverges as a result instead of raising out of the integrator, and
     an output is NaN where it is undefined, as on C."""
@@ -157,8 +158,8 @@ def _on_lists(fn: Callable[..., Any]) -> Callable[..., Any]:
     def on_lists(t: float, x: Any, p: Any) -> Any:
         try:
             return fn(t, x.tolist() if isinstance(x, np.ndarray) else x, p)
-        except (ArithmeticError, ValueError) as err:
-            if isinstance(err, ValueError) and str(err) != "math domain error":
+        except (ArithmeticError, ValueError, TypeError) as err:
+            if not beyond_floats(err):
                 raise
             if not ieee:
                 ieee.append(_on_numpy_floats(fn))

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..backends import Functions
+from ..backends import Functions, beyond_floats
 from ..errors import (
     ModelError,
     OptionError,
@@ -321,8 +321,7 @@ class CompiledModel:
         the caller treats as C's inf or NaN (a failed run, a fallen stride), not as a bug."""
         if self.backend == "c":
             return False
-        return (isinstance(err, (ArithmeticError, np.linalg.LinAlgError))
-                or str(err) == "math domain error")
+        return isinstance(err, np.linalg.LinAlgError) or beyond_floats(err)
 
     def native_params(self, p: np.ndarray) -> list[float] | np.ndarray:
         """The parameter vector in the form the back end's functions take (a vector of the

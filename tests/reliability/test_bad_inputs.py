@@ -277,10 +277,11 @@ def test_arithmetic_beyond_the_float_range_fails_the_run_on_every_back_end(msd, 
 
 
 def test_an_output_outside_its_functions_domain_is_nan_on_every_back_end():
-    """``sqrt``, ``log`` and ``acos`` of the spring's elongation, which swings negative: C and
-    numba compute NaN (and -inf for log 0) where the elongation is outside the domain; the
-    python back end raised "math domain error" out of ``traj[...]`` and of a direct call. Now
-    every back end gives the same values (NaN at the same points, 1e-15 elsewhere)."""
+    """``sqrt``, ``log``, ``acos`` and a fractional power of the spring's elongation, which
+    swings negative: C and numba compute NaN (and -inf for log 0) where the elongation is
+    outside the domain; the python back end raised "math domain error" (or a TypeError for the
+    complex number of ``q**1.5``) out of ``traj[...]`` and of a direct call. Now every back end
+    gives the same values (NaN at the same points, 1e-15 elsewhere)."""
     from porthamiltonian import C, I, OneJunction
     m = Model("domains")
     m.parameter("a", 1.0, "m")
@@ -289,7 +290,8 @@ def test_an_output_outside_its_functions_domain_is_nan_on_every_back_end():
     m.add("spring", C(stiffness=1.0, q0="a"))
     m.connect("j", "mass.p")
     m.connect("j", "spring.p")
-    names = {"root": "sqrt(spring.q)", "logarithm": "log(spring.q)", "angle": "acos(2*spring.q)"}
+    names = {"root": "sqrt(spring.q)", "logarithm": "log(spring.q)", "angle": "acos(2*spring.q)",
+             "power": "spring.q**1.5"}
     for name, expression in names.items():
         m.output(name, expression)
     runs = {}
@@ -297,9 +299,9 @@ def test_an_output_outside_its_functions_domain_is_nan_on_every_back_end():
         model = compile_model(m, backend=backend)
         traj = model.simulate(4.0, method="Rodas5P")
         runs[backend] = np.array([traj[name] for name in names])
-        at_zero = model.outputs(0.0, np.zeros(4), model.params())[-3:]
-        assert np.isnan(model.outputs(0.0, np.array([0.0, -1.0, 0, 0]), model.params())[-3:]).all()
-        np.testing.assert_array_equal(at_zero, [0.0, -np.inf, math.pi / 2])
+        at_zero = model.outputs(0.0, np.zeros(4), model.params())[-4:]
+        assert np.isnan(model.outputs(0.0, np.array([0.0, -1.0, 0, 0]), model.params())[-4:]).all()
+        np.testing.assert_array_equal(at_zero, [0.0, -np.inf, math.pi / 2, 0.0])
     undefined = np.isnan(runs["c"])
     assert undefined.any() and (~undefined).any()
     np.testing.assert_array_equal(np.isnan(runs["python"]), undefined)
