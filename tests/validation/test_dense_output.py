@@ -16,12 +16,13 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicHermiteSpline
 
-from porthamiltonian import C, I, Model, OneJunction, R, compile_model, io
-from porthamiltonian.library import Actuator
+from porthamiltonian import compile_model, io
 from porthamiltonian.simulation.dense import step_interpolant
 from porthamiltonian.simulation.inputs import Samples
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "unit"))
+from test_control import MASS
+from test_control import msd as driven_msd
 from test_events import HEIGHT, E, G, ball_model, bounce_action, bounce_times
 
 M, X0 = 1.0, 0.1        # models/mass_spring_damper.toml: mass (kg), initial elongation (m)
@@ -87,40 +88,25 @@ def test_the_derivatives_are_needed_on_rodas5p_steps(msd):
         assert np.max(np.abs(cubic(grid)[q] - free_response(grid))) > 20.0 * quintic
 
 
-def _driven_msd() -> Model:
-    """models/mass_spring_damper.toml's elements (M, k, c) driven by an input force F."""
-    m = Model("driven_msd")
-    m.parameter("k", K, "N/m")
-    m.parameter("c", CD, "N*s/m")
-    m.input("F", "N", "force")
-    m.add("act", Actuator(effort="F"))
-    m.add("j", OneJunction())
-    m.add("mass", I(inertance=M))
-    m.add("spring", C(stiffness="k"))
-    m.add("damper", R(resistance="c"))
-    m.connect("act.p", "j")
-    for element in ("mass", "spring", "damper"):
-        m.connect("j", f"{element}.p")
-    return m
-
-
 @pytest.mark.parametrize("backend", ["c", "python"])
 def test_a_ramp_input_enters_through_the_time_derivative(backend):
-    """F = b t (a linear input: its slope makes the right-hand side read t): the interpolants of
-    the elongation and the momentum against the closed form at rtol 1e-9, at most 3x the
-    stored points' error (measured 1.3-1.4x); leaving ∂f/∂t out of the momentum's second derivative (ṗ = F − k q −
-    c p / m reads t through F) makes it 100x worse or more (measured 5.7e7x: the check can fail)."""
+    """F = b t (a linear input: its slope makes the right-hand side read t) on test_control's
+    driven mass–spring–damper (mass MASS): the interpolants of the elongation and the momentum
+    against the closed form at rtol 1e-9, at most 3x the stored points' error (measured
+    1.2-1.7x); leaving ∂f/∂t out of the momentum's second derivative (ṗ = F − k q − c p / m
+    reads t through F) makes it 100x worse or more (measured 1.3e7x: the check can fail)."""
     b, t_end = 0.5, 30.0
-    model = compile_model(_driven_msd(), backend=backend)
+    model = compile_model(driven_msd(), backend=backend)      # mass MASS, input force F
     x0 = dict.fromkeys(model.state_names, 0.0)
-    traj = model.simulate(t_end, x0=x0, inputs={"F": Samples([0.0, t_end], [0.0, b * t_end],
-                                                             "linear")},
+    traj = model.simulate(t_end, x0=x0, params={"k": K, "c": CD},
+                          inputs={"F": Samples([0.0, t_end], [0.0, b * t_end], "linear")},
                           method="Rodas5P", rtol=1e-9, atol=1e-12, dense_output=True)
     rows = [model.state_index("spring.q"), model.state_index("mass.p")]
     grid = np.linspace(0.0, t_end, 30_001)
-    exact = np.array(ramp_response(grid, b))
+    exact = np.array(ramp_response(grid, b, m=MASS))
     dense = np.max(np.abs(traj.sol(grid)[rows] - exact), axis=1)
-    points = np.max(np.abs(traj.x[:, rows].T - np.array(ramp_response(traj.t, b))), axis=1)
+    points = np.max(np.abs(traj.x[:, rows].T - np.array(ramp_response(traj.t, b, m=MASS))),
+                    axis=1)
     assert np.all(points < 1e-9) and np.all(dense <= 3.0 * points)
     seg = traj.segments[0]
     without = step_interpolant(model, seg.t, seg.y, seg.p, time_dependent=False)
