@@ -4,7 +4,9 @@ The compiled methods (Rodas5P, Rodas4, QBDF) return the state at the end of ever
 ``simulate(..., dense_output=True)`` with one of them makes each segment's interpolant from those
 points alone, after the run: on every step [t_k, t_k+1] the polynomial of degree 5 that takes the
 values y, the rates f = ẏ and their derivatives ÿ = df/dt = J f + ∂f/∂t of the model at both
-ends (``scipy.interpolate.BPoly.from_derivatives``). ∂f/∂t is a central difference of f
+ends: its coefficients in closed form, evaluated as a ``scipy.interpolate.PPoly``
+(``BPoly.from_derivatives`` makes the same polynomials, in a Python loop over the steps: 54 ms
+for 555 steps, where these take about 1 ms). ∂f/∂t is a central difference of f
 (relative step ε^(1/3)) where the right-hand side reads time (a non-autonomous model, or inputs
 with a slope); else 0. The states are those of the run (the model's and the ledger's E_diss,
 E_in).
@@ -27,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from scipy.interpolate import BPoly
+    from scipy.interpolate import PPoly
 
     from .compiled import CompiledModel
 
@@ -42,7 +44,7 @@ class StepInterpolant:
     an array): the quintic Hermite pieces of :func:`step_interpolant`, or the one state of a
     segment of a single point."""
 
-    def __init__(self, t: np.ndarray, poly: BPoly | None, y0: np.ndarray) -> None:
+    def __init__(self, t: np.ndarray, poly: PPoly | None, y0: np.ndarray) -> None:
         self.t_min, self.t_max = float(t[0]), float(t[-1])
         self._poly, self._y0 = poly, y0
 
@@ -61,7 +63,7 @@ def step_interpolant(model: CompiledModel, t: np.ndarray, y: np.ndarray, p: np.n
     len(t)), ``p`` the parameter vector the segment ran with, ``time_dependent``: the
     right-hand side reads t (∂f/∂t by differences)."""
     # imported here: a run without dense output never imports scipy.interpolate
-    from scipy.interpolate import BPoly
+    from scipy.interpolate import PPoly
 
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -71,13 +73,29 @@ def step_interpolant(model: CompiledModel, t: np.ndarray, y: np.ndarray, p: np.n
     if len(t) < 2:
         return StepInterpolant(t, None, y[:, 0].copy())
     rhs, jac = model.functions.rhs, model.functions.jac
-    derivatives = np.empty((len(t), 3, y.shape[0]))
+    f, rate = np.empty_like(y), np.empty_like(y)
     for k, tk in enumerate(t):
         yk = y[:, k]
-        f = rhs(tk, yk, p)
-        rate = jac(tk, yk, p) @ f
+        f[:, k] = rhs(tk, yk, p)
+        rate[:, k] = jac(tk, yk, p) @ f[:, k]
         if time_dependent:
             d = _CBRT_EPS * max(1.0, abs(tk))
-            rate += (rhs(tk + d, yk, p) - rhs(tk - d, yk, p)) / (2.0 * d)
-        derivatives[k, 0], derivatives[k, 1], derivatives[k, 2] = yk, f, rate
-    return StepInterpolant(t, BPoly.from_derivatives(t, derivatives), y[:, 0].copy())
+            rate[:, k] += (rhs(tk + d, yk, p) - rhs(tk - d, yk, p)) / (2.0 * d)
+    return StepInterpolant(t, PPoly(_quintic(t, y, f, rate), t), y[:, 0].copy())
+
+
+def _quintic(t: np.ndarray, y: np.ndarray, f: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """The coefficients (6 x steps x n, highest power first, in s = t − t_k) of the quintic on
+    each step that takes y, f and ``rate`` (ÿ) at both ends: a0 = y0, a1 = f0, a2 = ÿ0 / 2, and
+    with D = y1 − (a0 + a1 h + a2 h²), D′ = f1 − (a1 + 2 a2 h), D″ = ÿ1 − 2 a2:
+    a3 = (20 D − 8 D′ h + D″ h²) / (2 h³), a4 = (−30 D + 14 D′ h − 2 D″ h²) / (2 h⁴),
+    a5 = (12 D − 6 D′ h + D″ h²) / (2 h⁵)."""
+    h = np.diff(t)
+    a0, a1, a2 = y[:, :-1], f[:, :-1], 0.5 * rate[:, :-1]
+    d0 = y[:, 1:] - (a0 + h * (a1 + h * a2))
+    d1 = (f[:, 1:] - (a1 + 2.0 * a2 * h)) * h
+    d2 = (rate[:, 1:] - 2.0 * a2) * h * h
+    a3 = (20.0 * d0 - 8.0 * d1 + d2) / (2.0 * h**3)
+    a4 = (-30.0 * d0 + 14.0 * d1 - 2.0 * d2) / (2.0 * h**4)
+    a5 = (12.0 * d0 - 6.0 * d1 + d2) / (2.0 * h**5)
+    return np.stack([a5, a4, a3, a2, a1, a0]).transpose(0, 2, 1)
