@@ -169,3 +169,14 @@ def test_repeated_times_and_a_single_point(msd):
     one = step_interpolant(msd, t[:1], y[:, :1], p, time_dependent=False)
     np.testing.assert_array_equal(one(0.0), y[:, 0])
     assert one(np.array([0.0, 0.0])).shape == (4, 2)
+
+
+@pytest.mark.numba_loop
+def test_numba_makes_the_c_interpolant(msd):
+    """On the numba back end (its compiled loops: .ci/run's numba pass) the same steps and the
+    same interpolant as on C, to 1e-12."""
+    nb = compile_model(io.load("mass_spring_damper"), backend="numba")
+    grid = np.linspace(0.0, 20.0, 2001)
+    runs = [model.simulate(20.0, params={"k": K, "c": CD}, method="Rodas5P", rtol=1e-9,
+                           atol=1e-12, dense_output=True) for model in (msd, nb)]
+    np.testing.assert_allclose(runs[1].sol(grid), runs[0].sol(grid), rtol=0, atol=1e-12)
