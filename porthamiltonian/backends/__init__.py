@@ -23,6 +23,9 @@ import sys
 import warnings
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
 
 from ..errors import ModelError
 
@@ -34,6 +37,17 @@ def beyond_floats(err: BaseException) -> bool:
     a negative float to a fractional power) stored as a float (``TypeError``)."""
     return (isinstance(err, ArithmeticError) or str(err) == "math domain error"
             or (isinstance(err, TypeError) and "complex" in str(err)))
+
+
+def at_points(fn: Callable, t: Any, xs: Any, p: Any) -> np.ndarray:
+    """``fn(t_i, xs[i], p)`` (a model function of a :class:`Functions`) at every point, stacked
+    (len(t), *shape): in one call where the back end has one (the C back end's ``fn.many``),
+    else a call per point (each row made contiguous, as numba's signature wants)."""
+    many = getattr(fn, "many", None)
+    if many is not None:
+        return np.asarray(many(t, xs, p))
+    rows = np.ascontiguousarray(xs, dtype=float)
+    return np.array([np.asarray(fn(tk, rows[k], p)) for k, tk in enumerate(t)])
 
 
 #: The back ends, in the order ``"auto"`` tries them.
@@ -132,4 +146,4 @@ def quiet(enabled: bool = True) -> Iterator[None]:
 
 
 __all__ = ["BACKENDS", "BACKEND_VARIABLE", "QUIET_VARIABLE", "BackendWarning", "Functions",
-           "beyond_floats", "candidates", "fell_back", "numba_available", "quiet", "report"]
+           "at_points", "beyond_floats", "candidates", "fell_back", "numba_available", "quiet", "report"]

@@ -256,7 +256,21 @@ def loop_source() -> str:
     declarations = "".join(f"PH_HIDDEN void {name}(double t, const double *x, const double *p, "
                            "double *out);\n" for name in LOOP_FUNCTIONS)
     return (_LOOP_HEADER + "PH_HIDDEN extern const int ph_n, ph_ng;\n#define PH_N ph_n\n"
-            "#define PH_NG ph_ng\n" + declarations + LOOP_PRAGMA + c_loops())
+            "#define PH_NG ph_ng\n" + declarations + LOOP_PRAGMA + c_loops() + _MANY)
+
+
+#: ``ph_many``: a function of the model's library ``fn(t, x, p, out)`` at k points in one call
+#: (the points' times t, states x row by row, nx each; their results into out, nout each): a
+#: trajectory's outputs or energy, a dense output's rates, without a call from Python per point
+_MANY = """
+PH_EXPORT void ph_many(void (*fn)(double, const double *, const double *, double *), int64_t k,
+                       const double *t, const double *x, int64_t nx, const double *p,
+                       double *out, int64_t nout)
+{
+    for (int64_t i = 0; i < k; ++i)
+        fn(t[i], x + i * nx, p, out + i * nout);
+}
+"""
 
 
 def write_source(path: Path, data: str | bytes) -> None:
@@ -574,8 +588,10 @@ def load(path: Path, shapes: dict[str, tuple[int, ...]], n_params: int,
                 sum(1 for name in shapes if name.startswith("matrix_")))
     lib = _opened(path, key, expected, len(expected))
 
+    many = _many(lib)
+
     def function(name: str) -> Callable:
-        return _function(getattr(lib, f"ph_{name}"), name, shapes[name], n, n_params)
+        return _function(getattr(lib, f"ph_{name}"), name, shapes[name], n, n_params, many)
 
     initial_fn = lib.ph_initial
     initial_fn.restype = None
@@ -632,9 +648,25 @@ def _opened(path: Path, key: str | None, expected: tuple[int, ...], compared: in
     return lib
 
 
-def _function(fn: Any, name: str, shape: tuple[int, ...], n: int, n_params: int) -> Callable:
+def _many(lib: ctypes.CDLL) -> Any:
+    """The library's ``ph_many`` (the loops' object's, :data:`_MANY`), or None for a library
+    linked before it was there."""
+    try:
+        many = lib.ph_many
+    except AttributeError:
+        return None
+    many.restype = None
+    many.argtypes = (ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p,
+                     ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64)
+    return many
+
+
+def _function(fn: Any, name: str, shape: tuple[int, ...], n: int, n_params: int,
+              many: Any = None) -> Callable:
     """The Python face of a generated function ``fn(t, x, p, out)``: ``call(t, x, p)`` returns
-    a new array of ``shape``.
+    a new array of ``shape``; with the library's ``ph_many`` (:func:`_many`), also
+    ``call.many(t, X, p)``: the function at the times ``t`` and the states ``X`` (one row each,
+    exactly n values) in one call, an array (len(t), *shape).
 
     A call's cost is mostly Python's (8 µs per right-hand side of a 2-state model when every
     call asked numpy for its arrays' addresses and ctypes released the GIL around a function
@@ -676,6 +708,22 @@ def _function(fn: Any, name: str, shape: tuple[int, ...], n: int, n_params: int)
         return result
 
     call.__name__ = name
+    if many is not None:
+        size = int(np.prod(shape))
+
+        def batch(t: Any, xs: Any, p: Any) -> np.ndarray:
+            ts = np.ascontiguousarray(t, dtype=float)
+            rows = np.ascontiguousarray(xs, dtype=float)
+            if ts.ndim != 1 or rows.shape != (len(ts), n):
+                raise OptionError(f"{name}.many: {len(ts)} times and a ({len(ts)}, {n}) array "
+                                  f"of states, got shapes {ts.shape} and {rows.shape}")
+            pv = _vector(p, n_params, "p")
+            result = np.empty((len(ts), *shape))
+            many(address, len(ts), _pointer(ts), _pointer(rows), n, _pointer(pv),
+                 _pointer(result), size)
+            return result
+
+        call.many = batch               # type: ignore[attr-defined]
     return call
 
 

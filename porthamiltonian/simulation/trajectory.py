@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..backends import at_points
 from ..errors import OptionError
 
 if TYPE_CHECKING:
@@ -192,6 +193,13 @@ class Trajectory:
             total = sum(len(s.t) for s in self.segments)
             for s in self.segments:
                 pn = self.model.native_params(s.p)
+                if s.inputs is None and len(s.t):        # the parameters fixed: one batch
+                    rows = at_points(fn, s.t, s.y.T, pn)
+                    if out is None:
+                        out = np.empty((total, *rows.shape[1:]), dtype=rows.dtype)
+                    out[i:i + len(s.t)] = rows
+                    i += len(s.t)
+                    continue
                 for k in range(len(s.t)):
                     if s.inputs is not None:
                         pn = self.model.native_params(s.inputs(s.t[k], s.y[:n, k], s.p))

@@ -67,6 +67,32 @@ def test_python_and_c_agree_on_every_shipped_model(name, compile_named, energy_c
         _agree(_all_functions(py, t, x, p), _all_functions(c, t, x, p), name)
 
 
+@pytest.mark.parametrize("name", ["compass_walker", "whipple_bicycle", "bouncing_ball"])
+def test_a_batch_call_is_the_calls_point_by_point(name, energy_check):
+    """The C back end's ``fn.many`` (one call for many points: a trajectory's outputs and
+    energy, a dense output's rates) gives each point's result bit for bit; and
+    ``backends.at_points`` on the python back end (a call per point) the same to 1e-12. A
+    batch of states of the wrong width is refused, naming the shapes."""
+    _ = energy_check.run
+    c = compile_model(io.load(name), backend="c")
+    rng = np.random.default_rng(sum(map(ord, name)) + 1)
+    points = [_random_point(c, rng) for _ in range(5)]
+    ts = np.array([t for t, _, _ in points])
+    xs = np.array([x for _, x, _ in points])
+    pn = c.native_params(points[0][2])
+    py = compile_model(io.load(name), backend="python")
+    for fname in ("rhs", "jac", "energy", "outputs", "guards"):
+        fn = getattr(c.functions, fname)
+        single = np.array([fn(t, x, pn) for t, x in zip(ts, xs)])
+        assert np.array_equal(fn.many(ts, xs, pn), single), fname
+        assert np.array_equal(ph.backends.at_points(fn, ts, xs, pn), single), fname
+        reference = ph.backends.at_points(getattr(py.functions, fname), ts, xs,
+                                          py.native_params(points[0][2]))
+        _agree({fname: single}, {fname: reference}, name)
+    with pytest.raises(ph.errors.OptionError, match=r"rhs.many: 5 times .*\(5, 3\)"):
+        c.functions.rhs.many(ts, xs[:, :3], pn)
+
+
 @pytest.mark.numba_loop
 @pytest.mark.parametrize("name", ["double_pendulum", "free_rigid_body", "bouncing_ball"])
 def test_numba_agrees_with_python_and_c(name, compile_named):
