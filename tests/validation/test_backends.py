@@ -68,7 +68,7 @@ def test_python_and_c_agree_on_every_shipped_model(name, compile_named, energy_c
 
 
 @pytest.mark.parametrize("name", ["compass_walker", "whipple_bicycle", "bouncing_ball"])
-def test_a_batch_call_is_the_calls_point_by_point(name, energy_check):
+def test_a_batch_call_is_the_calls_point_by_point(name, compile_named, energy_check):
     """The C back end's ``fn.many`` (one call for many points: a trajectory's outputs and
     energy, a dense output's rates) gives each point's result bit for bit; and
     ``backends.at_points`` on the python back end (a call per point) the same to 1e-12. A
@@ -80,7 +80,7 @@ def test_a_batch_call_is_the_calls_point_by_point(name, energy_check):
     ts = np.array([t for t, _, _ in points])
     xs = np.array([x for _, x, _ in points])
     pn = c.native_params(points[0][2])
-    py = compile_model(io.load(name), backend="python")
+    py = compile_named(name)
     for fname in ("rhs", "jac", "energy", "outputs", "guards"):
         fn = getattr(c.functions, fname)
         single = np.array([fn(t, x, pn) for t, x in zip(ts, xs)])

@@ -140,11 +140,11 @@ def test_segments_between_bounces_follow_the_parabolas(ball, method):
         np.testing.assert_allclose(traj.sol(inside)[h], radau.sol(inside)[h], rtol=0, atol=1e-9)
 
 
-def test_back_ends_and_t_eval(msd):
+def test_back_ends_and_t_eval(msd, compile_named):
     """The python back end's loop takes the C loop's steps: their interpolants agree to 1e-12.
     With ``t_eval`` the trajectory keeps those times and the interpolant is still made from
     every step (as accurate as without)."""
-    py = compile_model(io.load("mass_spring_damper"), backend="python")
+    py = compile_named("mass_spring_damper")
     grid = np.linspace(0.0, 20.0, 2001)
     runs = [model.simulate(20.0, params={"k": K, "c": CD}, method="Rodas5P", rtol=1e-9,
                            atol=1e-12, dense_output=True) for model in (msd, py)]
