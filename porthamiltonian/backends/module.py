@@ -5,11 +5,16 @@
 ``numba``   the model's functions of the same source compiled by ``numba.njit(cache=True)`` at
             their first call (numba keeps the machine code beside the module); the integration
             loops are compiled once for all models (:mod:`.numba_loops`).
+
+Both run the integration loops of :func:`porthamiltonian.integrators.python_loops`, made once
+per process for every model (python: :func:`python_loop_module`; numba: :mod:`.numba_loops`)
+and bound to each model's functions, which they take as their first argument.
 """
 from __future__ import annotations
 
 import functools
 import importlib.util
+import linecache
 import math
 import sys
 import types
@@ -38,13 +43,12 @@ JAC_P_STUB = ('@_jit\ndef jac_p(t, x, p):\n    """No parameter Jacobian generate
 
 
 def module_text(body: str, backend: str) -> str:
-    """The module of ``backend``: its header, the generated body (and :data:`JAC_P_STUB` when it
-    has no ``jac_p``) and, for the python back end, the integration loops (bound to the body's
-    functions by :func:`load`; the numba back end's are a module of their own,
+    """The module of ``backend``: its header and the generated body (and :data:`JAC_P_STUB` when
+    it has no ``jac_p``). The integration loops are a module of their own, bound to the body's
+    functions by :func:`load` (python: :func:`python_loop_module`; numba:
     :func:`.numba_loops.loops_text`)."""
     stub = "" if "def jac_p(" in body else JAC_P_STUB
-    loops = python_loops() if backend == "python" else ""
-    return addon_text(body, backend) + "\n\n" + stub + "\n\n" + loops
+    return addon_text(body, backend) + "\n\n" + stub
 
 
 def addon_text(body: str, backend: str) -> str:
@@ -60,13 +64,36 @@ def addon_text(body: str, backend: str) -> str:
 
 def shown_text(body: str, backend: str) -> str:
     """What ``backend`` (python, numba) runs for the model of ``body``: its module
-    (:func:`module_text`), and for numba the loop module of all models after it
-    (``show --code``)."""
-    text = module_text(body, backend)
-    if backend == "numba":
-        text += ("\n\n# --- the integration loops: one module, compiled once for all models "
-                 "(porthamiltonian.backends.numba_loops) ---\n" + numba_loops.loops_text())
-    return text
+    (:func:`module_text`) and the loop module of all models after it (``show --code``)."""
+    loops = (numba_loops.loops_text() if backend == "numba"
+             else _PYTHON_LOOPS_HEADER + python_loops())
+    where = ("porthamiltonian.backends.numba_loops" if backend == "numba"
+             else "porthamiltonian.backends.module.python_loop_module")
+    return (module_text(body, backend) + "\n\n# --- the integration loops: one module, made "
+            f"once for all models ({where}) ---\n" + loops)
+
+
+_PYTHON_LOOPS_HEADER = ('"""The python back end\'s integration loops: one module for every model, '
+                        'bound to its functions."""\n' + _HEADERS["python"] + "\n\n")
+#: the file name of :func:`python_loop_module`'s code (in tracebacks, with its lines)
+_PYTHON_LOOPS_FILE = "<porthamiltonian python loops>"
+
+
+@functools.cache
+def python_loop_module() -> types.ModuleType:
+    """The python back end's integration loops (:func:`porthamiltonian.integrators.
+    python_loops`), compiled once per process: :func:`load` binds their entry points to each
+    model's functions (the loops' first argument ``fn``), as the numba back end binds its
+    loop module's. (Appended to every model's module instead, they were compiled again for
+    every model: 13 ms of a 20 ms load of compass_walker's module.) Tracebacks show its
+    lines."""
+    text = _PYTHON_LOOPS_HEADER + python_loops()
+    linecache.cache[_PYTHON_LOOPS_FILE] = (len(text), None, text.splitlines(True),
+                                           _PYTHON_LOOPS_FILE)
+    module = types.ModuleType("_porthamiltonian_python_loops")
+    module.__file__ = _PYTHON_LOOPS_FILE
+    exec(compile(text, _PYTHON_LOOPS_FILE, "exec"), module.__dict__)  # noqa: S102 - our code
+    return module
 
 
 def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (), *,
@@ -85,11 +112,12 @@ def load(path: Path, backend: str, n_matrices: int = 0, extra: Sequence[str] = (
     matrices = [getattr(module, f"matrix_{k}") for k in range(n_matrices)]
     called = tuple(getattr(module, name) for name in numba_loops.LOOP_FUNCTIONS)  # by the loops
     if backend == "python":
+        shared = python_loop_module()
         bound: Mapping[str, Callable[..., Any]] = {
-            name: functools.partial(getattr(module, f"integrate_{symbol}"), called)
+            name: functools.partial(getattr(shared, f"integrate_{symbol}"), called)
             for name, symbol in LOOPS.items()}
         variational: Mapping[str, Callable[..., Any]] = {
-            name: functools.partial(getattr(module, f"integrate_{symbol}_variational"), called)
+            name: functools.partial(getattr(shared, f"integrate_{symbol}_variational"), called)
             for name, symbol in LOOPS.items()}
         rhs, jac, energy, outputs, guards = (_on_lists(f[n]) for n in _NAMES[:5])
         return Functions("python", rhs, jac, energy, outputs, guards, f["initial"],

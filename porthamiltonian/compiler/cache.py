@@ -285,7 +285,8 @@ _IMPORT = re.compile(r"^\s*from\s+(\.+)([\w.]*)\s+import\s+([\w, ()]+)", re.MULT
 @functools.cache
 def _sources_hash(modules: frozenset[str]) -> str:
     """sha256 over the sources of ``modules`` (dotted names; those outside the package by name
-    and, where found, source), the core modules, and every package module they import."""
+    and, where found, source), the core modules, and every package module they import (the
+    package's files read once per process: :func:`_package_file`)."""
     files: set[Path] = set()
     outside: list[str] = []
     todo = [_PACKAGE / name for name in _CORE]
@@ -295,33 +296,46 @@ def _sources_hash(modules: frozenset[str]) -> str:
         else:
             outside.append(_outside_source(module))
     while todo:
-        base = todo.pop()
-        candidates = (sorted([*base.rglob("*.py"), *base.rglob("*.c")]) if base.is_dir()
-                      else [base.with_suffix(".py")])
-        for path in candidates:
-            if path in files or not path.is_file():
-                continue
-            files.add(path)
-            for dots, name, names in (_IMPORT.findall(path.read_text())
-                                      if path.suffix == ".py" else ()):
-                root = path.parent
-                for _ in range(len(dots) - 1):
-                    root = root.parent
-                target = root.joinpath(*name.split(".")) if name else root
-                # ``from .x import y``: module x; for a package x, its __init__ (which imports
-                # what it gathers) and the named submodules, not the whole package
-                if target.is_dir():
-                    todo.append(target / "__init__")
-                    todo += [target / n.split(" as ")[0].strip()
-                             for n in names.strip("()").split(",") if n.strip()]
-                else:
-                    todo.append(target)
+        for path in _candidates(todo.pop()):
+            if path not in files:
+                files.add(path)
+                todo += _package_file(path)[1]
     digest = hashlib.sha256()
     for path in sorted(files):
-        digest.update(str(path.relative_to(_PACKAGE)).encode() + b"\0" + path.read_bytes())
+        digest.update(str(path.relative_to(_PACKAGE)).encode() + b"\0" + _package_file(path)[0])
     for text in sorted(outside):
         digest.update(text.encode())
     return digest.hexdigest()
+
+
+@functools.cache
+def _candidates(base: Path) -> tuple[Path, ...]:
+    """The package's files that ``base`` names: every .py and .c file under a folder, else the
+    module ``base``.py when it exists."""
+    found = (sorted([*base.rglob("*.py"), *base.rglob("*.c")]) if base.is_dir()
+             else [base.with_suffix(".py")])
+    return tuple(path for path in found if path.is_file())
+
+
+@functools.cache
+def _package_file(path: Path) -> tuple[bytes, tuple[Path, ...]]:
+    """A package file's bytes and the package modules its relative imports name: ``from .x
+    import y``: module x; for a package x, its __init__ (which imports what it gathers) and
+    the named submodules, not the whole package."""
+    data = path.read_bytes()
+    targets: list[Path] = []
+    for dots, name, names in (_IMPORT.findall(data.decode()) if path.suffix == ".py" else ()):
+        root = path.parent
+        for _ in range(len(dots) - 1):
+            root = root.parent
+        target = root.joinpath(*name.split(".")) if name else root
+        if target.is_dir():
+            targets.append(target / "__init__")
+            targets += [target / n.split(" as ")[0].strip()
+                        for n in names.strip("()").split(",") if n.strip()]
+        else:
+            targets.append(target)
+    return data, tuple(targets)
 
 
 def _outside_source(module: str) -> str:

@@ -11,8 +11,9 @@ checks before a step, the end of an accepted step: events, Φ, the stored point)
 appends the C templates and each method's entry point to every model's translation unit, where
 the loops call the model's ``rhs``, ``jac`` and ``guards`` directly. The Python templates take
 the model's functions as their first argument ``fn = (rhs, jac, guards, jac_p)``: the python
-back end appends them to every generated module and binds ``fn`` to the module's functions (the
-same algorithm run as a reference); the numba back end compiles them once, in a module of their
+back end compiles them once per process, in a module of their own, and binds ``fn`` to each
+model's functions (the same algorithm run as a reference:
+:func:`porthamiltonian.backends.module.python_loop_module`); the numba back end compiles them once, in a module of their
 own, for ``fn`` typed as first-class functions, and every model's loops call that one compiled
 code (:mod:`porthamiltonian.backends.numba_loops`). Under numba and C the whole step loop is
 machine code.

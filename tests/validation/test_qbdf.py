@@ -18,7 +18,6 @@ reuse rules).
 """
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import math
 import sys
@@ -30,7 +29,7 @@ from scipy.linalg import expm
 
 import porthamiltonian as ph
 from porthamiltonian import compile_model, io
-from porthamiltonian.backends.module import module_text
+from porthamiltonian.backends.module import python_loop_module
 from porthamiltonian.simulation.simulate import auto_method
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "unit"))
@@ -40,15 +39,10 @@ from test_sensitivity import _bounce, _linear
 
 
 @pytest.fixture(scope="module")
-def template(tmp_path_factory) -> dict:
-    """The loop templates as the python back end's module holds them, without a model (the
-    helpers tested here call no rhs, jac or guards)."""
-    path = tmp_path_factory.mktemp("loops") / "loops_only.py"
-    path.write_text(module_text("", "python"))
-    spec = importlib.util.spec_from_file_location("_qbdf_loops_only", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return vars(module)
+def template() -> dict:
+    """The loop templates: the python back end's loop module (the helpers tested here call no
+    rhs, jac or guards)."""
+    return vars(python_loop_module())
 
 
 def _differences(values: np.ndarray, order: int) -> np.ndarray:

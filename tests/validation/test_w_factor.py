@@ -4,7 +4,6 @@ its C twin): W = I/(hγ) − J factored by blocks when the ledger quadratures' c
 against numpy.linalg.solve on random matrices, in Python and in C (the template compiled with a
 small driver by the machine's C compiler)."""
 import ctypes
-import importlib.util
 
 import numpy as np
 import pytest
@@ -31,14 +30,9 @@ def _expected(J, B):
 
 
 @pytest.fixture(scope="module")
-def python_loop(tmp_path_factory):
-    """The Python template's functions, imported like the python back end's module."""
-    path = tmp_path_factory.mktemp("wfactor") / "wfactor_loops.py"
-    path.write_text(module.module_text("", "python"))
-    spec = importlib.util.spec_from_file_location("_wfactor_loops", path)
-    loops = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(loops)
-    return vars(loops)
+def python_loop():
+    """The Python template's functions: the python back end's loop module."""
+    return vars(module.python_loop_module())
 
 
 @pytest.mark.parametrize("which, block", [(0, N_MODEL), (1, N)])
