@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from model_cover import every_model
 
 from porthamiltonian import compile_model, io, symbolic
 from porthamiltonian.errors import ModelFileError
@@ -17,7 +18,7 @@ def _line_of(text: str, needle: str) -> int:
     return next(i for i, line in enumerate(text.splitlines(), 1) if needle in line)
 
 
-@pytest.mark.parametrize("name", io.available_models())
+@pytest.mark.parametrize("name", every_model())   # the rest: breadth
 def test_model_file_round_trips_text_and_equations(name):
     """dumps(load(name)) loaded again dumps to the same text and compiles to the same state
     equations, Hamiltonian, dissipated and supplied power."""
