@@ -19,10 +19,7 @@
   the studies' code paths are checked piecewise in the README's command). And the walker tests
   marked ``breadth``: the same check repeated on a variant whose code path the README's command
   already checks on a sibling (a parameter or mass variant's Floquet multipliers, the next flip
-  of a cascade): run by that pass only. So are the checks made on every shipped model (the pH
-  form, the power balance, the file's round trip) on the models beyond a set that together
-  holds every feature of the shipped files (tests/model_cover.py: 17 of 41): marked
-  ``breadth`` too, run by that pass (on the back end each test names).
+  of a cascade): run by that pass only.
 * Under pytest-xdist (the README's ``-n auto``) each test file stays on one worker (the files
   sharing a costly session fixture on the same one) and the workers share one compiled-model
   cache (see the hooks below).
@@ -72,9 +69,8 @@ def pytest_configure(config: pytest.Config) -> None:
                                        "--numba-pass, deselected otherwise)")
     config.addinivalue_line("markers", "study: a walker reproduction study with pinned numbers "
                                        "(run by --numba-pass, deselected otherwise)")
-    config.addinivalue_line("markers", "breadth: a check repeated on a variant (a walker's, a "
-                                       "shipped model beyond tests/model_cover.py's set) whose "
-                                       "code path a sibling test checks (run by --numba-pass, "
+    config.addinivalue_line("markers", "breadth: a walker check repeated on a variant whose code "
+                                       "path a sibling test checks (run by --numba-pass, "
                                        "deselected otherwise)")
 
 
@@ -98,8 +94,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         walker = item.nodeid.startswith("tests/walkers/")
         marked = item.get_closest_marker("numba_loop") is not None
-        study = any(item.get_closest_marker(m) is not None for m in ("study", "breadth"))
-        selected = (walker or marked or study) if numba_pass else not (marked or study)
+        study = walker and any(item.get_closest_marker(m) is not None
+                               for m in ("study", "breadth"))
+        selected = (walker or marked) if numba_pass else not (marked or study)
         (keep if selected else drop).append(item)
     if drop:
         config.hook.pytest_deselected(items=drop)

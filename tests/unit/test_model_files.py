@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from model_cover import every_model
 
 from porthamiltonian import compile_model, io, symbolic
 from porthamiltonian.errors import ModelFileError
@@ -18,7 +17,7 @@ def _line_of(text: str, needle: str) -> int:
     return next(i for i, line in enumerate(text.splitlines(), 1) if needle in line)
 
 
-@pytest.mark.parametrize("name", every_model())   # the rest: breadth
+@pytest.mark.parametrize("name", io.available_models())
 def test_model_file_round_trips_text_and_equations(name):
     """dumps(load(name)) loaded again dumps to the same text and compiles to the same state
     equations, Hamiltonian, dissipated and supplied power."""

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from model_cover import every_model
 
 from porthamiltonian import Model, OneJunction, R, Se, compile_model, io, symbolic
 from porthamiltonian.errors import PassivityError
@@ -39,7 +38,7 @@ def _states(model, count: int = 5) -> list[np.ndarray]:
     return out
 
 
-@pytest.mark.parametrize("name", every_model())   # the rest: breadth
+@pytest.mark.parametrize("name", io.available_models())
 def test_ph_form_reproduces_the_right_hand_side(name):
     model = compile_model(io.load(name), backend="python", ph=True)
     for x in _states(model):

@@ -24,7 +24,6 @@ import sys
 import numpy as np
 import pytest
 import sympy as sp
-from model_cover import every_model
 from scipy.integrate import quad
 
 import porthamiltonian
@@ -264,7 +263,7 @@ def test_modulated_spring_symbolic_supply_is_half_Kdot_q_squared():
 # --------------------------------------------------------------------------------------------
 # Power balance of every shipped model
 # --------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("name", every_model())   # the rest: breadth
+@pytest.mark.parametrize("name", io.available_models())
 def test_power_balance_vanishes_at_random_points(name):
     """dH/dt − P_in + P_diss ≡ 0 along the state equations [Karnopp ch. 4 / the pH form
     dH/dt = −∂Hᵀ R ∂H + yᵀu]; evaluated at 20 random states, parameters and times it is below
