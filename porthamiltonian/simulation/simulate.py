@@ -122,10 +122,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
     method : ``"auto"`` (default: Radau when Python events or callable inputs are asked for,
-        or ``t_eval`` (without ``sensitivity``) on the python back end, whose compiled loop is
-        Python (on C and numba the compiled loop is 2-27x faster than Radau with ``t_eval``:
-        the mass-spring-damper, the modulated spring, the double pendulum and the bouncing ball
-        at 501 times, C back end), else :func:`auto_method`: QBDF for
+        else :func:`auto_method`: QBDF for
         a multibody of two or more coordinates, Rodas5P otherwise; where QBDF stalls (step
         size too small: a jump of the force inside a step, e.g. a Kelvin-Voigt contact at
         touchdown with a tight atol) the run is made again with Rodas5P from the start, and the message says so; ``progress`` then sees the time
@@ -135,8 +132,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
         below: compare them at equal accuracy, benchmarks/RESULTS.md) — whose whole step loop
         is compiled with the model (the fast path with the C or numba back end; model events
-        only; ``t_eval``: the steps end exactly on its times; dense output: see
-        ``dense_output``), or a scipy method: Radau, BDF, LSODA (stiff, given the analytic
+        only; ``t_eval`` and dense output: see those), or a scipy method: Radau, BDF, LSODA (stiff, given the analytic
         Jacobian unless ``jacobian=False``), RK45, DOP853.
     max_step, first_step : bounds on the step size (s); ``first_step`` for the scipy methods.
     jacobian : give the stiff scipy methods the analytic Jacobian.
@@ -144,8 +140,9 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
         recorded; if it is terminal, the simulation stops there.
     events : extra Python-level events.
     t_eval : times at which to store the solution (default: every accepted step); a compiled
-        loop stops exactly on each (a breakpoint), so that the values (and sensitivities) there
-        are the integration's own, not interpolated.
+        method gives its steps' interpolant there (as ``dense_output``: 1 to 2.3 times the
+        steps' own error), except with ``sensitivity``, where its loop stops exactly on each time
+        (a breakpoint), so that Φ there is the integration's own.
     dense_output : keep the interpolants, for :meth:`Trajectory.sol` (costs time): a scipy
         method's own; a compiled method's made after the run from its steps, by quintic
         Hermite interpolation with the model's exact rates and their time derivatives
@@ -188,9 +185,7 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
                           f"{type(progress).__name__}")
     requested = check_method(method)
     if method == "auto":
-        evaluated = (t_eval is not None and checked["sensitivity"] is None
-                     and model.backend == "python")
-        method = "Radau" if (events or evaluated or calls) else auto_method(model)
+        method = "Radau" if (events or calls) else auto_method(model)
     p = model.params(params)
     if plan is not None:
         p = plan.slots(p, t_start)
@@ -272,7 +267,7 @@ def _parameter_seeds(model: CompiledModel, seeds: Seeds, p: np.ndarray, x0: Any)
 
 def auto_method(model: CompiledModel) -> str:
     """The compiled method ``method="auto"`` runs ``model`` with (no Python events or callable
-    inputs, and no ``t_eval`` on the python back end): QBDF for a model with a multibody of two or more coordinates (a named
+    inputs): QBDF for a model with a multibody of two or more coordinates (a named
     mass matrix ``<component>.M`` and states ``<component>.q.*``: its Jacobian, the chain rule
     through the mass-matrix solve, costs several right-hand sides, which QBDF evaluates once in
     tens of steps), else Rodas5P. Measured at equal accuracy (benchmarks/RESULTS.md, "Jacobian
@@ -407,7 +402,10 @@ class Simulator:
                 self.columns = ParameterColumns(model, seeds.parameters, columns.shape[1])
             self.phi = np.vstack([columns, np.zeros((2, columns.shape[1]))])
         h0 = self.h0 = float(model.energy(t_start, y, p)[0])
-        stops = settings.t_eval if settings.method in _COMPILED else None
+        # a compiled run with sensitivities stops on t_eval's times (Φ there is the loop's own);
+        # without, it samples its steps' interpolant there (_compiled_segment)
+        stops = (settings.t_eval if settings.method in _COMPILED and seeds is not None
+                 else None)
         breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p, stops)
         if breaks:
             self._break(breaks, t_start)            # the first samples (k = 0) at the start
@@ -823,15 +821,21 @@ class Simulator:
         self.h_next = h
         t_all, y_all = np.concatenate(ts), np.concatenate(ys)
         phi_all = np.concatenate(phis) if sensitive else None
+        sampled = settings.t_eval is not None and not sensitive
         sol = (step_interpolant(model, t_all, y_all.T, p, tgrad > 0.0)
-               if settings.dense_output else None)      # from every step, before t_eval's cut
-        if settings.t_eval is not None:     # the points asked for (the loop stopped on them)
+               if settings.dense_output or sampled else None)   # from every step
+        if settings.t_eval is not None:     # the points asked for in [t0, t] (t0: the first's)
             te = settings.t_eval
-            keep = np.isin(t_all, te[np.searchsorted(te, t0):np.searchsorted(te, t, "right")])
-            keep[0] &= not self._segments
-            t_all, y_all = t_all[keep], y_all[keep]
-            phi_all = phi_all[keep] if phi_all is not None else None
-        self._segments.append(Segment(t_all, y_all.T, p.copy(), sol, phi_all))
+            asked = te[np.searchsorted(te, t0, "right" if self._segments else "left"):
+                       np.searchsorted(te, t, "right")]
+            if sampled and sol is not None:     # the steps' interpolant at them
+                t_all, y_all = asked.copy(), sol(asked).T
+            else:                               # the loop stopped on them (sensitivities)
+                keep = np.isin(t_all, asked)
+                t_all, y_all = t_all[keep], y_all[keep]
+                phi_all = phi_all[keep] if phi_all is not None else None
+        self._segments.append(Segment(t_all, y_all.T, p.copy(),
+                                      sol if settings.dense_output else None, phi_all))
         self.t, self.y = float(t), y.copy()
         status = _LOOP_STATUS.get(int(code), Status.FAILED)
         self.stalled = int(code) == 2

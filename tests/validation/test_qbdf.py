@@ -241,30 +241,39 @@ def test_auto_picks_qbdf_for_multibodies_of_two_or_more_coordinates():
     assert np.array_equal(a.y, b.y)
 
 
-def test_auto_with_t_eval_runs_the_compiled_loop_on_c_and_radau_on_python(compile_named):
-    """method="auto" with t_eval: the compiled method of auto_method on the C back end (its
-    loop stops on each time: bit for bit the named method's run), scipy's Radau on the python
-    back end (whose compiled loop is Python); both at the asked times, and within rtol-scale
-    of each other and of the closed form x0 e^(-zeta wn t)(cos wd t + zeta/sqrt(1-zeta^2) sin
-    wd t) of the mass-spring-damper (m 1, k 4, c 0.4, x0 0.1: Ogata, Modern Control
-    Engineering, 5-3)."""
+def test_auto_with_t_eval_samples_the_compiled_method_on_every_back_end(compile_named):
+    """method="auto" with t_eval: the compiled method of auto_method (before: scipy's Radau)
+    on the C and the python back end, bit for bit the named method's run, at the asked times;
+    the steps' interpolant there is within 1e-9 m of the closed form x0 e^(-zeta wn t)(cos wd t
+    + zeta/sqrt(1-zeta^2) sin wd t) of the mass-spring-damper (m 1, k 4, c 0.4, x0 0.1: Ogata,
+    Modern Control Engineering, 5-3; measured 2e-11 at rtol 1e-9), as are the steps' own
+    values (the run without t_eval) and Radau's; with sensitivities the loop stops on the
+    times instead, and the states there are the same run's to 1e-9 m."""
     c = compile_model(io.load("mass_spring_damper"), backend="c")
     py = compile_named("mass_spring_damper")
-    t_eval = np.linspace(0.0, 5.0, 51)
+    t_eval = np.linspace(0.0, 5.0, 501)
     tol = {"rtol": 1e-9, "atol": 1e-12}
-    auto_c, auto_py = (model.simulate(5.0, t_eval=t_eval, **tol) for model in (c, py))
-    named_c = c.simulate(5.0, t_eval=t_eval, method=auto_method(c), **tol)
-    radau_py = py.simulate(5.0, t_eval=t_eval, method="Radau", **tol)
-    assert np.array_equal(auto_c.t, t_eval) and np.array_equal(auto_py.t, t_eval)
-    assert np.array_equal(auto_c.y, named_c.y)
-    assert np.array_equal(auto_py.y, radau_py.y)
     wn, zeta = 2.0, 0.4 / (2 * 2.0)
     wd = wn * math.sqrt(1 - zeta**2)
-    exact = 0.1 * np.exp(-zeta * wn * t_eval) * (np.cos(wd * t_eval) + zeta / math.sqrt(
-        1 - zeta**2) * np.sin(wd * t_eval))
+
+    def exact(t):
+        return 0.1 * np.exp(-zeta * wn * t) * (np.cos(wd * t) + zeta / math.sqrt(1 - zeta**2)
+                                               * np.sin(wd * t))
     q = c.state_index("spring.q")
-    for run in (auto_c, auto_py):
-        assert np.max(np.abs(run.y[q] - exact)) < 1e-8 * 0.1
+    for model in (c, py):
+        assert auto_method(model) == "Rodas5P"
+        auto = model.simulate(5.0, t_eval=t_eval, **tol)
+        named = model.simulate(5.0, t_eval=t_eval, method="Rodas5P", **tol)
+        steps = model.simulate(5.0, method="Rodas5P", **tol)
+        radau = model.simulate(5.0, t_eval=t_eval, method="Radau", **tol)
+        stopped = model.simulate(5.0, t_eval=t_eval, method="Rodas5P", sensitivity=True, **tol)
+        assert np.array_equal(auto.t, t_eval) and np.array_equal(auto.y, named.y)
+        assert np.array_equal(stopped.t, t_eval)
+        assert len(steps.t) < len(t_eval)          # the interpolant bridges long steps
+        for run in (auto, radau, stopped):
+            assert np.max(np.abs(run.y[q] - exact(t_eval))) < 1e-9, run
+        assert np.max(np.abs(steps.y[q] - exact(steps.t))) < 1e-9
+        assert np.max(np.abs(auto.y[q] - stopped.y[q])) < 1e-9
 
 
 def test_auto_runs_rodas5p_again_where_qbdf_stalls_on_a_jump_of_the_force():

@@ -369,8 +369,8 @@ def test_cold_and_warm_compile_give_bit_identical_trajectories(tmp_path, monkeyp
 
 def test_python_and_numba_backends_agree(compile_named):
     """The numba back end runs the same generated source as the python reference: trajectories
-    of the same method (Radau: "auto" with t_eval picks it on python, the compiled loop on
-    numba) agree to 1e-12 relative (on the same output times)."""
+    of scipy's Radau on each back end's functions agree to 1e-12 relative (on the same output
+    times)."""
     model = io.load("dc_motor")
     py = compile_named("dc_motor")
     nb = compile_model(model, backend="numba")
