@@ -1,5 +1,6 @@
 """Breakpoints of a run: input samples, the sampling instants of discrete-time blocks, and the
-times a compiled loop stores its solution at (``simulate(..., t_eval=...)``).
+times a compiled loop with sensitivities stores its solution at (``simulate(..., t_eval=...,
+sensitivity=...)``; without sensitivities a compiled run samples its steps' interpolant there).
 
 The simulator integrates from one breakpoint to the next, the compiled loop (or scipy's solver)
 stopping exactly on it (its ``t_end``), then acts and goes on:
