@@ -20,10 +20,16 @@ rounds; the evaluation on the grid is timed apart):
 
 Ratio: the baseline's time over the variant's (> 1: faster than the baseline).
 
+With ``--t-eval N`` the variants store the solution at N equally spaced times instead
+(``simulate(..., t_eval=...)`` with method "auto": the compiled method's interpolant at the
+times; Radau through the library; the baseline ``solve_ivp(..., t_eval=...)``), and the error is
+taken at those times.
+
 Run::
 
     python benchmarks/bench_dense_output.py                  # rtol 1e-6 and 1e-9, 7 rounds
     python benchmarks/bench_dense_output.py --rounds 3 --rtols 1e-9
+    python benchmarks/bench_dense_output.py --t-eval 601     # the values at 601 times
 """
 from __future__ import annotations
 
@@ -56,40 +62,48 @@ def closed_form(t: np.ndarray) -> np.ndarray:
                                           * np.sin(wd * t))
 
 
-def hand_written(rtol: float):
-    """The baseline: states (p, q), ṗ = −k q − c p / m, q̇ = p / m, with its Jacobian."""
+def hand_written(rtol: float, t_eval: np.ndarray | None = None):
+    """The baseline: states (p, q), ṗ = −k q − c p / m, q̇ = p / m, with its Jacobian; its
+    interpolant, or (``t_eval``) its values there."""
     def rhs(t, y):
         return np.array([-K * y[1] - C * y[0] / M, y[0] / M])
 
     jac = np.array([[-C / M, -K], [1.0 / M, 0.0]])
     sol = solve_ivp(rhs, (0.0, T_END), [0.0, X0], method="Radau", rtol=rtol, atol=rtol * 1e-3,
-                    jac=lambda t, y: jac, dense_output=True)
-    return lambda t: sol.sol(t)[1]
+                    jac=lambda t, y: jac, dense_output=t_eval is None, t_eval=t_eval)
+    return sol.y[1] if t_eval is not None else lambda t: sol.sol(t)[1]
 
 
-def ours(model, method: str, rtol: float):
+def ours(model, method: str, rtol: float, t_eval: np.ndarray | None = None):
+    """The library's run: its interpolant, or (``t_eval``) its values there."""
     q = model.state_index("spring.q")
     traj = model.simulate(T_END, params={"k": K, "c": C}, method=method, rtol=rtol,
-                          atol=rtol * 1e-3, dense_output=True)
-    return lambda t: traj.sol(t)[q]
+                          atol=rtol * 1e-3, dense_output=t_eval is None, t_eval=t_eval)
+    return traj.y[q] if t_eval is not None else lambda t: traj.sol(t)[q]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--rtols", default="1e-6,1e-9")
+    ap.add_argument("--t-eval", type=int, default=0,
+                    help="store the solution at this many times instead (0: dense output)")
     args = ap.parse_args()
     print("machine:", machine_info())
     model = compile_model(io.load("mass_spring_damper"), backend="c")
-    grid = np.linspace(0.0, T_END, 60_001)
+    te = np.linspace(0.0, T_END, args.t_eval) if args.t_eval else None
+    grid = te if te is not None else np.linspace(0.0, T_END, 60_001)
     exact = closed_form(grid)
-    print("\n| rtol | variant | CPU [ms] (median) | ratio to baseline | grid evaluation [ms] | "
-          "largest error on the grid |")
+    where = f"the {args.t_eval} times" if te is not None else "the grid"
+    print(f"\n| rtol | variant | CPU [ms] (median) | ratio to baseline | grid evaluation [ms] | "
+          f"largest error on {where} |")
     print("|---|---|---|---|---|---|")
     for rtol in (float(r) for r in args.rtols.split(",")):
-        variants = {"Rodas5P + Hermite": lambda: ours(model, "Rodas5P", rtol),
-                    "Radau (ours)": lambda: ours(model, "Radau", rtol),
-                    "Radau (hand-written)": lambda: hand_written(rtol)}
+        first = "auto (t_eval)" if te is not None else "Rodas5P + Hermite"
+        variants = {first: lambda: ours(model, "auto" if te is not None else "Rodas5P", rtol,
+                                        te),
+                    "Radau (ours)": lambda: ours(model, "Radau", rtol, te),
+                    "Radau (hand-written)": lambda: hand_written(rtol, te)}
         times: dict[str, list[float]] = {k: [] for k in variants}
         keys = list(variants)
         made = {}
@@ -101,7 +115,7 @@ def main() -> None:
         base = statistics.median(times["Radau (hand-written)"])
         for k in keys:
             t0 = time.process_time()
-            values = made[k](grid)
+            values = made[k] if te is not None else made[k](grid)
             evaluation = time.process_time() - t0
             error = float(np.max(np.abs(values - exact)))
             med = statistics.median(times[k])
