@@ -13,9 +13,9 @@ the loops call the model's ``rhs``, ``jac`` and ``guards`` directly. The Python 
 the model's functions as their first argument ``fn = (rhs, jac, guards, jac_p)``: the python
 back end compiles them once per process, in a module of their own, and binds ``fn`` to each
 model's functions (the same algorithm run as a reference:
-:func:`porthamiltonian.backends.module.python_loop_module`); the numba back end compiles them once, in a module of their
-own, for ``fn`` typed as first-class functions, and every model's loops call that one compiled
-code (:mod:`porthamiltonian.backends.numba_loops`). Under numba and C the whole step loop is
+:func:`porthamiltonian.backends.module.python_loop_module`); the numba back end compiles them
+once, in a module of their own, for ``fn`` typed as first-class functions, and every model's
+loops call that one compiled code (:mod:`porthamiltonian.backends.numba_loops`). Under numba and C the whole step loop is
 machine code.
 
 Every entry point takes ``(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal,

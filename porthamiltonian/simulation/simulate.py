@@ -122,18 +122,18 @@ def simulate(model: CompiledModel, t_end: float, x0: np.ndarray | Mapping[str, f
     rtol, atol : tolerances; ``atol`` a scalar or one value per model state (e.g. tiny masses with
         tiny momenta); the ledger states E_diss, E_in get the largest of them.
     method : ``"auto"`` (default: Radau when Python events or callable inputs are asked for,
-        else :func:`auto_method`: QBDF for
-        a multibody of two or more coordinates, Rodas5P otherwise; where QBDF stalls (step
-        size too small: a jump of the force inside a step, e.g. a Kelvin-Voigt contact at
-        touchdown with a tight atol) the run is made again with Rodas5P from the start, and the message says so; ``progress`` then sees the time
-        start again), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
+        else :func:`auto_method`: QBDF for a multibody of two or more coordinates, Rodas5P
+        otherwise; where QBDF stalls (step size too small: a jump of the force inside a step,
+        e.g. a Kelvin-Voigt contact at touchdown with a tight atol) the run is made again with
+        Rodas5P from the start, and the message says so; ``progress`` then sees the time start
+        again), a compiled method — ``"Rodas5P"`` or ``"Rodas4"`` (stiff, L-stable
         Rosenbrock methods of order 5 and 4: a Jacobian and an LU at every step; Rodas5P takes
         fewer steps at the same accuracy), ``"QBDF"`` (variable-order BDF, orders 1-5, reusing
         its Jacobian and LU over many steps; its global error is near rtol, Rodas5P's often far
         below: compare them at equal accuracy, benchmarks/RESULTS.md) — whose whole step loop
         is compiled with the model (the fast path with the C or numba back end; model events
-        only; ``t_eval`` and dense output: see those), or a scipy method: Radau, BDF, LSODA (stiff, given the analytic
-        Jacobian unless ``jacobian=False``), RK45, DOP853.
+        only; ``t_eval`` and dense output: see those), or a scipy method: Radau, BDF, LSODA
+        (stiff, given the analytic Jacobian unless ``jacobian=False``), RK45, DOP853.
     max_step, first_step : bounds on the step size (s); ``first_step`` for the scipy methods.
     jacobian : give the stiff scipy methods the analytic Jacobian.
     actions : event name -> action (model events or ``events``). An event without action is
