@@ -65,18 +65,21 @@ def addon_text(body: str, backend: str) -> str:
 def shown_text(body: str, backend: str) -> str:
     """What ``backend`` (python, numba) runs for the model of ``body``: its module
     (:func:`module_text`) and the loop module of all models after it (``show --code``)."""
-    loops = (numba_loops.loops_text() if backend == "numba"
-             else _PYTHON_LOOPS_HEADER + python_loops())
+    loops = numba_loops.loops_text() if backend == "numba" else _python_loops_text()
     where = ("porthamiltonian.backends.numba_loops" if backend == "numba"
              else "porthamiltonian.backends.module.python_loop_module")
     return (module_text(body, backend) + "\n\n# --- the integration loops: one module, made "
             f"once for all models ({where}) ---\n" + loops)
 
 
-_PYTHON_LOOPS_HEADER = ('"""The python back end\'s integration loops: one module for every model, '
-                        'bound to its functions."""\n' + _HEADERS["python"] + "\n\n")
 #: the file name of :func:`python_loop_module`'s code (in tracebacks, with its lines)
 _PYTHON_LOOPS_FILE = "<porthamiltonian python loops>"
+
+
+def _python_loops_text() -> str:
+    """The text of :func:`python_loop_module`: a docstring, the python header, the loops."""
+    return ('"""The python back end\'s integration loops: one module for every model, bound '
+            'to its functions."""\n' + _HEADERS["python"] + "\n\n" + python_loops())
 
 
 @functools.cache
@@ -87,7 +90,7 @@ def python_loop_module() -> types.ModuleType:
     loop module's. (Appended to every model's module instead, they were compiled again for
     every model: 13 ms of a 20 ms load of compass_walker's module.) Tracebacks show its
     lines."""
-    text = _PYTHON_LOOPS_HEADER + python_loops()
+    text = _python_loops_text()
     linecache.cache[_PYTHON_LOOPS_FILE] = (len(text), None, text.splitlines(True),
                                            _PYTHON_LOOPS_FILE)
     module = types.ModuleType("_porthamiltonian_python_loops")
