@@ -321,6 +321,13 @@ class Settings:
     inputs: InputPlan | None = None
     progress: Callable[[float, int], None] | None = None
 
+    @property
+    def loop_stops(self) -> np.ndarray | None:
+        """The times of ``t_eval`` a compiled loop stops on: all of them with sensitivities (Φ
+        there is the loop's own), else none (the run samples its steps' interpolant there)."""
+        return (self.t_eval if self.method in _COMPILED and self.sensitivity is not None
+                else None)
+
 
 #: The compiled loops' return codes (porthamiltonian/integrators/rosenbrock_loop.py), but 5: its
 #: store buffer is full, call again
@@ -402,11 +409,7 @@ class Simulator:
                 self.columns = ParameterColumns(model, seeds.parameters, columns.shape[1])
             self.phi = np.vstack([columns, np.zeros((2, columns.shape[1]))])
         h0 = self.h0 = float(model.energy(t_start, y, p)[0])
-        # a compiled run with sensitivities stops on t_eval's times (Φ there is the loop's own);
-        # without, it samples its steps' interpolant there (_compiled_segment)
-        stops = (settings.t_eval if settings.method in _COMPILED and seeds is not None
-                 else None)
-        breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p, stops)
+        breaks = Breakpoints(model, settings.inputs, t_start, t_end, y, p, settings.loop_stops)
         if breaks:
             self._break(breaks, t_start)            # the first samples (k = 0) at the start
         fired, n_events = None, 0
@@ -821,7 +824,7 @@ class Simulator:
         self.h_next = h
         t_all, y_all = np.concatenate(ts), np.concatenate(ys)
         phi_all = np.concatenate(phis) if sensitive else None
-        sampled = settings.t_eval is not None and not sensitive
+        sampled = settings.t_eval is not None and settings.loop_stops is None
         sol = (step_interpolant(model, t_all, y_all.T, p, tgrad > 0.0)
                if settings.dense_output or sampled else None)   # from every step
         if settings.t_eval is not None:     # the points asked for in [t0, t] (t0: the first's)
