@@ -12,6 +12,8 @@ simulated to ``t_end`` with the case's values bound as parameters and the model 
     ``max_abs_residual`` (J), ``relative_residual`` (1);
 ``final``, ``min``, ``max``
     of each name in ``outputs`` (states or named outputs; default: every state), in its unit;
+    ``min`` and ``max`` from the run's dense output (:meth:`Trajectory.extrema
+    <porthamiltonian.simulation.trajectory.Trajectory.extrema>`), not from the steps alone;
 ``settling_time``
     with ``settle=NAME``: :func:`settling_time` of that state or output (s), None when it is
     still outside its band at the end of the run.
@@ -29,7 +31,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import InputError, ModelError, OptionError, StateError, ValidationError
+from ..errors import InputError, ModelError, StateError, ValidationError
+from ..simulation.trajectory import sampled_times
 
 if TYPE_CHECKING:
     from ..modeling.model import Model
@@ -191,23 +194,6 @@ def settling_time(t: np.ndarray, y: np.ndarray, band: float = 0.02,
     return float(t[i] + (t[i + 1] - t[i]) * d0 / (d0 - d1))
 
 
-def _signal_of_t(traj: Trajectory, name: str) -> Callable[[float], float]:
-    """``name`` (a state or output) at any time of a dense-output run."""
-    model = traj.model
-    if name in model.state_names:
-        k = model.state_index(name)
-        return lambda s: float(traj.sol(s)[k])
-    model.output_index(name)             # an unknown name fails here, naming the outputs
-
-    def value(s: float) -> float:
-        for seg in traj.segments:
-            if seg.t[0] <= s <= seg.t[-1]:
-                return model.output(name, s, traj.sol(s), seg.p)
-        raise OptionError(f"t = {s} is outside the run ({traj.segments[0].t[0]:g} to "
-                          f"{traj.t_final:g} s)")
-    return value
-
-
 def _check_names(compiled: CompiledModel, names: Sequence[str]) -> None:
     known = set(compiled.state_names) | set(compiled.output_names)
     unknown = [n for n in names if n not in known]
@@ -254,36 +240,17 @@ def simulate_case(case: Mapping[str, Any], *, model: str, backend: str | None = 
     names = list(outputs) if outputs else list(compiled.state_names)
     _check_names(compiled, [*names, *([settle] if settle else [])])
     _check_band(band)
-    dense = settle is not None
-    traj = entry.simulate(t_end, dict(case), dense_output=dense)
-    series = {name: np.asarray(traj[name], dtype=float) for name in names}
+    traj = entry.simulate(t_end, dict(case), dense_output=True)
+    extrema = {name: traj.extrema(name) for name in names}
     result: dict[str, Any] = {
         "status": traj.status, "message": traj.message, "t_final": traj.t_final,
         "nfev": traj.nfev, "n_events": len(traj.events), "energy": traj.ledger(),
-        "final": {n: float(v[-1]) for n, v in series.items()},
-        "min": {n: float(np.min(v)) for n, v in series.items()},
-        "max": {n: float(np.max(v)) for n, v in series.items()},
+        "final": {n: float(traj[n][-1]) for n in names},
+        "min": {n: low for n, (low, _) in extrema.items()},
+        "max": {n: high for n, (_, high) in extrema.items()},
     }
     if settle is not None:
-        signal = _signal_of_t(traj, settle)
-        t_fine = _refined(traj.t)
-        if settle in compiled.state_names:
-            y = traj.sol(t_fine)[compiled.state_index(settle)]
-        else:
-            y = np.array([signal(s) for s in t_fine])
-        result["settling_time"] = settling_time(t_fine, y, band, signal)
+        t_fine = sampled_times(traj.t)
+        result["settling_time"] = settling_time(t_fine, traj.values_at(settle, t_fine), band,
+                                                lambda s: float(traj.values_at(settle, s)))
     return result
-
-
-#: the dense output's samples per step that :func:`simulate_case` gives :func:`settling_time`
-_SAMPLES_PER_STEP = 8
-
-
-def _refined(t: np.ndarray) -> np.ndarray:
-    """``t`` with :data:`_SAMPLES_PER_STEP` - 1 equally spaced times inside each interval: a
-    compiled method's steps are long (30 to an oscillation's period at rtol 1e-9), and a peak
-    between two of them that leaves the settling band would be missed on the steps alone."""
-    t = np.asarray(t, dtype=float)
-    fractions = np.arange(_SAMPLES_PER_STEP) / _SAMPLES_PER_STEP
-    inner = t[:-1, None] + np.diff(t)[:, None] * fractions
-    return np.append(inner.ravel(), t[-1])

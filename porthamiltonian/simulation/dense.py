@@ -4,9 +4,11 @@ The compiled methods (Rodas5P, Rodas4, QBDF) return the state at the end of ever
 ``simulate(..., dense_output=True)`` with one of them makes each segment's interpolant from those
 points alone, after the run: on every step [t_k, t_k+1] the polynomial of degree 5 that takes the
 values y, the rates f = ẏ and their derivatives ÿ = df/dt = J f + ∂f/∂t of the model at both
-ends: its coefficients in closed form, evaluated as a ``scipy.interpolate.PPoly``
-(``BPoly.from_derivatives`` makes the same polynomials in a Python loop over the steps: 25 ms
-for 555 steps, where the whole interpolant takes 0.25 ms on the C back end). ∂f/∂t is a
+ends: its coefficients in closed form, evaluated by Horner's rule on the step that holds each
+time (``scipy.interpolate.PPoly`` computes the same, but importing scipy.interpolate takes
+0.3 s, more than most runs; ``BPoly.from_derivatives`` makes the same polynomials in a Python
+loop over the steps: 25 ms for 555 steps, where the whole interpolant takes 0.25 ms on the C
+back end). ∂f/∂t is a
 central difference of f (relative step ε^(1/3)) where the right-hand side reads time (a
 non-autonomous model, or inputs with a slope); else 0. The states are those of the run (the model's and the ledger's E_diss,
 E_in).
@@ -32,8 +34,6 @@ import numpy as np
 from ..backends import at_points
 
 if TYPE_CHECKING:
-    from scipy.interpolate import PPoly
-
     from .compiled import CompiledModel
 
 #: ε^(1/3): the relative step of the central difference of ∂f/∂t
@@ -44,19 +44,31 @@ __all__ = ["StepInterpolant", "step_interpolant"]
 
 class StepInterpolant:
     """y(t) on [t_0, t_last] of one segment (shape (n + 2,) for a number t, (n + 2, len(t)) for
-    an array): the quintic Hermite pieces of :func:`step_interpolant`, or the one state of a
-    segment of a single point."""
+    an array): the quintic Hermite pieces of :func:`step_interpolant` (``coefficients``: 6 x
+    steps x n, highest power first, in s = t − t_k), or the one state of a segment of a single
+    point. A time between two steps' pieces is evaluated on the later one (the pieces meet
+    there); a time outside [t_0, t_last] on the nearest end's piece (extrapolated)."""
 
-    def __init__(self, t: np.ndarray, poly: PPoly | None, y0: np.ndarray) -> None:
+    def __init__(self, t: np.ndarray, coefficients: np.ndarray | None, y0: np.ndarray) -> None:
         self.t_min, self.t_max = float(t[0]), float(t[-1])
-        self._poly, self._y0 = poly, y0
+        self._t, self._y0 = t, y0
+        # steps x 6 x n: a step's coefficients side by side (gathered per time at once)
+        self._c = None if coefficients is None else np.ascontiguousarray(
+            coefficients.transpose(1, 0, 2))
 
     def __call__(self, t: float | np.ndarray) -> np.ndarray:
-        if self._poly is None:
+        if self._c is None:
             return (self._y0.copy() if np.ndim(t) == 0
                     else np.repeat(self._y0[:, None], np.size(t), axis=1))
-        values = self._poly(t)
-        return np.asarray(values if np.ndim(t) == 0 else np.moveaxis(values, 0, -1))
+        s = np.asarray(t, dtype=float)
+        flat = np.atleast_1d(s)
+        k = np.clip(np.searchsorted(self._t, flat, side="right") - 1, 0, len(self._c) - 1)
+        ds = (flat - self._t[k])[:, None]
+        c = self._c[k]                                           # (len(t), 6, n)
+        values = c[:, 0]
+        for power in range(1, 6):
+            values = values * ds + c[:, power]
+        return np.asarray(values[0] if s.ndim == 0 else values.T)
 
 
 def step_interpolant(model: CompiledModel, t: np.ndarray, y: np.ndarray, p: np.ndarray,
@@ -65,9 +77,6 @@ def step_interpolant(model: CompiledModel, t: np.ndarray, y: np.ndarray, p: np.n
     times (increasing; a repeated time keeps its last state), ``y`` the states there ((n + 2) x
     len(t)), ``p`` the parameter vector the segment ran with, ``time_dependent``: the
     right-hand side reads t (∂f/∂t by differences)."""
-    # imported here: a run without dense output never imports scipy.interpolate
-    from scipy.interpolate import PPoly
-
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     # strictly increasing times: of equal ones (a terminal event at a step's start) the last
@@ -84,7 +93,7 @@ def step_interpolant(model: CompiledModel, t: np.ndarray, y: np.ndarray, p: np.n
         d = _CBRT_EPS * np.maximum(1.0, np.abs(t))
         ahead, behind = at_points(rhs, t + d, rows, pn), at_points(rhs, t - d, rows, pn)
         rate += (ahead - behind) / (2.0 * d[:, None])
-    return StepInterpolant(t, PPoly(_quintic(t, y, f.T, rate.T), t), y[:, 0].copy())
+    return StepInterpolant(t, _quintic(t, y, f.T, rate.T), y[:, 0].copy())
 
 
 def _quintic(t: np.ndarray, y: np.ndarray, f: np.ndarray, rate: np.ndarray) -> np.ndarray:

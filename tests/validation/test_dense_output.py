@@ -17,7 +17,8 @@ import pytest
 from scipy.interpolate import CubicHermiteSpline
 
 from porthamiltonian import compile_model, io
-from porthamiltonian.simulation.dense import step_interpolant
+from porthamiltonian.errors import OptionError
+from porthamiltonian.simulation.dense import StepInterpolant, step_interpolant
 from porthamiltonian.simulation.inputs import Samples
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "unit"))
@@ -169,6 +170,54 @@ def test_repeated_times_and_a_single_point(msd):
     one = step_interpolant(msd, t[:1], y[:, :1], p, time_dependent=False)
     np.testing.assert_array_equal(one(0.0), y[:, 0])
     assert one(np.array([0.0, 0.0])).shape == (4, 2)
+
+
+def test_horners_rule_on_the_steps_is_scipys_piecewise_polynomial(msd):
+    """The interpolant's own evaluation (Horner's rule on the step that holds each time, which
+    spares importing scipy.interpolate) gives scipy's ``PPoly`` of the same coefficients, to
+    round-off, at random times, at the stored points and at both ends; a number gives a state,
+    an array a column per time."""
+    from scipy.interpolate import PPoly
+
+    from porthamiltonian.simulation.dense import _quintic
+
+    rng = np.random.default_rng(7)
+    t = np.cumsum(rng.uniform(0.05, 0.4, 40))
+    y, f, rate = (rng.normal(size=(4, len(t))) for _ in range(3))
+    sol = step_interpolant(msd, t, y, msd.params(), time_dependent=False)
+    ours = StepInterpolant(t, _quintic(t, y, f, rate), y[:, 0])
+    scipys = PPoly(_quintic(t, y, f, rate), t)
+    times = np.concatenate([rng.uniform(t[0], t[-1], 500), t])
+    np.testing.assert_allclose(ours(times), scipys(times).T, rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(ours(t), y, rtol=1e-12, atol=1e-12)     # through the points
+    assert ours(float(t[3])).shape == (4,) and ours(times).shape == (4, len(times))
+    np.testing.assert_allclose(sol(t), y, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("backend", ["c", "python"])
+def test_extrema_of_a_state_and_an_output_between_the_steps(backend, msd, compile_named):
+    """``traj.extrema``: the first undershoot of x (−x0 e^(−ζπ/√(1−ζ²)) at t = π/ω_d, Ogata
+    §5-3) to 1e-10 m, and of the spring's force k x (an output, computed from the dense
+    output's states) to k × that, where the largest and smallest stored points miss them by
+    more than 1e-6 (Rodas5P's long steps at rtol 1e-9); values_at gives traj[name] at the
+    stored points; without dense output, an error that says so."""
+    model = msd if backend == "c" else compile_named("mass_spring_damper")
+    traj = model.simulate(20.0, params={"k": K, "c": CD}, method="Rodas5P", rtol=1e-9,
+                          atol=1e-12, dense_output=True)
+    zeta = CD / (2 * math.sqrt(K * M))
+    undershoot = -X0 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2))
+    low, high = traj.extrema("spring.q")
+    assert abs(low - undershoot) < 1e-10 and high == X0
+    assert traj["spring.q"].min() - undershoot > 1e-6          # the steps alone
+    force_low, force_high = traj.extrema("spring.p.e")
+    assert abs(force_low - K * undershoot) < 1e-9 and abs(force_high - K * X0) < 1e-12
+    assert traj["spring.p.e"].min() - K * undershoot > 4e-6
+    np.testing.assert_allclose(traj.values_at("spring.p.e", traj.t[1:-1]),
+                               traj["spring.p.e"][1:-1], rtol=1e-12, atol=1e-15)
+    assert traj.values_at("spring.p.e", 1.0) == pytest.approx(K * float(free_response(1.0)),
+                                                               abs=1e-9)
+    with pytest.raises(OptionError, match="dense_output=True"):
+        model.simulate(1.0, params={"k": K, "c": CD}).extrema("spring.q")
 
 
 @pytest.mark.numba_loop
