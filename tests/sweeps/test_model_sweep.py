@@ -87,6 +87,20 @@ def test_docs_example_settling_times_and_ledger_match_the_closed_form(tmp_path, 
         assert row["status"] == "finished"
 
 
+def test_an_outputs_settling_time_and_extremes_are_its_states_scaled():
+    """The spring's force k x (an output, computed from the dense output's states in one call
+    per segment) settles when its elongation x does (the band is relative) and its extremes
+    are k times x's."""
+    runs = {name: simulate_case({"k": 4.0, "c": 0.8}, model="mass_spring_damper", t_end=30.0,
+                                outputs=["spring.q", "spring.p.e"], settle=name)
+            for name in ("spring.q", "spring.p.e")}
+    force, elongation = runs["spring.p.e"], runs["spring.q"]
+    assert force["settling_time"] == pytest.approx(elongation["settling_time"], abs=1e-9)
+    for end in ("min", "max"):
+        assert force[end]["spring.p.e"] == pytest.approx(4.0 * elongation[end]["spring.q"],
+                                                         rel=1e-12)
+
+
 def test_settling_time_rule_on_known_signals():
     t = np.linspace(0.0, 20.0, 2001)
     y = np.exp(-t)
