@@ -231,20 +231,23 @@ _LOOP_HEADER = """\
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-#if defined(_WIN32)
-#define PH_EXPORT __declspec(dllexport)
-#else
-#define PH_EXPORT __attribute__((visibility("default")))
-#endif
 #if defined(__GNUC__)
 #define PH_HIDDEN __attribute__((visibility("hidden")))
 #else
 #define PH_HIDDEN
 #endif
 """
+#: the loops' entry points exported from the model's library (the C back end calls them)
+_EXPORTED = """\
+#if defined(_WIN32)
+#define PH_EXPORT __declspec(dllexport)
+#else
+#define PH_EXPORT __attribute__((visibility("default")))
+#endif
+"""
 
 
-def loop_source() -> str:
+def loop_source(exported: bool = True) -> str:
     """The integration loops as a translation unit of their own, calling the model's ``rhs``,
     ``jac``, ``guards`` and ``jac_p`` (hidden external functions of its generated unit) and
     reading its sizes ``ph_n`` (states with the ledger) and ``ph_ng`` (guard slots) from it
@@ -252,10 +255,14 @@ def loop_source() -> str:
     and cached, which starts compiling before the model is read (compiler.prepare). (The
     loops compiled for the model's sizes as constants ran ≈ 3 % faster per stride on the
     compass walker, the same on the compliant-leg walker: benchmarks/RESULTS.md, "Cold build,
-    third pass".)"""
+    third pass".) ``exported``: its entry points (``ph_integrate_<method>``, ``ph_many``) are
+    exported from the library it is linked into, as the C back end needs; else hidden, as in
+    an FMU's binary, which exports the FMI functions alone (two FMUs loaded into one process
+    never call each other's loops)."""
     declarations = "".join(f"PH_HIDDEN void {name}(double t, const double *x, const double *p, "
                            "double *out);\n" for name in LOOP_FUNCTIONS)
-    return (_LOOP_HEADER + "PH_HIDDEN extern const int ph_n, ph_ng;\n#define PH_N ph_n\n"
+    return (_LOOP_HEADER + (_EXPORTED if exported else "#define PH_EXPORT PH_HIDDEN\n")
+            + "PH_HIDDEN extern const int ph_n, ph_ng;\n#define PH_N ph_n\n"
             "#define PH_NG ph_ng\n" + declarations + LOOP_PRAGMA + c_loops() + _MANY)
 
 

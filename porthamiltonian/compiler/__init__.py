@@ -771,8 +771,8 @@ def _unit_name(stem: str) -> str:
     return f"m{stem}_c.c"
 
 
-def _loop_name() -> str:
-    return f"loops_{sys.platform}.o"
+def _loop_name(exported: bool = True) -> str:
+    return f"loops_{sys.platform}.o" if exported else f"loops_hidden_{sys.platform}.o"
 
 
 #: the loops' object compiling in the background (:func:`prepare`), by the id of the process
@@ -811,39 +811,53 @@ def _stop_loops() -> None:
 
 
 def _loop_object(use_cache: bool, times: dict[str, float], log_dir: Path | None,
-                 model_source: Path) -> Path:
-    """The integration loops' object: cached, or the background compile :func:`prepare`
-    started waited for, or compiled now (the time waited added to ``times["C"]``); a failure is
-    logged as the model's (``log_dir``, named after ``model_source``). Under the object's build
-    lock (:func:`cache.building`): a process that finds it stored by another meanwhile stops
-    its own compile."""
-    text = native.loop_source()
+                 model_source: Path, exported: bool = True,
+                 advice: str = native.ADVICE) -> Path:
+    """The integration loops' object (``exported``: :func:`native.loop_source`'s): cached, or
+    the background compile :func:`prepare` started waited for (the exported one's), or
+    compiled now (the time waited added to ``times["C"]``); a failure is logged as the model's
+    (``log_dir``, named after ``model_source``). Under the object's build lock
+    (:func:`cache.building`): a process that finds it stored by another meanwhile stops its
+    own compile. ``advice``: what a compiler failure's message ends with."""
+    text = native.loop_source(exported)
     key = native.object_key(text)
-    found = _LOOPS.pop(os.getpid(), None)
+    found = _LOOPS.pop(os.getpid(), None) if exported else None
     pending = found[1] if found is not None and found[0] == key else None
     if found is not None and pending is None:       # started for another compiler
         found[1].close(stop=True)
     # one process stores the object, the others wait and read it (their own compiles stopped)
     with _building(key, use_cache):
-        path = cache.verified_path(key, _loop_name()) if use_cache else None
+        path = cache.verified_path(key, _loop_name(exported)) if use_cache else None
         if path is None:
             start = time.perf_counter()
             data = (pending.result(log_dir, model_source)[0] if pending is not None
-                    else native.compile_object(text, "loops", log_dir, model_source)[0])
+                    else native.compile_object(text, "loops", log_dir, model_source,
+                                               advice)[0])
             times["C"] = times.get("C", 0.0) + time.perf_counter() - start
-            path = cache.store(key, _loop_name(), data, use_cache)
+            path = cache.store(key, _loop_name(exported), data, use_cache)
         elif pending is not None:
             pending.close(stop=True)
     return path
 
 
+def fmu_objects(kernels: Sequence[str], log_as: Path, advice: str) -> tuple[Path, ...]:
+    """The objects an FMU's binary is linked with (:mod:`porthamiltonian.fmu.export`): the
+    integration loops with hidden entry points (:func:`native.loop_source`) and the compiled
+    kernels the model calls (hidden already: the C back end's objects), each from the cache or
+    compiled now and cached, once per compiler for every FMU; a compiler failure is logged
+    beside ``log_as`` (the FMU's unit), its message ending with ``advice``."""
+    times: dict[str, float] = {}
+    return (*(_kernel_object(kernel, True, times, None, log_as, advice) for kernel in kernels),
+            _loop_object(True, times, None, log_as, exported=False, advice=advice))
+
+
 def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_dir: Path | None,
-                   model_source: Path) -> Path:
+                   model_source: Path, advice: str = native.ADVICE) -> Path:
     """The compiled object of ``kernel`` (:mod:`porthamiltonian.mechanics.sources`), from the
     cache (an entry of its own, keyed by its source and the compiler) or compiled now (its time
     added to ``times["C"]``; a failure logged as the model's): one compile serves every model
     that calls the kernel, and one process compiles it while the others wait under its build
-    lock (:func:`cache.building`)."""
+    lock (:func:`cache.building`). ``advice``: what a compiler failure's message ends with."""
     from ..mechanics.sources import c_object_source  # (the mechanics import sympy)
 
     text = c_object_source(kernel)
@@ -852,7 +866,7 @@ def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_di
     with _building(key, use_cache):                 # (as the loops')
         path = cache.verified_path(key, name) if use_cache else None
         if path is None:
-            data, seconds = native.compile_object(text, kernel, log_dir, model_source)
+            data, seconds = native.compile_object(text, kernel, log_dir, model_source, advice)
             times["C"] = times.get("C", 0.0) + seconds
             path = cache.store(key, name, data, use_cache)
     return path
@@ -883,6 +897,6 @@ def _autonomous(sym: SymbolicModel) -> bool:
     return not any(TIME in sympy.sympify(e).free_symbols for e in exprs)
 
 
-__all__ = ["Layout", "SymbolicModel", "compile_model", "compiled_record", "deferred", "layout",
-           "package_made", "power_balance", "prepare", "recall", "remember", "reopen",
+__all__ = ["Layout", "SymbolicModel", "compile_model", "compiled_record", "deferred", "fmu_objects",
+           "layout", "package_made", "power_balance", "prepare", "recall", "remember", "reopen",
            "snapshot_key", "symbolic"]

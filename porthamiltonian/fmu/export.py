@@ -189,13 +189,17 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
     folder, suffix = platform_folder(version)
     files = {name: template(name) for name in TEMPLATES if name in ("ph_fmu.h", "runtime.c",
                                                                     f"fmi{version}.c")}
-    files["model.c"] = model_source(
-        model, variables, program=program, param_start=p, x_start=x_start,
-        states_from_parameters=states_from_parameters, method=method,
-        solver=(solver[0], solver[1], hmax), token=token, model_exchange="me" in kinds,
-        co_simulation="cs" in kinds)
     files[ENTRY] = entry_source(version)
-    library = _build(files)
+
+    def source(linked: bool) -> str:
+        return model_source(model, variables, program=program, param_start=p, x_start=x_start,
+                            states_from_parameters=states_from_parameters, method=method,
+                            solver=(solver[0], solver[1], hmax), token=token,
+                            model_exchange="me" in kinds, co_simulation="cs" in kinds,
+                            linked=linked)
+
+    library = _build({**files, "model.c": source(linked=True)}, model.meta.kernels)
+    files["model.c"] = source(linked=False)
     tool = f"porthamiltonian {__version__}"
     date = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     xml = model_description(
@@ -279,14 +283,19 @@ def _token(model: CompiledModel, variables: Sequence[Variable], version: int,
     return "{" + str(uuid.UUID(hashlib.sha256(blob.encode()).hexdigest()[:32])) + "}"
 
 
-def _build(files: Mapping[str, str]) -> bytes:
-    """The shared library compiled from ``files`` (in a private temporary folder)."""
+def _build(files: Mapping[str, str], kernels: Sequence[str]) -> bytes:
+    """The shared library compiled from ``files`` (in a private temporary folder; their
+    ``model.c`` the linked version, :func:`~.csource.model_source`) and linked with the loops'
+    and the ``kernels``' objects (:func:`porthamiltonian.compiler.fmu_objects`)."""
+    from ..compiler import fmu_objects
+
+    advice = ("Set CC to a working C compiler: an FMU's binary is compiled C whatever back end "
+              "the model was compiled with")
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-fmu-") as tmp:
         for name, text in files.items():
             native.write_source(Path(tmp) / name, text)
-        data, _ = native.build(Path(tmp) / ENTRY, None, advice=(
-            "Set CC to a working C compiler: an FMU's binary is compiled C whatever back end "
-            "the model was compiled with"))
+        entry = Path(tmp) / ENTRY
+        data, _ = native.build(entry, None, fmu_objects(kernels, entry, advice), advice=advice)
     return data
 
 

@@ -81,4 +81,22 @@ def c_loops() -> str:
                       (_HERE / "bdf_loop.c").read_text(), bdf.c_entry()])
 
 
-__all__ = ["COMPILED_METHODS", "LOOPS", "TABLEAUS", "Tableau", "c_loops", "python_loops"]
+#: the lines of rosenbrock_loop.c around the macros of the entry points' parameters
+_PARAMS = ("/* ph: the entry points' parameters */", "/* ph: end of the entry points' parameters */")
+
+
+def c_entry_declarations() -> str:
+    """The loops' entry points declared for a translation unit that calls them but is linked
+    with the loops' object instead of holding them (an FMU's binary): the parameter macros of
+    ``rosenbrock_loop.c`` and, for every method of :data:`TABLEAUS`, ``ph_integrate_<symbol>``
+    and its ``_variational`` twin, hidden (``PH_HIDDEN``, which the unit defines)."""
+    text = (_HERE / "rosenbrock_loop.c").read_text()
+    params = text[text.index(_PARAMS[0]):text.index(_PARAMS[1]) + len(_PARAMS[1])]
+    return params + "\n" + "".join(
+        f"PH_HIDDEN int ph_integrate_{tab.symbol}(PH_LOOP_PARAMS);\n"
+        f"PH_HIDDEN int ph_integrate_{tab.symbol}_variational(PH_LOOP_PARAMS, PH_PHI_PARAMS);\n"
+        for tab in TABLEAUS.values())
+
+
+__all__ = ["COMPILED_METHODS", "LOOPS", "TABLEAUS", "Tableau", "c_entry_declarations", "c_loops",
+           "python_loops"]

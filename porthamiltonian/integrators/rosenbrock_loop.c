@@ -36,6 +36,7 @@ typedef struct {
 #define PH_SAMPLES 3    /* interior guard samples per step */
 #define PH_MAX_STAGES 16    /* stages of a tableau at most (tableaus.py checks its tables) */
 
+/* ph: the entry points' parameters */
 #define PH_LOOP_PARAMS double t0, const double *y0, double t_end, const double *p, double rtol, \
     const double *atol, double h0, double hmax, const int64_t *directions, \
     const uint8_t *terminal, int64_t g_count, int64_t mask_index, double mask_sign, \
@@ -48,6 +49,7 @@ typedef struct {
 #define PH_PHI_PARAMS int64_t m, const double *phi0, int64_t n_gain, const double *gain, \
     double *phis, double *phi_out, double *phi_error
 #define PH_PHI_ARGS m, phi0, n_gain, gain, phis, phi_out, phi_error
+/* ph: end of the entry points' parameters */
 #define PH_CBRT_EPS 6.0554544523933395e-06   /* the relative step of the central differences */
 
 /* The leading nf x nf block of the PH_N x PH_N row-major A: PA = LU in place (partial pivoting,

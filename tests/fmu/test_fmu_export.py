@@ -89,6 +89,44 @@ def test_fmu_holds_sources_documentation_and_the_binary(fmus, fmi):
     assert "touchdown" in page and "Rebuilding" in page
 
 
+def test_the_binary_links_the_loops_compiled_once_and_exports_fmi_alone(compiled, tmp_path,
+                                                                        monkeypatch):
+    """An FMU's binary is its model's unit linked with the integration loops' object, compiled
+    with hidden entry points once per compiler and cached (as the C back end's loops are),
+    not compiled again into every FMU: two FMUs of two models, one compile of the loops; each
+    binary exports the FMI functions and nothing of the loops or the model (two FMUs in one
+    process never call each other's), where the C back end's library exports its loops. (The
+    run of the binary against the run of sources/ built alone as one unit: the rebuild tests
+    above.)"""
+    from porthamiltonian.backends import native
+    from porthamiltonian.compiler import cache
+
+    ball = compiled["bouncing_ball"]
+    c_library = cache.verified_path(ball.key, native.library_name(ball.key,
+                                                                   native.compiler_identity()))
+    assert c_library is not None and hasattr(ctypes.CDLL(str(c_library)), "ph_integrate_rodas5p")
+    calls = tmp_path / "calls"
+    wrapper = tmp_path / "cc-logged"
+    wrapper.write_text(f'#!/bin/sh\necho "$@" >> {calls}\nexec cc "$@"\n')
+    wrapper.chmod(wrapper.stat().st_mode | stat.S_IEXEC)
+    monkeypatch.setenv("CC", str(wrapper))
+    monkeypatch.setenv("PORTHAMILTONIAN_CACHE", str(tmp_path / "cache"))
+    paths = [compiled[name].export_fmu(tmp_path / f"{name}.fmu", fmi=fmi)
+             for name, fmi in (("mass_spring_damper", 2), ("bouncing_ball", 3))]
+    sources = [line.split()[-1] for line in calls.read_text().splitlines()
+               if " -c " in f" {line} "]
+    assert sorted(s.rsplit("/", 1)[-1] for s in sources) == ["loops.c"], sources
+    for path, folder in zip(paths, ("linux64", "x86_64-linux")):
+        with zipfile.ZipFile(path) as zf:
+            zf.extract(f"binaries/{folder}/{path.stem}.so", tmp_path / path.stem)
+        lib = ctypes.CDLL(str(tmp_path / path.stem / "binaries" / folder / f"{path.stem}.so"))
+        prefix = "fmi2" if folder == "linux64" else "fmi3"
+        assert hasattr(lib, f"{prefix}DoStep") and hasattr(lib, f"{prefix}FreeInstance")
+        for name in ("ph_integrate_rodas5p", "ph_integrate_rodas4", "ph_many", "rhs", "jac",
+                     "ph_n", "ph_rhs", "ph_selftest"):
+            assert not hasattr(lib, name), name
+
+
 def test_fmi3_build_description_follows_its_schema(fmus):
     from lxml import etree  # FMPy's own dependency
     schema_file = (fmpy.__file__.rsplit("/", 1)[0] + "/schema/fmi3/fmi3BuildDescription.xsd")
@@ -364,6 +402,7 @@ def test_a_compiler_failure_gives_the_compilers_log(compiled, tmp_path, monkeypa
     with open(log) as fh:
         assert "the compiler says no" in fh.read()
     assert "Set CC to a working C compiler" in message and not (tmp_path / "m.fmu").exists()
+    assert "whatever back end" in message and "numba" not in message
 
 
 def test_command_line_export(tmp_path, capsys):
