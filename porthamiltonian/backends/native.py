@@ -31,7 +31,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -416,6 +416,13 @@ _NO_COMPILER = ("no C compiler found: $CC is not set, none of cc, gcc, clang is 
 
 #: what a failed build's message advises (the C back end's; an FMU's build says its own)
 ADVICE = "Set CC to a working C compiler, or choose the numba or python back end"
+
+#: ``(kernels, log_as, advice) -> object files``: the objects a library built outside the C back
+#: end links (an FMU's binary: the integration loops with hidden entry points and the kernels'
+#: objects, :func:`loop_source`), from the compiled-model cache, which a later stage keeps:
+#: :func:`porthamiltonian.compiler.fmu_objects`, set here when :mod:`porthamiltonian.compiler`
+#: is imported (a model can be exported only once it has compiled it). None before.
+linked_objects: Callable[[Sequence[str], Path, str], tuple[Path, ...]] | None = None
 
 
 def object_key(text: str) -> str:

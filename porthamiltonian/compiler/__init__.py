@@ -872,6 +872,9 @@ def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_di
     return path
 
 
+native.linked_objects = fmu_objects     # (for porthamiltonian.fmu, an earlier stage)
+
+
 def slot_count(meta: ModelMeta) -> int:
     """The length of the parameter vector of a compiled model's functions: its parameters and
     two slots per input (:func:`.codegen.input_slots`)."""

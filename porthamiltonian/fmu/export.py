@@ -286,16 +286,18 @@ def _token(model: CompiledModel, variables: Sequence[Variable], version: int,
 def _build(files: Mapping[str, str], kernels: Sequence[str]) -> bytes:
     """The shared library compiled from ``files`` (in a private temporary folder; their
     ``model.c`` the linked version, :func:`~.csource.model_source`) and linked with the loops'
-    and the ``kernels``' objects (:func:`porthamiltonian.compiler.fmu_objects`)."""
-    from ..compiler import fmu_objects
-
+    and the ``kernels``' objects (:data:`porthamiltonian.backends.native.linked_objects`)."""
     advice = ("Set CC to a working C compiler: an FMU's binary is compiled C whatever back end "
               "the model was compiled with")
+    if native.linked_objects is None:       # (compile_model's package sets it)
+        raise ExportError("the FMU's binary links objects that porthamiltonian.compiler keeps: "
+                          "compile the model with compile_model")
     with tempfile.TemporaryDirectory(prefix="porthamiltonian-fmu-") as tmp:
         for name, text in files.items():
             native.write_source(Path(tmp) / name, text)
         entry = Path(tmp) / ENTRY
-        data, _ = native.build(entry, None, fmu_objects(kernels, entry, advice), advice=advice)
+        data, _ = native.build(entry, None, native.linked_objects(kernels, entry, advice),
+                               advice=advice)
     return data
 
 

@@ -275,16 +275,16 @@ class Trajectory:
         states = self._dense(t_arr, outputs=False)[0][: self.model.n_states]
         return states[:, 0] if np.ndim(t) == 0 else states
 
-    def _dense(self, t: np.ndarray, outputs: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    def _dense(self, t: np.ndarray, outputs: bool) -> tuple[np.ndarray, np.ndarray]:
         """The integration states ((n + 2) x len(t)) at the times ``t`` from the segments'
-        interpolants, and (``outputs``) every named output there (len(t) x outputs), computed
+        interpolants, and (``outputs``; else len(t) x 0) every named output there, computed
         with the parameters (and inputs) in force, in one call per segment where the back end
         has one (:func:`~porthamiltonian.backends.at_points`). A time on two segments (an event)
         takes the first's value. OptionError for a time outside the run or a run without dense
         output."""
         model = self.model
         ys = np.empty((model.n_states + 2, len(t)))
-        outs = np.empty((len(t), len(model.output_names))) if outputs else None
+        outs = np.empty((len(t), len(model.output_names) if outputs else 0))
         todo = np.ones(len(t), dtype=bool)
         for s in self.segments:
             if s.sol is None:
@@ -294,7 +294,7 @@ class Trajectory:
                 continue
             todo &= ~here
             ys[:, here] = np.asarray(s.sol(t[here]))
-            if outs is None:
+            if not outputs:
                 continue
             ts, rows = t[here], np.ascontiguousarray(ys[:, here].T)
             if s.inputs is None:
@@ -319,12 +319,11 @@ class Trajectory:
         values = self._pick(name, *self._dense(t_arr, name not in self.model.state_names))
         return np.asarray(values[0] if np.ndim(t) == 0 else values)
 
-    def _pick(self, name: str, ys: np.ndarray, outs: np.ndarray | None) -> np.ndarray:
+    def _pick(self, name: str, ys: np.ndarray, outs: np.ndarray) -> np.ndarray:
         """State or output ``name`` out of :meth:`_dense`'s arrays."""
         if name in self.model.state_names:
             return np.asarray(ys[self.model.state_index(name)])
         k = self.model.output_index(name)       # an unknown name fails here, naming the outputs
-        assert outs is not None
         return np.asarray(outs[:, k])
 
     def extrema(self, name: str) -> tuple[float, float]:
@@ -347,11 +346,11 @@ class Trajectory:
         if "sample_y" not in self._cache or (output and "sample_out" not in self._cache):
             times = sampled_times(self.t)      # kept: a sweep asks for several names
             ys, outs = self._dense(times, output)
-            self._cache.update(sample_t=times, sample_y=ys)
-            if outs is not None:
-                self._cache["sample_out"] = outs
+            self._cache.update(sample_t=times, sample_y=ys, **({"sample_out": outs} if output
+                                                                else {}))
         times = self._cache["sample_t"]
-        values = self._pick(name, self._cache["sample_y"], self._cache.get("sample_out"))
+        values = self._pick(name, self._cache["sample_y"],
+                            self._cache.get("sample_out", np.empty((len(times), 0))))
         spread = float(np.max(values) - np.min(values))
         last = len(times) - 1
         chosen, signs = [], []
