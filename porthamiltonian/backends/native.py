@@ -247,7 +247,7 @@ _EXPORTED = """\
 """
 
 
-def loop_source(exported: bool = True) -> str:
+def loop_source(fmu: bool = False) -> str:
     """The integration loops as a translation unit of their own, calling the model's ``rhs``,
     ``jac``, ``guards`` and ``jac_p`` (hidden external functions of its generated unit) and
     reading its sizes ``ph_n`` (states with the ledger) and ``ph_ng`` (guard slots) from it
@@ -255,15 +255,17 @@ def loop_source(exported: bool = True) -> str:
     and cached, which starts compiling before the model is read (compiler.prepare). (The
     loops compiled for the model's sizes as constants ran ≈ 3 % faster per stride on the
     compass walker, the same on the compliant-leg walker: benchmarks/RESULTS.md, "Cold build,
-    third pass".) ``exported``: its entry points (``ph_integrate_<method>``, ``ph_many``) are
-    exported from the library it is linked into, as the C back end needs; else hidden, as in
-    an FMU's binary, which exports the FMI functions alone (two FMUs loaded into one process
-    never call each other's loops)."""
+    third pass".) ``fmu``: the variant an FMU's binary links: its entry points
+    (``ph_integrate_<method>``, ``ph_many``) hidden, where the C back end's are exported (an
+    FMU exports the FMI functions alone: two FMUs loaded into one process never call each
+    other's loops), and the Rosenbrock methods alone (an FMU's co-simulation runs one; 0.41
+    against 0.6 s of GCC)."""
     declarations = "".join(f"PH_HIDDEN void {name}(double t, const double *x, const double *p, "
                            "double *out);\n" for name in LOOP_FUNCTIONS)
-    return (_LOOP_HEADER + (_EXPORTED if exported else "#define PH_EXPORT PH_HIDDEN\n")
+    return (_LOOP_HEADER + ("#define PH_EXPORT PH_HIDDEN\n" if fmu else _EXPORTED)
             + "PH_HIDDEN extern const int ph_n, ph_ng;\n#define PH_N ph_n\n"
-            "#define PH_NG ph_ng\n" + declarations + LOOP_PRAGMA + c_loops() + _MANY)
+            "#define PH_NG ph_ng\n" + declarations + LOOP_PRAGMA + c_loops(multistep=not fmu)
+            + _MANY)
 
 
 #: ``ph_many``: a function of the model's library ``fn(t, x, p, out)`` at k points in one call
@@ -292,6 +294,10 @@ def write_source(path: Path, data: str | bytes) -> None:
     except OSError as err:
         raise CompilerError(no_room(f"cannot write {path.name} for the C compiler in "
                                     f"{path.parent}", err)) from err
+
+
+#: what a failed build's message advises (the C back end's; an FMU's build says its own)
+ADVICE = "Set CC to a working C compiler, or choose the numba or python back end"
 
 
 class Pending:
@@ -332,12 +338,14 @@ class Pending:
             self.process.wait()
         self._tmp.cleanup()
 
-    def wait(self, log_dir: Path | None, log_as: Path | None = None) -> tuple[Path, float]:
+    def wait(self, log_dir: Path | None, log_as: Path | None = None,
+             advice: str = ADVICE) -> tuple[Path, float]:
         """Wait for the compile: (the object's path, valid until :meth:`close`, seconds since it
         started); a failure raises CompilerError with its command and log (in ``log_dir``,
-        named after ``log_as`` when given, or a kept temporary file)."""
+        named after ``log_as`` when given, or a kept temporary file), ending with ``advice``."""
         if self.process is None:            # no compiler, or it could not start: say why
-            data, _ = build(self.source, log_dir, (), object_only=True, log_as=log_as)
+            data, _ = build(self.source, log_dir, (), object_only=True, log_as=log_as,
+                            advice=advice)
             write_source(self.out, data)
             return self.out, time.perf_counter() - self.start
         status = self.process.wait()
@@ -348,7 +356,7 @@ class Pending:
                          self.log.read_text(errors="replace"))
         raise CompilerError(f"the C compiler failed (exit status {status}) building "
                             f"{self.source.name}: {shlex.join(self.command)}; its output is in "
-                            f"{log}. {ADVICE}")
+                            f"{log}. {advice}")
 
     def result(self, log_dir: Path | None, log_as: Path | None = None) -> tuple[bytes, float]:
         """Wait for the compile (:meth:`wait`): (the object's bytes, seconds since it started);
@@ -413,9 +421,6 @@ _NO_COMPILER = ("no C compiler found: $CC is not set, none of cc, gcc, clang is 
                 "xcode-select --install), or pip install 'porthamiltonian[c]' (a compiler from the "
                 "package index), or choose the numba or python back end")
 
-
-#: what a failed build's message advises (the C back end's; an FMU's build says its own)
-ADVICE = "Set CC to a working C compiler, or choose the numba or python back end"
 
 #: ``(kernels, log_as, advice) -> object files``: the objects a library built outside the C back
 #: end links (an FMU's binary: the integration loops with hidden entry points and the kernels'

@@ -771,8 +771,8 @@ def _unit_name(stem: str) -> str:
     return f"m{stem}_c.c"
 
 
-def _loop_name(exported: bool = True) -> str:
-    return f"loops_{sys.platform}.o" if exported else f"loops_hidden_{sys.platform}.o"
+def _loop_name(fmu: bool = False) -> str:
+    return f"loops_fmu_{sys.platform}.o" if fmu else f"loops_{sys.platform}.o"
 
 
 #: the loops' object compiling in the background (:func:`prepare`), by the id of the process
@@ -811,30 +811,29 @@ def _stop_loops() -> None:
 
 
 def _loop_object(use_cache: bool, times: dict[str, float], log_dir: Path | None,
-                 model_source: Path, exported: bool = True,
-                 advice: str = native.ADVICE) -> Path:
-    """The integration loops' object (``exported``: :func:`native.loop_source`'s): cached, or
-    the background compile :func:`prepare` started waited for (the exported one's), or
+                 model_source: Path, fmu: bool = False, advice: str = native.ADVICE) -> Path:
+    """The integration loops' object (:func:`native.loop_source`; ``fmu``: its FMU variant):
+    cached, or the background compile :func:`prepare` started waited for (not for ``fmu``), or
     compiled now (the time waited added to ``times["C"]``); a failure is logged as the model's
     (``log_dir``, named after ``model_source``). Under the object's build lock
     (:func:`cache.building`): a process that finds it stored by another meanwhile stops its
     own compile. ``advice``: what a compiler failure's message ends with."""
-    text = native.loop_source(exported)
+    text = native.loop_source(fmu)
     key = native.object_key(text)
-    found = _LOOPS.pop(os.getpid(), None) if exported else None
+    found = None if fmu else _LOOPS.pop(os.getpid(), None)
     pending = found[1] if found is not None and found[0] == key else None
     if found is not None and pending is None:       # started for another compiler
         found[1].close(stop=True)
     # one process stores the object, the others wait and read it (their own compiles stopped)
     with _building(key, use_cache):
-        path = cache.verified_path(key, _loop_name(exported)) if use_cache else None
+        path = cache.verified_path(key, _loop_name(fmu)) if use_cache else None
         if path is None:
             start = time.perf_counter()
             data = (pending.result(log_dir, model_source)[0] if pending is not None
                     else native.compile_object(text, "loops", log_dir, model_source,
                                                advice)[0])
             times["C"] = times.get("C", 0.0) + time.perf_counter() - start
-            path = cache.store(key, _loop_name(exported), data, use_cache)
+            path = cache.store(key, _loop_name(fmu), data, use_cache)
         elif pending is not None:
             pending.close(stop=True)
     return path
@@ -842,13 +841,13 @@ def _loop_object(use_cache: bool, times: dict[str, float], log_dir: Path | None,
 
 def fmu_objects(kernels: Sequence[str], log_as: Path, advice: str) -> tuple[Path, ...]:
     """The objects an FMU's binary is linked with (:mod:`porthamiltonian.fmu.export`): the
-    integration loops with hidden entry points (:func:`native.loop_source`) and the compiled
-    kernels the model calls (hidden already: the C back end's objects), each from the cache or
-    compiled now and cached, once per compiler for every FMU; a compiler failure is logged
-    beside ``log_as`` (the FMU's unit), its message ending with ``advice``."""
+    integration loops' FMU variant (:func:`native.loop_source`: hidden, Rosenbrock alone) and
+    the compiled kernels the model calls (hidden already: the C back end's objects), each from
+    the cache or compiled now and cached, once per compiler for every FMU; a compiler failure
+    is logged beside ``log_as`` (the FMU's unit), its message ending with ``advice``."""
     times: dict[str, float] = {}
     return (*(_kernel_object(kernel, True, times, None, log_as, advice) for kernel in kernels),
-            _loop_object(True, times, None, log_as, exported=False, advice=advice))
+            _loop_object(True, times, None, log_as, fmu=True, advice=advice))
 
 
 def _kernel_object(kernel: str, use_cache: bool, times: dict[str, float], log_dir: Path | None,

@@ -34,7 +34,8 @@ from .variables import KINDS, Variable
 if TYPE_CHECKING:
     from ..simulation.compiled import CompiledModel
 
-__all__ = ["ENTRY", "TEMPLATES", "c_string", "entry_source", "model_source", "template"]
+__all__ = ["ENTRY", "TEMPLATES", "c_string", "entry_source", "model_source", "template",
+           "unit_files"]
 
 _HERE = Path(__file__).parent / "templates"
 #: the runtime's files, copied into sources/ (the header first)
@@ -177,10 +178,15 @@ def c_comment_safe(text: str) -> str:
     return out.replace("*/", "* /").replace("/*", "/ *")
 
 
+def unit_files(fmi: int) -> tuple[str, ...]:
+    """The files of ``sources/`` that ``fmu.c`` includes, in its order: together, the one
+    translation unit."""
+    return ("ph_fmu.h", "model.c", "runtime.c", f"fmi{fmi}.c")
+
+
 def entry_source(fmi: int) -> str:
     """``fmu.c``: the one translation unit an importer compiles."""
     return ("/* An FMU exported by porthamiltonian (docs/fmu.md): compile this file alone, e.g.\n"
             " *   cc -O1 -std=c99 -shared -fPIC -o <modelIdentifier>.so fmu.c -lm\n"
             " * (the other files of sources/ are included from here). */\n"
-            '#include "ph_fmu.h"\n#include "model.c"\n#include "runtime.c"\n'
-            f'#include "fmi{fmi}.c"\n')
+            + "".join(f'#include "{name}"\n' for name in unit_files(fmi)))

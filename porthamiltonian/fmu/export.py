@@ -32,7 +32,7 @@ from ..backends import native
 from ..errors import ExportError, OptionError
 from ..integrators import TABLEAUS
 from ..version import __version__
-from .csource import ENTRY, TEMPLATES, entry_source, model_source, template
+from .csource import ENTRY, TEMPLATES, entry_source, model_source, template, unit_files
 from .description import Experiment, Interface, build_description, model_description
 from .documentation import Page, index_html
 from .program import EventProgram, check_actions
@@ -198,7 +198,8 @@ def export_fmu(model: CompiledModel, path: str | os.PathLike[str], *, fmi: int |
                             model_exchange="me" in kinds, co_simulation="cs" in kinds,
                             linked=linked)
 
-    library = _build({**files, "model.c": source(linked=True)}, model.meta.kernels)
+    binary = {**files, "model.c": source(linked=True)}
+    library = _build("\n".join(binary[name] for name in unit_files(version)), model.meta.kernels)
     files["model.c"] = source(linked=False)
     tool = f"porthamiltonian {__version__}"
     date = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
@@ -283,21 +284,24 @@ def _token(model: CompiledModel, variables: Sequence[Variable], version: int,
     return "{" + str(uuid.UUID(hashlib.sha256(blob.encode()).hexdigest()[:32])) + "}"
 
 
-def _build(files: Mapping[str, str], kernels: Sequence[str]) -> bytes:
-    """The shared library compiled from ``files`` (in a private temporary folder; their
-    ``model.c`` the linked version, :func:`~.csource.model_source`) and linked with the loops'
-    and the ``kernels``' objects (:data:`porthamiltonian.backends.native.linked_objects`)."""
+def _build(unit: str, kernels: Sequence[str]) -> bytes:
+    """The shared library of the translation unit ``unit`` (:func:`~.csource.unit_files`, its
+    ``model.c`` the linked version, :func:`~.csource.model_source`) linked with the loops' and
+    the ``kernels``' objects (:data:`porthamiltonian.backends.native.linked_objects`). The unit
+    compiles in the background meanwhile: the first export in a cache compiles the loops'
+    object too."""
     advice = ("Set CC to a working C compiler: an FMU's binary is compiled C whatever back end "
               "the model was compiled with")
     if native.linked_objects is None:       # (compile_model's package sets it)
         raise ExportError("the FMU's binary links objects that porthamiltonian.compiler keeps: "
                           "compile the model with compile_model")
-    with tempfile.TemporaryDirectory(prefix="porthamiltonian-fmu-") as tmp:
-        for name, text in files.items():
-            native.write_source(Path(tmp) / name, text)
-        entry = Path(tmp) / ENTRY
-        data, _ = native.build(entry, None, native.linked_objects(kernels, entry, advice),
-                               advice=advice)
+    job = native.start_object(unit, "fmu")
+    try:
+        objects = native.linked_objects(kernels, job.source, advice)
+        data, _ = native.link((job.wait(None, advice=advice)[0], *objects), "fmu", None,
+                              job.source, advice)
+    finally:
+        job.close()
     return data
 
 

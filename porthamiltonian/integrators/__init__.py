@@ -70,15 +70,18 @@ def python_loops() -> str:
                         multistep, _plain(multistep, "_bdf"), bdf.python_entry()])
 
 
-def c_loops() -> str:
+def c_loops(multistep: bool = True) -> str:
     """The C loop templates followed by every method's tables and exported entry point:
     ``common_loop.c`` (which calls the Rosenbrock template's helpers and is called by both loops)
-    stands between the helpers of ``rosenbrock_loop.c`` and its loop ``rosenbrock``."""
+    stands between the helpers of ``rosenbrock_loop.c`` and its loop ``rosenbrock``; without
+    ``multistep``, the Rosenbrock methods alone (QBDF's loop left out: an FMU's co-simulation
+    runs one of :data:`TABLEAUS`)."""
     rosenbrock = (_HERE / "rosenbrock_loop.c").read_text()
     cut = rosenbrock.index("static int rosenbrock(")
     return "\n".join([rosenbrock[:cut], (_HERE / "common_loop.c").read_text(),
                       rosenbrock[cut:], *(c_entry(tab) for tab in TABLEAUS.values()),
-                      (_HERE / "bdf_loop.c").read_text(), bdf.c_entry()])
+                      *([(_HERE / "bdf_loop.c").read_text(), bdf.c_entry()] if multistep
+                        else [])])
 
 
 #: the lines of rosenbrock_loop.c around the macros of the entry points' parameters
