@@ -15,8 +15,8 @@ back end compiles them once per process, in a module of their own, and binds ``f
 model's functions (the same algorithm run as a reference:
 :func:`porthamiltonian.backends.module.python_loop_module`); the numba back end compiles them
 once, in a module of their own, for ``fn`` typed as first-class functions, and every model's
-loops call that one compiled code (:mod:`porthamiltonian.backends.numba_loops`). Under numba and C the whole step loop is
-machine code.
+loops call that one compiled code (:mod:`porthamiltonian.backends.numba_loops`). Under numba
+and C the whole step loop is machine code.
 
 Every entry point takes ``(t0, y0, t_end, p, rtol, atol, h0, hmax, directions, terminal,
 mask_index, mask_sign, n_model, bound, max_steps, store_cap, tgrad_step)`` (after ``fn`` in the
@@ -85,7 +85,8 @@ def c_loops(multistep: bool = True) -> str:
 
 
 #: the lines of rosenbrock_loop.c around the macros of the entry points' parameters
-_PARAMS = ("/* ph: the entry points' parameters */", "/* ph: end of the entry points' parameters */")
+_PARAMS = ("/* ph: the entry points' parameters */",
+           "/* ph: end of the entry points' parameters */")
 
 
 def c_entry_declarations() -> str:

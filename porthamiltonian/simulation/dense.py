@@ -8,10 +8,9 @@ ends: its coefficients in closed form, evaluated by Horner's rule on the step th
 time (``scipy.interpolate.PPoly`` computes the same, but importing scipy.interpolate takes
 0.3 s, more than most runs; ``BPoly.from_derivatives`` makes the same polynomials in a Python
 loop over the steps: 25 ms for 555 steps, where the whole interpolant takes 0.25 ms on the C
-back end). ∂f/∂t is a
-central difference of f (relative step ε^(1/3)) where the right-hand side reads time (a
-non-autonomous model, or inputs with a slope); else 0. The states are those of the run (the model's and the ledger's E_diss,
-E_in).
+back end). ∂f/∂t is a central difference of f (relative step ε^(1/3)) where the right-hand
+side reads time (a non-autonomous model, or inputs with a slope); else 0. The states are those
+of the run (the model's and the ledger's E_diss, E_in).
 
 Its error on a step of length h is O(h^6) and uses the model's own exact derivatives, so that
 the interpolation adds little to the steps' own error: on the mass–spring–damper against its

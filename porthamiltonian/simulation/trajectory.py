@@ -202,32 +202,23 @@ class Trajectory:
         return self._cache[key]
 
     def _per_point(self, key: str, fn: Callable[[float, np.ndarray, Any], Any]) -> np.ndarray:
-        """``fn(t, y, p)`` (a back-end function: the parameters converted once per segment) at
-        every point."""
+        """``fn(t, y, p)`` (a back-end function) at every point, kept under ``key``."""
         if key not in self._cache:
-            n = self.model.n_states
-            out: np.ndarray | None = None
-            i = 0
-            total = sum(len(s.t) for s in self.segments)
-            for s in self.segments:
-                pn = self.model.native_params(s.p)
-                if s.inputs is None and len(s.t):        # the parameters fixed: one batch
-                    rows = at_points(fn, s.t, s.y.T, pn)
-                    if out is None:
-                        out = np.empty((total, *rows.shape[1:]), dtype=rows.dtype)
-                    out[i:i + len(s.t)] = rows
-                    i += len(s.t)
-                    continue
-                for k in range(len(s.t)):
-                    if s.inputs is not None:
-                        pn = self.model.native_params(s.inputs(s.t[k], s.y[:n, k], s.p))
-                    row = np.asarray(fn(s.t[k], np.ascontiguousarray(s.y[:, k]), pn))
-                    if out is None:     # one array filled row by row: no list of rows beside it
-                        out = np.empty((total, *row.shape), dtype=row.dtype)
-                    out[i] = row
-                    i += 1
-            self._cache[key] = _frozen(out if out is not None else np.array([]))
+            parts = [self._on_segment(s, fn, s.t, s.y.T) for s in self.segments if len(s.t)]
+            self._cache[key] = _frozen(np.concatenate(parts) if parts else np.array([]))
         return self._cache[key]
+
+    def _on_segment(self, s: Segment, fn: Callable[[float, np.ndarray, Any], Any],
+                    t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """``fn(t_k, rows[k], p)`` at points of segment ``s`` (integration states as rows),
+        stacked: in one batch with the segment's parameters (converted once), or point by point
+        with its inputs bound there (the scipy path's callable inputs)."""
+        if s.inputs is None:
+            return at_points(fn, t, rows, self.model.native_params(s.p))
+        n = self.model.n_states
+        return np.array([np.asarray(fn(tk, np.ascontiguousarray(yk),
+                                       self.model.native_params(s.inputs(tk, yk[:n], s.p))))
+                         for tk, yk in zip(t, rows)])
 
     @property
     def outputs(self) -> np.ndarray:
@@ -296,15 +287,8 @@ class Trajectory:
             ys[:, here] = np.asarray(s.sol(t[here]))
             if not outputs:
                 continue
-            ts, rows = t[here], np.ascontiguousarray(ys[:, here].T)
-            if s.inputs is None:
-                outs[here] = at_points(model.functions.outputs, ts, rows,
-                                       model.native_params(s.p))
-            else:
-                n = model.n_states
-                outs[here] = [model.functions.outputs(
-                    tk, yk, model.native_params(s.inputs(tk, yk[:n], s.p)))
-                    for tk, yk in zip(ts, rows)]
+            outs[here] = self._on_segment(s, model.functions.outputs, t[here],
+                                          np.ascontiguousarray(ys[:, here].T))
         if np.any(todo):
             raise OptionError(f"t = {t[todo][0]} is outside the simulated interval, or the "
                               "run was made without dense_output=True")
